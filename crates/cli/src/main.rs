@@ -1,0 +1,50 @@
+//! `platoon`: resilient event-triggered platoon control under DoS attacks (Han et al., 2024).
+mod experiment;
+mod output;
+mod plots;
+mod run;
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+/// Co-simulation of resilient, event-triggered control of vehicle platoons under DoS attacks.
+///
+/// Implements Han et al., "Resilient Event-Triggered Control of Vehicle Platoon Under DoS Attacks
+/// and Parameter Uncertainty", IEEE T-IV 2024, with the readings of ERRATA.md.
+#[derive(Debug, Parser)]
+#[command(name = "platoon", version, about, long_about)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Run one scenario and write trajectories, events, a summary and plots into a run directory.
+    Run(run::Args),
+    /// Reproduce an experiment of the paper's Section IV.
+    #[command(subcommand)]
+    Experiment(experiment::Experiment),
+}
+
+/// Exit code for unusable input (a bad config or argument): 2, like clap's usage errors.
+const EXIT_BAD_INPUT: u8 = 2;
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Run(args) => run::run(args),
+        Command::Experiment(e) => experiment::run(e),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            if let Some(config) = e.downcast_ref::<platoon_config::ConfigError>() {
+                eprintln!("error: {config}");
+                return ExitCode::from(EXIT_BAD_INPUT);
+            }
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}

@@ -1,0 +1,246 @@
+use platoon_attacks::Assumption2;
+use platoon_control::AttackInput;
+use platoon_model::tau::Interpolation;
+use serde::{Deserialize, Serialize};
+
+/// A scenario file. See `configs/paper.toml` for every key with a comment.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Config {
+    /// Free-form name of the scenario.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
+    /// Time grid.
+    pub simulation: Simulation,
+    /// Vehicles and their initial states.
+    pub platoon: Platoon,
+    /// The leader's reference.
+    #[serde(default)]
+    pub leader: Leader,
+    /// The communication graph.
+    pub topology: TopologyConfig,
+    /// The vehicles' dynamics.
+    pub plant: Plant,
+    /// Controller gain and trigger weights.
+    pub control: Control,
+    /// The triggering rule.
+    pub trigger: Trigger,
+    /// The DoS attack.
+    #[serde(default)]
+    pub attack: Attack,
+}
+
+/// `[simulation]`
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Simulation {
+    /// Simulated time (s); a multiple of `dt_s`.
+    pub duration_s: f64,
+    /// Step length (s).
+    pub dt_s: f64,
+}
+
+/// `[platoon]`
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Platoon {
+    /// Number of followers N.
+    pub followers: usize,
+    /// Desired spacing l between consecutive vehicles (m), front to front.
+    pub spacing_m: f64,
+    /// Vehicle length for gap and safety figures (m); 0 treats vehicles as points.
+    #[serde(default)]
+    pub vehicle_length_m: f64,
+    /// `[p, v, a]` of the leader then of each follower (N + 1 rows).
+    pub initial_states: Vec<[f64; 3]>,
+}
+
+/// `[leader]`
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct Leader {
+    /// The velocity profile.
+    #[serde(default)]
+    pub profile: LeaderProfileConfig,
+    /// Broadcast period of the leader (s); absent: every step (ERRATA item 5).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub broadcast_period_s: Option<f64>,
+}
+
+/// `leader.profile`
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum LeaderProfileConfig {
+    /// Section IV's profile (ERRATA item 4's reading).
+    #[default]
+    Paper,
+    /// Constant speed.
+    Constant {
+        /// Speed (m/s).
+        speed_mps: f64,
+    },
+    /// Piecewise-linear velocity through `[t, v]` points, the first at t = 0.
+    Waypoints {
+        /// `[t (s), v (m/s)]` pairs.
+        points: Vec<[f64; 2]>,
+    },
+}
+
+/// `[topology]`
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TopologyConfig {
+    /// `pf`, `plf`, `bpf`, `tpsf`, or `explicit` (then `adjacency` and `pinning` are required).
+    pub preset: String,
+    /// Row i lists whom follower i receives from (a_ij = 1), only with `preset = "explicit"`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub adjacency: Option<Vec<Vec<f64>>>,
+    /// h_i = 1 if follower i receives from the leader, only with `preset = "explicit"`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pinning: Option<Vec<f64>>,
+}
+
+/// `[plant]`
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Plant {
+    /// Nominal time constant used by the controllers' estimators (s).
+    pub tau_nominal_s: f64,
+    /// The true time constant over time, for every follower.
+    pub tau: TauConfig,
+    /// Per-follower overrides of `tau` (N entries).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tau_per_vehicle: Option<Vec<TauConfig>>,
+}
+
+/// A tau schedule.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum TauConfig {
+    /// Fig. 5(a): 0.34 s until 20 s, a linear ramp, 0.82 s from 35 s.
+    Paper,
+    /// A constant.
+    Constant {
+        /// tau (s).
+        value_s: f64,
+    },
+    /// Through `[t, tau]` knots with the given interpolation (`step`, `linear` or `smooth`).
+    Knots {
+        /// `[t (s), tau (s)]` pairs with increasing t.
+        knots: Vec<[f64; 2]>,
+        /// How tau moves between knots.
+        interpolation: Interpolation,
+    },
+}
+
+/// `[control]`
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Control {
+    /// K in `u_i = -K q_i` (ERRATA item 1).
+    pub gain: [f64; 3],
+    /// Weight of |eps|^2 in the trigger conditions.
+    pub beta1: f64,
+    /// Weight of |q|^2 in the trigger conditions.
+    pub beta2: f64,
+    /// Input while affected by an attack: `zero` (the paper) or `hold` (last input).
+    #[serde(default)]
+    pub attack_input: AttackInput,
+}
+
+/// `[trigger]`. Keys that belong to another rule are errors.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Trigger {
+    /// `dynamic` (4)+(12), `static` (21), `mixed` (the Table I baseline) or `periodic`.
+    pub rule: String,
+    /// How often the event condition is checked (s); default: every step (ERRATA item 10).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub check_period_s: Option<f64>,
+    /// Use the resilient mechanism (11) during attacks.
+    #[serde(default = "yes")]
+    pub resilient: bool,
+    /// Sampling period h of the resilient mechanism (s).
+    pub h_s: f64,
+    /// Dynamic rule: phi_i.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub phi: Option<f64>,
+    /// Dynamic rule: rho_i.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rho: Option<f64>,
+    /// Dynamic rule: eta_i.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub eta: Option<f64>,
+    /// Dynamic rule: theta_i(0).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub theta0: Option<f64>,
+    /// Mixed rule: offset at t = 0.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mu: Option<f64>,
+    /// Mixed rule: offset decay rate (1/s).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub alpha: Option<f64>,
+    /// Periodic rule: period (s).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub period_s: Option<f64>,
+}
+
+fn yes() -> bool {
+    true
+}
+
+/// `[attack]`. Keys that belong to another kind are errors.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Attack {
+    /// `none`, `intervals`, `periodic` or `random`.
+    pub kind: String,
+    /// `intervals`: `[start (s), duration (s)]` pairs.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub intervals: Option<Vec<[f64; 2]>>,
+    /// `periodic`: period (s).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub period_s: Option<f64>,
+    /// `periodic`: attack length (s).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub duration_s: Option<f64>,
+    /// `periodic`: first start (s).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub offset_s: Option<f64>,
+    /// `random`: seed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub seed: Option<u64>,
+    /// `random`: smallest quiet time (s).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub min_gap_s: Option<f64>,
+    /// `random`: largest proposed quiet time (s).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_gap_s: Option<f64>,
+    /// `random`: shortest proposed attack (s).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub min_duration_s: Option<f64>,
+    /// `random`: longest proposed attack (s).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_duration_s: Option<f64>,
+    /// Bounds of Assumption 2 to check the schedule against (required for `random`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub assumption2: Option<Assumption2>,
+}
+
+impl Default for Attack {
+    fn default() -> Self {
+        Attack {
+            kind: "none".into(),
+            intervals: None,
+            period_s: None,
+            duration_s: None,
+            offset_s: None,
+            seed: None,
+            min_gap_s: None,
+            max_gap_s: None,
+            min_duration_s: None,
+            max_duration_s: None,
+            assumption2: None,
+        }
+    }
+}

@@ -1,0 +1,472 @@
+use crate::{AttackInput, ControllerParams, Delivery, Packet, ParamsError, TriggerRule};
+use platoon_model::{FreeFlow, State, VehicleId};
+use platoon_topology::Topology;
+
+/// Packets a controller refused, by reason. A refused packet never changes an estimate.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
+pub struct RejectCounts {
+    /// NaN or infinite state.
+    pub non_finite: u64,
+    /// The sender is not one of the receiver's neighbours (or the receiver is not a follower).
+    pub unknown_sender: u64,
+    /// Sampled at a step later than the current one.
+    pub future_step: u64,
+    /// A sequence number not newer than the last one accepted from that sender (replay).
+    pub stale_seq: u64,
+}
+
+impl RejectCounts {
+    /// Total of all reasons.
+    pub fn total(&self) -> u64 {
+        self.non_finite + self.unknown_sender + self.future_step + self.stale_seq
+    }
+}
+
+/// What one follower did in a step.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct FollowerStep {
+    /// It broadcast its state in this step.
+    pub triggered: bool,
+    /// It was affected by an attack (`A*`): input per [`AttackInput`], theta frozen.
+    pub affected: bool,
+    /// The command `u_i[k]`.
+    pub u: f64,
+    /// `theta_i` at the start of the step (0 for rules without one).
+    pub theta: f64,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Mode {
+    /// The event rule decides.
+    Event,
+    /// Resilient sampling (11): the last broadcast fell in an attack; sample again at `next`.
+    Attacked { next: u64 },
+}
+
+#[derive(Debug, Clone)]
+struct Follower {
+    id: VehicleId,
+    own: State,
+    neighbours: Vec<VehicleId>,
+    estimates: Vec<State>,
+    last_seq: Vec<u32>,
+    theta: f64,
+    mode: Mode,
+    seq: u32,
+    last_u: f64,
+    step: FollowerStep,
+}
+
+/// The controllers of all followers of one platoon. Pure and deterministic: the same calls give
+/// the same results bit for bit, whoever makes them.
+#[derive(Debug, Clone)]
+pub struct PlatoonController {
+    params: ControllerParams,
+    flow: FreeFlow,
+    theta_decay: f64,
+    theta_gain: f64,
+    followers: Vec<Follower>,
+    leader_seq: u32,
+    rejected: RejectCounts,
+    commands: Vec<f64>,
+}
+
+impl PlatoonController {
+    /// Controllers for the followers of `topology`, with the estimators started from the initial
+    /// states (`initial[0]` is the leader): the sample at `t = 0` is assumed delivered.
+    pub fn new(
+        params: ControllerParams,
+        topology: &Topology,
+        initial: &[State],
+    ) -> Result<Self, ParamsError> {
+        params.validate()?;
+        let n = topology.followers();
+        if initial.len() != n + 1 {
+            return Err(ParamsError {
+                field: "initial_states",
+                message: format!("need {} states (leader + {n} followers), got {}", n + 1, initial.len()),
+            });
+        }
+        let theta0 = match params.rule {
+            TriggerRule::Dynamic { theta0, .. } => theta0,
+            _ => 0.0,
+        };
+        let followers = (1..=n)
+            .map(|i| {
+                let id = VehicleId::follower(i);
+                let neighbours = topology.in_neighbours(id).to_vec();
+                let estimates = neighbours.iter().map(|j| initial[j.index()]).collect();
+                Follower {
+                    id,
+                    own: initial[i],
+                    last_seq: vec![0; neighbours.len()],
+                    neighbours,
+                    estimates,
+                    theta: theta0,
+                    mode: Mode::Event,
+                    seq: 0,
+                    last_u: 0.0,
+                    step: FollowerStep::default(),
+                }
+            })
+            .collect();
+        let (theta_decay, theta_gain) = match params.rule {
+            // Exact integration of theta' = -rho theta - eta s over dt with s held.
+            TriggerRule::Dynamic { rho, eta, .. } => {
+                let decay = (-rho * params.dt).exp();
+                let integral = if rho > 0.0 { (1.0 - decay) / rho } else { params.dt };
+                (decay, eta * integral)
+            }
+            _ => (1.0, 0.0),
+        };
+        Ok(Self {
+            flow: FreeFlow::new(params.tau_nominal, params.dt),
+            theta_decay,
+            theta_gain,
+            followers,
+            leader_seq: 0,
+            rejected: RejectCounts::default(),
+            commands: vec![0.0; n],
+            params,
+        })
+    }
+
+    /// The parameters.
+    pub fn params(&self) -> &ControllerParams {
+        &self.params
+    }
+
+    /// The commands `u_i` of the last [`receive`](Self::receive), followers 1..=N at index i-1.
+    pub fn commands(&self) -> &[f64] {
+        &self.commands
+    }
+
+    /// Packets refused so far.
+    pub fn rejected(&self) -> RejectCounts {
+        self.rejected
+    }
+
+    /// What follower `i` (1-based) did in the last step.
+    pub fn follower_step(&self, i: VehicleId) -> FollowerStep {
+        self.followers[i.index() - 1].step
+    }
+
+    /// Phase 1 of step `k`: `states[v]` is vehicle v's true state (leader at 0). Appends the
+    /// packets broadcast at this step to `out` (the leader's first, then followers in order).
+    pub fn transmit(&mut self, k: u64, states: &[State], out: &mut Vec<Packet>) {
+        let p = &self.params;
+        if k % u64::from(p.leader_broadcast_steps) == 0 {
+            self.leader_seq += 1;
+            out.push(Packet { sender: VehicleId::LEADER, seq: self.leader_seq, step: k, state: states[0] });
+        }
+        let t = k as f64 * p.dt;
+        for f in &mut self.followers {
+            let x = states[f.id.index()];
+            f.step = FollowerStep { theta: f.theta, ..FollowerStep::default() };
+            let fire = if k == 0 {
+                true // t_0 = 0 is a sampling instant of every rule
+            } else {
+                match f.mode {
+                    Mode::Attacked { next } => k >= next,
+                    Mode::Event => match p.rule {
+                        TriggerRule::Periodic { period_steps } => k % u64::from(period_steps) == 0,
+                        _ if k % u64::from(p.check_steps) != 0 => false,
+                        rule => {
+                            let eps2 = (f.own - x).norm_squared();
+                            let q2 = neighbourhood_error(f, p.spacing).norm_squared();
+                            let s = p.beta1 * eps2 - p.beta2 * q2;
+                            match rule {
+                                TriggerRule::Static => s > 0.0,
+                                TriggerRule::Dynamic { phi, .. } => s - phi * f.theta > 0.0,
+                                TriggerRule::Mixed { mu, alpha } => {
+                                    s > p.beta1 * mu * (-alpha * t).exp()
+                                }
+                                TriggerRule::Periodic { .. } => unreachable!(),
+                            }
+                        }
+                    },
+                }
+            };
+            if fire {
+                f.own = x;
+                f.seq += 1;
+                f.step.triggered = true;
+                out.push(Packet { sender: f.id, seq: f.seq, step: k, state: x });
+            }
+        }
+    }
+
+    /// Phase 2 of step `k`: applies the packets the network delivered and computes the commands.
+    ///
+    /// `jammed[v]` tells whether vehicle v sensed its channel jammed during this step (the
+    /// resilient mechanism needs to know whether its broadcast got through). Returns `u_i[k]` for
+    /// followers 1..=N (index i-1). Every estimator then advances to step `k + 1`.
+    pub fn receive(
+        &mut self,
+        k: u64,
+        states: &[State],
+        deliveries: &[Delivery],
+        jammed: &[bool],
+    ) -> &[f64] {
+        for d in deliveries {
+            self.accept(k, d);
+        }
+        let p = &self.params;
+        for (f, u_out) in self.followers.iter_mut().zip(self.commands.iter_mut()) {
+            let jam = jammed[f.id.index()];
+            if f.step.triggered && p.resilient {
+                f.mode = if jam {
+                    Mode::Attacked { next: k + u64::from(p.h_steps) }
+                } else {
+                    Mode::Event
+                };
+            }
+            let affected = jam || matches!(f.mode, Mode::Attacked { .. });
+            let q = neighbourhood_error(f, p.spacing);
+            let u = if affected {
+                match p.attack_input {
+                    AttackInput::Zero => 0.0,
+                    AttackInput::Hold => f.last_u,
+                }
+            } else {
+                -(p.gain * q)[0]
+            };
+            if !affected {
+                if let TriggerRule::Dynamic { .. } = p.rule {
+                    let eps2 = (f.own - states[f.id.index()]).norm_squared();
+                    let s = p.beta1 * eps2 - p.beta2 * q.norm_squared();
+                    f.theta = (self.theta_decay * f.theta - self.theta_gain * s).max(0.0);
+                }
+            }
+            f.last_u = u;
+            f.step.u = u;
+            f.step.affected = affected;
+            *u_out = u;
+            f.own = self.flow.advance(&f.own);
+            for e in &mut f.estimates {
+                *e = self.flow.advance(e);
+            }
+        }
+        &self.commands
+    }
+
+    fn accept(&mut self, k: u64, d: &Delivery) {
+        let pk = &d.packet;
+        if pk.state.iter().any(|x| !x.is_finite()) {
+            self.rejected.non_finite += 1;
+            return;
+        }
+        if pk.step > k {
+            self.rejected.future_step += 1;
+            return;
+        }
+        let r = d.receiver.index();
+        let slot = (r >= 1 && r <= self.followers.len())
+            .then(|| {
+                let f = &self.followers[r - 1];
+                f.neighbours.iter().position(|&j| j == pk.sender).map(|s| (r - 1, s))
+            })
+            .flatten();
+        let Some((fi, s)) = slot else {
+            self.rejected.unknown_sender += 1;
+            return;
+        };
+        let f = &mut self.followers[fi];
+        if pk.seq <= f.last_seq[s] {
+            self.rejected.stale_seq += 1;
+            return;
+        }
+        f.last_seq[s] = pk.seq;
+        // An old (delayed) sample is propagated open-loop to the current step.
+        let mut x = pk.state;
+        for _ in pk.step..k {
+            x = self.flow.advance(&x);
+        }
+        f.estimates[s] = x;
+    }
+}
+
+/// `q_i` from follower i's current estimates.
+fn neighbourhood_error(f: &Follower, spacing: f64) -> State {
+    let i = f.id.0 as f64;
+    let mut q = State::zeros();
+    for (j, e) in f.neighbours.iter().zip(&f.estimates) {
+        // x^_i - x^_j - l_ij with l_ij = [(j - i) l, 0, 0]
+        q += f.own - e;
+        q[0] -= (j.0 as f64 - i) * spacing;
+    }
+    q
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::RowVector3;
+    use platoon_topology::Preset;
+
+    fn params(rule: TriggerRule) -> ControllerParams {
+        ControllerParams {
+            gain: RowVector3::new(4.81, 9.12, 2.97),
+            beta1: 319.38,
+            beta2: 5.62,
+            rule,
+            resilient: true,
+            h_steps: 2,
+            check_steps: 1,
+            attack_input: AttackInput::Zero,
+            dt: 0.01,
+            tau_nominal: 0.5,
+            spacing: 10.0,
+            leader_broadcast_steps: 1,
+        }
+    }
+
+    fn formation(n: usize, v: f64) -> Vec<State> {
+        (0..=n).map(|i| State::new(-(i as f64) * 10.0, v, 0.0)).collect()
+    }
+
+    fn everyone(topology: &Topology, packets: &[Packet]) -> Vec<Delivery> {
+        packets
+            .iter()
+            .flat_map(|p| {
+                topology.out_neighbours(p.sender).iter().map(|&r| Delivery { receiver: r, packet: *p })
+            })
+            .collect()
+    }
+
+    #[test]
+    fn in_formation_there_is_no_error_no_input_and_no_event() {
+        let topo = Topology::preset(Preset::Tpsf, 4).unwrap();
+        let states = formation(4, 15.0);
+        for rule in [TriggerRule::Static, TriggerRule::Dynamic { phi: 0.33, rho: 0.5, eta: 0.5, theta0: 200.0 }] {
+            let mut c = PlatoonController::new(params(rule), &topo, &states).unwrap();
+            let mut tx = Vec::new();
+            c.transmit(0, &states, &mut tx);
+            assert_eq!(tx.len(), 5, "everyone samples at t = 0");
+            let u = c.receive(0, &states, &everyone(&topo, &tx), &[false; 5]).to_vec();
+            assert_eq!(u, vec![0.0; 4]);
+            // One step later in exact formation at constant speed the estimators are exact.
+            let next: Vec<State> = states.iter().map(|x| State::new(x[0] + 0.15, 15.0, 0.0)).collect();
+            tx.clear();
+            c.transmit(1, &next, &mut tx);
+            assert_eq!(tx.len(), 1, "only the leader broadcasts: {tx:?}");
+        }
+    }
+
+    #[test]
+    fn control_law_sign_and_spacing_convention() {
+        // Follower 1 of a PF platoon 2 m too close to the leader must brake: q_p = +2, u < 0.
+        let topo = Topology::preset(Preset::Pf, 1).unwrap();
+        let states = vec![State::new(0.0, 15.0, 0.0), State::new(-8.0, 15.0, 0.0)];
+        let mut c = PlatoonController::new(params(TriggerRule::Static), &topo, &states).unwrap();
+        let mut tx = Vec::new();
+        c.transmit(0, &states, &mut tx);
+        let u = c.receive(0, &states, &everyone(&topo, &tx), &[false; 2]);
+        assert!((u[0] - (-4.81 * 2.0)).abs() < 1e-12, "u = {}", u[0]);
+    }
+
+    #[test]
+    fn static_rule_fires_when_estimation_error_outweighs_tracking_error() {
+        let topo = Topology::preset(Preset::Pf, 1).unwrap();
+        let mut states = formation(1, 15.0);
+        let mut c = PlatoonController::new(params(TriggerRule::Static), &topo, &states).unwrap();
+        let mut tx = Vec::new();
+        c.transmit(0, &states, &mut tx);
+        c.receive(0, &states, &everyone(&topo, &tx), &[false; 2]);
+        // The follower's true state leaves its estimate by 0.1 m while q stays ~0:
+        // beta1 * 0.01 > beta2 * |q|^2 -> fires.
+        states[0][0] += 0.15;
+        states[1][0] += 0.15 + 0.1;
+        tx.clear();
+        c.transmit(1, &states, &mut tx);
+        assert!(tx.iter().any(|p| p.sender == VehicleId(1)));
+        assert!(c.follower_step(VehicleId(1)).triggered);
+    }
+
+    #[test]
+    fn dynamic_rule_waits_for_theta_to_be_outweighed() {
+        let topo = Topology::preset(Preset::Pf, 1).unwrap();
+        let dynamic = TriggerRule::Dynamic { phi: 0.33, rho: 0.5, eta: 0.5, theta0: 200.0 };
+        let mut states = formation(1, 15.0);
+        let mut c = PlatoonController::new(params(dynamic), &topo, &states).unwrap();
+        let mut tx = Vec::new();
+        c.transmit(0, &states, &mut tx);
+        c.receive(0, &states, &everyone(&topo, &tx), &[false; 2]);
+        // Same 0.1 m estimation error: beta1 * 0.01 = 3.19 < phi * theta ~ 66: no event.
+        states[0][0] += 0.15;
+        states[1][0] += 0.25;
+        tx.clear();
+        c.transmit(1, &states, &mut tx);
+        assert!(!c.follower_step(VehicleId(1)).triggered);
+        // A 0.5 m error (79.8 > 66) fires.
+        states[1][0] += 0.4;
+        tx.clear();
+        c.transmit(1, &states, &mut tx);
+        assert!(c.follower_step(VehicleId(1)).triggered);
+    }
+
+    #[test]
+    fn resilient_sampling_during_attack_and_recovery() {
+        let topo = Topology::preset(Preset::Pf, 1).unwrap();
+        let mut states = formation(1, 15.0);
+        let mut c = PlatoonController::new(params(TriggerRule::Static), &topo, &states).unwrap();
+        let mut tx = Vec::new();
+        // Step 0 is a broadcast under attack: the follower goes to resilient sampling every 2 steps.
+        c.transmit(0, &states, &mut tx);
+        let u = c.receive(0, &states, &[], &[true, true])[0];
+        assert_eq!(u, 0.0);
+        assert!(c.follower_step(VehicleId(1)).affected);
+        let mut fired = Vec::new();
+        for k in 1..=6 {
+            for x in &mut states {
+                x[0] += 0.15; // cruise at 15 m/s: the estimators stay exact
+            }
+            tx.clear();
+            c.transmit(k, &states, &mut tx);
+            let jam = k < 4; // the attack ends at step 4
+            c.receive(k, &states, &[], &[jam, jam]);
+            let s = c.follower_step(VehicleId(1));
+            fired.push(s.triggered);
+            assert_eq!(s.affected, k < 4, "step {k}");
+        }
+        // Samples at 2 (jammed) and 4 (gets through), then the event rule again.
+        assert_eq!(fired, vec![false, true, false, true, false, false]);
+    }
+
+    #[test]
+    fn hostile_packets_are_rejected_and_counted() {
+        let topo = Topology::preset(Preset::Pf, 2).unwrap();
+        let states = formation(2, 15.0);
+        let mut c = PlatoonController::new(params(TriggerRule::Static), &topo, &states).unwrap();
+        let mut tx = Vec::new();
+        c.transmit(0, &states, &mut tx);
+        c.receive(0, &states, &everyone(&topo, &tx), &[false; 3]);
+        let pk = |sender, seq, step, p: f64| Packet { sender: VehicleId(sender), seq, step, state: State::new(p, 15.0, 0.0) };
+        let bad = [
+            Delivery { receiver: VehicleId(2), packet: pk(1, 5, 1, f64::NAN) },
+            Delivery { receiver: VehicleId(2), packet: pk(0, 5, 1, 0.0) }, // 2 does not hear the leader
+            Delivery { receiver: VehicleId(9), packet: pk(1, 5, 1, 0.0) },
+            Delivery { receiver: VehicleId(2), packet: pk(1, 5, 7, 0.0) },
+            Delivery { receiver: VehicleId(2), packet: pk(1, 1, 1, 0.0) }, // replays seq 1
+        ];
+        tx.clear();
+        c.transmit(1, &states, &mut tx);
+        c.receive(1, &states, &bad, &[false; 3]);
+        let r = c.rejected();
+        assert_eq!((r.non_finite, r.unknown_sender, r.future_step, r.stale_seq), (1, 2, 1, 1));
+    }
+
+    #[test]
+    fn delayed_packet_is_propagated_to_now() {
+        let topo = Topology::preset(Preset::Pf, 1).unwrap();
+        let states = formation(1, 15.0);
+        let mut a = PlatoonController::new(params(TriggerRule::Static), &topo, &states).unwrap();
+        let mut b = a.clone();
+        let leader = Packet { sender: VehicleId(0), seq: 9, step: 3, state: State::new(1.0, 16.0, 1.0) };
+        let flow = FreeFlow::new(0.5, 0.01);
+        let now = Packet { step: 5, state: flow.advance(&flow.advance(&leader.state)), ..leader };
+        let ua = a.receive(5, &states, &[Delivery { receiver: VehicleId(1), packet: leader }], &[false; 2])[0];
+        let ub = b.receive(5, &states, &[Delivery { receiver: VehicleId(1), packet: now }], &[false; 2])[0];
+        assert_eq!(ua, ub);
+    }
+}

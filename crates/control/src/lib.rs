@@ -1,0 +1,52 @@
+//! The event-based distributed platoon controller of Han et al. (2024), as a pure library.
+//!
+//! For each follower `i` it holds the open-loop estimators (2) of itself and of every vehicle it
+//! receives from, computes the neighbourhood tracking error
+//!
+//! ```text
+//! q_i = sum_j a_ij (x^_i - x^_j - l_ij) + h_i (x^_i - x^_0 - l_i0),   l_ij = [(j - i) l, 0, 0]
+//! ```
+//!
+//! (spacing sign of ERRATA item 3: follower i sits i*l behind the leader), applies the control law
+//! (1) with the sign of ERRATA item 1, `u_i = -K q_i`, and decides when `i` broadcasts with one of
+//! the [`TriggerRule`]s, optionally wrapped in the resilient mechanism (11).
+//!
+//! One co-simulation step `k` is two calls, so that a network (in process or across processes)
+//! can sit in between:
+//!
+//! 1. [`PlatoonController::transmit`]: every vehicle checks its triggering rule on its current
+//!    estimates; the packets of those that fire (and the leader's) are returned.
+//! 2. [`PlatoonController::receive`]: the packets that the network delivered reset the receivers'
+//!    estimators; each follower computes `u_i[k]`, updates its internal variable `theta_i`, and
+//!    all estimators advance to step `k + 1`.
+#![warn(missing_docs)]
+
+mod controller;
+mod trigger;
+
+pub use controller::{FollowerStep, PlatoonController, RejectCounts};
+pub use trigger::{AttackInput, ControllerParams, ParamsError, TriggerRule};
+
+use platoon_model::{State, VehicleId};
+
+/// A V2V broadcast: the sender's sampled state at a step.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Packet {
+    /// Who sent it.
+    pub sender: VehicleId,
+    /// The sender's sequence number, +1 per broadcast (the first is 1).
+    pub seq: u32,
+    /// The step at which the state was sampled.
+    pub step: u64,
+    /// The sampled state `[p, v, a]`.
+    pub state: State,
+}
+
+/// A packet as it reached one receiver.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Delivery {
+    /// Who received it.
+    pub receiver: VehicleId,
+    /// What was received (possibly altered or old).
+    pub packet: Packet,
+}

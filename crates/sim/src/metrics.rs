@@ -1,0 +1,266 @@
+use crate::{Scenario, StepRow};
+use platoon_attacks::{Assumption2, Assumption2Report, DosSchedule};
+use platoon_control::RejectCounts;
+use serde::Serialize;
+use std::collections::BTreeMap;
+
+/// Mean, max and RMS of an error's magnitude over a run, and its final value.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct ErrorStats {
+    /// Mean of |e| over all steps.
+    pub mean_abs: f64,
+    /// Largest |e|.
+    pub max_abs: f64,
+    /// Root mean square of e.
+    pub rms: f64,
+    /// |e| at the last step.
+    pub final_abs: f64,
+}
+
+#[derive(Debug, Clone, Copy, Default)]
+struct ErrorAcc {
+    sum_abs: f64,
+    sum_sq: f64,
+    max_abs: f64,
+    last: f64,
+    n: u64,
+}
+
+impl ErrorAcc {
+    fn push(&mut self, e: f64) {
+        self.sum_abs += e.abs();
+        self.sum_sq += e * e;
+        self.max_abs = self.max_abs.max(e.abs());
+        self.last = e;
+        self.n += 1;
+    }
+    fn finish(&self) -> ErrorStats {
+        let n = self.n.max(1) as f64;
+        ErrorStats {
+            mean_abs: self.sum_abs / n,
+            max_abs: self.max_abs,
+            rms: (self.sum_sq / n).sqrt(),
+            final_abs: self.last.abs(),
+        }
+    }
+}
+
+/// One follower's figures.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct VehicleSummary {
+    /// Follower id.
+    pub vehicle: u16,
+    /// Broadcasts, the one at t = 0 included.
+    pub triggers: u64,
+    /// Shortest time between two broadcasts (s); None with fewer than two.
+    pub min_inter_event_s: Option<f64>,
+    /// Mean time between broadcasts (s); None with fewer than two.
+    pub mean_inter_event_s: Option<f64>,
+    /// Spacing error `p_i - p_0 + i l` (m).
+    pub spacing_error_m: ErrorStats,
+    /// Velocity error `v_i - v_0` (m/s).
+    pub velocity_error_mps: ErrorStats,
+    /// Time affected by attacks (`A*`, s).
+    pub affected_time_s: f64,
+    /// Most negative acceleration (m/s^2).
+    pub min_acceleration_mps2: f64,
+}
+
+/// Whether the platoon kept positive gaps.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Safety {
+    /// No gap ever reached zero.
+    pub safe: bool,
+    /// Smallest bumper-to-bumper gap `p_{i-1} - p_i - length` (m).
+    pub min_gap_m: f64,
+    /// The follower behind that gap.
+    pub min_gap_vehicle: u16,
+    /// When it happened (s).
+    pub min_gap_t_s: f64,
+}
+
+/// The DoS schedule's figures and its Assumption-2 verdict.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct AttackSummary {
+    /// Number of attack intervals `N(0, T)`.
+    pub intervals: usize,
+    /// Exact attacked time `|A(0, T)|` (s).
+    pub attacked_time_s: f64,
+    /// Steps whose instant fell inside an attack.
+    pub attacked_steps: u64,
+    /// Bounds checked, if the config gave them.
+    pub assumption2_bounds: Option<Assumption2>,
+    /// The exact verdict on every window, if bounds were given.
+    pub assumption2: Option<Assumption2Report>,
+}
+
+/// What `summary.json` holds.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Summary {
+    /// The run reached its last step.
+    pub complete: bool,
+    /// Steps run.
+    pub steps: u64,
+    /// Step length (s).
+    pub dt_s: f64,
+    /// Simulated time (s).
+    pub duration_s: f64,
+    /// The triggering rule.
+    pub rule: String,
+    /// How often event conditions were checked (s).
+    pub check_period_s: f64,
+    /// Broadcasts per follower (keys are follower ids).
+    pub triggers: BTreeMap<String, u64>,
+    /// Broadcasts of all followers.
+    pub triggers_total: u64,
+    /// Shortest inter-event time over all followers (s): Zeno evidence if it equals the check period often.
+    pub min_inter_event_s: Option<f64>,
+    /// Per-follower figures.
+    pub vehicles: Vec<VehicleSummary>,
+    /// The attack.
+    pub attack: AttackSummary,
+    /// Gaps.
+    pub safety: Safety,
+    /// Packets the controllers refused.
+    pub rejected_packets: RejectCounts,
+}
+
+#[derive(Debug, Clone)]
+struct VehicleAcc {
+    triggers: u64,
+    last_trigger: Option<u64>,
+    min_gap: Option<u64>,
+    first_trigger: Option<u64>,
+    spacing: ErrorAcc,
+    velocity: ErrorAcc,
+    affected_steps: u64,
+    min_accel: f64,
+}
+
+/// Accumulates a run's metrics step by step (constant memory), so long runs need not keep rows.
+#[derive(Debug, Clone)]
+pub struct MetricsAccumulator {
+    dt: f64,
+    rule: &'static str,
+    check_period: f64,
+    vehicle_length: f64,
+    dos: DosSchedule,
+    assumption2: Option<Assumption2>,
+    vehicles: Vec<VehicleAcc>,
+    steps: u64,
+    attacked_steps: u64,
+    last_t: f64,
+    safety: Safety,
+}
+
+impl MetricsAccumulator {
+    /// An empty accumulator for `scenario`.
+    pub fn new(scenario: &Scenario) -> Self {
+        let n = scenario.topology.followers();
+        Self {
+            dt: scenario.dt(),
+            rule: scenario.control.rule.name(),
+            check_period: f64::from(scenario.control.check_steps) * scenario.dt(),
+            vehicle_length: scenario.vehicle_length,
+            dos: scenario.dos.clone(),
+            assumption2: scenario.assumption2,
+            vehicles: vec![
+                VehicleAcc {
+                    triggers: 0,
+                    last_trigger: None,
+                    min_gap: None,
+                    first_trigger: None,
+                    spacing: ErrorAcc::default(),
+                    velocity: ErrorAcc::default(),
+                    affected_steps: 0,
+                    min_accel: f64::INFINITY,
+                };
+                n
+            ],
+            steps: 0,
+            attacked_steps: 0,
+            last_t: 0.0,
+            safety: Safety { safe: true, min_gap_m: f64::INFINITY, min_gap_vehicle: 0, min_gap_t_s: 0.0 },
+        }
+    }
+
+    /// Adds one step's rows (leader first, then followers in order).
+    pub fn push(&mut self, rows: &[StepRow]) {
+        let Some(leader) = rows.first() else { return };
+        self.steps += 1;
+        self.last_t = leader.t;
+        self.attacked_steps += u64::from(leader.under_attack);
+        for w in rows.windows(2) {
+            let (front, r) = (&w[0], &w[1]);
+            let acc = &mut self.vehicles[r.vehicle as usize - 1];
+            if r.triggered {
+                acc.triggers += 1;
+                // In whole steps, so inter-event times carry no rounding of t.
+                if let Some(last) = acc.last_trigger {
+                    let gap = r.step - last;
+                    acc.min_gap = Some(acc.min_gap.map_or(gap, |m| m.min(gap)));
+                } else {
+                    acc.first_trigger = Some(r.step);
+                }
+                acc.last_trigger = Some(r.step);
+            }
+            acc.spacing.push(r.spacing_error);
+            acc.velocity.push(r.velocity_error);
+            acc.affected_steps += u64::from(r.affected);
+            acc.min_accel = acc.min_accel.min(r.a);
+            let gap = front.p - r.p - self.vehicle_length;
+            if gap < self.safety.min_gap_m {
+                self.safety.min_gap_m = gap;
+                self.safety.min_gap_vehicle = r.vehicle;
+                self.safety.min_gap_t_s = r.t;
+            }
+        }
+    }
+
+    /// The summary; `complete` is true when at least one step ran.
+    pub fn finish(&self, rejected: RejectCounts) -> Summary {
+        let horizon = self.last_t + self.dt;
+        let vehicles: Vec<VehicleSummary> = self
+            .vehicles
+            .iter()
+            .enumerate()
+            .map(|(i, a)| VehicleSummary {
+                vehicle: i as u16 + 1,
+                triggers: a.triggers,
+                min_inter_event_s: a.min_gap.map(|g| g as f64 * self.dt),
+                mean_inter_event_s: match (a.first_trigger, a.last_trigger) {
+                    (Some(f), Some(l)) if a.triggers > 1 => {
+                        Some((l - f) as f64 * self.dt / (a.triggers - 1) as f64)
+                    }
+                    _ => None,
+                },
+                spacing_error_m: a.spacing.finish(),
+                velocity_error_mps: a.velocity.finish(),
+                affected_time_s: a.affected_steps as f64 * self.dt,
+                min_acceleration_mps2: a.min_accel,
+            })
+            .collect();
+        let clipped = self.dos.clipped(horizon);
+        Summary {
+            complete: self.steps > 0,
+            steps: self.steps,
+            dt_s: self.dt,
+            duration_s: self.last_t,
+            rule: self.rule.to_string(),
+            check_period_s: self.check_period,
+            triggers: vehicles.iter().map(|v| (v.vehicle.to_string(), v.triggers)).collect(),
+            triggers_total: vehicles.iter().map(|v| v.triggers).sum(),
+            min_inter_event_s: vehicles.iter().filter_map(|v| v.min_inter_event_s).reduce(f64::min),
+            attack: AttackSummary {
+                intervals: clipped.intervals().len(),
+                attacked_time_s: clipped.active_time(0.0, horizon),
+                attacked_steps: self.attacked_steps,
+                assumption2_bounds: self.assumption2,
+                assumption2: self.assumption2.map(|b| b.check(&self.dos, horizon)),
+            },
+            safety: Safety { safe: self.safety.min_gap_m > 0.0, ..self.safety.clone() },
+            rejected_packets: rejected,
+            vehicles,
+        }
+    }
+}
