@@ -1,0 +1,143 @@
+//! The `platoon` binary end to end: outputs, determinism, atomic run directories, exit codes.
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn platoon(args: &[&str], cwd: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_platoon"))
+        .args(args)
+        .current_dir(cwd)
+        .output()
+        .unwrap()
+}
+
+fn repo() -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../..")
+        .canonicalize()
+        .unwrap()
+}
+
+const RUN_FILES: [&str; 6] = [
+    "config.toml",
+    "trajectories.csv",
+    "events.csv",
+    "summary.json",
+    "fig6.png",
+    "fig7.png",
+];
+
+#[test]
+fn run_writes_every_output_and_two_runs_are_byte_identical() {
+    let tmp = tempfile::tempdir().unwrap();
+    let config = repo().join("configs/paper.toml");
+    for out in ["a", "b"] {
+        let o = platoon(&["run", config.to_str().unwrap(), "--out", out], tmp.path());
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    }
+    for f in RUN_FILES {
+        let a = std::fs::read(tmp.path().join("a").join(f)).unwrap();
+        let b = std::fs::read(tmp.path().join("b").join(f)).unwrap();
+        assert!(a == b, "{f} differs between two runs");
+    }
+    assert!(!tmp.path().join("a.partial").exists());
+
+    let summary: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(tmp.path().join("a/summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["complete"], true);
+    assert_eq!(summary["triggers"].as_object().unwrap().len(), 4);
+    assert_eq!(summary["attack"]["assumption2"]["holds"], true);
+    assert!(summary["min_inter_event_s"].as_f64().unwrap() >= 0.01 - 1e-12);
+    assert!(
+        summary["vehicles"][0]["spacing_error_m"]["rms"]
+            .as_f64()
+            .unwrap()
+            > 0.0
+    );
+
+    // trajectories.csv: header and one row per vehicle and step; events.csv matches the counts.
+    let traj = std::fs::read_to_string(tmp.path().join("a/trajectories.csv")).unwrap();
+    let mut lines = traj.lines();
+    assert_eq!(
+        lines.next().unwrap(),
+        "step,t,vehicle,p,v,a,u,theta,spacing_error,velocity_error,triggered,under_attack,affected"
+    );
+    assert_eq!(lines.count(), 5501 * 5);
+    let events = std::fs::read_to_string(tmp.path().join("a/events.csv")).unwrap();
+    let total = summary["triggers_total"].as_u64().unwrap() as usize;
+    assert_eq!(events.lines().count() - 1, total);
+    let png = std::fs::read(tmp.path().join("a/fig6.png")).unwrap();
+    assert_eq!(&png[1..4], b"PNG");
+}
+
+#[test]
+fn embedded_default_runs_with_no_config() {
+    let tmp = tempfile::tempdir().unwrap();
+    let o = platoon(&["run", "--no-plots"], tmp.path());
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(tmp.path().join("runs/paper/summary.json").exists());
+    // A second run into the same directory refuses to overwrite without --force.
+    let again = platoon(&["run", "--no-plots"], tmp.path());
+    assert!(!again.status.success());
+    assert!(String::from_utf8_lossy(&again.stderr).contains("--force"));
+    let forced = platoon(&["run", "--no-plots", "--force"], tmp.path());
+    assert!(forced.status.success());
+}
+
+#[test]
+fn bad_config_exits_2_with_one_line_and_leaves_no_directory() {
+    let tmp = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(repo().join("configs/paper.toml")).unwrap();
+    std::fs::write(
+        tmp.path().join("bad.toml"),
+        text.replace("h_s = 0.02", "h_s = 0.001"),
+    )
+    .unwrap();
+    let o = platoon(&["run", "bad.toml", "--out", "out"], tmp.path());
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(
+        err.contains("bad.toml") && err.contains("trigger.h_s"),
+        "{err}"
+    );
+    assert!(!tmp.path().join("out").exists() && !tmp.path().join("out.partial").exists());
+
+    let missing = platoon(&["run", "nope.toml"], tmp.path());
+    assert_eq!(missing.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&missing.stderr).contains("nope.toml"));
+}
+
+#[test]
+fn table1_experiment_writes_table_and_figures() {
+    let tmp = tempfile::tempdir().unwrap();
+    let o = platoon(&["experiment", "table1", "--out", "t1"], tmp.path());
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for f in [
+        "table1.csv",
+        "table1.md",
+        "table1.png",
+        "fig8.png",
+        "fig8.csv",
+        "config.toml",
+        "dynamic/summary.json",
+        "static/summary.json",
+        "mixed/summary.json",
+    ] {
+        assert!(tmp.path().join("t1").join(f).exists(), "{f} missing");
+    }
+    let md = std::fs::read_to_string(tmp.path().join("t1/table1.md")).unwrap();
+    assert!(md.contains("| DETM (4) (paper) | 331 | 352 | 419 | 397 |"));
+    assert!(md.contains("fewer times than static on every vehicle: yes"));
+    let csv = std::fs::read_to_string(tmp.path().join("t1/table1.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 1 + 3 * 4);
+}
+
+#[test]
+fn help_explains_the_commands() {
+    let o = platoon(&["run", "--help"], Path::new("."));
+    let help = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        help.contains("trajectories.csv") && help.contains("--out"),
+        "{help}"
+    );
+}

@@ -15,7 +15,8 @@ fn every_file_in_configs_parses_and_validates() {
             let (config, scenario) = platoon_config::load(&path).unwrap_or_else(|e| panic!("{e}"));
             // The resolved config round-trips to the same scenario inputs.
             let text = platoon_config::to_toml(&config);
-            let (again, _) = parse(&text, &path).unwrap_or_else(|e| panic!("resolved {}: {e}", path.display()));
+            let (again, _) =
+                parse(&text, &path).unwrap_or_else(|e| panic!("resolved {}: {e}", path.display()));
             assert_eq!(config, again, "{}", path.display());
             assert!(scenario.steps > 0);
             seen += 1;
@@ -26,7 +27,10 @@ fn every_file_in_configs_parses_and_validates() {
 
 fn paper_with(from: &str, to: &str) -> Result<(), ConfigError> {
     let text = platoon_config::PAPER_TOML;
-    assert!(text.contains(from), "the paper config no longer contains {from:?}");
+    assert!(
+        text.contains(from),
+        "the paper config no longer contains {from:?}"
+    );
     parse(&text.replacen(from, to, 1), Path::new("bad.toml")).map(|_| ())
 }
 
@@ -34,7 +38,10 @@ fn assert_error(result: Result<(), ConfigError>, key: &str, words: &str) {
     let e = result.expect_err("the config should be rejected");
     let line = e.to_string();
     assert!(!line.contains('\n'), "the error must be one line: {line}");
-    assert!(line.starts_with("bad.toml"), "the error must name the file: {line}");
+    assert!(
+        line.starts_with("bad.toml"),
+        "the error must name the file: {line}"
+    );
     assert_eq!(e.key, key, "{line}");
     assert!(line.contains(words), "{line} should mention {words:?}");
 }
@@ -42,53 +49,108 @@ fn assert_error(result: Result<(), ConfigError>, key: &str, words: &str) {
 #[test]
 fn non_positive_tau_is_rejected() {
     assert_error(
-        paper_with("tau = { kind = \"paper\" }", "tau = { kind = \"constant\", value_s = 0.0 }"),
+        paper_with(
+            "tau = { kind = \"paper\" }",
+            "tau = { kind = \"constant\", value_s = 0.0 }",
+        ),
         "plant.tau",
         "positive",
     );
-    assert_error(paper_with("tau_nominal_s = 0.5", "tau_nominal_s = -0.5"), "plant.tau_nominal_s", "> 0");
+    assert_error(
+        paper_with("tau_nominal_s = 0.5", "tau_nominal_s = -0.5"),
+        "plant.tau_nominal_s",
+        "> 0",
+    );
 }
 
 #[test]
 fn step_longer_than_h_is_rejected() {
-    assert_error(paper_with("h_s = 0.02", "h_s = 0.005"), "trigger.h_s", "shorter than the step");
-    assert_error(paper_with("h_s = 0.02", "h_s = 0.025"), "trigger.h_s", "whole number of steps");
+    assert_error(
+        paper_with("h_s = 0.02", "h_s = 0.005"),
+        "trigger.h_s",
+        "shorter than the step",
+    );
+    assert_error(
+        paper_with("h_s = 0.02", "h_s = 0.025"),
+        "trigger.h_s",
+        "whole number of steps",
+    );
 }
 
 #[test]
 fn nan_is_rejected() {
-    assert_error(paper_with("beta1 = 319.38", "beta1 = nan"), "control.beta1", "finite");
-    assert_error(paper_with("[8.0, 16.0, 0.0]", "[8.0, nan, 0.0]"), "platoon.initial_states[1]", "finite");
+    assert_error(
+        paper_with("beta1 = 319.38", "beta1 = nan"),
+        "control.beta1",
+        "finite",
+    );
+    assert_error(
+        paper_with("[8.0, 16.0, 0.0]", "[8.0, nan, 0.0]"),
+        "platoon.initial_states[1]",
+        "finite",
+    );
 }
 
 #[test]
 fn follower_count_must_match_initial_states() {
-    assert_error(paper_with("followers = 4", "followers = 5"), "platoon.initial_states", "needs 6");
+    assert_error(
+        paper_with("followers = 4", "followers = 5"),
+        "platoon.initial_states",
+        "needs 6",
+    );
 }
 
 #[test]
 fn topology_without_spanning_tree_is_rejected() {
     let explicit = "preset = \"explicit\"\nadjacency = [[0,0,0,0],[1,0,0,0],[0,0,0,1],[0,0,1,0]]\npinning = [1,0,0,0]";
-    assert_error(paper_with("preset = \"tpsf\"", explicit), "topology", "follower(s) 3, 4");
+    assert_error(
+        paper_with("preset = \"tpsf\"", explicit),
+        "topology",
+        "follower(s) 3, 4",
+    );
 }
 
 #[test]
 fn unknown_keys_and_bad_types_are_rejected_with_their_key() {
-    assert_error(paper_with("h_s = 0.02", "h_s = 0.02\nhh = 1"), "trigger.hh", "unknown field `hh`");
-    assert_error(paper_with("followers = 4", "followers = \"four\""), "platoon.followers", "invalid type");
-    assert_error(paper_with("rule = \"dynamic\"", "rule = \"dymanic\""), "trigger.rule", "unknown rule");
-    assert_error(paper_with("phi = 0.33", "phi = 0.33\nmu = 1.0"), "trigger.mu", "only used with rule = \"mixed\"");
+    assert_error(
+        paper_with("h_s = 0.02", "h_s = 0.02\nhh = 1"),
+        "trigger.hh",
+        "unknown field `hh`",
+    );
+    assert_error(
+        paper_with("followers = 4", "followers = \"four\""),
+        "platoon.followers",
+        "invalid type",
+    );
+    assert_error(
+        paper_with("rule = \"dynamic\"", "rule = \"dymanic\""),
+        "trigger.rule",
+        "unknown rule",
+    );
+    assert_error(
+        paper_with("phi = 0.33", "phi = 0.33\nmu = 1.0"),
+        "trigger.mu",
+        "only used with rule = \"mixed\"",
+    );
 }
 
 #[test]
 fn trigger_parameters_outside_the_papers_conditions_are_rejected() {
     // 1 > rho > phi (1 - eta) fails for rho = 0.1 < 0.33 * 0.5.
-    assert_error(paper_with("rho = 0.5", "rho = 0.1"), "trigger.rho", "1 > rho > phi (1 - eta)");
+    assert_error(
+        paper_with("rho = 0.5", "rho = 0.1"),
+        "trigger.rho",
+        "1 > rho > phi (1 - eta)",
+    );
 }
 
 #[test]
 fn leader_profile_must_start_at_the_leaders_speed() {
-    assert_error(paper_with("[20.0, 15.0, 0.0]", "[20.0, 14.0, 0.0]"), "leader.profile", "14 m/s");
+    assert_error(
+        paper_with("[20.0, 15.0, 0.0]", "[20.0, 14.0, 0.0]"),
+        "leader.profile",
+        "14 m/s",
+    );
 }
 
 #[test]

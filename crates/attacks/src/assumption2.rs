@@ -130,7 +130,12 @@ impl Assumption2 {
 mod tests {
     use super::*;
 
-    const PAPER: Assumption2 = Assumption2 { T1: 2.0, T2: 9.46, D1: 6.0, D2: 11.33 };
+    const PAPER: Assumption2 = Assumption2 {
+        T1: 2.0,
+        T2: 9.46,
+        D1: 6.0,
+        D2: 11.33,
+    };
 
     /// Brute force over a fine grid of windows, with window ends just after attack starts.
     fn brute(a: &Assumption2, s: &DosSchedule, horizon: f64) -> (f64, f64) {
@@ -208,7 +213,15 @@ mod tests {
     #[test]
     fn exact_check_agrees_with_brute_force() {
         let schedules = [
-            vec![(1.0, 1.5), (5.0, 1.5), (16.0, 1.5), (22.0, 1.5), (30.0, 1.5), (42.0, 1.5), (49.0, 1.0)],
+            vec![
+                (1.0, 1.5),
+                (5.0, 1.5),
+                (16.0, 1.5),
+                (22.0, 1.5),
+                (30.0, 1.5),
+                (42.0, 1.5),
+                (49.0, 1.0),
+            ],
             vec![(0.0, 3.0), (3.5, 3.0), (7.0, 3.0)],
             vec![(2.0, 6.0), (20.0, 0.1)],
         ];
@@ -216,8 +229,14 @@ mod tests {
             let s = DosSchedule::from_intervals(&pairs).unwrap();
             let r = PAPER.check(&s, 55.0);
             let (dmin, fmin) = brute(&PAPER, &s, 55.0);
-            assert!((r.worst_duration.unwrap().margin() - dmin).abs() < 1e-9, "{pairs:?}");
-            assert!((r.worst_frequency.unwrap().margin() - fmin).abs() < 1e-6, "{pairs:?}");
+            assert!(
+                (r.worst_duration.unwrap().margin() - dmin).abs() < 1e-9,
+                "{pairs:?}"
+            );
+            assert!(
+                (r.worst_frequency.unwrap().margin() - fmin).abs() < 1e-6,
+                "{pairs:?}"
+            );
         }
     }
 }

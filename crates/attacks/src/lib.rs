@@ -31,7 +31,9 @@ pub enum ScheduleError {
         duration: f64,
     },
     /// A periodic pattern whose duration does not fit in its period.
-    #[error("a periodic attack needs 0 < duration < period (got duration {duration}, period {period})")]
+    #[error(
+        "a periodic attack needs 0 < duration < period (got duration {duration}, period {period})"
+    )]
     BadPeriodic {
         /// Attack duration.
         duration: f64,
@@ -76,9 +78,16 @@ impl DosSchedule {
         let mut intervals = Vec::with_capacity(pairs.len());
         for (index, &(start, duration)) in pairs.iter().enumerate() {
             if !(start.is_finite() && start >= 0.0 && duration.is_finite() && duration > 0.0) {
-                return Err(ScheduleError::BadInterval { index, start, duration });
+                return Err(ScheduleError::BadInterval {
+                    index,
+                    start,
+                    duration,
+                });
             }
-            intervals.push(Interval { start, end: start + duration });
+            intervals.push(Interval {
+                start,
+                end: start + duration,
+            });
         }
         intervals.sort_by(|a, b| a.start.total_cmp(&b.start));
         let mut merged: Vec<Interval> = Vec::with_capacity(intervals.len());
@@ -131,7 +140,10 @@ impl DosSchedule {
             .intervals
             .iter()
             .filter(|iv| iv.start < horizon)
-            .map(|iv| Interval { start: iv.start, end: iv.end.min(horizon) })
+            .map(|iv| Interval {
+                start: iv.start,
+                end: iv.end.min(horizon),
+            })
             .collect();
         Self { intervals }
     }
@@ -146,7 +158,10 @@ impl DosSchedule {
 
     /// `N(t1, t2)`: number of off-to-on switches (attack starts) within `[t1, t2)`.
     pub fn count(&self, t1: f64, t2: f64) -> usize {
-        self.intervals.iter().filter(|iv| iv.start >= t1 && iv.start < t2).count()
+        self.intervals
+            .iter()
+            .filter(|iv| iv.start >= t1 && iv.start < t2)
+            .count()
     }
 }
 
@@ -159,7 +174,16 @@ mod tests {
         let s = DosSchedule::from_intervals(&[(5.0, 1.0), (1.0, 2.0), (2.5, 1.0)]).unwrap();
         assert_eq!(
             s.intervals(),
-            &[Interval { start: 1.0, end: 3.5 }, Interval { start: 5.0, end: 6.0 }]
+            &[
+                Interval {
+                    start: 1.0,
+                    end: 3.5
+                },
+                Interval {
+                    start: 5.0,
+                    end: 6.0
+                }
+            ]
         );
         assert!(s.is_active(1.0));
         assert!(s.is_active(3.49));

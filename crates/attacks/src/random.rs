@@ -49,7 +49,11 @@ impl RandomDos {
     }
 
     /// Draws a schedule on `[0, horizon)` admissible for `bounds`.
-    pub fn generate(&self, bounds: &Assumption2, horizon: f64) -> Result<DosSchedule, ScheduleError> {
+    pub fn generate(
+        &self,
+        bounds: &Assumption2,
+        horizon: f64,
+    ) -> Result<DosSchedule, ScheduleError> {
         self.validate()?;
         bounds.validate()?;
         if bounds.T1 < 1.0 {
@@ -94,14 +98,34 @@ mod tests {
     use super::*;
     use proptest::prelude::*;
 
-    const PAPER: Assumption2 = Assumption2 { T1: 2.0, T2: 9.46, D1: 6.0, D2: 11.33 };
+    const PAPER: Assumption2 = Assumption2 {
+        T1: 2.0,
+        T2: 9.46,
+        D1: 6.0,
+        D2: 11.33,
+    };
 
     #[test]
     fn same_seed_same_schedule() {
-        let g = RandomDos { seed: 7, min_gap: 0.5, max_gap: 5.0, min_duration: 0.2, max_duration: 3.0 };
-        assert_eq!(g.generate(&PAPER, 200.0).unwrap(), g.generate(&PAPER, 200.0).unwrap());
-        let other = RandomDos { seed: 8, ..g.clone() };
-        assert_ne!(g.generate(&PAPER, 200.0).unwrap(), other.generate(&PAPER, 200.0).unwrap());
+        let g = RandomDos {
+            seed: 7,
+            min_gap: 0.5,
+            max_gap: 5.0,
+            min_duration: 0.2,
+            max_duration: 3.0,
+        };
+        assert_eq!(
+            g.generate(&PAPER, 200.0).unwrap(),
+            g.generate(&PAPER, 200.0).unwrap()
+        );
+        let other = RandomDos {
+            seed: 8,
+            ..g.clone()
+        };
+        assert_ne!(
+            g.generate(&PAPER, 200.0).unwrap(),
+            other.generate(&PAPER, 200.0).unwrap()
+        );
     }
 
     proptest! {

@@ -35,7 +35,10 @@ pub struct Table1Args {
 
 /// Offset of the `mixed` baseline at t = 0 (m^2 of |eps|^2) and its decay rate (1/s): an offset
 /// of 0.1 m on the estimation error that halves every 7 s.
-pub const MIXED: TriggerRule = TriggerRule::Mixed { mu: 0.01, alpha: 0.1 };
+pub const MIXED: TriggerRule = TriggerRule::Mixed {
+    mu: 0.01,
+    alpha: 0.1,
+};
 
 /// Table I of the paper, per follower 1..4.
 pub const PAPER_TABLE1: [(&str, [u64; 4]); 3] = [
@@ -43,6 +46,9 @@ pub const PAPER_TABLE1: [(&str, [u64; 4]); 3] = [
     ("static ETM (21)", [577, 426, 601, 628]),
     ("ETM of [xiao2022resource]", [493, 381, 522, 495]),
 ];
+
+/// One rule's run: its name, summary and average spacing error over time.
+type RuleResult = (&'static str, Summary, Vec<(f64, f64)>);
 
 pub fn run(e: Experiment) -> Result<()> {
     match e {
@@ -52,7 +58,11 @@ pub fn run(e: Experiment) -> Result<()> {
 
 /// The three rules of Table I applied to a base scenario whose rule is dynamic.
 pub fn table1_rules(base: &Scenario) -> Vec<(&'static str, TriggerRule)> {
-    vec![("dynamic", base.control.rule), ("static", TriggerRule::Static), ("mixed", MIXED)]
+    vec![
+        ("dynamic", base.control.rule),
+        ("static", TriggerRule::Static),
+        ("mixed", MIXED),
+    ]
 }
 
 fn table1(args: Table1Args) -> Result<()> {
@@ -62,7 +72,10 @@ fn table1(args: Table1Args) -> Result<()> {
             (c, s, ())
         }
         None => {
-            let (c, s) = platoon_config::parse(platoon_config::TABLE1_TOML, Path::new("<embedded configs/table1.toml>"))?;
+            let (c, s) = platoon_config::parse(
+                platoon_config::TABLE1_TOML,
+                Path::new("<embedded configs/table1.toml>"),
+            )?;
             (c, s, ())
         }
     };
@@ -73,7 +86,7 @@ fn table1(args: Table1Args) -> Result<()> {
     let dir = RunDir::create(&out, args.force)?;
     dir.write("config.toml", platoon_config::to_toml(&config).as_bytes())?;
 
-    let mut results: Vec<(&str, Summary, Vec<(f64, f64)>)> = Vec::new();
+    let mut results: Vec<RuleResult> = Vec::new();
     for (name, rule) in table1_rules(&base) {
         let mut scenario = base.clone();
         scenario.control.rule = rule;
@@ -86,10 +99,22 @@ fn table1(args: Table1Args) -> Result<()> {
 
     // table1.csv
     let mut csv = csv::Writer::from_writer(dir.writer("table1.csv")?);
-    csv.write_record(["rule", "vehicle", "triggers", "paper_triggers", "spacing_error_mean_abs_m", "spacing_error_rms_m", "velocity_error_mean_abs_mps"])?;
+    csv.write_record([
+        "rule",
+        "vehicle",
+        "triggers",
+        "paper_triggers",
+        "spacing_error_mean_abs_m",
+        "spacing_error_rms_m",
+        "velocity_error_mean_abs_mps",
+    ])?;
     for (r, (name, s, _)) in results.iter().enumerate() {
         for v in &s.vehicles {
-            let paper = PAPER_TABLE1[r].1.get(v.vehicle as usize - 1).map(|x| x.to_string()).unwrap_or_default();
+            let paper = PAPER_TABLE1[r]
+                .1
+                .get(v.vehicle as usize - 1)
+                .map(|x| x.to_string())
+                .unwrap_or_default();
             csv.write_record([
                 name.to_string(),
                 v.vehicle.to_string(),
@@ -106,7 +131,11 @@ fn table1(args: Table1Args) -> Result<()> {
     // fig8.csv and fig8.png: average spacing error over time.
     let mut fig8 = csv::Writer::from_writer(dir.writer("fig8.csv")?);
     let mut header = vec!["t".to_string()];
-    header.extend(results.iter().map(|(n, _, _)| format!("{n}_mean_abs_spacing_error_m")));
+    header.extend(
+        results
+            .iter()
+            .map(|(n, _, _)| format!("{n}_mean_abs_spacing_error_m")),
+    );
     fig8.write_record(&header)?;
     for k in 0..results[0].2.len() {
         let mut rec = vec![results[0].2[k].0.to_string()];
@@ -114,13 +143,27 @@ fn table1(args: Table1Args) -> Result<()> {
         fig8.write_record(&rec)?;
     }
     fig8.flush()?;
-    let series: Vec<Series> = results.iter().enumerate().map(|(i, (n, _, e))| Series { label: n.to_string(), color: i, points: e.clone() }).collect();
+    let series: Vec<Series> = results
+        .iter()
+        .enumerate()
+        .map(|(i, (n, _, e))| Series {
+            label: n.to_string(),
+            color: i,
+            points: e.clone(),
+        })
+        .collect();
     {
         use plotters::prelude::*;
         let path = dir.path("fig8.png");
         let root = BitMapBackend::new(&path, (1200, 600)).into_drawing_area();
         root.fill(&WHITE).map_err(|e| anyhow::anyhow!("{e:?}"))?;
-        plots::line_panel(&root, "Average tracking error (mean over followers of |p_i - p_0 + i l|)", "m", &series, &[])?;
+        plots::line_panel(
+            &root,
+            "Average tracking error (mean over followers of |p_i - p_0 + i l|)",
+            "m",
+            &series,
+            &[],
+        )?;
         root.present().map_err(|e| anyhow::anyhow!("{e:?}"))?;
     }
 
@@ -129,12 +172,28 @@ fn table1(args: Table1Args) -> Result<()> {
     let categories: Vec<String> = (1..=n).map(|v| format!("vehicle {v}")).collect();
     let mut groups: Vec<(String, Vec<f64>)> = results
         .iter()
-        .map(|(name, s, _)| (format!("{name} (ours)"), s.vehicles.iter().map(|v| v.triggers as f64).collect()))
+        .map(|(name, s, _)| {
+            (
+                format!("{name} (ours)"),
+                s.vehicles.iter().map(|v| v.triggers as f64).collect(),
+            )
+        })
         .collect();
     if n == 4 {
-        groups.extend(PAPER_TABLE1.iter().map(|(l, c)| (format!("{l} (paper)"), c.iter().map(|&x| x as f64).collect())));
+        groups.extend(PAPER_TABLE1.iter().map(|(l, c)| {
+            (
+                format!("{l} (paper)"),
+                c.iter().map(|&x| x as f64).collect(),
+            )
+        }));
     }
-    plots::grouped_bars(&dir.path("table1.png"), "Table I: broadcasts per follower over 55 s", "broadcasts", &categories, &groups)?;
+    plots::grouped_bars(
+        &dir.path("table1.png"),
+        "Table I: broadcasts per follower over 55 s",
+        "broadcasts",
+        &categories,
+        &groups,
+    )?;
 
     let md = table1_markdown(&base, &results);
     dir.write("table1.md", md.as_bytes())?;
@@ -155,13 +214,18 @@ fn average_error(rows: &[StepRow]) -> Vec<(f64, f64)> {
         l.1 += r.spacing_error.abs();
         l.2 += 1;
     }
-    out.into_iter().map(|(t, s, n)| (t, s / f64::from(n))).collect()
+    out.into_iter()
+        .map(|(t, s, n)| (t, s / f64::from(n)))
+        .collect()
 }
 
-fn table1_markdown(base: &Scenario, results: &[(&str, Summary, Vec<(f64, f64)>)]) -> String {
+fn table1_markdown(base: &Scenario, results: &[RuleResult]) -> String {
     let n = base.topology.followers();
     let mut md = String::new();
-    let _ = writeln!(md, "# Table I: broadcasts per follower (no DoS, tau = tau_nominal)\n");
+    let _ = writeln!(
+        md,
+        "# Table I: broadcasts per follower (no DoS, tau = tau_nominal)\n"
+    );
     let _ = writeln!(
         md,
         "Step {} s, event conditions checked every {} s, {} s simulated. `mixed` is the static ETM with \
@@ -181,7 +245,12 @@ fn table1_markdown(base: &Scenario, results: &[(&str, Summary, Vec<(f64, f64)>)]
         for v in &s.vehicles {
             let _ = write!(md, " {} |", v.triggers);
         }
-        let mean = s.vehicles.iter().map(|v| v.spacing_error_m.mean_abs).sum::<f64>() / n as f64;
+        let mean = s
+            .vehicles
+            .iter()
+            .map(|v| v.spacing_error_m.mean_abs)
+            .sum::<f64>()
+            / n as f64;
         let _ = writeln!(md, " {mean:.4} |");
     }
     if n == 4 {
@@ -193,7 +262,12 @@ fn table1_markdown(base: &Scenario, results: &[(&str, Summary, Vec<(f64, f64)>)]
             let _ = writeln!(md, " n/a |");
         }
     }
-    let fewer = results[0].1.vehicles.iter().zip(&results[1].1.vehicles).all(|(d, s)| d.triggers < s.triggers);
+    let fewer = results[0]
+        .1
+        .vehicles
+        .iter()
+        .zip(&results[1].1.vehicles)
+        .all(|(d, s)| d.triggers < s.triggers);
     let _ = writeln!(
         md,
         "\nDynamic triggers fewer times than static on every vehicle: {}.\n\nWhy the counts differ from \

@@ -21,6 +21,15 @@ struct Cli {
 #[derive(Debug, Subcommand)]
 enum Command {
     /// Run one scenario and write trajectories, events, a summary and plots into a run directory.
+    ///
+    /// Without a config the embedded paper scenario (configs/paper.toml) runs. The run directory
+    /// receives: config.toml (the resolved config, every default written out), trajectories.csv
+    /// (one row per vehicle and step: t, vehicle, p, v, a, u, theta, spacing and velocity errors,
+    /// triggered, under_attack, affected), events.csv (one row per broadcast), summary.json
+    /// (triggers, inter-event times, tracking errors, attack and Assumption-2 verdict, safety),
+    /// fig6.png (positions, relative positions, velocities, internal variables) and fig7.png
+    /// (release instants). Files are staged in <DIR>.partial, which is renamed to <DIR> only when
+    /// complete. A bad config exits with code 2 before anything is written.
     Run(run::Args),
     /// Reproduce an experiment of the paper's Section IV.
     #[command(subcommand)]

@@ -18,15 +18,26 @@ impl RunDir {
     /// a killed run is removed.
     pub fn create(out: &Path, force: bool) -> Result<Self> {
         if out.exists() && !force {
-            bail!("output directory {} exists; choose another --out or pass --force to replace it", out.display());
+            bail!(
+                "output directory {} exists; choose another --out or pass --force to replace it",
+                out.display()
+            );
         }
         let staging = sibling(out, ".partial");
         if staging.exists() {
-            fs::remove_dir_all(&staging)
-                .with_context(|| format!("removing the unfinished run directory {}", staging.display()))?;
+            fs::remove_dir_all(&staging).with_context(|| {
+                format!(
+                    "removing the unfinished run directory {}",
+                    staging.display()
+                )
+            })?;
         }
         fs::create_dir_all(&staging).with_context(|| format!("creating {}", staging.display()))?;
-        Ok(Self { final_path: out.to_path_buf(), staging, force })
+        Ok(Self {
+            final_path: out.to_path_buf(),
+            staging,
+            force,
+        })
     }
 
     /// Path of a file inside the (staging) directory.
@@ -44,7 +55,9 @@ impl RunDir {
     /// Writes a whole file.
     pub fn write(&self, name: &str, bytes: &[u8]) -> Result<()> {
         let mut w = self.writer(name)?;
-        w.write_all(bytes).and_then(|_| w.flush()).with_context(|| format!("writing {name}"))
+        w.write_all(bytes)
+            .and_then(|_| w.flush())
+            .with_context(|| format!("writing {name}"))
     }
 
     /// Moves the finished directory into place.
@@ -52,11 +65,17 @@ impl RunDir {
         let old = sibling(&self.final_path, ".old");
         if self.final_path.exists() {
             debug_assert!(self.force);
-            fs::rename(&self.final_path, &old)
-                .with_context(|| format!("moving the previous {} aside", self.final_path.display()))?;
+            fs::rename(&self.final_path, &old).with_context(|| {
+                format!("moving the previous {} aside", self.final_path.display())
+            })?;
         }
-        fs::rename(&self.staging, &self.final_path)
-            .with_context(|| format!("renaming {} to {}", self.staging.display(), self.final_path.display()))?;
+        fs::rename(&self.staging, &self.final_path).with_context(|| {
+            format!(
+                "renaming {} to {}",
+                self.staging.display(),
+                self.final_path.display()
+            )
+        })?;
         if old.exists() {
             fs::remove_dir_all(&old).with_context(|| format!("removing {}", old.display()))?;
         }
@@ -65,7 +84,10 @@ impl RunDir {
 }
 
 fn sibling(path: &Path, suffix: &str) -> PathBuf {
-    let mut name = path.file_name().map(|n| n.to_os_string()).unwrap_or_else(|| "run".into());
+    let mut name = path
+        .file_name()
+        .map(|n| n.to_os_string())
+        .unwrap_or_else(|| "run".into());
     name.push(suffix);
     path.with_file_name(name)
 }

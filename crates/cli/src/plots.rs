@@ -14,7 +14,11 @@ fn ensure_font() {
     static FONT: Once = Once::new();
     FONT.call_once(|| {
         // The bytes are a valid TTF shipped by the dejavu crate; failure would be a build defect.
-        let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, dejavu::sans::regular());
+        let _ = plotters::style::register_font(
+            "sans-serif",
+            FontStyle::Normal,
+            dejavu::sans::regular(),
+        );
     });
 }
 
@@ -31,7 +35,12 @@ pub struct Series {
 }
 
 fn bounds(series: &[Series]) -> (f64, f64, f64, f64) {
-    let mut b = (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
+    let mut b = (
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+    );
     for s in series {
         for &(x, y) in &s.points {
             if x.is_finite() && y.is_finite() {
@@ -63,19 +72,33 @@ pub fn line_panel(
         .y_label_area_size(55)
         .build_cartesian_2d(x0..x1, y0..y1)
         .map_err(err)?;
-    chart.configure_mesh().x_desc("t (s)").y_desc(y_label).light_line_style(WHITE.mix(0.0)).draw().map_err(err)?;
+    chart
+        .configure_mesh()
+        .x_desc("t (s)")
+        .y_desc(y_label)
+        .light_line_style(WHITE.mix(0.0))
+        .draw()
+        .map_err(err)?;
     chart
         .draw_series(attacks.iter().map(|iv| {
-            Rectangle::new([(iv.start.max(x0), y0), (iv.end.min(x1), y1)], ATTACK_SHADE.filled())
+            Rectangle::new(
+                [(iv.start.max(x0), y0), (iv.end.min(x1), y1)],
+                ATTACK_SHADE.filled(),
+            )
         }))
         .map_err(err)?;
     for s in series {
         let color = Palette99::pick(s.color).to_rgba();
         chart
-            .draw_series(LineSeries::new(s.points.iter().copied(), color.stroke_width(2)))
+            .draw_series(LineSeries::new(
+                s.points.iter().copied(),
+                color.stroke_width(2),
+            ))
             .map_err(err)?
             .label(s.label.clone())
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2)));
+            .legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2))
+            });
     }
     chart
         .configure_series_labels()
@@ -87,13 +110,26 @@ pub fn line_panel(
     Ok(())
 }
 
-fn per_vehicle(rows: &[StepRow], n: usize, followers_only: bool, f: impl Fn(&StepRow) -> f64) -> Vec<Series> {
+fn per_vehicle(
+    rows: &[StepRow],
+    n: usize,
+    followers_only: bool,
+    f: impl Fn(&StepRow) -> f64,
+) -> Vec<Series> {
     let first = usize::from(followers_only);
     (first..=n)
         .map(|v| Series {
-            label: if v == 0 { "leader".into() } else { format!("follower {v}") },
+            label: if v == 0 {
+                "leader".into()
+            } else {
+                format!("follower {v}")
+            },
             color: v,
-            points: rows.iter().filter(|r| r.vehicle as usize == v).map(|r| (r.t, f(r))).collect(),
+            points: rows
+                .iter()
+                .filter(|r| r.vehicle as usize == v)
+                .map(|r| (r.t, f(r)))
+                .collect(),
         })
         .collect()
 }
@@ -101,12 +137,26 @@ fn per_vehicle(rows: &[StepRow], n: usize, followers_only: bool, f: impl Fn(&Ste
 /// Fig. 6: positions, positions relative to the leader, velocities, internal variables.
 pub fn fig6(path: &Path, scenario: &Scenario, rows: &[StepRow]) -> Result<()> {
     let n = scenario.topology.followers();
-    let attacks = scenario.dos.clipped(scenario.duration()).intervals().to_vec();
+    let attacks = scenario
+        .dos
+        .clipped(scenario.duration())
+        .intervals()
+        .to_vec();
     let root = BitMapBackend::new(path, (1400, 1000)).into_drawing_area();
     root.fill(&WHITE).map_err(err)?;
     let panels = root.split_evenly((2, 2));
-    let leader_p: Vec<f64> = rows.iter().filter(|r| r.vehicle == 0).map(|r| r.p).collect();
-    line_panel(&panels[0], "(a) Positions", "p (m)", &per_vehicle(rows, n, false, |r| r.p), &attacks)?;
+    let leader_p: Vec<f64> = rows
+        .iter()
+        .filter(|r| r.vehicle == 0)
+        .map(|r| r.p)
+        .collect();
+    line_panel(
+        &panels[0],
+        "(a) Positions",
+        "p (m)",
+        &per_vehicle(rows, n, false, |r| r.p),
+        &attacks,
+    )?;
     line_panel(
         &panels[1],
         "(b) Positions relative to the leader",
@@ -114,8 +164,20 @@ pub fn fig6(path: &Path, scenario: &Scenario, rows: &[StepRow]) -> Result<()> {
         &per_vehicle(rows, n, true, |r| r.p - leader_p[r.step as usize]),
         &attacks,
     )?;
-    line_panel(&panels[2], "(c) Velocities", "v (m/s)", &per_vehicle(rows, n, false, |r| r.v), &attacks)?;
-    line_panel(&panels[3], "(d) Internal dynamic variables", "theta", &per_vehicle(rows, n, true, |r| r.theta), &attacks)?;
+    line_panel(
+        &panels[2],
+        "(c) Velocities",
+        "v (m/s)",
+        &per_vehicle(rows, n, false, |r| r.v),
+        &attacks,
+    )?;
+    line_panel(
+        &panels[3],
+        "(d) Internal dynamic variables",
+        "theta",
+        &per_vehicle(rows, n, true, |r| r.theta),
+        &attacks,
+    )?;
     root.present().map_err(err)?;
     Ok(())
 }
@@ -124,7 +186,11 @@ pub fn fig6(path: &Path, scenario: &Scenario, rows: &[StepRow]) -> Result<()> {
 pub fn fig7(path: &Path, scenario: &Scenario, rows: &[StepRow]) -> Result<()> {
     ensure_font();
     let n = scenario.topology.followers();
-    let attacks = scenario.dos.clipped(scenario.duration()).intervals().to_vec();
+    let attacks = scenario
+        .dos
+        .clipped(scenario.duration())
+        .intervals()
+        .to_vec();
     let t_end = scenario.duration();
     let height = 250 * n.max(1) as u32;
     let root = BitMapBackend::new(path, (1400, height)).into_drawing_area();
@@ -132,7 +198,10 @@ pub fn fig7(path: &Path, scenario: &Scenario, rows: &[StepRow]) -> Result<()> {
     for (v, area) in (1..=n).zip(root.split_evenly((n, 1))) {
         let mut last = None;
         let mut stems = Vec::new();
-        for r in rows.iter().filter(|r| r.vehicle as usize == v && r.triggered) {
+        for r in rows
+            .iter()
+            .filter(|r| r.vehicle as usize == v && r.triggered)
+        {
             if let Some(p) = last {
                 stems.push((r.t, r.t - p));
             }
@@ -140,32 +209,70 @@ pub fn fig7(path: &Path, scenario: &Scenario, rows: &[StepRow]) -> Result<()> {
         }
         let y1 = stems.iter().map(|s| s.1).fold(0.0, f64::max).max(1e-3) * 1.1;
         let mut chart = ChartBuilder::on(&area)
-            .caption(format!("Follower {v}: release instants ({} broadcasts)", stems.len() + usize::from(last.is_some())), ("sans-serif", 18))
+            .caption(
+                format!(
+                    "Follower {v}: release instants ({} broadcasts)",
+                    stems.len() + usize::from(last.is_some())
+                ),
+                ("sans-serif", 18),
+            )
             .margin(8)
             .x_label_area_size(30)
             .y_label_area_size(55)
             .build_cartesian_2d(0.0..t_end, 0.0..y1)
             .map_err(err)?;
-        chart.configure_mesh().x_desc("t (s)").y_desc("interval (s)").light_line_style(WHITE.mix(0.0)).draw().map_err(err)?;
         chart
-            .draw_series(attacks.iter().map(|iv| Rectangle::new([(iv.start, 0.0), (iv.end.min(t_end), y1)], ATTACK_SHADE.filled())))
+            .configure_mesh()
+            .x_desc("t (s)")
+            .y_desc("interval (s)")
+            .light_line_style(WHITE.mix(0.0))
+            .draw()
+            .map_err(err)?;
+        chart
+            .draw_series(attacks.iter().map(|iv| {
+                Rectangle::new(
+                    [(iv.start, 0.0), (iv.end.min(t_end), y1)],
+                    ATTACK_SHADE.filled(),
+                )
+            }))
             .map_err(err)?;
         let color = Palette99::pick(v).to_rgba();
         chart
-            .draw_series(stems.iter().map(|&(t, d)| PathElement::new(vec![(t, 0.0), (t, d)], color)))
+            .draw_series(
+                stems
+                    .iter()
+                    .map(|&(t, d)| PathElement::new(vec![(t, 0.0), (t, d)], color)),
+            )
             .map_err(err)?;
-        chart.draw_series(stems.iter().map(|&(t, d)| Circle::new((t, d), 2, color.filled()))).map_err(err)?;
+        chart
+            .draw_series(
+                stems
+                    .iter()
+                    .map(|&(t, d)| Circle::new((t, d), 2, color.filled())),
+            )
+            .map_err(err)?;
     }
     root.present().map_err(err)?;
     Ok(())
 }
 
 /// A grouped bar chart: `groups` (e.g. rules) of `values` per category (e.g. vehicles).
-pub fn grouped_bars(path: &Path, title: &str, y_label: &str, categories: &[String], groups: &[(String, Vec<f64>)]) -> Result<()> {
+pub fn grouped_bars(
+    path: &Path,
+    title: &str,
+    y_label: &str,
+    categories: &[String],
+    groups: &[(String, Vec<f64>)],
+) -> Result<()> {
     ensure_font();
     let root = BitMapBackend::new(path, (1000, 600)).into_drawing_area();
     root.fill(&WHITE).map_err(err)?;
-    let ymax = groups.iter().flat_map(|g| g.1.iter().copied()).fold(0.0, f64::max).max(1.0) * 1.5; // room for the legend
+    let ymax = groups
+        .iter()
+        .flat_map(|g| g.1.iter().copied())
+        .fold(0.0, f64::max)
+        .max(1.0)
+        * 1.5; // room for the legend
     let nc = categories.len() as f64;
     let mut chart = ChartBuilder::on(&root)
         .caption(title, ("sans-serif", 22))
@@ -181,7 +288,11 @@ pub fn grouped_bars(path: &Path, title: &str, y_label: &str, categories: &[Strin
         .x_labels(categories.len() * 2 + 1)
         .x_label_formatter(&move |x| {
             let i = x.floor() as usize;
-            if (x - x.floor() - 0.5).abs() < 1e-6 && i < cats.len() { cats[i].clone() } else { String::new() }
+            if (x - x.floor() - 0.5).abs() < 1e-6 && i < cats.len() {
+                cats[i].clone()
+            } else {
+                String::new()
+            }
         })
         .y_desc(y_label)
         .draw()
@@ -198,7 +309,12 @@ pub fn grouped_bars(path: &Path, title: &str, y_label: &str, categories: &[Strin
             .label(label.clone())
             .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 12, y + 5)], color.filled()));
     }
-    chart.configure_series_labels().background_style(WHITE.mix(0.85)).border_style(BLACK).draw().map_err(err)?;
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()
+        .map_err(err)?;
     root.present().map_err(err)?;
     Ok(())
 }

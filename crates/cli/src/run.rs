@@ -7,13 +7,7 @@ use platoon_sim::{Scenario, StepRow, Summary};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-/// Run a scenario (default: the paper's Section IV, embedded) and write its outputs.
-///
-/// The run directory receives: config.toml (the resolved config, every default written out),
-/// trajectories.csv (one row per vehicle and step), events.csv (one row per broadcast),
-/// summary.json (triggers, inter-event times, tracking errors, attack and Assumption-2 verdict,
-/// safety), fig6.png (positions, relative positions, velocities, internal variables) and fig7.png
-/// (release instants and intervals). The directory appears only once complete.
+/// Arguments of `platoon run` (its help text is on the `Run` command in main.rs).
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// Scenario config (TOML). Without it, the embedded configs/paper.toml runs.
@@ -34,11 +28,17 @@ pub fn load(config: Option<&Path>) -> Result<(Config, Scenario, String), ConfigE
     match config {
         Some(path) => {
             let (c, s) = platoon_config::load(path)?;
-            let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "run".into());
+            let stem = path
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_else(|| "run".into());
             Ok((c, s, stem))
         }
         None => {
-            let (c, s) = platoon_config::parse(platoon_config::PAPER_TOML, Path::new("<embedded configs/paper.toml>"))?;
+            let (c, s) = platoon_config::parse(
+                platoon_config::PAPER_TOML,
+                Path::new("<embedded configs/paper.toml>"),
+            )?;
             Ok((c, s, "paper".into()))
         }
     }
@@ -46,7 +46,9 @@ pub fn load(config: Option<&Path>) -> Result<(Config, Scenario, String), ConfigE
 
 pub fn run(args: Args) -> Result<()> {
     let (config, scenario, stem) = load(args.config.as_deref())?;
-    let out = args.out.unwrap_or_else(|| PathBuf::from("runs").join(&stem));
+    let out = args
+        .out
+        .unwrap_or_else(|| PathBuf::from("runs").join(&stem));
     let dir = RunDir::create(&out, args.force)?;
     let started = Instant::now();
     let (rows, summary) = simulate(&scenario, &dir)?;
@@ -63,8 +65,10 @@ pub fn simulate(scenario: &Scenario, dir: &RunDir) -> Result<(Vec<StepRow>, Summ
     let steps = scenario.steps + 1;
     let bar = indicatif::ProgressBar::new(steps);
     bar.set_style(
-        indicatif::ProgressStyle::with_template("{spinner} simulating {pos}/{len} steps [{elapsed}] {wide_bar}")
-            .expect("static template"),
+        indicatif::ProgressStyle::with_template(
+            "{spinner} simulating {pos}/{len} steps [{elapsed}] {wide_bar}",
+        )
+        .expect("static template"),
     );
     let mut csv = csv::Writer::from_writer(dir.writer("trajectories.csv")?);
     let mut rows = Vec::with_capacity(steps as usize * (scenario.topology.followers() + 1));
@@ -112,7 +116,10 @@ pub fn write_outputs(
     dir.write("config.toml", platoon_config::to_toml(config).as_bytes())?;
     let mut events = csv::Writer::from_writer(dir.writer("events.csv")?);
     let mut last: Vec<Option<u64>> = vec![None; scenario.topology.followers() + 1];
-    let mut followers: Vec<&StepRow> = rows.iter().filter(|r| r.vehicle > 0 && r.triggered).collect();
+    let mut followers: Vec<&StepRow> = rows
+        .iter()
+        .filter(|r| r.vehicle > 0 && r.triggered)
+        .collect();
     followers.sort_by_key(|r| (r.vehicle, r.step));
     for r in followers {
         let prev = &mut last[r.vehicle as usize];
@@ -155,7 +162,10 @@ fn print_summary(s: &Summary, compute_s: f64) {
         Some(_) => "VIOLATES Assumption 2",
         None => "no Assumption-2 bounds given",
     };
-    println!("  DoS: {} attacks, {:.2} s jammed, {verdict}", a.intervals, a.attacked_time_s);
+    println!(
+        "  DoS: {} attacks, {:.2} s jammed, {verdict}",
+        a.intervals, a.attacked_time_s
+    );
     println!(
         "  safety: {} (smallest gap {:.2} m, follower {} at {:.2} s)",
         if s.safety.safe { "safe" } else { "COLLISION" },

@@ -53,7 +53,9 @@ pub fn parse(text: &str, file: &Path) -> Result<(Config, Scenario), ConfigError>
     let mut config: Config = serde_path_to_error::deserialize(de).map_err(|e| {
         let key = e.path().to_string();
         let inner = e.into_inner();
-        let line = inner.span().map(|s| text[..s.start.min(text.len())].lines().count().max(1));
+        let line = inner
+            .span()
+            .map(|s| text[..s.start.min(text.len())].lines().count().max(1));
         ConfigError {
             file: file.to_path_buf(),
             key: if key == "." { String::new() } else { key },

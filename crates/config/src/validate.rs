@@ -32,11 +32,17 @@ fn positive(key: &str, x: f64) -> Result<f64, Invalid> {
 fn steps_of(key: &str, period: f64, dt: f64) -> Result<u32, Invalid> {
     positive(key, period)?;
     if period < dt * (1.0 - 1e-9) {
-        return bad(key, format!("{period} s is shorter than the step simulation.dt_s = {dt} s"));
+        return bad(
+            key,
+            format!("{period} s is shorter than the step simulation.dt_s = {dt} s"),
+        );
     }
     let n = (period / dt).round();
     if (n * dt - period).abs() > 1e-9 * period.max(1.0) || n > f64::from(u32::MAX) {
-        return bad(key, format!("{period} s must be a whole number of steps of {dt} s"));
+        return bad(
+            key,
+            format!("{period} s must be a whole number of steps of {dt} s"),
+        );
     }
     Ok(n as u32)
 }
@@ -53,9 +59,10 @@ fn tau_schedule(key: &str, t: &TauConfig) -> Result<TauSchedule, Invalid> {
     let r = match t {
         TauConfig::Paper => Ok(TauSchedule::paper()),
         TauConfig::Constant { value_s } => TauSchedule::constant(*value_s),
-        TauConfig::Knots { knots, interpolation } => {
-            TauSchedule::new(knots.iter().map(|k| (k[0], k[1])).collect(), *interpolation)
-        }
+        TauConfig::Knots {
+            knots,
+            interpolation,
+        } => TauSchedule::new(knots.iter().map(|k| (k[0], k[1])).collect(), *interpolation),
     };
     r.or_else(|e| bad(key, e.to_string()))
 }
@@ -68,7 +75,10 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
     let duration = positive("simulation.duration_s", c.simulation.duration_s)?;
     let steps = (duration / dt).round();
     if (steps * dt - duration).abs() > 1e-9 * duration.max(1.0) {
-        return bad("simulation.duration_s", format!("{duration} s is not a whole number of steps of {dt} s"));
+        return bad(
+            "simulation.duration_s",
+            format!("{duration} s is not a whole number of steps of {dt} s"),
+        );
     }
 
     // [platoon]
@@ -89,7 +99,10 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
     }
     for (i, s) in p.initial_states.iter().enumerate() {
         if s.iter().any(|x| !x.is_finite()) {
-            return bad(&format!("platoon.initial_states[{i}]"), "must hold finite numbers");
+            return bad(
+                &format!("platoon.initial_states[{i}]"),
+                "must hold finite numbers",
+            );
         }
     }
     let spacing = positive("platoon.spacing_m", p.spacing_m)?;
@@ -97,7 +110,11 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
     if vehicle_length < 0.0 {
         return bad("platoon.vehicle_length_m", "must be >= 0");
     }
-    let initial: Vec<State> = p.initial_states.iter().map(|s| State::new(s[0], s[1], s[2])).collect();
+    let initial: Vec<State> = p
+        .initial_states
+        .iter()
+        .map(|s| State::new(s[0], s[1], s[2]))
+        .collect();
 
     // [leader]
     let leader = match &c.leader.profile {
@@ -129,26 +146,46 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
     let t = &c.topology;
     let topology = if t.preset == "explicit" {
         let (Some(a), Some(h)) = (&t.adjacency, &t.pinning) else {
-            return bad("topology", "preset = \"explicit\" needs both `adjacency` and `pinning`");
+            return bad(
+                "topology",
+                "preset = \"explicit\" needs both `adjacency` and `pinning`",
+            );
         };
         Topology::explicit(a.clone(), h.clone())
     } else {
-        only_for("topology.adjacency", t.adjacency.is_some(), "preset = \"explicit\"")?;
-        only_for("topology.pinning", t.pinning.is_some(), "preset = \"explicit\"")?;
+        only_for(
+            "topology.adjacency",
+            t.adjacency.is_some(),
+            "preset = \"explicit\"",
+        )?;
+        only_for(
+            "topology.pinning",
+            t.pinning.is_some(),
+            "preset = \"explicit\"",
+        )?;
         let preset = match t.preset.as_str() {
             "pf" => Preset::Pf,
             "plf" => Preset::Plf,
             "bpf" => Preset::Bpf,
             "tpsf" => Preset::Tpsf,
             other => {
-                return bad("topology.preset", format!("unknown preset {other:?}; use pf, plf, bpf, tpsf or explicit"))
+                return bad(
+                    "topology.preset",
+                    format!("unknown preset {other:?}; use pf, plf, bpf, tpsf or explicit"),
+                )
             }
         };
         Topology::preset(preset, n)
     }
     .or_else(|e| bad("topology", e.to_string()))?;
     if topology.followers() != n {
-        return bad("topology.adjacency", format!("describes {} followers, platoon.followers = {n}", topology.followers()));
+        return bad(
+            "topology.adjacency",
+            format!(
+                "describes {} followers, platoon.followers = {n}",
+                topology.followers()
+            ),
+        );
     }
 
     // [plant]
@@ -160,7 +197,10 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
         }
         Some(list) => {
             if list.len() != n {
-                return bad("plant.tau_per_vehicle", format!("has {} entries, platoon.followers = {n}", list.len()));
+                return bad(
+                    "plant.tau_per_vehicle",
+                    format!("has {} entries, platoon.followers = {n}", list.len()),
+                );
             }
             list.iter()
                 .enumerate()
@@ -180,14 +220,22 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
     let check_period = *tr.check_period_s.get_or_insert(dt);
     let check_steps = steps_of("trigger.check_period_s", check_period, dt)?;
     let h_steps = steps_of("trigger.h_s", tr.h_s, dt)?;
-    let dynamic_keys = tr.phi.is_some() || tr.rho.is_some() || tr.eta.is_some() || tr.theta0.is_some();
+    let dynamic_keys =
+        tr.phi.is_some() || tr.rho.is_some() || tr.eta.is_some() || tr.theta0.is_some();
     let mixed_keys = tr.mu.is_some() || tr.alpha.is_some();
     let rule = match tr.rule.as_str() {
         "dynamic" => {
             only_for("trigger.mu", mixed_keys, "rule = \"mixed\"")?;
-            only_for("trigger.period_s", tr.period_s.is_some(), "rule = \"periodic\"")?;
+            only_for(
+                "trigger.period_s",
+                tr.period_s.is_some(),
+                "rule = \"periodic\"",
+            )?;
             let need = |key: &str, v: Option<f64>| {
-                v.map_or_else(|| bad(key, "is required with rule = \"dynamic\""), |x| finite(key, x))
+                v.map_or_else(
+                    || bad(key, "is required with rule = \"dynamic\""),
+                    |x| finite(key, x),
+                )
             };
             TriggerRule::Dynamic {
                 phi: need("trigger.phi", tr.phi)?,
@@ -201,11 +249,19 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
             match tr.rule.as_str() {
                 "static" => {
                     only_for("trigger.mu", mixed_keys, "rule = \"mixed\"")?;
-                    only_for("trigger.period_s", tr.period_s.is_some(), "rule = \"periodic\"")?;
+                    only_for(
+                        "trigger.period_s",
+                        tr.period_s.is_some(),
+                        "rule = \"periodic\"",
+                    )?;
                     TriggerRule::Static
                 }
                 "mixed" => {
-                    only_for("trigger.period_s", tr.period_s.is_some(), "rule = \"periodic\"")?;
+                    only_for(
+                        "trigger.period_s",
+                        tr.period_s.is_some(),
+                        "rule = \"periodic\"",
+                    )?;
                     TriggerRule::Mixed {
                         mu: finite("trigger.mu", tr.mu.unwrap_or(0.0))?,
                         alpha: finite("trigger.alpha", tr.alpha.unwrap_or(0.0))?,
@@ -216,12 +272,17 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
                     let Some(period) = tr.period_s else {
                         return bad("trigger.period_s", "is required with rule = \"periodic\"");
                     };
-                    TriggerRule::Periodic { period_steps: steps_of("trigger.period_s", period, dt)? }
+                    TriggerRule::Periodic {
+                        period_steps: steps_of("trigger.period_s", period, dt)?,
+                    }
                 }
             }
         }
         other => {
-            return bad("trigger.rule", format!("unknown rule {other:?}; use dynamic, static, mixed or periodic"))
+            return bad(
+                "trigger.rule",
+                format!("unknown rule {other:?}; use dynamic, static, mixed or periodic"),
+            )
         }
     };
     let control = ControllerParams {
@@ -239,14 +300,19 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
         leader_broadcast_steps,
     };
     control.validate().or_else(|e| {
-        let section = if matches!(e.field, "phi" | "rho" | "eta" | "mu" | "period" | "h") { "trigger" } else { "control" };
+        let section = if matches!(e.field, "phi" | "rho" | "eta" | "mu" | "period" | "h") {
+            "trigger"
+        } else {
+            "control"
+        };
         bad(&format!("{section}.{}", e.field), e.message)
     })?;
 
     // [attack]
     let a = &c.attack;
     if let Some(b) = &a.assumption2 {
-        b.validate().or_else(|e| bad("attack.assumption2", e.to_string()))?;
+        b.validate()
+            .or_else(|e| bad("attack.assumption2", e.to_string()))?;
     }
     let interval_keys = a.intervals.is_some();
     let periodic_keys = a.period_s.is_some() || a.duration_s.is_some() || a.offset_s.is_some();
@@ -256,8 +322,16 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
         || a.min_duration_s.is_some()
         || a.max_duration_s.is_some();
     let check_unused = |intervals: bool, periodic: bool, random: bool| -> Result<(), Invalid> {
-        only_for("attack.intervals", intervals && interval_keys, "kind = \"intervals\"")?;
-        only_for("attack.period_s", periodic && periodic_keys, "kind = \"periodic\"")?;
+        only_for(
+            "attack.intervals",
+            intervals && interval_keys,
+            "kind = \"intervals\"",
+        )?;
+        only_for(
+            "attack.period_s",
+            periodic && periodic_keys,
+            "kind = \"periodic\"",
+        )?;
         only_for("attack.seed", random && random_keys, "kind = \"random\"")
     };
     let dos = match a.kind.as_str() {
@@ -271,11 +345,14 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
                 return bad("attack.intervals", "is required with kind = \"intervals\"");
             };
             let pairs: Vec<(f64, f64)> = list.iter().map(|p| (p[0], p[1])).collect();
-            DosSchedule::from_intervals(&pairs).or_else(|e| bad("attack.intervals", e.to_string()))?
+            DosSchedule::from_intervals(&pairs)
+                .or_else(|e| bad("attack.intervals", e.to_string()))?
         }
         "periodic" => {
             check_unused(true, false, true)?;
-            let need = |key: &str, v: Option<f64>| v.map_or_else(|| bad(key, "is required with kind = \"periodic\""), Ok);
+            let need = |key: &str, v: Option<f64>| {
+                v.map_or_else(|| bad(key, "is required with kind = \"periodic\""), Ok)
+            };
             DosSchedule::periodic(
                 need("attack.period_s", a.period_s)?,
                 need("attack.duration_s", a.duration_s)?,
@@ -287,20 +364,33 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
         "random" => {
             check_unused(true, true, false)?;
             let Some(bounds) = &a.assumption2 else {
-                return bad("attack.assumption2", "is required with kind = \"random\" (the generator satisfies these bounds)");
+                return bad(
+                    "attack.assumption2",
+                    "is required with kind = \"random\" (the generator satisfies these bounds)",
+                );
             };
-            let need = |key: &str, v: Option<f64>| v.map_or_else(|| bad(key, "is required with kind = \"random\""), Ok);
+            let need = |key: &str, v: Option<f64>| {
+                v.map_or_else(|| bad(key, "is required with kind = \"random\""), Ok)
+            };
             let generator = RandomDos {
-                seed: a.seed.map_or_else(|| bad("attack.seed", "is required with kind = \"random\""), Ok)?,
+                seed: a.seed.map_or_else(
+                    || bad("attack.seed", "is required with kind = \"random\""),
+                    Ok,
+                )?,
                 min_gap: need("attack.min_gap_s", a.min_gap_s)?,
                 max_gap: need("attack.max_gap_s", a.max_gap_s)?,
                 min_duration: need("attack.min_duration_s", a.min_duration_s)?,
                 max_duration: need("attack.max_duration_s", a.max_duration_s)?,
             };
-            generator.generate(bounds, duration).or_else(|e| bad("attack", e.to_string()))?
+            generator
+                .generate(bounds, duration)
+                .or_else(|e| bad("attack", e.to_string()))?
         }
         other => {
-            return bad("attack.kind", format!("unknown kind {other:?}; use none, intervals, periodic or random"))
+            return bad(
+                "attack.kind",
+                format!("unknown kind {other:?}; use none, intervals, periodic or random"),
+            )
         }
     };
 
@@ -315,6 +405,8 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
         assumption2: a.assumption2,
         vehicle_length,
     };
-    scenario.validate().or_else(|e| bad("scenario", e.to_string()))?;
+    scenario
+        .validate()
+        .or_else(|e| bad("scenario", e.to_string()))?;
     Ok(scenario)
 }

@@ -84,7 +84,11 @@ impl PlatoonController {
         if initial.len() != n + 1 {
             return Err(ParamsError {
                 field: "initial_states",
-                message: format!("need {} states (leader + {n} followers), got {}", n + 1, initial.len()),
+                message: format!(
+                    "need {} states (leader + {n} followers), got {}",
+                    n + 1,
+                    initial.len()
+                ),
             });
         }
         let theta0 = match params.rule {
@@ -114,7 +118,11 @@ impl PlatoonController {
             // Exact integration of theta' = -rho theta - eta s over dt with s held.
             TriggerRule::Dynamic { rho, eta, .. } => {
                 let decay = (-rho * params.dt).exp();
-                let integral = if rho > 0.0 { (1.0 - decay) / rho } else { params.dt };
+                let integral = if rho > 0.0 {
+                    (1.0 - decay) / rho
+                } else {
+                    params.dt
+                };
                 (decay, eta * integral)
             }
             _ => (1.0, 0.0),
@@ -155,22 +163,30 @@ impl PlatoonController {
     /// packets broadcast at this step to `out` (the leader's first, then followers in order).
     pub fn transmit(&mut self, k: u64, states: &[State], out: &mut Vec<Packet>) {
         let p = &self.params;
-        if k % u64::from(p.leader_broadcast_steps) == 0 {
+        if k.is_multiple_of(u64::from(p.leader_broadcast_steps)) {
             self.leader_seq += 1;
-            out.push(Packet { sender: VehicleId::LEADER, seq: self.leader_seq, step: k, state: states[0] });
+            out.push(Packet {
+                sender: VehicleId::LEADER,
+                seq: self.leader_seq,
+                step: k,
+                state: states[0],
+            });
         }
         let t = k as f64 * p.dt;
         for f in &mut self.followers {
             let x = states[f.id.index()];
-            f.step = FollowerStep { theta: f.theta, ..FollowerStep::default() };
+            f.step = FollowerStep {
+                theta: f.theta,
+                ..FollowerStep::default()
+            };
             let fire = if k == 0 {
                 true // t_0 = 0 is a sampling instant of every rule
             } else {
                 match f.mode {
                     Mode::Attacked { next } => k >= next,
                     Mode::Event => match p.rule {
-                        TriggerRule::Periodic { period_steps } => k % u64::from(period_steps) == 0,
-                        _ if k % u64::from(p.check_steps) != 0 => false,
+                        TriggerRule::Periodic { period_steps } => k.is_multiple_of(u64::from(period_steps)),
+                        _ if !k.is_multiple_of(u64::from(p.check_steps)) => false,
                         rule => {
                             let eps2 = (f.own - x).norm_squared();
                             let q2 = neighbourhood_error(f, p.spacing).norm_squared();
@@ -191,7 +207,12 @@ impl PlatoonController {
                 f.own = x;
                 f.seq += 1;
                 f.step.triggered = true;
-                out.push(Packet { sender: f.id, seq: f.seq, step: k, state: x });
+                out.push(Packet {
+                    sender: f.id,
+                    seq: f.seq,
+                    step: k,
+                    state: x,
+                });
             }
         }
     }
@@ -216,7 +237,9 @@ impl PlatoonController {
             let jam = jammed[f.id.index()];
             if f.step.triggered && p.resilient {
                 f.mode = if jam {
-                    Mode::Attacked { next: k + u64::from(p.h_steps) }
+                    Mode::Attacked {
+                        next: k + u64::from(p.h_steps),
+                    }
                 } else {
                     Mode::Event
                 };
@@ -264,7 +287,10 @@ impl PlatoonController {
         let slot = (r >= 1 && r <= self.followers.len())
             .then(|| {
                 let f = &self.followers[r - 1];
-                f.neighbours.iter().position(|&j| j == pk.sender).map(|s| (r - 1, s))
+                f.neighbours
+                    .iter()
+                    .position(|&j| j == pk.sender)
+                    .map(|s| (r - 1, s))
             })
             .flatten();
         let Some((fi, s)) = slot else {
@@ -322,14 +348,19 @@ mod tests {
     }
 
     fn formation(n: usize, v: f64) -> Vec<State> {
-        (0..=n).map(|i| State::new(-(i as f64) * 10.0, v, 0.0)).collect()
+        (0..=n)
+            .map(|i| State::new(-(i as f64) * 10.0, v, 0.0))
+            .collect()
     }
 
     fn everyone(topology: &Topology, packets: &[Packet]) -> Vec<Delivery> {
         packets
             .iter()
             .flat_map(|p| {
-                topology.out_neighbours(p.sender).iter().map(|&r| Delivery { receiver: r, packet: *p })
+                topology.out_neighbours(p.sender).iter().map(|&r| Delivery {
+                    receiver: r,
+                    packet: *p,
+                })
             })
             .collect()
     }
@@ -338,15 +369,28 @@ mod tests {
     fn in_formation_there_is_no_error_no_input_and_no_event() {
         let topo = Topology::preset(Preset::Tpsf, 4).unwrap();
         let states = formation(4, 15.0);
-        for rule in [TriggerRule::Static, TriggerRule::Dynamic { phi: 0.33, rho: 0.5, eta: 0.5, theta0: 200.0 }] {
+        for rule in [
+            TriggerRule::Static,
+            TriggerRule::Dynamic {
+                phi: 0.33,
+                rho: 0.5,
+                eta: 0.5,
+                theta0: 200.0,
+            },
+        ] {
             let mut c = PlatoonController::new(params(rule), &topo, &states).unwrap();
             let mut tx = Vec::new();
             c.transmit(0, &states, &mut tx);
             assert_eq!(tx.len(), 5, "everyone samples at t = 0");
-            let u = c.receive(0, &states, &everyone(&topo, &tx), &[false; 5]).to_vec();
+            let u = c
+                .receive(0, &states, &everyone(&topo, &tx), &[false; 5])
+                .to_vec();
             assert_eq!(u, vec![0.0; 4]);
             // One step later in exact formation at constant speed the estimators are exact.
-            let next: Vec<State> = states.iter().map(|x| State::new(x[0] + 0.15, 15.0, 0.0)).collect();
+            let next: Vec<State> = states
+                .iter()
+                .map(|x| State::new(x[0] + 0.15, 15.0, 0.0))
+                .collect();
             tx.clear();
             c.transmit(1, &next, &mut tx);
             assert_eq!(tx.len(), 1, "only the leader broadcasts: {tx:?}");
@@ -386,7 +430,12 @@ mod tests {
     #[test]
     fn dynamic_rule_waits_for_theta_to_be_outweighed() {
         let topo = Topology::preset(Preset::Pf, 1).unwrap();
-        let dynamic = TriggerRule::Dynamic { phi: 0.33, rho: 0.5, eta: 0.5, theta0: 200.0 };
+        let dynamic = TriggerRule::Dynamic {
+            phi: 0.33,
+            rho: 0.5,
+            eta: 0.5,
+            theta0: 200.0,
+        };
         let mut states = formation(1, 15.0);
         let mut c = PlatoonController::new(params(dynamic), &topo, &states).unwrap();
         let mut tx = Vec::new();
@@ -441,19 +490,42 @@ mod tests {
         let mut tx = Vec::new();
         c.transmit(0, &states, &mut tx);
         c.receive(0, &states, &everyone(&topo, &tx), &[false; 3]);
-        let pk = |sender, seq, step, p: f64| Packet { sender: VehicleId(sender), seq, step, state: State::new(p, 15.0, 0.0) };
+        let pk = |sender, seq, step, p: f64| Packet {
+            sender: VehicleId(sender),
+            seq,
+            step,
+            state: State::new(p, 15.0, 0.0),
+        };
         let bad = [
-            Delivery { receiver: VehicleId(2), packet: pk(1, 5, 1, f64::NAN) },
-            Delivery { receiver: VehicleId(2), packet: pk(0, 5, 1, 0.0) }, // 2 does not hear the leader
-            Delivery { receiver: VehicleId(9), packet: pk(1, 5, 1, 0.0) },
-            Delivery { receiver: VehicleId(2), packet: pk(1, 5, 7, 0.0) },
-            Delivery { receiver: VehicleId(2), packet: pk(1, 1, 1, 0.0) }, // replays seq 1
+            Delivery {
+                receiver: VehicleId(2),
+                packet: pk(1, 5, 1, f64::NAN),
+            },
+            Delivery {
+                receiver: VehicleId(2),
+                packet: pk(0, 5, 1, 0.0),
+            }, // 2 does not hear the leader
+            Delivery {
+                receiver: VehicleId(9),
+                packet: pk(1, 5, 1, 0.0),
+            },
+            Delivery {
+                receiver: VehicleId(2),
+                packet: pk(1, 5, 7, 0.0),
+            },
+            Delivery {
+                receiver: VehicleId(2),
+                packet: pk(1, 1, 1, 0.0),
+            }, // replays seq 1
         ];
         tx.clear();
         c.transmit(1, &states, &mut tx);
         c.receive(1, &states, &bad, &[false; 3]);
         let r = c.rejected();
-        assert_eq!((r.non_finite, r.unknown_sender, r.future_step, r.stale_seq), (1, 2, 1, 1));
+        assert_eq!(
+            (r.non_finite, r.unknown_sender, r.future_step, r.stale_seq),
+            (1, 2, 1, 1)
+        );
     }
 
     #[test]
@@ -462,11 +534,36 @@ mod tests {
         let states = formation(1, 15.0);
         let mut a = PlatoonController::new(params(TriggerRule::Static), &topo, &states).unwrap();
         let mut b = a.clone();
-        let leader = Packet { sender: VehicleId(0), seq: 9, step: 3, state: State::new(1.0, 16.0, 1.0) };
+        let leader = Packet {
+            sender: VehicleId(0),
+            seq: 9,
+            step: 3,
+            state: State::new(1.0, 16.0, 1.0),
+        };
         let flow = FreeFlow::new(0.5, 0.01);
-        let now = Packet { step: 5, state: flow.advance(&flow.advance(&leader.state)), ..leader };
-        let ua = a.receive(5, &states, &[Delivery { receiver: VehicleId(1), packet: leader }], &[false; 2])[0];
-        let ub = b.receive(5, &states, &[Delivery { receiver: VehicleId(1), packet: now }], &[false; 2])[0];
+        let now = Packet {
+            step: 5,
+            state: flow.advance(&flow.advance(&leader.state)),
+            ..leader
+        };
+        let ua = a.receive(
+            5,
+            &states,
+            &[Delivery {
+                receiver: VehicleId(1),
+                packet: leader,
+            }],
+            &[false; 2],
+        )[0];
+        let ub = b.receive(
+            5,
+            &states,
+            &[Delivery {
+                receiver: VehicleId(1),
+                packet: now,
+            }],
+            &[false; 2],
+        )[0];
         assert_eq!(ua, ub);
     }
 }

@@ -101,10 +101,19 @@ impl ControllerParams {
             return err("gain", "must be finite".into());
         }
         if !pos(self.beta1) || !pos(self.beta2) {
-            return err("beta", format!("beta1, beta2 must be > 0 (got {}, {})", self.beta1, self.beta2));
+            return err(
+                "beta",
+                format!(
+                    "beta1, beta2 must be > 0 (got {}, {})",
+                    self.beta1, self.beta2
+                ),
+            );
         }
         if !pos(self.dt) || !pos(self.tau_nominal) || !self.spacing.is_finite() {
-            return err("dt", "step, nominal tau and spacing must be finite, step and tau > 0".into());
+            return err(
+                "dt",
+                "step, nominal tau and spacing must be finite, step and tau > 0".into(),
+            );
         }
         if self.h_steps == 0 || self.check_steps == 0 || self.leader_broadcast_steps == 0 {
             return err("h", "periods must be at least one step".into());
@@ -113,7 +122,12 @@ impl ControllerParams {
             TriggerRule::Periodic { period_steps: 0 } => {
                 return err("period", "must be at least one step".into())
             }
-            TriggerRule::Dynamic { phi, rho, eta, theta0 } => {
+            TriggerRule::Dynamic {
+                phi,
+                rho,
+                eta,
+                theta0,
+            } => {
                 let finite = [phi, rho, eta, theta0].iter().all(|x| x.is_finite());
                 if !finite || phi < 0.0 || eta < 0.0 || theta0 < 0.0 {
                     return err("phi", "phi, eta, theta0 must be finite and >= 0".into());
@@ -121,15 +135,17 @@ impl ControllerParams {
                 if !(rho < 1.0 && rho > phi * (1.0 - eta)) {
                     return err(
                         "rho",
-                        format!("needs 1 > rho > phi (1 - eta) >= 0 (got rho={rho}, phi (1 - eta)={})", phi * (1.0 - eta)),
+                        format!(
+                            "needs 1 > rho > phi (1 - eta) >= 0 (got rho={rho}, phi (1 - eta)={})",
+                            phi * (1.0 - eta)
+                        ),
                     );
                 }
             }
-            TriggerRule::Mixed { mu, alpha } => {
-                if !(mu.is_finite() && mu >= 0.0 && alpha.is_finite() && alpha >= 0.0) {
+            TriggerRule::Mixed { mu, alpha }
+                if !(mu.is_finite() && mu >= 0.0 && alpha.is_finite() && alpha >= 0.0) => {
                     return err("mu", "mu and alpha must be finite and >= 0".into());
                 }
-            }
             _ => {}
         }
         Ok(())

@@ -13,7 +13,9 @@ pub enum ProfileError {
         index: usize,
     },
     /// Waypoint times must increase strictly.
-    #[error("waypoint times must increase strictly (waypoint {index} is at or before the previous one)")]
+    #[error(
+        "waypoint times must increase strictly (waypoint {index} is at or before the previous one)"
+    )]
     NotIncreasing {
         /// Index of the offending waypoint.
         index: usize,
@@ -52,14 +54,22 @@ impl LeaderProfile {
 
     /// Constant speed.
     pub fn constant(v: f64) -> Self {
-        Self { waypoints: vec![(0.0, v)] }
+        Self {
+            waypoints: vec![(0.0, v)],
+        }
     }
 
     /// The profile of Section IV with the errata's reading (item 4): 15 m/s, +2 m/s^2 on
     /// [10, 15), 25 m/s, -2 m/s^2 on [35, 40), 15 m/s.
     pub fn paper() -> Self {
         Self {
-            waypoints: vec![(0.0, 15.0), (10.0, 15.0), (15.0, 25.0), (35.0, 25.0), (40.0, 15.0)],
+            waypoints: vec![
+                (0.0, 15.0),
+                (10.0, 15.0),
+                (15.0, 25.0),
+                (35.0, 25.0),
+                (40.0, 15.0),
+            ],
         }
     }
 
@@ -124,7 +134,10 @@ mod tests {
 
     #[test]
     fn rejects_bad_waypoints() {
-        assert_eq!(LeaderProfile::from_waypoints(vec![]), Err(ProfileError::Empty));
+        assert_eq!(
+            LeaderProfile::from_waypoints(vec![]),
+            Err(ProfileError::Empty)
+        );
         assert_eq!(
             LeaderProfile::from_waypoints(vec![(0.0, 1.0), (0.0, 2.0)]),
             Err(ProfileError::NotIncreasing { index: 1 })

@@ -144,7 +144,10 @@ mod tests {
         let (e1, e2) = (err(0.01), err(0.005));
         assert!(e1 < 0.05, "error at dt=0.01 is {e1}");
         let ratio = e1 / e2;
-        assert!((1.8..2.2).contains(&ratio), "halving dt should halve the error, ratio {ratio}");
+        assert!(
+            (1.8..2.2).contains(&ratio),
+            "halving dt should halve the error, ratio {ratio}"
+        );
     }
 
     #[test]
@@ -179,9 +182,16 @@ mod tests {
         for k in 0..5500 {
             let t_next = (k + 1) as f64 * dt;
             x = leader_step(&x, profile.step_acceleration(k + 1, dt), dt);
-            assert!((x[1] - profile.velocity_at(t_next)).abs() < 1e-9, "t={t_next}");
+            assert!(
+                (x[1] - profile.velocity_at(t_next)).abs() < 1e-9,
+                "t={t_next}"
+            );
         }
         // distance: 15*55 + area of the two ramps (+50 m each way) + 20 s at +10 m/s
-        assert!((x[0] - (20.0 + 15.0 * 55.0 + 25.0 + 200.0 + 25.0)).abs() < 1e-8, "{}", x[0]);
+        assert!(
+            (x[0] - (20.0 + 15.0 * 55.0 + 25.0 + 200.0 + 25.0)).abs() < 1e-8,
+            "{}",
+            x[0]
+        );
     }
 }

@@ -61,7 +61,10 @@ impl TauSchedule {
                 return Err(TauError::NotPositive { index, value: tau });
             }
         }
-        Ok(Self { knots, interpolation })
+        Ok(Self {
+            knots,
+            interpolation,
+        })
     }
 
     /// Fig. 5(a) of the paper: 0.34 s until 20 s, 0.82 s from 35 s. The paper does not give the
@@ -105,7 +108,9 @@ impl TauSchedule {
     pub fn range(&self) -> (f64, f64) {
         self.knots
             .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &(_, y)| (lo.min(y), hi.max(y)))
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &(_, y)| {
+                (lo.min(y), hi.max(y))
+            })
     }
 }
 
@@ -139,7 +144,10 @@ mod tests {
     fn rejects_non_positive_tau() {
         assert_eq!(
             TauSchedule::constant(0.0),
-            Err(TauError::NotPositive { index: 0, value: 0.0 })
+            Err(TauError::NotPositive {
+                index: 0,
+                value: 0.0
+            })
         );
         assert!(TauSchedule::new(vec![(0.0, 0.5), (0.0, 0.6)], Interpolation::Linear).is_err());
         assert!(TauSchedule::constant(f64::NAN).is_err());

@@ -66,8 +66,11 @@ impl Simulation {
     /// Prepares a run of `scenario` from its initial states.
     pub fn new(scenario: Scenario) -> Result<Self, ScenarioError> {
         scenario.validate()?;
-        let controller =
-            PlatoonController::new(scenario.control.clone(), &scenario.topology, &scenario.initial)?;
+        let controller = PlatoonController::new(
+            scenario.control.clone(),
+            &scenario.topology,
+            &scenario.initial,
+        )?;
         let mut states = scenario.initial.clone();
         states[0][2] = scenario.leader.step_acceleration(0, scenario.dt());
         let n = scenario.topology.followers();
@@ -114,9 +117,12 @@ impl Simulation {
         self.tx.clear();
         self.controller.transmit(k, &self.states, &mut self.tx);
         self.deliveries.clear();
-        let jam = self.network.gate(t, &sc.topology, &self.tx, &mut self.deliveries);
+        let jam = self
+            .network
+            .gate(t, &sc.topology, &self.tx, &mut self.deliveries);
         self.jammed.fill(jam);
-        self.controller.receive(k, &self.states, &self.deliveries, &self.jammed);
+        self.controller
+            .receive(k, &self.states, &self.deliveries, &self.jammed);
 
         self.rows.clear();
         let x0 = self.states[0];
@@ -159,7 +165,11 @@ impl Simulation {
         for (i, x) in self.states.iter_mut().enumerate().skip(1) {
             *x = plant_step(x, u[i - 1], sc.taus[i - 1].at(t), dt);
         }
-        self.states[0] = leader_step(&self.states[0], sc.leader.step_acceleration(k as usize + 1, dt), dt);
+        self.states[0] = leader_step(
+            &self.states[0],
+            sc.leader.step_acceleration(k as usize + 1, dt),
+            dt,
+        );
         self.step += 1;
         &self.rows
     }

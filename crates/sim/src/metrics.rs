@@ -180,7 +180,12 @@ impl MetricsAccumulator {
             steps: 0,
             attacked_steps: 0,
             last_t: 0.0,
-            safety: Safety { safe: true, min_gap_m: f64::INFINITY, min_gap_vehicle: 0, min_gap_t_s: 0.0 },
+            safety: Safety {
+                safe: true,
+                min_gap_m: f64::INFINITY,
+                min_gap_vehicle: 0,
+                min_gap_t_s: 0.0,
+            },
         }
     }
 
@@ -248,9 +253,15 @@ impl MetricsAccumulator {
             duration_s: self.last_t,
             rule: self.rule.to_string(),
             check_period_s: self.check_period,
-            triggers: vehicles.iter().map(|v| (v.vehicle.to_string(), v.triggers)).collect(),
+            triggers: vehicles
+                .iter()
+                .map(|v| (v.vehicle.to_string(), v.triggers))
+                .collect(),
             triggers_total: vehicles.iter().map(|v| v.triggers).sum(),
-            min_inter_event_s: vehicles.iter().filter_map(|v| v.min_inter_event_s).reduce(f64::min),
+            min_inter_event_s: vehicles
+                .iter()
+                .filter_map(|v| v.min_inter_event_s)
+                .reduce(f64::min),
             attack: AttackSummary {
                 intervals: clipped.intervals().len(),
                 attacked_time_s: clipped.active_time(0.0, horizon),
@@ -258,7 +269,10 @@ impl MetricsAccumulator {
                 assumption2_bounds: self.assumption2,
                 assumption2: self.assumption2.map(|b| b.check(&self.dos, horizon)),
             },
-            safety: Safety { safe: self.safety.min_gap_m > 0.0, ..self.safety.clone() },
+            safety: Safety {
+                safe: self.safety.min_gap_m > 0.0,
+                ..self.safety.clone()
+            },
             rejected_packets: rejected,
             vehicles,
         }

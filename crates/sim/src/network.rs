@@ -16,12 +16,21 @@ impl DosNetwork {
     }
 
     /// Delivers `tx` (sent at time t) into `out`; returns whether the channel was jammed.
-    pub fn gate(&self, t: f64, topology: &Topology, tx: &[Packet], out: &mut Vec<Delivery>) -> bool {
+    pub fn gate(
+        &self,
+        t: f64,
+        topology: &Topology,
+        tx: &[Packet],
+        out: &mut Vec<Delivery>,
+    ) -> bool {
         let jammed = self.schedule.is_active(t);
         if !jammed {
             for p in tx {
                 for &receiver in topology.out_neighbours(p.sender) {
-                    out.push(Delivery { receiver, packet: *p });
+                    out.push(Delivery {
+                        receiver,
+                        packet: *p,
+                    });
                 }
             }
         }

@@ -69,14 +69,24 @@ impl Scenario {
                 format!("the topology has {n} followers, so {} states (leader first) are needed, got {}", n + 1, self.initial.len()),
             );
         }
-        if let Some(i) = self.initial.iter().position(|x| x.iter().any(|v| !v.is_finite())) {
+        if let Some(i) = self
+            .initial
+            .iter()
+            .position(|x| x.iter().any(|v| !v.is_finite()))
+        {
             return invalid("platoon.initial_states", format!("state {i} is not finite"));
         }
         if self.taus.len() != n {
-            return invalid("plant.tau", format!("need {n} tau schedules, got {}", self.taus.len()));
+            return invalid(
+                "plant.tau",
+                format!("need {n} tau schedules, got {}", self.taus.len()),
+            );
         }
         if self.steps == 0 {
-            return invalid("simulation.duration_s", "the run needs at least one step".into());
+            return invalid(
+                "simulation.duration_s",
+                "the run needs at least one step".into(),
+            );
         }
         if !(self.vehicle_length.is_finite() && self.vehicle_length >= 0.0) {
             return invalid("platoon.vehicle_length_m", "must be finite and >= 0".into());

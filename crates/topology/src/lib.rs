@@ -128,23 +128,45 @@ impl Topology {
             return Err(TopologyError::Empty);
         }
         if let Some(row) = adjacency.iter().find(|r| r.len() != n) {
-            return Err(TopologyError::Shape { n, rows: n, cols: row.len(), pins: pinning.len() });
+            return Err(TopologyError::Shape {
+                n,
+                rows: n,
+                cols: row.len(),
+                pins: pinning.len(),
+            });
         }
         if pinning.len() != n {
-            return Err(TopologyError::Shape { n, rows: n, cols: n, pins: pinning.len() });
+            return Err(TopologyError::Shape {
+                n,
+                rows: n,
+                cols: n,
+                pins: pinning.len(),
+            });
         }
         for (i, row) in adjacency.iter().enumerate() {
             for (j, &value) in row.iter().enumerate() {
                 if value != 0.0 && value != 1.0 {
-                    return Err(TopologyError::NotBinary { row: i + 1, col: j + 1, value });
+                    return Err(TopologyError::NotBinary {
+                        row: i + 1,
+                        col: j + 1,
+                        value,
+                    });
                 }
             }
             if row[i] != 0.0 {
                 return Err(TopologyError::SelfLoop(i + 1));
             }
         }
-        if let Some((j, &value)) = pinning.iter().enumerate().find(|(_, &v)| v != 0.0 && v != 1.0) {
-            return Err(TopologyError::NotBinary { row: 0, col: j + 1, value });
+        if let Some((j, &value)) = pinning
+            .iter()
+            .enumerate()
+            .find(|(_, &v)| v != 0.0 && v != 1.0)
+        {
+            return Err(TopologyError::NotBinary {
+                row: 0,
+                col: j + 1,
+                value,
+            });
         }
         let adjacency = DMatrix::from_fn(n, n, |i, j| adjacency[i][j]);
         let pinning = DVector::from_vec(pinning);
@@ -176,12 +198,19 @@ impl Topology {
                 }
             }
         }
-        let unreachable: Vec<VehicleId> =
-            (1..=n).filter(|&i| !reached[i]).map(VehicleId::follower).collect();
+        let unreachable: Vec<VehicleId> = (1..=n)
+            .filter(|&i| !reached[i])
+            .map(VehicleId::follower)
+            .collect();
         if !unreachable.is_empty() {
             return Err(TopologyError::NoSpanningTree { unreachable });
         }
-        Ok(Self { adjacency, pinning, in_neighbours, out_neighbours })
+        Ok(Self {
+            adjacency,
+            pinning,
+            in_neighbours,
+            out_neighbours,
+        })
     }
 
     /// Number of followers N.
@@ -253,7 +282,10 @@ mod tests {
             t.in_neighbours(VehicleId(2)),
             &[VehicleId::LEADER, VehicleId(1)]
         );
-        assert_eq!(t.out_neighbours(VehicleId(2)), &[VehicleId(3), VehicleId(4)]);
+        assert_eq!(
+            t.out_neighbours(VehicleId(2)),
+            &[VehicleId(3), VehicleId(4)]
+        );
     }
 
     #[test]
@@ -292,11 +324,17 @@ mod tests {
     #[test]
     fn explicit_graph_without_spanning_tree_names_unreachable_followers() {
         // 1 hears the leader; 2 and 3 only hear each other.
-        let a = vec![vec![0.0, 0.0, 0.0], vec![0.0, 0.0, 1.0], vec![0.0, 1.0, 0.0]];
+        let a = vec![
+            vec![0.0, 0.0, 0.0],
+            vec![0.0, 0.0, 1.0],
+            vec![0.0, 1.0, 0.0],
+        ];
         let err = Topology::explicit(a, vec![1.0, 0.0, 0.0]).unwrap_err();
         assert_eq!(
             err,
-            TopologyError::NoSpanningTree { unreachable: vec![VehicleId(2), VehicleId(3)] }
+            TopologyError::NoSpanningTree {
+                unreachable: vec![VehicleId(2), VehicleId(3)]
+            }
         );
         assert!(err.to_string().contains("follower(s) 2, 3"), "{err}");
     }
