@@ -185,7 +185,9 @@ impl PlatoonController {
                 match f.mode {
                     Mode::Attacked { next } => k >= next,
                     Mode::Event => match p.rule {
-                        TriggerRule::Periodic { period_steps } => k.is_multiple_of(u64::from(period_steps)),
+                        TriggerRule::Periodic { period_steps } => {
+                            k.is_multiple_of(u64::from(period_steps))
+                        }
                         _ if !k.is_multiple_of(u64::from(p.check_steps)) => false,
                         rule => {
                             let eps2 = (f.own - x).norm_squared();

@@ -143,9 +143,10 @@ impl ControllerParams {
                 }
             }
             TriggerRule::Mixed { mu, alpha }
-                if !(mu.is_finite() && mu >= 0.0 && alpha.is_finite() && alpha >= 0.0) => {
-                    return err("mu", "mu and alpha must be finite and >= 0".into());
-                }
+                if !(mu.is_finite() && mu >= 0.0 && alpha.is_finite() && alpha >= 0.0) =>
+            {
+                return err("mu", "mu and alpha must be finite and >= 0".into());
+            }
             _ => {}
         }
         Ok(())
