@@ -3,6 +3,7 @@
 use anyhow::{anyhow, Result};
 use platoon_attacks::Interval;
 use platoon_sim::{Scenario, StepRow};
+use plotters::coord::types::RangedCoordf64;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::path::Path;
@@ -55,18 +56,21 @@ fn bounds(series: &[Series]) -> (f64, f64, f64, f64) {
     (b.0, b.1.max(b.0 + 1e-9), b.2 - pad, b.3 + pad)
 }
 
-/// A line chart in `area`, with shaded attack intervals.
-pub fn line_panel(
-    area: &DrawingArea<BitMapBackend, Shift>,
-    title: &str,
+type TimeChart<'a, 'b> =
+    ChartContext<'a, BitMapBackend<'b>, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
+
+/// Axes over time with a caption, a mesh and the attack intervals shaded.
+fn time_axes<'a, 'b>(
+    area: &'a DrawingArea<BitMapBackend<'b>, Shift>,
+    caption: &str,
     y_label: &str,
-    series: &[Series],
+    (x0, x1): (f64, f64),
+    (y0, y1): (f64, f64),
     attacks: &[Interval],
-) -> Result<()> {
+) -> Result<TimeChart<'a, 'b>> {
     ensure_font();
-    let (x0, x1, y0, y1) = bounds(series);
     let mut chart = ChartBuilder::on(area)
-        .caption(title, ("sans-serif", 20))
+        .caption(caption, ("sans-serif", 20))
         .margin(10)
         .x_label_area_size(35)
         .y_label_area_size(55)
@@ -87,6 +91,19 @@ pub fn line_panel(
             )
         }))
         .map_err(err)?;
+    Ok(chart)
+}
+
+/// A line chart in `area`, with shaded attack intervals.
+pub fn line_panel(
+    area: &DrawingArea<BitMapBackend, Shift>,
+    title: &str,
+    y_label: &str,
+    series: &[Series],
+    attacks: &[Interval],
+) -> Result<()> {
+    let (x0, x1, y0, y1) = bounds(series);
+    let mut chart = time_axes(area, title, y_label, (x0, x1), (y0, y1), attacks)?;
     for s in series {
         let color = Palette99::pick(s.color).to_rgba();
         chart
@@ -208,34 +225,18 @@ pub fn fig7(path: &Path, scenario: &Scenario, rows: &[StepRow]) -> Result<()> {
             last = Some(r.t);
         }
         let y1 = stems.iter().map(|s| s.1).fold(0.0, f64::max).max(1e-3) * 1.1;
-        let mut chart = ChartBuilder::on(&area)
-            .caption(
-                format!(
-                    "Follower {v}: release instants ({} broadcasts)",
-                    stems.len() + usize::from(last.is_some())
-                ),
-                ("sans-serif", 18),
-            )
-            .margin(8)
-            .x_label_area_size(30)
-            .y_label_area_size(55)
-            .build_cartesian_2d(0.0..t_end, 0.0..y1)
-            .map_err(err)?;
-        chart
-            .configure_mesh()
-            .x_desc("t (s)")
-            .y_desc("interval (s)")
-            .light_line_style(WHITE.mix(0.0))
-            .draw()
-            .map_err(err)?;
-        chart
-            .draw_series(attacks.iter().map(|iv| {
-                Rectangle::new(
-                    [(iv.start, 0.0), (iv.end.min(t_end), y1)],
-                    ATTACK_SHADE.filled(),
-                )
-            }))
-            .map_err(err)?;
+        let caption = format!(
+            "Follower {v}: release instants ({} broadcasts)",
+            stems.len() + usize::from(last.is_some())
+        );
+        let mut chart = time_axes(
+            &area,
+            &caption,
+            "interval (s)",
+            (0.0, t_end),
+            (0.0, y1),
+            &attacks,
+        )?;
         let color = Palette99::pick(v).to_rgba();
         chart
             .draw_series(

@@ -223,61 +223,47 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
     let dynamic_keys =
         tr.phi.is_some() || tr.rho.is_some() || tr.eta.is_some() || tr.theta0.is_some();
     let mixed_keys = tr.mu.is_some() || tr.alpha.is_some();
+    let periodic_keys = tr.period_s.is_some();
+    // Keys of the other rules are errors, so a config never carries parameters that do nothing.
+    let unused_besides = |rule: &str| -> Result<(), Invalid> {
+        let owner = |r: &str| format!("rule = \"{r}\"");
+        only_for(
+            "trigger.phi",
+            dynamic_keys && rule != "dynamic",
+            &owner("dynamic"),
+        )?;
+        only_for("trigger.mu", mixed_keys && rule != "mixed", &owner("mixed"))?;
+        only_for(
+            "trigger.period_s",
+            periodic_keys && rule != "periodic",
+            &owner("periodic"),
+        )
+    };
+    let need = |key: &str, v: Option<f64>| {
+        v.map_or_else(
+            || bad(key, format!("is required with rule = \"{}\"", tr.rule)),
+            |x| finite(key, x),
+        )
+    };
     let rule = match tr.rule.as_str() {
-        "dynamic" => {
-            only_for("trigger.mu", mixed_keys, "rule = \"mixed\"")?;
-            only_for(
+        "dynamic" => TriggerRule::Dynamic {
+            phi: need("trigger.phi", tr.phi)?,
+            rho: need("trigger.rho", tr.rho)?,
+            eta: need("trigger.eta", tr.eta)?,
+            theta0: need("trigger.theta0", tr.theta0)?,
+        },
+        "static" => TriggerRule::Static,
+        "mixed" => TriggerRule::Mixed {
+            mu: finite("trigger.mu", tr.mu.unwrap_or(0.0))?,
+            alpha: finite("trigger.alpha", tr.alpha.unwrap_or(0.0))?,
+        },
+        "periodic" => TriggerRule::Periodic {
+            period_steps: steps_of(
                 "trigger.period_s",
-                tr.period_s.is_some(),
-                "rule = \"periodic\"",
-            )?;
-            let need = |key: &str, v: Option<f64>| {
-                v.map_or_else(
-                    || bad(key, "is required with rule = \"dynamic\""),
-                    |x| finite(key, x),
-                )
-            };
-            TriggerRule::Dynamic {
-                phi: need("trigger.phi", tr.phi)?,
-                rho: need("trigger.rho", tr.rho)?,
-                eta: need("trigger.eta", tr.eta)?,
-                theta0: need("trigger.theta0", tr.theta0)?,
-            }
-        }
-        "static" | "mixed" | "periodic" => {
-            only_for("trigger.phi", dynamic_keys, "rule = \"dynamic\"")?;
-            match tr.rule.as_str() {
-                "static" => {
-                    only_for("trigger.mu", mixed_keys, "rule = \"mixed\"")?;
-                    only_for(
-                        "trigger.period_s",
-                        tr.period_s.is_some(),
-                        "rule = \"periodic\"",
-                    )?;
-                    TriggerRule::Static
-                }
-                "mixed" => {
-                    only_for(
-                        "trigger.period_s",
-                        tr.period_s.is_some(),
-                        "rule = \"periodic\"",
-                    )?;
-                    TriggerRule::Mixed {
-                        mu: finite("trigger.mu", tr.mu.unwrap_or(0.0))?,
-                        alpha: finite("trigger.alpha", tr.alpha.unwrap_or(0.0))?,
-                    }
-                }
-                _ => {
-                    only_for("trigger.mu", mixed_keys, "rule = \"mixed\"")?;
-                    let Some(period) = tr.period_s else {
-                        return bad("trigger.period_s", "is required with rule = \"periodic\"");
-                    };
-                    TriggerRule::Periodic {
-                        period_steps: steps_of("trigger.period_s", period, dt)?,
-                    }
-                }
-            }
-        }
+                need("trigger.period_s", tr.period_s)?,
+                dt,
+            )?,
+        },
         other => {
             return bad(
                 "trigger.rule",
@@ -285,6 +271,7 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
             )
         }
     };
+    unused_besides(&tr.rule)?;
     let control = ControllerParams {
         gain: RowVector3::new(k.gain[0], k.gain[1], k.gain[2]),
         beta1,

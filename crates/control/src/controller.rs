@@ -184,25 +184,25 @@ impl PlatoonController {
             } else {
                 match f.mode {
                     Mode::Attacked { next } => k >= next,
-                    Mode::Event => match p.rule {
-                        TriggerRule::Periodic { period_steps } => {
-                            k.is_multiple_of(u64::from(period_steps))
-                        }
-                        _ if !k.is_multiple_of(u64::from(p.check_steps)) => false,
-                        rule => {
+                    Mode::Event => {
+                        // beta1 |eps|^2 - beta2 |q|^2, evaluated only when a rule needs it.
+                        let s = || {
                             let eps2 = (f.own - x).norm_squared();
                             let q2 = neighbourhood_error(f, p.spacing).norm_squared();
-                            let s = p.beta1 * eps2 - p.beta2 * q2;
-                            match rule {
-                                TriggerRule::Static => s > 0.0,
-                                TriggerRule::Dynamic { phi, .. } => s - phi * f.theta > 0.0,
-                                TriggerRule::Mixed { mu, alpha } => {
-                                    s > p.beta1 * mu * (-alpha * t).exp()
-                                }
-                                TriggerRule::Periodic { .. } => unreachable!(),
+                            p.beta1 * eps2 - p.beta2 * q2
+                        };
+                        match p.rule {
+                            TriggerRule::Periodic { period_steps } => {
+                                k.is_multiple_of(u64::from(period_steps))
+                            }
+                            _ if !k.is_multiple_of(u64::from(p.check_steps)) => false,
+                            TriggerRule::Static => s() > 0.0,
+                            TriggerRule::Dynamic { phi, .. } => s() - phi * f.theta > 0.0,
+                            TriggerRule::Mixed { mu, alpha } => {
+                                s() > p.beta1 * mu * (-alpha * t).exp()
                             }
                         }
-                    },
+                    }
                 }
             };
             if fire {
