@@ -154,11 +154,7 @@ fn per_vehicle(
 /// Fig. 6: positions, positions relative to the leader, velocities, internal variables.
 pub fn fig6(path: &Path, scenario: &Scenario, rows: &[StepRow]) -> Result<()> {
     let n = scenario.topology.followers();
-    let attacks = scenario
-        .dos
-        .clipped(scenario.duration())
-        .intervals()
-        .to_vec();
+    let attacks = scenario.attacks_in_run();
     let root = BitMapBackend::new(path, (1400, 1000)).into_drawing_area();
     root.fill(&WHITE).map_err(err)?;
     let panels = root.split_evenly((2, 2));
@@ -203,11 +199,7 @@ pub fn fig6(path: &Path, scenario: &Scenario, rows: &[StepRow]) -> Result<()> {
 pub fn fig7(path: &Path, scenario: &Scenario, rows: &[StepRow]) -> Result<()> {
     ensure_font();
     let n = scenario.topology.followers();
-    let attacks = scenario
-        .dos
-        .clipped(scenario.duration())
-        .intervals()
-        .to_vec();
+    let attacks = scenario.attacks_in_run();
     let t_end = scenario.duration();
     let height = 250 * n.max(1) as u32;
     let root = BitMapBackend::new(path, (1400, height)).into_drawing_area();

@@ -58,6 +58,11 @@ impl Scenario {
         self.steps as f64 * self.dt()
     }
 
+    /// The attack intervals that fall within the run, `[0, steps dt]`.
+    pub fn attacks_in_run(&self) -> Vec<platoon_attacks::Interval> {
+        self.dos.clipped(self.duration()).intervals().to_vec()
+    }
+
     /// Checks that the parts agree.
     pub fn validate(&self) -> Result<(), ScenarioError> {
         self.control.validate()?;
