@@ -6,7 +6,7 @@ use anyhow::Result;
 use platoon_control::TriggerRule;
 use platoon_sim::{Scenario, StepRow, Summary};
 use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 /// The experiments.
 #[derive(Debug, clap::Subcommand)]
@@ -66,19 +66,11 @@ pub fn table1_rules(base: &Scenario) -> Vec<(&'static str, TriggerRule)> {
 }
 
 fn table1(args: Table1Args) -> Result<()> {
-    let (config, base, _) = match &args.config {
-        Some(p) => {
-            let (c, s) = platoon_config::load(p)?;
-            (c, s, ())
-        }
-        None => {
-            let (c, s) = platoon_config::parse(
-                platoon_config::TABLE1_TOML,
-                Path::new("<embedded configs/table1.toml>"),
-            )?;
-            (c, s, ())
-        }
-    };
+    let (config, base, _) = crate::run::load(
+        args.config.as_deref(),
+        platoon_config::TABLE1_TOML,
+        "table1",
+    )?;
     if !matches!(base.control.rule, TriggerRule::Dynamic { .. }) {
         anyhow::bail!("the base config must use trigger.rule = \"dynamic\" (its phi, rho, eta, theta0 define the DETM row)");
     }

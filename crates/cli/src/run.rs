@@ -23,8 +23,13 @@ pub struct Args {
     pub no_plots: bool,
 }
 
-/// Loads the config named on the command line, or the embedded paper scenario.
-pub fn load(config: Option<&Path>) -> Result<(Config, Scenario, String), ConfigError> {
+/// Loads the config named on the command line or, without one, an embedded config (`name` is
+/// its stem, e.g. `paper` for configs/paper.toml). Also returns the stem for default run names.
+pub fn load(
+    config: Option<&Path>,
+    embedded: &str,
+    name: &str,
+) -> Result<(Config, Scenario, String), ConfigError> {
     match config {
         Some(path) => {
             let (c, s) = platoon_config::load(path)?;
@@ -35,17 +40,16 @@ pub fn load(config: Option<&Path>) -> Result<(Config, Scenario, String), ConfigE
             Ok((c, s, stem))
         }
         None => {
-            let (c, s) = platoon_config::parse(
-                platoon_config::PAPER_TOML,
-                Path::new("<embedded configs/paper.toml>"),
-            )?;
-            Ok((c, s, "paper".into()))
+            let label = format!("<embedded configs/{name}.toml>");
+            let (c, s) = platoon_config::parse(embedded, Path::new(&label))?;
+            Ok((c, s, name.into()))
         }
     }
 }
 
 pub fn run(args: Args) -> Result<()> {
-    let (config, scenario, stem) = load(args.config.as_deref())?;
+    let (config, scenario, stem) =
+        load(args.config.as_deref(), platoon_config::PAPER_TOML, "paper")?;
     let out = args
         .out
         .unwrap_or_else(|| PathBuf::from("runs").join(&stem));
