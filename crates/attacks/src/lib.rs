@@ -7,9 +7,12 @@
 //!   over every window `[t1, t2)` (ERRATA item 22), not over sampled windows.
 //! * [`RandomDos`]: a seeded generator whose schedules satisfy a given [`Assumption2`] by
 //!   construction (and the property tests check it with the exact checker).
+//! * [`channel::Channel`]: the V2V channel under the DoS schedule and link-level attacks
+//!   (Bernoulli and Gilbert-Elliott loss, delay, range jamming, replay, false data injection).
 #![warn(missing_docs)]
 
 mod assumption2;
+pub mod channel;
 mod random;
 
 pub use assumption2::{Assumption2, Assumption2Report, Window};

@@ -28,6 +28,80 @@ pub struct Config {
     /// The DoS attack.
     #[serde(default)]
     pub attack: Attack,
+    /// Link-level attacks on the V2V channel, applied after the DoS schedule.
+    #[serde(default, skip_serializing_if = "Channel::is_default")]
+    pub channel: Channel,
+}
+
+/// `[channel]`: a seed and a list of `[[channel.attacks]]`.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Channel {
+    /// Seed of the random losses (Bernoulli, Gilbert-Elliott).
+    #[serde(default)]
+    pub seed: u64,
+    /// The attacks, applied in this order to each packet on each link.
+    #[serde(default)]
+    pub attacks: Vec<LinkAttackConfig>,
+}
+
+impl Channel {
+    fn is_default(&self) -> bool {
+        *self == Self::default()
+    }
+}
+
+/// `[[channel.attacks]]`. Keys that belong to another kind are errors.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LinkAttackConfig {
+    /// `bernoulli`, `gilbert_elliott`, `delay`, `range_jamming`, `replay` or `false_data`.
+    pub kind: String,
+    /// Start of activity (s) [default 0].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub start_s: Option<f64>,
+    /// End of activity (s, exclusive) [default: the end of the run].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub end_s: Option<f64>,
+    /// Targeted senders (vehicle ids, 0 = leader) [default: all].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub senders: Option<Vec<u16>>,
+    /// Targeted receivers [default: all].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub receivers: Option<Vec<u16>>,
+    /// `bernoulli`: loss probability.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub loss: Option<f64>,
+    /// `gilbert_elliott`: good -> bad probability per packet.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub p_good_bad: Option<f64>,
+    /// `gilbert_elliott`: bad -> good probability per packet.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub p_bad_good: Option<f64>,
+    /// `gilbert_elliott`: loss probability in the good state [default 0].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub loss_good: Option<f64>,
+    /// `gilbert_elliott`: loss probability in the bad state [default 1].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub loss_bad: Option<f64>,
+    /// `delay`: delay (s), a whole number of steps.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub delay_s: Option<f64>,
+    /// `range_jamming`: jammer position at t = 0 (m).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub position_m: Option<f64>,
+    /// `range_jamming`: jammer speed (m/s) [default 0].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub speed_mps: Option<f64>,
+    /// `range_jamming`: radius (m).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub radius_m: Option<f64>,
+    /// `replay`: age of the replayed packets (s), a whole number of steps.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lag_s: Option<f64>,
+    /// `false_data`: offset added to `[p, v, a]`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub offset: Option<[f64; 3]>,
 }
 
 /// `[simulation]`

@@ -1,8 +1,9 @@
 use crate::schema::*;
 use nalgebra::RowVector3;
+use platoon_attacks::channel::{LinkAttack, LinkAttackKind};
 use platoon_attacks::{DosSchedule, RandomDos};
 use platoon_control::{ControllerParams, TriggerRule};
-use platoon_model::{LeaderProfile, State, TauSchedule};
+use platoon_model::{LeaderProfile, State, TauSchedule, VehicleId};
 use platoon_sim::Scenario;
 use platoon_topology::{Preset, Topology};
 
@@ -381,6 +382,7 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
         }
     };
 
+    let (link_attacks, channel_seed) = channel(&c.channel, dt, n)?;
     let scenario = Scenario {
         steps: steps as u64,
         initial,
@@ -389,6 +391,8 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
         topology,
         control,
         dos,
+        link_attacks,
+        channel_seed,
         assumption2: a.assumption2,
         vehicle_length,
     };
@@ -396,4 +400,120 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
         .validate()
         .or_else(|e| bad("scenario", e.to_string()))?;
     Ok(scenario)
+}
+
+/// `[channel]`: the link-level attacks.
+fn channel(c: &Channel, dt: f64, followers: usize) -> Result<(Vec<LinkAttack>, u64), Invalid> {
+    let mut out = Vec::with_capacity(c.attacks.len());
+    for (i, a) in c.attacks.iter().enumerate() {
+        let key = |k: &str| format!("channel.attacks[{i}].{k}");
+        let need = |k: &str, v: Option<f64>| {
+            v.map_or_else(
+                || bad(&key(k), format!("is required with kind = {:?}", a.kind)),
+                |x| finite(&key(k), x),
+            )
+        };
+        let probability = |k: &str, v: f64| {
+            if (0.0..=1.0).contains(&v) {
+                Ok(v)
+            } else {
+                bad(&key(k), format!("must be a probability in [0, 1], got {v}"))
+            }
+        };
+        let ids = |k: &str, v: &Option<Vec<u16>>| -> Result<Vec<VehicleId>, Invalid> {
+            let v = v.clone().unwrap_or_default();
+            if let Some(bad_id) = v.iter().find(|&&id| usize::from(id) > followers) {
+                return bad(
+                    &key(k),
+                    format!("vehicle {bad_id} does not exist (ids are 0 = leader to {followers})"),
+                );
+            }
+            Ok(v.into_iter().map(VehicleId).collect())
+        };
+        let used: &[&str] = match a.kind.as_str() {
+            "bernoulli" => &["loss"],
+            "gilbert_elliott" => &["p_good_bad", "p_bad_good", "loss_good", "loss_bad"],
+            "delay" => &["delay_s"],
+            "range_jamming" => &["position_m", "speed_mps", "radius_m"],
+            "replay" => &["lag_s"],
+            "false_data" => &["offset"],
+            other => {
+                return bad(
+                    &key("kind"),
+                    format!(
+                        "unknown kind {other:?}; use bernoulli, gilbert_elliott, delay, \
+                         range_jamming, replay or false_data"
+                    ),
+                )
+            }
+        };
+        let given = [
+            ("loss", a.loss.is_some()),
+            ("p_good_bad", a.p_good_bad.is_some()),
+            ("p_bad_good", a.p_bad_good.is_some()),
+            ("loss_good", a.loss_good.is_some()),
+            ("loss_bad", a.loss_bad.is_some()),
+            ("delay_s", a.delay_s.is_some()),
+            ("position_m", a.position_m.is_some()),
+            ("speed_mps", a.speed_mps.is_some()),
+            ("radius_m", a.radius_m.is_some()),
+            ("lag_s", a.lag_s.is_some()),
+            ("offset", a.offset.is_some()),
+        ];
+        for (k, is_given) in given {
+            if is_given && !used.contains(&k) {
+                return bad(
+                    &key(k),
+                    format!("is not used with kind = {:?}; remove it", a.kind),
+                );
+            }
+        }
+        let kind = match a.kind.as_str() {
+            "bernoulli" => LinkAttackKind::Bernoulli {
+                loss: probability("loss", need("loss", a.loss)?)?,
+            },
+            "gilbert_elliott" => LinkAttackKind::GilbertElliott {
+                p_good_bad: probability("p_good_bad", need("p_good_bad", a.p_good_bad)?)?,
+                p_bad_good: probability("p_bad_good", need("p_bad_good", a.p_bad_good)?)?,
+                loss_good: probability("loss_good", a.loss_good.unwrap_or(0.0))?,
+                loss_bad: probability("loss_bad", a.loss_bad.unwrap_or(1.0))?,
+            },
+            "delay" => LinkAttackKind::Delay {
+                steps: steps_of(&key("delay_s"), need("delay_s", a.delay_s)?, dt)?,
+            },
+            "range_jamming" => LinkAttackKind::RangeJamming {
+                position_m: need("position_m", a.position_m)?,
+                speed_mps: finite(&key("speed_mps"), a.speed_mps.unwrap_or(0.0))?,
+                radius_m: positive(&key("radius_m"), need("radius_m", a.radius_m)?)?,
+            },
+            "replay" => LinkAttackKind::Replay {
+                lag_steps: u64::from(steps_of(&key("lag_s"), need("lag_s", a.lag_s)?, dt)?),
+            },
+            _ => {
+                let offset = a.offset.ok_or_else(|| {
+                    (
+                        key("offset"),
+                        "is required with kind = \"false_data\"".into(),
+                    )
+                })?;
+                if offset.iter().any(|x| !x.is_finite()) {
+                    return bad(&key("offset"), "must be finite");
+                }
+                LinkAttackKind::FalseData { offset }
+            }
+        };
+        let start_s = finite(&key("start_s"), a.start_s.unwrap_or(0.0))?;
+        let end_s = a.end_s.unwrap_or(f64::INFINITY);
+        if end_s.is_nan() || end_s <= start_s {
+            return bad(&key("end_s"), format!("must be after start_s = {start_s}"));
+        }
+        out.push(LinkAttack {
+            kind,
+            start_s,
+            end_s,
+            senders: ids("senders", &a.senders)?,
+            receivers: ids("receivers", &a.receivers)?,
+        });
+    }
+    Ok((out, c.seed))
 }

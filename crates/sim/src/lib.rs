@@ -2,20 +2,19 @@
 //! threads, so it is the oracle every other runtime (iceoryx2, SUMO) must agree with bit for bit.
 //!
 //! One step `k` is the shape of `DESIGN.md`: plant states → controllers decide who broadcasts →
-//! the network (here the DoS schedule, in process) gates each link → controllers apply what
+//! the channel (DoS schedule and link attacks, in process) gates each link → controllers apply what
 //! arrived and compute `u[k]` → the plant advances to `k + 1`.
 #![warn(missing_docs)]
 
 mod metrics;
-mod network;
 mod scenario;
 
 pub use metrics::{ErrorStats, MetricsAccumulator, Safety, Summary, VehicleSummary};
-pub use network::DosNetwork;
 pub use scenario::{Scenario, ScenarioError};
 
-use platoon_control::{Delivery, Packet, PlatoonController};
-use platoon_model::{leader_step, plant_step, State, VehicleId};
+use platoon_attacks::channel::{Channel, ChannelEvent};
+use platoon_control::{Delivery, FollowerStep, Packet, PlatoonController};
+use platoon_model::{leader_step, plant_step, LeaderProfile, State, TauSchedule, VehicleId};
 
 /// One vehicle at one step: what `trajectories.csv` holds.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
@@ -48,17 +47,110 @@ pub struct StepRow {
     pub affected: bool,
 }
 
+/// The native plant: every follower under its own tau schedule (exact ZOH lag), the leader on
+/// its profile. The iceoryx2 plant process runs this same code.
+#[derive(Debug, Clone)]
+pub struct Plant {
+    states: Vec<State>,
+    taus: Vec<TauSchedule>,
+    leader: LeaderProfile,
+    dt: f64,
+}
+
+impl Plant {
+    /// The plant of `scenario` at step 0 (the leader's acceleration already that of step 0).
+    pub fn new(scenario: &Scenario) -> Self {
+        let mut states = scenario.initial.clone();
+        states[0][2] = scenario.leader.step_acceleration(0, scenario.dt());
+        Self {
+            states,
+            taus: scenario.taus.clone(),
+            leader: scenario.leader.clone(),
+            dt: scenario.dt(),
+        }
+    }
+
+    /// The states at the current step, leader first.
+    pub fn states(&self) -> &[State] {
+        &self.states
+    }
+
+    /// Advances from step `k` to `k + 1` with the followers' commands `u` (index i - 1).
+    pub fn advance(&mut self, k: u64, u: &[f64]) {
+        let t = k as f64 * self.dt;
+        for (i, x) in self.states.iter_mut().enumerate().skip(1) {
+            *x = plant_step(x, u[i - 1], self.taus[i - 1].at(t), self.dt);
+        }
+        self.states[0] = leader_step(
+            &self.states[0],
+            self.leader.step_acceleration(k as usize + 1, self.dt),
+            self.dt,
+        );
+    }
+}
+
+/// Assembles the rows of step `k` from what the stages produced: the plant's `states`, whether
+/// the leader broadcast, who sensed jamming, and each follower's step (`follower(i)`, i >= 1).
+/// Both runtimes build their rows here, so their trajectories agree bit for bit.
+pub fn step_rows(
+    k: u64,
+    scenario: &Scenario,
+    states: &[State],
+    leader_triggered: bool,
+    jammed: &[bool],
+    follower: impl Fn(usize) -> FollowerStep,
+    out: &mut Vec<StepRow>,
+) {
+    let t = k as f64 * scenario.dt();
+    out.clear();
+    let x0 = states[0];
+    out.push(StepRow {
+        step: k,
+        t,
+        vehicle: 0,
+        p: x0[0],
+        v: x0[1],
+        a: x0[2],
+        u: x0[2],
+        theta: f64::NAN,
+        spacing_error: 0.0,
+        velocity_error: 0.0,
+        triggered: leader_triggered,
+        under_attack: jammed[0],
+        affected: false,
+    });
+    for (i, x) in states.iter().enumerate().skip(1) {
+        let s = follower(i);
+        out.push(StepRow {
+            step: k,
+            t,
+            vehicle: i as u16,
+            p: x[0],
+            v: x[1],
+            a: x[2],
+            u: s.u,
+            theta: s.theta,
+            spacing_error: x[0] - x0[0] + i as f64 * scenario.spacing(),
+            velocity_error: x[1] - x0[1],
+            triggered: s.triggered,
+            under_attack: jammed[i],
+            affected: s.affected,
+        });
+    }
+}
+
 /// A scenario being run step by step.
 #[derive(Debug, Clone)]
 pub struct Simulation {
     scenario: Scenario,
     controller: PlatoonController,
-    network: DosNetwork,
-    states: Vec<State>,
+    channel: Channel,
+    plant: Plant,
     step: u64,
     tx: Vec<Packet>,
     deliveries: Vec<Delivery>,
     jammed: Vec<bool>,
+    log: Vec<ChannelEvent>,
     rows: Vec<StepRow>,
 }
 
@@ -71,17 +163,16 @@ impl Simulation {
             &scenario.topology,
             &scenario.initial,
         )?;
-        let mut states = scenario.initial.clone();
-        states[0][2] = scenario.leader.step_acceleration(0, scenario.dt());
         let n = scenario.topology.followers();
         Ok(Self {
-            network: DosNetwork::new(scenario.dos.clone()),
+            channel: Channel::new(scenario.channel_spec(), n + 1),
+            plant: Plant::new(&scenario),
             controller,
-            states,
             step: 0,
             tx: Vec::with_capacity(n + 1),
             deliveries: Vec::new(),
             jammed: vec![false; n + 1],
+            log: Vec::new(),
             rows: Vec::with_capacity(n + 1),
             scenario,
         })
@@ -107,69 +198,47 @@ impl Simulation {
         self.step > self.scenario.steps
     }
 
+    /// What the channel did in the last step to packets it did not deliver as sent.
+    pub fn channel_log(&self) -> &[ChannelEvent] {
+        &self.log
+    }
+
     /// Runs step k and returns one row per vehicle (leader first) for it.
     pub fn step(&mut self) -> &[StepRow] {
         let k = self.step;
         let sc = &self.scenario;
-        let dt = sc.dt();
-        let t = k as f64 * dt;
+        let t = k as f64 * sc.dt();
+        let states = self.plant.states();
 
         self.tx.clear();
-        self.controller.transmit(k, &self.states, &mut self.tx);
+        self.controller.transmit(k, states, &mut self.tx);
         self.deliveries.clear();
-        let jam = self
-            .network
-            .gate(t, &sc.topology, &self.tx, &mut self.deliveries);
-        self.jammed.fill(jam);
-        self.controller
-            .receive(k, &self.states, &self.deliveries, &self.jammed);
-
-        self.rows.clear();
-        let x0 = self.states[0];
-        self.rows.push(StepRow {
-            step: k,
+        self.log.clear();
+        self.channel.gate(
+            k,
             t,
-            vehicle: 0,
-            p: x0[0],
-            v: x0[1],
-            a: x0[2],
-            u: x0[2],
-            theta: f64::NAN,
-            spacing_error: 0.0,
-            velocity_error: 0.0,
-            triggered: self.tx.first().is_some_and(|p| p.sender.is_leader()),
-            under_attack: jam,
-            affected: false,
-        });
-        for (i, x) in self.states.iter().enumerate().skip(1) {
-            let s = self.controller.follower_step(VehicleId(i as u16));
-            self.rows.push(StepRow {
-                step: k,
-                t,
-                vehicle: i as u16,
-                p: x[0],
-                v: x[1],
-                a: x[2],
-                u: s.u,
-                theta: s.theta,
-                spacing_error: x[0] - x0[0] + i as f64 * sc.spacing(),
-                velocity_error: x[1] - x0[1],
-                triggered: s.triggered,
-                under_attack: jam,
-                affected: s.affected,
-            });
-        }
-
-        // Plant: every follower under its own tau schedule, the leader on its profile.
-        let u = self.controller.commands();
-        for (i, x) in self.states.iter_mut().enumerate().skip(1) {
-            *x = plant_step(x, u[i - 1], sc.taus[i - 1].at(t), dt);
-        }
-        self.states[0] = leader_step(
-            &self.states[0],
-            sc.leader.step_acceleration(k as usize + 1, dt),
-            dt,
+            &sc.topology,
+            states,
+            &self.tx,
+            &mut self.deliveries,
+            &mut self.jammed,
+            &mut self.log,
         );
+        self.controller
+            .receive(k, states, &self.deliveries, &self.jammed);
+
+        let leader_triggered = self.tx.first().is_some_and(|p| p.sender.is_leader());
+        let controller = &self.controller;
+        step_rows(
+            k,
+            sc,
+            states,
+            leader_triggered,
+            &self.jammed,
+            |i| controller.follower_step(VehicleId(i as u16)),
+            &mut self.rows,
+        );
+        self.plant.advance(k, self.controller.commands());
         self.step += 1;
         &self.rows
     }

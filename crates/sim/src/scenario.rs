@@ -1,3 +1,4 @@
+use platoon_attacks::channel::{ChannelSpec, LinkAttack};
 use platoon_attacks::{Assumption2, DosSchedule};
 use platoon_control::{ControllerParams, ParamsError};
 use platoon_model::{LeaderProfile, State, TauSchedule};
@@ -36,6 +37,10 @@ pub struct Scenario {
     pub control: ControllerParams,
     /// When the channel is jammed.
     pub dos: DosSchedule,
+    /// Link-level attacks, applied in order after the DoS schedule.
+    pub link_attacks: Vec<LinkAttack>,
+    /// Seed of the channel's random losses.
+    pub channel_seed: u64,
     /// Bounds to check the DoS schedule against, if given.
     pub assumption2: Option<Assumption2>,
     /// Vehicle length for gap computations (m); 0 treats vehicles as points.
@@ -56,6 +61,15 @@ impl Scenario {
     /// The end time `steps dt` (s).
     pub fn duration(&self) -> f64 {
         self.steps as f64 * self.dt()
+    }
+
+    /// What the channel (in process or in the injector process) needs.
+    pub fn channel_spec(&self) -> ChannelSpec {
+        ChannelSpec {
+            dos: self.dos.clone(),
+            attacks: self.link_attacks.clone(),
+            seed: self.channel_seed,
+        }
     }
 
     /// The attack intervals that fall within the run, `[0, steps dt]`.

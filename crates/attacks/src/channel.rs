@@ -1,0 +1,356 @@
+//! The V2V channel between the controllers: what each receiver gets from each broadcast, under the
+//! DoS schedule and the link-level attack models. Pure and seeded: the in-process runner and the
+//! iceoryx2 injector process run this same code, so they deliver the same packets bit for bit.
+use crate::DosSchedule;
+use platoon_control::{Delivery, Packet};
+use platoon_model::{State, VehicleId};
+use platoon_topology::Topology;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use serde::Serialize;
+use std::collections::VecDeque;
+
+/// One link-level attack model.
+#[derive(Debug, Clone, PartialEq)]
+pub enum LinkAttackKind {
+    /// Each packet on each targeted link is lost with probability `loss`.
+    Bernoulli {
+        /// Loss probability in `[0, 1]`.
+        loss: f64,
+    },
+    /// Burst loss: a two-state (good/bad) Markov chain per link, advanced once per packet on
+    /// that link; a packet is lost with `loss_good` or `loss_bad` depending on the state.
+    GilbertElliott {
+        /// Probability of going from good to bad.
+        p_good_bad: f64,
+        /// Probability of going from bad to good.
+        p_bad_good: f64,
+        /// Loss probability in the good state.
+        loss_good: f64,
+        /// Loss probability in the bad state.
+        loss_bad: f64,
+    },
+    /// Every targeted packet arrives `steps` steps late (the receiver propagates it open-loop).
+    Delay {
+        /// Delay in steps, >= 1.
+        steps: u32,
+    },
+    /// A jammer (e.g. a drone) at `position_m + speed_mps t` along the road: a vehicle within
+    /// `radius_m` of it can neither send nor receive, and senses its channel jammed.
+    RangeJamming {
+        /// Jammer position at t = 0 (m, road coordinate of the platoon).
+        position_m: f64,
+        /// Jammer speed (m/s).
+        speed_mps: f64,
+        /// Jamming radius (m).
+        radius_m: f64,
+    },
+    /// The targeted senders' packets are replaced by the ones they sent `lag_steps` earlier, with
+    /// their old sequence numbers (a receiver that checks sequence numbers refuses them).
+    Replay {
+        /// How far back the replayed packet was captured (steps), >= 1.
+        lag_steps: u64,
+    },
+    /// False data injection: `offset` is added to the state in the targeted senders' packets.
+    FalseData {
+        /// Offset on `[p, v, a]`.
+        offset: [f64; 3],
+    },
+}
+
+impl LinkAttackKind {
+    /// The config name of the model.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Self::Bernoulli { .. } => "bernoulli",
+            Self::GilbertElliott { .. } => "gilbert_elliott",
+            Self::Delay { .. } => "delay",
+            Self::RangeJamming { .. } => "range_jamming",
+            Self::Replay { .. } => "replay",
+            Self::FalseData { .. } => "false_data",
+        }
+    }
+}
+
+/// A link attack, active on `[start_s, end_s)` for the links it targets.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LinkAttack {
+    /// The model.
+    pub kind: LinkAttackKind,
+    /// Start of activity (s).
+    pub start_s: f64,
+    /// End of activity (s, exclusive; infinity for the whole run).
+    pub end_s: f64,
+    /// Targeted senders (empty: all).
+    pub senders: Vec<VehicleId>,
+    /// Targeted receivers (empty: all).
+    pub receivers: Vec<VehicleId>,
+}
+
+impl LinkAttack {
+    /// An attack on every link for the whole run.
+    pub fn everywhere(kind: LinkAttackKind) -> Self {
+        Self {
+            kind,
+            start_s: 0.0,
+            end_s: f64::INFINITY,
+            senders: Vec::new(),
+            receivers: Vec::new(),
+        }
+    }
+
+    fn active(&self, t: f64) -> bool {
+        t >= self.start_s && t < self.end_s
+    }
+
+    fn targets(&self, sender: VehicleId, receiver: VehicleId) -> bool {
+        (self.senders.is_empty() || self.senders.contains(&sender))
+            && (self.receivers.is_empty() || self.receivers.contains(&receiver))
+    }
+}
+
+/// Everything the channel needs: the DoS schedule, the link attacks (applied in order) and a seed.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct ChannelSpec {
+    /// When the whole channel is jammed.
+    pub dos: DosSchedule,
+    /// Link-level attacks, applied in this order to each (packet, receiver).
+    pub attacks: Vec<LinkAttack>,
+    /// Seed of the ChaCha8 generator behind the random losses.
+    pub seed: u64,
+}
+
+/// What the channel did to one packet on one link.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Action {
+    /// Dropped: the DoS schedule jams the channel.
+    DroppedDos,
+    /// Dropped: the sender or receiver is within a range jammer's radius.
+    DroppedJammed,
+    /// Dropped: random loss (Bernoulli or Gilbert-Elliott).
+    DroppedLoss,
+    /// Held back; delivered at a later step.
+    Delayed,
+    /// A held-back packet delivered now.
+    DeliveredLate,
+    /// Replaced by an older packet of the same sender.
+    Replayed,
+    /// Its state was altered (false data injection).
+    Altered,
+}
+
+/// One line of the injector log: `step, sender, receiver, seq, action, detail`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct ChannelEvent {
+    /// The step at which it happened.
+    pub step: u64,
+    /// The packet's sender.
+    pub sender: u16,
+    /// The link's receiver.
+    pub receiver: u16,
+    /// The packet's sequence number (after replay: the old one).
+    pub seq: u32,
+    /// What happened.
+    pub action: Action,
+    /// For `delayed`: the step of delivery; for `replayed`: the step the old packet was sampled.
+    pub detail: Option<u64>,
+}
+
+/// The channel's state across steps: random generator, Gilbert-Elliott states, packets in flight
+/// and the history replay draws from.
+#[derive(Debug, Clone)]
+pub struct Channel {
+    spec: ChannelSpec,
+    rng: ChaCha8Rng,
+    /// Per link (sender * n + receiver): in the bad state.
+    bad: Vec<bool>,
+    vehicles: usize,
+    /// Delayed deliveries with their due step, in send order.
+    in_flight: VecDeque<(u64, Delivery)>,
+    /// Recent packets per sender, oldest first.
+    history: Vec<VecDeque<Packet>>,
+    max_lag: u64,
+}
+
+impl Channel {
+    /// A channel for `vehicles` vehicles (leader included).
+    pub fn new(spec: ChannelSpec, vehicles: usize) -> Self {
+        let max_lag = spec
+            .attacks
+            .iter()
+            .filter_map(|a| match a.kind {
+                LinkAttackKind::Replay { lag_steps } => Some(lag_steps),
+                _ => None,
+            })
+            .max()
+            .unwrap_or(0);
+        Self {
+            rng: ChaCha8Rng::seed_from_u64(spec.seed),
+            bad: vec![false; vehicles * vehicles],
+            vehicles,
+            in_flight: VecDeque::new(),
+            history: vec![VecDeque::new(); vehicles],
+            max_lag,
+            spec,
+        }
+    }
+
+    /// The spec.
+    pub fn spec(&self) -> &ChannelSpec {
+        &self.spec
+    }
+
+    /// Gates step `k` (time `t`): `tx` are the packets broadcast at this step, `states` the true
+    /// vehicle states (for position-dependent attacks). Appends what each receiver gets to `out`,
+    /// sets `jammed[v]` for every vehicle that senses its channel jammed, and appends to `log`
+    /// every packet that was not delivered as sent.
+    #[allow(clippy::too_many_arguments)]
+    pub fn gate(
+        &mut self,
+        k: u64,
+        t: f64,
+        topology: &Topology,
+        states: &[State],
+        tx: &[Packet],
+        out: &mut Vec<Delivery>,
+        jammed: &mut [bool],
+        log: &mut Vec<ChannelEvent>,
+    ) {
+        let dos = self.spec.dos.is_active(t);
+        jammed.fill(dos);
+        for a in &self.spec.attacks {
+            if let LinkAttackKind::RangeJamming {
+                position_m,
+                speed_mps,
+                radius_m,
+            } = a.kind
+            {
+                if a.active(t) {
+                    let centre = position_m + speed_mps * t;
+                    for (j, x) in jammed.iter_mut().zip(states) {
+                        *j |= (x[0] - centre).abs() <= radius_m;
+                    }
+                }
+            }
+        }
+        while self.in_flight.front().is_some_and(|(due, _)| *due <= k) {
+            let (_, d) = self.in_flight.pop_front().expect("checked non-empty");
+            log.push(event(k, &d.packet, d.receiver, Action::DeliveredLate, None));
+            out.push(d);
+        }
+        for sent in tx {
+            for &receiver in topology.out_neighbours(sent.sender) {
+                if dos {
+                    log.push(event(k, sent, receiver, Action::DroppedDos, None));
+                    continue;
+                }
+                if jammed[sent.sender.index()] || jammed[receiver.index()] {
+                    log.push(event(k, sent, receiver, Action::DroppedJammed, None));
+                    continue;
+                }
+                self.link(k, t, *sent, receiver, out, log);
+            }
+            if self.max_lag > 0 {
+                let h = &mut self.history[sent.sender.index()];
+                h.push_back(*sent);
+                // Keep one packet older than the largest lag: it is what a replay then sends.
+                while h.len() > 1 && h[1].step + self.max_lag <= k {
+                    h.pop_front();
+                }
+            }
+        }
+    }
+
+    /// One packet on one link through the attack models.
+    fn link(
+        &mut self,
+        k: u64,
+        t: f64,
+        mut packet: Packet,
+        receiver: VehicleId,
+        out: &mut Vec<Delivery>,
+        log: &mut Vec<ChannelEvent>,
+    ) {
+        let link = packet.sender.index() * self.vehicles + receiver.index();
+        for a in &self.spec.attacks {
+            if !a.active(t) || !a.targets(packet.sender, receiver) {
+                continue;
+            }
+            match a.kind {
+                LinkAttackKind::Bernoulli { loss } => {
+                    if self.rng.gen::<f64>() < loss {
+                        log.push(event(k, &packet, receiver, Action::DroppedLoss, None));
+                        return;
+                    }
+                }
+                LinkAttackKind::GilbertElliott {
+                    p_good_bad,
+                    p_bad_good,
+                    loss_good,
+                    loss_bad,
+                } => {
+                    let flip = self.rng.gen::<f64>();
+                    let bad = &mut self.bad[link];
+                    *bad = if *bad {
+                        flip >= p_bad_good
+                    } else {
+                        flip < p_good_bad
+                    };
+                    let loss = if *bad { loss_bad } else { loss_good };
+                    if self.rng.gen::<f64>() < loss {
+                        log.push(event(k, &packet, receiver, Action::DroppedLoss, None));
+                        return;
+                    }
+                }
+                LinkAttackKind::Delay { steps } => {
+                    let due = k + u64::from(steps);
+                    log.push(event(k, &packet, receiver, Action::Delayed, Some(due)));
+                    self.in_flight
+                        .push_back((due, Delivery { receiver, packet }));
+                    return;
+                }
+                LinkAttackKind::RangeJamming { .. } => {} // applied per vehicle in `gate`
+                LinkAttackKind::Replay { lag_steps } => {
+                    let wanted = k.saturating_sub(lag_steps);
+                    if let Some(old) = self.history[packet.sender.index()]
+                        .iter()
+                        .rev()
+                        .find(|p| p.step <= wanted)
+                    {
+                        packet = *old;
+                        log.push(event(
+                            k,
+                            &packet,
+                            receiver,
+                            Action::Replayed,
+                            Some(old.step),
+                        ));
+                    }
+                }
+                LinkAttackKind::FalseData { offset } => {
+                    packet.state += State::from(offset);
+                    log.push(event(k, &packet, receiver, Action::Altered, None));
+                }
+            }
+        }
+        out.push(Delivery { receiver, packet });
+    }
+}
+
+fn event(
+    step: u64,
+    p: &Packet,
+    receiver: VehicleId,
+    action: Action,
+    detail: Option<u64>,
+) -> ChannelEvent {
+    ChannelEvent {
+        step,
+        sender: p.sender.0,
+        receiver: receiver.0,
+        seq: p.seq,
+        action,
+        detail,
+    }
+}

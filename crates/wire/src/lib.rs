@@ -1,0 +1,1 @@
+//! The payloads that cross a process boundary.
