@@ -1,5 +1,6 @@
 //! `platoon`: resilient event-triggered platoon control under DoS attacks (Han et al., 2024).
 mod experiment;
+mod node;
 mod output;
 mod plots;
 mod run;
@@ -34,6 +35,12 @@ enum Command {
     /// Reproduce an experiment of the paper's Section IV.
     #[command(subcommand)]
     Experiment(experiment::Experiment),
+    /// One process of an iceoryx2 run (started by `platoon run`, not by hand).
+    #[command(hide = true)]
+    Node(node::Args),
+    /// Print the wire payloads' layout (the JSON of bridge/wire_layout.json).
+    #[command(hide = true)]
+    WireLayout,
 }
 
 /// Exit code for unusable input (a bad config or argument): 2, like clap's usage errors.
@@ -44,6 +51,11 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Run(args) => run::run(args),
         Command::Experiment(e) => experiment::run(e),
+        Command::Node(args) => node::run(args),
+        Command::WireLayout => {
+            print!("{}", platoon_wire::layouts_json());
+            Ok(())
+        }
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

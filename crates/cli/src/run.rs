@@ -21,6 +21,29 @@ pub struct Args {
     /// Skip the PNG plots (faster on long runs).
     #[arg(long)]
     pub no_plots: bool,
+    /// iceoryx2: plant, controller and injector run as separate processes over shared memory
+    /// (lock-step, event-driven). inproc: the same core in one process, with no IPC (the oracle
+    /// the iceoryx2 run must match bit for bit).
+    #[arg(long, value_enum, default_value_t = Transport::Iceoryx2)]
+    pub transport: Transport,
+    /// Run this program as the attack injector instead of the built-in one (iceoryx2 only),
+    /// e.g. "bridge/.venv/bin/python bridge/examples/drop_sender.py 2". It gets PLATOON_RUN_ID
+    /// and PLATOON_CONFIG in its environment; docs/injector-contract.md says what it must do.
+    #[arg(long, value_name = "COMMAND")]
+    pub injector: Option<String>,
+    /// Seconds the run waits for a process's sample of one step before it stops and names the
+    /// process (iceoryx2 only).
+    #[arg(long, default_value_t = 5.0, value_name = "SECONDS")]
+    pub step_timeout: f64,
+}
+
+/// How the processes of a run are connected.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Transport {
+    /// Separate processes over iceoryx2 shared memory.
+    Iceoryx2,
+    /// One process, no IPC.
+    Inproc,
 }
 
 /// Loads the config named on the command line or, without one, an embedded config (`name` is
@@ -50,52 +73,159 @@ pub fn load(
 pub fn run(args: Args) -> Result<()> {
     let (config, scenario, stem) =
         load(args.config.as_deref(), platoon_config::PAPER_TOML, "paper")?;
+    if args.injector.is_some() && args.transport == Transport::Inproc {
+        anyhow::bail!("--injector needs --transport iceoryx2: an external injector is a process");
+    }
+    if !(args.step_timeout.is_finite() && args.step_timeout > 0.0) {
+        anyhow::bail!("--step-timeout must be a positive number of seconds");
+    }
     let out = args
         .out
+        .clone()
         .unwrap_or_else(|| PathBuf::from("runs").join(&stem));
     let dir = RunDir::create(&out, args.force)?;
+    dir.write("config.toml", platoon_config::to_toml(&config).as_bytes())?;
     let started = Instant::now();
-    let (rows, summary) = simulate(&scenario, &dir)?;
+    let (rows, summary, failure) = match args.transport {
+        Transport::Inproc => {
+            let (rows, summary) = simulate(&scenario, &dir)?;
+            (rows, summary, None)
+        }
+        Transport::Iceoryx2 => cosimulate(&scenario, &dir, &args)?,
+    };
     let compute = started.elapsed();
     write_outputs(&dir, &config, &scenario, &rows, &summary, !args.no_plots)?;
     let path = dir.commit()?;
+    if let Some(e) = failure {
+        eprintln!(
+            "the run stopped at step {} of {}; what it produced is in {} (summary.json says complete: false)",
+            summary.steps,
+            scenario.steps,
+            path.display()
+        );
+        return Err(e.into());
+    }
     print_summary(&summary, compute.as_secs_f64());
     println!("outputs: {}", path.display());
     Ok(())
 }
 
-/// Runs the scenario with a progress bar and streams trajectories.csv; returns the rows and summary.
-pub fn simulate(scenario: &Scenario, dir: &RunDir) -> Result<(Vec<StepRow>, Summary)> {
-    let steps = scenario.steps + 1;
+fn progress_bar(steps: u64, what: &str) -> indicatif::ProgressBar {
     let bar = indicatif::ProgressBar::new(steps);
     bar.set_style(
-        indicatif::ProgressStyle::with_template(
-            "{spinner} simulating {pos}/{len} steps [{elapsed}] {wide_bar}",
-        )
+        indicatif::ProgressStyle::with_template(&format!(
+            "{{spinner}} {what} {{pos}}/{{len}} steps [{{elapsed}}] {{wide_bar}}"
+        ))
         .expect("static template"),
     );
-    let mut csv = csv::Writer::from_writer(dir.writer("trajectories.csv")?);
-    let mut rows = Vec::with_capacity(steps as usize * (scenario.topology.followers() + 1));
-    let mut failure = None;
-    let summary = platoon_sim::run(scenario.clone(), |step| {
+    bar
+}
+
+/// Streams rows to trajectories.csv, keeps them for the plots and sums the metrics.
+struct Recording {
+    csv: csv::Writer<std::io::BufWriter<std::fs::File>>,
+    rows: Vec<StepRow>,
+    metrics: platoon_sim::MetricsAccumulator,
+    failure: Option<csv::Error>,
+    bar: indicatif::ProgressBar,
+}
+
+impl Recording {
+    fn new(scenario: &Scenario, dir: &RunDir, what: &str) -> Result<Self> {
+        let steps = scenario.steps + 1;
+        Ok(Self {
+            csv: csv::Writer::from_writer(dir.writer("trajectories.csv")?),
+            rows: Vec::with_capacity(steps as usize * (scenario.topology.followers() + 1)),
+            metrics: platoon_sim::MetricsAccumulator::new(scenario),
+            failure: None,
+            bar: progress_bar(steps, what),
+        })
+    }
+
+    fn push(&mut self, step: &[StepRow]) {
         for r in step {
-            if failure.is_none() {
-                if let Err(e) = csv.serialize(r) {
-                    failure = Some(e);
+            if self.failure.is_none() {
+                if let Err(e) = self.csv.serialize(r) {
+                    self.failure = Some(e);
                 }
             }
         }
-        rows.extend_from_slice(step);
-        if step[0].step % 1000 == 0 {
-            bar.set_position(step[0].step);
+        self.metrics.push(step);
+        self.rows.extend_from_slice(step);
+        if step[0].step.is_multiple_of(1000) {
+            self.bar.set_position(step[0].step);
         }
-    })?;
-    bar.finish_and_clear();
-    if let Some(e) = failure {
-        return Err(e).context("writing trajectories.csv");
     }
-    csv.flush().context("writing trajectories.csv")?;
-    Ok((rows, summary))
+
+    fn finish(
+        mut self,
+        rejected: platoon_control::RejectCounts,
+    ) -> Result<(Vec<StepRow>, Summary)> {
+        self.bar.finish_and_clear();
+        if let Some(e) = self.failure {
+            return Err(e).context("writing trajectories.csv");
+        }
+        self.csv.flush().context("writing trajectories.csv")?;
+        Ok((self.rows, self.metrics.finish(rejected)))
+    }
+}
+
+/// Runs the scenario in process with a progress bar and streams trajectories.csv; returns the
+/// rows and summary.
+pub fn simulate(scenario: &Scenario, dir: &RunDir) -> Result<(Vec<StepRow>, Summary)> {
+    let mut rec = Recording::new(scenario, dir, "simulating")?;
+    let mut sim = platoon_sim::Simulation::new(scenario.clone())?;
+    let mut log = csv::Writer::from_writer(dir.writer("channel.csv")?);
+    while !sim.is_done() {
+        let rows = sim.step();
+        rec.push(rows);
+        for e in sim.channel_log() {
+            log.serialize(e).context("writing channel.csv")?;
+        }
+    }
+    log.flush().context("writing channel.csv")?;
+    let rejected = sim.controller().rejected();
+    rec.finish(rejected)
+}
+
+/// Runs the scenario across processes over iceoryx2. A failed run still returns what it
+/// recorded, with the summary marked incomplete, and the error.
+fn cosimulate(
+    scenario: &Scenario,
+    dir: &RunDir,
+    args: &Args,
+) -> Result<(Vec<StepRow>, Summary, Option<platoon_runtime::RunError>)> {
+    let logs = dir.path("logs");
+    std::fs::create_dir_all(&logs).with_context(|| format!("creating {}", logs.display()))?;
+    let injector = match &args.injector {
+        Some(cmd) => platoon_runtime::InjectorCommand::External(cmd.clone()),
+        None => platoon_runtime::InjectorCommand::Builtin,
+    };
+    let opts = platoon_runtime::Options {
+        run_id: platoon_runtime::new_run_id(),
+        exe: std::env::current_exe().context("locating the platoon binary")?,
+        config: dir.path("config.toml"),
+        channel_log: (injector == platoon_runtime::InjectorCommand::Builtin)
+            .then(|| dir.path("channel.csv")),
+        injector,
+        log_dir: Some(logs),
+        step_timeout: std::time::Duration::from_secs_f64(args.step_timeout),
+        ready_timeout: std::time::Duration::from_secs(60),
+    };
+    let mut rec = Recording::new(scenario, dir, "co-simulating")?;
+    let result = platoon_runtime::orchestrate(&opts, scenario, |rows| rec.push(rows));
+    match result {
+        Ok(outcome) => {
+            let (rows, summary) = rec.finish(outcome.rejected)?;
+            Ok((rows, summary, None))
+        }
+        Err(e) => {
+            let (rows, mut summary) = rec.finish(Default::default())?;
+            summary.complete = false;
+            summary.error = Some(e.to_string());
+            Ok((rows, summary, Some(e)))
+        }
+    }
 }
 
 /// One row per broadcast of a follower.
@@ -117,7 +247,9 @@ pub fn write_outputs(
     summary: &Summary,
     plots: bool,
 ) -> Result<()> {
-    dir.write("config.toml", platoon_config::to_toml(config).as_bytes())?;
+    if !dir.path("config.toml").exists() {
+        dir.write("config.toml", platoon_config::to_toml(config).as_bytes())?;
+    }
     let mut events = csv::Writer::from_writer(dir.writer("events.csv")?);
     let mut last: Vec<Option<u64>> = vec![None; scenario.topology.followers() + 1];
     let mut followers: Vec<&StepRow> = rows

@@ -1,1 +1,128 @@
-//! The iceoryx2 runtime.
+//! The iceoryx2 co-simulation: one process per role, lock-step, event-driven.
+//!
+//! ```text
+//!  plant --states[k]--> controller --tx[k]--> injector --rx[k]--> controller --commands[k]--> plant
+//!                 (the orchestrator reads every service and records the run)
+//! ```
+//!
+//! Every node composes the same pure core as the in-process runner (`platoon-sim`): the plant
+//! runs [`platoon_sim::Plant`], the controller [`platoon_control::PlatoonController`], the
+//! injector [`platoon_attacks::channel::Channel`], and the orchestrator assembles its rows with
+//! [`platoon_sim::step_rows`], so both transports give the same trajectories bit for bit.
+//!
+//! Nothing busy-polls: each node blocks on its own wake-up event service with a timeout and is
+//! notified by every publisher it reads from.
+#![warn(missing_docs)]
+
+pub mod ipc;
+pub mod nodes;
+pub mod orchestrator;
+
+pub use orchestrator::{orchestrate, InjectorCommand, Options, Outcome};
+
+use platoon_wire::Node;
+
+/// Why a co-simulation run stopped early.
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    /// iceoryx2 refused an operation.
+    #[error("iceoryx2: {0}")]
+    Ipc(String),
+    /// A node's process could not be started.
+    #[error("could not start the {node} process ({command}): {source}")]
+    Spawn {
+        /// Which.
+        node: &'static str,
+        /// The command line.
+        command: String,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// A node's process exited before the end of the run.
+    #[error("the {node} process (pid {pid}) exited at step {step}: {status}")]
+    Died {
+        /// Which.
+        node: &'static str,
+        /// Its pid.
+        pid: u32,
+        /// The step the run was at.
+        step: u64,
+        /// How it ended.
+        status: String,
+    },
+    /// A node did not publish what the run waited for.
+    #[error("the {node} process published nothing for step {step} within {waited_s} s ({what})")]
+    Stalled {
+        /// Which.
+        node: &'static str,
+        /// The step the run was at.
+        step: u64,
+        /// The timeout (s).
+        waited_s: f64,
+        /// What was missing.
+        what: &'static str,
+    },
+    /// A node reported that it cannot go on.
+    #[error("the {node} process failed at step {step}: {reason}")]
+    Failed {
+        /// Which.
+        node: &'static str,
+        /// At which step.
+        step: u64,
+        /// Its reason.
+        reason: String,
+    },
+    /// A sample broke the contract (wrong length, unknown vehicle, NaN command).
+    #[error("{node}: {message}")]
+    Contract {
+        /// Who sent it.
+        node: &'static str,
+        /// What is wrong.
+        message: String,
+    },
+    /// The orchestrator went away: this node exits.
+    #[error("the orchestrator is gone")]
+    Orphaned,
+    /// The orchestrator aborted the run.
+    #[error("aborted by the orchestrator: {0}")]
+    Aborted(String),
+}
+
+impl RunError {
+    /// The node this error is about, if one.
+    pub fn node(&self) -> Option<&'static str> {
+        match self {
+            RunError::Spawn { node, .. }
+            | RunError::Died { node, .. }
+            | RunError::Stalled { node, .. }
+            | RunError::Failed { node, .. }
+            | RunError::Contract { node, .. } => Some(node),
+            _ => None,
+        }
+    }
+}
+
+/// A fresh run id: process id and time, so concurrent runs never share a service.
+pub fn new_run_id() -> String {
+    let nanos = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_nanos())
+        .unwrap_or(0);
+    format!("{:x}-{:x}", std::process::id(), nanos & 0xffff_ffff_ffff)
+}
+
+/// `CLOCK_MONOTONIC` in ns (shared by every process on the machine), for packet time stamps.
+pub fn monotonic_ns() -> u64 {
+    let mut ts = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: clock_gettime only writes the timespec it is given.
+    unsafe { libc::clock_gettime(libc::CLOCK_MONOTONIC, &mut ts) };
+    ts.tv_sec as u64 * 1_000_000_000 + ts.tv_nsec as u64
+}
+
+/// Names a node in messages.
+pub fn node_name(n: Node) -> &'static str {
+    n.name()
+}

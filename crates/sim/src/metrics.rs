@@ -99,6 +99,9 @@ pub struct AttackSummary {
 pub struct Summary {
     /// The run reached its last step.
     pub complete: bool,
+    /// Why the run stopped early (the process and step), if it did.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub error: Option<String>,
     /// Steps run.
     pub steps: u64,
     /// Step length (s).
@@ -148,6 +151,7 @@ pub struct MetricsAccumulator {
     assumption2: Option<Assumption2>,
     vehicles: Vec<VehicleAcc>,
     steps: u64,
+    expected_steps: u64,
     attacked_steps: u64,
     last_t: f64,
     safety: Safety,
@@ -178,6 +182,7 @@ impl MetricsAccumulator {
                 n
             ],
             steps: 0,
+            expected_steps: scenario.steps + 1,
             attacked_steps: 0,
             last_t: 0.0,
             safety: Safety {
@@ -222,7 +227,7 @@ impl MetricsAccumulator {
         }
     }
 
-    /// The summary; `complete` is true when at least one step ran.
+    /// The summary; `complete` is true when every step `0..=steps` ran.
     pub fn finish(&self, rejected: RejectCounts) -> Summary {
         let horizon = self.last_t + self.dt;
         let vehicles: Vec<VehicleSummary> = self
@@ -247,7 +252,8 @@ impl MetricsAccumulator {
             .collect();
         let clipped = self.dos.clipped(horizon);
         Summary {
-            complete: self.steps > 0,
+            complete: self.steps == self.expected_steps,
+            error: None,
             steps: self.steps,
             dt_s: self.dt,
             duration_s: self.last_t,

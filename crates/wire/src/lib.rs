@@ -1,1 +1,366 @@
-//! The payloads that cross a process boundary.
+//! The payloads that cross a process boundary in a platoon co-simulation, and the names of the
+//! services that carry them. This crate is the contract between the processes: the controller
+//! service, the plant (native or the SUMO bridge), the attack injector (ours or yours) and the
+//! orchestrator. `bridge/platoon_wire.py` mirrors every type with `ctypes`, and tests on both
+//! sides check size, alignment and every field offset against `bridge/wire_layout.json`.
+//!
+//! Every publish-subscribe service carries a slice of one element type with a [`StepHeader`]
+//! user header, so one sample is one whole step in one direction (see `docs/injector-contract.md`).
+#![warn(missing_docs)]
+
+use iceoryx2::prelude::ZeroCopySend;
+
+/// The user header of every step sample: which step it belongs to.
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[type_name("platoon::StepHeader")]
+#[repr(C)]
+pub struct StepHeader {
+    /// Step index k.
+    pub step: u64,
+    /// Time k dt (s).
+    pub time_s: f64,
+}
+
+/// A vehicle's true state at a step (plant -> controller, injector, orchestrator).
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[type_name("platoon::VehicleState")]
+#[repr(C)]
+pub struct VehicleState {
+    /// Vehicle id (0 = leader).
+    pub vehicle: u32,
+    /// Bit 0: the vehicle collided in this step (SUMO plant).
+    pub flags: u32,
+    /// Position (m).
+    pub p: f64,
+    /// Velocity (m/s).
+    pub v: f64,
+    /// Acceleration (m/s^2).
+    pub a: f64,
+}
+
+/// A V2V broadcast (controller -> injector, and inside [`RxItem`]).
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[type_name("platoon::V2vPacket")]
+#[repr(C)]
+pub struct V2vPacket {
+    /// Sender id (0 = leader).
+    pub sender: u32,
+    /// The sender's sequence number, +1 per broadcast.
+    pub seq: u32,
+    /// The step at which the state was sampled.
+    pub step: u64,
+    /// `CLOCK_MONOTONIC` at sending (ns), for latency measurements; never used by the control.
+    pub stamp_ns: u64,
+    /// The sampled state `[p, v, a]`.
+    pub state: [f64; 3],
+}
+
+/// One item of a receive batch (injector -> controller).
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[type_name("platoon::RxItem")]
+#[repr(C)]
+pub struct RxItem {
+    /// The receiving vehicle.
+    pub receiver: u32,
+    /// [`RxItem::DELIVERY`] or [`RxItem::JAMMED`].
+    pub kind: u32,
+    /// The packet as received (ignored for `JAMMED`).
+    pub packet: V2vPacket,
+}
+
+impl RxItem {
+    /// `packet` reached `receiver`.
+    pub const DELIVERY: u32 = 0;
+    /// `receiver` sensed its channel jammed in this step (the resilient mechanism needs it).
+    pub const JAMMED: u32 = 1;
+}
+
+/// A follower's command and what its controller did (controller -> plant, orchestrator).
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[type_name("platoon::Command")]
+#[repr(C)]
+pub struct Command {
+    /// Follower id (>= 1).
+    pub vehicle: u32,
+    /// Bit 0: it broadcast in this step; bit 1: it was affected by an attack.
+    pub flags: u32,
+    /// Commanded acceleration `u_i[k]` (m/s^2).
+    pub u: f64,
+    /// Its internal variable `theta_i` at the start of the step.
+    pub theta: f64,
+}
+
+impl Command {
+    /// `flags` bit: broadcast in this step.
+    pub const TRIGGERED: u32 = 1;
+    /// `flags` bit: affected by an attack.
+    pub const AFFECTED: u32 = 2;
+}
+
+/// Control and status messages (orchestrator <-> every node), one per sample.
+#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
+#[type_name("platoon::ControlMsg")]
+#[repr(C)]
+pub struct ControlMsg {
+    /// One of the `ControlMsg::*` kinds.
+    pub kind: u32,
+    /// The node it comes from or is about ([`Node`] as u32).
+    pub node: u32,
+    /// The step it refers to.
+    pub step: u64,
+    /// `DONE` from the controller: rejected packets by reason (non-finite, unknown sender,
+    /// future step, stale sequence number).
+    pub counts: [u64; 4],
+    /// `FAILED`/`ABORT`: a reason, UTF-8, NUL-padded.
+    pub reason: [u8; 120],
+}
+
+impl ControlMsg {
+    /// Orchestrator -> nodes: every node is ready; the plant publishes step 0.
+    pub const START: u32 = 1;
+    /// Orchestrator -> nodes: the run is over; exit cleanly.
+    pub const STOP: u32 = 2;
+    /// Orchestrator -> nodes: the run failed; exit now.
+    pub const ABORT: u32 = 3;
+    /// Node -> orchestrator: every port is open.
+    pub const READY: u32 = 10;
+    /// Node -> orchestrator: the last step is done (controller: with reject counts).
+    pub const DONE: u32 = 11;
+    /// Node -> orchestrator: the node cannot go on (reason given).
+    pub const FAILED: u32 = 12;
+
+    /// A message of `kind` from or about `node`.
+    pub fn new(kind: u32, node: Node, step: u64) -> Self {
+        Self {
+            kind,
+            node: node as u32,
+            step,
+            counts: [0; 4],
+            reason: [0; 120],
+        }
+    }
+
+    /// With a reason (cut to 120 bytes on a character boundary).
+    pub fn with_reason(mut self, reason: &str) -> Self {
+        let mut end = reason.len().min(self.reason.len());
+        while !reason.is_char_boundary(end) {
+            end -= 1;
+        }
+        self.reason[..end].copy_from_slice(&reason.as_bytes()[..end]);
+        self
+    }
+
+    /// The reason as text.
+    pub fn reason(&self) -> String {
+        let end = self.reason.iter().position(|&b| b == 0).unwrap_or(120);
+        String::from_utf8_lossy(&self.reason[..end]).into_owned()
+    }
+}
+
+/// The processes of a run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[repr(u32)]
+pub enum Node {
+    /// Starts the others, records the run, stops everything.
+    Orchestrator = 0,
+    /// Integrates the vehicles (native, or the SUMO bridge).
+    Plant = 1,
+    /// Every vehicle's triggering rule, estimators and control law.
+    Controller = 2,
+    /// Gates every link: the attack injector.
+    Injector = 3,
+}
+
+impl Node {
+    /// All nodes.
+    pub const ALL: [Node; 4] = [
+        Node::Orchestrator,
+        Node::Plant,
+        Node::Controller,
+        Node::Injector,
+    ];
+
+    /// Its name in service names and messages.
+    pub fn name(self) -> &'static str {
+        match self {
+            Node::Orchestrator => "orchestrator",
+            Node::Plant => "plant",
+            Node::Controller => "controller",
+            Node::Injector => "injector",
+        }
+    }
+
+    /// From its number in [`ControlMsg::node`].
+    pub fn from_u32(n: u32) -> Option<Node> {
+        Node::ALL.get(n as usize).copied()
+    }
+}
+
+/// The services of a run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Service {
+    /// `[VehicleState]`, plant -> controller, injector, orchestrator; one sample per step.
+    States,
+    /// `[V2vPacket]`, controller -> injector, orchestrator: the packets broadcast at a step.
+    Tx,
+    /// `[RxItem]`, injector -> controller, orchestrator: what each receiver gets at a step
+    /// (published every step, empty if everything was dropped).
+    Rx,
+    /// `[Command]`, controller -> plant, orchestrator.
+    Commands,
+    /// `ControlMsg`, orchestrator -> nodes.
+    Control,
+    /// `ControlMsg`, nodes -> orchestrator.
+    Status,
+    /// Event service that wakes one node: every publisher notifies the nodes that read it.
+    Wake(Node),
+}
+
+/// The iceoryx2 service name of `service` in run `run_id`: the only place names are made, so
+/// runs with different ids never see each other.
+pub fn service_name(run_id: &str, service: Service) -> String {
+    let leaf = match service {
+        Service::States => "states",
+        Service::Tx => "tx",
+        Service::Rx => "rx",
+        Service::Commands => "commands",
+        Service::Control => "control",
+        Service::Status => "status",
+        Service::Wake(node) => return format!("platoon/{run_id}/wake/{}", node.name()),
+    };
+    format!("platoon/{run_id}/{leaf}")
+}
+
+/// Who reads `service` (and so is notified on its `Wake` service after every sample).
+pub fn readers(service: Service) -> &'static [Node] {
+    match service {
+        Service::States => &[Node::Controller, Node::Injector, Node::Orchestrator],
+        Service::Tx => &[Node::Injector, Node::Orchestrator],
+        Service::Rx => &[Node::Controller, Node::Orchestrator],
+        Service::Commands => &[Node::Plant, Node::Orchestrator],
+        Service::Control => &[Node::Plant, Node::Controller, Node::Injector],
+        Service::Status => &[Node::Orchestrator],
+        Service::Wake(_) => &[],
+    }
+}
+
+/// Size, alignment and field offsets of one payload type, as `bridge/wire_layout.json` holds.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Layout {
+    /// The `#[type_name]`.
+    pub type_name: &'static str,
+    /// `size_of`.
+    pub size: usize,
+    /// `align_of`.
+    pub align: usize,
+    /// `(field, offset)` in declaration order.
+    pub fields: Vec<(&'static str, usize)>,
+}
+
+macro_rules! layout {
+    ($t:ty, $name:expr, [$($f:ident),*]) => {
+        Layout {
+            type_name: $name,
+            size: core::mem::size_of::<$t>(),
+            align: core::mem::align_of::<$t>(),
+            fields: vec![$((stringify!($f), core::mem::offset_of!($t, $f))),*],
+        }
+    };
+}
+
+/// The layout of every payload type.
+pub fn layouts() -> Vec<Layout> {
+    vec![
+        layout!(StepHeader, "platoon::StepHeader", [step, time_s]),
+        layout!(
+            VehicleState,
+            "platoon::VehicleState",
+            [vehicle, flags, p, v, a]
+        ),
+        layout!(
+            V2vPacket,
+            "platoon::V2vPacket",
+            [sender, seq, step, stamp_ns, state]
+        ),
+        layout!(RxItem, "platoon::RxItem", [receiver, kind, packet]),
+        layout!(Command, "platoon::Command", [vehicle, flags, u, theta]),
+        layout!(
+            ControlMsg,
+            "platoon::ControlMsg",
+            [kind, node, step, counts, reason]
+        ),
+    ]
+}
+
+/// [`layouts`] as the JSON of `bridge/wire_layout.json` (stable order, one type per line).
+pub fn layouts_json() -> String {
+    let mut s = String::from("{\n");
+    let all = layouts();
+    for (i, l) in all.iter().enumerate() {
+        let fields: Vec<String> = l
+            .fields
+            .iter()
+            .map(|(f, o)| format!("[\"{f}\", {o}]"))
+            .collect();
+        s += &format!(
+            "  \"{}\": {{\"size\": {}, \"align\": {}, \"fields\": [{}]}}{}\n",
+            l.type_name,
+            l.size,
+            l.align,
+            fields.join(", "),
+            if i + 1 < all.len() { "," } else { "" }
+        );
+    }
+    s + "}\n"
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_committed_layout_file_is_the_rust_layout() {
+        let committed = include_str!("../../../bridge/wire_layout.json");
+        assert_eq!(
+            committed,
+            layouts_json(),
+            "bridge/wire_layout.json is out of date: regenerate it with \
+             `cargo run -- wire-layout > bridge/wire_layout.json` and update bridge/platoon_wire.py"
+        );
+    }
+
+    #[test]
+    fn type_names_are_the_declared_ones() {
+        use iceoryx2::prelude::ZeroCopySend;
+        for (l, name) in layouts().iter().zip([
+            unsafe { StepHeader::type_name() },
+            unsafe { VehicleState::type_name() },
+            unsafe { V2vPacket::type_name() },
+            unsafe { RxItem::type_name() },
+            unsafe { Command::type_name() },
+            unsafe { ControlMsg::type_name() },
+        ]) {
+            assert_eq!(l.type_name, name);
+        }
+    }
+
+    #[test]
+    fn reasons_are_cut_on_character_boundaries() {
+        let m = ControlMsg::new(ControlMsg::FAILED, Node::Plant, 3).with_reason(&"é".repeat(100));
+        assert_eq!(m.reason(), "é".repeat(60));
+        assert_eq!(Node::from_u32(m.node), Some(Node::Plant));
+    }
+
+    #[test]
+    fn service_names_carry_the_run_id() {
+        assert_eq!(service_name("r1", Service::Tx), "platoon/r1/tx");
+        assert_eq!(
+            service_name("r1", Service::Wake(Node::Injector)),
+            "platoon/r1/wake/injector"
+        );
+        assert_ne!(
+            service_name("a", Service::States),
+            service_name("b", Service::States)
+        );
+    }
+}

@@ -1,0 +1,30 @@
+//! `platoon node <role>`: one process of an iceoryx2 run, started by the orchestrator.
+use anyhow::{Context, Result};
+use std::path::PathBuf;
+
+/// Arguments of `platoon node`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Which process: plant, controller or injector.
+    #[arg(value_parser = ["plant", "controller", "injector"])]
+    pub role: String,
+    /// The run's id (names its iceoryx2 services).
+    #[arg(long)]
+    pub run_id: String,
+    /// The run's resolved scenario config.
+    #[arg(long)]
+    pub config: PathBuf,
+    /// Injector: where to write the channel log (CSV).
+    #[arg(long)]
+    pub log: Option<PathBuf>,
+}
+
+pub fn run(args: Args) -> Result<()> {
+    let (_, scenario) = platoon_config::load(&args.config)?;
+    let r = match args.role.as_str() {
+        "plant" => platoon_runtime::nodes::plant(&args.run_id, &scenario),
+        "controller" => platoon_runtime::nodes::controller(&args.run_id, &scenario),
+        _ => platoon_runtime::nodes::injector(&args.run_id, &scenario, args.log.as_deref()),
+    };
+    r.with_context(|| format!("{} node of run {}", args.role, args.run_id))
+}

@@ -1,0 +1,331 @@
+//! The iceoryx2 ports of one node: step outlets that publish and wake their readers, step inlets
+//! that buffer by step, the control channel and the node's own wake-up listener.
+use crate::RunError;
+use iceoryx2::node::NodeBuilder;
+use iceoryx2::port::listener::Listener;
+use iceoryx2::port::notifier::Notifier;
+use iceoryx2::port::publisher::Publisher;
+use iceoryx2::port::subscriber::Subscriber;
+use iceoryx2::prelude::*;
+use platoon_wire::{readers, service_name, ControlMsg, Node as Role, Service, StepHeader};
+use std::collections::VecDeque;
+use std::fmt::Debug;
+use std::time::Duration;
+
+/// Samples a subscriber can hold before its publisher waits: many steps, so a reader that falls
+/// behind (the orchestrator writing CSV) slows the run down instead of losing data.
+pub const BUFFER: usize = 64;
+
+type Ipc = ipc::Service;
+
+fn ipc_err(what: impl std::fmt::Display, e: impl Debug) -> RunError {
+    RunError::Ipc(format!("{what}: {e:?}"))
+}
+
+/// The iceoryx2 node of one process in run `run_id`, with the cleanup of dead nodes done first
+/// (a killed run leaves shared memory behind; this removes it).
+pub struct Endpoint {
+    run_id: String,
+    role: Role,
+    node: iceoryx2::node::Node<Ipc>,
+}
+
+impl Endpoint {
+    /// Creates the node.
+    pub fn new(run_id: &str, role: Role) -> Result<Self, RunError> {
+        set_log_level_from_env_or(LogLevel::Error);
+        let name = NodeName::new(&format!("platoon-{}-{run_id}", role.name()))
+            .map_err(|e| ipc_err("node name", e))?;
+        let node = NodeBuilder::new()
+            .name(&name)
+            .signal_handling_mode(SignalHandlingMode::Disabled)
+            .create::<Ipc>()
+            .map_err(|e| ipc_err("creating the iceoryx2 node", e))?;
+        node.try_cleanup_dead_nodes();
+        Ok(Self {
+            run_id: run_id.to_string(),
+            role,
+            node,
+        })
+    }
+
+    /// Removes what dead nodes left behind.
+    pub fn cleanup_dead_nodes(&self) {
+        self.node.try_cleanup_dead_nodes();
+    }
+
+    fn name(&self, s: Service) -> Result<ServiceName, RunError> {
+        let n = service_name(&self.run_id, s);
+        ServiceName::new(&n).map_err(|e| ipc_err(format!("service name {n}"), e))
+    }
+
+    /// Creates a step service (the orchestrator creates them all before starting the others).
+    pub fn create_step_service<T: Debug + ZeroCopySend + 'static>(
+        &self,
+        s: Service,
+    ) -> Result<StepService<T>, RunError> {
+        let name = self.name(s)?;
+        self.node
+            .service_builder(&name)
+            .publish_subscribe::<[T]>()
+            .user_header::<StepHeader>()
+            .max_publishers(2)
+            .max_subscribers(4)
+            .max_nodes(8)
+            .history_size(0)
+            .subscriber_max_buffer_size(BUFFER)
+            .enable_safe_overflow(false)
+            .create()
+            .map_err(|e| ipc_err(format!("creating service {name}"), e))
+    }
+
+    /// Opens a step service.
+    pub fn open_step_service<T: Debug + ZeroCopySend + 'static>(
+        &self,
+        s: Service,
+    ) -> Result<StepService<T>, RunError> {
+        let name = self.name(s)?;
+        self.node
+            .service_builder(&name)
+            .publish_subscribe::<[T]>()
+            .user_header::<StepHeader>()
+            .open()
+            .map_err(|e| ipc_err(format!("opening service {name}"), e))
+    }
+
+    /// Creates (orchestrator) or opens the control or status service.
+    pub fn control_service(&self, s: Service, create: bool) -> Result<ControlService, RunError> {
+        let name = self.name(s)?;
+        let b = self
+            .node
+            .service_builder(&name)
+            .publish_subscribe::<ControlMsg>();
+        if create {
+            b.max_publishers(4)
+                .max_subscribers(4)
+                .max_nodes(8)
+                .history_size(0)
+                .subscriber_max_buffer_size(BUFFER)
+                .enable_safe_overflow(false)
+                .create()
+                .map_err(|e| ipc_err(format!("creating service {name}"), e))
+        } else {
+            b.open()
+                .map_err(|e| ipc_err(format!("opening service {name}"), e))
+        }
+    }
+
+    /// Creates (orchestrator) or opens the wake-up event service of `node`.
+    pub fn wake_service(&self, node: Role, create: bool) -> Result<WakeService, RunError> {
+        let name = self.name(Service::Wake(node))?;
+        let b = self.node.service_builder(&name).event();
+        if create {
+            b.max_notifiers(8)
+                .max_listeners(2)
+                .max_nodes(8)
+                .create()
+                .map_err(|e| ipc_err(format!("creating service {name}"), e))
+        } else {
+            b.open()
+                .map_err(|e| ipc_err(format!("opening service {name}"), e))
+        }
+    }
+
+    /// This node's listener.
+    pub fn listener(&self) -> Result<Listener<Ipc>, RunError> {
+        self.wake_service(self.role, false)?
+            .listener_builder()
+            .create()
+            .map_err(|e| ipc_err("creating the wake-up listener", e))
+    }
+
+    /// Notifiers that wake the readers of `s` (all but this node).
+    pub fn wakers(&self, s: Service) -> Result<Vec<Notifier<Ipc>>, RunError> {
+        readers(s)
+            .iter()
+            .filter(|&&r| r != self.role)
+            .map(|&r| {
+                self.wake_service(r, false)?
+                    .notifier_builder()
+                    .create()
+                    .map_err(|e| ipc_err(format!("notifier for {}", r.name()), e))
+            })
+            .collect()
+    }
+
+    /// A publisher of step samples on `s` that wakes the readers.
+    pub fn outlet<T: Debug + Copy + ZeroCopySend + 'static>(
+        &self,
+        service: &StepService<T>,
+        s: Service,
+        max_len: usize,
+    ) -> Result<Outlet<T>, RunError> {
+        let publisher = service
+            .publisher_builder()
+            .initial_max_slice_len(max_len.max(1))
+            .allocation_strategy(AllocationStrategy::PowerOfTwo)
+            .create()
+            .map_err(|e| ipc_err(format!("publisher on {s:?}"), e))?;
+        Ok(Outlet {
+            publisher,
+            wake: self.wakers(s)?,
+        })
+    }
+
+    /// The control (orchestrator -> nodes) or status (nodes -> orchestrator) outlet.
+    pub fn control_outlet(
+        &self,
+        service: &ControlService,
+        s: Service,
+    ) -> Result<ControlOutlet, RunError> {
+        let publisher = service
+            .publisher_builder()
+            .create()
+            .map_err(|e| ipc_err(format!("publisher on {s:?}"), e))?;
+        Ok(ControlOutlet {
+            publisher,
+            wake: self.wakers(s)?,
+        })
+    }
+}
+
+/// A step service's port factory.
+pub type StepService<T> =
+    iceoryx2::service::port_factory::publish_subscribe::PortFactory<Ipc, [T], StepHeader>;
+/// The control or status service's port factory.
+pub type ControlService =
+    iceoryx2::service::port_factory::publish_subscribe::PortFactory<Ipc, ControlMsg, ()>;
+/// A wake-up event service's port factory.
+pub type WakeService = iceoryx2::service::port_factory::event::PortFactory<Ipc>;
+
+/// Publishes one sample per step and wakes its readers.
+pub struct Outlet<T: Debug + ZeroCopySend + 'static> {
+    publisher: Publisher<Ipc, [T], StepHeader>,
+    wake: Vec<Notifier<Ipc>>,
+}
+
+impl<T: Debug + Copy + ZeroCopySend + 'static> Outlet<T> {
+    /// Sends `items` as the sample of `header.step`.
+    pub fn send(&self, header: StepHeader, items: &[T]) -> Result<(), RunError> {
+        let mut sample = self
+            .publisher
+            .loan_slice_uninit(items.len())
+            .map_err(|e| ipc_err("loaning a sample", e))?;
+        *sample.user_header_mut() = header;
+        let sample = sample.write_from_slice(items);
+        sample.send().map_err(|e| ipc_err("sending a sample", e))?;
+        wake(&self.wake)
+    }
+}
+
+fn wake(notifiers: &[Notifier<Ipc>]) -> Result<(), RunError> {
+    for n in notifiers {
+        n.notify().map_err(|e| ipc_err("waking a reader", e))?;
+    }
+    Ok(())
+}
+
+/// Publishes control or status messages and wakes their readers.
+pub struct ControlOutlet {
+    publisher: Publisher<Ipc, ControlMsg, ()>,
+    wake: Vec<Notifier<Ipc>>,
+}
+
+impl ControlOutlet {
+    /// Sends one message.
+    pub fn send(&self, msg: ControlMsg) -> Result<(), RunError> {
+        self.publisher
+            .send_copy(msg)
+            .map_err(|e| ipc_err("sending a control message", e))?;
+        wake(&self.wake)
+    }
+}
+
+/// Receives step samples and keeps them by step until asked for.
+pub struct Inlet<T: Debug + ZeroCopySend + 'static> {
+    subscriber: Subscriber<Ipc, [T], StepHeader>,
+    pending: VecDeque<(u64, Vec<T>)>,
+}
+
+impl<T: Debug + Copy + ZeroCopySend + 'static> Inlet<T> {
+    /// A subscriber on `service`.
+    pub fn new(service: &StepService<T>) -> Result<Self, RunError> {
+        let subscriber = service
+            .subscriber_builder()
+            .create()
+            .map_err(|e| ipc_err("creating a subscriber", e))?;
+        Ok(Self {
+            subscriber,
+            pending: VecDeque::new(),
+        })
+    }
+
+    /// Moves every received sample into the buffer; returns how many arrived.
+    pub fn drain(&mut self) -> Result<usize, RunError> {
+        let mut n = 0;
+        while let Some(s) = self
+            .subscriber
+            .receive()
+            .map_err(|e| ipc_err("receiving", e))?
+        {
+            self.pending
+                .push_back((s.user_header().step, s.payload().to_vec()));
+            n += 1;
+        }
+        Ok(n)
+    }
+
+    /// Whether the sample of step `k` is buffered.
+    pub fn has(&self, k: u64) -> bool {
+        self.pending.iter().any(|(s, _)| *s == k)
+    }
+
+    /// The sample of step `k`, if it arrived; samples of earlier steps are dropped and counted
+    /// in the returned `stale` number.
+    pub fn take(&mut self, k: u64) -> Result<(Option<Vec<T>>, usize), RunError> {
+        self.drain()?;
+        let mut stale = 0;
+        while self.pending.front().is_some_and(|(s, _)| *s < k) {
+            self.pending.pop_front();
+            stale += 1;
+        }
+        match self.pending.front() {
+            Some((s, _)) if *s == k => Ok((self.pending.pop_front().map(|(_, v)| v), stale)),
+            _ => Ok((None, stale)),
+        }
+    }
+}
+
+/// Receives control or status messages.
+pub struct ControlInlet {
+    subscriber: Subscriber<Ipc, ControlMsg, ()>,
+}
+
+impl ControlInlet {
+    /// A subscriber on `service`.
+    pub fn new(service: &ControlService) -> Result<Self, RunError> {
+        Ok(Self {
+            subscriber: service
+                .subscriber_builder()
+                .create()
+                .map_err(|e| ipc_err("creating a control subscriber", e))?,
+        })
+    }
+
+    /// The next message, if any.
+    pub fn next(&self) -> Result<Option<ControlMsg>, RunError> {
+        Ok(self
+            .subscriber
+            .receive()
+            .map_err(|e| ipc_err("receiving a control message", e))?
+            .map(|s| *s.payload()))
+    }
+}
+
+/// Waits until this node is notified, or `timeout` passes.
+pub fn wait(listener: &Listener<Ipc>, timeout: Duration) -> Result<(), RunError> {
+    listener
+        .timed_wait(|_| {}, timeout)
+        .map_err(|e| ipc_err("waiting for a wake-up", e))?;
+    Ok(())
+}

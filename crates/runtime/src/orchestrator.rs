@@ -1,0 +1,396 @@
+//! The orchestrator: creates the run's services, starts the plant, controller and injector
+//! processes, waits until all are ready, records every step, and shuts everything down, on
+//! success or failure, leaving no process behind.
+use crate::ipc::{wait, ControlInlet, Endpoint, Inlet};
+use crate::nodes::states_from_wire;
+use crate::RunError;
+use platoon_control::{FollowerStep, RejectCounts};
+use platoon_sim::{step_rows, Scenario, StepRow};
+use platoon_wire::{Command, ControlMsg, Node, RxItem, Service, V2vPacket, VehicleState};
+use std::path::PathBuf;
+use std::process::{Child, Command as Process, Stdio};
+use std::time::{Duration, Instant};
+
+/// Which program gates the channel.
+#[derive(Debug, Clone, PartialEq)]
+pub enum InjectorCommand {
+    /// `platoon node injector`: the channel of `platoon-attacks`, configured by the scenario.
+    Builtin,
+    /// Any program, run with `sh -c "exec <command>"` and the `PLATOON_*` environment.
+    External(String),
+}
+
+/// How to run one co-simulation.
+#[derive(Debug, Clone)]
+pub struct Options {
+    /// Names the run's services (see [`crate::new_run_id`]).
+    pub run_id: String,
+    /// The `platoon` binary, which runs the nodes (`platoon node <role>`).
+    pub exe: PathBuf,
+    /// The resolved scenario config every node loads.
+    pub config: PathBuf,
+    /// The injector.
+    pub injector: InjectorCommand,
+    /// Where the built-in injector writes its channel log (CSV).
+    pub channel_log: Option<PathBuf>,
+    /// Where each node's stderr goes (`<dir>/<node>.log`); inherited if `None`.
+    pub log_dir: Option<PathBuf>,
+    /// How long the run waits for one step before naming the node that holds it up.
+    pub step_timeout: Duration,
+    /// How long the nodes may take to start.
+    pub ready_timeout: Duration,
+}
+
+/// What a finished run reports besides its rows.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Outcome {
+    /// Packets the controllers refused.
+    pub rejected: RejectCounts,
+}
+
+struct Children {
+    procs: Vec<(Node, Child)>,
+}
+
+impl Children {
+    /// A child that has exited, with its status.
+    fn exited(&mut self) -> Option<(Node, u32, String)> {
+        for (node, c) in &mut self.procs {
+            if let Ok(Some(status)) = c.try_wait() {
+                return Some((*node, c.id(), status.to_string()));
+            }
+        }
+        None
+    }
+
+    /// Waits up to `grace` for every child to exit, then kills what is left.
+    fn shut_down(&mut self, grace: Duration) {
+        let until = Instant::now() + grace;
+        for (_, c) in &mut self.procs {
+            while Instant::now() < until {
+                if let Ok(Some(_)) = c.try_wait() {
+                    break;
+                }
+                std::thread::sleep(Duration::from_millis(5));
+            }
+            let _ = c.kill();
+            let _ = c.wait();
+        }
+        self.procs.clear();
+    }
+}
+
+impl Drop for Children {
+    fn drop(&mut self) {
+        self.shut_down(Duration::ZERO);
+    }
+}
+
+/// The services the orchestrator creates and keeps open for the run.
+struct Services {
+    _states: crate::ipc::StepService<VehicleState>,
+    _tx: crate::ipc::StepService<V2vPacket>,
+    _rx: crate::ipc::StepService<RxItem>,
+    _commands: crate::ipc::StepService<Command>,
+    _wake: Vec<crate::ipc::WakeService>,
+}
+
+/// Runs `scenario` across processes and calls `on_step` with the rows of every step, in order.
+/// On failure every process is stopped and the error names the node and the step.
+pub fn orchestrate(
+    opts: &Options,
+    scenario: &Scenario,
+    mut on_step: impl FnMut(&[StepRow]),
+) -> Result<Outcome, RunError> {
+    let e = Endpoint::new(&opts.run_id, Node::Orchestrator)?;
+    // Create everything before any node starts, so nodes only ever open.
+    let wake = Node::ALL
+        .iter()
+        .map(|&n| e.wake_service(n, true))
+        .collect::<Result<Vec<_>, _>>()?;
+    let services = Services {
+        _states: e.create_step_service(Service::States)?,
+        _tx: e.create_step_service(Service::Tx)?,
+        _rx: e.create_step_service(Service::Rx)?,
+        _commands: e.create_step_service(Service::Commands)?,
+        _wake: wake,
+    };
+    let control_service = e.control_service(Service::Control, true)?;
+    let status_service = e.control_service(Service::Status, true)?;
+    let listener = e.listener()?;
+    let status = ControlInlet::new(&status_service)?;
+    let control = e.control_outlet(&control_service, Service::Control)?;
+    let mut states: Inlet<VehicleState> = Inlet::new(&services._states)?;
+    let mut tx: Inlet<V2vPacket> = Inlet::new(&services._tx)?;
+    let mut rx: Inlet<RxItem> = Inlet::new(&services._rx)?;
+    let mut commands: Inlet<Command> = Inlet::new(&services._commands)?;
+
+    let mut children = Children { procs: Vec::new() };
+    let result = (|| {
+        spawn_all(opts, &mut children)?;
+        let mut run = Recorder {
+            scenario,
+            step: 0,
+            last_progress: Instant::now(),
+            rows: Vec::new(),
+            jammed: vec![false; scenario.topology.followers() + 1],
+        };
+        // Startup: wait until every node is READY.
+        let mut ready = [false; 4];
+        ready[Node::Orchestrator as usize] = true;
+        let started = Instant::now();
+        while ready.iter().any(|r| !r) {
+            watch(&mut children, 0)?;
+            while let Some(m) = status.next()? {
+                check_failed(&m)?;
+                if m.kind == ControlMsg::READY {
+                    if let Some(n) = Node::from_u32(m.node) {
+                        ready[n as usize] = true;
+                    }
+                }
+            }
+            if ready.iter().all(|r| *r) {
+                break;
+            }
+            if started.elapsed() > opts.ready_timeout {
+                let late = Node::ALL
+                    .iter()
+                    .find(|n| !ready[**n as usize])
+                    .expect("one is not ready");
+                return Err(RunError::Stalled {
+                    node: late.name(),
+                    step: 0,
+                    waited_s: opts.ready_timeout.as_secs_f64(),
+                    what: "it never reported READY",
+                });
+            }
+            wait(&listener, Duration::from_millis(100))?;
+        }
+        control.send(ControlMsg::new(ControlMsg::START, Node::Orchestrator, 0))?;
+        run.last_progress = Instant::now();
+
+        // The run: record each step once its four samples are in.
+        let mut rejected = None;
+        let mut done = [false; 4];
+        done[Node::Orchestrator as usize] = true;
+        loop {
+            let mut arrived = states.drain()? + tx.drain()? + rx.drain()? + commands.drain()?;
+            while let Some(m) = status.next()? {
+                arrived += 1;
+                check_failed(&m)?;
+                if m.kind == ControlMsg::DONE {
+                    if let Some(n) = Node::from_u32(m.node) {
+                        done[n as usize] = true;
+                    }
+                    if m.node == Node::Controller as u32 {
+                        let [a, b, c, d] = m.counts;
+                        rejected = Some(RejectCounts {
+                            non_finite: a,
+                            unknown_sender: b,
+                            future_step: c,
+                            stale_seq: d,
+                        });
+                    }
+                }
+            }
+            while run.step <= scenario.steps
+                && states.has(run.step)
+                && tx.has(run.step)
+                && rx.has(run.step)
+                && commands.has(run.step)
+            {
+                let k = run.step;
+                let s = states.take(k)?.0.expect("has");
+                let t = tx.take(k)?.0.expect("has");
+                let r = rx.take(k)?.0.expect("has");
+                let c = commands.take(k)?.0.expect("has");
+                run.record(&s, &t, &r, &c)?;
+                on_step(&run.rows);
+                run.step += 1;
+                arrived += 1;
+            }
+            if run.step > scenario.steps && done.iter().all(|d| *d) {
+                break;
+            }
+            if arrived > 0 {
+                run.last_progress = Instant::now();
+            } else if run.last_progress.elapsed() > opts.step_timeout {
+                let k = run.step;
+                let (node, what) = if k > scenario.steps {
+                    let late = Node::ALL.iter().find(|n| !done[**n as usize]).expect("one");
+                    (late.name(), "it never reported DONE")
+                } else if !states.has(k) {
+                    ("plant", "states")
+                } else if !tx.has(k) {
+                    ("controller", "the tx batch")
+                } else if !rx.has(k) {
+                    ("injector", "the rx batch")
+                } else {
+                    ("controller", "commands")
+                };
+                return Err(RunError::Stalled {
+                    node,
+                    step: k,
+                    waited_s: opts.step_timeout.as_secs_f64(),
+                    what,
+                });
+            }
+            watch(&mut children, run.step)?;
+            wait(&listener, Duration::from_millis(100))?;
+        }
+        Ok(Outcome {
+            rejected: rejected.unwrap_or_default(),
+        })
+    })();
+    match &result {
+        Ok(_) => {
+            let _ = control.send(ControlMsg::new(ControlMsg::STOP, Node::Orchestrator, 0));
+            children.shut_down(Duration::from_secs(2));
+        }
+        Err(err) => {
+            let _ = control.send(
+                ControlMsg::new(ControlMsg::ABORT, Node::Orchestrator, 0)
+                    .with_reason(&err.to_string()),
+            );
+            children.shut_down(Duration::from_millis(300));
+        }
+    }
+    drop(children);
+    e.cleanup_dead_nodes();
+    result
+}
+
+fn check_failed(m: &ControlMsg) -> Result<(), RunError> {
+    if m.kind == ControlMsg::FAILED {
+        return Err(RunError::Failed {
+            node: Node::from_u32(m.node).map_or("unknown", |n| n.name()),
+            step: m.step,
+            reason: m.reason(),
+        });
+    }
+    Ok(())
+}
+
+fn watch(children: &mut Children, step: u64) -> Result<(), RunError> {
+    match children.exited() {
+        Some((node, pid, status)) => Err(RunError::Died {
+            node: node.name(),
+            pid,
+            step,
+            status,
+        }),
+        None => Ok(()),
+    }
+}
+
+fn spawn_all(opts: &Options, children: &mut Children) -> Result<(), RunError> {
+    for node in [Node::Plant, Node::Controller, Node::Injector] {
+        let mut cmd;
+        let shown;
+        if node == Node::Injector {
+            if let InjectorCommand::External(line) = &opts.injector {
+                cmd = Process::new("sh");
+                cmd.arg("-c").arg(format!("exec {line}"));
+                shown = line.clone();
+            } else {
+                cmd = node_command(opts, node);
+                if let Some(log) = &opts.channel_log {
+                    cmd.arg("--log").arg(log);
+                }
+                shown = format!("{} node injector", opts.exe.display());
+            }
+        } else {
+            cmd = node_command(opts, node);
+            shown = format!("{} node {}", opts.exe.display(), node.name());
+        }
+        cmd.env("PLATOON_RUN_ID", &opts.run_id)
+            .env("PLATOON_CONFIG", &opts.config)
+            .stdin(Stdio::null());
+        if let Some(dir) = &opts.log_dir {
+            let file = std::fs::File::create(dir.join(format!("{}.log", node.name()))).map_err(
+                |source| RunError::Spawn {
+                    node: node.name(),
+                    command: shown.clone(),
+                    source,
+                },
+            )?;
+            let out = file.try_clone().map_err(|source| RunError::Spawn {
+                node: node.name(),
+                command: shown.clone(),
+                source,
+            })?;
+            cmd.stdout(out).stderr(file);
+        }
+        let child = cmd.spawn().map_err(|source| RunError::Spawn {
+            node: node.name(),
+            command: shown,
+            source,
+        })?;
+        children.procs.push((node, child));
+    }
+    Ok(())
+}
+
+fn node_command(opts: &Options, node: Node) -> Process {
+    let mut cmd = Process::new(&opts.exe);
+    cmd.arg("node")
+        .arg(node.name())
+        .arg("--run-id")
+        .arg(&opts.run_id)
+        .arg("--config")
+        .arg(&opts.config);
+    cmd
+}
+
+/// Turns the four samples of a step into rows, the way the in-process runner does.
+struct Recorder<'a> {
+    scenario: &'a Scenario,
+    step: u64,
+    last_progress: Instant,
+    rows: Vec<StepRow>,
+    jammed: Vec<bool>,
+}
+
+impl Recorder<'_> {
+    fn record(
+        &mut self,
+        s: &[VehicleState],
+        t: &[V2vPacket],
+        r: &[RxItem],
+        c: &[Command],
+    ) -> Result<(), RunError> {
+        let n = self.scenario.topology.followers();
+        let states = states_from_wire(s, n + 1)?;
+        self.jammed.fill(false);
+        for it in r.iter().filter(|it| it.kind == RxItem::JAMMED) {
+            if let Some(j) = self.jammed.get_mut(it.receiver as usize) {
+                *j = true;
+            }
+        }
+        if c.len() != n {
+            return Err(RunError::Contract {
+                node: "controller",
+                message: format!("{} commands for {n} followers", c.len()),
+            });
+        }
+        let leader_triggered = t.first().is_some_and(|p| p.sender == 0);
+        step_rows(
+            self.step,
+            self.scenario,
+            &states,
+            leader_triggered,
+            &self.jammed,
+            |i| {
+                let cmd = c[i - 1];
+                FollowerStep {
+                    triggered: cmd.flags & Command::TRIGGERED != 0,
+                    affected: cmd.flags & Command::AFFECTED != 0,
+                    u: cmd.u,
+                    theta: cmd.theta,
+                }
+            },
+            &mut self.rows,
+        );
+        Ok(())
+    }
+}
