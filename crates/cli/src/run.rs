@@ -98,9 +98,9 @@ pub fn run(args: Args) -> Result<()> {
     let path = dir.commit()?;
     if let Some(e) = failure {
         eprintln!(
-            "the run stopped at step {} of {}; what it produced is in {} (summary.json says complete: false)",
+            "the run stopped after {} of {} steps; what it recorded is in {} (summary.json says complete: false)",
             summary.steps,
-            scenario.steps,
+            scenario.steps + 1,
             path.display()
         );
         return Err(e.into());

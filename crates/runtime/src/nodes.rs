@@ -9,7 +9,7 @@ use platoon_control::{Delivery, Packet, PlatoonController};
 use platoon_model::{State, VehicleId};
 use platoon_sim::{Plant, Scenario};
 use platoon_wire::{
-    Command, ControlMsg, Node, RxItem, Service, StepHeader, V2vPacket, VehicleState,
+    Command, ControlMsg, LinkPacket, Node, Service, StepHeader, V2vPacket, VehicleState,
 };
 use std::path::Path;
 use std::time::Duration;
@@ -208,9 +208,12 @@ pub fn controller(run_id: &str, scenario: &Scenario) -> Result<(), RunError> {
         let n = scenario.topology.followers();
         let mut states_in: Inlet<VehicleState> =
             Inlet::new(&e.open_step_service(Service::States)?)?;
-        let mut rx_in: Inlet<RxItem> = Inlet::new(&e.open_step_service(Service::Rx)?)?;
-        let tx_out: Outlet<V2vPacket> =
-            e.outlet(&e.open_step_service(Service::Tx)?, Service::Tx, n + 1)?;
+        let mut rx_in: Inlet<LinkPacket> = Inlet::new(&e.open_step_service(Service::Rx)?)?;
+        let links: usize = (0..=n)
+            .map(|v| scenario.topology.out_neighbours(VehicleId(v as u16)).len())
+            .sum();
+        let tx_out: Outlet<LinkPacket> =
+            e.outlet(&e.open_step_service(Service::Tx)?, Service::Tx, links)?;
         let cmd_out: Outlet<Command> = e.outlet(
             &e.open_step_service(Service::Commands)?,
             Service::Commands,
@@ -241,7 +244,16 @@ pub fn controller(run_id: &str, scenario: &Scenario) -> Result<(), RunError> {
                     controller.transmit(*k, &s, &mut tx);
                     wire_tx.clear();
                     let stamp = monotonic_ns();
-                    wire_tx.extend(tx.iter().map(|p| packet_to_wire(p, stamp)));
+                    for p in &tx {
+                        let packet = packet_to_wire(p, stamp);
+                        wire_tx.extend(scenario.topology.out_neighbours(p.sender).iter().map(
+                            |r| LinkPacket {
+                                receiver: u32::from(r.0),
+                                kind: LinkPacket::DELIVERY,
+                                packet,
+                            },
+                        ));
+                    }
                     tx_out.send(header(*k, scenario.dt()), &wire_tx)?;
                     states = Some(s);
                 }
@@ -252,7 +264,7 @@ pub fn controller(run_id: &str, scenario: &Scenario) -> Result<(), RunError> {
                     jammed.fill(false);
                     for it in &items {
                         match it.kind {
-                            RxItem::JAMMED => {
+                            LinkPacket::JAMMED => {
                                 if let Some(j) = jammed.get_mut(it.receiver as usize) {
                                     *j = true;
                                 }
@@ -327,7 +339,7 @@ pub fn packet_from_wire(p: &V2vPacket) -> Packet {
     }
 }
 
-fn delivery_from_wire(it: &RxItem) -> Delivery {
+fn delivery_from_wire(it: &LinkPacket) -> Delivery {
     Delivery {
         receiver: VehicleId(u16::try_from(it.receiver).unwrap_or(u16::MAX)),
         packet: packet_from_wire(&it.packet),
@@ -342,8 +354,8 @@ pub fn injector(run_id: &str, scenario: &Scenario, log: Option<&Path>) -> Result
         let n = scenario.topology.followers();
         let mut states_in: Inlet<VehicleState> =
             Inlet::new(&e.open_step_service(Service::States)?)?;
-        let mut tx_in: Inlet<V2vPacket> = Inlet::new(&e.open_step_service(Service::Tx)?)?;
-        let rx_out: Outlet<RxItem> =
+        let mut tx_in: Inlet<LinkPacket> = Inlet::new(&e.open_step_service(Service::Tx)?)?;
+        let rx_out: Outlet<LinkPacket> =
             e.outlet(&e.open_step_service(Service::Rx)?, Service::Rx, 4 * (n + 1))?;
         let mut writer = match log {
             Some(p) => Some(csv::Writer::from_path(p).map_err(|e| {
@@ -370,7 +382,17 @@ pub fn injector(run_id: &str, scenario: &Scenario, log: Option<&Path>) -> Result
             }
             if let Some(s) = &states {
                 if let (Some(tx), _) = tx_in.take(*k)? {
-                    let tx: Vec<Packet> = tx.iter().map(packet_from_wire).collect();
+                    // One item per link: the broadcasts are the runs of equal (sender, seq).
+                    let mut packets: Vec<Packet> = Vec::new();
+                    for it in &tx {
+                        let p = packet_from_wire(&it.packet);
+                        if packets
+                            .last()
+                            .is_none_or(|l| (l.sender, l.seq) != (p.sender, p.seq))
+                        {
+                            packets.push(p);
+                        }
+                    }
                     deliveries.clear();
                     events.clear();
                     channel.gate(
@@ -378,21 +400,21 @@ pub fn injector(run_id: &str, scenario: &Scenario, log: Option<&Path>) -> Result
                         *k as f64 * scenario.dt(),
                         &scenario.topology,
                         s,
-                        &tx,
+                        &packets,
                         &mut deliveries,
                         &mut jammed,
                         &mut events,
                     );
                     items.clear();
-                    items.extend(deliveries.iter().map(|d| RxItem {
+                    items.extend(deliveries.iter().map(|d| LinkPacket {
                         receiver: u32::from(d.receiver.0),
-                        kind: RxItem::DELIVERY,
+                        kind: LinkPacket::DELIVERY,
                         packet: packet_to_wire(&d.packet, monotonic_ns()),
                     }));
                     items.extend(jammed.iter().enumerate().filter(|(_, &j)| j).map(|(v, _)| {
-                        RxItem {
+                        LinkPacket {
                             receiver: v as u32,
-                            kind: RxItem::JAMMED,
+                            kind: LinkPacket::JAMMED,
                             packet: V2vPacket::default(),
                         }
                     }));

@@ -6,7 +6,7 @@ use crate::nodes::states_from_wire;
 use crate::RunError;
 use platoon_control::{FollowerStep, RejectCounts};
 use platoon_sim::{step_rows, Scenario, StepRow};
-use platoon_wire::{Command, ControlMsg, Node, RxItem, Service, V2vPacket, VehicleState};
+use platoon_wire::{Command, ControlMsg, LinkPacket, Node, Service, VehicleState};
 use std::path::PathBuf;
 use std::process::{Child, Command as Process, Stdio};
 use std::time::{Duration, Instant};
@@ -89,8 +89,8 @@ impl Drop for Children {
 /// The services the orchestrator creates and keeps open for the run.
 struct Services {
     _states: crate::ipc::StepService<VehicleState>,
-    _tx: crate::ipc::StepService<V2vPacket>,
-    _rx: crate::ipc::StepService<RxItem>,
+    _tx: crate::ipc::StepService<LinkPacket>,
+    _rx: crate::ipc::StepService<LinkPacket>,
     _commands: crate::ipc::StepService<Command>,
     _wake: Vec<crate::ipc::WakeService>,
 }
@@ -121,8 +121,8 @@ pub fn orchestrate(
     let status = ControlInlet::new(&status_service)?;
     let control = e.control_outlet(&control_service, Service::Control)?;
     let mut states: Inlet<VehicleState> = Inlet::new(&services._states)?;
-    let mut tx: Inlet<V2vPacket> = Inlet::new(&services._tx)?;
-    let mut rx: Inlet<RxItem> = Inlet::new(&services._rx)?;
+    let mut tx: Inlet<LinkPacket> = Inlet::new(&services._tx)?;
+    let mut rx: Inlet<LinkPacket> = Inlet::new(&services._rx)?;
     let mut commands: Inlet<Command> = Inlet::new(&services._commands)?;
 
     let mut children = Children { procs: Vec::new() };
@@ -171,8 +171,11 @@ pub fn orchestrate(
 
         // The run: record each step once its four samples are in.
         let mut rejected = None;
+        // Plant and controller report DONE (the controller with its reject counts); an injector
+        // only has to publish every step, so a third-party one need not know about DONE.
         let mut done = [false; 4];
         done[Node::Orchestrator as usize] = true;
+        done[Node::Injector as usize] = true;
         loop {
             let mut arrived = states.drain()? + tx.drain()? + rx.drain()? + commands.drain()?;
             while let Some(m) = status.next()? {
@@ -355,14 +358,14 @@ impl Recorder<'_> {
     fn record(
         &mut self,
         s: &[VehicleState],
-        t: &[V2vPacket],
-        r: &[RxItem],
+        t: &[LinkPacket],
+        r: &[LinkPacket],
         c: &[Command],
     ) -> Result<(), RunError> {
         let n = self.scenario.topology.followers();
         let states = states_from_wire(s, n + 1)?;
         self.jammed.fill(false);
-        for it in r.iter().filter(|it| it.kind == RxItem::JAMMED) {
+        for it in r.iter().filter(|it| it.kind == LinkPacket::JAMMED) {
             if let Some(j) = self.jammed.get_mut(it.receiver as usize) {
                 *j = true;
             }
@@ -373,7 +376,7 @@ impl Recorder<'_> {
                 message: format!("{} commands for {n} followers", c.len()),
             });
         }
-        let leader_triggered = t.first().is_some_and(|p| p.sender == 0);
+        let leader_triggered = t.first().is_some_and(|p| p.packet.sender == 0);
         step_rows(
             self.step,
             self.scenario,

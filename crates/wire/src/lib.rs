@@ -38,7 +38,7 @@ pub struct VehicleState {
     pub a: f64,
 }
 
-/// A V2V broadcast (controller -> injector, and inside [`RxItem`]).
+/// A V2V broadcast (controller -> injector, and inside [`LinkPacket`]).
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
 #[type_name("platoon::V2vPacket")]
 #[repr(C)]
@@ -55,20 +55,22 @@ pub struct V2vPacket {
     pub state: [f64; 3],
 }
 
-/// One item of a receive batch (injector -> controller).
+/// A packet on one link (sender -> receiver): the items of the tx batch (controller ->
+/// injector: one per out-neighbour of each broadcast) and of the rx batch (injector ->
+/// controller: what each receiver gets, plus `JAMMED` notices).
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
-#[type_name("platoon::RxItem")]
+#[type_name("platoon::LinkPacket")]
 #[repr(C)]
-pub struct RxItem {
-    /// The receiving vehicle.
+pub struct LinkPacket {
+    /// The receiving vehicle (for `JAMMED`: the vehicle that sensed jamming).
     pub receiver: u32,
-    /// [`RxItem::DELIVERY`] or [`RxItem::JAMMED`].
+    /// [`LinkPacket::DELIVERY`] or [`LinkPacket::JAMMED`].
     pub kind: u32,
     /// The packet as received (ignored for `JAMMED`).
     pub packet: V2vPacket,
 }
 
-impl RxItem {
+impl LinkPacket {
     /// `packet` reached `receiver`.
     pub const DELIVERY: u32 = 0;
     /// `receiver` sensed its channel jammed in this step (the resilient mechanism needs it).
@@ -201,9 +203,10 @@ impl Node {
 pub enum Service {
     /// `[VehicleState]`, plant -> controller, injector, orchestrator; one sample per step.
     States,
-    /// `[V2vPacket]`, controller -> injector, orchestrator: the packets broadcast at a step.
+    /// `[LinkPacket]`, controller -> injector, orchestrator: the packets broadcast at a step, one
+    /// item per link (sender -> each out-neighbour), in broadcast order.
     Tx,
-    /// `[RxItem]`, injector -> controller, orchestrator: what each receiver gets at a step
+    /// `[LinkPacket]`, injector -> controller, orchestrator: what each receiver gets at a step
     /// (published every step, empty if everything was dropped).
     Rx,
     /// `[Command]`, controller -> plant, orchestrator.
@@ -282,7 +285,7 @@ pub fn layouts() -> Vec<Layout> {
             "platoon::V2vPacket",
             [sender, seq, step, stamp_ns, state]
         ),
-        layout!(RxItem, "platoon::RxItem", [receiver, kind, packet]),
+        layout!(LinkPacket, "platoon::LinkPacket", [receiver, kind, packet]),
         layout!(Command, "platoon::Command", [vehicle, flags, u, theta]),
         layout!(
             ControlMsg,
@@ -336,7 +339,7 @@ mod tests {
             unsafe { StepHeader::type_name() },
             unsafe { VehicleState::type_name() },
             unsafe { V2vPacket::type_name() },
-            unsafe { RxItem::type_name() },
+            unsafe { LinkPacket::type_name() },
             unsafe { Command::type_name() },
             unsafe { ControlMsg::type_name() },
         ]) {

@@ -1,0 +1,258 @@
+"""Python mirror of the platoon wire contract (crates/wire): payload types, service names, and
+the helpers an injector (or any other node) needs to take part in an iceoryx2 run.
+
+Every type mirrors its Rust `#[repr(C)]` twin; `tests/test_layout.py` checks size, alignment and
+every field offset against `wire_layout.json`, which a Rust test checks against the Rust types.
+See docs/injector-contract.md for the protocol.
+"""
+
+import ctypes
+import os
+
+import iceoryx2 as iox
+
+
+class StepHeader(ctypes.Structure):
+    """User header of every step sample."""
+
+    _fields_ = [("step", ctypes.c_uint64), ("time_s", ctypes.c_double)]
+
+    @staticmethod
+    def type_name() -> str:
+        return "platoon::StepHeader"
+
+
+class VehicleState(ctypes.Structure):
+    """A vehicle's true state at a step (plant -> controller, injector, orchestrator)."""
+
+    _fields_ = [
+        ("vehicle", ctypes.c_uint32),
+        ("flags", ctypes.c_uint32),
+        ("p", ctypes.c_double),
+        ("v", ctypes.c_double),
+        ("a", ctypes.c_double),
+    ]
+
+    @staticmethod
+    def type_name() -> str:
+        return "platoon::VehicleState"
+
+
+class V2vPacket(ctypes.Structure):
+    """A V2V broadcast: sender, sequence number, sampling step, send time stamp, state."""
+
+    _fields_ = [
+        ("sender", ctypes.c_uint32),
+        ("seq", ctypes.c_uint32),
+        ("step", ctypes.c_uint64),
+        ("stamp_ns", ctypes.c_uint64),
+        ("state", ctypes.c_double * 3),
+    ]
+
+    @staticmethod
+    def type_name() -> str:
+        return "platoon::V2vPacket"
+
+
+class LinkPacket(ctypes.Structure):
+    """A packet on one link (tx and rx batches); kind JAMMED tells the receiver it was jammed."""
+
+    DELIVERY = 0
+    JAMMED = 1
+
+    _fields_ = [
+        ("receiver", ctypes.c_uint32),
+        ("kind", ctypes.c_uint32),
+        ("packet", V2vPacket),
+    ]
+
+    @staticmethod
+    def type_name() -> str:
+        return "platoon::LinkPacket"
+
+
+class Command(ctypes.Structure):
+    """A follower's command and what its controller did (controller -> plant, orchestrator)."""
+
+    TRIGGERED = 1
+    AFFECTED = 2
+
+    _fields_ = [
+        ("vehicle", ctypes.c_uint32),
+        ("flags", ctypes.c_uint32),
+        ("u", ctypes.c_double),
+        ("theta", ctypes.c_double),
+    ]
+
+    @staticmethod
+    def type_name() -> str:
+        return "platoon::Command"
+
+
+class ControlMsg(ctypes.Structure):
+    """Control (orchestrator -> nodes) and status (nodes -> orchestrator) messages."""
+
+    START, STOP, ABORT = 1, 2, 3
+    READY, DONE, FAILED = 10, 11, 12
+
+    _fields_ = [
+        ("kind", ctypes.c_uint32),
+        ("node", ctypes.c_uint32),
+        ("step", ctypes.c_uint64),
+        ("counts", ctypes.c_uint64 * 4),
+        ("reason", ctypes.c_uint8 * 120),
+    ]
+
+    @staticmethod
+    def type_name() -> str:
+        return "platoon::ControlMsg"
+
+
+ALL_TYPES = [StepHeader, VehicleState, V2vPacket, LinkPacket, Command, ControlMsg]
+
+NODES = {"orchestrator": 0, "plant": 1, "controller": 2, "injector": 3}
+
+# Who reads each step service; a publisher notifies their wake services after every sample.
+READERS = {
+    "states": ["controller", "injector", "orchestrator"],
+    "tx": ["injector", "orchestrator"],
+    "rx": ["controller", "orchestrator"],
+    "commands": ["plant", "orchestrator"],
+    "control": ["plant", "controller", "injector"],
+    "status": ["orchestrator"],
+}
+
+
+def service_name(run_id: str, service: str) -> str:
+    """The iceoryx2 service name (crates/wire `service_name`): platoon/<run id>/<service>."""
+    return f"platoon/{run_id}/{service}"
+
+
+def wake_name(run_id: str, node: str) -> str:
+    """The event service that wakes `node`."""
+    return f"platoon/{run_id}/wake/{node}"
+
+
+class Endpoint:
+    """One node of a run: opens (never creates) the services the orchestrator made."""
+
+    def __init__(self, role: str, run_id: str | None = None):
+        iox.set_log_level_from_env_or(iox.LogLevel.Error)
+        self.role = role
+        self.run_id = run_id or os.environ["PLATOON_RUN_ID"]
+        self.node = (
+            iox.NodeBuilder.new()
+            .name(iox.NodeName.new(f"platoon-{role}-py-{self.run_id}"))
+            .signal_handling_mode(iox.SignalHandlingMode.Disabled)
+            .create(iox.ServiceType.Ipc)
+        )
+        self.parent = os.getppid()
+        self.listener = self._event(role).listener_builder().create()
+
+    def _event(self, node: str):
+        return (
+            self.node.service_builder(iox.ServiceName.new(wake_name(self.run_id, node)))
+            .event()
+            .open()
+        )
+
+    def _wakers(self, service: str):
+        return [
+            self._event(n).notifier_builder().create()
+            for n in READERS[service]
+            if n != self.role
+        ]
+
+    def _step_service(self, service: str, item):
+        return (
+            self.node.service_builder(iox.ServiceName.new(service_name(self.run_id, service)))
+            .publish_subscribe(iox.Slice[item])
+            .user_header(StepHeader)
+            .open()
+        )
+
+    def inlet(self, service: str, item) -> "Inlet":
+        return Inlet(self._step_service(service, item).subscriber_builder().create())
+
+    def outlet(self, service: str, item, max_len: int) -> "Outlet":
+        pub = (
+            self._step_service(service, item)
+            .publisher_builder()
+            .initial_max_slice_len(max(1, max_len))
+            .allocation_strategy(iox.AllocationStrategy.PowerOfTwo)
+            .create()
+        )
+        return Outlet(pub, self._wakers(service))
+
+    def control_inlet(self):
+        svc = (
+            self.node.service_builder(iox.ServiceName.new(service_name(self.run_id, "control")))
+            .publish_subscribe(ControlMsg)
+            .open()
+        )
+        return svc.subscriber_builder().create()
+
+    def status_outlet(self):
+        svc = (
+            self.node.service_builder(iox.ServiceName.new(service_name(self.run_id, "status")))
+            .publish_subscribe(ControlMsg)
+            .open()
+        )
+        return svc.publisher_builder().create(), self._wakers("status")
+
+    def wait(self, timeout_ms: int = 200) -> None:
+        """Blocks until notified or the timeout; exits if the orchestrator is gone."""
+        self.listener.timed_wait(iox.Duration.from_millis(timeout_ms))
+        if os.getppid() != self.parent:
+            raise SystemExit("platoon: the orchestrator is gone")
+
+
+class Inlet:
+    """Buffers step samples by step (copies the items out of shared memory)."""
+
+    def __init__(self, subscriber):
+        self.subscriber = subscriber
+        self.pending = {}
+
+    def take(self, step: int):
+        while True:
+            sample = self.subscriber.receive()
+            if sample is None:
+                break
+            k = sample.user_header().contents.step
+            items = sample.payload()
+            self.pending[k] = [type(items[i]).from_buffer_copy(items[i]) for i in range(items.len())]
+        for old in [s for s in self.pending if s < step]:
+            del self.pending[old]
+        return self.pending.pop(step, None)
+
+
+class Outlet:
+    """Publishes one sample per step and wakes its readers."""
+
+    def __init__(self, publisher, wakers):
+        self.publisher = publisher
+        self.wakers = wakers
+
+    def send(self, step: int, time_s: float, items) -> None:
+        sample = self.publisher.loan_slice_uninit(len(items))
+        header = sample.user_header().contents
+        header.step = step
+        header.time_s = time_s
+        payload = sample.payload()
+        for i, item in enumerate(items):
+            payload[i] = item
+        sample.assume_init().send()
+        for w in self.wakers:
+            w.notify()
+
+
+def send_status(outlet, kind: int, node: str, step: int = 0) -> None:
+    publisher, wakers = outlet
+    msg = ControlMsg()
+    msg.kind = kind
+    msg.node = NODES[node]
+    msg.step = step
+    publisher.send_copy(msg)
+    for w in wakers:
+        w.notify()

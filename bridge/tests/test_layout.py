@@ -1,0 +1,33 @@
+"""The Python payload mirrors have the Rust layout: size, alignment and every field offset, as
+`wire_layout.json` records them (a Rust test checks that file against the Rust types)."""
+
+import ctypes
+import json
+import os
+import sys
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.join(HERE, ".."))
+
+import platoon_wire as w  # noqa: E402
+
+with open(os.path.join(HERE, "..", "wire_layout.json")) as f:
+    RUST = json.load(f)
+
+
+def test_every_rust_type_has_a_mirror():
+    assert sorted(RUST) == sorted(t.type_name() for t in w.ALL_TYPES)
+
+
+def test_size_alignment_and_offsets_match():
+    for t in w.ALL_TYPES:
+        r = RUST[t.type_name()]
+        assert ctypes.sizeof(t) == r["size"], t.type_name()
+        assert ctypes.alignment(t) == r["align"], t.type_name()
+        fields = [(name, getattr(t, name).offset) for name, _ in t._fields_]
+        assert fields == [tuple(f) for f in r["fields"]], t.type_name()
+
+
+def test_service_names_match_the_rust_function():
+    assert w.service_name("r1", "tx") == "platoon/r1/tx"
+    assert w.wake_name("r1", "injector") == "platoon/r1/wake/injector"
