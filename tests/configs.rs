@@ -168,3 +168,54 @@ fn random_attack_needs_bounds_and_satisfies_them() {
     let e = parse(&without, Path::new("bad.toml")).unwrap_err();
     assert_eq!(e.key, "attack.assumption2");
 }
+
+fn paper_plus(extra: &str) -> Result<(), ConfigError> {
+    let text = format!("{}\n{extra}", platoon_config::PAPER_TOML);
+    parse(&text, Path::new("bad.toml")).map(|_| ())
+}
+
+#[test]
+fn link_attacks_are_checked_with_their_index_and_key() {
+    assert_error(
+        paper_plus("[[channel.attacks]]\nkind = \"teleport\"\n"),
+        "channel.attacks[0].kind",
+        "unknown kind",
+    );
+    assert_error(
+        paper_plus("[[channel.attacks]]\nkind = \"bernoulli\"\nloss = 1.5\n"),
+        "channel.attacks[0].loss",
+        "probability",
+    );
+    assert_error(
+        paper_plus("[[channel.attacks]]\nkind = \"bernoulli\"\nloss = 0.1\nlag_s = 1.0\n"),
+        "channel.attacks[0].lag_s",
+        "not used with kind",
+    );
+    assert_error(
+        paper_plus(
+            "[[channel.attacks]]\nkind = \"delay\"\ndelay_s = 0.1\n\
+             [[channel.attacks]]\nkind = \"replay\"\nlag_s = 0.015\n",
+        ),
+        "channel.attacks[1].lag_s",
+        "whole number of steps",
+    );
+    assert_error(
+        paper_plus(
+            "[[channel.attacks]]\nkind = \"false_data\"\noffset = [1.0, 0.0, 0.0]\nsenders = [9]\n",
+        ),
+        "channel.attacks[0].senders",
+        "does not exist",
+    );
+    assert_error(
+        paper_plus("[[channel.attacks]]\nkind = \"range_jamming\"\nposition_m = 0.0\n"),
+        "channel.attacks[0].radius_m",
+        "required",
+    );
+    assert_error(
+        paper_plus(
+            "[[channel.attacks]]\nkind = \"bernoulli\"\nloss = 0.1\nstart_s = 5.0\nend_s = 2.0\n",
+        ),
+        "channel.attacks[0].end_s",
+        "after start_s",
+    );
+}

@@ -354,3 +354,201 @@ fn event(
         detail,
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use platoon_topology::Preset;
+
+    fn pf(n: usize) -> Topology {
+        Topology::preset(Preset::Pf, n).unwrap()
+    }
+
+    fn packet(sender: u16, seq: u32, step: u64) -> Packet {
+        Packet {
+            sender: VehicleId(sender),
+            seq,
+            step,
+            state: State::new(f64::from(sender), 1.0, 0.0),
+        }
+    }
+
+    struct Out {
+        deliveries: Vec<Delivery>,
+        jammed: Vec<bool>,
+        log: Vec<ChannelEvent>,
+    }
+
+    fn gate(c: &mut Channel, k: u64, tx: &[Packet], states: &[State]) -> Out {
+        let mut o = Out {
+            deliveries: Vec::new(),
+            jammed: vec![false; states.len()],
+            log: Vec::new(),
+        };
+        let topology = pf(states.len() - 1);
+        c.gate(
+            k,
+            k as f64 * 0.01,
+            &topology,
+            states,
+            tx,
+            &mut o.deliveries,
+            &mut o.jammed,
+            &mut o.log,
+        );
+        o
+    }
+
+    fn states(n: usize) -> Vec<State> {
+        (0..=n)
+            .map(|i| State::new(-10.0 * i as f64, 15.0, 0.0))
+            .collect()
+    }
+
+    fn channel(attacks: Vec<LinkAttack>) -> Channel {
+        Channel::new(
+            ChannelSpec {
+                dos: DosSchedule::none(),
+                attacks,
+                seed: 1,
+            },
+            4,
+        )
+    }
+
+    #[test]
+    fn without_attacks_every_packet_reaches_every_out_neighbour() {
+        let mut c = channel(vec![]);
+        let o = gate(&mut c, 0, &[packet(0, 1, 0), packet(1, 1, 0)], &states(3));
+        let got: Vec<(u16, u16)> = o
+            .deliveries
+            .iter()
+            .map(|d| (d.packet.sender.0, d.receiver.0))
+            .collect();
+        assert_eq!(got, vec![(0, 1), (1, 2)]);
+        assert!(o.log.is_empty() && o.jammed.iter().all(|j| !j));
+    }
+
+    #[test]
+    fn dos_drops_everything_and_every_vehicle_senses_it() {
+        let mut c = Channel::new(
+            ChannelSpec {
+                dos: DosSchedule::from_intervals(&[(0.0, 1.0)]).unwrap(),
+                ..ChannelSpec::default()
+            },
+            4,
+        );
+        let o = gate(&mut c, 5, &[packet(0, 1, 5)], &states(3));
+        assert!(o.deliveries.is_empty());
+        assert!(o.jammed.iter().all(|j| *j));
+        assert_eq!(o.log[0].action, Action::DroppedDos);
+    }
+
+    #[test]
+    fn bernoulli_loss_is_seeded_and_has_its_rate() {
+        let run = || {
+            let mut c = channel(vec![LinkAttack::everywhere(LinkAttackKind::Bernoulli {
+                loss: 0.3,
+            })]);
+            (0..2000)
+                .map(|k| {
+                    gate(&mut c, k, &[packet(1, k as u32 + 1, k)], &states(3))
+                        .deliveries
+                        .len()
+                })
+                .collect::<Vec<_>>()
+        };
+        let a = run();
+        assert_eq!(a, run(), "the same seed gives the same losses");
+        let rate = 1.0 - a.iter().sum::<usize>() as f64 / 2000.0;
+        assert!((rate - 0.3).abs() < 0.04, "loss rate {rate}");
+    }
+
+    #[test]
+    fn gilbert_elliott_loses_in_bursts() {
+        let mut c = channel(vec![LinkAttack::everywhere(
+            LinkAttackKind::GilbertElliott {
+                p_good_bad: 0.05,
+                p_bad_good: 0.2,
+                loss_good: 0.0,
+                loss_bad: 1.0,
+            },
+        )]);
+        let lost: Vec<bool> = (0..5000)
+            .map(|k| {
+                gate(&mut c, k, &[packet(1, k as u32 + 1, k)], &states(3))
+                    .deliveries
+                    .is_empty()
+            })
+            .collect();
+        let losses = lost.iter().filter(|l| **l).count();
+        let bursts = lost.windows(2).filter(|w| !w[0] && w[1]).count();
+        // Stationary bad share 0.05 / 0.25 = 0.2, mean burst 1 / 0.2 = 5 packets.
+        let share = losses as f64 / 5000.0;
+        assert!((share - 0.2).abs() < 0.05, "loss share {share}");
+        assert!(losses as f64 / bursts as f64 > 3.0, "losses come in bursts");
+    }
+
+    #[test]
+    fn delayed_packets_arrive_exactly_late() {
+        let mut c = channel(vec![LinkAttack::everywhere(LinkAttackKind::Delay {
+            steps: 3,
+        })]);
+        assert!(gate(&mut c, 0, &[packet(1, 1, 0)], &states(3))
+            .deliveries
+            .is_empty());
+        assert!(gate(&mut c, 2, &[], &states(3)).deliveries.is_empty());
+        let o = gate(&mut c, 3, &[], &states(3));
+        assert_eq!(o.deliveries.len(), 1);
+        assert_eq!(o.deliveries[0].packet.step, 0);
+        assert_eq!(o.log[0].action, Action::DeliveredLate);
+    }
+
+    #[test]
+    fn replay_sends_the_old_packet_with_its_old_sequence_number() {
+        let mut a = LinkAttack::everywhere(LinkAttackKind::Replay { lag_steps: 10 });
+        a.start_s = 0.15;
+        let mut c = channel(vec![a]);
+        gate(&mut c, 0, &[packet(1, 1, 0)], &states(3));
+        gate(&mut c, 5, &[packet(1, 2, 5)], &states(3));
+        let o = gate(&mut c, 16, &[packet(1, 3, 16)], &states(3));
+        assert_eq!(
+            o.deliveries[0].packet.seq, 2,
+            "the packet of step 5 <= 16 - 10"
+        );
+        assert_eq!(o.log[0].action, Action::Replayed);
+        assert_eq!(o.log[0].detail, Some(5));
+    }
+
+    #[test]
+    fn false_data_offsets_only_the_targeted_sender() {
+        let mut a = LinkAttack::everywhere(LinkAttackKind::FalseData {
+            offset: [2.0, 0.0, 0.0],
+        });
+        a.senders = vec![VehicleId(1)];
+        let mut c = channel(vec![a]);
+        let o = gate(&mut c, 0, &[packet(0, 1, 0), packet(1, 1, 0)], &states(3));
+        assert_eq!(o.deliveries[0].packet.state[0], 0.0);
+        assert_eq!(o.deliveries[1].packet.state[0], 3.0);
+    }
+
+    #[test]
+    fn a_range_jammer_silences_the_vehicles_within_its_radius() {
+        let mut c = channel(vec![LinkAttack::everywhere(LinkAttackKind::RangeJamming {
+            position_m: -10.0,
+            speed_mps: 0.0,
+            radius_m: 5.0,
+        })]);
+        // Vehicle 1 sits at -10 m: it neither sends nor receives; 2 -> 3 still works.
+        let tx = [packet(0, 1, 0), packet(1, 1, 0), packet(2, 1, 0)];
+        let o = gate(&mut c, 0, &tx, &states(3));
+        assert_eq!(o.jammed, vec![false, true, false, false]);
+        let got: Vec<(u16, u16)> = o
+            .deliveries
+            .iter()
+            .map(|d| (d.packet.sender.0, d.receiver.0))
+            .collect();
+        assert_eq!(got, vec![(2, 3)]);
+        assert_eq!(o.log.len(), 2);
+    }
+}

@@ -204,7 +204,8 @@ fn cosimulate(
     let opts = platoon_runtime::Options {
         run_id: platoon_runtime::new_run_id(),
         exe: std::env::current_exe().context("locating the platoon binary")?,
-        config: dir.path("config.toml"),
+        config: std::path::absolute(dir.path("config.toml"))
+            .context("resolving the run directory")?,
         channel_log: (injector == platoon_runtime::InjectorCommand::Builtin)
             .then(|| dir.path("channel.csv")),
         injector,

@@ -1,0 +1,402 @@
+//! The iceoryx2 co-simulation end to end: it matches the in-process oracle bit for bit, a
+//! Python injector can take the built-in one's place, and a dead or silent process stops the run
+//! with its name, keeps what was recorded, and leaves nothing running.
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../..")
+        .canonicalize()
+        .unwrap()
+}
+
+fn platoon(args: &[&str], cwd: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_platoon"))
+        .args(args)
+        .current_dir(cwd)
+        .output()
+        .unwrap()
+}
+
+fn ok(o: &Output) {
+    assert!(
+        o.status.success(),
+        "platoon failed:\n{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+}
+
+/// The bridge's Python (creating the venv on first use, as .ci/run does).
+fn python() -> String {
+    let setup = repo().join("bridge/setup-venv.sh");
+    let o = Command::new(&setup).output().unwrap();
+    assert!(
+        o.status.success(),
+        "bridge/setup-venv.sh failed: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    repo().join("bridge/.venv/bin/python").display().to_string()
+}
+
+fn drop_sender(args: &str) -> String {
+    format!(
+        "{} {} {args}",
+        python(),
+        repo().join("bridge/examples/drop_sender.py").display()
+    )
+}
+
+const COMPARED: [&str; 4] = [
+    "trajectories.csv",
+    "events.csv",
+    "channel.csv",
+    "summary.json",
+];
+
+fn same_outputs(a: &Path, b: &Path, files: &[&str]) {
+    for f in files {
+        let x = std::fs::read(a.join(f)).unwrap();
+        let y = std::fs::read(b.join(f)).unwrap();
+        assert!(
+            x == y,
+            "{f} differs between {} and {}",
+            a.display(),
+            b.display()
+        );
+    }
+}
+
+fn transports_agree(config: &str) {
+    let tmp = tempfile::tempdir().unwrap();
+    let config = repo().join(config);
+    let c = config.to_str().unwrap();
+    for (out, transport) in [("ipc", "iceoryx2"), ("inproc", "inproc")] {
+        let o = platoon(
+            &[
+                "run",
+                c,
+                "--out",
+                out,
+                "--no-plots",
+                "--transport",
+                transport,
+            ],
+            tmp.path(),
+        );
+        ok(&o);
+    }
+    same_outputs(
+        &tmp.path().join("ipc"),
+        &tmp.path().join("inproc"),
+        &COMPARED,
+    );
+}
+
+#[test]
+fn iceoryx2_run_of_the_paper_scenario_is_bit_identical_to_inproc() {
+    transports_agree("configs/paper.toml");
+}
+
+#[test]
+fn iceoryx2_run_with_every_link_attack_is_bit_identical_to_inproc() {
+    transports_agree("configs/link-attacks.toml");
+    // And every model of that config did something.
+    let tmp = tempfile::tempdir().unwrap();
+    let c = repo().join("configs/link-attacks.toml");
+    ok(&platoon(
+        &["run", c.to_str().unwrap(), "--out", "r", "--no-plots"],
+        tmp.path(),
+    ));
+    let log = std::fs::read_to_string(tmp.path().join("r/channel.csv")).unwrap();
+    for action in [
+        "dropped_loss",
+        "dropped_jammed",
+        "delayed",
+        "delivered_late",
+        "replayed",
+        "altered",
+    ] {
+        assert!(log.contains(action), "no {action} in channel.csv");
+    }
+    let summary = std::fs::read_to_string(tmp.path().join("r/summary.json")).unwrap();
+    let s: serde_json::Value = serde_json::from_str(&summary).unwrap();
+    assert!(
+        s["rejected_packets"]["stale_seq"].as_u64().unwrap() > 0,
+        "replayed packets must be refused as stale"
+    );
+}
+
+#[test]
+fn python_injector_dropping_a_sender_equals_the_builtin_with_total_loss_on_it() {
+    let tmp = tempfile::tempdir().unwrap();
+    let base = std::fs::read_to_string(repo().join("configs/table1.toml")).unwrap();
+    let lossy = tmp.path().join("lossy.toml");
+    std::fs::write(
+        &lossy,
+        base + "\n[[channel.attacks]]\nkind = \"bernoulli\"\nloss = 1.0\nsenders = [2]\n",
+    )
+    .unwrap();
+    let table1 = repo().join("configs/table1.toml");
+    ok(&platoon(
+        &[
+            "run",
+            table1.to_str().unwrap(),
+            "--out",
+            "py",
+            "--no-plots",
+            "--injector",
+            &drop_sender("2"),
+        ],
+        tmp.path(),
+    ));
+    ok(&platoon(
+        &[
+            "run",
+            lossy.to_str().unwrap(),
+            "--out",
+            "rust",
+            "--no-plots",
+            "--transport",
+            "inproc",
+        ],
+        tmp.path(),
+    ));
+    same_outputs(
+        &tmp.path().join("py"),
+        &tmp.path().join("rust"),
+        &["trajectories.csv", "events.csv"],
+    );
+    // Its effect is visible: with vehicle 2 silenced, follower 3 (its only predecessor link
+    // besides the leader's) tracks worse than without the attack.
+    ok(&platoon(
+        &[
+            "run",
+            table1.to_str().unwrap(),
+            "--out",
+            "clean",
+            "--no-plots",
+        ],
+        tmp.path(),
+    ));
+    let err = |dir: &str| {
+        let s: serde_json::Value = serde_json::from_str(
+            &std::fs::read_to_string(tmp.path().join(dir).join("summary.json")).unwrap(),
+        )
+        .unwrap();
+        s["vehicles"][2]["spacing_error_m"]["mean_abs"]
+            .as_f64()
+            .unwrap()
+    };
+    assert!(
+        err("py") > err("clean"),
+        "{} vs {}",
+        err("py"),
+        err("clean")
+    );
+}
+
+#[test]
+fn python_layout_mirror_matches_the_rust_layout() {
+    let o = Command::new(python())
+        .args(["-m", "pytest", "-q", "bridge/tests"])
+        .current_dir(repo())
+        .output()
+        .unwrap();
+    assert!(
+        o.status.success(),
+        "pytest failed:\n{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+}
+
+#[test]
+fn two_concurrent_runs_do_not_see_each_other() {
+    let tmp = tempfile::tempdir().unwrap();
+    let c = repo().join("configs/paper.toml");
+    let spawn = |out: &str| {
+        Command::new(env!("CARGO_BIN_EXE_platoon"))
+            .args(["run", c.to_str().unwrap(), "--out", out, "--no-plots"])
+            .current_dir(tmp.path())
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap()
+    };
+    let (a, b) = (spawn("a"), spawn("b"));
+    ok(&a.wait_with_output().unwrap());
+    ok(&b.wait_with_output().unwrap());
+    same_outputs(&tmp.path().join("a"), &tmp.path().join("b"), &COMPARED);
+}
+
+/// The pids of processes whose command line mentions `needle`.
+fn pids_with(needle: &str) -> Vec<u32> {
+    let mut out = Vec::new();
+    for e in std::fs::read_dir("/proc").unwrap().flatten() {
+        let Ok(pid) = e.file_name().to_string_lossy().parse::<u32>() else {
+            continue;
+        };
+        if let Ok(cmd) = std::fs::read(e.path().join("cmdline")) {
+            if String::from_utf8_lossy(&cmd).contains(needle) {
+                out.push(pid);
+            }
+        }
+    }
+    out
+}
+
+/// A long run (10 simulated minutes) to kill processes of.
+fn start_long_run(dir: &Path, extra: &[&str]) -> (Child, PathBuf) {
+    let base = std::fs::read_to_string(repo().join("configs/table1.toml")).unwrap();
+    let config = dir.join("long.toml");
+    std::fs::write(
+        &config,
+        base.replace("duration_s = 55.0", "duration_s = 600.0"),
+    )
+    .unwrap();
+    let mut args = vec![
+        "run",
+        config.to_str().unwrap(),
+        "--out",
+        "run",
+        "--no-plots",
+    ];
+    args.extend_from_slice(extra);
+    let child = Command::new(env!("CARGO_BIN_EXE_platoon"))
+        .args(&args)
+        .current_dir(dir)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    (child, dir.join("run"))
+}
+
+/// Waits until the run is recording steps (trajectories.csv is growing).
+fn wait_until_running(run: &Path) {
+    let csv = run.with_extension("partial").join("trajectories.csv");
+    let until = Instant::now() + Duration::from_secs(60);
+    while std::fs::metadata(&csv).map(|m| m.len()).unwrap_or(0) < 100_000 {
+        assert!(Instant::now() < until, "the run never started");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+fn assert_stopped_naming(child: Child, run: &Path, node: &str, needle: &str) {
+    let started = Instant::now();
+    let o = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "the run must fail");
+    assert!(
+        stderr.contains(&format!("the {node} process")),
+        "the error must name the {node}: {stderr}"
+    );
+    assert!(
+        started.elapsed() < Duration::from_secs(30),
+        "the run must stop soon after the fault"
+    );
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(run.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["complete"], false);
+    assert!(summary["error"].as_str().unwrap().contains(node));
+    assert!(
+        summary["steps"].as_u64().unwrap() > 0,
+        "what was recorded is kept"
+    );
+    let rows = std::fs::read_to_string(run.join("trajectories.csv")).unwrap();
+    assert_eq!(
+        rows.lines().count() as u64,
+        1 + 5 * summary["steps"].as_u64().unwrap()
+    );
+    assert!(!run.with_extension("partial").exists());
+    std::thread::sleep(Duration::from_millis(200));
+    assert_eq!(
+        pids_with(needle),
+        Vec::<u32>::new(),
+        "processes left running"
+    );
+}
+
+fn kill_node(role: &str) {
+    let tmp = tempfile::tempdir().unwrap();
+    let (child, run) = start_long_run(tmp.path(), &[]);
+    wait_until_running(&run);
+    let needle = run.with_extension("partial").display().to_string();
+    let victims: Vec<u32> = pids_with(&needle)
+        .into_iter()
+        .filter(|p| {
+            let cmd = std::fs::read(format!("/proc/{p}/cmdline")).unwrap_or_default();
+            String::from_utf8_lossy(&cmd).contains(&format!("node\0{role}\0"))
+        })
+        .collect();
+    assert_eq!(victims.len(), 1, "one {role} process");
+    Command::new("kill")
+        .args(["-9", &victims[0].to_string()])
+        .status()
+        .unwrap();
+    assert_stopped_naming(child, &run, role, &needle);
+    // Nothing stale stops the next run.
+    ok(&platoon(
+        &[
+            "run",
+            repo().join("configs/table1.toml").to_str().unwrap(),
+            "--out",
+            "next",
+            "--no-plots",
+        ],
+        tmp.path(),
+    ));
+}
+
+#[test]
+fn killing_the_plant_stops_the_run_and_names_it() {
+    kill_node("plant");
+}
+
+#[test]
+fn killing_the_controller_stops_the_run_and_names_it() {
+    kill_node("controller");
+}
+
+#[test]
+fn killing_the_injector_stops_the_run_and_names_it() {
+    kill_node("injector");
+}
+
+#[test]
+fn an_injector_that_stops_publishing_is_named_after_the_timeout() {
+    let tmp = tempfile::tempdir().unwrap();
+    let injector = drop_sender("--stall-at 300");
+    let (child, run) = start_long_run(
+        tmp.path(),
+        &["--injector", &injector, "--step-timeout", "1"],
+    );
+    let needle = run.with_extension("partial").display().to_string();
+    assert_stopped_naming(child, &run, "injector", &needle);
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(run.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["steps"], 300);
+    assert!(summary["error"].as_str().unwrap().contains("step 300"));
+}
+
+#[test]
+fn an_injector_command_that_does_not_exist_is_named() {
+    let tmp = tempfile::tempdir().unwrap();
+    let c = repo().join("configs/table1.toml");
+    let o = platoon(
+        &[
+            "run",
+            c.to_str().unwrap(),
+            "--out",
+            "r",
+            "--injector",
+            "/nonexistent/injector",
+        ],
+        tmp.path(),
+    );
+    assert!(!o.status.success());
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(stderr.contains("the injector process"), "{stderr}");
+}
