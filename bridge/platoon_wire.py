@@ -13,9 +13,14 @@ import iceoryx2 as iox
 
 
 class StepHeader(ctypes.Structure):
-    """User header of every step sample."""
+    """User header of every step sample. `count` is the number of items: read that, never the
+    slice length, which iceoryx2 0.10.0's Python bindings report in bytes (iceoryx2 #1533)."""
 
-    _fields_ = [("step", ctypes.c_uint64), ("time_s", ctypes.c_double)]
+    _fields_ = [
+        ("step", ctypes.c_uint64),
+        ("time_s", ctypes.c_double),
+        ("count", ctypes.c_uint64),
+    ]
 
     @staticmethod
     def type_name() -> str:
@@ -193,6 +198,8 @@ class Endpoint:
         return svc.subscriber_builder().create()
 
     def status_outlet(self):
+        """The status publisher and its wakers. Keep it for the whole run: a publisher that is
+        dropped takes its unread samples with it."""
         svc = (
             self.node.service_builder(iox.ServiceName.new(service_name(self.run_id, "status")))
             .publish_subscribe(ControlMsg)
@@ -219,9 +226,14 @@ class Inlet:
             sample = self.subscriber.receive()
             if sample is None:
                 break
-            k = sample.user_header().contents.step
+            header = sample.user_header().contents
             items = sample.payload()
-            self.pending[k] = [type(items[i]).from_buffer_copy(items[i]) for i in range(items.len())]
+            # payload().len() is in bytes in iceoryx2 0.10.0 (#1533): the header's count is right.
+            if header.count > items.len():
+                raise ValueError(f"sample of step {header.step} claims {header.count} items")
+            self.pending[header.step] = [
+                items.contained_type.from_buffer_copy(items[i]) for i in range(header.count)
+            ]
         for old in [s for s in self.pending if s < step]:
             del self.pending[old]
         return self.pending.pop(step, None)
@@ -239,6 +251,7 @@ class Outlet:
         header = sample.user_header().contents
         header.step = step
         header.time_s = time_s
+        header.count = len(items)
         payload = sample.payload()
         for i, item in enumerate(items):
             payload[i] = item

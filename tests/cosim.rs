@@ -168,6 +168,14 @@ fn python_injector_dropping_a_sender_equals_the_builtin_with_total_loss_on_it() 
         &tmp.path().join("rust"),
         &["trajectories.csv", "events.csv"],
     );
+    // Nothing the Python injector sent was malformed (this caught the byte-length slices of
+    // iceoryx2 0.10.0's Python bindings, iceoryx2 #1533).
+    let s: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(tmp.path().join("py/summary.json")).unwrap())
+            .unwrap();
+    for reason in ["non_finite", "unknown_sender", "future_step", "stale_seq"] {
+        assert_eq!(s["rejected_packets"][reason], 0, "{reason}");
+    }
     // Its effect is visible: with vehicle 2 silenced, follower 3 (its only predecessor link
     // besides the leader's) tracks worse than without the attack.
     ok(&platoon(
@@ -195,6 +203,54 @@ fn python_injector_dropping_a_sender_equals_the_builtin_with_total_loss_on_it() 
         err("py"),
         err("clean")
     );
+}
+
+#[test]
+fn hostile_packets_are_refused_and_counted_and_change_nothing() {
+    let tmp = tempfile::tempdir().unwrap();
+    let table1 = repo().join("configs/table1.toml");
+    let hostile = format!(
+        "{} {}",
+        python(),
+        repo().join("bridge/examples/hostile.py").display()
+    );
+    ok(&platoon(
+        &[
+            "run",
+            table1.to_str().unwrap(),
+            "--out",
+            "hostile",
+            "--no-plots",
+            "--injector",
+            &hostile,
+        ],
+        tmp.path(),
+    ));
+    ok(&platoon(
+        &[
+            "run",
+            table1.to_str().unwrap(),
+            "--out",
+            "clean",
+            "--no-plots",
+            "--transport",
+            "inproc",
+        ],
+        tmp.path(),
+    ));
+    same_outputs(
+        &tmp.path().join("hostile"),
+        &tmp.path().join("clean"),
+        &["trajectories.csv", "events.csv"],
+    );
+    let s: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(tmp.path().join("hostile/summary.json")).unwrap(),
+    )
+    .unwrap();
+    // One of each every 50 steps from step 25: 110 rounds in 5501 steps.
+    for reason in ["non_finite", "unknown_sender", "future_step", "stale_seq"] {
+        assert_eq!(s["rejected_packets"][reason], 110, "{reason}");
+    }
 }
 
 #[test]

@@ -205,13 +205,13 @@ pub struct Outlet<T: Debug + ZeroCopySend + 'static> {
 }
 
 impl<T: Debug + Copy + ZeroCopySend + 'static> Outlet<T> {
-    /// Sends `items` as the sample of `header.step`.
-    pub fn send(&self, header: StepHeader, items: &[T]) -> Result<(), RunError> {
+    /// Sends `items` as the sample of step `step` (time `step dt`).
+    pub fn send(&self, step: u64, dt: f64, items: &[T]) -> Result<(), RunError> {
         let mut sample = self
             .publisher
             .loan_slice_uninit(items.len())
             .map_err(|e| ipc_err("loaning a sample", e))?;
-        *sample.user_header_mut() = header;
+        *sample.user_header_mut() = StepHeader::new(step, dt, items.len());
         let sample = sample.write_from_slice(items);
         sample.send().map_err(|e| ipc_err("sending a sample", e))?;
         wake(&self.wake)
@@ -245,11 +245,12 @@ impl ControlOutlet {
 pub struct Inlet<T: Debug + ZeroCopySend + 'static> {
     subscriber: Subscriber<Ipc, [T], StepHeader>,
     pending: VecDeque<(u64, Vec<T>)>,
+    from: Role,
 }
 
 impl<T: Debug + Copy + ZeroCopySend + 'static> Inlet<T> {
-    /// A subscriber on `service`.
-    pub fn new(service: &StepService<T>) -> Result<Self, RunError> {
+    /// A subscriber on `service`, whose samples come from `from`.
+    pub fn new(service: &StepService<T>, from: Role) -> Result<Self, RunError> {
         let subscriber = service
             .subscriber_builder()
             .create()
@@ -257,6 +258,7 @@ impl<T: Debug + Copy + ZeroCopySend + 'static> Inlet<T> {
         Ok(Self {
             subscriber,
             pending: VecDeque::new(),
+            from,
         })
     }
 
@@ -268,8 +270,20 @@ impl<T: Debug + Copy + ZeroCopySend + 'static> Inlet<T> {
             .receive()
             .map_err(|e| ipc_err("receiving", e))?
         {
-            self.pending
-                .push_back((s.user_header().step, s.payload().to_vec()));
+            let h = s.user_header();
+            let items = usize::try_from(h.count)
+                .ok()
+                .and_then(|n| s.payload().get(..n))
+                .ok_or_else(|| RunError::Contract {
+                    node: self.from.name(),
+                    message: format!(
+                        "the sample of step {} says it holds {} items but carries {}",
+                        h.step,
+                        h.count,
+                        s.payload().len()
+                    ),
+                })?;
+            self.pending.push_back((h.step, items.to_vec()));
             n += 1;
         }
         Ok(n)

@@ -8,9 +8,7 @@ use platoon_attacks::channel::{Channel, ChannelEvent};
 use platoon_control::{Delivery, Packet, PlatoonController};
 use platoon_model::{State, VehicleId};
 use platoon_sim::{Plant, Scenario};
-use platoon_wire::{
-    Command, ControlMsg, LinkPacket, Node, Service, StepHeader, V2vPacket, VehicleState,
-};
+use platoon_wire::{Command, ControlMsg, LinkPacket, Node, Service, V2vPacket, VehicleState};
 use std::path::Path;
 use std::time::Duration;
 
@@ -102,13 +100,6 @@ fn contract(node: Node, message: String) -> RunError {
     }
 }
 
-fn header(k: u64, dt: f64) -> StepHeader {
-    StepHeader {
-        step: k,
-        time_s: k as f64 * dt,
-    }
-}
-
 /// Runs `body` and reports its failure on the status channel (the orchestrator names us).
 fn reporting(
     run_id: &str,
@@ -136,7 +127,8 @@ pub fn plant(run_id: &str, scenario: &Scenario) -> Result<(), RunError> {
             Service::States,
             n + 1,
         )?;
-        let mut commands: Inlet<Command> = Inlet::new(&e.open_step_service(Service::Commands)?)?;
+        let mut commands: Inlet<Command> =
+            Inlet::new(&e.open_step_service(Service::Commands)?, Node::Controller)?;
         let mut plant = Plant::new(scenario);
         let mut buf = Vec::with_capacity(n + 1);
         let mut u = vec![0.0; n];
@@ -158,7 +150,7 @@ pub fn plant(run_id: &str, scenario: &Scenario) -> Result<(), RunError> {
                         a: x[2],
                     }),
             );
-            states_out.send(header(k, scenario.dt()), buf)
+            states_out.send(k, scenario.dt(), buf)
         };
         publish(0, &plant, &mut buf)?;
         loop {
@@ -207,8 +199,9 @@ pub fn controller(run_id: &str, scenario: &Scenario) -> Result<(), RunError> {
         let e = &ctx.endpoint;
         let n = scenario.topology.followers();
         let mut states_in: Inlet<VehicleState> =
-            Inlet::new(&e.open_step_service(Service::States)?)?;
-        let mut rx_in: Inlet<LinkPacket> = Inlet::new(&e.open_step_service(Service::Rx)?)?;
+            Inlet::new(&e.open_step_service(Service::States)?, Node::Plant)?;
+        let mut rx_in: Inlet<LinkPacket> =
+            Inlet::new(&e.open_step_service(Service::Rx)?, Node::Injector)?;
         let links: usize = (0..=n)
             .map(|v| scenario.topology.out_neighbours(VehicleId(v as u16)).len())
             .sum();
@@ -254,7 +247,7 @@ pub fn controller(run_id: &str, scenario: &Scenario) -> Result<(), RunError> {
                             },
                         ));
                     }
-                    tx_out.send(header(*k, scenario.dt()), &wire_tx)?;
+                    tx_out.send(*k, scenario.dt(), &wire_tx)?;
                     states = Some(s);
                 }
             }
@@ -284,7 +277,7 @@ pub fn controller(run_id: &str, scenario: &Scenario) -> Result<(), RunError> {
                             theta: f.theta,
                         }
                     }));
-                    cmd_out.send(header(*k, scenario.dt()), &cmds)?;
+                    cmd_out.send(*k, scenario.dt(), &cmds)?;
                     states = None;
                     if *k == scenario.steps {
                         let r = controller.rejected();
@@ -353,8 +346,9 @@ pub fn injector(run_id: &str, scenario: &Scenario, log: Option<&Path>) -> Result
         let e = &ctx.endpoint;
         let n = scenario.topology.followers();
         let mut states_in: Inlet<VehicleState> =
-            Inlet::new(&e.open_step_service(Service::States)?)?;
-        let mut tx_in: Inlet<LinkPacket> = Inlet::new(&e.open_step_service(Service::Tx)?)?;
+            Inlet::new(&e.open_step_service(Service::States)?, Node::Plant)?;
+        let mut tx_in: Inlet<LinkPacket> =
+            Inlet::new(&e.open_step_service(Service::Tx)?, Node::Controller)?;
         let rx_out: Outlet<LinkPacket> =
             e.outlet(&e.open_step_service(Service::Rx)?, Service::Rx, 4 * (n + 1))?;
         let mut writer = match log {
@@ -418,7 +412,7 @@ pub fn injector(run_id: &str, scenario: &Scenario, log: Option<&Path>) -> Result
                             packet: V2vPacket::default(),
                         }
                     }));
-                    rx_out.send(header(*k, scenario.dt()), &items)?;
+                    rx_out.send(*k, scenario.dt(), &items)?;
                     if let Some(w) = &mut writer {
                         for ev in &events {
                             w.serialize(ev).map_err(|e| {

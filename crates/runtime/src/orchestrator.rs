@@ -120,10 +120,10 @@ pub fn orchestrate(
     let listener = e.listener()?;
     let status = ControlInlet::new(&status_service)?;
     let control = e.control_outlet(&control_service, Service::Control)?;
-    let mut states: Inlet<VehicleState> = Inlet::new(&services._states)?;
-    let mut tx: Inlet<LinkPacket> = Inlet::new(&services._tx)?;
-    let mut rx: Inlet<LinkPacket> = Inlet::new(&services._rx)?;
-    let mut commands: Inlet<Command> = Inlet::new(&services._commands)?;
+    let mut states: Inlet<VehicleState> = Inlet::new(&services._states, Node::Plant)?;
+    let mut tx: Inlet<LinkPacket> = Inlet::new(&services._tx, Node::Controller)?;
+    let mut rx: Inlet<LinkPacket> = Inlet::new(&services._rx, Node::Injector)?;
+    let mut commands: Inlet<Command> = Inlet::new(&services._commands, Node::Controller)?;
 
     let mut children = Children { procs: Vec::new() };
     let result = (|| {

@@ -10,7 +10,7 @@
 
 use iceoryx2::prelude::ZeroCopySend;
 
-/// The user header of every step sample: which step it belongs to.
+/// The user header of every step sample: which step it belongs to, and how many items it holds.
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
 #[type_name("platoon::StepHeader")]
 #[repr(C)]
@@ -19,6 +19,21 @@ pub struct StepHeader {
     pub step: u64,
     /// Time k dt (s).
     pub time_s: f64,
+    /// Number of items in the sample. Readers use this, not the slice length: the Python
+    /// bindings of iceoryx2 0.10.0 report slice lengths in bytes (iceoryx2 issue #1533), so a
+    /// Python-published slice looks `size_of::<T>()` times too long to Rust and vice versa.
+    pub count: u64,
+}
+
+impl StepHeader {
+    /// The header of a sample of `count` items at step `step` of length `dt`.
+    pub fn new(step: u64, dt: f64, count: usize) -> Self {
+        Self {
+            step,
+            time_s: step as f64 * dt,
+            count: count as u64,
+        }
+    }
 }
 
 /// A vehicle's true state at a step (plant -> controller, injector, orchestrator).
@@ -274,7 +289,7 @@ macro_rules! layout {
 /// The layout of every payload type.
 pub fn layouts() -> Vec<Layout> {
     vec![
-        layout!(StepHeader, "platoon::StepHeader", [step, time_s]),
+        layout!(StepHeader, "platoon::StepHeader", [step, time_s, count]),
         layout!(
             VehicleState,
             "platoon::VehicleState",
