@@ -8,6 +8,7 @@ See docs/injector-contract.md for the protocol.
 
 import ctypes
 import os
+import time
 
 import iceoryx2 as iox
 
@@ -20,6 +21,7 @@ class StepHeader(ctypes.Structure):
         ("step", ctypes.c_uint64),
         ("time_s", ctypes.c_double),
         ("count", ctypes.c_uint64),
+        ("stamp_ns", ctypes.c_uint64),
     ]
 
     @staticmethod
@@ -117,11 +119,11 @@ ALL_TYPES = [StepHeader, VehicleState, V2vPacket, LinkPacket, Command, ControlMs
 
 NODES = {"orchestrator": 0, "plant": 1, "controller": 2, "injector": 3}
 
-# Who reads each step service; a publisher notifies their wake services after every sample.
-READERS = {
-    "states": ["controller", "injector", "orchestrator"],
-    "tx": ["injector", "orchestrator"],
-    "rx": ["controller", "orchestrator"],
+# Whom a publisher on each service wakes after every sample (crates/wire `wakes`).
+WAKES = {
+    "states": ["controller", "injector"],
+    "tx": ["injector"],
+    "rx": ["controller"],
     "commands": ["plant", "orchestrator"],
     "control": ["plant", "controller", "injector"],
     "status": ["orchestrator"],
@@ -164,7 +166,7 @@ class Endpoint:
     def _wakers(self, service: str):
         return [
             self._event(n).notifier_builder().create()
-            for n in READERS[service]
+            for n in WAKES[service]
             if n != self.role
         ]
 
@@ -252,6 +254,7 @@ class Outlet:
         header.step = step
         header.time_s = time_s
         header.count = len(items)
+        header.stamp_ns = time.monotonic_ns()  # CLOCK_MONOTONIC, as the Rust nodes
         payload = sample.payload()
         for i, item in enumerate(items):
             payload[i] = item

@@ -1,4 +1,5 @@
 //! `platoon`: resilient event-triggered platoon control under DoS attacks (Han et al., 2024).
+mod bench;
 mod experiment;
 mod node;
 mod output;
@@ -35,6 +36,9 @@ enum Command {
     /// Reproduce an experiment of the paper's Section IV.
     #[command(subcommand)]
     Experiment(experiment::Experiment),
+    /// Measure what the co-simulation costs on this machine (see BENCHMARKS in the README).
+    #[command(subcommand)]
+    Bench(bench::Bench),
     /// One process of an iceoryx2 run (started by `platoon run`, not by hand).
     #[command(hide = true)]
     Node(node::Args),
@@ -55,6 +59,7 @@ fn main() -> ExitCode {
         Command::Run(args) => run::run(args),
         Command::Experiment(e) => experiment::run(e),
         Command::Node(args) => node::run(args),
+        Command::Bench(b) => bench::run(b),
         Command::WireLayout => {
             print!("{}", platoon_wire::layouts_json());
             Ok(())

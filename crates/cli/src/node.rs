@@ -1,17 +1,18 @@
-//! `platoon node <role>`: one process of an iceoryx2 run, started by the orchestrator.
+//! `platoon node <role>`: one process of an iceoryx2 run, started by the orchestrator (or by
+//! `platoon bench latency`, for the echo).
 use anyhow::{Context, Result};
 use std::path::PathBuf;
 
 /// Arguments of `platoon node`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Which process: plant, controller or injector.
-    #[arg(value_parser = ["plant", "controller", "injector"])]
+    /// Which process: plant, controller, injector, or echo (the latency baseline).
+    #[arg(value_parser = ["plant", "controller", "injector", "echo"])]
     pub role: String,
     /// The run's id (names its iceoryx2 services).
     #[arg(long)]
     pub run_id: String,
-    /// The run's resolved scenario config.
+    /// The run's resolved scenario config (unused by echo).
     #[arg(long)]
     pub config: PathBuf,
     /// Injector: where to write the channel log (CSV).
@@ -20,6 +21,9 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> Result<()> {
+    if args.role == "echo" {
+        return platoon_runtime::bench::echo(&args.run_id).context("echo node");
+    }
     let (_, scenario) = platoon_config::load(&args.config)?;
     let r = match args.role.as_str() {
         "plant" => platoon_runtime::nodes::plant(&args.run_id, &scenario),

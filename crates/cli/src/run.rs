@@ -218,6 +218,8 @@ fn cosimulate(
     match result {
         Ok(outcome) => {
             let (rows, summary) = rec.finish(outcome.rejected)?;
+            let json = serde_json::to_string_pretty(&outcome.timing)? + "\n";
+            dir.write("timing.json", json.as_bytes())?;
             Ok((rows, summary, None))
         }
         Err(e) => {

@@ -1,13 +1,15 @@
 //! The iceoryx2 ports of one node: step outlets that publish and wake their readers, step inlets
 //! that buffer by step, the control channel and the node's own wake-up listener.
-use crate::RunError;
+use crate::{monotonic_ns, RunError};
 use iceoryx2::node::NodeBuilder;
 use iceoryx2::port::listener::Listener;
 use iceoryx2::port::notifier::Notifier;
 use iceoryx2::port::publisher::Publisher;
 use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::prelude::*;
-use platoon_wire::{readers, service_name, ControlMsg, Node as Role, Service, StepHeader};
+use platoon_wire::{
+    service_name, wakes, ControlMsg, Node as Role, Service, StepHeader, ORCHESTRATOR_WAKE_EVERY,
+};
 use std::collections::VecDeque;
 use std::fmt::Debug;
 use std::time::Duration;
@@ -140,15 +142,17 @@ impl Endpoint {
     }
 
     /// Notifiers that wake the readers of `s` (all but this node).
-    pub fn wakers(&self, s: Service) -> Result<Vec<Notifier<Ipc>>, RunError> {
-        readers(s)
+    pub fn wakers(&self, s: Service) -> Result<Vec<(Role, Notifier<Ipc>)>, RunError> {
+        wakes(s)
             .iter()
             .filter(|&&r| r != self.role)
             .map(|&r| {
-                self.wake_service(r, false)?
+                let n = self
+                    .wake_service(r, false)?
                     .notifier_builder()
                     .create()
-                    .map_err(|e| ipc_err(format!("notifier for {}", r.name()), e))
+                    .map_err(|e| ipc_err(format!("notifier for {}", r.name()), e))?;
+                Ok((r, n))
             })
             .collect()
     }
@@ -201,25 +205,31 @@ pub type WakeService = iceoryx2::service::port_factory::event::PortFactory<Ipc>;
 /// Publishes one sample per step and wakes its readers.
 pub struct Outlet<T: Debug + ZeroCopySend + 'static> {
     publisher: Publisher<Ipc, [T], StepHeader>,
-    wake: Vec<Notifier<Ipc>>,
+    wake: Vec<(Role, Notifier<Ipc>)>,
 }
 
 impl<T: Debug + Copy + ZeroCopySend + 'static> Outlet<T> {
-    /// Sends `items` as the sample of step `step` (time `step dt`).
-    pub fn send(&self, step: u64, dt: f64, items: &[T]) -> Result<(), RunError> {
+    /// Sends `items` as the sample of step `step` (time `step dt`); returns its publish stamp.
+    pub fn send(&self, step: u64, dt: f64, items: &[T]) -> Result<u64, RunError> {
         let mut sample = self
             .publisher
             .loan_slice_uninit(items.len())
             .map_err(|e| ipc_err("loaning a sample", e))?;
-        *sample.user_header_mut() = StepHeader::new(step, dt, items.len());
+        let stamp = monotonic_ns();
+        *sample.user_header_mut() = StepHeader::new(step, dt, items.len(), stamp);
         let sample = sample.write_from_slice(items);
         sample.send().map_err(|e| ipc_err("sending a sample", e))?;
-        wake(&self.wake)
+        for (role, n) in &self.wake {
+            if *role != Role::Orchestrator || step.is_multiple_of(ORCHESTRATOR_WAKE_EVERY) {
+                n.notify().map_err(|e| ipc_err("waking a reader", e))?;
+            }
+        }
+        Ok(stamp)
     }
 }
 
-fn wake(notifiers: &[Notifier<Ipc>]) -> Result<(), RunError> {
-    for n in notifiers {
+fn wake(notifiers: &[(Role, Notifier<Ipc>)]) -> Result<(), RunError> {
+    for (_, n) in notifiers {
         n.notify().map_err(|e| ipc_err("waking a reader", e))?;
     }
     Ok(())
@@ -228,7 +238,7 @@ fn wake(notifiers: &[Notifier<Ipc>]) -> Result<(), RunError> {
 /// Publishes control or status messages and wakes their readers.
 pub struct ControlOutlet {
     publisher: Publisher<Ipc, ControlMsg, ()>,
-    wake: Vec<Notifier<Ipc>>,
+    wake: Vec<(Role, Notifier<Ipc>)>,
 }
 
 impl ControlOutlet {
@@ -241,10 +251,13 @@ impl ControlOutlet {
     }
 }
 
+/// A received step sample, copied out of shared memory: its header and items.
+pub type Sample<T> = (StepHeader, Vec<T>);
+
 /// Receives step samples and keeps them by step until asked for.
 pub struct Inlet<T: Debug + ZeroCopySend + 'static> {
     subscriber: Subscriber<Ipc, [T], StepHeader>,
-    pending: VecDeque<(u64, Vec<T>)>,
+    pending: VecDeque<Sample<T>>,
     from: Role,
 }
 
@@ -283,28 +296,42 @@ impl<T: Debug + Copy + ZeroCopySend + 'static> Inlet<T> {
                         s.payload().len()
                     ),
                 })?;
-            self.pending.push_back((h.step, items.to_vec()));
+            self.pending.push_back((*h, items.to_vec()));
             n += 1;
         }
         Ok(n)
     }
 
+    /// The oldest buffered sample, whatever its step.
+    pub fn pop(&mut self) -> Option<Sample<T>> {
+        self.pending.pop_front()
+    }
+
     /// Whether the sample of step `k` is buffered.
     pub fn has(&self, k: u64) -> bool {
-        self.pending.iter().any(|(s, _)| *s == k)
+        self.pending.iter().any(|(h, _)| h.step == k)
     }
 
     /// The sample of step `k`, if it arrived; samples of earlier steps are dropped and counted
     /// in the returned `stale` number.
     pub fn take(&mut self, k: u64) -> Result<(Option<Vec<T>>, usize), RunError> {
+        let (sample, stale) = self.take_sample(k)?;
+        Ok((sample.map(|(_, v)| v), stale))
+    }
+
+    /// Like [`Inlet::take`], with the sample's header.
+    pub fn take_sample(
+        &mut self,
+        k: u64,
+    ) -> Result<(Option<Sample<T>>, usize), RunError> {
         self.drain()?;
         let mut stale = 0;
-        while self.pending.front().is_some_and(|(s, _)| *s < k) {
+        while self.pending.front().is_some_and(|(h, _)| h.step < k) {
             self.pending.pop_front();
             stale += 1;
         }
         match self.pending.front() {
-            Some((s, _)) if *s == k => Ok((self.pending.pop_front().map(|(_, v)| v), stale)),
+            Some((h, _)) if h.step == k => Ok((self.pending.pop_front(), stale)),
             _ => Ok((None, stale)),
         }
     }

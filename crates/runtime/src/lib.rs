@@ -14,9 +14,11 @@
 //! notified by every publisher it reads from.
 #![warn(missing_docs)]
 
+pub mod bench;
 pub mod ipc;
 pub mod nodes;
 pub mod orchestrator;
+pub mod timing;
 
 pub use orchestrator::{orchestrate, InjectorCommand, Options, Outcome};
 

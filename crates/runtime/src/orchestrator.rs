@@ -3,6 +3,7 @@
 //! success or failure, leaving no process behind.
 use crate::ipc::{wait, ControlInlet, Endpoint, Inlet};
 use crate::nodes::states_from_wire;
+use crate::timing::{StageClock, Timing};
 use crate::RunError;
 use platoon_control::{FollowerStep, RejectCounts};
 use platoon_sim::{step_rows, Scenario, StepRow};
@@ -42,10 +43,12 @@ pub struct Options {
 }
 
 /// What a finished run reports besides its rows.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct Outcome {
     /// Packets the controllers refused.
     pub rejected: RejectCounts,
+    /// Where the time of a step went.
+    pub timing: Timing,
 }
 
 struct Children {
@@ -171,6 +174,7 @@ pub fn orchestrate(
 
         // The run: record each step once its four samples are in.
         let mut rejected = None;
+        let mut clock = StageClock::default();
         // Plant and controller report DONE (the controller with its reject counts); an injector
         // only has to publish every step, so a third-party one need not know about DONE.
         let mut done = [false; 4];
@@ -203,10 +207,11 @@ pub fn orchestrate(
                 && commands.has(run.step)
             {
                 let k = run.step;
-                let s = states.take(k)?.0.expect("has");
-                let t = tx.take(k)?.0.expect("has");
-                let r = rx.take(k)?.0.expect("has");
-                let c = commands.take(k)?.0.expect("has");
+                let (hs, s) = states.take_sample(k)?.0.expect("has");
+                let (ht, t) = tx.take_sample(k)?.0.expect("has");
+                let (hr, r) = rx.take_sample(k)?.0.expect("has");
+                let (hc, c) = commands.take_sample(k)?.0.expect("has");
+                clock.push(hs.stamp_ns, ht.stamp_ns, hr.stamp_ns, hc.stamp_ns);
                 run.record(&s, &t, &r, &c)?;
                 on_step(&run.rows);
                 run.step += 1;
@@ -243,6 +248,7 @@ pub fn orchestrate(
         }
         Ok(Outcome {
             rejected: rejected.unwrap_or_default(),
+            timing: clock.report(),
         })
     })();
     match &result {

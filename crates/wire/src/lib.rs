@@ -23,15 +23,20 @@ pub struct StepHeader {
     /// bindings of iceoryx2 0.10.0 report slice lengths in bytes (iceoryx2 issue #1533), so a
     /// Python-published slice looks `size_of::<T>()` times too long to Rust and vice versa.
     pub count: u64,
+    /// `CLOCK_MONOTONIC` when the sample was published (ns): the orchestrator times each stage
+    /// of a step from these. Never used by the control.
+    pub stamp_ns: u64,
 }
 
 impl StepHeader {
-    /// The header of a sample of `count` items at step `step` of length `dt`.
-    pub fn new(step: u64, dt: f64, count: usize) -> Self {
+    /// The header of a sample of `count` items at step `step` of length `dt`, published at
+    /// `stamp_ns`.
+    pub fn new(step: u64, dt: f64, count: usize, stamp_ns: u64) -> Self {
         Self {
             step,
             time_s: step as f64 * dt,
             count: count as u64,
+            stamp_ns,
         }
     }
 }
@@ -249,12 +254,19 @@ pub fn service_name(run_id: &str, service: Service) -> String {
     format!("platoon/{run_id}/{leaf}")
 }
 
-/// Who reads `service` (and so is notified on its `Wake` service after every sample).
-pub fn readers(service: Service) -> &'static [Node] {
+/// The orchestrator is woken by the commands of every this-many-th step only (and by every
+/// status message): it drains the other samples from its buffers then, so the pipeline's
+/// processes keep the cores.
+pub const ORCHESTRATOR_WAKE_EVERY: u64 = 16;
+
+/// Whom a publisher on `service` wakes (notifies on their `Wake` service) after a sample.
+/// The orchestrator reads every step service, but is only woken by commands (every
+/// [`ORCHESTRATOR_WAKE_EVERY`] steps) and by status messages.
+pub fn wakes(service: Service) -> &'static [Node] {
     match service {
-        Service::States => &[Node::Controller, Node::Injector, Node::Orchestrator],
-        Service::Tx => &[Node::Injector, Node::Orchestrator],
-        Service::Rx => &[Node::Controller, Node::Orchestrator],
+        Service::States => &[Node::Controller, Node::Injector],
+        Service::Tx => &[Node::Injector],
+        Service::Rx => &[Node::Controller],
         Service::Commands => &[Node::Plant, Node::Orchestrator],
         Service::Control => &[Node::Plant, Node::Controller, Node::Injector],
         Service::Status => &[Node::Orchestrator],
@@ -289,7 +301,11 @@ macro_rules! layout {
 /// The layout of every payload type.
 pub fn layouts() -> Vec<Layout> {
     vec![
-        layout!(StepHeader, "platoon::StepHeader", [step, time_s, count]),
+        layout!(
+            StepHeader,
+            "platoon::StepHeader",
+            [step, time_s, count, stamp_ns]
+        ),
         layout!(
             VehicleState,
             "platoon::VehicleState",
