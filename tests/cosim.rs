@@ -456,3 +456,27 @@ fn an_injector_command_that_does_not_exist_is_named() {
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(stderr.contains("the injector process"), "{stderr}");
 }
+
+#[test]
+fn killing_the_orchestrator_takes_its_processes_down() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (mut child, run) = start_long_run(tmp.path(), &[]);
+    wait_until_running(&run);
+    let needle = run.with_extension("partial").display().to_string();
+    assert_eq!(
+        pids_with(&needle).len(),
+        3,
+        "plant, controller and injector run"
+    );
+    child.kill().unwrap(); // SIGKILL: no chance to clean up
+    child.wait().unwrap();
+    let until = Instant::now() + Duration::from_secs(5);
+    while !pids_with(&needle).is_empty() {
+        assert!(
+            Instant::now() < until,
+            "orphaned nodes must exit by themselves"
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    assert!(!run.exists(), "a killed run never looks complete");
+}

@@ -24,14 +24,20 @@ struct Cli {
 enum Command {
     /// Run one scenario and write trajectories, events, a summary and plots into a run directory.
     ///
-    /// Without a config the embedded paper scenario (configs/paper.toml) runs. The run directory
-    /// receives: config.toml (the resolved config, every default written out), trajectories.csv
-    /// (one row per vehicle and step: t, vehicle, p, v, a, u, theta, spacing and velocity errors,
-    /// triggered, under_attack, affected), events.csv (one row per broadcast), summary.json
-    /// (triggers, inter-event times, tracking errors, attack and Assumption-2 verdict, safety),
-    /// fig6.png (positions, relative positions, velocities, internal variables) and fig7.png
-    /// (release instants). Files are staged in <DIR>.partial, which is renamed to <DIR> only when
-    /// complete. A bad config exits with code 2 before anything is written.
+    /// Without a config the embedded paper scenario (configs/paper.toml) runs. By default the run
+    /// is an iceoryx2 co-simulation: plant, controller service and attack injector run as
+    /// separate processes over shared memory, lock-step and event-driven (--transport inproc runs
+    /// the same core in one process; both give identical files). The run directory receives:
+    /// config.toml (the resolved config, every default written out), trajectories.csv (one row
+    /// per vehicle and step: t, vehicle, p, v, a, u, theta, spacing and velocity errors,
+    /// triggered, under_attack, affected), events.csv (one row per broadcast), channel.csv (every
+    /// packet the channel did not deliver as sent), summary.json (triggers, inter-event times,
+    /// tracking errors, attack and Assumption-2 verdict, safety, rejected packets), fig6.png
+    /// (positions, relative positions, velocities, internal variables), fig7.png (release
+    /// instants), and for iceoryx2 runs timing.json (where the time of a step went) and logs/.
+    /// Files are staged in <DIR>.partial, which is renamed to <DIR> only when complete; a run
+    /// stopped by a failed process keeps what it recorded, marked "complete": false. A bad config
+    /// exits with code 2 before anything is written.
     Run(run::Args),
     /// Reproduce an experiment of the paper's Section IV.
     #[command(subcommand)]

@@ -320,10 +320,7 @@ impl<T: Debug + Copy + ZeroCopySend + 'static> Inlet<T> {
     }
 
     /// Like [`Inlet::take`], with the sample's header.
-    pub fn take_sample(
-        &mut self,
-        k: u64,
-    ) -> Result<(Option<Sample<T>>, usize), RunError> {
+    pub fn take_sample(&mut self, k: u64) -> Result<(Option<Sample<T>>, usize), RunError> {
         self.drain()?;
         let mut stale = 0;
         while self.pending.front().is_some_and(|(h, _)| h.step < k) {
