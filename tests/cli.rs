@@ -5,6 +5,8 @@ use std::process::{Command, Output};
 fn platoon(args: &[&str], cwd: &Path) -> Output {
     Command::new(env!("CARGO_BIN_EXE_platoon"))
         .args(args)
+        // Tests run side by side on two cores: a starved process is not a stalled one.
+        .env("PLATOON_STEP_TIMEOUT", "20")
         .current_dir(cwd)
         .output()
         .unwrap()

@@ -12,9 +12,14 @@ fn repo() -> PathBuf {
         .unwrap()
 }
 
+/// The tests run many co-simulations at once on two cores: a generous step timeout keeps a
+/// starved (not stalled) process from being reported; the stall test sets its own.
+const STEP_TIMEOUT: (&str, &str) = ("PLATOON_STEP_TIMEOUT", "20");
+
 fn platoon(args: &[&str], cwd: &Path) -> Output {
     Command::new(env!("CARGO_BIN_EXE_platoon"))
         .args(args)
+        .env(STEP_TIMEOUT.0, STEP_TIMEOUT.1)
         .current_dir(cwd)
         .output()
         .unwrap()
@@ -275,6 +280,7 @@ fn two_concurrent_runs_do_not_see_each_other() {
     let spawn = |out: &str| {
         Command::new(env!("CARGO_BIN_EXE_platoon"))
             .args(["run", c.to_str().unwrap(), "--out", out, "--no-plots"])
+            .env(STEP_TIMEOUT.0, STEP_TIMEOUT.1)
             .current_dir(tmp.path())
             .stdout(Stdio::null())
             .stderr(Stdio::piped())
@@ -322,6 +328,7 @@ fn start_long_run(dir: &Path, extra: &[&str]) -> (Child, PathBuf) {
     args.extend_from_slice(extra);
     let child = Command::new(env!("CARGO_BIN_EXE_platoon"))
         .args(&args)
+        .env(STEP_TIMEOUT.0, STEP_TIMEOUT.1)
         .current_dir(dir)
         .stdout(Stdio::null())
         .stderr(Stdio::piped())

@@ -33,7 +33,12 @@ pub struct Args {
     pub injector: Option<String>,
     /// Seconds the run waits for a process's sample of one step before it stops and names the
     /// process (iceoryx2 only).
-    #[arg(long, default_value_t = 1.0, value_name = "SECONDS")]
+    #[arg(
+        long,
+        default_value_t = 1.0,
+        value_name = "SECONDS",
+        env = "PLATOON_STEP_TIMEOUT"
+    )]
     pub step_timeout: f64,
 }
 
