@@ -60,6 +60,10 @@ const COMPARED: [&str; 4] = [
     "summary.json",
 ];
 
+fn summary(run: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(run.join("summary.json")).unwrap()).unwrap()
+}
+
 fn same_outputs(a: &Path, b: &Path, files: &[&str]) {
     for f in files {
         let x = std::fs::read(a.join(f)).unwrap();
@@ -125,8 +129,7 @@ fn iceoryx2_run_with_every_link_attack_is_bit_identical_to_inproc() {
     ] {
         assert!(log.contains(action), "no {action} in channel.csv");
     }
-    let summary = std::fs::read_to_string(tmp.path().join("r/summary.json")).unwrap();
-    let s: serde_json::Value = serde_json::from_str(&summary).unwrap();
+    let s = summary(&tmp.path().join("r"));
     assert!(
         s["rejected_packets"]["stale_seq"].as_u64().unwrap() > 0,
         "replayed packets must be refused as stale"
@@ -175,9 +178,7 @@ fn python_injector_dropping_a_sender_equals_the_builtin_with_total_loss_on_it() 
     );
     // Nothing the Python injector sent was malformed (this caught the byte-length slices of
     // iceoryx2 0.10.0's Python bindings, iceoryx2 #1533).
-    let s: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(tmp.path().join("py/summary.json")).unwrap())
-            .unwrap();
+    let s = summary(&tmp.path().join("py"));
     for reason in ["non_finite", "unknown_sender", "future_step", "stale_seq"] {
         assert_eq!(s["rejected_packets"][reason], 0, "{reason}");
     }
@@ -194,11 +195,7 @@ fn python_injector_dropping_a_sender_equals_the_builtin_with_total_loss_on_it() 
         tmp.path(),
     ));
     let err = |dir: &str| {
-        let s: serde_json::Value = serde_json::from_str(
-            &std::fs::read_to_string(tmp.path().join(dir).join("summary.json")).unwrap(),
-        )
-        .unwrap();
-        s["vehicles"][2]["spacing_error_m"]["mean_abs"]
+        summary(&tmp.path().join(dir))["vehicles"][2]["spacing_error_m"]["mean_abs"]
             .as_f64()
             .unwrap()
     };
@@ -248,10 +245,7 @@ fn hostile_packets_are_refused_and_counted_and_change_nothing() {
         &tmp.path().join("clean"),
         &["trajectories.csv", "events.csv"],
     );
-    let s: serde_json::Value = serde_json::from_str(
-        &std::fs::read_to_string(tmp.path().join("hostile/summary.json")).unwrap(),
-    )
-    .unwrap();
+    let s = summary(&tmp.path().join("hostile"));
     // One of each every 50 steps from step 25: 110 rounds in 5501 steps.
     for reason in ["non_finite", "unknown_sender", "future_step", "stale_seq"] {
         assert_eq!(s["rejected_packets"][reason], 110, "{reason}");
@@ -360,8 +354,7 @@ fn assert_stopped_naming(child: Child, run: &Path, node: &str, needle: &str) {
         started.elapsed() < Duration::from_secs(30),
         "the run must stop soon after the fault"
     );
-    let summary: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(run.join("summary.json")).unwrap()).unwrap();
+    let summary = summary(run);
     assert_eq!(summary["complete"], false);
     assert!(summary["error"].as_str().unwrap().contains(node));
     assert!(
@@ -438,8 +431,7 @@ fn an_injector_that_stops_publishing_is_named_after_the_timeout() {
     );
     let needle = run.with_extension("partial").display().to_string();
     assert_stopped_naming(child, &run, "injector", &needle);
-    let summary: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(run.join("summary.json")).unwrap()).unwrap();
+    let summary = summary(&run);
     assert_eq!(summary["steps"], 300);
     assert!(summary["error"].as_str().unwrap().contains("step 300"));
 }
