@@ -31,6 +31,95 @@ pub struct Config {
     /// Link-level attacks on the V2V channel, applied after the DoS schedule.
     #[serde(default, skip_serializing_if = "Channel::is_default")]
     pub channel: Channel,
+    /// The SUMO plant's road and options (used with `simulation.plant = "sumo"`).
+    #[serde(default)]
+    pub sumo: Sumo,
+    /// Deceleration thresholds that class the run's safety.
+    #[serde(default)]
+    pub safety: SafetyConfig,
+}
+
+/// `[sumo]`: where the platoon drives when SUMO is the plant.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Sumo {
+    /// The network (`.net.xml`), relative to the config file [default: the bundled
+    /// sumo/highway/highway.net.xml, a straight 3-lane, 3 km highway].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub net: Option<String>,
+    /// The edge the platoon drives on.
+    #[serde(default = "highway_edge")]
+    pub edge: String,
+    /// Its lane index (0 = rightmost).
+    #[serde(default = "one")]
+    pub lane: u32,
+    /// Lane position of the rearmost vehicle's front at t = 0 (m): the platoon's coordinates
+    /// are shifted by this much onto the road.
+    #[serde(default = "fifty")]
+    pub start_m: f64,
+    /// SUMO's `--collision.action`: `warn` (record and go on), `none`, `remove` or `teleport`.
+    #[serde(default = "warn")]
+    pub collision_action: String,
+}
+
+impl Default for Sumo {
+    fn default() -> Self {
+        Self {
+            net: None,
+            edge: highway_edge(),
+            lane: one(),
+            start_m: fifty(),
+            collision_action: warn(),
+        }
+    }
+}
+
+fn highway_edge() -> String {
+    "highway".into()
+}
+fn one() -> u32 {
+    1
+}
+fn fifty() -> f64 {
+    50.0
+}
+fn warn() -> String {
+    "warn".into()
+}
+
+/// `[safety]`: the largest deceleration any follower needed classes the run (m/s^2).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SafetyConfig {
+    /// At most this: class `none` [2.0, the paper leader's own braking].
+    #[serde(default = "none_decel")]
+    pub none_decel_mps2: f64,
+    /// At most this: `negligible` [3.5, comfortable braking].
+    #[serde(default = "negligible_decel")]
+    pub negligible_decel_mps2: f64,
+    /// At most this: `benign` [6.0, emergency braking]; beyond it, or any collision: `severe`.
+    #[serde(default = "benign_decel")]
+    pub benign_decel_mps2: f64,
+}
+
+impl Default for SafetyConfig {
+    fn default() -> Self {
+        Self {
+            none_decel_mps2: none_decel(),
+            negligible_decel_mps2: negligible_decel(),
+            benign_decel_mps2: benign_decel(),
+        }
+    }
+}
+
+fn none_decel() -> f64 {
+    2.0
+}
+fn negligible_decel() -> f64 {
+    3.5
+}
+fn benign_decel() -> f64 {
+    6.0
 }
 
 /// `[channel]`: a seed and a list of `[[channel.attacks]]`.
@@ -112,6 +201,14 @@ pub struct Simulation {
     pub duration_s: f64,
     /// Step length (s).
     pub dt_s: f64,
+    /// What integrates the vehicles: `native` (the model in Rust) or `sumo` (SUMO through
+    /// the libsumo bridge, see `[sumo]`); `platoon run --plant` overrides it.
+    #[serde(default = "native")]
+    pub plant: String,
+}
+
+fn native() -> String {
+    "native".into()
 }
 
 /// `[platoon]`

@@ -383,6 +383,39 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
     };
 
     let (link_attacks, channel_seed) = channel(&c.channel, dt, n)?;
+    if !matches!(c.simulation.plant.as_str(), "native" | "sumo") {
+        return bad(
+            "simulation.plant",
+            format!("unknown plant {:?}; use native or sumo", c.simulation.plant),
+        );
+    }
+    if !matches!(
+        c.sumo.collision_action.as_str(),
+        "warn" | "none" | "remove" | "teleport"
+    ) {
+        return bad(
+            "sumo.collision_action",
+            format!(
+                "unknown action {:?}; use warn, none, remove or teleport",
+                c.sumo.collision_action
+            ),
+        );
+    }
+    finite("sumo.start_m", c.sumo.start_m)?;
+    let sf = &c.safety;
+    positive("safety.none_decel_mps2", sf.none_decel_mps2)?;
+    if !(positive("safety.negligible_decel_mps2", sf.negligible_decel_mps2)? >= sf.none_decel_mps2)
+    {
+        return bad("safety.negligible_decel_mps2", "must be >= none_decel_mps2");
+    }
+    if !(positive("safety.benign_decel_mps2", sf.benign_decel_mps2)? >= sf.negligible_decel_mps2) {
+        return bad("safety.benign_decel_mps2", "must be >= negligible_decel_mps2");
+    }
+    let safety = platoon_sim::SafetyThresholds {
+        none: sf.none_decel_mps2,
+        negligible: sf.negligible_decel_mps2,
+        benign: sf.benign_decel_mps2,
+    };
     let scenario = Scenario {
         steps: steps as u64,
         initial,
@@ -395,6 +428,7 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
         channel_seed,
         assumption2: a.assumption2,
         vehicle_length,
+        safety,
     };
     scenario
         .validate()

@@ -9,7 +9,9 @@
 mod metrics;
 mod scenario;
 
-pub use metrics::{ErrorStats, MetricsAccumulator, Safety, Summary, VehicleSummary};
+pub use metrics::{
+    ErrorStats, MetricsAccumulator, Safety, SafetyThresholds, Summary, VehicleSummary,
+};
 pub use scenario::{Scenario, ScenarioError};
 
 use platoon_attacks::channel::{Channel, ChannelEvent};
@@ -86,6 +88,40 @@ impl Plant {
             self.leader.step_acceleration(k as usize + 1, self.dt),
             self.dt,
         );
+    }
+}
+
+/// What a plant process outside Rust (the SUMO bridge) needs to reproduce [`Plant`]: the time
+/// grid, the initial states (the leader's acceleration already that of step 0), the leader's
+/// profile and each follower's tau schedule. Serialised as the `plant.json` of a run.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct PlantSpec {
+    /// Step length (s).
+    pub dt: f64,
+    /// The run covers steps `0..=steps`.
+    pub steps: u64,
+    /// `[p, v, a]` per vehicle, leader first.
+    pub initial: Vec<[f64; 3]>,
+    /// The leader's velocity profile (waypoints).
+    pub leader: LeaderProfile,
+    /// Each follower's tau schedule (knots and interpolation).
+    pub taus: Vec<TauSchedule>,
+    /// Vehicle length (m).
+    pub vehicle_length: f64,
+}
+
+impl PlantSpec {
+    /// The spec of `scenario`'s plant.
+    pub fn new(scenario: &Scenario) -> Self {
+        let plant = Plant::new(scenario);
+        Self {
+            dt: scenario.dt(),
+            steps: scenario.steps,
+            initial: plant.states().iter().map(|x| [x[0], x[1], x[2]]).collect(),
+            leader: scenario.leader.clone(),
+            taus: scenario.taus.clone(),
+            vehicle_length: scenario.vehicle_length,
+        }
     }
 }
 

@@ -77,6 +77,54 @@ pub struct Safety {
     pub min_gap_vehicle: u16,
     /// When it happened (s).
     pub min_gap_t_s: f64,
+    /// The largest deceleration any follower needed (m/s^2, positive).
+    pub max_deceleration_mps2: f64,
+    /// The run's class, as attack-injection studies (e.g. ComFASE) class outcomes: `none`,
+    /// `negligible`, `benign` or `severe`, from the largest deceleration against the scenario's
+    /// [`SafetyThresholds`]; a collision (a gap at or below zero) is always `severe`.
+    pub class: &'static str,
+    /// The thresholds used.
+    pub thresholds: SafetyThresholds,
+}
+
+/// Deceleration thresholds (m/s^2, positive) that class a run's safety: at most `none` is
+/// class `none` (no more than the reference itself demands), at most `negligible` is
+/// `negligible` (comfortable braking), at most `benign` is `benign` (hard but below emergency
+/// braking); beyond, or any collision, is `severe`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct SafetyThresholds {
+    /// Upper bound of class `none`.
+    pub none: f64,
+    /// Upper bound of class `negligible`.
+    pub negligible: f64,
+    /// Upper bound of class `benign`.
+    pub benign: f64,
+}
+
+impl Default for SafetyThresholds {
+    /// 2 m/s^2 (the paper leader's own braking), 3.5 (comfort), 6 (emergency braking).
+    fn default() -> Self {
+        Self {
+            none: 2.0,
+            negligible: 3.5,
+            benign: 6.0,
+        }
+    }
+}
+
+impl SafetyThresholds {
+    /// The class of a run with this largest deceleration and whether it collided.
+    pub fn class(&self, max_deceleration: f64, collided: bool) -> &'static str {
+        if collided || max_deceleration > self.benign {
+            "severe"
+        } else if max_deceleration > self.negligible {
+            "benign"
+        } else if max_deceleration > self.none {
+            "negligible"
+        } else {
+            "none"
+        }
+    }
 }
 
 /// The DoS schedule's figures and its Assumption-2 verdict.
@@ -186,6 +234,9 @@ impl MetricsAccumulator {
             attacked_steps: 0,
             last_t: 0.0,
             safety: Safety {
+                max_deceleration_mps2: 0.0,
+                class: "none",
+                thresholds: scenario.safety,
                 safe: true,
                 min_gap_m: f64::INFINITY,
                 min_gap_vehicle: 0,
@@ -225,6 +276,13 @@ impl MetricsAccumulator {
                 self.safety.min_gap_t_s = r.t;
             }
         }
+    }
+
+    fn max_decel(&self) -> f64 {
+        self.vehicles
+            .iter()
+            .map(|a| -a.min_accel)
+            .fold(0.0, f64::max)
     }
 
     /// The summary; `complete` is true when every step `0..=steps` ran.
@@ -277,6 +335,11 @@ impl MetricsAccumulator {
             },
             safety: Safety {
                 safe: self.safety.min_gap_m > 0.0,
+                max_deceleration_mps2: self.max_decel(),
+                class: self
+                    .safety
+                    .thresholds
+                    .class(self.max_decel(), self.safety.min_gap_m <= 0.0),
                 ..self.safety.clone()
             },
             rejected_packets: rejected,

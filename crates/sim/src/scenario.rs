@@ -45,6 +45,8 @@ pub struct Scenario {
     pub assumption2: Option<Assumption2>,
     /// Vehicle length for gap computations (m); 0 treats vehicles as points.
     pub vehicle_length: f64,
+    /// How the run's safety is classed.
+    pub safety: crate::SafetyThresholds,
 }
 
 impl Scenario {

@@ -1,0 +1,79 @@
+"""The vehicle model of crates/model, in Python, for the SUMO bridge: the engine lag of each
+follower under its tau schedule, and the leader's reference acceleration.
+
+SUMO does the kinematics (ballistic update with the acceleration held over each step); this
+module gives the acceleration to hold. Every expression is written exactly as in Rust
+(`plant_step`, `TauSchedule::at`, `LeaderProfile::step_acceleration`) and with the same libm, so
+the values are bit-identical; tests/test_plant.py checks them against values Rust computed.
+The schedules come from the plant spec that `platoon run` writes (plant.json), never from
+parsing the scenario config a second time.
+"""
+
+import bisect
+import math
+
+
+class TauSchedule:
+    """Piecewise tau(t) through knots, with step, linear or smooth interpolation."""
+
+    def __init__(self, knots, interpolation):
+        self.times = [float(t) for t, _ in knots]
+        self.values = [float(y) for _, y in knots]
+        self.interpolation = interpolation
+
+    def at(self, t: float) -> float:
+        i = bisect.bisect_right(self.times, t)  # Rust: partition_point(|tk| tk <= t)
+        if i == 0:
+            return self.values[0]
+        if i == len(self.times):
+            return self.values[i - 1]
+        t0, y0 = self.times[i - 1], self.values[i - 1]
+        t1, y1 = self.times[i], self.values[i]
+        s = (t - t0) / (t1 - t0)
+        if self.interpolation == "step":
+            return y0
+        if self.interpolation == "linear":
+            return y0 + (y1 - y0) * s
+        return y0 + (y1 - y0) * s * s * (3.0 - 2.0 * s)
+
+
+class LeaderProfile:
+    """Piecewise-linear leader velocity through waypoints; its slope is the reference."""
+
+    def __init__(self, waypoints):
+        self.times = [float(t) for t, _ in waypoints]
+        self.speeds = [float(v) for _, v in waypoints]
+
+    def acceleration_at(self, t: float) -> float:
+        i = bisect.bisect_right(self.times, t)
+        if 1 <= i < len(self.times):
+            t0, v0 = self.times[i - 1], self.speeds[i - 1]
+            t1, v1 = self.times[i], self.speeds[i]
+            return (v1 - v0) / (t1 - t0)
+        return 0.0
+
+    def step_acceleration(self, k: int, dt: float) -> float:
+        """The acceleration held over step k: the slope at the middle of the step."""
+        return self.acceleration_at((float(k) + 0.5) * dt)
+
+
+def lagged(a: float, u: float, tau: float, dt: float) -> float:
+    """a[k+1] from a[k] and u[k]: the exact zero-order-hold solution of tau a' + a = u."""
+    return u + (a - u) * math.exp(-dt / tau)
+
+
+class Dynamics:
+    """Every vehicle's acceleration state from a plant spec (plant.json)."""
+
+    def __init__(self, spec):
+        self.dt = float(spec["dt"])
+        self.leader = LeaderProfile(spec["leader"]["waypoints"])
+        self.taus = [TauSchedule(t["knots"], t["interpolation"]) for t in spec["taus"]]
+        self.accel = [float(x[2]) for x in spec["initial"]]
+
+    def advance(self, k: int, u) -> None:
+        """From step k to k + 1 with the followers' commands u (index i - 1)."""
+        t = k * self.dt
+        for i in range(1, len(self.accel)):
+            self.accel[i] = lagged(self.accel[i], u[i - 1], self.taus[i - 1].at(t), self.dt)
+        self.accel[0] = self.leader.step_acceleration(k + 1, self.dt)
