@@ -81,24 +81,55 @@ def start_sumo(spec):
     return libsumo
 
 
-def read_states(sumo, n, offset, accel, lane_ids):
-    out = []
-    for i in range(n):
-        vid = vehicle_id(i)
-        st = w.VehicleState()
-        st.vehicle = i
-        st.p = sumo.vehicle.getLanePosition(vid) - offset
-        st.v = sumo.vehicle.getSpeed(vid)
-        st.a = accel[i]
-        out.append(st)
-    return out
+class Kinematics:
+    """Every vehicle's position and speed, from SUMO and from the model (the Rust formulas of
+    `plant_step`), and how far apart they are."""
+
+    def __init__(self, spec, sumo, mode):
+        self.sumo = sumo
+        self.mode = mode  # "sumo": the controllers see SUMO's states; "model": the model's
+        self.offset = float(spec["sumo"]["offset_m"])
+        self.dt = float(spec["dt"])
+        self.p = [float(x[0]) for x in spec["initial"]]
+        self.v = [float(x[1]) for x in spec["initial"]]
+        self.max_dp = 0.0
+        self.max_dv = 0.0
+        self.worst = None
+
+    def step(self, accel, k):
+        """The model's p, v after step k with the accelerations held over it."""
+        dt = self.dt
+        for i, a in enumerate(accel):
+            p, v = self.p[i], self.v[i]
+            self.p[i] = p + v * dt + 0.5 * a * dt * dt
+            self.v[i] = v + a * dt
+
+    def read(self, k, accel):
+        """The states to publish at step k, after comparing SUMO with the model."""
+        out = []
+        for i in range(len(self.p)):
+            vid = vehicle_id(i)
+            p = self.sumo.vehicle.getLanePosition(vid) - self.offset
+            v = self.sumo.vehicle.getSpeed(vid)
+            dp, dv = abs(p - self.p[i]), abs(v - self.v[i])
+            if dp > self.max_dp or dv > self.max_dv:
+                self.worst = {"step": k, "vehicle": i, "dp_m": dp, "dv_mps": dv}
+            self.max_dp, self.max_dv = max(self.max_dp, dp), max(self.max_dv, dv)
+            if self.mode == "sumo":
+                self.p[i], self.v[i] = p, v  # the next comparison is over one step
+            st = w.VehicleState()
+            st.vehicle = i
+            st.p = self.p[i]
+            st.v = self.v[i]
+            st.a = accel[i]
+            out.append(st)
+        return out
 
 
 def run(spec) -> int:
     n = len(spec["initial"])
     steps = int(spec["steps"])
     dt = float(spec["dt"])
-    offset = float(spec["sumo"]["offset_m"])
     node = w.Endpoint("plant")
     states_out = node.outlet("states", w.VehicleState, n)
     commands_in = node.inlet("commands", w.Command)
@@ -106,7 +137,7 @@ def run(spec) -> int:
     status = node.status_outlet()
 
     k = 0
-    report = {"sumo_version": None, "steps": 0, "collisions": [], "fcd": spec["sumo"]["fcd"]}
+    report = {"sumo_version": None, "steps": 0, "collisions": [], "fcd": "fcd.xml"}
     sumo_ns, bridge_ns = [], []
 
     def fail(message):
@@ -127,6 +158,8 @@ def run(spec) -> int:
         sumo = start_sumo(spec)
         report["sumo_version"] = sumo.getVersion()[1]
         dyn = platoon_plant.Dynamics(spec)
+        kin = Kinematics(spec, sumo, spec["sumo"]["states"])
+        tolerance = float(spec["sumo"]["tolerance_m"])
     except Exception as e:  # libsumo raises its own exception types
         fail(f"SUMO could not start: {e}")
         return 1
@@ -146,7 +179,7 @@ def run(spec) -> int:
             msg = control.receive()
 
     try:
-        states_out.send(0, 0.0, read_states(sumo, n, offset, dyn.accel, None))
+        states_out.send(0, 0.0, kin.read(0, dyn.accel))
         while True:
             msg = control.receive()
             while msg is not None:
@@ -177,15 +210,23 @@ def run(spec) -> int:
                         "collider": c.collider,
                         "victim": c.victim,
                         "type": c.type,
-                        "position_m": c.pos - offset,
+                        "position_m": c.pos - kin.offset,
                     }
                 )
+            kin.step(dyn.accel, k)
             dyn.advance(k, u)
             k += 1
             if k > steps:
                 report["steps"] = k
                 break
-            states_out.send(k, k * dt, read_states(sumo, n, offset, dyn.accel, None))
+            states = kin.read(k, dyn.accel)
+            if max(kin.max_dp, kin.max_dv) > tolerance:
+                raise SumoError(
+                    f"SUMO deviates from the vehicle model by {kin.worst['dp_m']:.3g} m, "
+                    f"{kin.worst['dv_mps']:.3g} m/s (vehicle {kin.worst['vehicle']}; "
+                    f"tolerance sumo.tolerance_m = {tolerance:g})"
+                )
+            states_out.send(k, k * dt, states)
             t3 = time.perf_counter_ns()
             sumo_ns.append(t2 - t1)
             bridge_ns.append((t1 - t0) + (t3 - t2))
@@ -203,6 +244,10 @@ def run(spec) -> int:
             "mean_us": statistics.fmean(ns) / 1e3,
         }
 
+    report["states"] = kin.mode
+    report["max_deviation_m"] = kin.max_dp
+    report["max_deviation_mps"] = kin.max_dv
+    report["worst_deviation"] = kin.worst
     report["sumo_step"] = stats(sumo_ns)
     report["bridge_step"] = stats(bridge_ns)
     tmp = spec["sumo"]["report"] + ".partial"

@@ -84,7 +84,7 @@ fn table1(args: Table1Args) -> Result<()> {
         scenario.control.rule = rule;
         let sub = RunDir::create(&dir.path(name), true)?;
         let (rows, summary) = simulate(&scenario, &sub)?;
-        crate::run::write_outputs(&sub, &config, &scenario, &rows, &summary, false)?;
+        crate::run::write_outputs(&sub, &config, &scenario, &rows, &summary, false, &[])?;
         sub.commit()?;
         results.push((name, summary, average_error(&rows)));
     }

@@ -5,6 +5,7 @@ mod node;
 mod output;
 mod plots;
 mod run;
+mod sumo;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;

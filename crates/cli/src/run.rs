@@ -40,6 +40,20 @@ pub struct Args {
         env = "PLATOON_STEP_TIMEOUT"
     )]
     pub step_timeout: f64,
+    /// What integrates the vehicles, overriding the config's `simulation.plant`: native (the
+    /// model in Rust) or sumo (SUMO through the libsumo bridge in bridge/, whose Python
+    /// environment is created on first use; writes fcd.xml and sumo.json too).
+    #[arg(long, value_enum)]
+    pub plant: Option<PlantKind>,
+}
+
+/// What integrates the vehicles.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum PlantKind {
+    /// The model in Rust (`platoon node plant`).
+    Native,
+    /// SUMO through the libsumo bridge (bridge/sumo_plant.py).
+    Sumo,
 }
 
 /// How the processes of a run are connected.
@@ -76,11 +90,30 @@ pub fn load(
 }
 
 pub fn run(args: Args) -> Result<()> {
-    let (config, scenario, stem) =
+    let (mut config, scenario, stem) =
         load(args.config.as_deref(), platoon_config::PAPER_TOML, "paper")?;
     if args.injector.is_some() && args.transport == Transport::Inproc {
         anyhow::bail!("--injector needs --transport iceoryx2: an external injector is a process");
     }
+    match args.plant {
+        Some(PlantKind::Sumo) => config.simulation.plant = "sumo".into(),
+        Some(PlantKind::Native) => config.simulation.plant = "native".into(),
+        None => {}
+    }
+    let sumo_plan = if config.simulation.plant == "sumo" {
+        if args.transport == Transport::Inproc {
+            anyhow::bail!(
+                "the SUMO plant is a process: use --transport iceoryx2 (the default), or --plant native"
+            );
+        }
+        let file = args
+            .config
+            .clone()
+            .unwrap_or_else(|| PathBuf::from("<embedded configs/paper.toml>"));
+        Some(crate::sumo::plan(&file, &config, &scenario)?)
+    } else {
+        None
+    };
     if !(args.step_timeout.is_finite() && args.step_timeout > 0.0) {
         anyhow::bail!("--step-timeout must be a positive number of seconds");
     }
@@ -96,10 +129,35 @@ pub fn run(args: Args) -> Result<()> {
             let (rows, summary) = simulate(&scenario, &dir)?;
             (rows, summary, None)
         }
-        Transport::Iceoryx2 => cosimulate(&scenario, &dir, &args)?,
+        Transport::Iceoryx2 => {
+            let plant = sumo_plan.as_ref().map(|p| p.launch(&dir)).transpose()?;
+            cosimulate(&scenario, &dir, &args, plant)?
+        }
     };
     let compute = started.elapsed();
-    write_outputs(&dir, &config, &scenario, &rows, &summary, !args.no_plots)?;
+    let mut summary = summary;
+    let mut extra = Vec::new();
+    if sumo_plan.is_some() {
+        if let Some(report) = crate::sumo::report(&dir)? {
+            if report["collisions"]
+                .as_array()
+                .is_some_and(|c| !c.is_empty())
+            {
+                summary.safety.safe = false;
+                summary.safety.class = "severe";
+            }
+            extra.push(("sumo", report));
+        }
+    }
+    write_outputs(
+        &dir,
+        &config,
+        &scenario,
+        &rows,
+        &summary,
+        !args.no_plots,
+        &extra,
+    )?;
     let path = dir.commit()?;
     if let Some(e) = failure {
         eprintln!(
@@ -199,21 +257,28 @@ fn cosimulate(
     scenario: &Scenario,
     dir: &RunDir,
     args: &Args,
+    plant: Option<crate::sumo::SumoPlant>,
 ) -> Result<(Vec<StepRow>, Summary, Option<platoon_runtime::RunError>)> {
     let logs = dir.path("logs");
     std::fs::create_dir_all(&logs).with_context(|| format!("creating {}", logs.display()))?;
     let injector = match &args.injector {
-        Some(cmd) => platoon_runtime::InjectorCommand::External(cmd.clone()),
-        None => platoon_runtime::InjectorCommand::Builtin,
+        Some(cmd) => platoon_runtime::Program::Shell(cmd.clone()),
+        None => platoon_runtime::Program::Builtin,
+    };
+    let (plant, env) = match plant {
+        Some(p) => (p.program, p.env),
+        None => (platoon_runtime::Program::Builtin, Vec::new()),
     };
     let opts = platoon_runtime::Options {
         run_id: platoon_runtime::new_run_id(),
         exe: std::env::current_exe().context("locating the platoon binary")?,
         config: std::path::absolute(dir.path("config.toml"))
             .context("resolving the run directory")?,
-        channel_log: (injector == platoon_runtime::InjectorCommand::Builtin)
+        channel_log: (injector == platoon_runtime::Program::Builtin)
             .then(|| dir.path("channel.csv")),
         injector,
+        plant,
+        env,
         log_dir: Some(logs),
         step_timeout: std::time::Duration::from_secs_f64(args.step_timeout),
         ready_timeout: std::time::Duration::from_secs(60),
@@ -254,6 +319,7 @@ pub fn write_outputs(
     rows: &[StepRow],
     summary: &Summary,
     plots: bool,
+    extra: &[(&str, serde_json::Value)],
 ) -> Result<()> {
     if !dir.path("config.toml").exists() {
         dir.write("config.toml", platoon_config::to_toml(config).as_bytes())?;
@@ -281,7 +347,11 @@ pub fn write_outputs(
         plots::fig6(&dir.path("fig6.png"), scenario, rows).context("drawing fig6.png")?;
         plots::fig7(&dir.path("fig7.png"), scenario, rows).context("drawing fig7.png")?;
     }
-    let json = serde_json::to_string_pretty(summary)? + "\n";
+    let mut json = serde_json::to_value(summary)?;
+    for (key, value) in extra {
+        json[*key] = value.clone();
+    }
+    let json = serde_json::to_string_pretty(&json)? + "\n";
     dir.write("summary.json", json.as_bytes())
 }
 

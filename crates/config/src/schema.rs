@@ -60,6 +60,22 @@ pub struct Sumo {
     /// SUMO's `--collision.action`: `warn` (record and go on), `none`, `remove` or `teleport`.
     #[serde(default = "warn")]
     pub collision_action: String,
+    /// What the controllers see: `sumo` (SUMO's positions and speeds: SUMO is the plant) or
+    /// `model` (the vehicle model's, bit-identical to the native plant, with SUMO checked
+    /// against them every step).
+    #[serde(default = "sumo_states")]
+    pub states: String,
+    /// How far SUMO may deviate from the vehicle model before the run stops (m and m/s; in
+    /// `states = "sumo"` mode over one step, in `model` mode accumulated over the run).
+    #[serde(default = "tolerance")]
+    pub tolerance_m: f64,
+}
+
+fn sumo_states() -> String {
+    "sumo".into()
+}
+fn tolerance() -> f64 {
+    1e-6
 }
 
 impl Default for Sumo {
@@ -70,6 +86,8 @@ impl Default for Sumo {
             lane: one(),
             start_m: fifty(),
             collision_action: warn(),
+            states: sumo_states(),
+            tolerance_m: tolerance(),
         }
     }
 }

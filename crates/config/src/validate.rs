@@ -402,6 +402,13 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
         );
     }
     finite("sumo.start_m", c.sumo.start_m)?;
+    positive("sumo.tolerance_m", c.sumo.tolerance_m)?;
+    if !matches!(c.sumo.states.as_str(), "sumo" | "model") {
+        return bad(
+            "sumo.states",
+            format!("unknown source {:?}; use sumo or model", c.sumo.states),
+        );
+    }
     let sf = &c.safety;
     positive("safety.none_decel_mps2", sf.none_decel_mps2)?;
     if !(positive("safety.negligible_decel_mps2", sf.negligible_decel_mps2)? >= sf.none_decel_mps2)
@@ -409,7 +416,10 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
         return bad("safety.negligible_decel_mps2", "must be >= none_decel_mps2");
     }
     if !(positive("safety.benign_decel_mps2", sf.benign_decel_mps2)? >= sf.negligible_decel_mps2) {
-        return bad("safety.benign_decel_mps2", "must be >= negligible_decel_mps2");
+        return bad(
+            "safety.benign_decel_mps2",
+            "must be >= negligible_decel_mps2",
+        );
     }
     let safety = platoon_sim::SafetyThresholds {
         none: sf.none_decel_mps2,

@@ -20,7 +20,7 @@ pub mod nodes;
 pub mod orchestrator;
 pub mod timing;
 
-pub use orchestrator::{orchestrate, InjectorCommand, Options, Outcome};
+pub use orchestrator::{orchestrate, Options, Outcome, Program};
 
 use platoon_wire::Node;
 

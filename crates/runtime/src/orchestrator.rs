@@ -12,13 +12,20 @@ use std::path::PathBuf;
 use std::process::{Child, Command as Process, Stdio};
 use std::time::{Duration, Instant};
 
-/// Which program gates the channel.
+/// Which program plays a role (plant or injector).
 #[derive(Debug, Clone, PartialEq)]
-pub enum InjectorCommand {
-    /// `platoon node injector`: the channel of `platoon-attacks`, configured by the scenario.
+pub enum Program {
+    /// `platoon node <role>`: the native plant, or the channel of `platoon-attacks`.
     Builtin,
-    /// Any program, run with `sh -c "exec <command>"` and the `PLATOON_*` environment.
-    External(String),
+    /// A command line given by the user, run with `sh -c "exec <command>"`.
+    Shell(String),
+    /// A program with its arguments (e.g. the SUMO bridge in the bridge's Python).
+    Exec {
+        /// The executable.
+        program: PathBuf,
+        /// Its arguments.
+        args: Vec<String>,
+    },
 }
 
 /// How to run one co-simulation.
@@ -31,7 +38,11 @@ pub struct Options {
     /// The resolved scenario config every node loads.
     pub config: PathBuf,
     /// The injector.
-    pub injector: InjectorCommand,
+    pub injector: Program,
+    /// The plant.
+    pub plant: Program,
+    /// More environment for every process (e.g. `PLATOON_PLANT_SPEC`).
+    pub env: Vec<(String, String)>,
     /// Where the built-in injector writes its channel log (CSV).
     pub channel_log: Option<PathBuf>,
     /// Where each node's stderr goes (`<dir>/<node>.log`); inherited if `None`.
@@ -294,47 +305,48 @@ fn watch(children: &mut Children, step: u64) -> Result<(), RunError> {
 
 fn spawn_all(opts: &Options, children: &mut Children) -> Result<(), RunError> {
     for node in [Node::Plant, Node::Controller, Node::Injector] {
-        let mut cmd;
-        let shown;
-        if node == Node::Injector {
-            if let InjectorCommand::External(line) = &opts.injector {
-                cmd = Process::new("sh");
+        let program = match node {
+            Node::Plant => &opts.plant,
+            Node::Injector => &opts.injector,
+            _ => &Program::Builtin,
+        };
+        let (mut cmd, shown) = match program {
+            Program::Shell(line) => {
+                let mut cmd = Process::new("sh");
                 cmd.arg("-c").arg(format!("exec {line}"));
-                shown = line.clone();
-            } else {
-                cmd = node_command(opts, node);
-                if let Some(log) = &opts.channel_log {
-                    cmd.arg("--log").arg(log);
-                }
-                shown = format!("{} node injector", opts.exe.display());
+                (cmd, line.clone())
             }
-        } else {
-            cmd = node_command(opts, node);
-            shown = format!("{} node {}", opts.exe.display(), node.name());
-        }
+            Program::Exec { program, args } => {
+                let mut cmd = Process::new(program);
+                cmd.args(args);
+                (cmd, format!("{} {}", program.display(), args.join(" ")))
+            }
+            Program::Builtin => {
+                let mut cmd = node_command(opts, node);
+                if node == Node::Injector {
+                    if let Some(log) = &opts.channel_log {
+                        cmd.arg("--log").arg(log);
+                    }
+                }
+                (cmd, format!("{} node {}", opts.exe.display(), node.name()))
+            }
+        };
         cmd.env("PLATOON_RUN_ID", &opts.run_id)
             .env("PLATOON_CONFIG", &opts.config)
+            .envs(opts.env.iter().map(|(k, v)| (k, v)))
             .stdin(Stdio::null());
+        let spawn_err = |source| RunError::Spawn {
+            node: node.name(),
+            command: shown.clone(),
+            source,
+        };
         if let Some(dir) = &opts.log_dir {
-            let file = std::fs::File::create(dir.join(format!("{}.log", node.name()))).map_err(
-                |source| RunError::Spawn {
-                    node: node.name(),
-                    command: shown.clone(),
-                    source,
-                },
-            )?;
-            let out = file.try_clone().map_err(|source| RunError::Spawn {
-                node: node.name(),
-                command: shown.clone(),
-                source,
-            })?;
+            let file = std::fs::File::create(dir.join(format!("{}.log", node.name())))
+                .map_err(spawn_err)?;
+            let out = file.try_clone().map_err(spawn_err)?;
             cmd.stdout(out).stderr(file);
         }
-        let child = cmd.spawn().map_err(|source| RunError::Spawn {
-            node: node.name(),
-            command: shown,
-            source,
-        })?;
+        let child = cmd.spawn().map_err(spawn_err)?;
         children.procs.push((node, child));
     }
     Ok(())

@@ -1,0 +1,249 @@
+//! SUMO as the plant: the bridge's Python environment, the road check, and plant.json.
+use crate::output::RunDir;
+use anyhow::{bail, Context, Result};
+use platoon_config::{Config, ConfigError};
+use platoon_runtime::Program;
+use platoon_sim::{PlantSpec, Scenario};
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// The repository's `bridge/` (or `PLATOON_BRIDGE_DIR`).
+pub fn bridge_dir() -> PathBuf {
+    std::env::var_os("PLATOON_BRIDGE_DIR")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../../bridge"))
+}
+
+/// Creates `bridge/.venv` with the pinned packages if it is missing (with a progress message),
+/// and returns its Python.
+pub fn ensure_venv() -> Result<PathBuf> {
+    let bridge = bridge_dir();
+    let setup = bridge.join("setup-venv.sh");
+    if !setup.exists() {
+        bail!(
+            "the SUMO bridge is not at {} (set PLATOON_BRIDGE_DIR to the repository's bridge/ folder)",
+            bridge.display()
+        );
+    }
+    let status = Command::new(&setup)
+        .status()
+        .with_context(|| format!("running {}", setup.display()))?;
+    if !status.success() {
+        bail!(
+            "could not set up the bridge's Python environment ({} exited with {status}; its message is above)",
+            setup.display()
+        );
+    }
+    Ok(bridge.join(".venv/bin/python"))
+}
+
+/// What the orchestrator needs to run the SUMO plant.
+pub struct SumoPlant {
+    /// The bridge process.
+    pub program: Program,
+    /// `PLATOON_PLANT_SPEC`.
+    pub env: Vec<(String, String)>,
+}
+
+/// `plant.json`: the plant spec plus the SUMO options.
+#[derive(serde::Serialize)]
+struct Spec<'a> {
+    #[serde(flatten)]
+    plant: PlantSpec,
+    sumo: SumoSpec<'a>,
+}
+
+#[derive(serde::Serialize)]
+struct SumoSpec<'a> {
+    net: String,
+    edge: &'a str,
+    lane: u32,
+    offset_m: f64,
+    vehicle_length_m: f64,
+    collision_action: &'a str,
+    states: &'a str,
+    tolerance_m: f64,
+    routes: String,
+    fcd: String,
+    report: String,
+}
+
+fn config_error(file: &Path, key: &str, message: String) -> anyhow::Error {
+    ConfigError {
+        file: file.to_path_buf(),
+        key: key.into(),
+        message,
+        line: None,
+    }
+    .into()
+}
+
+/// A checked SUMO set-up, before any file is written.
+pub struct SumoPlan<'a> {
+    config: &'a Config,
+    scenario: &'a Scenario,
+    net: PathBuf,
+    offset: f64,
+    length: f64,
+}
+
+/// Checks the network, lane and that the platoon stays on the road for the whole run (from the
+/// native run, which SUMO reproduces to 1e-9 m). Errors are config errors naming the key.
+pub fn plan<'a>(
+    config_file: &Path,
+    config: &'a Config,
+    scenario: &'a Scenario,
+) -> Result<SumoPlan<'a>> {
+    let s = &config.sumo;
+    let net = match &s.net {
+        Some(net) => config_file.parent().unwrap_or(Path::new(".")).join(net),
+        None => bridge_dir().join("../sumo/highway/highway.net.xml"),
+    };
+    let net = net.canonicalize().map_err(|e| {
+        config_error(
+            config_file,
+            "sumo.net",
+            format!("cannot read {}: {e}", net.display()),
+        )
+    })?;
+    let text = std::fs::read_to_string(&net).map_err(|e| {
+        config_error(
+            config_file,
+            "sumo.net",
+            format!("cannot read {}: {e}", net.display()),
+        )
+    })?;
+    let doc = roxmltree::Document::parse(&text).map_err(|e| {
+        config_error(
+            config_file,
+            "sumo.net",
+            format!("{} is not a SUMO network: {e}", net.display()),
+        )
+    })?;
+    let lane_id = format!("{}_{}", s.edge, s.lane);
+    let lane_length: f64 = doc
+        .descendants()
+        .find(|n| n.has_tag_name("lane") && n.attribute("id") == Some(lane_id.as_str()))
+        .and_then(|n| n.attribute("length"))
+        .and_then(|l| l.parse().ok())
+        .ok_or_else(|| {
+            config_error(
+                config_file,
+                "sumo.lane",
+                format!(
+                    "{} has no lane {lane_id} (edge `sumo.edge`, index `sumo.lane`)",
+                    net.display()
+                ),
+            )
+        })?;
+
+    // Where the platoon goes: the native run predicts SUMO's to 1e-9 m.
+    let rear0 = scenario
+        .initial
+        .iter()
+        .map(|x| x[0])
+        .fold(f64::INFINITY, f64::min);
+    let offset = s.start_m - rear0;
+    let length = scenario.vehicle_length.max(0.01);
+    if s.start_m < length {
+        return Err(config_error(
+            config_file,
+            "sumo.start_m",
+            format!("must be at least the vehicle length ({length} m) so every vehicle starts on the road"),
+        ));
+    }
+    let (mut lo, mut hi) = ((f64::INFINITY, 0.0), (f64::NEG_INFINITY, 0.0));
+    platoon_sim::run(scenario.clone(), |rows| {
+        for r in rows {
+            if r.p < lo.0 {
+                lo = (r.p, r.t);
+            }
+            if r.p > hi.0 {
+                hi = (r.p, r.t);
+            }
+        }
+    })?;
+    if lo.0 + offset < length {
+        return Err(config_error(
+            config_file,
+            "sumo.start_m",
+            format!(
+                "a vehicle would back off the start of the road at t = {:.2} s ({:.1} m before it); increase sumo.start_m",
+                lo.1,
+                length - (lo.0 + offset)
+            ),
+        ));
+    }
+    let margin = 1.0;
+    if hi.0 + offset > lane_length - margin {
+        return Err(config_error(
+            config_file,
+            "sumo.net",
+            format!(
+                "road too short: the leader reaches lane position {:.0} m at t = {:.2} s, but lane {lane_id} of {} is {lane_length:.0} m long; use a longer network or a shorter simulation.duration_s",
+                hi.0 + offset,
+                hi.1,
+                net.display()
+            ),
+        ));
+    }
+    Ok(SumoPlan {
+        config,
+        scenario,
+        net,
+        offset,
+        length,
+    })
+}
+
+impl SumoPlan<'_> {
+    /// Sets up the bridge's Python if needed, writes plant.json into the run directory and
+    /// returns the bridge to start.
+    pub fn launch(&self, dir: &RunDir) -> Result<SumoPlant> {
+        let s = &self.config.sumo;
+        let path = |name: &str| -> Result<String> {
+            Ok(std::path::absolute(dir.path(name))?.display().to_string())
+        };
+        let spec = Spec {
+            plant: PlantSpec::new(self.scenario),
+            sumo: SumoSpec {
+                net: self.net.display().to_string(),
+                edge: &s.edge,
+                lane: s.lane,
+                offset_m: self.offset,
+                vehicle_length_m: self.length,
+                collision_action: &s.collision_action,
+                states: &s.states,
+                tolerance_m: s.tolerance_m,
+                routes: path("routes.rou.xml")?,
+                fcd: path("fcd.xml")?,
+                report: path("sumo.json")?,
+            },
+        };
+        dir.write(
+            "plant.json",
+            (serde_json::to_string_pretty(&spec)? + "\n").as_bytes(),
+        )?;
+        let python = ensure_venv()?;
+        Ok(SumoPlant {
+            program: Program::Exec {
+                program: python,
+                args: vec![bridge_dir().join("sumo_plant.py").display().to_string()],
+            },
+            env: vec![("PLATOON_PLANT_SPEC".into(), path("plant.json")?)],
+        })
+    }
+}
+
+/// The bridge's sumo.json (SUMO version, per-step costs, collisions), if it wrote one.
+pub fn report(dir: &RunDir) -> Result<Option<serde_json::Value>> {
+    let path = dir.path("sumo.json");
+    if !path.exists() {
+        return Ok(None);
+    }
+    let text =
+        std::fs::read_to_string(&path).with_context(|| format!("reading {}", path.display()))?;
+    Ok(Some(
+        serde_json::from_str(&text).with_context(|| format!("parsing {}", path.display()))?,
+    ))
+}

@@ -1,0 +1,360 @@
+//! SUMO as the plant, for real (libsumo through bridge/sumo_plant.py; the test sets the bridge's
+//! Python up if it is missing): agreement with the native plant, FCD output, collisions, faults.
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../..")
+        .canonicalize()
+        .unwrap()
+}
+
+fn platoon(args: &[&str], cwd: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_platoon"))
+        .args(args)
+        .current_dir(cwd)
+        // Tests run side by side on two cores: a starved process is not a stalled one.
+        .env("PLATOON_STEP_TIMEOUT", "20")
+        .output()
+        .unwrap()
+}
+
+fn ok(o: &Output) {
+    assert!(
+        o.status.success(),
+        "platoon failed:\n{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+}
+
+fn json(path: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
+fn trajectories(run: &Path) -> Vec<Vec<String>> {
+    std::fs::read_to_string(run.join("trajectories.csv"))
+        .unwrap()
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(String::from).collect())
+        .collect()
+}
+
+/// configs/sumo-paper.toml with `[sumo] states` set.
+fn sumo_paper(dir: &Path, states: &str) -> PathBuf {
+    let text = std::fs::read_to_string(repo().join("configs/sumo-paper.toml")).unwrap();
+    assert!(text.contains("states = \"sumo\""));
+    let path = dir.join(format!("sumo-{states}.toml"));
+    std::fs::write(
+        &path,
+        text.replace("states = \"sumo\"", &format!("states = \"{states}\"")),
+    )
+    .unwrap();
+    path
+}
+
+#[test]
+fn sumo_reproduces_the_native_plant() {
+    let tmp = tempfile::tempdir().unwrap();
+    let model = sumo_paper(tmp.path(), "model");
+    let sumo = sumo_paper(tmp.path(), "sumo");
+    ok(&platoon(
+        &[
+            "run",
+            model.to_str().unwrap(),
+            "--out",
+            "model",
+            "--no-plots",
+        ],
+        tmp.path(),
+    ));
+    ok(&platoon(
+        &["run", sumo.to_str().unwrap(), "--out", "sumo", "--no-plots"],
+        tmp.path(),
+    ));
+    ok(&platoon(
+        &[
+            "run",
+            model.to_str().unwrap(),
+            "--out",
+            "native",
+            "--no-plots",
+            "--plant",
+            "native",
+        ],
+        tmp.path(),
+    ));
+    let (m, s, n) = (
+        tmp.path().join("model"),
+        tmp.path().join("sumo"),
+        tmp.path().join("native"),
+    );
+
+    // Fed the model's states, the run is the native run bit for bit, and SUMO's own positions
+    // and speeds stay within 1e-9 of them over the whole run.
+    for f in ["trajectories.csv", "events.csv"] {
+        assert!(
+            std::fs::read(m.join(f)).unwrap() == std::fs::read(n.join(f)).unwrap(),
+            "{f} differs"
+        );
+    }
+    let r = json(&m.join("sumo.json"));
+    assert_eq!(r["sumo_version"], "SUMO 1.28.0");
+    assert!(r["max_deviation_m"].as_f64().unwrap() < 1e-9, "{r}");
+    assert!(r["max_deviation_mps"].as_f64().unwrap() < 1e-9, "{r}");
+
+    // Fed SUMO's own states, every step agrees to 1e-9 with the model, and the trigger counts
+    // are the native run's.
+    let r = json(&s.join("sumo.json"));
+    assert_eq!(r["states"], "sumo");
+    assert!(r["max_deviation_m"].as_f64().unwrap() < 1e-9, "{r}");
+    assert!(r["max_deviation_mps"].as_f64().unwrap() < 1e-9, "{r}");
+    assert_eq!(
+        json(&s.join("summary.json"))["triggers"],
+        json(&n.join("summary.json"))["triggers"]
+    );
+    // Over the whole run, the closed loop drifts from the native one only by what the event
+    // rule makes of last-bit differences (see README): far below a millimetre.
+    let drift = trajectories(&s)
+        .iter()
+        .zip(trajectories(&n))
+        .map(|(a, b)| (a[3].parse::<f64>().unwrap() - b[3].parse::<f64>().unwrap()).abs())
+        .fold(0.0, f64::max);
+    assert!(drift < 1e-3, "closed-loop drift {drift} m");
+
+    // The summary records SUMO and the bridge's cost.
+    let summary = json(&s.join("summary.json"));
+    assert_eq!(summary["sumo"]["sumo_version"], "SUMO 1.28.0");
+    assert!(summary["sumo"]["bridge_step"]["p50_us"].as_f64().unwrap() > 0.0);
+}
+
+#[test]
+fn fcd_output_holds_every_vehicle_at_every_step() {
+    let tmp = tempfile::tempdir().unwrap();
+    let c = repo().join("configs/sumo-paper.toml");
+    ok(&platoon(
+        &["run", c.to_str().unwrap(), "--out", "r", "--no-plots"],
+        tmp.path(),
+    ));
+    let text = std::fs::read_to_string(tmp.path().join("r/fcd.xml")).unwrap();
+    let doc = roxmltree::Document::parse(&text).expect("fcd.xml parses");
+    let steps: Vec<_> = doc
+        .descendants()
+        .filter(|n| n.has_tag_name("timestep"))
+        .collect();
+    assert!(steps.len() >= 5501, "{} timesteps", steps.len());
+    let mut ids: Vec<&str> = doc
+        .descendants()
+        .filter(|n| n.has_tag_name("vehicle"))
+        .filter_map(|n| n.attribute("id"))
+        .collect();
+    ids.sort_unstable();
+    ids.dedup();
+    assert_eq!(
+        ids,
+        ["follower1", "follower2", "follower3", "follower4", "leader"]
+    );
+    for s in &steps[1..] {
+        assert_eq!(
+            s.children().filter(|n| n.has_tag_name("vehicle")).count(),
+            5
+        );
+    }
+}
+
+/// Follower 1 starts 6 m behind the leader, 8 m/s faster, and the channel is jammed from the
+/// start with u = 0: nothing brakes it.
+fn collision_config(dir: &Path) -> PathBuf {
+    let text = std::fs::read_to_string(repo().join("configs/sumo-paper.toml")).unwrap();
+    let text = text
+        .replace("[8.0, 16.0, 0.0]", "[14.0, 23.0, 0.0]")
+        .replace("duration_s = 55.0", "duration_s = 5.0");
+    let start = text.find("[attack]").unwrap();
+    let end = text[start..]
+        .find("\n[")
+        .map_or(text.len(), |e| start + e + 1);
+    let text = format!(
+        "{}[attack]\nkind = \"intervals\"\nintervals = [[0.0, 5.0]]\n\n{}",
+        &text[..start],
+        &text[end..]
+    );
+    let path = dir.join("collide.toml");
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+#[test]
+fn sumo_detects_a_collision_and_the_run_is_severe() {
+    let tmp = tempfile::tempdir().unwrap();
+    let c = collision_config(tmp.path());
+    ok(&platoon(
+        &["run", c.to_str().unwrap(), "--out", "r", "--no-plots"],
+        tmp.path(),
+    ));
+    let s = json(&tmp.path().join("r/summary.json"));
+    let collisions = s["sumo"]["collisions"].as_array().unwrap();
+    assert!(!collisions.is_empty(), "SUMO saw no collision: {s}");
+    assert_eq!(collisions[0]["collider"], "follower1");
+    assert_eq!(collisions[0]["victim"], "leader");
+    assert_eq!(s["safety"]["safe"], false);
+    assert_eq!(s["safety"]["class"], "severe");
+}
+
+#[test]
+fn a_road_too_short_is_a_config_error_before_the_run() {
+    let tmp = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(repo().join("configs/sumo-paper.toml")).unwrap();
+    let c = tmp.path().join("long.toml");
+    std::fs::write(&c, text.replace("duration_s = 55.0", "duration_s = 300.0")).unwrap();
+    let o = platoon(&["run", c.to_str().unwrap(), "--out", "r"], tmp.path());
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("sumo.net") && err.contains("road too short"),
+        "{err}"
+    );
+    assert!(!tmp.path().join("r").exists() && !tmp.path().join("r.partial").exists());
+}
+
+#[test]
+fn killing_the_sumo_bridge_stops_the_run_and_names_the_plant() {
+    let tmp = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(repo().join("configs/sumo-paper.toml")).unwrap();
+    let c = tmp.path().join("long.toml");
+    let long = text
+        .replace("duration_s = 55.0", "duration_s = 100.0")
+        .replace("[sumo]\n", "[sumo]\nnet = \"NET\"\n")
+        .replace(
+            "NET",
+            repo()
+                .join("sumo/highway-long/highway-long.net.xml")
+                .to_str()
+                .unwrap(),
+        );
+    std::fs::write(&c, long).unwrap();
+    let child = Command::new(env!("CARGO_BIN_EXE_platoon"))
+        .args(["run", c.to_str().unwrap(), "--out", "r", "--no-plots"])
+        .current_dir(tmp.path())
+        .env("PLATOON_STEP_TIMEOUT", "20")
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let partial = tmp.path().join("r.partial");
+    let csv = partial.join("trajectories.csv");
+    let until = Instant::now() + Duration::from_secs(120);
+    while std::fs::metadata(&csv).map(|m| m.len()).unwrap_or(0) < 50_000 {
+        assert!(Instant::now() < until, "the run never started");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let spec = partial.join("plant.json").canonicalize().unwrap();
+    let needle = spec.display().to_string();
+    let bridge: Vec<u32> = std::fs::read_dir("/proc")
+        .unwrap()
+        .flatten()
+        .filter_map(|e| e.file_name().to_string_lossy().parse::<u32>().ok())
+        .filter(|pid| {
+            let cmd = std::fs::read(format!("/proc/{pid}/cmdline")).unwrap_or_default();
+            let env = std::fs::read(format!("/proc/{pid}/environ")).unwrap_or_default();
+            String::from_utf8_lossy(&cmd).contains("sumo_plant.py")
+                && String::from_utf8_lossy(&env).contains(&needle)
+        })
+        .collect();
+    assert_eq!(bridge.len(), 1, "one bridge process");
+    Command::new("kill")
+        .args(["-9", &bridge[0].to_string()])
+        .status()
+        .unwrap();
+    let o = child.wait_with_output().unwrap();
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("the plant process"), "{err}");
+    let s = json(&tmp.path().join("r/summary.json"));
+    assert_eq!(s["complete"], false);
+    assert!(s["steps"].as_u64().unwrap() > 0);
+}
+
+#[test]
+fn the_python_vehicle_model_is_the_rust_one_bit_for_bit() {
+    use platoon_model::tau::Interpolation;
+    use platoon_model::{LeaderProfile, TauSchedule};
+    let knots = vec![(0.0, 0.3), (2.5, 0.55), (7.0, 0.41), (9.0, 0.9)];
+    let times: Vec<f64> = (0..1200).map(|k| k as f64 * 0.01 - 0.5).collect();
+    let leader = LeaderProfile::paper();
+    let mut expected = Vec::new();
+    for interp in [
+        Interpolation::Step,
+        Interpolation::Linear,
+        Interpolation::Smooth,
+    ] {
+        let s = TauSchedule::new(knots.clone(), interp).unwrap();
+        expected.extend(times.iter().map(|&t| s.at(t)));
+    }
+    expected.extend((0..6000).map(|k| leader.step_acceleration(k, 0.01)));
+    expected.extend(times.iter().map(|&t| {
+        platoon_model::plant_step(
+            &platoon_model::State::new(0.0, 0.0, 0.7),
+            1.3,
+            0.3 + t.abs(),
+            0.01,
+        )[2]
+    }));
+    let script = format!(
+        r#"
+import sys; sys.path.insert(0, {bridge:?})
+import platoon_plant as m
+knots = {knots:?}
+times = [k * 0.01 - 0.5 for k in range(1200)]
+out = []
+for interp in ("step", "linear", "smooth"):
+    s = m.TauSchedule(knots, interp)
+    out += [s.at(t) for t in times]
+leader = m.LeaderProfile([[0.0, 15.0], [10.0, 15.0], [15.0, 25.0], [35.0, 25.0], [40.0, 15.0]])
+out += [leader.step_acceleration(k, 0.01) for k in range(6000)]
+out += [m.lagged(0.7, 1.3, 0.3 + abs(t), 0.01) for t in times]
+print("\n".join(x.hex() for x in out))
+"#,
+        bridge = repo().join("bridge").display().to_string(),
+        knots = knots.iter().map(|&(a, b)| [a, b]).collect::<Vec<_>>(),
+    );
+    let setup = Command::new(repo().join("bridge/setup-venv.sh"))
+        .status()
+        .unwrap();
+    assert!(setup.success());
+    let o = Command::new(repo().join("bridge/.venv/bin/python"))
+        .args(["-c", &script])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let got: Vec<f64> = String::from_utf8(o.stdout)
+        .unwrap()
+        .lines()
+        .map(|h| hexf(h))
+        .collect();
+    assert_eq!(got.len(), expected.len());
+    for (i, (g, e)) in got.iter().zip(&expected).enumerate() {
+        assert_eq!(g.to_bits(), e.to_bits(), "value {i}: python {g} rust {e}");
+    }
+}
+
+/// Parses Python's `float.hex()` (e.g. `0x1.3333333333333p-2`).
+fn hexf(s: &str) -> f64 {
+    let (neg, s) = s.strip_prefix('-').map_or((false, s), |r| (true, r));
+    let s = s.strip_prefix("0x").unwrap();
+    let (mant, exp) = s.split_once('p').unwrap();
+    let (int, frac) = mant.split_once('.').unwrap_or((mant, ""));
+    let mut m = u64::from_str_radix(int, 16).unwrap() as f64;
+    let mut scale = 1.0 / 16.0;
+    for c in frac.chars() {
+        m += c.to_digit(16).unwrap() as f64 * scale;
+        scale /= 16.0;
+    }
+    let v = m * 2f64.powi(exp.parse().unwrap());
+    if neg {
+        -v
+    } else {
+        v
+    }
+}
