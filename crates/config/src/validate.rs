@@ -411,11 +411,11 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
     }
     let sf = &c.safety;
     positive("safety.none_decel_mps2", sf.none_decel_mps2)?;
-    if !(positive("safety.negligible_decel_mps2", sf.negligible_decel_mps2)? >= sf.none_decel_mps2)
-    {
+    // positive() has ruled out NaN, so < is the negation of >=.
+    if positive("safety.negligible_decel_mps2", sf.negligible_decel_mps2)? < sf.none_decel_mps2 {
         return bad("safety.negligible_decel_mps2", "must be >= none_decel_mps2");
     }
-    if !(positive("safety.benign_decel_mps2", sf.benign_decel_mps2)? >= sf.negligible_decel_mps2) {
+    if positive("safety.benign_decel_mps2", sf.benign_decel_mps2)? < sf.negligible_decel_mps2 {
         return bad(
             "safety.benign_decel_mps2",
             "must be >= negligible_decel_mps2",
