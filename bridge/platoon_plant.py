@@ -70,10 +70,18 @@ class Dynamics:
         self.leader = LeaderProfile(spec["leader"]["waypoints"])
         self.taus = [TauSchedule(t["knots"], t["interpolation"]) for t in spec["taus"]]
         self.accel = [float(x[2]) for x in spec["initial"]]
+        self.per_platoon = int(spec["vehicles_per_platoon"])
 
     def advance(self, k: int, u) -> None:
-        """From step k to k + 1 with the followers' commands u (index i - 1)."""
+        """From step k to k + 1 with the followers' commands u (platoon j's follower i at
+        j * N + i - 1), platoon by platoon."""
         t = k * self.dt
-        for i in range(1, len(self.accel)):
-            self.accel[i] = lagged(self.accel[i], u[i - 1], self.taus[i - 1].at(t), self.dt)
-        self.accel[0] = self.leader.step_acceleration(k + 1, self.dt)
+        n1 = self.per_platoon
+        a_leader = self.leader.step_acceleration(k + 1, self.dt)
+        for g in range(len(self.accel)):
+            j, i = divmod(g, n1)
+            if i == 0:
+                self.accel[g] = a_leader
+            else:
+                f = j * (n1 - 1) + i - 1
+                self.accel[g] = lagged(self.accel[g], u[f], self.taus[f].at(t), self.dt)

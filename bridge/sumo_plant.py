@@ -25,8 +25,15 @@ class SumoError(Exception):
     """SUMO refused something: the message names SUMO and the step."""
 
 
-def vehicle_id(i: int) -> str:
-    return "leader" if i == 0 else f"follower{i}"
+NAMES = {"per_platoon": 0, "platoons": 1}
+
+
+def vehicle_id(g: int) -> str:
+    """SUMO's name of wire vehicle g: leader, follower1, ... (p3.leader, p3.follower1, ... in a
+    fleet)."""
+    j, i = divmod(g, NAMES["per_platoon"])
+    name = "leader" if i == 0 else f"follower{i}"
+    return name if NAMES["platoons"] == 1 else f"p{j}.{name}"
 
 
 def write_routes(path, spec):
@@ -39,10 +46,11 @@ def write_routes(path, spec):
         'maxSpeed="100" speedFactor="1" speedDev="0" sigma="0" tau="1"/>',
         f'    <route id="road" edges="{s["edge"]}"/>',
     ]
-    for i, (p, v, _) in enumerate(spec["initial"]):
+    for g, (p, v, _) in enumerate(spec["initial"]):
+        lane = spec["lanes"][g // spec["vehicles_per_platoon"]]
         lines.append(
-            f'    <vehicle id="{vehicle_id(i)}" type="platoon" route="road" depart="0" '
-            f'departLane="{s["lane"]}" departPos="{p + s["offset_m"]!r}" departSpeed="{v!r}" '
+            f'    <vehicle id="{vehicle_id(g)}" type="platoon" route="road" depart="0" '
+            f'departLane="{lane}" departPos="{p + s["offset_m"]!r}" departSpeed="{v!r}" '
             'insertionChecks="none"/>'
         )
     lines.append("</routes>")
@@ -192,11 +200,13 @@ def run(spec) -> int:
                 node.wait()
                 continue
             t0 = time.perf_counter_ns()
-            if len(cmds) != n - 1:
-                raise SumoError(f"{len(cmds)} commands for {n - 1} followers")
-            u = [0.0] * (n - 1)
+            if len(cmds) != len(spec["taus"]):
+                raise SumoError(f"{len(cmds)} commands for {len(spec['taus'])} followers")
+            n1 = int(spec["vehicles_per_platoon"])
+            u = [0.0] * len(cmds)
             for c in cmds:
-                u[c.vehicle - 1] = c.u
+                j, i = divmod(c.vehicle, n1)
+                u[j * (n1 - 1) + i - 1] = c.u
             for i in range(n):
                 sumo.vehicle.setAcceleration(vehicle_id(i), dyn.accel[i], dt)
             t1 = time.perf_counter_ns()
@@ -274,6 +284,8 @@ def main() -> int:
         return 2
     with open(path) as f:
         spec = json.load(f)
+    NAMES["per_platoon"] = int(spec["vehicles_per_platoon"])
+    NAMES["platoons"] = len(spec["lanes"])
     return run(spec)
 
 

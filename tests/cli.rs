@@ -61,7 +61,7 @@ fn run_writes_every_output_and_two_runs_are_byte_identical() {
     let mut lines = traj.lines();
     assert_eq!(
         lines.next().unwrap(),
-        "step,t,vehicle,p,v,a,u,theta,spacing_error,velocity_error,triggered,under_attack,affected"
+        "step,t,platoon,vehicle,p,v,a,u,theta,spacing_error,velocity_error,triggered,under_attack,affected"
     );
     assert_eq!(lines.count(), 5501 * 5);
     let events = std::fs::read_to_string(tmp.path().join("a/events.csv")).unwrap();

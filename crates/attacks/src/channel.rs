@@ -118,6 +118,8 @@ pub struct ChannelSpec {
     pub attacks: Vec<LinkAttack>,
     /// Seed of the ChaCha8 generator behind the random losses.
     pub seed: u64,
+    /// The platoon this channel serves (its log rows carry it).
+    pub platoon: u16,
 }
 
 /// What the channel did to one packet on one link.
@@ -140,11 +142,13 @@ pub enum Action {
     Altered,
 }
 
-/// One line of the injector log: `step, sender, receiver, seq, action, detail`.
+/// One line of the injector log: `step, platoon, sender, receiver, seq, action, detail`.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct ChannelEvent {
     /// The step at which it happened.
     pub step: u64,
+    /// The platoon (sender and receiver are its vehicle indices, 0 = its leader).
+    pub platoon: u16,
     /// The packet's sender.
     pub sender: u16,
     /// The link's receiver.
@@ -207,6 +211,25 @@ impl Channel {
     /// every packet that was not delivered as sent.
     #[allow(clippy::too_many_arguments)]
     pub fn gate(
+        &mut self,
+        k: u64,
+        t: f64,
+        topology: &Topology,
+        states: &[State],
+        tx: &[Packet],
+        out: &mut Vec<Delivery>,
+        jammed: &mut [bool],
+        log: &mut Vec<ChannelEvent>,
+    ) {
+        let logged = log.len();
+        self.gate_inner(k, t, topology, states, tx, out, jammed, log);
+        for e in &mut log[logged..] {
+            e.platoon = self.spec.platoon;
+        }
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn gate_inner(
         &mut self,
         k: u64,
         t: f64,
@@ -347,6 +370,7 @@ fn event(
 ) -> ChannelEvent {
     ChannelEvent {
         step,
+        platoon: 0,
         sender: p.sender.0,
         receiver: receiver.0,
         seq: p.seq,
@@ -411,6 +435,7 @@ mod tests {
                 dos: DosSchedule::none(),
                 attacks,
                 seed: 1,
+                platoon: 0,
             },
             4,
         )

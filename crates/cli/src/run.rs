@@ -184,13 +184,29 @@ fn progress_bar(steps: u64, what: &str) -> indicatif::ProgressBar {
     bar
 }
 
-/// Streams rows to trajectories.csv, keeps them for the plots and sums the metrics.
+/// Streams rows to trajectories.csv and broadcasts to events.csv, keeps platoon 0's rows for
+/// the plots (memory stays bounded for large fleets) and sums the metrics.
 struct Recording {
     csv: csv::Writer<std::io::BufWriter<std::fs::File>>,
+    events: csv::Writer<std::io::BufWriter<std::fs::File>>,
+    last: Vec<Option<u64>>,
+    per_platoon: usize,
+    dt: f64,
     rows: Vec<StepRow>,
-    metrics: platoon_sim::MetricsAccumulator,
+    metrics: platoon_sim::FleetMetrics,
     failure: Option<csv::Error>,
     bar: indicatif::ProgressBar,
+}
+
+/// One row per broadcast of a follower.
+#[derive(serde::Serialize)]
+struct EventRow {
+    platoon: u16,
+    vehicle: u16,
+    step: u64,
+    t: f64,
+    inter_event_s: Option<f64>,
+    under_attack: bool,
 }
 
 impl Recording {
@@ -198,8 +214,12 @@ impl Recording {
         let steps = scenario.steps + 1;
         Ok(Self {
             csv: csv::Writer::from_writer(dir.writer("trajectories.csv")?),
-            rows: Vec::with_capacity(steps as usize * (scenario.topology.followers() + 1)),
-            metrics: platoon_sim::MetricsAccumulator::new(scenario),
+            events: csv::Writer::from_writer(dir.writer("events.csv")?),
+            last: vec![None; scenario.vehicles()],
+            per_platoon: scenario.vehicles_per_platoon(),
+            dt: scenario.dt(),
+            rows: Vec::with_capacity(steps as usize * scenario.vehicles_per_platoon()),
+            metrics: platoon_sim::FleetMetrics::new(scenario),
             failure: None,
             bar: progress_bar(steps, what),
         })
@@ -207,14 +227,29 @@ impl Recording {
 
     fn push(&mut self, step: &[StepRow]) {
         for r in step {
-            if self.failure.is_none() {
-                if let Err(e) = self.csv.serialize(r) {
-                    self.failure = Some(e);
-                }
+            if self.failure.is_some() {
+                break;
+            }
+            let mut result = self.csv.serialize(r);
+            if r.vehicle > 0 && r.triggered && result.is_ok() {
+                let prev = &mut self.last
+                    [usize::from(r.platoon) * self.per_platoon + usize::from(r.vehicle)];
+                result = self.events.serialize(EventRow {
+                    platoon: r.platoon,
+                    vehicle: r.vehicle,
+                    step: r.step,
+                    t: r.t,
+                    inter_event_s: prev.map(|p| (r.step - p) as f64 * self.dt),
+                    under_attack: r.under_attack,
+                });
+                *prev = Some(r.step);
+            }
+            if let Err(e) = result {
+                self.failure = Some(e);
             }
         }
         self.metrics.push(step);
-        self.rows.extend_from_slice(step);
+        self.rows.extend(step.iter().take_while(|r| r.platoon == 0));
         if step[0].step.is_multiple_of(1000) {
             self.bar.set_position(step[0].step);
         }
@@ -226,9 +261,10 @@ impl Recording {
     ) -> Result<(Vec<StepRow>, Summary)> {
         self.bar.finish_and_clear();
         if let Some(e) = self.failure {
-            return Err(e).context("writing trajectories.csv");
+            return Err(e).context("writing trajectories.csv or events.csv");
         }
         self.csv.flush().context("writing trajectories.csv")?;
+        self.events.flush().context("writing events.csv")?;
         Ok((self.rows, self.metrics.finish(rejected)))
     }
 }
@@ -237,7 +273,7 @@ impl Recording {
 /// rows and summary.
 pub fn simulate(scenario: &Scenario, dir: &RunDir) -> Result<(Vec<StepRow>, Summary)> {
     let mut rec = Recording::new(scenario, dir, "simulating")?;
-    let mut sim = platoon_sim::Simulation::new(scenario.clone())?;
+    let mut sim = platoon_sim::FleetSimulation::new(scenario)?;
     let mut log = csv::Writer::from_writer(dir.writer("channel.csv")?);
     while !sim.is_done() {
         let rows = sim.step();
@@ -247,7 +283,7 @@ pub fn simulate(scenario: &Scenario, dir: &RunDir) -> Result<(Vec<StepRow>, Summ
         }
     }
     log.flush().context("writing channel.csv")?;
-    let rejected = sim.controller().rejected();
+    let rejected = sim.rejected();
     rec.finish(rejected)
 }
 
@@ -301,17 +337,8 @@ fn cosimulate(
     }
 }
 
-/// One row per broadcast of a follower.
-#[derive(serde::Serialize)]
-struct EventRow {
-    vehicle: u16,
-    step: u64,
-    t: f64,
-    inter_event_s: Option<f64>,
-    under_attack: bool,
-}
-
-/// Writes config.toml, events.csv, plots, and summary.json last.
+/// Writes config.toml (if not yet there), the plots (of platoon 0's `rows`), and summary.json
+/// last.
 pub fn write_outputs(
     dir: &RunDir,
     config: &Config,
@@ -324,25 +351,6 @@ pub fn write_outputs(
     if !dir.path("config.toml").exists() {
         dir.write("config.toml", platoon_config::to_toml(config).as_bytes())?;
     }
-    let mut events = csv::Writer::from_writer(dir.writer("events.csv")?);
-    let mut last: Vec<Option<u64>> = vec![None; scenario.topology.followers() + 1];
-    let mut followers: Vec<&StepRow> = rows
-        .iter()
-        .filter(|r| r.vehicle > 0 && r.triggered)
-        .collect();
-    followers.sort_by_key(|r| (r.vehicle, r.step));
-    for r in followers {
-        let prev = &mut last[r.vehicle as usize];
-        events.serialize(EventRow {
-            vehicle: r.vehicle,
-            step: r.step,
-            t: r.t,
-            inter_event_s: prev.map(|p| (r.step - p) as f64 * scenario.dt()),
-            under_attack: r.under_attack,
-        })?;
-        *prev = Some(r.step);
-    }
-    events.flush().context("writing events.csv")?;
     if plots {
         plots::fig6(&dir.path("fig6.png"), scenario, rows).context("drawing fig6.png")?;
         plots::fig7(&dir.path("fig7.png"), scenario, rows).context("drawing fig7.png")?;

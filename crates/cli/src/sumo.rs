@@ -57,7 +57,6 @@ struct Spec<'a> {
 struct SumoSpec<'a> {
     net: String,
     edge: &'a str,
-    lane: u32,
     offset_m: f64,
     vehicle_length_m: f64,
     collision_action: &'a str,
@@ -142,7 +141,8 @@ pub fn plan<'a>(
         .initial
         .iter()
         .map(|x| x[0])
-        .fold(f64::INFINITY, f64::min);
+        .fold(f64::INFINITY, f64::min)
+        - scenario.fleet.offset(scenario.fleet.platoons - 1);
     let offset = s.start_m - rear0;
     let length = scenario.vehicle_length.max(0.01);
     if s.start_m < length {
@@ -152,11 +152,13 @@ pub fn plan<'a>(
             format!("must be at least the vehicle length ({length} m) so every vehicle starts on the road"),
         ));
     }
+    // Platoon 0 runs; the others are the same shifted back (to well under a millimetre).
+    let back = scenario.fleet.offset(scenario.fleet.platoons - 1);
     let (mut lo, mut hi) = ((f64::INFINITY, 0.0), (f64::NEG_INFINITY, 0.0));
     platoon_sim::run(scenario.clone(), |rows| {
         for r in rows {
-            if r.p < lo.0 {
-                lo = (r.p, r.t);
+            if r.p - back < lo.0 {
+                lo = (r.p - back, r.t);
             }
             if r.p > hi.0 {
                 hi = (r.p, r.t);
@@ -209,7 +211,6 @@ impl SumoPlan<'_> {
             sumo: SumoSpec {
                 net: self.net.display().to_string(),
                 edge: &s.edge,
-                lane: s.lane,
                 offset_m: self.offset,
                 vehicle_length_m: self.length,
                 collision_action: &s.collision_action,

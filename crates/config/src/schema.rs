@@ -37,6 +37,42 @@ pub struct Config {
     /// Deceleration thresholds that class the run's safety.
     #[serde(default)]
     pub safety: SafetyConfig,
+    /// Several identical, independent platoons on one road.
+    #[serde(default)]
+    pub fleet: FleetConfig,
+}
+
+/// `[fleet]`: platoon j drives on `lanes[j % len]`, `(j / len) * gap_m` behind platoon 0, with
+/// channel seed `channel.seed + j`; all share the DoS schedule.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FleetConfig {
+    /// Number of platoons [1].
+    #[serde(default = "one_platoon")]
+    pub platoons: usize,
+    /// Lanes used in turn (SUMO plant) [the `[sumo] lane`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lanes: Option<Vec<u32>>,
+    /// Distance between the leaders of consecutive platoons on one lane (m) [200].
+    #[serde(default = "fleet_gap")]
+    pub gap_m: f64,
+}
+
+impl Default for FleetConfig {
+    fn default() -> Self {
+        Self {
+            platoons: one_platoon(),
+            lanes: None,
+            gap_m: fleet_gap(),
+        }
+    }
+}
+
+fn one_platoon() -> usize {
+    1
+}
+fn fleet_gap() -> f64 {
+    200.0
 }
 
 /// `[sumo]`: where the platoon drives when SUMO is the plant.

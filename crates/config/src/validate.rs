@@ -421,6 +421,36 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
             "must be >= negligible_decel_mps2",
         );
     }
+    let f = &c.fleet;
+    let lanes = f.lanes.clone().unwrap_or_else(|| vec![c.sumo.lane]);
+    if f.platoons == 0 {
+        return bad("fleet.platoons", "needs at least one platoon");
+    }
+    if lanes.is_empty() {
+        return bad("fleet.lanes", "needs at least one lane");
+    }
+    if f.platoons > lanes.len() {
+        let (lo, hi) = initial
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| {
+                (lo.min(x[0]), hi.max(x[0]))
+            });
+        let length = hi - lo + vehicle_length;
+        if !(finite("fleet.gap_m", f.gap_m)? > length) {
+            return bad(
+                "fleet.gap_m",
+                format!(
+                    "{} m is not more than a platoon's length ({length} m): platoons on one lane would overlap",
+                    f.gap_m
+                ),
+            );
+        }
+    }
+    let fleet = platoon_sim::Fleet {
+        platoons: f.platoons,
+        lanes,
+        gap_m: f.gap_m,
+    };
     let safety = platoon_sim::SafetyThresholds {
         none: sf.none_decel_mps2,
         negligible: sf.negligible_decel_mps2,
@@ -439,6 +469,8 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
         assumption2: a.assumption2,
         vehicle_length,
         safety,
+        fleet,
+        platoon: 0,
     };
     scenario
         .validate()

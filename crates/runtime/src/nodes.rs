@@ -117,33 +117,79 @@ fn reporting(
     r
 }
 
+/// Vehicle numbering of a fleet: vehicle `i` of platoon `j` has the global id `j * (N + 1) + i`
+/// on the wire; follower commands are indexed `j * N + i - 1`.
+#[derive(Debug, Clone, Copy)]
+pub struct Numbering {
+    /// N + 1.
+    pub per_platoon: usize,
+    /// Number of platoons.
+    pub platoons: usize,
+}
+
+impl Numbering {
+    /// The numbering of `scenario`'s fleet.
+    pub fn of(scenario: &Scenario) -> Self {
+        Self {
+            per_platoon: scenario.vehicles_per_platoon(),
+            platoons: scenario.fleet.platoons,
+        }
+    }
+
+    /// All vehicles.
+    pub fn vehicles(&self) -> usize {
+        self.per_platoon * self.platoons
+    }
+
+    /// All followers.
+    pub fn followers(&self) -> usize {
+        (self.per_platoon - 1) * self.platoons
+    }
+
+    /// The wire id of vehicle `i` of platoon `j`.
+    pub fn global(&self, j: usize, i: VehicleId) -> u32 {
+        (j * self.per_platoon + i.index()) as u32
+    }
+
+    /// Platoon and vehicle of a wire id, if it exists.
+    pub fn split(&self, g: u32) -> Option<(usize, VehicleId)> {
+        let g = g as usize;
+        (g < self.vehicles()).then(|| {
+            (
+                g / self.per_platoon,
+                VehicleId((g % self.per_platoon) as u16),
+            )
+        })
+    }
+}
+
 /// The native plant process: integrates every vehicle with the model of `platoon-sim`.
 pub fn plant(run_id: &str, scenario: &Scenario) -> Result<(), RunError> {
     reporting(run_id, Node::Plant, |ctx, k| {
         let e = &ctx.endpoint;
-        let n = scenario.topology.followers();
+        let num = Numbering::of(scenario);
         let states_out: Outlet<VehicleState> = e.outlet(
             &e.open_step_service(Service::States)?,
             Service::States,
-            n + 1,
+            num.vehicles(),
         )?;
         let mut commands: Inlet<Command> =
             Inlet::new(&e.open_step_service(Service::Commands)?, Node::Controller)?;
-        let mut plant = Plant::new(scenario);
-        let mut buf = Vec::with_capacity(n + 1);
-        let mut u = vec![0.0; n];
+        let mut plants: Vec<Plant> = scenario.replicas().iter().map(Plant::new).collect();
+        let mut buf = Vec::with_capacity(num.vehicles());
+        let mut u = vec![0.0; num.followers()];
         if !ctx.ready()? {
             return Ok(());
         }
-        let publish = |k: u64, plant: &Plant, buf: &mut Vec<VehicleState>| {
+        let publish = |k: u64, plants: &[Plant], buf: &mut Vec<VehicleState>| {
             buf.clear();
             buf.extend(
-                plant
-                    .states()
+                plants
                     .iter()
+                    .flat_map(|p| p.states())
                     .enumerate()
-                    .map(|(i, x)| VehicleState {
-                        vehicle: i as u32,
+                    .map(|(g, x)| VehicleState {
+                        vehicle: g as u32,
                         flags: 0,
                         p: x[0],
                         v: x[1],
@@ -152,7 +198,8 @@ pub fn plant(run_id: &str, scenario: &Scenario) -> Result<(), RunError> {
             );
             states_out.send(k, scenario.dt(), buf)
         };
-        publish(0, &plant, &mut buf)?;
+        publish(0, &plants, &mut buf)?;
+        let n = num.per_platoon - 1;
         loop {
             let (got, _) = commands.take(*k)?;
             let Some(cmds) = got else {
@@ -161,19 +208,21 @@ pub fn plant(run_id: &str, scenario: &Scenario) -> Result<(), RunError> {
                 }
                 continue;
             };
-            commands_into(&cmds, &mut u)?;
-            plant.advance(*k, &u);
+            commands_into(&cmds, num, &mut u)?;
+            for (plant, u) in plants.iter_mut().zip(u.chunks(n)) {
+                plant.advance(*k, u);
+            }
             if *k == scenario.steps {
                 return ctx.done(ControlMsg::new(ControlMsg::DONE, Node::Plant, *k));
             }
             *k += 1;
-            publish(*k, &plant, &mut buf)?;
+            publish(*k, &plants, &mut buf)?;
         }
     })
 }
 
 /// Checks a command batch (one finite command per follower) and copies it into `u`.
-fn commands_into(cmds: &[Command], u: &mut [f64]) -> Result<(), RunError> {
+fn commands_into(cmds: &[Command], num: Numbering, u: &mut [f64]) -> Result<(), RunError> {
     if cmds.len() != u.len() {
         return Err(contract(
             Node::Controller,
@@ -181,50 +230,58 @@ fn commands_into(cmds: &[Command], u: &mut [f64]) -> Result<(), RunError> {
         ));
     }
     for c in cmds {
-        let i = c.vehicle as usize;
-        if i == 0 || i > u.len() || !c.u.is_finite() {
-            return Err(contract(
-                Node::Controller,
-                format!("bad command for vehicle {}: {}", c.vehicle, c.u),
-            ));
+        match num.split(c.vehicle) {
+            Some((j, i)) if !i.is_leader() && c.u.is_finite() => {
+                u[j * (num.per_platoon - 1) + i.index() - 1] = c.u;
+            }
+            _ => {
+                return Err(contract(
+                    Node::Controller,
+                    format!("bad command for vehicle {}: {}", c.vehicle, c.u),
+                ))
+            }
         }
-        u[i - 1] = c.u;
     }
     Ok(())
 }
 
-/// The controller service: every follower's triggering rule, estimators and control law.
+/// The controller service: every follower's triggering rule, estimators and control law, for
+/// every platoon.
 pub fn controller(run_id: &str, scenario: &Scenario) -> Result<(), RunError> {
     reporting(run_id, Node::Controller, |ctx, k| {
         let e = &ctx.endpoint;
-        let n = scenario.topology.followers();
+        let num = Numbering::of(scenario);
+        let n1 = num.per_platoon;
         let mut states_in: Inlet<VehicleState> =
             Inlet::new(&e.open_step_service(Service::States)?, Node::Plant)?;
         let mut rx_in: Inlet<LinkPacket> =
             Inlet::new(&e.open_step_service(Service::Rx)?, Node::Injector)?;
-        let links: usize = (0..=n)
+        let links: usize = (0..n1)
             .map(|v| scenario.topology.out_neighbours(VehicleId(v as u16)).len())
             .sum();
-        let tx_out: Outlet<LinkPacket> =
-            e.outlet(&e.open_step_service(Service::Tx)?, Service::Tx, links)?;
+        let tx_out: Outlet<LinkPacket> = e.outlet(
+            &e.open_step_service(Service::Tx)?,
+            Service::Tx,
+            links * num.platoons,
+        )?;
         let cmd_out: Outlet<Command> = e.outlet(
             &e.open_step_service(Service::Commands)?,
             Service::Commands,
-            n,
+            num.followers(),
         )?;
-        let mut controller = PlatoonController::new(
-            scenario.control.clone(),
-            &scenario.topology,
-            &scenario.initial,
-        )
-        .map_err(|e| contract(Node::Controller, e.to_string()))?;
+        let mut controllers = scenario
+            .replicas()
+            .iter()
+            .map(|s| PlatoonController::new(s.control.clone(), &s.topology, &s.initial))
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(|e| contract(Node::Controller, e.to_string()))?;
         let mut states: Option<Vec<State>> = None;
         let (mut tx, mut wire_tx, mut deliveries, mut jammed, mut cmds) = (
             Vec::new(),
             Vec::new(),
-            Vec::new(),
-            vec![false; n + 1],
-            Vec::with_capacity(n),
+            vec![Vec::new(); num.platoons],
+            vec![false; num.vehicles()],
+            Vec::with_capacity(num.followers()),
         );
         if !ctx.ready()? {
             return Ok(());
@@ -232,20 +289,23 @@ pub fn controller(run_id: &str, scenario: &Scenario) -> Result<(), RunError> {
         loop {
             if states.is_none() {
                 if let (Some(s), _) = states_in.take(*k)? {
-                    let s = states_from_wire(&s, n + 1)?;
-                    tx.clear();
-                    controller.transmit(*k, &s, &mut tx);
+                    let s = states_from_wire(&s, num.vehicles())?;
                     wire_tx.clear();
                     let stamp = monotonic_ns();
-                    for p in &tx {
-                        let packet = packet_to_wire(p, stamp);
-                        wire_tx.extend(scenario.topology.out_neighbours(p.sender).iter().map(
-                            |r| LinkPacket {
-                                receiver: u32::from(r.0),
-                                kind: LinkPacket::DELIVERY,
-                                packet,
-                            },
-                        ));
+                    for (j, c) in controllers.iter_mut().enumerate() {
+                        tx.clear();
+                        c.transmit(*k, &s[j * n1..(j + 1) * n1], &mut tx);
+                        for p in &tx {
+                            let mut packet = packet_to_wire(p, stamp);
+                            packet.sender = num.global(j, p.sender);
+                            wire_tx.extend(scenario.topology.out_neighbours(p.sender).iter().map(
+                                |&r| LinkPacket {
+                                    receiver: num.global(j, r),
+                                    kind: LinkPacket::DELIVERY,
+                                    packet,
+                                },
+                            ));
+                        }
                     }
                     tx_out.send(*k, scenario.dt(), &wire_tx)?;
                     states = Some(s);
@@ -253,36 +313,64 @@ pub fn controller(run_id: &str, scenario: &Scenario) -> Result<(), RunError> {
             }
             if let Some(s) = &states {
                 if let (Some(items), _) = rx_in.take(*k)? {
-                    deliveries.clear();
+                    for d in &mut deliveries {
+                        d.clear();
+                    }
                     jammed.fill(false);
                     for it in &items {
-                        match it.kind {
-                            LinkPacket::JAMMED => {
-                                if let Some(j) = jammed.get_mut(it.receiver as usize) {
-                                    *j = true;
-                                }
+                        let Some((j, receiver)) = num.split(it.receiver) else {
+                            if it.kind != LinkPacket::JAMMED {
+                                // No such vehicle: platoon 0's controllers count it.
+                                deliveries[0].push(Delivery {
+                                    receiver: VehicleId(u16::MAX),
+                                    packet: packet_from_wire(&it.packet),
+                                });
                             }
-                            _ => deliveries.push(delivery_from_wire(it)),
+                            continue;
+                        };
+                        match it.kind {
+                            LinkPacket::JAMMED => jammed[it.receiver as usize] = true,
+                            _ => {
+                                // A sender of another platoon is unknown to this one.
+                                let mut packet = packet_from_wire(&it.packet);
+                                packet.sender = match num.split(it.packet.sender) {
+                                    Some((js, i)) if js == j => i,
+                                    _ => VehicleId(u16::MAX),
+                                };
+                                deliveries[j].push(Delivery { receiver, packet });
+                            }
                         }
                     }
-                    controller.receive(*k, s, &deliveries, &jammed);
                     cmds.clear();
-                    cmds.extend((1..=n).map(|i| {
-                        let f = controller.follower_step(VehicleId(i as u16));
-                        Command {
-                            vehicle: i as u32,
-                            flags: u32::from(f.triggered) * Command::TRIGGERED
-                                + u32::from(f.affected) * Command::AFFECTED,
-                            u: f.u,
-                            theta: f.theta,
-                        }
-                    }));
+                    for (j, c) in controllers.iter_mut().enumerate() {
+                        let range = j * n1..(j + 1) * n1;
+                        c.receive(*k, &s[range.clone()], &deliveries[j], &jammed[range]);
+                        cmds.extend((1..n1).map(|i| {
+                            let f = c.follower_step(VehicleId(i as u16));
+                            Command {
+                                vehicle: num.global(j, VehicleId(i as u16)),
+                                flags: u32::from(f.triggered) * Command::TRIGGERED
+                                    + u32::from(f.affected) * Command::AFFECTED,
+                                u: f.u,
+                                theta: f.theta,
+                            }
+                        }));
+                    }
                     cmd_out.send(*k, scenario.dt(), &cmds)?;
                     states = None;
                     if *k == scenario.steps {
-                        let r = controller.rejected();
                         let mut done = ControlMsg::new(ControlMsg::DONE, Node::Controller, *k);
-                        done.counts = [r.non_finite, r.unknown_sender, r.future_step, r.stale_seq];
+                        for c in &controllers {
+                            let r = c.rejected();
+                            for (sum, x) in done.counts.iter_mut().zip([
+                                r.non_finite,
+                                r.unknown_sender,
+                                r.future_step,
+                                r.stale_seq,
+                            ]) {
+                                *sum += x;
+                            }
+                        }
                         return ctx.done(done);
                     }
                     *k += 1;
@@ -332,36 +420,38 @@ pub fn packet_from_wire(p: &V2vPacket) -> Packet {
     }
 }
 
-fn delivery_from_wire(it: &LinkPacket) -> Delivery {
-    Delivery {
-        receiver: VehicleId(u16::try_from(it.receiver).unwrap_or(u16::MAX)),
-        packet: packet_from_wire(&it.packet),
-    }
-}
-
-/// The Rust attack injector: the channel of `platoon-attacks` between the controllers. Writes
-/// its log (every packet not delivered as sent) to `log` as CSV.
+/// The Rust attack injector: the channel of `platoon-attacks` between the controllers, one per
+/// platoon. Writes its log (every packet not delivered as sent) to `log` as CSV.
 pub fn injector(run_id: &str, scenario: &Scenario, log: Option<&Path>) -> Result<(), RunError> {
     reporting(run_id, Node::Injector, |ctx, k| {
         let e = &ctx.endpoint;
-        let n = scenario.topology.followers();
+        let num = Numbering::of(scenario);
+        let n1 = num.per_platoon;
         let mut states_in: Inlet<VehicleState> =
             Inlet::new(&e.open_step_service(Service::States)?, Node::Plant)?;
         let mut tx_in: Inlet<LinkPacket> =
             Inlet::new(&e.open_step_service(Service::Tx)?, Node::Controller)?;
-        let rx_out: Outlet<LinkPacket> =
-            e.outlet(&e.open_step_service(Service::Rx)?, Service::Rx, 4 * (n + 1))?;
+        let rx_out: Outlet<LinkPacket> = e.outlet(
+            &e.open_step_service(Service::Rx)?,
+            Service::Rx,
+            4 * num.vehicles(),
+        )?;
         let mut writer = match log {
             Some(p) => Some(csv::Writer::from_path(p).map_err(|e| {
                 contract(Node::Injector, format!("cannot write {}: {e}", p.display()))
             })?),
             None => None,
         };
-        let mut channel = Channel::new(scenario.channel_spec(), n + 1);
-        let (mut states, mut deliveries, mut jammed, mut events, mut items) = (
+        let mut channels: Vec<Channel> = scenario
+            .replicas()
+            .iter()
+            .map(|s| Channel::new(s.channel_spec(), n1))
+            .collect();
+        let (mut states, mut packets, mut deliveries, mut jammed, mut events, mut items) = (
             None::<Vec<State>>,
+            vec![Vec::<Packet>::new(); num.platoons],
             Vec::new(),
-            vec![false; n + 1],
+            vec![false; n1],
             Vec::<ChannelEvent>::new(),
             Vec::new(),
         );
@@ -371,47 +461,60 @@ pub fn injector(run_id: &str, scenario: &Scenario, log: Option<&Path>) -> Result
         loop {
             if states.is_none() {
                 if let (Some(s), _) = states_in.take(*k)? {
-                    states = Some(states_from_wire(&s, n + 1)?);
+                    states = Some(states_from_wire(&s, num.vehicles())?);
                 }
             }
             if let Some(s) = &states {
                 if let (Some(tx), _) = tx_in.take(*k)? {
                     // One item per link: the broadcasts are the runs of equal (sender, seq).
-                    let mut packets: Vec<Packet> = Vec::new();
+                    for p in &mut packets {
+                        p.clear();
+                    }
                     for it in &tx {
-                        let p = packet_from_wire(&it.packet);
-                        if packets
+                        let Some((j, sender)) = num.split(it.packet.sender) else {
+                            continue;
+                        };
+                        let mut p = packet_from_wire(&it.packet);
+                        p.sender = sender;
+                        let list = &mut packets[j];
+                        if list
                             .last()
                             .is_none_or(|l| (l.sender, l.seq) != (p.sender, p.seq))
                         {
-                            packets.push(p);
+                            list.push(p);
                         }
                     }
-                    deliveries.clear();
-                    events.clear();
-                    channel.gate(
-                        *k,
-                        *k as f64 * scenario.dt(),
-                        &scenario.topology,
-                        s,
-                        &packets,
-                        &mut deliveries,
-                        &mut jammed,
-                        &mut events,
-                    );
                     items.clear();
-                    items.extend(deliveries.iter().map(|d| LinkPacket {
-                        receiver: u32::from(d.receiver.0),
-                        kind: LinkPacket::DELIVERY,
-                        packet: packet_to_wire(&d.packet, monotonic_ns()),
-                    }));
-                    items.extend(jammed.iter().enumerate().filter(|(_, &j)| j).map(|(v, _)| {
-                        LinkPacket {
-                            receiver: v as u32,
-                            kind: LinkPacket::JAMMED,
-                            packet: V2vPacket::default(),
-                        }
-                    }));
+                    events.clear();
+                    for (j, channel) in channels.iter_mut().enumerate() {
+                        deliveries.clear();
+                        channel.gate(
+                            *k,
+                            *k as f64 * scenario.dt(),
+                            &scenario.topology,
+                            &s[j * n1..(j + 1) * n1],
+                            &packets[j],
+                            &mut deliveries,
+                            &mut jammed,
+                            &mut events,
+                        );
+                        items.extend(deliveries.iter().map(|d| {
+                            let mut packet = packet_to_wire(&d.packet, monotonic_ns());
+                            packet.sender = num.global(j, d.packet.sender);
+                            LinkPacket {
+                                receiver: num.global(j, d.receiver),
+                                kind: LinkPacket::DELIVERY,
+                                packet,
+                            }
+                        }));
+                        items.extend(jammed.iter().enumerate().filter(|(_, &x)| x).map(
+                            |(v, _)| LinkPacket {
+                                receiver: num.global(j, VehicleId(v as u16)),
+                                kind: LinkPacket::JAMMED,
+                                packet: V2vPacket::default(),
+                            },
+                        ));
+                    }
                     rx_out.send(*k, scenario.dt(), &items)?;
                     if let Some(w) = &mut writer {
                         for ev in &events {

@@ -142,13 +142,7 @@ pub fn orchestrate(
     let mut children = Children { procs: Vec::new() };
     let result = (|| {
         spawn_all(opts, &mut children)?;
-        let mut run = Recorder {
-            scenario,
-            step: 0,
-            last_progress: Instant::now(),
-            rows: Vec::new(),
-            jammed: vec![false; scenario.topology.followers() + 1],
-        };
+        let mut run = Recorder::new(scenario);
         // Startup: wait until every node is READY.
         let mut ready = [false; 4];
         ready[Node::Orchestrator as usize] = true;
@@ -366,13 +360,28 @@ fn node_command(opts: &Options, node: Node) -> Process {
 /// Turns the four samples of a step into rows, the way the in-process runner does.
 struct Recorder<'a> {
     scenario: &'a Scenario,
+    replicas: Vec<Scenario>,
+    num: crate::nodes::Numbering,
     step: u64,
     last_progress: Instant,
     rows: Vec<StepRow>,
     jammed: Vec<bool>,
 }
 
-impl Recorder<'_> {
+impl<'a> Recorder<'a> {
+    fn new(scenario: &'a Scenario) -> Self {
+        let num = crate::nodes::Numbering::of(scenario);
+        Self {
+            scenario,
+            replicas: scenario.replicas(),
+            num,
+            step: 0,
+            last_progress: Instant::now(),
+            rows: Vec::with_capacity(num.vehicles()),
+            jammed: vec![false; num.vehicles()],
+        }
+    }
+
     fn record(
         &mut self,
         s: &[VehicleState],
@@ -380,38 +389,46 @@ impl Recorder<'_> {
         r: &[LinkPacket],
         c: &[Command],
     ) -> Result<(), RunError> {
-        let n = self.scenario.topology.followers();
-        let states = states_from_wire(s, n + 1)?;
+        let num = self.num;
+        let n1 = num.per_platoon;
+        let states = states_from_wire(s, num.vehicles())?;
         self.jammed.fill(false);
         for it in r.iter().filter(|it| it.kind == LinkPacket::JAMMED) {
             if let Some(j) = self.jammed.get_mut(it.receiver as usize) {
                 *j = true;
             }
         }
-        if c.len() != n {
+        if c.len() != num.followers() {
             return Err(RunError::Contract {
                 node: "controller",
-                message: format!("{} commands for {n} followers", c.len()),
+                message: format!("{} commands for {} followers", c.len(), num.followers()),
             });
         }
-        let leader_triggered = t.first().is_some_and(|p| p.packet.sender == 0);
-        step_rows(
-            self.step,
-            self.scenario,
-            &states,
-            leader_triggered,
-            &self.jammed,
-            |i| {
-                let cmd = c[i - 1];
-                FollowerStep {
-                    triggered: cmd.flags & Command::TRIGGERED != 0,
-                    affected: cmd.flags & Command::AFFECTED != 0,
-                    u: cmd.u,
-                    theta: cmd.theta,
-                }
-            },
-            &mut self.rows,
-        );
+        self.rows.clear();
+        for (j, replica) in self.replicas.iter().enumerate() {
+            let leader = num.global(j, platoon_model::VehicleId::LEADER);
+            // The first item of a platoon's broadcasts is its leader's, if it broadcast.
+            let leader_triggered = t.iter().any(|p| p.packet.sender == leader);
+            let cmds = &c[j * (n1 - 1)..(j + 1) * (n1 - 1)];
+            step_rows(
+                self.step,
+                replica,
+                &states[j * n1..(j + 1) * n1],
+                leader_triggered,
+                &self.jammed[j * n1..(j + 1) * n1],
+                |i| {
+                    let cmd = cmds[i - 1];
+                    FollowerStep {
+                        triggered: cmd.flags & Command::TRIGGERED != 0,
+                        affected: cmd.flags & Command::AFFECTED != 0,
+                        u: cmd.u,
+                        theta: cmd.theta,
+                    }
+                },
+                &mut self.rows,
+            );
+        }
+        let _ = self.scenario;
         Ok(())
     }
 }

@@ -10,9 +10,10 @@ mod metrics;
 mod scenario;
 
 pub use metrics::{
-    ErrorStats, MetricsAccumulator, Safety, SafetyThresholds, Summary, VehicleSummary,
+    ErrorStats, FleetMetrics, FleetOverview, MetricsAccumulator, PlatoonBrief, Safety,
+    SafetyThresholds, Summary, VehicleSummary,
 };
-pub use scenario::{Scenario, ScenarioError};
+pub use scenario::{Fleet, Scenario, ScenarioError};
 
 use platoon_attacks::channel::{Channel, ChannelEvent};
 use platoon_control::{Delivery, FollowerStep, Packet, PlatoonController};
@@ -25,7 +26,9 @@ pub struct StepRow {
     pub step: u64,
     /// Time k dt (s).
     pub t: f64,
-    /// Vehicle (0 = leader).
+    /// The platoon (0 unless the scenario is a fleet).
+    pub platoon: u16,
+    /// Vehicle within its platoon (0 = leader).
     pub vehicle: u16,
     /// Position (m).
     pub p: f64,
@@ -100,27 +103,39 @@ pub struct PlantSpec {
     pub dt: f64,
     /// The run covers steps `0..=steps`.
     pub steps: u64,
-    /// `[p, v, a]` per vehicle, leader first.
+    /// `[p, v, a]` per vehicle, platoon by platoon, leader first.
     pub initial: Vec<[f64; 3]>,
-    /// The leader's velocity profile (waypoints).
+    /// The leaders' velocity profile (waypoints).
     pub leader: LeaderProfile,
-    /// Each follower's tau schedule (knots and interpolation).
+    /// Each follower's tau schedule (knots and interpolation), platoon by platoon.
     pub taus: Vec<TauSchedule>,
     /// Vehicle length (m).
     pub vehicle_length: f64,
+    /// N + 1.
+    pub vehicles_per_platoon: usize,
+    /// Each platoon's lane (SUMO).
+    pub lanes: Vec<u32>,
 }
 
 impl PlantSpec {
-    /// The spec of `scenario`'s plant.
+    /// The spec of the plant of `scenario`'s whole fleet.
     pub fn new(scenario: &Scenario) -> Self {
-        let plant = Plant::new(scenario);
+        let replicas = scenario.replicas();
         Self {
             dt: scenario.dt(),
             steps: scenario.steps,
-            initial: plant.states().iter().map(|x| [x[0], x[1], x[2]]).collect(),
+            initial: replicas
+                .iter()
+                .flat_map(|r| Plant::new(r).states().to_vec())
+                .map(|x| [x[0], x[1], x[2]])
+                .collect(),
             leader: scenario.leader.clone(),
-            taus: scenario.taus.clone(),
+            taus: replicas.iter().flat_map(|r| r.taus.clone()).collect(),
             vehicle_length: scenario.vehicle_length,
+            vehicles_per_platoon: scenario.vehicles_per_platoon(),
+            lanes: (0..scenario.fleet.platoons)
+                .map(|j| scenario.fleet.lane(j))
+                .collect(),
         }
     }
 }
@@ -138,11 +153,11 @@ pub fn step_rows(
     out: &mut Vec<StepRow>,
 ) {
     let t = k as f64 * scenario.dt();
-    out.clear();
     let x0 = states[0];
     out.push(StepRow {
         step: k,
         t,
+        platoon: scenario.platoon,
         vehicle: 0,
         p: x0[0],
         v: x0[1],
@@ -160,6 +175,7 @@ pub fn step_rows(
         out.push(StepRow {
             step: k,
             t,
+            platoon: scenario.platoon,
             vehicle: i as u16,
             p: x[0],
             v: x[1],
@@ -265,6 +281,7 @@ impl Simulation {
 
         let leader_triggered = self.tx.first().is_some_and(|p| p.sender.is_leader());
         let controller = &self.controller;
+        self.rows.clear();
         step_rows(
             k,
             sc,
@@ -277,6 +294,71 @@ impl Simulation {
         self.plant.advance(k, self.controller.commands());
         self.step += 1;
         &self.rows
+    }
+}
+
+/// A fleet of identical, independent platoons (see [`Fleet`]) run in step: one [`Simulation`]
+/// per platoon. With one platoon it is exactly [`Simulation`].
+#[derive(Debug, Clone)]
+pub struct FleetSimulation {
+    sims: Vec<Simulation>,
+    rows: Vec<StepRow>,
+    log: Vec<ChannelEvent>,
+}
+
+impl FleetSimulation {
+    /// Prepares every platoon of `scenario`'s fleet.
+    pub fn new(scenario: &Scenario) -> Result<Self, ScenarioError> {
+        scenario.validate()?;
+        let sims = scenario
+            .replicas()
+            .into_iter()
+            .map(Simulation::new)
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok(Self {
+            rows: Vec::with_capacity(scenario.vehicles()),
+            log: Vec::new(),
+            sims,
+        })
+    }
+
+    /// The platoons.
+    pub fn platoons(&self) -> &[Simulation] {
+        &self.sims
+    }
+
+    /// Whether every step has run.
+    pub fn is_done(&self) -> bool {
+        self.sims[0].is_done()
+    }
+
+    /// Runs one step of every platoon; returns their rows, platoon by platoon.
+    pub fn step(&mut self) -> &[StepRow] {
+        self.rows.clear();
+        self.log.clear();
+        for s in &mut self.sims {
+            self.rows.extend_from_slice(s.step());
+            self.log.extend_from_slice(s.channel_log());
+        }
+        &self.rows
+    }
+
+    /// What the channels did in the last step to packets they did not deliver as sent.
+    pub fn channel_log(&self) -> &[ChannelEvent] {
+        &self.log
+    }
+
+    /// Packets refused by the controllers of every platoon.
+    pub fn rejected(&self) -> platoon_control::RejectCounts {
+        let mut r = platoon_control::RejectCounts::default();
+        for s in &self.sims {
+            let x = s.controller().rejected();
+            r.non_finite += x.non_finite;
+            r.unknown_sender += x.unknown_sender;
+            r.future_step += x.future_step;
+            r.stale_seq += x.stale_seq;
+        }
+        r
     }
 }
 

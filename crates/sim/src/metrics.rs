@@ -150,6 +150,10 @@ pub struct Summary {
     /// Why the run stopped early (the process and step), if it did.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub error: Option<String>,
+    /// A fleet of several platoons: figures over all of them. The other fields are then
+    /// platoon 0's (except `rejected_packets`, summed over the fleet).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fleet: Option<FleetOverview>,
     /// Steps run.
     pub steps: u64,
     /// Step length (s).
@@ -312,6 +316,7 @@ impl MetricsAccumulator {
         Summary {
             complete: self.steps == self.expected_steps,
             error: None,
+            fleet: None,
             steps: self.steps,
             dt_s: self.dt,
             duration_s: self.last_t,
@@ -345,5 +350,126 @@ impl MetricsAccumulator {
             rejected_packets: rejected,
             vehicles,
         }
+    }
+}
+
+/// One platoon of a fleet, in brief.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PlatoonBrief {
+    /// Its index.
+    pub platoon: u16,
+    /// Broadcasts of its followers.
+    pub triggers_total: u64,
+    /// Its largest spacing error (m).
+    pub max_spacing_error_m: f64,
+    /// Its smallest gap (m).
+    pub min_gap_m: f64,
+    /// Its safety class.
+    pub class: &'static str,
+}
+
+/// What `summary.json` says about a whole fleet.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct FleetOverview {
+    /// Number of platoons.
+    pub platoons: usize,
+    /// Number of vehicles.
+    pub vehicles: usize,
+    /// Broadcasts of every follower.
+    pub triggers_total: u64,
+    /// No gap reached zero in any platoon.
+    pub safe: bool,
+    /// The smallest gap of any platoon (m).
+    pub min_gap_m: f64,
+    /// The largest deceleration any follower needed (m/s^2).
+    pub max_deceleration_mps2: f64,
+    /// The worst class of any platoon.
+    pub class: &'static str,
+    /// Every platoon.
+    pub per_platoon: Vec<PlatoonBrief>,
+}
+
+/// Metrics of every platoon of a fleet, from rows that come platoon by platoon.
+#[derive(Debug, Clone)]
+pub struct FleetMetrics {
+    per: Vec<MetricsAccumulator>,
+    vehicles_per_platoon: usize,
+}
+
+impl FleetMetrics {
+    /// Empty accumulators for every platoon of `scenario`'s fleet.
+    pub fn new(scenario: &Scenario) -> Self {
+        Self {
+            per: scenario
+                .replicas()
+                .iter()
+                .map(MetricsAccumulator::new)
+                .collect(),
+            vehicles_per_platoon: scenario.vehicles_per_platoon(),
+        }
+    }
+
+    /// Adds one step's rows (every platoon's, platoon by platoon).
+    pub fn push(&mut self, rows: &[StepRow]) {
+        for (acc, chunk) in self
+            .per
+            .iter_mut()
+            .zip(rows.chunks(self.vehicles_per_platoon))
+        {
+            acc.push(chunk);
+        }
+    }
+
+    /// The summary: platoon 0 in detail and, for a fleet, every platoon in brief.
+    pub fn finish(&self, rejected: RejectCounts) -> Summary {
+        let mut summary = self.per[0].finish(rejected);
+        if self.per.len() > 1 {
+            let rank = |c: &str| {
+                ["none", "negligible", "benign", "severe"]
+                    .iter()
+                    .position(|x| *x == c)
+            };
+            let all: Vec<Summary> = self
+                .per
+                .iter()
+                .map(|a| a.finish(RejectCounts::default()))
+                .collect();
+            let per_platoon: Vec<PlatoonBrief> = all
+                .iter()
+                .enumerate()
+                .map(|(j, s)| PlatoonBrief {
+                    platoon: j as u16,
+                    triggers_total: s.triggers_total,
+                    max_spacing_error_m: s
+                        .vehicles
+                        .iter()
+                        .map(|v| v.spacing_error_m.max_abs)
+                        .fold(0.0, f64::max),
+                    min_gap_m: s.safety.min_gap_m,
+                    class: s.safety.class,
+                })
+                .collect();
+            summary.fleet = Some(FleetOverview {
+                platoons: all.len(),
+                vehicles: all.len() * self.vehicles_per_platoon,
+                triggers_total: all.iter().map(|s| s.triggers_total).sum(),
+                safe: all.iter().all(|s| s.safety.safe),
+                min_gap_m: all
+                    .iter()
+                    .map(|s| s.safety.min_gap_m)
+                    .fold(f64::INFINITY, f64::min),
+                max_deceleration_mps2: all
+                    .iter()
+                    .map(|s| s.safety.max_deceleration_mps2)
+                    .fold(0.0, f64::max),
+                class: all
+                    .iter()
+                    .map(|s| s.safety.class)
+                    .max_by_key(|c| rank(c))
+                    .unwrap_or("none"),
+                per_platoon,
+            });
+        }
+        summary
     }
 }

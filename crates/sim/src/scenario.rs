@@ -47,6 +47,45 @@ pub struct Scenario {
     pub vehicle_length: f64,
     /// How the run's safety is classed.
     pub safety: crate::SafetyThresholds,
+    /// How many copies of this platoon run side by side, and where.
+    pub fleet: Fleet,
+    /// This platoon's index in its fleet (0 for a single platoon): its rows carry it and its
+    /// vehicles' global ids start at `platoon * (N + 1)`.
+    pub platoon: u16,
+}
+
+/// Identical, independent platoons on one road: platoon j drives on `lanes[j % lanes.len()]`,
+/// `(j / lanes.len()) * gap_m` behind platoon 0, with channel seed `seed + j`. They share the
+/// DoS schedule (one jammer, one channel) and nothing else.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Fleet {
+    /// Number of platoons, >= 1.
+    pub platoons: usize,
+    /// Lanes used in turn (for the SUMO plant).
+    pub lanes: Vec<u32>,
+    /// Distance between the leaders of consecutive platoons on one lane (m).
+    pub gap_m: f64,
+}
+
+impl Fleet {
+    /// One platoon.
+    pub fn single(lane: u32) -> Self {
+        Self {
+            platoons: 1,
+            lanes: vec![lane],
+            gap_m: 0.0,
+        }
+    }
+
+    /// The lane of platoon `j`.
+    pub fn lane(&self, j: usize) -> u32 {
+        self.lanes[j % self.lanes.len()]
+    }
+
+    /// How far platoon `j` starts behind platoon 0 (m).
+    pub fn offset(&self, j: usize) -> f64 {
+        (j / self.lanes.len()) as f64 * self.gap_m
+    }
 }
 
 impl Scenario {
@@ -71,7 +110,38 @@ impl Scenario {
             dos: self.dos.clone(),
             attacks: self.link_attacks.clone(),
             seed: self.channel_seed,
+            platoon: self.platoon,
         }
+    }
+
+    /// Vehicles per platoon, N + 1.
+    pub fn vehicles_per_platoon(&self) -> usize {
+        self.topology.followers() + 1
+    }
+
+    /// Vehicles in the whole fleet.
+    pub fn vehicles(&self) -> usize {
+        self.fleet.platoons * self.vehicles_per_platoon()
+    }
+
+    /// Platoon `j` of the fleet: this scenario shifted `fleet.offset(j)` back, with its own
+    /// channel seed and index. Platoon 0 of a fleet is the scenario itself.
+    pub fn replica(&self, j: usize) -> Scenario {
+        let shift = self.fleet.offset(j);
+        let mut s = self.clone();
+        if shift != 0.0 {
+            for x in &mut s.initial {
+                x[0] -= shift;
+            }
+        }
+        s.channel_seed = self.channel_seed.wrapping_add(j as u64);
+        s.platoon = j as u16;
+        s
+    }
+
+    /// Every platoon of the fleet.
+    pub fn replicas(&self) -> Vec<Scenario> {
+        (0..self.fleet.platoons).map(|j| self.replica(j)).collect()
     }
 
     /// The attack intervals that fall within the run, `[0, steps dt]`.
@@ -107,6 +177,18 @@ impl Scenario {
             return invalid(
                 "simulation.duration_s",
                 "the run needs at least one step".into(),
+            );
+        }
+        if self.fleet.platoons == 0
+            || self.fleet.lanes.is_empty()
+            || self.fleet.platoons * (n + 1) > usize::from(u16::MAX)
+        {
+            return invalid(
+                "fleet.platoons",
+                format!(
+                    "needs 1 to {} platoons and at least one lane",
+                    usize::from(u16::MAX) / (n + 1)
+                ),
             );
         }
         if !(self.vehicle_length.is_finite() && self.vehicle_length >= 0.0) {
