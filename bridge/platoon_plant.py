@@ -68,20 +68,38 @@ class Dynamics:
     def __init__(self, spec):
         self.dt = float(spec["dt"])
         self.leader = LeaderProfile(spec["leader"]["waypoints"])
-        self.taus = [TauSchedule(t["knots"], t["interpolation"]) for t in spec["taus"]]
+        # Followers share schedules (a fleet repeats its platoon's): evaluate each distinct
+        # schedule once per step. exp(-dt / tau) of the same tau is the same number, so this
+        # changes no bit of the result.
+        distinct, self.schedule_of = {}, []
+        for t in spec["taus"]:
+            key = repr((t["knots"], t["interpolation"]))
+            if key not in distinct:
+                distinct[key] = len(distinct)
+            self.schedule_of.append(distinct[key])
+        by_index = {i: k for k, i in distinct.items()}
+        self.schedules = []
+        for i in range(len(distinct)):
+            t = next(t for t in spec["taus"] if repr((t["knots"], t["interpolation"])) == by_index[i])
+            self.schedules.append(TauSchedule(t["knots"], t["interpolation"]))
         self.accel = [float(x[2]) for x in spec["initial"]]
         self.per_platoon = int(spec["vehicles_per_platoon"])
+        n1 = self.per_platoon
+        self.follower_slots = [
+            (g, (g // n1) * (n1 - 1) + g % n1 - 1) for g in range(len(self.accel)) if g % n1
+        ]
+        self.leaders = range(0, len(self.accel), n1)
 
     def advance(self, k: int, u) -> None:
         """From step k to k + 1 with the followers' commands u (platoon j's follower i at
         j * N + i - 1), platoon by platoon."""
         t = k * self.dt
-        n1 = self.per_platoon
-        a_leader = self.leader.step_acceleration(k + 1, self.dt)
-        for g in range(len(self.accel)):
-            j, i = divmod(g, n1)
-            if i == 0:
-                self.accel[g] = a_leader
-            else:
-                f = j * (n1 - 1) + i - 1
-                self.accel[g] = lagged(self.accel[g], u[f], self.taus[f].at(t), self.dt)
+        dt = self.dt
+        decay = [math.exp(-dt / s.at(t)) for s in self.schedules]
+        accel, which = self.accel, self.schedule_of
+        for g, f in self.follower_slots:
+            uf = u[f]
+            accel[g] = uf + (accel[g] - uf) * decay[which[f]]
+        a_leader = self.leader.step_acceleration(k + 1, dt)
+        for g in self.leaders:
+            accel[g] = a_leader

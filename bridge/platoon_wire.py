@@ -121,7 +121,7 @@ NODES = {"orchestrator": 0, "plant": 1, "controller": 2, "injector": 3}
 
 # Whom a publisher on each service wakes after every sample (crates/wire `wakes`).
 WAKES = {
-    "states": ["controller", "injector"],
+    "states": ["controller"],
     "tx": ["injector"],
     "rx": ["controller"],
     "commands": ["plant", "orchestrator"],
@@ -233,9 +233,11 @@ class Inlet:
             # payload().len() is in bytes in iceoryx2 0.10.0 (#1533): the header's count is right.
             if header.count > items.len():
                 raise ValueError(f"sample of step {header.step} claims {header.count} items")
-            self.pending[header.step] = [
-                items.contained_type.from_buffer_copy(items[i]) for i in range(header.count)
-            ]
+            # One copy of the whole batch out of shared memory.
+            array = (items.contained_type * header.count).from_buffer_copy(
+                ctypes.string_at(items.as_ptr(), header.count * ctypes.sizeof(items.contained_type))
+            )
+            self.pending[header.step] = array
         for old in [s for s in self.pending if s < step]:
             del self.pending[old]
         return self.pending.pop(step, None)
@@ -249,18 +251,29 @@ class Outlet:
         self.wakers = wakers
 
     def send(self, step: int, time_s: float, items) -> None:
-        sample = self.publisher.loan_slice_uninit(len(items))
-        header = sample.user_header().contents
+        """Publishes `items` (a list of ctypes structures, or a ctypes array of them)."""
+        self.send_bytes(step, time_s, len(items), _as_bytes(items))
+
+    def send_bytes(self, step: int, time_s: float, count: int, data) -> None:
+        """Publishes `count` items already laid out in `data` (bytes-like, e.g. packed with
+        struct): one copy into shared memory."""
+        sample = self.publisher.loan_slice_uninit(count)
+        header = StepHeader.from_address(sample.user_header_ptr)
         header.step = step
         header.time_s = time_s
-        header.count = len(items)
+        header.count = count
         header.stamp_ns = time.monotonic_ns()  # CLOCK_MONOTONIC, as the Rust nodes
-        payload = sample.payload()
-        for i, item in enumerate(items):
-            payload[i] = item
+        if count:
+            ctypes.memmove(sample.payload_ptr, data, len(data))
         sample.assume_init().send()
         for w in self.wakers:
             w.notify()
+
+
+def _as_bytes(items):
+    if isinstance(items, ctypes.Array):
+        return bytes(items)
+    return b"".join(bytes(it) for it in items)
 
 
 def send_status(outlet, kind: int, node: str, step: int = 0) -> None:

@@ -9,8 +9,10 @@ and update a[k+1] with the engine lag (platoon_plant.py). Writes SUMO's FCD outp
 sumo.json (SUMO version, per-step costs, collisions) into the run directory.
 """
 
+import ctypes
 import json
 import os
+import struct
 import statistics
 import sys
 import time
@@ -73,12 +75,16 @@ def start_sumo(spec):
         "--collision.mingap-factor", "0",
         "--collision.check-junctions", "true",
         "--time-to-teleport", "-1",
-        "--fcd-output", s["fcd"],
-        "--fcd-output.acceleration", "true",
         "--no-step-log", "true",
         "--no-warnings", "true",
         "--seed", "0",
     ]
+    if s["fcd_period_s"] > 0:
+        args += [
+            "--fcd-output", s["fcd"],
+            "--fcd-output.acceleration", "true",
+            "--device.fcd.period", repr(s["fcd_period_s"]),
+        ]
     libsumo.start(args)
     libsumo.simulationStep()  # inserts the vehicles; their state is still the initial one
     n = len(spec["initial"])
@@ -103,6 +109,10 @@ class Kinematics:
         self.max_dp = 0.0
         self.max_dv = 0.0
         self.worst = None
+        self.ids = [vehicle_id(i) for i in range(len(self.p))]
+        # VehicleState[]: u32 vehicle, u32 flags, f64 p, v, a (checked against the layout).
+        self.packer = struct.Struct("<" + "IIddd" * len(self.p))
+        assert struct.calcsize("<IIddd") == ctypes.sizeof(w.VehicleState)
 
     def step(self, accel, k):
         """The model's p, v after step k with the accelerations held over it."""
@@ -113,25 +123,21 @@ class Kinematics:
             self.v[i] = v + a * dt
 
     def read(self, k, accel):
-        """The states to publish at step k, after comparing SUMO with the model."""
-        out = []
-        for i in range(len(self.p)):
-            vid = vehicle_id(i)
-            p = self.sumo.vehicle.getLanePosition(vid) - self.offset
-            v = self.sumo.vehicle.getSpeed(vid)
+        """The states to publish at step k (packed as VehicleState[]), after comparing SUMO
+        with the model."""
+        get_pos, get_speed = self.sumo.vehicle.getLanePosition, self.sumo.vehicle.getSpeed
+        flat = []
+        for i, vid in enumerate(self.ids):
+            p = get_pos(vid) - self.offset
+            v = get_speed(vid)
             dp, dv = abs(p - self.p[i]), abs(v - self.v[i])
             if dp > self.max_dp or dv > self.max_dv:
                 self.worst = {"step": k, "vehicle": i, "dp_m": dp, "dv_mps": dv}
-            self.max_dp, self.max_dv = max(self.max_dp, dp), max(self.max_dv, dv)
+                self.max_dp, self.max_dv = max(self.max_dp, dp), max(self.max_dv, dv)
             if self.mode == "sumo":
                 self.p[i], self.v[i] = p, v  # the next comparison is over one step
-            st = w.VehicleState()
-            st.vehicle = i
-            st.p = self.p[i]
-            st.v = self.v[i]
-            st.a = accel[i]
-            out.append(st)
-        return out
+            flat += (i, 0, self.p[i], self.v[i], accel[i])
+        return self.packer.pack(*flat)
 
 
 def run(spec) -> int:
@@ -145,7 +151,12 @@ def run(spec) -> int:
     status = node.status_outlet()
 
     k = 0
-    report = {"sumo_version": None, "steps": 0, "collisions": [], "fcd": "fcd.xml"}
+    report = {
+        "sumo_version": None,
+        "steps": 0,
+        "collisions": [],
+        "fcd": "fcd.xml" if spec["sumo"]["fcd_period_s"] > 0 else None,
+    }
     sumo_ns, bridge_ns = [], []
 
     def fail(message):
@@ -187,7 +198,7 @@ def run(spec) -> int:
             msg = control.receive()
 
     try:
-        states_out.send(0, 0.0, kin.read(0, dyn.accel))
+        states_out.send_bytes(0, 0.0, n, kin.read(0, dyn.accel))
         while True:
             msg = control.receive()
             while msg is not None:
@@ -207,8 +218,9 @@ def run(spec) -> int:
             for c in cmds:
                 j, i = divmod(c.vehicle, n1)
                 u[j * (n1 - 1) + i - 1] = c.u
-            for i in range(n):
-                sumo.vehicle.setAcceleration(vehicle_id(i), dyn.accel[i], dt)
+            set_accel = sumo.vehicle.setAcceleration
+            for vid, a in zip(kin.ids, dyn.accel):
+                set_accel(vid, a, dt)
             t1 = time.perf_counter_ns()
             sumo.simulationStep()
             t2 = time.perf_counter_ns()
@@ -236,7 +248,7 @@ def run(spec) -> int:
                     f"{kin.worst['dv_mps']:.3g} m/s (vehicle {kin.worst['vehicle']}; "
                     f"tolerance sumo.tolerance_m = {tolerance:g})"
                 )
-            states_out.send(k, k * dt, states)
+            states_out.send_bytes(k, k * dt, n, states)
             t3 = time.perf_counter_ns()
             sumo_ns.append(t2 - t1)
             bridge_ns.append((t1 - t0) + (t3 - t2))

@@ -219,3 +219,18 @@ fn link_attacks_are_checked_with_their_index_and_key() {
         "after start_s",
     );
 }
+
+#[test]
+fn fleet_platoons_on_one_lane_must_not_overlap() {
+    assert_error(
+        paper_plus("[fleet]\nplatoons = 4\nlanes = [0, 1]\ngap_m = 20.0\n"),
+        "fleet.gap_m",
+        "would overlap",
+    );
+    assert!(paper_plus("[fleet]\nplatoons = 2\nlanes = [0, 1]\ngap_m = 20.0\n").is_ok());
+    assert_error(
+        paper_plus("[fleet]\nplatoons = 0\n"),
+        "fleet.platoons",
+        "at least one",
+    );
+}

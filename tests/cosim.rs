@@ -479,3 +479,52 @@ fn killing_the_orchestrator_takes_its_processes_down() {
     }
     assert!(!run.exists(), "a killed run never looks complete");
 }
+
+#[test]
+fn a_fleet_over_iceoryx2_is_bit_identical_to_inproc() {
+    let tmp = tempfile::tempdir().unwrap();
+    let base = std::fs::read_to_string(repo().join("configs/link-attacks.toml")).unwrap();
+    let config = tmp.path().join("fleet.toml");
+    std::fs::write(
+        &config,
+        base.replace("duration_s = 40.0", "duration_s = 10.0")
+            + "\n[fleet]\nplatoons = 3\nlanes = [0, 1]\ngap_m = 150.0\n",
+    )
+    .unwrap();
+    let c = config.to_str().unwrap();
+    for (out, transport) in [("ipc", "iceoryx2"), ("inproc", "inproc")] {
+        ok(&platoon(
+            &[
+                "run",
+                c,
+                "--out",
+                out,
+                "--no-plots",
+                "--transport",
+                transport,
+            ],
+            tmp.path(),
+        ));
+    }
+    same_outputs(
+        &tmp.path().join("ipc"),
+        &tmp.path().join("inproc"),
+        &COMPARED,
+    );
+    let s = summary(&tmp.path().join("ipc"));
+    assert_eq!(s["fleet"]["platoons"], 3);
+    assert_eq!(s["fleet"]["vehicles"], 15);
+    // Each platoon has its own loss seed: their channels drop different packets.
+    let log = std::fs::read_to_string(tmp.path().join("ipc/channel.csv")).unwrap();
+    let per: Vec<usize> = (0..3)
+        .map(|j| {
+            log.lines()
+                .filter(|l| l.split(',').nth(1) == Some(&j.to_string()))
+                .count()
+        })
+        .collect();
+    assert!(per.iter().all(|&n| n > 0), "{per:?}");
+    assert!(per[0] != per[1] || per[1] != per[2], "{per:?}");
+    let rows = std::fs::read_to_string(tmp.path().join("ipc/trajectories.csv")).unwrap();
+    assert_eq!(rows.lines().count(), 1 + 1001 * 15);
+}

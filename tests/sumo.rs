@@ -338,3 +338,57 @@ print("\n".join(repr(x) for x in out))  # shortest repr: parses back exactly
         assert_eq!(g.to_bits(), e.to_bits(), "value {i}: python {g} rust {e}");
     }
 }
+
+#[test]
+fn the_large_highway_runs_at_a_reduced_horizon() {
+    let tmp = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(repo().join("configs/highway-large.toml")).unwrap();
+    assert!(text.contains("duration_s = 55.0"));
+    let c = repo().join("configs/highway-large-short.toml.test");
+    let c = tmp.path().join(c.file_name().unwrap());
+    std::fs::write(
+        &c,
+        text.replace("duration_s = 55.0", "duration_s = 0.5")
+            .replace(
+                "../sumo/highway-long",
+                repo().join("sumo/highway-long").to_str().unwrap(),
+            ),
+    )
+    .unwrap();
+    ok(&platoon(
+        &["run", c.to_str().unwrap(), "--out", "r", "--no-plots"],
+        tmp.path(),
+    ));
+    let s = json(&tmp.path().join("r/summary.json"));
+    assert_eq!(s["complete"], true);
+    assert_eq!(s["fleet"]["platoons"], 100);
+    assert_eq!(s["fleet"]["vehicles"], 1000);
+    assert_eq!(s["fleet"]["per_platoon"].as_array().unwrap().len(), 100);
+    assert!(s["sumo"]["collisions"].as_array().unwrap().is_empty());
+    assert!(s["sumo"]["max_deviation_m"].as_f64().unwrap() < 1e-9);
+    let rows = std::fs::read_to_string(tmp.path().join("r/trajectories.csv")).unwrap();
+    assert_eq!(rows.lines().count(), 1 + 51 * 1000);
+    let fcd = std::fs::read_to_string(tmp.path().join("r/fcd.xml")).unwrap();
+    assert!(fcd.contains("p99.follower9"));
+}
+
+#[test]
+fn sumo_removing_a_crashed_vehicle_stops_the_run_naming_sumo_and_the_step() {
+    let tmp = tempfile::tempdir().unwrap();
+    let c = collision_config(tmp.path());
+    let text = std::fs::read_to_string(&c).unwrap().replace(
+        "collision_action = \"warn\"",
+        "collision_action = \"remove\"",
+    );
+    std::fs::write(&c, text).unwrap();
+    let o = platoon(
+        &["run", c.to_str().unwrap(), "--out", "r", "--no-plots"],
+        tmp.path(),
+    );
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("the plant process failed at step"), "{err}");
+    assert!(err.contains("SUMO at step"), "{err}");
+    let s = json(&tmp.path().join("r/summary.json"));
+    assert_eq!(s["complete"], false);
+}

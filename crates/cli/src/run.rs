@@ -145,6 +145,10 @@ pub fn run(args: Args) -> Result<()> {
             {
                 summary.safety.safe = false;
                 summary.safety.class = "severe";
+                if let Some(f) = &mut summary.fleet {
+                    f.safe = false;
+                    f.class = "severe";
+                }
             }
             extra.push(("sumo", report));
         }
@@ -388,6 +392,21 @@ fn print_summary(s: &Summary, compute_s: f64) {
         "  DoS: {} attacks, {:.2} s jammed, {verdict}",
         a.intervals, a.attacked_time_s
     );
+    if let Some(f) = &s.fleet {
+        println!(
+            "  fleet: {} platoons, {} vehicles, {} broadcasts, smallest gap {:.2} m, largest deceleration {:.2} m/s^2, class {}{}",
+            f.platoons,
+            f.vehicles,
+            f.triggers_total,
+            f.min_gap_m,
+            f.max_deceleration_mps2,
+            f.class,
+            if f.safe { "" } else { ", COLLISION" }
+        );
+        println!(
+            "  (the lines above are platoon 0's; summary.json has every platoon under \"fleet\")"
+        );
+    }
     println!(
         "  safety: {} (smallest gap {:.2} m, follower {} at {:.2} s)",
         if s.safety.safe { "safe" } else { "COLLISION" },

@@ -101,6 +101,10 @@ pub struct Sumo {
     /// against them every step).
     #[serde(default = "sumo_states")]
     pub states: String,
+    /// How often SUMO writes a line per vehicle to fcd.xml, for replay in sumo-gui (s); 0
+    /// writes no FCD output [every step].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fcd_period_s: Option<f64>,
     /// How far SUMO may deviate from the vehicle model before the run stops (m and m/s; in
     /// `states = "sumo"` mode over one step, in `model` mode accumulated over the run).
     #[serde(default = "tolerance")]
@@ -123,6 +127,7 @@ impl Default for Sumo {
             start_m: fifty(),
             collision_action: warn(),
             states: sumo_states(),
+            fcd_period_s: None,
             tolerance_m: tolerance(),
         }
     }

@@ -403,6 +403,11 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
     }
     finite("sumo.start_m", c.sumo.start_m)?;
     positive("sumo.tolerance_m", c.sumo.tolerance_m)?;
+    if let Some(p) = c.sumo.fcd_period_s {
+        if finite("sumo.fcd_period_s", p)? != 0.0 {
+            steps_of("sumo.fcd_period_s", p, dt)?;
+        }
+    }
     if !matches!(c.sumo.states.as_str(), "sumo" | "model") {
         return bad(
             "sumo.states",
@@ -436,7 +441,7 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
                 (lo.min(x[0]), hi.max(x[0]))
             });
         let length = hi - lo + vehicle_length;
-        if !(finite("fleet.gap_m", f.gap_m)? > length) {
+        if finite("fleet.gap_m", f.gap_m)? <= length {
             return bad(
                 "fleet.gap_m",
                 format!(

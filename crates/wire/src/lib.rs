@@ -264,7 +264,8 @@ pub const ORCHESTRATOR_WAKE_EVERY: u64 = 16;
 /// [`ORCHESTRATOR_WAKE_EVERY`] steps) and by status messages.
 pub fn wakes(service: Service) -> &'static [Node] {
     match service {
-        Service::States => &[Node::Controller, Node::Injector],
+        // The injector reads states too, but only once the tx batch (which follows) wakes it.
+        Service::States => &[Node::Controller],
         Service::Tx => &[Node::Injector],
         Service::Rx => &[Node::Controller],
         Service::Commands => &[Node::Plant, Node::Orchestrator],
