@@ -143,3 +143,48 @@ fn help_explains_the_commands() {
         "{help}"
     );
 }
+
+#[test]
+fn design_checks_the_papers_gain_and_its_certificate_re_checks() {
+    let tmp = tempfile::tempdir().unwrap();
+    let o = platoon(&["design", "check-gain", "--out", "d"], tmp.path());
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        out.contains("stable") && out.contains("NOT certified"),
+        "{out}"
+    );
+    let check: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(tmp.path().join("d/check.json")).unwrap())
+            .unwrap();
+    // ERRATA item 15: the paper's ratio 56.83 is an order of magnitude too small for its K.
+    let min = check["min_ratio_at_c"][1].as_f64().unwrap();
+    assert!(min > 10.0 * 56.83, "{min}");
+    let cert = tmp.path().join("d/certificate.json");
+    let o = platoon(&["design", "verify", cert.to_str().unwrap()], tmp.path());
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stdout));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("holds"));
+    // Lower the ratio to the paper's: the independent re-check refuses it.
+    let mut c: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&cert).unwrap()).unwrap();
+    c["ratio"] = serde_json::json!(56.83);
+    let bad = tmp.path().join("bad.json");
+    std::fs::write(&bad, c.to_string()).unwrap();
+    let o = platoon(&["design", "verify", bad.to_str().unwrap()], tmp.path());
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stdout).contains("does NOT hold"));
+}
+
+#[test]
+fn design_bounds_reproduce_t2_and_d2() {
+    let tmp = tempfile::tempdir().unwrap();
+    let o = platoon(&["design", "bounds"], tmp.path());
+    assert!(o.status.success());
+    assert_eq!(
+        String::from_utf8_lossy(&o.stdout),
+        "T2 > 9.46\nD2 > 11.33\n"
+    );
+    let o = platoon(&["design", "check-gain", "--gain", "1,2"], tmp.path());
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("expected three"));
+}

@@ -1,5 +1,6 @@
 //! `platoon`: resilient event-triggered platoon control under DoS attacks (Han et al., 2024).
 mod bench;
+mod design;
 mod experiment;
 mod node;
 mod output;
@@ -43,6 +44,9 @@ enum Command {
     /// Reproduce an experiment of the paper's Section IV.
     #[command(subcommand)]
     Experiment(experiment::Experiment),
+    /// LMI checks of a controller gain (Theorem 1), certificates, and the DoS bounds (16).
+    #[command(subcommand)]
+    Design(design::Design),
     /// Measure what the co-simulation costs on this machine (see BENCHMARKS in the README).
     #[command(subcommand)]
     Bench(bench::Bench),
@@ -67,6 +71,7 @@ fn main() -> ExitCode {
         Command::Experiment(e) => experiment::run(e),
         Command::Node(args) => node::run(args),
         Command::Bench(b) => bench::run(b),
+        Command::Design(d) => design::run(d),
         Command::WireLayout => {
             print!("{}", platoon_wire::layouts_json());
             Ok(())

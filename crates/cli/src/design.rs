@@ -1,0 +1,232 @@
+//! `platoon design`: Theorem 1 checks of a gain on clarabel's SDP solver, certificates and their
+//! independent re-check, and the DoS bounds (16).
+use crate::output::RunDir;
+use anyhow::{bail, Context, Result};
+use nalgebra::DMatrix;
+use platoon_synthesis::{
+    closed_loop_spectrum, dos_bounds, theorem1_max_decay, theorem1_min_ratio, Certificate,
+    Feasibility,
+};
+use std::path::PathBuf;
+
+/// LMI design and checks (Theorem 1 of the paper, read as ERRATA.md items 8, 14-21 say).
+#[derive(Debug, clap::Subcommand)]
+pub enum Design {
+    /// Evaluate a gain K on a scenario's topology: closed-loop eigenvalues over the tau range,
+    /// the smallest beta1/beta2 for which Theorem 1's LMI (13) holds (an exact SDP for a fixed
+    /// K), and the largest decay c it certifies. Writes certificate.json (the smallest-ratio
+    /// certificate), certificate-max-decay.json, spectrum.csv and check.json.
+    CheckGain(CheckGainArgs),
+    /// Re-check a certificate independently of the solver: assemble (13) from its numbers and
+    /// print the eigenvalue margin. Exits 1 if it does not hold.
+    Verify {
+        /// A certificate.json.
+        file: PathBuf,
+    },
+    /// The DoS bounds (16): T2 > (2 ln phi + (s1 + s2) h) / s*, D2 > (s1 + s2) / (s1 - s*).
+    Bounds(BoundsArgs),
+}
+
+/// Arguments of `platoon design check-gain`.
+#[derive(Debug, clap::Args)]
+pub struct CheckGainArgs {
+    /// Scenario config (its topology, tau range and gain) [default: the embedded paper config].
+    pub config: Option<PathBuf>,
+    /// The gain to check, "k1,k2,k3" [default: the config's control.gain].
+    #[arg(long, value_name = "K1,K2,K3")]
+    pub gain: Option<String>,
+    /// Decay parameter c for the smallest-ratio SDP.
+    #[arg(long, default_value_t = 0.0)]
+    pub c: f64,
+    /// Output directory [default: runs/design-check].
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Replace the output directory if it exists.
+    #[arg(long)]
+    pub force: bool,
+}
+
+/// Arguments of `platoon design bounds`.
+#[derive(Debug, clap::Args)]
+pub struct BoundsArgs {
+    /// varsigma1, the decay rate without attacks.
+    #[arg(long, default_value_t = 0.41)]
+    pub varsigma1: f64,
+    /// varsigma2, the growth rate under attack.
+    #[arg(long, default_value_t = 0.27)]
+    pub varsigma2: f64,
+    /// varsigma*, in (0, varsigma1).
+    #[arg(long, default_value_t = 0.35)]
+    pub varsigma_star: f64,
+    /// phi, the gain scheduler between the two Lyapunov functions.
+    #[arg(long, default_value_t = 5.2)]
+    pub phi: f64,
+    /// h, the resilient sampling period (s).
+    #[arg(long, default_value_t = 0.02)]
+    pub h: f64,
+}
+
+pub fn run(d: Design) -> Result<()> {
+    match d {
+        Design::CheckGain(a) => check_gain(a),
+        Design::Verify { file } => verify(file),
+        Design::Bounds(b) => {
+            let (t2, d2) = dos_bounds(b.varsigma1, b.varsigma2, b.varsigma_star, b.phi, b.h)?;
+            println!("T2 > {t2:.2}");
+            println!("D2 > {d2:.2}");
+            Ok(())
+        }
+    }
+}
+
+fn parse_gain(s: &str) -> Result<[f64; 3]> {
+    let v: Vec<f64> = s
+        .trim_start_matches("K=")
+        .split(',')
+        .map(|x| x.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .with_context(|| format!("--gain {s:?}: expected three numbers like 4.81,9.12,2.97"))?;
+    match v.as_slice() {
+        [a, b, c] if v.iter().all(|x| x.is_finite()) => Ok([*a, *b, *c]),
+        _ => bail!("--gain {s:?}: expected three finite numbers like 4.81,9.12,2.97"),
+    }
+}
+
+#[derive(serde::Serialize)]
+struct CheckReport {
+    k: [f64; 3],
+    topology_followers: usize,
+    tau_nominal: f64,
+    tau_range: (f64, f64),
+    stable_over_tau_range: bool,
+    worst_max_real: f64,
+    fastest_mode: f64,
+    min_ratio_at_c: Option<(f64, f64)>,
+    config_ratio: f64,
+    config_ratio_certified: bool,
+    max_decay_c: Option<f64>,
+}
+
+fn check_gain(a: CheckGainArgs) -> Result<()> {
+    let (config, scenario, _) =
+        crate::run::load(a.config.as_deref(), platoon_config::PAPER_TOML, "paper")?;
+    let k = match &a.gain {
+        Some(g) => parse_gain(g)?,
+        None => config.control.gain,
+    };
+    let n = scenario.topology.followers();
+    let hm = scenario.topology.h_matrix();
+    let h = DMatrix::from_fn(n, n, |i, j| hm[(i, j)]);
+    let tau = scenario.control.tau_nominal;
+    let (lo, hi) = scenario
+        .taus
+        .iter()
+        .map(|t| t.range())
+        .fold((tau, tau), |(a, b), (x, y)| (a.min(x), b.max(y)));
+    let taus: Vec<f64> = (0..=50)
+        .map(|i| lo + (hi - lo) * f64::from(i) / 50.0)
+        .collect();
+    let spectrum = closed_loop_spectrum(k, &h, &taus);
+    let worst = spectrum
+        .iter()
+        .map(|s| s.max_real)
+        .fold(f64::NEG_INFINITY, f64::max);
+    let fastest = spectrum.iter().map(|s| s.max_modulus).fold(0.0, f64::max);
+
+    let out = a
+        .out
+        .unwrap_or_else(|| PathBuf::from("runs").join("design-check"));
+    let dir = RunDir::create(&out, a.force)?;
+    let mut csv = csv::Writer::from_writer(dir.writer("spectrum.csv")?);
+    for s in &spectrum {
+        csv.serialize(s)?;
+    }
+    csv.flush()?;
+
+    let started = std::time::Instant::now();
+    let min = theorem1_min_ratio(k, a.c, &h, tau, 1e-6)?;
+    let sdp_s = started.elapsed().as_secs_f64();
+    let config_ratio = config.control.beta1 / config.control.beta2;
+    let (min_ratio, certified) = match &min {
+        Feasibility::Feasible(cert) => {
+            dir.write(
+                "certificate.json",
+                (serde_json::to_string_pretty(cert)? + "\n").as_bytes(),
+            )?;
+            let mut at_config = cert.clone();
+            at_config.ratio = config_ratio;
+            (
+                Some((a.c, cert.ratio)),
+                config_ratio >= cert.ratio && at_config.verify()?.holds,
+            )
+        }
+        Feasibility::Infeasible => (None, false),
+    };
+    let best = theorem1_max_decay(k, &h, tau, 10.0, 1e-3)?;
+    if let Some(cert) = &best {
+        dir.write(
+            "certificate-max-decay.json",
+            (serde_json::to_string_pretty(cert)? + "\n").as_bytes(),
+        )?;
+    }
+    let report = CheckReport {
+        k,
+        topology_followers: n,
+        tau_nominal: tau,
+        tau_range: (lo, hi),
+        stable_over_tau_range: worst < 0.0,
+        worst_max_real: worst,
+        fastest_mode: fastest,
+        min_ratio_at_c: min_ratio,
+        config_ratio,
+        config_ratio_certified: certified,
+        max_decay_c: best.as_ref().map(|c| c.c),
+    };
+    dir.write(
+        "check.json",
+        (serde_json::to_string_pretty(&report)? + "\n").as_bytes(),
+    )?;
+    let path = dir.commit()?;
+
+    println!("K = [{}, {}, {}] on {n} followers", k[0], k[1], k[2]);
+    println!(
+        "  closed loop over tau in [{lo}, {hi}] s: {} (largest real part {worst:.4}, fastest mode {fastest:.1} rad/s)",
+        if worst < 0.0 { "stable" } else { "UNSTABLE" }
+    );
+    match min_ratio {
+        Some((c, r)) => println!(
+            "  Theorem 1 (13) at c = {c}: smallest beta1/beta2 = {r:.2} ({sdp_s:.2} s); the config's {config_ratio:.2} is {}",
+            if certified { "certified" } else { "NOT certified" }
+        ),
+        None => println!("  Theorem 1 (13) at c = {}: INFEASIBLE for this K", a.c),
+    }
+    match &best {
+        Some(c) => println!(
+            "  largest certified decay c = {:.3} (beta1/beta2 = {:.2})",
+            c.c, c.ratio
+        ),
+        None => println!("  no decay c >= 0 is certified"),
+    }
+    println!("outputs: {}", path.display());
+    Ok(())
+}
+
+fn verify(file: PathBuf) -> Result<()> {
+    let text =
+        std::fs::read_to_string(&file).with_context(|| format!("reading {}", file.display()))?;
+    let cert: Certificate = serde_json::from_str(&text)
+        .with_context(|| format!("{} is not a certificate", file.display()))?;
+    let v = cert.verify()?;
+    println!(
+        "{}: Theorem 1 (13) {} (largest eigenvalue {:.4e}, margin {:.4e}; smallest eigenvalue of P {:.4e})",
+        file.display(),
+        if v.holds { "holds" } else { "does NOT hold" },
+        v.max_eigenvalue,
+        -v.max_eigenvalue,
+        v.p_min_eigenvalue
+    );
+    if !v.holds {
+        bail!("the certificate does not hold");
+    }
+    Ok(())
+}

@@ -1,0 +1,472 @@
+//! LMI (13) of Theorem 1, its SDP on clarabel, and certificates.
+use clarabel::algebra::CscMatrix;
+use clarabel::solver::{
+    DefaultSettingsBuilder, DefaultSolver, IPSolver, SolverStatus, SupportedConeT,
+};
+use nalgebra::{DMatrix, Matrix3, RowVector3, Vector3};
+use serde::{Deserialize, Serialize};
+
+/// Why a design request could not be answered.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum LmiError {
+    /// Inputs out of range.
+    #[error("{0}")]
+    Bad(String),
+    /// The solver failed (numerical trouble, iteration limit).
+    #[error("the SDP solver stopped with status {0}")]
+    Solver(String),
+    /// The solver reported a solution that fails the independent re-check (at the edge of
+    /// feasibility): not a certificate.
+    #[error("the solver's answer fails the independent re-check (largest eigenvalue {0:.3e})")]
+    NotCertified(f64),
+}
+
+/// The nominal third-order model: `A = [[0,1,0],[0,0,1],[0,0,-1/tau]]`, `B = [0,0,1/tau]^T`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Plant3 {
+    /// A.
+    pub a: Matrix3<f64>,
+    /// B.
+    pub b: Vector3<f64>,
+}
+
+impl Plant3 {
+    /// The model with engine lag `tau`.
+    pub fn new(tau: f64) -> Self {
+        #[rustfmt::skip]
+        let a = Matrix3::new(
+            0.0, 1.0, 0.0,
+            0.0, 0.0, 1.0,
+            0.0, 0.0, -1.0 / tau,
+        );
+        Self {
+            a,
+            b: Vector3::new(0.0, 0.0, 1.0 / tau),
+        }
+    }
+}
+
+fn kron(a: &DMatrix<f64>, b: &DMatrix<f64>) -> DMatrix<f64> {
+    a.kronecker(b)
+}
+
+fn he(x: &DMatrix<f64>) -> DMatrix<f64> {
+    x + x.transpose()
+}
+
+/// The matrix `Psi` of (13) for `P`, ratio `r = beta1 / beta2`, decay `c`, gain `k`, graph
+/// `h` (N x N, H = L + diag(pinning)) and plant: a 9N x 9N symmetric matrix that must be
+/// negative definite.
+pub fn psi_theorem1(
+    p: &Matrix3<f64>,
+    r: f64,
+    c: f64,
+    k: &RowVector3<f64>,
+    h: &DMatrix<f64>,
+    plant: &Plant3,
+) -> DMatrix<f64> {
+    let n = h.nrows();
+    let m = 3 * n;
+    let i_n = DMatrix::<f64>::identity(n, n);
+    let i3 = DMatrix::<f64>::identity(3, 3);
+    let pd = DMatrix::from_iterator(3, 3, p.iter().copied());
+    let pa = DMatrix::from_iterator(3, 3, (p * plant.a).iter().copied());
+    let pbk = DMatrix::from_iterator(3, 3, (p * plant.b * k).iter().copied());
+    let x11 = he(&(kron(&i_n, &pa) - kron(h, &pbk))) + kron(&i_n, &pd) * c;
+    let x12 = -kron(h, &pbk);
+    let ht_i = kron(&h.transpose(), &i3);
+    let mut psi = DMatrix::<f64>::zeros(3 * m, 3 * m);
+    psi.view_mut((0, 0), (m, m)).copy_from(&x11);
+    psi.view_mut((0, m), (m, m)).copy_from(&x12);
+    psi.view_mut((m, 0), (m, m)).copy_from(&x12.transpose());
+    psi.view_mut((0, 2 * m), (m, m)).copy_from(&ht_i);
+    psi.view_mut((2 * m, 0), (m, m))
+        .copy_from(&ht_i.transpose());
+    psi.view_mut((m, m), (m, m))
+        .copy_from(&(DMatrix::<f64>::identity(m, m) * -r));
+    psi.view_mut((m, 2 * m), (m, m)).copy_from(&ht_i);
+    psi.view_mut((2 * m, m), (m, m))
+        .copy_from(&ht_i.transpose());
+    psi.view_mut((2 * m, 2 * m), (m, m))
+        .copy_from(&(DMatrix::<f64>::identity(m, m) * -1.0));
+    psi
+}
+
+/// Everything needed to re-check Theorem 1 for one design, as `certificate.json` holds it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Certificate {
+    /// Which condition: "theorem1".
+    pub condition: String,
+    /// The gain K (u = -K q).
+    pub k: [f64; 3],
+    /// The decay parameter c.
+    pub c: f64,
+    /// beta1 / beta2.
+    pub ratio: f64,
+    /// P (row-major 3x3), positive definite.
+    pub p: [[f64; 3]; 3],
+    /// H = L + diag(pinning), row-major N x N.
+    pub h: Vec<Vec<f64>>,
+    /// The nominal tau of the model (s).
+    pub tau: f64,
+    /// The largest eigenvalue of (13) when issued (negative).
+    pub max_eigenvalue: f64,
+    /// The smallest eigenvalue of P when issued (positive).
+    pub p_min_eigenvalue: f64,
+}
+
+/// P, K and H of a certificate.
+type Parts = (Matrix3<f64>, RowVector3<f64>, DMatrix<f64>);
+
+/// The result of re-checking a certificate.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Verdict {
+    /// (13) is negative definite and P positive definite.
+    pub holds: bool,
+    /// Largest eigenvalue of (13): the margin is its negative.
+    pub max_eigenvalue: f64,
+    /// Smallest eigenvalue of P.
+    pub p_min_eigenvalue: f64,
+}
+
+impl Certificate {
+    fn parts(&self) -> Result<Parts, LmiError> {
+        let n = self.h.len();
+        if n == 0 || self.h.iter().any(|row| row.len() != n) {
+            return Err(LmiError::Bad("h must be a non-empty square matrix".into()));
+        }
+        let finite = self
+            .p
+            .iter()
+            .flatten()
+            .chain(&self.k)
+            .all(|x| x.is_finite())
+            && self.h.iter().flatten().all(|x| x.is_finite())
+            && self.ratio.is_finite()
+            && self.c.is_finite()
+            && self.tau.is_finite()
+            && self.tau > 0.0;
+        if !finite {
+            return Err(LmiError::Bad(
+                "every number of a certificate must be finite (and tau > 0)".into(),
+            ));
+        }
+        let p = Matrix3::from_fn(|i, j| self.p[i][j]);
+        let h = DMatrix::from_fn(n, n, |i, j| self.h[i][j]);
+        Ok((p, RowVector3::from(self.k), h))
+    }
+
+    /// Re-assembles (13) from the certificate's numbers and checks its eigenvalues.
+    pub fn verify(&self) -> Result<Verdict, LmiError> {
+        let (p, k, h) = self.parts()?;
+        let psym = (p + p.transpose()) * 0.5;
+        let psi = psi_theorem1(&psym, self.ratio, self.c, &k, &h, &Plant3::new(self.tau));
+        let max_eigenvalue = psi.symmetric_eigenvalues().max();
+        let p_min_eigenvalue = psym.symmetric_eigenvalues().min();
+        Ok(Verdict {
+            holds: max_eigenvalue < 0.0
+                && p_min_eigenvalue > 0.0
+                && (p - p.transpose()).amax() < 1e-9,
+            max_eigenvalue,
+            p_min_eigenvalue,
+        })
+    }
+}
+
+/// Column-major upper triangle of a symmetric matrix, off-diagonals scaled by sqrt(2): clarabel's
+/// PSD triangle format.
+fn svec(m: &DMatrix<f64>) -> Vec<f64> {
+    let n = m.nrows();
+    let s2 = std::f64::consts::SQRT_2;
+    let mut v = Vec::with_capacity(n * (n + 1) / 2);
+    for j in 0..n {
+        for i in 0..=j {
+            v.push(if i == j { m[(i, j)] } else { s2 * m[(i, j)] });
+        }
+    }
+    v
+}
+
+/// The symmetric basis of P: E_ab.
+fn p_basis() -> Vec<Matrix3<f64>> {
+    let mut out = Vec::new();
+    for a in 0..3 {
+        for b in a..3 {
+            let mut e = Matrix3::zeros();
+            e[(a, b)] = 1.0;
+            e[(b, a)] = 1.0;
+            out.push(e);
+        }
+    }
+    out
+}
+
+/// The outcome of a Theorem-1 SDP.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Feasibility {
+    /// A certificate.
+    Feasible(Certificate),
+    /// No P and ratio satisfy (13) for this K and c.
+    Infeasible,
+}
+
+/// The smallest `beta1 / beta2` for which (13) holds with gain `k` and decay `c` on graph `h`
+/// (with margin `delta`: Psi <= -delta I, P >= delta I), or `Infeasible`.
+pub fn theorem1_min_ratio(
+    k: [f64; 3],
+    c: f64,
+    h: &DMatrix<f64>,
+    tau: f64,
+    delta: f64,
+) -> Result<Feasibility, LmiError> {
+    if !(c.is_finite() && c >= 0.0 && tau.is_finite() && tau > 0.0 && delta > 0.0) {
+        return Err(LmiError::Bad(format!(
+            "need c >= 0, tau > 0 and delta > 0 (got c = {c}, tau = {tau}, delta = {delta})"
+        )));
+    }
+    let plant = Plant3::new(tau);
+    let kr = RowVector3::from(k);
+    let n = h.nrows();
+    let size = 9 * n;
+    // Psi(x) = F0 + sum_i x_i F_i with x = (P's 6 entries, r).
+    let f0 = psi_theorem1(&Matrix3::zeros(), 0.0, c, &kr, h, &plant);
+    let basis = p_basis();
+    let mut fi: Vec<DMatrix<f64>> = basis
+        .iter()
+        .map(|e| psi_theorem1(e, 0.0, c, &kr, h, &plant) - &f0)
+        .collect();
+    fi.push(psi_theorem1(&Matrix3::zeros(), 1.0, c, &kr, h, &plant) - &f0);
+    let nvar = fi.len();
+
+    // Cone 1: -Psi(x) - delta I in PSD  <=>  s = svec(-F0 - delta I) - sum x_i svec(F_i).
+    // Cone 2: P - delta I in PSD        <=>  s = svec(-delta I) + sum x_i svec(E_i).
+    let b1 = svec(&(-&f0 - DMatrix::<f64>::identity(size, size) * delta));
+    let cols1: Vec<Vec<f64>> = fi.iter().map(svec).collect();
+    let b2 = svec(&(DMatrix::<f64>::identity(3, 3) * -delta));
+    let cols2: Vec<Vec<f64>> = basis
+        .iter()
+        .map(|e| svec(&DMatrix::from_iterator(3, 3, e.iter().map(|x| -x))))
+        .chain(std::iter::once(vec![0.0; 6]))
+        .collect();
+    let m1 = b1.len();
+    let mut colptr = vec![0];
+    let (mut rowval, mut nzval) = (Vec::new(), Vec::new());
+    for j in 0..nvar {
+        for (i, &v) in cols1[j].iter().enumerate() {
+            if v != 0.0 {
+                rowval.push(i);
+                nzval.push(v);
+            }
+        }
+        for (i, &v) in cols2[j].iter().enumerate() {
+            if v != 0.0 {
+                rowval.push(m1 + i);
+                nzval.push(v);
+            }
+        }
+        colptr.push(rowval.len());
+    }
+    let a = CscMatrix::new(m1 + 6, nvar, colptr, rowval, nzval);
+    let mut b = b1;
+    b.extend(b2);
+    let q = CscMatrix::zeros((nvar, nvar));
+    let mut cost = vec![0.0; nvar];
+    cost[nvar - 1] = 1.0; // minimise r
+    let cones = [
+        SupportedConeT::PSDTriangleConeT(size),
+        SupportedConeT::PSDTriangleConeT(3),
+    ];
+    let settings = DefaultSettingsBuilder::default()
+        .verbose(false)
+        .max_iter(500)
+        .build()
+        .map_err(|e| LmiError::Solver(e.to_string()))?;
+    let mut solver = DefaultSolver::new(&q, &cost, &a, &b, &cones, settings)
+        .map_err(|e| LmiError::Solver(format!("{e:?}")))?;
+    solver.solve();
+    match solver.solution.status {
+        SolverStatus::Solved | SolverStatus::AlmostSolved => {}
+        SolverStatus::PrimalInfeasible | SolverStatus::AlmostPrimalInfeasible => {
+            return Ok(Feasibility::Infeasible)
+        }
+        other => return Err(LmiError::Solver(format!("{other:?}"))),
+    }
+    let x = &solver.solution.x;
+    let mut p = Matrix3::zeros();
+    for (e, &v) in basis.iter().zip(x) {
+        p += e * v;
+    }
+    let mut pm = [[0.0; 3]; 3];
+    for i in 0..3 {
+        for j in 0..3 {
+            pm[i][j] = p[(i, j)];
+        }
+    }
+    let mut cert = Certificate {
+        condition: "theorem1".into(),
+        k,
+        c,
+        ratio: x[nvar - 1],
+        p: pm,
+        h: (0..n)
+            .map(|i| (0..n).map(|j| h[(i, j)]).collect())
+            .collect(),
+        tau,
+        max_eigenvalue: 0.0,
+        p_min_eigenvalue: 0.0,
+    };
+    let v = cert.verify()?;
+    cert.max_eigenvalue = v.max_eigenvalue;
+    cert.p_min_eigenvalue = v.p_min_eigenvalue;
+    if !v.holds {
+        // The solver's answer does not pass the independent check: say so, never return it.
+        return Err(LmiError::NotCertified(v.max_eigenvalue));
+    }
+    Ok(Feasibility::Feasible(cert))
+}
+
+/// The largest decay c (to `tol`) for which (13) is feasible with gain `k`, by bisection on
+/// `[0, c_max]`; `None` if it is infeasible already at c = 0.
+pub fn theorem1_max_decay(
+    k: [f64; 3],
+    h: &DMatrix<f64>,
+    tau: f64,
+    c_max: f64,
+    tol: f64,
+) -> Result<Option<Certificate>, LmiError> {
+    let delta = 1e-6;
+    let Feasibility::Feasible(mut best) = theorem1_min_ratio(k, 0.0, h, tau, delta)? else {
+        return Ok(None);
+    };
+    let (mut lo, mut hi) = (0.0, c_max);
+    while hi - lo > tol {
+        let mid = 0.5 * (lo + hi);
+        // At the edge of feasibility an answer that fails the re-check counts as infeasible.
+        match theorem1_min_ratio(k, mid, h, tau, delta) {
+            Ok(Feasibility::Feasible(c)) => {
+                lo = mid;
+                best = c;
+            }
+            Ok(Feasibility::Infeasible) | Err(LmiError::NotCertified(_)) => hi = mid,
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(Some(best))
+}
+
+/// Eigenvalues of the closed loop `I_N kron A(tau) - H kron B(tau) K` at each tau.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Spectrum {
+    /// tau (s).
+    pub tau: f64,
+    /// The largest real part of an eigenvalue (negative: stable).
+    pub max_real: f64,
+    /// The largest modulus (how fast the closed loop is; compare with 1 / dt).
+    pub max_modulus: f64,
+}
+
+/// The closed-loop spectrum of gain `k` on graph `h` at each of `taus`.
+pub fn closed_loop_spectrum(k: [f64; 3], h: &DMatrix<f64>, taus: &[f64]) -> Vec<Spectrum> {
+    let n = h.nrows();
+    let kr = RowVector3::from(k);
+    taus.iter()
+        .map(|&tau| {
+            let pl = Plant3::new(tau);
+            let a = DMatrix::from_iterator(3, 3, pl.a.iter().copied());
+            let bk = DMatrix::from_iterator(3, 3, (pl.b * kr).iter().copied());
+            let acl = kron(&DMatrix::identity(n, n), &a) - kron(h, &bk);
+            let eig = acl.complex_eigenvalues();
+            Spectrum {
+                tau,
+                max_real: eig.iter().map(|z| z.re).fold(f64::NEG_INFINITY, f64::max),
+                max_modulus: eig.iter().map(|z| z.norm()).fold(0.0, f64::max),
+            }
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use platoon_topology::{Preset, Topology};
+
+    fn h(preset: Preset, n: usize) -> DMatrix<f64> {
+        let t = Topology::preset(preset, n).unwrap();
+        let m = t.h_matrix();
+        DMatrix::from_fn(n, n, |i, j| m[(i, j)])
+    }
+
+    const PAPER_K: [f64; 3] = [4.81, 9.12, 2.97];
+
+    #[test]
+    fn the_papers_gain_needs_a_far_larger_ratio_than_it_reports() {
+        // ERRATA item 15: with K = [4.81, 9.12, 2.97] on TPSF, beta1/beta2 = 56.83 is not
+        // feasible; the smallest feasible ratio is an order of magnitude larger.
+        let Feasibility::Feasible(cert) =
+            theorem1_min_ratio(PAPER_K, 0.0, &h(Preset::Tpsf, 4), 0.5, 1e-6).unwrap()
+        else {
+            panic!("Theorem 1 should be feasible for the paper's K at c = 0");
+        };
+        assert!(cert.ratio > 10.0 * 56.83, "smallest ratio {}", cert.ratio);
+        let v = cert.verify().unwrap();
+        assert!(v.holds && v.max_eigenvalue < 0.0 && v.p_min_eigenvalue > 0.0);
+        // The same P with the paper's ratio fails the re-check.
+        let mut paper = cert.clone();
+        paper.ratio = 319.38 / 5.62;
+        assert!(!paper.verify().unwrap().holds);
+    }
+
+    #[test]
+    fn a_destabilising_gain_is_infeasible_not_garbage() {
+        // u = +K q (the sign the paper prints) is unstable: no certificate can exist.
+        let k = [-4.81, -9.12, -2.97];
+        assert!(closed_loop_spectrum(k, &h(Preset::Tpsf, 4), &[0.5])[0].max_real > 0.0);
+        assert_eq!(
+            theorem1_min_ratio(k, 0.0, &h(Preset::Tpsf, 4), 0.5, 1e-6).unwrap(),
+            Feasibility::Infeasible
+        );
+    }
+
+    #[test]
+    fn the_papers_gain_is_stable_over_the_whole_tau_range() {
+        let taus: Vec<f64> = (0..=48).map(|i| 0.34 + 0.01 * f64::from(i)).collect();
+        for s in closed_loop_spectrum(PAPER_K, &h(Preset::Tpsf, 4), &taus) {
+            assert!(
+                s.max_real < 0.0,
+                "unstable at tau = {}: {}",
+                s.tau,
+                s.max_real
+            );
+        }
+    }
+
+    #[test]
+    fn a_tampered_certificate_fails_the_re_check() {
+        let Feasibility::Feasible(mut cert) =
+            theorem1_min_ratio(PAPER_K, 0.0, &h(Preset::Pf, 3), 0.5, 1e-6).unwrap()
+        else {
+            panic!("feasible");
+        };
+        assert!(cert.verify().unwrap().holds);
+        cert.p[0][0] = -1.0;
+        assert!(!cert.verify().unwrap().holds);
+        cert.p[0][0] = f64::NAN;
+        assert!(cert.verify().is_err());
+    }
+
+    #[test]
+    fn a_larger_decay_needs_a_larger_ratio_until_it_is_infeasible() {
+        let g = h(Preset::Pf, 3);
+        let r = |c| match theorem1_min_ratio(PAPER_K, c, &g, 0.5, 1e-6).unwrap() {
+            Feasibility::Feasible(cert) => Some(cert.ratio),
+            Feasibility::Infeasible => None,
+        };
+        let (r0, r1) = (r(0.0).unwrap(), r(0.1).unwrap());
+        assert!(r1 >= r0 * (1.0 - 1e-6), "{r0} {r1}");
+        assert_eq!(r(50.0), None);
+        let best = theorem1_max_decay(PAPER_K, &g, 0.5, 5.0, 0.01)
+            .unwrap()
+            .unwrap();
+        assert!(best.c > 0.0 && best.verify().unwrap().holds);
+    }
+}
