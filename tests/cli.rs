@@ -188,3 +188,51 @@ fn design_bounds_reproduce_t2_and_d2() {
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("expected three"));
 }
+
+#[test]
+fn a_synthesised_design_runs_and_an_infeasible_request_says_so() {
+    let tmp = tempfile::tempdir().unwrap();
+    let o = platoon(&["design", "synthesize", "--out", "d"], tmp.path());
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let cert = tmp.path().join("d/certificate.json");
+    let c: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&cert).unwrap()).unwrap();
+    let k: Vec<f64> = c["k"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect();
+    assert!(k.iter().map(|x| x * x).sum::<f64>().sqrt() <= 20.0);
+    let o = platoon(
+        &[
+            "run",
+            "--design",
+            cert.to_str().unwrap(),
+            "--out",
+            "r",
+            "--no-plots",
+            "--transport",
+            "inproc",
+        ],
+        tmp.path(),
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let config = std::fs::read_to_string(tmp.path().join("r/config.toml")).unwrap();
+    assert!(
+        config.contains(&format!("{}", k[0])),
+        "the run used the designed K"
+    );
+    let s: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(tmp.path().join("r/summary.json")).unwrap())
+            .unwrap();
+    assert_eq!(s["safety"]["safe"], true);
+
+    let o = platoon(
+        &["design", "synthesize", "--k-max", "0.01", "--out", "none"],
+        tmp.path(),
+    );
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("infeasible"));
+    assert!(!tmp.path().join("none").exists() && !tmp.path().join("none.partial").exists());
+}

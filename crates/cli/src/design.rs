@@ -25,6 +25,33 @@ pub enum Design {
     },
     /// The DoS bounds (16): T2 > (2 ln phi + (s1 + s2) h) / s*, D2 > (s1 + s2) / (s1 - s*).
     Bounds(BoundsArgs),
+    /// Design K and beta1/beta2 for Theorem 1 on a scenario's topology (Remark 1 with its
+    /// non-convex block linearised, a convex-concave procedure, bisection on beta1/beta2, and
+    /// |K| <= --k-max so the gain stays usable at the run's step). The gain is then certified by
+    /// the exact Theorem-1 SDP. Writes certificate.json; `platoon run --design` uses it.
+    Synthesize(SynthesizeArgs),
+}
+
+/// Arguments of `platoon design synthesize`.
+#[derive(Debug, clap::Args)]
+pub struct SynthesizeArgs {
+    /// Scenario config (its topology and nominal tau) [default: the embedded paper config].
+    pub config: Option<PathBuf>,
+    /// Decay parameter c.
+    #[arg(long, default_value_t = 0.0)]
+    pub c: f64,
+    /// Bound on |K| (2-norm).
+    #[arg(long, default_value_t = 20.0)]
+    pub k_max: f64,
+    /// Largest beta1/beta2 tried.
+    #[arg(long, default_value_t = 1e4)]
+    pub ratio_max: f64,
+    /// Output directory [default: runs/design].
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Replace the output directory if it exists.
+    #[arg(long)]
+    pub force: bool,
 }
 
 /// Arguments of `platoon design check-gain`.
@@ -70,6 +97,7 @@ pub fn run(d: Design) -> Result<()> {
     match d {
         Design::CheckGain(a) => check_gain(a),
         Design::Verify { file } => verify(file),
+        Design::Synthesize(a) => synthesize(a),
         Design::Bounds(b) => {
             let (t2, d2) = dos_bounds(b.varsigma1, b.varsigma2, b.varsigma_star, b.phi, b.h)?;
             println!("T2 > {t2:.2}");
@@ -228,5 +256,56 @@ fn verify(file: PathBuf) -> Result<()> {
     if !v.holds {
         bail!("the certificate does not hold");
     }
+    Ok(())
+}
+
+fn synthesize(a: SynthesizeArgs) -> Result<()> {
+    let (_, scenario, _) =
+        crate::run::load(a.config.as_deref(), platoon_config::PAPER_TOML, "paper")?;
+    let n = scenario.topology.followers();
+    let hm = scenario.topology.h_matrix();
+    let h = DMatrix::from_fn(n, n, |i, j| hm[(i, j)]);
+    let spec = platoon_synthesis::DesignSpec {
+        c: a.c,
+        tau: scenario.control.tau_nominal,
+        k_max: a.k_max,
+        ratio_max: a.ratio_max,
+        ..Default::default()
+    };
+    let out = a
+        .out
+        .unwrap_or_else(|| PathBuf::from("runs").join("design"));
+    if out.exists() && !a.force {
+        bail!(
+            "output directory {} exists; choose another --out or pass --force to replace it",
+            out.display()
+        );
+    }
+    let started = std::time::Instant::now();
+    let design = platoon_synthesis::design_theorem1(&spec, &h)?;
+    let seconds = started.elapsed().as_secs_f64();
+    let Some(d) = design else {
+        // Nothing is written for an infeasible request.
+        bail!(
+            "infeasible: no gain with |K| <= {} satisfies Theorem 1 on this topology ({n} followers) with beta1/beta2 <= {} at c = {} ({seconds:.2} s); raise --k-max or --ratio-max, or lower --c",
+            a.k_max, a.ratio_max, a.c
+        );
+    };
+    let dir = RunDir::create(&out, a.force)?;
+    dir.write(
+        "certificate.json",
+        (serde_json::to_string_pretty(&d.certificate)? + "\n").as_bytes(),
+    )?;
+    let path = dir.commit()?;
+    let norm = d.k.iter().map(|x| x * x).sum::<f64>().sqrt();
+    println!(
+        "K = [{:.4}, {:.4}, {:.4}] (|K| = {norm:.2} <= {}), beta1/beta2 = {:.2}, c = {} on {n} followers",
+        d.k[0], d.k[1], d.k[2], a.k_max, d.certificate.ratio, a.c
+    );
+    println!(
+        "  certified by the exact Theorem-1 SDP (margin {:.2e}); {} SDPs in {seconds:.2} s",
+        -d.certificate.max_eigenvalue, d.sdps
+    );
+    println!("outputs: {}", path.display());
     Ok(())
 }

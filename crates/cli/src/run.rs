@@ -45,6 +45,10 @@ pub struct Args {
     /// environment is created on first use; writes fcd.xml and sumo.json too).
     #[arg(long, value_enum)]
     pub plant: Option<PlantKind>,
+    /// Take K and beta1/beta2 from a certificate (`platoon design synthesize` or `check-gain`):
+    /// control.gain = its K, control.beta1 = its ratio x the config's beta2.
+    #[arg(long, value_name = "CERTIFICATE")]
+    pub design: Option<PathBuf>,
 }
 
 /// What integrates the vehicles.
@@ -90,8 +94,24 @@ pub fn load(
 }
 
 pub fn run(args: Args) -> Result<()> {
-    let (mut config, scenario, stem) =
+    let (mut config, mut scenario, stem) =
         load(args.config.as_deref(), platoon_config::PAPER_TOML, "paper")?;
+    if let Some(file) = &args.design {
+        let text = std::fs::read_to_string(file)
+            .with_context(|| format!("reading the design {}", file.display()))?;
+        let cert: platoon_synthesis::Certificate = serde_json::from_str(&text)
+            .with_context(|| format!("{} is not a certificate", file.display()))?;
+        if !cert.verify()?.holds {
+            anyhow::bail!(
+                "{}: the certificate does not hold (platoon design verify says why)",
+                file.display()
+            );
+        }
+        config.control.gain = cert.k;
+        config.control.beta1 = cert.ratio * config.control.beta2;
+        let label = format!("{} with the design {}", stem, file.display());
+        scenario = platoon_config::parse(&platoon_config::to_toml(&config), Path::new(&label))?.1;
+    }
     if args.injector.is_some() && args.transport == Transport::Inproc {
         anyhow::bail!("--injector needs --transport iceoryx2: an external injector is a process");
     }

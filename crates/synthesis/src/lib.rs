@@ -13,7 +13,10 @@
 //! Pure: no I/O, clocks or threads.
 #![warn(missing_docs)]
 
+mod design;
 mod lmi;
+
+pub use design::{design_theorem1, Design, DesignSpec};
 
 pub use lmi::{
     closed_loop_spectrum, psi_theorem1, theorem1_max_decay, theorem1_min_ratio, Certificate,

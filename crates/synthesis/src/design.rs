@@ -1,0 +1,361 @@
+//! Synthesis of K for Theorem 1: Remark 1's congruence (M = P^-1, U = K M) with its non-convex
+//! block `-r M M` linearised around the last iterate (`M M >= M0 M + M M0 - M0^2`, a
+//! convex-concave procedure: every iterate is feasible for the original condition), bisection on
+//! r = beta1/beta2, and a gain bound `|U| <= k_max` with `M >= I`, so `|K| <= k_max` and the
+//! design stays implementable at the run's step (ERRATA items 16, 17). The returned gain is then
+//! certified by the exact Theorem-1 SDP of [`crate::theorem1_min_ratio`].
+use crate::lmi::{theorem1_min_ratio, Certificate, Feasibility, LmiError, Plant3};
+use clarabel::algebra::CscMatrix;
+use clarabel::solver::{
+    DefaultSettingsBuilder, DefaultSolver, IPSolver, SolverStatus, SupportedConeT,
+};
+use nalgebra::{DMatrix, Matrix3};
+
+/// What to design for.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DesignSpec {
+    /// Decay parameter c.
+    pub c: f64,
+    /// Nominal tau (s).
+    pub tau: f64,
+    /// Bound on |K| (2-norm).
+    pub k_max: f64,
+    /// Largest ratio beta1/beta2 tried.
+    pub ratio_max: f64,
+    /// Bisection stops when the bracket is this narrow (relative).
+    pub ratio_tol: f64,
+    /// Lower bound on M = P^-1, which fixes the scale of (M, U); with |U| <= k_max m_min,
+    /// |K| = |U M^-1| <= k_max. 0.01 works for the paper's graphs (1 and 0.1 are too tight).
+    pub m_min: f64,
+}
+
+/// A designed gain and its exact certificate.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Design {
+    /// K.
+    pub k: [f64; 3],
+    /// The exact Theorem-1 certificate of K (its smallest ratio).
+    pub certificate: Certificate,
+    /// SDPs solved.
+    pub sdps: usize,
+}
+
+fn svec(m: &DMatrix<f64>) -> Vec<f64> {
+    let n = m.nrows();
+    let s2 = std::f64::consts::SQRT_2;
+    let mut v = Vec::with_capacity(n * (n + 1) / 2);
+    for j in 0..n {
+        for i in 0..=j {
+            v.push(if i == j { m[(i, j)] } else { s2 * m[(i, j)] });
+        }
+    }
+    v
+}
+
+fn dm(m: &Matrix3<f64>) -> DMatrix<f64> {
+    DMatrix::from_iterator(3, 3, m.iter().copied())
+}
+
+/// The linearised Remark-1 matrix for M, U (1x3) around M0.
+fn remark1(
+    m: &Matrix3<f64>,
+    u: &[f64; 3],
+    m0: &Matrix3<f64>,
+    r: f64,
+    c: f64,
+    h: &DMatrix<f64>,
+    plant: &Plant3,
+) -> DMatrix<f64> {
+    let n = h.nrows();
+    let s = 3 * n;
+    let i_n = DMatrix::<f64>::identity(n, n);
+    let bu = DMatrix::from_iterator(
+        3,
+        3,
+        (plant.b * nalgebra::RowVector3::from(*u)).iter().copied(),
+    );
+    let am = dm(&(plant.a * m));
+    let x11 = {
+        let x = i_n.kronecker(&am) - h.kronecker(&bu);
+        &x + x.transpose() + i_n.kronecker(&dm(m)) * c
+    };
+    let x12 = -h.kronecker(&bu);
+    let lin = dm(&(m0 * m + m * m0 - m0 * m0));
+    let ht_m = h.transpose().kronecker(&dm(m));
+    let mut out = DMatrix::<f64>::zeros(3 * s, 3 * s);
+    out.view_mut((0, 0), (s, s)).copy_from(&x11);
+    out.view_mut((0, s), (s, s)).copy_from(&x12);
+    out.view_mut((s, 0), (s, s)).copy_from(&x12.transpose());
+    out.view_mut((0, 2 * s), (s, s)).copy_from(&ht_m);
+    out.view_mut((2 * s, 0), (s, s))
+        .copy_from(&ht_m.transpose());
+    out.view_mut((s, s), (s, s))
+        .copy_from(&(i_n.kronecker(&lin) * -r));
+    out.view_mut((s, 2 * s), (s, s)).copy_from(&ht_m);
+    out.view_mut((2 * s, s), (s, s))
+        .copy_from(&ht_m.transpose());
+    out.view_mut((2 * s, 2 * s), (s, s))
+        .copy_from(&(DMatrix::<f64>::identity(s, s) * -1.0));
+    out
+}
+
+/// One convex step: minimise t such that remark1(M, U; M0) <= t I, I <= M <= m_max I,
+/// |U| <= k_max. Returns (t, M, U).
+fn ccp_step(
+    m0: &Matrix3<f64>,
+    r: f64,
+    spec: &DesignSpec,
+    h: &DMatrix<f64>,
+    plant: &Plant3,
+) -> Result<(f64, Matrix3<f64>, [f64; 3]), LmiError> {
+    let size = 9 * h.nrows();
+    let mut mb = Vec::new();
+    for a in 0..3 {
+        for b in a..3 {
+            let mut e = Matrix3::zeros();
+            e[(a, b)] = 1.0;
+            e[(b, a)] = 1.0;
+            mb.push(e);
+        }
+    }
+    let zero3 = Matrix3::zeros();
+    let f0 = remark1(&zero3, &[0.0; 3], m0, r, spec.c, h, plant);
+    // Variables: m (6), u (3), t.
+    let mut fi: Vec<DMatrix<f64>> = mb
+        .iter()
+        .map(|e| remark1(e, &[0.0; 3], m0, r, spec.c, h, plant) - &f0)
+        .collect();
+    for j in 0..3 {
+        let mut u = [0.0; 3];
+        u[j] = 1.0;
+        fi.push(remark1(&zero3, &u, m0, r, spec.c, h, plant) - &f0);
+    }
+    fi.push(DMatrix::<f64>::identity(size, size) * -1.0); // t: F(x) - t I <= 0
+    let nvar = fi.len();
+    // Cone 1: -(F0 + sum x_i F_i) in PSD.
+    let mut blocks: Vec<(Vec<f64>, Vec<Vec<f64>>)> =
+        vec![(svec(&(-&f0)), fi.iter().map(svec).collect())];
+    // Cone 2: M - I in PSD; cone 3: m_max I - M in PSD.
+    let m_max = 1e4;
+    let mcols = |sign: f64| -> Vec<Vec<f64>> {
+        (0..nvar)
+            .map(|v| {
+                if v < 6 {
+                    svec(&(dm(&mb[v]) * -sign))
+                } else {
+                    vec![0.0; 6]
+                }
+            })
+            .collect()
+    };
+    let mu = spec.m_min;
+    blocks.push((svec(&(DMatrix::<f64>::identity(3, 3) * -mu)), mcols(1.0)));
+    blocks.push((svec(&(DMatrix::<f64>::identity(3, 3) * m_max)), mcols(-1.0)));
+    // Cone 4: [[k_max, U], [U^T, k_max I3]] in PSD  <=>  |U| <= k_max.
+    let g0 = DMatrix::<f64>::identity(4, 4) * (spec.k_max * mu);
+    let ucols: Vec<Vec<f64>> = (0..nvar)
+        .map(|v| {
+            let mut g = DMatrix::<f64>::zeros(4, 4);
+            if (6..9).contains(&v) {
+                g[(0, v - 5)] = -1.0;
+                g[(v - 5, 0)] = -1.0;
+            }
+            svec(&g)
+        })
+        .collect();
+    blocks.push((svec(&g0), ucols));
+
+    let mut colptr = vec![0];
+    let (mut rowval, mut nzval) = (Vec::new(), Vec::new());
+    for j in 0..nvar {
+        let mut offset = 0;
+        for (b, cols) in &blocks {
+            for (i, &v) in cols[j].iter().enumerate() {
+                if v != 0.0 {
+                    rowval.push(offset + i);
+                    nzval.push(v);
+                }
+            }
+            offset += b.len();
+        }
+        colptr.push(rowval.len());
+    }
+    let rows: usize = blocks.iter().map(|(b, _)| b.len()).sum();
+    let a = CscMatrix::new(rows, nvar, colptr, rowval, nzval);
+    let b: Vec<f64> = blocks.iter().flat_map(|(b, _)| b.clone()).collect();
+    let mut cost = vec![0.0; nvar];
+    cost[nvar - 1] = 1.0;
+    // Keep t bounded below: t >= -1 (a margin of 1 is plenty).
+    let cones = [
+        SupportedConeT::PSDTriangleConeT(size),
+        SupportedConeT::PSDTriangleConeT(3),
+        SupportedConeT::PSDTriangleConeT(3),
+        SupportedConeT::PSDTriangleConeT(4),
+        SupportedConeT::NonnegativeConeT(1),
+    ];
+    // t + 1 >= 0  <=>  s = 1 - (-1) t ... as A x + s = b: row with A = -1 at t, b = 1.
+    let mut a = a;
+    let mut b = b;
+    {
+        let mut colptr = a.colptr.clone();
+        let mut rowval = a.rowval.clone();
+        let mut nzval = a.nzval.clone();
+        // Append one row (index `rows`) with -1 in the last column.
+        let last = nvar - 1;
+        rowval.insert(colptr[last + 1], rows);
+        nzval.insert(colptr[last + 1], -1.0);
+        colptr[last + 1] += 1;
+        a = CscMatrix::new(rows + 1, nvar, colptr, rowval, nzval);
+        b.push(1.0);
+    }
+    let q = CscMatrix::zeros((nvar, nvar));
+    let settings = DefaultSettingsBuilder::default()
+        .verbose(false)
+        .max_iter(500)
+        .build()
+        .map_err(|e| LmiError::Solver(e.to_string()))?;
+    let mut solver = DefaultSolver::new(&q, &cost, &a, &b, &cones, settings)
+        .map_err(|e| LmiError::Solver(format!("{e:?}")))?;
+    solver.solve();
+    match solver.solution.status {
+        SolverStatus::Solved | SolverStatus::AlmostSolved => {}
+        other => return Err(LmiError::Solver(format!("{other:?}"))),
+    }
+    let x = &solver.solution.x;
+    let mut m = Matrix3::zeros();
+    for (e, &v) in mb.iter().zip(x) {
+        m += e * v;
+    }
+    Ok((x[nvar - 1], m, [x[6], x[7], x[8]]))
+}
+
+/// M and U of Remark 1.
+type MU = (Matrix3<f64>, [f64; 3]);
+
+/// Runs the convex-concave procedure at ratio `r` from `m0`; returns a feasible (M, U) if the
+/// linearised condition reaches a negative t.
+fn ccp(
+    r: f64,
+    mut m0: Matrix3<f64>,
+    spec: &DesignSpec,
+    h: &DMatrix<f64>,
+    plant: &Plant3,
+    sdps: &mut usize,
+) -> Result<Option<MU>, LmiError> {
+    let mut last = f64::INFINITY;
+    for _ in 0..30 {
+        let (t, m, u) = ccp_step(&m0, r, spec, h, plant)?;
+        *sdps += 1;
+        if t < -1e-6 {
+            return Ok(Some((m, u)));
+        }
+        if last - t < 1e-6 {
+            return Ok(None); // no more progress
+        }
+        last = t;
+        m0 = m;
+    }
+    Ok(None)
+}
+
+/// The defaults used by `platoon design synthesize`.
+impl Default for DesignSpec {
+    fn default() -> Self {
+        Self {
+            c: 0.0,
+            tau: 0.5,
+            k_max: 20.0,
+            ratio_max: 1e4,
+            ratio_tol: 0.02,
+            m_min: 0.01,
+        }
+    }
+}
+
+/// Designs K for Theorem 1 on graph `h`: the smallest ratio the procedure reaches within the
+/// gain bound, certified by the exact SDP. `Ok(None)`: nothing feasible up to `ratio_max`.
+pub fn design_theorem1(spec: &DesignSpec, h: &DMatrix<f64>) -> Result<Option<Design>, LmiError> {
+    if !(spec.k_max > 0.0
+        && spec.ratio_max > 0.0
+        && spec.tau > 0.0
+        && spec.c >= 0.0
+        && spec.m_min > 0.0
+        && spec.ratio_tol > 0.0)
+    {
+        return Err(LmiError::Bad(
+            "need k_max > 0, ratio_max > 0, tau > 0, c >= 0, m_min > 0 and ratio_tol > 0".into(),
+        ));
+    }
+    let plant = Plant3::new(spec.tau);
+    let mut sdps = 0;
+    let Some((mut m_best, mut u_best)) = ccp(
+        spec.ratio_max,
+        Matrix3::identity() * spec.m_min,
+        spec,
+        h,
+        &plant,
+        &mut sdps,
+    )?
+    else {
+        return Ok(None);
+    };
+    let (mut lo, mut hi) = (0.0, spec.ratio_max);
+    while hi - lo > spec.ratio_tol * hi {
+        let mid = 0.5 * (lo + hi);
+        match ccp(mid, m_best, spec, h, &plant, &mut sdps)? {
+            Some((m, u)) => {
+                hi = mid;
+                m_best = m;
+                u_best = u;
+            }
+            None => lo = mid,
+        }
+    }
+    let minv = m_best
+        .try_inverse()
+        .ok_or_else(|| LmiError::Solver("M is singular".into()))?;
+    let k = nalgebra::RowVector3::from(u_best) * minv;
+    let k = [k[0], k[1], k[2]];
+    match theorem1_min_ratio(k, spec.c, h, spec.tau, 1e-6)? {
+        Feasibility::Feasible(certificate) => {
+            sdps += 1;
+            Ok(Some(Design {
+                k,
+                certificate,
+                sdps,
+            }))
+        }
+        Feasibility::Infeasible => Err(LmiError::Solver(
+            "the designed gain failed the exact Theorem-1 check".into(),
+        )),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use platoon_topology::{Preset, Topology};
+
+    fn h(preset: Preset, n: usize) -> DMatrix<f64> {
+        let t = Topology::preset(preset, n).unwrap();
+        let m = t.h_matrix();
+        DMatrix::from_fn(n, n, |i, j| m[(i, j)])
+    }
+
+    #[test]
+    fn a_designed_gain_is_certified_within_its_bound_and_stabilises_every_tau() {
+        let spec = DesignSpec {
+            ratio_tol: 0.05,
+            ..DesignSpec::default()
+        };
+        let g = h(Preset::Tpsf, 4);
+        let d = design_theorem1(&spec, &g).unwrap().expect("a design");
+        let norm = d.k.iter().map(|x| x * x).sum::<f64>().sqrt();
+        assert!(norm <= 20.0 + 1e-6, "|K| = {norm}");
+        assert!(d.certificate.verify().unwrap().holds);
+        let taus: Vec<f64> = (0..=48).map(|i| 0.34 + 0.01 * f64::from(i)).collect();
+        for s in crate::closed_loop_spectrum(d.k, &g, &taus) {
+            assert!(s.max_real < 0.0, "tau {}: {}", s.tau, s.max_real);
+        }
+    }
+}
