@@ -236,3 +236,33 @@ fn a_synthesised_design_runs_and_an_infeasible_request_says_so() {
     assert!(String::from_utf8_lossy(&o.stderr).contains("infeasible"));
     assert!(!tmp.path().join("none").exists() && !tmp.path().join("none.partial").exists());
 }
+
+#[test]
+fn fig9_the_robust_design_tracks_best_when_tau_is_high() {
+    let tmp = tempfile::tempdir().unwrap();
+    let o = platoon(&["experiment", "robust", "--out", "r"], tmp.path());
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for name in ["theorem1-nominal", "theorem2-robust", "lower-bound"] {
+        let cert = tmp.path().join(format!("r/certificate-{name}.json"));
+        let v = platoon(&["design", "verify", cert.to_str().unwrap()], tmp.path());
+        assert!(
+            v.status.success(),
+            "{name}: {}",
+            String::from_utf8_lossy(&v.stdout)
+        );
+    }
+    // Mean error over the last 20 s (tau = 0.82 s), from fig9.csv.
+    let csv = std::fs::read_to_string(tmp.path().join("r/fig9.csv")).unwrap();
+    let mut sums = [0.0; 3];
+    for line in csv.lines().skip(1) {
+        let v: Vec<f64> = line.split(',').map(|x| x.parse().unwrap()).collect();
+        if v[0] >= 35.0 {
+            for i in 0..3 {
+                sums[i] += v[i + 1];
+            }
+        }
+    }
+    let [nominal, robust, lower] = sums;
+    assert!(robust < nominal && nominal < lower, "{sums:?}");
+    assert!(tmp.path().join("r/fig9.png").exists());
+}

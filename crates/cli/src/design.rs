@@ -4,8 +4,7 @@ use crate::output::RunDir;
 use anyhow::{bail, Context, Result};
 use nalgebra::DMatrix;
 use platoon_synthesis::{
-    closed_loop_spectrum, dos_bounds, theorem1_max_decay, theorem1_min_ratio, Certificate,
-    Feasibility,
+    closed_loop_spectrum, dos_bounds, min_ratio, theorem1_max_decay, Certificate, Feasibility,
 };
 use std::path::PathBuf;
 
@@ -43,6 +42,9 @@ pub struct SynthesizeArgs {
     /// Bound on |K| (2-norm).
     #[arg(long, default_value_t = 20.0)]
     pub k_max: f64,
+    /// 1: the nominal tau; 2: both ends of the config's tau range (robust).
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u8).range(1..=2))]
+    pub theorem: u8,
     /// Largest beta1/beta2 tried.
     #[arg(long, default_value_t = 1e4)]
     pub ratio_max: f64,
@@ -65,6 +67,10 @@ pub struct CheckGainArgs {
     /// Decay parameter c for the smallest-ratio SDP.
     #[arg(long, default_value_t = 0.0)]
     pub c: f64,
+    /// 1: (13) at the nominal tau; 2: at both ends of the config's tau range with one P
+    /// (robust to every tau between; our reading of Theorem 2, ERRATA item 18).
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u8).range(1..=2))]
+    pub theorem: u8,
     /// Output directory [default: runs/design-check].
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -155,6 +161,11 @@ fn check_gain(a: CheckGainArgs) -> Result<()> {
         .map(|i| lo + (hi - lo) * f64::from(i) / 50.0)
         .collect();
     let spectrum = closed_loop_spectrum(k, &h, &taus);
+    let taus_lmi = if a.theorem == 2 {
+        vec![lo, hi]
+    } else {
+        vec![tau]
+    };
     let worst = spectrum
         .iter()
         .map(|s| s.max_real)
@@ -172,7 +183,7 @@ fn check_gain(a: CheckGainArgs) -> Result<()> {
     csv.flush()?;
 
     let started = std::time::Instant::now();
-    let min = theorem1_min_ratio(k, a.c, &h, tau, 1e-6)?;
+    let min = min_ratio(k, a.c, &h, &taus_lmi, 1e-6)?;
     let sdp_s = started.elapsed().as_secs_f64();
     let config_ratio = config.control.beta1 / config.control.beta2;
     let (min_ratio, certified) = match &min {
@@ -190,7 +201,7 @@ fn check_gain(a: CheckGainArgs) -> Result<()> {
         }
         Feasibility::Infeasible => (None, false),
     };
-    let best = theorem1_max_decay(k, &h, tau, 10.0, 1e-3)?;
+    let best = theorem1_max_decay(k, &h, &taus_lmi, 10.0, 1e-3)?;
     if let Some(cert) = &best {
         dir.write(
             "certificate-max-decay.json",
@@ -223,10 +234,14 @@ fn check_gain(a: CheckGainArgs) -> Result<()> {
     );
     match min_ratio {
         Some((c, r)) => println!(
-            "  Theorem 1 (13) at c = {c}: smallest beta1/beta2 = {r:.2} ({sdp_s:.2} s); the config's {config_ratio:.2} is {}",
+            "  Theorem {} (13) at tau = {taus_lmi:?}, c = {c}: smallest beta1/beta2 = {r:.2} ({sdp_s:.2} s); the config's {config_ratio:.2} is {}",
+            a.theorem,
             if certified { "certified" } else { "NOT certified" }
         ),
-        None => println!("  Theorem 1 (13) at c = {}: INFEASIBLE for this K", a.c),
+        None => println!(
+            "  Theorem {} (13) at tau = {taus_lmi:?}, c = {}: INFEASIBLE for this K",
+            a.theorem, a.c
+        ),
     }
     match &best {
         Some(c) => println!(
@@ -265,9 +280,19 @@ fn synthesize(a: SynthesizeArgs) -> Result<()> {
     let n = scenario.topology.followers();
     let hm = scenario.topology.h_matrix();
     let h = DMatrix::from_fn(n, n, |i, j| hm[(i, j)]);
+    let tau = scenario.control.tau_nominal;
+    let (lo, hi) = scenario
+        .taus
+        .iter()
+        .map(|t| t.range())
+        .fold((tau, tau), |(a, b), (x, y)| (a.min(x), b.max(y)));
     let spec = platoon_synthesis::DesignSpec {
         c: a.c,
-        tau: scenario.control.tau_nominal,
+        taus: if a.theorem == 2 {
+            vec![lo, hi]
+        } else {
+            vec![tau]
+        },
         k_max: a.k_max,
         ratio_max: a.ratio_max,
         ..Default::default()
@@ -303,8 +328,11 @@ fn synthesize(a: SynthesizeArgs) -> Result<()> {
         d.k[0], d.k[1], d.k[2], a.k_max, d.certificate.ratio, a.c
     );
     println!(
-        "  certified by the exact Theorem-1 SDP (margin {:.2e}); {} SDPs in {seconds:.2} s",
-        -d.certificate.max_eigenvalue, d.sdps
+        "  certified by the exact SDP of {} at tau = {:?} (margin {:.2e}); {} SDPs in {seconds:.2} s",
+        d.certificate.condition,
+        d.certificate.taus,
+        -d.certificate.max_eigenvalue,
+        d.sdps
     );
     println!("outputs: {}", path.display());
     Ok(())

@@ -16,6 +16,29 @@ pub enum Experiment {
     /// without DoS and without parameter uncertainty. Writes table1.csv, table1.md (the paper's
     /// numbers beside ours), table1.png, fig8.png, fig8.csv and one summary per rule.
     Table1(Table1Args),
+    /// Fig. 9: controllers designed by Theorem 1 at the nominal tau, by Theorem 2 (robust over
+    /// the config's tau range; our reading, ERRATA item 18) and by Theorem 1 at the lower bound
+    /// of tau (the "lower-bound method" the paper compares to), each run on the config's tau(t)
+    /// schedule without DoS. Writes designs.csv, the three certificates, fig9.csv, fig9.png and
+    /// fig9.md (mean tracking error per phase of tau).
+    Robust(RobustArgs),
+}
+
+/// Arguments of `experiment robust`.
+#[derive(Debug, clap::Args)]
+pub struct RobustArgs {
+    /// Base scenario (TOML) [default: the embedded configs/paper.toml]; its attacks are removed.
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// Bound on |K| for the designs.
+    #[arg(long, default_value_t = 20.0)]
+    pub k_max: f64,
+    /// Output directory [default: runs/robust].
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Replace the output directory if it exists.
+    #[arg(long)]
+    pub force: bool,
 }
 
 /// Arguments of `experiment table1`.
@@ -53,6 +76,7 @@ type RuleResult = (&'static str, Summary, Vec<(f64, f64)>);
 pub fn run(e: Experiment) -> Result<()> {
     match e {
         Experiment::Table1(args) => table1(args),
+        Experiment::Robust(args) => robust(args),
     }
 }
 
@@ -121,43 +145,11 @@ fn table1(args: Table1Args) -> Result<()> {
     csv.flush()?;
 
     // fig8.csv and fig8.png: average spacing error over time.
-    let mut fig8 = csv::Writer::from_writer(dir.writer("fig8.csv")?);
-    let mut header = vec!["t".to_string()];
-    header.extend(
-        results
-            .iter()
-            .map(|(n, _, _)| format!("{n}_mean_abs_spacing_error_m")),
-    );
-    fig8.write_record(&header)?;
-    for k in 0..results[0].2.len() {
-        let mut rec = vec![results[0].2[k].0.to_string()];
-        rec.extend(results.iter().map(|(_, _, e)| e[k].1.to_string()));
-        fig8.write_record(&rec)?;
-    }
-    fig8.flush()?;
-    let series: Vec<Series> = results
+    let curves: Vec<(String, Vec<(f64, f64)>)> = results
         .iter()
-        .enumerate()
-        .map(|(i, (n, _, e))| Series {
-            label: n.to_string(),
-            color: i,
-            points: e.clone(),
-        })
+        .map(|(n, _, e)| (n.to_string(), e.clone()))
         .collect();
-    {
-        use plotters::prelude::*;
-        let path = dir.path("fig8.png");
-        let root = BitMapBackend::new(&path, (1200, 600)).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| anyhow::anyhow!("{e:?}"))?;
-        plots::line_panel(
-            &root,
-            "Average tracking error (mean over followers of |p_i - p_0 + i l|)",
-            "m",
-            &series,
-            &[],
-        )?;
-        root.present().map_err(|e| anyhow::anyhow!("{e:?}"))?;
-    }
+    error_figure(&dir, "fig8", &curves)?;
 
     // table1.png
     let n = base.topology.followers();
@@ -189,6 +181,137 @@ fn table1(args: Table1Args) -> Result<()> {
 
     let md = table1_markdown(&base, &results);
     dir.write("table1.md", md.as_bytes())?;
+    let path = dir.commit()?;
+    print!("{md}");
+    println!("outputs: {}", path.display());
+    Ok(())
+}
+
+/// `<name>.csv` (t and one mean-absolute-spacing-error column per curve) and `<name>.png`.
+fn error_figure(dir: &RunDir, name: &str, curves: &[(String, Vec<(f64, f64)>)]) -> Result<()> {
+    let mut csv = csv::Writer::from_writer(dir.writer(&format!("{name}.csv"))?);
+    let mut header = vec!["t".to_string()];
+    header.extend(
+        curves
+            .iter()
+            .map(|(n, _)| format!("{n}_mean_abs_spacing_error_m")),
+    );
+    csv.write_record(&header)?;
+    for k in 0..curves[0].1.len() {
+        let mut rec = vec![curves[0].1[k].0.to_string()];
+        rec.extend(curves.iter().map(|(_, e)| e[k].1.to_string()));
+        csv.write_record(&rec)?;
+    }
+    csv.flush()?;
+    let series: Vec<Series> = curves
+        .iter()
+        .enumerate()
+        .map(|(i, (n, e))| Series {
+            label: n.clone(),
+            color: i,
+            points: e.clone(),
+        })
+        .collect();
+    use plotters::prelude::*;
+    let path = dir.path(&format!("{name}.png"));
+    let root = BitMapBackend::new(&path, (1200, 600)).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| anyhow::anyhow!("{e:?}"))?;
+    plots::line_panel(
+        &root,
+        "Average tracking error (mean over followers of |p_i - p_0 + i l|)",
+        "m",
+        &series,
+        &[],
+    )?;
+    root.present().map_err(|e| anyhow::anyhow!("{e:?}"))?;
+    Ok(())
+}
+
+fn robust(args: RobustArgs) -> Result<()> {
+    use nalgebra::DMatrix;
+    let (config, mut base, _) =
+        crate::run::load(args.config.as_deref(), platoon_config::PAPER_TOML, "paper")?;
+    base.dos = platoon_attacks::DosSchedule::none();
+    let n = base.topology.followers();
+    let hm = base.topology.h_matrix();
+    let h = DMatrix::from_fn(n, n, |i, j| hm[(i, j)]);
+    let tau = base.control.tau_nominal;
+    let (lo, hi) = base
+        .taus
+        .iter()
+        .map(|t| t.range())
+        .fold((tau, tau), |(a, b), (x, y)| (a.min(x), b.max(y)));
+    let out = args.out.unwrap_or_else(|| PathBuf::from("runs/robust"));
+    let dir = RunDir::create(&out, args.force)?;
+    dir.write("config.toml", platoon_config::to_toml(&config).as_bytes())?;
+    let designs: [(&str, Vec<f64>); 3] = [
+        ("theorem1-nominal", vec![tau]),
+        ("theorem2-robust", vec![lo, hi]),
+        ("lower-bound", vec![lo]),
+    ];
+    let mut table = csv::Writer::from_writer(dir.writer("designs.csv")?);
+    table.write_record(["design", "k1", "k2", "k3", "beta1_over_beta2", "taus"])?;
+    let mut curves = Vec::new();
+    let mut md = String::from(
+        "# Fig. 9: designs run on the tau(t) schedule (no DoS)\n\n| design | K | beta1/beta2 | mean error, tau low (m) | mean error, ramp (m) | mean error, tau high (m) |\n|---|---|---|---|---|---|\n",
+    );
+    for (name, taus) in designs {
+        eprintln!("designing {name} (tau = {taus:?}) ...");
+        let spec = platoon_synthesis::DesignSpec {
+            taus: taus.clone(),
+            k_max: args.k_max,
+            ..Default::default()
+        };
+        let d = platoon_synthesis::design_theorem1(&spec, &h)?.ok_or_else(|| {
+            anyhow::anyhow!(
+                "infeasible: no design for {name} with |K| <= {}",
+                args.k_max
+            )
+        })?;
+        dir.write(
+            &format!("certificate-{name}.json"),
+            (serde_json::to_string_pretty(&d.certificate)? + "\n").as_bytes(),
+        )?;
+        table.write_record([
+            name.to_string(),
+            d.k[0].to_string(),
+            d.k[1].to_string(),
+            d.k[2].to_string(),
+            d.certificate.ratio.to_string(),
+            format!("{taus:?}"),
+        ])?;
+        let mut scenario = base.clone();
+        scenario.control.gain = nalgebra::RowVector3::from(d.k);
+        scenario.control.beta1 = d.certificate.ratio * scenario.control.beta2;
+        let sub = RunDir::create(&dir.path(name), true)?;
+        let (rows, summary) = simulate(&scenario, &sub)?;
+        crate::run::write_outputs(&sub, &config, &scenario, &rows, &summary, false, &[])?;
+        sub.commit()?;
+        let e = average_error(&rows);
+        let phase = |a: f64, b: f64| {
+            let v: Vec<f64> = e
+                .iter()
+                .filter(|(t, _)| *t >= a && *t < b)
+                .map(|x| x.1)
+                .collect();
+            v.iter().sum::<f64>() / v.len().max(1) as f64
+        };
+        let _ = writeln!(
+            md,
+            "| {name} | [{:.3}, {:.3}, {:.3}] | {:.1} | {:.4} | {:.4} | {:.4} |",
+            d.k[0],
+            d.k[1],
+            d.k[2],
+            d.certificate.ratio,
+            phase(0.0, 20.0),
+            phase(20.0, 35.0),
+            phase(35.0, f64::INFINITY)
+        );
+        curves.push((name.to_string(), e));
+    }
+    table.flush()?;
+    error_figure(&dir, "fig9", &curves)?;
+    dir.write("fig9.md", md.as_bytes())?;
     let path = dir.commit()?;
     print!("{md}");
     println!("outputs: {}", path.display());

@@ -4,7 +4,7 @@
 //! r = beta1/beta2, and a gain bound `|U| <= k_max` with `M >= I`, so `|K| <= k_max` and the
 //! design stays implementable at the run's step (ERRATA items 16, 17). The returned gain is then
 //! certified by the exact Theorem-1 SDP of [`crate::theorem1_min_ratio`].
-use crate::lmi::{theorem1_min_ratio, Certificate, Feasibility, LmiError, Plant3};
+use crate::lmi::{min_ratio, Certificate, Feasibility, LmiError, Plant3};
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::{
     DefaultSettingsBuilder, DefaultSolver, IPSolver, SolverStatus, SupportedConeT,
@@ -12,12 +12,13 @@ use clarabel::solver::{
 use nalgebra::{DMatrix, Matrix3};
 
 /// What to design for.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct DesignSpec {
     /// Decay parameter c.
     pub c: f64,
-    /// Nominal tau (s).
-    pub tau: f64,
+    /// The taus at which the condition must hold with one P: the nominal tau (Theorem 1), or
+    /// the ends of the tau range (our reading of Theorem 2: robust to every tau between).
+    pub taus: Vec<f64>,
     /// Bound on |K| (2-norm).
     pub k_max: f64,
     /// Largest ratio beta1/beta2 tried.
@@ -106,7 +107,7 @@ fn ccp_step(
     r: f64,
     spec: &DesignSpec,
     h: &DMatrix<f64>,
-    plant: &Plant3,
+    plants: &[Plant3],
 ) -> Result<(f64, Matrix3<f64>, [f64; 3]), LmiError> {
     let size = 9 * h.nrows();
     let mut mb = Vec::new();
@@ -119,22 +120,23 @@ fn ccp_step(
         }
     }
     let zero3 = Matrix3::zeros();
-    let f0 = remark1(&zero3, &[0.0; 3], m0, r, spec.c, h, plant);
-    // Variables: m (6), u (3), t.
-    let mut fi: Vec<DMatrix<f64>> = mb
-        .iter()
-        .map(|e| remark1(e, &[0.0; 3], m0, r, spec.c, h, plant) - &f0)
-        .collect();
-    for j in 0..3 {
-        let mut u = [0.0; 3];
-        u[j] = 1.0;
-        fi.push(remark1(&zero3, &u, m0, r, spec.c, h, plant) - &f0);
+    // Variables: m (6), u (3), t. Per vertex: -(F0 + sum x_i F_i) in PSD.
+    let nvar = 10;
+    let mut blocks: Vec<(Vec<f64>, Vec<Vec<f64>>)> = Vec::new();
+    for plant in plants {
+        let f0 = remark1(&zero3, &[0.0; 3], m0, r, spec.c, h, plant);
+        let mut fi: Vec<DMatrix<f64>> = mb
+            .iter()
+            .map(|e| remark1(e, &[0.0; 3], m0, r, spec.c, h, plant) - &f0)
+            .collect();
+        for j in 0..3 {
+            let mut u = [0.0; 3];
+            u[j] = 1.0;
+            fi.push(remark1(&zero3, &u, m0, r, spec.c, h, plant) - &f0);
+        }
+        fi.push(DMatrix::<f64>::identity(size, size) * -1.0); // t: F(x) - t I <= 0
+        blocks.push((svec(&(-&f0)), fi.iter().map(svec).collect()));
     }
-    fi.push(DMatrix::<f64>::identity(size, size) * -1.0); // t: F(x) - t I <= 0
-    let nvar = fi.len();
-    // Cone 1: -(F0 + sum x_i F_i) in PSD.
-    let mut blocks: Vec<(Vec<f64>, Vec<Vec<f64>>)> =
-        vec![(svec(&(-&f0)), fi.iter().map(svec).collect())];
     // Cone 2: M - I in PSD; cone 3: m_max I - M in PSD.
     let m_max = 1e4;
     let mcols = |sign: f64| -> Vec<Vec<f64>> {
@@ -168,7 +170,7 @@ fn ccp_step(
     let mut colptr = vec![0];
     let (mut rowval, mut nzval) = (Vec::new(), Vec::new());
     for j in 0..nvar {
-        let mut offset = 0;
+        let mut offset = 0usize;
         for (b, cols) in &blocks {
             for (i, &v) in cols[j].iter().enumerate() {
                 if v != 0.0 {
@@ -186,13 +188,16 @@ fn ccp_step(
     let mut cost = vec![0.0; nvar];
     cost[nvar - 1] = 1.0;
     // Keep t bounded below: t >= -1 (a margin of 1 is plenty).
-    let cones = [
-        SupportedConeT::PSDTriangleConeT(size),
+    let mut cones: Vec<SupportedConeT<f64>> = plants
+        .iter()
+        .map(|_| SupportedConeT::PSDTriangleConeT(size))
+        .collect();
+    cones.extend([
         SupportedConeT::PSDTriangleConeT(3),
         SupportedConeT::PSDTriangleConeT(3),
         SupportedConeT::PSDTriangleConeT(4),
         SupportedConeT::NonnegativeConeT(1),
-    ];
+    ]);
     // t + 1 >= 0  <=>  s = 1 - (-1) t ... as A x + s = b: row with A = -1 at t, b = 1.
     let mut a = a;
     let mut b = b;
@@ -239,7 +244,7 @@ fn ccp(
     mut m0: Matrix3<f64>,
     spec: &DesignSpec,
     h: &DMatrix<f64>,
-    plant: &Plant3,
+    plant: &[Plant3],
     sdps: &mut usize,
 ) -> Result<Option<MU>, LmiError> {
     let mut last = f64::INFINITY;
@@ -263,7 +268,7 @@ impl Default for DesignSpec {
     fn default() -> Self {
         Self {
             c: 0.0,
-            tau: 0.5,
+            taus: vec![0.5],
             k_max: 20.0,
             ratio_max: 1e4,
             ratio_tol: 0.02,
@@ -277,16 +282,17 @@ impl Default for DesignSpec {
 pub fn design_theorem1(spec: &DesignSpec, h: &DMatrix<f64>) -> Result<Option<Design>, LmiError> {
     if !(spec.k_max > 0.0
         && spec.ratio_max > 0.0
-        && spec.tau > 0.0
+        && !spec.taus.is_empty()
+        && spec.taus.iter().all(|t| t.is_finite() && *t > 0.0)
         && spec.c >= 0.0
         && spec.m_min > 0.0
         && spec.ratio_tol > 0.0)
     {
         return Err(LmiError::Bad(
-            "need k_max > 0, ratio_max > 0, tau > 0, c >= 0, m_min > 0 and ratio_tol > 0".into(),
+            "need k_max > 0, ratio_max > 0, taus > 0, c >= 0, m_min > 0 and ratio_tol > 0".into(),
         ));
     }
-    let plant = Plant3::new(spec.tau);
+    let plant: Vec<Plant3> = spec.taus.iter().map(|&t| Plant3::new(t)).collect();
     let mut sdps = 0;
     let Some((mut m_best, mut u_best)) = ccp(
         spec.ratio_max,
@@ -316,7 +322,7 @@ pub fn design_theorem1(spec: &DesignSpec, h: &DMatrix<f64>) -> Result<Option<Des
         .ok_or_else(|| LmiError::Solver("M is singular".into()))?;
     let k = nalgebra::RowVector3::from(u_best) * minv;
     let k = [k[0], k[1], k[2]];
-    match theorem1_min_ratio(k, spec.c, h, spec.tau, 1e-6)? {
+    match min_ratio(k, spec.c, h, &spec.taus, 1e-6)? {
         Feasibility::Feasible(certificate) => {
             sdps += 1;
             Ok(Some(Design {
@@ -340,6 +346,21 @@ mod tests {
         let t = Topology::preset(preset, n).unwrap();
         let m = t.h_matrix();
         DMatrix::from_fn(n, n, |i, j| m[(i, j)])
+    }
+
+    #[test]
+    fn a_robust_design_holds_at_both_ends_of_the_tau_range() {
+        let spec = DesignSpec {
+            taus: vec![0.34, 0.82],
+            ratio_tol: 0.05,
+            ..DesignSpec::default()
+        };
+        let d = design_theorem1(&spec, &h(Preset::Tpsf, 4))
+            .unwrap()
+            .expect("a design");
+        assert_eq!(d.certificate.condition, "theorem2");
+        assert_eq!(d.certificate.taus, vec![0.34, 0.82]);
+        assert!(d.certificate.verify().unwrap().holds);
     }
 
     #[test]

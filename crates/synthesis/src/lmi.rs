@@ -95,7 +95,9 @@ pub fn psi_theorem1(
 /// Everything needed to re-check Theorem 1 for one design, as `certificate.json` holds it.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Certificate {
-    /// Which condition: "theorem1".
+    /// Which condition: "theorem1" (one tau) or "theorem2" ((13) at both ends of the 1/tau
+    /// range with one P: since (13) is affine in 1/tau, it then holds for every tau between,
+    /// even time-varying; our reading of Theorem 2, ERRATA item 18).
     pub condition: String,
     /// The gain K (u = -K q).
     pub k: [f64; 3],
@@ -107,8 +109,8 @@ pub struct Certificate {
     pub p: [[f64; 3]; 3],
     /// H = L + diag(pinning), row-major N x N.
     pub h: Vec<Vec<f64>>,
-    /// The nominal tau of the model (s).
-    pub tau: f64,
+    /// The taus at which (13) is imposed (s): the nominal one, or the ends of the range.
+    pub taus: Vec<f64>,
     /// The largest eigenvalue of (13) when issued (negative).
     pub max_eigenvalue: f64,
     /// The smallest eigenvalue of P when issued (positive).
@@ -144,11 +146,11 @@ impl Certificate {
             && self.h.iter().flatten().all(|x| x.is_finite())
             && self.ratio.is_finite()
             && self.c.is_finite()
-            && self.tau.is_finite()
-            && self.tau > 0.0;
+            && !self.taus.is_empty()
+            && self.taus.iter().all(|t| t.is_finite() && *t > 0.0);
         if !finite {
             return Err(LmiError::Bad(
-                "every number of a certificate must be finite (and tau > 0)".into(),
+                "every number of a certificate must be finite (and at least one tau > 0)".into(),
             ));
         }
         let p = Matrix3::from_fn(|i, j| self.p[i][j]);
@@ -160,8 +162,15 @@ impl Certificate {
     pub fn verify(&self) -> Result<Verdict, LmiError> {
         let (p, k, h) = self.parts()?;
         let psym = (p + p.transpose()) * 0.5;
-        let psi = psi_theorem1(&psym, self.ratio, self.c, &k, &h, &Plant3::new(self.tau));
-        let max_eigenvalue = psi.symmetric_eigenvalues().max();
+        let max_eigenvalue = self
+            .taus
+            .iter()
+            .map(|&tau| {
+                psi_theorem1(&psym, self.ratio, self.c, &k, &h, &Plant3::new(tau))
+                    .symmetric_eigenvalues()
+                    .max()
+            })
+            .fold(f64::NEG_INFINITY, f64::max);
         let p_min_eigenvalue = psym.symmetric_eigenvalues().min();
         Ok(Verdict {
             holds: max_eigenvalue < 0.0
@@ -211,7 +220,7 @@ pub enum Feasibility {
 }
 
 /// The smallest `beta1 / beta2` for which (13) holds with gain `k` and decay `c` on graph `h`
-/// (with margin `delta`: Psi <= -delta I, P >= delta I), or `Infeasible`.
+/// at nominal `tau` (with margin `delta`: Psi <= -delta I, P >= delta I), or `Infeasible`.
 pub fn theorem1_min_ratio(
     k: [f64; 3],
     c: f64,
@@ -219,63 +228,84 @@ pub fn theorem1_min_ratio(
     tau: f64,
     delta: f64,
 ) -> Result<Feasibility, LmiError> {
-    if !(c.is_finite() && c >= 0.0 && tau.is_finite() && tau > 0.0 && delta > 0.0) {
+    min_ratio(k, c, h, &[tau], delta)
+}
+
+/// Like [`theorem1_min_ratio`], with (13) imposed at every tau of `taus` with one P: for the
+/// two ends of a tau range this is our reading of Theorem 2 (robust to any tau between).
+pub fn min_ratio(
+    k: [f64; 3],
+    c: f64,
+    h: &DMatrix<f64>,
+    taus: &[f64],
+    delta: f64,
+) -> Result<Feasibility, LmiError> {
+    if !(c.is_finite()
+        && c >= 0.0
+        && delta > 0.0
+        && !taus.is_empty()
+        && taus.iter().all(|t| t.is_finite() && *t > 0.0))
+    {
         return Err(LmiError::Bad(format!(
-            "need c >= 0, tau > 0 and delta > 0 (got c = {c}, tau = {tau}, delta = {delta})"
+            "need c >= 0, taus > 0 and delta > 0 (got c = {c}, taus = {taus:?}, delta = {delta})"
         )));
     }
-    let plant = Plant3::new(tau);
     let kr = RowVector3::from(k);
     let n = h.nrows();
     let size = 9 * n;
-    // Psi(x) = F0 + sum_i x_i F_i with x = (P's 6 entries, r).
-    let f0 = psi_theorem1(&Matrix3::zeros(), 0.0, c, &kr, h, &plant);
     let basis = p_basis();
-    let mut fi: Vec<DMatrix<f64>> = basis
-        .iter()
-        .map(|e| psi_theorem1(e, 0.0, c, &kr, h, &plant) - &f0)
-        .collect();
-    fi.push(psi_theorem1(&Matrix3::zeros(), 1.0, c, &kr, h, &plant) - &f0);
-    let nvar = fi.len();
-
-    // Cone 1: -Psi(x) - delta I in PSD  <=>  s = svec(-F0 - delta I) - sum x_i svec(F_i).
-    // Cone 2: P - delta I in PSD        <=>  s = svec(-delta I) + sum x_i svec(E_i).
-    let b1 = svec(&(-&f0 - DMatrix::<f64>::identity(size, size) * delta));
-    let cols1: Vec<Vec<f64>> = fi.iter().map(svec).collect();
-    let b2 = svec(&(DMatrix::<f64>::identity(3, 3) * -delta));
-    let cols2: Vec<Vec<f64>> = basis
-        .iter()
-        .map(|e| svec(&DMatrix::from_iterator(3, 3, e.iter().map(|x| -x))))
-        .chain(std::iter::once(vec![0.0; 6]))
-        .collect();
-    let m1 = b1.len();
+    // Per tau: Psi(x) = F0 + sum_i x_i F_i with x = (P's 6 entries, r);
+    // cone: -Psi(x) - delta I in PSD  <=>  s = svec(-F0 - delta I) - sum x_i svec(F_i).
+    let mut blocks: Vec<(Vec<f64>, Vec<Vec<f64>>)> = Vec::new();
+    for &tau in taus {
+        let plant = Plant3::new(tau);
+        let f0 = psi_theorem1(&Matrix3::zeros(), 0.0, c, &kr, h, &plant);
+        let mut fi: Vec<DMatrix<f64>> = basis
+            .iter()
+            .map(|e| psi_theorem1(e, 0.0, c, &kr, h, &plant) - &f0)
+            .collect();
+        fi.push(psi_theorem1(&Matrix3::zeros(), 1.0, c, &kr, h, &plant) - &f0);
+        blocks.push((
+            svec(&(-&f0 - DMatrix::<f64>::identity(size, size) * delta)),
+            fi.iter().map(svec).collect(),
+        ));
+    }
+    let nvar = basis.len() + 1;
+    // P - delta I in PSD  <=>  s = svec(-delta I) + sum x_i svec(E_i).
+    blocks.push((
+        svec(&(DMatrix::<f64>::identity(3, 3) * -delta)),
+        basis
+            .iter()
+            .map(|e| svec(&DMatrix::from_iterator(3, 3, e.iter().map(|x| -x))))
+            .chain(std::iter::once(vec![0.0; 6]))
+            .collect(),
+    ));
     let mut colptr = vec![0];
     let (mut rowval, mut nzval) = (Vec::new(), Vec::new());
     for j in 0..nvar {
-        for (i, &v) in cols1[j].iter().enumerate() {
-            if v != 0.0 {
-                rowval.push(i);
-                nzval.push(v);
+        let mut offset = 0;
+        for (b, cols) in &blocks {
+            for (i, &v) in cols[j].iter().enumerate() {
+                if v != 0.0 {
+                    rowval.push(offset + i);
+                    nzval.push(v);
+                }
             }
-        }
-        for (i, &v) in cols2[j].iter().enumerate() {
-            if v != 0.0 {
-                rowval.push(m1 + i);
-                nzval.push(v);
-            }
+            offset += b.len();
         }
         colptr.push(rowval.len());
     }
-    let a = CscMatrix::new(m1 + 6, nvar, colptr, rowval, nzval);
-    let mut b = b1;
-    b.extend(b2);
+    let rows: usize = blocks.iter().map(|(b, _)| b.len()).sum();
+    let a = CscMatrix::new(rows, nvar, colptr, rowval, nzval);
+    let b: Vec<f64> = blocks.iter().flat_map(|(b, _)| b.clone()).collect();
     let q = CscMatrix::zeros((nvar, nvar));
     let mut cost = vec![0.0; nvar];
     cost[nvar - 1] = 1.0; // minimise r
-    let cones = [
-        SupportedConeT::PSDTriangleConeT(size),
-        SupportedConeT::PSDTriangleConeT(3),
-    ];
+    let mut cones: Vec<SupportedConeT<f64>> = taus
+        .iter()
+        .map(|_| SupportedConeT::PSDTriangleConeT(size))
+        .collect();
+    cones.push(SupportedConeT::PSDTriangleConeT(3));
     let settings = DefaultSettingsBuilder::default()
         .verbose(false)
         .max_iter(500)
@@ -303,7 +333,12 @@ pub fn theorem1_min_ratio(
         }
     }
     let mut cert = Certificate {
-        condition: "theorem1".into(),
+        condition: if taus.len() == 1 {
+            "theorem1"
+        } else {
+            "theorem2"
+        }
+        .into(),
         k,
         c,
         ratio: x[nvar - 1],
@@ -311,7 +346,7 @@ pub fn theorem1_min_ratio(
         h: (0..n)
             .map(|i| (0..n).map(|j| h[(i, j)]).collect())
             .collect(),
-        tau,
+        taus: taus.to_vec(),
         max_eigenvalue: 0.0,
         p_min_eigenvalue: 0.0,
     };
@@ -330,19 +365,19 @@ pub fn theorem1_min_ratio(
 pub fn theorem1_max_decay(
     k: [f64; 3],
     h: &DMatrix<f64>,
-    tau: f64,
+    taus: &[f64],
     c_max: f64,
     tol: f64,
 ) -> Result<Option<Certificate>, LmiError> {
     let delta = 1e-6;
-    let Feasibility::Feasible(mut best) = theorem1_min_ratio(k, 0.0, h, tau, delta)? else {
+    let Feasibility::Feasible(mut best) = min_ratio(k, 0.0, h, taus, delta)? else {
         return Ok(None);
     };
     let (mut lo, mut hi) = (0.0, c_max);
     while hi - lo > tol {
         let mid = 0.5 * (lo + hi);
         // At the edge of feasibility an answer that fails the re-check counts as infeasible.
-        match theorem1_min_ratio(k, mid, h, tau, delta) {
+        match min_ratio(k, mid, h, taus, delta) {
             Ok(Feasibility::Feasible(c)) => {
                 lo = mid;
                 best = c;
@@ -441,6 +476,28 @@ mod tests {
     }
 
     #[test]
+    fn the_robust_condition_needs_more_than_the_nominal_one_and_checks_both_ends() {
+        let g = h(Preset::Tpsf, 4);
+        let ratio = |taus: &[f64]| match min_ratio(PAPER_K, 0.0, &g, taus, 1e-6).unwrap() {
+            Feasibility::Feasible(c) => c,
+            Feasibility::Infeasible => panic!("feasible for {taus:?}"),
+        };
+        let nominal = ratio(&[0.5]);
+        let robust = ratio(&[0.34, 0.82]);
+        assert!(robust.ratio >= nominal.ratio * (1.0 - 1e-6));
+        assert_eq!(robust.condition, "theorem2");
+        assert!(robust.verify().unwrap().holds);
+        // The robust P also satisfies (13) at every tau in between (affine in 1/tau).
+        let k = RowVector3::from(PAPER_K);
+        let p = Matrix3::from_fn(|i, j| robust.p[i][j]);
+        for i in 0..=24 {
+            let tau = 0.34 + 0.02 * f64::from(i);
+            let psi = psi_theorem1(&p, robust.ratio, 0.0, &k, &g, &Plant3::new(tau));
+            assert!(psi.symmetric_eigenvalues().max() < 0.0, "tau {tau}");
+        }
+    }
+
+    #[test]
     fn a_tampered_certificate_fails_the_re_check() {
         let Feasibility::Feasible(mut cert) =
             theorem1_min_ratio(PAPER_K, 0.0, &h(Preset::Pf, 3), 0.5, 1e-6).unwrap()
@@ -464,7 +521,7 @@ mod tests {
         let (r0, r1) = (r(0.0).unwrap(), r(0.1).unwrap());
         assert!(r1 >= r0 * (1.0 - 1e-6), "{r0} {r1}");
         assert_eq!(r(50.0), None);
-        let best = theorem1_max_decay(PAPER_K, &g, 0.5, 5.0, 0.01)
+        let best = theorem1_max_decay(PAPER_K, &g, &[0.5], 5.0, 0.01)
             .unwrap()
             .unwrap();
         assert!(best.c > 0.0 && best.verify().unwrap().holds);
