@@ -266,3 +266,34 @@ fn fig9_the_robust_design_tracks_best_when_tau_is_high() {
     assert!(robust < nominal && nominal < lower, "{sums:?}");
     assert!(tmp.path().join("r/fig9.png").exists());
 }
+
+#[test]
+fn fig10_decay_rates_per_topology_under_four_conditions() {
+    let tmp = tempfile::tempdir().unwrap();
+    let o = platoon(
+        &["experiment", "topologies", "--sizes", "2", "--out", "t"],
+        tmp.path(),
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let csv = std::fs::read_to_string(tmp.path().join("t/topologies.csv")).unwrap();
+    let rows: Vec<Vec<&str>> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect())
+        .collect();
+    assert_eq!(rows.len(), 3 * 4, "three graphs x four conditions");
+    for graph in ["PF", "TPSF", "BPF"] {
+        let get = |cond: &str| -> f64 {
+            rows.iter().find(|r| r[0] == graph && r[2] == cond).unwrap()[3]
+                .parse()
+                .unwrap()
+        };
+        // The trigger caps varsigma1 at rho - phi (1 - eta); DoS only takes decay away.
+        assert!(get("nominal") > 0.0 && get("nominal") <= 0.5 - 0.33 * 0.5 + 1e-12);
+        assert!(get("conservative") <= get("nominal") + 1e-12);
+        assert!(get("dos") < get("uncertainty"));
+    }
+    assert!(tmp.path().join("t/fig10.png").exists());
+    let o = platoon(&["experiment", "topologies", "--sizes", "0"], tmp.path());
+    assert!(!o.status.success());
+}

@@ -22,6 +22,35 @@ pub enum Experiment {
     /// schedule without DoS. Writes designs.csv, the three certificates, fig9.csv, fig9.png and
     /// fig9.md (mean tracking error per phase of tau).
     Robust(RobustArgs),
+    /// Fig. 10: varsigma1 (the guaranteed decay rate) for PF, TPSF and BPF platoons of several
+    /// sizes under four conditions: nominal (Theorem 1 design), with tau uncertainty (robust
+    /// design), with conservative trigger parameters, and with DoS. Writes topologies.csv and
+    /// fig10.png; shows a progress bar (each point is a synthesis and a bisection of SDPs).
+    Topologies(TopologiesArgs),
+}
+
+/// Arguments of `experiment topologies`.
+#[derive(Debug, clap::Args)]
+pub struct TopologiesArgs {
+    /// Base scenario (TOML) [default: the embedded configs/paper.toml]: tau range, trigger
+    /// parameters and Assumption-2 bounds come from it.
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// Platoon sizes (followers).
+    #[arg(long, value_delimiter = ',', default_value = "2,4,6,8")]
+    pub sizes: Vec<usize>,
+    /// The conservative trigger: varrho (the base's eta and phi are kept).
+    #[arg(long, default_value_t = 0.3)]
+    pub conservative_rho: f64,
+    /// Bound on |K| for the designs.
+    #[arg(long, default_value_t = 20.0)]
+    pub k_max: f64,
+    /// Output directory [default: runs/topologies].
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Replace the output directory if it exists.
+    #[arg(long)]
+    pub force: bool,
 }
 
 /// Arguments of `experiment robust`.
@@ -77,6 +106,7 @@ pub fn run(e: Experiment) -> Result<()> {
     match e {
         Experiment::Table1(args) => table1(args),
         Experiment::Robust(args) => robust(args),
+        Experiment::Topologies(args) => topologies(args),
     }
 }
 
@@ -314,6 +344,175 @@ fn robust(args: RobustArgs) -> Result<()> {
     dir.write("fig9.md", md.as_bytes())?;
     let path = dir.commit()?;
     print!("{md}");
+    println!("outputs: {}", path.display());
+    Ok(())
+}
+
+#[derive(serde::Serialize)]
+struct TopologyRow {
+    topology: String,
+    followers: usize,
+    condition: &'static str,
+    varsigma1: f64,
+    c: f64,
+    beta1_over_beta2: f64,
+    varsigma2: Option<f64>,
+    k1: f64,
+    k2: f64,
+    k3: f64,
+}
+
+/// varsigma1 = min(c, varrho - phi (1 - eta)) (ERRATA item 19) for a design, with the largest
+/// decay c certified while beta1/beta2 stays within twice the design's.
+fn topologies(args: TopologiesArgs) -> Result<()> {
+    use nalgebra::DMatrix;
+    use platoon_topology::{Preset, Topology};
+    if args.sizes.is_empty() || args.sizes.contains(&0) {
+        anyhow::bail!("--sizes needs platoon sizes of at least one follower, e.g. 2,4,6");
+    }
+    let (config, base, _) =
+        crate::run::load(args.config.as_deref(), platoon_config::PAPER_TOML, "paper")?;
+    let TriggerRule::Dynamic { phi, rho, eta, .. } = base.control.rule else {
+        anyhow::bail!("the base config must use trigger.rule = \"dynamic\" (varsigma1 depends on its phi, rho, eta)");
+    };
+    let Some(a2) = base.assumption2 else {
+        anyhow::bail!(
+            "the base config needs [attack.assumption2] bounds (T2, D2) for the DoS condition"
+        );
+    };
+    let tau = base.control.tau_nominal;
+    let (lo, hi) = base
+        .taus
+        .iter()
+        .map(|t| t.range())
+        .fold((tau, tau), |(a, b), (x, y)| (a.min(x), b.max(y)));
+    let h_step = f64::from(base.control.h_steps) * base.dt();
+    let out = args.out.unwrap_or_else(|| PathBuf::from("runs/topologies"));
+    let dir = RunDir::create(&out, args.force)?;
+    dir.write("config.toml", platoon_config::to_toml(&config).as_bytes())?;
+    let presets = [
+        ("PF", Preset::Pf),
+        ("TPSF", Preset::Tpsf),
+        ("BPF", Preset::Bpf),
+    ];
+    let bar = indicatif::ProgressBar::new((presets.len() * args.sizes.len()) as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(
+            "{spinner} designing {pos}/{len} platoons [{elapsed}] {wide_bar} {msg}",
+        )
+        .expect("static template"),
+    );
+    let mut rows: Vec<TopologyRow> = Vec::new();
+    for (name, preset) in presets {
+        for &n in &args.sizes {
+            bar.set_message(format!("{name} {n}"));
+            let topology = Topology::preset(preset, n)?;
+            let hm = topology.h_matrix();
+            let h = DMatrix::from_fn(n, n, |i, j| hm[(i, j)]);
+            for (robust, taus) in [(false, vec![tau]), (true, vec![lo, hi])] {
+                let spec = platoon_synthesis::DesignSpec {
+                    taus: taus.clone(),
+                    k_max: args.k_max,
+                    ..Default::default()
+                };
+                let Some(d) = platoon_synthesis::design_theorem1(&spec, &h)? else {
+                    continue; // no design: the point is missing from the figure (and the CSV)
+                };
+                let Some(cert) = platoon_synthesis::max_decay_within_ratio(
+                    d.k,
+                    &h,
+                    &taus,
+                    2.0 * d.certificate.ratio,
+                    5.0,
+                    1e-3,
+                )?
+                else {
+                    continue;
+                };
+                let row = |condition, varsigma1, varsigma2| TopologyRow {
+                    topology: name.into(),
+                    followers: n,
+                    condition,
+                    varsigma1,
+                    c: cert.c,
+                    beta1_over_beta2: cert.ratio,
+                    varsigma2,
+                    k1: d.k[0],
+                    k2: d.k[1],
+                    k3: d.k[2],
+                };
+                let nominal = cert.c.min(rho - phi * (1.0 - eta));
+                if robust {
+                    rows.push(row("uncertainty", nominal, None));
+                    // DoS: the decay left over after attacks, -(-s1 + (s1 + s2)/D2 + s*), with
+                    // s* = (s1 + s2) h / T2 (one Lyapunov matrix: phi = 1, ln phi = 0).
+                    let p = nalgebra::Matrix3::from_fn(|i, j| cert.p[i][j]);
+                    let s2 = platoon_synthesis::growth_rate(&p, hi).max(0.0);
+                    let s1 = nominal;
+                    let dos = s1 - (s1 + s2) / a2.D2 - (s1 + s2) * h_step / a2.T2;
+                    rows.push(row("dos", dos, Some(s2)));
+                } else {
+                    rows.push(row("nominal", nominal, None));
+                    rows.push(row(
+                        "conservative",
+                        cert.c.min(args.conservative_rho - phi * (1.0 - eta)),
+                        None,
+                    ));
+                }
+            }
+            bar.inc(1);
+        }
+    }
+    bar.finish_and_clear();
+    let mut csv = csv::Writer::from_writer(dir.writer("topologies.csv")?);
+    for r in &rows {
+        csv.serialize(r)?;
+    }
+    csv.flush()?;
+    let conditions = ["nominal", "uncertainty", "conservative", "dos"];
+    let mut categories: Vec<String> = Vec::new();
+    for (name, _) in presets {
+        for &n in &args.sizes {
+            categories.push(format!("{name}_{n}"));
+        }
+    }
+    let groups: Vec<(String, Vec<f64>)> = conditions
+        .iter()
+        .map(|c| {
+            (
+                c.to_string(),
+                categories
+                    .iter()
+                    .map(|cat| {
+                        rows.iter()
+                            .find(|r| {
+                                format!("{}_{}", r.topology, r.followers) == *cat
+                                    && r.condition == *c
+                            })
+                            .map_or(0.0, |r| r.varsigma1.max(0.0))
+                    })
+                    .collect(),
+            )
+        })
+        .collect();
+    plots::grouped_bars(
+        &dir.path("fig10.png"),
+        "Fig. 10: varsigma1 (guaranteed decay rate) by topology and size",
+        "varsigma1 (1/s)",
+        &categories,
+        &groups,
+    )?;
+    let path = dir.commit()?;
+    println!(
+        "{:<6} {:>3} {:>13} {:>10} {:>8} {:>12}",
+        "graph", "N", "condition", "varsigma1", "c", "b1/b2"
+    );
+    for r in &rows {
+        println!(
+            "{:<6} {:>3} {:>13} {:>10.4} {:>8.4} {:>12.1}",
+            r.topology, r.followers, r.condition, r.varsigma1, r.c, r.beta1_over_beta2
+        );
+    }
     println!("outputs: {}", path.display());
     Ok(())
 }

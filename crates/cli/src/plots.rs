@@ -263,9 +263,8 @@ pub fn grouped_bars(
     let ymax = groups
         .iter()
         .flat_map(|g| g.1.iter().copied())
-        .fold(0.0, f64::max)
-        .max(1.0)
-        * 1.5; // room for the legend
+        .fold(0.0, f64::max);
+    let ymax = if ymax > 0.0 { ymax * 1.5 } else { 1.0 }; // room for the legend
     let nc = categories.len() as f64;
     let mut chart = ChartBuilder::on(&root)
         .caption(title, ("sans-serif", 22))

@@ -19,8 +19,9 @@ mod lmi;
 pub use design::{design_theorem1, Design, DesignSpec};
 
 pub use lmi::{
-    closed_loop_spectrum, min_ratio, psi_theorem1, theorem1_max_decay, theorem1_min_ratio,
-    Certificate, Feasibility, LmiError, Plant3, Spectrum, Verdict,
+    closed_loop_spectrum, growth_rate, max_decay_within_ratio, min_ratio, psi_theorem1,
+    theorem1_max_decay, theorem1_min_ratio, Certificate, Feasibility, LmiError, Plant3, Spectrum,
+    Verdict,
 };
 
 /// The bounds (16): the smallest T2 and D2 for which Assumption 2 guarantees stability, given

@@ -389,6 +389,55 @@ pub fn theorem1_max_decay(
     Ok(Some(best))
 }
 
+/// Like [`theorem1_max_decay`], with beta1/beta2 kept at or below `ratio_cap` (a decay bought
+/// with an ever larger ratio is useless to the trigger). `None` if even c = 0 needs more.
+pub fn max_decay_within_ratio(
+    k: [f64; 3],
+    h: &DMatrix<f64>,
+    taus: &[f64],
+    ratio_cap: f64,
+    c_max: f64,
+    tol: f64,
+) -> Result<Option<Certificate>, LmiError> {
+    let delta = 1e-6;
+    let within = |c: f64| -> Result<Option<Certificate>, LmiError> {
+        match min_ratio(k, c, h, taus, delta) {
+            Ok(Feasibility::Feasible(cert)) if cert.ratio <= ratio_cap => Ok(Some(cert)),
+            // At the edge of feasibility, a numerical failure counts as infeasible.
+            Ok(_) | Err(LmiError::NotCertified(_)) | Err(LmiError::Solver(_)) => Ok(None),
+            Err(e) => Err(e),
+        }
+    };
+    let Some(mut best) = within(0.0)? else {
+        return Ok(None);
+    };
+    let (mut lo, mut hi) = (0.0, c_max);
+    while hi - lo > tol {
+        let mid = 0.5 * (lo + hi);
+        match within(mid)? {
+            Some(c) => {
+                lo = mid;
+                best = c;
+            }
+            None => hi = mid,
+        }
+    }
+    Ok(Some(best))
+}
+
+/// The growth rate of `V = e^T (I kron P) e` with the controls off (during attacks):
+/// the smallest varsigma2 with `A^T P + P A <= varsigma2 P` (ERRATA item 20), i.e. the largest
+/// eigenvalue of `P^-1/2 (A^T P + P A) P^-1/2`.
+pub fn growth_rate(p: &Matrix3<f64>, tau: f64) -> f64 {
+    let a = Plant3::new(tau).a;
+    let eig = p.symmetric_eigen();
+    let inv_sqrt = eig.eigenvectors
+        * Matrix3::from_diagonal(&eig.eigenvalues.map(|x| 1.0 / x.sqrt()))
+        * eig.eigenvectors.transpose();
+    let m = inv_sqrt * (a.transpose() * p + p * a) * inv_sqrt;
+    m.symmetric_eigenvalues().max()
+}
+
 /// Eigenvalues of the closed loop `I_N kron A(tau) - H kron B(tau) K` at each tau.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Spectrum {
