@@ -195,6 +195,17 @@ fn a_synthesised_design_runs_and_an_infeasible_request_says_so() {
     let o = platoon(&["design", "synthesize", "--out", "d"], tmp.path());
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let cert = tmp.path().join("d/certificate.json");
+    let design: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(tmp.path().join("d/design.json")).unwrap())
+            .unwrap();
+    let s1 = design["varsigma1"].as_f64().unwrap();
+    assert!(s1 > 0.0 && s1 <= 0.5 - 0.33 * 0.5 + 1e-12, "{design}");
+    assert!(design["t2_bound"].as_f64().unwrap() > 0.0);
+    assert!(design["d2_bound"].as_f64().unwrap() > 1.0);
+    assert!(design["schedule_verdict"]
+        .as_str()
+        .unwrap()
+        .contains("Assumption 2"));
     let c: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&cert).unwrap()).unwrap();
     let k: Vec<f64> = c["k"]

@@ -48,6 +48,10 @@ pub struct SynthesizeArgs {
     /// Largest beta1/beta2 tried.
     #[arg(long, default_value_t = 1e4)]
     pub ratio_max: f64,
+    /// varsigma* as a fraction of varsigma1, in (0, 1): trades the dwell-time bound T2 against
+    /// the duration bound D2 of (16).
+    #[arg(long, default_value_t = 0.5)]
+    pub star_fraction: f64,
     /// Output directory [default: runs/design].
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -274,8 +278,35 @@ fn verify(file: PathBuf) -> Result<()> {
     Ok(())
 }
 
+/// What `design.json` holds: the design, its decay figures, the DoS bounds (16) and the
+/// verdict on the config's attack schedule.
+#[derive(serde::Serialize)]
+struct DesignReport {
+    theorem: u8,
+    k: [f64; 3],
+    beta1: f64,
+    beta2: f64,
+    beta1_over_beta2: f64,
+    c: f64,
+    p: [[f64; 3]; 3],
+    varsigma1: f64,
+    varsigma2: f64,
+    varsigma_star: f64,
+    phi: f64,
+    t2_bound: Option<f64>,
+    d2_bound: Option<f64>,
+    schedule_verdict: Option<String>,
+    certificate: &'static str,
+    certificate_max_decay: Option<&'static str>,
+    sdps: usize,
+    seconds: f64,
+}
+
 fn synthesize(a: SynthesizeArgs) -> Result<()> {
-    let (_, scenario, _) =
+    if !(a.star_fraction > 0.0 && a.star_fraction < 1.0) {
+        bail!("--star-fraction must be in (0, 1)");
+    }
+    let (config, scenario, _) =
         crate::run::load(a.config.as_deref(), platoon_config::PAPER_TOML, "paper")?;
     let n = scenario.topology.followers();
     let hm = scenario.topology.h_matrix();
@@ -286,13 +317,14 @@ fn synthesize(a: SynthesizeArgs) -> Result<()> {
         .iter()
         .map(|t| t.range())
         .fold((tau, tau), |(a, b), (x, y)| (a.min(x), b.max(y)));
+    let taus = if a.theorem == 2 {
+        vec![lo, hi]
+    } else {
+        vec![tau]
+    };
     let spec = platoon_synthesis::DesignSpec {
         c: a.c,
-        taus: if a.theorem == 2 {
-            vec![lo, hi]
-        } else {
-            vec![tau]
-        },
+        taus: taus.clone(),
         k_max: a.k_max,
         ratio_max: a.ratio_max,
         ..Default::default()
@@ -308,24 +340,96 @@ fn synthesize(a: SynthesizeArgs) -> Result<()> {
     }
     let started = std::time::Instant::now();
     let design = platoon_synthesis::design_theorem1(&spec, &h)?;
-    let seconds = started.elapsed().as_secs_f64();
     let Some(d) = design else {
         // Nothing is written for an infeasible request.
         bail!(
-            "infeasible: no gain with |K| <= {} satisfies Theorem 1 on this topology ({n} followers) with beta1/beta2 <= {} at c = {} ({seconds:.2} s); raise --k-max or --ratio-max, or lower --c",
-            a.k_max, a.ratio_max, a.c
+            "infeasible: no gain with |K| <= {} satisfies Theorem {} on this topology ({n} followers) with beta1/beta2 <= {} at c = {} ({:.2} s); raise --k-max or --ratio-max, or lower --c",
+            a.k_max, a.theorem, a.ratio_max, a.c, started.elapsed().as_secs_f64()
         );
+    };
+    // The decay it guarantees (ratio kept within twice the design's) and what DoS it tolerates.
+    let decay = platoon_synthesis::max_decay_within_ratio(
+        d.k,
+        &h,
+        &taus,
+        2.0 * d.certificate.ratio,
+        5.0,
+        1e-3,
+    )?;
+    let seconds = started.elapsed().as_secs_f64();
+    let c = decay.as_ref().map_or(d.certificate.c, |x| x.c);
+    let trigger_cap = match scenario.control.rule {
+        platoon_control::TriggerRule::Dynamic { phi, rho, eta, .. } => rho - phi * (1.0 - eta),
+        _ => f64::INFINITY,
+    };
+    let varsigma1 = c.min(trigger_cap);
+    let p_cert = decay.as_ref().unwrap_or(&d.certificate);
+    let p = nalgebra::Matrix3::from_fn(|i, j| p_cert.p[i][j]);
+    let varsigma2 = taus
+        .iter()
+        .map(|&t| platoon_synthesis::growth_rate(&p, t))
+        .fold(0.0, f64::max);
+    let varsigma_star = a.star_fraction * varsigma1;
+    let h_s = f64::from(scenario.control.h_steps) * scenario.dt();
+    // One Lyapunov matrix in and out of attacks: Q = P, so phi = 1.
+    let bounds = dos_bounds(varsigma1, varsigma2, varsigma_star, 1.0, h_s).ok();
+    let verdict = match (bounds, scenario.assumption2) {
+        (Some((t2, d2)), Some(a2)) => {
+            let need = platoon_attacks::Assumption2 {
+                T2: t2,
+                D2: d2,
+                ..a2
+            };
+            let r = need.check(&scenario.dos, scenario.duration());
+            Some(if r.holds {
+                format!("the config's DoS schedule satisfies Assumption 2 with T1 = {}, D1 = {}, T2 = {t2:.2}, D2 = {d2:.2}", a2.T1, a2.D1)
+            } else {
+                format!("the config's DoS schedule VIOLATES Assumption 2 with T1 = {}, D1 = {}, T2 = {t2:.2}, D2 = {d2:.2}: the design does not guarantee stability under it", a2.T1, a2.D1)
+            })
+        }
+        (None, _) => Some("no DoS bounds: varsigma1 must be positive".into()),
+        (_, None) => None,
+    };
+    let report = DesignReport {
+        theorem: a.theorem,
+        k: d.k,
+        beta1: d.certificate.ratio * config.control.beta2,
+        beta2: config.control.beta2,
+        beta1_over_beta2: d.certificate.ratio,
+        c,
+        p: p_cert.p,
+        varsigma1,
+        varsigma2,
+        varsigma_star,
+        phi: 1.0,
+        t2_bound: bounds.map(|b| b.0),
+        d2_bound: bounds.map(|b| b.1),
+        schedule_verdict: verdict.clone(),
+        certificate: "certificate.json",
+        certificate_max_decay: decay.as_ref().map(|_| "certificate-max-decay.json"),
+        sdps: d.sdps,
+        seconds,
     };
     let dir = RunDir::create(&out, a.force)?;
     dir.write(
         "certificate.json",
         (serde_json::to_string_pretty(&d.certificate)? + "\n").as_bytes(),
     )?;
+    if let Some(x) = &decay {
+        dir.write(
+            "certificate-max-decay.json",
+            (serde_json::to_string_pretty(x)? + "\n").as_bytes(),
+        )?;
+    }
+    dir.write(
+        "design.json",
+        (serde_json::to_string_pretty(&report)? + "\n").as_bytes(),
+    )?;
     let path = dir.commit()?;
     let norm = d.k.iter().map(|x| x * x).sum::<f64>().sqrt();
     println!(
-        "K = [{:.4}, {:.4}, {:.4}] (|K| = {norm:.2} <= {}), beta1/beta2 = {:.2}, c = {} on {n} followers",
-        d.k[0], d.k[1], d.k[2], a.k_max, d.certificate.ratio, a.c
+        "K = [{:.4}, {:.4}, {:.4}] (|K| = {norm:.2} <= {}), beta1/beta2 = {:.2} on {n} followers",
+        d.k[0], d.k[1], d.k[2], a.k_max, d.certificate.ratio
     );
     println!(
         "  certified by the exact SDP of {} at tau = {:?} (margin {:.2e}); {} SDPs in {seconds:.2} s",
@@ -334,6 +438,15 @@ fn synthesize(a: SynthesizeArgs) -> Result<()> {
         -d.certificate.max_eigenvalue,
         d.sdps
     );
+    println!(
+        "  varsigma1 = {varsigma1:.4} (c = {c:.4}, trigger cap {trigger_cap:.4}), varsigma2 = {varsigma2:.4}, varsigma* = {varsigma_star:.4}, phi = 1"
+    );
+    if let Some((t2, d2)) = bounds {
+        println!("  DoS bounds (16): T2 > {t2:.2}, D2 > {d2:.2}");
+    }
+    if let Some(v) = verdict {
+        println!("  {v}");
+    }
     println!("outputs: {}", path.display());
     Ok(())
 }
