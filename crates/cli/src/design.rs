@@ -289,6 +289,11 @@ struct DesignReport {
     beta1_over_beta2: f64,
     c: f64,
     p: [[f64; 3]; 3],
+    /// Remark 1's variables for this P: M = P^-1 and U = K M.
+    m: [[f64; 3]; 3],
+    u: [f64; 3],
+    /// The Lyapunov matrix during attacks (we take Q = P, hence phi = 1).
+    q: [[f64; 3]; 3],
     varsigma1: f64,
     varsigma2: f64,
     varsigma_star: f64,
@@ -369,6 +374,9 @@ fn synthesize(a: SynthesizeArgs) -> Result<()> {
         .iter()
         .map(|&t| platoon_synthesis::growth_rate(&p, t))
         .fold(0.0, f64::max);
+    let minv = p
+        .try_inverse()
+        .ok_or_else(|| anyhow::anyhow!("the certificate's P is singular"))?;
     let varsigma_star = a.star_fraction * varsigma1;
     let h_s = f64::from(scenario.control.h_steps) * scenario.dt();
     // One Lyapunov matrix in and out of attacks: Q = P, so phi = 1.
@@ -398,6 +406,12 @@ fn synthesize(a: SynthesizeArgs) -> Result<()> {
         beta1_over_beta2: d.certificate.ratio,
         c,
         p: p_cert.p,
+        m: rows3(&minv),
+        u: {
+            let u = nalgebra::RowVector3::from(d.k) * minv;
+            [u[0], u[1], u[2]]
+        },
+        q: p_cert.p,
         varsigma1,
         varsigma2,
         varsigma_star,
@@ -449,4 +463,12 @@ fn synthesize(a: SynthesizeArgs) -> Result<()> {
     }
     println!("outputs: {}", path.display());
     Ok(())
+}
+
+fn rows3(m: &nalgebra::Matrix3<f64>) -> [[f64; 3]; 3] {
+    [
+        [m[(0, 0)], m[(0, 1)], m[(0, 2)]],
+        [m[(1, 0)], m[(1, 1)], m[(1, 2)]],
+        [m[(2, 0)], m[(2, 1)], m[(2, 2)]],
+    ]
 }
