@@ -308,3 +308,68 @@ fn fig10_decay_rates_per_topology_under_four_conditions() {
     let o = platoon(&["experiment", "topologies", "--sizes", "0"], tmp.path());
     assert!(!o.status.success());
 }
+
+#[test]
+fn bench_arguments_are_checked_before_anything_runs() {
+    let tmp = tempfile::tempdir().unwrap();
+    for (args, words) in [
+        (
+            vec!["bench", "latency", "--iterations", "0"],
+            "--iterations",
+        ),
+        (vec!["bench", "step", "--followers", "0"], "multiples of 4"),
+        (vec!["bench", "step", "--followers", "6"], "multiples of 4"),
+        (vec!["bench", "step", "--modes", "warp"], "unknown mode"),
+        (vec!["bench", "design", "--followers", "0"], "positive"),
+    ] {
+        let o = platoon(&args, tmp.path());
+        assert!(!o.status.success(), "{args:?}");
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(err.contains(words), "{args:?}: {err}");
+    }
+    assert_eq!(
+        std::fs::read_dir(tmp.path()).unwrap().count(),
+        0,
+        "nothing written"
+    );
+}
+
+#[test]
+fn bench_latency_measures_every_baseline() {
+    let tmp = tempfile::tempdir().unwrap();
+    let o = platoon(
+        &[
+            "bench",
+            "latency",
+            "--iterations",
+            "200",
+            "--warmup",
+            "20",
+            "--out",
+            "b",
+        ],
+        tmp.path(),
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(tmp.path().join("b/latency.json")).unwrap())
+            .unwrap();
+    let names: Vec<&str> = r["rows"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x["quantity"].as_str().unwrap())
+        .collect();
+    for q in [
+        "raw_iceoryx2_hop",
+        "udp_loopback_hop",
+        "unix_socket_hop",
+        "injector_hop",
+        "cosim_step",
+    ] {
+        assert!(names.contains(&q), "{q} missing from {names:?}");
+    }
+    let samples = std::fs::read_to_string(tmp.path().join("b/latency-samples.csv")).unwrap();
+    assert_eq!(samples.lines().count(), 1 + 3 * 200);
+    assert!(tmp.path().join("b/latency.png").exists());
+}

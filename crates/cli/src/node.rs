@@ -7,7 +7,7 @@ use std::path::PathBuf;
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// Which process: plant, controller, injector, or echo (the latency baseline).
-    #[arg(value_parser = ["plant", "controller", "injector", "echo"])]
+    #[arg(value_parser = ["plant", "controller", "injector", "echo", "echo-udp", "echo-uds"])]
     pub role: String,
     /// The run's id (names its iceoryx2 services).
     #[arg(long)]
@@ -18,11 +18,31 @@ pub struct Args {
     /// Injector: where to write the channel log (CSV).
     #[arg(long)]
     pub log: Option<PathBuf>,
+    /// echo: poll instead of waiting (the busy-polling baseline).
+    #[arg(long)]
+    pub busy: bool,
 }
 
 pub fn run(args: Args) -> Result<()> {
-    if args.role == "echo" {
-        return platoon_runtime::bench::echo(&args.run_id).context("echo node");
+    match args.role.as_str() {
+        "echo" => {
+            return platoon_runtime::bench::echo(&args.run_id, args.busy).context("echo node")
+        }
+        "echo-udp" => {
+            return platoon_runtime::bench::socket_echo(
+                platoon_runtime::bench::Socket::Udp,
+                &args.config,
+            )
+            .context("UDP echo node")
+        }
+        "echo-uds" => {
+            return platoon_runtime::bench::socket_echo(
+                platoon_runtime::bench::Socket::Uds,
+                &args.config,
+            )
+            .context("Unix-socket echo node")
+        }
+        _ => {}
     }
     let (_, scenario) = platoon_config::load(&args.config)?;
     let r = match args.role.as_str() {

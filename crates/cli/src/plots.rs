@@ -11,7 +11,7 @@ use std::sync::Once;
 
 const ATTACK_SHADE: RGBColor = RGBColor(250, 210, 210);
 
-fn ensure_font() {
+pub fn ensure_font() {
     static FONT: Once = Once::new();
     FONT.call_once(|| {
         // The bytes are a valid TTF shipped by the dejavu crate; failure would be a build defect.
@@ -305,6 +305,64 @@ pub fn grouped_bars(
         .configure_series_labels()
         .background_style(WHITE.mix(0.85))
         .border_style(BLACK)
+        .draw()
+        .map_err(err)?;
+    root.present().map_err(err)?;
+    Ok(())
+}
+
+/// Measured points of each series with straight lines through them (x and y linear).
+pub fn scatter_with_lines(
+    path: &Path,
+    title: &str,
+    x_label: &str,
+    y_label: &str,
+    series: &[Series],
+) -> Result<()> {
+    ensure_font();
+    let root = BitMapBackend::new(path, (1000, 600)).into_drawing_area();
+    root.fill(&WHITE).map_err(err)?;
+    let pts = series.iter().flat_map(|s| s.points.iter().copied());
+    let (x1, y1) = pts.fold((1.0f64, 1.0f64), |(a, b), (x, y)| {
+        (a.max(x), if y.is_finite() { b.max(y) } else { b })
+    });
+    let mut chart = ChartBuilder::on(&root)
+        .caption(title, ("sans-serif", 22))
+        .margin(15)
+        .x_label_area_size(40)
+        .y_label_area_size(70)
+        .build_cartesian_2d(0.0..x1 * 1.05, 0.0..y1 * 1.1)
+        .map_err(err)?;
+    chart
+        .configure_mesh()
+        .x_desc(x_label)
+        .y_desc(y_label)
+        .draw()
+        .map_err(err)?;
+    for s in series {
+        let color = Palette99::pick(s.color).to_rgba();
+        let finite: Vec<(f64, f64)> = s
+            .points
+            .iter()
+            .copied()
+            .filter(|p| p.1.is_finite())
+            .collect();
+        chart
+            .draw_series(LineSeries::new(finite.clone(), color.stroke_width(2)))
+            .map_err(err)?
+            .label(s.label.clone())
+            .legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2))
+            });
+        chart
+            .draw_series(finite.iter().map(|&p| Circle::new(p, 5, color.filled())))
+            .map_err(err)?;
+    }
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .position(SeriesLabelPosition::UpperLeft)
         .draw()
         .map_err(err)?;
     root.present().map_err(err)?;

@@ -23,6 +23,7 @@ pub fn raw_hop(
     iterations: usize,
     warmup: usize,
     items: usize,
+    busy: bool,
 ) -> Result<Vec<u64>, RunError> {
     let e = Endpoint::new(run_id, Node::Controller)?;
     let _wake = [Node::Controller, Node::Injector]
@@ -34,8 +35,12 @@ pub fn raw_hop(
     let listener = e.listener()?;
     let tx: Outlet<LinkPacket> = e.outlet(&tx_service, Service::Tx, items)?;
     let mut rx: Inlet<LinkPacket> = Inlet::new(&rx_service, Node::Injector)?;
-    let mut child = Command::new(exe)
-        .args(["node", "echo", "--run-id", run_id, "--config", "-"])
+    let mut cmd = Command::new(exe);
+    cmd.args(["node", "echo", "--run-id", run_id, "--config", "-"]);
+    if busy {
+        cmd.arg("--busy");
+    }
+    let mut child = cmd
         .stdin(Stdio::null())
         .spawn()
         .map_err(|source| RunError::Spawn {
@@ -73,10 +78,17 @@ pub fn raw_hop(
         }
         for i in 1..=(warmup + iterations) as u64 {
             let sent = tx.send(i, 0.0, &batch)?;
+            let mut spins = 0u64;
             let echoed = loop {
                 if let (Some((h, _)), _) = rx.take_sample(i)? {
                     break h.stamp_ns;
                 }
+                if busy && spins < 10_000_000 {
+                    spins += 1;
+                    std::hint::spin_loop();
+                    continue;
+                }
+                spins = 0;
                 wait(&listener, Duration::from_secs(1))?;
                 if let Ok(Some(status)) = child.try_wait() {
                     return Err(RunError::Died {
@@ -104,8 +116,9 @@ pub fn raw_hop(
     Ok(hops)
 }
 
-/// The echo process: republishes every tx sample on rx, until told to quit or orphaned.
-pub fn echo(run_id: &str) -> Result<(), RunError> {
+/// The echo process: republishes every tx sample on rx, until told to quit or orphaned. With
+/// `busy` it polls instead of waiting (opt-in: it burns a core).
+pub fn echo(run_id: &str, busy: bool) -> Result<(), RunError> {
     let e = Endpoint::new(run_id, Node::Injector)?;
     let listener = e.listener()?;
     let mut tx: Inlet<LinkPacket> =
@@ -120,9 +133,171 @@ pub fn echo(run_id: &str) -> Result<(), RunError> {
             }
             rx.send(h.step, 0.0, &items)?;
         }
-        wait(&listener, Duration::from_millis(200))?;
+        if busy {
+            for _ in 0..1000 {
+                std::hint::spin_loop();
+            }
+        } else {
+            wait(&listener, Duration::from_millis(200))?;
+        }
         if std::os::unix::process::parent_id() != parent {
             return Err(RunError::Orphaned);
+        }
+    }
+}
+
+/// A socket baseline for the hop.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Socket {
+    /// UDP on 127.0.0.1.
+    Udp,
+    /// A Unix domain datagram socket.
+    Uds,
+}
+
+impl Socket {
+    /// Its name in `platoon node echo-<name>`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Socket::Udp => "udp",
+            Socket::Uds => "uds",
+        }
+    }
+}
+
+/// Sends a datagram and receives the echo into the same buffer.
+type SendRecv = dyn FnMut(&mut [u8]) -> std::io::Result<usize>;
+
+/// The same ping-pong over a socket: `bytes` of payload, the echo in another process
+/// (`platoon node echo-udp|echo-uds`), blocking (kernel-woken) receives. The hop is publish to
+/// publish, as for iceoryx2: the echo's send stamp minus ours, both in the datagram.
+pub fn socket_hop(
+    socket: Socket,
+    exe: &Path,
+    iterations: usize,
+    warmup: usize,
+    bytes: usize,
+) -> std::io::Result<Vec<u64>> {
+    use std::io::{BufRead, BufReader, Error, ErrorKind};
+    let dir = std::env::temp_dir().join(format!("platoon-bench-{}", crate::new_run_id()));
+    std::fs::create_dir_all(&dir)?;
+    let mut child = Command::new(exe)
+        .args([
+            "node",
+            &format!("echo-{}", socket.name()),
+            "--run-id",
+            "-",
+            "--config",
+        ])
+        .arg(dir.join("echo.sock"))
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .spawn()?;
+    let mut line = String::new();
+    BufReader::new(child.stdout.take().expect("piped")).read_line(&mut line)?;
+    let address = line.trim().to_string();
+    let timeout = Some(Duration::from_secs(2));
+    let mut buf = vec![0u8; bytes.max(16) + 16];
+    let mut hops = Vec::with_capacity(iterations);
+    let result = (|| -> std::io::Result<()> {
+        let send_recv: Box<SendRecv> = match socket {
+            Socket::Udp => {
+                let s = std::net::UdpSocket::bind("127.0.0.1:0")?;
+                s.connect(&address)?;
+                s.set_read_timeout(timeout)?;
+                let len = bytes.max(16);
+                Box::new(move |b: &mut [u8]| {
+                    s.send(&b[..len])?;
+                    s.recv(b)
+                })
+            }
+            Socket::Uds => {
+                let me = dir.join("ping.sock");
+                let s = std::os::unix::net::UnixDatagram::bind(&me)?;
+                s.connect(&address)?;
+                s.set_read_timeout(timeout)?;
+                let len = bytes.max(16);
+                Box::new(move |b: &mut [u8]| {
+                    s.send(&b[..len])?;
+                    s.recv(b)
+                })
+            }
+        };
+        let mut send_recv = send_recv;
+        if line.is_empty() {
+            return Err(Error::other("the echo process did not start"));
+        }
+        for i in 0..warmup + iterations {
+            let sent = crate::monotonic_ns();
+            buf[..8].copy_from_slice(&sent.to_le_bytes());
+            let n = send_recv(&mut buf)?;
+            if n < 16 {
+                return Err(Error::new(ErrorKind::InvalidData, "short echo"));
+            }
+            let echoed = u64::from_le_bytes(buf[8..16].try_into().expect("8 bytes"));
+            if i >= warmup {
+                hops.push(echoed.saturating_sub(sent));
+            }
+        }
+        Ok(())
+    })();
+    let _ = child.kill();
+    let _ = child.wait();
+    let _ = std::fs::remove_dir_all(&dir);
+    result.map(|_| hops)
+}
+
+/// The socket echo process: prints its address, then answers every datagram with the sender's
+/// stamp and its own (bytes 8..16), until orphaned.
+pub fn socket_echo(socket: Socket, path: &Path) -> std::io::Result<()> {
+    use std::io::Write;
+    let parent = std::os::unix::process::parent_id();
+    let mut buf = vec![0u8; 1 << 16];
+    let tick = Some(Duration::from_millis(200));
+    match socket {
+        Socket::Udp => {
+            let s = std::net::UdpSocket::bind("127.0.0.1:0")?;
+            s.set_read_timeout(tick)?;
+            println!("{}", s.local_addr()?);
+            std::io::stdout().flush()?;
+            loop {
+                match s.recv_from(&mut buf) {
+                    Ok((n, from)) => {
+                        buf[8..16].copy_from_slice(&crate::monotonic_ns().to_le_bytes());
+                        s.send_to(&buf[..n], from)?;
+                    }
+                    Err(e)
+                        if e.kind() == std::io::ErrorKind::WouldBlock
+                            || e.kind() == std::io::ErrorKind::TimedOut => {}
+                    Err(e) => return Err(e),
+                }
+                if std::os::unix::process::parent_id() != parent {
+                    return Ok(());
+                }
+            }
+        }
+        Socket::Uds => {
+            let s = std::os::unix::net::UnixDatagram::bind(path)?;
+            s.set_read_timeout(tick)?;
+            println!("{}", path.display());
+            std::io::stdout().flush()?;
+            loop {
+                match s.recv_from(&mut buf) {
+                    Ok((n, from)) => {
+                        buf[8..16].copy_from_slice(&crate::monotonic_ns().to_le_bytes());
+                        if let Some(p) = from.as_pathname() {
+                            s.send_to(&buf[..n], p)?;
+                        }
+                    }
+                    Err(e)
+                        if e.kind() == std::io::ErrorKind::WouldBlock
+                            || e.kind() == std::io::ErrorKind::TimedOut => {}
+                    Err(e) => return Err(e),
+                }
+                if std::os::unix::process::parent_id() != parent {
+                    return Ok(());
+                }
+            }
         }
     }
 }

@@ -13,6 +13,8 @@ pub struct Stats {
     pub p90_us: f64,
     /// 99th percentile.
     pub p99_us: f64,
+    /// 99.9th percentile.
+    pub p999_us: f64,
     /// Largest.
     pub max_us: f64,
 }
@@ -33,6 +35,7 @@ impl Stats {
             p50_us: at(0.5),
             p90_us: at(0.9),
             p99_us: at(0.99),
+            p999_us: at(0.999),
             max_us: ns[ns.len() - 1] as f64 / 1e3,
         })
     }
