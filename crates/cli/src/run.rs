@@ -299,8 +299,11 @@ pub fn simulate(scenario: &Scenario, dir: &RunDir) -> Result<(Vec<StepRow>, Summ
     let mut rec = Recording::new(scenario, dir, "simulating")?;
     let mut sim = platoon_sim::FleetSimulation::new(scenario)?;
     let mut log = csv::Writer::from_writer(dir.writer("channel.csv")?);
+    let mut step_ns = Vec::with_capacity(scenario.steps as usize + 1);
     while !sim.is_done() {
+        let started = Instant::now();
         let rows = sim.step();
+        step_ns.push(started.elapsed().as_nanos() as u64);
         rec.push(rows);
         for e in sim.channel_log() {
             log.serialize(e).context("writing channel.csv")?;
@@ -308,6 +311,18 @@ pub fn simulate(scenario: &Scenario, dir: &RunDir) -> Result<(Vec<StepRow>, Summ
     }
     log.flush().context("writing channel.csv")?;
     let rejected = sim.rejected();
+    // In process a step has no stages: only its compute time.
+    let timing = platoon_runtime::timing::Timing {
+        step: platoon_runtime::timing::Stats::of(&mut step_ns),
+        controller_tx: None,
+        injector: None,
+        controller_rx: None,
+        plant: None,
+    };
+    dir.write(
+        "timing.json",
+        (serde_json::to_string_pretty(&timing)? + "\n").as_bytes(),
+    )?;
     rec.finish(rejected)
 }
 
