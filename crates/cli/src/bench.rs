@@ -627,7 +627,6 @@ struct DesignRow {
 }
 
 fn design(a: DesignArgs) -> Result<Vec<DesignRow>> {
-    use nalgebra::DMatrix;
     if a.followers.is_empty() || a.followers.contains(&0) {
         bail!("--followers needs positive platoon sizes, e.g. 4,10,20");
     }
@@ -639,8 +638,7 @@ fn design(a: DesignArgs) -> Result<Vec<DesignRow>> {
     for &n in &a.followers {
         eprintln!("designing for {n} followers (TPSF) ...");
         let t = platoon_topology::Topology::preset(platoon_topology::Preset::Tpsf, n)?;
-        let hm = t.h_matrix();
-        let h = DMatrix::from_fn(n, n, |i, j| hm[(i, j)]);
+        let h = t.h_matrix();
         let started = Instant::now();
         let d = platoon_synthesis::design_theorem1(&Default::default(), &h)?;
         rows.push(DesignRow {

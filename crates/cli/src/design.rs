@@ -2,7 +2,6 @@
 //! independent re-check, and the DoS bounds (16).
 use crate::output::RunDir;
 use anyhow::{bail, Context, Result};
-use nalgebra::DMatrix;
 use platoon_synthesis::{
     closed_loop_spectrum, dos_bounds, min_ratio, theorem1_max_decay, Certificate, Feasibility,
 };
@@ -153,14 +152,9 @@ fn check_gain(a: CheckGainArgs) -> Result<()> {
         None => config.control.gain,
     };
     let n = scenario.topology.followers();
-    let hm = scenario.topology.h_matrix();
-    let h = DMatrix::from_fn(n, n, |i, j| hm[(i, j)]);
+    let h = scenario.topology.h_matrix();
     let tau = scenario.control.tau_nominal;
-    let (lo, hi) = scenario
-        .taus
-        .iter()
-        .map(|t| t.range())
-        .fold((tau, tau), |(a, b), (x, y)| (a.min(x), b.max(y)));
+    let (lo, hi) = scenario.tau_range();
     let taus: Vec<f64> = (0..=50)
         .map(|i| lo + (hi - lo) * f64::from(i) / 50.0)
         .collect();
@@ -314,14 +308,9 @@ fn synthesize(a: SynthesizeArgs) -> Result<()> {
     let (config, scenario, _) =
         crate::run::load(a.config.as_deref(), platoon_config::PAPER_TOML, "paper")?;
     let n = scenario.topology.followers();
-    let hm = scenario.topology.h_matrix();
-    let h = DMatrix::from_fn(n, n, |i, j| hm[(i, j)]);
+    let h = scenario.topology.h_matrix();
     let tau = scenario.control.tau_nominal;
-    let (lo, hi) = scenario
-        .taus
-        .iter()
-        .map(|t| t.range())
-        .fold((tau, tau), |(a, b), (x, y)| (a.min(x), b.max(y)));
+    let (lo, hi) = scenario.tau_range();
     let taus = if a.theorem == 2 {
         vec![lo, hi]
     } else {

@@ -258,19 +258,12 @@ fn error_figure(dir: &RunDir, name: &str, curves: &[(String, Vec<(f64, f64)>)]) 
 }
 
 fn robust(args: RobustArgs) -> Result<()> {
-    use nalgebra::DMatrix;
     let (config, mut base, _) =
         crate::run::load(args.config.as_deref(), platoon_config::PAPER_TOML, "paper")?;
     base.dos = platoon_attacks::DosSchedule::none();
-    let n = base.topology.followers();
-    let hm = base.topology.h_matrix();
-    let h = DMatrix::from_fn(n, n, |i, j| hm[(i, j)]);
+    let h = base.topology.h_matrix();
     let tau = base.control.tau_nominal;
-    let (lo, hi) = base
-        .taus
-        .iter()
-        .map(|t| t.range())
-        .fold((tau, tau), |(a, b), (x, y)| (a.min(x), b.max(y)));
+    let (lo, hi) = base.tau_range();
     let out = args.out.unwrap_or_else(|| PathBuf::from("runs/robust"));
     let dir = RunDir::create(&out, args.force)?;
     dir.write("config.toml", platoon_config::to_toml(&config).as_bytes())?;
@@ -365,7 +358,6 @@ struct TopologyRow {
 /// varsigma1 = min(c, varrho - phi (1 - eta)) (ERRATA item 19) for a design, with the largest
 /// decay c certified while beta1/beta2 stays within twice the design's.
 fn topologies(args: TopologiesArgs) -> Result<()> {
-    use nalgebra::DMatrix;
     use platoon_topology::{Preset, Topology};
     if args.sizes.is_empty() || args.sizes.contains(&0) {
         anyhow::bail!("--sizes needs platoon sizes of at least one follower, e.g. 2,4,6");
@@ -381,11 +373,7 @@ fn topologies(args: TopologiesArgs) -> Result<()> {
         );
     };
     let tau = base.control.tau_nominal;
-    let (lo, hi) = base
-        .taus
-        .iter()
-        .map(|t| t.range())
-        .fold((tau, tau), |(a, b), (x, y)| (a.min(x), b.max(y)));
+    let (lo, hi) = base.tau_range();
     let h_step = f64::from(base.control.h_steps) * base.dt();
     let out = args.out.unwrap_or_else(|| PathBuf::from("runs/topologies"));
     let dir = RunDir::create(&out, args.force)?;
@@ -407,8 +395,7 @@ fn topologies(args: TopologiesArgs) -> Result<()> {
         for &n in &args.sizes {
             bar.set_message(format!("{name} {n}"));
             let topology = Topology::preset(preset, n)?;
-            let hm = topology.h_matrix();
-            let h = DMatrix::from_fn(n, n, |i, j| hm[(i, j)]);
+            let h = topology.h_matrix();
             for (robust, taus) in [(false, vec![tau]), (true, vec![lo, hi])] {
                 let spec = platoon_synthesis::DesignSpec {
                     taus: taus.clone(),

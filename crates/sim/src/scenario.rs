@@ -114,6 +114,16 @@ impl Scenario {
         }
     }
 
+    /// The smallest and largest engine lag of any follower over the run, and the nominal one
+    /// (s): the range a robust design must cover.
+    pub fn tau_range(&self) -> (f64, f64) {
+        let tau = self.control.tau_nominal;
+        self.taus
+            .iter()
+            .map(|t| t.range())
+            .fold((tau, tau), |(a, b), (x, y)| (a.min(x), b.max(y)))
+    }
+
     /// Vehicles per platoon, N + 1.
     pub fn vehicles_per_platoon(&self) -> usize {
         self.topology.followers() + 1

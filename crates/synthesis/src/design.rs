@@ -5,10 +5,7 @@
 //! design stays implementable at the run's step (ERRATA items 16, 17). The returned gain is then
 //! certified by the exact Theorem-1 SDP of [`crate::theorem1_min_ratio`].
 use crate::lmi::{min_ratio, Certificate, Feasibility, LmiError, Plant3};
-use clarabel::algebra::CscMatrix;
-use clarabel::solver::{
-    DefaultSettingsBuilder, DefaultSolver, IPSolver, SolverStatus, SupportedConeT,
-};
+use crate::sdp::{dm, solve, sym_basis3, Lmi};
 use nalgebra::{DMatrix, Matrix3};
 
 /// What to design for.
@@ -39,22 +36,6 @@ pub struct Design {
     pub certificate: Certificate,
     /// SDPs solved.
     pub sdps: usize,
-}
-
-fn svec(m: &DMatrix<f64>) -> Vec<f64> {
-    let n = m.nrows();
-    let s2 = std::f64::consts::SQRT_2;
-    let mut v = Vec::with_capacity(n * (n + 1) / 2);
-    for j in 0..n {
-        for i in 0..=j {
-            v.push(if i == j { m[(i, j)] } else { s2 * m[(i, j)] });
-        }
-    }
-    v
-}
-
-fn dm(m: &Matrix3<f64>) -> DMatrix<f64> {
-    DMatrix::from_iterator(3, 3, m.iter().copied())
 }
 
 /// The linearised Remark-1 matrix for M, U (1x3) around M0.
@@ -100,8 +81,8 @@ fn remark1(
     out
 }
 
-/// One convex step: minimise t such that remark1(M, U; M0) <= t I, I <= M <= m_max I,
-/// |U| <= k_max. Returns (t, M, U).
+/// One convex step: minimise t such that remark1(M, U; M0) <= t I at every vertex,
+/// m_min I <= M <= m_max I, |U| <= k_max m_min, t >= -1. Returns (t, M, U).
 fn ccp_step(
     m0: &Matrix3<f64>,
     r: f64,
@@ -110,19 +91,10 @@ fn ccp_step(
     plants: &[Plant3],
 ) -> Result<(f64, Matrix3<f64>, [f64; 3]), LmiError> {
     let size = 9 * h.nrows();
-    let mut mb = Vec::new();
-    for a in 0..3 {
-        for b in a..3 {
-            let mut e = Matrix3::zeros();
-            e[(a, b)] = 1.0;
-            e[(b, a)] = 1.0;
-            mb.push(e);
-        }
-    }
+    let mb = sym_basis3();
     let zero3 = Matrix3::zeros();
-    // Variables: m (6), u (3), t. Per vertex: -(F0 + sum x_i F_i) in PSD.
-    let nvar = 10;
-    let mut blocks: Vec<(Vec<f64>, Vec<Vec<f64>>)> = Vec::new();
+    // Variables x = (M's 6 entries, U's 3, t).
+    let mut lmis = Vec::new();
     for plant in plants {
         let f0 = remark1(&zero3, &[0.0; 3], m0, r, spec.c, h, plant);
         let mut fi: Vec<DMatrix<f64>> = mb
@@ -134,104 +106,57 @@ fn ccp_step(
             u[j] = 1.0;
             fi.push(remark1(&zero3, &u, m0, r, spec.c, h, plant) - &f0);
         }
-        fi.push(DMatrix::<f64>::identity(size, size) * -1.0); // t: F(x) - t I <= 0
-        blocks.push((svec(&(-&f0)), fi.iter().map(svec).collect()));
+        fi.push(DMatrix::<f64>::identity(size, size) * -1.0); // F(x) - t I <= 0
+        lmis.push(Lmi::nsd(&f0, &fi));
     }
-    // Cone 2: M - I in PSD; cone 3: m_max I - M in PSD.
-    let m_max = 1e4;
-    let mcols = |sign: f64| -> Vec<Vec<f64>> {
-        (0..nvar)
+    let m_part = |sign: f64| -> Vec<DMatrix<f64>> {
+        (0..10)
             .map(|v| {
                 if v < 6 {
-                    svec(&(dm(&mb[v]) * -sign))
+                    dm(&mb[v]) * sign
                 } else {
-                    vec![0.0; 6]
+                    DMatrix::zeros(3, 3)
                 }
             })
             .collect()
     };
     let mu = spec.m_min;
-    blocks.push((svec(&(DMatrix::<f64>::identity(3, 3) * -mu)), mcols(1.0)));
-    blocks.push((svec(&(DMatrix::<f64>::identity(3, 3) * m_max)), mcols(-1.0)));
-    // Cone 4: [[k_max, U], [U^T, k_max I3]] in PSD  <=>  |U| <= k_max.
-    let g0 = DMatrix::<f64>::identity(4, 4) * (spec.k_max * mu);
-    let ucols: Vec<Vec<f64>> = (0..nvar)
+    // m_min I - M <= 0 and M - m_max I <= 0.
+    lmis.push(Lmi::nsd(
+        &(DMatrix::<f64>::identity(3, 3) * mu),
+        &m_part(-1.0),
+    ));
+    lmis.push(Lmi::nsd(
+        &(DMatrix::<f64>::identity(3, 3) * -1e4),
+        &m_part(1.0),
+    ));
+    // [[k_max mu, U], [U^T, k_max mu I3]] >= 0  <=>  |U| <= k_max mu.
+    let gu: Vec<DMatrix<f64>> = (0..10)
         .map(|v| {
             let mut g = DMatrix::<f64>::zeros(4, 4);
             if (6..9).contains(&v) {
                 g[(0, v - 5)] = -1.0;
                 g[(v - 5, 0)] = -1.0;
             }
-            svec(&g)
+            g
         })
         .collect();
-    blocks.push((svec(&g0), ucols));
-
-    let mut colptr = vec![0];
-    let (mut rowval, mut nzval) = (Vec::new(), Vec::new());
-    for j in 0..nvar {
-        let mut offset = 0usize;
-        for (b, cols) in &blocks {
-            for (i, &v) in cols[j].iter().enumerate() {
-                if v != 0.0 {
-                    rowval.push(offset + i);
-                    nzval.push(v);
-                }
-            }
-            offset += b.len();
-        }
-        colptr.push(rowval.len());
-    }
-    let rows: usize = blocks.iter().map(|(b, _)| b.len()).sum();
-    let a = CscMatrix::new(rows, nvar, colptr, rowval, nzval);
-    let b: Vec<f64> = blocks.iter().flat_map(|(b, _)| b.clone()).collect();
-    let mut cost = vec![0.0; nvar];
-    cost[nvar - 1] = 1.0;
-    // Keep t bounded below: t >= -1 (a margin of 1 is plenty).
-    let mut cones: Vec<SupportedConeT<f64>> = plants
-        .iter()
-        .map(|_| SupportedConeT::PSDTriangleConeT(size))
-        .collect();
-    cones.extend([
-        SupportedConeT::PSDTriangleConeT(3),
-        SupportedConeT::PSDTriangleConeT(3),
-        SupportedConeT::PSDTriangleConeT(4),
-        SupportedConeT::NonnegativeConeT(1),
-    ]);
-    // t + 1 >= 0  <=>  s = 1 - (-1) t ... as A x + s = b: row with A = -1 at t, b = 1.
-    let mut a = a;
-    let mut b = b;
-    {
-        let mut colptr = a.colptr.clone();
-        let mut rowval = a.rowval.clone();
-        let mut nzval = a.nzval.clone();
-        // Append one row (index `rows`) with -1 in the last column.
-        let last = nvar - 1;
-        rowval.insert(colptr[last + 1], rows);
-        nzval.insert(colptr[last + 1], -1.0);
-        colptr[last + 1] += 1;
-        a = CscMatrix::new(rows + 1, nvar, colptr, rowval, nzval);
-        b.push(1.0);
-    }
-    let q = CscMatrix::zeros((nvar, nvar));
-    let settings = DefaultSettingsBuilder::default()
-        .verbose(false)
-        .max_iter(500)
-        .build()
-        .map_err(|e| LmiError::Solver(e.to_string()))?;
-    let mut solver = DefaultSolver::new(&q, &cost, &a, &b, &cones, settings)
-        .map_err(|e| LmiError::Solver(format!("{e:?}")))?;
-    solver.solve();
-    match solver.solution.status {
-        SolverStatus::Solved | SolverStatus::AlmostSolved => {}
-        other => return Err(LmiError::Solver(format!("{other:?}"))),
-    }
-    let x = &solver.solution.x;
+    lmis.push(Lmi::nsd(
+        &(DMatrix::<f64>::identity(4, 4) * -(spec.k_max * mu)),
+        &gu,
+    ));
+    // t >= -1 keeps the problem bounded: -t <= 1.
+    let mut row = vec![0.0; 10];
+    row[9] = -1.0;
+    let mut cost = vec![0.0; 10];
+    cost[9] = 1.0;
+    let x = solve(&lmis, &[(row, 1.0)], &cost)?
+        .ok_or_else(|| LmiError::Solver("the convex step is infeasible".into()))?;
     let mut m = Matrix3::zeros();
-    for (e, &v) in mb.iter().zip(x) {
+    for (e, &v) in mb.iter().zip(&x) {
         m += e * v;
     }
-    Ok((x[nvar - 1], m, [x[6], x[7], x[8]]))
+    Ok((x[9], m, [x[6], x[7], x[8]]))
 }
 
 /// M and U of Remark 1.

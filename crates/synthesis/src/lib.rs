@@ -15,6 +15,7 @@
 
 mod design;
 mod lmi;
+mod sdp;
 
 pub use design::{design_theorem1, Design, DesignSpec};
 

@@ -1,8 +1,5 @@
 //! LMI (13) of Theorem 1, its SDP on clarabel, and certificates.
-use clarabel::algebra::CscMatrix;
-use clarabel::solver::{
-    DefaultSettingsBuilder, DefaultSolver, IPSolver, SolverStatus, SupportedConeT,
-};
+use crate::sdp::{dm, solve, sym_basis3, Lmi};
 use nalgebra::{DMatrix, Matrix3, RowVector3, Vector3};
 use serde::{Deserialize, Serialize};
 
@@ -182,34 +179,6 @@ impl Certificate {
     }
 }
 
-/// Column-major upper triangle of a symmetric matrix, off-diagonals scaled by sqrt(2): clarabel's
-/// PSD triangle format.
-fn svec(m: &DMatrix<f64>) -> Vec<f64> {
-    let n = m.nrows();
-    let s2 = std::f64::consts::SQRT_2;
-    let mut v = Vec::with_capacity(n * (n + 1) / 2);
-    for j in 0..n {
-        for i in 0..=j {
-            v.push(if i == j { m[(i, j)] } else { s2 * m[(i, j)] });
-        }
-    }
-    v
-}
-
-/// The symmetric basis of P: E_ab.
-fn p_basis() -> Vec<Matrix3<f64>> {
-    let mut out = Vec::new();
-    for a in 0..3 {
-        for b in a..3 {
-            let mut e = Matrix3::zeros();
-            e[(a, b)] = 1.0;
-            e[(b, a)] = 1.0;
-            out.push(e);
-        }
-    }
-    out
-}
-
 /// The outcome of a Theorem-1 SDP.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Feasibility {
@@ -253,77 +222,34 @@ pub fn min_ratio(
     let kr = RowVector3::from(k);
     let n = h.nrows();
     let size = 9 * n;
-    let basis = p_basis();
-    // Per tau: Psi(x) = F0 + sum_i x_i F_i with x = (P's 6 entries, r);
-    // cone: -Psi(x) - delta I in PSD  <=>  s = svec(-F0 - delta I) - sum x_i svec(F_i).
-    let mut blocks: Vec<(Vec<f64>, Vec<Vec<f64>>)> = Vec::new();
+    let basis = sym_basis3();
+    // Variables x = (P's 6 entries, r). Per tau: Psi(x) + delta I <= 0.
+    let mut lmis = Vec::new();
     for &tau in taus {
         let plant = Plant3::new(tau);
-        let f0 = psi_theorem1(&Matrix3::zeros(), 0.0, c, &kr, h, &plant);
+        let psi0 = psi_theorem1(&Matrix3::zeros(), 0.0, c, &kr, h, &plant);
         let mut fi: Vec<DMatrix<f64>> = basis
             .iter()
-            .map(|e| psi_theorem1(e, 0.0, c, &kr, h, &plant) - &f0)
+            .map(|e| psi_theorem1(e, 0.0, c, &kr, h, &plant) - &psi0)
             .collect();
-        fi.push(psi_theorem1(&Matrix3::zeros(), 1.0, c, &kr, h, &plant) - &f0);
-        blocks.push((
-            svec(&(-&f0 - DMatrix::<f64>::identity(size, size) * delta)),
-            fi.iter().map(svec).collect(),
+        fi.push(psi_theorem1(&Matrix3::zeros(), 1.0, c, &kr, h, &plant) - &psi0);
+        lmis.push(Lmi::nsd(
+            &(psi0 + DMatrix::<f64>::identity(size, size) * delta),
+            &fi,
         ));
     }
+    // P >= delta I:  delta I - P <= 0.
+    let mut fp: Vec<DMatrix<f64>> = basis.iter().map(|e| -dm(e)).collect();
+    fp.push(DMatrix::zeros(3, 3));
+    lmis.push(Lmi::nsd(&(DMatrix::<f64>::identity(3, 3) * delta), &fp));
     let nvar = basis.len() + 1;
-    // P - delta I in PSD  <=>  s = svec(-delta I) + sum x_i svec(E_i).
-    blocks.push((
-        svec(&(DMatrix::<f64>::identity(3, 3) * -delta)),
-        basis
-            .iter()
-            .map(|e| svec(&DMatrix::from_iterator(3, 3, e.iter().map(|x| -x))))
-            .chain(std::iter::once(vec![0.0; 6]))
-            .collect(),
-    ));
-    let mut colptr = vec![0];
-    let (mut rowval, mut nzval) = (Vec::new(), Vec::new());
-    for j in 0..nvar {
-        let mut offset = 0;
-        for (b, cols) in &blocks {
-            for (i, &v) in cols[j].iter().enumerate() {
-                if v != 0.0 {
-                    rowval.push(offset + i);
-                    nzval.push(v);
-                }
-            }
-            offset += b.len();
-        }
-        colptr.push(rowval.len());
-    }
-    let rows: usize = blocks.iter().map(|(b, _)| b.len()).sum();
-    let a = CscMatrix::new(rows, nvar, colptr, rowval, nzval);
-    let b: Vec<f64> = blocks.iter().flat_map(|(b, _)| b.clone()).collect();
-    let q = CscMatrix::zeros((nvar, nvar));
     let mut cost = vec![0.0; nvar];
     cost[nvar - 1] = 1.0; // minimise r
-    let mut cones: Vec<SupportedConeT<f64>> = taus
-        .iter()
-        .map(|_| SupportedConeT::PSDTriangleConeT(size))
-        .collect();
-    cones.push(SupportedConeT::PSDTriangleConeT(3));
-    let settings = DefaultSettingsBuilder::default()
-        .verbose(false)
-        .max_iter(500)
-        .build()
-        .map_err(|e| LmiError::Solver(e.to_string()))?;
-    let mut solver = DefaultSolver::new(&q, &cost, &a, &b, &cones, settings)
-        .map_err(|e| LmiError::Solver(format!("{e:?}")))?;
-    solver.solve();
-    match solver.solution.status {
-        SolverStatus::Solved | SolverStatus::AlmostSolved => {}
-        SolverStatus::PrimalInfeasible | SolverStatus::AlmostPrimalInfeasible => {
-            return Ok(Feasibility::Infeasible)
-        }
-        other => return Err(LmiError::Solver(format!("{other:?}"))),
-    }
-    let x = &solver.solution.x;
+    let Some(x) = solve(&lmis, &[], &cost)? else {
+        return Ok(Feasibility::Infeasible);
+    };
     let mut p = Matrix3::zeros();
-    for (e, &v) in basis.iter().zip(x) {
+    for (e, &v) in basis.iter().zip(&x) {
         p += e * v;
     }
     let mut pm = [[0.0; 3]; 3];

@@ -1,0 +1,119 @@
+//! The little SDP layer both the analysis and the synthesis use: linear matrix inequalities
+//! `F0 + sum_i x_i F_i <= 0` as clarabel PSD-cone rows, scalar rows `a x <= b`, and a solve.
+use crate::lmi::LmiError;
+use clarabel::algebra::CscMatrix;
+use clarabel::solver::{
+    DefaultSettingsBuilder, DefaultSolver, IPSolver, SolverStatus, SupportedConeT,
+};
+use nalgebra::{DMatrix, Matrix3};
+
+/// Column-major upper triangle of a symmetric matrix, off-diagonals scaled by sqrt(2): clarabel's
+/// PSD triangle format.
+pub(crate) fn svec(m: &DMatrix<f64>) -> Vec<f64> {
+    let n = m.nrows();
+    let s2 = std::f64::consts::SQRT_2;
+    let mut v = Vec::with_capacity(n * (n + 1) / 2);
+    for j in 0..n {
+        for i in 0..=j {
+            v.push(if i == j { m[(i, j)] } else { s2 * m[(i, j)] });
+        }
+    }
+    v
+}
+
+/// The symmetric basis of a 3x3 matrix: E_ab = e_a e_b^T + e_b e_a^T (a < b), e_a e_a^T.
+pub(crate) fn sym_basis3() -> Vec<Matrix3<f64>> {
+    let mut out = Vec::new();
+    for a in 0..3 {
+        for b in a..3 {
+            let mut e = Matrix3::zeros();
+            e[(a, b)] = 1.0;
+            e[(b, a)] = 1.0;
+            out.push(e);
+        }
+    }
+    out
+}
+
+/// A 3x3 as a dynamic matrix.
+pub(crate) fn dm(m: &Matrix3<f64>) -> DMatrix<f64> {
+    DMatrix::from_iterator(3, 3, m.iter().copied())
+}
+
+/// One constraint `F0 + sum_i x_i F_i <= 0` (negative semidefinite).
+pub(crate) struct Lmi {
+    size: usize,
+    b: Vec<f64>,
+    cols: Vec<Vec<f64>>,
+}
+
+impl Lmi {
+    /// `f0 + sum_i x_i fi[i] <= 0`; `fi` has one matrix per variable.
+    pub(crate) fn nsd(f0: &DMatrix<f64>, fi: &[DMatrix<f64>]) -> Self {
+        // clarabel: A x + s = b with s in the PSD cone; s = -F(x) = svec(-F0) - sum x_i svec(F_i).
+        Self {
+            size: f0.nrows(),
+            b: svec(&-f0),
+            cols: fi.iter().map(svec).collect(),
+        }
+    }
+}
+
+/// Minimises `cost . x` subject to the LMIs and the scalar rows `row . x <= b`. `Ok(None)`:
+/// primal infeasible.
+pub(crate) fn solve(
+    lmis: &[Lmi],
+    rows: &[(Vec<f64>, f64)],
+    cost: &[f64],
+) -> Result<Option<Vec<f64>>, LmiError> {
+    let nvar = cost.len();
+    let mut colptr = vec![0];
+    let (mut rowval, mut nzval) = (Vec::new(), Vec::new());
+    for j in 0..nvar {
+        let mut offset = 0;
+        for l in lmis {
+            for (i, &v) in l.cols[j].iter().enumerate() {
+                if v != 0.0 {
+                    rowval.push(offset + i);
+                    nzval.push(v);
+                }
+            }
+            offset += l.b.len();
+        }
+        for (i, (row, _)) in rows.iter().enumerate() {
+            if row[j] != 0.0 {
+                rowval.push(offset + i);
+                nzval.push(row[j]);
+            }
+        }
+        colptr.push(rowval.len());
+    }
+    let m = lmis.iter().map(|l| l.b.len()).sum::<usize>() + rows.len();
+    let a = CscMatrix::new(m, nvar, colptr, rowval, nzval);
+    let b: Vec<f64> = lmis
+        .iter()
+        .flat_map(|l| l.b.iter().copied())
+        .chain(rows.iter().map(|(_, b)| *b))
+        .collect();
+    let mut cones: Vec<SupportedConeT<f64>> = lmis
+        .iter()
+        .map(|l| SupportedConeT::PSDTriangleConeT(l.size))
+        .collect();
+    if !rows.is_empty() {
+        cones.push(SupportedConeT::NonnegativeConeT(rows.len()));
+    }
+    let q = CscMatrix::zeros((nvar, nvar));
+    let settings = DefaultSettingsBuilder::default()
+        .verbose(false)
+        .max_iter(500)
+        .build()
+        .map_err(|e| LmiError::Solver(e.to_string()))?;
+    let mut solver = DefaultSolver::new(&q, cost, &a, &b, &cones, settings)
+        .map_err(|e| LmiError::Solver(format!("{e:?}")))?;
+    solver.solve();
+    match solver.solution.status {
+        SolverStatus::Solved | SolverStatus::AlmostSolved => Ok(Some(solver.solution.x.clone())),
+        SolverStatus::PrimalInfeasible | SolverStatus::AlmostPrimalInfeasible => Ok(None),
+        other => Err(LmiError::Solver(format!("{other:?}"))),
+    }
+}
