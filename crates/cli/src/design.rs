@@ -7,7 +7,7 @@ use platoon_synthesis::{
 };
 use std::path::PathBuf;
 
-/// LMI design and checks (Theorem 1 of the paper, read as ERRATA.md items 8, 14-21 say).
+/// LMI design and checks (Theorems 1 and 2 of the paper, read as ERRATA.md items 8, 14-21 say).
 #[derive(Debug, clap::Subcommand)]
 pub enum Design {
     /// Evaluate a gain K on a scenario's topology: closed-loop eigenvalues over the tau range,
@@ -23,10 +23,12 @@ pub enum Design {
     },
     /// The DoS bounds (16): T2 > (2 ln phi + (s1 + s2) h) / s*, D2 > (s1 + s2) / (s1 - s*).
     Bounds(BoundsArgs),
-    /// Design K and beta1/beta2 for Theorem 1 on a scenario's topology (Remark 1 with its
-    /// non-convex block linearised, a convex-concave procedure, bisection on beta1/beta2, and
-    /// |K| <= --k-max so the gain stays usable at the run's step). The gain is then certified by
-    /// the exact Theorem-1 SDP. Writes certificate.json; `platoon run --design` uses it.
+    /// Design K and beta1/beta2 for Theorem 1 (or 2, robust) on a scenario's topology (Remark 1
+    /// with its non-convex block linearised, a convex-concave procedure, bisection on
+    /// beta1/beta2, and |K| <= --k-max so the gain stays usable at the run's step). The gain is
+    /// then certified by the exact SDP. Writes certificate.json (which `platoon run --design`
+    /// uses), certificate-max-decay.json and design.json (decay rates, DoS bounds (16) and the
+    /// verdict on the config's attack schedule). An infeasible request writes nothing.
     Synthesize(SynthesizeArgs),
 }
 

@@ -44,10 +44,11 @@ enum Command {
     /// Reproduce an experiment of the paper's Section IV.
     #[command(subcommand)]
     Experiment(experiment::Experiment),
-    /// LMI checks of a controller gain (Theorem 1), certificates, and the DoS bounds (16).
+    /// LMI design: check or synthesise a gain for Theorem 1 or 2, re-check certificates, and
+    /// the DoS bounds (16).
     #[command(subcommand)]
     Design(design::Design),
-    /// Measure what the co-simulation costs on this machine (see BENCHMARKS in the README).
+    /// Measure what the co-simulation costs on this machine (`bench all` writes BENCHMARKS.md).
     #[command(subcommand)]
     Bench(bench::Bench),
     /// One process of an iceoryx2 run (started by `platoon run`, not by hand).
