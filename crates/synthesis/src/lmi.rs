@@ -12,6 +12,9 @@ pub enum LmiError {
     /// The solver failed (numerical trouble, iteration limit).
     #[error("the SDP solver stopped with status {0}")]
     Solver(String),
+    /// This build has no SDP solver (the system OpenBLAS was missing when it was built).
+    #[error("this build of platoon has no SDP solver: install OpenBLAS (Debian: apt-get install libopenblas-dev; .ci/run does it) and rebuild")]
+    NoSolver,
     /// The solver reported a solution that fails the independent re-check (at the edge of
     /// feasibility): not a certificate.
     #[error("the solver's answer fails the independent re-check (largest eigenvalue {0:.3e})")]

@@ -1,10 +1,6 @@
 //! The little SDP layer both the analysis and the synthesis use: linear matrix inequalities
 //! `F0 + sum_i x_i F_i <= 0` as clarabel PSD-cone rows, scalar rows `a x <= b`, and a solve.
 use crate::lmi::LmiError;
-use clarabel::algebra::CscMatrix;
-use clarabel::solver::{
-    DefaultSettingsBuilder, DefaultSolver, IPSolver, SolverStatus, SupportedConeT,
-};
 use nalgebra::{DMatrix, Matrix3};
 
 /// Column-major upper triangle of a symmetric matrix, off-diagonals scaled by sqrt(2): clarabel's
@@ -41,6 +37,7 @@ pub(crate) fn dm(m: &Matrix3<f64>) -> DMatrix<f64> {
 }
 
 /// One constraint `F0 + sum_i x_i F_i <= 0` (negative semidefinite).
+#[cfg_attr(not(sdp_solver), allow(dead_code))]
 pub(crate) struct Lmi {
     size: usize,
     b: Vec<f64>,
@@ -59,13 +56,28 @@ impl Lmi {
     }
 }
 
+/// Without the system OpenBLAS there is no SDP solver (see build.rs): say what to install.
+#[cfg(not(sdp_solver))]
+pub(crate) fn solve(
+    _lmis: &[Lmi],
+    _rows: &[(Vec<f64>, f64)],
+    _cost: &[f64],
+) -> Result<Option<Vec<f64>>, LmiError> {
+    Err(LmiError::NoSolver)
+}
+
 /// Minimises `cost . x` subject to the LMIs and the scalar rows `row . x <= b`. `Ok(None)`:
 /// primal infeasible.
+#[cfg(sdp_solver)]
 pub(crate) fn solve(
     lmis: &[Lmi],
     rows: &[(Vec<f64>, f64)],
     cost: &[f64],
 ) -> Result<Option<Vec<f64>>, LmiError> {
+    use clarabel::algebra::CscMatrix;
+    use clarabel::solver::{
+        DefaultSettingsBuilder, DefaultSolver, IPSolver, SolverStatus, SupportedConeT,
+    };
     let nvar = cost.len();
     let mut colptr = vec![0];
     let (mut rowval, mut nzval) = (Vec::new(), Vec::new());
