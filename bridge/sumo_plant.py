@@ -12,6 +12,7 @@ sumo.json (SUMO version, per-step costs, collisions) into the run directory.
 import ctypes
 import json
 import os
+import random
 import struct
 import statistics
 import sys
@@ -55,6 +56,27 @@ def write_routes(path, spec):
             f'departLane="{lane}" departPos="{p + s["offset_m"]!r}" departSpeed="{v!r}" '
             'insertionChecks="none"/>'
         )
+    # Background traffic: SUMO's own model (Krauss) without lane changes, on the free lanes,
+    # spread evenly along the road with seeded jitter and speeds (Python's Mersenne Twister:
+    # the same seed gives the same traffic).
+    nb = int(s.get("background_vehicles", 0))
+    if nb:
+        rng = random.Random(int(s["background_seed"]))
+        free = s["background_lanes"]
+        lines.insert(
+            3,
+            '    <vType id="background" length="4.5" minGap="2.5" maxSpeed="36" '
+            'lcStrategic="0" lcCooperative="0" lcSpeedGain="0" lcKeepRight="0"/>',
+        )
+        per_lane = -(-nb // len(free))
+        for b in range(nb):
+            lane, length = free[b % len(free)]
+            slot = (length - 100.0) / per_lane
+            pos = 50.0 + (b // len(free)) * slot + rng.uniform(0.0, 0.3 * slot)
+            lines.append(
+                f'    <vehicle id="bg{b}" type="background" route="road" depart="0" '
+                f'departLane="{lane}" departPos="{pos!r}" departSpeed="{rng.uniform(20.0, 30.0)!r}"/>'
+            )
     lines.append("</routes>")
     with open(path, "w") as f:
         f.write("\n".join(lines) + "\n")

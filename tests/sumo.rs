@@ -392,3 +392,60 @@ fn sumo_removing_a_crashed_vehicle_stops_the_run_naming_sumo_and_the_step() {
     let s = json(&tmp.path().join("r/summary.json"));
     assert_eq!(s["complete"], false);
 }
+
+#[test]
+fn seeded_background_traffic_drives_beside_the_platoon_without_touching_it() {
+    let tmp = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(repo().join("configs/sumo-paper.toml")).unwrap();
+    let with = tmp.path().join("bg.toml");
+    std::fs::write(
+        &with,
+        text.replace(
+            "tolerance_m = 1e-6",
+            "tolerance_m = 1e-6\nbackground_vehicles = 30\nbackground_seed = 5",
+        )
+        .replace("duration_s = 55.0", "duration_s = 10.0"),
+    )
+    .unwrap();
+    let without = tmp.path().join("plain.toml");
+    std::fs::write(
+        &without,
+        text.replace("duration_s = 55.0", "duration_s = 10.0"),
+    )
+    .unwrap();
+    for (c, out) in [(&with, "bg"), (&without, "plain")] {
+        ok(&platoon(
+            &["run", c.to_str().unwrap(), "--out", out, "--no-plots"],
+            tmp.path(),
+        ));
+    }
+    let fcd = std::fs::read_to_string(tmp.path().join("bg/fcd.xml")).unwrap();
+    let doc = roxmltree::Document::parse(&fcd).unwrap();
+    let mut bg: Vec<&str> = doc
+        .descendants()
+        .filter(|n| n.has_tag_name("vehicle"))
+        .filter_map(|n| n.attribute("id"))
+        .filter(|id| id.starts_with("bg"))
+        .collect();
+    bg.sort_unstable();
+    bg.dedup();
+    assert_eq!(bg.len(), 30);
+    // The platoon (speed mode 0, its own lane) is not affected at all.
+    assert!(
+        std::fs::read(tmp.path().join("bg/trajectories.csv")).unwrap()
+            == std::fs::read(tmp.path().join("plain/trajectories.csv")).unwrap()
+    );
+    // No free lane for it: a config error.
+    let full = tmp.path().join("full.toml");
+    std::fs::write(
+        &full,
+        text.replace(
+            "tolerance_m = 1e-6",
+            "tolerance_m = 1e-6\nbackground_vehicles = 3",
+        ) + "\n[fleet]\nplatoons = 3\nlanes = [0, 1, 2]\ngap_m = 100.0\n",
+    )
+    .unwrap();
+    let o = platoon(&["run", full.to_str().unwrap(), "--out", "x"], tmp.path());
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("sumo.background_vehicles"));
+}

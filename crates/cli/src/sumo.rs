@@ -63,6 +63,9 @@ struct SumoSpec<'a> {
     states: &'a str,
     tolerance_m: f64,
     fcd_period_s: f64,
+    background_vehicles: usize,
+    background_seed: u64,
+    background_lanes: Vec<(u32, f64)>,
     routes: String,
     fcd: String,
     report: String,
@@ -85,6 +88,7 @@ pub struct SumoPlan<'a> {
     net: PathBuf,
     offset: f64,
     length: f64,
+    free_lanes: Vec<(u32, f64)>,
 }
 
 /// Checks the network, lane and that the platoon stays on the road for the whole run (from the
@@ -120,22 +124,54 @@ pub fn plan<'a>(
             format!("{} is not a SUMO network: {e}", net.display()),
         )
     })?;
-    let lane_id = format!("{}_{}", s.edge, s.lane);
-    let lane_length: f64 = doc
+    // Every lane of the edge: index -> length.
+    let prefix = format!("{}_", s.edge);
+    let lanes: Vec<(u32, f64)> = doc
         .descendants()
-        .find(|n| n.has_tag_name("lane") && n.attribute("id") == Some(lane_id.as_str()))
-        .and_then(|n| n.attribute("length"))
-        .and_then(|l| l.parse().ok())
-        .ok_or_else(|| {
-            config_error(
+        .filter(|n| n.has_tag_name("lane"))
+        .filter_map(|n| {
+            let index = n.attribute("id")?.strip_prefix(&prefix)?.parse().ok()?;
+            Some((index, n.attribute("length")?.parse().ok()?))
+        })
+        .collect();
+    let mut lane_length = f64::INFINITY;
+    let mut lane_id = String::new();
+    for &lane in &scenario.fleet.lanes {
+        let Some(&(_, length)) = lanes.iter().find(|(i, _)| *i == lane) else {
+            return Err(config_error(
                 config_file,
-                "sumo.lane",
+                if scenario.fleet.platoons > 1 {
+                    "fleet.lanes"
+                } else {
+                    "sumo.lane"
+                },
                 format!(
-                    "{} has no lane {lane_id} (edge `sumo.edge`, index `sumo.lane`)",
-                    net.display()
+                    "{} has no lane {}{lane} (edge `sumo.edge`; its lanes are {:?})",
+                    net.display(),
+                    prefix,
+                    lanes.iter().map(|(i, _)| *i).collect::<Vec<_>>()
                 ),
-            )
-        })?;
+            ));
+        };
+        if length < lane_length {
+            (lane_length, lane_id) = (length, format!("{prefix}{lane}"));
+        }
+    }
+    let free_lanes: Vec<(u32, f64)> = lanes
+        .iter()
+        .copied()
+        .filter(|(i, _)| !scenario.fleet.lanes.contains(i))
+        .collect();
+    if s.background_vehicles > 0 && free_lanes.is_empty() {
+        return Err(config_error(
+            config_file,
+            "sumo.background_vehicles",
+            format!(
+                "background traffic drives on the lanes no platoon uses, and edge {} has none free",
+                s.edge
+            ),
+        ));
+    }
 
     // Where the platoon goes: the native run predicts SUMO's to 1e-9 m.
     let rear0 = scenario
@@ -196,6 +232,7 @@ pub fn plan<'a>(
         net,
         offset,
         length,
+        free_lanes,
     })
 }
 
@@ -218,6 +255,9 @@ impl SumoPlan<'_> {
                 states: &s.states,
                 tolerance_m: s.tolerance_m,
                 fcd_period_s: s.fcd_period_s.unwrap_or(self.scenario.dt()),
+                background_vehicles: s.background_vehicles,
+                background_seed: s.background_seed,
+                background_lanes: self.free_lanes.clone(),
                 routes: path("routes.rou.xml")?,
                 fcd: path("fcd.xml")?,
                 report: path("sumo.json")?,

@@ -105,6 +105,13 @@ pub struct Sumo {
     /// writes no FCD output [every step].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub fcd_period_s: Option<f64>,
+    /// Background traffic: vehicles of SUMO's own car-following model on the lanes no platoon
+    /// uses, spread along the road with seeded speeds [0: none].
+    #[serde(default)]
+    pub background_vehicles: usize,
+    /// Seed of the background traffic's speeds and spacing.
+    #[serde(default)]
+    pub background_seed: u64,
     /// How far SUMO may deviate from the vehicle model before the run stops (m and m/s; in
     /// `states = "sumo"` mode over one step, in `model` mode accumulated over the run).
     #[serde(default = "tolerance")]
@@ -128,6 +135,8 @@ impl Default for Sumo {
             collision_action: warn(),
             states: sumo_states(),
             fcd_period_s: None,
+            background_vehicles: 0,
+            background_seed: 0,
             tolerance_m: tolerance(),
         }
     }
