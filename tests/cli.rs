@@ -1,23 +1,8 @@
 //! The `platoon` binary end to end: outputs, determinism, atomic run directories, exit codes.
+mod common;
+
+use common::{platoon, repo};
 use std::path::Path;
-use std::process::{Command, Output};
-
-fn platoon(args: &[&str], cwd: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_platoon"))
-        .args(args)
-        // Tests run side by side on two cores: a starved process is not a stalled one.
-        .env("PLATOON_STEP_TIMEOUT", "20")
-        .current_dir(cwd)
-        .output()
-        .unwrap()
-}
-
-fn repo() -> std::path::PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../..")
-        .canonicalize()
-        .unwrap()
-}
 
 const RUN_FILES: [&str; 6] = [
     "config.toml",

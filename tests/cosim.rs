@@ -1,37 +1,12 @@
 //! The iceoryx2 co-simulation end to end: it matches the in-process oracle bit for bit, a
 //! Python injector can take the built-in one's place, and a dead or silent process stops the run
 //! with its name, keeps what was recorded, and leaves nothing running.
+mod common;
+
+use common::{json, ok, platoon, platoon_command, repo};
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Output, Stdio};
+use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
-
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../..")
-        .canonicalize()
-        .unwrap()
-}
-
-/// The tests run many co-simulations at once on two cores: a generous step timeout keeps a
-/// starved (not stalled) process from being reported; the stall test sets its own.
-const STEP_TIMEOUT: (&str, &str) = ("PLATOON_STEP_TIMEOUT", "20");
-
-fn platoon(args: &[&str], cwd: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_platoon"))
-        .args(args)
-        .env(STEP_TIMEOUT.0, STEP_TIMEOUT.1)
-        .current_dir(cwd)
-        .output()
-        .unwrap()
-}
-
-fn ok(o: &Output) {
-    assert!(
-        o.status.success(),
-        "platoon failed:\n{}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-}
 
 /// The bridge's Python (creating the venv on first use, as .ci/run does).
 fn python() -> String {
@@ -61,7 +36,7 @@ const COMPARED: [&str; 4] = [
 ];
 
 fn summary(run: &Path) -> serde_json::Value {
-    serde_json::from_str(&std::fs::read_to_string(run.join("summary.json")).unwrap()).unwrap()
+    json(&run.join("summary.json"))
 }
 
 fn same_outputs(a: &Path, b: &Path, files: &[&str]) {
@@ -272,10 +247,8 @@ fn two_concurrent_runs_do_not_see_each_other() {
     let tmp = tempfile::tempdir().unwrap();
     let c = repo().join("configs/paper.toml");
     let spawn = |out: &str| {
-        Command::new(env!("CARGO_BIN_EXE_platoon"))
+        platoon_command(tmp.path())
             .args(["run", c.to_str().unwrap(), "--out", out, "--no-plots"])
-            .env(STEP_TIMEOUT.0, STEP_TIMEOUT.1)
-            .current_dir(tmp.path())
             .stdout(Stdio::null())
             .stderr(Stdio::piped())
             .spawn()
@@ -320,10 +293,8 @@ fn start_long_run(dir: &Path, extra: &[&str]) -> (Child, PathBuf) {
         "--no-plots",
     ];
     args.extend_from_slice(extra);
-    let child = Command::new(env!("CARGO_BIN_EXE_platoon"))
+    let child = platoon_command(dir)
         .args(&args)
-        .env(STEP_TIMEOUT.0, STEP_TIMEOUT.1)
-        .current_dir(dir)
         .stdout(Stdio::null())
         .stderr(Stdio::piped())
         .spawn()

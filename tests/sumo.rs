@@ -1,37 +1,11 @@
 //! SUMO as the plant, for real (libsumo through bridge/sumo_plant.py; the test sets the bridge's
 //! Python up if it is missing): agreement with the native plant, FCD output, collisions, faults.
+mod common;
+
+use common::{json, ok, platoon, platoon_command, repo};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
-
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../..")
-        .canonicalize()
-        .unwrap()
-}
-
-fn platoon(args: &[&str], cwd: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_platoon"))
-        .args(args)
-        .current_dir(cwd)
-        // Tests run side by side on two cores: a starved process is not a stalled one.
-        .env("PLATOON_STEP_TIMEOUT", "20")
-        .output()
-        .unwrap()
-}
-
-fn ok(o: &Output) {
-    assert!(
-        o.status.success(),
-        "platoon failed:\n{}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-}
-
-fn json(path: &Path) -> serde_json::Value {
-    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
-}
 
 fn trajectories(run: &Path) -> Vec<Vec<String>> {
     std::fs::read_to_string(run.join("trajectories.csv"))
@@ -234,10 +208,8 @@ fn killing_the_sumo_bridge_stops_the_run_and_names_the_plant() {
                 .unwrap(),
         );
     std::fs::write(&c, long).unwrap();
-    let child = Command::new(env!("CARGO_BIN_EXE_platoon"))
+    let child = platoon_command(tmp.path())
         .args(["run", c.to_str().unwrap(), "--out", "r", "--no-plots"])
-        .current_dir(tmp.path())
-        .env("PLATOON_STEP_TIMEOUT", "20")
         .stdout(Stdio::null())
         .stderr(Stdio::piped())
         .spawn()

@@ -221,25 +221,7 @@ impl Channel {
         jammed: &mut [bool],
         log: &mut Vec<ChannelEvent>,
     ) {
-        let logged = log.len();
-        self.gate_inner(k, t, topology, states, tx, out, jammed, log);
-        for e in &mut log[logged..] {
-            e.platoon = self.spec.platoon;
-        }
-    }
-
-    #[allow(clippy::too_many_arguments)]
-    fn gate_inner(
-        &mut self,
-        k: u64,
-        t: f64,
-        topology: &Topology,
-        states: &[State],
-        tx: &[Packet],
-        out: &mut Vec<Delivery>,
-        jammed: &mut [bool],
-        log: &mut Vec<ChannelEvent>,
-    ) {
+        let at = (k, self.spec.platoon);
         let dos = self.spec.dos.is_active(t);
         jammed.fill(dos);
         for a in &self.spec.attacks {
@@ -259,17 +241,23 @@ impl Channel {
         }
         while self.in_flight.front().is_some_and(|(due, _)| *due <= k) {
             let (_, d) = self.in_flight.pop_front().expect("checked non-empty");
-            log.push(event(k, &d.packet, d.receiver, Action::DeliveredLate, None));
+            log.push(event(
+                at,
+                &d.packet,
+                d.receiver,
+                Action::DeliveredLate,
+                None,
+            ));
             out.push(d);
         }
         for sent in tx {
             for &receiver in topology.out_neighbours(sent.sender) {
                 if dos {
-                    log.push(event(k, sent, receiver, Action::DroppedDos, None));
+                    log.push(event(at, sent, receiver, Action::DroppedDos, None));
                     continue;
                 }
                 if jammed[sent.sender.index()] || jammed[receiver.index()] {
-                    log.push(event(k, sent, receiver, Action::DroppedJammed, None));
+                    log.push(event(at, sent, receiver, Action::DroppedJammed, None));
                     continue;
                 }
                 self.link(k, t, *sent, receiver, out, log);
@@ -295,6 +283,7 @@ impl Channel {
         out: &mut Vec<Delivery>,
         log: &mut Vec<ChannelEvent>,
     ) {
+        let at = (k, self.spec.platoon);
         let link = packet.sender.index() * self.vehicles + receiver.index();
         for a in &self.spec.attacks {
             if !a.active(t) || !a.targets(packet.sender, receiver) {
@@ -303,7 +292,7 @@ impl Channel {
             match a.kind {
                 LinkAttackKind::Bernoulli { loss } => {
                     if self.rng.gen::<f64>() < loss {
-                        log.push(event(k, &packet, receiver, Action::DroppedLoss, None));
+                        log.push(event(at, &packet, receiver, Action::DroppedLoss, None));
                         return;
                     }
                 }
@@ -322,13 +311,13 @@ impl Channel {
                     };
                     let loss = if *bad { loss_bad } else { loss_good };
                     if self.rng.gen::<f64>() < loss {
-                        log.push(event(k, &packet, receiver, Action::DroppedLoss, None));
+                        log.push(event(at, &packet, receiver, Action::DroppedLoss, None));
                         return;
                     }
                 }
                 LinkAttackKind::Delay { steps } => {
                     let due = k + u64::from(steps);
-                    log.push(event(k, &packet, receiver, Action::Delayed, Some(due)));
+                    log.push(event(at, &packet, receiver, Action::Delayed, Some(due)));
                     self.in_flight
                         .push_back((due, Delivery { receiver, packet }));
                     return;
@@ -343,7 +332,7 @@ impl Channel {
                     {
                         packet = *old;
                         log.push(event(
-                            k,
+                            at,
                             &packet,
                             receiver,
                             Action::Replayed,
@@ -353,7 +342,7 @@ impl Channel {
                 }
                 LinkAttackKind::FalseData { offset } => {
                     packet.state += State::from(offset);
-                    log.push(event(k, &packet, receiver, Action::Altered, None));
+                    log.push(event(at, &packet, receiver, Action::Altered, None));
                 }
             }
         }
@@ -362,7 +351,7 @@ impl Channel {
 }
 
 fn event(
-    step: u64,
+    (step, platoon): (u64, u16),
     p: &Packet,
     receiver: VehicleId,
     action: Action,
@@ -370,7 +359,7 @@ fn event(
 ) -> ChannelEvent {
     ChannelEvent {
         step,
-        platoon: 0,
+        platoon,
         sender: p.sender.0,
         receiver: receiver.0,
         seq: p.seq,

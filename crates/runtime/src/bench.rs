@@ -56,7 +56,7 @@ pub fn raw_hop(
         loop {
             tx.send(0, 0.0, &batch)?;
             wait(&listener, Duration::from_millis(100))?;
-            if rx.take(0)?.0.is_some() {
+            if rx.take(0)?.is_some() {
                 break;
             }
             if let Ok(Some(status)) = child.try_wait() {
@@ -80,7 +80,7 @@ pub fn raw_hop(
             let sent = tx.send(i, 0.0, &batch)?;
             let mut spins = 0u64;
             let echoed = loop {
-                if let (Some((h, _)), _) = rx.take_sample(i)? {
+                if let Some((h, _)) = rx.take_sample(i)? {
                     break h.stamp_ns;
                 }
                 if busy && spins < 10_000_000 {
@@ -250,54 +250,56 @@ pub fn socket_hop(
 /// The socket echo process: prints its address, then answers every datagram with the sender's
 /// stamp and its own (bytes 8..16), until orphaned.
 pub fn socket_echo(socket: Socket, path: &Path) -> std::io::Result<()> {
-    use std::io::Write;
-    let parent = std::os::unix::process::parent_id();
-    let mut buf = vec![0u8; 1 << 16];
     let tick = Some(Duration::from_millis(200));
     match socket {
         Socket::Udp => {
             let s = std::net::UdpSocket::bind("127.0.0.1:0")?;
             s.set_read_timeout(tick)?;
-            println!("{}", s.local_addr()?);
-            std::io::stdout().flush()?;
-            loop {
-                match s.recv_from(&mut buf) {
-                    Ok((n, from)) => {
-                        buf[8..16].copy_from_slice(&crate::monotonic_ns().to_le_bytes());
-                        s.send_to(&buf[..n], from)?;
-                    }
-                    Err(e)
-                        if e.kind() == std::io::ErrorKind::WouldBlock
-                            || e.kind() == std::io::ErrorKind::TimedOut => {}
-                    Err(e) => return Err(e),
-                }
-                if std::os::unix::process::parent_id() != parent {
-                    return Ok(());
-                }
-            }
+            serve_echo(&s.local_addr()?.to_string(), |buf| {
+                let (n, from) = s.recv_from(buf)?;
+                stamp(buf);
+                s.send_to(&buf[..n], from).map(|_| ())
+            })
         }
         Socket::Uds => {
             let s = std::os::unix::net::UnixDatagram::bind(path)?;
             s.set_read_timeout(tick)?;
-            println!("{}", path.display());
-            std::io::stdout().flush()?;
-            loop {
-                match s.recv_from(&mut buf) {
-                    Ok((n, from)) => {
-                        buf[8..16].copy_from_slice(&crate::monotonic_ns().to_le_bytes());
-                        if let Some(p) = from.as_pathname() {
-                            s.send_to(&buf[..n], p)?;
-                        }
-                    }
-                    Err(e)
-                        if e.kind() == std::io::ErrorKind::WouldBlock
-                            || e.kind() == std::io::ErrorKind::TimedOut => {}
-                    Err(e) => return Err(e),
+            serve_echo(&path.display().to_string(), |buf| {
+                let (n, from) = s.recv_from(buf)?;
+                stamp(buf);
+                match from.as_pathname() {
+                    Some(p) => s.send_to(&buf[..n], p).map(|_| ()),
+                    None => Ok(()),
                 }
-                if std::os::unix::process::parent_id() != parent {
-                    return Ok(());
-                }
-            }
+            })
+        }
+    }
+}
+
+/// The echo's stamp, after the sender's.
+fn stamp(buf: &mut [u8]) {
+    buf[8..16].copy_from_slice(&crate::monotonic_ns().to_le_bytes());
+}
+
+/// Prints `address`, then runs `echo_one` (which answers one datagram, or times out) until the
+/// parent process is gone.
+fn serve_echo(
+    address: &str,
+    mut echo_one: impl FnMut(&mut [u8]) -> std::io::Result<()>,
+) -> std::io::Result<()> {
+    use std::io::{ErrorKind, Write};
+    let parent = std::os::unix::process::parent_id();
+    println!("{address}");
+    std::io::stdout().flush()?;
+    let mut buf = vec![0u8; 1 << 16];
+    loop {
+        match echo_one(&mut buf) {
+            Ok(()) => {}
+            Err(e) if matches!(e.kind(), ErrorKind::WouldBlock | ErrorKind::TimedOut) => {}
+            Err(e) => return Err(e),
+        }
+        if std::os::unix::process::parent_id() != parent {
+            return Ok(());
         }
     }
 }

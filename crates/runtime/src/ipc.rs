@@ -312,24 +312,20 @@ impl<T: Debug + Copy + ZeroCopySend + 'static> Inlet<T> {
         self.pending.iter().any(|(h, _)| h.step == k)
     }
 
-    /// The sample of step `k`, if it arrived; samples of earlier steps are dropped and counted
-    /// in the returned `stale` number.
-    pub fn take(&mut self, k: u64) -> Result<(Option<Vec<T>>, usize), RunError> {
-        let (sample, stale) = self.take_sample(k)?;
-        Ok((sample.map(|(_, v)| v), stale))
+    /// The sample of step `k`, if it arrived; samples of earlier steps are dropped.
+    pub fn take(&mut self, k: u64) -> Result<Option<Vec<T>>, RunError> {
+        Ok(self.take_sample(k)?.map(|(_, v)| v))
     }
 
     /// Like [`Inlet::take`], with the sample's header.
-    pub fn take_sample(&mut self, k: u64) -> Result<(Option<Sample<T>>, usize), RunError> {
+    pub fn take_sample(&mut self, k: u64) -> Result<Option<Sample<T>>, RunError> {
         self.drain()?;
-        let mut stale = 0;
         while self.pending.front().is_some_and(|(h, _)| h.step < k) {
             self.pending.pop_front();
-            stale += 1;
         }
         match self.pending.front() {
-            Some((h, _)) if h.step == k => Ok((self.pending.pop_front(), stale)),
-            _ => Ok((None, stale)),
+            Some((h, _)) if h.step == k => Ok(self.pending.pop_front()),
+            _ => Ok(None),
         }
     }
 }

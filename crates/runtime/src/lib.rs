@@ -22,8 +22,6 @@ pub mod timing;
 
 pub use orchestrator::{orchestrate, Options, Outcome, Program};
 
-use platoon_wire::Node;
-
 /// Why a co-simulation run stopped early.
 #[derive(Debug, thiserror::Error)]
 pub enum RunError {
@@ -122,9 +120,4 @@ pub fn monotonic_ns() -> u64 {
     // SAFETY: clock_gettime only writes the timespec it is given.
     unsafe { libc::clock_gettime(libc::CLOCK_MONOTONIC, &mut ts) };
     ts.tv_sec as u64 * 1_000_000_000 + ts.tv_nsec as u64
-}
-
-/// Names a node in messages.
-pub fn node_name(n: Node) -> &'static str {
-    n.name()
 }

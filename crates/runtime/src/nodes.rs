@@ -201,7 +201,7 @@ pub fn plant(run_id: &str, scenario: &Scenario) -> Result<(), RunError> {
         publish(0, &plants, &mut buf)?;
         let n = num.per_platoon - 1;
         loop {
-            let (got, _) = commands.take(*k)?;
+            let got = commands.take(*k)?;
             let Some(cmds) = got else {
                 if !ctx.wait()? {
                     return Ok(());
@@ -288,7 +288,7 @@ pub fn controller(run_id: &str, scenario: &Scenario) -> Result<(), RunError> {
         }
         loop {
             if states.is_none() {
-                if let (Some(s), _) = states_in.take(*k)? {
+                if let Some(s) = states_in.take(*k)? {
                     let s = states_from_wire(&s, num.vehicles())?;
                     wire_tx.clear();
                     let stamp = monotonic_ns();
@@ -312,7 +312,7 @@ pub fn controller(run_id: &str, scenario: &Scenario) -> Result<(), RunError> {
                 }
             }
             if let Some(s) = &states {
-                if let (Some(items), _) = rx_in.take(*k)? {
+                if let Some(items) = rx_in.take(*k)? {
                     for d in &mut deliveries {
                         d.clear();
                     }
@@ -460,12 +460,12 @@ pub fn injector(run_id: &str, scenario: &Scenario, log: Option<&Path>) -> Result
         }
         loop {
             if states.is_none() {
-                if let (Some(s), _) = states_in.take(*k)? {
+                if let Some(s) = states_in.take(*k)? {
                     states = Some(states_from_wire(&s, num.vehicles())?);
                 }
             }
             if let Some(s) = &states {
-                if let (Some(tx), _) = tx_in.take(*k)? {
+                if let Some(tx) = tx_in.take(*k)? {
                     // One item per link: the broadcasts are the runs of equal (sender, seq).
                     for p in &mut packets {
                         p.clear();

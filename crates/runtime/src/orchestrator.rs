@@ -212,10 +212,10 @@ pub fn orchestrate(
                 && commands.has(run.step)
             {
                 let k = run.step;
-                let (hs, s) = states.take_sample(k)?.0.expect("has");
-                let (ht, t) = tx.take_sample(k)?.0.expect("has");
-                let (hr, r) = rx.take_sample(k)?.0.expect("has");
-                let (hc, c) = commands.take_sample(k)?.0.expect("has");
+                let (hs, s) = states.take_sample(k)?.expect("has");
+                let (ht, t) = tx.take_sample(k)?.expect("has");
+                let (hr, r) = rx.take_sample(k)?.expect("has");
+                let (hc, c) = commands.take_sample(k)?.expect("has");
                 clock.push(hs.stamp_ns, ht.stamp_ns, hr.stamp_ns, hc.stamp_ns);
                 run.record(&s, &t, &r, &c)?;
                 on_step(&run.rows);
@@ -366,6 +366,7 @@ struct Recorder<'a> {
     last_progress: Instant,
     rows: Vec<StepRow>,
     jammed: Vec<bool>,
+    leader_sent: Vec<bool>,
 }
 
 impl<'a> Recorder<'a> {
@@ -379,6 +380,7 @@ impl<'a> Recorder<'a> {
             last_progress: Instant::now(),
             rows: Vec::with_capacity(num.vehicles()),
             jammed: vec![false; num.vehicles()],
+            leader_sent: vec![false; num.platoons],
         }
     }
 
@@ -404,11 +406,16 @@ impl<'a> Recorder<'a> {
                 message: format!("{} commands for {} followers", c.len(), num.followers()),
             });
         }
+        // Which leaders broadcast: one pass over the tx batch, not one per platoon.
+        self.leader_sent.fill(false);
+        for p in t {
+            if let Some((j, i)) = num.split(p.packet.sender) {
+                self.leader_sent[j] |= i.is_leader();
+            }
+        }
         self.rows.clear();
         for (j, replica) in self.replicas.iter().enumerate() {
-            let leader = num.global(j, platoon_model::VehicleId::LEADER);
-            // The first item of a platoon's broadcasts is its leader's, if it broadcast.
-            let leader_triggered = t.iter().any(|p| p.packet.sender == leader);
+            let leader_triggered = self.leader_sent[j];
             let cmds = &c[j * (n1 - 1)..(j + 1) * (n1 - 1)];
             step_rows(
                 self.step,

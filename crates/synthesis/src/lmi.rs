@@ -404,9 +404,7 @@ mod tests {
     use platoon_topology::{Preset, Topology};
 
     fn h(preset: Preset, n: usize) -> DMatrix<f64> {
-        let t = Topology::preset(preset, n).unwrap();
-        let m = t.h_matrix();
-        DMatrix::from_fn(n, n, |i, j| m[(i, j)])
+        Topology::preset(preset, n).unwrap().h_matrix()
     }
 
     const PAPER_K: [f64; 3] = [4.81, 9.12, 2.97];
