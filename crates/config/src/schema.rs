@@ -290,8 +290,35 @@ pub struct Platoon {
     /// Vehicle length for gap and safety figures (m); 0 treats vehicles as points.
     #[serde(default)]
     pub vehicle_length_m: f64,
-    /// `[p, v, a]` of the leader then of each follower (N + 1 rows).
-    pub initial_states: Vec<[f64; 3]>,
+    /// `[p, v, a]` of the leader then of each follower (N + 1 rows); or give `formation`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub initial_states: Option<Vec<[f64; 3]>>,
+    /// Generated initial states instead of `initial_states`: the platoon in formation at the
+    /// leader's initial speed, with seeded jitter (so `followers` alone sets the platoon's size).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub formation: Option<Formation>,
+}
+
+/// `[platoon.formation]`: the leader at `leader_position_m` with its profile's speed at t = 0,
+/// follower i at `leader_position_m - i spacing_m` with the same speed and zero acceleration,
+/// then each follower's position and speed moved by independent uniform draws from
+/// `[-position_jitter_m, position_jitter_m]` and `[-speed_jitter_mps, speed_jitter_mps]`
+/// (ChaCha8 seeded with `seed`; the leader is never jittered).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Formation {
+    /// The leader's initial position (m) [0].
+    #[serde(default)]
+    pub leader_position_m: f64,
+    /// Largest position offset of a follower (m) [0].
+    #[serde(default)]
+    pub position_jitter_m: f64,
+    /// Largest speed offset of a follower (m/s) [0].
+    #[serde(default)]
+    pub speed_jitter_mps: f64,
+    /// Seed of the jitter [0].
+    #[serde(default)]
+    pub seed: u64,
 }
 
 /// `[leader]`

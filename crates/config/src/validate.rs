@@ -68,6 +68,65 @@ fn tau_schedule(key: &str, t: &TauConfig) -> Result<TauSchedule, Invalid> {
     r.or_else(|e| bad(key, e.to_string()))
 }
 
+fn leader_profile(profile: &LeaderProfileConfig) -> Result<LeaderProfile, Invalid> {
+    Ok(match profile {
+        LeaderProfileConfig::Paper => LeaderProfile::paper(),
+        LeaderProfileConfig::Constant { speed_mps } => {
+            LeaderProfile::constant(finite("leader.profile.speed_mps", *speed_mps)?)
+        }
+        LeaderProfileConfig::Waypoints { points } => {
+            LeaderProfile::from_waypoints(points.iter().map(|w| (w[0], w[1])).collect())
+                .or_else(|e| bad("leader.profile.points", e.to_string()))?
+        }
+    })
+}
+
+/// The states of `[platoon.formation]` (see [`Formation`]): the leader first.
+fn formation(
+    f: &Formation,
+    n: usize,
+    spacing: f64,
+    length: f64,
+    speed: f64,
+) -> Result<Vec<State>, Invalid> {
+    use rand::{Rng, SeedableRng};
+    let p0 = finite("platoon.formation.leader_position_m", f.leader_position_m)?;
+    let jp = finite("platoon.formation.position_jitter_m", f.position_jitter_m)?;
+    let jv = finite("platoon.formation.speed_jitter_mps", f.speed_jitter_mps)?;
+    if jp < 0.0 || jv < 0.0 {
+        return bad(
+            if jp < 0.0 {
+                "platoon.formation.position_jitter_m"
+            } else {
+                "platoon.formation.speed_jitter_mps"
+            },
+            "must be >= 0",
+        );
+    }
+    if jp >= (spacing - length) / 2.0 {
+        return bad(
+            "platoon.formation.position_jitter_m",
+            format!(
+                "{jp} m could make two vehicles touch: keep it below half the gap \
+                 (platoon.spacing_m - platoon.vehicle_length_m = {} m)",
+                spacing - length
+            ),
+        );
+    }
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(f.seed);
+    let mut draw = |half: f64| {
+        let u: f64 = rng.gen_range(-1.0..=1.0);
+        u * half
+    };
+    let mut states = vec![State::new(p0, speed, 0.0)];
+    for i in 1..=n {
+        let dp = draw(jp);
+        let dv = draw(jv);
+        states.push(State::new(p0 - i as f64 * spacing + dp, speed + dv, 0.0));
+    }
+    Ok(states)
+}
+
 /// Validates a parsed config, fills the defaults that depend on other keys (so the config is
 /// resolved), and builds the scenario. Errors are `(key, message)`.
 pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
@@ -88,46 +147,54 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
     if n == 0 {
         return bad("platoon.followers", "a platoon needs at least one follower");
     }
-    if p.initial_states.len() != n + 1 {
-        return bad(
-            "platoon.initial_states",
-            format!(
-                "lists {} states but platoon.followers = {n} needs {} (the leader first)",
-                p.initial_states.len(),
-                n + 1
-            ),
-        );
-    }
-    for (i, s) in p.initial_states.iter().enumerate() {
-        if s.iter().any(|x| !x.is_finite()) {
-            return bad(
-                &format!("platoon.initial_states[{i}]"),
-                "must hold finite numbers",
-            );
-        }
-    }
     let spacing = positive("platoon.spacing_m", p.spacing_m)?;
     let vehicle_length = finite("platoon.vehicle_length_m", p.vehicle_length_m)?;
     if vehicle_length < 0.0 {
         return bad("platoon.vehicle_length_m", "must be >= 0");
     }
-    let initial: Vec<State> = p
-        .initial_states
-        .iter()
-        .map(|s| State::new(s[0], s[1], s[2]))
-        .collect();
+    let leader = leader_profile(&c.leader.profile)?;
+    let initial: Vec<State> = match (&p.initial_states, &p.formation) {
+        (Some(_), Some(_)) => {
+            return bad(
+                "platoon.formation",
+                "give either platoon.initial_states or [platoon.formation], not both",
+            )
+        }
+        (None, None) => {
+            return bad(
+                "platoon.initial_states",
+                "missing: list the N + 1 initial states, or give [platoon.formation] to generate them",
+            )
+        }
+        (Some(states), None) => {
+            if states.len() != n + 1 {
+                return bad(
+                    "platoon.initial_states",
+                    format!(
+                        "lists {} states but platoon.followers = {n} needs {} (the leader first; \
+                         [platoon.formation] generates them for any size)",
+                        states.len(),
+                        n + 1
+                    ),
+                );
+            }
+            for (i, s) in states.iter().enumerate() {
+                if s.iter().any(|x| !x.is_finite()) {
+                    return bad(
+                        &format!("platoon.initial_states[{i}]"),
+                        "must hold finite numbers",
+                    );
+                }
+            }
+            states
+                .iter()
+                .map(|s| State::new(s[0], s[1], s[2]))
+                .collect()
+        }
+        (None, Some(f)) => formation(f, n, spacing, vehicle_length, leader.velocity_at(0.0))?,
+    };
 
     // [leader]
-    let leader = match &c.leader.profile {
-        LeaderProfileConfig::Paper => LeaderProfile::paper(),
-        LeaderProfileConfig::Constant { speed_mps } => {
-            LeaderProfile::constant(finite("leader.profile.speed_mps", *speed_mps)?)
-        }
-        LeaderProfileConfig::Waypoints { points } => {
-            LeaderProfile::from_waypoints(points.iter().map(|w| (w[0], w[1])).collect())
-                .or_else(|e| bad("leader.profile.points", e.to_string()))?
-        }
-    };
     if (leader.velocity_at(0.0) - initial[0][1]).abs() > 1e-9 {
         return bad(
             "leader.profile",

@@ -1,0 +1,223 @@
+//! Setting scenario keys by dotted path (`channel.attacks[0].loss`) on a config's TOML value.
+
+/// One segment of a dotted path: a table key, optionally indexed into an array.
+#[derive(Debug, Clone, PartialEq)]
+struct Segment<'a> {
+    key: &'a str,
+    index: Option<usize>,
+}
+
+fn segments(path: &str) -> Result<Vec<Segment<'_>>, String> {
+    if path.is_empty() {
+        return Err("the key is empty".into());
+    }
+    path.split('.')
+        .map(|part| {
+            let (key, index) = match part.split_once('[') {
+                None => (part, None),
+                Some((key, rest)) => {
+                    let Some(n) = rest.strip_suffix(']') else {
+                        return Err(format!("`{part}`: an index is written `name[0]`"));
+                    };
+                    let n = n
+                        .parse()
+                        .map_err(|_| format!("`{part}`: `{n}` is not an index"))?;
+                    (key, Some(n))
+                }
+            };
+            if key.is_empty()
+                || !key
+                    .chars()
+                    .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+            {
+                return Err(format!("`{part}` is not a key"));
+            }
+            Ok(Segment { key, index })
+        })
+        .collect()
+}
+
+/// Sets `path` to `value` in `root`, creating missing tables on the way (not arrays: an index
+/// must exist). Errors say which part of the path does not fit.
+pub fn set(root: &mut toml::Value, path: &str, value: toml::Value) -> Result<(), String> {
+    let segs = segments(path)?;
+    let mut here = root;
+    let mut walked = String::new();
+    for (i, seg) in segs.iter().enumerate() {
+        let last = i + 1 == segs.len();
+        if !walked.is_empty() {
+            walked.push('.');
+        }
+        walked.push_str(seg.key);
+        let Some(table) = here.as_table_mut() else {
+            return Err(format!("`{walked}`: its parent is not a table"));
+        };
+        if last && seg.index.is_none() {
+            table.insert(seg.key.to_string(), value);
+            return Ok(());
+        }
+        if seg.index.is_some() && !table.contains_key(seg.key) {
+            return Err(format!(
+                "`{walked}[{}]`: the base scenario has 0 entries there",
+                seg.index.unwrap_or(0)
+            ));
+        }
+        let entry = table
+            .entry(seg.key.to_string())
+            .or_insert_with(|| toml::Value::Table(Default::default()));
+        here = match seg.index {
+            None => entry,
+            Some(n) => {
+                let Some(array) = entry.as_array_mut() else {
+                    return Err(format!("`{walked}` is not an array in the base scenario"));
+                };
+                let len = array.len();
+                let Some(item) = array.get_mut(n) else {
+                    return Err(format!(
+                        "`{walked}[{n}]`: the base scenario has {len} entries there"
+                    ));
+                };
+                walked.push_str(&format!("[{n}]"));
+                if last {
+                    *item = value;
+                    return Ok(());
+                }
+                item
+            }
+        };
+    }
+    unreachable!("the loop returns at the last segment")
+}
+
+/// Whether `path` is `prefix` or lies below it (`trigger.phi` is below `trigger`).
+fn under(path: &str, prefix: &str) -> bool {
+    path == prefix
+        || path
+            .strip_prefix(prefix)
+            .is_some_and(|r| r.starts_with('.') || r.starts_with('['))
+}
+
+/// Keys that belong to one value of a selector (a rule's or a kind's parameters): the
+/// scenario refuses them under any other value, so a campaign that sets the selector drops them.
+const EXCLUSIVE: &[(&str, &str, &[(&str, &[&str])])] = &[
+    (
+        "trigger",
+        "rule",
+        &[
+            ("dynamic", &["phi", "rho", "eta", "theta0"]),
+            ("mixed", &["mu", "alpha"]),
+            ("periodic", &["period_s"]),
+        ],
+    ),
+    (
+        "attack",
+        "kind",
+        &[
+            ("intervals", &["intervals"]),
+            ("periodic", &["period_s", "duration_s", "offset_s"]),
+            (
+                "random",
+                &[
+                    "seed",
+                    "min_gap_s",
+                    "max_gap_s",
+                    "min_duration_s",
+                    "max_duration_s",
+                ],
+            ),
+        ],
+    ),
+];
+
+/// After a campaign set `touched` keys: drops the keys of the base that the new values make
+/// invalid, unless the campaign set them itself. A rule's or kind's parameters go when the rule
+/// or kind changes (`trigger.rule = "static"` drops `trigger.phi`, ...), and
+/// `platoon.initial_states` and `platoon.formation` exclude each other.
+pub fn drop_excluded(root: &mut toml::Value, touched: &[&str]) {
+    let set_by_campaign = |key: &str| touched.iter().any(|t| under(t, key));
+    for (table, selector, owners) in EXCLUSIVE {
+        if !set_by_campaign(&format!("{table}.{selector}")) {
+            continue;
+        }
+        let Some(t) = root.get_mut(*table).and_then(|t| t.as_table_mut()) else {
+            continue;
+        };
+        let chosen = t
+            .get(*selector)
+            .and_then(|v| v.as_str())
+            .unwrap_or_default()
+            .to_string();
+        for (owner, keys) in owners.iter() {
+            if *owner == chosen {
+                continue;
+            }
+            for k in keys.iter() {
+                if !set_by_campaign(&format!("{table}.{k}")) {
+                    t.remove(*k);
+                }
+            }
+        }
+    }
+    if let Some(p) = root.get_mut("platoon").and_then(|t| t.as_table_mut()) {
+        if set_by_campaign("platoon.formation") && !set_by_campaign("platoon.initial_states") {
+            p.remove("initial_states");
+        }
+        if set_by_campaign("platoon.initial_states") && !set_by_campaign("platoon.formation") {
+            p.remove("formation");
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn doc(text: &str) -> toml::Value {
+        toml::from_str(text).unwrap()
+    }
+
+    #[test]
+    fn sets_nested_and_indexed_keys() {
+        let mut v = doc("[a]\nb = 1\n[[c]]\nd = 2\n[[c]]\nd = 3\n");
+        set(&mut v, "a.b", toml::Value::Integer(5)).unwrap();
+        set(&mut v, "c[1].d", toml::Value::Float(0.5)).unwrap();
+        set(&mut v, "x.y.z", toml::Value::Boolean(true)).unwrap();
+        assert_eq!(v["a"]["b"].as_integer(), Some(5));
+        assert_eq!(v["c"][1]["d"].as_float(), Some(0.5));
+        assert_eq!(v["c"][0]["d"].as_integer(), Some(2));
+        assert_eq!(v["x"]["y"]["z"].as_bool(), Some(true));
+    }
+
+    #[test]
+    fn refuses_paths_that_do_not_fit() {
+        let mut v = doc("[a]\nb = 1\nc = [1]\n");
+        let e = set(&mut v, "a.b.c", toml::Value::Integer(1)).unwrap_err();
+        assert!(e.contains("`a.b.c`"), "{e}");
+        let e = set(&mut v, "a.c[3]", toml::Value::Integer(1)).unwrap_err();
+        assert!(e.contains("has 1 entries"), "{e}");
+        let e = set(&mut v, "a.b[0]", toml::Value::Integer(1)).unwrap_err();
+        assert!(e.contains("not an array"), "{e}");
+        assert!(set(&mut v, "a..b", toml::Value::Integer(1)).is_err());
+        assert!(set(&mut v, "a.c[x]", toml::Value::Integer(1)).is_err());
+    }
+
+    #[test]
+    fn a_new_rule_drops_the_old_rules_parameters_unless_set() {
+        let mut v = doc("[trigger]\nrule = \"static\"\nphi = 1.0\nrho = 0.5\nh_s = 0.02\n");
+        drop_excluded(&mut v, &["trigger.rule", "trigger.rho"]);
+        assert!(v["trigger"].get("phi").is_none());
+        assert!(v["trigger"].get("rho").is_some(), "set by the campaign: kept");
+        assert!(v["trigger"].get("h_s").is_some(), "not a rule's parameter");
+        let mut v = doc("[trigger]\nrule = \"static\"\nphi = 1.0\n");
+        drop_excluded(&mut v, &["control.gain"]);
+        assert!(v["trigger"].get("phi").is_some(), "rule not touched: left alone");
+    }
+
+    #[test]
+    fn formation_replaces_initial_states() {
+        let mut v = doc("[platoon]\ninitial_states = [[0.0, 1.0, 0.0]]\n[platoon.formation]\nseed = 3\n");
+        drop_excluded(&mut v, &["platoon.formation.seed"]);
+        assert!(v["platoon"].get("initial_states").is_none());
+        assert!(v["platoon"].get("formation").is_some());
+    }
+}
