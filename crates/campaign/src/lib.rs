@@ -239,7 +239,12 @@ impl Campaign {
             }
         };
         let mut base = toml::Value::try_from(&base_config).map_err(|e| {
-            error(file, None, "base", format!("cannot represent the base: {e}"))
+            error(
+                file,
+                None,
+                "base",
+                format!("cannot represent the base: {e}"),
+            )
         })?;
         // A relative SUMO network is relative to the base file: make it absolute, since cell
         // configs are written elsewhere.
@@ -313,10 +318,20 @@ impl Campaign {
                 }
             };
             if values.is_empty() {
-                return Err(error(file, line, &what, format!("axis `{}` has no values", axis.key)));
+                return Err(error(
+                    file,
+                    line,
+                    &what,
+                    format!("axis `{}` has no values", axis.key),
+                ));
             }
             if columns.iter().any(|c| c.name == axis.key) {
-                return Err(error(file, line, &what, format!("`{}` is on two axes", axis.key)));
+                return Err(error(
+                    file,
+                    line,
+                    &what,
+                    format!("`{}` is on two axes", axis.key),
+                ));
             }
             if spec.set.contains_key(&axis.key) {
                 return Err(error(
@@ -407,7 +422,12 @@ impl Campaign {
                     mc.samples = n;
                 }
                 if mc.samples == 0 {
-                    return Err(error(file, at("samples"), "monte_carlo.samples", "must be >= 1"));
+                    return Err(error(
+                        file,
+                        at("samples"),
+                        "monte_carlo.samples",
+                        "must be >= 1",
+                    ));
                 }
                 for (key, range) in [("loss", mc.loss), ("tau_s", mc.tau_s)] {
                     if let Some([lo, hi]) = range {
@@ -450,7 +470,9 @@ impl Campaign {
                     file,
                     None,
                     "",
-                    format!("the campaign would have more than {MAX_CELLS} cells; check the ranges"),
+                    format!(
+                        "the campaign would have more than {MAX_CELLS} cells; check the ranges"
+                    ),
                 ))
             }
         };
@@ -525,7 +547,11 @@ impl Campaign {
             }
         }
         if let (Some(onset), Some(duration)) = window {
-            apply(&mut v, "attack.kind", toml::Value::String("intervals".into()));
+            apply(
+                &mut v,
+                "attack.kind",
+                toml::Value::String("intervals".into()),
+            );
             apply(
                 &mut v,
                 "attack.intervals",
@@ -670,10 +696,7 @@ fn jitter(
     seed: u64,
     apply: &mut impl FnMut(&mut toml::Value, &str, toml::Value),
 ) {
-    let formation = v
-        .get("platoon")
-        .and_then(|p| p.get("formation"))
-        .is_some();
+    let formation = v.get("platoon").and_then(|p| p.get("formation")).is_some();
     if formation {
         apply(
             v,

@@ -6,23 +6,65 @@ use std::fmt;
 
 /// Every metric: its name (the `cells.csv` column) and what it is.
 pub const ALL: &[(&str, &str)] = &[
-    ("max_spacing_error_m", "largest |spacing error| of any follower (of any platoon of a fleet), m"),
-    ("rms_spacing_error_m", "RMS spacing error over the followers and the run (platoon 0), m"),
-    ("mean_spacing_error_m", "mean |spacing error| over the followers and the run (platoon 0), m"),
-    ("final_spacing_error_m", "largest |spacing error| at the last step (platoon 0), m"),
-    ("max_velocity_error_mps", "largest |velocity error| of any follower (platoon 0), m/s"),
-    ("min_gap_m", "smallest bumper-to-bumper gap (any platoon), m"),
-    ("max_deceleration_mps2", "largest deceleration any follower needed, m/s^2"),
-    ("safety_class", "none, negligible, benign or severe (any collision is severe)"),
+    (
+        "max_spacing_error_m",
+        "largest |spacing error| of any follower (of any platoon of a fleet), m",
+    ),
+    (
+        "rms_spacing_error_m",
+        "RMS spacing error over the followers and the run (platoon 0), m",
+    ),
+    (
+        "mean_spacing_error_m",
+        "mean |spacing error| over the followers and the run (platoon 0), m",
+    ),
+    (
+        "final_spacing_error_m",
+        "largest |spacing error| at the last step (platoon 0), m",
+    ),
+    (
+        "max_velocity_error_mps",
+        "largest |velocity error| of any follower (platoon 0), m/s",
+    ),
+    (
+        "min_gap_m",
+        "smallest bumper-to-bumper gap (any platoon), m",
+    ),
+    (
+        "max_deceleration_mps2",
+        "largest deceleration any follower needed, m/s^2",
+    ),
+    (
+        "safety_class",
+        "none, negligible, benign or severe (any collision is severe)",
+    ),
     ("collided", "a gap reached zero"),
-    ("triggers_total", "broadcasts of all followers (all platoons)"),
-    ("triggers_per_follower", "mean broadcasts per follower (platoon 0)"),
-    ("triggers_by_follower", "one column per follower: triggers_1, triggers_2, ... (platoon 0)"),
-    ("min_inter_event_s", "shortest time between two broadcasts of a follower, s"),
-    ("assumption2", "holds or violated (empty without attack.assumption2 bounds)"),
+    (
+        "triggers_total",
+        "broadcasts of all followers (all platoons)",
+    ),
+    (
+        "triggers_per_follower",
+        "mean broadcasts per follower (platoon 0)",
+    ),
+    (
+        "triggers_by_follower",
+        "one column per follower: triggers_1, triggers_2, ... (platoon 0)",
+    ),
+    (
+        "min_inter_event_s",
+        "shortest time between two broadcasts of a follower, s",
+    ),
+    (
+        "assumption2",
+        "holds or violated (empty without attack.assumption2 bounds)",
+    ),
     ("attack_intervals", "DoS intervals in the run"),
     ("attacked_time_s", "time the channel was jammed, s"),
-    ("max_affected_time_s", "longest time a follower was affected by attacks (A*), s"),
+    (
+        "max_affected_time_s",
+        "longest time a follower was affected by attacks (A*), s",
+    ),
     ("rejected_packets", "packets the controllers refused"),
 ];
 
@@ -81,10 +123,7 @@ pub fn validate(names: &[String]) -> Result<(), String> {
     for n in names {
         if !ALL.iter().any(|(m, _)| m == n) {
             let known: Vec<&str> = ALL.iter().map(|(m, _)| *m).collect();
-            return Err(format!(
-                "unknown metric `{n}`; known: {}",
-                known.join(", ")
-            ));
+            return Err(format!("unknown metric `{n}`; known: {}", known.join(", ")));
         }
     }
     Ok(())
@@ -97,7 +136,9 @@ pub fn columns(names: &[String], max_followers: usize) -> Vec<String> {
         .iter()
         .flat_map(|n| {
             if n == "triggers_by_follower" {
-                (1..=max_followers).map(|i| format!("triggers_{i}")).collect()
+                (1..=max_followers)
+                    .map(|i| format!("triggers_{i}"))
+                    .collect()
             } else {
                 vec![n.clone()]
             }
@@ -156,9 +197,9 @@ pub fn extract(names: &[String], max_followers: usize, summary: &Value) -> Vec<M
                     .map(|v| v["spacing_error_m"]["rms"].as_f64())
                     .collect();
                 match rms {
-                    Some(r) if !r.is_empty() => Metric::Num(
-                        (r.iter().map(|x| x * x).sum::<f64>() / r.len() as f64).sqrt(),
-                    ),
+                    Some(r) if !r.is_empty() => {
+                        Metric::Num((r.iter().map(|x| x * x).sum::<f64>() / r.len() as f64).sqrt())
+                    }
                     _ => Metric::Empty,
                 }
             }

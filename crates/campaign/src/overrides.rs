@@ -206,16 +206,23 @@ mod tests {
         let mut v = doc("[trigger]\nrule = \"static\"\nphi = 1.0\nrho = 0.5\nh_s = 0.02\n");
         drop_excluded(&mut v, &["trigger.rule", "trigger.rho"]);
         assert!(v["trigger"].get("phi").is_none());
-        assert!(v["trigger"].get("rho").is_some(), "set by the campaign: kept");
+        assert!(
+            v["trigger"].get("rho").is_some(),
+            "set by the campaign: kept"
+        );
         assert!(v["trigger"].get("h_s").is_some(), "not a rule's parameter");
         let mut v = doc("[trigger]\nrule = \"static\"\nphi = 1.0\n");
         drop_excluded(&mut v, &["control.gain"]);
-        assert!(v["trigger"].get("phi").is_some(), "rule not touched: left alone");
+        assert!(
+            v["trigger"].get("phi").is_some(),
+            "rule not touched: left alone"
+        );
     }
 
     #[test]
     fn formation_replaces_initial_states() {
-        let mut v = doc("[platoon]\ninitial_states = [[0.0, 1.0, 0.0]]\n[platoon.formation]\nseed = 3\n");
+        let mut v =
+            doc("[platoon]\ninitial_states = [[0.0, 1.0, 0.0]]\n[platoon.formation]\nseed = 3\n");
         drop_excluded(&mut v, &["platoon.formation.seed"]);
         assert!(v["platoon"].get("initial_states").is_none());
         assert!(v["platoon"].get("formation").is_some());

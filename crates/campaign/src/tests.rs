@@ -58,7 +58,9 @@ fn ranges_give_tidy_floats_and_integers() {
     assert_eq!(f[5].as_float(), Some(0.5));
     let i = r("4", "16", "4");
     assert_eq!(
-        i.iter().map(|v| v.as_integer().unwrap()).collect::<Vec<_>>(),
+        i.iter()
+            .map(|v| v.as_integer().unwrap())
+            .collect::<Vec<_>>(),
         vec![4, 8, 12, 16]
     );
     let spec: Range = toml::from_str("from = 1.0\nto = 2.0\ncount = 3\n").unwrap();
@@ -121,12 +123,19 @@ fn monte_carlo_seeds_depend_on_the_campaign_seed_and_sample_only() {
     assert_ne!(a.cells[0].seed, other.cells[0].seed);
     let k = config(&a.cells[1]);
     assert_eq!(k.attack.kind, "random");
-    assert_eq!(k.channel.attacks.last().unwrap().loss, Some(a.cells[1].drawn[0]));
+    assert_eq!(
+        k.channel.attacks.last().unwrap().loss,
+        Some(a.cells[1].drawn[0])
+    );
     let states = k.platoon.initial_states.unwrap();
     let paper = [8.0, -1.0, -9.5, -19.0];
     for (i, p) in paper.iter().enumerate() {
         let moved = (states[i + 1][0] - p).abs();
-        assert!(moved <= 0.5 && moved > 0.0, "follower {} moved {moved}", i + 1);
+        assert!(
+            moved <= 0.5 && moved > 0.0,
+            "follower {} moved {moved}",
+            i + 1
+        );
     }
     assert_eq!(states[0], [20.0, 15.0, 0.0], "the leader is not jittered");
     // --samples overrides the count.
@@ -146,14 +155,21 @@ fn followers_is_an_axis_with_a_generated_formation() {
         "#,
     )
     .unwrap();
-    assert!(c.cells.iter().all(|cell| cell.config.is_ok()), "{:?}", c.cells[1].config);
+    assert!(
+        c.cells.iter().all(|cell| cell.config.is_ok()),
+        "{:?}",
+        c.cells[1].config
+    );
     assert_eq!(c.cells[1].followers, 100);
     assert_eq!(c.max_followers(), 100);
     // Without a formation, 100 followers cannot use the paper's five listed states.
     let c = parse("[[axes]]\nkey = \"platoon.followers\"\nvalues = [4, 8]\n").unwrap();
     assert!(c.cells[0].config.is_ok());
     let e = c.cells[1].config.as_ref().unwrap_err();
-    assert!(e.contains("platoon.initial_states") && e.contains("formation"), "{e}");
+    assert!(
+        e.contains("platoon.initial_states") && e.contains("formation"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -194,10 +210,9 @@ fn invalid_values_fail_their_cells_only() {
 fn the_hash_changes_with_the_config_and_the_transport() {
     let a = parse("[[axes]]\nkey = \"control.beta2\"\nvalues = [1.0, 2.0]\n").unwrap();
     assert_ne!(a.cells[0].hash, a.cells[1].hash);
-    let b = parse(
-        "transport = \"iceoryx2\"\n[[axes]]\nkey = \"control.beta2\"\nvalues = [1.0, 2.0]\n",
-    )
-    .unwrap();
+    let b =
+        parse("transport = \"iceoryx2\"\n[[axes]]\nkey = \"control.beta2\"\nvalues = [1.0, 2.0]\n")
+            .unwrap();
     assert_eq!(a.cells[0].config, b.cells[0].config);
     assert_ne!(a.cells[0].hash, b.cells[0].hash);
     assert_eq!(a.cells[0].dir_name(2), "c0000");

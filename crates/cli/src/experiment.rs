@@ -137,7 +137,7 @@ fn table1(args: Table1Args) -> Result<()> {
         let mut scenario = base.clone();
         scenario.control.rule = rule;
         let sub = RunDir::create(&dir.path(name), true)?;
-        let (rows, summary) = simulate(&scenario, &sub)?;
+        let (rows, summary) = simulate(&scenario, &sub, true)?;
         crate::run::write_outputs(&sub, &config, &scenario, &rows, &summary, false, &[])?;
         sub.commit()?;
         results.push((name, summary, average_error(&rows)));
@@ -307,7 +307,7 @@ fn robust(args: RobustArgs) -> Result<()> {
         scenario.control.gain = nalgebra::RowVector3::from(d.k);
         scenario.control.beta1 = d.certificate.ratio * scenario.control.beta2;
         let sub = RunDir::create(&dir.path(name), true)?;
-        let (rows, summary) = simulate(&scenario, &sub)?;
+        let (rows, summary) = simulate(&scenario, &sub, true)?;
         crate::run::write_outputs(&sub, &config, &scenario, &rows, &summary, false, &[])?;
         sub.commit()?;
         let e = average_error(&rows);

@@ -1,5 +1,6 @@
 //! `platoon`: resilient event-triggered platoon control under DoS attacks (Han et al., 2024).
 mod bench;
+mod campaign;
 mod design;
 mod experiment;
 mod node;
@@ -41,6 +42,42 @@ enum Command {
     /// stopped by a failed process keeps what it recorded, marked "complete": false. A bad config
     /// exits with code 2 before anything is written.
     Run(run::Args),
+    /// Run a study: many cells of one scenario over axes of config values, a DoS-window map
+    /// (attack onset x duration) and Monte Carlo draws, locally or on a Dask cluster.
+    ///
+    /// The campaign file (TOML; campaigns/ has commented examples) names a base scenario
+    /// (`base`, relative to the file; default: the embedded paper scenario), `set` (keys set in
+    /// every cell), `[[axes]]` (a config key by dotted path, e.g. `trigger.rule` or
+    /// `channel.attacks[0].loss`, with `values` or a `range`; axes cross, or advance together
+    /// when they share a `zip` group), `[dos_window]` (onset_s and duration_s of one attack
+    /// interval), `[monte_carlo]` (samples, random admissible DoS schedules, loss, tau,
+    /// initial-state jitter; each sample's seed comes from the campaign `seed` and the sample
+    /// index, and every combination of the axes uses the same draws), `transport` (inproc, or
+    /// iceoryx2 for full co-simulations, required by SUMO cells) and `metrics`.
+    ///
+    /// Metrics (cells.csv columns): max_spacing_error_m, rms_spacing_error_m,
+    /// mean_spacing_error_m, final_spacing_error_m, max_velocity_error_mps, min_gap_m,
+    /// max_deceleration_mps2, safety_class, collided, triggers_total, triggers_per_follower,
+    /// triggers_by_follower (triggers_1, ...), min_inter_event_s, assumption2,
+    /// attack_intervals, attacked_time_s, max_affected_time_s, rejected_packets. Default: the
+    /// spacing errors (max, RMS), min_gap_m, max_deceleration_mps2, safety_class, the
+    /// triggers (total, per follower), min_inter_event_s, assumption2, attacked_time_s.
+    ///
+    /// Writes DIR (default runs/<name>), staged in DIR.partial and renamed when complete:
+    /// campaign.toml (the resolved campaign), base.toml, cells.csv (one row per cell: cell,
+    /// axis values, sample, seed, drawn values, status, metrics, error), campaign.json
+    /// (counts, failures with their errors, wall and CPU time, per-group statistics),
+    /// cells/<cNNNN>/ (config.toml, summary.json, cell.json), runs/<cNNNN>/ with --keep-runs,
+    /// and plots/ (heatmaps for two axes, the safety class as a map, lines with min-max bands,
+    /// ECDFs for Monte Carlo). A failed cell is recorded with its error and the campaign goes
+    /// on; the exit code is 1 if any failed. Ctrl-C stops cleanly (exit 130; the cells in
+    /// flight are lost) and running the same command again resumes: finished cells whose
+    /// resolved config is unchanged are kept. A bad campaign file exits with code 2 and writes
+    /// nothing.
+    Campaign(campaign::Args),
+    /// One campaign cell: a job as JSON on stdin, the reply on stdout (what Dask workers run).
+    #[command(hide = true)]
+    CampaignCell,
     /// Reproduce an experiment of the paper's Section IV.
     #[command(subcommand)]
     Experiment(experiment::Experiment),
@@ -69,6 +106,8 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Run(args) => run::run(args),
+        Command::Campaign(args) => campaign::run(args),
+        Command::CampaignCell => campaign::exec::cell_command(),
         Command::Experiment(e) => experiment::run(e),
         Command::Node(args) => node::run(args),
         Command::Bench(b) => bench::run(b),

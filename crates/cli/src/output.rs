@@ -40,6 +40,49 @@ impl RunDir {
         })
     }
 
+    /// Opens `out` for work that can resume (a campaign): an existing `<out>.partial` is kept
+    /// and reused (the bool says so) unless `force`, which starts over; a finished `out` is
+    /// an error without `force`, and with it is replaced only when the new one is committed.
+    pub fn resumable(out: &Path, force: bool) -> Result<(Self, bool)> {
+        let staging = sibling(out, ".partial");
+        if force {
+            if staging.exists() {
+                eprintln!(
+                    "--force: removing the unfinished {} and starting over",
+                    staging.display()
+                );
+                fs::remove_dir_all(&staging)
+                    .with_context(|| format!("removing {}", staging.display()))?;
+            }
+            if out.exists() {
+                eprintln!(
+                    "--force: {} will be replaced when this run finishes",
+                    out.display()
+                );
+            }
+        } else if out.exists() {
+            bail!(
+                "{} exists and is finished; choose another --out or pass --force to start over",
+                out.display()
+            );
+        }
+        let resumed = staging.is_dir();
+        fs::create_dir_all(&staging).with_context(|| format!("creating {}", staging.display()))?;
+        Ok((
+            Self {
+                final_path: out.to_path_buf(),
+                staging,
+                force,
+            },
+            resumed,
+        ))
+    }
+
+    /// The staging directory (`<out>.partial`).
+    pub fn staging(&self) -> &Path {
+        &self.staging
+    }
+
     /// Path of a file inside the (staging) directory.
     pub fn path(&self, name: &str) -> PathBuf {
         self.staging.join(name)

@@ -146,7 +146,7 @@ pub fn run(args: Args) -> Result<()> {
     let started = Instant::now();
     let (rows, summary, failure) = match args.transport {
         Transport::Inproc => {
-            let (rows, summary) = simulate(&scenario, &dir)?;
+            let (rows, summary) = simulate(&scenario, &dir, true)?;
             (rows, summary, None)
         }
         Transport::Iceoryx2 => {
@@ -234,7 +234,8 @@ struct EventRow {
 }
 
 impl Recording {
-    fn new(scenario: &Scenario, dir: &RunDir, what: &str) -> Result<Self> {
+    /// `what` labels the progress bar; None shows none (a campaign's cells).
+    fn new(scenario: &Scenario, dir: &RunDir, what: Option<&str>) -> Result<Self> {
         let steps = scenario.steps + 1;
         Ok(Self {
             csv: csv::Writer::from_writer(dir.writer("trajectories.csv")?),
@@ -245,7 +246,7 @@ impl Recording {
             rows: Vec::with_capacity(steps as usize * scenario.vehicles_per_platoon()),
             metrics: platoon_sim::FleetMetrics::new(scenario),
             failure: None,
-            bar: progress_bar(steps, what),
+            bar: what.map_or_else(indicatif::ProgressBar::hidden, |w| progress_bar(steps, w)),
         })
     }
 
@@ -295,8 +296,12 @@ impl Recording {
 
 /// Runs the scenario in process with a progress bar and streams trajectories.csv; returns the
 /// rows and summary.
-pub fn simulate(scenario: &Scenario, dir: &RunDir) -> Result<(Vec<StepRow>, Summary)> {
-    let mut rec = Recording::new(scenario, dir, "simulating")?;
+pub fn simulate(
+    scenario: &Scenario,
+    dir: &RunDir,
+    progress: bool,
+) -> Result<(Vec<StepRow>, Summary)> {
+    let mut rec = Recording::new(scenario, dir, progress.then_some("simulating"))?;
     let mut sim = platoon_sim::FleetSimulation::new(scenario)?;
     let mut log = csv::Writer::from_writer(dir.writer("channel.csv")?);
     let mut step_ns = Vec::with_capacity(scenario.steps as usize + 1);
@@ -358,7 +363,7 @@ fn cosimulate(
         step_timeout: std::time::Duration::from_secs_f64(args.step_timeout),
         ready_timeout: std::time::Duration::from_secs(60),
     };
-    let mut rec = Recording::new(scenario, dir, "co-simulating")?;
+    let mut rec = Recording::new(scenario, dir, Some("co-simulating"))?;
     let result = platoon_runtime::orchestrate(&opts, scenario, |rows| rec.push(rows));
     match result {
         Ok(outcome) => {

@@ -160,12 +160,10 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
                 "give either platoon.initial_states or [platoon.formation], not both",
             )
         }
-        (None, None) => {
-            return bad(
-                "platoon.initial_states",
-                "missing: list the N + 1 initial states, or give [platoon.formation] to generate them",
-            )
-        }
+        (None, None) => return bad(
+            "platoon.initial_states",
+            "missing: list the N + 1 initial states, or give [platoon.formation] to generate them",
+        ),
         (Some(states), None) => {
             if states.len() != n + 1 {
                 return bad(

@@ -1,0 +1,811 @@
+//! What a campaign writes once its cells are in: `cells.csv`, `campaign.json` and the plots.
+use crate::plots::ensure_font;
+use anyhow::{anyhow, Context, Result};
+use platoon_campaign::metrics::{self, Metric};
+use platoon_campaign::{Campaign, Cell};
+use plotters::prelude::*;
+use plotters::style::colors::colormaps::ViridisRGB;
+use serde_json::{json, Value};
+use std::collections::BTreeMap;
+use std::path::Path;
+
+/// A cell's result.
+#[derive(Debug, Clone)]
+pub struct Outcome {
+    /// `ok` or `failed`.
+    pub ok: bool,
+    /// Why it failed.
+    pub error: Option<String>,
+    /// The run's summary, when it produced one.
+    pub summary: Option<Value>,
+    /// Taken from an earlier, interrupted run of the campaign.
+    pub reused: bool,
+}
+
+/// The metric values of every cell (empty for cells without a summary).
+pub struct Table<'a> {
+    pub campaign: &'a Campaign,
+    pub columns: Vec<String>,
+    pub values: Vec<Option<Vec<Metric>>>,
+}
+
+impl<'a> Table<'a> {
+    pub fn new(campaign: &'a Campaign, outcomes: &[Option<Outcome>]) -> Self {
+        let max = campaign.max_followers();
+        let columns = metrics::columns(&campaign.metrics, max);
+        let values = outcomes
+            .iter()
+            .map(|o| {
+                let o = o.as_ref()?;
+                let s = o.summary.as_ref()?;
+                o.ok.then(|| metrics::extract(&campaign.metrics, max, s))
+            })
+            .collect();
+        Self {
+            campaign,
+            columns,
+            values,
+        }
+    }
+
+    fn metric(&self, cell: usize, column: usize) -> Option<&Metric> {
+        self.values[cell].as_ref().map(|v| &v[column])
+    }
+}
+
+fn field(v: &toml::Value) -> String {
+    match v {
+        toml::Value::String(s) => s.clone(),
+        toml::Value::Float(x) => format!("{x}"),
+        other => other.to_string(),
+    }
+}
+
+/// `cells.csv`: one row per cell, in cell order, whatever order the cells finished in.
+pub fn cells_csv(path: &Path, table: &Table, outcomes: &[Option<Outcome>]) -> Result<()> {
+    let c = table.campaign;
+    let mut w =
+        csv::Writer::from_path(path).with_context(|| format!("creating {}", path.display()))?;
+    let mut header: Vec<String> = vec!["cell".into()];
+    header.extend(c.columns.iter().map(|col| col.name.clone()));
+    header.extend(["sample".into(), "seed".into()]);
+    header.extend(c.drawn_columns.iter().cloned());
+    header.push("status".into());
+    header.extend(table.columns.iter().cloned());
+    header.push("error".into());
+    w.write_record(&header)?;
+    for (cell, outcome) in c.cells.iter().zip(outcomes) {
+        let mut row: Vec<String> = vec![cell.index.to_string()];
+        row.extend(c.columns.iter().map(|col| field(&c.value(col, cell))));
+        row.push(cell.sample.to_string());
+        row.push(cell.seed.map(|s| s.to_string()).unwrap_or_default());
+        row.extend(cell.drawn.iter().map(|x| format!("{x}")));
+        let (status, error) = match outcome {
+            None => ("not_run", String::new()),
+            Some(o) if o.ok => ("ok", String::new()),
+            Some(o) => ("failed", o.error.clone().unwrap_or_default()),
+        };
+        row.push(status.into());
+        match &table.values[cell.index] {
+            Some(v) => row.extend(v.iter().map(|m| m.to_string())),
+            None => row.extend(std::iter::repeat_n(String::new(), table.columns.len())),
+        }
+        row.push(error);
+        w.write_record(&row)?;
+    }
+    w.flush()
+        .with_context(|| format!("writing {}", path.display()))?;
+    Ok(())
+}
+
+fn quantile(sorted: &[f64], q: f64) -> f64 {
+    if sorted.is_empty() {
+        return f64::NAN;
+    }
+    let pos = q * (sorted.len() - 1) as f64;
+    let (lo, hi) = (pos.floor() as usize, pos.ceil() as usize);
+    sorted[lo] + (sorted[hi] - sorted[lo]) * (pos - lo as f64)
+}
+
+/// The dimensions with more than one value, the ones plots and groups are made of.
+fn varying(c: &Campaign) -> Vec<usize> {
+    (0..c.dims.len()).filter(|&d| c.dims[d] > 1).collect()
+}
+
+fn dim_name(c: &Campaign, d: usize) -> String {
+    c.columns
+        .iter()
+        .filter(|col| col.dim == d)
+        .map(|col| col.name.clone())
+        .collect::<Vec<_>>()
+        .join(" + ")
+}
+
+fn dim_label(c: &Campaign, d: usize, j: usize) -> String {
+    c.columns
+        .iter()
+        .filter(|col| col.dim == d)
+        .map(|col| field(&col.values[j]))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// The dimension's values as numbers, when its first column is numeric.
+fn dim_numbers(c: &Campaign, d: usize) -> Option<Vec<f64>> {
+    let col = c.columns.iter().find(|col| col.dim == d)?;
+    col.values
+        .iter()
+        .map(|v| v.as_float().or_else(|| v.as_integer().map(|i| i as f64)))
+        .collect()
+}
+
+fn group_label(c: &Campaign, dims: &[usize], cell: &Cell) -> String {
+    dims.iter()
+        .map(|&d| format!("{} = {}", dim_name(c, d), dim_label(c, d, cell.coords[d])))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// Per combination of the varying dimensions: counts, the safety classes and quantiles of
+/// every numeric metric over its samples (what a Monte Carlo study reads first).
+fn groups(table: &Table) -> Vec<Value> {
+    let c = table.campaign;
+    let dims = varying(c);
+    let mut by: BTreeMap<Vec<usize>, Vec<usize>> = BTreeMap::new();
+    for cell in &c.cells {
+        let key: Vec<usize> = dims.iter().map(|&d| cell.coords[d]).collect();
+        by.entry(key).or_default().push(cell.index);
+    }
+    let class_col = table.columns.iter().position(|n| n == "safety_class");
+    by.values()
+        .map(|cells| {
+            let first = &c.cells[cells[0]];
+            let ok: Vec<usize> = cells
+                .iter()
+                .copied()
+                .filter(|&i| table.values[i].is_some())
+                .collect();
+            let mut g = json!({
+                "group": group_label(c, &dims, first),
+                "cells": cells.len(),
+                "ok": ok.len(),
+            });
+            if let Some(k) = class_col {
+                let mut classes: BTreeMap<String, usize> = BTreeMap::new();
+                for &i in &ok {
+                    if let Some(Metric::Text(s)) = table.metric(i, k) {
+                        *classes.entry(s.clone()).or_default() += 1;
+                    }
+                }
+                let severe = classes.get("severe").copied().unwrap_or(0);
+                g["safety_classes"] = json!(classes);
+                if !ok.is_empty() {
+                    g["severe_fraction"] = json!(severe as f64 / ok.len() as f64);
+                }
+            }
+            for (k, name) in table.columns.iter().enumerate() {
+                let mut xs: Vec<f64> = ok
+                    .iter()
+                    .filter_map(|&i| table.metric(i, k).and_then(Metric::as_f64))
+                    .filter(|x| x.is_finite())
+                    .collect();
+                if xs.is_empty()
+                    || name.starts_with("triggers_")
+                        && name != "triggers_total"
+                        && name != "triggers_per_follower"
+                {
+                    continue;
+                }
+                xs.sort_by(f64::total_cmp);
+                g[name.as_str()] = json!({
+                    "min": xs[0],
+                    "p10": quantile(&xs, 0.1),
+                    "median": quantile(&xs, 0.5),
+                    "p90": quantile(&xs, 0.9),
+                    "max": xs[xs.len() - 1],
+                    "mean": xs.iter().sum::<f64>() / xs.len() as f64,
+                });
+            }
+            g
+        })
+        .collect()
+}
+
+/// What `campaign.json` holds.
+pub struct RunInfo<'a> {
+    pub complete: bool,
+    pub interrupted: Option<&'a str>,
+    pub executor: String,
+    pub wall_s: f64,
+    pub cpu_s: f64,
+    pub plots: Vec<String>,
+}
+
+pub fn campaign_json(table: &Table, outcomes: &[Option<Outcome>], info: &RunInfo) -> Value {
+    let c = table.campaign;
+    let count = |f: &dyn Fn(&Option<Outcome>) -> bool| outcomes.iter().filter(|o| f(o)).count();
+    let failures: Vec<Value> = c
+        .cells
+        .iter()
+        .zip(outcomes)
+        .filter_map(|(cell, o)| match o {
+            Some(o) if !o.ok => Some(json!({
+                "cell": cell.index,
+                "directory": format!("cells/{}", cell.dir_name(c.cells.len())),
+                "error": o.error,
+            })),
+            _ => None,
+        })
+        .collect();
+    json!({
+        "name": c.name,
+        "campaign_file": c.file.display().to_string(),
+        "base": c.base_label,
+        "complete": info.complete,
+        "interrupted_by": info.interrupted,
+        "cells": c.cells.len(),
+        "ok": count(&|o| o.as_ref().is_some_and(|o| o.ok)),
+        "failed": failures.len(),
+        "not_run": count(&|o| o.is_none()),
+        "reused_from_an_earlier_run": count(&|o| o.as_ref().is_some_and(|o| o.reused)),
+        "transport": c.spec.transport.name(),
+        "executor": info.executor,
+        "seed": c.spec.seed,
+        "samples": c.samples,
+        "axes": c.columns.iter().map(|col| json!({"name": col.name, "values": col.values.len(), "dimension": col.dim})).collect::<Vec<_>>(),
+        "metrics": table.columns,
+        "wall_s": info.wall_s,
+        "cpu_s": info.cpu_s,
+        "failures": failures,
+        "groups": groups(table),
+        "plots": info.plots,
+    })
+}
+
+// ---------------------------------------------------------------------------------------------
+// Plots
+
+fn err<E: std::fmt::Debug>(e: E) -> anyhow::Error {
+    anyhow!("drawing failed: {e:?}")
+}
+
+const CLASSES: [(&str, RGBColor); 4] = [
+    ("none", RGBColor(46, 139, 87)),
+    ("negligible", RGBColor(154, 205, 50)),
+    ("benign", RGBColor(255, 165, 0)),
+    ("severe", RGBColor(200, 30, 30)),
+];
+const FAILED: RGBColor = RGBColor(170, 170, 170);
+
+/// Which plots a campaign gets: heatmaps for two varying dimensions, lines with spread bands
+/// over one, ECDFs for Monte Carlo. Returns the files written (relative to `dir`).
+pub fn plots(dir: &Path, table: &Table) -> Result<Vec<String>> {
+    let c = table.campaign;
+    let dims = varying(c);
+    let mut written = Vec::new();
+    let numeric: Vec<usize> = table
+        .columns
+        .iter()
+        .enumerate()
+        .filter(|(_, n)| {
+            !matches!(n.as_str(), "safety_class" | "assumption2" | "collided")
+                && !(n.starts_with("triggers_") && n[9..].parse::<usize>().is_ok())
+        })
+        .map(|(k, _)| k)
+        .collect();
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    let mut save = |name: String, draw: &dyn Fn(&Path) -> Result<()>| -> Result<()> {
+        let path = dir.join(&name);
+        draw(&path).with_context(|| format!("drawing {}", path.display()))?;
+        written.push(format!("plots/{name}"));
+        Ok(())
+    };
+    if dims.len() == 2 {
+        let (dx, dy) = (dims[0], dims[1]);
+        for &k in &numeric {
+            let name = &table.columns[k];
+            let z = grid(table, dx, dy, |vals| median(vals), k);
+            save(format!("heatmap_{name}.png"), &|p| {
+                heatmap(p, table, (dx, dy), name, &z)
+            })?;
+        }
+        if let Some(k) = table.columns.iter().position(|n| n == "safety_class") {
+            save("heatmap_safety_class.png".into(), &|p| {
+                class_map(p, table, (dx, dy), k)
+            })?;
+        }
+    }
+    if !dims.is_empty() {
+        // x: the last numeric varying dimension (else the last one); series: the others.
+        let x = *dims
+            .iter()
+            .rev()
+            .find(|&&d| dim_numbers(c, d).is_some())
+            .unwrap_or(dims.last().unwrap_or(&0));
+        let others: Vec<usize> = dims.iter().copied().filter(|&d| d != x).collect();
+        for &k in &numeric {
+            let name = table.columns[k].clone();
+            save(format!("lines_{name}.png"), &|p| {
+                lines(p, table, x, &others, k)
+            })?;
+        }
+    }
+    if c.samples > 1 {
+        for &k in &numeric {
+            let name = table.columns[k].clone();
+            save(format!("ecdf_{name}.png"), &|p| ecdf(p, table, &dims, k))?;
+        }
+    }
+    Ok(written)
+}
+
+fn median(vals: &mut [f64]) -> Option<f64> {
+    if vals.is_empty() {
+        return None;
+    }
+    vals.sort_by(f64::total_cmp);
+    Some(quantile(vals, 0.5))
+}
+
+/// z[iy][ix]: `agg` of metric `k` over the cells at (ix, iy) (samples and other dimensions).
+fn grid(
+    table: &Table,
+    dx: usize,
+    dy: usize,
+    agg: impl Fn(&mut [f64]) -> Option<f64>,
+    k: usize,
+) -> Vec<Vec<Option<f64>>> {
+    let c = table.campaign;
+    let mut vals = vec![vec![Vec::new(); c.dims[dx]]; c.dims[dy]];
+    for cell in &c.cells {
+        if let Some(x) = table.metric(cell.index, k).and_then(Metric::as_f64) {
+            if x.is_finite() {
+                vals[cell.coords[dy]][cell.coords[dx]].push(x);
+            }
+        }
+    }
+    vals.into_iter()
+        .map(|row| row.into_iter().map(|mut v| agg(&mut v)).collect())
+        .collect()
+}
+
+fn tick_labels(c: &Campaign, d: usize) -> Vec<String> {
+    (0..c.dims[d]).map(|j| dim_label(c, d, j)).collect()
+}
+
+fn heatmap(
+    path: &Path,
+    table: &Table,
+    (dx, dy): (usize, usize),
+    metric: &str,
+    z: &[Vec<Option<f64>>],
+) -> Result<()> {
+    ensure_font();
+    let c = table.campaign;
+    let (nx, ny) = (c.dims[dx], c.dims[dy]);
+    let finite: Vec<f64> = z.iter().flatten().flatten().copied().collect();
+    let lo = finite.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = finite.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let log = lo > 0.0 && hi / lo > 1e3;
+    let scale = |v: f64| if log { v.log10() } else { v };
+    let (slo, shi) = if finite.is_empty() {
+        (0.0, 1.0)
+    } else {
+        (scale(lo), scale(hi).max(scale(lo) + 1e-12))
+    };
+    let root = BitMapBackend::new(path, (1100, 700)).into_drawing_area();
+    root.fill(&WHITE).map_err(err)?;
+    let (main, bar) = root.split_horizontally(960);
+    let xs = tick_labels(c, dx);
+    let ys = tick_labels(c, dy);
+    let agg = if c.samples > 1 {
+        " (median over samples)"
+    } else {
+        ""
+    };
+    let mut chart = ChartBuilder::on(&main)
+        .caption(format!("{}: {metric}{agg}", c.name), ("sans-serif", 22))
+        .margin(15)
+        .x_label_area_size(45)
+        .y_label_area_size(90)
+        .build_cartesian_2d(-0.5..nx as f64 - 0.5, -0.5..ny as f64 - 0.5)
+        .map_err(err)?;
+    let (xl, yl) = (xs.clone(), ys.clone());
+    chart
+        .configure_mesh()
+        .disable_mesh()
+        .x_labels(nx.min(12))
+        .y_labels(ny.min(20))
+        .x_label_formatter(&move |v| label_at(&xl, *v))
+        .y_label_formatter(&move |v| label_at(&yl, *v))
+        .x_desc(dim_name(c, dx))
+        .y_desc(dim_name(c, dy))
+        .draw()
+        .map_err(err)?;
+    chart
+        .draw_series(z.iter().enumerate().flat_map(|(iy, row)| {
+            row.iter().enumerate().map(move |(ix, v)| {
+                let color = match v {
+                    Some(v) => {
+                        let t = ((scale(*v) - slo) / (shi - slo)).clamp(0.0, 1.0);
+                        ViridisRGB.get_color(t as f32).filled()
+                    }
+                    None => FAILED.filled(),
+                };
+                Rectangle::new(
+                    [
+                        (ix as f64 - 0.5, iy as f64 - 0.5),
+                        (ix as f64 + 0.5, iy as f64 + 0.5),
+                    ],
+                    color,
+                )
+            })
+        }))
+        .map_err(err)?;
+    // The colour bar.
+    let mut cb = ChartBuilder::on(&bar)
+        .margin_top(50)
+        .margin_bottom(60)
+        .margin_right(10)
+        .y_label_area_size(95)
+        .build_cartesian_2d(0.0..1.0, slo..shi)
+        .map_err(err)?;
+    cb.configure_mesh()
+        .disable_mesh()
+        .disable_x_axis()
+        .y_label_style(("sans-serif", 14))
+        .axis_desc_style(("sans-serif", 15))
+        .y_label_formatter(&|v| {
+            let v = if log { 10f64.powf(*v) } else { *v };
+            format!("{v:.3}")
+        })
+        .y_desc(if log {
+            format!("{metric} (log)")
+        } else {
+            metric.to_string()
+        })
+        .draw()
+        .map_err(err)?;
+    let steps = 100;
+    cb.draw_series((0..steps).map(|i| {
+        let a = slo + (shi - slo) * i as f64 / steps as f64;
+        let b = slo + (shi - slo) * (i + 1) as f64 / steps as f64;
+        Rectangle::new(
+            [(0.0, a), (1.0, b)],
+            ViridisRGB.get_color(i as f32 / steps as f32).filled(),
+        )
+    }))
+    .map_err(err)?;
+    root.present().map_err(err)?;
+    Ok(())
+}
+
+/// The label of the cell centred at `v` (plotters picks how many ticks fit).
+fn label_at(labels: &[String], v: f64) -> String {
+    let i = v.round();
+    if (v - i).abs() < 1e-6 && i >= 0.0 && (i as usize) < labels.len() {
+        labels[i as usize].clone()
+    } else {
+        String::new()
+    }
+}
+
+/// The safety class per cell as a categorical map (the worst class over samples; grey: failed).
+fn class_map(path: &Path, table: &Table, (dx, dy): (usize, usize), k: usize) -> Result<()> {
+    ensure_font();
+    let c = table.campaign;
+    let (nx, ny) = (c.dims[dx], c.dims[dy]);
+    let mut worst = vec![vec![None::<usize>; nx]; ny];
+    for cell in &c.cells {
+        if let Some(Metric::Text(s)) = table.metric(cell.index, k) {
+            let rank = CLASSES.iter().position(|(n, _)| n == s);
+            let w = &mut worst[cell.coords[dy]][cell.coords[dx]];
+            *w = (*w).max(rank);
+        }
+    }
+    let root = BitMapBackend::new(path, (1100, 700)).into_drawing_area();
+    root.fill(&WHITE).map_err(err)?;
+    let xs = tick_labels(c, dx);
+    let ys = tick_labels(c, dy);
+    let worst_of = if c.samples > 1 {
+        " (worst over samples)"
+    } else {
+        ""
+    };
+    let mut chart = ChartBuilder::on(&root)
+        .caption(
+            format!("{}: safety class{worst_of}", c.name),
+            ("sans-serif", 22),
+        )
+        .margin(15)
+        .x_label_area_size(45)
+        .y_label_area_size(90)
+        .build_cartesian_2d(-0.5..nx as f64 * 1.2 - 0.5, -0.5..ny as f64 - 0.5)
+        .map_err(err)?;
+    let (xl, yl) = (xs.clone(), ys.clone());
+    chart
+        .configure_mesh()
+        .disable_mesh()
+        .x_labels(nx.min(12))
+        .y_labels(ny.min(20))
+        .x_label_formatter(&move |v| label_at(&xl, *v))
+        .y_label_formatter(&move |v| label_at(&yl, *v))
+        .x_desc(dim_name(c, dx))
+        .y_desc(dim_name(c, dy))
+        .draw()
+        .map_err(err)?;
+    chart
+        .draw_series(worst.iter().enumerate().flat_map(|(iy, row)| {
+            row.iter().enumerate().map(move |(ix, r)| {
+                let color = r.map_or(FAILED, |r| CLASSES[r].1);
+                Rectangle::new(
+                    [
+                        (ix as f64 - 0.5, iy as f64 - 0.5),
+                        (ix as f64 + 0.5, iy as f64 + 0.5),
+                    ],
+                    color.filled(),
+                )
+            })
+        }))
+        .map_err(err)?;
+    for (i, (name, color)) in CLASSES.iter().enumerate() {
+        chart
+            .draw_series(std::iter::once(Rectangle::new(
+                [(0.0, 0.0), (0.0, 0.0)],
+                color.filled(),
+            )))
+            .map_err(err)?
+            .label(*name)
+            .legend(move |(x, y)| Rectangle::new([(x, y - 6), (x + 14, y + 6)], color.filled()));
+        let _ = i;
+    }
+    chart
+        .draw_series(std::iter::once(Rectangle::new(
+            [(0.0, 0.0), (0.0, 0.0)],
+            FAILED.filled(),
+        )))
+        .map_err(err)?
+        .label("failed / not run")
+        .legend(|(x, y)| Rectangle::new([(x, y - 6), (x + 14, y + 6)], FAILED.filled()));
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.9))
+        .border_style(BLACK)
+        .position(SeriesLabelPosition::UpperRight)
+        .draw()
+        .map_err(err)?;
+    root.present().map_err(err)?;
+    Ok(())
+}
+
+/// Median line with a min-max band per x value, a series per combination of `others` (at
+/// most 8; beyond that they join the band).
+fn lines(path: &Path, table: &Table, x: usize, others: &[usize], k: usize) -> Result<()> {
+    ensure_font();
+    let c = table.campaign;
+    let metric = &table.columns[k];
+    let combos: usize = others.iter().map(|&d| c.dims[d]).product();
+    let split = combos <= 8;
+    let numbers = dim_numbers(c, x);
+    let xpos = |j: usize| numbers.as_ref().map_or(j as f64, |n| n[j]);
+    // series label -> x index -> values
+    let mut series: BTreeMap<(Vec<usize>, String), Vec<Vec<f64>>> = BTreeMap::new();
+    for cell in &c.cells {
+        let Some(v) = table.metric(cell.index, k).and_then(Metric::as_f64) else {
+            continue;
+        };
+        if !v.is_finite() {
+            continue;
+        }
+        let (key, label) = if split {
+            (
+                others.iter().map(|&d| cell.coords[d]).collect::<Vec<_>>(),
+                group_label(c, others, cell),
+            )
+        } else {
+            (Vec::new(), "all".to_string())
+        };
+        series
+            .entry((key, label))
+            .or_insert_with(|| vec![Vec::new(); c.dims[x]])[cell.coords[x]]
+            .push(v);
+    }
+    let bands: Vec<(String, Vec<(f64, f64, f64, f64)>)> = series
+        .into_iter()
+        .map(|((_, label), per_x)| {
+            let pts = per_x
+                .into_iter()
+                .enumerate()
+                .filter_map(|(j, mut v)| {
+                    let m = median(&mut v)?;
+                    Some((xpos(j), v[0], m, v[v.len() - 1]))
+                })
+                .collect();
+            (label, pts)
+        })
+        .collect();
+    let all: Vec<f64> = bands
+        .iter()
+        .flat_map(|(_, p)| p.iter().flat_map(|q| [q.1, q.3]))
+        .collect();
+    let lo = all.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = all.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let log = lo > 0.0 && hi / lo > 1e3;
+    let xs: Vec<f64> = (0..c.dims[x]).map(xpos).collect();
+    let (x0, x1) = (
+        xs.iter().copied().fold(f64::INFINITY, f64::min),
+        xs.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+    );
+    let xpad = ((x1 - x0) * 0.03).max(0.5);
+    let root = BitMapBackend::new(path, (1000, 620)).into_drawing_area();
+    root.fill(&WHITE).map_err(err)?;
+    let spread = if c.samples > 1 || !split {
+        ": median, band min to max"
+    } else {
+        ""
+    };
+    let caption = format!("{}: {metric}{spread}", c.name);
+    let labels = tick_labels(c, x);
+    let categorical = numbers.is_none();
+    let xfmt = move |v: &f64| {
+        if categorical {
+            let i = v.round();
+            if (v - i).abs() < 1e-6 && i >= 0.0 && (i as usize) < labels.len() {
+                labels[i as usize].clone()
+            } else {
+                String::new()
+            }
+        } else {
+            format!("{v}")
+        }
+    };
+    let (lo, hi) = if all.is_empty() { (0.0, 1.0) } else { (lo, hi) };
+    macro_rules! draw {
+        ($chart:expr) => {{
+            let mut chart = $chart;
+            chart
+                .configure_mesh()
+                .x_desc(dim_name(c, x))
+                .y_desc(if log {
+                    format!("{metric} (log)")
+                } else {
+                    metric.clone()
+                })
+                .x_label_formatter(&xfmt)
+                .draw()
+                .map_err(err)?;
+            for (i, (label, pts)) in bands.iter().enumerate() {
+                let color = Palette99::pick(i).to_rgba();
+                if pts.iter().any(|p| p.1 != p.3) {
+                    let mut poly: Vec<(f64, f64)> = pts.iter().map(|p| (p.0, p.1)).collect();
+                    poly.extend(pts.iter().rev().map(|p| (p.0, p.3)));
+                    chart
+                        .draw_series(std::iter::once(Polygon::new(poly, color.mix(0.2).filled())))
+                        .map_err(err)?;
+                }
+                chart
+                    .draw_series(LineSeries::new(
+                        pts.iter().map(|p| (p.0, p.2)),
+                        color.stroke_width(2),
+                    ))
+                    .map_err(err)?
+                    .label(label.clone())
+                    .legend(move |(x, y)| {
+                        PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2))
+                    });
+                chart
+                    .draw_series(
+                        pts.iter()
+                            .map(|p| Circle::new((p.0, p.2), 4, color.filled())),
+                    )
+                    .map_err(err)?;
+            }
+            chart
+                .configure_series_labels()
+                .background_style(WHITE.mix(0.85))
+                .border_style(BLACK)
+                .position(SeriesLabelPosition::UpperLeft)
+                .draw()
+                .map_err(err)?;
+        }};
+    }
+    let mut builder = ChartBuilder::on(&root);
+    builder
+        .caption(caption, ("sans-serif", 22))
+        .margin(15)
+        .x_label_area_size(45)
+        .y_label_area_size(80);
+    if log {
+        draw!(builder
+            .build_cartesian_2d(x0 - xpad..x1 + xpad, (lo * 0.8..hi * 1.25).log_scale())
+            .map_err(err)?);
+    } else {
+        let pad = ((hi - lo) * 0.08).max(1e-9);
+        draw!(builder
+            .build_cartesian_2d(x0 - xpad..x1 + xpad, lo - pad..hi + pad * 3.0)
+            .map_err(err)?);
+    }
+    root.present().map_err(err)?;
+    Ok(())
+}
+
+/// Empirical CDF of metric `k` over the samples, one curve per combination of `dims` (at most
+/// 8; beyond that one curve of all cells).
+fn ecdf(path: &Path, table: &Table, dims: &[usize], k: usize) -> Result<()> {
+    ensure_font();
+    let c = table.campaign;
+    let metric = &table.columns[k];
+    let combos: usize = dims.iter().map(|&d| c.dims[d]).product();
+    let split = combos <= 8;
+    let mut series: BTreeMap<(Vec<usize>, String), Vec<f64>> = BTreeMap::new();
+    for cell in &c.cells {
+        let Some(v) = table.metric(cell.index, k).and_then(Metric::as_f64) else {
+            continue;
+        };
+        if !v.is_finite() {
+            continue;
+        }
+        let key = if split {
+            (
+                dims.iter().map(|&d| cell.coords[d]).collect(),
+                group_label(c, dims, cell),
+            )
+        } else {
+            (Vec::new(), "all cells".to_string())
+        };
+        series.entry(key).or_default().push(v);
+    }
+    let all: Vec<f64> = series.values().flatten().copied().collect();
+    let lo = all.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = all.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let (lo, hi) = if all.is_empty() { (0.0, 1.0) } else { (lo, hi) };
+    let pad = ((hi - lo) * 0.03).max(1e-9);
+    let root = BitMapBackend::new(path, (1000, 620)).into_drawing_area();
+    root.fill(&WHITE).map_err(err)?;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(
+            format!(
+                "{}: {metric}, empirical CDF over {} samples",
+                c.name, c.samples
+            ),
+            ("sans-serif", 22),
+        )
+        .margin(15)
+        .x_label_area_size(45)
+        .y_label_area_size(60)
+        .build_cartesian_2d(lo - pad..hi + pad, 0.0..1.05)
+        .map_err(err)?;
+    chart
+        .configure_mesh()
+        .x_desc(metric.as_str())
+        .y_desc("fraction of samples <= x")
+        .draw()
+        .map_err(err)?;
+    for (i, ((_, label), mut v)) in series.into_iter().enumerate() {
+        v.sort_by(f64::total_cmp);
+        let n = v.len() as f64;
+        let mut pts = vec![(lo - pad, 0.0)];
+        for (j, x) in v.iter().enumerate() {
+            pts.push((*x, j as f64 / n));
+            pts.push((*x, (j + 1) as f64 / n));
+        }
+        pts.push((hi + pad, 1.0));
+        let color = Palette99::pick(i).to_rgba();
+        chart
+            .draw_series(LineSeries::new(pts, color.stroke_width(2)))
+            .map_err(err)?
+            .label(label)
+            .legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2))
+            });
+    }
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .position(SeriesLabelPosition::LowerRight)
+        .draw()
+        .map_err(err)?;
+    root.present().map_err(err)?;
+    Ok(())
+}
