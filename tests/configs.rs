@@ -234,3 +234,40 @@ fn fleet_platoons_on_one_lane_must_not_overlap() {
         "at least one",
     );
 }
+
+#[test]
+fn a_formation_generates_initial_states_for_any_size() {
+    let text = platoon_config::PAPER_TOML;
+    let start = text.find("initial_states = [").unwrap();
+    let end = start + text[start..].find("\n]\n").unwrap() + 3;
+    let formation = "formation = { leader_position_m = 100.0, position_jitter_m = 0.4, speed_jitter_mps = 0.3, seed = 9 }";
+    let with = |n: usize, f: &str| {
+        let t = format!("{}{f}{}", &text[..start], &text[end..]);
+        t.replace("followers = 4", &format!("followers = {n}"))
+    };
+    let (config, s) = parse(&with(50, formation), Path::new("f.toml")).unwrap();
+    assert_eq!(s.initial.len(), 51);
+    assert_eq!(s.initial[0], platoon_model::State::new(100.0, 15.0, 0.0));
+    for (i, x) in s.initial.iter().enumerate().skip(1) {
+        let dp = x[0] - (100.0 - 10.0 * i as f64);
+        assert!(
+            dp.abs() <= 0.4 && (x[1] - 15.0).abs() <= 0.3 && x[2] == 0.0,
+            "{i}: {x:?}"
+        );
+    }
+    // The resolved config keeps the formation (and its seed), not the drawn states.
+    assert!(config.platoon.initial_states.is_none());
+    let (_, again) = parse(&platoon_config::to_toml(&config), Path::new("f.toml")).unwrap();
+    assert_eq!(
+        again.initial, s.initial,
+        "the same seed draws the same states"
+    );
+    let e = parse(
+        &with(4, "formation = { position_jitter_m = 5.0 }"),
+        Path::new("f.toml"),
+    )
+    .unwrap_err();
+    assert_eq!(e.key, "platoon.formation.position_jitter_m");
+    let e = parse(&with(4, ""), Path::new("f.toml")).unwrap_err();
+    assert!(e.message.contains("[platoon.formation]"), "{e}");
+}

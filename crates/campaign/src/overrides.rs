@@ -99,7 +99,14 @@ fn under(path: &str, prefix: &str) -> bool {
 
 /// Keys that belong to one value of a selector (a rule's or a kind's parameters): the
 /// scenario refuses them under any other value, so a campaign that sets the selector drops them.
-const EXCLUSIVE: &[(&str, &str, &[(&str, &[&str])])] = &[
+/// `(table, selector, [(selector value, keys only that value uses)])`.
+type Exclusive = (
+    &'static str,
+    &'static str,
+    &'static [(&'static str, &'static [&'static str])],
+);
+
+const EXCLUSIVE: &[Exclusive] = &[
     (
         "trigger",
         "rule",

@@ -98,6 +98,13 @@ pub fn cells_csv(path: &Path, table: &Table, outcomes: &[Option<Outcome>]) -> Re
     Ok(())
 }
 
+/// A `triggers_by_follower` column (`triggers_3`).
+fn per_follower(column: &str) -> bool {
+    column
+        .strip_prefix("triggers_")
+        .is_some_and(|i| i.parse::<usize>().is_ok())
+}
+
 fn quantile(sorted: &[f64], q: f64) -> f64 {
     if sorted.is_empty() {
         return f64::NAN;
@@ -288,8 +295,7 @@ pub fn plots(dir: &Path, table: &Table) -> Result<Vec<String>> {
         .iter()
         .enumerate()
         .filter(|(_, n)| {
-            !matches!(n.as_str(), "safety_class" | "assumption2" | "collided")
-                && !(n.starts_with("triggers_") && n[9..].parse::<usize>().is_ok())
+            !(matches!(n.as_str(), "safety_class" | "assumption2" | "collided") || per_follower(n))
         })
         .map(|(k, _)| k)
         .collect();
@@ -304,7 +310,7 @@ pub fn plots(dir: &Path, table: &Table) -> Result<Vec<String>> {
         let (dx, dy) = (dims[0], dims[1]);
         for &k in &numeric {
             let name = &table.columns[k];
-            let z = grid(table, dx, dy, |vals| median(vals), k);
+            let z = grid(table, dx, dy, median, k);
             save(format!("heatmap_{name}.png"), &|p| {
                 heatmap(p, table, (dx, dy), name, &z)
             })?;
@@ -578,6 +584,9 @@ fn class_map(path: &Path, table: &Table, (dx, dy): (usize, usize), k: usize) -> 
     Ok(())
 }
 
+/// A series' label and its points: (x, min, median, max).
+type Band = (String, Vec<(f64, f64, f64, f64)>);
+
 /// Median line with a min-max band per x value, a series per combination of `others` (at
 /// most 8; beyond that they join the band).
 fn lines(path: &Path, table: &Table, x: usize, others: &[usize], k: usize) -> Result<()> {
@@ -610,7 +619,7 @@ fn lines(path: &Path, table: &Table, x: usize, others: &[usize], k: usize) -> Re
             .or_insert_with(|| vec![Vec::new(); c.dims[x]])[cell.coords[x]]
             .push(v);
     }
-    let bands: Vec<(String, Vec<(f64, f64, f64, f64)>)> = series
+    let bands: Vec<Band> = series
         .into_iter()
         .map(|((_, label), per_x)| {
             let pts = per_x

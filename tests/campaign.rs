@@ -1,0 +1,599 @@
+//! `platoon campaign` end to end: the shipped campaigns at a reduced size, a Dask cluster on
+//! 127.0.0.1 against the local pool, resumption after Ctrl-C, failed cells, bad files.
+mod common;
+
+use common::{json, ok, platoon, platoon_command, repo};
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+/// A shipped campaign, edited by `edit` and written into `dir` (its `base` made absolute).
+fn shipped(name: &str, dir: &Path, edit: impl FnOnce(&mut toml::Table)) -> PathBuf {
+    let src = repo().join("campaigns").join(format!("{name}.toml"));
+    let mut t: toml::Table = toml::from_str(&std::fs::read_to_string(&src).unwrap()).unwrap();
+    if let Some(base) = t.get("base").and_then(|b| b.as_str()) {
+        let abs = repo().join("campaigns").join(base);
+        t.insert("base".into(), abs.display().to_string().into());
+    }
+    edit(&mut t);
+    let path = dir.join(format!("{name}.toml"));
+    std::fs::write(&path, toml::to_string(&t).unwrap()).unwrap();
+    path
+}
+
+fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+    let path = dir.join(name);
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+/// cells.csv as rows of (column -> field).
+fn cells(out: &Path) -> Vec<std::collections::HashMap<String, String>> {
+    let mut r = csv::Reader::from_path(out.join("cells.csv")).unwrap();
+    let header: Vec<String> = r.headers().unwrap().iter().map(String::from).collect();
+    r.records()
+        .map(|rec| {
+            header
+                .iter()
+                .cloned()
+                .zip(rec.unwrap().iter().map(String::from))
+                .collect()
+        })
+        .collect()
+}
+
+fn num(row: &std::collections::HashMap<String, String>, key: &str) -> f64 {
+    row[key]
+        .parse()
+        .unwrap_or_else(|_| panic!("{key} = {:?}", row[key]))
+}
+
+fn campaign(args: &[&str], cwd: &Path) -> std::process::Output {
+    let mut all = vec!["campaign"];
+    all.extend_from_slice(args);
+    platoon(&all, cwd)
+}
+
+#[test]
+fn dos_timing_lights_up_the_ramps_and_each_cell_equals_platoon_run() {
+    let tmp = tempfile::tempdir().unwrap();
+    let file = shipped("dos-timing", tmp.path(), |t| {
+        t.insert(
+            "dos_window".into(),
+            toml::from_str::<toml::Value>("onset_s = [20.0, 35.5]\nduration_s = [1.0, 4.0]")
+                .unwrap(),
+        );
+    });
+    let out = tmp.path().join("out");
+    let o = campaign(
+        &[file.to_str().unwrap(), "--out", out.to_str().unwrap()],
+        tmp.path(),
+    );
+    ok(&o);
+    let rows = cells(&out);
+    assert_eq!(rows.len(), 4);
+    assert!(rows.iter().all(|r| r["status"] == "ok"));
+    let at = |onset: &str, d: &str| {
+        rows.iter()
+            .find(|r| r["dos.onset_s"] == onset && r["dos.duration_s"] == d)
+            .unwrap()
+    };
+    // ERRATA item 23: 4 s of jam over the braking ramp collides; during cruise it is harmless.
+    let ramp = at("35.5", "4");
+    let cruise = at("20", "4");
+    assert!(
+        num(ramp, "max_spacing_error_m") > 3.0 * num(cruise, "max_spacing_error_m"),
+        "ramp {} vs cruise {}",
+        ramp["max_spacing_error_m"],
+        cruise["max_spacing_error_m"]
+    );
+    assert_eq!(ramp["safety_class"], "severe");
+    assert_ne!(cruise["safety_class"], "severe");
+    assert_eq!(num(cruise, "attacked_time_s"), 4.0, "measured in the run");
+    for plot in [
+        "heatmap_max_spacing_error_m.png",
+        "heatmap_safety_class.png",
+        "lines_max_spacing_error_m.png",
+    ] {
+        assert!(out.join("plots").join(plot).is_file(), "{plot}");
+    }
+    let summary = json(&out.join("campaign.json"));
+    assert_eq!(summary["complete"], true);
+    assert_eq!(summary["ok"], 4);
+    assert!(summary["cpu_s"].as_f64().unwrap() > 0.0);
+    assert!(out.join("campaign.toml").is_file() && out.join("base.toml").is_file());
+    // A cell is exactly `platoon run --transport inproc` of its config.
+    let cell = out.join("cells/c0003");
+    let run = tmp.path().join("run");
+    ok(&platoon(
+        &[
+            "run",
+            cell.join("config.toml").to_str().unwrap(),
+            "--transport",
+            "inproc",
+            "--no-plots",
+            "--out",
+            run.to_str().unwrap(),
+        ],
+        tmp.path(),
+    ));
+    assert_eq!(
+        json(&cell.join("summary.json")),
+        json(&run.join("summary.json"))
+    );
+    assert_eq!(json(&cell.join("cell.json"))["status"], "ok");
+}
+
+#[test]
+fn scaling_shows_pf_colliding_at_100_followers_while_plf_stays_close() {
+    let tmp = tempfile::tempdir().unwrap();
+    let file = shipped("scaling", tmp.path(), |t| {
+        let axes = t["axes"].as_array_mut().unwrap();
+        axes[0]["values"] = toml::Value::try_from(["pf", "plf"]).unwrap();
+        axes[1]["values"] = toml::Value::try_from([4, 100]).unwrap();
+    });
+    let out = tmp.path().join("out");
+    ok(&campaign(
+        &[file.to_str().unwrap(), "--out", out.to_str().unwrap()],
+        tmp.path(),
+    ));
+    let rows = cells(&out);
+    let at = |topology: &str, n: &str| {
+        rows.iter()
+            .find(|r| r["topology.preset"] == topology && r["platoon.followers"] == n)
+            .unwrap()
+    };
+    let pf = at("pf", "100");
+    assert_eq!(pf["collided"], "1", "{pf:?}");
+    assert_eq!(pf["safety_class"], "severe");
+    assert!(num(pf, "min_gap_m") < 0.0);
+    let plf = at("plf", "100");
+    assert_eq!(plf["collided"], "0");
+    assert!(num(plf, "max_spacing_error_m") < 0.5, "{plf:?}");
+    assert!(num(at("pf", "4"), "max_spacing_error_m") < num(pf, "max_spacing_error_m"));
+    assert!(out.join("plots/lines_max_spacing_error_m.png").is_file());
+    assert!(out.join("plots/heatmap_safety_class.png").is_file());
+}
+
+#[test]
+fn monte_carlo_compares_rules_on_the_same_schedules() {
+    let tmp = tempfile::tempdir().unwrap();
+    let file = shipped("monte-carlo", tmp.path(), |_| {});
+    let out = tmp.path().join("out");
+    ok(&campaign(
+        &[
+            file.to_str().unwrap(),
+            "--samples",
+            "20",
+            "--out",
+            out.to_str().unwrap(),
+        ],
+        tmp.path(),
+    ));
+    let rows = cells(&out);
+    assert_eq!(rows.len(), 40);
+    // Common random numbers: sample s has one seed and one measured schedule in both rules.
+    for s in 0..20 {
+        let pair: Vec<_> = rows
+            .iter()
+            .filter(|r| r["sample"] == s.to_string())
+            .collect();
+        assert_eq!(pair.len(), 2);
+        assert_eq!(pair[0]["seed"], pair[1]["seed"]);
+        assert_eq!(pair[0]["attacked_time_s"], pair[1]["attacked_time_s"]);
+        assert_eq!(
+            pair[0]["assumption2"], "holds",
+            "admissible by construction"
+        );
+    }
+    let seeds: std::collections::HashSet<_> = rows.iter().map(|r| r["seed"].clone()).collect();
+    assert_eq!(seeds.len(), 20);
+    let summary = json(&out.join("campaign.json"));
+    let groups = summary["groups"].as_array().unwrap();
+    assert_eq!(groups.len(), 2);
+    let mean = |g: &serde_json::Value| g["triggers_total"]["mean"].as_f64().unwrap();
+    assert!(groups[0]["group"].as_str().unwrap().contains("dynamic"));
+    assert!(
+        mean(&groups[0]) < mean(&groups[1]),
+        "the dynamic rule sends fewer messages: {} vs {}",
+        mean(&groups[0]),
+        mean(&groups[1])
+    );
+    assert!(groups[0]["severe_fraction"].as_f64().is_some());
+    assert!(out.join("plots/ecdf_max_spacing_error_m.png").is_file());
+    // The same campaign file and seed give the same cells.csv.
+    let again = tmp.path().join("again");
+    ok(&campaign(
+        &[
+            file.to_str().unwrap(),
+            "--samples",
+            "20",
+            "--no-plots",
+            "--jobs",
+            "1",
+            "--out",
+            again.to_str().unwrap(),
+        ],
+        tmp.path(),
+    ));
+    assert_eq!(
+        std::fs::read(out.join("cells.csv")).unwrap(),
+        std::fs::read(again.join("cells.csv")).unwrap()
+    );
+}
+
+#[test]
+fn a_sumo_campaign_runs_full_co_simulations() {
+    let tmp = tempfile::tempdir().unwrap();
+    let file = shipped("sumo-background", tmp.path(), |t| {
+        t["set"]["simulation.duration_s"] = toml::Value::Float(5.0);
+        t["axes"][0]["values"] = toml::Value::try_from([1, 2]).unwrap();
+    });
+    let out = tmp.path().join("out");
+    ok(&campaign(
+        &[
+            file.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--keep-runs",
+        ],
+        tmp.path(),
+    ));
+    let rows = cells(&out);
+    assert_eq!(rows.len(), 2);
+    for (i, r) in rows.iter().enumerate() {
+        assert_eq!(r["status"], "ok", "{r:?}");
+        let summary = json(&out.join(format!("cells/c000{i}/summary.json")));
+        assert!(summary["sumo"]["sumo_version"].is_string(), "SUMO ran");
+        let run = out.join(format!("runs/c000{i}"));
+        assert!(run.join("timing.json").is_file(), "an iceoryx2 run");
+        assert!(run.join("logs/plant.log").is_file());
+    }
+    // Background traffic does not move the platoon.
+    assert_eq!(
+        rows[0]["max_spacing_error_m"],
+        rows[1]["max_spacing_error_m"]
+    );
+    assert_eq!(rows[0]["triggers_total"], rows[1]["triggers_total"]);
+}
+
+/// A Dask scheduler and two workers on 127.0.0.1, stopped on drop.
+struct Cluster {
+    procs: Vec<Child>,
+    address: String,
+}
+
+impl Cluster {
+    fn start(dir: &Path) -> Cluster {
+        let setup = repo().join("bridge/setup-venv.sh");
+        assert!(Command::new(&setup).status().unwrap().success());
+        let dask = repo().join("bridge/.venv/bin/dask");
+        let file = dir.join("scheduler.json");
+        let log = |name: &str| std::fs::File::create(dir.join(name)).unwrap();
+        let mut procs = vec![Command::new(&dask)
+            .args([
+                "scheduler",
+                "--host",
+                "127.0.0.1",
+                "--port",
+                "0",
+                "--no-dashboard",
+            ])
+            .arg("--scheduler-file")
+            .arg(&file)
+            .stdout(log("scheduler.out"))
+            .stderr(log("scheduler.log"))
+            .spawn()
+            .unwrap()];
+        let started = Instant::now();
+        let address = loop {
+            if let Ok(text) = std::fs::read_to_string(&file) {
+                if let Ok(v) = serde_json::from_str::<serde_json::Value>(&text) {
+                    break v["address"].as_str().unwrap().to_string();
+                }
+            }
+            assert!(
+                started.elapsed() < Duration::from_secs(60),
+                "no Dask scheduler"
+            );
+            std::thread::sleep(Duration::from_millis(100));
+        };
+        for i in 0..2 {
+            procs.push(
+                Command::new(&dask)
+                    .args(["worker", &address, "--nthreads", "1", "--no-dashboard"])
+                    .args(["--host", "127.0.0.1", "--name", &format!("w{i}")])
+                    .stdout(log(&format!("worker{i}.out")))
+                    .stderr(log(&format!("worker{i}.log")))
+                    .spawn()
+                    .unwrap(),
+            );
+        }
+        // Both workers registered (the scheduler logs each).
+        let started = Instant::now();
+        while std::fs::read_to_string(dir.join("scheduler.log"))
+            .unwrap_or_default()
+            .matches("Register worker")
+            .count()
+            < 2
+        {
+            assert!(
+                started.elapsed() < Duration::from_secs(60),
+                "Dask workers did not register"
+            );
+            std::thread::sleep(Duration::from_millis(100));
+        }
+        Cluster { procs, address }
+    }
+}
+
+impl Drop for Cluster {
+    fn drop(&mut self) {
+        for p in self.procs.iter_mut().rev() {
+            // SAFETY: signalling our own child.
+            unsafe { libc::kill(p.id() as libc::pid_t, libc::SIGTERM) };
+        }
+        for p in &mut self.procs {
+            let deadline = Instant::now() + Duration::from_secs(10);
+            while p.try_wait().unwrap().is_none() && Instant::now() < deadline {
+                std::thread::sleep(Duration::from_millis(50));
+            }
+            let _ = p.kill();
+            let _ = p.wait();
+        }
+    }
+}
+
+#[test]
+fn a_dask_cluster_on_localhost_gives_the_local_cells_csv_byte_for_byte() {
+    let tmp = tempfile::tempdir().unwrap();
+    let file = write(
+        tmp.path(),
+        "small.toml",
+        r#"
+        name = "small"
+        [[axes]]
+        key = "trigger.rule"
+        values = ["dynamic", "static"]
+        [monte_carlo]
+        samples = 3
+        loss = [0.0, 0.3]
+        tau_s = [0.34, 0.82]
+        position_jitter_m = 0.5
+        [dos_window]
+        onset_s = [12.0]
+        duration_s = [1.0, 2.0]
+        "#,
+    );
+    let local = tmp.path().join("local");
+    ok(&campaign(
+        &[
+            file.to_str().unwrap(),
+            "--no-plots",
+            "--out",
+            local.to_str().unwrap(),
+        ],
+        tmp.path(),
+    ));
+    let cluster = Cluster::start(tmp.path());
+    let remote = tmp.path().join("remote");
+    let o = campaign(
+        &[
+            file.to_str().unwrap(),
+            "--no-plots",
+            "--dask",
+            &cluster.address,
+            "--out",
+            remote.to_str().unwrap(),
+        ],
+        tmp.path(),
+    );
+    ok(&o);
+    assert_eq!(
+        std::fs::read_to_string(local.join("cells.csv")).unwrap(),
+        std::fs::read_to_string(remote.join("cells.csv")).unwrap()
+    );
+    let summary = json(&remote.join("campaign.json"));
+    assert!(summary["executor"]
+        .as_str()
+        .unwrap()
+        .starts_with("dask tcp://127.0.0.1"));
+    assert_eq!(summary["ok"], 12);
+    // The work ran on the workers: their platoon campaign-cell processes did it, not us.
+    let logs: String = (0..2)
+        .map(|i| std::fs::read_to_string(tmp.path().join(format!("worker{i}.log"))).unwrap())
+        .collect();
+    assert!(logs.contains("Starting established connection"), "{logs}");
+    drop(cluster);
+    // A scheduler that is not there is named, and the campaign stays resumable.
+    let o = campaign(
+        &[
+            file.to_str().unwrap(),
+            "--dask",
+            "tcp://127.0.0.1:9",
+            "--out",
+            tmp.path().join("none").to_str().unwrap(),
+        ],
+        tmp.path(),
+    );
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("Dask") && err.contains("127.0.0.1:9"), "{err}");
+    assert!(tmp.path().join("none.partial").is_dir());
+}
+
+#[test]
+fn ctrl_c_keeps_finished_cells_and_the_same_command_resumes() {
+    let tmp = tempfile::tempdir().unwrap();
+    let file = write(
+        tmp.path(),
+        "long.toml",
+        "name = \"long\"\nset = { \"simulation.duration_s\" = 5.0 }\n[monte_carlo]\nsamples = 1000\nloss = [0.0, 0.2]\n",
+    );
+    let out = tmp.path().join("out");
+    let args = [
+        "campaign",
+        file.to_str().unwrap(),
+        "--no-plots",
+        "--jobs",
+        "1",
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    let mut child = platoon_command(tmp.path())
+        .args(args)
+        .stderr(Stdio::piped())
+        .stdout(Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut err = BufReader::new(child.stderr.take().unwrap());
+    let mut line = String::new();
+    err.read_line(&mut line).unwrap();
+    assert!(line.starts_with("campaign long: 1000 cells"), "{line}");
+    // Interrupt once the first cell is recorded (one job: cells finish in order).
+    let first = tmp.path().join("out.partial/cells/c0000/cell.json");
+    let started = Instant::now();
+    while !first.exists() {
+        assert!(
+            started.elapsed() < Duration::from_secs(60),
+            "no cell finished"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    // SAFETY: signalling our own child.
+    unsafe { libc::kill(child.id() as libc::pid_t, libc::SIGINT) };
+    let status = child.wait().unwrap();
+    let mut rest = String::new();
+    std::io::Read::read_to_string(&mut err, &mut rest).unwrap();
+    assert_eq!(status.code(), Some(130), "{rest}");
+    assert!(
+        rest.contains("run the same command again to resume"),
+        "{rest}"
+    );
+    assert!(
+        !out.exists(),
+        "an interrupted campaign never looks finished"
+    );
+    let partial = tmp.path().join("out.partial");
+    let summary = json(&partial.join("campaign.json"));
+    assert_eq!(summary["complete"], false);
+    assert_eq!(summary["interrupted_by"], "SIGINT");
+    let done = summary["ok"].as_u64().unwrap();
+    assert!(done > 0 && done < 1000, "{done} cells done");
+    let before = cells(&partial);
+    assert_eq!(
+        before.iter().filter(|r| r["status"] == "not_run").count() as u64,
+        1000 - done
+    );
+
+    let o = platoon(&args, tmp.path());
+    ok(&o);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        stderr.contains(&format!("{done} finished before and kept")),
+        "{stderr}"
+    );
+    let after = cells(&out);
+    assert!(after.iter().all(|r| r["status"] == "ok"));
+    for r in before.iter().filter(|r| r["status"] == "ok") {
+        let i: usize = r["cell"].parse().unwrap();
+        assert_eq!(&after[i], r, "a kept cell is unchanged");
+    }
+    assert_eq!(
+        json(&out.join("campaign.json"))["reused_from_an_earlier_run"],
+        done
+    );
+}
+
+#[test]
+fn failed_cells_are_recorded_and_the_exit_code_says_so() {
+    let tmp = tempfile::tempdir().unwrap();
+    let file = write(
+        tmp.path(),
+        "mixed.toml",
+        "[[axes]]\nkey = \"simulation.dt_s\"\nvalues = [0.01, 0.0]\n",
+    );
+    let out = tmp.path().join("out");
+    let o = campaign(
+        &[file.to_str().unwrap(), "--out", out.to_str().unwrap()],
+        tmp.path(),
+    );
+    assert_eq!(o.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("1 of 2 cells failed"), "{err}");
+    let rows = cells(&out);
+    assert_eq!(rows[0]["status"], "ok");
+    assert_eq!(rows[1]["status"], "failed");
+    assert!(
+        rows[1]["error"].contains("simulation.dt_s"),
+        "{:?}",
+        rows[1]
+    );
+    let summary = json(&out.join("campaign.json"));
+    assert_eq!(summary["failed"], 1);
+    assert_eq!(summary["failures"][0]["cell"], 1);
+    // A finished campaign is not overwritten without --force; with it, it is replaced.
+    let o = campaign(
+        &[file.to_str().unwrap(), "--out", out.to_str().unwrap()],
+        tmp.path(),
+    );
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--force"));
+    let o = campaign(
+        &[
+            file.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--force",
+        ],
+        tmp.path(),
+    );
+    assert_eq!(o.status.code(), Some(1));
+    assert!(!tmp.path().join("out.old").exists());
+}
+
+#[test]
+fn bad_campaign_files_exit_2_with_one_line_and_write_nothing() {
+    let tmp = tempfile::tempdir().unwrap();
+    for (text, needle) in [
+        ("samplez = 3\n", "bad.toml:1"),
+        (
+            "[[axes]]\nkey = \"trigger.rulez\"\nvalues = [1]\n",
+            "bad.toml:2",
+        ),
+        ("metrics = [\"max_speed\"]\n", "unknown metric `max_speed`"),
+        ("base = \"missing.toml\"\n", "key `base`"),
+        ("[monte_carlo]\nsamples = 0\n", "monte_carlo.samples"),
+    ] {
+        let file = write(tmp.path(), "bad.toml", text);
+        let out = tmp.path().join("out");
+        let o = campaign(
+            &[file.to_str().unwrap(), "--out", out.to_str().unwrap()],
+            tmp.path(),
+        );
+        assert_eq!(o.status.code(), Some(2), "{text}");
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(err.trim().lines().count(), 1, "{err}");
+        assert!(err.contains(needle), "{needle:?} in {err}");
+        assert!(!out.exists() && !tmp.path().join("out.partial").exists());
+    }
+}
+
+#[test]
+fn every_shipped_campaign_parses() {
+    let mut seen = 0;
+    for entry in std::fs::read_dir(repo().join("campaigns")).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_some_and(|e| e == "toml") {
+            let c = platoon_campaign::Campaign::load(&path, None).unwrap_or_else(|e| panic!("{e}"));
+            assert!(
+                c.cells.iter().all(|cell| cell.config.is_ok()),
+                "{}: every cell is a valid scenario",
+                path.display()
+            );
+            seen += 1;
+        }
+    }
+    assert_eq!(seen, 4);
+}
