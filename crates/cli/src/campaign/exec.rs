@@ -251,3 +251,101 @@ pub fn dask(
     }
     Ok(())
 }
+
+/// A Dask scheduler and workers on 127.0.0.1 started from the bridge's venv (what
+/// `platoon bench campaign` measures Dask with), stopped on drop.
+pub struct LocalCluster {
+    procs: Vec<std::process::Child>,
+    /// The scheduler's address (`tcp://127.0.0.1:PORT`).
+    pub address: String,
+}
+
+impl LocalCluster {
+    /// Starts a scheduler and `workers` single-threaded workers, logging into `dir`, and waits
+    /// (at most a minute) until every worker has registered.
+    pub fn start(workers: usize, dir: &Path) -> Result<Self> {
+        crate::sumo::ensure_venv()?;
+        let dask = crate::sumo::bridge_dir().join(".venv/bin/dask");
+        let file = dir.join("scheduler.json");
+        let log = |name: &str| -> Result<std::fs::File> {
+            std::fs::File::create(dir.join(name))
+                .with_context(|| format!("creating {}", dir.join(name).display()))
+        };
+        let _ = std::fs::remove_file(&file);
+        let scheduler = Command::new(&dask)
+            .args([
+                "scheduler",
+                "--host",
+                "127.0.0.1",
+                "--port",
+                "0",
+                "--no-dashboard",
+            ])
+            .arg("--scheduler-file")
+            .arg(&file)
+            .stdout(log("scheduler.out")?)
+            .stderr(log("scheduler.log")?)
+            .spawn()
+            .with_context(|| format!("starting {} scheduler", dask.display()))?;
+        let mut me = Self {
+            procs: vec![scheduler],
+            address: String::new(),
+        };
+        let deadline = Instant::now() + std::time::Duration::from_secs(60);
+        let wait = |what: &str| -> Result<()> {
+            if Instant::now() > deadline {
+                bail!(
+                    "the local Dask cluster did not start within a minute ({what}; logs in {})",
+                    dir.display()
+                );
+            }
+            std::thread::sleep(std::time::Duration::from_millis(100));
+            Ok(())
+        };
+        me.address = loop {
+            let text = std::fs::read_to_string(&file).unwrap_or_default();
+            if let Ok(v) = serde_json::from_str::<Value>(&text) {
+                if let Some(a) = v["address"].as_str() {
+                    break a.to_string();
+                }
+            }
+            wait("no scheduler address")?;
+        };
+        for i in 0..workers {
+            let worker = Command::new(&dask)
+                .args(["worker", &me.address, "--nthreads", "1", "--no-dashboard"])
+                .args(["--host", "127.0.0.1", "--name", &format!("w{i}")])
+                .stdout(log(&format!("worker{i}.out"))?)
+                .stderr(log(&format!("worker{i}.log"))?)
+                .spawn()
+                .context("starting a Dask worker")?;
+            me.procs.push(worker);
+        }
+        while std::fs::read_to_string(dir.join("scheduler.log"))
+            .unwrap_or_default()
+            .matches("Register worker")
+            .count()
+            < workers
+        {
+            wait("workers not registered")?;
+        }
+        Ok(me)
+    }
+}
+
+impl Drop for LocalCluster {
+    fn drop(&mut self) {
+        for p in self.procs.iter().rev() {
+            // SAFETY: signalling our own children.
+            unsafe { libc::kill(p.id() as libc::pid_t, libc::SIGTERM) };
+        }
+        for p in &mut self.procs {
+            let deadline = Instant::now() + std::time::Duration::from_secs(10);
+            while matches!(p.try_wait(), Ok(None)) && Instant::now() < deadline {
+                std::thread::sleep(std::time::Duration::from_millis(50));
+            }
+            let _ = p.kill();
+            let _ = p.wait();
+        }
+    }
+}
