@@ -265,7 +265,8 @@ struct Cluster {
 }
 
 impl Cluster {
-    fn start(dir: &Path) -> Cluster {
+    /// Workers run `exe` (through `$PLATOON_EXE`, as the README documents) with `WORKER` set.
+    fn start(dir: &Path, exe: &Path) -> Cluster {
         let setup = repo().join("bridge/setup-venv.sh");
         assert!(Command::new(&setup).status().unwrap().success());
         let dask = repo().join("bridge/.venv/bin/dask");
@@ -302,6 +303,8 @@ impl Cluster {
         for i in 0..2 {
             procs.push(
                 Command::new(&dask)
+                    .env("PLATOON_EXE", exe)
+                    .env("WORKER", format!("w{i}"))
                     .args(["worker", &address, "--nthreads", "1", "--no-dashboard"])
                     .args(["--host", "127.0.0.1", "--name", &format!("w{i}")])
                     .stdout(log(&format!("worker{i}.out")))
@@ -376,7 +379,23 @@ fn a_dask_cluster_on_localhost_gives_the_local_cells_csv_byte_for_byte() {
         ],
         tmp.path(),
     ));
-    let cluster = Cluster::start(tmp.path());
+    // The workers run platoon through a wrapper that logs each call: proof the cells ran there.
+    let calls = tmp.path().join("calls.log");
+    let wrapper = write(
+        tmp.path(),
+        "platoon-on-worker.sh",
+        &format!(
+            "#!/bin/sh\necho \"$WORKER $*\" >> {}\nexec {} \"$@\"\n",
+            calls.display(),
+            env!("CARGO_BIN_EXE_platoon")
+        ),
+    );
+    std::fs::set_permissions(
+        &wrapper,
+        std::os::unix::fs::PermissionsExt::from_mode(0o755),
+    )
+    .unwrap();
+    let cluster = Cluster::start(tmp.path(), &wrapper);
     let remote = tmp.path().join("remote");
     let o = campaign(
         &[
@@ -400,11 +419,14 @@ fn a_dask_cluster_on_localhost_gives_the_local_cells_csv_byte_for_byte() {
         .unwrap()
         .starts_with("dask tcp://127.0.0.1"));
     assert_eq!(summary["ok"], 12);
-    // The work ran on the workers: their platoon campaign-cell processes did it, not us.
-    let logs: String = (0..2)
-        .map(|i| std::fs::read_to_string(tmp.path().join(format!("worker{i}.log"))).unwrap())
-        .collect();
-    assert!(logs.contains("Starting established connection"), "{logs}");
+    // The work ran on the workers: one `platoon campaign-cell` per cell, started by a worker.
+    let log = std::fs::read_to_string(&calls).unwrap();
+    assert_eq!(log.lines().count(), 12, "{log}");
+    assert!(
+        log.lines()
+            .all(|l| (l.starts_with("w0 ") || l.starts_with("w1 ")) && l.ends_with("campaign-cell")),
+        "{log}"
+    );
     drop(cluster);
     // A scheduler that is not there is named, and the campaign stays resumable.
     let o = campaign(

@@ -29,7 +29,7 @@ pub struct Args {
     pub force: bool,
     /// Cells run at once by the local pool [default: the number of cores].
     #[arg(long, short = 'j')]
-    pub jobs: Option<usize>,
+    pub jobs: Option<std::num::NonZeroUsize>,
     /// Send the cells to a running Dask scheduler (e.g. tcp://10.0.0.5:8786) instead of the
     /// local pool; the workers run this same platoon binary (see the README).
     #[arg(long, value_name = "ADDRESS")]
@@ -208,12 +208,10 @@ fn progress(total: u64, done: u64) -> indicatif::ProgressBar {
 
 pub fn run(args: Args) -> Result<()> {
     let campaign = Campaign::load(&args.campaign, args.samples)?;
-    if args.jobs == Some(0) {
-        anyhow::bail!("--jobs must be at least 1");
-    }
     let jobs = args
         .jobs
-        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+        .or_else(|| std::thread::available_parallelism().ok())
+        .map_or(1, |n| n.get());
     let out = args
         .out
         .clone()
@@ -297,10 +295,12 @@ pub fn run(args: Args) -> Result<()> {
     );
     let mut failed_now = 0usize;
     let mut record = |reply: CellReply| -> Result<()> {
-        let cell = &campaign.cells[reply.index];
-        if interrupt.stop.load(Ordering::SeqCst) && reply.summary.is_none() {
-            return Ok(()); // most likely killed by the same signal: left to the next run
-        }
+        let Some(cell) = campaign.cells.get(reply.index) else {
+            anyhow::bail!(
+                "a worker replied for cell {}, which this campaign does not have",
+                reply.index
+            );
+        };
         let outcome = match (reply.summary, reply.error) {
             (Some(s), _) => {
                 let why = metrics::failure(&s);
@@ -318,6 +318,9 @@ pub fn run(args: Args) -> Result<()> {
                 reused: false,
             },
         };
+        if !outcome.ok && interrupt.stop.load(Ordering::SeqCst) {
+            return Ok(()); // most likely stopped by the same signal: left to the next run
+        }
         if !outcome.ok {
             failed_now += 1;
             bar.set_message(format!("{failed_now} failed"));
