@@ -203,20 +203,7 @@ impl Campaign {
 
     /// Parses and expands campaign text (`file` names it in errors and anchors `base`).
     pub fn parse(text: &str, file: &Path, samples: Option<usize>) -> Result<Campaign, ConfigError> {
-        let de = toml::Deserializer::new(text);
-        let mut spec: CampaignFile = serde_path_to_error::deserialize(de).map_err(|e| {
-            let key = e.path().to_string();
-            let inner = e.into_inner();
-            let line = inner
-                .span()
-                .map(|s| text[..s.start.min(text.len())].lines().count().max(1));
-            error(
-                file,
-                line,
-                if key == "." { "" } else { &key },
-                inner.message().trim(),
-            )
-        })?;
+        let mut spec: CampaignFile = platoon_config::deserialize(text, file)?;
         let at = |needle: &str| line_of(text, needle);
 
         // The base scenario, resolved.

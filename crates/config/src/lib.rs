@@ -47,10 +47,14 @@ impl std::error::Error for ConfigError {}
 /// The paper's Section IV scenario, embedded so `platoon run` works with nothing but cargo.
 pub const PAPER_TOML: &str = include_str!("../../../configs/paper.toml");
 
-/// Parses TOML text (from `file`, used in errors) into a resolved config and its scenario.
-pub fn parse(text: &str, file: &Path) -> Result<(Config, Scenario), ConfigError> {
+/// Deserialises TOML text (from `file`, used in errors) into any of our file schemas, with the
+/// line and dotted key of the first error (`FILE:LINE: key `KEY`: ...`).
+pub fn deserialize<T: serde::de::DeserializeOwned>(
+    text: &str,
+    file: &Path,
+) -> Result<T, ConfigError> {
     let de = toml::Deserializer::new(text);
-    let mut config: Config = serde_path_to_error::deserialize(de).map_err(|e| {
+    serde_path_to_error::deserialize(de).map_err(|e| {
         let key = e.path().to_string();
         let inner = e.into_inner();
         let line = inner
@@ -62,7 +66,12 @@ pub fn parse(text: &str, file: &Path) -> Result<(Config, Scenario), ConfigError>
             message: inner.message().trim().to_string(),
             line,
         }
-    })?;
+    })
+}
+
+/// Parses TOML text (from `file`, used in errors) into a resolved config and its scenario.
+pub fn parse(text: &str, file: &Path) -> Result<(Config, Scenario), ConfigError> {
+    let mut config: Config = deserialize(text, file)?;
     let scenario = to_scenario(&mut config).map_err(|(key, message)| ConfigError {
         file: file.to_path_buf(),
         key,

@@ -379,6 +379,50 @@ fn tick_labels(c: &Campaign, d: usize) -> Vec<String> {
     (0..c.dims[d]).map(|j| dim_label(c, d, j)).collect()
 }
 
+type GridChart<'a, 'b> = ChartContext<
+    'a,
+    BitMapBackend<'b>,
+    Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
+>;
+
+/// Axes with one unit cell per value of `dx` (x) and `dy` (y), labelled with the values;
+/// `room` widens x (for a legend).
+fn grid_axes<'a, 'b>(
+    area: &'a DrawingArea<BitMapBackend<'b>, plotters::coord::Shift>,
+    caption: String,
+    c: &Campaign,
+    (dx, dy): (usize, usize),
+    room: f64,
+) -> Result<GridChart<'a, 'b>> {
+    let (nx, ny) = (c.dims[dx], c.dims[dy]);
+    let mut chart = ChartBuilder::on(area)
+        .caption(caption, ("sans-serif", 22))
+        .margin(15)
+        .x_label_area_size(45)
+        .y_label_area_size(90)
+        .build_cartesian_2d(-0.5..nx as f64 * room - 0.5, -0.5..ny as f64 - 0.5)
+        .map_err(err)?;
+    let (xl, yl) = (tick_labels(c, dx), tick_labels(c, dy));
+    chart
+        .configure_mesh()
+        .disable_mesh()
+        .x_labels(nx.min(12))
+        .y_labels(ny.min(20))
+        .x_label_formatter(&move |v| label_at(&xl, *v))
+        .y_label_formatter(&move |v| label_at(&yl, *v))
+        .x_desc(dim_name(c, dx))
+        .y_desc(dim_name(c, dy))
+        .draw()
+        .map_err(err)?;
+    Ok(chart)
+}
+
+/// The unit cell of value (ix, iy).
+fn unit(ix: usize, iy: usize, style: ShapeStyle) -> Rectangle<(f64, f64)> {
+    let (x, y) = (ix as f64, iy as f64);
+    Rectangle::new([(x - 0.5, y - 0.5), (x + 0.5, y + 0.5)], style)
+}
+
 fn heatmap(
     path: &Path,
     table: &Table,
@@ -388,7 +432,6 @@ fn heatmap(
 ) -> Result<()> {
     ensure_font();
     let c = table.campaign;
-    let (nx, ny) = (c.dims[dx], c.dims[dy]);
     let finite: Vec<f64> = z.iter().flatten().flatten().copied().collect();
     let lo = finite.iter().copied().fold(f64::INFINITY, f64::min);
     let hi = finite.iter().copied().fold(f64::NEG_INFINITY, f64::max);
@@ -402,32 +445,13 @@ fn heatmap(
     let root = BitMapBackend::new(path, (1100, 700)).into_drawing_area();
     root.fill(&WHITE).map_err(err)?;
     let (main, bar) = root.split_horizontally(960);
-    let xs = tick_labels(c, dx);
-    let ys = tick_labels(c, dy);
     let agg = if c.samples > 1 {
         " (median over samples)"
     } else {
         ""
     };
-    let mut chart = ChartBuilder::on(&main)
-        .caption(format!("{}: {metric}{agg}", c.name), ("sans-serif", 22))
-        .margin(15)
-        .x_label_area_size(45)
-        .y_label_area_size(90)
-        .build_cartesian_2d(-0.5..nx as f64 - 0.5, -0.5..ny as f64 - 0.5)
-        .map_err(err)?;
-    let (xl, yl) = (xs.clone(), ys.clone());
-    chart
-        .configure_mesh()
-        .disable_mesh()
-        .x_labels(nx.min(12))
-        .y_labels(ny.min(20))
-        .x_label_formatter(&move |v| label_at(&xl, *v))
-        .y_label_formatter(&move |v| label_at(&yl, *v))
-        .x_desc(dim_name(c, dx))
-        .y_desc(dim_name(c, dy))
-        .draw()
-        .map_err(err)?;
+    let caption = format!("{}: {metric}{agg}", c.name);
+    let mut chart = grid_axes(&main, caption, c, (dx, dy), 1.0)?;
     chart
         .draw_series(z.iter().enumerate().flat_map(|(iy, row)| {
             row.iter().enumerate().map(move |(ix, v)| {
@@ -438,13 +462,7 @@ fn heatmap(
                     }
                     None => FAILED.filled(),
                 };
-                Rectangle::new(
-                    [
-                        (ix as f64 - 0.5, iy as f64 - 0.5),
-                        (ix as f64 + 0.5, iy as f64 + 0.5),
-                    ],
-                    color,
-                )
+                unit(ix, iy, color)
             })
         }))
         .map_err(err)?;
@@ -511,68 +529,36 @@ fn class_map(path: &Path, table: &Table, (dx, dy): (usize, usize), k: usize) -> 
     }
     let root = BitMapBackend::new(path, (1100, 700)).into_drawing_area();
     root.fill(&WHITE).map_err(err)?;
-    let xs = tick_labels(c, dx);
-    let ys = tick_labels(c, dy);
     let worst_of = if c.samples > 1 {
         " (worst over samples)"
     } else {
         ""
     };
-    let mut chart = ChartBuilder::on(&root)
-        .caption(
-            format!("{}: safety class{worst_of}", c.name),
-            ("sans-serif", 22),
-        )
-        .margin(15)
-        .x_label_area_size(45)
-        .y_label_area_size(90)
-        .build_cartesian_2d(-0.5..nx as f64 * 1.2 - 0.5, -0.5..ny as f64 - 0.5)
-        .map_err(err)?;
-    let (xl, yl) = (xs.clone(), ys.clone());
-    chart
-        .configure_mesh()
-        .disable_mesh()
-        .x_labels(nx.min(12))
-        .y_labels(ny.min(20))
-        .x_label_formatter(&move |v| label_at(&xl, *v))
-        .y_label_formatter(&move |v| label_at(&yl, *v))
-        .x_desc(dim_name(c, dx))
-        .y_desc(dim_name(c, dy))
-        .draw()
-        .map_err(err)?;
+    let caption = format!("{}: safety class{worst_of}", c.name);
+    let mut chart = grid_axes(&root, caption, c, (dx, dy), 1.2)?;
     chart
         .draw_series(worst.iter().enumerate().flat_map(|(iy, row)| {
             row.iter().enumerate().map(move |(ix, r)| {
                 let color = r.map_or(FAILED, |r| CLASSES[r].1);
-                Rectangle::new(
-                    [
-                        (ix as f64 - 0.5, iy as f64 - 0.5),
-                        (ix as f64 + 0.5, iy as f64 + 0.5),
-                    ],
-                    color.filled(),
-                )
+                unit(ix, iy, color.filled())
             })
         }))
         .map_err(err)?;
-    for (i, (name, color)) in CLASSES.iter().enumerate() {
+    let legend = CLASSES
+        .iter()
+        .copied()
+        .chain(std::iter::once(("failed / not run", FAILED)));
+    for (name, color) in legend {
+        // An empty rectangle: only its legend entry shows.
         chart
             .draw_series(std::iter::once(Rectangle::new(
                 [(0.0, 0.0), (0.0, 0.0)],
                 color.filled(),
             )))
             .map_err(err)?
-            .label(*name)
+            .label(name)
             .legend(move |(x, y)| Rectangle::new([(x, y - 6), (x + 14, y + 6)], color.filled()));
-        let _ = i;
     }
-    chart
-        .draw_series(std::iter::once(Rectangle::new(
-            [(0.0, 0.0), (0.0, 0.0)],
-            FAILED.filled(),
-        )))
-        .map_err(err)?
-        .label("failed / not run")
-        .legend(|(x, y)| Rectangle::new([(x, y - 6), (x + 14, y + 6)], FAILED.filled()));
     chart
         .configure_series_labels()
         .background_style(WHITE.mix(0.9))
