@@ -407,6 +407,66 @@ fn an_injector_that_stops_publishing_is_named_after_the_timeout() {
     assert!(summary["error"].as_str().unwrap().contains("step 300"));
 }
 
+/// Issue 13: an injector that keeps re-publishing rx[k] once made the run wait forever, as any
+/// sample reset the timeout. Only a completed step counts as progress now.
+#[test]
+fn an_injector_repeating_one_step_is_named_after_the_timeout() {
+    let tmp = tempfile::tempdir().unwrap();
+    let injector = drop_sender("--repeat-at 200");
+    let (child, run) = start_long_run(
+        tmp.path(),
+        &["--injector", &injector, "--step-timeout", "1"],
+    );
+    let needle = run.with_extension("partial").display().to_string();
+    assert_stopped_naming(child, &run, "injector", &needle);
+    let summary = summary(&run);
+    // rx[200] arrived (again and again): steps 0..=200 are recorded, 201 never comes.
+    assert_eq!(summary["steps"], 201);
+    let error = summary["error"].as_str().unwrap();
+    assert!(error.contains("step 201"), "{error}");
+    assert!(error.contains("duplicate samples"), "{error}");
+}
+
+/// Duplicates that do not stall the run are dropped, counted and reported.
+#[test]
+fn duplicate_samples_are_counted_and_change_nothing() {
+    let tmp = tempfile::tempdir().unwrap();
+    let config = repo().join("configs/table1.toml");
+    let dup = tmp.path().join("dup");
+    let o = platoon(
+        &[
+            "run",
+            config.to_str().unwrap(),
+            "--no-plots",
+            "--out",
+            dup.to_str().unwrap(),
+            "--injector",
+            &drop_sender("--duplicates 2"),
+        ],
+        tmp.path(),
+    );
+    ok(&o);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(stderr.contains("repeated a step"), "{stderr}");
+    let timing = json(&dup.join("timing.json"));
+    assert!(timing["duplicate_samples"]["rx"].as_u64().unwrap() > 0, "{timing}");
+    assert_eq!(timing["duplicate_samples"]["states"], 0);
+    let plain = tmp.path().join("plain");
+    ok(&platoon(
+        &[
+            "run",
+            config.to_str().unwrap(),
+            "--no-plots",
+            "--out",
+            plain.to_str().unwrap(),
+            "--injector",
+            &drop_sender(""),
+        ],
+        tmp.path(),
+    ));
+    same_outputs(&dup, &plain, &["trajectories.csv", "events.csv", "summary.json"]);
+}
+
 #[test]
 fn an_injector_command_that_does_not_exist_is_named() {
     let tmp = tempfile::tempdir().unwrap();

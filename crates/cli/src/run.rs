@@ -368,8 +368,20 @@ fn cosimulate(
     match result {
         Ok(outcome) => {
             let (rows, summary) = rec.finish(outcome.rejected)?;
-            let json = serde_json::to_string_pretty(&outcome.timing)? + "\n";
+            let mut timing = serde_json::to_value(&outcome.timing)?;
+            timing["duplicate_samples"] = serde_json::to_value(outcome.duplicates)?;
+            let json = serde_json::to_string_pretty(&timing)? + "\n";
             dir.write("timing.json", json.as_bytes())?;
+            if outcome.duplicates.total() > 0 {
+                eprintln!(
+                    "warning: {} samples repeated a step already published (states {}, tx {}, rx {}, commands {}); they were dropped, but they slow the run (timing.json counts them)",
+                    outcome.duplicates.total(),
+                    outcome.duplicates.states,
+                    outcome.duplicates.tx,
+                    outcome.duplicates.rx,
+                    outcome.duplicates.commands
+                );
+            }
             Ok((rows, summary, None))
         }
         Err(e) => {

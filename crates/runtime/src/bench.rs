@@ -73,6 +73,7 @@ pub fn raw_hop(
                     step: 0,
                     waited_s: 30.0,
                     what: "it never answered",
+                    duplicates: 0,
                 });
             }
         }

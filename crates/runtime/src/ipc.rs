@@ -259,6 +259,9 @@ pub struct Inlet<T: Debug + ZeroCopySend + 'static> {
     subscriber: Subscriber<Ipc, [T], StepHeader>,
     pending: VecDeque<Sample<T>>,
     from: Role,
+    /// Steps below this were taken: samples of them are duplicates.
+    floor: u64,
+    duplicates: u64,
 }
 
 impl<T: Debug + Copy + ZeroCopySend + 'static> Inlet<T> {
@@ -272,10 +275,19 @@ impl<T: Debug + Copy + ZeroCopySend + 'static> Inlet<T> {
             subscriber,
             pending: VecDeque::new(),
             from,
+            floor: 0,
+            duplicates: 0,
         })
     }
 
-    /// Moves every received sample into the buffer; returns how many arrived.
+    /// Samples dropped because their step was already taken or already buffered: a publisher
+    /// that repeats itself, counted so a run can say so.
+    pub fn duplicates(&self) -> u64 {
+        self.duplicates
+    }
+
+    /// Moves every new received sample into the buffer (a repeated step is dropped and
+    /// counted, see [`Inlet::duplicates`]); returns how many were new.
     pub fn drain(&mut self) -> Result<usize, RunError> {
         let mut n = 0;
         while let Some(s) = self
@@ -296,6 +308,10 @@ impl<T: Debug + Copy + ZeroCopySend + 'static> Inlet<T> {
                         s.payload().len()
                     ),
                 })?;
+            if h.step < self.floor || self.pending.iter().any(|(p, _)| p.step == h.step) {
+                self.duplicates += 1;
+                continue;
+            }
             self.pending.push_back((*h, items.to_vec()));
             n += 1;
         }
@@ -324,7 +340,10 @@ impl<T: Debug + Copy + ZeroCopySend + 'static> Inlet<T> {
             self.pending.pop_front();
         }
         match self.pending.front() {
-            Some((h, _)) if h.step == k => Ok(self.pending.pop_front()),
+            Some((h, _)) if h.step == k => {
+                self.floor = k + 1;
+                Ok(self.pending.pop_front())
+            }
             _ => Ok(None),
         }
     }

@@ -20,7 +20,7 @@ pub mod nodes;
 pub mod orchestrator;
 pub mod timing;
 
-pub use orchestrator::{orchestrate, Options, Outcome, Program};
+pub use orchestrator::{orchestrate, DuplicateSamples, Options, Outcome, Program};
 
 /// Why a co-simulation run stopped early.
 #[derive(Debug, thiserror::Error)]
@@ -51,7 +51,10 @@ pub enum RunError {
         status: String,
     },
     /// A node did not publish what the run waited for.
-    #[error("the {node} process published nothing for step {step} within {waited_s} s ({what})")]
+    #[error(
+        "the {node} process published nothing for step {step} within {waited_s} s ({what}){}",
+        if *duplicates > 0 { format!("; meanwhile {duplicates} duplicate samples of steps already published arrived") } else { String::new() }
+    )]
     Stalled {
         /// Which.
         node: &'static str,
@@ -61,6 +64,8 @@ pub enum RunError {
         waited_s: f64,
         /// What was missing.
         what: &'static str,
+        /// Samples that repeated a step (they do not count as progress).
+        duplicates: u64,
     },
     /// A node reported that it cannot go on.
     #[error("the {node} process failed at step {step}: {reason}")]

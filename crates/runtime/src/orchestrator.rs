@@ -60,6 +60,29 @@ pub struct Outcome {
     pub rejected: RejectCounts,
     /// Where the time of a step went.
     pub timing: Timing,
+    /// Samples that repeated a step, per service.
+    pub duplicates: DuplicateSamples,
+}
+
+/// Samples the orchestrator received for a step it already had, per service (a publisher
+/// repeating itself: harmless to the results, costly to the run).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+pub struct DuplicateSamples {
+    /// From the plant.
+    pub states: u64,
+    /// From the controller.
+    pub tx: u64,
+    /// From the injector.
+    pub rx: u64,
+    /// From the controller.
+    pub commands: u64,
+}
+
+impl DuplicateSamples {
+    /// All of them.
+    pub fn total(&self) -> u64 {
+        self.states + self.tx + self.rx + self.commands
+    }
 }
 
 struct Children {
@@ -170,6 +193,7 @@ pub fn orchestrate(
                     step: 0,
                     waited_s: opts.ready_timeout.as_secs_f64(),
                     what: "it never reported READY",
+                    duplicates: 0,
                 });
             }
             wait(&listener, Duration::from_millis(100))?;
@@ -186,9 +210,15 @@ pub fn orchestrate(
         done[Node::Orchestrator as usize] = true;
         done[Node::Injector as usize] = true;
         loop {
-            let mut arrived = states.drain()? + tx.drain()? + rx.drain()? + commands.drain()?;
+            // Progress is a step recorded or a node reporting: samples that arrive without
+            // completing a step (an injector repeating rx[k]) do not reset the timeout.
+            let mut progressed = false;
+            states.drain()?;
+            tx.drain()?;
+            rx.drain()?;
+            commands.drain()?;
             while let Some(m) = status.next()? {
-                arrived += 1;
+                progressed = true;
                 check_failed(&m)?;
                 if m.kind == ControlMsg::DONE {
                     if let Some(n) = Node::from_u32(m.node) {
@@ -220,12 +250,12 @@ pub fn orchestrate(
                 run.record(&s, &t, &r, &c)?;
                 on_step(&run.rows);
                 run.step += 1;
-                arrived += 1;
+                progressed = true;
             }
             if run.step > scenario.steps && done.iter().all(|d| *d) {
                 break;
             }
-            if arrived > 0 {
+            if progressed {
                 run.last_progress = Instant::now();
             } else if run.last_progress.elapsed() > opts.step_timeout {
                 let k = run.step;
@@ -246,6 +276,10 @@ pub fn orchestrate(
                     step: k,
                     waited_s: opts.step_timeout.as_secs_f64(),
                     what,
+                    duplicates: states.duplicates()
+                        + tx.duplicates()
+                        + rx.duplicates()
+                        + commands.duplicates(),
                 });
             }
             watch(&mut children, run.step)?;
@@ -254,6 +288,12 @@ pub fn orchestrate(
         Ok(Outcome {
             rejected: rejected.unwrap_or_default(),
             timing: clock.report(),
+            duplicates: DuplicateSamples {
+                states: states.duplicates(),
+                tx: tx.duplicates(),
+                rx: rx.duplicates(),
+                commands: commands.duplicates(),
+            },
         })
     })();
     match &result {
