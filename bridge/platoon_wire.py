@@ -106,7 +106,7 @@ class ControlMsg(ctypes.Structure):
         ("kind", ctypes.c_uint32),
         ("node", ctypes.c_uint32),
         ("step", ctypes.c_uint64),
-        ("counts", ctypes.c_uint64 * 4),
+        ("counts", ctypes.c_uint64 * 6),
         ("reason", ctypes.c_uint8 * 120),
     ]
 

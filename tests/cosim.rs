@@ -154,7 +154,14 @@ fn python_injector_dropping_a_sender_equals_the_builtin_with_total_loss_on_it() 
     // Nothing the Python injector sent was malformed (this caught the byte-length slices of
     // iceoryx2 0.10.0's Python bindings, iceoryx2 #1533).
     let s = summary(&tmp.path().join("py"));
-    for reason in ["non_finite", "unknown_sender", "future_step", "stale_seq"] {
+    for reason in [
+        "non_finite",
+        "unknown_sender",
+        "future_step",
+        "stale_seq",
+        "implausible_seq",
+        "implausible_state",
+    ] {
         assert_eq!(s["rejected_packets"][reason], 0, "{reason}");
     }
     // Its effect is visible: with vehicle 2 silenced, follower 3 (its only predecessor link
@@ -449,7 +456,10 @@ fn duplicate_samples_are_counted_and_change_nothing() {
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(stderr.contains("repeated a step"), "{stderr}");
     let timing = json(&dup.join("timing.json"));
-    assert!(timing["duplicate_samples"]["rx"].as_u64().unwrap() > 0, "{timing}");
+    assert!(
+        timing["duplicate_samples"]["rx"].as_u64().unwrap() > 0,
+        "{timing}"
+    );
     assert_eq!(timing["duplicate_samples"]["states"], 0);
     let plain = tmp.path().join("plain");
     ok(&platoon(
@@ -464,7 +474,11 @@ fn duplicate_samples_are_counted_and_change_nothing() {
         ],
         tmp.path(),
     ));
-    same_outputs(&dup, &plain, &["trajectories.csv", "events.csv", "summary.json"]);
+    same_outputs(
+        &dup,
+        &plain,
+        &["trajectories.csv", "events.csv", "summary.json"],
+    );
 }
 
 #[test]

@@ -11,15 +11,60 @@ pub struct RejectCounts {
     pub unknown_sender: u64,
     /// Sampled at a step later than the current one.
     pub future_step: u64,
-    /// A sequence number not newer than the last one accepted from that sender (replay).
+    /// Not newer than the last packet accepted from that sender: sampled at the same or an
+    /// earlier step (a replay, a duplicate, or a delayed packet overtaken by a newer one).
     pub stale_seq: u64,
+    /// A sequence number ahead of what the sender can have sent by the packet's step (a vehicle
+    /// broadcasts at most once per step, so `seq <= step + 1`).
+    pub implausible_seq: u64,
+    /// A state no vehicle can reach from the sender's last accepted state in the elapsed time
+    /// (|a| above [`PLAUSIBLE_ACCEL`], or a jump in speed or position beyond it).
+    pub implausible_state: u64,
 }
 
 impl RejectCounts {
     /// Total of all reasons.
     pub fn total(&self) -> u64 {
-        self.non_finite + self.unknown_sender + self.future_step + self.stale_seq
+        self.as_array().iter().sum()
     }
+
+    /// The counts in wire order: non-finite, unknown sender, future step, stale, implausible
+    /// sequence number, implausible state.
+    pub fn as_array(&self) -> [u64; 6] {
+        [
+            self.non_finite,
+            self.unknown_sender,
+            self.future_step,
+            self.stale_seq,
+            self.implausible_seq,
+            self.implausible_state,
+        ]
+    }
+
+    /// From [`RejectCounts::as_array`]'s order.
+    pub fn from_array([a, b, c, d, e, f]: [u64; 6]) -> Self {
+        Self {
+            non_finite: a,
+            unknown_sender: b,
+            future_step: c,
+            stale_seq: d,
+            implausible_seq: e,
+            implausible_state: f,
+        }
+    }
+}
+
+/// The largest acceleration any vehicle can have (m/s^2, 5 g): a packet whose state implies a
+/// larger one since the sender's last accepted packet is refused as implausible.
+pub const PLAUSIBLE_ACCEL: f64 = 50.0;
+
+/// The last packet accepted from one neighbour: when it was sampled, its sequence number and
+/// state (at first, the initial state, assumed delivered at step 0).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Heard {
+    step: Option<u64>,
+    seq: u32,
+    state: State,
 }
 
 /// What one follower did in a step.
@@ -49,7 +94,7 @@ struct Follower {
     own: State,
     neighbours: Vec<VehicleId>,
     estimates: Vec<State>,
-    last_seq: Vec<u32>,
+    heard: Vec<Heard>,
     theta: f64,
     mode: Mode,
     seq: u32,
@@ -99,11 +144,18 @@ impl PlatoonController {
             .map(|i| {
                 let id = VehicleId::follower(i);
                 let neighbours = topology.in_neighbours(id).to_vec();
-                let estimates = neighbours.iter().map(|j| initial[j.index()]).collect();
+                let estimates: Vec<State> = neighbours.iter().map(|j| initial[j.index()]).collect();
                 Follower {
                     id,
                     own: initial[i],
-                    last_seq: vec![0; neighbours.len()],
+                    heard: estimates
+                        .iter()
+                        .map(|&state| Heard {
+                            step: None,
+                            seq: 0,
+                            state,
+                        })
+                        .collect(),
                     neighbours,
                     estimates,
                     theta: theta0,
@@ -300,11 +352,33 @@ impl PlatoonController {
             return;
         };
         let f = &mut self.followers[fi];
-        if pk.seq <= f.last_seq[s] {
+        // Freshness by the sampling step, not by the sequence number alone: a forged packet
+        // with a huge sequence number would otherwise lock the genuine sender out for good
+        // (issue 13). A forged packet that passes can hold off genuine ones of its own step
+        // only, since steps ahead of the receiver's are refused above.
+        let heard = f.heard[s];
+        if heard.step.is_some_and(|h| pk.step <= h) {
             self.rejected.stale_seq += 1;
             return;
         }
-        f.last_seq[s] = pk.seq;
+        if u64::from(pk.seq) > pk.step + 1 {
+            self.rejected.implausible_seq += 1;
+            return;
+        }
+        let since = heard.step.unwrap_or(0);
+        if !plausible(
+            &heard.state,
+            &pk.state,
+            (pk.step - since) as f64 * self.params.dt,
+        ) {
+            self.rejected.implausible_state += 1;
+            return;
+        }
+        f.heard[s] = Heard {
+            step: Some(pk.step),
+            seq: pk.seq,
+            state: pk.state,
+        };
         // An old (delayed) sample is propagated open-loop to the current step.
         let mut x = pk.state;
         for _ in pk.step..k {
@@ -312,6 +386,16 @@ impl PlatoonController {
         }
         f.estimates[s] = x;
     }
+}
+
+/// Whether a vehicle at `from` can be at `to` after `t` seconds with |a| <= [`PLAUSIBLE_ACCEL`]
+/// (|v - v0| <= A t, |p - p0 - v0 t| <= A t^2 / 2), with room for rounding.
+fn plausible(from: &State, to: &State, t: f64) -> bool {
+    let a = PLAUSIBLE_ACCEL;
+    let tol = 1e-6 + 1e-12 * from[0].abs().max(to[0].abs());
+    to[2].abs() <= a
+        && (to[1] - from[1]).abs() <= a * t + tol
+        && (to[0] - from[0] - from[1] * t).abs() <= 0.5 * a * t * t + tol
 }
 
 /// `q_i` from follower i's current estimates.
@@ -517,8 +601,8 @@ mod tests {
             },
             Delivery {
                 receiver: VehicleId(2),
-                packet: pk(1, 1, 1, 0.0),
-            }, // replays seq 1
+                packet: pk(1, 1, 0, -10.0),
+            }, // replays the packet of step 0
         ];
         tx.clear();
         c.transmit(1, &states, &mut tx);
@@ -528,6 +612,86 @@ mod tests {
             (r.non_finite, r.unknown_sender, r.future_step, r.stale_seq),
             (1, 2, 1, 1)
         );
+        assert_eq!(r.total(), 5);
+    }
+
+    /// Issue 13: one forged packet with a near-maximum sequence number used to be accepted and
+    /// lock its sender out for the rest of the run. It is refused now, and a forged packet that
+    /// passes every check holds off genuine ones of its own step only.
+    #[test]
+    fn a_forged_packet_never_locks_a_sender_out() {
+        let topo = Topology::preset(Preset::Pf, 2).unwrap();
+        let mut states = formation(2, 15.0);
+        let periodic = TriggerRule::Periodic { period_steps: 2 };
+        let mut c = PlatoonController::new(params(periodic), &topo, &states).unwrap();
+        let flow = FreeFlow::new(0.5, 0.01);
+        let to_2 = |packet| Delivery {
+            receiver: VehicleId(2),
+            packet,
+        };
+        let mut genuine_accepted = 0;
+        for k in 0..40u64 {
+            let mut tx = Vec::new();
+            c.transmit(k, &states, &mut tx);
+            let mut rx = everyone(&topo, &tx);
+            if k == 5 {
+                let mut forged = *tx
+                    .iter()
+                    .find(|p| p.sender == VehicleId(1))
+                    .unwrap_or(&Packet {
+                        sender: VehicleId(1),
+                        seq: 1,
+                        step: k,
+                        state: states[1],
+                    });
+                forged.seq = u32::MAX - 1;
+                forged.step = k;
+                forged.state = states[1];
+                rx.insert(0, to_2(forged));
+            }
+            if k == 10 {
+                // Plausible in every way (the sender's true state, the next sequence number):
+                // accepted, and it can only shadow step 10.
+                rx.insert(
+                    0,
+                    to_2(Packet {
+                        sender: VehicleId(1),
+                        seq: 11,
+                        step: k,
+                        state: states[1],
+                    }),
+                );
+            }
+            if k == 20 {
+                let mut teleported = states[1];
+                teleported[0] += 30.0;
+                rx.insert(
+                    0,
+                    to_2(Packet {
+                        sender: VehicleId(1),
+                        seq: 21,
+                        step: k,
+                        state: teleported,
+                    }),
+                );
+            }
+            let before = c.rejected();
+            c.receive(k, &states, &rx, &[false; 3]);
+            let after = c.rejected();
+            let genuine_from_1 = tx.iter().filter(|p| p.sender == VehicleId(1)).count() as u64;
+            let refused = after.total() - before.total();
+            if k > 10 && k != 20 {
+                assert_eq!(refused, 0, "step {k}: genuine packets refused");
+                genuine_accepted += genuine_from_1;
+            }
+            for x in states.iter_mut() {
+                *x = flow.advance(x);
+            }
+        }
+        let r = c.rejected();
+        assert_eq!(r.implausible_seq, 1, "{r:?}");
+        assert_eq!(r.implausible_state, 1, "{r:?}");
+        assert!(genuine_accepted > 0, "follower 1 kept being heard");
     }
 
     #[test]

@@ -24,7 +24,7 @@
 mod controller;
 mod trigger;
 
-pub use controller::{FollowerStep, PlatoonController, RejectCounts};
+pub use controller::{FollowerStep, PlatoonController, RejectCounts, PLAUSIBLE_ACCEL};
 pub use trigger::{AttackInput, ControllerParams, ParamsError, TriggerRule};
 
 use platoon_model::{State, VehicleId};

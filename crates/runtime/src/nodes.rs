@@ -362,12 +362,7 @@ pub fn controller(run_id: &str, scenario: &Scenario) -> Result<(), RunError> {
                         let mut done = ControlMsg::new(ControlMsg::DONE, Node::Controller, *k);
                         for c in &controllers {
                             let r = c.rejected();
-                            for (sum, x) in done.counts.iter_mut().zip([
-                                r.non_finite,
-                                r.unknown_sender,
-                                r.future_step,
-                                r.stale_seq,
-                            ]) {
+                            for (sum, x) in done.counts.iter_mut().zip(r.as_array()) {
                                 *sum += x;
                             }
                         }

@@ -225,13 +225,7 @@ pub fn orchestrate(
                         done[n as usize] = true;
                     }
                     if m.node == Node::Controller as u32 {
-                        let [a, b, c, d] = m.counts;
-                        rejected = Some(RejectCounts {
-                            non_finite: a,
-                            unknown_sender: b,
-                            future_step: c,
-                            stale_seq: d,
-                        });
+                        rejected = Some(RejectCounts::from_array(m.counts));
                     }
                 }
             }

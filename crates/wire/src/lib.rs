@@ -131,8 +131,8 @@ pub struct ControlMsg {
     /// The step it refers to.
     pub step: u64,
     /// `DONE` from the controller: rejected packets by reason (non-finite, unknown sender,
-    /// future step, stale sequence number).
-    pub counts: [u64; 4],
+    /// future step, stale, implausible sequence number, implausible state).
+    pub counts: [u64; 6],
     /// `FAILED`/`ABORT`: a reason, UTF-8, NUL-padded.
     pub reason: [u8; 120],
 }
@@ -157,7 +157,7 @@ impl ControlMsg {
             kind,
             node: node as u32,
             step,
-            counts: [0; 4],
+            counts: [0; 6],
             reason: [0; 120],
         }
     }
