@@ -193,8 +193,10 @@ fn python_injector_dropping_a_sender_equals_the_builtin_with_total_loss_on_it() 
 fn hostile_packets_are_refused_and_counted_and_change_nothing() {
     let tmp = tempfile::tempdir().unwrap();
     let table1 = repo().join("configs/table1.toml");
+    // With a forged copy of a genuine packet of follower 1 whose sequence number is near the
+    // maximum (issue 13: it was accepted and locked follower 1 out for the rest of the run).
     let hostile = format!(
-        "{} {}",
+        "{} {} --forge-seq-at 1000",
         python(),
         repo().join("bridge/examples/hostile.py").display()
     );
@@ -232,6 +234,8 @@ fn hostile_packets_are_refused_and_counted_and_change_nothing() {
     for reason in ["non_finite", "unknown_sender", "future_step", "stale_seq"] {
         assert_eq!(s["rejected_packets"][reason], 110, "{reason}");
     }
+    assert_eq!(s["rejected_packets"]["implausible_seq"], 1);
+    assert_eq!(s["rejected_packets"]["implausible_state"], 0);
 }
 
 #[test]
@@ -432,6 +436,42 @@ fn an_injector_repeating_one_step_is_named_after_the_timeout() {
     let error = summary["error"].as_str().unwrap();
     assert!(error.contains("step 201"), "{error}");
     assert!(error.contains("duplicate samples"), "{error}");
+}
+
+/// Issue 13: a malformed sample at step 100 stopped the recording at step 97. Every step that
+/// was complete before it is recorded now.
+#[test]
+fn a_malformed_sample_stops_the_run_after_recording_every_complete_step() {
+    let tmp = tempfile::tempdir().unwrap();
+    let config = repo().join("configs/table1.toml");
+    let hostile = format!(
+        "{} {} --bad-count-at 100",
+        python(),
+        repo().join("bridge/examples/hostile.py").display()
+    );
+    let o = platoon(
+        &[
+            "run",
+            config.to_str().unwrap(),
+            "--no-plots",
+            "--out",
+            "r",
+            "--injector",
+            &hostile,
+        ],
+        tmp.path(),
+    );
+    assert!(!o.status.success());
+    let s = summary(&tmp.path().join("r"));
+    assert_eq!(s["complete"], false);
+    assert_eq!(s["steps"], 100, "{}", s["error"]);
+    let error = s["error"].as_str().unwrap();
+    assert!(
+        error.contains("step 100") && error.contains("items"),
+        "{error}"
+    );
+    let rows = std::fs::read_to_string(tmp.path().join("r/trajectories.csv")).unwrap();
+    assert_eq!(rows.lines().count(), 1 + 5 * 100);
 }
 
 /// Duplicates that do not stall the run are dropped, counted and reported.

@@ -390,7 +390,7 @@ fn histograms(path: &Path, samples: &[(&str, Vec<u64>)]) -> Result<()> {
     crate::plots::ensure_font();
     let root =
         BitMapBackend::new(path, (1000, 250 * samples.len().max(1) as u32)).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| anyhow::anyhow!("{e:?}"))?;
+    root.fill(&WHITE).map_err(crate::plots::err)?;
     let areas = root.split_evenly((samples.len().max(1), 1));
     for ((name, v), area) in samples.iter().zip(areas) {
         let mut us: Vec<f64> = v.iter().map(|&x| x as f64 / 1e3).collect();
@@ -413,12 +413,12 @@ fn histograms(path: &Path, samples: &[(&str, Vec<u64>)]) -> Result<()> {
             .x_label_area_size(30)
             .y_label_area_size(50)
             .build_cartesian_2d(0.0..hi, 0.0..top * 1.1)
-            .map_err(|e| anyhow::anyhow!("{e:?}"))?;
+            .map_err(crate::plots::err)?;
         chart
             .configure_mesh()
             .disable_x_mesh()
             .draw()
-            .map_err(|e| anyhow::anyhow!("{e:?}"))?;
+            .map_err(crate::plots::err)?;
         chart
             .draw_series(counts.iter().enumerate().map(|(i, &c)| {
                 let x0 = i as f64 * width;
@@ -427,9 +427,9 @@ fn histograms(path: &Path, samples: &[(&str, Vec<u64>)]) -> Result<()> {
                     BLUE.mix(0.6).filled(),
                 )
             }))
-            .map_err(|e| anyhow::anyhow!("{e:?}"))?;
+            .map_err(crate::plots::err)?;
     }
-    root.present().map_err(|e| anyhow::anyhow!("{e:?}"))?;
+    root.present().map_err(crate::plots::err)?;
     Ok(())
 }
 

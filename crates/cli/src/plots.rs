@@ -6,6 +6,7 @@ use platoon_sim::{Scenario, StepRow};
 use plotters::coord::types::RangedCoordf64;
 use plotters::coord::Shift;
 use plotters::prelude::*;
+use plotters_backend::DrawingErrorKind;
 use std::path::Path;
 use std::sync::Once;
 
@@ -23,8 +24,23 @@ pub fn ensure_font() {
     });
 }
 
-fn err<E: std::fmt::Debug>(e: E) -> anyhow::Error {
-    anyhow!("plotting failed: {e:?}")
+/// The error type of the bitmap backend every figure is drawn with.
+type BitmapError = <BitMapBackend<'static> as DrawingBackend>::ErrorType;
+
+/// A drawing error in words (a full disk reads "No space left on device", not the backend's
+/// nested debug form); the caller's context names the file.
+pub fn err(e: DrawingAreaErrorKind<BitmapError>) -> anyhow::Error {
+    match e {
+        DrawingAreaErrorKind::BackendError(DrawingErrorKind::DrawingError(b)) => match b {
+            BitmapError::IOError(io) => anyhow!(io),
+            BitmapError::ImageError(image) => anyhow!("{image}"),
+            other => anyhow!("{other}"),
+        },
+        DrawingAreaErrorKind::BackendError(DrawingErrorKind::FontError(f)) => {
+            anyhow!("font: {f}")
+        }
+        other => anyhow!("{other}"),
+    }
 }
 
 /// One named series of `(x, y)` points.
@@ -367,4 +383,34 @@ pub fn scatter_with_lines(
         .map_err(err)?;
     root.present().map_err(err)?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use anyhow::Context as _;
+
+    /// Issue 13: a full disk while drawing printed `BackendError(IOError(Os { .. }))`. The
+    /// error is now one line with the file and the reason.
+    #[test]
+    fn a_full_disk_is_reported_in_words_with_the_file() {
+        let tmp = tempfile::tempdir().unwrap();
+        let path = tmp.path().join("fig6.png");
+        std::os::unix::fs::symlink("/dev/full", &path).unwrap();
+        let (_, scenario) = platoon_config::parse(
+            &platoon_config::PAPER_TOML.replace("duration_s = 55.0", "duration_s = 1.0"),
+            Path::new("paper.toml"),
+        )
+        .unwrap();
+        let mut rows = Vec::new();
+        platoon_sim::run(scenario.clone(), |r| rows.extend_from_slice(r)).unwrap();
+        let e = fig6(&path, &scenario, &rows)
+            .with_context(|| format!("drawing {}", path.display()))
+            .unwrap_err();
+        let line = format!("{e:#}");
+        assert!(!line.contains('\n'), "{line}");
+        assert!(line.contains("fig6.png"), "{line}");
+        assert!(line.contains("No space left on device"), "{line}");
+        assert!(!line.contains("BackendError"), "{line}");
+    }
 }

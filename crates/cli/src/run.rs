@@ -408,8 +408,16 @@ pub fn write_outputs(
         dir.write("config.toml", platoon_config::to_toml(config).as_bytes())?;
     }
     if plots {
-        plots::fig6(&dir.path("fig6.png"), scenario, rows).context("drawing fig6.png")?;
-        plots::fig7(&dir.path("fig7.png"), scenario, rows).context("drawing fig7.png")?;
+        for (name, draw) in [
+            (
+                "fig6.png",
+                plots::fig6 as fn(&Path, &Scenario, &[StepRow]) -> Result<()>,
+            ),
+            ("fig7.png", plots::fig7),
+        ] {
+            let path = dir.path(name);
+            draw(&path, scenario, rows).with_context(|| format!("drawing {}", path.display()))?;
+        }
     }
     let mut json = serde_json::to_value(summary)?;
     for (key, value) in extra {

@@ -213,22 +213,13 @@ pub fn orchestrate(
             // Progress is a step recorded or a node reporting: samples that arrive without
             // completing a step (an injector repeating rx[k]) do not reset the timeout.
             let mut progressed = false;
-            states.drain()?;
-            tx.drain()?;
-            rx.drain()?;
-            commands.drain()?;
-            while let Some(m) = status.next()? {
-                progressed = true;
-                check_failed(&m)?;
-                if m.kind == ControlMsg::DONE {
-                    if let Some(n) = Node::from_u32(m.node) {
-                        done[n as usize] = true;
-                    }
-                    if m.node == Node::Controller as u32 {
-                        rejected = Some(RejectCounts::from_array(m.counts));
-                    }
-                }
-            }
+            // A malformed sample stops the run, but only after every step that was complete
+            // before it is recorded.
+            // Each inlet is drained even when another's sample was malformed.
+            let drained = [states.drain(), tx.drain(), rx.drain(), commands.drain()]
+                .into_iter()
+                .find(Result::is_err)
+                .unwrap_or(Ok(0));
             while run.step <= scenario.steps
                 && states.has(run.step)
                 && tx.has(run.step)
@@ -246,6 +237,19 @@ pub fn orchestrate(
                 run.step += 1;
                 progressed = true;
             }
+            while let Some(m) = status.next()? {
+                progressed = true;
+                check_failed(&m)?;
+                if m.kind == ControlMsg::DONE {
+                    if let Some(n) = Node::from_u32(m.node) {
+                        done[n as usize] = true;
+                    }
+                    if m.node == Node::Controller as u32 {
+                        rejected = Some(RejectCounts::from_array(m.counts));
+                    }
+                }
+            }
+            drained?;
             if run.step > scenario.steps && done.iter().all(|d| *d) {
                 break;
             }

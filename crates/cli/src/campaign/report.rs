@@ -1,6 +1,6 @@
 //! What a campaign writes once its cells are in: `cells.csv`, `campaign.json` and the plots.
-use crate::plots::ensure_font;
-use anyhow::{anyhow, Context, Result};
+use crate::plots::{ensure_font, err};
+use anyhow::{Context, Result};
 use platoon_campaign::metrics::{self, Metric};
 use platoon_campaign::{Campaign, Cell};
 use plotters::prelude::*;
@@ -271,10 +271,6 @@ pub fn campaign_json(table: &Table, outcomes: &[Option<Outcome>], info: &RunInfo
 
 // ---------------------------------------------------------------------------------------------
 // Plots
-
-fn err<E: std::fmt::Debug>(e: E) -> anyhow::Error {
-    anyhow!("drawing failed: {e:?}")
-}
 
 const CLASSES: [(&str, RGBColor); 4] = [
     ("none", RGBColor(46, 139, 87)),
