@@ -1,7 +1,7 @@
 //! The `platoon` binary end to end: outputs, determinism, atomic run directories, exit codes.
 mod common;
 
-use common::{platoon, repo};
+use common::{ok, platoon, repo};
 use std::path::Path;
 
 const RUN_FILES: [&str; 6] = [
@@ -357,4 +357,55 @@ fn bench_latency_measures_every_baseline() {
     let samples = std::fs::read_to_string(tmp.path().join("b/latency-samples.csv")).unwrap();
     assert_eq!(samples.lines().count(), 1 + 3 * 200);
     assert!(tmp.path().join("b/latency.png").exists());
+}
+
+/// Issue 13: bad destinations failed only after the whole simulation, with misleading errors.
+/// They are refused before anything runs now, and nothing of the user's is touched.
+#[test]
+fn bad_destinations_are_refused_before_the_run() {
+    let tmp = tempfile::tempdir().unwrap();
+    let run = |out: &str, force: bool| {
+        let mut args = vec!["run", "--transport", "inproc", "--no-plots", "--out", out];
+        if force {
+            args.push("--force");
+        }
+        platoon(&args, tmp.path())
+    };
+    // A regular file, with or without --force.
+    std::fs::write(tmp.path().join("notes.txt"), "mine").unwrap();
+    for force in [false, true] {
+        let o = run("notes.txt", force);
+        assert!(!o.status.success());
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(err.contains("is not a directory"), "{err}");
+        assert!(!err.contains("Not a directory"), "no raw OS error: {err}");
+    }
+    assert_eq!(
+        std::fs::read_to_string(tmp.path().join("notes.txt")).unwrap(),
+        "mine"
+    );
+    assert!(!tmp.path().join("notes.txt.partial").exists());
+    // A stale `.old` from a replacement that stopped half-way may hold a run: refused, kept.
+    std::fs::create_dir_all(tmp.path().join("r.old")).unwrap();
+    std::fs::write(tmp.path().join("r.old/summary.json"), "{}").unwrap();
+    let o = run("r", true);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("r.old") && err.contains("half-way"), "{err}");
+    assert!(tmp.path().join("r.old/summary.json").exists());
+    assert!(!tmp.path().join("r").exists() && !tmp.path().join("r.partial").exists());
+    // A mount point cannot be replaced by renaming.
+    let o = run("/proc", true);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("mount point"), "{err}");
+    // A `.partial` left by a killed run is removed, and the run says so.
+    std::fs::create_dir_all(tmp.path().join("k.partial")).unwrap();
+    let o = run("k", false);
+    ok(&o);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("k.partial") && err.contains("did not finish"),
+        "{err}"
+    );
 }

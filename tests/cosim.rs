@@ -521,6 +521,48 @@ fn duplicate_samples_are_counted_and_change_nothing() {
     );
 }
 
+/// Issue 13: Ctrl-C and SIGTERM left a `.partial` with a half-written CSV row and no summary.
+/// Now the run stops its processes, keeps whole rows, writes summary.json with
+/// `complete: false` and the reason, moves the directory into place and exits 128 + signal.
+fn interrupted_run_is_kept_whole(signal: i32, transport: &str, code: i32, name: &str) {
+    let tmp = tempfile::tempdir().unwrap();
+    let (child, run) = start_long_run(tmp.path(), &["--transport", transport]);
+    wait_until_running(&run);
+    // SAFETY: signalling our own child.
+    unsafe { libc::kill(child.id() as libc::pid_t, signal) };
+    let o = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(code), "{stderr}");
+    assert!(stderr.contains("interrupted"), "{stderr}");
+    assert!(!run.with_extension("partial").exists(), "moved into place");
+    let s = summary(&run);
+    assert_eq!(s["complete"], false);
+    let error = s["error"].as_str().unwrap();
+    assert!(error.contains(name), "{error}");
+    let steps = s["steps"].as_u64().unwrap();
+    assert!(steps > 0 && steps < 60_001, "{steps}");
+    let rows = std::fs::read_to_string(run.join("trajectories.csv")).unwrap();
+    assert!(rows.ends_with('\n'), "the last row is whole");
+    assert_eq!(rows.lines().count() as u64, 1 + 5 * steps);
+    std::thread::sleep(Duration::from_millis(200));
+    let needle = run.with_extension("partial").display().to_string();
+    assert_eq!(
+        pids_with(&needle),
+        Vec::<u32>::new(),
+        "processes left running"
+    );
+}
+
+#[test]
+fn sigint_stops_a_co_simulation_and_keeps_what_it_recorded() {
+    interrupted_run_is_kept_whole(libc::SIGINT, "iceoryx2", 130, "SIGINT");
+}
+
+#[test]
+fn sigterm_stops_an_in_process_run_and_keeps_what_it_recorded() {
+    interrupted_run_is_kept_whole(libc::SIGTERM, "inproc", 143, "SIGTERM");
+}
+
 #[test]
 fn an_injector_command_that_does_not_exist_is_named() {
     let tmp = tempfile::tempdir().unwrap();

@@ -282,6 +282,7 @@ fn latency(a: LatencyArgs) -> Result<LatencyReport> {
         log_dir: Some(logs),
         step_timeout: Duration::from_secs(5),
         ready_timeout: Duration::from_secs(60),
+        stop: None,
     };
     let outcome = platoon_runtime::orchestrate(&opts, &scenario, |_| {})
         .context("the iceoryx2 co-simulation")?;

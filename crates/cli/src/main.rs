@@ -7,6 +7,7 @@ mod node;
 mod output;
 mod plots;
 mod run;
+mod signals;
 mod sumo;
 
 use clap::{Parser, Subcommand};

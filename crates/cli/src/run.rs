@@ -143,16 +143,34 @@ pub fn run(args: Args) -> Result<()> {
         .unwrap_or_else(|| PathBuf::from("runs").join(&stem));
     let dir = RunDir::create(&out, args.force)?;
     dir.write("config.toml", platoon_config::to_toml(&config).as_bytes())?;
+    let interrupt = crate::signals::Interrupt::install(
+        "stopping the run; what is recorded is kept (complete: false)",
+    )?;
     let started = Instant::now();
     let (rows, summary, failure) = match args.transport {
         Transport::Inproc => {
-            let (rows, summary) = simulate(&scenario, &dir, true)?;
+            let (rows, summary) = simulate_until(&scenario, &dir, true, Some(&interrupt.stop))?;
             (rows, summary, None)
         }
         Transport::Iceoryx2 => {
             let plant = sumo_plan.as_ref().map(|p| p.launch(&dir)).transpose()?;
-            cosimulate(&scenario, &dir, &args, plant)?
+            cosimulate(&scenario, &dir, &args, plant, interrupt.stop.clone())?
         }
+    };
+    // A signal wins over whatever it caused (a node that died of the same Ctrl-C, say).
+    let (summary, failure) = match interrupt.signal() {
+        Some(sig) => {
+            let mut summary = summary;
+            summary.complete = false;
+            summary.error = Some(format!(
+                "interrupted by {} after {} of {} steps",
+                crate::signals::name(sig),
+                summary.steps,
+                scenario.steps + 1
+            ));
+            (summary, None)
+        }
+        None => (summary, failure),
     };
     let compute = started.elapsed();
     let mut summary = summary;
@@ -183,6 +201,15 @@ pub fn run(args: Args) -> Result<()> {
         &extra,
     )?;
     let path = dir.commit()?;
+    if let Some(sig) = interrupt.signal() {
+        eprintln!(
+            "interrupted: {} of {} steps are recorded in {} (summary.json says complete: false)",
+            summary.steps,
+            scenario.steps + 1,
+            path.display()
+        );
+        std::process::exit(crate::signals::exit_code(sig));
+    }
     if let Some(e) = failure {
         eprintln!(
             "the run stopped after {} of {} steps; what it recorded is in {} (summary.json says complete: false)",
@@ -301,11 +328,25 @@ pub fn simulate(
     dir: &RunDir,
     progress: bool,
 ) -> Result<(Vec<StepRow>, Summary)> {
+    simulate_until(scenario, dir, progress, None)
+}
+
+/// [`simulate`], stopping after the step at which `stop` is seen set (the summary then says
+/// `complete: false`).
+pub fn simulate_until(
+    scenario: &Scenario,
+    dir: &RunDir,
+    progress: bool,
+    stop: Option<&std::sync::atomic::AtomicBool>,
+) -> Result<(Vec<StepRow>, Summary)> {
     let mut rec = Recording::new(scenario, dir, progress.then_some("simulating"))?;
     let mut sim = platoon_sim::FleetSimulation::new(scenario)?;
     let mut log = csv::Writer::from_writer(dir.writer("channel.csv")?);
     let mut step_ns = Vec::with_capacity(scenario.steps as usize + 1);
     while !sim.is_done() {
+        if stop.is_some_and(|s| s.load(std::sync::atomic::Ordering::SeqCst)) {
+            break;
+        }
         let started = Instant::now();
         let rows = sim.step();
         step_ns.push(started.elapsed().as_nanos() as u64);
@@ -338,6 +379,7 @@ fn cosimulate(
     dir: &RunDir,
     args: &Args,
     plant: Option<crate::sumo::SumoPlant>,
+    stop: std::sync::Arc<std::sync::atomic::AtomicBool>,
 ) -> Result<(Vec<StepRow>, Summary, Option<platoon_runtime::RunError>)> {
     let logs = dir.path("logs");
     std::fs::create_dir_all(&logs).with_context(|| format!("creating {}", logs.display()))?;
@@ -362,6 +404,7 @@ fn cosimulate(
         log_dir: Some(logs),
         step_timeout: std::time::Duration::from_secs_f64(args.step_timeout),
         ready_timeout: std::time::Duration::from_secs(60),
+        stop: Some(stop),
     };
     let mut rec = Recording::new(scenario, dir, Some("co-simulating"))?;
     let result = platoon_runtime::orchestrate(&opts, scenario, |rows| rec.push(rows));

@@ -67,6 +67,12 @@ pub enum RunError {
         /// Samples that repeated a step (they do not count as progress).
         duplicates: u64,
     },
+    /// The run was asked to stop (SIGINT or SIGTERM to `platoon run`).
+    #[error("interrupted at step {step}")]
+    Interrupted {
+        /// The step the run was at.
+        step: u64,
+    },
     /// A node reported that it cannot go on.
     #[error("the {node} process failed at step {step}: {reason}")]
     Failed {

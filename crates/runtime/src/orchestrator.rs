@@ -51,6 +51,9 @@ pub struct Options {
     pub step_timeout: Duration,
     /// How long the nodes may take to start.
     pub ready_timeout: Duration,
+    /// Set from outside (a signal handler) to stop the run cleanly: the nodes get ABORT and
+    /// the run ends with [`RunError::Interrupted`] within one wait tick (100 ms).
+    pub stop: Option<std::sync::Arc<std::sync::atomic::AtomicBool>>,
 }
 
 /// What a finished run reports besides its rows.
@@ -170,7 +173,15 @@ pub fn orchestrate(
         let mut ready = [false; 4];
         ready[Node::Orchestrator as usize] = true;
         let started = Instant::now();
+        let stopped = || {
+            opts.stop
+                .as_ref()
+                .is_some_and(|s| s.load(std::sync::atomic::Ordering::SeqCst))
+        };
         while ready.iter().any(|r| !r) {
+            if stopped() {
+                return Err(RunError::Interrupted { step: 0 });
+            }
             watch(&mut children, 0)?;
             while let Some(m) = status.next()? {
                 check_failed(&m)?;
@@ -210,6 +221,9 @@ pub fn orchestrate(
         done[Node::Orchestrator as usize] = true;
         done[Node::Injector as usize] = true;
         loop {
+            if stopped() {
+                return Err(RunError::Interrupted { step: run.step });
+            }
             // Progress is a step recorded or a node reporting: samples that arrive without
             // completing a step (an injector repeating rx[k]) do not reset the timeout.
             let mut progressed = false;
@@ -363,6 +377,9 @@ fn spawn_all(opts: &Options, children: &mut Children) -> Result<(), RunError> {
                 (cmd, format!("{} node {}", opts.exe.display(), node.name()))
             }
         };
+        // Their own process group: a Ctrl-C at the terminal reaches the orchestrator only,
+        // which stops them with ABORT after recording what is complete.
+        std::os::unix::process::CommandExt::process_group(&mut cmd, 0);
         cmd.env("PLATOON_RUN_ID", &opts.run_id)
             .env("PLATOON_CONFIG", &opts.config)
             .envs(opts.env.iter().map(|(k, v)| (k, v)))

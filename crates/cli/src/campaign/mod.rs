@@ -4,14 +4,14 @@ pub mod exec;
 mod report;
 
 use crate::output::RunDir;
+use crate::signals::Interrupt;
 use anyhow::{Context, Result};
 use exec::{CellJob, CellReply};
 use platoon_campaign::{metrics, Campaign, Cell};
 use report::{Outcome, RunInfo, Table};
 use serde_json::{json, Value};
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, AtomicI32, AtomicU32, Ordering};
-use std::sync::Arc;
+use std::sync::atomic::Ordering;
 use std::time::Instant;
 
 /// Arguments of `platoon campaign` (the help text is on the command in main.rs).
@@ -44,54 +44,6 @@ pub struct Args {
     /// Skip the PNG plots.
     #[arg(long)]
     pub no_plots: bool,
-}
-
-/// Exit codes of a campaign stopped by a signal (128 + the signal, as shells report).
-const SIGINT_EXIT: i32 = 130;
-
-/// Stops the campaign on SIGINT or SIGTERM: no new cells start, the Dask driver is stopped,
-/// and whatever finished is written.
-struct Interrupt {
-    stop: Arc<AtomicBool>,
-    signal: Arc<AtomicI32>,
-    driver: Arc<AtomicU32>,
-}
-
-impl Interrupt {
-    fn install() -> Result<Self> {
-        use signal_hook::consts::{SIGINT, SIGTERM};
-        let me = Self {
-            stop: Arc::new(AtomicBool::new(false)),
-            signal: Arc::new(AtomicI32::new(0)),
-            driver: Arc::new(AtomicU32::new(0)),
-        };
-        let mut signals = signal_hook::iterator::Signals::new([SIGINT, SIGTERM])
-            .context("installing the SIGINT/SIGTERM handler")?;
-        let (stop, signal, driver) = (me.stop.clone(), me.signal.clone(), me.driver.clone());
-        // A thread blocked on the signal pipe: woken only by a signal.
-        std::thread::spawn(move || {
-            if let Some(sig) = signals.forever().next() {
-                signal.store(sig, Ordering::SeqCst);
-                stop.store(true, Ordering::SeqCst);
-                eprintln!(
-                    "\nstopping: no new cells start; the cells in flight finish or are dropped"
-                );
-                let pid = driver.load(Ordering::SeqCst);
-                if pid != 0 {
-                    // SAFETY: signalling our own child process by its id.
-                    unsafe { libc::kill(pid as libc::pid_t, libc::SIGTERM) };
-                }
-            }
-        });
-        Ok(me)
-    }
-
-    fn signal(&self) -> Option<i32> {
-        match self.signal.load(Ordering::SeqCst) {
-            0 => None,
-            s => Some(s),
-        }
-    }
 }
 
 fn cpu_seconds() -> f64 {
@@ -219,7 +171,9 @@ pub fn run(args: Args) -> Result<()> {
     if campaign.cells.iter().any(|c| c.plant == "sumo") {
         crate::sumo::ensure_venv()?;
     }
-    let interrupt = Interrupt::install()?;
+    let interrupt = Interrupt::install(
+        "stopping: no new cells start; the cells in flight finish or are dropped",
+    )?;
     let started = Instant::now();
     let cpu0 = cpu_seconds();
     let (dir, resumed) = RunDir::resumable(&out, args.force)?;
@@ -379,11 +333,7 @@ pub fn run(args: Args) -> Result<()> {
             campaign.cells.len(),
             staging.display()
         );
-        std::process::exit(if sig == libc::SIGINT {
-            SIGINT_EXIT
-        } else {
-            128 + sig
-        });
+        std::process::exit(crate::signals::exit_code(sig));
     }
     if let Err(e) = executed {
         eprintln!(
