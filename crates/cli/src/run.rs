@@ -270,7 +270,8 @@ impl Recording {
             last: vec![None; scenario.vehicles()],
             per_platoon: scenario.vehicles_per_platoon(),
             dt: scenario.dt(),
-            rows: Vec::with_capacity(steps as usize * scenario.vehicles_per_platoon()),
+            // Platoon 0's rows for the plots; grown as needed past a million steps.
+            rows: Vec::with_capacity(steps.min(1 << 20) as usize * scenario.vehicles_per_platoon()),
             metrics: platoon_sim::FleetMetrics::new(scenario),
             failure: None,
             bar: what.map_or_else(indicatif::ProgressBar::hidden, |w| progress_bar(steps, w)),
@@ -342,7 +343,7 @@ pub fn simulate_until(
     let mut rec = Recording::new(scenario, dir, progress.then_some("simulating"))?;
     let mut sim = platoon_sim::FleetSimulation::new(scenario)?;
     let mut log = csv::Writer::from_writer(dir.writer("channel.csv")?);
-    let mut step_ns = Vec::with_capacity(scenario.steps as usize + 1);
+    let mut step_ns = Vec::with_capacity(scenario.steps.min(1 << 20) as usize + 1);
     while !sim.is_done() {
         if stop.is_some_and(|s| s.load(std::sync::atomic::Ordering::SeqCst)) {
             break;

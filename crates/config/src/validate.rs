@@ -127,6 +127,13 @@ fn formation(
     Ok(states)
 }
 
+/// Followers per platoon at most: the topology is a dense N x N matrix.
+pub const MAX_FOLLOWERS: usize = 4096;
+/// Vehicles of a whole fleet at most.
+pub const MAX_VEHICLES: usize = 1_000_000;
+/// Steps of a run at most (a year of simulated time at dt = 0.01 s would be 3e9).
+pub const MAX_STEPS: f64 = 1e9;
+
 /// Validates a parsed config, fills the defaults that depend on other keys (so the config is
 /// resolved), and builds the scenario. Errors are `(key, message)`.
 pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
@@ -134,6 +141,12 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
     let dt = positive("simulation.dt_s", c.simulation.dt_s)?;
     let duration = positive("simulation.duration_s", c.simulation.duration_s)?;
     let steps = (duration / dt).round();
+    if steps > MAX_STEPS {
+        return bad(
+            "simulation.duration_s",
+            format!("{duration} s in steps of {dt} s is {steps:e} steps, more than {MAX_STEPS:e}"),
+        );
+    }
     if (steps * dt - duration).abs() > 1e-9 * duration.max(1.0) {
         return bad(
             "simulation.duration_s",
@@ -146,6 +159,12 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
     let n = p.followers;
     if n == 0 {
         return bad("platoon.followers", "a platoon needs at least one follower");
+    }
+    if n > MAX_FOLLOWERS {
+        return bad(
+            "platoon.followers",
+            format!("{n} is more than {MAX_FOLLOWERS} (the graph is a dense N x N matrix); for more vehicles use [fleet] platoons"),
+        );
     }
     let spacing = positive("platoon.spacing_m", p.spacing_m)?;
     let vehicle_length = finite("platoon.vehicle_length_m", p.vehicle_length_m)?;
@@ -495,6 +514,16 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
     let lanes = f.lanes.clone().unwrap_or_else(|| vec![c.sumo.lane]);
     if f.platoons == 0 {
         return bad("fleet.platoons", "needs at least one platoon");
+    }
+    if f.platoons.saturating_mul(n + 1) > MAX_VEHICLES {
+        return bad(
+            "fleet.platoons",
+            format!(
+                "{} platoons of {} vehicles is more than {MAX_VEHICLES} vehicles",
+                f.platoons,
+                n + 1
+            ),
+        );
     }
     if lanes.is_empty() {
         return bad("fleet.lanes", "needs at least one lane");

@@ -313,34 +313,7 @@ pub fn controller(run_id: &str, scenario: &Scenario) -> Result<(), RunError> {
             }
             if let Some(s) = &states {
                 if let Some(items) = rx_in.take(*k)? {
-                    for d in &mut deliveries {
-                        d.clear();
-                    }
-                    jammed.fill(false);
-                    for it in &items {
-                        let Some((j, receiver)) = num.split(it.receiver) else {
-                            if it.kind != LinkPacket::JAMMED {
-                                // No such vehicle: platoon 0's controllers count it.
-                                deliveries[0].push(Delivery {
-                                    receiver: VehicleId(u16::MAX),
-                                    packet: packet_from_wire(&it.packet),
-                                });
-                            }
-                            continue;
-                        };
-                        match it.kind {
-                            LinkPacket::JAMMED => jammed[it.receiver as usize] = true,
-                            _ => {
-                                // A sender of another platoon is unknown to this one.
-                                let mut packet = packet_from_wire(&it.packet);
-                                packet.sender = match num.split(it.packet.sender) {
-                                    Some((js, i)) if js == j => i,
-                                    _ => VehicleId(u16::MAX),
-                                };
-                                deliveries[j].push(Delivery { receiver, packet });
-                            }
-                        }
-                    }
+                    deliveries_from_wire(&items, num, &mut deliveries, &mut jammed);
                     cmds.clear();
                     for (j, c) in controllers.iter_mut().enumerate() {
                         let range = j * n1..(j + 1) * n1;
@@ -391,6 +364,44 @@ pub fn states_from_wire(s: &[VehicleState], vehicles: usize) -> Result<Vec<State
         ));
     }
     Ok(s.iter().map(|x| State::new(x.p, x.v, x.a)).collect())
+}
+
+/// Sorts an rx batch into each platoon's deliveries and jammed notices (both cleared first).
+/// Whatever the items hold, nothing panics: a receiver no vehicle has goes to platoon 0 as a
+/// delivery to an unknown receiver (its controllers count it), a sender of another platoon or
+/// of no vehicle becomes an unknown sender, a jammed notice for no vehicle is ignored.
+pub fn deliveries_from_wire(
+    items: &[LinkPacket],
+    num: Numbering,
+    deliveries: &mut [Vec<Delivery>],
+    jammed: &mut [bool],
+) {
+    for d in deliveries.iter_mut() {
+        d.clear();
+    }
+    jammed.fill(false);
+    for it in items {
+        let Some((j, receiver)) = num.split(it.receiver) else {
+            if it.kind != LinkPacket::JAMMED {
+                deliveries[0].push(Delivery {
+                    receiver: VehicleId(u16::MAX),
+                    packet: packet_from_wire(&it.packet),
+                });
+            }
+            continue;
+        };
+        match it.kind {
+            LinkPacket::JAMMED => jammed[it.receiver as usize] = true,
+            _ => {
+                let mut packet = packet_from_wire(&it.packet);
+                packet.sender = match num.split(it.packet.sender) {
+                    Some((js, i)) if js == j => i,
+                    _ => VehicleId(u16::MAX),
+                };
+                deliveries[j].push(Delivery { receiver, packet });
+            }
+        }
+    }
 }
 
 /// A packet onto the wire.
