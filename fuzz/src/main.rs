@@ -134,19 +134,19 @@ const INTERESTING: &[&str] = &[
 fn mutation() -> impl Strategy<Value = Mutation> {
     let at = any::<usize>();
     prop_oneof![
-        (at.clone(), 0u8..8).prop_map(|(at, bit)| Mutation::Flip { at, bit }),
-        (at.clone(), any::<u8>()).prop_map(|(at, byte)| Mutation::Set { at, byte }),
-        (at.clone(), prop::collection::vec(any::<u8>(), 1..16))
+        (at, 0u8..8).prop_map(|(at, bit)| Mutation::Flip { at, bit }),
+        (at, any::<u8>()).prop_map(|(at, byte)| Mutation::Set { at, byte }),
+        (at, prop::collection::vec(any::<u8>(), 1..16))
             .prop_map(|(at, bytes)| Mutation::Insert { at, bytes }),
-        (at.clone(), 1usize..64).prop_map(|(at, len)| Mutation::Delete { at, len }),
-        (at.clone(), any::<usize>(), any::<usize>(), 1usize..128).prop_map(
-            |(at, from, from_at, len)| Mutation::Splice {
+        (at, 1usize..64).prop_map(|(at, len)| Mutation::Delete { at, len }),
+        (at, any::<usize>(), any::<usize>(), 1usize..128).prop_map(|(at, from, from_at, len)| {
+            Mutation::Splice {
                 at,
                 from,
                 from_at,
-                len
+                len,
             }
-        ),
+        }),
         (any::<usize>(), 0..INTERESTING.len())
             .prop_map(|(nth, value)| Mutation::Number { nth, value }),
         any::<usize>().prop_map(|nth| Mutation::DropLine { nth }),
