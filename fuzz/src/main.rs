@@ -357,7 +357,6 @@ impl PacketBench {
                     u.iter().all(|x| x.is_finite()),
                     "platoon {j} step {k}: a command is not finite: {u:?}"
                 );
-                let _ = tx.iter().map(|p| packet_to_wire(p, 0)).count();
             }
             let after: u64 = controllers.iter().map(|c| c.rejected().total()).sum();
             assert!(
