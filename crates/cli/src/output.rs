@@ -18,6 +18,12 @@ impl RunDir {
     /// a killed run is removed.
     pub fn create(out: &Path, force: bool) -> Result<Self> {
         check_destination(out, force)?;
+        if force && out.exists() {
+            eprintln!(
+                "--force: {} will be replaced when this run finishes",
+                out.display()
+            );
+        }
         let staging = sibling(out, ".partial");
         if staging.exists() {
             eprintln!(
