@@ -17,8 +17,18 @@ impl RunDir {
     /// Starts writing `out`. Fails if `out` exists and `force` is not set. A `<out>.partial` left by
     /// a killed run is removed.
     pub fn create(out: &Path, force: bool) -> Result<Self> {
+        Self::create_saying(out, force, true)
+    }
+
+    /// [`RunDir::create`] with `force`, silently: for directories the program owns (a
+    /// campaign's cell records), which it replaces as a matter of course.
+    pub fn replace(out: &Path) -> Result<Self> {
+        Self::create_saying(out, true, false)
+    }
+
+    fn create_saying(out: &Path, force: bool, say: bool) -> Result<Self> {
         check_destination(out, force)?;
-        if force && out.exists() {
+        if say && force && out.exists() {
             eprintln!(
                 "--force: {} will be replaced when this run finishes",
                 out.display()
@@ -26,10 +36,12 @@ impl RunDir {
         }
         let staging = sibling(out, ".partial");
         if staging.exists() {
-            eprintln!(
-                "removing {}, left by a run that did not finish",
-                staging.display()
-            );
+            if say {
+                eprintln!(
+                    "removing {}, left by a run that did not finish",
+                    staging.display()
+                );
+            }
             fs::remove_dir_all(&staging).with_context(|| {
                 format!(
                     "removing the unfinished run directory {}",

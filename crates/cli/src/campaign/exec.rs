@@ -63,7 +63,7 @@ fn in_process(job: &CellJob) -> Result<Value> {
     let (config, scenario) = platoon_config::parse(&job.config, Path::new(&label))?;
     let summary = match &job.keep {
         Some(out) => {
-            let dir = RunDir::create(out, true)?;
+            let dir = RunDir::replace(out)?;
             dir.write("config.toml", job.config.as_bytes())?;
             let (rows, summary) = crate::run::simulate(&scenario, &dir, false)?;
             crate::run::write_outputs(&dir, &config, &scenario, &rows, &summary, false, &[])?;
