@@ -563,6 +563,110 @@ fn sigterm_stops_an_in_process_run_and_keeps_what_it_recorded() {
     interrupted_run_is_kept_whole(libc::SIGTERM, "inproc", 143, "SIGTERM");
 }
 
+/// Issue 12: observers read the run's `observe/*` copies. Two observers used to kill a run
+/// (`ExceedsMaxSupportedSubscribers` in the plant and controller). Now: more observers than
+/// there is room for are refused at attach time, a stalled, a crashed and a late one change
+/// nothing, and the run's outputs equal those of a run without observers.
+#[test]
+fn observers_attach_stall_crash_and_leave_without_touching_the_run() {
+    let tmp = tempfile::tempdir().unwrap();
+    let base = std::fs::read_to_string(repo().join("configs/table1.toml")).unwrap();
+    let config = tmp.path().join("long.toml");
+    std::fs::write(
+        &config,
+        base.replace("duration_s = 55.0", "duration_s = 300.0"),
+    )
+    .unwrap();
+    let run = tmp.path().join("observed");
+    let child = platoon_command(tmp.path())
+        .args([
+            "run",
+            config.to_str().unwrap(),
+            "--no-plots",
+            "--observers",
+            "3",
+        ])
+        .arg("--out")
+        .arg(&run)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let observer = |extra: &[&str]| {
+        Command::new(python())
+            .arg(repo().join("bridge/examples/observer.py"))
+            .arg(&run)
+            .args(["--every", "0.1", "--idle", "5"])
+            .args(extra)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap()
+    };
+    let attached = |c: &mut Child| {
+        let mut line = String::new();
+        std::io::BufRead::read_line(
+            &mut std::io::BufReader::new(c.stderr.as_mut().unwrap()),
+            &mut line,
+        )
+        .unwrap();
+        assert!(line.contains("attached to run"), "{line}");
+    };
+    let mut a = observer(&[]);
+    attached(&mut a);
+    let mut stalled = observer(&["--stall", "--max-seconds", "120"]);
+    attached(&mut stalled);
+    let mut crashing = observer(&[]);
+    attached(&mut crashing);
+    // The room (3) is full: one more is refused, and says why.
+    let extra = observer(&[]).wait_with_output().unwrap();
+    assert_eq!(extra.status.code(), Some(3));
+    assert!(String::from_utf8_lossy(&extra.stderr).contains("room for 3 observers"));
+    // A crash frees its place for a late observer.
+    crashing.kill().unwrap();
+    crashing.wait().unwrap();
+    std::thread::sleep(Duration::from_millis(300));
+    let mut late = observer(&[]);
+    attached(&mut late);
+
+    let o = child.wait_with_output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let run_json = json(&run.join("run.json"));
+    assert_eq!(run_json["observers"], 3);
+    assert!(run_json["observe"]["states"]
+        .as_str()
+        .unwrap()
+        .ends_with("/observe/states"));
+    for c in [a, late] {
+        let out = c.wait_with_output().unwrap();
+        assert!(out.status.success());
+        let lines = String::from_utf8_lossy(&out.stdout);
+        assert!(lines.contains("spacing errors"), "{lines}");
+    }
+    let mut stalled = stalled;
+    stalled.kill().unwrap();
+    stalled.wait().unwrap();
+    // Observers changed nothing.
+    let plain = tmp.path().join("plain");
+    ok(&platoon(
+        &[
+            "run",
+            config.to_str().unwrap(),
+            "--no-plots",
+            "--transport",
+            "inproc",
+            "--out",
+            plain.to_str().unwrap(),
+        ],
+        tmp.path(),
+    ));
+    same_outputs(
+        &run,
+        &plain,
+        &["trajectories.csv", "events.csv", "summary.json"],
+    );
+}
+
 #[test]
 fn an_injector_command_that_does_not_exist_is_named() {
     let tmp = tempfile::tempdir().unwrap();

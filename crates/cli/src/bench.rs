@@ -283,6 +283,7 @@ fn latency(a: LatencyArgs) -> Result<LatencyReport> {
         step_timeout: Duration::from_secs(5),
         ready_timeout: Duration::from_secs(60),
         stop: None,
+        observers: 0,
     };
     let outcome = platoon_runtime::orchestrate(&opts, &scenario, |_| {})
         .context("the iceoryx2 co-simulation")?;

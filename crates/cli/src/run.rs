@@ -45,6 +45,11 @@ pub struct Args {
     /// environment is created on first use; writes fcd.xml and sumo.json too).
     #[arg(long, value_enum)]
     pub plant: Option<PlantKind>,
+    /// Read-only observers that may attach to the run's `observe/*` services (iceoryx2 only;
+    /// see docs/observer-contract.md). More than this are refused at attach time; the run is
+    /// never affected either way.
+    #[arg(long, default_value_t = 4, value_name = "N", env = "PLATOON_OBSERVERS")]
+    pub observers: usize,
     /// Take K and beta1/beta2 from a certificate (`platoon design synthesize` or `check-gain`):
     /// control.gain = its K, control.beta1 = its ratio x the config's beta2.
     #[arg(long, value_name = "CERTIFICATE")]
@@ -392,8 +397,14 @@ fn cosimulate(
         Some(p) => (p.program, p.env),
         None => (platoon_runtime::Program::Builtin, Vec::new()),
     };
+    let run_id = platoon_runtime::new_run_id();
+    write_run_json(dir, &run_id, scenario, args.observers)?;
+    eprintln!(
+        "run id {run_id}; observers: {} (docs/observer-contract.md)",
+        dir.path("run.json").display()
+    );
     let opts = platoon_runtime::Options {
-        run_id: platoon_runtime::new_run_id(),
+        run_id,
         exe: std::env::current_exe().context("locating the platoon binary")?,
         config: std::path::absolute(dir.path("config.toml"))
             .context("resolving the run directory")?,
@@ -406,6 +417,7 @@ fn cosimulate(
         step_timeout: std::time::Duration::from_secs_f64(args.step_timeout),
         ready_timeout: std::time::Duration::from_secs(60),
         stop: Some(stop),
+        observers: args.observers,
     };
     let mut rec = Recording::new(scenario, dir, Some("co-simulating"))?;
     let result = platoon_runtime::orchestrate(&opts, scenario, |rows| rec.push(rows));
@@ -435,6 +447,37 @@ fn cosimulate(
             Ok((rows, summary, Some(e)))
         }
     }
+}
+
+/// `run.json`, written the moment an iceoryx2 run starts: what an outside observer needs to find
+/// this run's services (and not another's) and read them.
+fn write_run_json(dir: &RunDir, run_id: &str, scenario: &Scenario, observers: usize) -> Result<()> {
+    use platoon_wire::{service_name, Observed, Service};
+    let observe: serde_json::Map<String, serde_json::Value> = Observed::ALL
+        .iter()
+        .map(|&o| {
+            (
+                o.leaf().to_string(),
+                service_name(run_id, Service::Observe(o)).into(),
+            )
+        })
+        .collect();
+    let json = serde_json::json!({
+        "run_id": run_id,
+        "pid": std::process::id(),
+        "config": std::path::absolute(dir.path("config.toml")).unwrap_or_default(),
+        "observers": observers,
+        "observe": observe,
+        "platoons": scenario.fleet.platoons,
+        "vehicles_per_platoon": scenario.vehicles_per_platoon(),
+        "spacing_m": scenario.spacing(),
+        "dt_s": scenario.dt(),
+        "steps": scenario.steps + 1,
+    });
+    dir.write(
+        "run.json",
+        (serde_json::to_string_pretty(&json)? + "\n").as_bytes(),
+    )
 }
 
 /// Writes config.toml (if not yet there), the plots (of platoon 0's `rows`), and summary.json

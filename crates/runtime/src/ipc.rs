@@ -81,6 +81,29 @@ impl Endpoint {
             .map_err(|e| ipc_err(format!("creating service {name}"), e))
     }
 
+    /// Creates the observer copy of a step stream: room for `observers` read-only subscribers,
+    /// and safe overflow, so an observer that stalls loses its oldest samples instead of
+    /// holding the publisher (the orchestrator) up.
+    pub fn create_observe_service<T: Debug + ZeroCopySend + 'static>(
+        &self,
+        o: platoon_wire::Observed,
+        observers: usize,
+    ) -> Result<StepService<T>, RunError> {
+        let name = self.name(Service::Observe(o))?;
+        self.node
+            .service_builder(&name)
+            .publish_subscribe::<[T]>()
+            .user_header::<StepHeader>()
+            .max_publishers(1)
+            .max_subscribers(observers.max(1))
+            .max_nodes(observers.max(1) + 2)
+            .history_size(0)
+            .subscriber_max_buffer_size(BUFFER)
+            .enable_safe_overflow(true)
+            .create()
+            .map_err(|e| ipc_err(format!("creating service {name}"), e))
+    }
+
     /// Opens a step service.
     pub fn open_step_service<T: Debug + ZeroCopySend + 'static>(
         &self,

@@ -7,7 +7,7 @@ use crate::timing::{StageClock, Timing};
 use crate::RunError;
 use platoon_control::{FollowerStep, RejectCounts};
 use platoon_sim::{step_rows, Scenario, StepRow};
-use platoon_wire::{Command, ControlMsg, LinkPacket, Node, Service, VehicleState};
+use platoon_wire::{Command, ControlMsg, LinkPacket, Node, Observed, Service, VehicleState};
 use std::path::PathBuf;
 use std::process::{Child, Command as Process, Stdio};
 use std::time::{Duration, Instant};
@@ -51,6 +51,8 @@ pub struct Options {
     pub step_timeout: Duration,
     /// How long the nodes may take to start.
     pub ready_timeout: Duration,
+    /// Read-only observers each `observe/<leaf>` service has room for.
+    pub observers: usize,
     /// Set from outside (a signal handler) to stop the run cleanly: the nodes get ABORT and
     /// the run ends with [`RunError::Interrupted`] within one wait tick (100 ms).
     pub stop: Option<std::sync::Arc<std::sync::atomic::AtomicBool>>,
@@ -164,6 +166,7 @@ pub fn orchestrate(
     let mut tx: Inlet<LinkPacket> = Inlet::new(&services._tx, Node::Controller)?;
     let mut rx: Inlet<LinkPacket> = Inlet::new(&services._rx, Node::Injector)?;
     let mut commands: Inlet<Command> = Inlet::new(&services._commands, Node::Controller)?;
+    let observe = Observe::create(&e, opts.observers, scenario)?;
 
     let mut children = Children { procs: Vec::new() };
     let result = (|| {
@@ -247,6 +250,7 @@ pub fn orchestrate(
                 let (hc, c) = commands.take_sample(k)?.expect("has");
                 clock.push(hs.stamp_ns, ht.stamp_ns, hr.stamp_ns, hc.stamp_ns);
                 run.record(&s, &t, &r, &c)?;
+                observe.publish(k, scenario.dt(), &s, &t, &r, &c)?;
                 on_step(&run.rows);
                 run.step += 1;
                 progressed = true;
@@ -324,6 +328,73 @@ pub fn orchestrate(
     drop(children);
     e.cleanup_dead_nodes();
     result
+}
+
+/// The observer copies of the four step streams (`observe/<leaf>`), published only while
+/// someone subscribes.
+struct Observe {
+    states: (
+        crate::ipc::StepService<VehicleState>,
+        crate::ipc::Outlet<VehicleState>,
+    ),
+    tx: (
+        crate::ipc::StepService<LinkPacket>,
+        crate::ipc::Outlet<LinkPacket>,
+    ),
+    rx: (
+        crate::ipc::StepService<LinkPacket>,
+        crate::ipc::Outlet<LinkPacket>,
+    ),
+    commands: (
+        crate::ipc::StepService<Command>,
+        crate::ipc::Outlet<Command>,
+    ),
+}
+
+impl Observe {
+    fn create(e: &Endpoint, observers: usize, scenario: &Scenario) -> Result<Self, RunError> {
+        let vehicles = crate::nodes::Numbering::of(scenario).vehicles();
+        macro_rules! stream {
+            ($o:expr, $len:expr) => {{
+                let service = e.create_observe_service($o, observers)?;
+                let outlet = e.outlet(&service, Service::Observe($o), $len)?;
+                (service, outlet)
+            }};
+        }
+        Ok(Self {
+            states: stream!(Observed::States, vehicles),
+            tx: stream!(Observed::Tx, vehicles * 4),
+            rx: stream!(Observed::Rx, vehicles * 4),
+            commands: stream!(Observed::Commands, vehicles),
+        })
+    }
+
+    fn publish(
+        &self,
+        k: u64,
+        dt: f64,
+        s: &[VehicleState],
+        t: &[LinkPacket],
+        r: &[LinkPacket],
+        c: &[Command],
+    ) -> Result<(), RunError> {
+        use iceoryx2::service::port_factory::PortFactory as _;
+        fn one<T: std::fmt::Debug + Copy + iceoryx2::prelude::ZeroCopySend + 'static>(
+            (service, outlet): &(crate::ipc::StepService<T>, crate::ipc::Outlet<T>),
+            k: u64,
+            dt: f64,
+            items: &[T],
+        ) -> Result<(), RunError> {
+            if service.dynamic_config().number_of_subscribers() > 0 {
+                outlet.send(k, dt, items)?;
+            }
+            Ok(())
+        }
+        one(&self.states, k, dt, s)?;
+        one(&self.tx, k, dt, t)?;
+        one(&self.rx, k, dt, r)?;
+        one(&self.commands, k, dt, c)
+    }
 }
 
 fn check_failed(m: &ControlMsg) -> Result<(), RunError> {

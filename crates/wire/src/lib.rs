@@ -237,6 +237,43 @@ pub enum Service {
     Status,
     /// Event service that wakes one node: every publisher notifies the nodes that read it.
     Wake(Node),
+    /// A copy of one step stream for read-only observers (`observe/<leaf>`): the orchestrator
+    /// republishes every recorded step there; the service overwrites what a slow observer has
+    /// not read, so observers never hold the run up. No wake-ups: observers poll on a timer.
+    Observe(Observed),
+}
+
+/// The step streams observers can read.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Observed {
+    /// `[VehicleState]` of every vehicle.
+    States,
+    /// `[LinkPacket]` broadcast (one item per link).
+    Tx,
+    /// `[LinkPacket]` as the injector delivered them (and jammed notices).
+    Rx,
+    /// `[Command]` of every follower.
+    Commands,
+}
+
+impl Observed {
+    /// All four.
+    pub const ALL: [Observed; 4] = [
+        Observed::States,
+        Observed::Tx,
+        Observed::Rx,
+        Observed::Commands,
+    ];
+
+    /// The leaf of its service name.
+    pub fn leaf(self) -> &'static str {
+        match self {
+            Observed::States => "states",
+            Observed::Tx => "tx",
+            Observed::Rx => "rx",
+            Observed::Commands => "commands",
+        }
+    }
 }
 
 /// The iceoryx2 service name of `service` in run `run_id`: the only place names are made, so
@@ -250,6 +287,7 @@ pub fn service_name(run_id: &str, service: Service) -> String {
         Service::Control => "control",
         Service::Status => "status",
         Service::Wake(node) => return format!("platoon/{run_id}/wake/{}", node.name()),
+        Service::Observe(o) => return format!("platoon/{run_id}/observe/{}", o.leaf()),
     };
     format!("platoon/{run_id}/{leaf}")
 }
@@ -271,7 +309,7 @@ pub fn wakes(service: Service) -> &'static [Node] {
         Service::Commands => &[Node::Plant, Node::Orchestrator],
         Service::Control => &[Node::Plant, Node::Controller, Node::Injector],
         Service::Status => &[Node::Orchestrator],
-        Service::Wake(_) => &[],
+        Service::Wake(_) | Service::Observe(_) => &[],
     }
 }
 
@@ -389,6 +427,10 @@ mod tests {
     #[test]
     fn service_names_carry_the_run_id() {
         assert_eq!(service_name("r1", Service::Tx), "platoon/r1/tx");
+        assert_eq!(
+            service_name("r1", Service::Observe(Observed::Rx)),
+            "platoon/r1/observe/rx"
+        );
         assert_eq!(
             service_name("r1", Service::Wake(Node::Injector)),
             "platoon/r1/wake/injector"
