@@ -17,9 +17,9 @@ const TICK: Duration = Duration::from_millis(200);
 
 /// What every node has: its endpoint, wake-up listener, the control channel and its status
 /// outlet, and the pid of the orchestrator that started it.
-struct Ctx {
+pub(crate) struct Ctx {
     role: Node,
-    endpoint: Endpoint,
+    pub(crate) endpoint: Endpoint,
     listener: Listener<ipc::Service>,
     control: ControlInlet,
     status: ControlOutlet,
@@ -51,7 +51,7 @@ impl Ctx {
     }
 
     /// Blocks until notified (or a tick passes). `Ok(false)` means STOP: exit cleanly.
-    fn wait(&mut self) -> Result<bool, RunError> {
+    pub(crate) fn wait(&mut self) -> Result<bool, RunError> {
         wait(&self.listener, TICK)?;
         while let Some(m) = self.control.next()? {
             match m.kind {
@@ -68,7 +68,7 @@ impl Ctx {
     }
 
     /// Reports READY and waits for START.
-    fn ready(&mut self) -> Result<bool, RunError> {
+    pub(crate) fn ready(&mut self) -> Result<bool, RunError> {
         self.status(ControlMsg::READY, 0)?;
         while !self.started {
             if !self.wait()? {
@@ -79,7 +79,7 @@ impl Ctx {
     }
 
     /// After the last step: report DONE (with `msg`) and wait for STOP.
-    fn done(&mut self, msg: ControlMsg) -> Result<(), RunError> {
+    pub(crate) fn done(&mut self, msg: ControlMsg) -> Result<(), RunError> {
         self.status.send(msg)?;
         while self.wait()? {}
         Ok(())
@@ -93,7 +93,7 @@ impl Ctx {
     }
 }
 
-fn contract(node: Node, message: String) -> RunError {
+pub(crate) fn contract(node: Node, message: String) -> RunError {
     RunError::Contract {
         node: node.name(),
         message,
@@ -101,7 +101,7 @@ fn contract(node: Node, message: String) -> RunError {
 }
 
 /// Runs `body` and reports its failure on the status channel (the orchestrator names us).
-fn reporting(
+pub(crate) fn reporting(
     run_id: &str,
     role: Node,
     body: impl FnOnce(&mut Ctx, &mut u64) -> Result<(), RunError>,
@@ -426,125 +426,131 @@ pub fn packet_from_wire(p: &V2vPacket) -> Packet {
     }
 }
 
-/// The Rust attack injector: the channel of `platoon-attacks` between the controllers, one per
-/// platoon. Writes its log (every packet not delivered as sent) to `log` as CSV.
+/// The built-in attack injector: the channel of `platoon-attacks` between the controllers, one
+/// per platoon, written on the injector SDK ([`crate::injector`]) like any third-party one.
+/// Writes its log (every packet not delivered as sent) to `log` as CSV.
 pub fn injector(run_id: &str, scenario: &Scenario, log: Option<&Path>) -> Result<(), RunError> {
-    reporting(run_id, Node::Injector, |ctx, k| {
-        let e = &ctx.endpoint;
+    let mut channel = ChannelInjector::new(scenario, log)?;
+    crate::injector::run(run_id, scenario, &mut channel)
+}
+
+/// The config's DoS schedule and link attacks as an [`crate::injector::Injector`].
+pub struct ChannelInjector {
+    num: Numbering,
+    topology: platoon_topology::Topology,
+    dt: f64,
+    channels: Vec<Channel>,
+    writer: Option<csv::Writer<std::fs::File>>,
+    packets: Vec<Vec<Packet>>,
+    deliveries: Vec<Delivery>,
+    jammed: Vec<bool>,
+    events: Vec<ChannelEvent>,
+}
+
+impl ChannelInjector {
+    /// The channel of every platoon of `scenario`, logging to `log`.
+    pub fn new(scenario: &Scenario, log: Option<&Path>) -> Result<Self, RunError> {
         let num = Numbering::of(scenario);
-        let n1 = num.per_platoon;
-        let mut states_in: Inlet<VehicleState> =
-            Inlet::new(&e.open_step_service(Service::States)?, Node::Plant)?;
-        let mut tx_in: Inlet<LinkPacket> =
-            Inlet::new(&e.open_step_service(Service::Tx)?, Node::Controller)?;
-        let rx_out: Outlet<LinkPacket> = e.outlet(
-            &e.open_step_service(Service::Rx)?,
-            Service::Rx,
-            4 * num.vehicles(),
-        )?;
-        let mut writer = match log {
+        let writer = match log {
             Some(p) => Some(csv::Writer::from_path(p).map_err(|e| {
                 contract(Node::Injector, format!("cannot write {}: {e}", p.display()))
             })?),
             None => None,
         };
-        let mut channels: Vec<Channel> = scenario
-            .replicas()
-            .iter()
-            .map(|s| Channel::new(s.channel_spec(), n1))
-            .collect();
-        let (mut states, mut packets, mut deliveries, mut jammed, mut events, mut items) = (
-            None::<Vec<State>>,
-            vec![Vec::<Packet>::new(); num.platoons],
-            Vec::new(),
-            vec![false; n1],
-            Vec::<ChannelEvent>::new(),
-            Vec::new(),
-        );
-        if !ctx.ready()? {
-            return Ok(());
+        Ok(Self {
+            num,
+            topology: scenario.topology.clone(),
+            dt: scenario.dt(),
+            channels: scenario
+                .replicas()
+                .iter()
+                .map(|s| Channel::new(s.channel_spec(), num.per_platoon))
+                .collect(),
+            writer,
+            packets: vec![Vec::new(); num.platoons],
+            deliveries: Vec::new(),
+            jammed: vec![false; num.per_platoon],
+            events: Vec::new(),
+        })
+    }
+}
+
+impl crate::injector::Injector for ChannelInjector {
+    fn step(
+        &mut self,
+        step: &crate::injector::Step<'_>,
+        items: &mut Vec<LinkPacket>,
+    ) -> Result<(), String> {
+        let num = self.num;
+        let n1 = num.per_platoon;
+        let states = states_from_wire(step.states, num.vehicles()).map_err(|e| e.to_string())?;
+        // One item per link: the broadcasts are the runs of equal (sender, seq).
+        for p in &mut self.packets {
+            p.clear();
         }
-        loop {
-            if states.is_none() {
-                if let Some(s) = states_in.take(*k)? {
-                    states = Some(states_from_wire(&s, num.vehicles())?);
-                }
-            }
-            if let Some(s) = &states {
-                if let Some(tx) = tx_in.take(*k)? {
-                    // One item per link: the broadcasts are the runs of equal (sender, seq).
-                    for p in &mut packets {
-                        p.clear();
-                    }
-                    for it in &tx {
-                        let Some((j, sender)) = num.split(it.packet.sender) else {
-                            continue;
-                        };
-                        let mut p = packet_from_wire(&it.packet);
-                        p.sender = sender;
-                        let list = &mut packets[j];
-                        if list
-                            .last()
-                            .is_none_or(|l| (l.sender, l.seq) != (p.sender, p.seq))
-                        {
-                            list.push(p);
-                        }
-                    }
-                    items.clear();
-                    events.clear();
-                    for (j, channel) in channels.iter_mut().enumerate() {
-                        deliveries.clear();
-                        channel.gate(
-                            *k,
-                            *k as f64 * scenario.dt(),
-                            &scenario.topology,
-                            &s[j * n1..(j + 1) * n1],
-                            &packets[j],
-                            &mut deliveries,
-                            &mut jammed,
-                            &mut events,
-                        );
-                        items.extend(deliveries.iter().map(|d| {
-                            let mut packet = packet_to_wire(&d.packet, monotonic_ns());
-                            packet.sender = num.global(j, d.packet.sender);
-                            LinkPacket {
-                                receiver: num.global(j, d.receiver),
-                                kind: LinkPacket::DELIVERY,
-                                packet,
-                            }
-                        }));
-                        items.extend(jammed.iter().enumerate().filter(|(_, &x)| x).map(
-                            |(v, _)| LinkPacket {
-                                receiver: num.global(j, VehicleId(v as u16)),
-                                kind: LinkPacket::JAMMED,
-                                packet: V2vPacket::default(),
-                            },
-                        ));
-                    }
-                    rx_out.send(*k, scenario.dt(), &items)?;
-                    if let Some(w) = &mut writer {
-                        for ev in &events {
-                            w.serialize(ev).map_err(|e| {
-                                contract(Node::Injector, format!("writing the channel log: {e}"))
-                            })?;
-                        }
-                    }
-                    states = None;
-                    if *k == scenario.steps {
-                        if let Some(w) = &mut writer {
-                            w.flush().map_err(|e| {
-                                contract(Node::Injector, format!("writing the channel log: {e}"))
-                            })?;
-                        }
-                        return ctx.done(ControlMsg::new(ControlMsg::DONE, Node::Injector, *k));
-                    }
-                    *k += 1;
-                    continue;
-                }
-            }
-            if !ctx.wait()? {
-                return Ok(());
+        for it in step.tx {
+            let Some((j, sender)) = num.split(it.packet.sender) else {
+                continue;
+            };
+            let mut p = packet_from_wire(&it.packet);
+            p.sender = sender;
+            let list = &mut self.packets[j];
+            if list
+                .last()
+                .is_none_or(|l| (l.sender, l.seq) != (p.sender, p.seq))
+            {
+                list.push(p);
             }
         }
-    })
+        self.events.clear();
+        for (j, channel) in self.channels.iter_mut().enumerate() {
+            self.deliveries.clear();
+            channel.gate(
+                step.k,
+                step.k as f64 * self.dt,
+                &self.topology,
+                &states[j * n1..(j + 1) * n1],
+                &self.packets[j],
+                &mut self.deliveries,
+                &mut self.jammed,
+                &mut self.events,
+            );
+            items.extend(self.deliveries.iter().map(|d| {
+                let mut packet = packet_to_wire(&d.packet, monotonic_ns());
+                packet.sender = num.global(j, d.packet.sender);
+                LinkPacket {
+                    receiver: num.global(j, d.receiver),
+                    kind: LinkPacket::DELIVERY,
+                    packet,
+                }
+            }));
+            items.extend(
+                self.jammed
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, &x)| x)
+                    .map(|(v, _)| LinkPacket {
+                        receiver: num.global(j, VehicleId(v as u16)),
+                        kind: LinkPacket::JAMMED,
+                        packet: V2vPacket::default(),
+                    }),
+            );
+        }
+        if let Some(w) = &mut self.writer {
+            for ev in &self.events {
+                w.serialize(ev)
+                    .map_err(|e| format!("writing the channel log: {e}"))?;
+            }
+        }
+        Ok(())
+    }
+
+    fn finish(&mut self) -> Result<(), String> {
+        match &mut self.writer {
+            Some(w) => w
+                .flush()
+                .map_err(|e| format!("writing the channel log: {e}")),
+            None => Ok(()),
+        }
+    }
 }

@@ -1,0 +1,95 @@
+//! The injector SDK: write an attack injector as one method per step.
+//!
+//! Implement [`Injector`] and call [`run`] from your program's `main` (the `platoon-injector`
+//! crate wraps this with the environment `platoon run --injector` gives). [`run`] does the whole
+//! contract of `docs/injector-contract.md`: it opens the ports, reports READY, waits for START,
+//! blocks on its wake-up listener (no busy polling), hands you every step's states and tx batch
+//! in order, publishes exactly one rx sample per step (with its `count`, even when empty) and
+//! wakes the controller, reports DONE after the last step, and exits on STOP, ABORT or when
+//! `platoon run` is gone. An error you return names the injector and the step in the run's
+//! summary. The built-in channel ([`crate::nodes::ChannelInjector`]) is written on this SDK.
+use crate::ipc::{Inlet, Outlet};
+use crate::nodes::{contract, reporting};
+use crate::RunError;
+use platoon_sim::Scenario;
+use platoon_wire::{ControlMsg, LinkPacket, Node, Service, VehicleState};
+
+/// What an injector sees at step `k`.
+#[derive(Debug, Clone, Copy)]
+pub struct Step<'a> {
+    /// The step.
+    pub k: u64,
+    /// Its time (s).
+    pub t: f64,
+    /// Every vehicle's state at step k as the plant published it: platoon by platoon, leader
+    /// first (vehicle `i` of platoon `j` is `j * (N + 1) + i`).
+    pub states: &'a [VehicleState],
+    /// The broadcasts of step k, one item per link (`kind = DELIVERY`, `receiver` = the
+    /// out-neighbour the packet is meant for).
+    pub tx: &'a [LinkPacket],
+}
+
+/// An attack injector: decides, every step, what each receiver gets.
+pub trait Injector {
+    /// Pushes into `rx` (empty on entry) what the receivers get at `step.k`: deliveries
+    /// (`kind = DELIVERY`: forward, drop by leaving out, alter, delay, replay or invent packets)
+    /// and jammed notices (`kind = JAMMED` to a receiver whose channel was jammed this step).
+    /// An error stops the run and names the injector.
+    fn step(&mut self, step: &Step<'_>, rx: &mut Vec<LinkPacket>) -> Result<(), String>;
+
+    /// Called once after the last step (flush logs here).
+    fn finish(&mut self) -> Result<(), String> {
+        Ok(())
+    }
+}
+
+/// Runs `injector` as the injector process of run `run_id` of `scenario` until the run ends.
+pub fn run(run_id: &str, scenario: &Scenario, injector: &mut dyn Injector) -> Result<(), RunError> {
+    reporting(run_id, Node::Injector, |ctx, k| {
+        let e = &ctx.endpoint;
+        let vehicles = crate::nodes::Numbering::of(scenario).vehicles();
+        let mut states_in: Inlet<VehicleState> =
+            Inlet::new(&e.open_step_service(Service::States)?, Node::Plant)?;
+        let mut tx_in: Inlet<LinkPacket> =
+            Inlet::new(&e.open_step_service(Service::Tx)?, Node::Controller)?;
+        let rx_out: Outlet<LinkPacket> = e.outlet(
+            &e.open_step_service(Service::Rx)?,
+            Service::Rx,
+            4 * vehicles,
+        )?;
+        let fail = |m: String| contract(Node::Injector, m);
+        let mut states: Option<Vec<VehicleState>> = None;
+        let mut items: Vec<LinkPacket> = Vec::with_capacity(4 * vehicles);
+        if !ctx.ready()? {
+            return Ok(());
+        }
+        loop {
+            if states.is_none() {
+                states = states_in.take(*k)?;
+            }
+            if let Some(s) = &states {
+                if let Some(tx) = tx_in.take(*k)? {
+                    items.clear();
+                    let step = Step {
+                        k: *k,
+                        t: *k as f64 * scenario.dt(),
+                        states: s,
+                        tx: &tx,
+                    };
+                    injector.step(&step, &mut items).map_err(fail)?;
+                    rx_out.send(*k, scenario.dt(), &items)?;
+                    states = None;
+                    if *k == scenario.steps {
+                        injector.finish().map_err(fail)?;
+                        return ctx.done(ControlMsg::new(ControlMsg::DONE, Node::Injector, *k));
+                    }
+                    *k += 1;
+                    continue;
+                }
+            }
+            if !ctx.wait()? {
+                return Ok(());
+            }
+        }
+    })
+}
