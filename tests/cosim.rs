@@ -667,6 +667,71 @@ fn observers_attach_stall_crash_and_leave_without_touching_the_run() {
     );
 }
 
+/// An example injector of the Rust SDK (crates/injector/examples), built by
+/// `cargo test --workspace`.
+fn sdk_example(name: &str) -> String {
+    let exe = Path::new(env!("CARGO_BIN_EXE_platoon"))
+        .parent()
+        .unwrap()
+        .join("examples")
+        .join(name);
+    assert!(
+        exe.exists(),
+        "{} is missing: run the tests with `cargo test --workspace` (it builds the SDK's examples)",
+        exe.display()
+    );
+    exe.display().to_string()
+}
+
+/// Issue 12: an injector written on the Rust SDK reproduces the built-in DoS channel byte for
+/// byte (the paper scenario, its 7 attacks).
+#[test]
+fn a_rust_sdk_injector_reproduces_the_builtin_dos_byte_for_byte() {
+    let tmp = tempfile::tempdir().unwrap();
+    let paper = repo().join("configs/paper.toml");
+    let run = |out: &str, extra: &[&str]| {
+        let mut args = vec!["run", paper.to_str().unwrap(), "--no-plots", "--out", out];
+        args.extend_from_slice(extra);
+        ok(&platoon(&args, tmp.path()));
+    };
+    run("builtin", &[]);
+    run("sdk", &["--injector", &sdk_example("dos_jammer")]);
+    same_outputs(
+        &tmp.path().join("sdk"),
+        &tmp.path().join("builtin"),
+        &["trajectories.csv", "events.csv", "summary.json"],
+    );
+}
+
+/// An attack the built-in channel does not have: a jammer that follows vehicle 2.
+#[test]
+fn a_rust_sdk_jammer_following_one_vehicle_affects_that_vehicle_only() {
+    let tmp = tempfile::tempdir().unwrap();
+    let table1 = repo().join("configs/table1.toml");
+    let injector = format!("{} 2 10 20", sdk_example("follow_jammer"));
+    ok(&platoon(
+        &[
+            "run",
+            table1.to_str().unwrap(),
+            "--no-plots",
+            "--out",
+            "r",
+            "--injector",
+            &injector,
+        ],
+        tmp.path(),
+    ));
+    let s = summary(&tmp.path().join("r"));
+    let affected = |i: usize| s["vehicles"][i]["affected_time_s"].as_f64().unwrap();
+    assert!(
+        affected(1) > 0.0,
+        "vehicle 2 is jammed: {}",
+        s["vehicles"][1]
+    );
+    assert_eq!(affected(0), 0.0);
+    assert_eq!(affected(3), 0.0);
+}
+
 #[test]
 fn an_injector_command_that_does_not_exist_is_named() {
     let tmp = tempfile::tempdir().unwrap();
