@@ -732,6 +732,68 @@ fn a_rust_sdk_jammer_following_one_vehicle_affects_that_vehicle_only() {
     assert_eq!(affected(3), 0.0);
 }
 
+/// The Python SDK (bridge/platoon_injector.py): the same built-in DoS byte for byte, and a
+/// ghost of vehicle 1 (Sybil) that slips past the plausibility check and opens the gaps.
+#[test]
+fn python_sdk_injectors_reproduce_the_builtin_dos_and_run_a_stealthy_ghost() {
+    let tmp = tempfile::tempdir().unwrap();
+    let example = |name: &str, args: &str| {
+        format!(
+            "{} {} {args}",
+            python(),
+            repo().join("bridge/examples").join(name).display()
+        )
+    };
+    let run = |config: &str, out: &str, extra: &[&str]| {
+        let c = repo().join("configs").join(config);
+        let mut args = vec!["run", c.to_str().unwrap(), "--no-plots", "--out", out];
+        args.extend_from_slice(extra);
+        ok(&platoon(&args, tmp.path()));
+        summary(&tmp.path().join(out))
+    };
+    run("paper.toml", "builtin", &[]);
+    run(
+        "paper.toml",
+        "sdk",
+        &["--injector", &example("dos_jammer.py", "")],
+    );
+    same_outputs(
+        &tmp.path().join("sdk"),
+        &tmp.path().join("builtin"),
+        &["trajectories.csv", "events.csv", "summary.json"],
+    );
+    let clean = run("table1.toml", "clean", &[]);
+    let ghost = run(
+        "table1.toml",
+        "ghost",
+        &["--injector", &example("ghost.py", "1 10 30 0.3")],
+    );
+    let mean = |s: &serde_json::Value, i: usize| {
+        s["vehicles"][i]["spacing_error_m"]["mean_abs"]
+            .as_f64()
+            .unwrap()
+    };
+    assert!(
+        mean(&ghost, 1) > 2.0 * mean(&clean, 1),
+        "{} vs {}",
+        mean(&ghost, 1),
+        mean(&clean, 1)
+    );
+    let log = std::fs::read_to_string(tmp.path().join("ghost/logs/injector.log")).unwrap();
+    let forged: u64 = log
+        .split_whitespace()
+        .nth(2)
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("{log}"));
+    let refused = ghost["rejected_packets"]["implausible_state"]
+        .as_u64()
+        .unwrap();
+    assert!(
+        forged > 100 && refused < forged / 50,
+        "forged {forged}, refused {refused}"
+    );
+}
+
 #[test]
 fn an_injector_command_that_does_not_exist_is_named() {
     let tmp = tempfile::tempdir().unwrap();
