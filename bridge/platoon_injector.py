@@ -102,7 +102,9 @@ def run(make) -> int:
     vehicles = info.vehicles_per_platoon * info.platoons
     node = w.Endpoint("injector", info.run_id)
     states_in = node.inlet("states", w.VehicleState)
-    tx_in = node.inlet("tx", w.LinkPacket)
+    # `--injector-mode after`: read what survived the built-in channel (deliveries and jammed
+    # notices) instead of the broadcasts.
+    tx_in = node.inlet(os.environ.get("PLATOON_INJECTOR_INPUT", "tx"), w.LinkPacket)
     rx_out = node.outlet("rx", w.LinkPacket, 4 * vehicles)
     control = node.control_inlet()
     status = node.status_outlet()  # keep it: a dropped publisher takes its samples with it

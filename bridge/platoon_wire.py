@@ -117,12 +117,13 @@ class ControlMsg(ctypes.Structure):
 
 ALL_TYPES = [StepHeader, VehicleState, V2vPacket, LinkPacket, Command, ControlMsg]
 
-NODES = {"orchestrator": 0, "plant": 1, "controller": 2, "injector": 3}
+NODES = {"orchestrator": 0, "plant": 1, "controller": 2, "injector": 3, "channel": 4}
 
 # Whom a publisher on each service wakes after every sample (crates/wire `wakes`).
 WAKES = {
     "states": ["controller"],
-    "tx": ["injector"],
+    "tx": ["injector", "channel"],
+    "gated": ["injector"],
     "rx": ["controller"],
     "commands": ["plant", "orchestrator"],
     "control": ["plant", "controller", "injector"],

@@ -287,6 +287,7 @@ fn latency(a: LatencyArgs) -> Result<LatencyReport> {
         ready_timeout: Duration::from_secs(60),
         stop: None,
         observers: 0,
+        channel_first: false,
     };
     let outcome = platoon_runtime::orchestrate(&opts, &scenario, |_| {})
         .context("the iceoryx2 co-simulation")?;

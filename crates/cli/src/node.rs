@@ -6,8 +6,9 @@ use std::path::PathBuf;
 /// Arguments of `platoon node`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Which process: plant, controller, injector, or echo (the latency baseline).
-    #[arg(value_parser = ["plant", "controller", "injector", "echo", "echo-udp", "echo-uds"])]
+    /// Which process: plant, controller, injector, channel (the built-in channel in front of a
+    /// third-party injector), or echo (the latency baseline).
+    #[arg(value_parser = ["plant", "controller", "injector", "channel", "echo", "echo-udp", "echo-uds"])]
     pub role: String,
     /// The run's id (names its iceoryx2 services).
     #[arg(long)]
@@ -48,6 +49,7 @@ pub fn run(args: Args) -> Result<()> {
     let r = match args.role.as_str() {
         "plant" => platoon_runtime::nodes::plant(&args.run_id, &scenario),
         "controller" => platoon_runtime::nodes::controller(&args.run_id, &scenario),
+        "channel" => platoon_runtime::nodes::channel(&args.run_id, &scenario, args.log.as_deref()),
         _ => platoon_runtime::nodes::injector(&args.run_id, &scenario, args.log.as_deref()),
     };
     r.with_context(|| format!("{} node of run {}", args.role, args.run_id))

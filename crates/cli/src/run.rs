@@ -31,6 +31,13 @@ pub struct Args {
     /// and PLATOON_CONFIG in its environment; docs/injector-contract.md says what it must do.
     #[arg(long, value_name = "COMMAND")]
     pub injector: Option<String>,
+    /// With --injector: `replace` runs it instead of the built-in channel (the config's
+    /// `[attack]` and `[[channel.attacks]]` are then applied by no one); `after` runs the
+    /// built-in channel first and gives the injector what survived it, jammed notices included
+    /// (it reads the `gated` service instead of `tx`; the SDKs do this by themselves).
+    /// summary.json records the mode under "injector".
+    #[arg(long, value_enum, default_value_t = InjectorMode::Replace, requires = "injector")]
+    pub injector_mode: InjectorMode,
     /// Seconds the run waits for a process's sample of one step before it stops and names the
     /// process (iceoryx2 only).
     #[arg(
@@ -63,6 +70,15 @@ pub enum PlantKind {
     Native,
     /// SUMO through the libsumo bridge (bridge/sumo_plant.py).
     Sumo,
+}
+
+/// How a third-party injector composes with the built-in channel.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum InjectorMode {
+    /// Instead of the built-in channel.
+    Replace,
+    /// After the built-in channel, on what survived it.
+    After,
 }
 
 /// How the processes of a run are connected.
@@ -179,7 +195,19 @@ pub fn run(args: Args) -> Result<()> {
     };
     let compute = started.elapsed();
     let mut summary = summary;
-    let mut extra = Vec::new();
+    let mut extra = vec![(
+        "injector",
+        match &args.injector {
+            None => builtin_injector_json(),
+            Some(cmd) => serde_json::json!({
+                "program": cmd,
+                "mode": match args.injector_mode {
+                    InjectorMode::Replace => "replace: the config's attacks were not applied by platoon",
+                    InjectorMode::After => "after: the config's attacks first, then this program",
+                },
+            }),
+        },
+    )];
     if sumo_plan.is_some() {
         if let Some(report) = crate::sumo::report(&dir)? {
             if report["collisions"]
@@ -408,7 +436,8 @@ fn cosimulate(
         exe: std::env::current_exe().context("locating the platoon binary")?,
         config: std::path::absolute(dir.path("config.toml"))
             .context("resolving the run directory")?,
-        channel_log: (injector == platoon_runtime::Program::Builtin)
+        channel_log: (injector == platoon_runtime::Program::Builtin
+            || args.injector_mode == InjectorMode::After)
             .then(|| dir.path("channel.csv")),
         injector,
         plant,
@@ -418,6 +447,7 @@ fn cosimulate(
         ready_timeout: std::time::Duration::from_secs(60),
         stop: Some(stop),
         observers: args.observers,
+        channel_first: args.injector.is_some() && args.injector_mode == InjectorMode::After,
     };
     let mut rec = Recording::new(scenario, dir, Some("co-simulating"))?;
     let result = platoon_runtime::orchestrate(&opts, scenario, |rows| rec.push(rows));
@@ -447,6 +477,11 @@ fn cosimulate(
             Ok((rows, summary, Some(e)))
         }
     }
+}
+
+/// summary.json's `injector` when the built-in channel gates the links.
+pub fn builtin_injector_json() -> serde_json::Value {
+    serde_json::json!({ "program": "built-in", "mode": "built-in" })
 }
 
 /// `run.json`, written the moment an iceoryx2 run starts: what an outside observer needs to find

@@ -52,7 +52,9 @@ pub enum Error {
 }
 
 /// Runs the injector `make` builds from the run's scenario (read from `PLATOON_CONFIG`) as the
-/// injector of the run `PLATOON_RUN_ID`, until the run ends.
+/// injector of the run `PLATOON_RUN_ID`, until the run ends. With `--injector-mode after`
+/// (`PLATOON_INJECTOR_INPUT=gated`) each [`Step::tx`] holds what survived the built-in channel:
+/// deliveries and jammed notices; forward the notices you want the receivers to see.
 pub fn run<I: Injector>(make: impl FnOnce(&Scenario) -> I) -> Result<(), Error> {
     let run_id = std::env::var("PLATOON_RUN_ID").map_err(|_| Error::NotInARun("PLATOON_RUN_ID"))?;
     let config: PathBuf = std::env::var_os("PLATOON_CONFIG")
@@ -60,7 +62,8 @@ pub fn run<I: Injector>(make: impl FnOnce(&Scenario) -> I) -> Result<(), Error> 
         .into();
     let (_, scenario) = platoon_config::load(&config)?;
     let mut injector = make(&scenario);
-    match platoon_runtime::injector::run(&run_id, &scenario, &mut injector) {
+    let ports = platoon_runtime::injector::Ports::from_env();
+    match platoon_runtime::injector::run_on(ports, &run_id, &scenario, &mut injector) {
         // Stopped by the run (it failed elsewhere, or `platoon run` is gone): nothing to add.
         Err(platoon_runtime::RunError::Aborted(_) | platoon_runtime::RunError::Orphaned) => Ok(()),
         other => other.map_err(Error::from),

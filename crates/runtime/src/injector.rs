@@ -43,21 +43,76 @@ pub trait Injector {
     }
 }
 
+/// Which node an injector is and which services it reads and writes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Ports {
+    /// Its role in the run.
+    pub role: Node,
+    /// What it reads: `tx` (the broadcasts), or `gated` (what survived the built-in channel).
+    pub input: Service,
+    /// What it publishes: `rx` for the controllers, or `gated` for the injector after it.
+    pub output: Service,
+}
+
+impl Ports {
+    /// The injector of the run, reading the broadcasts (`--injector-mode replace`).
+    pub const INJECTOR: Ports = Ports {
+        role: Node::Injector,
+        input: Service::Tx,
+        output: Service::Rx,
+    };
+    /// The injector after the built-in channel (`--injector-mode after`).
+    pub const AFTER_CHANNEL: Ports = Ports {
+        role: Node::Injector,
+        input: Service::Gated,
+        output: Service::Rx,
+    };
+    /// The built-in channel in front of a third-party injector.
+    pub const CHANNEL: Ports = Ports {
+        role: Node::Channel,
+        input: Service::Tx,
+        output: Service::Gated,
+    };
+
+    /// The injector's ports as `platoon run` says in `PLATOON_INJECTOR_INPUT` (`tx`, the
+    /// default, or `gated`).
+    pub fn from_env() -> Ports {
+        match std::env::var("PLATOON_INJECTOR_INPUT").as_deref() {
+            Ok("gated") => Ports::AFTER_CHANNEL,
+            _ => Ports::INJECTOR,
+        }
+    }
+}
+
 /// Runs `injector` as the injector process of run `run_id` of `scenario` until the run ends.
 pub fn run(run_id: &str, scenario: &Scenario, injector: &mut dyn Injector) -> Result<(), RunError> {
-    reporting(run_id, Node::Injector, |ctx, k| {
+    run_on(Ports::INJECTOR, run_id, scenario, injector)
+}
+
+/// [`run`] on the given ports.
+pub fn run_on(
+    ports: Ports,
+    run_id: &str,
+    scenario: &Scenario,
+    injector: &mut dyn Injector,
+) -> Result<(), RunError> {
+    reporting(run_id, ports.role, |ctx, k| {
         let e = &ctx.endpoint;
         let vehicles = crate::nodes::Numbering::of(scenario).vehicles();
         let mut states_in: Inlet<VehicleState> =
             Inlet::new(&e.open_step_service(Service::States)?, Node::Plant)?;
-        let mut tx_in: Inlet<LinkPacket> =
-            Inlet::new(&e.open_step_service(Service::Tx)?, Node::Controller)?;
+        let from = if ports.input == Service::Gated {
+            Node::Channel
+        } else {
+            Node::Controller
+        };
+        let mut tx_in: Inlet<LinkPacket> = Inlet::new(&e.open_step_service(ports.input)?, from)?;
         let rx_out: Outlet<LinkPacket> = e.outlet(
-            &e.open_step_service(Service::Rx)?,
-            Service::Rx,
+            &e.open_step_service(ports.output)?,
+            ports.output,
             4 * vehicles,
         )?;
-        let fail = |m: String| contract(Node::Injector, m);
+        let fail = |m: String| contract(ports.role, m);
         let mut states: Option<Vec<VehicleState>> = None;
         let mut items: Vec<LinkPacket> = Vec::with_capacity(4 * vehicles);
         if !ctx.ready()? {
@@ -81,7 +136,7 @@ pub fn run(run_id: &str, scenario: &Scenario, injector: &mut dyn Injector) -> Re
                     states = None;
                     if *k == scenario.steps {
                         injector.finish().map_err(fail)?;
-                        return ctx.done(ControlMsg::new(ControlMsg::DONE, Node::Injector, *k));
+                        return ctx.done(ControlMsg::new(ControlMsg::DONE, ports.role, *k));
                     }
                     *k += 1;
                     continue;

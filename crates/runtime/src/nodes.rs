@@ -434,6 +434,18 @@ pub fn injector(run_id: &str, scenario: &Scenario, log: Option<&Path>) -> Result
     crate::injector::run(run_id, scenario, &mut channel)
 }
 
+/// The same channel in front of a third-party injector (`--injector-mode after`): reads `tx`,
+/// publishes `gated`.
+pub fn channel(run_id: &str, scenario: &Scenario, log: Option<&Path>) -> Result<(), RunError> {
+    let mut channel = ChannelInjector::new(scenario, log)?;
+    crate::injector::run_on(
+        crate::injector::Ports::CHANNEL,
+        run_id,
+        scenario,
+        &mut channel,
+    )
+}
+
 /// The config's DoS schedule and link attacks as an [`crate::injector::Injector`].
 pub struct ChannelInjector {
     num: Numbering,

@@ -51,6 +51,9 @@ pub struct Options {
     pub step_timeout: Duration,
     /// How long the nodes may take to start.
     pub ready_timeout: Duration,
+    /// Run the built-in channel (the config's attacks) before the injector, which then reads
+    /// `gated` instead of `tx` (`--injector-mode after`).
+    pub channel_first: bool,
     /// Read-only observers each `observe/<leaf>` service has room for.
     pub observers: usize,
     /// Set from outside (a signal handler) to stop the run cleanly: the nodes get ABORT and
@@ -134,6 +137,7 @@ struct Services {
     _tx: crate::ipc::StepService<LinkPacket>,
     _rx: crate::ipc::StepService<LinkPacket>,
     _commands: crate::ipc::StepService<Command>,
+    _gated: crate::ipc::StepService<LinkPacket>,
     _wake: Vec<crate::ipc::WakeService>,
 }
 
@@ -155,6 +159,7 @@ pub fn orchestrate(
         _tx: e.create_step_service(Service::Tx)?,
         _rx: e.create_step_service(Service::Rx)?,
         _commands: e.create_step_service(Service::Commands)?,
+        _gated: e.create_step_service(Service::Gated)?,
         _wake: wake,
     };
     let control_service = e.control_service(Service::Control, true)?;
@@ -173,8 +178,9 @@ pub fn orchestrate(
         spawn_all(opts, &mut children)?;
         let mut run = Recorder::new(scenario);
         // Startup: wait until every node is READY.
-        let mut ready = [false; 4];
+        let mut ready = [false; Node::ALL.len()];
         ready[Node::Orchestrator as usize] = true;
+        ready[Node::Channel as usize] = !opts.channel_first;
         let started = Instant::now();
         let stopped = || {
             opts.stop
@@ -220,9 +226,10 @@ pub fn orchestrate(
         let mut clock = StageClock::default();
         // Plant and controller report DONE (the controller with its reject counts); an injector
         // only has to publish every step, so a third-party one need not know about DONE.
-        let mut done = [false; 4];
+        let mut done = [false; Node::ALL.len()];
         done[Node::Orchestrator as usize] = true;
         done[Node::Injector as usize] = true;
+        done[Node::Channel as usize] = !opts.channel_first;
         loop {
             if stopped() {
                 return Err(RunError::Interrupted { step: run.step });
@@ -237,24 +244,13 @@ pub fn orchestrate(
                 .into_iter()
                 .find(Result::is_err)
                 .unwrap_or(Ok(0));
-            while run.step <= scenario.steps
-                && states.has(run.step)
-                && tx.has(run.step)
-                && rx.has(run.step)
-                && commands.has(run.step)
-            {
-                let k = run.step;
-                let (hs, s) = states.take_sample(k)?.expect("has");
-                let (ht, t) = tx.take_sample(k)?.expect("has");
-                let (hr, r) = rx.take_sample(k)?.expect("has");
-                let (hc, c) = commands.take_sample(k)?.expect("has");
-                clock.push(hs.stamp_ns, ht.stamp_ns, hr.stamp_ns, hc.stamp_ns);
-                run.record(&s, &t, &r, &c)?;
-                observe.publish(k, scenario.dt(), &s, &t, &r, &c)?;
-                on_step(&run.rows);
-                run.step += 1;
-                progressed = true;
-            }
+            let mut streams = Streams {
+                states: &mut states,
+                tx: &mut tx,
+                rx: &mut rx,
+                commands: &mut commands,
+            };
+            progressed |= streams.record(scenario, &mut run, &mut clock, &observe, &mut on_step)?;
             while let Some(m) = status.next()? {
                 progressed = true;
                 check_failed(&m)?;
@@ -298,7 +294,19 @@ pub fn orchestrate(
                         + commands.duplicates(),
                 });
             }
-            watch(&mut children, run.step)?;
+            if let Err(e) = watch(&mut children, run.step) {
+                // A process that died may have published steps we have not read yet: record
+                // every step that is complete before saying so.
+                let mut streams = Streams {
+                    states: &mut states,
+                    tx: &mut tx,
+                    rx: &mut rx,
+                    commands: &mut commands,
+                };
+                streams.drain_all();
+                let _ = streams.record(scenario, &mut run, &mut clock, &observe, &mut on_step);
+                return Err(e);
+            }
             wait(&listener, Duration::from_millis(100))?;
         }
         Ok(Outcome {
@@ -328,6 +336,55 @@ pub fn orchestrate(
     drop(children);
     e.cleanup_dead_nodes();
     result
+}
+
+/// The orchestrator's four inlets.
+struct Streams<'a> {
+    states: &'a mut Inlet<VehicleState>,
+    tx: &'a mut Inlet<LinkPacket>,
+    rx: &'a mut Inlet<LinkPacket>,
+    commands: &'a mut Inlet<Command>,
+}
+
+impl Streams<'_> {
+    /// Reads what arrived on every inlet, ignoring malformed samples (the run is stopping).
+    fn drain_all(&mut self) {
+        let _ = self.states.drain();
+        let _ = self.tx.drain();
+        let _ = self.rx.drain();
+        let _ = self.commands.drain();
+    }
+
+    /// Records every step whose four samples are in; true if any was.
+    fn record(
+        &mut self,
+        scenario: &Scenario,
+        run: &mut Recorder<'_>,
+        clock: &mut StageClock,
+        observe: &Observe,
+        on_step: &mut impl FnMut(&[StepRow]),
+    ) -> Result<bool, RunError> {
+        let mut progressed = false;
+        while run.step <= scenario.steps
+            && self.states.has(run.step)
+            && self.tx.has(run.step)
+            && self.rx.has(run.step)
+            && self.commands.has(run.step)
+        {
+            let k = run.step;
+            let (hs, s) = self.states.take_sample(k)?.expect("has");
+            let (ht, t) = self.tx.take_sample(k)?.expect("has");
+            let (hr, r) = self.rx.take_sample(k)?.expect("has");
+            let (hc, c) = self.commands.take_sample(k)?.expect("has");
+            clock.push(hs.stamp_ns, ht.stamp_ns, hr.stamp_ns, hc.stamp_ns);
+            run.record(&s, &t, &r, &c)?;
+            observe.publish(k, scenario.dt(), &s, &t, &r, &c)?;
+            on_step(&run.rows);
+            run.step += 1;
+            progressed = true;
+        }
+        Ok(progressed)
+    }
 }
 
 /// The observer copies of the four step streams (`observe/<leaf>`), published only while
@@ -421,7 +478,11 @@ fn watch(children: &mut Children, step: u64) -> Result<(), RunError> {
 }
 
 fn spawn_all(opts: &Options, children: &mut Children) -> Result<(), RunError> {
-    for node in [Node::Plant, Node::Controller, Node::Injector] {
+    let channel = opts.channel_first.then_some(Node::Channel);
+    for node in [Node::Plant, Node::Controller, Node::Injector]
+        .into_iter()
+        .chain(channel)
+    {
         let program = match node {
             Node::Plant => &opts.plant,
             Node::Injector => &opts.injector,
@@ -440,7 +501,8 @@ fn spawn_all(opts: &Options, children: &mut Children) -> Result<(), RunError> {
             }
             Program::Builtin => {
                 let mut cmd = node_command(opts, node);
-                if node == Node::Injector {
+                // The channel log belongs to whichever node runs the built-in channel.
+                if matches!(node, Node::Injector | Node::Channel) {
                     if let Some(log) = &opts.channel_log {
                         cmd.arg("--log").arg(log);
                     }
@@ -451,6 +513,9 @@ fn spawn_all(opts: &Options, children: &mut Children) -> Result<(), RunError> {
         // Their own process group: a Ctrl-C at the terminal reaches the orchestrator only,
         // which stops them with ABORT after recording what is complete.
         std::os::unix::process::CommandExt::process_group(&mut cmd, 0);
+        if node == Node::Injector && opts.channel_first {
+            cmd.env("PLATOON_INJECTOR_INPUT", "gated");
+        }
         cmd.env("PLATOON_RUN_ID", &opts.run_id)
             .env("PLATOON_CONFIG", &opts.config)
             .envs(opts.env.iter().map(|(k, v)| (k, v)))

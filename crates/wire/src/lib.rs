@@ -191,15 +191,19 @@ pub enum Node {
     Controller = 2,
     /// Gates every link: the attack injector.
     Injector = 3,
+    /// The built-in channel run before a third-party injector (`--injector-mode after`): it
+    /// reads `tx` and publishes `gated`, which the injector reads instead of `tx`.
+    Channel = 4,
 }
 
 impl Node {
     /// All nodes.
-    pub const ALL: [Node; 4] = [
+    pub const ALL: [Node; 5] = [
         Node::Orchestrator,
         Node::Plant,
         Node::Controller,
         Node::Injector,
+        Node::Channel,
     ];
 
     /// Its name in service names and messages.
@@ -209,6 +213,7 @@ impl Node {
             Node::Plant => "plant",
             Node::Controller => "controller",
             Node::Injector => "injector",
+            Node::Channel => "channel",
         }
     }
 
@@ -231,6 +236,9 @@ pub enum Service {
     Rx,
     /// `[Command]`, controller -> plant, orchestrator.
     Commands,
+    /// `[LinkPacket]`, channel -> injector, with `--injector-mode after`: what survived the
+    /// config's attacks (deliveries and jammed notices), the injector's input instead of `tx`.
+    Gated,
     /// `ControlMsg`, orchestrator -> nodes.
     Control,
     /// `ControlMsg`, nodes -> orchestrator.
@@ -284,6 +292,7 @@ pub fn service_name(run_id: &str, service: Service) -> String {
         Service::Tx => "tx",
         Service::Rx => "rx",
         Service::Commands => "commands",
+        Service::Gated => "gated",
         Service::Control => "control",
         Service::Status => "status",
         Service::Wake(node) => return format!("platoon/{run_id}/wake/{}", node.name()),
@@ -304,7 +313,10 @@ pub fn wakes(service: Service) -> &'static [Node] {
     match service {
         // The injector reads states too, but only once the tx batch (which follows) wakes it.
         Service::States => &[Node::Controller],
-        Service::Tx => &[Node::Injector],
+        // The channel node exists only with `--injector-mode after`; a wake-up nobody listens
+        // to costs next to nothing.
+        Service::Tx => &[Node::Injector, Node::Channel],
+        Service::Gated => &[Node::Injector],
         Service::Rx => &[Node::Controller],
         Service::Commands => &[Node::Plant, Node::Orchestrator],
         Service::Control => &[Node::Plant, Node::Controller, Node::Injector],

@@ -66,7 +66,8 @@ fn in_process(job: &CellJob) -> Result<Value> {
             let dir = RunDir::replace(out)?;
             dir.write("config.toml", job.config.as_bytes())?;
             let (rows, summary) = crate::run::simulate(&scenario, &dir, false)?;
-            crate::run::write_outputs(&dir, &config, &scenario, &rows, &summary, false, &[])?;
+            let extra = [("injector", crate::run::builtin_injector_json())];
+            crate::run::write_outputs(&dir, &config, &scenario, &rows, &summary, false, &extra)?;
             dir.commit()?;
             summary
         }
@@ -79,7 +80,9 @@ fn in_process(job: &CellJob) -> Result<Value> {
             metrics.finish(sim.rejected())
         }
     };
-    Ok(serde_json::to_value(summary)?)
+    let mut json = serde_json::to_value(summary)?;
+    json["injector"] = crate::run::builtin_injector_json();
+    Ok(json)
 }
 
 /// `platoon run --transport iceoryx2` in a child process (its own run id, so concurrent cells
