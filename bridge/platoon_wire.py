@@ -122,7 +122,7 @@ NODES = {"orchestrator": 0, "plant": 1, "controller": 2, "injector": 3, "channel
 # Whom a publisher on each service wakes after every sample (crates/wire `wakes`).
 WAKES = {
     "states": ["controller"],
-    "tx": ["injector", "channel"],
+    "tx": ["injector"],
     "gated": ["injector"],
     "rx": ["controller"],
     "commands": ["plant", "orchestrator"],

@@ -158,7 +158,7 @@ impl Endpoint {
 
     /// This node's listener.
     pub fn listener(&self) -> Result<Listener<Ipc>, RunError> {
-        self.wake_service(self.role, false)?
+        self.wake_service(platoon_wire::wake_listener_of(self.role), false)?
             .listener_builder()
             .create()
             .map_err(|e| ipc_err("creating the wake-up listener", e))

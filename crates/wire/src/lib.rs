@@ -301,6 +301,15 @@ pub fn service_name(run_id: &str, service: Service) -> String {
     format!("platoon/{run_id}/{leaf}")
 }
 
+/// The wake-up service a node listens on: its own, except the channel, which shares the
+/// injector's (both read what follows a tx sample; wake services have room for two listeners).
+pub fn wake_listener_of(node: Node) -> Node {
+    match node {
+        Node::Channel => Node::Injector,
+        other => other,
+    }
+}
+
 /// The orchestrator is woken by the commands of every this-many-th step only (and by every
 /// status message): it drains the other samples from its buffers then, so the pipeline's
 /// processes keep the cores.
@@ -313,9 +322,9 @@ pub fn wakes(service: Service) -> &'static [Node] {
     match service {
         // The injector reads states too, but only once the tx batch (which follows) wakes it.
         Service::States => &[Node::Controller],
-        // The channel node exists only with `--injector-mode after`; a wake-up nobody listens
-        // to costs next to nothing.
-        Service::Tx => &[Node::Injector, Node::Channel],
+        // With `--injector-mode after` the channel node listens on the injector's wake-up too
+        // (`wake_listener_of`), so a tx sample wakes it without a second notification.
+        Service::Tx => &[Node::Injector],
         Service::Gated => &[Node::Injector],
         Service::Rx => &[Node::Controller],
         Service::Commands => &[Node::Plant, Node::Orchestrator],
