@@ -28,10 +28,11 @@ fn drop_sender(args: &str) -> String {
     )
 }
 
-const COMPARED: [&str; 4] = [
+const COMPARED: [&str; 5] = [
     "trajectories.csv",
     "events.csv",
     "channel.csv",
+    "wire.csv",
     "summary.json",
 ];
 
@@ -154,6 +155,22 @@ fn python_injector_dropping_a_sender_equals_the_builtin_with_total_loss_on_it() 
     // Nothing the Python injector sent was malformed (this caught the byte-length slices of
     // iceoryx2 0.10.0's Python bindings, iceoryx2 #1533).
     let s = summary(&tmp.path().join("py"));
+    // The wire report says what the third-party injector did: every packet of vehicle 2 was
+    // dropped (its receivers 3 and 4 lost them), nothing else, no jamming.
+    let wire = &s["wire"]["per_vehicle"];
+    for v in [3, 4] {
+        assert!(wire[v]["dropped"].as_u64().unwrap() > 0, "{}", wire[v]);
+    }
+    for v in [1, 2] {
+        assert_eq!(wire[v]["dropped"], 0, "{}", wire[v]);
+    }
+    assert_eq!(s["wire"]["totals"]["jammed"], 0);
+    assert_eq!(s["wire"]["totals"]["altered"], 0);
+    assert!(std::fs::read_to_string(tmp.path().join("py/wire.csv"))
+        .unwrap()
+        .starts_with(
+            "step,t,platoon,vehicle,sent,delivered_as_sent,altered,dropped,injected,jammed"
+        ));
     for reason in [
         "non_finite",
         "unknown_sender",

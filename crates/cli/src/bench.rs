@@ -289,7 +289,7 @@ fn latency(a: LatencyArgs) -> Result<LatencyReport> {
         observers: 0,
         channel_first: false,
     };
-    let outcome = platoon_runtime::orchestrate(&opts, &scenario, |_| {})
+    let outcome = platoon_runtime::orchestrate(&opts, &scenario, |_, _| {})
         .context("the iceoryx2 co-simulation")?;
     // The same run with the Python SDK's dos_jammer as the injector (the built-in one is
     // written on the Rust SDK, so its stage is the Rust SDK's).
@@ -306,7 +306,7 @@ fn latency(a: LatencyArgs) -> Result<LatencyReport> {
             log_dir: None,
             ..opts.clone()
         };
-        Ok(platoon_runtime::orchestrate(&opts, &scenario, |_| {})?.timing)
+        Ok(platoon_runtime::orchestrate(&opts, &scenario, |_, _| {})?.timing)
     })();
     let python_sdk = match python_sdk {
         Ok(t) => t.injector,

@@ -278,8 +278,25 @@ struct Recording {
     dt: f64,
     rows: Vec<StepRow>,
     metrics: platoon_sim::FleetMetrics,
+    wire: csv::Writer<std::io::BufWriter<std::fs::File>>,
     failure: Option<csv::Error>,
     bar: indicatif::ProgressBar,
+}
+
+/// One row of wire.csv: a vehicle's link packets in a step where not everything sent to it was
+/// delivered as sent.
+#[derive(serde::Serialize)]
+struct WireRow {
+    step: u64,
+    t: f64,
+    platoon: u16,
+    vehicle: u16,
+    sent: u64,
+    delivered_as_sent: u64,
+    altered: u64,
+    dropped: u64,
+    injected: u64,
+    jammed: u64,
 }
 
 /// One row per broadcast of a follower.
@@ -306,12 +323,33 @@ impl Recording {
             // Platoon 0's rows for the plots; grown as needed past a million steps.
             rows: Vec::with_capacity(steps.min(1 << 20) as usize * scenario.vehicles_per_platoon()),
             metrics: platoon_sim::FleetMetrics::new(scenario),
+            wire: csv::Writer::from_writer(dir.writer("wire.csv")?),
             failure: None,
             bar: what.map_or_else(indicatif::ProgressBar::hidden, |w| progress_bar(steps, w)),
         })
     }
 
-    fn push(&mut self, step: &[StepRow]) {
+    fn push(&mut self, step: &[StepRow], wire: platoon_sim::StepWire<'_>) {
+        for (i, counts) in wire.per_vehicle.iter().enumerate() {
+            if counts.is_eventful() && self.failure.is_none() {
+                let r = WireRow {
+                    step: step[0].step,
+                    t: step[0].t,
+                    platoon: (i / self.per_platoon) as u16,
+                    vehicle: (i % self.per_platoon) as u16,
+                    sent: counts.sent,
+                    delivered_as_sent: counts.delivered_as_sent,
+                    altered: counts.altered,
+                    dropped: counts.dropped,
+                    injected: counts.injected,
+                    jammed: counts.jammed,
+                };
+                if let Err(e) = self.wire.serialize(r) {
+                    self.failure = Some(e);
+                }
+            }
+        }
+        self.metrics.push_wire(wire);
         for r in step {
             if self.failure.is_some() {
                 break;
@@ -347,10 +385,11 @@ impl Recording {
     ) -> Result<(Vec<StepRow>, Summary)> {
         self.bar.finish_and_clear();
         if let Some(e) = self.failure {
-            return Err(e).context("writing trajectories.csv or events.csv");
+            return Err(e).context("writing trajectories.csv, events.csv or wire.csv");
         }
         self.csv.flush().context("writing trajectories.csv")?;
         self.events.flush().context("writing events.csv")?;
+        self.wire.flush().context("writing wire.csv")?;
         Ok((self.rows, self.metrics.finish(rejected)))
     }
 }
@@ -382,9 +421,9 @@ pub fn simulate_until(
             break;
         }
         let started = Instant::now();
-        let rows = sim.step();
+        sim.step();
         step_ns.push(started.elapsed().as_nanos() as u64);
-        rec.push(rows);
+        rec.push(sim.rows(), sim.wire());
         for e in sim.channel_log() {
             log.serialize(e).context("writing channel.csv")?;
         }
@@ -450,7 +489,7 @@ fn cosimulate(
         channel_first: args.injector.is_some() && args.injector_mode == InjectorMode::After,
     };
     let mut rec = Recording::new(scenario, dir, Some("co-simulating"))?;
-    let result = platoon_runtime::orchestrate(&opts, scenario, |rows| rec.push(rows));
+    let result = platoon_runtime::orchestrate(&opts, scenario, |rows, wire| rec.push(rows, wire));
     match result {
         Ok(outcome) => {
             let (rows, summary) = rec.finish(outcome.rejected)?;

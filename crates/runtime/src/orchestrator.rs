@@ -6,7 +6,7 @@ use crate::nodes::states_from_wire;
 use crate::timing::{StageClock, Timing};
 use crate::RunError;
 use platoon_control::{FollowerStep, RejectCounts};
-use platoon_sim::{step_rows, Scenario, StepRow};
+use platoon_sim::{step_rows, Scenario, StepRow, StepWire, WireCounts};
 use platoon_wire::{Command, ControlMsg, LinkPacket, Node, Observed, Service, VehicleState};
 use std::path::PathBuf;
 use std::process::{Child, Command as Process, Stdio};
@@ -141,12 +141,13 @@ struct Services {
     _wake: Vec<crate::ipc::WakeService>,
 }
 
-/// Runs `scenario` across processes and calls `on_step` with the rows of every step, in order.
+/// Runs `scenario` across processes and calls `on_step` with the rows of every step, in order,
+/// and what happened on the wire in it (measured between the tx and rx batches).
 /// On failure every process is stopped and the error names the node and the step.
 pub fn orchestrate(
     opts: &Options,
     scenario: &Scenario,
-    mut on_step: impl FnMut(&[StepRow]),
+    mut on_step: impl FnMut(&[StepRow], StepWire<'_>),
 ) -> Result<Outcome, RunError> {
     let e = Endpoint::new(&opts.run_id, Node::Orchestrator)?;
     // Create everything before any node starts, so nodes only ever open.
@@ -362,7 +363,7 @@ impl Streams<'_> {
         run: &mut Recorder<'_>,
         clock: &mut StageClock,
         observe: &Observe,
-        on_step: &mut impl FnMut(&[StepRow]),
+        on_step: &mut impl FnMut(&[StepRow], StepWire<'_>),
     ) -> Result<bool, RunError> {
         let mut progressed = false;
         while run.step <= scenario.steps
@@ -379,7 +380,13 @@ impl Streams<'_> {
             clock.push(hs.stamp_ns, ht.stamp_ns, hr.stamp_ns, hc.stamp_ns);
             run.record(&s, &t, &r, &c)?;
             observe.publish(k, scenario.dt(), &s, &t, &r, &c)?;
-            on_step(&run.rows);
+            on_step(
+                &run.rows,
+                StepWire {
+                    per_vehicle: &run.wire,
+                    outside: run.outside,
+                },
+            );
             run.step += 1;
             progressed = true;
         }
@@ -558,6 +565,9 @@ struct Recorder<'a> {
     rows: Vec<StepRow>,
     jammed: Vec<bool>,
     leader_sent: Vec<bool>,
+    deliveries: Vec<Vec<platoon_control::Delivery>>,
+    wire: Vec<WireCounts>,
+    outside: WireCounts,
 }
 
 impl<'a> Recorder<'a> {
@@ -572,6 +582,9 @@ impl<'a> Recorder<'a> {
             rows: Vec::with_capacity(num.vehicles()),
             jammed: vec![false; num.vehicles()],
             leader_sent: vec![false; num.platoons],
+            deliveries: vec![Vec::new(); num.platoons],
+            wire: vec![WireCounts::default(); num.vehicles()],
+            outside: WireCounts::default(),
         }
     }
 
@@ -624,6 +637,27 @@ impl<'a> Recorder<'a> {
                     }
                 },
                 &mut self.rows,
+            );
+        }
+        // The wire, measured as the in-process runner measures it.
+        crate::nodes::deliveries_from_wire(r, num, &mut self.deliveries, &mut self.jammed);
+        self.outside = WireCounts::default();
+        for j in 0..num.platoons {
+            let links = t.iter().filter_map(|it| {
+                let (jr, receiver) = num.split(it.receiver)?;
+                let (js, sender) = num.split(it.packet.sender)?;
+                (jr == j && js == j).then(|| {
+                    let mut p = crate::nodes::packet_from_wire(&it.packet);
+                    p.sender = sender;
+                    (receiver, p)
+                })
+            });
+            platoon_sim::wire::count_step(
+                links,
+                &self.deliveries[j],
+                &self.jammed[j * n1..(j + 1) * n1],
+                &mut self.wire[j * n1..(j + 1) * n1],
+                &mut self.outside,
             );
         }
         let _ = self.scenario;

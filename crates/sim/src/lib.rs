@@ -8,12 +8,24 @@
 
 mod metrics;
 mod scenario;
+pub mod wire;
 
 pub use metrics::{
     ErrorStats, FleetMetrics, FleetOverview, MetricsAccumulator, PlatoonBrief, Safety,
-    SafetyThresholds, Summary, VehicleSummary,
+    SafetyThresholds, Summary, VehicleSummary, VehicleWire, WireSummary,
 };
 pub use scenario::{Fleet, Scenario, ScenarioError};
+pub use wire::WireCounts;
+
+/// What happened on the wire in one step: per vehicle (platoon by platoon, leader first) and to
+/// receivers that are no vehicle of the run.
+#[derive(Debug, Clone, Copy)]
+pub struct StepWire<'a> {
+    /// Per vehicle.
+    pub per_vehicle: &'a [WireCounts],
+    /// Deliveries to no vehicle.
+    pub outside: WireCounts,
+}
 
 use platoon_attacks::channel::{Channel, ChannelEvent};
 use platoon_control::{Delivery, FollowerStep, Packet, PlatoonController};
@@ -204,6 +216,7 @@ pub struct Simulation {
     jammed: Vec<bool>,
     log: Vec<ChannelEvent>,
     rows: Vec<StepRow>,
+    wire: Vec<WireCounts>,
 }
 
 impl Simulation {
@@ -226,6 +239,7 @@ impl Simulation {
             jammed: vec![false; n + 1],
             log: Vec::new(),
             rows: Vec::with_capacity(n + 1),
+            wire: vec![WireCounts::default(); n + 1],
             scenario,
         })
     }
@@ -255,6 +269,11 @@ impl Simulation {
         &self.log
     }
 
+    /// What happened on the wire in the last step, per vehicle.
+    pub fn wire(&self) -> &[WireCounts] {
+        &self.wire
+    }
+
     /// Runs step k and returns one row per vehicle (leader first) for it.
     pub fn step(&mut self) -> &[StepRow] {
         let k = self.step;
@@ -278,6 +297,15 @@ impl Simulation {
         );
         self.controller
             .receive(k, states, &self.deliveries, &self.jammed);
+        // In process nothing is ever delivered to a vehicle that does not exist.
+        let mut outside = WireCounts::default();
+        wire::count_step(
+            wire::links(&sc.topology, &self.tx),
+            &self.deliveries,
+            &self.jammed,
+            &mut self.wire,
+            &mut outside,
+        );
 
         let leader_triggered = self.tx.first().is_some_and(|p| p.sender.is_leader());
         let controller = &self.controller;
@@ -304,6 +332,7 @@ pub struct FleetSimulation {
     sims: Vec<Simulation>,
     rows: Vec<StepRow>,
     log: Vec<ChannelEvent>,
+    wire: Vec<WireCounts>,
 }
 
 impl FleetSimulation {
@@ -318,6 +347,7 @@ impl FleetSimulation {
         Ok(Self {
             rows: Vec::with_capacity(scenario.vehicles()),
             log: Vec::new(),
+            wire: Vec::with_capacity(scenario.vehicles()),
             sims,
         })
     }
@@ -336,11 +366,26 @@ impl FleetSimulation {
     pub fn step(&mut self) -> &[StepRow] {
         self.rows.clear();
         self.log.clear();
+        self.wire.clear();
         for s in &mut self.sims {
             self.rows.extend_from_slice(s.step());
             self.log.extend_from_slice(s.channel_log());
+            self.wire.extend_from_slice(s.wire());
         }
         &self.rows
+    }
+
+    /// The rows of the last step, platoon by platoon.
+    pub fn rows(&self) -> &[StepRow] {
+        &self.rows
+    }
+
+    /// What happened on the wire in the last step (every vehicle, platoon by platoon).
+    pub fn wire(&self) -> StepWire<'_> {
+        StepWire {
+            per_vehicle: &self.wire,
+            outside: WireCounts::default(),
+        }
     }
 
     /// What the channels did in the last step to packets they did not deliver as sent.
@@ -350,15 +395,13 @@ impl FleetSimulation {
 
     /// Packets refused by the controllers of every platoon.
     pub fn rejected(&self) -> platoon_control::RejectCounts {
-        let mut r = platoon_control::RejectCounts::default();
+        let mut sum = [0u64; 6];
         for s in &self.sims {
-            let x = s.controller().rejected();
-            r.non_finite += x.non_finite;
-            r.unknown_sender += x.unknown_sender;
-            r.future_step += x.future_step;
-            r.stale_seq += x.stale_seq;
+            for (a, x) in sum.iter_mut().zip(s.controller().rejected().as_array()) {
+                *a += x;
+            }
         }
-        r
+        platoon_control::RejectCounts::from_array(sum)
     }
 }
 

@@ -178,6 +178,31 @@ pub struct Summary {
     pub safety: Safety,
     /// Packets the controllers refused.
     pub rejected_packets: RejectCounts,
+    /// What happened on the V2V channel, measured between the broadcasts and what the
+    /// controllers received, whatever injector ran (absent when nothing measured it).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub wire: Option<WireSummary>,
+}
+
+/// The V2V channel over a run, as measured on the wire (see [`crate::wire`]).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct WireSummary {
+    /// Every vehicle of every platoon, plus deliveries to no vehicle.
+    pub totals: crate::WireCounts,
+    /// Deliveries to receivers that are no vehicle of the run (counted as injected).
+    pub to_no_vehicle: crate::WireCounts,
+    /// Platoon 0's vehicles, leader first.
+    pub per_vehicle: Vec<VehicleWire>,
+}
+
+/// One vehicle's link packets over a run.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct VehicleWire {
+    /// The vehicle (0 = leader).
+    pub vehicle: u16,
+    /// Its counts.
+    #[serde(flatten)]
+    pub counts: crate::WireCounts,
 }
 
 #[derive(Debug, Clone)]
@@ -348,6 +373,7 @@ impl MetricsAccumulator {
                 ..self.safety.clone()
             },
             rejected_packets: rejected,
+            wire: None,
             vehicles,
         }
     }
@@ -394,6 +420,9 @@ pub struct FleetOverview {
 pub struct FleetMetrics {
     per: Vec<MetricsAccumulator>,
     vehicles_per_platoon: usize,
+    wire: Vec<crate::WireCounts>,
+    wire_outside: crate::WireCounts,
+    wire_steps: u64,
 }
 
 impl FleetMetrics {
@@ -406,7 +435,19 @@ impl FleetMetrics {
                 .map(MetricsAccumulator::new)
                 .collect(),
             vehicles_per_platoon: scenario.vehicles_per_platoon(),
+            wire: vec![crate::WireCounts::default(); scenario.vehicles()],
+            wire_outside: crate::WireCounts::default(),
+            wire_steps: 0,
         }
+    }
+
+    /// Adds one step of what happened on the wire.
+    pub fn push_wire(&mut self, step: crate::StepWire<'_>) {
+        for (acc, c) in self.wire.iter_mut().zip(step.per_vehicle) {
+            acc.add(c);
+        }
+        self.wire_outside.add(&step.outside);
+        self.wire_steps += 1;
     }
 
     /// Adds one step's rows (every platoon's, platoon by platoon).
@@ -423,6 +464,24 @@ impl FleetMetrics {
     /// The summary: platoon 0 in detail and, for a fleet, every platoon in brief.
     pub fn finish(&self, rejected: RejectCounts) -> Summary {
         let mut summary = self.per[0].finish(rejected);
+        if self.wire_steps > 0 {
+            let mut totals = self.wire_outside;
+            for c in &self.wire {
+                totals.add(c);
+            }
+            summary.wire = Some(WireSummary {
+                totals,
+                to_no_vehicle: self.wire_outside,
+                per_vehicle: self.wire[..self.vehicles_per_platoon]
+                    .iter()
+                    .enumerate()
+                    .map(|(i, c)| VehicleWire {
+                        vehicle: i as u16,
+                        counts: *c,
+                    })
+                    .collect(),
+            });
+        }
         if self.per.len() > 1 {
             let rank = |c: &str| {
                 ["none", "negligible", "benign", "severe"]

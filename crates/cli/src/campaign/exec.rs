@@ -75,7 +75,9 @@ fn in_process(job: &CellJob) -> Result<Value> {
             let mut sim = platoon_sim::FleetSimulation::new(&scenario)?;
             let mut metrics = platoon_sim::FleetMetrics::new(&scenario);
             while !sim.is_done() {
-                metrics.push(sim.step());
+                sim.step();
+                metrics.push(sim.rows());
+                metrics.push_wire(sim.wire());
             }
             metrics.finish(sim.rejected())
         }
