@@ -168,9 +168,46 @@ fn per_vehicle(
 }
 
 /// Fig. 6: positions, positions relative to the leader, velocities, internal variables.
+/// The intervals in which some vehicle was told its channel was jammed, from the rows: what
+/// happened on the wire, whatever injector ran (for the built-in channel, the DoS schedule on
+/// the step grid).
+pub fn observed_attacks(rows: &[StepRow], dt: f64) -> Vec<Interval> {
+    let mut out: Vec<Interval> = Vec::new();
+    let mut open: Option<u64> = None;
+    let mut last = 0;
+    let mut i = 0;
+    while i < rows.len() {
+        let k = rows[i].step;
+        let mut jammed = false;
+        while i < rows.len() && rows[i].step == k {
+            jammed |= rows[i].under_attack;
+            i += 1;
+        }
+        match (jammed, open) {
+            (true, None) => open = Some(k),
+            (false, Some(a)) => {
+                out.push(Interval {
+                    start: a as f64 * dt,
+                    end: k as f64 * dt,
+                });
+                open = None;
+            }
+            _ => {}
+        }
+        last = k;
+    }
+    if let Some(a) = open {
+        out.push(Interval {
+            start: a as f64 * dt,
+            end: (last + 1) as f64 * dt,
+        });
+    }
+    out
+}
+
 pub fn fig6(path: &Path, scenario: &Scenario, rows: &[StepRow]) -> Result<()> {
     let n = scenario.topology.followers();
-    let attacks = scenario.attacks_in_run();
+    let attacks = observed_attacks(rows, scenario.dt());
     let root = BitMapBackend::new(path, (1400, 1000)).into_drawing_area();
     root.fill(&WHITE).map_err(err)?;
     let panels = root.split_evenly((2, 2));
@@ -215,7 +252,7 @@ pub fn fig6(path: &Path, scenario: &Scenario, rows: &[StepRow]) -> Result<()> {
 pub fn fig7(path: &Path, scenario: &Scenario, rows: &[StepRow]) -> Result<()> {
     ensure_font();
     let n = scenario.topology.followers();
-    let attacks = scenario.attacks_in_run();
+    let attacks = observed_attacks(rows, scenario.dt());
     let t_end = scenario.duration();
     let height = 250 * n.max(1) as u32;
     let root = BitMapBackend::new(path, (1400, height)).into_drawing_area();
