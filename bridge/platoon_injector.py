@@ -112,15 +112,16 @@ def run(make) -> int:
 
     k, states = 0, None
     while True:
-        msg = control.receive()
-        while msg is not None:
-            if msg.payload().contents.kind in (w.ControlMsg.STOP, w.ControlMsg.ABORT):
-                return 0
-            msg = control.receive()
         if states is None:
             states = states_in.take(k)
         tx = tx_in.take(k) if states is not None else None
         if tx is None:
+            # Nothing to do: the only time to look at the control channel (STOP/ABORT).
+            msg = control.receive()
+            while msg is not None:
+                if msg.payload().contents.kind in (w.ControlMsg.STOP, w.ControlMsg.ABORT):
+                    return 0
+                msg = control.receive()
             node.wait()
             continue
         rx = []

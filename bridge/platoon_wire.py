@@ -225,6 +225,8 @@ class Inlet:
         self.pending = {}
 
     def take(self, step: int):
+        if step in self.pending:
+            return self.pending.pop(step)
         while True:
             sample = self.subscriber.receive()
             if sample is None:
@@ -239,6 +241,8 @@ class Inlet:
                 ctypes.string_at(items.as_ptr(), header.count * ctypes.sizeof(items.contained_type))
             )
             self.pending[header.step] = array
+            if header.step == step:
+                break  # what the caller waits for: later samples stay in the subscriber
         for old in [s for s in self.pending if s < step]:
             del self.pending[old]
         return self.pending.pop(step, None)
