@@ -166,6 +166,14 @@ fn python_injector_dropping_a_sender_equals_the_builtin_with_total_loss_on_it() 
     }
     assert_eq!(s["wire"]["totals"]["jammed"], 0);
     assert_eq!(s["wire"]["totals"]["altered"], 0);
+    assert_eq!(
+        s["attack"]["applied"], false,
+        "replaced: platoon applied no attack"
+    );
+    assert!(s["injector"]["program"]
+        .as_str()
+        .unwrap()
+        .contains("drop_sender.py"));
     assert!(std::fs::read_to_string(tmp.path().join("py/wire.csv"))
         .unwrap()
         .starts_with(
@@ -687,6 +695,10 @@ fn same_summary_but_the_injector(a: &Path, b: &Path) {
     assert_ne!(sa["injector"], sb["injector"]);
     sa["injector"] = serde_json::Value::Null;
     sb["injector"] = serde_json::Value::Null;
+    // A replacement injector: the config's schedule was not applied by platoon.
+    for s in [&mut sa, &mut sb] {
+        s["attack"]["applied"] = serde_json::Value::Null;
+    }
     assert_eq!(sa, sb);
 }
 

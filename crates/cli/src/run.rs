@@ -195,6 +195,7 @@ pub fn run(args: Args) -> Result<()> {
     };
     let compute = started.elapsed();
     let mut summary = summary;
+    summary.attack.applied = args.injector.is_none() || args.injector_mode == InjectorMode::After;
     let mut extra = vec![(
         "injector",
         match &args.injector {
@@ -609,10 +610,17 @@ fn print_summary(s: &Summary, compute_s: f64) {
         Some(_) => "VIOLATES Assumption 2",
         None => "no Assumption-2 bounds given",
     };
-    println!(
-        "  DoS: {} attacks, {:.2} s jammed, {verdict}",
-        a.intervals, a.attacked_time_s
-    );
+    if a.applied {
+        println!(
+            "  DoS: {} attacks, {:.2} s jammed, {verdict}",
+            a.intervals, a.attacked_time_s
+        );
+    } else {
+        println!(
+            "  DoS: the config's {} attacks were not applied (--injector-mode replace); what the injector did is in wire.csv",
+            a.intervals
+        );
+    }
     if let Some(f) = &s.fleet {
         println!(
             "  fleet: {} platoons, {} vehicles, {} broadcasts, smallest gap {:.2} m, largest deceleration {:.2} m/s^2, class {}{}",

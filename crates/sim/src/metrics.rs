@@ -127,9 +127,13 @@ impl SafetyThresholds {
     }
 }
 
-/// The DoS schedule's figures and its Assumption-2 verdict.
+/// The config's DoS schedule: its figures and its Assumption-2 verdict. What actually happened
+/// on the channel is [`Summary::wire`].
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct AttackSummary {
+    /// Whether platoon's channel applied this schedule (false when a third-party injector
+    /// replaced it: `--injector-mode replace`).
+    pub applied: bool,
     /// Number of attack intervals `N(0, T)`.
     pub intervals: usize,
     /// Exact attacked time `|A(0, T)|` (s).
@@ -357,6 +361,7 @@ impl MetricsAccumulator {
                 .filter_map(|v| v.min_inter_event_s)
                 .reduce(f64::min),
             attack: AttackSummary {
+                applied: true,
                 intervals: clipped.intervals().len(),
                 attacked_time_s: clipped.active_time(0.0, horizon),
                 attacked_steps: self.attacked_steps,
