@@ -222,7 +222,7 @@ fn a_synthesised_design_runs_and_an_infeasible_request_says_so() {
     let s: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(tmp.path().join("r/summary.json")).unwrap())
             .unwrap();
-    assert_eq!(s["safety"]["safe"], true);
+    assert_eq!(s["safety"]["collided"], false);
 
     let o = platoon(
         &["design", "synthesize", "--k-max", "0.01", "--out", "none"],

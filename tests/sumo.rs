@@ -172,7 +172,7 @@ fn sumo_detects_a_collision_and_the_run_is_severe() {
     assert!(!collisions.is_empty(), "SUMO saw no collision: {s}");
     assert_eq!(collisions[0]["collider"], "follower1");
     assert_eq!(collisions[0]["victim"], "leader");
-    assert_eq!(s["safety"]["safe"], false);
+    assert_eq!(s["safety"]["collided"], true);
     assert_eq!(s["safety"]["class"], "severe");
 }
 

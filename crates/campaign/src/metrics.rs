@@ -221,9 +221,9 @@ pub fn extract(names: &[String], max_followers: usize, summary: &Value) -> Vec<M
             "safety_class" => fleet.unwrap_or(safety)["class"]
                 .as_str()
                 .map_or(Metric::Empty, |s| Metric::Text(s.into())),
-            "collided" => fleet.unwrap_or(safety)["safe"]
+            "collided" => fleet.unwrap_or(safety)["collided"]
                 .as_bool()
-                .map_or(Metric::Empty, |safe| Metric::Int(u64::from(!safe))),
+                .map_or(Metric::Empty, |c| Metric::Int(u64::from(c))),
             "triggers_total" => int(&fleet.unwrap_or(summary)["triggers_total"]),
             "triggers_per_follower" => {
                 let n = vehicles(summary).len();
@@ -290,7 +290,7 @@ mod tests {
                  "velocity_error_mps": {"max_abs": 2.0}, "affected_time_s": 3.0}
             ],
             "attack": {"intervals": 1, "attacked_time_s": 2.5, "assumption2": {"holds": false}},
-            "safety": {"safe": true, "min_gap_m": 7.0, "max_deceleration_mps2": 2.5, "class": "negligible"},
+            "safety": {"collided": false, "min_gap_m": 7.0, "max_deceleration_mps2": 2.5, "class": "negligible"},
             "rejected_packets": {"non_finite": 1, "stale_seq": 2}
         })
     }

@@ -215,10 +215,10 @@ pub fn run(args: Args) -> Result<()> {
                 .as_array()
                 .is_some_and(|c| !c.is_empty())
             {
-                summary.safety.safe = false;
+                summary.safety.collided = true;
                 summary.safety.class = "severe";
                 if let Some(f) = &mut summary.fleet {
-                    f.safe = false;
+                    f.collided = true;
                     f.class = "severe";
                 }
             }
@@ -630,7 +630,7 @@ fn print_summary(s: &Summary, compute_s: f64) {
             f.min_gap_m,
             f.max_deceleration_mps2,
             f.class,
-            if f.safe { "" } else { ", COLLISION" }
+            if f.collided { ", COLLISION" } else { "" }
         );
         println!(
             "  (the lines above are platoon 0's; summary.json has every platoon under \"fleet\")"
@@ -638,7 +638,11 @@ fn print_summary(s: &Summary, compute_s: f64) {
     }
     println!(
         "  safety: {} (smallest gap {:.2} m, follower {} at {:.2} s)",
-        if s.safety.safe { "safe" } else { "COLLISION" },
+        if s.safety.collided {
+            "COLLISION"
+        } else {
+            "no collision"
+        },
         s.safety.min_gap_m,
         s.safety.min_gap_vehicle,
         s.safety.min_gap_t_s

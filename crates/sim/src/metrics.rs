@@ -66,11 +66,12 @@ pub struct VehicleSummary {
     pub min_acceleration_mps2: f64,
 }
 
-/// Whether the platoon kept positive gaps.
+/// Gaps, decelerations and the run's safety class.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Safety {
-    /// No gap ever reached zero.
-    pub safe: bool,
+    /// A gap reached zero (a collision; the class is then `severe`). Not the same as "safe": a
+    /// run without collision can still be `severe` by its deceleration.
+    pub collided: bool,
     /// Smallest bumper-to-bumper gap `p_{i-1} - p_i - length` (m).
     pub min_gap_m: f64,
     /// The follower behind that gap.
@@ -270,7 +271,7 @@ impl MetricsAccumulator {
                 max_deceleration_mps2: 0.0,
                 class: "none",
                 thresholds: scenario.safety,
-                safe: true,
+                collided: false,
                 min_gap_m: f64::INFINITY,
                 min_gap_vehicle: 0,
                 min_gap_t_s: 0.0,
@@ -369,7 +370,7 @@ impl MetricsAccumulator {
                 assumption2: self.assumption2.map(|b| b.check(&self.dos, horizon)),
             },
             safety: Safety {
-                safe: self.safety.min_gap_m > 0.0,
+                collided: self.safety.min_gap_m <= 0.0,
                 max_deceleration_mps2: self.max_decel(),
                 class: self
                     .safety
@@ -408,8 +409,8 @@ pub struct FleetOverview {
     pub vehicles: usize,
     /// Broadcasts of every follower.
     pub triggers_total: u64,
-    /// No gap reached zero in any platoon.
-    pub safe: bool,
+    /// A gap reached zero in some platoon.
+    pub collided: bool,
     /// The smallest gap of any platoon (m).
     pub min_gap_m: f64,
     /// The largest deceleration any follower needed (m/s^2).
@@ -517,7 +518,7 @@ impl FleetMetrics {
                 platoons: all.len(),
                 vehicles: all.len() * self.vehicles_per_platoon,
                 triggers_total: all.iter().map(|s| s.triggers_total).sum(),
-                safe: all.iter().all(|s| s.safety.safe),
+                collided: all.iter().any(|s| s.safety.collided),
                 min_gap_m: all
                     .iter()
                     .map(|s| s.safety.min_gap_m)
