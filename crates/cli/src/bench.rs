@@ -642,28 +642,33 @@ fn step(a: StepArgs) -> Result<Vec<StepRow>> {
         "{:<7} {:>6} {:>9} {:>11} {:>10} {:>10} {:>10} {:>10} {:>10}",
         "mode", "N", "vehicles", "step p50", "x realtime", "plant", "control", "injector", "SUMO"
     );
+    // A stage a mode does not have (in process: no plant or injector process) prints "-".
+    let stage = |x: Option<f64>| x.map_or(String::from("-"), |x| format!("{x:.1}"));
     for r in &rows {
         println!(
-            "{:<7} {:>6} {:>9} {:>9.1}µs {:>10.1} {:>10.1} {:>10.1} {:>10.1} {:>10}",
+            "{:<7} {:>6} {:>9} {:>9.1}µs {:>10.1} {:>10} {:>10} {:>10} {:>10}",
             r.mode,
             r.followers,
             r.vehicles,
             r.step_p50_us,
             r.real_time_factor,
-            r.plant_p50_us.unwrap_or(f64::NAN),
-            r.controller_p50_us.unwrap_or(f64::NAN),
-            r.injector_p50_us.unwrap_or(f64::NAN),
-            r.sumo_step_p50_us
-                .map_or(String::from("-"), |x| format!("{x:.1}"))
+            stage(r.plant_p50_us),
+            stage(r.controller_p50_us),
+            stage(r.injector_p50_us),
+            stage(r.sumo_step_p50_us)
         );
     }
     for f in &fits {
-        println!(
-            "{}: {:.1} µs + {:.3} µs per follower",
-            f["mode"].as_str().unwrap_or_default(),
-            f["intercept_us"].as_f64().unwrap_or(f64::NAN),
-            f["slope_us_per_follower"].as_f64().unwrap_or(f64::NAN)
-        );
+        let mode = f["mode"].as_str().unwrap_or_default();
+        match (
+            f["intercept_us"].as_f64(),
+            f["slope_us_per_follower"].as_f64(),
+        ) {
+            (Some(a), Some(b)) if a.is_finite() && b.is_finite() => {
+                println!("{mode}: {a:.1} µs + {b:.3} µs per follower")
+            }
+            _ => println!("{mode}: one size only, no fit of cost against N"),
+        }
     }
     println!("outputs: {}", path.display());
     Ok(rows)
