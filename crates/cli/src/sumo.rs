@@ -7,11 +7,29 @@ use platoon_sim::{PlantSpec, Scenario};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-/// The repository's `bridge/` (or `PLATOON_BRIDGE_DIR`).
+/// The repository's `bridge/`: `PLATOON_BRIDGE_DIR` if set, else the one this binary was built
+/// from, else a `bridge/` (with `setup-venv.sh`) in the current directory or beside or above the
+/// binary, so a moved or `cargo install`ed binary still finds a checkout it runs in.
 pub fn bridge_dir() -> PathBuf {
-    std::env::var_os("PLATOON_BRIDGE_DIR")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../../bridge"))
+    if let Some(dir) = std::env::var_os("PLATOON_BRIDGE_DIR") {
+        return PathBuf::from(dir);
+    }
+    let built = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../bridge");
+    let is_bridge = |d: &Path| d.join("setup-venv.sh").is_file();
+    if is_bridge(&built) {
+        return built;
+    }
+    let cwd = std::env::current_dir().ok().map(|d| d.join("bridge"));
+    let beside_exe = std::env::current_exe().ok().into_iter().flat_map(|exe| {
+        exe.ancestors()
+            .skip(1)
+            .map(|a| a.join("bridge"))
+            .collect::<Vec<_>>()
+    });
+    cwd.into_iter()
+        .chain(beside_exe)
+        .find(|d| is_bridge(d))
+        .unwrap_or(built)
 }
 
 /// Creates `bridge/.venv` with the pinned packages if it is missing (with a progress message),
