@@ -409,3 +409,77 @@ fn bad_destinations_are_refused_before_the_run() {
         "{err}"
     );
 }
+
+/// Issue 16: Parquet outputs (`[output] format = "parquet"`) hold exactly what the CSV holds,
+/// read back by pyarrow, for every per-step file, over iceoryx2 (where the node's channel log is
+/// converted) and with decimation.
+#[test]
+fn parquet_outputs_equal_the_csv_and_decimation_keeps_every_nth_step() {
+    let tmp = tempfile::tempdir().unwrap();
+    let setup = repo().join("bridge/setup-venv.sh");
+    assert!(std::process::Command::new(&setup)
+        .status()
+        .unwrap()
+        .success());
+    let python = repo().join("bridge/.venv/bin/python");
+    let base = std::fs::read_to_string(repo().join("configs/link-attacks.toml")).unwrap();
+    let config = |name: &str, output: &str| {
+        let path = tmp.path().join(name);
+        std::fs::write(&path, format!("{base}\n[output]\n{output}\n")).unwrap();
+        path
+    };
+    let csv_cfg = config("csv.toml", "format = \"csv\"");
+    let pq_cfg = config("pq.toml", "format = \"parquet\"");
+    for (cfg, out) in [(&csv_cfg, "csv"), (&pq_cfg, "pq")] {
+        ok(&platoon(
+            &["run", cfg.to_str().unwrap(), "--no-plots", "--out", out],
+            tmp.path(),
+        ));
+    }
+    for stem in ["trajectories", "events", "channel", "wire"] {
+        assert!(
+            !tmp.path().join(format!("pq/{stem}.csv")).exists(),
+            "{stem}"
+        );
+        let o = std::process::Command::new(&python)
+            .arg(repo().join("bridge/parquet_equals_csv.py"))
+            .arg(tmp.path().join(format!("pq/{stem}.parquet")))
+            .arg(tmp.path().join(format!("csv/{stem}.csv")))
+            .output()
+            .unwrap();
+        assert!(
+            o.status.success(),
+            "{stem}: {}{}",
+            String::from_utf8_lossy(&o.stdout),
+            String::from_utf8_lossy(&o.stderr)
+        );
+    }
+    // Every 10th step, and only the files asked for; the summary still sees every step.
+    let dec = config(
+        "dec.toml",
+        "format = \"csv\"\ndecimate = 10\nfiles = [\"trajectories\"]",
+    );
+    ok(&platoon(
+        &[
+            "run",
+            dec.to_str().unwrap(),
+            "--no-plots",
+            "--transport",
+            "inproc",
+            "--out",
+            "dec",
+        ],
+        tmp.path(),
+    ));
+    let rows = std::fs::read_to_string(tmp.path().join("dec/trajectories.csv")).unwrap();
+    let full = std::fs::read_to_string(tmp.path().join("csv/trajectories.csv")).unwrap();
+    assert_eq!(
+        rows.lines().count() - 1,
+        (full.lines().count() - 1 + 45) / 10
+    );
+    assert!(!tmp.path().join("dec/events.csv").exists());
+    assert_eq!(
+        std::fs::read_to_string(tmp.path().join("dec/summary.json")).unwrap(),
+        std::fs::read_to_string(tmp.path().join("csv/summary.json")).unwrap()
+    );
+}

@@ -123,7 +123,7 @@ pub struct ChannelSpec {
 }
 
 /// What the channel did to one packet on one link.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Action {
     /// Dropped: the DoS schedule jams the channel.
@@ -143,7 +143,7 @@ pub enum Action {
 }
 
 /// One line of the injector log: `step, platoon, sender, receiver, seq, action, detail`.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, serde::Deserialize)]
 pub struct ChannelEvent {
     /// The step at which it happened.
     pub step: u64,

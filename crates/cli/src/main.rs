@@ -9,6 +9,7 @@ mod plots;
 mod run;
 mod signals;
 mod sumo;
+mod tables;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;

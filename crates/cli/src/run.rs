@@ -170,12 +170,20 @@ pub fn run(args: Args) -> Result<()> {
     let started = Instant::now();
     let (rows, summary, failure) = match args.transport {
         Transport::Inproc => {
-            let (rows, summary) = simulate_until(&scenario, &dir, true, Some(&interrupt.stop))?;
+            let (rows, summary) =
+                simulate_until(&scenario, &config.output, &dir, true, Some(&interrupt.stop))?;
             (rows, summary, None)
         }
         Transport::Iceoryx2 => {
             let plant = sumo_plan.as_ref().map(|p| p.launch(&dir)).transpose()?;
-            cosimulate(&scenario, &dir, &args, plant, interrupt.stop.clone())?
+            cosimulate(
+                &scenario,
+                &config.output,
+                &dir,
+                &args,
+                plant,
+                interrupt.stop.clone(),
+            )?
         }
     };
     // A signal wins over whatever it caused (a node that died of the same Ctrl-C, say).
@@ -272,21 +280,22 @@ fn progress_bar(steps: u64, what: &str) -> indicatif::ProgressBar {
 /// Streams rows to trajectories.csv and broadcasts to events.csv, keeps platoon 0's rows for
 /// the plots (memory stays bounded for large fleets) and sums the metrics.
 struct Recording {
-    csv: csv::Writer<std::io::BufWriter<std::fs::File>>,
-    events: csv::Writer<std::io::BufWriter<std::fs::File>>,
+    trajectories: crate::tables::Table<StepRow>,
+    events: crate::tables::Table<EventRow>,
+    wire: crate::tables::Table<WireRow>,
+    decimate: u64,
     last: Vec<Option<u64>>,
     per_platoon: usize,
     dt: f64,
     rows: Vec<StepRow>,
     metrics: platoon_sim::FleetMetrics,
-    wire: csv::Writer<std::io::BufWriter<std::fs::File>>,
-    failure: Option<csv::Error>,
+    failure: Option<anyhow::Error>,
     bar: indicatif::ProgressBar,
 }
 
 /// One row of wire.csv: a vehicle's link packets in a step where not everything sent to it was
 /// delivered as sent.
-#[derive(serde::Serialize)]
+#[derive(serde::Serialize, serde::Deserialize)]
 struct WireRow {
     step: u64,
     t: f64,
@@ -301,7 +310,7 @@ struct WireRow {
 }
 
 /// One row per broadcast of a follower.
-#[derive(serde::Serialize)]
+#[derive(serde::Serialize, serde::Deserialize)]
 struct EventRow {
     platoon: u16,
     vehicle: u16,
@@ -312,29 +321,63 @@ struct EventRow {
 }
 
 impl Recording {
-    /// `what` labels the progress bar; None shows none (a campaign's cells).
-    fn new(scenario: &Scenario, dir: &RunDir, what: Option<&str>) -> Result<Self> {
+    /// `what` labels the progress bar; None shows none (a campaign's cells). `output` says
+    /// which files, in which format, and how decimated.
+    fn new(
+        scenario: &Scenario,
+        output: &platoon_config::OutputConfig,
+        dir: &RunDir,
+        what: Option<&str>,
+    ) -> Result<Self> {
         let steps = scenario.steps + 1;
+        let format = crate::tables::Format::of(
+            output,
+            steps.div_ceil(output.decimate) * scenario.vehicles() as u64,
+        );
+        let on = |f: &str| output.files.iter().any(|x| x == f);
         Ok(Self {
-            csv: csv::Writer::from_writer(dir.writer("trajectories.csv")?),
-            events: csv::Writer::from_writer(dir.writer("events.csv")?),
+            trajectories: crate::tables::Table::create(
+                dir,
+                "trajectories",
+                format,
+                on("trajectories"),
+            )?,
+            events: crate::tables::Table::create(dir, "events", format, on("events"))?,
+            wire: crate::tables::Table::create(dir, "wire", format, on("wire"))?,
+            decimate: output.decimate,
             last: vec![None; scenario.vehicles()],
             per_platoon: scenario.vehicles_per_platoon(),
             dt: scenario.dt(),
             // Platoon 0's rows for the plots; grown as needed past a million steps.
             rows: Vec::with_capacity(steps.min(1 << 20) as usize * scenario.vehicles_per_platoon()),
             metrics: platoon_sim::FleetMetrics::new(scenario),
-            wire: csv::Writer::from_writer(dir.writer("wire.csv")?),
             failure: None,
             bar: what.map_or_else(indicatif::ProgressBar::hidden, |w| progress_bar(steps, w)),
         })
     }
 
     fn push(&mut self, step: &[StepRow], wire: platoon_sim::StepWire<'_>) {
+        if self.failure.is_none() {
+            if let Err(e) = self.write(step, wire) {
+                self.failure = Some(e);
+            }
+        }
+        self.metrics.push_wire(wire);
+        self.metrics.push(step);
+        self.rows.extend(step.iter().take_while(|r| r.platoon == 0));
+        if step[0].step.is_multiple_of(1000) {
+            self.bar.set_position(step[0].step);
+        }
+    }
+
+    /// Writes one step's rows: trajectories (every `decimate`-th step), broadcasts, and the
+    /// vehicles whose links were not all delivered as sent.
+    fn write(&mut self, step: &[StepRow], wire: platoon_sim::StepWire<'_>) -> Result<()> {
+        let k = step[0].step;
         for (i, counts) in wire.per_vehicle.iter().enumerate() {
-            if counts.is_eventful() && self.failure.is_none() {
-                let r = WireRow {
-                    step: step[0].step,
+            if counts.is_eventful() {
+                self.wire.write(WireRow {
+                    step: k,
                     t: step[0].t,
                     platoon: (i / self.per_platoon) as u16,
                     vehicle: (i % self.per_platoon) as u16,
@@ -344,53 +387,39 @@ impl Recording {
                     dropped: counts.dropped,
                     injected: counts.injected,
                     jammed: counts.jammed,
-                };
-                if let Err(e) = self.wire.serialize(r) {
-                    self.failure = Some(e);
-                }
+                })?;
             }
         }
-        self.metrics.push_wire(wire);
+        let keep = k.is_multiple_of(self.decimate);
         for r in step {
-            if self.failure.is_some() {
-                break;
+            if keep {
+                self.trajectories.write(*r)?;
             }
-            let mut result = self.csv.serialize(r);
-            if r.vehicle > 0 && r.triggered && result.is_ok() {
+            if r.vehicle > 0 && r.triggered {
                 let prev = &mut self.last
                     [usize::from(r.platoon) * self.per_platoon + usize::from(r.vehicle)];
-                result = self.events.serialize(EventRow {
+                self.events.write(EventRow {
                     platoon: r.platoon,
                     vehicle: r.vehicle,
                     step: r.step,
                     t: r.t,
                     inter_event_s: prev.map(|p| (r.step - p) as f64 * self.dt),
                     under_attack: r.under_attack,
-                });
+                })?;
                 *prev = Some(r.step);
             }
-            if let Err(e) = result {
-                self.failure = Some(e);
-            }
         }
-        self.metrics.push(step);
-        self.rows.extend(step.iter().take_while(|r| r.platoon == 0));
-        if step[0].step.is_multiple_of(1000) {
-            self.bar.set_position(step[0].step);
-        }
+        Ok(())
     }
 
-    fn finish(
-        mut self,
-        rejected: platoon_control::RejectCounts,
-    ) -> Result<(Vec<StepRow>, Summary)> {
+    fn finish(self, rejected: platoon_control::RejectCounts) -> Result<(Vec<StepRow>, Summary)> {
         self.bar.finish_and_clear();
         if let Some(e) = self.failure {
-            return Err(e).context("writing trajectories.csv, events.csv or wire.csv");
+            return Err(e);
         }
-        self.csv.flush().context("writing trajectories.csv")?;
-        self.events.flush().context("writing events.csv")?;
-        self.wire.flush().context("writing wire.csv")?;
+        self.trajectories.finish()?;
+        self.events.finish()?;
+        self.wire.finish()?;
         Ok((self.rows, self.metrics.finish(rejected)))
     }
 }
@@ -402,20 +431,30 @@ pub fn simulate(
     dir: &RunDir,
     progress: bool,
 ) -> Result<(Vec<StepRow>, Summary)> {
-    simulate_until(scenario, dir, progress, None)
+    simulate_until(scenario, &Default::default(), dir, progress, None)
 }
 
 /// [`simulate`], stopping after the step at which `stop` is seen set (the summary then says
 /// `complete: false`).
 pub fn simulate_until(
     scenario: &Scenario,
+    output: &platoon_config::OutputConfig,
     dir: &RunDir,
     progress: bool,
     stop: Option<&std::sync::atomic::AtomicBool>,
 ) -> Result<(Vec<StepRow>, Summary)> {
-    let mut rec = Recording::new(scenario, dir, progress.then_some("simulating"))?;
+    let mut rec = Recording::new(scenario, output, dir, progress.then_some("simulating"))?;
     let mut sim = platoon_sim::FleetSimulation::new(scenario)?;
-    let mut log = csv::Writer::from_writer(dir.writer("channel.csv")?);
+    let format = crate::tables::Format::of(
+        output,
+        (scenario.steps + 1).div_ceil(output.decimate) * scenario.vehicles() as u64,
+    );
+    let mut log = crate::tables::Table::create(
+        dir,
+        "channel",
+        format,
+        output.files.iter().any(|f| f == "channel"),
+    )?;
     let mut step_ns = Vec::with_capacity(scenario.steps.min(1 << 20) as usize + 1);
     while !sim.is_done() {
         if stop.is_some_and(|s| s.load(std::sync::atomic::Ordering::SeqCst)) {
@@ -426,10 +465,10 @@ pub fn simulate_until(
         step_ns.push(started.elapsed().as_nanos() as u64);
         rec.push(sim.rows(), sim.wire());
         for e in sim.channel_log() {
-            log.serialize(e).context("writing channel.csv")?;
+            log.write(*e)?;
         }
     }
-    log.flush().context("writing channel.csv")?;
+    log.finish()?;
     let rejected = sim.rejected();
     // In process a step has no stages: only its compute time.
     let timing = platoon_runtime::timing::Timing {
@@ -450,6 +489,7 @@ pub fn simulate_until(
 /// recorded, with the summary marked incomplete, and the error.
 fn cosimulate(
     scenario: &Scenario,
+    output: &platoon_config::OutputConfig,
     dir: &RunDir,
     args: &Args,
     plant: Option<crate::sumo::SumoPlant>,
@@ -476,9 +516,10 @@ fn cosimulate(
         exe: std::env::current_exe().context("locating the platoon binary")?,
         config: std::path::absolute(dir.path("config.toml"))
             .context("resolving the run directory")?,
-        channel_log: (injector == platoon_runtime::Program::Builtin
+        channel_log: ((injector == platoon_runtime::Program::Builtin
             || args.injector_mode == InjectorMode::After)
-            .then(|| dir.path("channel.csv")),
+            && output.files.iter().any(|f| f == "channel"))
+        .then(|| dir.path("channel.csv")),
         injector,
         plant,
         env,
@@ -489,11 +530,12 @@ fn cosimulate(
         observers: args.observers,
         channel_first: args.injector.is_some() && args.injector_mode == InjectorMode::After,
     };
-    let mut rec = Recording::new(scenario, dir, Some("co-simulating"))?;
+    let mut rec = Recording::new(scenario, output, dir, Some("co-simulating"))?;
     let result = platoon_runtime::orchestrate(&opts, scenario, |rows, wire| rec.push(rows, wire));
     match result {
         Ok(outcome) => {
             let (rows, summary) = rec.finish(outcome.rejected)?;
+            channel_log_format(scenario, output, dir)?;
             let mut timing = serde_json::to_value(&outcome.timing)?;
             timing["duplicate_samples"] = serde_json::to_value(outcome.duplicates)?;
             let json = serde_json::to_string_pretty(&timing)? + "\n";
@@ -517,6 +559,31 @@ fn cosimulate(
             Ok((rows, summary, Some(e)))
         }
     }
+}
+
+/// The injector node writes its channel log as CSV; with Parquet output it is converted, row
+/// by row (memory stays flat), and the CSV removed.
+fn channel_log_format(
+    scenario: &Scenario,
+    output: &platoon_config::OutputConfig,
+    dir: &RunDir,
+) -> Result<()> {
+    let format = crate::tables::Format::of(
+        output,
+        (scenario.steps + 1).div_ceil(output.decimate) * scenario.vehicles() as u64,
+    );
+    let csv_path = dir.path("channel.csv");
+    if format != crate::tables::Format::Parquet || !csv_path.exists() {
+        return Ok(());
+    }
+    let mut table = crate::tables::Table::create(dir, "channel", format, true)?;
+    let mut reader = csv::Reader::from_path(&csv_path)
+        .with_context(|| format!("reading {}", csv_path.display()))?;
+    for row in reader.deserialize::<platoon_attacks::channel::ChannelEvent>() {
+        table.write(row.with_context(|| format!("reading {}", csv_path.display()))?)?;
+    }
+    table.finish()?;
+    std::fs::remove_file(&csv_path).with_context(|| format!("removing {}", csv_path.display()))
 }
 
 /// summary.json's `injector` when the built-in channel gates the links.

@@ -40,6 +40,51 @@ pub struct Config {
     /// Several identical, independent platoons on one road.
     #[serde(default)]
     pub fleet: FleetConfig,
+    /// Which per-step files a run writes, and how.
+    #[serde(default)]
+    pub output: OutputConfig,
+}
+
+/// `[output]`: the per-step files (trajectories, events, channel log, wire log).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OutputConfig {
+    /// `csv`, `parquet` (zstd, the same columns) or `auto`: Parquet when the trajectories would
+    /// exceed [`AUTO_PARQUET_ROWS`] rows [auto].
+    #[serde(default = "auto")]
+    pub format: String,
+    /// Write every n-th step to the trajectories (metrics and plots still use every step) [1].
+    #[serde(default = "one_step")]
+    pub decimate: u64,
+    /// Which of `trajectories`, `events`, `channel`, `wire` to write [all].
+    #[serde(default = "all_files")]
+    pub files: Vec<String>,
+}
+
+/// `format = "auto"` writes Parquet from this many trajectory rows on.
+pub const AUTO_PARQUET_ROWS: u64 = 2_000_000;
+
+/// The per-step files a run can write.
+pub const OUTPUT_FILES: [&str; 4] = ["trajectories", "events", "channel", "wire"];
+
+impl Default for OutputConfig {
+    fn default() -> Self {
+        Self {
+            format: auto(),
+            decimate: one_step(),
+            files: all_files(),
+        }
+    }
+}
+
+fn auto() -> String {
+    "auto".into()
+}
+fn one_step() -> u64 {
+    1
+}
+fn all_files() -> Vec<String> {
+    OUTPUT_FILES.iter().map(|s| s.to_string()).collect()
 }
 
 /// `[fleet]`: platoon j drives on `lanes[j % len]`, `(j / len) * gap_m` behind platoon 0, with

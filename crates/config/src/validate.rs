@@ -512,6 +512,22 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
     }
     let f = &c.fleet;
     let lanes = f.lanes.clone().unwrap_or_else(|| vec![c.sumo.lane]);
+    let o = &c.output;
+    if !matches!(o.format.as_str(), "csv" | "parquet" | "auto") {
+        return bad(
+            "output.format",
+            format!("unknown format {:?}; use csv, parquet or auto", o.format),
+        );
+    }
+    if o.decimate == 0 {
+        return bad("output.decimate", "must be at least 1 (every step)");
+    }
+    if let Some(f) = o.files.iter().find(|f| !OUTPUT_FILES.contains(&f.as_str())) {
+        return bad(
+            "output.files",
+            format!("unknown file {f:?}; use {}", OUTPUT_FILES.join(", ")),
+        );
+    }
     if f.platoons == 0 {
         return bad("fleet.platoons", "needs at least one platoon");
     }

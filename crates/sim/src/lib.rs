@@ -32,7 +32,7 @@ use platoon_control::{Delivery, FollowerStep, Packet, PlatoonController};
 use platoon_model::{leader_step, plant_step, LeaderProfile, State, TauSchedule, VehicleId};
 
 /// One vehicle at one step: what `trajectories.csv` holds.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct StepRow {
     /// Step index k.
     pub step: u64,

@@ -65,7 +65,8 @@ fn in_process(job: &CellJob) -> Result<Value> {
         Some(out) => {
             let dir = RunDir::replace(out)?;
             dir.write("config.toml", job.config.as_bytes())?;
-            let (rows, summary) = crate::run::simulate(&scenario, &dir, false)?;
+            let (rows, summary) =
+                crate::run::simulate_until(&scenario, &config.output, &dir, false, None)?;
             let extra = [("injector", crate::run::builtin_injector_json())];
             crate::run::write_outputs(&dir, &config, &scenario, &rows, &summary, false, &extra)?;
             dir.commit()?;

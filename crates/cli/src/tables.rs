@@ -1,0 +1,203 @@
+//! The per-step files of a run (trajectories, events, channel log, wire log) as CSV or Parquet,
+//! streamed: Parquet rows are buffered in batches of [`BATCH`] and written as row groups
+//! (zstd), so memory stays flat however long the run. The columns are the row type's fields in
+//! both formats.
+use crate::output::RunDir;
+use anyhow::{Context, Result};
+use arrow_schema::FieldRef;
+use parquet::arrow::ArrowWriter;
+use parquet::basic::{Compression, ZstdLevel};
+use parquet::file::properties::WriterProperties;
+use serde::{de::DeserializeOwned, Serialize};
+use serde_arrow::schema::{SchemaLike, TracingOptions};
+use std::fs::File;
+use std::io::BufWriter;
+use std::sync::Arc;
+
+/// Rows per Parquet row group.
+pub const BATCH: usize = 65_536;
+
+/// CSV or Parquet.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Format {
+    /// Comma-separated text, one header line.
+    Csv,
+    /// Apache Parquet, zstd.
+    Parquet,
+}
+
+impl Format {
+    /// The format `[output] format` asks for, for a run of `rows` trajectory rows.
+    pub fn of(output: &platoon_config::OutputConfig, rows: u64) -> Format {
+        match output.format.as_str() {
+            "parquet" => Format::Parquet,
+            "auto" if rows >= platoon_config::AUTO_PARQUET_ROWS => Format::Parquet,
+            _ => Format::Csv,
+        }
+    }
+
+    fn extension(self) -> &'static str {
+        match self {
+            Format::Csv => "csv",
+            Format::Parquet => "parquet",
+        }
+    }
+}
+
+enum Sink<T> {
+    Off,
+    Csv(Box<csv::Writer<BufWriter<File>>>),
+    Parquet {
+        writer: Box<ArrowWriter<File>>,
+        fields: Vec<FieldRef>,
+        rows: Vec<T>,
+    },
+}
+
+/// A table file being written (or not, when the run was told to skip it).
+pub struct Table<T: Serialize + DeserializeOwned> {
+    name: String,
+    sink: Sink<T>,
+}
+
+/// The Arrow fields of `T` (unit enums as strings, options nullable).
+pub fn fields<T: Serialize + DeserializeOwned>() -> Result<Vec<FieldRef>> {
+    let options = TracingOptions::default()
+        .enums_without_data_as_strings(true)
+        .allow_null_fields(true);
+    Vec::<FieldRef>::from_type::<T>(options).context("deriving the Parquet schema")
+}
+
+impl<T: Serialize + DeserializeOwned> Table<T> {
+    /// Starts `<stem>.csv` or `<stem>.parquet` in `dir`; `enabled = false` writes nothing.
+    pub fn create(dir: &RunDir, stem: &str, format: Format, enabled: bool) -> Result<Self> {
+        let name = format!("{stem}.{}", format.extension());
+        let sink = match (enabled, format) {
+            (false, _) => Sink::Off,
+            (true, Format::Csv) => {
+                Sink::Csv(Box::new(csv::Writer::from_writer(dir.writer(&name)?)))
+            }
+            (true, Format::Parquet) => {
+                let fields = fields::<T>()?;
+                let schema = Arc::new(arrow_schema::Schema::new(fields.clone()));
+                let path = dir.path(&name);
+                let file =
+                    File::create(&path).with_context(|| format!("creating {}", path.display()))?;
+                let props = WriterProperties::builder()
+                    .set_compression(Compression::ZSTD(ZstdLevel::default()))
+                    .build();
+                let writer = ArrowWriter::try_new(file, schema, Some(props))
+                    .with_context(|| format!("starting {}", path.display()))?;
+                Sink::Parquet {
+                    writer: Box::new(writer),
+                    fields,
+                    rows: Vec::with_capacity(BATCH),
+                }
+            }
+        };
+        Ok(Self { name, sink })
+    }
+
+    /// Appends one row.
+    pub fn write(&mut self, row: T) -> Result<()> {
+        match &mut self.sink {
+            Sink::Off => Ok(()),
+            Sink::Csv(w) => w
+                .serialize(row)
+                .with_context(|| format!("writing {}", self.name)),
+            Sink::Parquet { rows, .. } => {
+                rows.push(row);
+                if rows.len() >= BATCH {
+                    self.flush_batch()?;
+                }
+                Ok(())
+            }
+        }
+    }
+
+    fn flush_batch(&mut self) -> Result<()> {
+        if let Sink::Parquet {
+            writer,
+            fields,
+            rows,
+        } = &mut self.sink
+        {
+            if !rows.is_empty() {
+                let batch = serde_arrow::to_record_batch(fields, rows)
+                    .with_context(|| format!("converting rows for {}", self.name))?;
+                writer
+                    .write(&batch)
+                    .with_context(|| format!("writing {}", self.name))?;
+                rows.clear();
+            }
+        }
+        Ok(())
+    }
+
+    /// Writes what is buffered and closes the file.
+    pub fn finish(mut self) -> Result<()> {
+        self.flush_batch()?;
+        match self.sink {
+            Sink::Off => Ok(()),
+            Sink::Csv(mut w) => w.flush().with_context(|| format!("writing {}", self.name)),
+            Sink::Parquet { writer, .. } => writer
+                .close()
+                .map(|_| ())
+                .with_context(|| format!("closing {}", self.name)),
+        }
+    }
+}
+
+/// Reads a Parquet file written by [`Table`] back into rows.
+#[cfg(test)]
+pub fn read_parquet<T: Serialize + DeserializeOwned>(path: &std::path::Path) -> Result<Vec<T>> {
+    let file = File::open(path).with_context(|| format!("opening {}", path.display()))?;
+    let reader = parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder::try_new(file)
+        .with_context(|| format!("reading {}", path.display()))?
+        .build()?;
+    let mut out = Vec::new();
+    for batch in reader {
+        let batch = batch.with_context(|| format!("reading {}", path.display()))?;
+        out.extend(serde_arrow::from_record_batch::<Vec<T>>(&batch)?);
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use platoon_sim::StepRow;
+
+    #[test]
+    fn parquet_holds_the_rows_and_the_columns_of_the_csv() {
+        let tmp = tempfile::tempdir().unwrap();
+        let dir = RunDir::create(&tmp.path().join("r"), false).unwrap();
+        let (_, scenario) = platoon_config::parse(
+            &platoon_config::PAPER_TOML.replace("duration_s = 55.0", "duration_s = 700.0"),
+            std::path::Path::new("paper.toml"),
+        )
+        .unwrap();
+        let mut rows = Vec::new();
+        platoon_sim::run(scenario, |r| rows.extend_from_slice(r)).unwrap();
+        assert!(rows.len() > BATCH, "several row groups");
+        for format in [Format::Csv, Format::Parquet] {
+            let mut t = Table::<StepRow>::create(&dir, "trajectories", format, true).unwrap();
+            for r in &rows {
+                t.write(*r).unwrap();
+            }
+            t.finish().unwrap();
+        }
+        let back: Vec<StepRow> = read_parquet(&dir.path("trajectories.parquet")).unwrap();
+        // NaN (the leader's theta) compares unequal: compare through JSON, where it is null.
+        let json = |r: &[StepRow]| serde_json::to_string(r).unwrap();
+        assert_eq!(json(&back), json(&rows));
+        let mut csv = csv::Reader::from_path(dir.path("trajectories.csv")).unwrap();
+        let header: Vec<String> = csv.headers().unwrap().iter().map(String::from).collect();
+        let columns: Vec<String> = fields::<StepRow>()
+            .unwrap()
+            .iter()
+            .map(|f| f.name().clone())
+            .collect();
+        assert_eq!(header, columns);
+    }
+}
