@@ -145,6 +145,16 @@ fn design_checks_the_papers_gain_and_its_certificate_re_checks() {
     // ERRATA item 15: the paper's ratio 56.83 is an order of magnitude too small for its K.
     let min = check["min_ratio_at_c"][1].as_f64().unwrap();
     assert!(min > 10.0 * 56.83, "{min}");
+    // Issue 14: string stability is part of the verdict. The paper's TPSF platoon of 4 does
+    // not amplify errors, the same graph with 100 followers does (it collides in
+    // campaigns/scaling.toml).
+    let strings = check["string_stability"].as_array().unwrap();
+    assert_eq!(strings[0]["followers"], 4);
+    assert_eq!(strings[0]["string_stable"], true);
+    assert_eq!(strings[1]["followers"], 100);
+    assert_eq!(strings[1]["string_stable"], false);
+    assert!(strings[1]["per_tau"][0]["per_follower"].as_f64().unwrap() > 1.0);
+    assert!(out.contains("STRING UNSTABLE"), "{out}");
     let cert = tmp.path().join("d/certificate.json");
     let o = platoon(&["design", "verify", cert.to_str().unwrap()], tmp.path());
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stdout));

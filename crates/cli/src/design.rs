@@ -131,6 +131,58 @@ fn parse_gain(s: &str) -> Result<[f64; 3]> {
     }
 }
 
+/// String stability of `k` for the config's platoon and, for a preset topology, for the same
+/// preset with 100 followers (where string instability shows): at the config's tau range.
+fn string_report(
+    k: [f64; 3],
+    config: &platoon_config::Config,
+    scenario: &platoon_sim::Scenario,
+) -> Vec<platoon_synthesis::StringStability> {
+    let (lo, hi) = scenario.tau_range();
+    let mut taus = vec![lo, scenario.control.tau_nominal, hi];
+    taus.sort_by(f64::total_cmp);
+    taus.dedup();
+    let mut out = vec![platoon_synthesis::string_stability(
+        k,
+        &scenario.topology.h_matrix(),
+        &taus,
+    )];
+    let preset = match config.topology.preset.as_str() {
+        "pf" => Some(platoon_topology::Preset::Pf),
+        "plf" => Some(platoon_topology::Preset::Plf),
+        "bpf" => Some(platoon_topology::Preset::Bpf),
+        "tpsf" => Some(platoon_topology::Preset::Tpsf),
+        _ => None,
+    };
+    if let Some(p) = preset.filter(|_| scenario.topology.followers() < 100) {
+        if let Ok(t) = platoon_topology::Topology::preset(p, 100) {
+            out.push(platoon_synthesis::string_stability(k, &t.h_matrix(), &taus));
+        }
+    }
+    out
+}
+
+fn print_string(report: &[platoon_synthesis::StringStability]) {
+    for r in report {
+        let worst = r
+            .per_tau
+            .iter()
+            .max_by(|a, b| a.amplification.total_cmp(&b.amplification));
+        if let Some(w) = worst {
+            println!(
+                "  string stability, {} followers: {} (a disturbance at follower 1 reaches follower {} amplified {:.3e}x, {:.4}x per follower, at {:.2} rad/s, tau = {} s)",
+                r.followers,
+                if r.string_stable { "string stable" } else { "STRING UNSTABLE: spacing errors grow along the platoon" },
+                r.followers,
+                w.amplification,
+                w.per_follower,
+                w.at_rad_s,
+                w.tau
+            );
+        }
+    }
+}
+
 #[derive(serde::Serialize)]
 struct CheckReport {
     k: [f64; 3],
@@ -144,6 +196,8 @@ struct CheckReport {
     config_ratio: f64,
     config_ratio_certified: bool,
     max_decay_c: Option<f64>,
+    /// Whether spacing errors grow along the platoon (see platoon_synthesis::string).
+    string_stability: Vec<platoon_synthesis::StringStability>,
 }
 
 fn check_gain(a: CheckGainArgs) -> Result<()> {
@@ -220,6 +274,7 @@ fn check_gain(a: CheckGainArgs) -> Result<()> {
         config_ratio,
         config_ratio_certified: certified,
         max_decay_c: best.as_ref().map(|c| c.c),
+        string_stability: string_report(k, &config, &scenario),
     };
     dir.write(
         "check.json",
@@ -228,6 +283,7 @@ fn check_gain(a: CheckGainArgs) -> Result<()> {
     let path = dir.commit()?;
 
     println!("K = [{}, {}, {}] on {n} followers", k[0], k[1], k[2]);
+    print_string(&report.string_stability);
     println!(
         "  closed loop over tau in [{lo}, {hi}] s: {} (largest real part {worst:.4}, fastest mode {fastest:.1} rad/s)",
         if worst < 0.0 { "stable" } else { "UNSTABLE" }
@@ -301,6 +357,8 @@ struct DesignReport {
     certificate_max_decay: Option<&'static str>,
     sdps: usize,
     seconds: f64,
+    /// Whether spacing errors grow along the platoon with this gain.
+    string_stability: Vec<platoon_synthesis::StringStability>,
 }
 
 fn synthesize(a: SynthesizeArgs) -> Result<()> {
@@ -414,6 +472,7 @@ fn synthesize(a: SynthesizeArgs) -> Result<()> {
         certificate_max_decay: decay.as_ref().map(|_| "certificate-max-decay.json"),
         sdps: d.sdps,
         seconds,
+        string_stability: string_report(d.k, &config, &scenario),
     };
     let dir = RunDir::create(&out, a.force)?;
     dir.write(
@@ -432,6 +491,7 @@ fn synthesize(a: SynthesizeArgs) -> Result<()> {
     )?;
     let path = dir.commit()?;
     let norm = d.k.iter().map(|x| x * x).sum::<f64>().sqrt();
+    print_string(&report.string_stability);
     println!(
         "K = [{:.4}, {:.4}, {:.4}] (|K| = {norm:.2} <= {}), beta1/beta2 = {:.2} on {n} followers",
         d.k[0], d.k[1], d.k[2], a.k_max, d.certificate.ratio

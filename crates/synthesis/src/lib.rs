@@ -8,6 +8,7 @@
 //!   eigenvalues, independently of the solver.
 //! * [`closed_loop_spectrum`]: eigenvalues of `I_N kron A(tau) - H kron B(tau) K` over a tau range.
 //! * [`dos_bounds`]: the bounds (16) on T2 and D2 (ERRATA items 20, 21).
+//! * [`string_stability`]: whether spacing errors grow along a long platoon (see [`string`]).
 //!
 //! Readings (ERRATA): `Tr(X)` is `He(X) = X + X^T` (item 8); u = -K q (item 1); K is 1x3 (item 2).
 //! Pure: no I/O, clocks or threads.
@@ -16,8 +17,10 @@
 mod design;
 mod lmi;
 mod sdp;
+pub mod string;
 
 pub use design::{design_theorem1, Design, DesignSpec};
+pub use string::{string_stability, StringStability, TauStringStability};
 
 pub use lmi::{
     closed_loop_spectrum, growth_rate, max_decay_within_ratio, min_ratio, psi_theorem1,
