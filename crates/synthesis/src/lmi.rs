@@ -409,6 +409,20 @@ mod tests {
 
     const PAPER_K: [f64; 3] = [4.81, 9.12, 2.97];
 
+    /// Issue 14: PLF with 20 followers ended in `NumericalError` with clarabel's default
+    /// settings; the retries with more regularisation solve it (the ratio is the one N = 10 and
+    /// N = 50 give).
+    #[test]
+    fn numerical_trouble_is_retried_before_it_is_reported() {
+        let Feasibility::Feasible(cert) =
+            theorem1_min_ratio(PAPER_K, 0.0, &h(Preset::Plf, 20), 0.5, 1e-6).unwrap()
+        else {
+            panic!("Theorem 1 should be feasible for the paper's K on PLF");
+        };
+        assert!((cert.ratio - 179.3).abs() < 1.0, "{}", cert.ratio);
+        assert!(cert.verify().unwrap().holds);
+    }
+
     #[test]
     fn the_papers_gain_needs_a_far_larger_ratio_than_it_reports() {
         // ERRATA item 15: with K = [4.81, 9.12, 2.97] on TPSF, beta1/beta2 = 56.83 is not

@@ -115,17 +115,47 @@ pub(crate) fn solve(
         cones.push(SupportedConeT::NonnegativeConeT(rows.len()));
     }
     let q = CscMatrix::zeros((nvar, nvar));
-    let settings = DefaultSettingsBuilder::default()
-        .verbose(false)
-        .max_iter(500)
-        .build()
-        .map_err(|e| LmiError::Solver(e.to_string()))?;
-    let mut solver = DefaultSolver::new(&q, cost, &a, &b, &cones, settings)
-        .map_err(|e| LmiError::Solver(format!("{e:?}")))?;
-    solver.solve();
-    match solver.solution.status {
-        SolverStatus::Solved | SolverStatus::AlmostSolved => Ok(Some(solver.solution.x.clone())),
-        SolverStatus::PrimalInfeasible | SolverStatus::AlmostPrimalInfeasible => Ok(None),
-        other => Err(LmiError::Solver(format!("{other:?}"))),
+    // Numerical trouble is retried with settings that trade speed for robustness before it is
+    // reported (issue 14): more regularisation, no equilibration, then no chordal decomposition.
+    let attempts: [(&str, fn(&mut DefaultSettingsBuilder<f64>)); 4] = [
+        ("default settings", |_| {}),
+        ("stronger regularisation", |b| {
+            b.static_regularization_constant(1e-6)
+                .dynamic_regularization_eps(1e-11)
+                .dynamic_regularization_delta(1e-6);
+        }),
+        ("no equilibration", |b| {
+            b.equilibrate_enable(false)
+                .static_regularization_constant(1e-6);
+        }),
+        ("no chordal decomposition", |b| {
+            b.chordal_decomposition_enable(false)
+                .static_regularization_constant(1e-6);
+        }),
+    ];
+    let mut failures = Vec::new();
+    for (what, tune) in attempts {
+        let mut builder = DefaultSettingsBuilder::default();
+        builder.verbose(false).max_iter(500);
+        tune(&mut builder);
+        let settings = builder
+            .build()
+            .map_err(|e| LmiError::Solver(e.to_string()))?;
+        let mut solver = DefaultSolver::new(&q, cost, &a, &b, &cones, settings)
+            .map_err(|e| LmiError::Solver(format!("{e:?}")))?;
+        solver.solve();
+        match solver.solution.status {
+            SolverStatus::Solved | SolverStatus::AlmostSolved => {
+                return Ok(Some(solver.solution.x.clone()))
+            }
+            SolverStatus::PrimalInfeasible | SolverStatus::AlmostPrimalInfeasible => {
+                return Ok(None)
+            }
+            other => failures.push(format!("{other:?} with {what}")),
+        }
     }
+    Err(LmiError::Solver(format!(
+        "{} (the problem is badly scaled for this size: try a smaller --c, a gain of smaller norm, or fewer followers)",
+        failures.join(", ")
+    )))
 }
