@@ -117,7 +117,8 @@ pub(crate) fn solve(
     let q = CscMatrix::zeros((nvar, nvar));
     // Numerical trouble is retried with settings that trade speed for robustness before it is
     // reported (issue 14): more regularisation, no equilibration, then no chordal decomposition.
-    let attempts: [(&str, fn(&mut DefaultSettingsBuilder<f64>)); 4] = [
+    type Tune = fn(&mut DefaultSettingsBuilder<f64>);
+    let attempts: [(&str, Tune); 4] = [
         ("default settings", |_| {}),
         ("stronger regularisation", |b| {
             b.static_regularization_constant(1e-6)
