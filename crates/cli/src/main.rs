@@ -39,10 +39,14 @@ enum Command {
     /// packet the channel did not deliver as sent), summary.json (triggers, inter-event times,
     /// tracking errors, attack and Assumption-2 verdict, safety, rejected packets), fig6.png
     /// (positions, relative positions, velocities, internal variables), fig7.png (release
-    /// instants), and for iceoryx2 runs timing.json (where the time of a step went) and logs/.
+    /// instants), wire.csv (what happened on the V2V channel, per vehicle and step, whatever
+    /// injector ran), and for iceoryx2 runs timing.json (where the time of a step went),
+    /// run.json (the run id, for observers) and logs/. [output] in the config switches the
+    /// per-step files to Parquet, decimates the trajectories or skips files.
     /// Files are staged in <DIR>.partial, which is renamed to <DIR> only when complete; a run
-    /// stopped by a failed process keeps what it recorded, marked "complete": false. A bad config
-    /// exits with code 2 before anything is written.
+    /// stopped by a failed process or by Ctrl-C/SIGTERM keeps what it recorded, marked
+    /// "complete": false (exit 130/143 for a signal). A bad config exits with code 2 before
+    /// anything is written.
     Run(run::Args),
     /// Run a study: many cells of one scenario over axes of config values, a DoS-window map
     /// (attack onset x duration) and Monte Carlo draws, locally or on a Dask cluster.
