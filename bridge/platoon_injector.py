@@ -117,11 +117,8 @@ def run(make) -> int:
         tx = tx_in.take(k) if states is not None else None
         if tx is None:
             # Nothing to do: the only time to look at the control channel (STOP/ABORT).
-            msg = control.receive()
-            while msg is not None:
-                if msg.payload().contents.kind in (w.ControlMsg.STOP, w.ControlMsg.ABORT):
-                    return 0
-                msg = control.receive()
+            if stop_received(control):
+                return 0
             node.wait()
             continue
         rx = []
@@ -136,14 +133,20 @@ def run(make) -> int:
         if k == info.steps:
             injector.finish()
             w.send_status(status, w.ControlMsg.DONE, "injector", k)
-            while True:  # until STOP
+            while not stop_received(control):
                 node.wait()
-                msg = control.receive()
-                while msg is not None:
-                    if msg.payload().contents.kind in (w.ControlMsg.STOP, w.ControlMsg.ABORT):
-                        return 0
-                    msg = control.receive()
+            return 0
         k += 1
+
+
+def stop_received(control) -> bool:
+    """Drains the control channel; True once STOP or ABORT is among its messages."""
+    stop = False
+    msg = control.receive()
+    while msg is not None:
+        stop |= msg.payload().contents.kind in (w.ControlMsg.STOP, w.ControlMsg.ABORT)
+        msg = control.receive()
+    return stop
 
 
 def send_failed(outlet, step: int, reason: str) -> None:

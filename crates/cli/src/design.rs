@@ -147,13 +147,7 @@ fn string_report(
         &scenario.topology.h_matrix(),
         &taus,
     )];
-    let preset = match config.topology.preset.as_str() {
-        "pf" => Some(platoon_topology::Preset::Pf),
-        "plf" => Some(platoon_topology::Preset::Plf),
-        "bpf" => Some(platoon_topology::Preset::Bpf),
-        "tpsf" => Some(platoon_topology::Preset::Tpsf),
-        _ => None,
-    };
+    let preset = platoon_topology::Preset::from_name(&config.topology.preset);
     if let Some(p) = preset.filter(|_| scenario.topology.followers() < 100) {
         if let Ok(t) = platoon_topology::Topology::preset(p, 100) {
             out.push(platoon_synthesis::string_stability(k, &t.h_matrix(), &taus));

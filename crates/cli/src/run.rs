@@ -330,10 +330,7 @@ impl Recording {
         what: Option<&str>,
     ) -> Result<Self> {
         let steps = scenario.steps + 1;
-        let format = crate::tables::Format::of(
-            output,
-            steps.div_ceil(output.decimate) * scenario.vehicles() as u64,
-        );
+        let format = crate::tables::Format::of(output, scenario);
         let on = |f: &str| output.files.iter().any(|x| x == f);
         Ok(Self {
             trajectories: crate::tables::Table::create(
@@ -445,10 +442,7 @@ pub fn simulate_until(
 ) -> Result<(Vec<StepRow>, Summary)> {
     let mut rec = Recording::new(scenario, output, dir, progress.then_some("simulating"))?;
     let mut sim = platoon_sim::FleetSimulation::new(scenario)?;
-    let format = crate::tables::Format::of(
-        output,
-        (scenario.steps + 1).div_ceil(output.decimate) * scenario.vehicles() as u64,
-    );
+    let format = crate::tables::Format::of(output, scenario);
     let mut log = crate::tables::Table::create(
         dir,
         "channel",
@@ -568,10 +562,7 @@ fn channel_log_format(
     output: &platoon_config::OutputConfig,
     dir: &RunDir,
 ) -> Result<()> {
-    let format = crate::tables::Format::of(
-        output,
-        (scenario.steps + 1).div_ceil(output.decimate) * scenario.vehicles() as u64,
-    );
+    let format = crate::tables::Format::of(output, scenario);
     let csv_path = dir.path("channel.csv");
     if format != crate::tables::Format::Parquet || !csv_path.exists() {
         return Ok(());

@@ -27,8 +27,9 @@ pub enum Format {
 }
 
 impl Format {
-    /// The format `[output] format` asks for, for a run of `rows` trajectory rows.
-    pub fn of(output: &platoon_config::OutputConfig, rows: u64) -> Format {
+    /// The format `[output] format` asks for, for the trajectory rows `scenario` will write.
+    pub fn of(output: &platoon_config::OutputConfig, scenario: &platoon_sim::Scenario) -> Format {
+        let rows = (scenario.steps + 1).div_ceil(output.decimate) * scenario.vehicles() as u64;
         match output.format.as_str() {
             "parquet" => Format::Parquet,
             "auto" if rows >= platoon_config::AUTO_PARQUET_ROWS => Format::Parquet,

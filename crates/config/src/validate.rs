@@ -248,17 +248,14 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
             t.pinning.is_some(),
             "preset = \"explicit\"",
         )?;
-        let preset = match t.preset.as_str() {
-            "pf" => Preset::Pf,
-            "plf" => Preset::Plf,
-            "bpf" => Preset::Bpf,
-            "tpsf" => Preset::Tpsf,
-            other => {
-                return bad(
-                    "topology.preset",
-                    format!("unknown preset {other:?}; use pf, plf, bpf, tpsf or explicit"),
-                )
-            }
+        let Some(preset) = Preset::from_name(&t.preset) else {
+            return bad(
+                "topology.preset",
+                format!(
+                    "unknown preset {:?}; use pf, plf, bpf, tpsf or explicit",
+                    t.preset
+                ),
+            );
         };
         Topology::preset(preset, n)
     }

@@ -568,6 +568,7 @@ struct Recorder<'a> {
     deliveries: Vec<Vec<platoon_control::Delivery>>,
     wire: Vec<WireCounts>,
     outside: WireCounts,
+    wire_counter: platoon_sim::wire::WireCounter,
 }
 
 impl<'a> Recorder<'a> {
@@ -585,6 +586,7 @@ impl<'a> Recorder<'a> {
             deliveries: vec![Vec::new(); num.platoons],
             wire: vec![WireCounts::default(); num.vehicles()],
             outside: WireCounts::default(),
+            wire_counter: Default::default(),
         }
     }
 
@@ -598,12 +600,9 @@ impl<'a> Recorder<'a> {
         let num = self.num;
         let n1 = num.per_platoon;
         let states = states_from_wire(s, num.vehicles())?;
-        self.jammed.fill(false);
-        for it in r.iter().filter(|it| it.kind == LinkPacket::JAMMED) {
-            if let Some(j) = self.jammed.get_mut(it.receiver as usize) {
-                *j = true;
-            }
-        }
+        // The rx batch, sorted as the controllers sort it: deliveries per platoon and who was
+        // told its channel was jammed (for the rows and for the wire tally below).
+        crate::nodes::deliveries_from_wire(r, num, &mut self.deliveries, &mut self.jammed);
         if c.len() != num.followers() {
             return Err(RunError::Contract {
                 node: "controller",
@@ -640,7 +639,6 @@ impl<'a> Recorder<'a> {
             );
         }
         // The wire, measured as the in-process runner measures it.
-        crate::nodes::deliveries_from_wire(r, num, &mut self.deliveries, &mut self.jammed);
         self.outside = WireCounts::default();
         for j in 0..num.platoons {
             let links = t.iter().filter_map(|it| {
@@ -652,7 +650,7 @@ impl<'a> Recorder<'a> {
                     (receiver, p)
                 })
             });
-            platoon_sim::wire::count_step(
+            self.wire_counter.count(
                 links,
                 &self.deliveries[j],
                 &self.jammed[j * n1..(j + 1) * n1],

@@ -217,6 +217,7 @@ pub struct Simulation {
     log: Vec<ChannelEvent>,
     rows: Vec<StepRow>,
     wire: Vec<WireCounts>,
+    wire_counter: wire::WireCounter,
 }
 
 impl Simulation {
@@ -240,6 +241,7 @@ impl Simulation {
             log: Vec::new(),
             rows: Vec::with_capacity(n + 1),
             wire: vec![WireCounts::default(); n + 1],
+            wire_counter: wire::WireCounter::default(),
             scenario,
         })
     }
@@ -299,7 +301,7 @@ impl Simulation {
             .receive(k, states, &self.deliveries, &self.jammed);
         // In process nothing is ever delivered to a vehicle that does not exist.
         let mut outside = WireCounts::default();
-        wire::count_step(
+        self.wire_counter.count(
             wire::links(&sc.topology, &self.tx),
             &self.deliveries,
             &self.jammed,

@@ -39,59 +39,70 @@ impl WireCounts {
     }
 }
 
-/// Counts one step of one platoon into `per_vehicle` (index = vehicle within the platoon, leader
-/// first; zeroed first). `links` are the broadcasts as (receiver, packet), one per link;
-/// `deliveries` what the controllers got; `jammed` who was told its channel was jammed. A
-/// delivery matches the first unmatched link with its receiver, sender and sequence number;
-/// deliveries to receivers outside the platoon are counted in `outside`.
-pub fn count_step(
-    links: impl Iterator<Item = (VehicleId, Packet)>,
-    deliveries: &[Delivery],
-    jammed: &[bool],
-    per_vehicle: &mut [WireCounts],
-    outside: &mut WireCounts,
-) {
-    per_vehicle.fill(WireCounts::default());
-    let mut open: Vec<(VehicleId, Packet, bool)> = links.map(|(r, p)| (r, p, false)).collect();
-    for (r, _, _) in &open {
-        if let Some(c) = per_vehicle.get_mut(r.index()) {
-            c.sent += 1;
+/// Counts steps of the wire, reusing its buffer of the step's links (it runs every step).
+#[derive(Debug, Clone, Default)]
+pub struct WireCounter {
+    open: Vec<(VehicleId, Packet, bool)>,
+}
+
+impl WireCounter {
+    /// Counts one step of one platoon into `per_vehicle` (index = vehicle within the platoon, leader
+    /// first; zeroed first). `links` are the broadcasts as (receiver, packet), one per link;
+    /// `deliveries` what the controllers got; `jammed` who was told its channel was jammed. A
+    /// delivery matches the first unmatched link with its receiver, sender and sequence number;
+    /// deliveries to receivers outside the platoon are counted in `outside`.
+    pub fn count(
+        &mut self,
+        links: impl Iterator<Item = (VehicleId, Packet)>,
+        deliveries: &[Delivery],
+        jammed: &[bool],
+        per_vehicle: &mut [WireCounts],
+        outside: &mut WireCounts,
+    ) {
+        per_vehicle.fill(WireCounts::default());
+        let open = &mut self.open;
+        open.clear();
+        open.extend(links.map(|(r, p)| (r, p, false)));
+        for (r, _, _) in open.iter() {
+            if let Some(c) = per_vehicle.get_mut(r.index()) {
+                c.sent += 1;
+            }
         }
-    }
-    for d in deliveries {
-        let found = open.iter_mut().find(|(r, p, used)| {
-            !*used && *r == d.receiver && p.sender == d.packet.sender && p.seq == d.packet.seq
-        });
-        let counts = match per_vehicle.get_mut(d.receiver.index()) {
-            Some(c) => c,
-            None => &mut *outside,
-        };
-        match found {
-            Some((_, p, used)) => {
-                *used = true;
-                let same = p.step == d.packet.step
-                    && p.state
-                        .iter()
-                        .zip(d.packet.state.iter())
-                        .all(|(a, b)| a.to_bits() == b.to_bits());
-                if same {
-                    counts.delivered_as_sent += 1;
-                } else {
-                    counts.altered += 1;
+        for d in deliveries {
+            let found = open.iter_mut().find(|(r, p, used)| {
+                !*used && *r == d.receiver && p.sender == d.packet.sender && p.seq == d.packet.seq
+            });
+            let counts = match per_vehicle.get_mut(d.receiver.index()) {
+                Some(c) => c,
+                None => &mut *outside,
+            };
+            match found {
+                Some((_, p, used)) => {
+                    *used = true;
+                    let same = p.step == d.packet.step
+                        && p.state
+                            .iter()
+                            .zip(d.packet.state.iter())
+                            .all(|(a, b)| a.to_bits() == b.to_bits());
+                    if same {
+                        counts.delivered_as_sent += 1;
+                    } else {
+                        counts.altered += 1;
+                    }
+                }
+                None => counts.injected += 1,
+            }
+        }
+        for (r, _, used) in open.iter() {
+            if !used {
+                if let Some(c) = per_vehicle.get_mut(r.index()) {
+                    c.dropped += 1;
                 }
             }
-            None => counts.injected += 1,
         }
-    }
-    for (r, _, used) in &open {
-        if !used {
-            if let Some(c) = per_vehicle.get_mut(r.index()) {
-                c.dropped += 1;
-            }
+        for (c, &j) in per_vehicle.iter_mut().zip(jammed) {
+            c.jammed += u64::from(j);
         }
-    }
-    for (c, &j) in per_vehicle.iter_mut().zip(jammed) {
-        c.jammed += u64::from(j);
     }
 }
 
@@ -141,7 +152,7 @@ mod tests {
         ];
         let mut per = vec![WireCounts::default(); 3];
         let mut outside = WireCounts::default();
-        count_step(
+        WireCounter::default().count(
             links.into_iter(),
             &deliveries,
             &[false, true, false],

@@ -28,6 +28,19 @@ pub enum Preset {
     Tpsf,
 }
 
+impl Preset {
+    /// The preset of a config's `topology.preset` name (`pf`, `plf`, `bpf`, `tpsf`).
+    pub fn from_name(name: &str) -> Option<Preset> {
+        match name {
+            "pf" => Some(Preset::Pf),
+            "plf" => Some(Preset::Plf),
+            "bpf" => Some(Preset::Bpf),
+            "tpsf" => Some(Preset::Tpsf),
+            _ => None,
+        }
+    }
+}
+
 /// Why a topology was rejected.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum TopologyError {
