@@ -359,15 +359,21 @@ impl<T: Debug + Copy + ZeroCopySend + 'static> Inlet<T> {
     /// Like [`Inlet::take`], with the sample's header.
     pub fn take_sample(&mut self, k: u64) -> Result<Option<Sample<T>>, RunError> {
         self.drain()?;
+        Ok(self.take_buffered(k))
+    }
+
+    /// The sample of step `k` if it is already buffered, without reading anything new (so a
+    /// malformed sample that arrives meanwhile cannot interrupt recording what is complete).
+    pub fn take_buffered(&mut self, k: u64) -> Option<Sample<T>> {
         while self.pending.front().is_some_and(|(h, _)| h.step < k) {
             self.pending.pop_front();
         }
         match self.pending.front() {
             Some((h, _)) if h.step == k => {
                 self.floor = k + 1;
-                Ok(self.pending.pop_front())
+                self.pending.pop_front()
             }
-            _ => Ok(None),
+            _ => None,
         }
     }
 }

@@ -373,10 +373,10 @@ impl Streams<'_> {
             && self.commands.has(run.step)
         {
             let k = run.step;
-            let (hs, s) = self.states.take_sample(k)?.expect("has");
-            let (ht, t) = self.tx.take_sample(k)?.expect("has");
-            let (hr, r) = self.rx.take_sample(k)?.expect("has");
-            let (hc, c) = self.commands.take_sample(k)?.expect("has");
+            let (hs, s) = self.states.take_buffered(k).expect("has");
+            let (ht, t) = self.tx.take_buffered(k).expect("has");
+            let (hr, r) = self.rx.take_buffered(k).expect("has");
+            let (hc, c) = self.commands.take_buffered(k).expect("has");
             clock.push(hs.stamp_ns, ht.stamp_ns, hr.stamp_ns, hc.stamp_ns);
             run.record(&s, &t, &r, &c)?;
             observe.publish(k, scenario.dt(), &s, &t, &r, &c)?;
