@@ -62,15 +62,26 @@ def main() -> int:
     )
     # A crashed observer's slot is only free once its dead node is removed.
     node.try_cleanup_dead_nodes()
+    # run.json is written as the run starts, a moment before its services exist: retry the
+    # opening for a while; a full service fails at once.
+    deadline = time.monotonic() + 30.0
+    while True:
+        try:
+            service = (
+                node.service_builder(iox.ServiceName.new(run["observe"]["states"]))
+                .publish_subscribe(iox.Slice[w.VehicleState])
+                .user_header(w.StepHeader)
+                .open()
+            )
+            break
+        except Exception as e:  # noqa: BLE001: iceoryx2 raises its own exception types
+            if time.monotonic() > deadline:
+                print(f"observer: run {run['run_id']} has no observer services ({e})", file=sys.stderr)
+                return 2
+            time.sleep(0.1)
     try:
-        service = (
-            node.service_builder(iox.ServiceName.new(run["observe"]["states"]))
-            .publish_subscribe(iox.Slice[w.VehicleState])
-            .user_header(w.StepHeader)
-            .open()
-        )
         subscriber = service.subscriber_builder().create()
-    except Exception as e:  # noqa: BLE001: iceoryx2 raises its own exception types
+    except Exception as e:  # noqa: BLE001
         print(f"observer: cannot attach to run {run['run_id']} ({type(e).__name__}: {e}); "
               f"it has room for {run['observers']} observers (platoon run --observers N)",
               file=sys.stderr)
