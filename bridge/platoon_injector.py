@@ -46,14 +46,25 @@ class Run:
         return vehicle_id % self.vehicles_per_platoon
 
 
-@dataclass
 class Step:
-    """What an injector sees at step k."""
+    """What an injector sees at step k: `k`, `t`, `tx` (the broadcasts of step k, one
+    LinkPacket per link) and `states` (every vehicle, platoon by platoon, leader first), which
+    is copied out of shared memory only when first read: an injector that never reads it does
+    not pay for it within the hop."""
 
-    k: int
-    t: float
-    states: "ctypes.Array[w.VehicleState]"  # every vehicle, platoon by platoon, leader first
-    tx: "ctypes.Array[w.LinkPacket]"  # the broadcasts of step k, one item per link
+    __slots__ = ("k", "t", "tx", "_states", "_inlet")
+
+    def __init__(self, k: int, t: float, tx, inlet):
+        self.k, self.t, self.tx = k, t, tx
+        self._states, self._inlet = None, inlet
+
+    @property
+    def states(self) -> "ctypes.Array[w.VehicleState]":
+        if self._states is None:
+            self._states = self._inlet.take(self.k)
+            if self._states is None:
+                raise RuntimeError(f"the plant's states of step {self.k} are missing")
+        return self._states
 
 
 class Injector:
@@ -110,26 +121,28 @@ def run(make) -> int:
     status = node.status_outlet()  # keep it: a dropped publisher takes its samples with it
     w.send_status(status, w.ControlMsg.READY, "injector")
 
-    k, states = 0, None
+    # Only tx[k] wakes the injector; states[k] was published before it (the controller reads
+    # it first), so it is already waiting when tx[k] arrives, and is read only on demand.
+    k = 0
     while True:
-        if states is None:
-            states = states_in.take(k)
-        tx = tx_in.take(k) if states is not None else None
+        tx = tx_in.take(k)
         if tx is None:
             # Nothing to do: the only time to look at the control channel (STOP/ABORT).
             if stop_received(control):
                 return 0
             node.wait()
             continue
+        step = Step(k, k * info.dt, tx, states_in)
         rx = []
         try:
-            injector.step(Step(k=k, t=k * info.dt, states=states, tx=tx), rx)
+            injector.step(step, rx)
         except Exception as e:  # noqa: BLE001: any failure of user code stops the run
             print(f"injector: step {k}: {type(e).__name__}: {e}", file=sys.stderr)
             send_failed(status, k, f"{type(e).__name__}: {e}")
             return 1
-        rx_out.send(k, k * info.dt, rx)
-        states = None
+        rx_out.send(k, step.t, rx)
+        if step._states is None:
+            states_in.take(k)  # drained after the hop, off its path
         if k == info.steps:
             injector.finish()
             w.send_status(status, w.ControlMsg.DONE, "injector", k)

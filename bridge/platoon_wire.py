@@ -180,7 +180,7 @@ class Endpoint:
         )
 
     def inlet(self, service: str, item) -> "Inlet":
-        return Inlet(self._step_service(service, item).subscriber_builder().create())
+        return Inlet(self._step_service(service, item).subscriber_builder().create(), item)
 
     def outlet(self, service: str, item, max_len: int) -> "Outlet":
         pub = (
@@ -220,8 +220,9 @@ class Endpoint:
 class Inlet:
     """Buffers step samples by step (copies the items out of shared memory)."""
 
-    def __init__(self, subscriber):
+    def __init__(self, subscriber, item):
         self.subscriber = subscriber
+        self.item = item
         self.pending = {}
 
     def take(self, step: int):
@@ -231,20 +232,21 @@ class Inlet:
             sample = self.subscriber.receive()
             if sample is None:
                 break
-            header = sample.user_header().contents
-            items = sample.payload()
-            # payload().len() is in bytes in iceoryx2 0.10.0 (#1533): the header's count is right.
-            if header.count > items.len():
-                raise ValueError(f"sample of step {header.step} claims {header.count} items")
+            # Raw pointers, not user_header()/payload(): each of those builds a ctypes pointer
+            # or a Slice per sample, which costs more than the copy.
+            header = StepHeader.from_address(sample.user_header_ptr)
+            count = header.count
+            if count > sample.header.number_of_elements:
+                raise ValueError(f"sample of step {header.step} claims {count} items")
             # One copy of the whole batch out of shared memory.
-            array = (items.contained_type * header.count).from_buffer_copy(
-                ctypes.string_at(items.as_ptr(), header.count * ctypes.sizeof(items.contained_type))
-            )
+            array = (self.item * count)()
+            ctypes.memmove(array, sample.payload_ptr, ctypes.sizeof(array))
             self.pending[header.step] = array
             if header.step == step:
                 break  # what the caller waits for: later samples stay in the subscriber
-        for old in [s for s in self.pending if s < step]:
-            del self.pending[old]
+        if self.pending:
+            for old in [s for s in self.pending if s < step]:
+                del self.pending[old]
         return self.pending.pop(step, None)
 
 
@@ -278,7 +280,7 @@ class Outlet:
 def _as_bytes(items):
     if isinstance(items, ctypes.Array):
         return bytes(items)
-    return b"".join(bytes(it) for it in items)
+    return b"".join(map(bytes, items))
 
 
 def send_status(outlet, kind: int, node: str, step: int = 0) -> None:

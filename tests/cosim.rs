@@ -974,3 +974,68 @@ fn a_fleet_over_iceoryx2_is_bit_identical_to_inproc() {
     let rows = std::fs::read_to_string(tmp.path().join("ipc/trajectories.csv")).unwrap();
     assert_eq!(rows.lines().count(), 1 + 1001 * 15);
 }
+
+/// The CPU this test process may use first (what `--cpus` is given).
+fn first_cpu() -> String {
+    let status = std::fs::read_to_string("/proc/self/status").unwrap();
+    let list = status
+        .lines()
+        .find_map(|l| l.strip_prefix("Cpus_allowed_list:"))
+        .unwrap()
+        .trim();
+    list.split([',', '-']).next().unwrap().to_string()
+}
+
+#[test]
+fn cpus_pins_every_node_and_changes_no_result() {
+    let tmp = tempfile::tempdir().unwrap();
+    let cpu = first_cpu();
+    let paper = repo().join("configs/paper.toml");
+    let paper = paper.to_str().unwrap();
+    ok(&platoon(
+        &["run", paper, "--no-plots", "--out", "any"],
+        tmp.path(),
+    ));
+    // The injector is a shell that reports its own CPU list, then becomes the Python SDK's
+    // dos_jammer: what it prints is what the pinned process was allowed.
+    let injector = format!(
+        "sh -c 'grep Cpus_allowed_list /proc/self/status >&2; exec {} {}'",
+        python(),
+        repo().join("bridge/examples/dos_jammer.py").display()
+    );
+    ok(&platoon(
+        &[
+            "run",
+            paper,
+            "--no-plots",
+            "--out",
+            "pinned",
+            "--cpus",
+            &cpu,
+            "--injector",
+            &injector,
+        ],
+        tmp.path(),
+    ));
+    let log = std::fs::read_to_string(tmp.path().join("pinned/logs/injector.log")).unwrap();
+    assert!(
+        log.contains(&format!("Cpus_allowed_list:\t{cpu}\n")),
+        "the injector was not pinned to CPU {cpu}:\n{log}"
+    );
+    same_outputs(
+        &tmp.path().join("pinned"),
+        &tmp.path().join("any"),
+        &["trajectories.csv", "events.csv"],
+    );
+    // A CPU this process may not use, and a malformed list: one line naming the flag, exit 2.
+    for (list, needle) in [
+        ("100000", "CPU 100000 is not available"),
+        ("0-x", "\"0-x\""),
+    ] {
+        let o = platoon(&["run", paper, "--out", "bad", "--cpus", list], tmp.path());
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{err}");
+        assert!(err.contains("--cpus") && err.contains(needle), "{err}");
+        assert!(!tmp.path().join("bad").exists());
+    }
+}

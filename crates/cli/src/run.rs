@@ -57,10 +57,26 @@ pub struct Args {
     /// never affected either way.
     #[arg(long, default_value_t = 4, value_name = "N", env = "PLATOON_OBSERVERS")]
     pub observers: usize,
+    /// Pin the run's processes (plant, controller, injector) to these CPUs, as `taskset -c`
+    /// takes them (e.g. 0 or 0-1; iceoryx2 only). A step is a chain of wake-ups with one
+    /// process running at a time, so where waking a process on another core is slow (VMs
+    /// that halt idle cores) one core is faster; BENCHMARKS.md measures it. Default: any.
+    #[arg(long, value_name = "LIST", env = "PLATOON_CPUS", value_parser = CpuList::parse)]
+    pub cpus: Option<CpuList>,
     /// Take K and beta1/beta2 from a certificate (`platoon design synthesize` or `check-gain`):
     /// control.gain = its K, control.beta1 = its ratio x the config's beta2.
     #[arg(long, value_name = "CERTIFICATE")]
     pub design: Option<PathBuf>,
+}
+
+/// `--cpus`: a CPU list as `taskset -c` takes it.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct CpuList(pub Vec<usize>);
+
+impl CpuList {
+    fn parse(list: &str) -> Result<Self, String> {
+        platoon_runtime::parse_cpus(list).map(Self)
+    }
 }
 
 /// What integrates the vehicles.
@@ -522,6 +538,7 @@ fn cosimulate(
         ready_timeout: std::time::Duration::from_secs(60),
         stop: Some(stop),
         observers: args.observers,
+        cpus: args.cpus.clone().map(|c| c.0).unwrap_or_default(),
         channel_first: args.injector.is_some() && args.injector_mode == InjectorMode::After,
     };
     let mut rec = Recording::new(scenario, output, dir, Some("co-simulating"))?;

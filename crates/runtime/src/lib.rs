@@ -133,3 +133,74 @@ pub fn monotonic_ns() -> u64 {
     unsafe { libc::clock_gettime(libc::CLOCK_MONOTONIC, &mut ts) };
     ts.tv_sec as u64 * 1_000_000_000 + ts.tv_nsec as u64
 }
+
+/// Parses a CPU list as `taskset -c` takes it ("0", "0,2", "0-3") and checks that this process
+/// may run on each of them. The error says which CPU is not available and which are.
+pub fn parse_cpus(list: &str) -> Result<Vec<usize>, String> {
+    let mut cpus = Vec::new();
+    for part in list.split(',').map(str::trim).filter(|p| !p.is_empty()) {
+        let num = |s: &str| {
+            s.trim()
+                .parse::<usize>()
+                .map_err(|_| format!("{part:?} is not a CPU number or range (e.g. 0, 0,2 or 0-3)"))
+        };
+        let (lo, hi) = match part.split_once('-') {
+            Some((a, b)) => (num(a)?, num(b)?),
+            None => (num(part)?, num(part)?),
+        };
+        if lo > hi {
+            return Err(format!("{part:?}: the range is empty"));
+        }
+        cpus.extend(lo..=hi);
+    }
+    if cpus.is_empty() {
+        return Err("the CPU list is empty".into());
+    }
+    let available = available_cpus();
+    if let Some(c) = cpus.iter().find(|c| !available.contains(c)) {
+        return Err(format!(
+            "CPU {c} is not available to this process (available: {})",
+            available
+                .iter()
+                .map(|c| c.to_string())
+                .collect::<Vec<_>>()
+                .join(",")
+        ));
+    }
+    cpus.sort_unstable();
+    cpus.dedup();
+    Ok(cpus)
+}
+
+/// The CPUs this process may run on (its affinity mask).
+pub fn available_cpus() -> Vec<usize> {
+    // SAFETY: cpu_set_t is plain data, filled in by sched_getaffinity.
+    let mut set: libc::cpu_set_t = unsafe { std::mem::zeroed() };
+    let size = std::mem::size_of::<libc::cpu_set_t>();
+    if unsafe { libc::sched_getaffinity(0, size, &mut set) } != 0 {
+        return Vec::new();
+    }
+    (0..libc::CPU_SETSIZE as usize)
+        .filter(|&c| unsafe { libc::CPU_ISSET(c, &set) })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cpu_lists_parse_like_taskset_and_name_what_is_wrong() {
+        let first = available_cpus()[0];
+        assert_eq!(parse_cpus(&first.to_string()).unwrap(), vec![first]);
+        assert_eq!(
+            parse_cpus(&format!("{first},{first}-{first}")).unwrap(),
+            vec![first]
+        );
+        assert!(parse_cpus("").unwrap_err().contains("empty"));
+        assert!(parse_cpus("x").unwrap_err().contains("\"x\""));
+        assert!(parse_cpus("3-1").unwrap_err().contains("empty"));
+        let err = parse_cpus("100000").unwrap_err();
+        assert!(err.contains("CPU 100000 is not available"), "{err}");
+    }
+}

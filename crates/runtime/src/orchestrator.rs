@@ -59,6 +59,11 @@ pub struct Options {
     /// Set from outside (a signal handler) to stop the run cleanly: the nodes get ABORT and
     /// the run ends with [`RunError::Interrupted`] within one wait tick (100 ms).
     pub stop: Option<std::sync::Arc<std::sync::atomic::AtomicBool>>,
+    /// The CPUs the nodes (plant, controller, injector, channel) may run on; empty: any. The
+    /// orchestrator itself is not pinned. A step is a chain of wake-ups in which one process
+    /// runs at a time, so on machines where waking a process on another core is slow (a VM
+    /// that halts idle cores) one shared core is faster: see BENCHMARKS.md.
+    pub cpus: Vec<usize>,
 }
 
 /// What a finished run reports besides its rows.
@@ -520,6 +525,7 @@ fn spawn_all(opts: &Options, children: &mut Children) -> Result<(), RunError> {
         // Their own process group: a Ctrl-C at the terminal reaches the orchestrator only,
         // which stops them with ABORT after recording what is complete.
         std::os::unix::process::CommandExt::process_group(&mut cmd, 0);
+        pin(&mut cmd, &opts.cpus);
         if node == Node::Injector && opts.channel_first {
             cmd.env("PLATOON_INJECTOR_INPUT", "gated");
         }
@@ -542,6 +548,27 @@ fn spawn_all(opts: &Options, children: &mut Children) -> Result<(), RunError> {
         children.procs.push((node, child));
     }
     Ok(())
+}
+
+/// Restricts the child to `cpus` (before it runs anything, so its threads inherit it).
+fn pin(cmd: &mut Process, cpus: &[usize]) {
+    if cpus.is_empty() {
+        return;
+    }
+    // SAFETY: cpu_set_t is plain data; CPU_ZERO/CPU_SET only write into it.
+    let mut set: libc::cpu_set_t = unsafe { std::mem::zeroed() };
+    for &cpu in cpus {
+        unsafe { libc::CPU_SET(cpu, &mut set) };
+    }
+    // SAFETY: sched_setaffinity is async-signal-safe and touches only this (forked) process.
+    unsafe {
+        std::os::unix::process::CommandExt::pre_exec(cmd, move || {
+            if libc::sched_setaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &set) != 0 {
+                return Err(std::io::Error::last_os_error());
+            }
+            Ok(())
+        });
+    }
 }
 
 fn node_command(opts: &Options, node: Node) -> Process {
