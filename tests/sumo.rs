@@ -421,3 +421,76 @@ fn seeded_background_traffic_drives_beside_the_platoon_without_touching_it() {
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("sumo.background_vehicles"));
 }
+
+/// A copy of the binary outside the repository (as `cargo install` or a release archive leaves
+/// it) runs the SUMO paper scenario with the bridge and network it carries: unpacked into
+/// $XDG_DATA_HOME/platoon, its Python environment set up there, and the same trajectories as
+/// the binary inside the checkout. An explicit --bridge-dir that is not one is refused.
+#[test]
+fn a_binary_moved_out_of_the_checkout_runs_sumo_with_the_bridge_it_carries() {
+    let tmp = tempfile::tempdir().unwrap();
+    let bin = tmp.path().join("bin");
+    std::fs::create_dir_all(&bin).unwrap();
+    let exe = bin.join("platoon");
+    std::fs::copy(env!("CARGO_BIN_EXE_platoon"), &exe).unwrap();
+    let data = tmp.path().join("data");
+    let work = tmp.path().join("work");
+    std::fs::create_dir_all(&work).unwrap();
+    let moved = |args: &[&str]| {
+        Command::new(&exe)
+            .args(args)
+            .current_dir(&work)
+            .env_remove("PLATOON_BRIDGE_DIR")
+            .env("XDG_DATA_HOME", &data)
+            .env("PLATOON_STEP_TIMEOUT", "20")
+            .output()
+            .unwrap()
+    };
+    let o = moved(&["run", "--plant", "sumo", "--no-plots", "--out", "moved"]);
+    ok(&o);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(stderr.contains("unpacked the SUMO bridge"), "{stderr}");
+    let bundles: Vec<PathBuf> = std::fs::read_dir(data.join("platoon"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    assert_eq!(bundles.len(), 1, "{bundles:?}");
+    assert!(bundles[0].join("bridge/.venv/bin/python").exists());
+    assert!(bundles[0].join("sumo/highway/highway.net.xml").exists());
+    let sumo = json(&work.join("moved/sumo.json"));
+    assert_eq!(sumo["sumo_version"].as_str(), Some("SUMO 1.28.0"), "{sumo}");
+    ok(&platoon(
+        &["run", "--plant", "sumo", "--no-plots", "--out", "checkout"],
+        tmp.path(),
+    ));
+    assert_eq!(
+        trajectories(&work.join("moved")),
+        trajectories(&tmp.path().join("checkout"))
+    );
+    // A second run reuses the bundle without a word.
+    let o = moved(&[
+        "run",
+        "--transport",
+        "inproc",
+        "--no-plots",
+        "--out",
+        "again",
+    ]);
+    ok(&o);
+    let o = moved(&[
+        "run",
+        "--plant",
+        "sumo",
+        "--out",
+        "bad",
+        "--bridge-dir",
+        work.to_str().unwrap(),
+    ]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success());
+    assert!(
+        stderr.contains("--bridge-dir") && stderr.contains("no setup-venv.sh"),
+        "{stderr}"
+    );
+    assert!(!work.join("bad").exists());
+}

@@ -320,7 +320,7 @@ fn latency(a: LatencyArgs) -> Result<LatencyReport> {
     bar.set_message("co-simulating with the Python SDK injector");
     let python_sdk = (|| -> Result<[platoon_runtime::timing::Timing; 2]> {
         let python = crate::sumo::ensure_venv()?;
-        let script = crate::sumo::bridge_dir().join("examples/dos_jammer.py");
+        let script = crate::sumo::bridge_dir()?.join("examples/dos_jammer.py");
         let program = platoon_runtime::Program::Exec {
             program: python,
             args: vec![script.display().to_string()],
@@ -518,9 +518,9 @@ struct StepRow {
 }
 
 /// A platoon-of-4 fleet config with `followers` followers in all, `seconds` long.
-fn fleet_config(followers: usize, seconds: f64, sumo: bool) -> String {
+fn fleet_config(followers: usize, seconds: f64, sumo: bool) -> Result<String> {
     let platoons = followers / 4;
-    let net = crate::sumo::bridge_dir().join("../sumo/highway-long/highway-long.net.xml");
+    let net = crate::sumo::bridge_dir()?.join("../sumo/highway-long/highway-long.net.xml");
     let mut text = platoon_config::TABLE1_TOML
         .replace("duration_s = 55.0", &format!("duration_s = {seconds:?}"))
         .replace("preset = \"tpsf\"", "preset = \"pf\"")
@@ -538,7 +538,7 @@ fn fleet_config(followers: usize, seconds: f64, sumo: bool) -> String {
     if sumo {
         text = text.replace("[simulation]\n", "[simulation]\nplant = \"sumo\"\n");
     }
-    text
+    Ok(text)
 }
 
 fn step(a: StepArgs) -> Result<Vec<StepRow>> {
@@ -572,7 +572,7 @@ fn step(a: StepArgs) -> Result<Vec<StepRow>> {
         for mode in &a.modes {
             bar.set_message(format!("{mode}, {n} followers"));
             let config = dir.path(&format!("{mode}-{n}.toml"));
-            std::fs::write(&config, fleet_config(n, a.seconds, mode == "sumo"))?;
+            std::fs::write(&config, fleet_config(n, a.seconds, mode == "sumo")?)?;
             let case = dir.path(&format!("{mode}-{n}"));
             let transport = if mode == "inproc" {
                 "inproc"

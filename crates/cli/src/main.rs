@@ -1,5 +1,6 @@
 //! `platoon`: resilient event-triggered platoon control under DoS attacks (Han et al., 2024).
 mod bench;
+mod bundle;
 mod campaign;
 mod design;
 mod experiment;
@@ -23,6 +24,12 @@ use std::process::ExitCode;
 struct Cli {
     #[command(subcommand)]
     command: Command,
+    /// The bridge directory (SUMO plant, Python injector SDK and examples; the networks are in
+    /// its ../sumo). Default: the checkout this binary was built from while it is inside it,
+    /// else a bridge/ in the current directory or beside or above the binary, else the copy
+    /// this binary carries, unpacked once into $XDG_DATA_HOME/platoon (~/.local/share).
+    #[arg(long, global = true, value_name = "DIR", env = "PLATOON_BRIDGE_DIR")]
+    bridge_dir: Option<std::path::PathBuf>,
 }
 
 #[derive(Debug, Subcommand)]
@@ -110,6 +117,13 @@ fn main() -> ExitCode {
     // SAFETY: restoring the default disposition of SIGPIPE before any thread starts.
     unsafe { libc::signal(libc::SIGPIPE, libc::SIG_DFL) };
     let cli = Cli::parse();
+    if let Some(dir) = &cli.bridge_dir {
+        // For the processes this one starts (campaign cells, Dask workers) as well.
+        std::env::set_var(
+            "PLATOON_BRIDGE_DIR",
+            std::path::absolute(dir).unwrap_or(dir.clone()),
+        );
+    }
     let result = match cli.command {
         Command::Run(args) => run::run(args),
         Command::Campaign(args) => campaign::run(args),

@@ -7,42 +7,60 @@ use platoon_sim::{PlantSpec, Scenario};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-/// The repository's `bridge/`: `PLATOON_BRIDGE_DIR` if set, else the one this binary was built
-/// from, else a `bridge/` (with `setup-venv.sh`) in the current directory or beside or above the
-/// binary, so a moved or `cargo install`ed binary still finds a checkout it runs in.
-pub fn bridge_dir() -> PathBuf {
-    if let Some(dir) = std::env::var_os("PLATOON_BRIDGE_DIR") {
-        return PathBuf::from(dir);
+/// The bridge directory (Python plant, injector SDK, examples; `../sumo/` beside it holds the
+/// networks), found once per process in this order:
+/// 1. `--bridge-dir` / `PLATOON_BRIDGE_DIR`, which must be one;
+/// 2. the checkout this binary was built from, while the binary is inside it (`cargo run`);
+/// 3. a `bridge/` in the current directory, or beside or above the binary (a release archive);
+/// 4. the copy embedded in the binary, unpacked on first use (`crate::bundle`).
+pub fn bridge_dir() -> Result<PathBuf> {
+    static FOUND: std::sync::OnceLock<PathBuf> = std::sync::OnceLock::new();
+    if let Some(dir) = FOUND.get() {
+        return Ok(dir.clone());
     }
-    let built = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../bridge");
-    let is_bridge = |d: &Path| d.join("setup-venv.sh").is_file();
-    if is_bridge(&built) {
-        return built;
+    let dir = find_bridge()?;
+    Ok(FOUND.get_or_init(|| dir).clone())
+}
+
+fn find_bridge() -> Result<PathBuf> {
+    use crate::bundle::is_bridge;
+    if let Some(dir) = std::env::var_os("PLATOON_BRIDGE_DIR").filter(|d| !d.is_empty()) {
+        let dir = PathBuf::from(dir);
+        if !is_bridge(&dir) {
+            bail!(
+                "--bridge-dir/PLATOON_BRIDGE_DIR = {} is not a bridge directory (it has no setup-venv.sh; give the bridge/ folder of a platoon checkout)",
+                dir.display()
+            );
+        }
+        return Ok(dir);
+    }
+    let exe = std::env::current_exe()
+        .ok()
+        .and_then(|e| e.canonicalize().ok());
+    let built = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    if let (Some(exe), Ok(checkout)) = (&exe, built.canonicalize()) {
+        if exe.starts_with(&checkout) && is_bridge(&checkout.join("bridge")) {
+            return Ok(checkout.join("bridge"));
+        }
     }
     let cwd = std::env::current_dir().ok().map(|d| d.join("bridge"));
-    let beside_exe = std::env::current_exe().ok().into_iter().flat_map(|exe| {
+    let beside_exe = exe.iter().flat_map(|exe| {
         exe.ancestors()
             .skip(1)
             .map(|a| a.join("bridge"))
             .collect::<Vec<_>>()
     });
-    cwd.into_iter()
-        .chain(beside_exe)
-        .find(|d| is_bridge(d))
-        .unwrap_or(built)
+    if let Some(dir) = cwd.into_iter().chain(beside_exe).find(|d| is_bridge(d)) {
+        return Ok(dir);
+    }
+    Ok(crate::bundle::unpacked()?.join("bridge"))
 }
 
 /// Creates `bridge/.venv` with the pinned packages if it is missing (with a progress message),
 /// and returns its Python.
 pub fn ensure_venv() -> Result<PathBuf> {
-    let bridge = bridge_dir();
+    let bridge = bridge_dir()?;
     let setup = bridge.join("setup-venv.sh");
-    if !setup.exists() {
-        bail!(
-            "the SUMO bridge is not at {} (set PLATOON_BRIDGE_DIR to the repository's bridge/ folder)",
-            bridge.display()
-        );
-    }
     let status = Command::new(&setup)
         .status()
         .with_context(|| format!("running {}", setup.display()))?;
@@ -119,7 +137,7 @@ pub fn plan<'a>(
     let s = &config.sumo;
     let net = match &s.net {
         Some(net) => config_file.parent().unwrap_or(Path::new(".")).join(net),
-        None => bridge_dir().join("../sumo/highway/highway.net.xml"),
+        None => bridge_dir()?.join("../sumo/highway/highway.net.xml"),
     };
     let net = net.canonicalize().map_err(|e| {
         config_error(
@@ -289,7 +307,7 @@ impl SumoPlan<'_> {
         Ok(SumoPlant {
             program: Program::Exec {
                 program: python,
-                args: vec![bridge_dir().join("sumo_plant.py").display().to_string()],
+                args: vec![bridge_dir()?.join("sumo_plant.py").display().to_string()],
             },
             env: vec![("PLATOON_PLANT_SPEC".into(), path("plant.json")?)],
         })

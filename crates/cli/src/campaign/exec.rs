@@ -198,7 +198,7 @@ pub fn dask(
     mut record: impl FnMut(CellReply) -> Result<()>,
 ) -> Result<()> {
     let python = crate::sumo::ensure_venv()?;
-    let script = crate::sumo::bridge_dir().join("dask_cells.py");
+    let script = crate::sumo::bridge_dir()?.join("dask_cells.py");
     let exe = std::env::current_exe().context("locating the platoon binary")?;
     let log_file =
         std::fs::File::create(log).with_context(|| format!("creating {}", log.display()))?;
@@ -271,7 +271,7 @@ impl LocalCluster {
     /// (at most a minute) until every worker has registered.
     pub fn start(workers: usize, dir: &Path) -> Result<Self> {
         crate::sumo::ensure_venv()?;
-        let dask = crate::sumo::bridge_dir().join(".venv/bin/dask");
+        let dask = crate::sumo::bridge_dir()?.join(".venv/bin/dask");
         let file = dir.join("scheduler.json");
         let log = |name: &str| -> Result<std::fs::File> {
             std::fs::File::create(dir.join(name))
