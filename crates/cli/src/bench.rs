@@ -72,8 +72,13 @@ pub struct StepArgs {
     /// Numbers of followers (multiples of 4: platoons of 4 followers).
     #[arg(long, value_delimiter = ',', default_value = "4,100,1000")]
     pub followers: Vec<usize>,
-    /// Transports and plants to measure: inproc, native (iceoryx2), sumo (iceoryx2 + SUMO).
-    #[arg(long, value_delimiter = ',', default_value = "inproc,native,sumo")]
+    /// Transports and plants to measure: inproc, native (iceoryx2), sumo (iceoryx2 + SUMO), and
+    /// native-1cpu, sumo-1cpu: the same with the nodes on one core (`platoon run --cpus`).
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "inproc,native,sumo,native-1cpu,sumo-1cpu"
+    )]
     pub modes: Vec<String>,
     /// Simulated seconds per case.
     #[arg(long, default_value_t = 5.0)]
@@ -515,6 +520,8 @@ struct StepRow {
     injector_p50_us: Option<f64>,
     sumo_step_p50_us: Option<f64>,
     bridge_p50_us: Option<f64>,
+    /// Peak resident memory of every process of the run (`platoon run` and its nodes), MiB.
+    peak_rss_mib: Option<f64>,
 }
 
 /// A platoon-of-4 fleet config with `followers` followers in all, `seconds` long.
@@ -548,8 +555,13 @@ fn step(a: StepArgs) -> Result<Vec<StepRow>> {
         );
     }
     for m in &a.modes {
-        if !matches!(m.as_str(), "inproc" | "native" | "sumo") {
-            bail!("unknown mode {m:?} in --modes: use inproc, native or sumo");
+        if !matches!(
+            m.as_str(),
+            "inproc" | "native" | "sumo" | "native-1cpu" | "sumo-1cpu"
+        ) {
+            bail!(
+                "unknown mode {m:?} in --modes: use inproc, native, sumo, native-1cpu or sumo-1cpu"
+            );
         }
     }
     if !(a.seconds.is_finite() && a.seconds >= 0.1) {
@@ -560,6 +572,9 @@ fn step(a: StepArgs) -> Result<Vec<StepRow>> {
         .unwrap_or_else(|| PathBuf::from("runs").join("bench-step"));
     let dir = RunDir::create(&out, a.force)?;
     let exe = std::env::current_exe().context("locating the platoon binary")?;
+    let one_cpu = platoon_runtime::available_cpus()
+        .first()
+        .map_or_else(|| "0".to_string(), |c| c.to_string());
     let bar = indicatif::ProgressBar::new((a.followers.len() * a.modes.len()) as u64);
     bar.set_style(
         indicatif::ProgressStyle::with_template(
@@ -572,24 +587,29 @@ fn step(a: StepArgs) -> Result<Vec<StepRow>> {
         for mode in &a.modes {
             bar.set_message(format!("{mode}, {n} followers"));
             let config = dir.path(&format!("{mode}-{n}.toml"));
-            std::fs::write(&config, fleet_config(n, a.seconds, mode == "sumo")?)?;
+            let sumo = mode.starts_with("sumo");
+            std::fs::write(&config, fleet_config(n, a.seconds, sumo)?)?;
             let case = dir.path(&format!("{mode}-{n}"));
             let transport = if mode == "inproc" {
                 "inproc"
             } else {
                 "iceoryx2"
             };
-            let o = Command::new(&exe)
-                .args([
-                    "run",
-                    config.to_str().unwrap_or_default(),
-                    "--no-plots",
-                    "--force",
-                    "--transport",
-                    transport,
-                    "--out",
-                ])
-                .arg(&case)
+            let mut cmd = Command::new(&exe);
+            cmd.args([
+                "run",
+                config.to_str().unwrap_or_default(),
+                "--no-plots",
+                "--force",
+                "--transport",
+                transport,
+                "--out",
+            ])
+            .arg(&case);
+            if mode.ends_with("-1cpu") {
+                cmd.arg("--cpus").arg(one_cpu.as_str());
+            }
+            let o = cmd
                 .env("PLATOON_STEP_TIMEOUT", "30")
                 .output()
                 .with_context(|| format!("running the {mode} case with {n} followers"))?;
@@ -626,6 +646,9 @@ fn step(a: StepArgs) -> Result<Vec<StepRow>> {
                 bridge_p50_us: sumo
                     .as_ref()
                     .and_then(|s| s["bridge_step"]["p50_us"].as_f64()),
+                peak_rss_mib: timing["peak_rss_mib"]
+                    .as_object()
+                    .map(|m| m.values().filter_map(|v| v.as_f64()).sum()),
             });
             bar.inc(1);
         }
@@ -917,7 +940,9 @@ fn all(a: AllArgs) -> Result<()> {
     })?;
     let steps = step(StepArgs {
         followers: vec![4, 100, 1000],
-        modes: vec!["inproc".into(), "native".into(), "sumo".into()],
+        modes: ["inproc", "native", "sumo", "native-1cpu", "sumo-1cpu"]
+            .map(String::from)
+            .to_vec(),
         seconds: 5.0,
         out: Some(out.join("step")),
         force: true,
@@ -1001,12 +1026,13 @@ fn all(a: AllArgs) -> Result<()> {
     }
     let _ = writeln!(md, "## Step cost against size (`platoon bench step`)\n");
     let _ = writeln!(md, "Platoons of 4 followers (PF, dynamic ETM, no DoS), 5 simulated seconds per case, dt = 0.01 s. p50 µs per step:\n");
-    let _ = writeln!(md, "| mode | followers | vehicles | step | x real time | plant | controller | injector | SUMO step | bridge |\n|---|---|---|---|---|---|---|---|---|---|");
+    let _ = writeln!(md, "Modes ending in -1cpu run the nodes on one core (`platoon run --cpus`). Peak RSS is the sum over every process of the run (`platoon run` and its nodes; `timing.json` has each), in MiB.\n");
+    let _ = writeln!(md, "| mode | followers | vehicles | step | x real time | plant | controller | injector | SUMO step | bridge | peak RSS |\n|---|---|---|---|---|---|---|---|---|---|---|");
     let f = |x: Option<f64>| x.map_or("-".to_string(), |v| format!("{v:.1}"));
     for r in &steps {
         let _ = writeln!(
             md,
-            "| {} | {} | {} | {:.1} | {:.1} | {} | {} | {} | {} | {} |",
+            "| {} | {} | {} | {:.1} | {:.1} | {} | {} | {} | {} | {} | {} |",
             r.mode,
             r.followers,
             r.vehicles,
@@ -1016,7 +1042,8 @@ fn all(a: AllArgs) -> Result<()> {
             f(r.controller_p50_us),
             f(r.injector_p50_us),
             f(r.sumo_step_p50_us),
-            f(r.bridge_p50_us)
+            f(r.bridge_p50_us),
+            f(r.peak_rss_mib)
         );
     }
     if let Some(big) = steps

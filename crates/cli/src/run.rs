@@ -488,11 +488,28 @@ pub fn simulate_until(
         controller_rx: None,
         plant: None,
     };
+    let finished = rec.finish(rejected)?;
+    let mut timing = serde_json::to_value(&timing)?;
+    timing["peak_rss_mib"] = peak_rss_mib(&[]);
     dir.write(
         "timing.json",
         (serde_json::to_string_pretty(&timing)? + "\n").as_bytes(),
     )?;
-    rec.finish(rejected)
+    Ok(finished)
+}
+
+/// `timing.json`'s `peak_rss_mib`: the peak resident memory of `platoon run` itself (which
+/// records and writes the outputs) and of each node process.
+fn peak_rss_mib(nodes: &[(&str, u64)]) -> serde_json::Value {
+    let mib = |kib: u64| (kib as f64 / 1024.0 * 10.0).round() / 10.0;
+    let mut m = serde_json::Map::new();
+    if let Some(own) = platoon_runtime::peak_rss_kib(None) {
+        m.insert("platoon_run".into(), mib(own).into());
+    }
+    for (node, kib) in nodes {
+        m.insert((*node).into(), mib(*kib).into());
+    }
+    m.into()
 }
 
 /// Runs the scenario across processes over iceoryx2. A failed run still returns what it
@@ -549,6 +566,7 @@ fn cosimulate(
             channel_log_format(scenario, output, dir)?;
             let mut timing = serde_json::to_value(&outcome.timing)?;
             timing["duplicate_samples"] = serde_json::to_value(outcome.duplicates)?;
+            timing["peak_rss_mib"] = peak_rss_mib(&outcome.peak_rss_kib);
             let json = serde_json::to_string_pretty(&timing)? + "\n";
             dir.write("timing.json", json.as_bytes())?;
             if outcome.duplicates.total() > 0 {

@@ -185,6 +185,24 @@ pub fn available_cpus() -> Vec<usize> {
         .collect()
 }
 
+/// The peak resident memory (`VmHWM`) of process `pid`, or of this process with `None`, in
+/// KiB; `None` where `/proc` does not say (not Linux, or the process is gone).
+pub fn peak_rss_kib(pid: Option<u32>) -> Option<u64> {
+    let path = match pid {
+        Some(pid) => format!("/proc/{pid}/status"),
+        None => "/proc/self/status".to_string(),
+    };
+    std::fs::read_to_string(path)
+        .ok()?
+        .lines()
+        .find_map(|l| l.strip_prefix("VmHWM:"))?
+        .trim()
+        .trim_end_matches("kB")
+        .trim()
+        .parse()
+        .ok()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -200,6 +218,12 @@ mod tests {
         assert!(parse_cpus("").unwrap_err().contains("empty"));
         assert!(parse_cpus("x").unwrap_err().contains("\"x\""));
         assert!(parse_cpus("3-1").unwrap_err().contains("empty"));
+        let own = peak_rss_kib(None).unwrap();
+        assert!(own > 100, "{own} KiB");
+        assert_eq!(
+            peak_rss_kib(Some(std::process::id())).map(|k| k >= own),
+            Some(true)
+        );
         let err = parse_cpus("100000").unwrap_err();
         assert!(err.contains("CPU 100000 is not available"), "{err}");
     }

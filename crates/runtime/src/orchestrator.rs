@@ -75,6 +75,8 @@ pub struct Outcome {
     pub timing: Timing,
     /// Samples that repeated a step, per service.
     pub duplicates: DuplicateSamples,
+    /// Each node's peak resident memory in KiB (`VmHWM`), read as the run ends.
+    pub peak_rss_kib: Vec<(&'static str, u64)>,
 }
 
 /// Samples the orchestrator received for a step it already had, per service (a publisher
@@ -111,6 +113,14 @@ impl Children {
             }
         }
         None
+    }
+
+    /// Each child's peak resident memory so far, in KiB.
+    fn peak_rss_kib(&self) -> Vec<(&'static str, u64)> {
+        self.procs
+            .iter()
+            .filter_map(|(node, c)| Some((node.name(), crate::peak_rss_kib(Some(c.id()))?)))
+            .collect()
     }
 
     /// Waits up to `grace` for every child to exit, then kills what is left.
@@ -324,10 +334,13 @@ pub fn orchestrate(
                 rx: rx.duplicates(),
                 commands: commands.duplicates(),
             },
+            peak_rss_kib: Vec::new(),
         })
     })();
-    match &result {
-        Ok(_) => {
+    let mut result = result;
+    match &mut result {
+        Ok(outcome) => {
+            outcome.peak_rss_kib = children.peak_rss_kib();
             let _ = control.send(ControlMsg::new(ControlMsg::STOP, Node::Orchestrator, 0));
             children.shut_down(Duration::from_secs(2));
         }
