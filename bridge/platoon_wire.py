@@ -258,12 +258,17 @@ class Outlet:
         self.wakers = wakers
 
     def send(self, step: int, time_s: float, items) -> None:
-        """Publishes `items` (a list of ctypes structures, or a ctypes array of them)."""
-        self.send_bytes(step, time_s, len(items), _as_bytes(items))
+        """Publishes `items`: a ctypes array of structures (copied straight into shared
+        memory) or a list of them."""
+        if isinstance(items, ctypes.Array):
+            self.send_bytes(step, time_s, len(items), items, ctypes.sizeof(items))
+        else:
+            self.send_bytes(step, time_s, len(items), b"".join(map(bytes, items)))
 
-    def send_bytes(self, step: int, time_s: float, count: int, data) -> None:
+    def send_bytes(self, step: int, time_s: float, count: int, data, size=None) -> None:
         """Publishes `count` items already laid out in `data` (bytes-like, e.g. packed with
-        struct): one copy into shared memory."""
+        struct, or a ctypes array; `size` bytes of it, default len(data)): one copy into
+        shared memory."""
         sample = self.publisher.loan_slice_uninit(count)
         header = StepHeader.from_address(sample.user_header_ptr)
         header.step = step
@@ -271,16 +276,10 @@ class Outlet:
         header.count = count
         header.stamp_ns = time.monotonic_ns()  # CLOCK_MONOTONIC, as the Rust nodes
         if count:
-            ctypes.memmove(sample.payload_ptr, data, len(data))
+            ctypes.memmove(sample.payload_ptr, data, len(data) if size is None else size)
         sample.assume_init().send()
         for w in self.wakers:
             w.notify()
-
-
-def _as_bytes(items):
-    if isinstance(items, ctypes.Array):
-        return bytes(items)
-    return b"".join(map(bytes, items))
 
 
 def send_status(outlet, kind: int, node: str, step: int = 0) -> None:

@@ -7,6 +7,9 @@ publish the states read from SUMO, wait for commands[k], hold each vehicle's acc
 over the step (`setAcceleration`, ballistic update, speed mode 0), step SUMO, check collisions,
 and update a[k+1] with the engine lag (platoon_plant.py). Writes SUMO's FCD output and
 sumo.json (SUMO version, per-step costs, collisions) into the run directory.
+
+`sumo_plant.py --tight-loop STEPS` (with PLATOON_PLANT_SPEC) times the same SUMO and model in a
+loop without the co-simulation around it, for `platoon bench step`.
 """
 
 import ctypes
@@ -17,6 +20,8 @@ import struct
 import statistics
 import sys
 import time
+
+import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
@@ -117,49 +122,102 @@ def start_sumo(spec):
     return libsumo
 
 
+# The numpy views of the wire types (the same fields and offsets as the ctypes mirrors).
+COMMAND = np.ctypeslib.as_array((w.Command * 1)()).dtype
+
+
 class Kinematics:
     """Every vehicle's position and speed, from SUMO and from the model (the Rust formulas of
-    `plant_step`), and how far apart they are."""
+    `plant_step`; with numpy for large fleets, as whole-array operations that round as the
+    loop does), and how far apart they are."""
 
     def __init__(self, spec, sumo, mode):
         self.sumo = sumo
         self.mode = mode  # "sumo": the controllers see SUMO's states; "model": the model's
         self.offset = float(spec["sumo"]["offset_m"])
         self.dt = float(spec["dt"])
+        n = len(spec["initial"])
+        self.vector = platoon_plant.vectorised(n)
         self.p = [float(x[0]) for x in spec["initial"]]
         self.v = [float(x[1]) for x in spec["initial"]]
+        if self.vector:
+            self.p, self.v = np.array(self.p), np.array(self.v)
         self.max_dp = 0.0
         self.max_dv = 0.0
         self.worst = None
-        self.ids = [vehicle_id(i) for i in range(len(self.p))]
-        # VehicleState[]: u32 vehicle, u32 flags, f64 p, v, a (checked against the layout).
-        self.packer = struct.Struct("<" + "IIddd" * len(self.p))
-        assert struct.calcsize("<IIddd") == ctypes.sizeof(w.VehicleState)
+        self.ids = [vehicle_id(i) for i in range(n)]
+        self.n1 = int(spec["vehicles_per_platoon"])
+        self.platoons = len(spec["lanes"])
+        # The states sample, filled in place (through a numpy view for large fleets).
+        self.out = (w.VehicleState * n)()
+        self.view = np.ctypeslib.as_array(self.out)
+        self.view["vehicle"] = np.arange(n, dtype=np.uint32)
+
+    def commands(self, cmds):
+        """The followers' commands u in slot order (platoon j's follower i at j * N + i - 1)."""
+        n1 = self.n1
+        if self.vector:
+            got = np.frombuffer(cmds, dtype=COMMAND)
+            j, i = np.divmod(got["vehicle"].astype(np.intp), n1)
+            bad = (i == 0) | (j >= self.platoons)
+            if bad.any():
+                raise SumoError(f"commands for vehicles that are not followers: {got['vehicle'][bad][:5].tolist()}")
+            u = np.zeros(len(cmds), dtype=np.float64)
+            u[j * (n1 - 1) + i - 1] = got["u"]
+            return u
+        u = [0.0] * len(cmds)
+        for c in cmds:
+            j, i = divmod(c.vehicle, n1)
+            if i == 0 or j >= self.platoons:
+                raise SumoError(f"a command for vehicle {c.vehicle}, which is not a follower")
+            u[j * (n1 - 1) + i - 1] = c.u
+        return u
 
     def step(self, accel, k):
         """The model's p, v after step k with the accelerations held over it."""
         dt = self.dt
+        if self.vector:
+            self.p = self.p + self.v * dt + 0.5 * accel * dt * dt
+            self.v = self.v + accel * dt
+            return
         for i, a in enumerate(accel):
             p, v = self.p[i], self.v[i]
             self.p[i] = p + v * dt + 0.5 * a * dt * dt
             self.v[i] = v + a * dt
 
     def read(self, k, accel):
-        """The states to publish at step k (packed as VehicleState[]), after comparing SUMO
-        with the model."""
+        """The states to publish at step k (a VehicleState array), after comparing SUMO with
+        the model. One libsumo call per vehicle and quantity: subscriptions cost more per
+        step here (BENCHMARKS.md)."""
         get_pos, get_speed = self.sumo.vehicle.getLanePosition, self.sumo.vehicle.getSpeed
-        flat = []
-        for i, vid in enumerate(self.ids):
-            p = get_pos(vid) - self.offset
-            v = get_speed(vid)
-            dp, dv = abs(p - self.p[i]), abs(v - self.v[i])
-            if dp > self.max_dp or dv > self.max_dv:
-                self.worst = {"step": k, "vehicle": i, "dp_m": dp, "dv_mps": dv}
-                self.max_dp, self.max_dv = max(self.max_dp, dp), max(self.max_dv, dv)
-            if self.mode == "sumo":
-                self.p[i], self.v[i] = p, v  # the next comparison is over one step
-            flat += (i, 0, self.p[i], self.v[i], accel[i])
-        return self.packer.pack(*flat)
+        if not self.vector:
+            out = self.out
+            for i, vid in enumerate(self.ids):
+                p = get_pos(vid) - self.offset
+                v = get_speed(vid)
+                self.compare(k, i, abs(p - self.p[i]), abs(v - self.v[i]))
+                if self.mode == "sumo":
+                    self.p[i], self.v[i] = p, v  # the next comparison is over one step
+                s = out[i]
+                s.p, s.v, s.a = self.p[i], self.v[i], accel[i]
+            return out
+        p = np.array([get_pos(vid) for vid in self.ids]) - self.offset
+        v = np.array([get_speed(vid) for vid in self.ids])
+        dp, dv = np.abs(p - self.p), np.abs(v - self.v)
+        max_dp, max_dv = float(dp.max()), float(dv.max())
+        if max_dp > self.max_dp or max_dv > self.max_dv:
+            i = int(dp.argmax() if max_dp > self.max_dp else dv.argmax())
+            self.worst = {"step": k, "vehicle": i, "dp_m": float(dp[i]), "dv_mps": float(dv[i])}
+            self.max_dp, self.max_dv = max(self.max_dp, max_dp), max(self.max_dv, max_dv)
+        if self.mode == "sumo":
+            self.p, self.v = p, v
+        self.view["p"], self.view["v"], self.view["a"] = self.p, self.v, accel
+        return self.out
+
+    def compare(self, k, i, dp, dv):
+        if dp > self.max_dp or dv > self.max_dv:
+            self.worst = {"step": k, "vehicle": i, "dp_m": dp, "dv_mps": dv}
+            self.max_dp, self.max_dv = max(self.max_dp, dp), max(self.max_dv, dv)
 
 
 def run(spec) -> int:
@@ -220,7 +278,7 @@ def run(spec) -> int:
             msg = control.receive()
 
     try:
-        states_out.send_bytes(0, 0.0, n, kin.read(0, dyn.accel))
+        states_out.send(0, 0.0, kin.read(0, dyn.accel))
         while True:
             msg = control.receive()
             while msg is not None:
@@ -236,13 +294,10 @@ def run(spec) -> int:
             c0 = time.thread_time_ns()
             if len(cmds) != len(spec["taus"]):
                 raise SumoError(f"{len(cmds)} commands for {len(spec['taus'])} followers")
-            n1 = int(spec["vehicles_per_platoon"])
-            u = [0.0] * len(cmds)
-            for c in cmds:
-                j, i = divmod(c.vehicle, n1)
-                u[j * (n1 - 1) + i - 1] = c.u
+            u = kin.commands(cmds)
             set_accel = sumo.vehicle.setAcceleration
-            for vid, a in zip(kin.ids, dyn.accel):
+            accel = dyn.accel.tolist() if dyn.vector else dyn.accel
+            for vid, a in zip(kin.ids, accel):
                 set_accel(vid, a, dt)
             t1 = time.perf_counter_ns()
             c1 = time.thread_time_ns()
@@ -273,7 +328,7 @@ def run(spec) -> int:
                     f"{kin.worst['dv_mps']:.3g} m/s (vehicle {kin.worst['vehicle']}; "
                     f"tolerance sumo.tolerance_m = {tolerance:g})"
                 )
-            states_out.send_bytes(k, k * dt, n, states)
+            states_out.send(k, k * dt, states)
             t3 = time.perf_counter_ns()
             c3 = time.thread_time_ns()
             sumo_ns.append(t2 - t1)
@@ -319,6 +374,45 @@ def run(spec) -> int:
             msg = control.receive()
 
 
+def tight_loop(spec, steps: int) -> dict:
+    """The bridge's per-step work without the co-simulation around it: the same SUMO (options,
+    network, routes), the same model, set-step-read in a loop with no process hops and no
+    waiting (the followers' commands held at 0). Medians in µs, for `platoon bench step`."""
+    import tempfile
+
+    # Its own routes file, and no FCD output: nothing of the run's directory is touched.
+    tmp = tempfile.TemporaryDirectory()
+    spec = dict(spec, sumo=dict(spec["sumo"], routes=os.path.join(tmp.name, "routes.rou.xml"),
+                                fcd_period_s=0))
+    sumo = start_sumo(spec)
+    dyn = platoon_plant.Dynamics(spec)
+    kin = Kinematics(spec, sumo, spec["sumo"]["states"])
+    u = np.zeros(len(spec["taus"])) if dyn.vector else [0.0] * len(spec["taus"])
+    dt = float(spec["dt"])
+    sumo_ns, bridge_ns = [], []
+    for k in range(steps):
+        t0 = time.perf_counter_ns()
+        accel = dyn.accel.tolist() if dyn.vector else dyn.accel
+        for vid, a in zip(kin.ids, accel):
+            sumo.vehicle.setAcceleration(vid, a, dt)
+        t1 = time.perf_counter_ns()
+        sumo.simulationStep()
+        t2 = time.perf_counter_ns()
+        kin.step(dyn.accel, k)
+        dyn.advance(k, u)
+        kin.read(k + 1, dyn.accel)
+        t3 = time.perf_counter_ns()
+        sumo_ns.append(t2 - t1)
+        bridge_ns.append((t1 - t0) + (t3 - t2))
+    sumo.close()
+    tmp.cleanup()
+    return {
+        "steps": steps,
+        "sumo_step_p50_us": statistics.median(sumo_ns) / 1e3,
+        "bridge_step_p50_us": statistics.median(bridge_ns) / 1e3,
+    }
+
+
 def main() -> int:
     path = os.environ.get("PLATOON_PLANT_SPEC")
     if not path:
@@ -329,6 +423,9 @@ def main() -> int:
         spec = json.load(f)
     NAMES["per_platoon"] = int(spec["vehicles_per_platoon"])
     NAMES["platoons"] = len(spec["lanes"])
+    if len(sys.argv) == 3 and sys.argv[1] == "--tight-loop":
+        print(json.dumps(tight_loop(spec, int(sys.argv[2]))))
+        return 0
     return run(spec)
 
 

@@ -342,6 +342,58 @@ fn the_large_highway_runs_at_a_reduced_horizon() {
     assert_eq!(rows.lines().count(), 1 + 51 * 1000);
     let fcd = std::fs::read_to_string(tmp.path().join("r/fcd.xml")).unwrap();
     assert!(fcd.contains("p99.follower9"));
+    // The bridge steps a fleet this large with numpy; with its plain loops (the path of small
+    // platoons) every bit is the same.
+    let o = platoon_command(tmp.path())
+        .args(["run", c.to_str().unwrap(), "--out", "loops", "--no-plots"])
+        .env("PLATOON_BRIDGE_VECTOR_MIN", "1000000")
+        .output()
+        .unwrap();
+    ok(&o);
+    same_files(
+        &tmp.path().join("r"),
+        &tmp.path().join("loops"),
+        "trajectories.csv",
+    );
+}
+
+/// Byte-for-byte equality of one output file of two runs.
+fn same_files(a: &Path, b: &Path, file: &str) {
+    let (x, y) = (
+        std::fs::read(a.join(file)).unwrap(),
+        std::fs::read(b.join(file)).unwrap(),
+    );
+    assert!(
+        x == y,
+        "{file} differs between {} and {}",
+        a.display(),
+        b.display()
+    );
+}
+
+#[test]
+fn the_bridges_numpy_path_equals_its_loops_on_the_paper_platoon() {
+    let tmp = tempfile::tempdir().unwrap();
+    // `states = "model"`: the controllers see the model's p and v, so its arithmetic is in
+    // every row, besides SUMO's.
+    let sumo = sumo_paper(tmp.path(), "model");
+    let run = |out: &str, vector_min: &str| {
+        let o = platoon_command(tmp.path())
+            .args(["run", sumo.to_str().unwrap(), "--out", out, "--no-plots"])
+            .env("PLATOON_BRIDGE_VECTOR_MIN", vector_min)
+            .output()
+            .unwrap();
+        ok(&o);
+    };
+    run("loops", "1000000");
+    run("numpy", "1");
+    same_files(
+        &tmp.path().join("loops"),
+        &tmp.path().join("numpy"),
+        "trajectories.csv",
+    );
+    let dev = |d: &str| json(&tmp.path().join(d).join("sumo.json"))["max_deviation_m"].clone();
+    assert_eq!(dev("loops"), dev("numpy"));
 }
 
 #[test]

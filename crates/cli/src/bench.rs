@@ -522,6 +522,10 @@ struct StepRow {
     bridge_p50_us: Option<f64>,
     /// Peak resident memory of every process of the run (`platoon run` and its nodes), MiB.
     peak_rss_mib: Option<f64>,
+    /// SUMO's step and the bridge's work for the same SUMO and model in a loop with no
+    /// co-simulation around it (`sumo_plant.py --tight-loop`).
+    sumo_step_tight_p50_us: Option<f64>,
+    bridge_tight_p50_us: Option<f64>,
 }
 
 /// A platoon-of-4 fleet config with `followers` followers in all, `seconds` long.
@@ -546,6 +550,21 @@ fn fleet_config(followers: usize, seconds: f64, sumo: bool) -> Result<String> {
         text = text.replace("[simulation]\n", "[simulation]\nplant = \"sumo\"\n");
     }
     Ok(text)
+}
+
+/// `bridge/sumo_plant.py --tight-loop`: the same SUMO and model as a run's plant.json, timed
+/// in a loop with no co-simulation around it.
+fn tight_loop(plant_json: &std::path::Path, steps: u32) -> Result<serde_json::Value> {
+    let python = crate::sumo::ensure_venv()?;
+    let o = Command::new(python)
+        .arg(crate::sumo::bridge_dir()?.join("sumo_plant.py"))
+        .args(["--tight-loop", &steps.to_string()])
+        .env("PLATOON_PLANT_SPEC", plant_json)
+        .output()?;
+    if !o.status.success() {
+        bail!("{}", String::from_utf8_lossy(&o.stderr).trim());
+    }
+    Ok(serde_json::from_slice(&o.stdout)?)
 }
 
 fn step(a: StepArgs) -> Result<Vec<StepRow>> {
@@ -624,6 +643,14 @@ fn step(a: StepArgs) -> Result<Vec<StepRow>> {
             };
             let timing = read("timing.json").context("timing.json missing")?;
             let sumo = read("sumo.json");
+            let tight = if sumo.is_some() {
+                Some(
+                    tight_loop(&case.join("plant.json"), 500)
+                        .with_context(|| format!("timing SUMO's tight loop for {n} followers"))?,
+                )
+            } else {
+                None
+            };
             let p = |v: &serde_json::Value, k: &str| v[k]["p50_us"].as_f64();
             let step_p50 = p(&timing, "step").unwrap_or(f64::NAN);
             let dt = 0.01;
@@ -646,6 +673,10 @@ fn step(a: StepArgs) -> Result<Vec<StepRow>> {
                 bridge_p50_us: sumo
                     .as_ref()
                     .and_then(|s| s["bridge_step"]["p50_us"].as_f64()),
+                sumo_step_tight_p50_us: tight.as_ref().and_then(|t| t["sumo_step_p50_us"].as_f64()),
+                bridge_tight_p50_us: tight
+                    .as_ref()
+                    .and_then(|t| t["bridge_step_p50_us"].as_f64()),
                 peak_rss_mib: timing["peak_rss_mib"]
                     .as_object()
                     .map(|m| m.values().filter_map(|v| v.as_f64()).sum()),
@@ -1027,12 +1058,12 @@ fn all(a: AllArgs) -> Result<()> {
     let _ = writeln!(md, "## Step cost against size (`platoon bench step`)\n");
     let _ = writeln!(md, "Platoons of 4 followers (PF, dynamic ETM, no DoS), 5 simulated seconds per case, dt = 0.01 s. p50 µs per step:\n");
     let _ = writeln!(md, "Modes ending in -1cpu run the nodes on one core (`platoon run --cpus`). Peak RSS is the sum over every process of the run (`platoon run` and its nodes; `timing.json` has each), in MiB.\n");
-    let _ = writeln!(md, "| mode | followers | vehicles | step | x real time | plant | controller | injector | SUMO step | bridge | peak RSS |\n|---|---|---|---|---|---|---|---|---|---|---|");
+    let _ = writeln!(md, "| mode | followers | vehicles | step | x real time | plant | controller | injector | SUMO step | bridge | SUMO step, tight loop | bridge, tight loop | peak RSS |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     let f = |x: Option<f64>| x.map_or("-".to_string(), |v| format!("{v:.1}"));
     for r in &steps {
         let _ = writeln!(
             md,
-            "| {} | {} | {} | {:.1} | {:.1} | {} | {} | {} | {} | {} | {} |",
+            "| {} | {} | {} | {:.1} | {:.1} | {} | {} | {} | {} | {} | {} | {} | {} |",
             r.mode,
             r.followers,
             r.vehicles,
@@ -1043,24 +1074,47 @@ fn all(a: AllArgs) -> Result<()> {
             f(r.injector_p50_us),
             f(r.sumo_step_p50_us),
             f(r.bridge_p50_us),
+            f(r.sumo_step_tight_p50_us),
+            f(r.bridge_tight_p50_us),
             f(r.peak_rss_mib)
         );
     }
-    if let Some(big) = steps
-        .iter()
-        .find(|r| r.mode == "sumo" && r.followers == 1000)
-    {
-        let ours = big.step_p50_us - big.sumo_step_p50_us.unwrap_or(f64::NAN);
-        let _ = writeln!(
-            md,
-            "\nN = 1000 with SUMO: {:.1}x real time (target >= 2: {}); our overhead {:.0} µs = {:.0} % of SUMO's step (target < 30 %: {}).\n",
-            big.real_time_factor,
-            if big.real_time_factor >= 2.0 { "met" } else { "missed" },
-            ours,
-            100.0 * ours / big.sumo_step_p50_us.unwrap_or(f64::NAN),
-            if ours < 0.3 * big.sumo_step_p50_us.unwrap_or(0.0) { "met" } else { "missed: the bridge's per-vehicle Python calls into libsumo and the process hops" }
-        );
+    let find = |mode: &str, n: usize| steps.iter().find(|r| r.mode == mode && r.followers == n);
+    let met = |ok: bool| if ok { "met" } else { "missed" };
+    for (sumo, native, label) in [
+        ("sumo", "native", "nodes on any CPU"),
+        ("sumo-1cpu", "native-1cpu", "nodes on one core"),
+    ] {
+        if let Some(big) = find(sumo, 1000) {
+            let s = big.sumo_step_p50_us.unwrap_or(f64::NAN);
+            let ours = big.step_p50_us - s;
+            let floor = big.bridge_tight_p50_us.unwrap_or(f64::NAN);
+            let _ = writeln!(
+                md,
+                "\nN = 1000 with SUMO, {label}: {:.1}x real time (target >= 2: {}); our overhead {:.0} µs = {:.0} % of SUMO's step (target <= 30 %: {}); of it, {:.0} µs ({:.0} % of SUMO's step) is the bridge's work that remains with no co-simulation around it (the tight loop: one libsumo call per vehicle to set its acceleration and two to read it back).",
+                big.real_time_factor,
+                met(big.real_time_factor >= 2.0),
+                ours,
+                100.0 * ours / s,
+                met(ours <= 0.3 * s),
+                floor,
+                100.0 * floor / s,
+            );
+        }
+        if let (Some(small), Some(nat)) = (find(sumo, 4), find(native, 4)) {
+            let x = small.step_p50_us / nat.step_p50_us;
+            let _ = writeln!(
+                md,
+                "\n5 vehicles, {label}: the SUMO co-simulation step is {x:.1}x the native one ({:.1} against {:.1} µs; target <= 3: {}). SUMO's own step: {} µs in the co-simulation, {} µs in the tight loop.",
+                small.step_p50_us,
+                nat.step_p50_us,
+                met(x <= 3.0),
+                f(small.sumo_step_p50_us),
+                f(small.sumo_step_tight_p50_us),
+            );
+        }
     }
+    let _ = writeln!(md);
     let _ = writeln!(
         md,
         "The scaling plot with the least-squares lines is runs/bench/step/step.png.\n"
