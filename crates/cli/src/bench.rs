@@ -134,7 +134,7 @@ pub struct AllArgs {
     /// Replace the output directory if it exists.
     #[arg(long)]
     pub force: bool,
-    /// Where to write the report [default: BENCHMARKS.md].
+    /// Where to write the report.
     #[arg(long, default_value = "BENCHMARKS.md")]
     pub markdown: PathBuf,
 }
