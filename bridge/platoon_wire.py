@@ -83,6 +83,9 @@ class Command(ctypes.Structure):
 
     TRIGGERED = 1
     AFFECTED = 2
+    GUARD = 4
+    MODE_SHIFT = 4  # (flags >> MODE_SHIFT) & MODE_MASK: 0 coop, 1 zero, 2 hold, 3 predict,
+    MODE_MASK = 0b111  # 4 acc, 5 blend
 
     _fields_ = [
         ("vehicle", ctypes.c_uint32),

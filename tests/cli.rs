@@ -46,12 +46,18 @@ fn run_writes_every_output_and_two_runs_are_byte_identical() {
     let mut lines = traj.lines();
     assert_eq!(
         lines.next().unwrap(),
-        "step,t,platoon,vehicle,p,v,a,u,theta,spacing_error,velocity_error,triggered,under_attack,affected"
+        "step,t,platoon,vehicle,p,v,a,u,theta,spacing_error,velocity_error,triggered,under_attack,affected,mode,guard"
     );
     assert_eq!(lines.count(), 5501 * 5);
+    // events.csv: one row per broadcast, and one per change of a vehicle's mode (into its
+    // `zero` fallback under DoS and back to `coop`).
     let events = std::fs::read_to_string(tmp.path().join("a/events.csv")).unwrap();
+    assert!(events.starts_with("platoon,vehicle,step,t,event,mode,inter_event_s,under_attack\n"));
     let total = summary["triggers_total"].as_u64().unwrap() as usize;
-    assert_eq!(events.lines().count() - 1, total);
+    let count = |needle: &str| events.lines().filter(|l| l.contains(needle)).count();
+    assert_eq!(count(",broadcast,"), total);
+    assert!(count(",switch,zero,") > 0);
+    assert_eq!(count(",switch,zero,"), count(",switch,coop,"));
     let png = std::fs::read(tmp.path().join("a/fig6.png")).unwrap();
     assert_eq!(&png[1..4], b"PNG");
 }

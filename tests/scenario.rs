@@ -1,6 +1,6 @@
 //! The whole paper scenario, in process: the claims of Section IV that our reading reproduces.
 use platoon_config::{parse, PAPER_TOML, TABLE1_TOML};
-use platoon_control::{AttackInput, TriggerRule};
+use platoon_control::{FallbackMode, TriggerRule};
 use platoon_sim::{run, Scenario, StepRow, Summary};
 use std::path::Path;
 
@@ -126,7 +126,7 @@ fn affected_followers_apply_zero_or_hold_and_freeze_theta() {
         }
     }
     let mut hold = paper();
-    hold.control.attack_input = AttackInput::Hold;
+    hold.control.fallback.mode = FallbackMode::Hold;
     let (rows_hold, _) = run_rows(hold);
     let during = |rs: &[StepRow]| {
         rs.iter()
@@ -146,7 +146,7 @@ fn resilient_sampling_every_h_during_attacks() {
     // With u = 0 while jammed the plant follows the open-loop estimator, so the event rule rarely
     // fires inside an attack; holding the last input makes it fire, and then (11) takes over.
     let mut s = paper();
-    s.control.attack_input = AttackInput::Hold;
+    s.control.fallback.mode = FallbackMode::Hold;
     let (rows, _) = run_rows(s.clone());
     let h = f64::from(s.control.h_steps) * s.dt();
     // Within an attack, consecutive broadcasts of a follower are h apart once it has detected it.

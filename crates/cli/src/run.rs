@@ -301,6 +301,7 @@ struct Recording {
     wire: crate::tables::Table<WireRow>,
     decimate: u64,
     last: Vec<Option<u64>>,
+    modes: Vec<platoon_control::Mode>,
     per_platoon: usize,
     dt: f64,
     rows: Vec<StepRow>,
@@ -325,15 +326,27 @@ struct WireRow {
     jammed: u64,
 }
 
-/// One row per broadcast of a follower.
+/// One row per broadcast of a follower, and one per change of its mode.
 #[derive(serde::Serialize, serde::Deserialize)]
 struct EventRow {
     platoon: u16,
     vehicle: u16,
     step: u64,
     t: f64,
+    /// `broadcast`, or `switch` (the vehicle's mode changed at this step).
+    event: Event,
+    /// The mode it is in (after the switch).
+    mode: platoon_control::Mode,
+    /// Broadcasts: the time since its previous broadcast.
     inter_event_s: Option<f64>,
     under_attack: bool,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+enum Event {
+    Broadcast,
+    Switch,
 }
 
 impl Recording {
@@ -359,6 +372,7 @@ impl Recording {
             wire: crate::tables::Table::create(dir, "wire", format, on("wire"))?,
             decimate: output.decimate,
             last: vec![None; scenario.vehicles()],
+            modes: vec![platoon_control::Mode::Coop; scenario.vehicles()],
             per_platoon: scenario.vehicles_per_platoon(),
             dt: scenario.dt(),
             // Platoon 0's rows for the plots; grown as needed past a million steps.
@@ -408,17 +422,28 @@ impl Recording {
             if keep {
                 self.trajectories.write(*r)?;
             }
-            if r.vehicle > 0 && r.triggered {
-                let prev = &mut self.last
-                    [usize::from(r.platoon) * self.per_platoon + usize::from(r.vehicle)];
-                self.events.write(EventRow {
-                    platoon: r.platoon,
-                    vehicle: r.vehicle,
-                    step: r.step,
-                    t: r.t,
-                    inter_event_s: prev.map(|p| (r.step - p) as f64 * self.dt),
-                    under_attack: r.under_attack,
-                })?;
+            if r.vehicle == 0 {
+                continue;
+            }
+            let v = usize::from(r.platoon) * self.per_platoon + usize::from(r.vehicle);
+            let row = |event, inter_event_s| EventRow {
+                platoon: r.platoon,
+                vehicle: r.vehicle,
+                step: r.step,
+                t: r.t,
+                event,
+                mode: r.mode,
+                inter_event_s,
+                under_attack: r.under_attack,
+            };
+            if r.mode != self.modes[v] {
+                self.modes[v] = r.mode;
+                self.events.write(row(Event::Switch, None))?;
+            }
+            if r.triggered {
+                let prev = &mut self.last[v];
+                let inter = prev.map(|p| (r.step - p) as f64 * self.dt);
+                self.events.write(row(Event::Broadcast, inter))?;
                 *prev = Some(r.step);
             }
         }

@@ -1,5 +1,6 @@
 use platoon_attacks::Assumption2;
-use platoon_control::AttackInput;
+use platoon_control::fallback::AccParams;
+use platoon_control::FallbackMode;
 use platoon_model::tau::Interpolation;
 use serde::{Deserialize, Serialize};
 
@@ -25,6 +26,15 @@ pub struct Config {
     pub control: Control,
     /// The triggering rule.
     pub trigger: Trigger,
+    /// Degradation while affected by an attack.
+    #[serde(default)]
+    pub fallback: FallbackConfig,
+    /// The on-board radar.
+    #[serde(default)]
+    pub radar: RadarConfig,
+    /// The emergency-braking guard.
+    #[serde(default)]
+    pub guard: GuardConfig,
     /// The DoS attack.
     #[serde(default)]
     pub attack: Attack,
@@ -454,9 +464,95 @@ pub struct Control {
     pub beta1: f64,
     /// Weight of |q|^2 in the trigger conditions.
     pub beta2: f64,
-    /// Input while affected by an attack: `zero` (the paper) or `hold` (last input).
+    /// The older name of `fallback.mode` (`zero` or `hold`); set one of them.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub attack_input: Option<FallbackMode>,
+}
+
+/// `[fallback]`: what a follower does while affected by an attack, and how it comes back.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FallbackConfig {
+    /// `zero` (the paper), `hold`, `predict` or `acc`.
     #[serde(default)]
-    pub attack_input: AttackInput,
+    pub mode: FallbackMode,
+    /// One mode per follower instead (follower 1 first).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub per_vehicle: Option<Vec<FallbackMode>>,
+    /// Time a vehicle stays in its fallback once it is no longer affected (s) [0].
+    #[serde(default)]
+    pub dwell_s: f64,
+    /// Time over which it then blends back to the cooperative law (s) [0: at once].
+    #[serde(default)]
+    pub blend_s: f64,
+    /// The ACC law.
+    #[serde(default)]
+    pub acc: AccParams,
+}
+
+impl Default for FallbackConfig {
+    fn default() -> Self {
+        Self {
+            mode: FallbackMode::Zero,
+            per_vehicle: None,
+            dwell_s: 0.0,
+            blend_s: 0.0,
+            acc: AccParams::default(),
+        }
+    }
+}
+
+/// `[radar]`: every follower's on-board radar (read by the `acc` fallback and the guard).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RadarConfig {
+    /// Range (m) [150].
+    pub range_m: f64,
+    /// Measurement period (s), a whole number of steps [0.05].
+    pub period_s: f64,
+    /// Standard deviation of the gap's noise (m) [0.05].
+    pub noise_m: f64,
+    /// Standard deviation of the closing speed's noise (m/s) [0.05].
+    pub noise_mps: f64,
+    /// Probability a measurement is lost [0].
+    pub dropout: f64,
+    /// Seed of noise and dropouts [1].
+    pub seed: u64,
+}
+
+impl Default for RadarConfig {
+    fn default() -> Self {
+        Self {
+            range_m: 150.0,
+            period_s: 0.05,
+            noise_m: 0.05,
+            noise_mps: 0.05,
+            dropout: 0.0,
+            seed: 1,
+        }
+    }
+}
+
+/// `[guard]`: emergency braking on the radar's time to collision, in every mode.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct GuardConfig {
+    /// Whether it is on [false].
+    pub enabled: bool,
+    /// Time to collision below which it brakes (s) [2].
+    pub ttc_s: f64,
+    /// Its deceleration (m/s^2) [6].
+    pub decel_mps2: f64,
+}
+
+impl Default for GuardConfig {
+    fn default() -> Self {
+        Self {
+            enabled: false,
+            ttc_s: 2.0,
+            decel_mps2: 6.0,
+        }
+    }
 }
 
 /// `[trigger]`. Keys that belong to another rule are errors.

@@ -48,6 +48,65 @@ fn steps_of(key: &str, period: f64, dt: f64) -> Result<u32, Invalid> {
     Ok(n as u32)
 }
 
+/// `[fallback]`, `[radar]` and `[guard]` (and the older `control.attack_input`).
+fn fallback(
+    c: &Config,
+    dt: f64,
+    vehicle_length: f64,
+) -> Result<platoon_control::FallbackParams, Invalid> {
+    let f = &c.fallback;
+    let mode = match c.control.attack_input {
+        Some(_) if f.mode != platoon_control::FallbackMode::Zero => {
+            return bad(
+                "control.attack_input",
+                "is the older name of fallback.mode: set only fallback.mode",
+            )
+        }
+        Some(m) => m,
+        None => f.mode,
+    };
+    let steps = |key: &str, s: f64| -> Result<u32, Invalid> {
+        if s == 0.0 {
+            Ok(0)
+        } else {
+            steps_of(key, s, dt)
+        }
+    };
+    let r = &c.radar;
+    let g = &c.guard;
+    let params = platoon_control::FallbackParams {
+        mode,
+        per_vehicle: f.per_vehicle.clone().unwrap_or_default(),
+        dwell_steps: steps("fallback.dwell_s", f.dwell_s)?,
+        blend_steps: steps("fallback.blend_s", f.blend_s)?,
+        acc: f.acc,
+        radar: platoon_control::fallback::RadarParams {
+            range_m: r.range_m,
+            period_steps: steps_of("radar.period_s", r.period_s, dt)?,
+            noise_m: r.noise_m,
+            noise_mps: r.noise_mps,
+            dropout: r.dropout,
+            seed: r.seed,
+        },
+        guard: g.enabled.then_some(platoon_control::fallback::GuardParams {
+            ttc_s: g.ttc_s,
+            decel_mps2: g.decel_mps2,
+        }),
+        vehicle_length,
+    };
+    params
+        .validate(c.platoon.followers)
+        .or_else(|(key, message)| {
+            let key = if key.starts_with("radar.") || key.starts_with("guard.") {
+                key.to_string()
+            } else {
+                format!("fallback.{key}")
+            };
+            bad(&key, message)
+        })?;
+    Ok(params)
+}
+
 fn only_for(key: &str, given: bool, owner: &str) -> Result<(), Invalid> {
     if given {
         bad(key, format!("is only used with {owner}; remove it"))
@@ -362,7 +421,7 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
         resilient: tr.resilient,
         h_steps,
         check_steps,
-        attack_input: k.attack_input,
+        fallback: fallback(c, dt, vehicle_length)?,
         dt,
         tau_nominal,
         spacing,

@@ -1,4 +1,5 @@
-use crate::{AttackInput, ControllerParams, Delivery, Packet, ParamsError, TriggerRule};
+use crate::fallback::{acc_command, radar_truth, Radar, RadarTruth};
+use crate::{ControllerParams, Delivery, FallbackMode, Mode, Packet, ParamsError, TriggerRule};
 use platoon_model::{FreeFlow, State, VehicleId};
 use platoon_topology::Topology;
 
@@ -72,16 +73,36 @@ struct Heard {
 pub struct FollowerStep {
     /// It broadcast its state in this step.
     pub triggered: bool,
-    /// It was affected by an attack (`A*`): input per [`AttackInput`], theta frozen.
+    /// It was affected by an attack (`A*`): its fallback applies, theta frozen.
     pub affected: bool,
     /// The command `u_i[k]`.
     pub u: f64,
     /// `theta_i` at the start of the step (0 for rules without one).
     pub theta: f64,
+    /// What it did: cooperative law, a fallback, or blending back.
+    pub mode: Mode,
+    /// The emergency-braking guard overrode the command.
+    pub guard: bool,
+}
+
+/// Where a follower is on its way through a fallback and back.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Phase {
+    Coop,
+    /// In its fallback since `since`; unaffected for the last `calm` steps.
+    Fallback {
+        since: u64,
+        calm: u32,
+    },
+    /// Blending back: `done` blend steps so far; the ACC headway it had reached (if any).
+    Blend {
+        done: u32,
+        since: u64,
+    },
 }
 
 #[derive(Debug, Clone, Copy, PartialEq)]
-enum Mode {
+enum Sampling {
     /// The event rule decides.
     Event,
     /// Resilient sampling (11): the last broadcast fell in an attack; sample again at `next`.
@@ -96,10 +117,15 @@ struct Follower {
     estimates: Vec<State>,
     heard: Vec<Heard>,
     theta: f64,
-    mode: Mode,
+    sampling: Sampling,
     seq: u32,
     last_u: f64,
+    /// What `hold` applies: the input of the step before it entered its fallback.
+    held: f64,
     step: FollowerStep,
+    fallback: FallbackMode,
+    phase: Phase,
+    radar: Radar,
 }
 
 /// The controllers of all followers of one platoon. Pure and deterministic: the same calls give
@@ -114,6 +140,7 @@ pub struct PlatoonController {
     leader_seq: u32,
     rejected: RejectCounts,
     commands: Vec<f64>,
+    truth: Vec<Option<RadarTruth>>,
 }
 
 impl PlatoonController {
@@ -126,6 +153,10 @@ impl PlatoonController {
     ) -> Result<Self, ParamsError> {
         params.validate()?;
         let n = topology.followers();
+        params
+            .fallback
+            .validate(n)
+            .map_err(|(field, message)| ParamsError { field, message })?;
         if initial.len() != n + 1 {
             return Err(ParamsError {
                 field: "initial_states",
@@ -159,10 +190,14 @@ impl PlatoonController {
                     neighbours,
                     estimates,
                     theta: theta0,
-                    mode: Mode::Event,
+                    sampling: Sampling::Event,
                     seq: 0,
                     last_u: 0.0,
+                    held: 0.0,
                     step: FollowerStep::default(),
+                    fallback: params.fallback.of(i),
+                    phase: Phase::Coop,
+                    radar: Radar::new(params.fallback.radar.seed, i as u16),
                 }
             })
             .collect();
@@ -187,6 +222,7 @@ impl PlatoonController {
             leader_seq: 0,
             rejected: RejectCounts::default(),
             commands: vec![0.0; n],
+            truth: Vec::with_capacity(n + 1),
             params,
         })
     }
@@ -234,9 +270,9 @@ impl PlatoonController {
             let fire = if k == 0 {
                 true // t_0 = 0 is a sampling instant of every rule
             } else {
-                match f.mode {
-                    Mode::Attacked { next } => k >= next,
-                    Mode::Event => {
+                match f.sampling {
+                    Sampling::Attacked { next } => k >= next,
+                    Sampling::Event => {
                         // beta1 |eps|^2 - beta2 |q|^2, evaluated only when a rule needs it.
                         let s = || {
                             let eps2 = (f.own - x).norm_squared();
@@ -287,30 +323,87 @@ impl PlatoonController {
             self.accept(k, d);
         }
         let p = &self.params;
+        let fb = &p.fallback;
+        let radar_on = fb.uses_radar();
+        if radar_on {
+            radar_truth(states, fb.vehicle_length, &mut self.truth);
+        }
         for (f, u_out) in self.followers.iter_mut().zip(self.commands.iter_mut()) {
             let jam = jammed[f.id.index()];
             if f.step.triggered && p.resilient {
-                f.mode = if jam {
-                    Mode::Attacked {
+                f.sampling = if jam {
+                    Sampling::Attacked {
                         next: k + u64::from(p.h_steps),
                     }
                 } else {
-                    Mode::Event
+                    Sampling::Event
                 };
             }
-            let affected = jam || matches!(f.mode, Mode::Attacked { .. });
+            let affected = jam || matches!(f.sampling, Sampling::Attacked { .. });
             let q = neighbourhood_error(f, p.spacing);
-            let u = if affected {
-                match p.attack_input {
-                    AttackInput::Zero => 0.0,
-                    AttackInput::Hold => f.last_u,
-                }
+            let coop = -(p.gain * q)[0];
+            let reading = if radar_on {
+                f.radar.read(k, &fb.radar, self.truth[f.id.index()])
             } else {
-                -(p.gain * q)[0]
+                None
+            };
+            // Into the fallback when affected; out of it after `dwell` calm steps, through
+            // `blend` steps of blending (none: at once, the paper).
+            f.phase = match (f.phase, affected) {
+                (Phase::Fallback { since, .. }, true) => Phase::Fallback { since, calm: 0 },
+                (_, true) => {
+                    f.held = f.last_u;
+                    Phase::Fallback { since: k, calm: 0 }
+                }
+                (Phase::Fallback { since, calm }, false) if calm < fb.dwell_steps => {
+                    Phase::Fallback {
+                        since,
+                        calm: calm + 1,
+                    }
+                }
+                (Phase::Fallback { since, .. }, false) if fb.blend_steps > 0 => {
+                    Phase::Blend { done: 1, since }
+                }
+                (Phase::Blend { done, since }, false) if done < fb.blend_steps => Phase::Blend {
+                    done: done + 1,
+                    since,
+                },
+                (_, false) => Phase::Coop,
+            };
+            let own = states[f.id.index()];
+            let fallback_u = |since: u64| match f.fallback {
+                FallbackMode::Zero => 0.0,
+                FallbackMode::Hold => f.held,
+                FallbackMode::Predict => coop,
+                FallbackMode::Acc => {
+                    let opened = (k - since) as f64 * p.dt;
+                    let h = if fb.acc.opening_s > 0.0 {
+                        fb.acc.headway_s * (opened / fb.acc.opening_s).min(1.0)
+                    } else {
+                        fb.acc.headway_s
+                    };
+                    acc_command(&fb.acc, reading, h, own[1], p.spacing, fb.vehicle_length)
+                }
+            };
+            let (mode, mut u) = match f.phase {
+                Phase::Coop => (Mode::Coop, coop),
+                Phase::Fallback { since, .. } => (f.fallback.mode(), fallback_u(since)),
+                Phase::Blend { done, since } => {
+                    let from = fallback_u(since);
+                    let w = f64::from(done) / f64::from(fb.blend_steps);
+                    (Mode::Blend, from + w * (coop - from))
+                }
+            };
+            let guard = match (&fb.guard, reading) {
+                (Some(g), Some(r)) if r.ttc() < g.ttc_s => {
+                    u = u.min(-g.decel_mps2);
+                    true
+                }
+                _ => false,
             };
             if !affected {
                 if let TriggerRule::Dynamic { .. } = p.rule {
-                    let eps2 = (f.own - states[f.id.index()]).norm_squared();
+                    let eps2 = (f.own - own).norm_squared();
                     let s = p.beta1 * eps2 - p.beta2 * q.norm_squared();
                     f.theta = (self.theta_decay * f.theta - self.theta_gain * s).max(0.0);
                 }
@@ -318,6 +411,8 @@ impl PlatoonController {
             f.last_u = u;
             f.step.u = u;
             f.step.affected = affected;
+            f.step.mode = mode;
+            f.step.guard = guard;
             *u_out = u;
             f.own = self.flow.advance(&f.own);
             for e in &mut f.estimates {
@@ -425,7 +520,7 @@ mod tests {
             resilient: true,
             h_steps: 2,
             check_steps: 1,
-            attack_input: AttackInput::Zero,
+            fallback: crate::FallbackParams::default(),
             dt: 0.01,
             tau_nominal: 0.5,
             spacing: 10.0,

@@ -22,10 +22,12 @@
 #![warn(missing_docs)]
 
 mod controller;
+pub mod fallback;
 mod trigger;
 
 pub use controller::{FollowerStep, PlatoonController, RejectCounts, PLAUSIBLE_ACCEL};
-pub use trigger::{AttackInput, ControllerParams, ParamsError, TriggerRule};
+pub use fallback::{FallbackMode, FallbackParams, Mode};
+pub use trigger::{ControllerParams, ParamsError, TriggerRule};
 
 use platoon_model::{State, VehicleId};
 

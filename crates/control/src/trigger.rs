@@ -40,17 +40,6 @@ pub enum TriggerRule {
     },
 }
 
-/// What a follower applies while it is affected by an attack (`A*` of the paper).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum AttackInput {
-    /// `u_i = 0`, the paper's choice (Section II-E).
-    #[default]
-    Zero,
-    /// Hold the last input computed before the attack.
-    Hold,
-}
-
 /// Everything a follower controller needs besides the graph.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ControllerParams {
@@ -69,8 +58,8 @@ pub struct ControllerParams {
     pub h_steps: u32,
     /// How often the event condition is checked, in steps (ERRATA item 10).
     pub check_steps: u32,
-    /// What to apply while affected by an attack.
-    pub attack_input: AttackInput,
+    /// What to do while affected by an attack, and how to come back.
+    pub fallback: crate::FallbackParams,
     /// Step length (s).
     pub dt: f64,
     /// Nominal time constant used by the estimators (s).

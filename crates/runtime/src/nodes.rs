@@ -322,8 +322,12 @@ pub fn controller(run_id: &str, scenario: &Scenario) -> Result<(), RunError> {
                             let f = c.follower_step(VehicleId(i as u16));
                             Command {
                                 vehicle: num.global(j, VehicleId(i as u16)),
-                                flags: u32::from(f.triggered) * Command::TRIGGERED
-                                    + u32::from(f.affected) * Command::AFFECTED,
+                                flags: Command::flags_of(
+                                    f.triggered,
+                                    f.affected,
+                                    f.guard,
+                                    f.mode.code(),
+                                ),
                                 u: f.u,
                                 theta: f.theta,
                             }

@@ -673,6 +673,8 @@ impl<'a> Recorder<'a> {
                         affected: cmd.flags & Command::AFFECTED != 0,
                         u: cmd.u,
                         theta: cmd.theta,
+                        mode: platoon_control::Mode::from_code(cmd.mode_code()),
+                        guard: cmd.flags & Command::GUARD != 0,
                     }
                 },
                 &mut self.rows,

@@ -60,8 +60,13 @@ pub struct StepRow {
     pub triggered: bool,
     /// The channel was jammed at this step.
     pub under_attack: bool,
-    /// The vehicle was affected by an attack (`A*`: input per the attack-input option).
+    /// The vehicle was affected by an attack (`A*`: its fallback applies).
     pub affected: bool,
+    /// What the vehicle did: `coop` (the cooperative law; the leader's rows), its fallback
+    /// (`zero`, `hold`, `predict`, `acc`) or `blend` (on its way back).
+    pub mode: platoon_control::Mode,
+    /// The emergency-braking guard overrode the command.
+    pub guard: bool,
 }
 
 /// The native plant: every follower under its own tau schedule (exact ZOH lag), the leader on
@@ -181,6 +186,8 @@ pub fn step_rows(
         triggered: leader_triggered,
         under_attack: jammed[0],
         affected: false,
+        mode: platoon_control::Mode::Coop,
+        guard: false,
     });
     for (i, x) in states.iter().enumerate().skip(1) {
         let s = follower(i);
@@ -199,6 +206,8 @@ pub fn step_rows(
             triggered: s.triggered,
             under_attack: jammed[i],
             affected: s.affected,
+            mode: s.mode,
+            guard: s.guard,
         });
     }
 }

@@ -145,6 +145,8 @@ impl Scenario {
             }
         }
         s.channel_seed = self.channel_seed.wrapping_add(j as u64);
+        // Each platoon's radars draw their own noise.
+        s.control.fallback.radar.seed = self.control.fallback.radar.seed.wrapping_add(j as u64);
         s.platoon = j as u16;
         s
     }

@@ -104,7 +104,9 @@ impl LinkPacket {
 pub struct Command {
     /// Follower id (>= 1).
     pub vehicle: u32,
-    /// Bit 0: it broadcast in this step; bit 1: it was affected by an attack.
+    /// Bit 0: it broadcast in this step; bit 1: it was affected by an attack; bit 2: the
+    /// emergency-braking guard overrode the command; bits 4-6: its mode (0 coop, 1 zero,
+    /// 2 hold, 3 predict, 4 acc, 5 blend).
     pub flags: u32,
     /// Commanded acceleration `u_i[k]` (m/s^2).
     pub u: f64,
@@ -117,6 +119,25 @@ impl Command {
     pub const TRIGGERED: u32 = 1;
     /// `flags` bit: affected by an attack.
     pub const AFFECTED: u32 = 2;
+    /// `flags` bit: the emergency-braking guard overrode the command.
+    pub const GUARD: u32 = 4;
+    /// `flags` bits of the mode code: `(flags >> MODE_SHIFT) & MODE_MASK`.
+    pub const MODE_SHIFT: u32 = 4;
+    /// See [`Command::MODE_SHIFT`].
+    pub const MODE_MASK: u32 = 0b111;
+
+    /// The flags of a follower's step.
+    pub fn flags_of(triggered: bool, affected: bool, guard: bool, mode_code: u32) -> u32 {
+        u32::from(triggered) * Self::TRIGGERED
+            + u32::from(affected) * Self::AFFECTED
+            + u32::from(guard) * Self::GUARD
+            + ((mode_code & Self::MODE_MASK) << Self::MODE_SHIFT)
+    }
+
+    /// The mode code in `flags`.
+    pub fn mode_code(&self) -> u32 {
+        (self.flags >> Self::MODE_SHIFT) & Self::MODE_MASK
+    }
 }
 
 /// Control and status messages (orchestrator <-> every node), one per sample.

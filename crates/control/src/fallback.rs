@@ -1,0 +1,544 @@
+//! Graceful degradation: what a follower does while it is affected by an attack (`A*`), its
+//! on-board radar, the way back to cooperative control, and an emergency-braking guard.
+//!
+//! A follower is in one of the [`Mode`]s at every step. While it is affected it applies its
+//! [`FallbackMode`]:
+//!
+//! - `zero`: `u = 0` (the paper);
+//! - `hold`: the last input before the attack;
+//! - `predict`: the cooperative law `u = -K q` on the open-loop estimates it already has (no
+//!   packets needed; the estimators keep running);
+//! - `acc`: adaptive cruise control on its own radar, never on V2V: with the gap `d` to the
+//!   vehicle ahead, the closing speed `c = v_i - v_ahead` and a constant time headway `h`,
+//!   `u = (lambda e - c) / h` with `e = d + L - l - h_ramp v_i` (Rajamani's CTH law:
+//!   `kp = lambda / h`, `kd = 1 / h`), clamped to `[-max_decel, max_accel]`. `h_ramp` grows
+//!   from 0 to `h` over `opening_s` after the switch, so the gap opens gently instead of with a
+//!   brake step. String stable for the third-order model when `h >= 2 tau`
+//!   ([`acc_string_gain`] checks `|G(jw)| <= 1` numerically).
+//!
+//! Once it is no longer affected it stays in its fallback for `dwell` steps (flapping links do
+//! not chatter), then blends over `blend` steps from the fallback input to the cooperative one,
+//! `u = u_fb + w (u_coop - u_fb)`, `w = j / blend` at the j-th blend step, so the command moves
+//! by at most `|u_coop - u_fb| / blend` per step on top of each input's own change.
+//!
+//! The guard is independent of the mode: when the radar's time to collision `d / c` (closing
+//! only) is below `ttc_s` it commands `min(u, -decel)`.
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Normal};
+use serde::{Deserialize, Serialize};
+
+/// What a follower applies while it is affected by an attack (`A*` of the paper).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FallbackMode {
+    /// `u_i = 0`, the paper's choice (Section II-E).
+    #[default]
+    Zero,
+    /// Hold the last input computed before the attack.
+    Hold,
+    /// Keep applying the law on the open-loop estimates.
+    Predict,
+    /// Adaptive cruise control on the on-board radar.
+    Acc,
+}
+
+impl FallbackMode {
+    /// The mode this fallback puts a vehicle in.
+    pub fn mode(self) -> Mode {
+        match self {
+            FallbackMode::Zero => Mode::Zero,
+            FallbackMode::Hold => Mode::Hold,
+            FallbackMode::Predict => Mode::Predict,
+            FallbackMode::Acc => Mode::Acc,
+        }
+    }
+}
+
+/// What a follower is doing at a step.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Mode {
+    /// The cooperative law `u = -K q` (also the leader's row).
+    #[default]
+    Coop,
+    /// Fallback `zero`.
+    Zero,
+    /// Fallback `hold`.
+    Hold,
+    /// Fallback `predict`.
+    Predict,
+    /// Fallback `acc`.
+    Acc,
+    /// Blending from the fallback back to the cooperative law.
+    Blend,
+}
+
+impl Mode {
+    /// Every mode, in code order.
+    pub const ALL: [Mode; 6] = [
+        Mode::Coop,
+        Mode::Zero,
+        Mode::Hold,
+        Mode::Predict,
+        Mode::Acc,
+        Mode::Blend,
+    ];
+
+    /// The mode's code on the wire (3 bits).
+    pub fn code(self) -> u32 {
+        self as u32
+    }
+
+    /// The mode of a wire code (unknown codes read as `Coop`).
+    pub fn from_code(code: u32) -> Mode {
+        Mode::ALL.get(code as usize).copied().unwrap_or(Mode::Coop)
+    }
+
+    /// Its name in outputs.
+    pub fn name(self) -> &'static str {
+        match self {
+            Mode::Coop => "coop",
+            Mode::Zero => "zero",
+            Mode::Hold => "hold",
+            Mode::Predict => "predict",
+            Mode::Acc => "acc",
+            Mode::Blend => "blend",
+        }
+    }
+}
+
+/// The ACC fallback's law (see the module docs); `[fallback.acc]` in a config, every key
+/// optional.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct AccParams {
+    /// Constant time headway h (s), > 0.
+    pub headway_s: f64,
+    /// lambda: kp = lambda / h (1/s), > 0.
+    pub lambda: f64,
+    /// Time over which the headway grows from 0 to h after the switch (s), >= 0.
+    pub opening_s: f64,
+    /// Largest acceleration it commands (m/s^2), > 0.
+    pub max_accel_mps2: f64,
+    /// Largest deceleration it commands (m/s^2), > 0.
+    pub max_decel_mps2: f64,
+}
+
+impl Default for AccParams {
+    /// h = 2 s (string stable for tau up to 1 s, which covers the paper's 0.34-0.82 s), lambda
+    /// = 0.2, the gap opened over 10 s, within +-3.5 m/s^2 (comfort braking).
+    fn default() -> Self {
+        Self {
+            headway_s: 2.0,
+            lambda: 0.2,
+            opening_s: 10.0,
+            max_accel_mps2: 2.0,
+            max_decel_mps2: 3.5,
+        }
+    }
+}
+
+/// The on-board radar: the gap to the vehicle ahead and the closing speed, measured locally.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RadarParams {
+    /// Beyond this range (m) there is no target. > 0.
+    pub range_m: f64,
+    /// A new measurement every this many steps (held in between). >= 1.
+    pub period_steps: u32,
+    /// Standard deviation of the gap's noise (m), >= 0.
+    pub noise_m: f64,
+    /// Standard deviation of the closing speed's noise (m/s), >= 0.
+    pub noise_mps: f64,
+    /// Probability that a measurement is lost (the previous one is kept), in [0, 1).
+    pub dropout: f64,
+    /// Seed of the noise and dropouts (each vehicle of each platoon draws its own stream).
+    pub seed: u64,
+}
+
+impl Default for RadarParams {
+    /// A long-range automotive radar: 150 m, 20 Hz at dt = 0.01 s, 0.05 m and 0.05 m/s noise.
+    fn default() -> Self {
+        Self {
+            range_m: 150.0,
+            period_steps: 5,
+            noise_m: 0.05,
+            noise_mps: 0.05,
+            dropout: 0.0,
+            seed: 1,
+        }
+    }
+}
+
+/// The emergency-braking guard.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct GuardParams {
+    /// It brakes when the radar's time to collision is below this (s), > 0.
+    pub ttc_s: f64,
+    /// With this deceleration (m/s^2), > 0.
+    pub decel_mps2: f64,
+}
+
+/// Everything about degradation, for every follower of a platoon.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FallbackParams {
+    /// The fallback of every follower...
+    pub mode: FallbackMode,
+    /// ...unless given here per follower (N entries, follower 1 first; empty: none).
+    pub per_vehicle: Vec<FallbackMode>,
+    /// Steps a vehicle stays in its fallback once it is no longer affected.
+    pub dwell_steps: u32,
+    /// Steps over which it then blends back to the cooperative law (0: at once).
+    pub blend_steps: u32,
+    /// The ACC law.
+    pub acc: AccParams,
+    /// The radar.
+    pub radar: RadarParams,
+    /// The guard, if any.
+    pub guard: Option<GuardParams>,
+    /// Vehicle length L (m): the radar measures bumper to bumper, `d = p_ahead - p_i - L`.
+    pub vehicle_length: f64,
+}
+
+impl Default for FallbackParams {
+    /// The paper: `zero`, back at once, no guard.
+    fn default() -> Self {
+        Self {
+            mode: FallbackMode::Zero,
+            per_vehicle: Vec::new(),
+            dwell_steps: 0,
+            blend_steps: 0,
+            acc: AccParams::default(),
+            radar: RadarParams::default(),
+            guard: None,
+            vehicle_length: 0.0,
+        }
+    }
+}
+
+impl FallbackParams {
+    /// Follower i's (1-based) fallback.
+    pub fn of(&self, i: usize) -> FallbackMode {
+        self.per_vehicle.get(i - 1).copied().unwrap_or(self.mode)
+    }
+
+    /// Whether anything reads the radar (the ACC fallback or the guard).
+    pub fn uses_radar(&self) -> bool {
+        self.guard.is_some()
+            || self.mode == FallbackMode::Acc
+            || self.per_vehicle.contains(&FallbackMode::Acc)
+    }
+
+    /// Checks ranges; the error names the config key (under `fallback.`).
+    pub fn validate(&self, followers: usize) -> Result<(), (&'static str, String)> {
+        let pos = |x: f64| x.is_finite() && x > 0.0;
+        let nonneg = |x: f64| x.is_finite() && x >= 0.0;
+        if !self.per_vehicle.is_empty() && self.per_vehicle.len() != followers {
+            return Err((
+                "per_vehicle",
+                format!(
+                    "needs one mode per follower ({followers}), got {}",
+                    self.per_vehicle.len()
+                ),
+            ));
+        }
+        let a = &self.acc;
+        for (key, x) in [
+            ("acc.headway_s", a.headway_s),
+            ("acc.lambda", a.lambda),
+            ("acc.max_accel_mps2", a.max_accel_mps2),
+            ("acc.max_decel_mps2", a.max_decel_mps2),
+        ] {
+            if !pos(x) {
+                return Err((key, format!("must be > 0 (got {x})")));
+            }
+        }
+        if !nonneg(a.opening_s) {
+            return Err((
+                "acc.opening_s",
+                format!("must be >= 0 (got {})", a.opening_s),
+            ));
+        }
+        let r = &self.radar;
+        if !pos(r.range_m) {
+            return Err(("radar.range_m", format!("must be > 0 (got {})", r.range_m)));
+        }
+        if r.period_steps == 0 {
+            return Err(("radar.period_s", "must be at least one step".into()));
+        }
+        for (key, x) in [
+            ("radar.noise_m", r.noise_m),
+            ("radar.noise_mps", r.noise_mps),
+        ] {
+            if !nonneg(x) {
+                return Err((key, format!("must be >= 0 (got {x})")));
+            }
+        }
+        if !(r.dropout.is_finite() && (0.0..1.0).contains(&r.dropout)) {
+            return Err((
+                "radar.dropout",
+                format!("must be in [0, 1) (got {})", r.dropout),
+            ));
+        }
+        if let Some(g) = &self.guard {
+            if !pos(g.ttc_s) {
+                return Err(("guard.ttc_s", format!("must be > 0 (got {})", g.ttc_s)));
+            }
+            if !pos(g.decel_mps2) {
+                return Err((
+                    "guard.decel_mps2",
+                    format!("must be > 0 (got {})", g.decel_mps2),
+                ));
+            }
+        }
+        if !self.vehicle_length.is_finite() || self.vehicle_length < 0.0 {
+            return Err(("vehicle_length", "must be finite and >= 0".into()));
+        }
+        Ok(())
+    }
+}
+
+/// What a radar sees of the vehicle ahead: the true gap and closing speed.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct RadarTruth {
+    /// Bumper-to-bumper gap (m).
+    pub gap: f64,
+    /// `v_i - v_ahead` (m/s): positive while closing in.
+    pub closing: f64,
+}
+
+/// One radar measurement.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Reading {
+    /// Measured gap (m).
+    pub gap: f64,
+    /// Measured closing speed (m/s).
+    pub closing: f64,
+}
+
+impl Reading {
+    /// Time to collision (s): gap over closing speed while closing in, else infinite.
+    pub fn ttc(&self) -> f64 {
+        if self.closing > 0.0 {
+            self.gap.max(0.0) / self.closing
+        } else {
+            f64::INFINITY
+        }
+    }
+}
+
+/// One vehicle's radar: measurement noise and dropouts from its own seeded stream, a new
+/// reading every `period_steps`, held in between.
+#[derive(Debug, Clone)]
+pub struct Radar {
+    rng: ChaCha8Rng,
+    last: Option<Reading>,
+}
+
+impl Radar {
+    /// The radar of vehicle `vehicle` of a platoon whose radar seed is `seed`.
+    pub fn new(seed: u64, vehicle: u16) -> Self {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        rng.set_stream(u64::from(vehicle));
+        Self { rng, last: None }
+    }
+
+    /// The reading in use at step k, given the truth (`None`: no vehicle ahead).
+    pub fn read(&mut self, k: u64, p: &RadarParams, truth: Option<RadarTruth>) -> Option<Reading> {
+        if !k.is_multiple_of(u64::from(p.period_steps)) {
+            return self.last;
+        }
+        // The draws do not depend on the truth, so the stream stays aligned whatever happens.
+        let lost = self.rng.gen::<f64>() < p.dropout;
+        let n_gap = gaussian(&mut self.rng, p.noise_m);
+        let n_rate = gaussian(&mut self.rng, p.noise_mps);
+        if lost {
+            return self.last;
+        }
+        self.last = truth.filter(|t| t.gap <= p.range_m).map(|t| Reading {
+            gap: t.gap + n_gap,
+            closing: t.closing + n_rate,
+        });
+        self.last
+    }
+}
+
+fn gaussian(rng: &mut ChaCha8Rng, std: f64) -> f64 {
+    let z: f64 = Normal::new(0.0, 1.0).expect("unit normal").sample(rng);
+    std * z
+}
+
+/// The ACC law's command with the gap opened to `headway` (s); `v` is the own speed and
+/// `spacing` the platoon's desired distance `l` between consecutive vehicles' positions.
+pub fn acc_command(
+    acc: &AccParams,
+    reading: Option<Reading>,
+    headway: f64,
+    v: f64,
+    spacing: f64,
+    vehicle_length: f64,
+) -> f64 {
+    let Some(r) = reading else {
+        return 0.0; // no target in range: keep the speed
+    };
+    let e = r.gap + vehicle_length - spacing - headway * v;
+    let u = (acc.lambda * e - r.closing) / acc.headway_s;
+    u.clamp(-acc.max_decel_mps2, acc.max_accel_mps2)
+}
+
+/// The peak over frequency of `|G(jw)|` with
+/// `G(s) = (kd s + kp) / (tau s^3 + s^2 + (kd + kp h) s + kp)`, the transfer from the
+/// acceleration of the vehicle ahead to the own under the ACC law (linear, unsaturated), and
+/// the frequency where it peaks: string stable when the peak is <= 1. Evaluated on a log grid
+/// from 1e-3 to 1e2 rad/s.
+pub fn acc_string_gain(acc: &AccParams, tau: f64) -> (f64, f64) {
+    let (kp, kd, h) = (
+        acc.lambda / acc.headway_s,
+        1.0 / acc.headway_s,
+        acc.headway_s,
+    );
+    let mut best = (0.0, 0.0);
+    for i in 0..=5000 {
+        let w = 10f64.powf(-3.0 + 5.0 * f64::from(i) / 5000.0);
+        // den(jw) = kp - w^2 + j (w (kd + kp h) - tau w^3), num(jw) = kp + j kd w
+        let (dr, di) = (kp - w * w, w * (kd + kp * h) - tau * w * w * w);
+        let g = ((kp * kp + kd * kd * w * w) / (dr * dr + di * di)).sqrt();
+        if g > best.0 {
+            best = (g, w);
+        }
+    }
+    best
+}
+
+/// The true gap and closing speed to the vehicle ahead in the platoon, for every follower
+/// (`states[0]` is the leader; `None` for the leader).
+pub fn radar_truth(
+    states: &[platoon_model::State],
+    vehicle_length: f64,
+    out: &mut Vec<Option<RadarTruth>>,
+) {
+    out.clear();
+    out.push(None);
+    for w in states.windows(2) {
+        out.push(Some(RadarTruth {
+            gap: w[0][0] - w[1][0] - vehicle_length,
+            closing: w[1][1] - w[0][1],
+        }));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_default_acc_is_string_stable_over_the_papers_tau_and_a_short_headway_is_not() {
+        let acc = AccParams::default();
+        for tau in [0.1, 0.34, 0.5, 0.82, 1.0] {
+            let (peak, _) = acc_string_gain(&acc, tau);
+            assert!(peak <= 1.0 + 1e-9, "tau {tau}: peak {peak}");
+        }
+        let short = AccParams {
+            headway_s: 0.8,
+            ..acc
+        };
+        let (peak, w) = acc_string_gain(&short, 0.82);
+        assert!(peak > 1.2, "{peak} at {w}");
+    }
+
+    #[test]
+    fn the_radar_holds_between_periods_drops_out_and_sees_nothing_beyond_range() {
+        let p = RadarParams {
+            period_steps: 5,
+            noise_m: 0.0,
+            noise_mps: 0.0,
+            ..RadarParams::default()
+        };
+        let mut r = Radar::new(3, 1);
+        let t = |gap| Some(RadarTruth { gap, closing: 1.0 });
+        assert_eq!(r.read(0, &p, t(20.0)).unwrap().gap, 20.0);
+        assert_eq!(r.read(3, &p, t(10.0)).unwrap().gap, 20.0); // held
+        assert_eq!(r.read(5, &p, t(10.0)).unwrap().gap, 10.0);
+        assert_eq!(r.read(10, &p, t(200.0)), None); // out of range
+        let lossy = RadarParams { dropout: 0.5, ..p };
+        let mut r = Radar::new(3, 1);
+        // Each period the truth changes; a lost measurement keeps the previous one.
+        let fresh = (1..=1000u64)
+            .filter(|&j| {
+                let gap = (j % 100) as f64 + 1.0;
+                r.read(5 * j, &lossy, t(gap)).is_some_and(|m| m.gap == gap)
+            })
+            .count();
+        assert!((400..600).contains(&fresh), "{fresh} of 1000 measured");
+    }
+
+    #[test]
+    fn radar_noise_is_seeded_per_vehicle() {
+        let p = RadarParams::default();
+        let truth = Some(RadarTruth {
+            gap: 30.0,
+            closing: 0.0,
+        });
+        let draw = |seed, v| {
+            let mut r = Radar::new(seed, v);
+            (0..50)
+                .map(|k| r.read(k * 5, &p, truth).unwrap().gap)
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(draw(1, 2), draw(1, 2));
+        assert_ne!(draw(1, 2), draw(1, 3));
+        assert_ne!(draw(1, 2), draw(2, 2));
+        let g = draw(1, 2);
+        let mean = g.iter().sum::<f64>() / g.len() as f64;
+        assert!((mean - 30.0).abs() < 0.05, "{mean}");
+    }
+
+    #[test]
+    fn acc_brakes_when_too_close_and_is_bounded() {
+        let acc = AccParams::default();
+        let close = Reading {
+            gap: 5.0,
+            closing: 3.0,
+        };
+        let u = acc_command(&acc, Some(close), 2.0, 25.0, 10.0, 0.0);
+        assert_eq!(u, -acc.max_decel_mps2);
+        let far = Reading {
+            gap: 100.0,
+            closing: -1.0,
+        };
+        assert!(acc_command(&acc, Some(far), 2.0, 25.0, 10.0, 0.0) > 0.0);
+        assert_eq!(acc_command(&acc, None, 2.0, 25.0, 10.0, 0.0), 0.0);
+        assert_eq!(
+            Reading {
+                gap: 10.0,
+                closing: 2.0
+            }
+            .ttc(),
+            5.0
+        );
+        assert!(close.ttc() < 2.0 && far.ttc().is_infinite());
+    }
+
+    #[test]
+    fn bad_parameters_name_their_key() {
+        let mut p = FallbackParams::default();
+        p.acc.headway_s = 0.0;
+        assert_eq!(p.validate(4).unwrap_err().0, "acc.headway_s");
+        let mut p = FallbackParams::default();
+        p.radar.range_m = -1.0;
+        assert_eq!(p.validate(4).unwrap_err().0, "radar.range_m");
+        let p = FallbackParams {
+            per_vehicle: vec![FallbackMode::Acc],
+            ..FallbackParams::default()
+        };
+        assert_eq!(p.validate(4).unwrap_err().0, "per_vehicle");
+        let p = FallbackParams {
+            guard: Some(GuardParams {
+                ttc_s: 1.0,
+                decel_mps2: f64::NAN,
+            }),
+            ..FallbackParams::default()
+        };
+        assert_eq!(p.validate(4).unwrap_err().0, "guard.decel_mps2");
+    }
+}
