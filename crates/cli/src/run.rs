@@ -765,4 +765,28 @@ fn print_summary(s: &Summary, compute_s: f64) {
         s.safety.min_gap_vehicle,
         s.safety.min_gap_t_s
     );
+    // Degradation, when anything but the cooperative law ran.
+    let mut modes = std::collections::BTreeMap::<&str, f64>::new();
+    for v in &s.vehicles {
+        for (m, t) in &v.mode_time_s {
+            *modes.entry(m.as_str()).or_default() += t;
+        }
+    }
+    let guard: u64 = s.vehicles.iter().map(|v| v.guard_activations).sum();
+    if modes.keys().any(|m| *m != "coop") || guard > 0 {
+        let total: f64 = modes.values().sum();
+        let shares: Vec<String> = modes
+            .iter()
+            .map(|(m, t)| format!("{m} {:.1} %", 100.0 * t / total.max(f64::MIN_POSITIVE)))
+            .collect();
+        println!(
+            "  modes (all followers): {}; {} mode switches; guard braked {} times; smallest TTC {}",
+            shares.join(", "),
+            s.vehicles.iter().map(|v| v.mode_switches).sum::<u64>(),
+            guard,
+            s.safety
+                .min_ttc_s
+                .map_or("-".to_string(), |t| format!("{t:.2} s"))
+        );
+    }
 }

@@ -473,18 +473,21 @@ pub struct Control {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct FallbackConfig {
-    /// `zero` (the paper), `hold`, `predict` or `acc`.
-    #[serde(default)]
-    pub mode: FallbackMode,
+    /// `zero` (the paper), `hold`, `predict` or `acc` [zero].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mode: Option<FallbackMode>,
     /// One mode per follower instead (follower 1 first).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub per_vehicle: Option<Vec<FallbackMode>>,
     /// Time a vehicle stays in its fallback once it is no longer affected (s) [0].
     #[serde(default)]
     pub dwell_s: f64,
-    /// Time over which it then blends back to the cooperative law (s) [0: at once].
+    /// Time over which it then returns to the cooperative law, bumplessly (s) [0: at once].
     #[serde(default)]
     pub blend_s: f64,
+    /// ...or longer, so that the gap its fallback left closes at most this fast (m/s) [2].
+    #[serde(default = "two")]
+    pub closing_mps: f64,
     /// The ACC law.
     #[serde(default)]
     pub acc: AccParams,
@@ -493,13 +496,18 @@ pub struct FallbackConfig {
 impl Default for FallbackConfig {
     fn default() -> Self {
         Self {
-            mode: FallbackMode::Zero,
+            mode: None,
             per_vehicle: None,
             dwell_s: 0.0,
             blend_s: 0.0,
+            closing_mps: 2.0,
             acc: AccParams::default(),
         }
     }
+}
+
+fn two() -> f64 {
+    2.0
 }
 
 /// `[radar]`: every follower's on-board radar (read by the `acc` fallback and the guard).
@@ -539,9 +547,10 @@ impl Default for RadarConfig {
 pub struct GuardConfig {
     /// Whether it is on [false].
     pub enabled: bool,
-    /// Time to collision below which it brakes (s) [2].
+    /// Time to collision below which it brakes (s) [4: the paper's engine lag of up to
+    /// 0.82 s makes a later trigger too late].
     pub ttc_s: f64,
-    /// Its deceleration (m/s^2) [6].
+    /// Its deceleration (m/s^2) [8].
     pub decel_mps2: f64,
 }
 
@@ -549,8 +558,8 @@ impl Default for GuardConfig {
     fn default() -> Self {
         Self {
             enabled: false,
-            ttc_s: 2.0,
-            decel_mps2: 6.0,
+            ttc_s: 4.0,
+            decel_mps2: 8.0,
         }
     }
 }

@@ -55,15 +55,18 @@ fn fallback(
     vehicle_length: f64,
 ) -> Result<platoon_control::FallbackParams, Invalid> {
     let f = &c.fallback;
-    let mode = match c.control.attack_input {
-        Some(_) if f.mode != platoon_control::FallbackMode::Zero => {
+    let mode = match (c.control.attack_input, f.mode) {
+        (Some(old), Some(new)) if old != new => {
             return bad(
                 "control.attack_input",
-                "is the older name of fallback.mode: set only fallback.mode",
+                format!(
+                    "is the older name of fallback.mode, which says {:?}: set only fallback.mode",
+                    new
+                ),
             )
         }
-        Some(m) => m,
-        None => f.mode,
+        (_, Some(m)) | (Some(m), None) => m,
+        (None, None) => platoon_control::FallbackMode::Zero,
     };
     let steps = |key: &str, s: f64| -> Result<u32, Invalid> {
         if s == 0.0 {
@@ -79,6 +82,7 @@ fn fallback(
         per_vehicle: f.per_vehicle.clone().unwrap_or_default(),
         dwell_steps: steps("fallback.dwell_s", f.dwell_s)?,
         blend_steps: steps("fallback.blend_s", f.blend_s)?,
+        closing_mps: f.closing_mps,
         acc: f.acc,
         radar: platoon_control::fallback::RadarParams {
             range_m: r.range_m,
@@ -413,15 +417,21 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
         }
     };
     unused_besides(&tr.rule)?;
+    let resilient = tr.resilient;
+    let gain = RowVector3::new(k.gain[0], k.gain[1], k.gain[2]);
+    let fallback = fallback(c, dt, vehicle_length)?;
+    // The resolved config says the mode under its current name.
+    c.fallback.mode = Some(fallback.mode);
+    c.control.attack_input = None;
     let control = ControllerParams {
-        gain: RowVector3::new(k.gain[0], k.gain[1], k.gain[2]),
+        gain,
         beta1,
         beta2,
         rule,
-        resilient: tr.resilient,
+        resilient,
         h_steps,
         check_steps,
-        fallback: fallback(c, dt, vehicle_length)?,
+        fallback,
         dt,
         tau_nominal,
         spacing,

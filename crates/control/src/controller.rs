@@ -94,10 +94,14 @@ enum Phase {
         since: u64,
         calm: u32,
     },
-    /// Blending back: `done` blend steps so far; the ACC headway it had reached (if any).
-    Blend {
-        done: u32,
-        since: u64,
+    /// On the way back since step `exit`: the offset of q it started from (`-q` then, so the
+    /// law starts from rest), shrunk to 0 over `steps`, and the fallback's command then
+    /// (m/s^2), shrunk to 0 over the blend steps.
+    Back {
+        exit: u64,
+        delta0: State,
+        steps: u64,
+        mismatch: f64,
     },
 }
 
@@ -276,7 +280,11 @@ impl PlatoonController {
                         // beta1 |eps|^2 - beta2 |q|^2, evaluated only when a rule needs it.
                         let s = || {
                             let eps2 = (f.own - x).norm_squared();
-                            let q2 = neighbourhood_error(f, p.spacing).norm_squared();
+                            // On the way back the law regulates q shifted by the spacing
+                            // offset; so does the trigger (else a large unshifted q would
+                            // let the estimation error grow until a jump in u).
+                            let q2 =
+                                (neighbourhood_error(f, p.spacing) + f.offset(k)).norm_squared();
                             p.beta1 * eps2 - p.beta2 * q2
                         };
                         match p.rule {
@@ -349,6 +357,28 @@ impl PlatoonController {
             };
             // Into the fallback when affected; out of it after `dwell` calm steps, through
             // `blend` steps of blending (none: at once, the paper).
+            let own = states[f.id.index()];
+            let acc =
+                |h: f64| acc_command(&fb.acc, reading, h, own[1], p.spacing, fb.vehicle_length);
+            // The ACC headway grows from 0 to h over `opening_s` after the switch.
+            let opened = |since: u64| {
+                if fb.acc.opening_s > 0.0 {
+                    let t = (k - since) as f64 * p.dt;
+                    fb.acc.headway_s * (t / fb.acc.opening_s).min(1.0)
+                } else {
+                    fb.acc.headway_s
+                }
+            };
+            let mode_of = f.fallback;
+            let fallback_u = |since: u64, held: f64| match mode_of {
+                FallbackMode::Zero => 0.0,
+                FallbackMode::Hold => held,
+                FallbackMode::Predict => coop,
+                FallbackMode::Acc => acc(opened(since)),
+            };
+            // Bumpless return (module docs): a spacing offset that makes the cooperative
+            // command equal the fallback's at the hand-over, shrunk to 0 over `blend` steps.
+            let blend_steps = u64::from(fb.blend_steps);
             f.phase = match (f.phase, affected) {
                 (Phase::Fallback { since, .. }, true) => Phase::Fallback { since, calm: 0 },
                 (_, true) => {
@@ -361,37 +391,32 @@ impl PlatoonController {
                         calm: calm + 1,
                     }
                 }
-                (Phase::Fallback { since, .. }, false) if fb.blend_steps > 0 => {
-                    Phase::Blend { done: 1, since }
+                (Phase::Fallback { since, .. }, false) if blend_steps > 0 => {
+                    // The offset cancels q (the law starts from 0); the fallback's command is
+                    // blended out over `blend` steps while the offset shrinks, the spacing part
+                    // at most at `closing_mps`.
+                    let by_speed = (q[0].abs() / fb.closing_mps / p.dt).ceil();
+                    Phase::Back {
+                        exit: k,
+                        delta0: -q,
+                        steps: blend_steps.max(by_speed.min(1e12) as u64),
+                        mismatch: fallback_u(since, f.held),
+                    }
                 }
-                (Phase::Blend { done, since }, false) if done < fb.blend_steps => Phase::Blend {
-                    done: done + 1,
-                    since,
-                },
+                (back @ Phase::Back { exit, steps, .. }, false)
+                    if k - exit < steps.max(blend_steps) =>
+                {
+                    back
+                }
                 (_, false) => Phase::Coop,
-            };
-            let own = states[f.id.index()];
-            let fallback_u = |since: u64| match f.fallback {
-                FallbackMode::Zero => 0.0,
-                FallbackMode::Hold => f.held,
-                FallbackMode::Predict => coop,
-                FallbackMode::Acc => {
-                    let opened = (k - since) as f64 * p.dt;
-                    let h = if fb.acc.opening_s > 0.0 {
-                        fb.acc.headway_s * (opened / fb.acc.opening_s).min(1.0)
-                    } else {
-                        fb.acc.headway_s
-                    };
-                    acc_command(&fb.acc, reading, h, own[1], p.spacing, fb.vehicle_length)
-                }
             };
             let (mode, mut u) = match f.phase {
                 Phase::Coop => (Mode::Coop, coop),
-                Phase::Fallback { since, .. } => (f.fallback.mode(), fallback_u(since)),
-                Phase::Blend { done, since } => {
-                    let from = fallback_u(since);
-                    let w = f64::from(done) / f64::from(fb.blend_steps);
-                    (Mode::Blend, from + w * (coop - from))
+                Phase::Fallback { since, .. } => (f.fallback.mode(), fallback_u(since, f.held)),
+                Phase::Back { exit, mismatch, .. } => {
+                    let j = (k - exit) as f64;
+                    let rest = mismatch * (1.0 - j / blend_steps as f64).max(0.0);
+                    (Mode::Blend, -(p.gain * (q + f.offset(k)))[0] + rest)
                 }
             };
             let guard = match (&fb.guard, reading) {
@@ -404,7 +429,7 @@ impl PlatoonController {
             if !affected {
                 if let TriggerRule::Dynamic { .. } = p.rule {
                     let eps2 = (f.own - own).norm_squared();
-                    let s = p.beta1 * eps2 - p.beta2 * q.norm_squared();
+                    let s = p.beta1 * eps2 - p.beta2 * (q + f.offset(k)).norm_squared();
                     f.theta = (self.theta_decay * f.theta - self.theta_gain * s).max(0.0);
                 }
             }
@@ -491,6 +516,21 @@ fn plausible(from: &State, to: &State, t: f64) -> bool {
     to[2].abs() <= a
         && (to[1] - from[1]).abs() <= a * t + tol
         && (to[0] - from[0] - from[1] * t).abs() <= 0.5 * a * t * t + tol
+}
+
+impl Follower {
+    /// The offset of q during the bumpless return at step k (0 outside it).
+    fn offset(&self, k: u64) -> State {
+        match self.phase {
+            Phase::Back {
+                exit,
+                delta0,
+                steps,
+                ..
+            } => delta0 * (1.0 - (k.saturating_sub(exit)) as f64 / steps as f64).max(0.0),
+            _ => State::zeros(),
+        }
+    }
 }
 
 /// `q_i` from follower i's current estimates.

@@ -17,9 +17,13 @@
 //!   ([`acc_string_gain`] checks `|G(jw)| <= 1` numerically).
 //!
 //! Once it is no longer affected it stays in its fallback for `dwell` steps (flapping links do
-//! not chatter), then blends over `blend` steps from the fallback input to the cooperative one,
-//! `u = u_fb + w (u_coop - u_fb)`, `w = j / blend` at the j-th blend step, so the command moves
-//! by at most `|u_coop - u_fb| / blend` per step on top of each input's own change.
+//! not chatter), then returns to the cooperative law bumplessly: at the hand-over step it
+//! offsets its own spacing reference by `delta0 = (u_coop - u_fb) / K_p` (`K_p = K[0]`), so that
+//! `u = -K (q + [delta, 0, 0]) = u_coop - K_p delta` equals the fallback's command, and shrinks
+//! the offset linearly to 0 over `blend` steps, or more if needed so that it shrinks by at most
+//! `closing_mps`. The command then moves by at most `|u_coop - u_fb| / blend` per step on top
+//! of the cooperative law's own change, and the vehicle closes (or opens) the gap its fallback
+//! left at most at `closing_mps` instead of in one jump of `K_p delta0`.
 //!
 //! The guard is independent of the mode: when the radar's time to collision `d / c` (closing
 //! only) is below `ttc_s` it commands `min(u, -decel)`.
@@ -188,8 +192,10 @@ pub struct FallbackParams {
     pub per_vehicle: Vec<FallbackMode>,
     /// Steps a vehicle stays in its fallback once it is no longer affected.
     pub dwell_steps: u32,
-    /// Steps over which it then blends back to the cooperative law (0: at once).
+    /// Steps over which it then blends back to the cooperative law (0: at once)...
     pub blend_steps: u32,
+    /// ...or longer, so that the spacing offset shrinks by at most this (m/s), > 0.
+    pub closing_mps: f64,
     /// The ACC law.
     pub acc: AccParams,
     /// The radar.
@@ -208,6 +214,7 @@ impl Default for FallbackParams {
             per_vehicle: Vec::new(),
             dwell_steps: 0,
             blend_steps: 0,
+            closing_mps: 2.0,
             acc: AccParams::default(),
             radar: RadarParams::default(),
             guard: None,
@@ -240,6 +247,12 @@ impl FallbackParams {
                     "needs one mode per follower ({followers}), got {}",
                     self.per_vehicle.len()
                 ),
+            ));
+        }
+        if !pos(self.closing_mps) {
+            return Err((
+                "closing_mps",
+                format!("must be > 0 (got {})", self.closing_mps),
             ));
         }
         let a = &self.acc;

@@ -64,6 +64,14 @@ pub struct VehicleSummary {
     pub affected_time_s: f64,
     /// Most negative acceleration (m/s^2).
     pub min_acceleration_mps2: f64,
+    /// Time spent in each mode it was in (s): `coop`, its fallback, `blend`.
+    pub mode_time_s: BTreeMap<String, f64>,
+    /// Changes of mode.
+    pub mode_switches: u64,
+    /// Times the emergency-braking guard took over (from not braking to braking).
+    pub guard_activations: u64,
+    /// Time the guard was braking (s).
+    pub guard_time_s: f64,
 }
 
 /// Gaps, decelerations and the run's safety class.
@@ -78,6 +86,9 @@ pub struct Safety {
     pub min_gap_vehicle: u16,
     /// When it happened (s).
     pub min_gap_t_s: f64,
+    /// Smallest time to collision `gap / closing speed` of any follower while closing in on
+    /// the vehicle ahead (s; true states, not the radar); None if no follower ever closed in.
+    pub min_ttc_s: Option<f64>,
     /// The largest deceleration any follower needed (m/s^2, positive).
     pub max_deceleration_mps2: f64,
     /// The run's class, as attack-injection studies (e.g. ComFASE) class outcomes: `none`,
@@ -220,6 +231,12 @@ struct VehicleAcc {
     velocity: ErrorAcc,
     affected_steps: u64,
     min_accel: f64,
+    mode_steps: [u64; 6],
+    mode: platoon_control::Mode,
+    switches: u64,
+    guard_on: bool,
+    guard_activations: u64,
+    guard_steps: u64,
 }
 
 /// Accumulates a run's metrics step by step (constant memory), so long runs need not keep rows.
@@ -260,6 +277,12 @@ impl MetricsAccumulator {
                     velocity: ErrorAcc::default(),
                     affected_steps: 0,
                     min_accel: f64::INFINITY,
+                    mode_steps: [0; 6],
+                    mode: platoon_control::Mode::Coop,
+                    switches: 0,
+                    guard_on: false,
+                    guard_activations: 0,
+                    guard_steps: 0,
                 };
                 n
             ],
@@ -275,6 +298,7 @@ impl MetricsAccumulator {
                 min_gap_m: f64::INFINITY,
                 min_gap_vehicle: 0,
                 min_gap_t_s: 0.0,
+                min_ttc_s: None,
             },
         }
     }
@@ -303,7 +327,20 @@ impl MetricsAccumulator {
             acc.velocity.push(r.velocity_error);
             acc.affected_steps += u64::from(r.affected);
             acc.min_accel = acc.min_accel.min(r.a);
+            acc.mode_steps[r.mode.code() as usize] += 1;
+            acc.switches += u64::from(r.mode != acc.mode);
+            acc.mode = r.mode;
+            acc.guard_activations += u64::from(r.guard && !acc.guard_on);
+            acc.guard_on = r.guard;
+            acc.guard_steps += u64::from(r.guard);
             let gap = front.p - r.p - self.vehicle_length;
+            let closing = r.v - front.v;
+            if closing > 0.0 {
+                let ttc = gap.max(0.0) / closing;
+                if self.safety.min_ttc_s.is_none_or(|m| ttc < m) {
+                    self.safety.min_ttc_s = Some(ttc);
+                }
+            }
             if gap < self.safety.min_gap_m {
                 self.safety.min_gap_m = gap;
                 self.safety.min_gap_vehicle = r.vehicle;
@@ -340,6 +377,15 @@ impl MetricsAccumulator {
                 velocity_error_mps: a.velocity.finish(),
                 affected_time_s: a.affected_steps as f64 * self.dt,
                 min_acceleration_mps2: a.min_accel,
+                mode_time_s: platoon_control::Mode::ALL
+                    .iter()
+                    .zip(a.mode_steps)
+                    .filter(|(_, n)| *n > 0)
+                    .map(|(m, n)| (m.name().to_string(), n as f64 * self.dt))
+                    .collect(),
+                mode_switches: a.switches,
+                guard_activations: a.guard_activations,
+                guard_time_s: a.guard_steps as f64 * self.dt,
             })
             .collect();
         let clipped = self.dos.clipped(horizon);
