@@ -85,6 +85,25 @@ fn iceoryx2_run_of_the_paper_scenario_is_bit_identical_to_inproc() {
 }
 
 #[test]
+fn iceoryx2_runs_with_every_fallback_and_the_guard_are_bit_identical_to_inproc() {
+    // configs/degradation.toml: ACC on a noisy radar with dropouts, the guard, dwell and a
+    // bumpless return; then one fallback per follower.
+    transports_agree("configs/degradation.toml");
+    let tmp = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(repo().join("configs/degradation.toml")).unwrap();
+    let mixed = tmp.path().join("mixed.toml");
+    std::fs::write(
+        &mixed,
+        text.replace(
+            "mode = \"acc\"",
+            "mode = \"acc\"\nper_vehicle = [\"acc\", \"zero\", \"hold\", \"predict\"]",
+        ),
+    )
+    .unwrap();
+    transports_agree(mixed.to_str().unwrap());
+}
+
+#[test]
 fn iceoryx2_run_with_every_link_attack_is_bit_identical_to_inproc() {
     transports_agree("configs/link-attacks.toml");
     // And every model of that config did something.

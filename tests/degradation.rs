@@ -234,3 +234,55 @@ fn bad_fallback_radar_and_guard_settings_are_one_line_errors() {
         assert!(!tmp.path().join("never").exists());
     }
 }
+
+#[test]
+fn the_degradation_experiment_compares_every_fallback_side_by_side() {
+    let tmp = tempfile::tempdir().unwrap();
+    let o = platoon(
+        &[
+            "experiment",
+            "degradation",
+            "--followers",
+            "4",
+            "--out",
+            "deg",
+        ],
+        tmp.path(),
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let dir = tmp.path().join("deg");
+    let mut csv = csv::Reader::from_path(dir.join("degradation.csv")).unwrap();
+    let rows: Vec<csv::StringRecord> = csv.records().map(|r| r.unwrap()).collect();
+    // 5 attacks x 4 fallbacks x guard off/on.
+    assert_eq!(rows.len(), 40);
+    let header = csv.headers().unwrap().clone();
+    let col = |name: &str| header.iter().position(|h| h == name).unwrap();
+    let find = |attack: &str, fallback: &str, guard: &str| {
+        rows.iter()
+            .find(|r| {
+                r[col("attack")] == *attack
+                    && r[col("fallback")] == *fallback
+                    && r[col("guard")] == *guard
+            })
+            .unwrap()
+            .clone()
+    };
+    // What the README says: on the braking ramp u = 0 collides and ACC does not; during
+    // cruise ACC's opened gap costs more deceleration than u = 0.
+    assert_eq!(
+        &find("braking-ramp", "zero", "false")[col("collided")],
+        "true"
+    );
+    assert_eq!(
+        &find("braking-ramp", "acc", "false")[col("collided")],
+        "false"
+    );
+    let decel = |r: &csv::StringRecord| r[col("max_deceleration_mps2")].parse::<f64>().unwrap();
+    assert!(decel(&find("cruise", "acc", "false")) > decel(&find("cruise", "zero", "false")));
+    let md = std::fs::read_to_string(dir.join("degradation.md")).unwrap();
+    assert_eq!(md.lines().count(), 2 + 40);
+    assert_eq!(
+        &std::fs::read(dir.join("degradation.png")).unwrap()[1..4],
+        b"PNG"
+    );
+}

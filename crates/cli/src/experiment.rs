@@ -27,7 +27,73 @@ pub enum Experiment {
     /// design), with conservative trigger parameters, and with DoS. Writes topologies.csv and
     /// fig10.png; shows a progress bar (each point is a synthesis and a bisection of SDPs).
     Topologies(TopologiesArgs),
+    /// Graceful degradation: the same attacks (an 8 s jam on the leader's acceleration ramp,
+    /// one on its braking ramp, a 10 s jam during cruise, the paper's schedule, and a 20 s
+    /// jam) on the paper's platoon and a longer one, for every fallback (zero, hold, predict,
+    /// acc), each with and without the emergency-braking guard, side by side. Writes
+    /// degradation.csv (one row per run: largest spacing error, smallest gap and time to
+    /// collision, largest deceleration, safety class, messages, guard activations, time in
+    /// fallback), degradation.md (the table) and degradation.png (smallest gap per attack and
+    /// fallback).
+    Degradation(DegradationArgs),
 }
+
+/// Arguments of `experiment degradation`.
+#[derive(Debug, clap::Args)]
+pub struct DegradationArgs {
+    /// Base scenario (TOML) [default: the embedded configs/degradation.toml]: its [fallback],
+    /// [radar] and [guard] settings are kept, its mode, guard switch, attacks and size varied.
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// Platoon sizes (followers); the base's initial states are replaced by a formation when
+    /// the size differs.
+    #[arg(long, value_delimiter = ',', default_value = "4,10")]
+    pub followers: Vec<usize>,
+    /// Output directory [default: runs/degradation].
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Replace the output directory if it exists.
+    #[arg(long)]
+    pub force: bool,
+}
+
+/// One run of `experiment degradation`.
+#[derive(Debug, serde::Serialize)]
+struct DegradationRow {
+    attack: &'static str,
+    followers: usize,
+    fallback: &'static str,
+    guard: bool,
+    max_spacing_error_m: f64,
+    min_gap_m: f64,
+    min_ttc_s: Option<f64>,
+    max_deceleration_mps2: f64,
+    class: &'static str,
+    collided: bool,
+    messages: u64,
+    guard_activations: u64,
+    fallback_time_s: f64,
+}
+
+/// The attacks of `experiment degradation`: `[start, duration]` intervals.
+const DEGRADATION_ATTACKS: [(&str, &[[f64; 2]]); 5] = [
+    ("acceleration-ramp", &[[9.0, 8.0]]),
+    ("braking-ramp", &[[34.0, 8.0]]),
+    ("cruise", &[[20.0, 10.0]]),
+    (
+        "paper",
+        &[
+            [1.0, 1.5],
+            [5.0, 1.5],
+            [16.0, 1.5],
+            [22.0, 1.5],
+            [30.0, 1.5],
+            [42.0, 1.5],
+            [49.0, 1.0],
+        ],
+    ),
+    ("long-jam", &[[25.0, 20.0]]),
+];
 
 /// Arguments of `experiment topologies`.
 #[derive(Debug, clap::Args)]
@@ -107,7 +173,166 @@ pub fn run(e: Experiment) -> Result<()> {
         Experiment::Table1(args) => table1(args),
         Experiment::Robust(args) => robust(args),
         Experiment::Topologies(args) => topologies(args),
+        Experiment::Degradation(args) => degradation(args),
     }
+}
+
+fn degradation(args: DegradationArgs) -> Result<()> {
+    use platoon_control::FallbackMode;
+    if args.followers.is_empty() || args.followers.contains(&0) {
+        anyhow::bail!("--followers needs platoon sizes of at least one follower, e.g. 4,10");
+    }
+    let (base, _, _) = crate::run::load(
+        args.config.as_deref(),
+        platoon_config::DEGRADATION_TOML,
+        "degradation",
+    )?;
+    let label = args
+        .config
+        .as_ref()
+        .map_or("<embedded configs/degradation.toml>".to_string(), |p| {
+            p.display().to_string()
+        });
+    let out = args
+        .out
+        .unwrap_or_else(|| PathBuf::from("runs/degradation"));
+    let dir = RunDir::create(&out, args.force)?;
+    dir.write("config.toml", platoon_config::to_toml(&base).as_bytes())?;
+    let modes = [
+        ("zero", FallbackMode::Zero),
+        ("hold", FallbackMode::Hold),
+        ("predict", FallbackMode::Predict),
+        ("acc", FallbackMode::Acc),
+    ];
+    let total = DEGRADATION_ATTACKS.len() * args.followers.len() * modes.len() * 2;
+    let bar = indicatif::ProgressBar::new(total as u64);
+    let mut rows = Vec::with_capacity(total);
+    for (attack, intervals) in DEGRADATION_ATTACKS {
+        for &n in &args.followers {
+            for (name, mode) in modes {
+                for guard in [false, true] {
+                    let mut c = base.clone();
+                    if n != c.platoon.followers {
+                        c.platoon.followers = n;
+                        c.platoon.initial_states = None;
+                        c.platoon.formation = Some(platoon_config::Formation {
+                            leader_position_m: 0.0,
+                            position_jitter_m: 0.0,
+                            speed_jitter_mps: 0.0,
+                            seed: 0,
+                        });
+                        c.fallback.per_vehicle = None;
+                    }
+                    c.control.attack_input = None;
+                    c.fallback.mode = Some(mode);
+                    c.guard.enabled = guard;
+                    c.attack = platoon_config::Attack {
+                        kind: "intervals".into(),
+                        intervals: Some(intervals.to_vec()),
+                        ..Default::default()
+                    };
+                    let scenario = platoon_config::to_scenario(&mut c).map_err(|(key, e)| {
+                        anyhow::anyhow!("{label}: key `{key}` with {n} followers: {e}")
+                    })?;
+                    let s = platoon_sim::run(scenario, |_| {})?;
+                    rows.push(DegradationRow {
+                        attack,
+                        followers: n,
+                        fallback: name,
+                        guard,
+                        max_spacing_error_m: s
+                            .vehicles
+                            .iter()
+                            .map(|v| v.spacing_error_m.max_abs)
+                            .fold(0.0, f64::max),
+                        min_gap_m: s.safety.min_gap_m,
+                        min_ttc_s: s.safety.min_ttc_s,
+                        max_deceleration_mps2: s.safety.max_deceleration_mps2,
+                        class: s.safety.class,
+                        collided: s.safety.collided,
+                        messages: s.triggers_total,
+                        guard_activations: s.vehicles.iter().map(|v| v.guard_activations).sum(),
+                        fallback_time_s: s
+                            .vehicles
+                            .iter()
+                            .flat_map(|v| v.mode_time_s.iter())
+                            .filter(|(m, _)| m.as_str() != "coop")
+                            .map(|(_, t)| t)
+                            .sum(),
+                    });
+                    bar.inc(1);
+                }
+            }
+        }
+    }
+    bar.finish_and_clear();
+    let mut csv = csv::Writer::from_writer(dir.writer("degradation.csv")?);
+    for r in &rows {
+        csv.serialize(r)?;
+    }
+    csv.flush()?;
+    let mut md = String::from(
+        "| attack | followers | fallback | guard | max spacing error (m) | min gap (m) | min TTC (s) | max decel (m/s^2) | class | messages | guard activations |\n|---|---|---|---|---|---|---|---|---|---|---|\n",
+    );
+    for r in &rows {
+        let _ = writeln!(
+            md,
+            "| {} | {} | {} | {} | {:.2} | {:.2} | {} | {:.2} | {}{} | {} | {} |",
+            r.attack,
+            r.followers,
+            r.fallback,
+            if r.guard { "on" } else { "off" },
+            r.max_spacing_error_m,
+            r.min_gap_m,
+            r.min_ttc_s.map_or("-".into(), |t| format!("{t:.2}")),
+            r.max_deceleration_mps2,
+            r.class,
+            if r.collided { " (collision)" } else { "" },
+            r.messages,
+            r.guard_activations
+        );
+    }
+    dir.write("degradation.md", md.as_bytes())?;
+    // The smallest gap per attack (paper platoon, guard off) for each fallback.
+    let n0 = args.followers[0];
+    let categories: Vec<String> = DEGRADATION_ATTACKS
+        .iter()
+        .map(|(a, _)| a.to_string())
+        .collect();
+    let groups: Vec<(String, Vec<f64>)> = modes
+        .iter()
+        .flat_map(|(name, _)| [(name, false), (name, true)])
+        .map(|(name, guard)| {
+            let values = DEGRADATION_ATTACKS
+                .iter()
+                .map(|(a, _)| {
+                    rows.iter()
+                        .find(|r| {
+                            r.attack == *a
+                                && r.followers == n0
+                                && r.fallback == *name
+                                && r.guard == guard
+                        })
+                        .map_or(0.0, |r| r.min_gap_m.max(0.0))
+                })
+                .collect();
+            (
+                format!("{name}{}", if guard { " + guard" } else { "" }),
+                values,
+            )
+        })
+        .collect();
+    plots::grouped_bars(
+        &dir.path("degradation.png"),
+        &format!("Smallest gap by attack and fallback ({n0} followers; 0 = collision)"),
+        "smallest gap (m)",
+        &categories,
+        &groups,
+    )?;
+    let path = dir.commit()?;
+    print!("{md}");
+    println!("outputs: {}", path.display());
+    Ok(())
 }
 
 /// The three rules of Table I applied to a base scenario whose rule is dynamic.

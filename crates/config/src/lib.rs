@@ -99,3 +99,7 @@ pub fn to_toml(config: &Config) -> String {
 
 /// The Table I scenario (no DoS, tau = 0.5 s), embedded for `platoon experiment table1`.
 pub const TABLE1_TOML: &str = include_str!("../../../configs/table1.toml");
+
+/// The graceful-degradation scenario (ACC fallback, guard; an 8 s jam on the braking ramp),
+/// embedded for `platoon experiment degradation`.
+pub const DEGRADATION_TOML: &str = include_str!("../../../configs/degradation.toml");
