@@ -546,3 +546,60 @@ fn a_binary_moved_out_of_the_checkout_runs_sumo_with_the_bridge_it_carries() {
     );
     assert!(!work.join("bad").exists());
 }
+
+/// The fallbacks with SUMO as the plant: configs/degradation.toml (ACC on the radar, the guard,
+/// the bumpless return) does with SUMO what it does in process, mode for mode.
+#[test]
+fn graceful_degradation_runs_with_sumo_as_the_plant() {
+    let tmp = tempfile::tempdir().unwrap();
+    let c = repo().join("configs/degradation.toml");
+    let c = c.to_str().unwrap();
+    ok(&platoon(
+        &["run", c, "--plant", "sumo", "--out", "sumo", "--no-plots"],
+        tmp.path(),
+    ));
+    ok(&platoon(
+        &[
+            "run",
+            c,
+            "--transport",
+            "inproc",
+            "--out",
+            "native",
+            "--no-plots",
+        ],
+        tmp.path(),
+    ));
+    let (s, n) = (
+        json(&tmp.path().join("sumo/summary.json")),
+        json(&tmp.path().join("native/summary.json")),
+    );
+    assert_eq!(s["safety"]["collided"], false);
+    let gap = |v: &serde_json::Value| v["safety"]["min_gap_m"].as_f64().unwrap();
+    assert!(
+        (gap(&s) - gap(&n)).abs() < 1e-6,
+        "{} vs {}",
+        gap(&s),
+        gap(&n)
+    );
+    for (a, b) in s["vehicles"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .zip(n["vehicles"].as_array().unwrap())
+    {
+        // SUMO agrees with the model to ~1e-9 m, so a threshold (the radar's time to
+        // collision, the end of the return) may be crossed a step apart.
+        for (mode, t) in b["mode_time_s"].as_object().unwrap() {
+            let other = a["mode_time_s"][mode].as_f64().unwrap();
+            assert!((other - t.as_f64().unwrap()).abs() <= 0.05, "{mode}: {a} vs {b}");
+        }
+        let g = |v: &serde_json::Value| v["guard_activations"].as_i64().unwrap();
+        assert!((g(a) - g(b)).abs() <= 1, "{a} vs {b}");
+    }
+    let modes: Vec<String> = trajectories(&tmp.path().join("sumo"))
+        .iter()
+        .map(|r| r[14].clone())
+        .collect();
+    assert!(modes.iter().any(|m| m == "acc") && modes.iter().any(|m| m == "blend"));
+}
