@@ -38,7 +38,12 @@ class VehicleState(ctypes.Structure):
         ("p", ctypes.c_double),
         ("v", ctypes.c_double),
         ("a", ctypes.c_double),
+        ("gap", ctypes.c_double),  # to the vehicle ahead as the plant sees it (flags & AHEAD)
+        ("closing", ctypes.c_double),  # v - v_ahead
     ]
+
+    COLLIDED = 1
+    AHEAD = 2
 
     @staticmethod
     def type_name() -> str:

@@ -148,6 +148,9 @@ class Kinematics:
         self.ids = [vehicle_id(i) for i in range(n)]
         self.n1 = int(spec["vehicles_per_platoon"])
         self.platoons = len(spec["lanes"])
+        # The radar's view (when a fallback or the guard reads it): SUMO's leader on the lane.
+        self.radar_range = spec.get("radar_range_m")
+        self.followers = [i for i in range(n) if i % self.n1]
         # The states sample, filled in place (through a numpy view for large fleets).
         self.out = (w.VehicleState * n)()
         self.view = np.ctypeslib.as_array(self.out)
@@ -200,6 +203,7 @@ class Kinematics:
                     self.p[i], self.v[i] = p, v  # the next comparison is over one step
                 s = out[i]
                 s.p, s.v, s.a = self.p[i], self.v[i], accel[i]
+            self.sense()
             return out
         p = np.array([get_pos(vid) for vid in self.ids]) - self.offset
         v = np.array([get_speed(vid) for vid in self.ids])
@@ -212,7 +216,29 @@ class Kinematics:
         if self.mode == "sumo":
             self.p, self.v = p, v
         self.view["p"], self.view["v"], self.view["a"] = self.p, self.v, accel
+        self.sense()
         return self.out
+
+    def sense(self):
+        """What each follower's radar sees, as SUMO has it: the nearest vehicle ahead on its
+        lane, whoever it is (a background vehicle included; the native plant's radar only
+        knows the platoon's predecessor): the bumper-to-bumper gap (`getLeader`; minGap is 0)
+        and the closing speed. The controllers keep only what is within the radar's range."""
+        if self.radar_range is None:
+            return
+        get_leader, get_speed = self.sumo.vehicle.getLeader, self.sumo.vehicle.getSpeed
+        out = self.out
+        for i in self.followers:
+            vid = self.ids[i]
+            ahead = get_leader(vid, self.radar_range)
+            s = out[i]
+            if ahead:
+                s.flags |= w.VehicleState.AHEAD
+                s.gap = ahead[1]
+                s.closing = get_speed(vid) - get_speed(ahead[0])
+            else:
+                s.flags &= ~w.VehicleState.AHEAD
+                s.gap = s.closing = 0.0
 
     def compare(self, k, i, dp, dv):
         if dp > self.max_dp or dv > self.max_dv:

@@ -576,8 +576,10 @@ fn graceful_degradation_runs_with_sumo_as_the_plant() {
     );
     assert_eq!(s["safety"]["collided"], false);
     let gap = |v: &serde_json::Value| v["safety"]["min_gap_m"].as_f64().unwrap();
+    // The radar reads SUMO's own gaps (getLeader), which differ from the model's in the last
+    // bits, so a threshold can be crossed a step apart: the outcome agrees within centimetres.
     assert!(
-        (gap(&s) - gap(&n)).abs() < 1e-6,
+        (gap(&s) - gap(&n)).abs() < 0.05,
         "{} vs {}",
         gap(&s),
         gap(&n)
@@ -592,7 +594,10 @@ fn graceful_degradation_runs_with_sumo_as_the_plant() {
         // collision, the end of the return) may be crossed a step apart.
         for (mode, t) in b["mode_time_s"].as_object().unwrap() {
             let other = a["mode_time_s"][mode].as_f64().unwrap();
-            assert!((other - t.as_f64().unwrap()).abs() <= 0.05, "{mode}: {a} vs {b}");
+            assert!(
+                (other - t.as_f64().unwrap()).abs() <= 0.05,
+                "{mode}: {a} vs {b}"
+            );
         }
         let g = |v: &serde_json::Value| v["guard_activations"].as_i64().unwrap();
         assert!((g(a) - g(b)).abs() <= 1, "{a} vs {b}");

@@ -145,6 +145,8 @@ pub struct PlatoonController {
     rejected: RejectCounts,
     commands: Vec<f64>,
     truth: Vec<Option<RadarTruth>>,
+    /// The plant gave this step's radar truth ([`PlatoonController::set_radar_truth`]).
+    truth_given: bool,
 }
 
 impl PlatoonController {
@@ -227,6 +229,7 @@ impl PlatoonController {
             rejected: RejectCounts::default(),
             commands: vec![0.0; n],
             truth: Vec::with_capacity(n + 1),
+            truth_given: false,
             params,
         })
     }
@@ -239,6 +242,17 @@ impl PlatoonController {
     /// The commands `u_i` of the last [`receive`](Self::receive), followers 1..=N at index i-1.
     pub fn commands(&self) -> &[f64] {
         &self.commands
+    }
+
+    /// What each vehicle's radar would see in the coming [`receive`](Self::receive) (leader
+    /// first), as the plant measured it: with SUMO its leader on the lane, whoever that is.
+    /// Without it the radar sees the platoon's predecessor in the states (the native plant,
+    /// which gives the same numbers).
+    pub fn set_radar_truth(&mut self, truth: &[Option<RadarTruth>]) {
+        self.truth.clear();
+        self.truth.extend_from_slice(truth);
+        self.truth.resize(self.followers.len() + 1, None);
+        self.truth_given = true;
     }
 
     /// Packets refused so far.
@@ -333,9 +347,10 @@ impl PlatoonController {
         let p = &self.params;
         let fb = &p.fallback;
         let radar_on = fb.uses_radar();
-        if radar_on {
+        if radar_on && !self.truth_given {
             radar_truth(states, fb.vehicle_length, &mut self.truth);
         }
+        self.truth_given = false;
         for (f, u_out) in self.followers.iter_mut().zip(self.commands.iter_mut()) {
             let jam = jammed[f.id.index()];
             if f.step.triggered && p.resilient {

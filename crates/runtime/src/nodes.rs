@@ -5,6 +5,7 @@ use crate::{monotonic_ns, RunError};
 use iceoryx2::port::listener::Listener;
 use iceoryx2::prelude::ipc;
 use platoon_attacks::channel::{Channel, ChannelEvent};
+use platoon_control::fallback::{radar_truth, RadarTruth};
 use platoon_control::{Delivery, Packet, PlatoonController};
 use platoon_model::{State, VehicleId};
 use platoon_sim::{Plant, Scenario};
@@ -181,24 +182,35 @@ pub fn plant(run_id: &str, scenario: &Scenario) -> Result<(), RunError> {
         if !ctx.ready()? {
             return Ok(());
         }
-        let publish = |k: u64, plants: &[Plant], buf: &mut Vec<VehicleState>| {
+        let mut truth = Vec::new();
+        let publish = |k: u64,
+                       plants: &[Plant],
+                       buf: &mut Vec<VehicleState>,
+                       truth: &mut Vec<Option<RadarTruth>>| {
             buf.clear();
-            buf.extend(
-                plants
-                    .iter()
-                    .flat_map(|p| p.states())
-                    .enumerate()
-                    .map(|(g, x)| VehicleState {
-                        vehicle: g as u32,
-                        flags: 0,
+            for p in plants {
+                // What a radar sees natively: the platoon's predecessor.
+                radar_truth(p.states(), scenario.vehicle_length, truth);
+                buf.extend(p.states().iter().zip(truth.iter()).map(|(x, t)| {
+                    let (flags, gap, closing) =
+                        t.map_or((0, 0.0, 0.0), |t| (VehicleState::AHEAD, t.gap, t.closing));
+                    VehicleState {
+                        vehicle: 0, // numbered below
+                        flags,
                         p: x[0],
                         v: x[1],
                         a: x[2],
-                    }),
-            );
+                        gap,
+                        closing,
+                    }
+                }));
+            }
+            for (g, s) in buf.iter_mut().enumerate() {
+                s.vehicle = g as u32;
+            }
             states_out.send(k, scenario.dt(), buf)
         };
-        publish(0, &plants, &mut buf)?;
+        publish(0, &plants, &mut buf, &mut truth)?;
         let n = num.per_platoon - 1;
         loop {
             let got = commands.take(*k)?;
@@ -216,7 +228,7 @@ pub fn plant(run_id: &str, scenario: &Scenario) -> Result<(), RunError> {
                 return ctx.done(ControlMsg::new(ControlMsg::DONE, Node::Plant, *k));
             }
             *k += 1;
-            publish(*k, &plants, &mut buf)?;
+            publish(*k, &plants, &mut buf, &mut truth)?;
         }
     })
 }
@@ -276,6 +288,9 @@ pub fn controller(run_id: &str, scenario: &Scenario) -> Result<(), RunError> {
             .collect::<Result<Vec<_>, _>>()
             .map_err(|e| contract(Node::Controller, e.to_string()))?;
         let mut states: Option<Vec<State>> = None;
+        // The radar reads the plant's view of the vehicle ahead (SUMO: its lane leader).
+        let radar_from_plant = scenario.control.fallback.uses_radar();
+        let mut truths: Vec<Option<RadarTruth>> = Vec::with_capacity(num.vehicles());
         let (mut tx, mut wire_tx, mut deliveries, mut jammed, mut cmds) = (
             Vec::new(),
             Vec::new(),
@@ -289,6 +304,13 @@ pub fn controller(run_id: &str, scenario: &Scenario) -> Result<(), RunError> {
         loop {
             if states.is_none() {
                 if let Some(s) = states_in.take(*k)? {
+                    truths.clear();
+                    truths.extend(s.iter().map(|x| {
+                        (x.flags & VehicleState::AHEAD != 0).then_some(RadarTruth {
+                            gap: x.gap,
+                            closing: x.closing,
+                        })
+                    }));
                     let s = states_from_wire(&s, num.vehicles())?;
                     wire_tx.clear();
                     let stamp = monotonic_ns();
@@ -317,6 +339,9 @@ pub fn controller(run_id: &str, scenario: &Scenario) -> Result<(), RunError> {
                     cmds.clear();
                     for (j, c) in controllers.iter_mut().enumerate() {
                         let range = j * n1..(j + 1) * n1;
+                        if radar_from_plant {
+                            c.set_radar_truth(&truths[range.clone()]);
+                        }
                         c.receive(*k, &s[range.clone()], &deliveries[j], &jammed[range]);
                         cmds.extend((1..n1).map(|i| {
                             let f = c.follower_step(VehicleId(i as u16));

@@ -132,6 +132,9 @@ pub struct PlantSpec {
     pub vehicles_per_platoon: usize,
     /// Each platoon's lane (SUMO).
     pub lanes: Vec<u32>,
+    /// The followers' radar range (m) when a fallback or the guard reads the radar: the plant
+    /// then reports the vehicle ahead within it in every state.
+    pub radar_range_m: Option<f64>,
 }
 
 impl PlantSpec {
@@ -153,6 +156,11 @@ impl PlantSpec {
             lanes: (0..scenario.fleet.platoons)
                 .map(|j| scenario.fleet.lane(j))
                 .collect(),
+            radar_range_m: scenario
+                .control
+                .fallback
+                .uses_radar()
+                .then_some(scenario.control.fallback.radar.range_m),
         }
     }
 }

@@ -48,7 +48,8 @@ impl StepHeader {
 pub struct VehicleState {
     /// Vehicle id (0 = leader).
     pub vehicle: u32,
-    /// Bit 0: the vehicle collided in this step (SUMO plant).
+    /// Bit 0: the vehicle collided in this step (SUMO plant); bit 1 ([`VehicleState::AHEAD`]):
+    /// the plant sees a vehicle ahead of it, and `gap`, `closing` are about that one.
     pub flags: u32,
     /// Position (m).
     pub p: f64,
@@ -56,6 +57,17 @@ pub struct VehicleState {
     pub v: f64,
     /// Acceleration (m/s^2).
     pub a: f64,
+    /// What a radar would measure, as the plant sees it: the bumper-to-bumper gap to the
+    /// vehicle ahead (m; the native plant: the platoon's predecessor; SUMO: its leader on the
+    /// lane, whoever it is)...
+    pub gap: f64,
+    /// ...and the closing speed `v - v_ahead` (m/s).
+    pub closing: f64,
+}
+
+impl VehicleState {
+    /// `flags` bit: a vehicle ahead is seen (`gap`, `closing` are valid).
+    pub const AHEAD: u32 = 2;
 }
 
 /// A V2V broadcast (controller -> injector, and inside [`LinkPacket`]).
@@ -390,7 +402,7 @@ pub fn layouts() -> Vec<Layout> {
         layout!(
             VehicleState,
             "platoon::VehicleState",
-            [vehicle, flags, p, v, a]
+            [vehicle, flags, p, v, a, gap, closing]
         ),
         layout!(
             V2vPacket,
