@@ -236,6 +236,33 @@ fn bad_fallback_radar_and_guard_settings_are_one_line_errors() {
 }
 
 #[test]
+fn a_run_with_fallbacks_draws_their_modes() {
+    let tmp = tempfile::tempdir().unwrap();
+    let c = repo().join("configs/degradation.toml");
+    let o = platoon(
+        &[
+            "run",
+            c.to_str().unwrap(),
+            "--transport",
+            "inproc",
+            "--out",
+            "r",
+        ],
+        tmp.path(),
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("modes (all followers): acc"), "{out}");
+    assert_eq!(
+        &std::fs::read(tmp.path().join("r/modes.png")).unwrap()[1..4],
+        b"PNG"
+    );
+    let events = std::fs::read_to_string(tmp.path().join("r/events.csv")).unwrap();
+    assert_eq!(events.matches(",switch,acc,").count(), 4);
+    assert_eq!(events.matches(",switch,blend,").count(), 4);
+}
+
+#[test]
 fn the_degradation_experiment_compares_every_fallback_side_by_side() {
     let tmp = tempfile::tempdir().unwrap();
     let o = platoon(

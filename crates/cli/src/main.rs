@@ -42,11 +42,13 @@ enum Command {
     /// the same core in one process; both give identical files). The run directory receives:
     /// config.toml (the resolved config, every default written out), trajectories.csv (one row
     /// per vehicle and step: t, vehicle, p, v, a, u, theta, spacing and velocity errors,
-    /// triggered, under_attack, affected), events.csv (one row per broadcast), channel.csv (every
-    /// packet the channel did not deliver as sent), summary.json (triggers, inter-event times,
-    /// tracking errors, attack and Assumption-2 verdict, safety, rejected packets), fig6.png
-    /// (positions, relative positions, velocities, internal variables), fig7.png (release
-    /// instants), wire.csv (what happened on the V2V channel, per vehicle and step, whatever
+    /// triggered, under_attack, affected, mode, guard), events.csv (one row per broadcast and
+    /// per mode switch), channel.csv (every packet the channel did not deliver as sent),
+    /// summary.json (triggers, inter-event times, tracking errors, time per mode and guard
+    /// activations, attack and Assumption-2 verdict, safety with the smallest time to
+    /// collision, rejected packets), fig6.png (positions, relative positions, velocities,
+    /// internal variables), fig7.png (release instants), modes.png (each follower's mode over
+    /// time, when one left the cooperative law: [fallback], [radar], [guard]), wire.csv (what happened on the V2V channel, per vehicle and step, whatever
     /// injector ran), and for iceoryx2 runs timing.json (where the time of a step went),
     /// run.json (the run id, for observers) and logs/. [output] in the config switches the
     /// per-step files to Parquet, decimates the trajectories or skips files.

@@ -248,6 +248,90 @@ pub fn fig6(path: &Path, scenario: &Scenario, rows: &[StepRow]) -> Result<()> {
     Ok(())
 }
 
+/// Colour of a mode in `modes.png` (`coop` is left white).
+fn mode_color(m: platoon_control::Mode) -> RGBColor {
+    use platoon_control::Mode;
+    match m {
+        Mode::Coop => WHITE,
+        Mode::Zero => RGBColor(120, 120, 120),
+        Mode::Hold => RGBColor(230, 159, 0),
+        Mode::Predict => RGBColor(86, 180, 233),
+        Mode::Acc => RGBColor(0, 158, 115),
+        Mode::Blend => RGBColor(204, 121, 167),
+    }
+}
+
+/// The mode of every follower over time, one band each (white: cooperative; a colour per
+/// fallback and for the blend back), the guard's braking as red ticks above the band, and the
+/// observed jams shaded: drawn when some follower left the cooperative law.
+pub fn modes(path: &Path, scenario: &Scenario, rows: &[StepRow]) -> Result<()> {
+    use platoon_control::Mode;
+    ensure_font();
+    let n = scenario.topology.followers();
+    let attacks = observed_attacks(rows, scenario.dt());
+    let dt = scenario.dt();
+    let root = BitMapBackend::new(path, (1400, 120 + 60 * n.max(1) as u32)).into_drawing_area();
+    root.fill(&WHITE).map_err(err)?;
+    let mut chart = time_axes(
+        &root,
+        "Mode of each follower (white: cooperative)",
+        "follower",
+        (0.0, scenario.duration()),
+        (0.5, n as f64 + 0.5),
+        &attacks,
+    )?;
+    for v in 1..=n {
+        let y = v as f64;
+        // Runs of one mode, and of the guard braking.
+        let mine: Vec<&StepRow> = rows.iter().filter(|r| r.vehicle as usize == v).collect();
+        let mut start = 0;
+        for i in 1..=mine.len() {
+            if i == mine.len() || mine[i].mode != mine[start].mode {
+                let m = mine[start].mode;
+                if m != Mode::Coop {
+                    let (t0, t1) = (mine[start].t, mine[i - 1].t + dt);
+                    chart
+                        .draw_series(std::iter::once(Rectangle::new(
+                            [(t0, y - 0.3), (t1, y + 0.3)],
+                            mode_color(m).filled(),
+                        )))
+                        .map_err(err)?;
+                }
+                start = i;
+            }
+        }
+        chart
+            .draw_series(
+                mine.iter()
+                    .filter(|r| r.guard)
+                    .map(|r| Rectangle::new([(r.t, y + 0.32), (r.t + dt, y + 0.45)], RED.filled())),
+            )
+            .map_err(err)?;
+    }
+    for m in Mode::ALL.into_iter().filter(|m| *m != Mode::Coop) {
+        let c = mode_color(m);
+        chart
+            .draw_series(std::iter::empty::<Rectangle<(f64, f64)>>())
+            .map_err(err)?
+            .label(m.name())
+            .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 12, y + 5)], c.filled()));
+    }
+    chart
+        .draw_series(std::iter::empty::<Rectangle<(f64, f64)>>())
+        .map_err(err)?
+        .label("guard braking")
+        .legend(|(x, y)| Rectangle::new([(x, y - 5), (x + 12, y + 5)], RED.filled()));
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .position(SeriesLabelPosition::UpperRight)
+        .draw()
+        .map_err(err)?;
+    root.present().map_err(err)?;
+    Ok(())
+}
+
 /// Fig. 7: each follower's release instants (stems) with the time since its previous release.
 pub fn fig7(path: &Path, scenario: &Scenario, rows: &[StepRow]) -> Result<()> {
     ensure_font();

@@ -698,6 +698,14 @@ pub fn write_outputs(
             let path = dir.path(name);
             draw(&path, scenario, rows).with_context(|| format!("drawing {}", path.display()))?;
         }
+        if rows
+            .iter()
+            .any(|r| r.mode != platoon_control::Mode::Coop || r.guard)
+        {
+            let path = dir.path("modes.png");
+            plots::modes(&path, scenario, rows)
+                .with_context(|| format!("drawing {}", path.display()))?;
+        }
     }
     let mut json = serde_json::to_value(summary)?;
     for (key, value) in extra {
