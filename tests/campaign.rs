@@ -619,3 +619,38 @@ fn every_shipped_campaign_parses() {
     }
     assert_eq!(seen, 4);
 }
+
+#[test]
+fn fallback_timing_maps_which_fallback_survives_a_jam_on_the_braking_ramp() {
+    let tmp = tempfile::tempdir().unwrap();
+    let file = shipped("fallback-timing", tmp.path(), |t| {
+        let axes = toml::from_str::<toml::Table>(
+            "[[axes]]\nkey = \"fallback.mode\"\nvalues = [\"zero\", \"acc\"]\n\
+             [[axes]]\nkey = \"guard.enabled\"\nvalues = [false, true]",
+        )
+        .unwrap();
+        t.insert("axes".into(), axes["axes"].clone());
+        t.insert(
+            "dos_window".into(),
+            toml::from_str::<toml::Value>("onset_s = [34.0]\nduration_s = [8.0]").unwrap(),
+        );
+    });
+    let out = tmp.path().join("out");
+    ok(&campaign(
+        &[file.to_str().unwrap(), "--out", out.to_str().unwrap()],
+        tmp.path(),
+    ));
+    let rows = cells(&out);
+    assert_eq!(rows.len(), 4);
+    let at = |mode: &str, guard: &str| {
+        rows.iter()
+            .find(|r| r["fallback.mode"] == mode && r["guard.enabled"] == guard)
+            .unwrap()
+    };
+    assert_eq!(at("zero", "false")["collided"], "1");
+    assert_eq!(at("zero", "true")["collided"], "0", "the guard prevents it");
+    assert!(num(at("zero", "true"), "guard_activations") > 0.0);
+    assert_eq!(at("acc", "false")["collided"], "0");
+    assert!(num(at("acc", "false"), "fallback_time_s") > 4.0 * 8.0);
+    assert!(num(at("acc", "false"), "min_ttc_s") > 0.0);
+}

@@ -66,6 +66,18 @@ pub const ALL: &[(&str, &str)] = &[
         "longest time a follower was affected by attacks (A*), s",
     ),
     ("rejected_packets", "packets the controllers refused"),
+    (
+        "min_ttc_s",
+        "smallest time to collision of a follower closing in (platoon 0), s",
+    ),
+    (
+        "fallback_time_s",
+        "time followers spent outside the cooperative law, summed (platoon 0), s",
+    ),
+    (
+        "guard_activations",
+        "times the emergency-braking guard took over, all followers (platoon 0)",
+    ),
 ];
 
 /// Collected when the campaign file names none.
@@ -251,6 +263,22 @@ pub fn extract(names: &[String], max_followers: usize, summary: &Value) -> Vec<M
                 .as_object()
                 .map(|o| o.values().filter_map(Value::as_u64).sum())
                 .map_or(Metric::Empty, Metric::Int),
+            "min_ttc_s" => num(&safety["min_ttc_s"]),
+            "fallback_time_s" => Metric::Num(
+                vehicles(summary)
+                    .iter()
+                    .filter_map(|v| v["mode_time_s"].as_object())
+                    .flat_map(|m| m.iter())
+                    .filter(|(mode, _)| mode.as_str() != "coop")
+                    .filter_map(|(_, t)| t.as_f64())
+                    .sum(),
+            ),
+            "guard_activations" => Metric::Int(
+                vehicles(summary)
+                    .iter()
+                    .filter_map(|v| v["guard_activations"].as_u64())
+                    .sum(),
+            ),
             _ => Metric::Empty,
         };
         out.push(m);
@@ -285,12 +313,14 @@ mod tests {
             "min_inter_event_s": 0.02,
             "vehicles": [
                 {"spacing_error_m": {"max_abs": 1.5, "rms": 0.3, "mean_abs": 0.2, "final_abs": 0.01},
-                 "velocity_error_mps": {"max_abs": 1.0}, "affected_time_s": 2.0},
+                 "velocity_error_mps": {"max_abs": 1.0}, "affected_time_s": 2.0,
+                 "mode_time_s": {"coop": 50.0, "acc": 4.0, "blend": 1.0}, "guard_activations": 2},
                 {"spacing_error_m": {"max_abs": 0.5, "rms": 0.4, "mean_abs": 0.4, "final_abs": 0.02},
-                 "velocity_error_mps": {"max_abs": 2.0}, "affected_time_s": 3.0}
+                 "velocity_error_mps": {"max_abs": 2.0}, "affected_time_s": 3.0,
+                 "mode_time_s": {"coop": 52.5, "zero": 2.5}, "guard_activations": 1}
             ],
             "attack": {"intervals": 1, "attacked_time_s": 2.5, "assumption2": {"holds": false}},
-            "safety": {"collided": false, "min_gap_m": 7.0, "max_deceleration_mps2": 2.5, "class": "negligible"},
+            "safety": {"collided": false, "min_gap_m": 7.0, "max_deceleration_mps2": 2.5, "class": "negligible", "min_ttc_s": 3.5},
             "rejected_packets": {"non_finite": 1, "stale_seq": 2}
         })
     }
@@ -313,6 +343,9 @@ mod tests {
         assert_eq!(get("assumption2"), "violated");
         assert_eq!(get("max_affected_time_s"), "3");
         assert_eq!(get("rejected_packets"), "3");
+        assert_eq!(get("min_ttc_s"), "3.5");
+        assert_eq!(get("fallback_time_s"), "7.5");
+        assert_eq!(get("guard_activations"), "3");
         assert!(failure(&summary()).is_none());
     }
 

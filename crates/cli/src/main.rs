@@ -74,7 +74,8 @@ enum Command {
     /// mean_spacing_error_m, final_spacing_error_m, max_velocity_error_mps, min_gap_m,
     /// max_deceleration_mps2, safety_class, collided, triggers_total, triggers_per_follower,
     /// triggers_by_follower (triggers_1, ...), min_inter_event_s, assumption2,
-    /// attack_intervals, attacked_time_s, max_affected_time_s, rejected_packets. Default: the
+    /// attack_intervals, attacked_time_s, max_affected_time_s, rejected_packets, min_ttc_s,
+    /// fallback_time_s, guard_activations. Default: the
     /// spacing errors (max, RMS), min_gap_m, max_deceleration_mps2, safety_class, the
     /// triggers (total, per follower), min_inter_event_s, assumption2, attacked_time_s.
     ///
