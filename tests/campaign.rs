@@ -617,7 +617,7 @@ fn every_shipped_campaign_parses() {
             seen += 1;
         }
     }
-    assert_eq!(seen, 4);
+    assert_eq!(seen, 5);
 }
 
 #[test]

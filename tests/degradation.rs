@@ -313,3 +313,17 @@ fn the_degradation_experiment_compares_every_fallback_side_by_side() {
         b"PNG"
     );
 }
+
+#[test]
+fn an_unused_radar_does_not_constrain_the_step() {
+    // The default radar period (0.05 s) is not a whole number of 0.02 s steps: only a config
+    // that reads the radar must fix it.
+    let paper = std::fs::read_to_string(repo().join("configs/paper.toml")).unwrap();
+    let coarse = paper
+        .replace("dt_s = 0.01 ", "dt_s = 0.02 ")
+        .replace("check_period_s = 0.01 ", "check_period_s = 0.02 ");
+    assert!(parse(&coarse, Path::new("coarse.toml")).is_ok());
+    let with_guard = coarse + "\n[guard]\nenabled = true\n";
+    let err = parse(&with_guard, Path::new("coarse.toml")).unwrap_err();
+    assert!(err.to_string().contains("radar.period_s"), "{err}");
+}

@@ -77,6 +77,9 @@ fn fallback(
     };
     let r = &c.radar;
     let g = &c.guard;
+    let acc = platoon_control::FallbackMode::Acc;
+    let uses_radar =
+        g.enabled || mode == acc || f.per_vehicle.as_ref().is_some_and(|p| p.contains(&acc));
     let params = platoon_control::FallbackParams {
         mode,
         per_vehicle: f.per_vehicle.clone().unwrap_or_default(),
@@ -86,7 +89,13 @@ fn fallback(
         acc: f.acc,
         radar: platoon_control::fallback::RadarParams {
             range_m: r.range_m,
-            period_steps: steps_of("radar.period_s", r.period_s, dt)?,
+            // Checked against the step only where something reads the radar, so a config with
+            // another dt needs no [radar] it does not use.
+            period_steps: if uses_radar {
+                steps_of("radar.period_s", r.period_s, dt)?
+            } else {
+                ((r.period_s / dt).round().max(1.0)).min(f64::from(u32::MAX)) as u32
+            },
             noise_m: r.noise_m,
             noise_mps: r.noise_mps,
             dropout: r.dropout,
