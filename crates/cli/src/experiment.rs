@@ -240,11 +240,7 @@ fn degradation(args: DegradationArgs) -> Result<()> {
                         followers: n,
                         fallback: name,
                         guard,
-                        max_spacing_error_m: s
-                            .vehicles
-                            .iter()
-                            .map(|v| v.spacing_error_m.max_abs)
-                            .fold(0.0, f64::max),
+                        max_spacing_error_m: s.max_spacing_error_m(),
                         min_gap_m: s.safety.min_gap_m,
                         min_ttc_s: s.safety.min_ttc_s,
                         max_deceleration_mps2: s.safety.max_deceleration_mps2,

@@ -431,6 +431,16 @@ impl MetricsAccumulator {
     }
 }
 
+impl Summary {
+    /// The largest |spacing error| of any follower (m).
+    pub fn max_spacing_error_m(&self) -> f64 {
+        self.vehicles
+            .iter()
+            .map(|v| v.spacing_error_m.max_abs)
+            .fold(0.0, f64::max)
+    }
+}
+
 /// One platoon of a fleet, in brief.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct PlatoonBrief {
@@ -551,11 +561,7 @@ impl FleetMetrics {
                 .map(|(j, s)| PlatoonBrief {
                     platoon: j as u16,
                     triggers_total: s.triggers_total,
-                    max_spacing_error_m: s
-                        .vehicles
-                        .iter()
-                        .map(|v| v.spacing_error_m.max_abs)
-                        .fold(0.0, f64::max),
+                    max_spacing_error_m: s.max_spacing_error_m(),
                     min_gap_m: s.safety.min_gap_m,
                     class: s.safety.class,
                 })

@@ -555,13 +555,7 @@ fn class_map(path: &Path, table: &Table, (dx, dy): (usize, usize), k: usize) -> 
             .label(name)
             .legend(move |(x, y)| Rectangle::new([(x, y - 6), (x + 14, y + 6)], color.filled()));
     }
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.9))
-        .border_style(BLACK)
-        .position(SeriesLabelPosition::UpperRight)
-        .draw()
-        .map_err(err)?;
+    crate::plots::legend(&mut chart, SeriesLabelPosition::UpperRight)?;
     root.present().map_err(err)?;
     Ok(())
 }
@@ -691,13 +685,7 @@ fn lines(path: &Path, table: &Table, x: usize, others: &[usize], k: usize) -> Re
                     )
                     .map_err(err)?;
             }
-            chart
-                .configure_series_labels()
-                .background_style(WHITE.mix(0.85))
-                .border_style(BLACK)
-                .position(SeriesLabelPosition::UpperLeft)
-                .draw()
-                .map_err(err)?;
+            crate::plots::legend(&mut chart, SeriesLabelPosition::UpperLeft)?;
         }};
     }
     let mut builder = ChartBuilder::on(&root);
@@ -790,13 +778,7 @@ fn ecdf(path: &Path, table: &Table, dims: &[usize], k: usize) -> Result<()> {
                 PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2))
             });
     }
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .position(SeriesLabelPosition::LowerRight)
-        .draw()
-        .map_err(err)?;
+    crate::plots::legend(&mut chart, SeriesLabelPosition::LowerRight)?;
     root.present().map_err(err)?;
     Ok(())
 }
