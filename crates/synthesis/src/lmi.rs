@@ -191,6 +191,10 @@ pub enum Feasibility {
     Infeasible,
 }
 
+/// The largest eigenvalue the Lyapunov matrix P may have in [`min_ratio`] (its smallest is the
+/// margin `delta`).
+pub const P_MAX: f64 = 1e4;
+
 /// The smallest `beta1 / beta2` for which (13) holds with gain `k` and decay `c` on graph `h`
 /// at nominal `tau` (with margin `delta`: Psi <= -delta I, P >= delta I), or `Infeasible`.
 pub fn theorem1_min_ratio(
@@ -245,6 +249,13 @@ pub fn min_ratio(
     let mut fp: Vec<DMatrix<f64>> = basis.iter().map(|e| -dm(e)).collect();
     fp.push(DMatrix::zeros(3, 3));
     lmis.push(Lmi::nsd(&(DMatrix::<f64>::identity(3, 3) * delta), &fp));
+    // P <= P_MAX I: without a bound the smallest ratio may only be approached as P grows
+    // without end, which leaves the interior-point method no optimum to converge to: PF with 3
+    // followers, PLF with 8, BPF with 2 ended in NumericalError (issue 14). Any P in the box is
+    // a valid certificate (re-checked below); the ratio is the smallest over the box.
+    let mut fu: Vec<DMatrix<f64>> = basis.iter().map(dm).collect();
+    fu.push(DMatrix::zeros(3, 3));
+    lmis.push(Lmi::nsd(&(DMatrix::<f64>::identity(3, 3) * -P_MAX), &fu));
     let nvar = basis.len() + 1;
     let mut cost = vec![0.0; nvar];
     cost[nvar - 1] = 1.0; // minimise r
@@ -283,11 +294,23 @@ pub fn min_ratio(
     cert.max_eigenvalue = v.max_eigenvalue;
     cert.p_min_eigenvalue = v.p_min_eigenvalue;
     if !v.holds {
-        // The solver's answer does not pass the independent check: say so, never return it.
+        // The solver's answer does not pass the independent check (it sits within the
+        // solver's tolerance of the boundary): ask again with a hundredfold margin, and only
+        // then say so; never return an answer that fails the check.
+        if delta < MAX_MARGIN {
+            match min_ratio(k, c, h, taus, delta * 100.0) {
+                // The stricter problem tripping the solver says no more than this answer did.
+                Err(LmiError::Solver(_)) => {}
+                other => return other,
+            }
+        }
         return Err(LmiError::NotCertified(v.max_eigenvalue));
     }
     Ok(Feasibility::Feasible(cert))
 }
+
+/// The largest margin [`min_ratio`] retries with when an answer fails the re-check.
+const MAX_MARGIN: f64 = 1e-3;
 
 /// The largest decay c (to `tol`) for which (13) is feasible with gain `k`, by bisection on
 /// `[0, c_max]`; `None` if it is infeasible already at c = 0.
@@ -305,13 +328,17 @@ pub fn theorem1_max_decay(
     let (mut lo, mut hi) = (0.0, c_max);
     while hi - lo > tol {
         let mid = 0.5 * (lo + hi);
-        // At the edge of feasibility an answer that fails the re-check counts as infeasible.
+        // At the edge of feasibility an answer that fails the re-check, or the solver's
+        // numerical trouble, counts as infeasible: the decay returned is certified either way,
+        // at worst smaller than the true largest.
         match min_ratio(k, mid, h, taus, delta) {
             Ok(Feasibility::Feasible(c)) => {
                 lo = mid;
                 best = c;
             }
-            Ok(Feasibility::Infeasible) | Err(LmiError::NotCertified(_)) => hi = mid,
+            Ok(Feasibility::Infeasible)
+            | Err(LmiError::NotCertified(_))
+            | Err(LmiError::Solver(_)) => hi = mid,
             Err(e) => return Err(e),
         }
     }
@@ -421,6 +448,27 @@ mod tests {
         };
         assert!((cert.ratio - 179.3).abs() < 1.0, "{}", cert.ratio);
         assert!(cert.verify().unwrap().holds);
+    }
+
+    /// Issue 14: on a grid of presets and sizes no size ends in a raw solver status. Before P
+    /// was bounded, PF with 3 followers and BPF with 2 ended in NumericalError at c = 0, and
+    /// the largest-decay bisection of PLF, TPSF and BPF with 2 in one of its steps. Each
+    /// answer is either a certificate that passes the re-check or "infeasible".
+    #[test]
+    fn no_preset_and_size_of_the_grid_ends_in_a_solver_error() {
+        for preset in [Preset::Pf, Preset::Plf, Preset::Tpsf, Preset::Bpf] {
+            for n in [2, 3, 5] {
+                let hm = h(preset, n);
+                match theorem1_min_ratio(PAPER_K, 0.0, &hm, 0.5, 1e-6) {
+                    Ok(Feasibility::Feasible(cert)) => assert!(cert.verify().unwrap().holds),
+                    Ok(Feasibility::Infeasible) => {}
+                    Err(e) => panic!("{preset:?} with {n} followers: {e}"),
+                }
+                if let Err(e) = theorem1_max_decay(PAPER_K, &hm, &[0.5], 2.0, 0.05) {
+                    panic!("{preset:?} with {n} followers, largest decay: {e}");
+                }
+            }
+        }
     }
 
     #[test]
