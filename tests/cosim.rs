@@ -20,12 +20,17 @@ fn python() -> String {
     repo().join("bridge/.venv/bin/python").display().to_string()
 }
 
-fn drop_sender(args: &str) -> String {
+/// `bridge/examples/<name> ARGS` run by the bridge's Python, as `--injector` takes it.
+fn py_example(name: &str, args: &str) -> String {
     format!(
         "{} {} {args}",
         python(),
-        repo().join("bridge/examples/drop_sender.py").display()
+        repo().join("bridge/examples").join(name).display()
     )
+}
+
+fn drop_sender(args: &str) -> String {
+    py_example("drop_sender.py", args)
 }
 
 const COMPARED: [&str; 5] = [
@@ -239,11 +244,7 @@ fn hostile_packets_are_refused_and_counted_and_change_nothing() {
     let table1 = repo().join("configs/table1.toml");
     // With a forged copy of a genuine packet of follower 1 whose sequence number is near the
     // maximum (issue 13: it was accepted and locked follower 1 out for the rest of the run).
-    let hostile = format!(
-        "{} {} --forge-seq-at 1000",
-        python(),
-        repo().join("bridge/examples/hostile.py").display()
-    );
+    let hostile = py_example("hostile.py", "--forge-seq-at 1000");
     ok(&platoon(
         &[
             "run",
@@ -488,11 +489,7 @@ fn an_injector_repeating_one_step_is_named_after_the_timeout() {
 fn a_malformed_sample_stops_the_run_after_recording_every_complete_step() {
     let tmp = tempfile::tempdir().unwrap();
     let config = repo().join("configs/table1.toml");
-    let hostile = format!(
-        "{} {} --bad-count-at 100",
-        python(),
-        repo().join("bridge/examples/hostile.py").display()
-    );
+    let hostile = py_example("hostile.py", "--bad-count-at 100");
     let o = platoon(
         &[
             "run",
@@ -792,13 +789,7 @@ fn a_rust_sdk_jammer_following_one_vehicle_affects_that_vehicle_only() {
 #[test]
 fn python_sdk_injectors_reproduce_the_builtin_dos_and_run_a_stealthy_ghost() {
     let tmp = tempfile::tempdir().unwrap();
-    let example = |name: &str, args: &str| {
-        format!(
-            "{} {} {args}",
-            python(),
-            repo().join("bridge/examples").join(name).display()
-        )
-    };
+    let example = py_example;
     let run = |config: &str, out: &str, extra: &[&str]| {
         let c = repo().join("configs").join(config);
         let mut args = vec!["run", c.to_str().unwrap(), "--no-plots", "--out", out];
@@ -864,11 +855,7 @@ fn an_injector_after_the_builtin_channel_stacks_on_the_configs_attacks() {
         summary(&tmp.path().join(out))
     };
     let builtin = run("builtin", &[]);
-    let python_dos = format!(
-        "{} {}",
-        python(),
-        repo().join("bridge/examples/dos_jammer.py").display()
-    );
+    let python_dos = py_example("dos_jammer.py", "");
     for (out, injector) in [("rust", sdk_example("dos_jammer")), ("python", python_dos)] {
         let s = run(out, &["--injector-mode", "after", "--injector", &injector]);
         assert!(
@@ -1018,9 +1005,8 @@ fn cpus_pins_every_node_and_changes_no_result() {
     // The injector is a shell that reports its own CPU list, then becomes the Python SDK's
     // dos_jammer: what it prints is what the pinned process was allowed.
     let injector = format!(
-        "sh -c 'grep Cpus_allowed_list /proc/self/status >&2; exec {} {}'",
-        python(),
-        repo().join("bridge/examples/dos_jammer.py").display()
+        "sh -c 'grep Cpus_allowed_list /proc/self/status >&2; exec {}'",
+        py_example("dos_jammer.py", "")
     );
     ok(&platoon(
         &[

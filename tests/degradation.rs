@@ -3,7 +3,7 @@
 //! errors a bad `[fallback]`, `[radar]` or `[guard]` gets.
 mod common;
 
-use common::{platoon, repo};
+use common::{ok, platoon, repo};
 use platoon_config::parse;
 use platoon_control::{FallbackMode, Mode};
 use platoon_sim::{run, Scenario, StepRow, Summary};
@@ -250,7 +250,7 @@ fn a_run_with_fallbacks_draws_their_modes() {
         ],
         tmp.path(),
     );
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    ok(&o);
     let out = String::from_utf8_lossy(&o.stdout);
     assert!(out.contains("modes (all followers): acc"), "{out}");
     assert_eq!(
@@ -276,7 +276,7 @@ fn the_degradation_experiment_compares_every_fallback_side_by_side() {
         ],
         tmp.path(),
     );
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    ok(&o);
     let dir = tmp.path().join("deg");
     let mut csv = csv::Reader::from_path(dir.join("degradation.csv")).unwrap();
     let rows: Vec<csv::StringRecord> = csv.records().map(|r| r.unwrap()).collect();

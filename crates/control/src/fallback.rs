@@ -29,7 +29,7 @@
 //! only) is below `ttc_s` it commands `min(u, -decel)`.
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use rand_distr::{Distribution, Normal};
+use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};
 
 /// What a follower applies while it is affected by an attack (`A*` of the paper).
@@ -377,7 +377,7 @@ impl Radar {
 }
 
 fn gaussian(rng: &mut ChaCha8Rng, std: f64) -> f64 {
-    let z: f64 = Normal::new(0.0, 1.0).expect("unit normal").sample(rng);
+    let z: f64 = StandardNormal.sample(rng);
     std * z
 }
 
