@@ -23,6 +23,14 @@ pub const ALL: &[(&str, &str)] = &[
         "largest |spacing error| at the last step (platoon 0), m",
     ),
     (
+        "max_gap_error_m",
+        "largest |gap error to the predecessor| of any follower (platoon 0), m",
+    ),
+    (
+        "gap_error_growth",
+        "the last follower's largest |gap error| over the first's (platoon 0): above 1, errors grew along the platoon",
+    ),
+    (
         "max_velocity_error_mps",
         "largest |velocity error| of any follower (platoon 0), m/s",
     ),
@@ -225,6 +233,15 @@ pub fn extract(names: &[String], max_followers: usize, summary: &Value) -> Vec<M
             "final_spacing_error_m" => {
                 over_vehicles(summary, &["spacing_error_m", "final_abs"], f64::max)
             }
+            "max_gap_error_m" => over_vehicles(summary, &["gap_error_m", "max_abs"], f64::max),
+            "gap_error_growth" => {
+                let v = vehicles(summary);
+                let max = |x: Option<&Value>| x.and_then(|x| x["gap_error_m"]["max_abs"].as_f64());
+                match (max(v.first()), max(v.last())) {
+                    (Some(a), Some(b)) if v.len() > 1 && (b / a).is_finite() => Metric::Num(b / a),
+                    _ => Metric::Empty,
+                }
+            }
             "max_velocity_error_mps" => {
                 over_vehicles(summary, &["velocity_error_mps", "max_abs"], f64::max)
             }
@@ -313,9 +330,11 @@ mod tests {
             "min_inter_event_s": 0.02,
             "vehicles": [
                 {"spacing_error_m": {"max_abs": 1.5, "rms": 0.3, "mean_abs": 0.2, "final_abs": 0.01},
+                 "gap_error_m": {"max_abs": 2.0},
                  "velocity_error_mps": {"max_abs": 1.0}, "affected_time_s": 2.0,
                  "mode_time_s": {"coop": 50.0, "acc": 4.0, "blend": 1.0}, "guard_activations": 2},
                 {"spacing_error_m": {"max_abs": 0.5, "rms": 0.4, "mean_abs": 0.4, "final_abs": 0.02},
+                 "gap_error_m": {"max_abs": 0.5},
                  "velocity_error_mps": {"max_abs": 2.0}, "affected_time_s": 3.0,
                  "mode_time_s": {"coop": 52.5, "zero": 2.5}, "guard_activations": 1}
             ],
@@ -335,6 +354,8 @@ mod tests {
         assert_eq!(get("max_spacing_error_m"), "1.5");
         assert_eq!(get("rms_spacing_error_m"), (0.125f64).sqrt().to_string());
         assert_eq!(get("mean_spacing_error_m"), "0.30000000000000004");
+        assert_eq!(get("max_gap_error_m"), "2");
+        assert_eq!(get("gap_error_growth"), "0.25");
         assert_eq!(get("safety_class"), "negligible");
         assert_eq!(get("collided"), "0");
         assert_eq!(get("triggers_per_follower"), "15");

@@ -793,7 +793,7 @@ fn design(a: DesignArgs) -> Result<Vec<DesignRow>> {
     for &n in &a.followers {
         eprintln!("designing for {n} followers (TPSF) ...");
         let t = platoon_topology::Topology::preset(platoon_topology::Preset::Tpsf, n)?;
-        let h = t.h_matrix();
+        let h = platoon_synthesis::Coupling::constant(t.h_matrix());
         let started = Instant::now();
         let d = platoon_synthesis::design_theorem1(&Default::default(), &h)?;
         rows.push(DesignRow {

@@ -3,7 +3,8 @@
 use crate::output::RunDir;
 use anyhow::{bail, Context, Result};
 use platoon_synthesis::{
-    closed_loop_spectrum, dos_bounds, min_ratio, theorem1_max_decay, Certificate, Feasibility,
+    closed_loop_spectrum, dos_bounds, min_ratio, theorem1_max_decay, Certificate, Coupling,
+    Feasibility,
 };
 use std::path::PathBuf;
 
@@ -49,6 +50,11 @@ pub struct SynthesizeArgs {
     /// Largest beta1/beta2 tried.
     #[arg(long, default_value_t = 1e4)]
     pub ratio_max: f64,
+    /// The spacing policy's time headway h_t (s), overriding the config's
+    /// (`platoon.spacing_policy`): 0 for constant spacing. (13) is then imposed on the
+    /// time-headway error dynamics (README, "Time headway").
+    #[arg(long, value_name = "SECONDS")]
+    pub time_headway: Option<f64>,
     /// varsigma* as a fraction of varsigma1, in (0, 1): trades the dwell-time bound T2 against
     /// the duration bound D2 of (16).
     #[arg(long, default_value_t = 0.5)]
@@ -76,6 +82,11 @@ pub struct CheckGainArgs {
     /// (robust to every tau between; our reading of Theorem 2, ERRATA item 18).
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u8).range(1..=2))]
     pub theorem: u8,
+    /// The spacing policy's time headway h_t (s), overriding the config's
+    /// (`platoon.spacing_policy`): 0 for constant spacing. (13) is then imposed on the
+    /// time-headway error dynamics (README, "Time headway").
+    #[arg(long, value_name = "SECONDS")]
+    pub time_headway: Option<f64>,
     /// Output directory [default: runs/design-check].
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -131,26 +142,47 @@ fn parse_gain(s: &str) -> Result<[f64; 3]> {
     }
 }
 
+/// The scenario's graph and spacing policy, the policy's headway replaced by `time_headway`
+/// when given.
+fn coupling(scenario: &platoon_sim::Scenario, time_headway: Option<f64>) -> Result<Coupling> {
+    let headway = time_headway.unwrap_or(scenario.headway());
+    if !(headway.is_finite() && headway >= 0.0) {
+        bail!("--time-headway {headway}: must be a finite number of seconds >= 0 (0: constant spacing)");
+    }
+    Ok(Coupling::time_headway(
+        scenario.topology.h_matrix(),
+        headway,
+    ))
+}
+
+/// "constant spacing" or "time headway 0.5 s".
+fn policy(g: &Coupling) -> String {
+    if g.headway > 0.0 {
+        format!("time headway {} s", g.headway)
+    } else {
+        "constant spacing".into()
+    }
+}
+
 /// String stability of `k` for the config's platoon and, for a preset topology, for the same
-/// preset with 100 followers (where string instability shows): at the config's tau range.
+/// preset with 100 followers (where string instability shows): at the config's tau range, with
+/// the spacing policy of `g`.
 fn string_report(
     k: [f64; 3],
     config: &platoon_config::Config,
     scenario: &platoon_sim::Scenario,
+    g: &Coupling,
 ) -> Vec<platoon_synthesis::StringStability> {
     let (lo, hi) = scenario.tau_range();
     let mut taus = vec![lo, scenario.control.tau_nominal, hi];
     taus.sort_by(f64::total_cmp);
     taus.dedup();
-    let mut out = vec![platoon_synthesis::string_stability(
-        k,
-        &scenario.topology.h_matrix(),
-        &taus,
-    )];
+    let mut out = vec![platoon_synthesis::string_stability(k, g, &taus)];
     let preset = platoon_topology::Preset::from_name(&config.topology.preset);
     if let Some(p) = preset.filter(|_| scenario.topology.followers() < 100) {
         if let Ok(t) = platoon_topology::Topology::preset(p, 100) {
-            out.push(platoon_synthesis::string_stability(k, &t.h_matrix(), &taus));
+            let long = Coupling::time_headway(t.h_matrix(), g.headway);
+            out.push(platoon_synthesis::string_stability(k, &long, &taus));
         }
     }
     out
@@ -181,6 +213,8 @@ fn print_string(report: &[platoon_synthesis::StringStability]) {
 struct CheckReport {
     k: [f64; 3],
     topology_followers: usize,
+    /// The time headway the conditions were imposed with (s; 0: constant spacing).
+    time_headway_s: f64,
     tau_nominal: f64,
     tau_range: (f64, f64),
     stable_over_tau_range: bool,
@@ -202,13 +236,13 @@ fn check_gain(a: CheckGainArgs) -> Result<()> {
         None => config.control.gain,
     };
     let n = scenario.topology.followers();
-    let h = scenario.topology.h_matrix();
+    let g = coupling(&scenario, a.time_headway)?;
     let tau = scenario.control.tau_nominal;
     let (lo, hi) = scenario.tau_range();
     let taus: Vec<f64> = (0..=50)
         .map(|i| lo + (hi - lo) * f64::from(i) / 50.0)
         .collect();
-    let spectrum = closed_loop_spectrum(k, &h, &taus);
+    let spectrum = closed_loop_spectrum(k, &g, &taus);
     let taus_lmi = if a.theorem == 2 {
         vec![lo, hi]
     } else {
@@ -231,7 +265,7 @@ fn check_gain(a: CheckGainArgs) -> Result<()> {
     csv.flush()?;
 
     let started = std::time::Instant::now();
-    let min = min_ratio(k, a.c, &h, &taus_lmi, 1e-6)?;
+    let min = min_ratio(k, a.c, &g, &taus_lmi, 1e-6)?;
     let sdp_s = started.elapsed().as_secs_f64();
     let config_ratio = config.control.beta1 / config.control.beta2;
     let (min_ratio, certified) = match &min {
@@ -249,7 +283,7 @@ fn check_gain(a: CheckGainArgs) -> Result<()> {
         }
         Feasibility::Infeasible => (None, false),
     };
-    let best = theorem1_max_decay(k, &h, &taus_lmi, 10.0, 1e-3)?;
+    let best = theorem1_max_decay(k, &g, &taus_lmi, 10.0, 1e-3)?;
     if let Some(cert) = &best {
         dir.write(
             "certificate-max-decay.json",
@@ -259,6 +293,7 @@ fn check_gain(a: CheckGainArgs) -> Result<()> {
     let report = CheckReport {
         k,
         topology_followers: n,
+        time_headway_s: g.headway,
         tau_nominal: tau,
         tau_range: (lo, hi),
         stable_over_tau_range: worst < 0.0,
@@ -268,7 +303,7 @@ fn check_gain(a: CheckGainArgs) -> Result<()> {
         config_ratio,
         config_ratio_certified: certified,
         max_decay_c: best.as_ref().map(|c| c.c),
-        string_stability: string_report(k, &config, &scenario),
+        string_stability: string_report(k, &config, &scenario, &g),
     };
     dir.write(
         "check.json",
@@ -276,7 +311,13 @@ fn check_gain(a: CheckGainArgs) -> Result<()> {
     )?;
     let path = dir.commit()?;
 
-    println!("K = [{}, {}, {}] on {n} followers", k[0], k[1], k[2]);
+    println!(
+        "K = [{}, {}, {}] on {n} followers, {}",
+        k[0],
+        k[1],
+        k[2],
+        policy(&g)
+    );
     print_string(&report.string_stability);
     println!(
         "  closed loop over tau in [{lo}, {hi}] s: {} (largest real part {worst:.4}, fastest mode {fastest:.1} rad/s)",
@@ -329,6 +370,8 @@ fn verify(file: PathBuf) -> Result<()> {
 #[derive(serde::Serialize)]
 struct DesignReport {
     theorem: u8,
+    /// The time headway the conditions were imposed with (s; 0: constant spacing).
+    time_headway_s: f64,
     k: [f64; 3],
     beta1: f64,
     beta2: f64,
@@ -362,7 +405,7 @@ fn synthesize(a: SynthesizeArgs) -> Result<()> {
     let (config, scenario, _) =
         crate::run::load(a.config.as_deref(), platoon_config::PAPER_TOML, "paper")?;
     let n = scenario.topology.followers();
-    let h = scenario.topology.h_matrix();
+    let g = coupling(&scenario, a.time_headway)?;
     let tau = scenario.control.tau_nominal;
     let (lo, hi) = scenario.tau_range();
     let taus = if a.theorem == 2 {
@@ -387,18 +430,19 @@ fn synthesize(a: SynthesizeArgs) -> Result<()> {
         );
     }
     let started = std::time::Instant::now();
-    let design = platoon_synthesis::design_theorem1(&spec, &h)?;
+    let design = platoon_synthesis::design_theorem1(&spec, &g)?;
     let Some(d) = design else {
         // Nothing is written for an infeasible request.
         bail!(
-            "infeasible: no gain with |K| <= {} satisfies Theorem {} on this topology ({n} followers) with beta1/beta2 <= {} at c = {} ({:.2} s); raise --k-max or --ratio-max, or lower --c",
-            a.k_max, a.theorem, a.ratio_max, a.c, started.elapsed().as_secs_f64()
+            "infeasible: no gain with |K| <= {} satisfies Theorem {} on this topology ({n} followers, {}) with beta1/beta2 <= {} at c = {} ({:.2} s); raise --k-max or --ratio-max, or lower --c{}",
+            a.k_max, a.theorem, policy(&g), a.ratio_max, a.c, started.elapsed().as_secs_f64(),
+            if g.headway > 0.0 { "; with a time headway the gain is designed for constant spacing and then checked, so a smaller --time-headway may pass" } else { "" }
         );
     };
     // The decay it guarantees (ratio kept within twice the design's) and what DoS it tolerates.
     let decay = platoon_synthesis::max_decay_within_ratio(
         d.k,
-        &h,
+        &g,
         &taus,
         2.0 * d.certificate.ratio,
         5.0,
@@ -443,6 +487,7 @@ fn synthesize(a: SynthesizeArgs) -> Result<()> {
     };
     let report = DesignReport {
         theorem: a.theorem,
+        time_headway_s: g.headway,
         k: d.k,
         beta1: d.certificate.ratio * config.control.beta2,
         beta2: config.control.beta2,
@@ -466,7 +511,7 @@ fn synthesize(a: SynthesizeArgs) -> Result<()> {
         certificate_max_decay: decay.as_ref().map(|_| "certificate-max-decay.json"),
         sdps: d.sdps,
         seconds,
-        string_stability: string_report(d.k, &config, &scenario),
+        string_stability: string_report(d.k, &config, &scenario, &g),
     };
     let dir = RunDir::create(&out, a.force)?;
     dir.write(
@@ -487,8 +532,8 @@ fn synthesize(a: SynthesizeArgs) -> Result<()> {
     let norm = d.k.iter().map(|x| x * x).sum::<f64>().sqrt();
     print_string(&report.string_stability);
     println!(
-        "K = [{:.4}, {:.4}, {:.4}] (|K| = {norm:.2} <= {}), beta1/beta2 = {:.2} on {n} followers",
-        d.k[0], d.k[1], d.k[2], a.k_max, d.certificate.ratio
+        "K = [{:.4}, {:.4}, {:.4}] (|K| = {norm:.2} <= {}), beta1/beta2 = {:.2} on {n} followers, {}",
+        d.k[0], d.k[1], d.k[2], a.k_max, d.certificate.ratio, policy(&g)
     );
     println!(
         "  certified by the exact SDP of {} at tau = {:?} (margin {:.2e}); {} SDPs in {seconds:.2} s",

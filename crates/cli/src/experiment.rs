@@ -482,7 +482,7 @@ fn robust(args: RobustArgs) -> Result<()> {
     let (config, mut base, _) =
         crate::run::load(args.config.as_deref(), platoon_config::PAPER_TOML, "paper")?;
     base.dos = platoon_attacks::DosSchedule::none();
-    let h = base.topology.h_matrix();
+    let h = platoon_synthesis::Coupling::time_headway(base.topology.h_matrix(), base.headway());
     let tau = base.control.tau_nominal;
     let (lo, hi) = base.tau_range();
     let out = args.out.unwrap_or_else(|| PathBuf::from("runs/robust"));
@@ -616,7 +616,7 @@ fn topologies(args: TopologiesArgs) -> Result<()> {
         for &n in &args.sizes {
             bar.set_message(format!("{name} {n}"));
             let topology = Topology::preset(preset, n)?;
-            let h = topology.h_matrix();
+            let h = platoon_synthesis::Coupling::constant(topology.h_matrix());
             for (robust, taus) in [(false, vec![tau]), (true, vec![lo, hi])] {
                 let spec = platoon_synthesis::DesignSpec {
                     taus: taus.clone(),

@@ -664,6 +664,8 @@ fn write_run_json(dir: &RunDir, run_id: &str, scenario: &Scenario, observers: us
         "platoons": scenario.fleet.platoons,
         "vehicles_per_platoon": scenario.vehicles_per_platoon(),
         "spacing_m": scenario.spacing(),
+        "spacing_policy": scenario.spacing_policy(),
+        "time_headway_s": scenario.headway(),
         "dt_s": scenario.dt(),
         "steps": scenario.steps + 1,
     });

@@ -340,8 +340,16 @@ fn native() -> String {
 pub struct Platoon {
     /// Number of followers N.
     pub followers: usize,
-    /// Desired spacing l between consecutive vehicles (m), front to front.
+    /// Desired spacing l between consecutive vehicles (m), front to front: the whole desired
+    /// distance with `spacing_policy = "constant"`, the standstill part with `"time_headway"`.
     pub spacing_m: f64,
+    /// `constant` (the paper: the desired distance is `spacing_m`) or `time_headway` (it is
+    /// `spacing_m + time_headway_s * v`, v the speed of the rear vehicle) [constant].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub spacing_policy: Option<String>,
+    /// The time headway h_t of `spacing_policy = "time_headway"` (s), > 0.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub time_headway_s: Option<f64>,
     /// Vehicle length for gap and safety figures (m); 0 treats vehicles as points.
     #[serde(default)]
     pub vehicle_length_m: f64,
@@ -354,8 +362,9 @@ pub struct Platoon {
     pub formation: Option<Formation>,
 }
 
-/// `[platoon.formation]`: the leader at `leader_position_m` with its profile's speed at t = 0,
-/// follower i at `leader_position_m - i spacing_m` with the same speed and zero acceleration,
+/// `[platoon.formation]`: the leader at `leader_position_m` with its profile's speed v0 at t = 0,
+/// follower i at `leader_position_m - i spacing_m` (`- i (spacing_m + time_headway_s v0)` with
+/// the time-headway policy) with the same speed and zero acceleration,
 /// then each follower's position and speed moved by independent uniform draws from
 /// `[-position_jitter_m, position_jitter_m]` and `[-speed_jitter_mps, speed_jitter_mps]`
 /// (ChaCha8 seeded with `seed`; the leader is never jittered).

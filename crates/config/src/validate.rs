@@ -180,7 +180,7 @@ fn formation(
             "platoon.formation.position_jitter_m",
             format!(
                 "{jp} m could make two vehicles touch: keep it below half the gap \
-                 (platoon.spacing_m - platoon.vehicle_length_m = {} m)",
+                 (the spacing in formation less platoon.vehicle_length_m = {} m)",
                 spacing - length
             ),
         );
@@ -239,6 +239,28 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
         );
     }
     let spacing = positive("platoon.spacing_m", p.spacing_m)?;
+    let headway = match (p.spacing_policy.as_deref(), p.time_headway_s) {
+        (None | Some("constant"), None) => 0.0,
+        (None | Some("constant"), Some(_)) => {
+            return bad(
+                "platoon.time_headway_s",
+                "is only used with platoon.spacing_policy = \"time_headway\"; set that, or remove the key",
+            )
+        }
+        (Some("time_headway"), None) => {
+            return bad(
+                "platoon.time_headway_s",
+                "missing: spacing_policy = \"time_headway\" needs the headway in seconds (e.g. 0.5)",
+            )
+        }
+        (Some("time_headway"), Some(h)) => positive("platoon.time_headway_s", h)?,
+        (Some(other), _) => {
+            return bad(
+                "platoon.spacing_policy",
+                format!("unknown policy {other:?}; use constant or time_headway"),
+            )
+        }
+    };
     let vehicle_length = finite("platoon.vehicle_length_m", p.vehicle_length_m)?;
     if vehicle_length < 0.0 {
         return bad("platoon.vehicle_length_m", "must be >= 0");
@@ -280,7 +302,10 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
                 .map(|s| State::new(s[0], s[1], s[2]))
                 .collect()
         }
-        (None, Some(f)) => formation(f, n, spacing, vehicle_length, leader.velocity_at(0.0))?,
+        (None, Some(f)) => {
+            let v0 = leader.velocity_at(0.0);
+            formation(f, n, spacing + headway * v0, vehicle_length, v0)?
+        }
     };
 
     // [leader]
@@ -444,6 +469,7 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
         dt,
         tau_nominal,
         spacing,
+        headway,
         leader_broadcast_steps,
     };
     control.validate().or_else(|e| {

@@ -297,8 +297,8 @@ impl PlatoonController {
                             // On the way back the law regulates q shifted by the spacing
                             // offset; so does the trigger (else a large unshifted q would
                             // let the estimation error grow until a jump in u).
-                            let q2 =
-                                (neighbourhood_error(f, p.spacing) + f.offset(k)).norm_squared();
+                            let q2 = (neighbourhood_error(f, p.spacing, p.headway) + f.offset(k))
+                                .norm_squared();
                             p.beta1 * eps2 - p.beta2 * q2
                         };
                         match p.rule {
@@ -363,7 +363,7 @@ impl PlatoonController {
                 };
             }
             let affected = jam || matches!(f.sampling, Sampling::Attacked { .. });
-            let q = neighbourhood_error(f, p.spacing);
+            let q = neighbourhood_error(f, p.spacing, p.headway);
             let coop = -(p.gain * q)[0];
             let reading = if radar_on {
                 f.radar.read(k, &fb.radar, self.truth[f.id.index()])
@@ -373,8 +373,11 @@ impl PlatoonController {
             // Into the fallback when affected; out of it after `dwell` calm steps, through
             // `blend` steps of blending (none: at once, the paper).
             let own = states[f.id.index()];
-            let acc =
-                |h: f64| acc_command(&fb.acc, reading, h, own[1], p.spacing, fb.vehicle_length);
+            // Never a shorter gap than the platoon's own time headway.
+            let acc = |h: f64| {
+                let h = h.max(p.headway);
+                acc_command(&fb.acc, reading, h, own[1], p.spacing, fb.vehicle_length)
+            };
             // The ACC headway grows from 0 to h over `opening_s` after the switch.
             let opened = |since: u64| {
                 if fb.acc.opening_s > 0.0 {
@@ -549,13 +552,15 @@ impl Follower {
 }
 
 /// `q_i` from follower i's current estimates.
-fn neighbourhood_error(f: &Follower, spacing: f64) -> State {
+fn neighbourhood_error(f: &Follower, spacing: f64, headway: f64) -> State {
     let i = f.id.0 as f64;
     let mut q = State::zeros();
     for (j, e) in f.neighbours.iter().zip(&f.estimates) {
-        // x^_i - x^_j - l_ij with l_ij = [(j - i) l, 0, 0]
+        // x^_i - x^_j - l_ij with l_ij = [(j - i) g, 0, 0], the gap g = l + h_t v of the rear
+        // vehicle of the two (g = l for constant spacing: h_t = 0 adds exactly nothing).
+        let rear = if j.0 < f.id.0 { f.own[1] } else { e[1] };
         q += f.own - e;
-        q[0] -= (j.0 as f64 - i) * spacing;
+        q[0] -= (j.0 as f64 - i) * (spacing + headway * rear);
     }
     q
 }
@@ -579,6 +584,7 @@ mod tests {
             dt: 0.01,
             tau_nominal: 0.5,
             spacing: 10.0,
+            headway: 0.0,
             leader_broadcast_steps: 1,
         }
     }
@@ -643,6 +649,45 @@ mod tests {
         c.transmit(0, &states, &mut tx);
         let u = c.receive(0, &states, &everyone(&topo, &tx), &[false; 2]);
         assert!((u[0] - (-4.81 * 2.0)).abs() < 1e-12, "u = {}", u[0]);
+    }
+
+    #[test]
+    fn time_headway_regulates_each_gap_to_l_plus_h_v_of_its_rear_vehicle() {
+        // At 20 m/s with h_t = 0.5 s the desired gap is 10 + 10 = 20 m. A BPF platoon (links
+        // both ways) at those gaps is at rest for the law; the same platoon at 10 m gaps is
+        // 10 m too close.
+        let topo = Topology::preset(Preset::Bpf, 3).unwrap();
+        let mut p = params(TriggerRule::Static);
+        p.headway = 0.5;
+        let v = [20.0, 20.0, 20.0, 20.0];
+        let gap = |v: f64| 10.0 + 0.5 * v;
+        let mut at_rest = vec![State::new(0.0, v[0], 0.0)];
+        for (i, &vi) in v.iter().enumerate().skip(1) {
+            at_rest.push(State::new(at_rest[i - 1][0] - gap(vi), vi, 0.0));
+        }
+        let run = |states: &[State], p: &ControllerParams| {
+            let mut c = PlatoonController::new(p.clone(), &topo, states).unwrap();
+            let mut tx = Vec::new();
+            c.transmit(0, states, &mut tx);
+            c.receive(0, states, &everyone(&topo, &tx), &[false; 4])
+                .to_vec()
+        };
+        for u in run(&at_rest, &p) {
+            assert!(u.abs() < 1e-12, "u = {u}");
+        }
+        // Constant spacing sees every gap 10 m too long: the last follower (no one behind it)
+        // accelerates.
+        let mut constant = p.clone();
+        constant.headway = 0.0;
+        assert!((run(&at_rest, &constant)[2] - 4.81 * 10.0).abs() < 1e-9);
+        let close = formation(3, 20.0);
+        let u = run(&close, &p);
+        // Follower 3 (one gap ahead, none behind): q_p = +10, u = -K_p 10.
+        assert!((u[2] - (-4.81 * 10.0)).abs() < 1e-9, "u = {u:?}");
+        // Bad headways are refused by name.
+        p.headway = -1.0;
+        let e = PlatoonController::new(p, &topo, &close).unwrap_err();
+        assert_eq!(e.field, "headway");
     }
 
     #[test]

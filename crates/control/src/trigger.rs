@@ -66,6 +66,10 @@ pub struct ControllerParams {
     pub tau_nominal: f64,
     /// Desired spacing `l` between consecutive vehicles (m).
     pub spacing: f64,
+    /// Time headway `h_t` of the spacing policy (s): the desired gap to a vehicle `m` places
+    /// ahead is `m (l + h_t v)` with `v` the speed of the rear one of the two (its estimate);
+    /// 0 is constant spacing (the paper).
+    pub headway: f64,
     /// The leader broadcasts every this many steps (1: every step, ERRATA item 5).
     pub leader_broadcast_steps: u32,
 }
@@ -96,6 +100,12 @@ impl ControllerParams {
                     "beta1, beta2 must be > 0 (got {}, {})",
                     self.beta1, self.beta2
                 ),
+            );
+        }
+        if !(self.headway.is_finite() && self.headway >= 0.0) {
+            return err(
+                "headway",
+                format!("must be finite and >= 0 (got {})", self.headway),
             );
         }
         if !pos(self.dt) || !pos(self.tau_nominal) || !self.spacing.is_finite() {

@@ -209,7 +209,10 @@ pub fn step_rows(
             a: x[2],
             u: s.u,
             theta: s.theta,
-            spacing_error: x[0] - x0[0] + i as f64 * scenario.spacing(),
+            // Against the policy's desired distance to the leader, i (l + h_t v_i), measured
+            // in the plant (h_t = 0 adds exactly nothing).
+            spacing_error: x[0] - x0[0]
+                + i as f64 * (scenario.spacing() + scenario.headway() * x[1]),
             velocity_error: x[1] - x0[1],
             triggered: s.triggered,
             under_attack: jammed[i],

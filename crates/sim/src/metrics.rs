@@ -56,8 +56,13 @@ pub struct VehicleSummary {
     pub min_inter_event_s: Option<f64>,
     /// Mean time between broadcasts (s); None with fewer than two.
     pub mean_inter_event_s: Option<f64>,
-    /// Spacing error `p_i - p_0 + i l` (m).
+    /// Spacing error to the leader, `p_i - p_0 + i l` (`+ i (l + h_t v_i)` with a time
+    /// headway) (m).
     pub spacing_error_m: ErrorStats,
+    /// Gap error to the predecessor, `p_{i-1} - p_i - l` (`- (l + h_t v_i)` with a time
+    /// headway) (m), negative when too far: string stability is whether it grows along the
+    /// platoon.
+    pub gap_error_m: ErrorStats,
     /// Velocity error `v_i - v_0` (m/s).
     pub velocity_error_mps: ErrorStats,
     /// Time affected by attacks (`A*`, s).
@@ -180,6 +185,10 @@ pub struct Summary {
     pub rule: String,
     /// How often event conditions were checked (s).
     pub check_period_s: f64,
+    /// The spacing policy: `constant` or `time_headway`.
+    pub spacing_policy: &'static str,
+    /// Its time headway (s; 0 with constant spacing).
+    pub time_headway_s: f64,
     /// Broadcasts per follower (keys are follower ids).
     pub triggers: BTreeMap<String, u64>,
     /// Broadcasts of all followers.
@@ -228,6 +237,7 @@ struct VehicleAcc {
     min_gap: Option<u64>,
     first_trigger: Option<u64>,
     spacing: ErrorAcc,
+    gap: ErrorAcc,
     velocity: ErrorAcc,
     affected_steps: u64,
     min_accel: f64,
@@ -245,6 +255,9 @@ pub struct MetricsAccumulator {
     dt: f64,
     rule: &'static str,
     check_period: f64,
+    spacing_policy: &'static str,
+    spacing: f64,
+    headway: f64,
     vehicle_length: f64,
     dos: DosSchedule,
     assumption2: Option<Assumption2>,
@@ -264,6 +277,9 @@ impl MetricsAccumulator {
             dt: scenario.dt(),
             rule: scenario.control.rule.name(),
             check_period: f64::from(scenario.control.check_steps) * scenario.dt(),
+            spacing_policy: scenario.spacing_policy(),
+            spacing: scenario.spacing(),
+            headway: scenario.headway(),
             vehicle_length: scenario.vehicle_length,
             dos: scenario.dos.clone(),
             assumption2: scenario.assumption2,
@@ -274,6 +290,7 @@ impl MetricsAccumulator {
                     min_gap: None,
                     first_trigger: None,
                     spacing: ErrorAcc::default(),
+                    gap: ErrorAcc::default(),
                     velocity: ErrorAcc::default(),
                     affected_steps: 0,
                     min_accel: f64::INFINITY,
@@ -324,6 +341,8 @@ impl MetricsAccumulator {
                 acc.last_trigger = Some(r.step);
             }
             acc.spacing.push(r.spacing_error);
+            acc.gap
+                .push(front.p - r.p - (self.spacing + self.headway * r.v));
             acc.velocity.push(r.velocity_error);
             acc.affected_steps += u64::from(r.affected);
             acc.min_accel = acc.min_accel.min(r.a);
@@ -374,6 +393,7 @@ impl MetricsAccumulator {
                     _ => None,
                 },
                 spacing_error_m: a.spacing.finish(),
+                gap_error_m: a.gap.finish(),
                 velocity_error_mps: a.velocity.finish(),
                 affected_time_s: a.affected_steps as f64 * self.dt,
                 min_acceleration_mps2: a.min_accel,
@@ -398,6 +418,8 @@ impl MetricsAccumulator {
             duration_s: self.last_t,
             rule: self.rule.to_string(),
             check_period_s: self.check_period,
+            spacing_policy: self.spacing_policy,
+            time_headway_s: self.headway,
             triggers: vehicles
                 .iter()
                 .map(|v| (v.vehicle.to_string(), v.triggers))
@@ -438,6 +460,23 @@ impl Summary {
             .iter()
             .map(|v| v.spacing_error_m.max_abs)
             .fold(0.0, f64::max)
+    }
+
+    /// The largest |gap error| of any follower (m).
+    pub fn max_gap_error_m(&self) -> f64 {
+        self.vehicles
+            .iter()
+            .map(|v| v.gap_error_m.max_abs)
+            .fold(0.0, f64::max)
+    }
+
+    /// The last follower's largest |gap error| over the first's: above 1, errors grew along
+    /// the platoon in this run (string instability, measured). None for one follower or a
+    /// first follower that never left its gap.
+    pub fn gap_error_growth(&self) -> Option<f64> {
+        let (first, last) = (self.vehicles.first()?, self.vehicles.last()?);
+        let ratio = last.gap_error_m.max_abs / first.gap_error_m.max_abs;
+        (self.vehicles.len() > 1 && ratio.is_finite()).then_some(ratio)
     }
 }
 

@@ -94,9 +94,23 @@ impl Scenario {
         self.control.dt
     }
 
-    /// The desired spacing `l` (m).
+    /// The desired spacing `l` (m): the standstill part with a time headway.
     pub fn spacing(&self) -> f64 {
         self.control.spacing
+    }
+
+    /// The time headway `h_t` of the spacing policy (s); 0 for constant spacing.
+    pub fn headway(&self) -> f64 {
+        self.control.headway
+    }
+
+    /// The spacing policy's name: `constant` or `time_headway`.
+    pub fn spacing_policy(&self) -> &'static str {
+        if self.control.headway > 0.0 {
+            "time_headway"
+        } else {
+            "constant"
+        }
     }
 
     /// The end time `steps dt` (s).

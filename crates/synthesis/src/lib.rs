@@ -24,8 +24,8 @@ pub use string::{string_stability, StringStability, TauStringStability};
 
 pub use lmi::{
     closed_loop_spectrum, growth_rate, max_decay_within_ratio, min_ratio, psi_theorem1,
-    theorem1_max_decay, theorem1_min_ratio, Certificate, Feasibility, LmiError, Plant3, Spectrum,
-    Verdict,
+    theorem1_max_decay, theorem1_min_ratio, Certificate, Coupling, Feasibility, LmiError, Plant3,
+    Spectrum, Verdict,
 };
 
 /// The bounds (16): the smallest T2 and D2 for which Assumption 2 guarantees stability, given

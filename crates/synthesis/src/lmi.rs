@@ -54,27 +54,109 @@ fn he(x: &DMatrix<f64>) -> DMatrix<f64> {
     x + x.transpose()
 }
 
-/// The matrix `Psi` of (13) for `P`, ratio `r = beta1 / beta2`, decay `c`, gain `k`, graph
-/// `h` (N x N, H = L + diag(pinning)) and plant: a 9N x 9N symmetric matrix that must be
+/// What maps the tracking errors `e` (to the policy's desired distances from the leader) to the
+/// neighbourhood errors: `q = M (e + eps)`, so the closed loop is
+/// `e' = (I_N kron A) e - (I_N kron B K) M (e + eps)`. With constant spacing `M = H kron I3`
+/// (the paper's (9)). With a time headway `h_t` (desired distance to a vehicle `m` places ahead
+/// `m (l + h_t v)`, `v` the rear vehicle's speed) `M = H kron I3 + h_t (W kron E)` with
+/// `E = e1 e2^T` (speed into the position slot), `W_ii` the sum of `i - j` over the neighbours
+/// `j` ahead of `i` (the leader counted as `j = 0` where pinned) and `W_ij = -(j - i)` for a
+/// neighbour `j` behind. Theorem 1's proof goes through unchanged with `M` in place of
+/// `H kron I3`: (13) with `-H kron P B K` read as `-(I_N kron P B K) M` and `H^T kron I3` as `M^T`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Coupling {
+    /// H = L + diag(pinning), N x N.
+    pub h: DMatrix<f64>,
+    /// The time headway h_t (s); 0 for constant spacing.
+    pub headway: f64,
+}
+
+impl Coupling {
+    /// Constant spacing on graph `h`.
+    pub fn constant(h: DMatrix<f64>) -> Self {
+        Self { h, headway: 0.0 }
+    }
+
+    /// A time headway `headway` (s) on graph `h`.
+    pub fn time_headway(h: DMatrix<f64>, headway: f64) -> Self {
+        Self { h, headway }
+    }
+
+    /// N.
+    pub fn followers(&self) -> usize {
+        self.h.nrows()
+    }
+
+    /// W (N x N) of the time headway (see [`Coupling`]), from H's links and pinning.
+    pub fn headway_weights(&self) -> DMatrix<f64> {
+        let n = self.followers();
+        let mut w = DMatrix::zeros(n, n);
+        for r in 0..n {
+            let mut pin = self.h[(r, r)];
+            for c in (0..n).filter(|&c| c != r) {
+                let a = -self.h[(r, c)];
+                pin -= a;
+                if c < r {
+                    w[(r, r)] += a * (r - c) as f64;
+                } else {
+                    w[(r, c)] = -a * (c - r) as f64;
+                }
+            }
+            w[(r, r)] += pin * (r + 1) as f64;
+        }
+        w
+    }
+
+    /// M (3N x 3N).
+    pub fn matrix(&self) -> DMatrix<f64> {
+        let mut m = kron(&self.h, &DMatrix::identity(3, 3));
+        if self.headway != 0.0 {
+            let mut e = DMatrix::zeros(3, 3);
+            e[(0, 1)] = 1.0;
+            m += kron(&self.headway_weights(), &e) * self.headway;
+        }
+        m
+    }
+}
+
+/// The matrix `Psi` of (13) for `P`, ratio `r = beta1 / beta2`, decay `c`, gain `k`, the
+/// coupling `g` (graph and spacing policy) and plant: a 9N x 9N symmetric matrix that must be
 /// negative definite.
 pub fn psi_theorem1(
     p: &Matrix3<f64>,
     r: f64,
     c: f64,
     k: &RowVector3<f64>,
-    h: &DMatrix<f64>,
+    g: &Coupling,
     plant: &Plant3,
 ) -> DMatrix<f64> {
-    let n = h.nrows();
-    let m = 3 * n;
+    psi_of(p, r, c, k, &g.matrix(), plant)
+}
+
+/// [`psi_theorem1`] with the coupling's matrix M given.
+fn psi_of(
+    p: &Matrix3<f64>,
+    r: f64,
+    c: f64,
+    k: &RowVector3<f64>,
+    mc: &DMatrix<f64>,
+    plant: &Plant3,
+) -> DMatrix<f64> {
+    let m = mc.nrows();
+    let n = m / 3;
     let i_n = DMatrix::<f64>::identity(n, n);
-    let i3 = DMatrix::<f64>::identity(3, 3);
     let pd = DMatrix::from_iterator(3, 3, p.iter().copied());
     let pa = DMatrix::from_iterator(3, 3, (p * plant.a).iter().copied());
     let pbk = DMatrix::from_iterator(3, 3, (p * plant.b * k).iter().copied());
-    let x11 = he(&(kron(&i_n, &pa) - kron(h, &pbk))) + kron(&i_n, &pd) * c;
-    let x12 = -kron(h, &pbk);
-    let ht_i = kron(&h.transpose(), &i3);
+    // (I_N kron P B K) M: block row i is P B K times block row i of M.
+    let mut pbkm = DMatrix::<f64>::zeros(m, m);
+    for i in 0..n {
+        pbkm.view_mut((3 * i, 0), (3, m))
+            .copy_from(&(&pbk * mc.view((3 * i, 0), (3, m))));
+    }
+    let x11 = he(&(kron(&i_n, &pa) - &pbkm)) + kron(&i_n, &pd) * c;
+    let x12 = -pbkm;
+    let ht_i = mc.transpose();
     let mut psi = DMatrix::<f64>::zeros(3 * m, 3 * m);
     psi.view_mut((0, 0), (m, m)).copy_from(&x11);
     psi.view_mut((0, m), (m, m)).copy_from(&x12);
@@ -109,6 +191,10 @@ pub struct Certificate {
     pub p: [[f64; 3]; 3],
     /// H = L + diag(pinning), row-major N x N.
     pub h: Vec<Vec<f64>>,
+    /// The time headway of the spacing policy (s) the condition was imposed with; absent (0)
+    /// for constant spacing.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub headway: f64,
     /// The taus at which (13) is imposed (s): the nominal one, or the ends of the range.
     pub taus: Vec<f64>,
     /// The largest eigenvalue of (13) when issued (negative).
@@ -117,8 +203,12 @@ pub struct Certificate {
     pub p_min_eigenvalue: f64,
 }
 
-/// P, K and H of a certificate.
-type Parts = (Matrix3<f64>, RowVector3<f64>, DMatrix<f64>);
+fn is_zero(x: &f64) -> bool {
+    *x == 0.0
+}
+
+/// P, K and the coupling of a certificate.
+type Parts = (Matrix3<f64>, RowVector3<f64>, Coupling);
 
 /// The result of re-checking a certificate.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -145,28 +235,36 @@ impl Certificate {
             .all(|x| x.is_finite())
             && self.h.iter().flatten().all(|x| x.is_finite())
             && self.ratio.is_finite()
+            && self.headway.is_finite()
+            && self.headway >= 0.0
             && self.c.is_finite()
             && !self.taus.is_empty()
             && self.taus.iter().all(|t| t.is_finite() && *t > 0.0);
         if !finite {
             return Err(LmiError::Bad(
-                "every number of a certificate must be finite (and at least one tau > 0)".into(),
+                "every number of a certificate must be finite (at least one tau > 0, headway >= 0)"
+                    .into(),
             ));
         }
         let p = Matrix3::from_fn(|i, j| self.p[i][j]);
         let h = DMatrix::from_fn(n, n, |i, j| self.h[i][j]);
-        Ok((p, RowVector3::from(self.k), h))
+        Ok((
+            p,
+            RowVector3::from(self.k),
+            Coupling::time_headway(h, self.headway),
+        ))
     }
 
     /// Re-assembles (13) from the certificate's numbers and checks its eigenvalues.
     pub fn verify(&self) -> Result<Verdict, LmiError> {
-        let (p, k, h) = self.parts()?;
+        let (p, k, g) = self.parts()?;
         let psym = (p + p.transpose()) * 0.5;
+        let mc = g.matrix();
         let max_eigenvalue = self
             .taus
             .iter()
             .map(|&tau| {
-                psi_theorem1(&psym, self.ratio, self.c, &k, &h, &Plant3::new(tau))
+                psi_of(&psym, self.ratio, self.c, &k, &mc, &Plant3::new(tau))
                     .symmetric_eigenvalues()
                     .max()
             })
@@ -184,6 +282,8 @@ impl Certificate {
 
 /// The outcome of a Theorem-1 SDP.
 #[derive(Debug, Clone, PartialEq)]
+// Returned once per SDP (each of which takes milliseconds at least): boxing would buy nothing.
+#[allow(clippy::large_enum_variant)]
 pub enum Feasibility {
     /// A certificate.
     Feasible(Certificate),
@@ -200,11 +300,11 @@ pub const P_MAX: f64 = 1e4;
 pub fn theorem1_min_ratio(
     k: [f64; 3],
     c: f64,
-    h: &DMatrix<f64>,
+    g: &Coupling,
     tau: f64,
     delta: f64,
 ) -> Result<Feasibility, LmiError> {
-    min_ratio(k, c, h, &[tau], delta)
+    min_ratio(k, c, g, &[tau], delta)
 }
 
 /// Like [`theorem1_min_ratio`], with (13) imposed at every tau of `taus` with one P: for the
@@ -212,7 +312,7 @@ pub fn theorem1_min_ratio(
 pub fn min_ratio(
     k: [f64; 3],
     c: f64,
-    h: &DMatrix<f64>,
+    g: &Coupling,
     taus: &[f64],
     delta: f64,
 ) -> Result<Feasibility, LmiError> {
@@ -227,19 +327,21 @@ pub fn min_ratio(
         )));
     }
     let kr = RowVector3::from(k);
+    let h = &g.h;
     let n = h.nrows();
     let size = 9 * n;
     let basis = sym_basis3();
+    let mc = g.matrix();
     // Variables x = (P's 6 entries, r). Per tau: Psi(x) + delta I <= 0.
     let mut lmis = Vec::new();
     for &tau in taus {
         let plant = Plant3::new(tau);
-        let psi0 = psi_theorem1(&Matrix3::zeros(), 0.0, c, &kr, h, &plant);
+        let psi0 = psi_of(&Matrix3::zeros(), 0.0, c, &kr, &mc, &plant);
         let mut fi: Vec<DMatrix<f64>> = basis
             .iter()
-            .map(|e| psi_theorem1(e, 0.0, c, &kr, h, &plant) - &psi0)
+            .map(|e| psi_of(e, 0.0, c, &kr, &mc, &plant) - &psi0)
             .collect();
-        fi.push(psi_theorem1(&Matrix3::zeros(), 1.0, c, &kr, h, &plant) - &psi0);
+        fi.push(psi_of(&Matrix3::zeros(), 1.0, c, &kr, &mc, &plant) - &psi0);
         lmis.push(Lmi::nsd(
             &(psi0 + DMatrix::<f64>::identity(size, size) * delta),
             &fi,
@@ -286,6 +388,7 @@ pub fn min_ratio(
         h: (0..n)
             .map(|i| (0..n).map(|j| h[(i, j)]).collect())
             .collect(),
+        headway: g.headway,
         taus: taus.to_vec(),
         max_eigenvalue: 0.0,
         p_min_eigenvalue: 0.0,
@@ -298,7 +401,7 @@ pub fn min_ratio(
         // solver's tolerance of the boundary): ask again with a hundredfold margin, and only
         // then say so; never return an answer that fails the check.
         if delta < MAX_MARGIN {
-            match min_ratio(k, c, h, taus, delta * 100.0) {
+            match min_ratio(k, c, g, taus, delta * 100.0) {
                 // The stricter problem tripping the solver says no more than this answer did.
                 Err(LmiError::Solver(_)) => {}
                 other => return other,
@@ -316,13 +419,13 @@ const MAX_MARGIN: f64 = 1e-3;
 /// `[0, c_max]`; `None` if it is infeasible already at c = 0.
 pub fn theorem1_max_decay(
     k: [f64; 3],
-    h: &DMatrix<f64>,
+    g: &Coupling,
     taus: &[f64],
     c_max: f64,
     tol: f64,
 ) -> Result<Option<Certificate>, LmiError> {
     let delta = 1e-6;
-    let Feasibility::Feasible(mut best) = min_ratio(k, 0.0, h, taus, delta)? else {
+    let Feasibility::Feasible(mut best) = min_ratio(k, 0.0, g, taus, delta)? else {
         return Ok(None);
     };
     let (mut lo, mut hi) = (0.0, c_max);
@@ -331,7 +434,7 @@ pub fn theorem1_max_decay(
         // At the edge of feasibility an answer that fails the re-check, or the solver's
         // numerical trouble, counts as infeasible: the decay returned is certified either way,
         // at worst smaller than the true largest.
-        match min_ratio(k, mid, h, taus, delta) {
+        match min_ratio(k, mid, g, taus, delta) {
             Ok(Feasibility::Feasible(c)) => {
                 lo = mid;
                 best = c;
@@ -349,7 +452,7 @@ pub fn theorem1_max_decay(
 /// with an ever larger ratio is useless to the trigger). `None` if even c = 0 needs more.
 pub fn max_decay_within_ratio(
     k: [f64; 3],
-    h: &DMatrix<f64>,
+    g: &Coupling,
     taus: &[f64],
     ratio_cap: f64,
     c_max: f64,
@@ -357,7 +460,7 @@ pub fn max_decay_within_ratio(
 ) -> Result<Option<Certificate>, LmiError> {
     let delta = 1e-6;
     let within = |c: f64| -> Result<Option<Certificate>, LmiError> {
-        match min_ratio(k, c, h, taus, delta) {
+        match min_ratio(k, c, g, taus, delta) {
             Ok(Feasibility::Feasible(cert)) if cert.ratio <= ratio_cap => Ok(Some(cert)),
             // At the edge of feasibility, a numerical failure counts as infeasible.
             Ok(_) | Err(LmiError::NotCertified(_)) | Err(LmiError::Solver(_)) => Ok(None),
@@ -394,7 +497,8 @@ pub fn growth_rate(p: &Matrix3<f64>, tau: f64) -> f64 {
     m.symmetric_eigenvalues().max()
 }
 
-/// Eigenvalues of the closed loop `I_N kron A(tau) - H kron B(tau) K` at each tau.
+/// Eigenvalues of the closed loop `I_N kron A(tau) - (I_N kron B(tau) K) M` at each tau
+/// (`M = H kron I3` with constant spacing, see [`Coupling`]).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Spectrum {
     /// tau (s).
@@ -405,16 +509,18 @@ pub struct Spectrum {
     pub max_modulus: f64,
 }
 
-/// The closed-loop spectrum of gain `k` on graph `h` at each of `taus`.
-pub fn closed_loop_spectrum(k: [f64; 3], h: &DMatrix<f64>, taus: &[f64]) -> Vec<Spectrum> {
-    let n = h.nrows();
+/// The closed-loop spectrum of gain `k` with coupling `g` at each of `taus`.
+pub fn closed_loop_spectrum(k: [f64; 3], g: &Coupling, taus: &[f64]) -> Vec<Spectrum> {
+    let n = g.followers();
     let kr = RowVector3::from(k);
+    let mc = g.matrix();
     taus.iter()
         .map(|&tau| {
             let pl = Plant3::new(tau);
             let a = DMatrix::from_iterator(3, 3, pl.a.iter().copied());
             let bk = DMatrix::from_iterator(3, 3, (pl.b * kr).iter().copied());
-            let acl = kron(&DMatrix::identity(n, n), &a) - kron(h, &bk);
+            let acl =
+                kron(&DMatrix::identity(n, n), &a) - kron(&DMatrix::identity(n, n), &bk) * &mc;
             let eig = acl.complex_eigenvalues();
             Spectrum {
                 tau,
@@ -430,8 +536,8 @@ mod tests {
     use super::*;
     use platoon_topology::{Preset, Topology};
 
-    fn h(preset: Preset, n: usize) -> DMatrix<f64> {
-        Topology::preset(preset, n).unwrap().h_matrix()
+    fn h(preset: Preset, n: usize) -> Coupling {
+        Coupling::constant(Topology::preset(preset, n).unwrap().h_matrix())
     }
 
     const PAPER_K: [f64; 3] = [4.81, 9.12, 2.97];
@@ -469,6 +575,69 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn the_time_headway_coupling_adds_the_rear_vehicles_speed_to_each_link() {
+        // PF: one link ahead each, W = I. BPF: one ahead (W_ii = 1) and one behind
+        // (W_i,i+1 = -1). PLF: the predecessor and the leader i places ahead, W_ii = 1 + i.
+        let w = |p, ht| Coupling::time_headway(h(p, 4).h, ht).headway_weights();
+        assert_eq!(w(Preset::Pf, 0.5), DMatrix::identity(4, 4));
+        let bpf = w(Preset::Bpf, 0.5);
+        for i in 0..4 {
+            assert_eq!(bpf[(i, i)], 1.0);
+            for j in 0..4 {
+                let want = if j == i + 1 { -1.0 } else { 0.0 };
+                if j != i {
+                    assert_eq!(bpf[(i, j)], want, "{i} {j}");
+                }
+            }
+        }
+        let plf = w(Preset::Plf, 0.5);
+        assert_eq!(plf[(0, 0)], 1.0); // follower 1: the leader is its predecessor
+        assert_eq!(plf[(3, 3)], 5.0);
+        // No headway: M = H kron I3 exactly; with one, only position rows pick up speeds.
+        let g = h(Preset::Bpf, 4);
+        assert_eq!(g.matrix(), g.h.kronecker(&DMatrix::identity(3, 3)));
+        let th = Coupling::time_headway(g.h.clone(), 0.5);
+        let d = th.matrix() - g.matrix();
+        for r in 0..12 {
+            for c in 0..12 {
+                if d[(r, c)] != 0.0 {
+                    assert!(r % 3 == 0 && c % 3 == 1, "({r}, {c})");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn a_time_headway_certificate_is_re_checked_with_its_headway() {
+        // PLF with the paper's K: (13) holds robustly with h_t = 0.3 s but not with 1 s (the
+        // leader term adds (1 + i) h_t k1 of speed feedback to follower i).
+        let plf = |ht| Coupling::time_headway(h(Preset::Plf, 10).h, ht);
+        let Feasibility::Feasible(cert) =
+            min_ratio(PAPER_K, 0.0, &plf(0.3), &[0.34, 0.82], 1e-6).unwrap()
+        else {
+            panic!("feasible at 0.3 s");
+        };
+        assert_eq!(cert.headway, 0.3);
+        assert!(cert.verify().unwrap().holds);
+        let json = serde_json::to_string(&cert).unwrap();
+        let back: Certificate = serde_json::from_str(&json).unwrap();
+        assert!(back.verify().unwrap().holds);
+        let mut other = cert.clone();
+        other.headway = 1.0;
+        assert!(!other.verify().unwrap().holds);
+        assert_eq!(
+            min_ratio(PAPER_K, 0.0, &plf(1.0), &[0.34, 0.82], 1e-6).unwrap(),
+            Feasibility::Infeasible
+        );
+        // A constant-spacing certificate says nothing of the headway: the key is absent.
+        let Feasibility::Feasible(c0) = min_ratio(PAPER_K, 0.0, &plf(0.0), &[0.5], 1e-6).unwrap()
+        else {
+            panic!("feasible");
+        };
+        assert!(!serde_json::to_string(&c0).unwrap().contains("headway"));
     }
 
     #[test]
