@@ -1,7 +1,7 @@
 //! The `platoon` binary end to end: outputs, determinism, atomic run directories, exit codes.
 mod common;
 
-use common::{ok, platoon, repo};
+use common::{json, ok, platoon, repo};
 use std::path::Path;
 
 const RUN_FILES: [&str; 6] = [
@@ -123,6 +123,58 @@ fn table1_experiment_writes_table_and_figures() {
     assert!(md.contains("fewer times than static on every vehicle: yes"));
     let csv = std::fs::read_to_string(tmp.path().join("t1/table1.csv")).unwrap();
     assert_eq!(csv.lines().count(), 1 + 3 * 4);
+}
+
+/// Issue 14: the time-headway policy in the design tools. The paper's K on a PF platoon of 6 is
+/// string unstable with constant spacing and string stable with a 1 s headway; (13) is imposed
+/// on the time-headway error dynamics and its certificate re-checks with the headway it carries.
+#[test]
+fn design_checks_a_gain_on_the_time_headway_policy() {
+    let tmp = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(repo().join("configs/time-headway.toml"))
+        .unwrap()
+        .replace("followers = 30", "followers = 6");
+    std::fs::write(tmp.path().join("th.toml"), text).unwrap();
+    let check = |extra: &[&str], out: &str| {
+        let mut args = vec!["design", "check-gain", "th.toml", "--out", out];
+        args.extend_from_slice(extra);
+        let o = platoon(&args, tmp.path());
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let stdout = String::from_utf8_lossy(&o.stdout).to_string();
+        let report = json(&tmp.path().join(out).join("check.json"));
+        (stdout, report)
+    };
+    let (out, th) = check(&[], "th");
+    assert!(out.contains("time headway 1 s"), "{out}");
+    assert_eq!(th["time_headway_s"], 1.0);
+    for s in th["string_stability"].as_array().unwrap() {
+        assert_eq!(s["string_stable"], true, "{s}");
+    }
+    let cert = json(&tmp.path().join("th/certificate.json"));
+    assert_eq!(cert["headway"], 1.0);
+    let o = platoon(&["design", "verify", "th/certificate.json"], tmp.path());
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (out, cs) = check(&["--time-headway", "0"], "constant");
+    assert!(
+        out.contains("constant spacing") && out.contains("STRING UNSTABLE"),
+        "{out}"
+    );
+    assert_eq!(cs["string_stability"][0]["string_stable"], false);
+    let o = platoon(
+        &[
+            "design",
+            "check-gain",
+            "th.toml",
+            "--time-headway=-1",
+            "--out",
+            "x",
+        ],
+        tmp.path(),
+    );
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("--time-headway -1"), "{err}");
+    assert!(!tmp.path().join("x").exists());
 }
 
 #[test]

@@ -271,3 +271,43 @@ fn a_formation_generates_initial_states_for_any_size() {
     let e = parse(&with(4, ""), Path::new("f.toml")).unwrap_err();
     assert!(e.message.contains("[platoon.formation]"), "{e}");
 }
+
+#[test]
+fn the_spacing_policy_and_its_headway_are_checked_by_key() {
+    let spacing = "spacing_m = 10.0";
+    assert_error(
+        paper_with(
+            spacing,
+            "spacing_m = 10.0\nspacing_policy = \"time_headway\"",
+        ),
+        "platoon.time_headway_s",
+        "missing",
+    );
+    assert_error(
+        paper_with(spacing, "spacing_m = 10.0\ntime_headway_s = 0.5"),
+        "platoon.time_headway_s",
+        "only used with",
+    );
+    assert_error(
+        paper_with(spacing, "spacing_m = 10.0\nspacing_policy = \"tight\""),
+        "platoon.spacing_policy",
+        "constant or time_headway",
+    );
+    assert_error(
+        paper_with(
+            spacing,
+            "spacing_m = 10.0\nspacing_policy = \"time_headway\"\ntime_headway_s = -0.5",
+        ),
+        "platoon.time_headway_s",
+        "must be > 0",
+    );
+    // Accepted, and the resolved config says so again.
+    let text = platoon_config::PAPER_TOML.replacen(
+        spacing,
+        "spacing_m = 10.0\nspacing_policy = \"time_headway\"\ntime_headway_s = 0.5",
+        1,
+    );
+    let (config, scenario) = parse(&text, Path::new("th.toml")).unwrap();
+    assert_eq!(scenario.headway(), 0.5);
+    assert!(platoon_config::to_toml(&config).contains("time_headway_s = 0.5"));
+}

@@ -1044,3 +1044,10 @@ fn cpus_pins_every_node_and_changes_no_result() {
         assert!(!tmp.path().join("bad").exists());
     }
 }
+
+/// Issue 14: the time-headway policy (a long PF platoon under the paper's DoS) gives the same
+/// bytes over iceoryx2 as in process.
+#[test]
+fn iceoryx2_run_with_a_time_headway_is_bit_identical_to_inproc() {
+    transports_agree("configs/time-headway.toml");
+}

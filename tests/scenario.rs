@@ -208,3 +208,43 @@ fn non_resilient_and_periodic_variants_run() {
         periodic.triggers
     );
 }
+
+/// Issue 14: with constant spacing a long predecessor-following platoon is string unstable (gap
+/// errors grow from the first follower to the last, up to a collision under the paper's DoS);
+/// with a time headway the same platoon, gain and attacks damp them, as the string-stability
+/// analysis of `platoon design check-gain` predicts. Measured in the plant.
+#[test]
+fn a_time_headway_damps_gap_errors_along_a_long_platoon_that_constant_spacing_amplifies() {
+    let text = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs/time-headway.toml"),
+    )
+    .unwrap();
+    let (_, th) = parse(&text, Path::new("time-headway.toml")).unwrap();
+    assert_eq!(th.headway(), 1.0);
+    let constant = text
+        .replace(
+            "spacing_policy = \"time_headway\"",
+            "spacing_policy = \"constant\"",
+        )
+        .replace("time_headway_s = 1.0", "");
+    let (_, cs) = parse(&constant, Path::new("constant.toml")).unwrap();
+    assert_eq!(cs.headway(), 0.0);
+    let (rows, th) = run_rows(th);
+    let (_, cs) = run_rows(cs);
+    assert_eq!(
+        (th.spacing_policy, cs.spacing_policy),
+        ("time_headway", "constant")
+    );
+    // In formation at t = 0: every gap is l + h_t v0 = 10 + 15 m, no error.
+    let first: Vec<&StepRow> = rows.iter().filter(|r| r.step == 0).collect();
+    for w in first.windows(2) {
+        assert!((w[0].p - w[1].p - 25.0).abs() < 1e-9);
+        assert!(w[1].spacing_error.abs() < 1e-9);
+    }
+    let growth_th = th.gap_error_growth().unwrap();
+    let growth_cs = cs.gap_error_growth().unwrap();
+    assert!(growth_th < 0.5, "time headway: {growth_th}");
+    assert!(growth_cs > 10.0, "constant spacing: {growth_cs}");
+    assert!(!th.safety.collided && th.safety.min_gap_m > 15.0);
+    assert!(cs.safety.collided, "{:?}", cs.safety);
+}
