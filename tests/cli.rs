@@ -177,6 +177,75 @@ fn design_checks_a_gain_on_the_time_headway_policy() {
     assert!(!tmp.path().join("x").exists());
 }
 
+/// Issue 14, item 6: `experiment scaling` measures what the analysis predicts. On PF the paper's
+/// gain with constant spacing amplifies gap errors along the platoon (predicted string
+/// unstable); the gain designed for a 1 s time headway damps them (predicted string stable).
+#[test]
+fn the_scaling_experiment_shows_constant_spacing_amplify_and_time_headway_damp() {
+    let tmp = tempfile::tempdir().unwrap();
+    let o = platoon(
+        &[
+            "experiment",
+            "scaling",
+            "--sizes",
+            "3,8",
+            "--presets",
+            "pf",
+            "--certify-up-to",
+            "3",
+            "--out",
+            "s",
+        ],
+        tmp.path(),
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for f in [
+        "scaling.csv",
+        "scaling.md",
+        "scaling.png",
+        "designs.csv",
+        "certificate-pf.json",
+        "config.toml",
+    ] {
+        assert!(tmp.path().join("s").join(f).exists(), "{f} missing");
+    }
+    let o = platoon(&["design", "verify", "s/certificate-pf.json"], tmp.path());
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let mut reader = csv::Reader::from_path(tmp.path().join("s/scaling.csv")).unwrap();
+    let header = reader.headers().unwrap().clone();
+    let col = |name: &str| header.iter().position(|h| h == name).unwrap();
+    let rows: Vec<csv::StringRecord> = reader.records().map(|r| r.unwrap()).collect();
+    assert_eq!(rows.len(), 2 * 2 * 2, "sizes x gains x DoS");
+    for r in &rows {
+        let n: usize = r[col("followers")].parse().unwrap();
+        let designed = &r[col("gain")] == "designed-time-headway";
+        let growth: f64 = r[col("gap_error_growth")].parse().unwrap();
+        assert_eq!(
+            &r[col("string_stable")],
+            if designed { "true" } else { "false" },
+            "{r:?}"
+        );
+        if n == 8 {
+            if designed {
+                assert!(growth < 1.0, "{r:?}");
+            } else {
+                assert!(growth > 1.0, "{r:?}");
+            }
+            assert_eq!(
+                &r[col("certified_ratio")],
+                "",
+                "not certified above 3: {r:?}"
+            );
+        } else {
+            let ratio: f64 = r[col("certified_ratio")].parse().unwrap();
+            assert!(ratio > 0.0, "{r:?}");
+        }
+        if designed {
+            assert_eq!(&r[col("time_headway_s")], "1.0");
+        }
+    }
+}
+
 #[test]
 fn help_explains_the_commands() {
     let o = platoon(&["run", "--help"], Path::new("."));

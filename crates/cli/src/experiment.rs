@@ -36,6 +36,87 @@ pub enum Experiment {
     /// fallback), degradation.md (the table) and degradation.png (smallest gap per attack and
     /// fallback).
     Degradation(DegradationArgs),
+    /// Long platoons: the largest gap error against the platoon's size for each topology, the
+    /// paper's gain with constant spacing beside a gain designed for a time headway (Theorem 1
+    /// on the time-headway error dynamics, designed on --design-followers), with and without
+    /// the base config's DoS, in process, in formation at t = 0 (errors come from the leader's
+    /// ramps and the attacks). Each row also holds what the analysis predicts: string stability
+    /// (the amplification from the first follower to the last) and, up to --certify-up-to
+    /// followers, the smallest beta1/beta2 Theorem 1 certifies. Writes scaling.csv, scaling.md,
+    /// scaling.png (one panel per topology, log-log), designs.csv and the designs'
+    /// certificates; shows a progress bar.
+    Scaling(ScalingArgs),
+}
+
+/// Arguments of `experiment scaling`.
+#[derive(Debug, clap::Args)]
+pub struct ScalingArgs {
+    /// Base scenario (TOML) [default: the embedded configs/paper.toml]: its leader profile, tau,
+    /// trigger, DoS schedule and vehicle length are kept; size, topology, gain and spacing
+    /// policy are varied.
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// Platoon sizes (followers).
+    #[arg(long, value_delimiter = ',', default_value = "4,10,25,50,100")]
+    pub sizes: Vec<usize>,
+    /// Topologies (pf, plf, tpsf, bpf).
+    #[arg(long, value_delimiter = ',', default_value = "pf,plf,tpsf,bpf")]
+    pub presets: Vec<String>,
+    /// The time headway h_t of the designed gains (s).
+    #[arg(long, default_value_t = 1.0)]
+    pub time_headway: f64,
+    /// The platoon size the time-headway gains are designed and certified on.
+    #[arg(long, default_value_t = 4)]
+    pub design_followers: usize,
+    /// Bound on |K| for the designs.
+    #[arg(long, default_value_t = 20.0)]
+    pub k_max: f64,
+    /// Certify (Theorem 1 at the nominal tau) each gain on each size up to this many followers
+    /// (an SDP of size 9N each; larger sizes get no certificate column).
+    #[arg(long, default_value_t = 10)]
+    pub certify_up_to: usize,
+    /// Output directory [default: runs/scaling-experiment].
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Replace the output directory if it exists.
+    #[arg(long)]
+    pub force: bool,
+}
+
+/// One run of `experiment scaling`.
+#[derive(Debug, serde::Serialize)]
+struct ScalingRow {
+    preset: String,
+    followers: usize,
+    /// `paper-constant` or `designed-time-headway`.
+    gain: &'static str,
+    k1: f64,
+    k2: f64,
+    k3: f64,
+    time_headway_s: f64,
+    /// The trigger's beta1/beta2 in the run: the base's for the paper's gain, the design's for
+    /// the designed one.
+    beta1_over_beta2: f64,
+    /// `none` or `base` (the base config's DoS schedule).
+    dos: &'static str,
+    /// Measured in the plant.
+    max_gap_error_m: f64,
+    /// The last follower's largest |gap error| over the first's, measured.
+    gap_error_growth: Option<f64>,
+    max_spacing_error_m: f64,
+    min_gap_m: f64,
+    collided: bool,
+    class: &'static str,
+    /// Predicted by the linearised analysis over the base's tau range.
+    string_stable: bool,
+    /// max |T_N1 / T_11|, the worst over the tau range.
+    predicted_amplification: f64,
+    /// The largest modulus of a closed-loop eigenvalue over the tau range (rad/s): against
+    /// 1 / dt it tells whether the step can follow the loop at all.
+    fastest_mode_rad_s: f64,
+    /// The smallest beta1/beta2 of Theorem 1 (nominal tau) for this size; empty when not
+    /// computed (above --certify-up-to), `inf` when infeasible.
+    certified_ratio: Option<f64>,
 }
 
 /// Arguments of `experiment degradation`.
@@ -174,7 +255,287 @@ pub fn run(e: Experiment) -> Result<()> {
         Experiment::Robust(args) => robust(args),
         Experiment::Topologies(args) => topologies(args),
         Experiment::Degradation(args) => degradation(args),
+        Experiment::Scaling(args) => scaling(args),
     }
+}
+
+/// Three decimals, or three significant digits in scientific notation for the huge and tiny
+/// numbers of a diverging platoon.
+fn short(x: f64) -> String {
+    if x != 0.0 && !(1e-3..1e5).contains(&x.abs()) {
+        format!("{x:.2e}")
+    } else {
+        format!("{x:.3}")
+    }
+}
+
+fn scaling(args: ScalingArgs) -> Result<()> {
+    use platoon_synthesis::{Coupling, Feasibility};
+    use platoon_topology::{Preset, Topology};
+    if args.sizes.is_empty() || args.sizes.contains(&0) {
+        anyhow::bail!("--sizes needs platoon sizes of at least one follower, e.g. 4,10,25");
+    }
+    if !(args.time_headway.is_finite() && args.time_headway > 0.0) {
+        anyhow::bail!("--time-headway must be a number of seconds > 0");
+    }
+    if args.design_followers == 0 {
+        anyhow::bail!("--design-followers must be at least 1");
+    }
+    let presets: Vec<(String, Preset)> = args
+        .presets
+        .iter()
+        .map(|p| {
+            Preset::from_name(p).map(|x| (p.clone(), x)).ok_or_else(|| {
+                anyhow::anyhow!("--presets: unknown topology {p:?}; use pf, plf, tpsf or bpf")
+            })
+        })
+        .collect::<Result<_>>()?;
+    let (base, scenario0, _) =
+        crate::run::load(args.config.as_deref(), platoon_config::PAPER_TOML, "paper")?;
+    let label = args
+        .config
+        .as_ref()
+        .map_or("<embedded configs/paper.toml>".to_string(), |p| {
+            p.display().to_string()
+        });
+    let out = args
+        .out
+        .unwrap_or_else(|| PathBuf::from("runs/scaling-experiment"));
+    let dir = RunDir::create(&out, args.force)?;
+    dir.write("config.toml", platoon_config::to_toml(&base).as_bytes())?;
+    let tau = scenario0.control.tau_nominal;
+    let (lo, hi) = scenario0.tau_range();
+    let mut taus = vec![lo, tau, hi];
+    taus.sort_by(f64::total_cmp);
+    taus.dedup();
+    let h_t = args.time_headway;
+    let paper_k = base.control.gain;
+    let total = presets.len() * args.sizes.len() * 4;
+    let bar = indicatif::ProgressBar::new(total as u64);
+    let mut rows = Vec::with_capacity(total);
+    let mut designs = csv::Writer::from_writer(dir.writer("designs.csv")?);
+    designs.write_record([
+        "preset",
+        "design_followers",
+        "time_headway_s",
+        "k1",
+        "k2",
+        "k3",
+        "beta1_over_beta2",
+        "certificate",
+    ])?;
+    for (name, preset) in &presets {
+        bar.set_message(format!("designing for {name}"));
+        let h_design = Topology::preset(*preset, args.design_followers)?.h_matrix();
+        let spec = platoon_synthesis::DesignSpec {
+            taus: vec![tau],
+            k_max: args.k_max,
+            ..Default::default()
+        };
+        let design =
+            platoon_synthesis::design_theorem1(&spec, &Coupling::time_headway(h_design, h_t))?;
+        let designed_k = match &design {
+            Some(d) => {
+                let file = format!("certificate-{name}.json");
+                dir.write(
+                    &file,
+                    (serde_json::to_string_pretty(&d.certificate)? + "\n").as_bytes(),
+                )?;
+                designs.write_record([
+                    name.clone(),
+                    args.design_followers.to_string(),
+                    h_t.to_string(),
+                    d.k[0].to_string(),
+                    d.k[1].to_string(),
+                    d.k[2].to_string(),
+                    d.certificate.ratio.to_string(),
+                    file,
+                ])?;
+                Some((d.k, d.certificate.ratio))
+            }
+            None => {
+                eprintln!("{name}: no gain designed for a {h_t} s headway on {} followers (the row is missing from the figure)", args.design_followers);
+                None
+            }
+        };
+        // The designed gain runs with the trigger ratio it was designed with (the paper's
+        // co-design of K and beta1/beta2); the paper's gain with the base's.
+        let base_ratio = base.control.beta1 / base.control.beta2;
+        let variants: Vec<(&'static str, [f64; 3], f64, f64)> =
+            std::iter::once(("paper-constant", paper_k, 0.0, base_ratio))
+                .chain(designed_k.map(|(k, r)| ("designed-time-headway", k, h_t, r)))
+                .collect();
+        for &n in &args.sizes {
+            let h = Topology::preset(*preset, n)?.h_matrix();
+            for &(gain, k, headway, ratio) in &variants {
+                let coupling = Coupling::time_headway(h.clone(), headway);
+                let ss = platoon_synthesis::string_stability(k, &coupling, &taus);
+                let fastest = platoon_synthesis::closed_loop_spectrum(k, &coupling, &taus)
+                    .iter()
+                    .map(|s| s.max_modulus)
+                    .fold(0.0, f64::max);
+                let certified_ratio = if n <= args.certify_up_to {
+                    bar.set_message(format!("certifying {name} {n} {gain}"));
+                    Some(
+                        match platoon_synthesis::theorem1_min_ratio(k, 0.0, &coupling, tau, 1e-6) {
+                            Ok(Feasibility::Feasible(c)) => c.ratio,
+                            Ok(Feasibility::Infeasible)
+                            | Err(platoon_synthesis::LmiError::NotCertified(_)) => f64::INFINITY,
+                            Err(e) => return Err(e.into()),
+                        },
+                    )
+                } else {
+                    None
+                };
+                for dos in ["none", "base"] {
+                    bar.set_message(format!("{name} {n} {gain} dos={dos}"));
+                    let mut c = base.clone();
+                    c.platoon.followers = n;
+                    c.platoon.initial_states = None;
+                    c.platoon.formation = Some(platoon_config::Formation {
+                        leader_position_m: 0.0,
+                        position_jitter_m: 0.0,
+                        speed_jitter_mps: 0.0,
+                        seed: 0,
+                    });
+                    c.platoon.spacing_policy = Some(
+                        if headway > 0.0 {
+                            "time_headway"
+                        } else {
+                            "constant"
+                        }
+                        .into(),
+                    );
+                    c.platoon.time_headway_s = (headway > 0.0).then_some(headway);
+                    c.topology.preset = name.clone();
+                    c.topology.adjacency = None;
+                    c.topology.pinning = None;
+                    c.control.gain = k;
+                    c.control.beta1 = ratio * c.control.beta2;
+                    c.fallback.per_vehicle = None;
+                    if dos == "none" {
+                        c.attack = platoon_config::Attack {
+                            kind: "none".into(),
+                            ..Default::default()
+                        };
+                    }
+                    let scenario = platoon_config::to_scenario(&mut c).map_err(|(key, e)| {
+                        anyhow::anyhow!(
+                            "{label}: key `{key}` with {n} followers ({name}, {gain}): {e}"
+                        )
+                    })?;
+                    let s = platoon_sim::run(scenario, |_| {})?;
+                    let worst = ss
+                        .per_tau
+                        .iter()
+                        .map(|t| t.amplification)
+                        .fold(0.0, f64::max);
+                    rows.push(ScalingRow {
+                        preset: name.clone(),
+                        followers: n,
+                        gain,
+                        k1: k[0],
+                        k2: k[1],
+                        k3: k[2],
+                        time_headway_s: headway,
+                        beta1_over_beta2: ratio,
+                        dos,
+                        max_gap_error_m: s.max_gap_error_m(),
+                        gap_error_growth: s.gap_error_growth(),
+                        max_spacing_error_m: s.max_spacing_error_m(),
+                        min_gap_m: s.safety.min_gap_m,
+                        collided: s.safety.collided,
+                        class: s.safety.class,
+                        string_stable: ss.string_stable,
+                        predicted_amplification: worst,
+                        fastest_mode_rad_s: fastest,
+                        certified_ratio,
+                    });
+                    bar.inc(1);
+                }
+            }
+        }
+    }
+    bar.finish_and_clear();
+    designs.flush()?;
+    drop(designs);
+    let mut csv = csv::Writer::from_writer(dir.writer("scaling.csv")?);
+    for r in &rows {
+        csv.serialize(r)?;
+    }
+    csv.flush()?;
+    let mut md = format!(
+        "Largest gap error to the predecessor (m) by platoon size; base {label}; designed gains: Theorem 1 with a {h_t} s time headway on {} followers.\n\n| topology | followers | gain | DoS | max gap error (m) | growth last/first | min gap (m) | class | string stable (predicted) | fastest mode (rad/s) | Theorem 1 ratio |\n|---|---|---|---|---|---|---|---|---|---|---|\n",
+        args.design_followers
+    );
+    for r in &rows {
+        let _ = writeln!(
+            md,
+            "| {} | {} | {} | {} | {} | {} | {} | {}{} | {} ({}) | {:.1} | {} |",
+            r.preset,
+            r.followers,
+            r.gain,
+            r.dos,
+            short(r.max_gap_error_m),
+            r.gap_error_growth.map_or("-".into(), short),
+            short(r.min_gap_m),
+            r.class,
+            if r.collided { " (collision)" } else { "" },
+            if r.string_stable { "yes" } else { "no" },
+            short(r.predicted_amplification),
+            r.fastest_mode_rad_s,
+            r.certified_ratio.map_or("-".into(), |x| if x.is_finite() {
+                format!("{x:.1}")
+            } else {
+                "infeasible".into()
+            }),
+        );
+    }
+    dir.write("scaling.md", md.as_bytes())?;
+    let panels: Vec<(String, Vec<Series>)> = presets
+        .iter()
+        .map(|(name, _)| {
+            let series = [
+                ("paper-constant", "none"),
+                ("paper-constant", "base"),
+                ("designed-time-headway", "none"),
+                ("designed-time-headway", "base"),
+            ]
+            .iter()
+            .enumerate()
+            .map(|(i, (gain, dos))| Series {
+                label: format!(
+                    "{} {}",
+                    if *gain == "paper-constant" {
+                        "paper K, constant"
+                    } else {
+                        "designed K, time headway"
+                    },
+                    if *dos == "none" { "no DoS" } else { "DoS" }
+                ),
+                color: i,
+                points: rows
+                    .iter()
+                    .filter(|r| &r.preset == name && r.gain == *gain && r.dos == *dos)
+                    .map(|r| (r.followers as f64, r.max_gap_error_m))
+                    .collect(),
+            })
+            .filter(|s| !s.points.is_empty())
+            .collect();
+            (name.to_uppercase(), series)
+        })
+        .collect();
+    plots::log_log_panels(
+        &dir.path("scaling.png"),
+        "Largest gap error against platoon size",
+        "followers",
+        "largest |gap error| (m)",
+        &panels,
+    )?;
+    let path = dir.commit()?;
+    print!("{md}");
+    println!("outputs: {}", path.display());
+    Ok(())
 }
 
 fn degradation(args: DegradationArgs) -> Result<()> {

@@ -497,6 +497,79 @@ pub fn scatter_with_lines(
     Ok(())
 }
 
+/// One log-log panel per entry, side by side in a grid (two columns): measured points of each
+/// series joined by lines. Non-finite and non-positive values are left out (a log axis has no
+/// place for them).
+pub fn log_log_panels(
+    path: &Path,
+    title: &str,
+    x_label: &str,
+    y_label: &str,
+    panels: &[(String, Vec<Series>)],
+) -> Result<()> {
+    ensure_font();
+    let rows = panels.len().div_ceil(2).max(1);
+    let root = BitMapBackend::new(path, (1400, 450 * rows as u32)).into_drawing_area();
+    root.fill(&WHITE).map_err(err)?;
+    let root = root.titled(title, ("sans-serif", 24)).map_err(err)?;
+    let areas = root.split_evenly((rows, if panels.len() > 1 { 2 } else { 1 }));
+    let usable = |p: &(f64, f64)| p.0 > 0.0 && p.1 > 0.0 && p.1.is_finite();
+    for ((name, series), area) in panels.iter().zip(&areas) {
+        let pts: Vec<(f64, f64)> = series
+            .iter()
+            .flat_map(|s| s.points.iter().copied())
+            .filter(usable)
+            .collect();
+        let (x0, x1) = pts.iter().fold((f64::INFINITY, 0.0f64), |(a, b), p| {
+            (a.min(p.0), b.max(p.0))
+        });
+        let (y0, y1) = pts.iter().fold((f64::INFINITY, 0.0f64), |(a, b), p| {
+            (a.min(p.1), b.max(p.1))
+        });
+        let (x0, x1, y0, y1) = if pts.is_empty() {
+            (1.0, 10.0, 0.1, 10.0)
+        } else {
+            (x0 * 0.8, x1 * 1.25, y0 * 0.5, y1 * 2.0)
+        };
+        let mut chart = ChartBuilder::on(area)
+            .caption(name, ("sans-serif", 20))
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(70)
+            .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
+            .map_err(err)?;
+        chart
+            .configure_mesh()
+            .max_light_lines(0)
+            .x_label_formatter(&|x| format!("{x:.0}"))
+            .y_label_formatter(&|y| {
+                let s = format!("{y:.3}");
+                s.trim_end_matches('0').trim_end_matches('.').to_string()
+            })
+            .x_desc(x_label)
+            .y_desc(y_label)
+            .draw()
+            .map_err(err)?;
+        for s in series {
+            let color = Palette99::pick(s.color).to_rgba();
+            let finite: Vec<(f64, f64)> = s.points.iter().copied().filter(usable).collect();
+            chart
+                .draw_series(LineSeries::new(finite.clone(), color.stroke_width(2)))
+                .map_err(err)?
+                .label(s.label.clone())
+                .legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2))
+                });
+            chart
+                .draw_series(finite.iter().map(|&p| Circle::new(p, 4, color.filled())))
+                .map_err(err)?;
+        }
+        legend(&mut chart, SeriesLabelPosition::UpperLeft)?;
+    }
+    root.present().map_err(err)?;
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
