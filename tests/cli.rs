@@ -152,8 +152,17 @@ fn design_checks_a_gain_on_the_time_headway_policy() {
     }
     let cert = json(&tmp.path().join("th/certificate.json"));
     assert_eq!(cert["headway"], 1.0);
-    let o = platoon(&["design", "verify", "th/certificate.json"], tmp.path());
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for cert in ["th/certificate.json", "th/certificate-block-diagonal.json"] {
+        let o = platoon(&["design", "verify", cert], tmp.path());
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    }
+    // One P per follower certifies with a ratio no larger than the common P's.
+    let block = th["block_diagonal"]["min_ratio"].as_f64().unwrap();
+    assert!(block <= th["min_ratio_at_c"][1].as_f64().unwrap() * (1.0 + 1e-6));
+    assert!(th["block_diagonal"]["transient_growth"].as_f64().unwrap() >= 1.0);
+    let blocks = json(&tmp.path().join("th/certificate-block-diagonal.json"));
+    assert_eq!(blocks["p_blocks"].as_array().unwrap().len(), 6);
+    assert_eq!(blocks["headway"], 1.0);
     let (out, cs) = check(&["--time-headway", "0"], "constant");
     assert!(
         out.contains("constant spacing") && out.contains("STRING UNSTABLE"),

@@ -23,9 +23,9 @@ pub use design::{design_theorem1, Design, DesignSpec};
 pub use string::{string_stability, StringStability, TauStringStability};
 
 pub use lmi::{
-    closed_loop_spectrum, growth_rate, max_decay_within_ratio, min_ratio, psi_theorem1,
-    theorem1_max_decay, theorem1_min_ratio, Certificate, Coupling, Feasibility, LmiError, Plant3,
-    Spectrum, Verdict,
+    closed_loop_spectrum, growth_rate, max_decay_within_ratio, min_ratio, min_ratio_block_diagonal,
+    psi_general, psi_theorem1, theorem1_max_decay, theorem1_min_ratio, Certificate, Coupling,
+    Feasibility, LmiError, Plant3, Spectrum, Verdict, P_MAX,
 };
 
 /// The bounds (16): the smallest T2 and D2 for which Assumption 2 guarantees stability, given

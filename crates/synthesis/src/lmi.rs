@@ -2,6 +2,7 @@
 use crate::sdp::{dm, solve, sym_basis3, Lmi};
 use nalgebra::{DMatrix, Matrix3, RowVector3, Vector3};
 use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
 
 /// Why a design request could not be answered.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -155,23 +156,7 @@ fn psi_of(
             .copy_from(&(&pbk * mc.view((3 * i, 0), (3, m))));
     }
     let x11 = he(&(kron(&i_n, &pa) - &pbkm)) + kron(&i_n, &pd) * c;
-    let x12 = -pbkm;
-    let ht_i = mc.transpose();
-    let mut psi = DMatrix::<f64>::zeros(3 * m, 3 * m);
-    psi.view_mut((0, 0), (m, m)).copy_from(&x11);
-    psi.view_mut((0, m), (m, m)).copy_from(&x12);
-    psi.view_mut((m, 0), (m, m)).copy_from(&x12.transpose());
-    psi.view_mut((0, 2 * m), (m, m)).copy_from(&ht_i);
-    psi.view_mut((2 * m, 0), (m, m))
-        .copy_from(&ht_i.transpose());
-    psi.view_mut((m, m), (m, m))
-        .copy_from(&(DMatrix::<f64>::identity(m, m) * -r));
-    psi.view_mut((m, 2 * m), (m, m)).copy_from(&ht_i);
-    psi.view_mut((2 * m, m), (m, m))
-        .copy_from(&ht_i.transpose());
-    psi.view_mut((2 * m, 2 * m), (m, m))
-        .copy_from(&(DMatrix::<f64>::identity(m, m) * -1.0));
-    psi
+    assemble(&x11, &-pbkm, r, mc)
 }
 
 /// Everything needed to re-check Theorem 1 for one design, as `certificate.json` holds it.
@@ -187,8 +172,13 @@ pub struct Certificate {
     pub c: f64,
     /// beta1 / beta2.
     pub ratio: f64,
-    /// P (row-major 3x3), positive definite.
+    /// P (row-major 3x3), positive definite: the common Lyapunov matrix (`I_N kron P`), or
+    /// `P_1` of a block-diagonal certificate.
     pub p: [[f64; 3]; 3],
+    /// A block-diagonal Lyapunov matrix `diag(P_1, ..., P_N)`, one 3x3 block per follower
+    /// (`V = sum_i e_i^T P_i e_i`), in place of `I_N kron P`; absent for a common P.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub p_blocks: Option<Vec<[[f64; 3]; 3]>>,
     /// H = L + diag(pinning), row-major N x N.
     pub h: Vec<Vec<f64>>,
     /// The time headway of the spacing policy (s) the condition was imposed with; absent (0)
@@ -217,8 +207,12 @@ pub struct Verdict {
     pub holds: bool,
     /// Largest eigenvalue of (13): the margin is its negative.
     pub max_eigenvalue: f64,
-    /// Smallest eigenvalue of P.
+    /// Smallest eigenvalue of P (of every block).
     pub p_min_eigenvalue: f64,
+    /// `sqrt(lambda_max / lambda_min)` of the whole Lyapunov matrix: how much the tracking
+    /// error may grow before it decays (`|e(t)| <= growth e^(-c t / 2 ...) |e(0)|`), the price of
+    /// a certificate whose blocks differ.
+    pub transient_growth: f64,
 }
 
 impl Certificate {
@@ -258,26 +252,106 @@ impl Certificate {
     /// Re-assembles (13) from the certificate's numbers and checks its eigenvalues.
     pub fn verify(&self) -> Result<Verdict, LmiError> {
         let (p, k, g) = self.parts()?;
-        let psym = (p + p.transpose()) * 0.5;
+        let n = g.followers();
         let mc = g.matrix();
+        let blocks: Vec<Matrix3<f64>> = match &self.p_blocks {
+            None => vec![p],
+            Some(b) => {
+                if b.len() != n || b.iter().flatten().flatten().any(|x| !x.is_finite()) {
+                    return Err(LmiError::Bad(format!(
+                        "p_blocks must hold one finite 3x3 block per follower ({n})"
+                    )));
+                }
+                b.iter().map(|m| Matrix3::from_fn(|i, j| m[i][j])).collect()
+            }
+        };
+        let symmetric = blocks.iter().all(|b| (b - b.transpose()).amax() < 1e-9);
+        let blocks: Vec<Matrix3<f64>> = blocks.iter().map(|b| (b + b.transpose()) * 0.5).collect();
+        let mut x = DMatrix::zeros(3 * n, 3 * n);
+        if blocks.len() > 1 {
+            for (i, b) in blocks.iter().enumerate() {
+                x.view_mut((3 * i, 3 * i), (3, 3)).copy_from(b);
+            }
+        }
         let max_eigenvalue = self
             .taus
             .iter()
             .map(|&tau| {
-                psi_of(&psym, self.ratio, self.c, &k, &mc, &Plant3::new(tau))
-                    .symmetric_eigenvalues()
-                    .max()
+                let plant = Plant3::new(tau);
+                if blocks.len() == 1 {
+                    psi_of(&blocks[0], self.ratio, self.c, &k, &mc, &plant)
+                } else {
+                    psi_general(&x, self.ratio, self.c, &k, &mc, &plant)
+                }
+                .symmetric_eigenvalues()
+                .max()
             })
             .fold(f64::NEG_INFINITY, f64::max);
-        let p_min_eigenvalue = psym.symmetric_eigenvalues().min();
+        let eig: Vec<f64> = blocks
+            .iter()
+            .flat_map(|b| {
+                b.symmetric_eigenvalues()
+                    .iter()
+                    .copied()
+                    .collect::<Vec<_>>()
+            })
+            .collect();
+        let p_min_eigenvalue = eig.iter().copied().fold(f64::INFINITY, f64::min);
+        let p_max_eigenvalue = eig.iter().copied().fold(f64::NEG_INFINITY, f64::max);
         Ok(Verdict {
-            holds: max_eigenvalue < 0.0
-                && p_min_eigenvalue > 0.0
-                && (p - p.transpose()).amax() < 1e-9,
+            holds: max_eigenvalue < 0.0 && p_min_eigenvalue > 0.0 && symmetric,
             max_eigenvalue,
             p_min_eigenvalue,
+            transient_growth: (p_max_eigenvalue / p_min_eigenvalue).sqrt(),
         })
     }
+}
+
+/// (13) with a general Lyapunov matrix `X` (3N x 3N, symmetric) in place of `I_N kron P`:
+/// `[[He(X (I kron A) - X (I kron B K) M) + c X, -X (I kron B K) M, M^T], [., -r I, M^T],
+/// [M, M, -I]]`. The proof of Theorem 1 needs nothing of `X` but `X > 0`.
+pub fn psi_general(
+    x: &DMatrix<f64>,
+    r: f64,
+    c: f64,
+    k: &RowVector3<f64>,
+    mc: &DMatrix<f64>,
+    plant: &Plant3,
+) -> DMatrix<f64> {
+    let m = mc.nrows();
+    let n = m / 3;
+    let i_n = DMatrix::<f64>::identity(n, n);
+    let ia = kron(&i_n, &dm(&plant.a));
+    let bk = dm(&(plant.b * k));
+    // (I_N kron B K) M, block row by block row.
+    let mut bkm = DMatrix::<f64>::zeros(m, m);
+    for i in 0..n {
+        bkm.view_mut((3 * i, 0), (3, m))
+            .copy_from(&(&bk * mc.view((3 * i, 0), (3, m))));
+    }
+    let xbkm = x * &bkm;
+    let x11 = he(&(x * &ia - &xbkm)) + x * c;
+    let x12 = -xbkm;
+    assemble(&x11, &x12, r, mc)
+}
+
+/// The 9N x 9N matrix of (13) from its (1,1) and (1,2) blocks.
+fn assemble(x11: &DMatrix<f64>, x12: &DMatrix<f64>, r: f64, mc: &DMatrix<f64>) -> DMatrix<f64> {
+    let m = mc.nrows();
+    let ht_i = mc.transpose();
+    let mut psi = DMatrix::<f64>::zeros(3 * m, 3 * m);
+    psi.view_mut((0, 0), (m, m)).copy_from(x11);
+    psi.view_mut((0, m), (m, m)).copy_from(x12);
+    psi.view_mut((m, 0), (m, m)).copy_from(&x12.transpose());
+    psi.view_mut((0, 2 * m), (m, m)).copy_from(&ht_i);
+    psi.view_mut((2 * m, 0), (m, m)).copy_from(mc);
+    psi.view_mut((m, m), (m, m))
+        .copy_from(&(DMatrix::<f64>::identity(m, m) * -r));
+    psi.view_mut((m, 2 * m), (m, m)).copy_from(&ht_i);
+    psi.view_mut((2 * m, m), (m, m)).copy_from(mc);
+    psi.view_mut((2 * m, 2 * m), (m, m))
+        .copy_from(&(DMatrix::<f64>::identity(m, m) * -1.0));
+    psi
 }
 
 /// The outcome of a Theorem-1 SDP.
@@ -385,6 +459,7 @@ pub fn min_ratio(
         c,
         ratio: x[nvar - 1],
         p: pm,
+        p_blocks: None,
         h: (0..n)
             .map(|i| (0..n).map(|j| h[(i, j)]).collect())
             .collect(),
@@ -410,6 +485,157 @@ pub fn min_ratio(
         return Err(LmiError::NotCertified(v.max_eigenvalue));
     }
     Ok(Feasibility::Feasible(cert))
+}
+
+/// Like [`min_ratio`] with a block-diagonal Lyapunov matrix `diag(P_1, ..., P_N)` in place of
+/// `I_N kron P` (one P per follower: 6N + 1 variables instead of 7): a richer certificate that
+/// holds where the common one is infeasible (a cascade such as PF needs P_i that shrink along
+/// the platoon), at the price of a transient growth `sqrt(lambda_max / lambda_min)` over all
+/// blocks (in [`Verdict`]). Each `P_i` is kept in `delta I <= P_i <= P_MAX I`. The constraint
+/// matrices are assembled sparse (each `P_i` touches the rows of follower i only), so N = 100
+/// fits in memory.
+pub fn min_ratio_block_diagonal(
+    k: [f64; 3],
+    c: f64,
+    g: &Coupling,
+    taus: &[f64],
+    delta: f64,
+) -> Result<Feasibility, LmiError> {
+    if !(c.is_finite()
+        && c >= 0.0
+        && delta > 0.0
+        && !taus.is_empty()
+        && taus.iter().all(|t| t.is_finite() && *t > 0.0))
+    {
+        return Err(LmiError::Bad(format!(
+            "need c >= 0, taus > 0 and delta > 0 (got c = {c}, taus = {taus:?}, delta = {delta})"
+        )));
+    }
+    let kr = RowVector3::from(k);
+    let n = g.followers();
+    let m = 3 * n;
+    let basis = sym_basis3();
+    let mc = g.matrix();
+    let nvar = 6 * n + 1;
+    let mut lmis = Vec::new();
+    for &tau in taus {
+        let plant = Plant3::new(tau);
+        let bk = plant.b * kr;
+        let psi0 = psi_general(&DMatrix::zeros(m, m), 0.0, c, &kr, &mc, &plant)
+            + DMatrix::<f64>::identity(3 * m, 3 * m) * delta;
+        let mut cols: Vec<Vec<(usize, usize, f64)>> = Vec::with_capacity(nvar);
+        for i in 0..n {
+            // Block row i of (I kron B K) M.
+            let bkm = dm(&bk) * mc.view((3 * i, 0), (3, m));
+            for e in &basis {
+                let ed = dm(e);
+                // Rows 3i..3i+3 of X (I kron A) - X (I kron B K) M + (c / 2) X for X = e_i e_i^T
+                // kron E; (1,1) is its He, (1,2) the second term alone.
+                let coupled = &ed * &bkm;
+                let mut strip = -&coupled;
+                let own = dm(&(e * plant.a)) + &ed * (c / 2.0);
+                let mut view = strip.view_mut((0, 3 * i), (3, 3));
+                view += own;
+                let mut acc: BTreeMap<(usize, usize), f64> = BTreeMap::new();
+                for a in 0..3 {
+                    let row = 3 * i + a;
+                    for col in 0..m {
+                        let v = strip[(a, col)];
+                        if v != 0.0 {
+                            let key = (row.min(col), row.max(col));
+                            *acc.entry(key).or_default() += if row == col { 2.0 * v } else { v };
+                        }
+                        let w = -coupled[(a, col)];
+                        if w != 0.0 {
+                            *acc.entry((row, m + col)).or_default() += w;
+                        }
+                    }
+                }
+                cols.push(acc.into_iter().map(|((p, q), v)| (p, q, v)).collect());
+            }
+        }
+        // r: -r I on the (2,2) block.
+        cols.push((m..2 * m).map(|j| (j, j, -1.0)).collect());
+        lmis.push(Lmi::nsd_sparse(&psi0, cols));
+    }
+    // delta I <= P_i <= P_MAX I.
+    for i in 0..n {
+        let block = |sign: f64| -> Vec<DMatrix<f64>> {
+            (0..nvar)
+                .map(|v| {
+                    if v / 6 == i && v < 6 * n {
+                        dm(&basis[v % 6]) * sign
+                    } else {
+                        DMatrix::zeros(3, 3)
+                    }
+                })
+                .collect()
+        };
+        lmis.push(Lmi::nsd(
+            &(DMatrix::<f64>::identity(3, 3) * delta),
+            &block(-1.0),
+        ));
+        lmis.push(Lmi::nsd(
+            &(DMatrix::<f64>::identity(3, 3) * -P_MAX),
+            &block(1.0),
+        ));
+    }
+    let mut cost = vec![0.0; nvar];
+    cost[nvar - 1] = 1.0;
+    let Some(x) = solve(&lmis, &[], &cost)? else {
+        return Ok(Feasibility::Infeasible);
+    };
+    let blocks: Vec<[[f64; 3]; 3]> = (0..n)
+        .map(|i| {
+            let mut p = Matrix3::zeros();
+            for (e, &v) in basis.iter().zip(&x[6 * i..6 * i + 6]) {
+                p += e * v;
+            }
+            rows3(&p)
+        })
+        .collect();
+    let h = &g.h;
+    let mut cert = Certificate {
+        condition: if taus.len() == 1 {
+            "theorem1-block-diagonal"
+        } else {
+            "theorem2-block-diagonal"
+        }
+        .into(),
+        k,
+        c,
+        ratio: x[nvar - 1],
+        p: blocks[0],
+        p_blocks: Some(blocks),
+        h: (0..n)
+            .map(|i| (0..n).map(|j| h[(i, j)]).collect())
+            .collect(),
+        headway: g.headway,
+        taus: taus.to_vec(),
+        max_eigenvalue: 0.0,
+        p_min_eigenvalue: 0.0,
+    };
+    let v = cert.verify()?;
+    cert.max_eigenvalue = v.max_eigenvalue;
+    cert.p_min_eigenvalue = v.p_min_eigenvalue;
+    if !v.holds {
+        if delta < MAX_MARGIN {
+            match min_ratio_block_diagonal(k, c, g, taus, delta * 100.0) {
+                Err(LmiError::Solver(_)) => {}
+                other => return other,
+            }
+        }
+        return Err(LmiError::NotCertified(v.max_eigenvalue));
+    }
+    Ok(Feasibility::Feasible(cert))
+}
+
+fn rows3(p: &Matrix3<f64>) -> [[f64; 3]; 3] {
+    [
+        [p[(0, 0)], p[(0, 1)], p[(0, 2)]],
+        [p[(1, 0)], p[(1, 1)], p[(1, 2)]],
+        [p[(2, 0)], p[(2, 1)], p[(2, 2)]],
+    ]
 }
 
 /// The largest margin [`min_ratio`] retries with when an answer fails the re-check.
@@ -638,6 +864,55 @@ mod tests {
             panic!("feasible");
         };
         assert!(!serde_json::to_string(&c0).unwrap().contains("headway"));
+    }
+
+    /// Issue 14, item 3: where the common Lyapunov matrix fails (the paper's K on PF and TPSF
+    /// with 10 followers), one P per follower certifies stability, with the transient growth it
+    /// costs; where both hold, the block-diagonal ratio is no larger; the sparse assembly agrees
+    /// with the dense re-check, and a tampered block fails it.
+    #[test]
+    fn a_block_diagonal_certificate_holds_where_the_common_one_fails() {
+        for preset in [Preset::Pf, Preset::Tpsf] {
+            let g = h(preset, 10);
+            assert_eq!(
+                theorem1_min_ratio(PAPER_K, 0.0, &g, 0.5, 1e-6).unwrap(),
+                Feasibility::Infeasible
+            );
+            let Feasibility::Feasible(cert) =
+                min_ratio_block_diagonal(PAPER_K, 0.0, &g, &[0.5], 1e-6).unwrap()
+            else {
+                panic!("{preset:?}: block-diagonal should be feasible");
+            };
+            assert_eq!(cert.condition, "theorem1-block-diagonal");
+            let v = cert.verify().unwrap();
+            assert!(v.holds, "{preset:?}: {v:?}");
+            assert!(v.transient_growth > 2.0, "{preset:?}: {v:?}");
+            let json = serde_json::to_string(&cert).unwrap();
+            let back: Certificate = serde_json::from_str(&json).unwrap();
+            assert!(back.verify().unwrap().holds);
+            let mut bad = cert.clone();
+            bad.p_blocks.as_mut().unwrap()[5][1][1] = -1.0;
+            assert!(!bad.verify().unwrap().holds);
+            bad.p_blocks.as_mut().unwrap().pop();
+            assert!(matches!(bad.verify(), Err(LmiError::Bad(_))));
+        }
+        let g = h(Preset::Tpsf, 4);
+        let ratio = |f: Feasibility| match f {
+            Feasibility::Feasible(c) => c.ratio,
+            Feasibility::Infeasible => f64::INFINITY,
+        };
+        let common = ratio(theorem1_min_ratio(PAPER_K, 0.0, &g, 0.5, 1e-6).unwrap());
+        let blocks = ratio(min_ratio_block_diagonal(PAPER_K, 0.0, &g, &[0.5], 1e-6).unwrap());
+        assert!(blocks <= common * (1.0 + 1e-6), "{blocks} vs {common}");
+        // With a time headway and two taus (Theorem 2) the same code path holds.
+        let th = Coupling::time_headway(h(Preset::Pf, 6).h, 1.0);
+        let Feasibility::Feasible(c) =
+            min_ratio_block_diagonal(PAPER_K, 0.0, &th, &[0.34, 0.82], 1e-6).unwrap()
+        else {
+            panic!("PF 6 with a 1 s headway");
+        };
+        assert_eq!(c.condition, "theorem2-block-diagonal");
+        assert!(c.verify().unwrap().holds);
     }
 
     #[test]

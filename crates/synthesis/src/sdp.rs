@@ -36,22 +36,58 @@ pub(crate) fn dm(m: &Matrix3<f64>) -> DMatrix<f64> {
     DMatrix::from_iterator(3, 3, m.iter().copied())
 }
 
+/// The index of entry (p, q), p <= q, in [`svec`]'s order.
+pub(crate) fn svec_index(p: usize, q: usize) -> usize {
+    q * (q + 1) / 2 + p
+}
+
 /// One constraint `F0 + sum_i x_i F_i <= 0` (negative semidefinite).
 #[cfg_attr(not(sdp_solver), allow(dead_code))]
 pub(crate) struct Lmi {
     size: usize,
     b: Vec<f64>,
-    cols: Vec<Vec<f64>>,
+    /// Per variable, the non-zero entries of `svec(F_i)` in increasing index order.
+    cols: Vec<Vec<(usize, f64)>>,
 }
 
 impl Lmi {
     /// `f0 + sum_i x_i fi[i] <= 0`; `fi` has one matrix per variable.
     pub(crate) fn nsd(f0: &DMatrix<f64>, fi: &[DMatrix<f64>]) -> Self {
         // clarabel: A x + s = b with s in the PSD cone; s = -F(x) = svec(-F0) - sum x_i svec(F_i).
+        let sparse = |m: &DMatrix<f64>| {
+            svec(m)
+                .into_iter()
+                .enumerate()
+                .filter(|(_, v)| *v != 0.0)
+                .collect()
+        };
         Self {
             size: f0.nrows(),
             b: svec(&-f0),
-            cols: fi.iter().map(svec).collect(),
+            cols: fi.iter().map(sparse).collect(),
+        }
+    }
+
+    /// Like [`Lmi::nsd`] with each `F_i` given by its upper-triangle entries `(p, q, value)`,
+    /// `p <= q` (each pair at most once), for problems whose `F_i` are too many to hold dense.
+    pub(crate) fn nsd_sparse(f0: &DMatrix<f64>, fi: Vec<Vec<(usize, usize, f64)>>) -> Self {
+        let s2 = std::f64::consts::SQRT_2;
+        let cols = fi
+            .into_iter()
+            .map(|entries| {
+                let mut col: Vec<(usize, f64)> = entries
+                    .into_iter()
+                    .filter(|e| e.2 != 0.0)
+                    .map(|(p, q, v)| (svec_index(p, q), if p == q { v } else { s2 * v }))
+                    .collect();
+                col.sort_by_key(|e| e.0);
+                col
+            })
+            .collect();
+        Self {
+            size: f0.nrows(),
+            b: svec(&-f0),
+            cols,
         }
     }
 }
@@ -84,11 +120,9 @@ pub(crate) fn solve(
     for j in 0..nvar {
         let mut offset = 0;
         for l in lmis {
-            for (i, &v) in l.cols[j].iter().enumerate() {
-                if v != 0.0 {
-                    rowval.push(offset + i);
-                    nzval.push(v);
-                }
+            for &(i, v) in &l.cols[j] {
+                rowval.push(offset + i);
+                nzval.push(v);
             }
             offset += l.b.len();
         }
