@@ -71,9 +71,10 @@ pub struct ScalingArgs {
     /// Bound on |K| for the designs.
     #[arg(long, default_value_t = 20.0)]
     pub k_max: f64,
-    /// Certify (Theorem 1 at the nominal tau) each gain on each size up to this many followers
-    /// (an SDP of size 9N each; larger sizes get no certificate column).
-    #[arg(long, default_value_t = 10)]
+    /// Certify (Theorem 1 at the nominal tau, with a common and with a block-diagonal
+    /// Lyapunov matrix) each gain on each size up to this many followers (two SDPs of size 9N
+    /// each, about a second at N = 100; larger sizes get empty certificate columns).
+    #[arg(long, default_value_t = 100)]
     pub certify_up_to: usize,
     /// Output directory [default: runs/scaling-experiment].
     #[arg(long)]
@@ -114,9 +115,14 @@ struct ScalingRow {
     /// The largest modulus of a closed-loop eigenvalue over the tau range (rad/s): against
     /// 1 / dt it tells whether the step can follow the loop at all.
     fastest_mode_rad_s: f64,
-    /// The smallest beta1/beta2 of Theorem 1 (nominal tau) for this size; empty when not
-    /// computed (above --certify-up-to), `inf` when infeasible.
+    /// The smallest beta1/beta2 of Theorem 1 (nominal tau) for this size with the common
+    /// Lyapunov matrix I_N kron P; empty when not computed (above --certify-up-to), `inf` when
+    /// infeasible.
     certified_ratio: Option<f64>,
+    /// The same with one P per follower (block-diagonal).
+    block_diagonal_ratio: Option<f64>,
+    /// That certificate's transient growth sqrt(lambda_max / lambda_min).
+    block_diagonal_growth: Option<f64>,
 }
 
 /// Arguments of `experiment degradation`.
@@ -269,6 +275,15 @@ fn short(x: f64) -> String {
     }
 }
 
+/// A certified ratio for the tables: "-" when not computed, "infeasible" when infinite.
+fn ratio_text(x: Option<f64>) -> String {
+    match x {
+        None => "-".into(),
+        Some(x) if x.is_finite() => format!("{x:.1}"),
+        Some(_) => "infeasible".into(),
+    }
+}
+
 fn scaling(args: ScalingArgs) -> Result<()> {
     use platoon_synthesis::{Coupling, Feasibility};
     use platoon_topology::{Preset, Topology};
@@ -374,18 +389,32 @@ fn scaling(args: ScalingArgs) -> Result<()> {
                     .iter()
                     .map(|s| s.max_modulus)
                     .fold(0.0, f64::max);
-                let certified_ratio = if n <= args.certify_up_to {
+                let (certified_ratio, block) = if n <= args.certify_up_to {
                     bar.set_message(format!("certifying {name} {n} {gain}"));
-                    Some(
-                        match platoon_synthesis::theorem1_min_ratio(k, 0.0, &coupling, tau, 1e-6) {
-                            Ok(Feasibility::Feasible(c)) => c.ratio,
-                            Ok(Feasibility::Infeasible)
-                            | Err(platoon_synthesis::LmiError::NotCertified(_)) => f64::INFINITY,
-                            Err(e) => return Err(e.into()),
-                        },
-                    )
+                    let ratio = |f: Result<Feasibility, platoon_synthesis::LmiError>| match f {
+                        Ok(Feasibility::Feasible(c)) => {
+                            let growth = c.verify()?.transient_growth;
+                            Ok((c.ratio, Some(growth)))
+                        }
+                        Ok(Feasibility::Infeasible)
+                        | Err(platoon_synthesis::LmiError::NotCertified(_)) => {
+                            Ok((f64::INFINITY, None))
+                        }
+                        Err(e) => Err(e),
+                    };
+                    let common = ratio(platoon_synthesis::theorem1_min_ratio(
+                        k, 0.0, &coupling, tau, 1e-6,
+                    ))?;
+                    let block = ratio(platoon_synthesis::min_ratio_block_diagonal(
+                        k,
+                        0.0,
+                        &coupling,
+                        &[tau],
+                        1e-6,
+                    ))?;
+                    (Some(common.0), Some(block))
                 } else {
-                    None
+                    (None, None)
                 };
                 for dos in ["none", "base"] {
                     bar.set_message(format!("{name} {n} {gain} dos={dos}"));
@@ -450,6 +479,8 @@ fn scaling(args: ScalingArgs) -> Result<()> {
                         predicted_amplification: worst,
                         fastest_mode_rad_s: fastest,
                         certified_ratio,
+                        block_diagonal_ratio: block.map(|b| b.0),
+                        block_diagonal_growth: block.and_then(|b| b.1),
                     });
                     bar.inc(1);
                 }
@@ -465,13 +496,13 @@ fn scaling(args: ScalingArgs) -> Result<()> {
     }
     csv.flush()?;
     let mut md = format!(
-        "Largest gap error to the predecessor (m) by platoon size; base {label}; designed gains: Theorem 1 with a {h_t} s time headway on {} followers.\n\n| topology | followers | gain | DoS | max gap error (m) | growth last/first | min gap (m) | class | string stable (predicted) | fastest mode (rad/s) | Theorem 1 ratio |\n|---|---|---|---|---|---|---|---|---|---|---|\n",
+        "Largest gap error to the predecessor (m) by platoon size; base {label}; designed gains: Theorem 1 with a {h_t} s time headway on {} followers.\n\n| topology | followers | gain | DoS | max gap error (m) | growth last/first | min gap (m) | class | string stable (predicted) | fastest mode (rad/s) | Theorem 1 ratio, common P | one P per follower (growth) |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n",
         args.design_followers
     );
     for r in &rows {
         let _ = writeln!(
             md,
-            "| {} | {} | {} | {} | {} | {} | {} | {}{} | {} ({}) | {:.1} | {} |",
+            "| {} | {} | {} | {} | {} | {} | {} | {}{} | {} ({}) | {:.1} | {} | {} |",
             r.preset,
             r.followers,
             r.gain,
@@ -484,11 +515,11 @@ fn scaling(args: ScalingArgs) -> Result<()> {
             if r.string_stable { "yes" } else { "no" },
             short(r.predicted_amplification),
             r.fastest_mode_rad_s,
-            r.certified_ratio.map_or("-".into(), |x| if x.is_finite() {
-                format!("{x:.1}")
-            } else {
-                "infeasible".into()
-            }),
+            ratio_text(r.certified_ratio),
+            match (r.block_diagonal_ratio, r.block_diagonal_growth) {
+                (Some(x), Some(g)) => format!("{} ({g:.1}x)", ratio_text(Some(x))),
+                (x, _) => ratio_text(x),
+            },
         );
     }
     dir.write("scaling.md", md.as_bytes())?;
