@@ -255,6 +255,42 @@ fn the_scaling_experiment_shows_constant_spacing_amplify_and_time_headway_damp()
     }
 }
 
+/// Issue 14, item 5: `bench design` times the checks of `check-gain` against N beside the
+/// designs, with what each found.
+#[test]
+fn bench_design_times_the_checks_against_the_platoon_size() {
+    let tmp = tempfile::tempdir().unwrap();
+    let o = platoon(
+        &[
+            "bench",
+            "design",
+            "--followers",
+            "2",
+            "--check-followers",
+            "3,6",
+            "--out",
+            "b",
+        ],
+        tmp.path(),
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("check time grows as N^"));
+    let mut reader = csv::Reader::from_path(tmp.path().join("b/check.csv")).unwrap();
+    let header = reader.headers().unwrap().clone();
+    let rows: Vec<csv::StringRecord> = reader.records().map(|r| r.unwrap()).collect();
+    assert_eq!(rows.len(), 2);
+    let col = |name: &str| header.iter().position(|h| h == name).unwrap();
+    for r in &rows {
+        // PLF with the paper's K: certified by both kinds, the block-diagonal ratio no larger.
+        let common: f64 = r[col("common_ratio")].parse().unwrap();
+        let block: f64 = r[col("block_diagonal_ratio")].parse().unwrap();
+        assert!(block <= common * (1.0 + 1e-6), "{r:?}");
+        let total: f64 = r[col("total_s")].parse().unwrap();
+        assert!(total > 0.0);
+    }
+    assert!(tmp.path().join("b/design.csv").exists());
+}
+
 #[test]
 fn help_explains_the_commands() {
     let o = platoon(&["run", "--help"], Path::new("."));

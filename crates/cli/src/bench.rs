@@ -29,8 +29,10 @@ pub enum Bench {
     /// with the real-time factor. Writes step.csv, step.json and step.png (cost per step
     /// against N, with the least-squares line and its slope).
     Step(StepArgs),
-    /// LMI design time against the number of followers (TPSF, `design synthesize` defaults).
-    /// Writes design.csv.
+    /// LMI design time against the number of followers (TPSF, `design synthesize` defaults),
+    /// and the time of the checks of `design check-gain` (the paper's K on PLF: the smallest
+    /// ratio with a common and with a block-diagonal Lyapunov matrix, the largest-decay
+    /// bisection) against the number of followers. Writes design.csv and check.csv.
     Design(DesignArgs),
     /// Campaign throughput: the paper scenario with a random admissible DoS schedule per cell
     /// (`platoon campaign`, in process, metrics only, no plots), run with each --jobs value,
@@ -94,9 +96,12 @@ pub struct StepArgs {
 /// Arguments of `platoon bench design`.
 #[derive(Debug, clap::Args)]
 pub struct DesignArgs {
-    /// Numbers of followers.
+    /// Numbers of followers of the designs.
     #[arg(long, value_delimiter = ',', default_value = "4,10,20")]
     pub followers: Vec<usize>,
+    /// Numbers of followers of the checks (PLF, the paper's K).
+    #[arg(long, value_delimiter = ',', default_value = "10,25,50,100")]
+    pub check_followers: Vec<usize>,
     /// Output directory [default: runs/bench-design].
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -781,9 +786,24 @@ struct DesignRow {
     beta1_over_beta2: Option<f64>,
 }
 
-fn design(a: DesignArgs) -> Result<Vec<DesignRow>> {
-    if a.followers.is_empty() || a.followers.contains(&0) {
-        bail!("--followers needs positive platoon sizes, e.g. 4,10,20");
+/// One measured `check-gain` on PLF.
+#[derive(Debug, Clone, serde::Serialize)]
+struct CheckRow {
+    followers: usize,
+    /// The smallest ratio with I_N kron P (one SDP and its re-check).
+    common_s: f64,
+    common_ratio: Option<f64>,
+    /// The same with one P per follower.
+    block_diagonal_s: f64,
+    block_diagonal_ratio: Option<f64>,
+    /// The largest-decay bisection.
+    max_decay_s: f64,
+    total_s: f64,
+}
+
+fn design(a: DesignArgs) -> Result<(Vec<DesignRow>, Vec<CheckRow>)> {
+    if a.followers.is_empty() || a.followers.contains(&0) || a.check_followers.contains(&0) {
+        bail!("--followers and --check-followers need positive platoon sizes, e.g. 4,10,20");
     }
     let out = a
         .out
@@ -804,8 +824,48 @@ fn design(a: DesignArgs) -> Result<Vec<DesignRow>> {
             beta1_over_beta2: d.map(|d| d.certificate.ratio),
         });
     }
+    let mut checks = Vec::new();
+    for &n in &a.check_followers {
+        eprintln!("checking the paper's K on {n} followers (PLF) ...");
+        let t = platoon_topology::Topology::preset(platoon_topology::Preset::Plf, n)?;
+        let g = platoon_synthesis::Coupling::constant(t.h_matrix());
+        let k = [4.81, 9.12, 2.97];
+        let ratio = |f: platoon_synthesis::Feasibility| match f {
+            platoon_synthesis::Feasibility::Feasible(c) => Some(c.ratio),
+            platoon_synthesis::Feasibility::Infeasible => None,
+        };
+        let started = Instant::now();
+        let common = ratio(platoon_synthesis::min_ratio(k, 0.0, &g, &[0.5], 1e-6)?);
+        let common_s = started.elapsed().as_secs_f64();
+        let t1 = Instant::now();
+        let block = ratio(platoon_synthesis::min_ratio_block_diagonal(
+            k,
+            0.0,
+            &g,
+            &[0.5],
+            1e-6,
+        )?);
+        let block_s = t1.elapsed().as_secs_f64();
+        let t2 = Instant::now();
+        platoon_synthesis::theorem1_max_decay(k, &g, &[0.5], 10.0, 1e-3)?;
+        let max_decay_s = t2.elapsed().as_secs_f64();
+        checks.push(CheckRow {
+            followers: n,
+            common_s,
+            common_ratio: common,
+            block_diagonal_s: block_s,
+            block_diagonal_ratio: block,
+            max_decay_s,
+            total_s: started.elapsed().as_secs_f64(),
+        });
+    }
     let mut csv = csv::Writer::from_writer(dir.writer("design.csv")?);
     for r in &rows {
+        csv.serialize(r)?;
+    }
+    csv.flush()?;
+    let mut csv = csv::Writer::from_writer(dir.writer("check.csv")?);
+    for r in &checks {
         csv.serialize(r)?;
     }
     csv.flush()?;
@@ -822,8 +882,27 @@ fn design(a: DesignArgs) -> Result<Vec<DesignRow>> {
                 ))
         );
     }
+    for r in &checks {
+        println!(
+            "check, N = {:>3} (PLF): {:>6.2} s in all (common P {:.2} s, one P per follower {:.2} s, largest decay {:.2} s)",
+            r.followers, r.total_s, r.common_s, r.block_diagonal_s, r.max_decay_s
+        );
+    }
+    if let Some(e) = growth_exponent(&checks) {
+        println!("check time grows as N^{e:.2}");
+    }
     println!("outputs: {}", path.display());
-    Ok(rows)
+    Ok((rows, checks))
+}
+
+/// The slope of log(total time) against log(N): the check time grows as N^slope.
+fn growth_exponent(checks: &[CheckRow]) -> Option<f64> {
+    let pts: Vec<(f64, f64)> = checks
+        .iter()
+        .map(|r| ((r.followers as f64).ln(), r.total_s.ln()))
+        .collect();
+    let (_, b) = fit(&pts);
+    b.is_finite().then_some(b)
 }
 
 /// One measured campaign run.
@@ -978,8 +1057,9 @@ fn all(a: AllArgs) -> Result<()> {
         out: Some(out.join("step")),
         force: true,
     })?;
-    let designs = design(DesignArgs {
+    let (designs, checks) = design(DesignArgs {
         followers: vec![4, 10, 20],
+        check_followers: vec![10, 25, 50, 100],
         out: Some(out.join("design")),
         force: true,
     })?;
@@ -1132,6 +1212,32 @@ fn all(a: AllArgs) -> Result<()> {
         );
     }
     let _ = writeln!(md, "\nTargets: under 1 s for N = 4, under 30 s for N = 20.");
+    let _ = writeln!(
+        md,
+        "\nThe checks of `design check-gain` for the paper's K on PLF (nominal tau; the spectrum and \
+         string stability, about 2 s more at N = 100, are not included):\n\n\
+         | followers (PLF) | common P (s) | ratio | one P per follower (s) | ratio | largest decay (s) | all (s) |\n|---|---|---|---|---|---|---|"
+    );
+    let ratio = |x: Option<f64>| x.map_or("infeasible".to_string(), |x| format!("{x:.1}"));
+    for r in &checks {
+        let _ = writeln!(
+            md,
+            "| {} | {:.2} | {} | {:.2} | {} | {:.2} | {:.2} |",
+            r.followers,
+            r.common_s,
+            ratio(r.common_ratio),
+            r.block_diagonal_s,
+            ratio(r.block_diagonal_ratio),
+            r.max_decay_s,
+            r.total_s
+        );
+    }
+    if let Some(e) = growth_exponent(&checks) {
+        let _ = writeln!(
+            md,
+            "\nThe check time grows as N^{e:.2} (least squares on log-log). Target: under 60 s for N = 100."
+        );
+    }
     let _ = writeln!(md, "\n## Campaign throughput (`platoon bench campaign`)\n");
     let _ = writeln!(
         md,

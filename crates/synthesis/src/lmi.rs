@@ -390,6 +390,20 @@ pub fn min_ratio(
     taus: &[f64],
     delta: f64,
 ) -> Result<Feasibility, LmiError> {
+    min_ratio_with(k, c, g, taus, delta, u32::MAX)
+}
+
+/// [`min_ratio`] with at most `retries` stricter margins for an answer that fails the re-check
+/// (the bisections allow one: at the edge of feasibility they count a failure as infeasible
+/// anyway, and the retries cost most of a bisection's time).
+fn min_ratio_with(
+    k: [f64; 3],
+    c: f64,
+    g: &Coupling,
+    taus: &[f64],
+    delta: f64,
+    retries: u32,
+) -> Result<Feasibility, LmiError> {
     if !(c.is_finite()
         && c >= 0.0
         && delta > 0.0
@@ -475,8 +489,8 @@ pub fn min_ratio(
         // The solver's answer does not pass the independent check (it sits within the
         // solver's tolerance of the boundary): ask again with a hundredfold margin, and only
         // then say so; never return an answer that fails the check.
-        if delta < MAX_MARGIN {
-            match min_ratio(k, c, g, taus, delta * 100.0) {
+        if retries > 0 && delta < MAX_MARGIN {
+            match min_ratio_with(k, c, g, taus, delta * 100.0, retries - 1) {
                 // The stricter problem tripping the solver says no more than this answer did.
                 Err(LmiError::Solver(_)) => {}
                 other => return other,
@@ -660,7 +674,7 @@ pub fn theorem1_max_decay(
         // At the edge of feasibility an answer that fails the re-check, or the solver's
         // numerical trouble, counts as infeasible: the decay returned is certified either way,
         // at worst smaller than the true largest.
-        match min_ratio(k, mid, g, taus, delta) {
+        match min_ratio_with(k, mid, g, taus, delta, 1) {
             Ok(Feasibility::Feasible(c)) => {
                 lo = mid;
                 best = c;
@@ -686,7 +700,7 @@ pub fn max_decay_within_ratio(
 ) -> Result<Option<Certificate>, LmiError> {
     let delta = 1e-6;
     let within = |c: f64| -> Result<Option<Certificate>, LmiError> {
-        match min_ratio(k, c, g, taus, delta) {
+        match min_ratio_with(k, c, g, taus, delta, if c == 0.0 { u32::MAX } else { 1 }) {
             Ok(Feasibility::Feasible(cert)) if cert.ratio <= ratio_cap => Ok(Some(cert)),
             // At the edge of feasibility, a numerical failure counts as infeasible.
             Ok(_) | Err(LmiError::NotCertified(_)) | Err(LmiError::Solver(_)) => Ok(None),
