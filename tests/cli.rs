@@ -255,6 +255,70 @@ fn the_scaling_experiment_shows_constant_spacing_amplify_and_time_headway_damp()
     }
 }
 
+/// Issue 14, item 2: `design synthesize` on a long time-headway platoon (where constant
+/// spacing admits no common certificate) designs on the leading followers and certifies the
+/// whole platoon; the gain is string stable, and `run --design` says when a certificate is for
+/// another platoon.
+#[test]
+fn synthesis_finds_a_certified_string_stable_gain_for_a_long_time_headway_platoon() {
+    let tmp = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(repo().join("configs/time-headway.toml"))
+        .unwrap()
+        .replace("followers = 30", "followers = 12")
+        .replace("duration_s = 55.0", "duration_s = 5.0")
+        .replace(
+            "[16.0, 1.5], [22.0, 1.5], [30.0, 1.5], [42.0, 1.5], [49.0, 1.0]",
+            "",
+        );
+    std::fs::write(tmp.path().join("th.toml"), &text).unwrap();
+    let o = platoon(
+        &["design", "synthesize", "th.toml", "--out", "d"],
+        tmp.path(),
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let design = json(&tmp.path().join("d/design.json"));
+    assert_eq!(design["time_headway_s"], 1.0);
+    for s in design["string_stability"].as_array().unwrap() {
+        assert_eq!(s["string_stable"], true, "{s}");
+    }
+    let cert = json(&tmp.path().join("d/certificate.json"));
+    assert_eq!(cert["h"].as_array().unwrap().len(), 12);
+    let o = platoon(&["design", "verify", "d/certificate.json"], tmp.path());
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // The same config with constant spacing: no certificate, and the message says why to try.
+    let constant = text
+        .replace(
+            "spacing_policy = \"time_headway\"",
+            "spacing_policy = \"constant\"",
+        )
+        .replace("time_headway_s = 1.0", "");
+    std::fs::write(tmp.path().join("cs.toml"), constant).unwrap();
+    let o = platoon(
+        &["design", "synthesize", "cs.toml", "--out", "c"],
+        tmp.path(),
+    );
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("infeasible"));
+    assert!(!tmp.path().join("c").exists());
+    // Running the constant-spacing platoon with the headway design is allowed, with a warning.
+    let o = platoon(
+        &[
+            "run",
+            "cs.toml",
+            "--design",
+            "d/certificate.json",
+            "--transport",
+            "inproc",
+            "--no-plots",
+            "--out",
+            "r",
+        ],
+        tmp.path(),
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("certifies nothing about this run"));
+}
+
 /// Issue 14, item 5: `bench design` times the checks of `check-gain` against N beside the
 /// designs, with what each found.
 #[test]

@@ -144,6 +144,24 @@ pub fn run(args: Args) -> Result<()> {
                 file.display()
             );
         }
+        // A certificate speaks of one graph and spacing policy: say so when the run's differ.
+        let h = scenario.topology.h_matrix();
+        let same_graph = cert.h.len() == h.nrows()
+            && cert
+                .h
+                .iter()
+                .enumerate()
+                .all(|(i, row)| row.iter().enumerate().all(|(j, &x)| x == h[(i, j)]));
+        if !same_graph || cert.headway != scenario.headway() {
+            eprintln!(
+                "warning: {} was issued for {} followers with a time headway of {} s; this run has {} with {} s, so it certifies nothing about this run (its K and ratio are used anyway)",
+                file.display(),
+                cert.h.len(),
+                cert.headway,
+                h.nrows(),
+                scenario.headway()
+            );
+        }
         config.control.gain = cert.k;
         config.control.beta1 = cert.ratio * config.control.beta2;
         let label = format!("{} with the design {}", stem, file.display());

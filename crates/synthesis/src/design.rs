@@ -7,8 +7,10 @@
 //!
 //! With a time headway the congruence is no longer linear (the headway term of `K M` couples
 //! `k1` with a row of `M = P^-1`), so the gain is designed on the constant-spacing condition of
-//! the same graph and then certified on the time-headway one: the certificate is exact, the
-//! design a heuristic for it.
+//! the graph's first [`HEADWAY_DESIGN_FOLLOWERS`] followers (a long constant-spacing platoon may
+//! admit no common P at all: that is the string instability the headway removes) and then
+//! certified on the whole time-headway platoon: the certificate is exact, the design a
+//! heuristic for it.
 use crate::lmi::{min_ratio, Certificate, Coupling, Feasibility, LmiError, Plant3};
 use crate::sdp::{dm, solve, sym_basis3, Lmi};
 use nalgebra::{DMatrix, Matrix3};
@@ -199,6 +201,9 @@ fn ccp(
     Ok(None)
 }
 
+/// With a time headway, gains are designed on this many leading followers (module docs).
+pub const HEADWAY_DESIGN_FOLLOWERS: usize = 4;
+
 /// The defaults used by `platoon design synthesize`.
 impl Default for DesignSpec {
     fn default() -> Self {
@@ -218,7 +223,11 @@ impl Default for DesignSpec {
 /// itself runs on `g`'s graph with constant spacing, module docs). `Ok(None)`: nothing
 /// feasible up to `ratio_max`.
 pub fn design_theorem1(spec: &DesignSpec, g: &Coupling) -> Result<Option<Design>, LmiError> {
-    let h = &g.h;
+    // With a headway, the procedure runs on the leading block of H (the first followers and
+    // whom they hear; for PF, PLF and TPSF exactly the same preset with fewer followers).
+    let lead = g.followers().min(HEADWAY_DESIGN_FOLLOWERS);
+    let sub = g.h.view((0, 0), (lead, lead)).into_owned();
+    let h = if g.headway > 0.0 { &sub } else { &g.h };
     if !(spec.k_max > 0.0
         && spec.ratio_max > 0.0
         && !spec.taus.is_empty()
