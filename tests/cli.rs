@@ -4,13 +4,14 @@ mod common;
 use common::{json, ok, platoon, repo};
 use std::path::Path;
 
-const RUN_FILES: [&str; 6] = [
+const RUN_FILES: [&str; 7] = [
     "config.toml",
     "trajectories.csv",
     "events.csv",
     "summary.json",
     "fig6.png",
     "fig7.png",
+    "gaps.png",
 ];
 
 #[test]

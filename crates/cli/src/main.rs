@@ -47,7 +47,8 @@ enum Command {
     /// summary.json (triggers, inter-event times, tracking errors, time per mode and guard
     /// activations, attack and Assumption-2 verdict, safety with the smallest time to
     /// collision, rejected packets), fig6.png (positions, relative positions, velocities,
-    /// internal variables), fig7.png (release instants), modes.png (each follower's mode over
+    /// internal variables), fig7.png (release instants), gaps.png (each follower's largest gap
+    /// error to its predecessor: do errors grow along the platoon?), modes.png (each follower's mode over
     /// time, when one left the cooperative law: [fallback], [radar], [guard]), wire.csv (what happened on the V2V channel, per vehicle and step, whatever
     /// injector ran), and for iceoryx2 runs timing.json (where the time of a step went),
     /// run.json (the run id, for observers) and logs/. [output] in the config switches the

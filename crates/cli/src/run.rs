@@ -718,6 +718,31 @@ pub fn write_outputs(
             let path = dir.path(name);
             draw(&path, scenario, rows).with_context(|| format!("drawing {}", path.display()))?;
         }
+        if summary.vehicles.len() > 1 {
+            // String (in)stability at a glance: the largest gap error along the platoon.
+            let path = dir.path("gaps.png");
+            let policy = if scenario.headway() > 0.0 {
+                format!("time headway {} s", scenario.headway())
+            } else {
+                "constant spacing".into()
+            };
+            plots::scatter_with_lines(
+                &path,
+                &format!("Largest |gap error to the predecessor| per follower ({policy})"),
+                "follower",
+                "largest |gap error| (m)",
+                &[plots::Series {
+                    label: "measured in the plant".into(),
+                    color: 0,
+                    points: summary
+                        .vehicles
+                        .iter()
+                        .map(|v| (f64::from(v.vehicle), v.gap_error_m.max_abs))
+                        .collect(),
+                }],
+            )
+            .with_context(|| format!("drawing {}", path.display()))?;
+        }
         if rows
             .iter()
             .any(|r| r.mode != platoon_control::Mode::Coop || r.guard)

@@ -813,6 +813,15 @@ mod tests {
                 if let Err(e) = theorem1_max_decay(PAPER_K, &hm, &[0.5], 2.0, 0.05) {
                     panic!("{preset:?} with {n} followers, largest decay: {e}");
                 }
+                // Both kinds of certificate, constant spacing and a 1 s headway, both ends of
+                // the tau range.
+                for g in [hm.clone(), Coupling::time_headway(hm.h.clone(), 1.0)] {
+                    match min_ratio_block_diagonal(PAPER_K, 0.0, &g, &[0.34, 0.82], 1e-6) {
+                        Ok(Feasibility::Feasible(cert)) => assert!(cert.verify().unwrap().holds),
+                        Ok(Feasibility::Infeasible) => {}
+                        Err(e) => panic!("{preset:?} with {n} followers, block-diagonal: {e}"),
+                    }
+                }
             }
         }
     }
