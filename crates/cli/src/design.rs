@@ -443,6 +443,8 @@ struct DesignReport {
     certificate: &'static str,
     certificate_max_decay: Option<&'static str>,
     sdps: usize,
+    /// The followers the procedure ran on (the certificate is for all of them).
+    designed_on: usize,
     seconds: f64,
     /// Whether spacing errors grow along the platoon with this gain.
     string_stability: Vec<platoon_synthesis::StringStability>,
@@ -495,8 +497,8 @@ fn synthesize(a: SynthesizeArgs) -> Result<()> {
         &g,
         &taus,
         2.0 * d.certificate.ratio,
-        5.0,
-        1e-3,
+        (5.0, 1e-3),
+        d.certificate.p_blocks.is_some(),
     )?;
     let seconds = started.elapsed().as_secs_f64();
     let c = decay.as_ref().map_or(d.certificate.c, |x| x.c);
@@ -507,9 +509,21 @@ fn synthesize(a: SynthesizeArgs) -> Result<()> {
     let varsigma1 = c.min(trigger_cap);
     let p_cert = decay.as_ref().unwrap_or(&d.certificate);
     let p = nalgebra::Matrix3::from_fn(|i, j| p_cert.p[i][j]);
+    // With one P per follower, V grows under attack as fast as its fastest block.
+    let blocks: Vec<nalgebra::Matrix3<f64>> = match &p_cert.p_blocks {
+        Some(b) => b
+            .iter()
+            .map(|m| nalgebra::Matrix3::from_fn(|i, j| m[i][j]))
+            .collect(),
+        None => vec![p],
+    };
     let varsigma2 = taus
         .iter()
-        .map(|&t| platoon_synthesis::growth_rate(&p, t))
+        .flat_map(|&t| {
+            blocks
+                .iter()
+                .map(move |b| platoon_synthesis::growth_rate(b, t))
+        })
         .fold(0.0, f64::max);
     let minv = p
         .try_inverse()
@@ -560,6 +574,7 @@ fn synthesize(a: SynthesizeArgs) -> Result<()> {
         certificate: "certificate.json",
         certificate_max_decay: decay.as_ref().map(|_| "certificate-max-decay.json"),
         sdps: d.sdps,
+        designed_on: d.designed_on,
         seconds,
         string_stability: string_report(d.k, &config, &scenario, &g),
     };
@@ -586,12 +601,30 @@ fn synthesize(a: SynthesizeArgs) -> Result<()> {
         d.k[0], d.k[1], d.k[2], a.k_max, d.certificate.ratio, policy(&g)
     );
     println!(
-        "  certified by the exact SDP of {} at tau = {:?} (margin {:.2e}); {} SDPs in {seconds:.2} s",
+        "  certified by the exact SDP of {} at tau = {:?} (margin {:.2e}{}); {} SDPs in {seconds:.2} s",
         d.certificate.condition,
         d.certificate.taus,
         -d.certificate.max_eigenvalue,
+        match &d.certificate.p_blocks {
+            Some(_) => format!(
+                ", one P per follower: the error may grow {:.1}x before it decays",
+                d.certificate.verify()?.transient_growth
+            ),
+            None => String::new(),
+        },
         d.sdps
     );
+    if d.designed_on < n {
+        println!(
+            "  designed on the first {} followers (with {}), certified on all {n}",
+            d.designed_on,
+            if g.headway > 0.0 {
+                "a time headway the procedure is not linear"
+            } else {
+                "constant spacing the whole platoon admits no common P for this procedure"
+            }
+        );
+    }
     println!(
         "  varsigma1 = {varsigma1:.4} (c = {c:.4}, trigger cap {trigger_cap:.4}), varsigma2 = {varsigma2:.4}, varsigma* = {varsigma_star:.4}, phi = 1"
     );

@@ -1023,8 +1023,8 @@ fn topologies(args: TopologiesArgs) -> Result<()> {
                     &h,
                     &taus,
                     2.0 * d.certificate.ratio,
-                    5.0,
-                    1e-3,
+                    (5.0, 1e-3),
+                    d.certificate.p_blocks.is_some(),
                 )?
                 else {
                     continue;

@@ -7,11 +7,16 @@
 //!
 //! With a time headway the congruence is no longer linear (the headway term of `K M` couples
 //! `k1` with a row of `M = P^-1`), so the gain is designed on the constant-spacing condition of
-//! the graph's first [`HEADWAY_DESIGN_FOLLOWERS`] followers (a long constant-spacing platoon may
+//! the graph's first [`LEADING_DESIGN_FOLLOWERS`] followers (a long constant-spacing platoon may
 //! admit no common P at all: that is the string instability the headway removes) and then
 //! certified on the whole time-headway platoon: the certificate is exact, the design a
-//! heuristic for it.
-use crate::lmi::{min_ratio, Certificate, Coupling, Feasibility, LmiError, Plant3};
+//! heuristic for it. With constant spacing the procedure runs on the whole graph, and where that
+//! admits no common P, on the leading followers likewise. Where the common P of the whole
+//! platoon is infeasible for the gain found, the certificate is the block-diagonal one
+//! ([`min_ratio_block_diagonal`]).
+use crate::lmi::{
+    min_ratio, min_ratio_block_diagonal, Certificate, Coupling, Feasibility, LmiError, Plant3,
+};
 use crate::sdp::{dm, solve, sym_basis3, Lmi};
 use nalgebra::{DMatrix, Matrix3};
 
@@ -43,6 +48,9 @@ pub struct Design {
     pub certificate: Certificate,
     /// SDPs solved.
     pub sdps: usize,
+    /// The followers the procedure ran on (fewer than the platoon's with a time headway, or
+    /// where the whole platoon admits no common P; the certificate is for the whole platoon).
+    pub designed_on: usize,
 }
 
 /// The linearised Remark-1 matrix for M, U (1x3) around M0.
@@ -201,8 +209,9 @@ fn ccp(
     Ok(None)
 }
 
-/// With a time headway, gains are designed on this many leading followers (module docs).
-pub const HEADWAY_DESIGN_FOLLOWERS: usize = 4;
+/// Where the procedure does not run on the whole platoon, it runs on this many leading
+/// followers (module docs).
+pub const LEADING_DESIGN_FOLLOWERS: usize = 4;
 
 /// The defaults used by `platoon design synthesize`.
 impl Default for DesignSpec {
@@ -223,11 +232,6 @@ impl Default for DesignSpec {
 /// itself runs on `g`'s graph with constant spacing, module docs). `Ok(None)`: nothing
 /// feasible up to `ratio_max`.
 pub fn design_theorem1(spec: &DesignSpec, g: &Coupling) -> Result<Option<Design>, LmiError> {
-    // With a headway, the procedure runs on the leading block of H (the first followers and
-    // whom they hear; for PF, PLF and TPSF exactly the same preset with fewer followers).
-    let lead = g.followers().min(HEADWAY_DESIGN_FOLLOWERS);
-    let sub = g.h.view((0, 0), (lead, lead)).into_owned();
-    let h = if g.headway > 0.0 { &sub } else { &g.h };
     if !(spec.k_max > 0.0
         && spec.ratio_max > 0.0
         && !spec.taus.is_empty()
@@ -242,13 +246,45 @@ pub fn design_theorem1(spec: &DesignSpec, g: &Coupling) -> Result<Option<Design>
     }
     let plant: Vec<Plant3> = spec.taus.iter().map(|&t| Plant3::new(t)).collect();
     let mut sdps = 0;
+    // The leading block of H: the first followers and whom they hear (for PF, PLF and TPSF
+    // exactly the same preset with fewer followers).
+    let lead = g.followers().min(LEADING_DESIGN_FOLLOWERS);
+    let sub = g.h.view((0, 0), (lead, lead)).into_owned();
+    // With a headway the procedure runs on the leading block; with constant spacing on the
+    // whole graph, and on the leading block where that admits no common P (a long, string
+    // unstable platoon), the gain then certified on the whole platoon with one P per follower
+    // if need be.
+    let (k, designed_on) = if g.headway > 0.0 {
+        (ccp_design(spec, &sub, &plant, &mut sdps)?, lead)
+    } else {
+        match ccp_design(spec, &g.h, &plant, &mut sdps)? {
+            Some(k) => return certify(spec, g, k, g.followers(), sdps).map(Some),
+            None if lead < g.followers() => (ccp_design(spec, &sub, &plant, &mut sdps)?, lead),
+            None => (None, g.followers()),
+        }
+    };
+    let Some(k) = k else { return Ok(None) };
+    match certify(spec, g, k, designed_on, sdps) {
+        Ok(d) => Ok(Some(d)),
+        Err(LmiError::NotCertified(_)) => Ok(None),
+        Err(e) => Err(e),
+    }
+}
+
+/// The procedure on graph `h`: the gain at the smallest ratio it reaches, or None.
+fn ccp_design(
+    spec: &DesignSpec,
+    h: &DMatrix<f64>,
+    plant: &[Plant3],
+    sdps: &mut usize,
+) -> Result<Option<[f64; 3]>, LmiError> {
     let Some((mut m_best, mut u_best)) = ccp(
         spec.ratio_max,
         Matrix3::identity() * spec.m_min,
         spec,
         h,
-        &plant,
-        &mut sdps,
+        plant,
+        sdps,
     )?
     else {
         return Ok(None);
@@ -256,7 +292,7 @@ pub fn design_theorem1(spec: &DesignSpec, g: &Coupling) -> Result<Option<Design>
     let (mut lo, mut hi) = (0.0, spec.ratio_max);
     while hi - lo > spec.ratio_tol * hi {
         let mid = 0.5 * (lo + hi);
-        match ccp(mid, m_best, spec, h, &plant, &mut sdps)? {
+        match ccp(mid, m_best, spec, h, plant, sdps)? {
             Some((m, u)) => {
                 hi = mid;
                 m_best = m;
@@ -269,23 +305,42 @@ pub fn design_theorem1(spec: &DesignSpec, g: &Coupling) -> Result<Option<Design>
         .try_inverse()
         .ok_or_else(|| LmiError::Solver("M is singular".into()))?;
     let k = nalgebra::RowVector3::from(u_best) * minv;
-    let k = [k[0], k[1], k[2]];
-    match min_ratio(k, spec.c, g, &spec.taus, 1e-6)? {
-        Feasibility::Feasible(certificate) => {
-            sdps += 1;
-            Ok(Some(Design {
-                k,
-                certificate,
-                sdps,
-            }))
+    Ok(Some([k[0], k[1], k[2]]))
+}
+
+/// The exact certificate of `k` on the whole platoon: the common P, else one P per follower.
+/// `NotCertified` when neither exists (for a gain designed on the whole graph with constant
+/// spacing that cannot happen: the procedure's iterates satisfy the condition; it is then a
+/// solver error).
+fn certify(
+    spec: &DesignSpec,
+    g: &Coupling,
+    k: [f64; 3],
+    designed_on: usize,
+    mut sdps: usize,
+) -> Result<Design, LmiError> {
+    sdps += 1;
+    let certificate = match min_ratio(k, spec.c, g, &spec.taus, 1e-6)? {
+        Feasibility::Feasible(c) => c,
+        Feasibility::Infeasible if g.headway == 0.0 && designed_on == g.followers() => {
+            return Err(LmiError::Solver(
+                "the designed gain failed the exact Theorem-1 check".into(),
+            ))
         }
-        // With constant spacing the procedure's answer is feasible by construction; with a
-        // time headway it may not be.
-        Feasibility::Infeasible if g.headway == 0.0 => Err(LmiError::Solver(
-            "the designed gain failed the exact Theorem-1 check".into(),
-        )),
-        Feasibility::Infeasible => Ok(None),
-    }
+        Feasibility::Infeasible => {
+            sdps += 1;
+            match min_ratio_block_diagonal(k, spec.c, g, &spec.taus, 1e-6)? {
+                Feasibility::Feasible(c) => c,
+                Feasibility::Infeasible => return Err(LmiError::NotCertified(f64::NAN)),
+            }
+        }
+    };
+    Ok(Design {
+        k,
+        certificate,
+        sdps,
+        designed_on,
+    })
 }
 
 #[cfg(test)]
@@ -295,6 +350,26 @@ mod tests {
 
     fn h(preset: Preset, n: usize) -> Coupling {
         Coupling::constant(Topology::preset(preset, n).unwrap().h_matrix())
+    }
+
+    /// Issue 14: TPSF with 20 followers admits no common P for the procedure; the gain designed
+    /// on the first 4 is certified for all 20 with one P per follower.
+    #[test]
+    fn a_long_platoon_without_a_common_certificate_gets_a_block_diagonal_one() {
+        let g = h(Preset::Tpsf, 20);
+        let d = design_theorem1(&DesignSpec::default(), &g)
+            .unwrap()
+            .expect("a design");
+        assert_eq!(d.designed_on, LEADING_DESIGN_FOLLOWERS);
+        assert_eq!(d.certificate.condition, "theorem1-block-diagonal");
+        assert_eq!(d.certificate.h.len(), 20);
+        let v = d.certificate.verify().unwrap();
+        assert!(v.holds && v.transient_growth > 1.0, "{v:?}");
+        // The paper's 4 followers: designed on all of them, one common P.
+        let d = design_theorem1(&DesignSpec::default(), &h(Preset::Tpsf, 4))
+            .unwrap()
+            .expect("a design");
+        assert_eq!((d.designed_on, d.certificate.p_blocks.is_none()), (4, true));
     }
 
     #[test]

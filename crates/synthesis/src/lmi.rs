@@ -689,18 +689,24 @@ pub fn theorem1_max_decay(
 }
 
 /// Like [`theorem1_max_decay`], with beta1/beta2 kept at or below `ratio_cap` (a decay bought
-/// with an ever larger ratio is useless to the trigger). `None` if even c = 0 needs more.
+/// with an ever larger ratio is useless to the trigger), with a common Lyapunov matrix or one P
+/// per follower (`block_diagonal`). `None` if even c = 0 needs more.
 pub fn max_decay_within_ratio(
     k: [f64; 3],
     g: &Coupling,
     taus: &[f64],
     ratio_cap: f64,
-    c_max: f64,
-    tol: f64,
+    (c_max, tol): (f64, f64),
+    block_diagonal: bool,
 ) -> Result<Option<Certificate>, LmiError> {
     let delta = 1e-6;
     let within = |c: f64| -> Result<Option<Certificate>, LmiError> {
-        match min_ratio_with(k, c, g, taus, delta, if c == 0.0 { u32::MAX } else { 1 }) {
+        let answer = if block_diagonal {
+            min_ratio_block_diagonal(k, c, g, taus, delta)
+        } else {
+            min_ratio_with(k, c, g, taus, delta, if c == 0.0 { u32::MAX } else { 1 })
+        };
+        match answer {
             Ok(Feasibility::Feasible(cert)) if cert.ratio <= ratio_cap => Ok(Some(cert)),
             // At the edge of feasibility, a numerical failure counts as infeasible.
             Ok(_) | Err(LmiError::NotCertified(_)) | Err(LmiError::Solver(_)) => Ok(None),
