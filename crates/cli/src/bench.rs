@@ -784,6 +784,10 @@ struct DesignRow {
     sdps: usize,
     feasible: bool,
     beta1_over_beta2: Option<f64>,
+    /// `theorem1` (common P) or `theorem1-block-diagonal`.
+    certificate: Option<String>,
+    /// The followers the procedure ran on.
+    designed_on: Option<usize>,
 }
 
 /// One measured `check-gain` on PLF.
@@ -821,7 +825,9 @@ fn design(a: DesignArgs) -> Result<(Vec<DesignRow>, Vec<CheckRow>)> {
             seconds: started.elapsed().as_secs_f64(),
             sdps: d.as_ref().map_or(0, |d| d.sdps),
             feasible: d.is_some(),
-            beta1_over_beta2: d.map(|d| d.certificate.ratio),
+            beta1_over_beta2: d.as_ref().map(|d| d.certificate.ratio),
+            certificate: d.as_ref().map(|d| d.certificate.condition.clone()),
+            designed_on: d.as_ref().map(|d| d.designed_on),
         });
     }
     let mut checks = Vec::new();
@@ -872,14 +878,18 @@ fn design(a: DesignArgs) -> Result<(Vec<DesignRow>, Vec<CheckRow>)> {
     let path = dir.commit()?;
     for r in &rows {
         println!(
-            "N = {:>3}: {:>7.2} s, {:>3} SDPs, {}",
+            "N = {:>3}: {:>7.2} s, {:>3} SDPs, {}{}",
             r.followers,
             r.seconds,
             r.sdps,
             r.beta1_over_beta2
                 .map_or("infeasible".to_string(), |x| format!(
                     "beta1/beta2 = {x:.1}"
-                ))
+                )),
+            match (&r.certificate, r.designed_on) {
+                (Some(c), Some(on)) => format!(" ({c}, designed on {on} followers)"),
+                _ => String::new(),
+            }
         );
     }
     for r in &checks {
@@ -1199,16 +1209,18 @@ fn all(a: AllArgs) -> Result<()> {
         md,
         "The scaling plot with the least-squares lines is runs/bench/step/step.png.\n"
     );
-    let _ = writeln!(md, "## LMI design time (`platoon bench design`)\n\n| followers (TPSF) | seconds | SDPs | beta1/beta2 |\n|---|---|---|---|");
+    let _ = writeln!(md, "## LMI design time (`platoon bench design`)\n\n| followers (TPSF) | seconds | SDPs | beta1/beta2 | certificate | designed on |\n|---|---|---|---|---|---|");
     for r in &designs {
         let _ = writeln!(
             md,
-            "| {} | {:.2} | {} | {} |",
+            "| {} | {:.2} | {} | {} | {} | {} |",
             r.followers,
             r.seconds,
             r.sdps,
             r.beta1_over_beta2
-                .map_or("infeasible".into(), |x| format!("{x:.1}"))
+                .map_or("infeasible".into(), |x| format!("{x:.1}")),
+            r.certificate.as_deref().unwrap_or("-"),
+            r.designed_on.map_or("-".into(), |n| n.to_string())
         );
     }
     let _ = writeln!(md, "\nTargets: under 1 s for N = 4, under 30 s for N = 20.");
