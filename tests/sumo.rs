@@ -547,12 +547,11 @@ fn a_binary_moved_out_of_the_checkout_runs_sumo_with_the_bridge_it_carries() {
     assert!(!work.join("bad").exists());
 }
 
-/// The fallbacks with SUMO as the plant: configs/degradation.toml (ACC on the radar, the guard,
-/// the bumpless return) does with SUMO what it does in process, mode for mode.
-#[test]
-fn graceful_degradation_runs_with_sumo_as_the_plant() {
+/// `config` run with SUMO as the plant (into `sumo/`) and in process with the native one
+/// (`native/`): the directory and the two summaries.
+fn sumo_and_native(config: &str) -> (tempfile::TempDir, serde_json::Value, serde_json::Value) {
     let tmp = tempfile::tempdir().unwrap();
-    let c = repo().join("configs/degradation.toml");
+    let c = repo().join(config);
     let c = c.to_str().unwrap();
     ok(&platoon(
         &["run", c, "--plant", "sumo", "--out", "sumo", "--no-plots"],
@@ -570,10 +569,16 @@ fn graceful_degradation_runs_with_sumo_as_the_plant() {
         ],
         tmp.path(),
     ));
-    let (s, n) = (
-        json(&tmp.path().join("sumo/summary.json")),
-        json(&tmp.path().join("native/summary.json")),
-    );
+    let s = json(&tmp.path().join("sumo/summary.json"));
+    let n = json(&tmp.path().join("native/summary.json"));
+    (tmp, s, n)
+}
+
+/// The fallbacks with SUMO as the plant: configs/degradation.toml (ACC on the radar, the guard,
+/// the bumpless return) does with SUMO what it does in process, mode for mode.
+#[test]
+fn graceful_degradation_runs_with_sumo_as_the_plant() {
+    let (tmp, s, n) = sumo_and_native("configs/degradation.toml");
     assert_eq!(s["safety"]["collided"], false);
     let gap = |v: &serde_json::Value| v["safety"]["min_gap_m"].as_f64().unwrap();
     // The radar reads SUMO's own gaps (getLeader), which differ from the model's in the last
@@ -613,29 +618,7 @@ fn graceful_degradation_runs_with_sumo_as_the_plant() {
 /// the native model does (the gaps grow with the speed: 25 m at 15 m/s, 35 m at 25 m/s).
 #[test]
 fn a_time_headway_platoon_runs_with_sumo_as_the_plant() {
-    let tmp = tempfile::tempdir().unwrap();
-    let c = repo().join("configs/time-headway.toml");
-    let c = c.to_str().unwrap();
-    ok(&platoon(
-        &["run", c, "--plant", "sumo", "--out", "sumo", "--no-plots"],
-        tmp.path(),
-    ));
-    ok(&platoon(
-        &[
-            "run",
-            c,
-            "--transport",
-            "inproc",
-            "--out",
-            "native",
-            "--no-plots",
-        ],
-        tmp.path(),
-    ));
-    let (s, n) = (
-        json(&tmp.path().join("sumo/summary.json")),
-        json(&tmp.path().join("native/summary.json")),
-    );
+    let (_tmp, s, n) = sumo_and_native("configs/time-headway.toml");
     assert_eq!(s["spacing_policy"], "time_headway");
     assert_eq!(s["safety"]["collided"], false);
     let vs = s["vehicles"].as_array().unwrap();

@@ -473,28 +473,37 @@ pub fn scatter_with_lines(
         .y_desc(y_label)
         .draw()
         .map_err(err)?;
+    points_and_lines(&mut chart, series, |p| p.1.is_finite(), 5)?;
+    root.present().map_err(err)?;
+    Ok(())
+}
+
+/// Each series' points (those `keep` keeps) joined by lines, with its legend entry; then the
+/// legend, upper left.
+fn points_and_lines<'a, 'b: 'a, CT>(
+    chart: &mut ChartContext<'a, BitMapBackend<'b>, CT>,
+    series: &[Series],
+    keep: impl Fn(&(f64, f64)) -> bool,
+    radius: i32,
+) -> Result<()>
+where
+    CT: plotters::coord::CoordTranslate<From = (f64, f64)>,
+{
     for s in series {
         let color = Palette99::pick(s.color).to_rgba();
-        let finite: Vec<(f64, f64)> = s
-            .points
-            .iter()
-            .copied()
-            .filter(|p| p.1.is_finite())
-            .collect();
+        let kept: Vec<(f64, f64)> = s.points.iter().copied().filter(|p| keep(p)).collect();
         chart
-            .draw_series(LineSeries::new(finite.clone(), color.stroke_width(2)))
+            .draw_series(LineSeries::new(kept.clone(), color.stroke_width(2)))
             .map_err(err)?
             .label(s.label.clone())
             .legend(move |(x, y)| {
                 PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2))
             });
         chart
-            .draw_series(finite.iter().map(|&p| Circle::new(p, 5, color.filled())))
+            .draw_series(kept.iter().map(|&p| Circle::new(p, radius, color.filled())))
             .map_err(err)?;
     }
-    legend(&mut chart, SeriesLabelPosition::UpperLeft)?;
-    root.present().map_err(err)?;
-    Ok(())
+    legend(chart, SeriesLabelPosition::UpperLeft)
 }
 
 /// One log-log panel per entry, side by side in a grid (two columns): measured points of each
@@ -550,21 +559,7 @@ pub fn log_log_panels(
             .y_desc(y_label)
             .draw()
             .map_err(err)?;
-        for s in series {
-            let color = Palette99::pick(s.color).to_rgba();
-            let finite: Vec<(f64, f64)> = s.points.iter().copied().filter(usable).collect();
-            chart
-                .draw_series(LineSeries::new(finite.clone(), color.stroke_width(2)))
-                .map_err(err)?
-                .label(s.label.clone())
-                .legend(move |(x, y)| {
-                    PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2))
-                });
-            chart
-                .draw_series(finite.iter().map(|&p| Circle::new(p, 4, color.filled())))
-                .map_err(err)?;
-        }
-        legend(&mut chart, SeriesLabelPosition::UpperLeft)?;
+        points_and_lines(&mut chart, series, usable, 4)?;
     }
     root.present().map_err(err)?;
     Ok(())

@@ -149,14 +149,20 @@ fn psi_of(
     let pd = DMatrix::from_iterator(3, 3, p.iter().copied());
     let pa = DMatrix::from_iterator(3, 3, (p * plant.a).iter().copied());
     let pbk = DMatrix::from_iterator(3, 3, (p * plant.b * k).iter().copied());
-    // (I_N kron P B K) M: block row i is P B K times block row i of M.
-    let mut pbkm = DMatrix::<f64>::zeros(m, m);
-    for i in 0..n {
-        pbkm.view_mut((3 * i, 0), (3, m))
-            .copy_from(&(&pbk * mc.view((3 * i, 0), (3, m))));
-    }
+    let pbkm = blockwise(&pbk, mc);
     let x11 = he(&(kron(&i_n, &pa) - &pbkm)) + kron(&i_n, &pd) * c;
     assemble(&x11, &-pbkm, r, mc)
+}
+
+/// `(I_N kron B) M` for a 3x3 `b`: block row i is `b` times block row i of `M`.
+fn blockwise(b: &DMatrix<f64>, mc: &DMatrix<f64>) -> DMatrix<f64> {
+    let m = mc.nrows();
+    let mut out = DMatrix::<f64>::zeros(m, m);
+    for i in 0..m / 3 {
+        out.view_mut((3 * i, 0), (3, m))
+            .copy_from(&(b * mc.view((3 * i, 0), (3, m))));
+    }
+    out
 }
 
 /// Everything needed to re-check Theorem 1 for one design, as `certificate.json` holds it.
@@ -323,13 +329,7 @@ pub fn psi_general(
     let i_n = DMatrix::<f64>::identity(n, n);
     let ia = kron(&i_n, &dm(&plant.a));
     let bk = dm(&(plant.b * k));
-    // (I_N kron B K) M, block row by block row.
-    let mut bkm = DMatrix::<f64>::zeros(m, m);
-    for i in 0..n {
-        bkm.view_mut((3 * i, 0), (3, m))
-            .copy_from(&(&bk * mc.view((3 * i, 0), (3, m))));
-    }
-    let xbkm = x * &bkm;
+    let xbkm = x * blockwise(&bk, mc);
     let x11 = he(&(x * &ia - &xbkm)) + x * c;
     let x12 = -xbkm;
     assemble(&x11, &x12, r, mc)
@@ -404,16 +404,7 @@ fn min_ratio_with(
     delta: f64,
     retries: u32,
 ) -> Result<Feasibility, LmiError> {
-    if !(c.is_finite()
-        && c >= 0.0
-        && delta > 0.0
-        && !taus.is_empty()
-        && taus.iter().all(|t| t.is_finite() && *t > 0.0))
-    {
-        return Err(LmiError::Bad(format!(
-            "need c >= 0, taus > 0 and delta > 0 (got c = {c}, taus = {taus:?}, delta = {delta})"
-        )));
-    }
+    check_inputs(c, taus, delta)?;
     let kr = RowVector3::from(k);
     let h = &g.h;
     let n = h.nrows();
@@ -456,49 +447,78 @@ fn min_ratio_with(
     for (e, &v) in basis.iter().zip(&x) {
         p += e * v;
     }
-    let mut pm = [[0.0; 3]; 3];
-    for i in 0..3 {
-        for j in 0..3 {
-            pm[i][j] = p[(i, j)];
-        }
-    }
-    let mut cert = Certificate {
-        condition: if taus.len() == 1 {
-            "theorem1"
-        } else {
-            "theorem2"
-        }
-        .into(),
+    let cert = Certificate {
+        condition: condition(taus, ""),
         k,
         c,
         ratio: x[nvar - 1],
-        p: pm,
+        p: rows3(&p),
         p_blocks: None,
-        h: (0..n)
-            .map(|i| (0..n).map(|j| h[(i, j)]).collect())
-            .collect(),
+        h: rows(h),
         headway: g.headway,
         taus: taus.to_vec(),
         max_eigenvalue: 0.0,
         p_min_eigenvalue: 0.0,
     };
+    issue(cert, delta, retries, |stricter| {
+        min_ratio_with(k, c, g, taus, stricter, retries - 1)
+    })
+}
+
+fn check_inputs(c: f64, taus: &[f64], delta: f64) -> Result<(), LmiError> {
+    if c.is_finite()
+        && c >= 0.0
+        && delta > 0.0
+        && !taus.is_empty()
+        && taus.iter().all(|t| t.is_finite() && *t > 0.0)
+    {
+        Ok(())
+    } else {
+        Err(LmiError::Bad(format!(
+            "need c >= 0, taus > 0 and delta > 0 (got c = {c}, taus = {taus:?}, delta = {delta})"
+        )))
+    }
+}
+
+/// "theorem1" (one tau) or "theorem2" (the ends of a range), with `suffix`.
+fn condition(taus: &[f64], suffix: &str) -> String {
+    let theorem = if taus.len() == 1 {
+        "theorem1"
+    } else {
+        "theorem2"
+    };
+    format!("{theorem}{suffix}")
+}
+
+/// A matrix as rows.
+fn rows(h: &DMatrix<f64>) -> Vec<Vec<f64>> {
+    h.row_iter().map(|r| r.iter().copied().collect()).collect()
+}
+
+/// Re-checks the solver's answer and issues it. An answer that does not pass the independent
+/// check sits within the solver's tolerance of the boundary: it is asked again (`again`, with
+/// a hundredfold margin, while `retries` and the margin allow), and only then reported; an
+/// answer that fails the check is never returned.
+fn issue(
+    mut cert: Certificate,
+    delta: f64,
+    retries: u32,
+    again: impl FnOnce(f64) -> Result<Feasibility, LmiError>,
+) -> Result<Feasibility, LmiError> {
     let v = cert.verify()?;
     cert.max_eigenvalue = v.max_eigenvalue;
     cert.p_min_eigenvalue = v.p_min_eigenvalue;
-    if !v.holds {
-        // The solver's answer does not pass the independent check (it sits within the
-        // solver's tolerance of the boundary): ask again with a hundredfold margin, and only
-        // then say so; never return an answer that fails the check.
-        if retries > 0 && delta < MAX_MARGIN {
-            match min_ratio_with(k, c, g, taus, delta * 100.0, retries - 1) {
-                // The stricter problem tripping the solver says no more than this answer did.
-                Err(LmiError::Solver(_)) => {}
-                other => return other,
-            }
-        }
-        return Err(LmiError::NotCertified(v.max_eigenvalue));
+    if v.holds {
+        return Ok(Feasibility::Feasible(cert));
     }
-    Ok(Feasibility::Feasible(cert))
+    if retries > 0 && delta < MAX_MARGIN {
+        match again(delta * 100.0) {
+            // The stricter problem tripping the solver says no more than this answer did.
+            Err(LmiError::Solver(_)) => {}
+            other => return other,
+        }
+    }
+    Err(LmiError::NotCertified(v.max_eigenvalue))
 }
 
 /// Like [`min_ratio`] with a block-diagonal Lyapunov matrix `diag(P_1, ..., P_N)` in place of
@@ -515,16 +535,7 @@ pub fn min_ratio_block_diagonal(
     taus: &[f64],
     delta: f64,
 ) -> Result<Feasibility, LmiError> {
-    if !(c.is_finite()
-        && c >= 0.0
-        && delta > 0.0
-        && !taus.is_empty()
-        && taus.iter().all(|t| t.is_finite() && *t > 0.0))
-    {
-        return Err(LmiError::Bad(format!(
-            "need c >= 0, taus > 0 and delta > 0 (got c = {c}, taus = {taus:?}, delta = {delta})"
-        )));
-    }
+    check_inputs(c, taus, delta)?;
     let kr = RowVector3::from(k);
     let n = g.followers();
     let m = 3 * n;
@@ -608,40 +619,22 @@ pub fn min_ratio_block_diagonal(
             rows3(&p)
         })
         .collect();
-    let h = &g.h;
-    let mut cert = Certificate {
-        condition: if taus.len() == 1 {
-            "theorem1-block-diagonal"
-        } else {
-            "theorem2-block-diagonal"
-        }
-        .into(),
+    let cert = Certificate {
+        condition: condition(taus, "-block-diagonal"),
         k,
         c,
         ratio: x[nvar - 1],
         p: blocks[0],
         p_blocks: Some(blocks),
-        h: (0..n)
-            .map(|i| (0..n).map(|j| h[(i, j)]).collect())
-            .collect(),
+        h: rows(&g.h),
         headway: g.headway,
         taus: taus.to_vec(),
         max_eigenvalue: 0.0,
         p_min_eigenvalue: 0.0,
     };
-    let v = cert.verify()?;
-    cert.max_eigenvalue = v.max_eigenvalue;
-    cert.p_min_eigenvalue = v.p_min_eigenvalue;
-    if !v.holds {
-        if delta < MAX_MARGIN {
-            match min_ratio_block_diagonal(k, c, g, taus, delta * 100.0) {
-                Err(LmiError::Solver(_)) => {}
-                other => return other,
-            }
-        }
-        return Err(LmiError::NotCertified(v.max_eigenvalue));
-    }
-    Ok(Feasibility::Feasible(cert))
+    issue(cert, delta, u32::MAX, |stricter| {
+        min_ratio_block_diagonal(k, c, g, taus, stricter)
+    })
 }
 
 fn rows3(p: &Matrix3<f64>) -> [[f64; 3]; 3] {

@@ -110,15 +110,7 @@ mod tests {
 
     /// The closed form for predecessor following: |G|^(N-1) at the same frequency.
     fn pf_link_peak(tau: f64) -> f64 {
-        (0..600)
-            .map(|i| {
-                let w = 10f64.powf(-3.0 + 6.0 * f64::from(i) / 599.0);
-                let s = Complex::new(0.0, w);
-                let d = s * s * (s * tau + 1.0);
-                let c = s * s * PAPER_K[2] + s * PAPER_K[1] + PAPER_K[0];
-                (c / (d + c)).norm()
-            })
-            .fold(0.0, f64::max)
+        pf_headway_link_peak(tau, 0.0)
     }
 
     #[test]
