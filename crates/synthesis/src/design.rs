@@ -188,6 +188,7 @@ fn ccp(
     sdps: &mut usize,
 ) -> Result<Option<MU>, LmiError> {
     let mut last = f64::INFINITY;
+    let mut last_drop = f64::INFINITY;
     for _ in 0..30 {
         *sdps += 1;
         // A numerical failure at this ratio counts as "not reached" (bisection stays
@@ -200,10 +201,20 @@ fn ccp(
         if t < -1e-6 {
             return Ok(Some((m, u)));
         }
-        if last - t < 1e-6 {
+        let drop = last - t;
+        if drop < 1e-6 {
             return Ok(None); // no more progress
         }
+        // The iterates' t falls about geometrically: where the drops shrink by rho, what is
+        // left to fall is drop rho / (1 - rho). If that cannot bring t below 0, stop now
+        // rather than crawl on (at an infeasible ratio this took most of a design's SDPs; the
+        // verdict is the one crawling reached).
+        let rho = drop / last_drop;
+        if rho < 1.0 && drop * rho / (1.0 - rho) < t {
+            return Ok(None);
+        }
         last = t;
+        last_drop = drop;
         m0 = m;
     }
     Ok(None)
