@@ -301,6 +301,14 @@ fn the_spacing_policy_and_its_headway_are_checked_by_key() {
         "platoon.time_headway_s",
         "must be > 0",
     );
+    assert_error(
+        paper_with(
+            spacing,
+            "spacing_m = 10.0\nspacing_policy = \"time_headway\"\ntime_headway_s = 1e300",
+        ),
+        "platoon.time_headway_s",
+        "at most 60",
+    );
     // Accepted, and the resolved config says so again.
     let text = platoon_config::PAPER_TOML.replacen(
         spacing,

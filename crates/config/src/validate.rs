@@ -253,7 +253,16 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
                 "missing: spacing_policy = \"time_headway\" needs the headway in seconds (e.g. 0.5)",
             )
         }
-        (Some("time_headway"), Some(h)) => positive("platoon.time_headway_s", h)?,
+        (Some("time_headway"), Some(h)) => {
+            let h = positive("platoon.time_headway_s", h)?;
+            if h > 60.0 {
+                return bad(
+                    "platoon.time_headway_s",
+                    format!("{h} s is not a time headway (vehicles keep 0.5 to 3 s); use at most 60"),
+                );
+            }
+            h
+        }
         (Some(other), _) => {
             return bad(
                 "platoon.spacing_policy",
