@@ -60,7 +60,7 @@ pub struct VehicleSummary {
     /// headway) (m).
     pub spacing_error_m: ErrorStats,
     /// Gap error to the predecessor, `p_{i-1} - p_i - l` (`- (l + h_t v_i)` with a time
-    /// headway) (m), negative when too far: string stability is whether it grows along the
+    /// headway) (m), positive when too far behind: string stability is whether it grows along the
     /// platoon.
     pub gap_error_m: ErrorStats,
     /// Velocity error `v_i - v_0` (m/s).
