@@ -160,8 +160,13 @@ fn coupling(scenario: &platoon_sim::Scenario, time_headway: Option<f64>) -> Resu
 
 /// "constant spacing" or "time headway 0.5 s".
 fn policy(g: &Coupling) -> String {
-    if g.headway > 0.0 {
-        format!("time headway {} s", g.headway)
+    policy_label(g.headway)
+}
+
+/// The spacing policy of time headway `headway` (s; 0: constant spacing) in words.
+pub(crate) fn policy_label(headway: f64) -> String {
+    if headway > 0.0 {
+        format!("time headway {headway} s")
     } else {
         "constant spacing".into()
     }
@@ -307,12 +312,11 @@ fn check_gain(a: CheckGainArgs) -> Result<()> {
                 "certificate-block-diagonal.json",
                 (serde_json::to_string_pretty(&cert)? + "\n").as_bytes(),
             )?;
-            let verdict = cert.verify()?;
             let mut at_config = cert.clone();
             at_config.ratio = config_ratio;
             Some(BlockReport {
                 min_ratio: cert.ratio,
-                transient_growth: verdict.transient_growth,
+                transient_growth: cert.transient_growth()?,
                 config_ratio_certified: config_ratio >= cert.ratio && at_config.verify()?.holds,
             })
         }
@@ -608,7 +612,7 @@ fn synthesize(a: SynthesizeArgs) -> Result<()> {
         match &d.certificate.p_blocks {
             Some(_) => format!(
                 ", one P per follower: the error may grow {:.1}x before it decays",
-                d.certificate.verify()?.transient_growth
+                d.certificate.transient_growth()?
             ),
             None => String::new(),
         },

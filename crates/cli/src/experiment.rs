@@ -393,7 +393,7 @@ fn scaling(args: ScalingArgs) -> Result<()> {
                     bar.set_message(format!("certifying {name} {n} {gain}"));
                     let ratio = |f: Result<Feasibility, platoon_synthesis::LmiError>| match f {
                         Ok(Feasibility::Feasible(c)) => {
-                            let growth = c.verify()?.transient_growth;
+                            let growth = c.transient_growth()?;
                             Ok((c.ratio, Some(growth)))
                         }
                         Ok(Feasibility::Infeasible)

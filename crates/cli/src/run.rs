@@ -721,11 +721,7 @@ pub fn write_outputs(
         if summary.vehicles.len() > 1 {
             // String (in)stability at a glance: the largest gap error along the platoon.
             let path = dir.path("gaps.png");
-            let policy = if scenario.headway() > 0.0 {
-                format!("time headway {} s", scenario.headway())
-            } else {
-                "constant spacing".into()
-            };
+            let policy = crate::design::policy_label(scenario.headway());
             plots::scatter_with_lines(
                 &path,
                 &format!("Largest |gap error to the predecessor| per follower ({policy})"),

@@ -255,55 +255,58 @@ impl Certificate {
         ))
     }
 
-    /// Re-assembles (13) from the certificate's numbers and checks its eigenvalues.
-    pub fn verify(&self) -> Result<Verdict, LmiError> {
-        let (p, k, g) = self.parts()?;
-        let n = g.followers();
-        let mc = g.matrix();
-        let blocks: Vec<Matrix3<f64>> = match &self.p_blocks {
-            None => vec![p],
+    /// The Lyapunov blocks as issued: the common P alone, or one per follower (checked for
+    /// number and finiteness).
+    fn blocks(&self, p: Matrix3<f64>, n: usize) -> Result<Vec<Matrix3<f64>>, LmiError> {
+        match &self.p_blocks {
+            None => Ok(vec![p]),
             Some(b) => {
                 if b.len() != n || b.iter().flatten().flatten().any(|x| !x.is_finite()) {
                     return Err(LmiError::Bad(format!(
                         "p_blocks must hold one finite 3x3 block per follower ({n})"
                     )));
                 }
-                b.iter().map(|m| Matrix3::from_fn(|i, j| m[i][j])).collect()
+                Ok(b.iter().map(|m| Matrix3::from_fn(|i, j| m[i][j])).collect())
             }
-        };
-        let symmetric = blocks.iter().all(|b| (b - b.transpose()).amax() < 1e-9);
-        let blocks: Vec<Matrix3<f64>> = blocks.iter().map(|b| (b + b.transpose()) * 0.5).collect();
-        let mut x = DMatrix::zeros(3 * n, 3 * n);
-        if blocks.len() > 1 {
+        }
+    }
+
+    /// [`Verdict::transient_growth`] alone, from the blocks' eigenvalues (no (13) to assemble).
+    pub fn transient_growth(&self) -> Result<f64, LmiError> {
+        let (p, _, g) = self.parts()?;
+        let (lo, hi) = eigen_range(&symmetrised(&self.blocks(p, g.followers())?));
+        Ok((hi / lo).sqrt())
+    }
+
+    /// Re-assembles (13) from the certificate's numbers and checks its eigenvalues.
+    pub fn verify(&self) -> Result<Verdict, LmiError> {
+        let (p, k, g) = self.parts()?;
+        let n = g.followers();
+        let mc = g.matrix();
+        let raw = self.blocks(p, n)?;
+        let symmetric = raw.iter().all(|b| (b - b.transpose()).amax() < 1e-9);
+        let blocks = symmetrised(&raw);
+        let x = (blocks.len() > 1).then(|| {
+            let mut x = DMatrix::zeros(3 * n, 3 * n);
             for (i, b) in blocks.iter().enumerate() {
                 x.view_mut((3 * i, 3 * i), (3, 3)).copy_from(b);
             }
-        }
+            x
+        });
         let max_eigenvalue = self
             .taus
             .iter()
             .map(|&tau| {
                 let plant = Plant3::new(tau);
-                if blocks.len() == 1 {
-                    psi_of(&blocks[0], self.ratio, self.c, &k, &mc, &plant)
-                } else {
-                    psi_general(&x, self.ratio, self.c, &k, &mc, &plant)
+                match &x {
+                    None => psi_of(&blocks[0], self.ratio, self.c, &k, &mc, &plant),
+                    Some(x) => psi_general(x, self.ratio, self.c, &k, &mc, &plant),
                 }
                 .symmetric_eigenvalues()
                 .max()
             })
             .fold(f64::NEG_INFINITY, f64::max);
-        let eig: Vec<f64> = blocks
-            .iter()
-            .flat_map(|b| {
-                b.symmetric_eigenvalues()
-                    .iter()
-                    .copied()
-                    .collect::<Vec<_>>()
-            })
-            .collect();
-        let p_min_eigenvalue = eig.iter().copied().fold(f64::INFINITY, f64::min);
-        let p_max_eigenvalue = eig.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let (p_min_eigenvalue, p_max_eigenvalue) = eigen_range(&blocks);
         Ok(Verdict {
             holds: max_eigenvalue < 0.0 && p_min_eigenvalue > 0.0 && symmetric,
             max_eigenvalue,
@@ -311,6 +314,26 @@ impl Certificate {
             transient_growth: (p_max_eigenvalue / p_min_eigenvalue).sqrt(),
         })
     }
+}
+
+/// `(B + B^T) / 2` of each block.
+fn symmetrised(blocks: &[Matrix3<f64>]) -> Vec<Matrix3<f64>> {
+    blocks.iter().map(|b| (b + b.transpose()) * 0.5).collect()
+}
+
+/// The smallest and largest eigenvalue over symmetric blocks.
+fn eigen_range(blocks: &[Matrix3<f64>]) -> (f64, f64) {
+    blocks
+        .iter()
+        .flat_map(|b| {
+            b.symmetric_eigenvalues()
+                .iter()
+                .copied()
+                .collect::<Vec<_>>()
+        })
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), e| {
+            (lo.min(e), hi.max(e))
+        })
 }
 
 /// (13) with a general Lyapunov matrix `X` (3N x 3N, symmetric) in place of `I_N kron P`:
@@ -583,26 +606,30 @@ pub fn min_ratio_block_diagonal(
         cols.push((m..2 * m).map(|j| (j, j, -1.0)).collect());
         lmis.push(Lmi::nsd_sparse(&psi0, cols));
     }
-    // delta I <= P_i <= P_MAX I.
+    // delta I <= P_i <= P_MAX I: each touches its own 6 variables only.
     for i in 0..n {
-        let block = |sign: f64| -> Vec<DMatrix<f64>> {
+        let block = |sign: f64| -> Vec<Vec<(usize, usize, f64)>> {
             (0..nvar)
                 .map(|v| {
                     if v / 6 == i && v < 6 * n {
-                        dm(&basis[v % 6]) * sign
+                        let e = &basis[v % 6];
+                        (0..3)
+                            .flat_map(|q| (0..=q).map(move |p| (p, q)))
+                            .map(|(p, q)| (p, q, e[(p, q)] * sign))
+                            .collect()
                     } else {
-                        DMatrix::zeros(3, 3)
+                        Vec::new()
                     }
                 })
                 .collect()
         };
-        lmis.push(Lmi::nsd(
+        lmis.push(Lmi::nsd_sparse(
             &(DMatrix::<f64>::identity(3, 3) * delta),
-            &block(-1.0),
+            block(-1.0),
         ));
-        lmis.push(Lmi::nsd(
+        lmis.push(Lmi::nsd_sparse(
             &(DMatrix::<f64>::identity(3, 3) * -P_MAX),
-            &block(1.0),
+            block(1.0),
         ));
     }
     let mut cost = vec![0.0; nvar];
