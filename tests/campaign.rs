@@ -79,7 +79,7 @@ fn dos_timing_lights_up_the_ramps_and_each_cell_equals_platoon_run() {
             .find(|r| r["dos.onset_s"] == onset && r["dos.duration_s"] == d)
             .unwrap()
     };
-    // ERRATA item 23: 4 s of jam over the braking ramp collides; during cruise it is harmless.
+    // Reading R23: 4 s of jam over the braking ramp collides; during cruise it is harmless.
     let ramp = at("35.5", "4");
     let cruise = at("20", "4");
     assert!(

@@ -385,7 +385,7 @@ fn design_checks_the_papers_gain_and_its_certificate_re_checks() {
     let check: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(tmp.path().join("d/check.json")).unwrap())
             .unwrap();
-    // ERRATA item 15: the paper's ratio 56.83 is an order of magnitude too small for its K.
+    // Reading R15: the paper's ratio 56.83 is an order of magnitude too small for its K.
     let min = check["min_ratio_at_c"][1].as_f64().unwrap();
     assert!(min > 10.0 * 56.83, "{min}");
     // Issue 14: string stability is part of the verdict. The paper's TPSF platoon of 4 does

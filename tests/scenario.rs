@@ -176,7 +176,7 @@ fn resilient_sampling_every_h_during_attacks() {
 
 #[test]
 fn attacks_on_the_leaders_ramp_hurt_more_than_during_cruise() {
-    // ERRATA item 23: the same 3 s of jamming during cruise vs on the acceleration ramp.
+    // Reading R23: the same 3 s of jamming during cruise vs on the acceleration ramp.
     let attack = |start: f64| {
         let mut s = table1();
         s.dos = platoon_attacks::DosSchedule::from_intervals(&[(start, 3.0)]).unwrap();

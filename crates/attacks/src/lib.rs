@@ -4,7 +4,7 @@
 //! * [`DosSchedule`]: the attack intervals `A_c = [a_c, a_c + d_c)`, normalised (sorted, merged),
 //!   from explicit intervals, a periodic pattern or a seeded random generator.
 //! * [`Assumption2`]: the frequency and duration bounds of De Persis and Tesi, checked **exactly**
-//!   over every window `[t1, t2)` (ERRATA item 22), not over sampled windows.
+//!   over every window `[t1, t2)` (docs/paper-readings.md#R22), not over sampled windows.
 //! * [`RandomDos`]: a seeded generator whose schedules satisfy a given [`Assumption2`] by
 //!   construction (and the property tests check it with the exact checker).
 //! * [`channel::Channel`]: the V2V channel under the DoS schedule and link-level attacks

@@ -8,7 +8,8 @@ use platoon_synthesis::{
 };
 use std::path::PathBuf;
 
-/// LMI design and checks (Theorems 1 and 2 of the paper, read as ERRATA.md items 8, 14-21 say).
+/// LMI design and checks (Theorems 1 and 2 of the paper, as readings R8 and R14-R21 of
+/// docs/paper-readings.md read them).
 #[derive(Debug, clap::Subcommand)]
 pub enum Design {
     /// Evaluate a gain K on a scenario's topology: closed-loop eigenvalues over the tau range,
@@ -82,7 +83,7 @@ pub struct CheckGainArgs {
     #[arg(long, default_value_t = 0.0)]
     pub c: f64,
     /// 1: (13) at the nominal tau; 2: at both ends of the config's tau range with one P
-    /// (robust to every tau between; our reading of Theorem 2, ERRATA item 18).
+    /// (robust to every tau between; our reading of Theorem 2: docs/paper-readings.md#R18).
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u8).range(1..=2))]
     pub theorem: u8,
     /// The spacing policy's time headway h_t (s), overriding the config's

@@ -17,7 +17,7 @@ pub enum Experiment {
     /// numbers beside ours), table1.png, fig8.png, fig8.csv and one summary per rule.
     Table1(Table1Args),
     /// Fig. 9: controllers designed by Theorem 1 at the nominal tau, by Theorem 2 (robust over
-    /// the config's tau range; our reading, ERRATA item 18) and by Theorem 1 at the lower bound
+    /// the config's tau range: docs/paper-readings.md#R18) and by Theorem 1 at the lower bound
     /// of tau (the "lower-bound method" the paper compares to), each run on the config's tau(t)
     /// schedule without DoS. Writes designs.csv, the three certificates, fig9.csv, fig9.png and
     /// fig9.md (mean tracking error per phase of tau).
@@ -968,8 +968,8 @@ struct TopologyRow {
     k3: f64,
 }
 
-/// varsigma1 = min(c, varrho - phi (1 - eta)) (ERRATA item 19) for a design, with the largest
-/// decay c certified while beta1/beta2 stays within twice the design's.
+/// varsigma1 = min(c, varrho - phi (1 - eta)) (docs/paper-readings.md#R19) for a design,
+/// with the largest decay c certified while beta1/beta2 stays within twice the design's.
 fn topologies(args: TopologiesArgs) -> Result<()> {
     use platoon_topology::{Preset, Topology};
     if args.sizes.is_empty() || args.sizes.contains(&0) {
@@ -1143,7 +1143,7 @@ fn table1_markdown(base: &Scenario, results: &[RuleResult]) -> String {
     let _ = writeln!(
         md,
         "Step {} s, event conditions checked every {} s, {} s simulated. `mixed` is the static ETM with \
-         a decaying offset (Seyboth et al. 2013), our stand-in for [xiao2022resource] (ERRATA item 13).\n",
+         a decaying offset (Seyboth et al. 2013), our stand-in for [xiao2022resource] (docs/paper-readings.md#R13).\n",
         base.dt(),
         f64::from(base.control.check_steps) * base.dt(),
         base.duration()
@@ -1185,10 +1185,10 @@ fn table1_markdown(base: &Scenario, results: &[RuleResult]) -> String {
     let _ = writeln!(
         md,
         "\nDynamic triggers fewer times than static on every vehicle: {}.\n\nWhy the counts differ from \
-         the paper's: counts scale with how often the condition is checked (ERRATA item 10), which the \
+         the paper's: counts scale with how often the condition is checked (docs/paper-readings.md#R10), which the \
          paper does not state; most events come from the open-loop estimator predicting a decaying \
-         acceleration while vehicles hold +-2 m/s^2 on the leader's ramps (item 5); and the paper's K and \
-         beta1/beta2 do not satisfy its own Theorem 1 (item 15), so the design behind its runs is unknown.",
+         acceleration while vehicles hold +-2 m/s^2 on the leader's ramps (reading R5); and the paper's K and \
+         beta1/beta2 do not satisfy its own Theorem 1 (reading R15), so the design behind its runs is unknown.",
         if fewer { "yes" } else { "NO" }
     );
     md

@@ -18,7 +18,7 @@ use std::process::ExitCode;
 /// Co-simulation of resilient, event-triggered control of vehicle platoons under DoS attacks.
 ///
 /// Implements Han et al., "Resilient Event-Triggered Control of Vehicle Platoon Under DoS Attacks
-/// and Parameter Uncertainty", IEEE T-IV 2024, with the readings of ERRATA.md.
+/// and Parameter Uncertainty", IEEE T-IV 2024, with the readings of docs/paper-readings.md.
 #[derive(Debug, Parser)]
 #[command(name = "platoon", version, about, long_about)]
 struct Cli {

@@ -392,7 +392,7 @@ pub struct Leader {
     /// The velocity profile.
     #[serde(default)]
     pub profile: LeaderProfileConfig,
-    /// Broadcast period of the leader (s); absent: every step (ERRATA item 5).
+    /// Broadcast period of the leader (s); absent: every step (docs/paper-readings.md#R5).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub broadcast_period_s: Option<f64>,
 }
@@ -401,7 +401,7 @@ pub struct Leader {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum LeaderProfileConfig {
-    /// Section IV's profile (ERRATA item 4's reading).
+    /// Section IV's profile (docs/paper-readings.md#R4).
     #[default]
     Paper,
     /// Constant speed.
@@ -467,7 +467,7 @@ pub enum TauConfig {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Control {
-    /// K in `u_i = -K q_i` (ERRATA item 1).
+    /// K in `u_i = -K q_i` (docs/paper-readings.md#R1).
     pub gain: [f64; 3],
     /// Weight of |eps|^2 in the trigger conditions.
     pub beta1: f64,
@@ -579,7 +579,8 @@ impl Default for GuardConfig {
 pub struct Trigger {
     /// `dynamic` (4)+(12), `static` (21), `mixed` (the Table I baseline) or `periodic`.
     pub rule: String,
-    /// How often the event condition is checked (s); default: every step (ERRATA item 10).
+    /// How often the event condition is checked (s); default: every step
+    /// (docs/paper-readings.md#R10).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub check_period_s: Option<f64>,
     /// Use the resilient mechanism (11) during attacks.

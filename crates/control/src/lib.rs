@@ -7,9 +7,10 @@
 //! q_i = sum_j a_ij (x^_i - x^_j - l_ij) + h_i (x^_i - x^_0 - l_i0),   l_ij = [(j - i) l, 0, 0]
 //! ```
 //!
-//! (spacing sign of ERRATA item 3: follower i sits i*l behind the leader), applies the control law
-//! (1) with the sign of ERRATA item 1, `u_i = -K q_i`, and decides when `i` broadcasts with one of
-//! the [`TriggerRule`]s, optionally wrapped in the resilient mechanism (11).
+//! (the spacing sign of docs/paper-readings.md#R3: follower i sits i*l behind the leader),
+//! applies the control law (1) with the sign of reading R1, `u_i = -K q_i`, and decides when
+//! `i` broadcasts with one of the [`TriggerRule`]s, optionally wrapped in the resilient
+//! mechanism (11).
 //!
 //! One co-simulation step `k` is two calls, so that a network (in process or across processes)
 //! can sit in between:

@@ -10,14 +10,14 @@ pub enum TriggerRule {
         /// Broadcast period in steps.
         period_steps: u32,
     },
-    /// Static ETM (21): `beta1 |eps|^2 - beta2 |q|^2 > 0` (strict, ERRATA item 12).
+    /// Static ETM (21): `beta1 |eps|^2 - beta2 |q|^2 > 0` (strict, docs/paper-readings.md#R12).
     Static,
     /// Dynamic ETM (4) with the internal variable (12):
     /// `beta1 |eps|^2 - beta2 |q|^2 - phi theta > 0`,
     /// `theta' = -rho theta - eta (beta1 |eps|^2 - beta2 |q|^2)`.
     ///
     /// `theta` is integrated exactly over each step for the error terms held (zero-order hold)
-    /// and clipped at 0 (ERRATA item 11); it is frozen while the vehicle is affected by an attack.
+    /// and clipped at 0 (reading R11); it is frozen while the vehicle is affected by an attack.
     Dynamic {
         /// Weight `phi_i` of theta in the condition.
         phi: f64,
@@ -28,7 +28,7 @@ pub enum TriggerRule {
         /// Initial value `theta_i(0)`.
         theta0: f64,
     },
-    /// Baseline for Table I's third row (ERRATA item 13): a static ETM with an exponentially
+    /// Baseline for Table I's third row (reading R13): a static ETM with an exponentially
     /// decaying offset, in the manner of Seyboth, Dimarogonas and Johansson, "Event-based
     /// broadcasting for multi-agent average consensus", Automatica 49(1), 2013:
     /// `beta1 |eps|^2 - beta2 |q|^2 > beta1 mu exp(-alpha t)`.
@@ -56,7 +56,7 @@ pub struct ControllerParams {
     pub resilient: bool,
     /// The resilient sampling period `h` in steps.
     pub h_steps: u32,
-    /// How often the event condition is checked, in steps (ERRATA item 10).
+    /// How often the event condition is checked, in steps (docs/paper-readings.md#R10).
     pub check_steps: u32,
     /// What to do while affected by an attack, and how to come back.
     pub fallback: crate::FallbackParams,
@@ -70,7 +70,7 @@ pub struct ControllerParams {
     /// ahead is `m (l + h_t v)` with `v` the speed of the rear one of the two (its estimate);
     /// 0 is constant spacing (the paper).
     pub headway: f64,
-    /// The leader broadcasts every this many steps (1: every step, ERRATA item 5).
+    /// The leader broadcasts every this many steps (1: every step, docs/paper-readings.md#R5).
     pub leader_broadcast_steps: u32,
 }
 

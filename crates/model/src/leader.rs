@@ -59,7 +59,7 @@ impl LeaderProfile {
         }
     }
 
-    /// The profile of Section IV with the errata's reading (item 4): 15 m/s, +2 m/s^2 on
+    /// The profile of Section IV as docs/paper-readings.md#R4 reads it: 15 m/s, +2 m/s^2 on
     /// [10, 15), 25 m/s, -2 m/s^2 on [35, 40), 15 m/s.
     pub fn paper() -> Self {
         Self {

@@ -7,7 +7,7 @@
 //! ```
 //!
 //! with a power-train time constant `tau(t)` that may vary over time ([`TauSchedule`]). The leader is
-//! an exogenous reference that follows a velocity profile ([`LeaderProfile`]); see ERRATA item 4.
+//! an exogenous reference that follows a velocity profile ([`LeaderProfile`]); see reading R4.
 //!
 //! # Discretisation
 //!

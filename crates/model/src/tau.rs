@@ -68,7 +68,7 @@ impl TauSchedule {
     }
 
     /// Fig. 5(a) of the paper: 0.34 s until 20 s, 0.82 s from 35 s. The paper does not give the
-    /// middle (ERRATA item 9); we take a linear ramp.
+    /// middle (docs/paper-readings.md#R9); we take a linear ramp.
     pub fn paper() -> Self {
         Self {
             knots: vec![(0.0, 0.34), (20.0, 0.34), (35.0, 0.82)],

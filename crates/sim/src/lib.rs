@@ -1,9 +1,10 @@
 //! The in-process co-simulation of one platoon scenario, and its metrics. Pure: no I/O, clocks or
 //! threads, so it is the oracle every other runtime (iceoryx2, SUMO) must agree with bit for bit.
 //!
-//! One step `k` is the shape of `DESIGN.md`: plant states → controllers decide who broadcasts →
-//! the channel (DoS schedule and link attacks, in process) gates each link → controllers apply what
-//! arrived and compute `u[k]` → the plant advances to `k + 1`.
+//! One step `k` has the shape of reading R24 (docs/paper-readings.md): plant states →
+//! controllers decide who broadcasts → the channel (DoS schedule and link attacks, in process)
+//! gates each link → controllers apply what arrived and compute `u[k]` → the plant advances to
+//! `k + 1`.
 #![warn(missing_docs)]
 
 mod metrics;

@@ -2,8 +2,9 @@
 //! block `-r M M` linearised around the last iterate (`M M >= M0 M + M M0 - M0^2`, a
 //! convex-concave procedure: every iterate is feasible for the original condition), bisection on
 //! r = beta1/beta2, and a gain bound `|U| <= k_max` with `M >= I`, so `|K| <= k_max` and the
-//! design stays implementable at the run's step (ERRATA items 16, 17). The returned gain is then
-//! certified by the exact Theorem-1 SDP of [`crate::theorem1_min_ratio`].
+//! design stays implementable at the run's step (readings R16 and R17 in
+//! docs/paper-readings.md). The returned gain is then certified by the exact Theorem-1 SDP of
+//! [`crate::theorem1_min_ratio`].
 //!
 //! With a time headway the congruence is no longer linear (the headway term of `K M` couples
 //! `k1` with a row of `M = P^-1`), so the gain is designed on the constant-spacing condition of

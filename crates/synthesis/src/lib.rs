@@ -3,14 +3,15 @@
 //!
 //! * [`theorem1_min_ratio`]: for a given gain K and decay c, the smallest `beta1 / beta2` for
 //!   which LMI (13) holds, with the P that certifies it. For a fixed K the LMI is linear in
-//!   (P, beta1/beta2), so this is an exact SDP (ERRATA item 16).
+//!   (P, beta1/beta2), so this is an exact SDP (docs/paper-readings.md#R16).
 //! * [`Certificate::verify`]: re-assembles (13) from a certificate's numbers and checks its
 //!   eigenvalues, independently of the solver.
 //! * [`closed_loop_spectrum`]: eigenvalues of `I_N kron A(tau) - H kron B(tau) K` over a tau range.
-//! * [`dos_bounds`]: the bounds (16) on T2 and D2 (ERRATA items 20, 21).
+//! * [`dos_bounds`]: the bounds (16) on T2 and D2 (readings R20, R21).
 //! * [`string_stability`]: whether spacing errors grow along a long platoon (see [`string`]).
 //!
-//! Readings (ERRATA): `Tr(X)` is `He(X) = X + X^T` (item 8); u = -K q (item 1); K is 1x3 (item 2).
+//! Readings of the paper (docs/paper-readings.md): `Tr(X)` is `He(X) = X + X^T` (R8);
+//! u = -K q (R1); K is 1x3 (R2).
 //! Pure: no I/O, clocks or threads.
 #![warn(missing_docs)]
 
@@ -32,7 +33,7 @@ pub use lmi::{
 /// the decay `varsigma1`, the growth `varsigma2` under attack, the chosen `varsigma_star` in
 /// (0, varsigma1), the gain scheduler `phi` and the resilient period `h`:
 /// `T2 > (2 ln phi + (varsigma1 + varsigma2) h) / varsigma_star` and
-/// `D2 > (varsigma1 + varsigma2) / (varsigma1 - varsigma_star)` (ERRATA item 21).
+/// `D2 > (varsigma1 + varsigma2) / (varsigma1 - varsigma_star)` (reading R21).
 pub fn dos_bounds(
     varsigma1: f64,
     varsigma2: f64,

@@ -170,7 +170,7 @@ fn blockwise(b: &DMatrix<f64>, mc: &DMatrix<f64>) -> DMatrix<f64> {
 pub struct Certificate {
     /// Which condition: "theorem1" (one tau) or "theorem2" ((13) at both ends of the 1/tau
     /// range with one P: since (13) is affine in 1/tau, it then holds for every tau between,
-    /// even time-varying; our reading of Theorem 2, ERRATA item 18).
+    /// even time-varying; our reading of Theorem 2, docs/paper-readings.md#R18).
     pub condition: String,
     /// The gain K (u = -K q).
     pub k: [f64; 3],
@@ -751,7 +751,7 @@ pub fn max_decay_within_ratio(
 }
 
 /// The growth rate of `V = e^T (I kron P) e` with the controls off (during attacks):
-/// the smallest varsigma2 with `A^T P + P A <= varsigma2 P` (ERRATA item 20), i.e. the largest
+/// the smallest varsigma2 with `A^T P + P A <= varsigma2 P` (reading R20), i.e. the largest
 /// eigenvalue of `P^-1/2 (A^T P + P A) P^-1/2`.
 pub fn growth_rate(p: &Matrix3<f64>, tau: f64) -> f64 {
     let a = Plant3::new(tau).a;
@@ -966,7 +966,7 @@ mod tests {
 
     #[test]
     fn the_papers_gain_needs_a_far_larger_ratio_than_it_reports() {
-        // ERRATA item 15: with K = [4.81, 9.12, 2.97] on TPSF, beta1/beta2 = 56.83 is not
+        // Reading R15: with K = [4.81, 9.12, 2.97] on TPSF, beta1/beta2 = 56.83 is not
         // feasible; the smallest feasible ratio is an order of magnitude larger.
         let Feasibility::Feasible(cert) =
             theorem1_min_ratio(PAPER_K, 0.0, &h(Preset::Tpsf, 4), 0.5, 1e-6).unwrap()

@@ -1,6 +1,6 @@
 //! The platoon's V2V communication graph (Section II-B of the paper), as a pure library.
 //!
-//! Convention (ERRATA item 6): `a_ij = 1` iff follower `i` **receives** from follower `j`, and
+//! Convention (reading R6): `a_ij = 1` iff follower `i` **receives** from follower `j`, and
 //! `h_i = 1` iff follower `i` receives from the leader. The Laplacian is `L = D - A` with
 //! `d_i = sum_j a_ij`, and the information-flow matrix is `H = L + diag(h)`.
 //!
@@ -24,7 +24,7 @@ pub enum Preset {
     /// Bidirectional predecessor following: i hears i-1 and i+1 (follower 1 hears the leader).
     Bpf,
     /// Two-predecessor single following: i hears i-1 and i-2, where vehicle 0 is the leader
-    /// (ERRATA item 7: pinning diag(1, 1, 0, ...)).
+    /// (docs/paper-readings.md#R7: pinning diag(1, 1, 0, ...)).
     Tpsf,
 }
 
