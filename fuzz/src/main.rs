@@ -21,7 +21,7 @@ use anyhow::{bail, Context, Result};
 use clap::{Parser, Subcommand};
 use platoon_control::{Delivery, Packet, PlatoonController};
 use platoon_model::State;
-use platoon_runtime::nodes::{deliveries_from_wire, packet_to_wire, states_from_wire, Numbering};
+use platoon_runtime::session::{deliveries_from_wire, packet_to_wire, states_from_wire, Numbering};
 use platoon_wire::{LinkPacket, VehicleState};
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngAlgorithm, TestCaseError, TestError, TestRng, TestRunner};

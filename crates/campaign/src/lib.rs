@@ -96,12 +96,7 @@ pub struct Campaign {
 }
 
 fn error(file: &Path, line: Option<usize>, key: &str, message: impl Into<String>) -> ConfigError {
-    ConfigError {
-        file: file.to_path_buf(),
-        key: key.to_string(),
-        message: message.into(),
-        line,
-    }
+    ConfigError::new(file, key, message).at_line(line)
 }
 
 /// The 1-based line of the first occurrence of `needle` in `text`.
@@ -189,9 +184,6 @@ pub fn cell_hash(config: &str, transport: Transport) -> String {
     format!("{:x}", h.finalize())
 }
 
-/// The embedded base's label.
-pub const EMBEDDED_BASE: &str = "<embedded configs/paper.toml>";
-
 impl Campaign {
     /// Reads and expands a campaign file. `samples` overrides `monte_carlo.samples` (a quick
     /// pilot of a large study).
@@ -220,9 +212,8 @@ impl Campaign {
                 (c, abs.display().to_string(), Some(parent))
             }
             None => {
-                let (c, _) =
-                    platoon_config::parse(platoon_config::PAPER_TOML, Path::new(EMBEDDED_BASE))?;
-                (c, EMBEDDED_BASE.to_string(), None)
+                let (c, _) = platoon_config::Embedded::Paper.parse()?;
+                (c, platoon_config::Embedded::Paper.label(), None)
             }
         };
         let mut base = toml::Value::try_from(&base_config).map_err(|e| {

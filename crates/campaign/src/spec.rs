@@ -1,4 +1,5 @@
 //! The campaign file's schema (TOML, unknown keys are errors).
+pub use platoon_config::Transport;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -18,7 +19,7 @@ pub struct CampaignFile {
     pub seed: u64,
     /// How each cell runs: `inproc` (the pure core in the campaign's own workers, the oracle)
     /// or `iceoryx2` (a full co-simulation of processes per cell; needed for `plant = "sumo"`).
-    #[serde(default)]
+    #[serde(default = "in_process")]
     pub transport: Transport,
     /// Keys set in every cell, by dotted path (`"simulation.duration_s" = 20.0`).
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
@@ -36,27 +37,6 @@ pub struct CampaignFile {
     /// What `cells.csv` reports per cell [see `platoon campaign --help`].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub metrics: Option<Vec<String>>,
-}
-
-/// How a cell runs.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Transport {
-    /// In the campaign's worker, no IPC.
-    #[default]
-    Inproc,
-    /// `platoon run --transport iceoryx2` per cell (plant, controller, injector processes).
-    Iceoryx2,
-}
-
-impl Transport {
-    /// Its name in files.
-    pub fn name(self) -> &'static str {
-        match self {
-            Transport::Inproc => "inproc",
-            Transport::Iceoryx2 => "iceoryx2",
-        }
-    }
 }
 
 /// `[[axes]]`: one config key and its values (a list or a range).
@@ -165,4 +145,9 @@ pub struct RandomDosSpec {
     pub min_duration_s: f64,
     /// Longest proposed attack (s).
     pub max_duration_s: f64,
+}
+
+/// Cells run in the campaign's own workers unless the file says otherwise.
+fn in_process() -> Transport {
+    Transport::Inproc
 }

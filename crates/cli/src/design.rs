@@ -161,16 +161,7 @@ fn coupling(scenario: &platoon_sim::Scenario, time_headway: Option<f64>) -> Resu
 
 /// "constant spacing" or "time headway 0.5 s".
 fn policy(g: &Coupling) -> String {
-    policy_label(g.headway)
-}
-
-/// The spacing policy of time headway `headway` (s; 0: constant spacing) in words.
-pub(crate) fn policy_label(headway: f64) -> String {
-    if headway > 0.0 {
-        format!("time headway {headway} s")
-    } else {
-        "constant spacing".into()
-    }
+    platoon_control::SpacingPolicy::from_headway(g.headway).to_string()
 }
 
 /// String stability of `k` for the config's platoon and, for a preset topology, for the same
@@ -251,8 +242,9 @@ struct BlockReport {
 }
 
 fn check_gain(a: CheckGainArgs) -> Result<()> {
-    let (config, scenario, _) =
-        crate::run::load(a.config.as_deref(), platoon_config::PAPER_TOML, "paper")?;
+    let platoon_config::Loaded {
+        config, scenario, ..
+    } = platoon_config::load_or(a.config.as_deref(), platoon_config::Embedded::Paper)?;
     let k = match &a.gain {
         Some(g) => parse_gain(g)?,
         None => config.control.gain,
@@ -459,8 +451,9 @@ fn synthesize(a: SynthesizeArgs) -> Result<()> {
     if !(a.star_fraction > 0.0 && a.star_fraction < 1.0) {
         bail!("--star-fraction must be in (0, 1)");
     }
-    let (config, scenario, _) =
-        crate::run::load(a.config.as_deref(), platoon_config::PAPER_TOML, "paper")?;
+    let platoon_config::Loaded {
+        config, scenario, ..
+    } = platoon_config::load_or(a.config.as_deref(), platoon_config::Embedded::Paper)?;
     let n = scenario.topology.followers();
     let g = coupling(&scenario, a.time_headway)?;
     let tau = scenario.control.tau_nominal;

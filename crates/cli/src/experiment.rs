@@ -305,14 +305,15 @@ fn scaling(args: ScalingArgs) -> Result<()> {
             })
         })
         .collect::<Result<_>>()?;
-    let (base, scenario0, _) =
-        crate::run::load(args.config.as_deref(), platoon_config::PAPER_TOML, "paper")?;
-    let label = args
-        .config
-        .as_ref()
-        .map_or("<embedded configs/paper.toml>".to_string(), |p| {
-            p.display().to_string()
-        });
+    let platoon_config::Loaded {
+        config: base,
+        scenario: scenario0,
+        ..
+    } = platoon_config::load_or(args.config.as_deref(), platoon_config::Embedded::Paper)?;
+    let label = args.config.as_ref().map_or_else(
+        || platoon_config::Embedded::Paper.label(),
+        |p| p.display().to_string(),
+    );
     let out = args
         .out
         .unwrap_or_else(|| PathBuf::from("runs/scaling-experiment"));
@@ -574,17 +575,14 @@ fn degradation(args: DegradationArgs) -> Result<()> {
     if args.followers.is_empty() || args.followers.contains(&0) {
         anyhow::bail!("--followers needs platoon sizes of at least one follower, e.g. 4,10");
     }
-    let (base, _, _) = crate::run::load(
+    let platoon_config::Loaded { config: base, .. } = platoon_config::load_or(
         args.config.as_deref(),
-        platoon_config::DEGRADATION_TOML,
-        "degradation",
+        platoon_config::Embedded::Degradation,
     )?;
-    let label = args
-        .config
-        .as_ref()
-        .map_or("<embedded configs/degradation.toml>".to_string(), |p| {
-            p.display().to_string()
-        });
+    let label = args.config.as_ref().map_or_else(
+        || platoon_config::Embedded::Degradation.label(),
+        |p| p.display().to_string(),
+    );
     let out = args
         .out
         .unwrap_or_else(|| PathBuf::from("runs/degradation"));
@@ -733,11 +731,11 @@ pub fn table1_rules(base: &Scenario) -> Vec<(&'static str, TriggerRule)> {
 }
 
 fn table1(args: Table1Args) -> Result<()> {
-    let (config, base, _) = crate::run::load(
-        args.config.as_deref(),
-        platoon_config::TABLE1_TOML,
-        "table1",
-    )?;
+    let platoon_config::Loaded {
+        config,
+        scenario: base,
+        ..
+    } = platoon_config::load_or(args.config.as_deref(), platoon_config::Embedded::Table1)?;
     if !matches!(base.control.rule, TriggerRule::Dynamic { .. }) {
         anyhow::bail!("the base config must use trigger.rule = \"dynamic\" (its phi, rho, eta, theta0 define the DETM row)");
     }
@@ -871,8 +869,11 @@ fn error_figure(dir: &RunDir, name: &str, curves: &[(String, Vec<(f64, f64)>)]) 
 }
 
 fn robust(args: RobustArgs) -> Result<()> {
-    let (config, mut base, _) =
-        crate::run::load(args.config.as_deref(), platoon_config::PAPER_TOML, "paper")?;
+    let platoon_config::Loaded {
+        config,
+        scenario: mut base,
+        ..
+    } = platoon_config::load_or(args.config.as_deref(), platoon_config::Embedded::Paper)?;
     base.dos = platoon_attacks::DosSchedule::none();
     let h = platoon_synthesis::Coupling::time_headway(base.topology.h_matrix(), base.headway());
     let tau = base.control.tau_nominal;
@@ -975,8 +976,11 @@ fn topologies(args: TopologiesArgs) -> Result<()> {
     if args.sizes.is_empty() || args.sizes.contains(&0) {
         anyhow::bail!("--sizes needs platoon sizes of at least one follower, e.g. 2,4,6");
     }
-    let (config, base, _) =
-        crate::run::load(args.config.as_deref(), platoon_config::PAPER_TOML, "paper")?;
+    let platoon_config::Loaded {
+        config,
+        scenario: base,
+        ..
+    } = platoon_config::load_or(args.config.as_deref(), platoon_config::Embedded::Paper)?;
     let TriggerRule::Dynamic { phi, rho, eta, .. } = base.control.rule else {
         anyhow::bail!("the base config must use trigger.rule = \"dynamic\" (varsigma1 depends on its phi, rho, eta)");
     };

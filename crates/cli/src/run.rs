@@ -2,7 +2,7 @@
 use crate::output::RunDir;
 use crate::plots;
 use anyhow::{Context, Result};
-use platoon_config::{Config, ConfigError};
+use platoon_config::{Config, Transport};
 use platoon_sim::{Scenario, StepRow, Summary};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -97,42 +97,12 @@ pub enum InjectorMode {
     After,
 }
 
-/// How the processes of a run are connected.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum Transport {
-    /// Separate processes over iceoryx2 shared memory.
-    Iceoryx2,
-    /// One process, no IPC.
-    Inproc,
-}
-
-/// Loads the config named on the command line or, without one, an embedded config (`name` is
-/// its stem, e.g. `paper` for configs/paper.toml). Also returns the stem for default run names.
-pub fn load(
-    config: Option<&Path>,
-    embedded: &str,
-    name: &str,
-) -> Result<(Config, Scenario, String), ConfigError> {
-    match config {
-        Some(path) => {
-            let (c, s) = platoon_config::load(path)?;
-            let stem = path
-                .file_stem()
-                .map(|s| s.to_string_lossy().into_owned())
-                .unwrap_or_else(|| "run".into());
-            Ok((c, s, stem))
-        }
-        None => {
-            let label = format!("<embedded configs/{name}.toml>");
-            let (c, s) = platoon_config::parse(embedded, Path::new(&label))?;
-            Ok((c, s, name.into()))
-        }
-    }
-}
-
 pub fn run(args: Args) -> Result<()> {
-    let (mut config, mut scenario, stem) =
-        load(args.config.as_deref(), platoon_config::PAPER_TOML, "paper")?;
+    let platoon_config::Loaded {
+        mut config,
+        mut scenario,
+        stem,
+    } = platoon_config::load_or(args.config.as_deref(), platoon_config::Embedded::Paper)?;
     if let Some(file) = &args.design {
         let text = std::fs::read_to_string(file)
             .with_context(|| format!("reading the design {}", file.display()))?;
@@ -184,7 +154,7 @@ pub fn run(args: Args) -> Result<()> {
         let file = args
             .config
             .clone()
-            .unwrap_or_else(|| PathBuf::from("<embedded configs/paper.toml>"));
+            .unwrap_or_else(|| PathBuf::from(platoon_config::Embedded::Paper.label()));
         Some(crate::sumo::plan(&file, &config, &scenario)?)
     } else {
         None
@@ -682,7 +652,7 @@ fn write_run_json(dir: &RunDir, run_id: &str, scenario: &Scenario, observers: us
         "platoons": scenario.fleet.platoons,
         "vehicles_per_platoon": scenario.vehicles_per_platoon(),
         "spacing_m": scenario.spacing(),
-        "spacing_policy": scenario.spacing_policy(),
+        "spacing_policy": scenario.spacing_policy().name(),
         "time_headway_s": scenario.headway(),
         "dt_s": scenario.dt(),
         "steps": scenario.steps + 1,
@@ -721,7 +691,7 @@ pub fn write_outputs(
         if summary.vehicles.len() > 1 {
             // String (in)stability at a glance: the largest gap error along the platoon.
             let path = dir.path("gaps.png");
-            let policy = crate::design::policy_label(scenario.headway());
+            let policy = scenario.spacing_policy();
             plots::scatter_with_lines(
                 &path,
                 &format!("Largest |gap error to the predecessor| per follower ({policy})"),

@@ -7,9 +7,11 @@
 #![warn(missing_docs)]
 
 mod schema;
+mod transport;
 mod validate;
 
 pub use schema::*;
+pub use transport::Transport;
 pub use validate::to_scenario;
 
 use platoon_sim::Scenario;
@@ -44,6 +46,98 @@ impl fmt::Display for ConfigError {
 
 impl std::error::Error for ConfigError {}
 
+impl ConfigError {
+    /// What is wrong with `key` (dotted path; empty for the file as a whole) of `file`.
+    pub fn new(
+        file: impl Into<PathBuf>,
+        key: impl Into<String>,
+        message: impl Into<String>,
+    ) -> Self {
+        Self {
+            file: file.into(),
+            key: key.into(),
+            message: message.into(),
+            line: None,
+        }
+    }
+
+    /// The same error, placed at 1-based `line` when known.
+    pub fn at_line(mut self, line: Option<usize>) -> Self {
+        self.line = line;
+        self
+    }
+}
+
+/// The configs this crate embeds, so that commands run with nothing but the binary.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Embedded {
+    /// `configs/paper.toml`: the paper's Section IV scenario ([`PAPER_TOML`]).
+    Paper,
+    /// `configs/table1.toml`: Table I ([`TABLE1_TOML`]).
+    Table1,
+    /// `configs/degradation.toml`: graceful degradation ([`DEGRADATION_TOML`]).
+    Degradation,
+}
+
+impl Embedded {
+    /// Its stem in `configs/` (the default name of its runs).
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Paper => "paper",
+            Self::Table1 => "table1",
+            Self::Degradation => "degradation",
+        }
+    }
+
+    /// Its TOML text.
+    pub fn text(self) -> &'static str {
+        match self {
+            Self::Paper => PAPER_TOML,
+            Self::Table1 => TABLE1_TOML,
+            Self::Degradation => DEGRADATION_TOML,
+        }
+    }
+
+    /// The label its errors name in place of a file: `<embedded configs/paper.toml>`.
+    pub fn label(self) -> String {
+        format!("<embedded configs/{}.toml>", self.name())
+    }
+
+    /// Parses it.
+    pub fn parse(self) -> Result<(Config, Scenario), ConfigError> {
+        parse(self.text(), Path::new(&self.label()))
+    }
+}
+
+/// A loaded config: the resolved [`Config`], its [`Scenario`], and the stem that names its runs
+/// (the file's, or the embedded config's).
+#[derive(Debug, Clone)]
+pub struct Loaded {
+    /// The resolved config (every default written out).
+    pub config: Config,
+    /// What it runs.
+    pub scenario: Scenario,
+    /// The file's stem, or the embedded config's name.
+    pub stem: String,
+}
+
+/// Loads `path`, or without one the embedded config `default`.
+pub fn load_or(path: Option<&Path>, default: Embedded) -> Result<Loaded, ConfigError> {
+    let ((config, scenario), stem) = match path {
+        Some(path) => (
+            load(path)?,
+            path.file_stem()
+                .map_or_else(|| "run".into(), |s| s.to_string_lossy().into_owned()),
+        ),
+        None => (default.parse()?, default.name().into()),
+    };
+    Ok(Loaded {
+        config,
+        scenario,
+        stem,
+    })
+}
+
 /// The paper's Section IV scenario, embedded so `platoon run` works with nothing but cargo.
 pub const PAPER_TOML: &str = include_str!("../../../configs/paper.toml");
 
@@ -60,35 +154,27 @@ pub fn deserialize<T: serde::de::DeserializeOwned>(
         let line = inner
             .span()
             .map(|s| text[..s.start.min(text.len())].lines().count().max(1));
-        ConfigError {
-            file: file.to_path_buf(),
-            key: if key == "." { String::new() } else { key },
-            message: inner.message().trim().to_string(),
-            line,
-        }
+        ConfigError::new(
+            file,
+            if key == "." { String::new() } else { key },
+            inner.message().trim(),
+        )
+        .at_line(line)
     })
 }
 
 /// Parses TOML text (from `file`, used in errors) into a resolved config and its scenario.
 pub fn parse(text: &str, file: &Path) -> Result<(Config, Scenario), ConfigError> {
     let mut config: Config = deserialize(text, file)?;
-    let scenario = to_scenario(&mut config).map_err(|(key, message)| ConfigError {
-        file: file.to_path_buf(),
-        key,
-        message,
-        line: None,
-    })?;
+    let scenario =
+        to_scenario(&mut config).map_err(|(key, message)| ConfigError::new(file, key, message))?;
     Ok((config, scenario))
 }
 
 /// Reads and parses a config file.
 pub fn load(path: &Path) -> Result<(Config, Scenario), ConfigError> {
-    let text = std::fs::read_to_string(path).map_err(|e| ConfigError {
-        file: path.to_path_buf(),
-        key: String::new(),
-        message: format!("cannot read the config: {e}"),
-        line: None,
-    })?;
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| ConfigError::new(path, "", format!("cannot read the config: {e}")))?;
     parse(&text, path)
 }
 

@@ -24,10 +24,12 @@
 
 mod controller;
 pub mod fallback;
+mod spacing;
 mod trigger;
 
 pub use controller::{FollowerStep, PlatoonController, RejectCounts, PLAUSIBLE_ACCEL};
 pub use fallback::{FallbackMode, FallbackParams, Mode};
+pub use spacing::SpacingPolicy;
 pub use trigger::{ControllerParams, ParamsError, TriggerRule};
 
 use platoon_model::{State, VehicleId};

@@ -9,7 +9,7 @@
 //! `platoon run` is gone. An error you return names the injector and the step in the run's
 //! summary. The built-in channel ([`crate::nodes::ChannelInjector`]) is written on this SDK.
 use crate::ipc::{Inlet, Outlet};
-use crate::nodes::{contract, reporting};
+use crate::session::{contract, reporting, Numbering};
 use crate::RunError;
 use platoon_sim::Scenario;
 use platoon_wire::{ControlMsg, LinkPacket, Node, Service, VehicleState};
@@ -98,7 +98,7 @@ pub fn run_on(
 ) -> Result<(), RunError> {
     reporting(run_id, ports.role, |ctx, k| {
         let e = &ctx.endpoint;
-        let vehicles = crate::nodes::Numbering::of(scenario).vehicles();
+        let vehicles = Numbering::of(scenario).vehicles();
         let mut states_in: Inlet<VehicleState> =
             Inlet::new(&e.open_step_service(Service::States)?, Node::Plant)?;
         let from = if ports.input == Service::Gated {

@@ -19,6 +19,7 @@ pub mod injector;
 pub mod ipc;
 pub mod nodes;
 pub mod orchestrator;
+pub mod session;
 pub mod timing;
 
 pub use orchestrator::{orchestrate, DuplicateSamples, Options, Outcome, Program};

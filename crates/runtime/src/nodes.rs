@@ -1,9 +1,12 @@
-//! The plant, controller and (Rust) injector processes. Each composes the pure core and blocks
-//! on its wake-up listener between samples; none of them busy-polls.
-use crate::ipc::{wait, ControlInlet, ControlOutlet, Endpoint, Inlet, Outlet};
+//! The plant, controller and (Rust) injector processes, written on [`crate::session`]. Each
+//! composes the pure core and blocks on its wake-up listener between samples; none of them
+//! busy-polls. The built-in channel is an injector on the SDK ([`crate::injector`]).
+use crate::ipc::{Inlet, Outlet};
+use crate::session::{
+    contract, deliveries_from_wire, packet_from_wire, packet_to_wire, reporting, states_from_wire,
+    Numbering,
+};
 use crate::{monotonic_ns, RunError};
-use iceoryx2::port::listener::Listener;
-use iceoryx2::prelude::ipc;
 use platoon_attacks::channel::{Channel, ChannelEvent};
 use platoon_control::fallback::{radar_truth, RadarTruth};
 use platoon_control::{Delivery, Packet, PlatoonController};
@@ -11,158 +14,6 @@ use platoon_model::{State, VehicleId};
 use platoon_sim::{Plant, Scenario};
 use platoon_wire::{Command, ControlMsg, LinkPacket, Node, Service, V2vPacket, VehicleState};
 use std::path::Path;
-use std::time::Duration;
-
-/// How long a node sleeps between checks that its orchestrator is still there.
-const TICK: Duration = Duration::from_millis(200);
-
-/// What every node has: its endpoint, wake-up listener, the control channel and its status
-/// outlet, and the pid of the orchestrator that started it.
-pub(crate) struct Ctx {
-    role: Node,
-    pub(crate) endpoint: Endpoint,
-    listener: Listener<ipc::Service>,
-    control: ControlInlet,
-    status: ControlOutlet,
-    parent: u32,
-    started: bool,
-}
-
-impl Ctx {
-    fn new(run_id: &str, role: Node) -> Result<Self, RunError> {
-        let endpoint = Endpoint::new(run_id, role)?;
-        let control = ControlInlet::new(&endpoint.control_service(Service::Control, false)?)?;
-        let status = endpoint.control_outlet(
-            &endpoint.control_service(Service::Status, false)?,
-            Service::Status,
-        )?;
-        Ok(Self {
-            listener: endpoint.listener()?,
-            role,
-            endpoint,
-            control,
-            status,
-            parent: std::os::unix::process::parent_id(),
-            started: false,
-        })
-    }
-
-    fn status(&self, kind: u32, step: u64) -> Result<(), RunError> {
-        self.status.send(ControlMsg::new(kind, self.role, step))
-    }
-
-    /// Blocks until notified (or a tick passes). `Ok(false)` means STOP: exit cleanly.
-    pub(crate) fn wait(&mut self) -> Result<bool, RunError> {
-        wait(&self.listener, TICK)?;
-        while let Some(m) = self.control.next()? {
-            match m.kind {
-                ControlMsg::START => self.started = true,
-                ControlMsg::STOP => return Ok(false),
-                ControlMsg::ABORT => return Err(RunError::Aborted(m.reason())),
-                _ => {}
-            }
-        }
-        if std::os::unix::process::parent_id() != self.parent {
-            return Err(RunError::Orphaned);
-        }
-        Ok(true)
-    }
-
-    /// Reports READY and waits for START.
-    pub(crate) fn ready(&mut self) -> Result<bool, RunError> {
-        self.status(ControlMsg::READY, 0)?;
-        while !self.started {
-            if !self.wait()? {
-                return Ok(false);
-            }
-        }
-        Ok(true)
-    }
-
-    /// After the last step: report DONE (with `msg`) and wait for STOP.
-    pub(crate) fn done(&mut self, msg: ControlMsg) -> Result<(), RunError> {
-        self.status.send(msg)?;
-        while self.wait()? {}
-        Ok(())
-    }
-
-    /// Tells the orchestrator why this node stops.
-    fn report(&self, step: u64, e: &RunError) {
-        let _ = self
-            .status
-            .send(ControlMsg::new(ControlMsg::FAILED, self.role, step).with_reason(&e.to_string()));
-    }
-}
-
-pub(crate) fn contract(node: Node, message: String) -> RunError {
-    RunError::Contract {
-        node: node.name(),
-        message,
-    }
-}
-
-/// Runs `body` and reports its failure on the status channel (the orchestrator names us).
-pub(crate) fn reporting(
-    run_id: &str,
-    role: Node,
-    body: impl FnOnce(&mut Ctx, &mut u64) -> Result<(), RunError>,
-) -> Result<(), RunError> {
-    let mut ctx = Ctx::new(run_id, role)?;
-    let mut step = 0;
-    let r = body(&mut ctx, &mut step);
-    if let Err(e) = &r {
-        if !matches!(e, RunError::Orphaned | RunError::Aborted(_)) {
-            ctx.report(step, e);
-        }
-    }
-    r
-}
-
-/// Vehicle numbering of a fleet: vehicle `i` of platoon `j` has the global id `j * (N + 1) + i`
-/// on the wire; follower commands are indexed `j * N + i - 1`.
-#[derive(Debug, Clone, Copy)]
-pub struct Numbering {
-    /// N + 1.
-    pub per_platoon: usize,
-    /// Number of platoons.
-    pub platoons: usize,
-}
-
-impl Numbering {
-    /// The numbering of `scenario`'s fleet.
-    pub fn of(scenario: &Scenario) -> Self {
-        Self {
-            per_platoon: scenario.vehicles_per_platoon(),
-            platoons: scenario.fleet.platoons,
-        }
-    }
-
-    /// All vehicles.
-    pub fn vehicles(&self) -> usize {
-        self.per_platoon * self.platoons
-    }
-
-    /// All followers.
-    pub fn followers(&self) -> usize {
-        (self.per_platoon - 1) * self.platoons
-    }
-
-    /// The wire id of vehicle `i` of platoon `j`.
-    pub fn global(&self, j: usize, i: VehicleId) -> u32 {
-        (j * self.per_platoon + i.index()) as u32
-    }
-
-    /// Platoon and vehicle of a wire id, if it exists.
-    pub fn split(&self, g: u32) -> Option<(usize, VehicleId)> {
-        let g = g as usize;
-        (g < self.vehicles()).then(|| {
-            (
-                g / self.per_platoon,
-                VehicleId((g % self.per_platoon) as u16),
-            )
-        })
-    }
-}
 
 /// The native plant process: integrates every vehicle with the model of `platoon-sim`.
 pub fn plant(run_id: &str, scenario: &Scenario) -> Result<(), RunError> {
@@ -379,80 +230,6 @@ pub fn controller(run_id: &str, scenario: &Scenario) -> Result<(), RunError> {
             }
         }
     })
-}
-
-/// Plant states from the wire, leader first; the plant must send every vehicle in order.
-pub fn states_from_wire(s: &[VehicleState], vehicles: usize) -> Result<Vec<State>, RunError> {
-    if s.len() != vehicles || s.iter().enumerate().any(|(i, x)| x.vehicle as usize != i) {
-        return Err(contract(
-            Node::Plant,
-            format!(
-                "a state batch must list vehicles 0..{vehicles} in order, got {} entries",
-                s.len()
-            ),
-        ));
-    }
-    Ok(s.iter().map(|x| State::new(x.p, x.v, x.a)).collect())
-}
-
-/// Sorts an rx batch into each platoon's deliveries and jammed notices (both cleared first).
-/// Whatever the items hold, nothing panics: a receiver no vehicle has goes to platoon 0 as a
-/// delivery to an unknown receiver (its controllers count it), a sender of another platoon or
-/// of no vehicle becomes an unknown sender, a jammed notice for no vehicle is ignored.
-pub fn deliveries_from_wire(
-    items: &[LinkPacket],
-    num: Numbering,
-    deliveries: &mut [Vec<Delivery>],
-    jammed: &mut [bool],
-) {
-    for d in deliveries.iter_mut() {
-        d.clear();
-    }
-    jammed.fill(false);
-    for it in items {
-        let Some((j, receiver)) = num.split(it.receiver) else {
-            if it.kind != LinkPacket::JAMMED {
-                deliveries[0].push(Delivery {
-                    receiver: VehicleId(u16::MAX),
-                    packet: packet_from_wire(&it.packet),
-                });
-            }
-            continue;
-        };
-        match it.kind {
-            LinkPacket::JAMMED => jammed[it.receiver as usize] = true,
-            _ => {
-                let mut packet = packet_from_wire(&it.packet);
-                packet.sender = match num.split(it.packet.sender) {
-                    Some((js, i)) if js == j => i,
-                    _ => VehicleId(u16::MAX),
-                };
-                deliveries[j].push(Delivery { receiver, packet });
-            }
-        }
-    }
-}
-
-/// A packet onto the wire.
-pub fn packet_to_wire(p: &Packet, stamp_ns: u64) -> V2vPacket {
-    V2vPacket {
-        sender: u32::from(p.sender.0),
-        seq: p.seq,
-        step: p.step,
-        stamp_ns,
-        state: [p.state[0], p.state[1], p.state[2]],
-    }
-}
-
-/// A packet off the wire. A sender id that does not fit a `VehicleId` becomes one no vehicle
-/// has, so the controller refuses it as an unknown sender.
-pub fn packet_from_wire(p: &V2vPacket) -> Packet {
-    Packet {
-        sender: VehicleId(u16::try_from(p.sender).unwrap_or(u16::MAX)),
-        seq: p.seq,
-        step: p.step,
-        state: State::from(p.state),
-    }
 }
 
 /// The built-in attack injector: the channel of `platoon-attacks` between the controllers, one

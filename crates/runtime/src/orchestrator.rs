@@ -2,7 +2,7 @@
 //! processes, waits until all are ready, records every step, and shuts everything down, on
 //! success or failure, leaving no process behind.
 use crate::ipc::{wait, ControlInlet, Endpoint, Inlet};
-use crate::nodes::states_from_wire;
+use crate::session::{deliveries_from_wire, packet_from_wire, states_from_wire, Numbering};
 use crate::timing::{StageClock, Timing};
 use crate::RunError;
 use platoon_control::{FollowerStep, RejectCounts};
@@ -435,7 +435,7 @@ struct Observe {
 
 impl Observe {
     fn create(e: &Endpoint, observers: usize, scenario: &Scenario) -> Result<Self, RunError> {
-        let vehicles = crate::nodes::Numbering::of(scenario).vehicles();
+        let vehicles = Numbering::of(scenario).vehicles();
         macro_rules! stream {
             ($o:expr, $len:expr) => {{
                 let service = e.create_observe_service($o, observers)?;
@@ -599,7 +599,7 @@ fn node_command(opts: &Options, node: Node) -> Process {
 struct Recorder<'a> {
     scenario: &'a Scenario,
     replicas: Vec<Scenario>,
-    num: crate::nodes::Numbering,
+    num: Numbering,
     step: u64,
     last_progress: Instant,
     rows: Vec<StepRow>,
@@ -613,7 +613,7 @@ struct Recorder<'a> {
 
 impl<'a> Recorder<'a> {
     fn new(scenario: &'a Scenario) -> Self {
-        let num = crate::nodes::Numbering::of(scenario);
+        let num = Numbering::of(scenario);
         Self {
             scenario,
             replicas: scenario.replicas(),
@@ -642,7 +642,7 @@ impl<'a> Recorder<'a> {
         let states = states_from_wire(s, num.vehicles())?;
         // The rx batch, sorted as the controllers sort it: deliveries per platoon and who was
         // told its channel was jammed (for the rows and for the wire tally below).
-        crate::nodes::deliveries_from_wire(r, num, &mut self.deliveries, &mut self.jammed);
+        deliveries_from_wire(r, num, &mut self.deliveries, &mut self.jammed);
         if c.len() != num.followers() {
             return Err(RunError::Contract {
                 node: "controller",
@@ -687,7 +687,7 @@ impl<'a> Recorder<'a> {
                 let (jr, receiver) = num.split(it.receiver)?;
                 let (js, sender) = num.split(it.packet.sender)?;
                 (jr == j && js == j).then(|| {
-                    let mut p = crate::nodes::packet_from_wire(&it.packet);
+                    let mut p = packet_from_wire(&it.packet);
                     p.sender = sender;
                     (receiver, p)
                 })

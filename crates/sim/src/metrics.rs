@@ -186,7 +186,7 @@ pub struct Summary {
     /// How often event conditions were checked (s).
     pub check_period_s: f64,
     /// The spacing policy: `constant` or `time_headway`.
-    pub spacing_policy: &'static str,
+    pub spacing_policy: String,
     /// Its time headway (s; 0 with constant spacing).
     pub time_headway_s: f64,
     /// Broadcasts per follower (keys are follower ids).
@@ -277,7 +277,7 @@ impl MetricsAccumulator {
             dt: scenario.dt(),
             rule: scenario.control.rule.name(),
             check_period: f64::from(scenario.control.check_steps) * scenario.dt(),
-            spacing_policy: scenario.spacing_policy(),
+            spacing_policy: scenario.spacing_policy().name(),
             spacing: scenario.spacing(),
             headway: scenario.headway(),
             vehicle_length: scenario.vehicle_length,
@@ -418,7 +418,7 @@ impl MetricsAccumulator {
             duration_s: self.last_t,
             rule: self.rule.to_string(),
             check_period_s: self.check_period,
-            spacing_policy: self.spacing_policy,
+            spacing_policy: self.spacing_policy.into(),
             time_headway_s: self.headway,
             triggers: vehicles
                 .iter()

@@ -104,13 +104,9 @@ impl Scenario {
         self.control.headway
     }
 
-    /// The spacing policy's name: `constant` or `time_headway`.
-    pub fn spacing_policy(&self) -> &'static str {
-        if self.control.headway > 0.0 {
-            "time_headway"
-        } else {
-            "constant"
-        }
+    /// The spacing policy.
+    pub fn spacing_policy(&self) -> platoon_control::SpacingPolicy {
+        platoon_control::SpacingPolicy::from_headway(self.control.headway)
     }
 
     /// The end time `steps dt` (s).

@@ -21,6 +21,7 @@ mod sdp;
 pub mod string;
 
 pub use design::{design_theorem1, Design, DesignSpec};
+pub use sdp::SdpError;
 pub use string::{string_stability, StringStability, TauStringStability};
 
 pub use lmi::{

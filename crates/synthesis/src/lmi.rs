@@ -1,5 +1,5 @@
 //! LMI (13) of Theorem 1, its SDP on clarabel, and certificates.
-use crate::sdp::{dm, solve, sym_basis3, Lmi};
+use crate::sdp::{dm, solve, sym_basis3, Lmi, SdpError};
 use nalgebra::{DMatrix, Matrix3, RowVector3, Vector3};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -14,12 +14,22 @@ pub enum LmiError {
     #[error("the SDP solver stopped with status {0}")]
     Solver(String),
     /// This build has no SDP solver (the system OpenBLAS was missing when it was built).
-    #[error("this build of platoon has no SDP solver: install OpenBLAS (Debian: apt-get install libopenblas-dev; .ci/run does it) and rebuild")]
+    #[error("{}", SdpError::NoSolver)]
     NoSolver,
     /// The solver reported a solution that fails the independent re-check (at the edge of
     /// feasibility): not a certificate.
     #[error("the solver's answer fails the independent re-check (largest eigenvalue {0:.3e})")]
     NotCertified(f64),
+}
+
+/// The SDP layer's failures, as the LMI layer reports them (the same words).
+impl From<SdpError> for LmiError {
+    fn from(e: SdpError) -> Self {
+        match e {
+            SdpError::Solver(status) => Self::Solver(status),
+            SdpError::NoSolver => Self::NoSolver,
+        }
+    }
 }
 
 /// The nominal third-order model: `A = [[0,1,0],[0,0,1],[0,0,-1/tau]]`, `B = [0,0,1/tau]^T`.

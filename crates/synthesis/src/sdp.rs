@@ -1,6 +1,5 @@
 //! The little SDP layer both the analysis and the synthesis use: linear matrix inequalities
 //! `F0 + sum_i x_i F_i <= 0` as clarabel PSD-cone rows, scalar rows `a x <= b`, and a solve.
-use crate::lmi::LmiError;
 use nalgebra::{DMatrix, Matrix3};
 
 /// Column-major upper triangle of a symmetric matrix, off-diagonals scaled by sqrt(2): clarabel's
@@ -92,14 +91,25 @@ impl Lmi {
     }
 }
 
+/// Why the SDP solver gave no answer (infeasibility is an answer: `Ok(None)`).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SdpError {
+    /// The solver failed (numerical trouble, iteration limit).
+    #[error("the SDP solver stopped with status {0}")]
+    Solver(String),
+    /// This build has no SDP solver (the system OpenBLAS was missing when it was built).
+    #[error("this build of platoon has no SDP solver: install OpenBLAS (Debian: apt-get install libopenblas-dev; .ci/run does it) and rebuild")]
+    NoSolver,
+}
+
 /// Without the system OpenBLAS there is no SDP solver (see build.rs): say what to install.
 #[cfg(not(sdp_solver))]
 pub(crate) fn solve(
     _lmis: &[Lmi],
     _rows: &[(Vec<f64>, f64)],
     _cost: &[f64],
-) -> Result<Option<Vec<f64>>, LmiError> {
-    Err(LmiError::NoSolver)
+) -> Result<Option<Vec<f64>>, SdpError> {
+    Err(SdpError::NoSolver)
 }
 
 /// Minimises `cost . x` subject to the LMIs and the scalar rows `row . x <= b`. `Ok(None)`:
@@ -109,7 +119,7 @@ pub(crate) fn solve(
     lmis: &[Lmi],
     rows: &[(Vec<f64>, f64)],
     cost: &[f64],
-) -> Result<Option<Vec<f64>>, LmiError> {
+) -> Result<Option<Vec<f64>>, SdpError> {
     use clarabel::algebra::CscMatrix;
     use clarabel::solver::{
         DefaultSettingsBuilder, DefaultSolver, IPSolver, SolverStatus, SupportedConeT,
@@ -175,9 +185,9 @@ pub(crate) fn solve(
         tune(&mut builder);
         let settings = builder
             .build()
-            .map_err(|e| LmiError::Solver(e.to_string()))?;
+            .map_err(|e| SdpError::Solver(e.to_string()))?;
         let mut solver = DefaultSolver::new(&q, cost, &a, &b, &cones, settings)
-            .map_err(|e| LmiError::Solver(format!("{e:?}")))?;
+            .map_err(|e| SdpError::Solver(format!("{e:?}")))?;
         solver.solve();
         match solver.solution.status {
             SolverStatus::Solved | SolverStatus::AlmostSolved => {
@@ -189,7 +199,7 @@ pub(crate) fn solve(
             other => failures.push(format!("{other:?} with {what}")),
         }
     }
-    Err(LmiError::Solver(format!(
+    Err(SdpError::Solver(format!(
         "{} (the problem is badly scaled for this size: try a smaller --c, a gain of smaller norm, or fewer followers)",
         failures.join(", ")
     )))
