@@ -819,17 +819,28 @@ mod tests {
     const PAPER_K: [f64; 3] = [4.81, 9.12, 2.97];
 
     /// Issue 14: PLF with 20 followers ended in `NumericalError` with clarabel's default
-    /// settings; the retries with more regularisation solve it (the ratio is the one N = 10 and
-    /// N = 50 give).
+    /// settings; the retries with more regularisation solve it, to a ratio between the ones
+    /// N = 10 and N = 50 give (the ratio grows with N towards about 179.4 on PLF).
+    ///
+    /// The ratios are the README's figures (and BENCHMARKS.md's for 10 and 50), measured by this
+    /// code, asserted to the printed two decimals: the SDP minimises the ratio itself, to the
+    /// solver's tolerance (far below 0.005), and is deterministic, so only a different answer
+    /// moves them. Update README.md with any change.
     #[test]
     fn numerical_trouble_is_retried_before_it_is_reported() {
-        let Feasibility::Feasible(cert) =
-            theorem1_min_ratio(PAPER_K, 0.0, &h(Preset::Plf, 20), 0.5, 1e-6).unwrap()
-        else {
-            panic!("Theorem 1 should be feasible for the paper's K on PLF");
-        };
-        assert!((cert.ratio - 179.3).abs() < 1.0, "{}", cert.ratio);
-        assert!(cert.verify().unwrap().holds);
+        for (n, printed) in [(10, 178.73), (20, 179.34), (50, 179.39)] {
+            let Feasibility::Feasible(cert) =
+                theorem1_min_ratio(PAPER_K, 0.0, &h(Preset::Plf, n), 0.5, 1e-6).unwrap()
+            else {
+                panic!("Theorem 1 should be feasible for the paper's K on PLF with {n}");
+            };
+            assert!(
+                (cert.ratio - printed).abs() < 0.005,
+                "PLF {n}: {} is not {printed}",
+                cert.ratio
+            );
+            assert!(cert.verify().unwrap().holds);
+        }
     }
 
     /// Issue 14: on a grid of presets and sizes no size ends in a raw solver status. Before P
