@@ -129,6 +129,9 @@ impl Assumption2 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::oracle::{bounds_on_grid, run, Oracle, Verdict};
+    use proptest::prelude::*;
+    use proptest::test_runner::TestCaseError;
 
     const PAPER: Assumption2 = Assumption2 {
         T1: 2.0,
@@ -136,26 +139,6 @@ mod tests {
         D1: 6.0,
         D2: 11.33,
     };
-
-    /// Brute force over a fine grid of windows, with window ends just after attack starts.
-    fn brute(a: &Assumption2, s: &DosSchedule, horizon: f64) -> (f64, f64) {
-        let mut points: Vec<f64> = vec![0.0, horizon];
-        for iv in s.intervals() {
-            points.extend([iv.start, iv.end, iv.start + 1e-12]);
-        }
-        let mut dmin = f64::INFINITY;
-        let mut fmin = f64::INFINITY;
-        for &t1 in &points {
-            for &t2 in &points {
-                if t2 <= t1 {
-                    continue;
-                }
-                dmin = dmin.min(a.D1 + (t2 - t1) / a.D2 - s.active_time(t1, t2));
-                fmin = fmin.min(a.T1 + (t2 - t1) / a.T2 - s.count(t1, t2) as f64);
-            }
-        }
-        (dmin, fmin)
-    }
 
     #[test]
     fn no_attack_holds() {
@@ -210,8 +193,20 @@ mod tests {
         assert!(!PAPER.check(&s, 55.0).holds);
     }
 
+    /// The paper's bounds rounded to multiples of 2^-10, as the oracle needs.
+    fn paper_on_grid() -> Assumption2 {
+        let grid = |x: f64| (x * 1024.0).round() / 1024.0;
+        Assumption2 {
+            T1: grid(PAPER.T1),
+            T2: grid(PAPER.T2),
+            D1: grid(PAPER.D1),
+            D2: grid(PAPER.D2),
+        }
+    }
+
     #[test]
-    fn exact_check_agrees_with_brute_force() {
+    fn exact_check_agrees_with_the_oracle_on_hand_written_schedules() {
+        let bounds = paper_on_grid();
         let schedules = [
             vec![
                 (1.0, 1.5),
@@ -226,17 +221,103 @@ mod tests {
             vec![(2.0, 6.0), (20.0, 0.1)],
         ];
         for pairs in schedules {
-            let s = DosSchedule::from_intervals(&pairs).unwrap();
-            let r = PAPER.check(&s, 55.0);
-            let (dmin, fmin) = brute(&PAPER, &s, 55.0);
-            assert!(
-                (r.worst_duration.unwrap().margin() - dmin).abs() < 1e-9,
-                "{pairs:?}"
-            );
-            assert!(
-                (r.worst_frequency.unwrap().margin() - fmin).abs() < 1e-6,
-                "{pairs:?}"
+            let (v, attacks) = compare(&pairs, 55.0, &bounds).unwrap();
+            assert_eq!(attacks, pairs.len(), "{pairs:?}");
+            assert!(v.duration_margin.is_some(), "{pairs:?}");
+        }
+    }
+
+    /// The checker against the brute-force oracle (`crate::oracle`) on one schedule given as
+    /// `(start, duration)` pairs: the same verdict, the same tightest margins, and reported
+    /// windows whose values are what the oracle measures on them. Returns the oracle's verdict and
+    /// the number of attacks.
+    ///
+    /// The checker works in f64 and accepts margins down to -1e-9; the oracle is exact. Margins
+    /// must agree to 1e-9 (the checker's rounding on these sizes is ~1e-13). The verdicts must
+    /// be equal unless an exact margin lies within 1e-6 of zero, which no schedule on the
+    /// quarter-second grid with parameters on a 1/8 grid can produce: their margins are
+    /// rationals with denominators dividing 1024, so they are 0 (an exact tie, where both say
+    /// "holds") or at least 1/1024 away from it.
+    fn compare(
+        pairs: &[(f64, f64)],
+        horizon: f64,
+        bounds: &Assumption2,
+    ) -> Result<(Verdict, usize), TestCaseError> {
+        let schedule = DosSchedule::from_intervals(pairs).unwrap();
+        let report = bounds.check(&schedule, horizon);
+        let ends: Vec<(f64, f64)> = pairs.iter().map(|&(a, d)| (a, a + d)).collect();
+        let oracle = Oracle::new(&ends, horizon);
+        let v = oracle.check(bounds);
+        let near_zero = |m: Option<f64>| m.is_some_and(|m| m.abs() < 1e-6 && m != 0.0);
+        if !near_zero(v.duration_margin) && !near_zero(v.frequency_margin) {
+            prop_assert_eq!(
+                report.holds,
+                v.holds(),
+                "{:?}: {:?} vs {:?}",
+                pairs,
+                report,
+                v
             );
         }
+        prop_assert_eq!(report.worst_duration.is_some(), oracle.any_attack());
+        prop_assert_eq!(report.worst_frequency.is_some(), oracle.any_attack());
+        if let (Some(w), Some(m)) = (report.worst_duration, v.duration_margin) {
+            prop_assert!((w.margin() - m).abs() < 1e-9, "duration {:?} vs {}", w, m);
+            prop_assert!(
+                (w.value - oracle.attack_time(w.t1, w.t2)).abs() < 1e-9,
+                "{:?}",
+                w
+            );
+            prop_assert!((w.bound - (bounds.D1 + (w.t2 - w.t1) / bounds.D2)).abs() < 1e-12);
+        }
+        if let (Some(w), Some(m)) = (report.worst_frequency, v.frequency_margin) {
+            prop_assert!((w.margin() - m).abs() < 1e-9, "frequency {:?} vs {}", w, m);
+            // The reported value counts the starts up to and including t2.
+            prop_assert_eq!(
+                w.value,
+                oracle.switches_through(w.t1, w.t2) as f64,
+                "{:?}",
+                w
+            );
+            prop_assert!((w.bound - (bounds.T1 + (w.t2 - w.t1) / bounds.T2)).abs() < 1e-12);
+        }
+        Ok((v, oracle.attacks()))
+    }
+
+    #[test]
+    fn exact_check_agrees_with_the_oracle_on_grid_schedules() {
+        // Up to 8 attacks (overlapping, touching, past the horizon) with starts and durations
+        // on a quarter-second grid and parameters on a 1/8 grid: every float in the checker is
+        // then nearly exact and the bounds often hold with exact equality, the case where the
+        // open and closed window ends decide the verdict.
+        let quarter = |lo: u32, hi: u32| (lo..=hi).prop_map(|k| f64::from(k) / 4.0);
+        let strategy = (
+            prop::collection::vec((quarter(0, 44 * 4), quarter(1, 8 * 4)), 0..=8),
+            quarter(20 * 4, 40 * 4),
+            prop_oneof![bounds_on_grid(2), bounds_on_grid(8)],
+        );
+        let t = run(1024, strategy, |(pairs, horizon, bounds)| {
+            compare(&pairs, horizon, &bounds)
+        });
+        assert!(t.holds > 0 && t.violates > 0, "{t:?}");
+        assert!(t.duration_violated > 0 && t.frequency_violated > 0, "{t:?}");
+        assert!(t.tight > 0, "{t:?}");
+    }
+
+    #[test]
+    fn exact_check_agrees_with_the_oracle_on_arbitrary_schedules() {
+        // Starts and durations anywhere (to 2^-40 s) and parameters on a 1/1024 grid.
+        let fine =
+            |lo: f64, hi: f64| (lo..hi).prop_map(|x| (x * 2f64.powi(40)).round() / 2f64.powi(40));
+        let strategy = (
+            prop::collection::vec((fine(0.0, 44.0), fine(0.01, 8.0)), 0..=8),
+            fine(20.0, 40.0),
+            bounds_on_grid(1024),
+        );
+        let t = run(1024, strategy, |(pairs, horizon, bounds)| {
+            compare(&pairs, horizon, &bounds)
+        });
+        assert!(t.holds > 0 && t.violates > 0, "{t:?}");
+        assert!(t.duration_violated > 0 && t.frequency_violated > 0, "{t:?}");
     }
 }

@@ -6,13 +6,16 @@
 //! * [`Assumption2`]: the frequency and duration bounds of De Persis and Tesi, checked **exactly**
 //!   over every window `[t1, t2)` (docs/paper-readings.md#R22), not over sampled windows.
 //! * [`RandomDos`]: a seeded generator whose schedules satisfy a given [`Assumption2`] by
-//!   construction (and the property tests check it with the exact checker).
+//!   construction (the property tests check it, and the checker, against a brute-force oracle
+//!   in exact arithmetic: `oracle.rs`).
 //! * [`channel::Channel`]: the V2V channel under the DoS schedule and link-level attacks
 //!   (Bernoulli and Gilbert-Elliott loss, delay, range jamming, replay, false data injection).
 #![warn(missing_docs)]
 
 mod assumption2;
 pub mod channel;
+#[cfg(test)]
+mod oracle;
 mod random;
 
 pub use assumption2::{Assumption2, Assumption2Report, Window};

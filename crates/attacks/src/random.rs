@@ -96,6 +96,7 @@ impl RandomDos {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::oracle::{bounds_on_grid, run, Oracle};
     use proptest::prelude::*;
 
     const PAPER: Assumption2 = Assumption2 {
@@ -128,33 +129,52 @@ mod tests {
         );
     }
 
-    proptest! {
-        #![proptest_config(ProptestConfig::with_cases(256))]
-        #[test]
-        fn generated_schedules_satisfy_assumption_2(
-            seed in any::<u64>(),
-            min_gap in 0.01f64..5.0,
-            extra_gap in 0.0f64..10.0,
-            min_duration in 0.01f64..4.0,
-            extra_duration in 0.0f64..10.0,
-            t1 in 1.0f64..4.0,
-            t2 in 0.5f64..20.0,
-            d1 in 0.1f64..10.0,
-            d2 in 1.01f64..20.0,
-            horizon in 1.0f64..500.0,
-        ) {
-            let bounds = Assumption2 { T1: t1, T2: t2, D1: d1, D2: d2 };
-            let g = RandomDos {
-                seed,
-                min_gap,
-                max_gap: min_gap + extra_gap,
-                min_duration,
-                max_duration: min_duration + extra_duration,
-            };
-            let s = g.generate(&bounds, horizon).unwrap();
-            let r = bounds.check(&s, horizon);
-            prop_assert!(r.holds, "{:?} violates {:?}: {:?}", s, bounds, r);
-            prop_assert!(s.intervals().iter().all(|iv| iv.end <= horizon));
-        }
+    #[test]
+    fn generated_schedules_satisfy_assumption_2_by_the_oracle() {
+        // Random seeds, generator settings and bounds (T1 from 1/8: below 1 the generator must
+        // give no attack); the bounds on a 1/1024 grid and the horizon below 512 s, as the
+        // exact oracle needs. Every schedule must be admissible by the oracle, exactly (no
+        // tolerance), and by the checker; and the generator must really have been held back by
+        // the bounds: some schedules sit within 1e-6 of a bound.
+        let strategy = (
+            (
+                any::<u64>(),
+                0.01f64..5.0,
+                0.0f64..10.0,
+                0.01f64..4.0,
+                0.0f64..10.0,
+            ),
+            bounds_on_grid(1024),
+            1.0f64..500.0,
+        );
+        let t = run(
+            512,
+            strategy,
+            |((seed, min_gap, extra_gap, min_duration, extra_duration), bounds, horizon)| {
+                let g = RandomDos {
+                    seed,
+                    min_gap,
+                    max_gap: min_gap + extra_gap,
+                    min_duration,
+                    max_duration: min_duration + extra_duration,
+                };
+                let s = g.generate(&bounds, horizon).unwrap();
+                let ends: Vec<(f64, f64)> =
+                    s.intervals().iter().map(|iv| (iv.start, iv.end)).collect();
+                prop_assert!(ends.iter().all(|&(_, end)| end <= horizon));
+                let oracle = Oracle::new(&ends, horizon);
+                let v = oracle.check(&bounds);
+                prop_assert!(v.holds(), "{:?} violates {:?}: {:?}", s, bounds, v);
+                let r = bounds.check(&s, horizon);
+                prop_assert!(r.holds, "{:?} violates {:?}: {:?}", s, bounds, r);
+                prop_assert_eq!(oracle.attacks(), ends.len());
+                if bounds.T1 < 1.0 {
+                    prop_assert!(ends.is_empty());
+                }
+                Ok((v, ends.len()))
+            },
+        );
+        assert_eq!(t.holds, t.cases, "{t:?}");
+        assert!(t.near > 0 && t.attacks > t.cases, "{t:?}");
     }
 }
