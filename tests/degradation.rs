@@ -38,7 +38,7 @@ fn acc_keeps_a_positive_gap_through_a_long_jam_on_the_braking_ramp_where_zero_co
     let (rows, acc) = run_rows(with(FallbackMode::Acc, false));
     assert!(!acc.safety.collided, "{:?}", acc.safety);
     assert!(acc.safety.min_gap_m > 2.0, "{:?}", acc.safety);
-    assert!(acc.safety.class != "severe", "{:?}", acc.safety);
+    assert!(acc.safety.class != platoon_sim::SafetyClass::Severe, "{:?}", acc.safety);
     // Every follower was in ACC for the jam, came back through the blend, and ends cooperative.
     for v in &acc.vehicles {
         let t = |m: &str| v.mode_time_s.get(m).copied().unwrap_or(0.0);

@@ -1,6 +1,8 @@
 //! The metrics a campaign collects per cell, read from the cell's `summary.json` (the same file
 //! `platoon run` writes), so a cell run anywhere (a local worker, a Dask worker, a co-simulation)
 //! reports the same numbers.
+use platoon_sim::{Summary, VehicleSummary};
+use serde::Deserialize;
 use serde_json::Value;
 use std::fmt;
 
@@ -166,55 +168,62 @@ pub fn columns(names: &[String], max_followers: usize) -> Vec<String> {
         .collect()
 }
 
-fn num(v: &Value) -> Metric {
-    v.as_f64().map_or(Metric::Empty, Metric::Num)
+/// A figure `summary.json` holds as a number (a non-finite one is written as `null`, and read
+/// back as NaN): not defined for this cell otherwise.
+fn finite(x: f64) -> Option<f64> {
+    x.is_finite().then_some(x)
 }
 
-fn int(v: &Value) -> Metric {
-    v.as_u64().map_or(Metric::Empty, Metric::Int)
+fn num(x: Option<f64>) -> Metric {
+    x.and_then(finite).map_or(Metric::Empty, Metric::Num)
 }
 
-fn vehicles(summary: &Value) -> &[Value] {
-    summary["vehicles"].as_array().map_or(&[], |v| v.as_slice())
+/// `fold` of `figure` over the followers; not defined if any follower lacks it (or there are
+/// none).
+fn over_vehicles(
+    summary: &Summary,
+    figure: impl Fn(&VehicleSummary) -> f64,
+    fold: fn(f64, f64) -> f64,
+) -> Metric {
+    summary
+        .vehicles
+        .iter()
+        .map(|v| finite(figure(v)))
+        .try_fold(None, |acc: Option<f64>, x| {
+            x.map(|x| Some(acc.map_or(x, |a| fold(a, x))))
+        })
+        .flatten()
+        .map_or(Metric::Empty, Metric::Num)
 }
 
-fn over_vehicles(summary: &Value, path: &[&str], fold: fn(f64, f64) -> f64) -> Metric {
-    let mut acc: Option<f64> = None;
-    for v in vehicles(summary) {
-        let mut x = v;
-        for p in path {
-            x = &x[*p];
-        }
-        let Some(x) = x.as_f64() else {
-            return Metric::Empty;
-        };
-        acc = Some(acc.map_or(x, |a| fold(a, x)));
-    }
-    acc.map_or(Metric::Empty, Metric::Num)
+/// Reads a cell's `summary.json` (what `platoon run` wrote, extra keys such as `sumo`
+/// ignored).
+pub fn read(summary: &Value) -> Result<Summary, String> {
+    Summary::deserialize(summary).map_err(|e| format!("summary.json is not a run summary: {e}"))
 }
 
 /// The values of the columns of `names` for one cell's summary.
-pub fn extract(names: &[String], max_followers: usize, summary: &Value) -> Vec<Metric> {
-    let fleet = summary.get("fleet").filter(|f| f.is_object());
-    let safety = &summary["safety"];
+pub fn extract(names: &[String], max_followers: usize, summary: &Summary) -> Vec<Metric> {
+    let fleet = summary.fleet.as_ref();
+    let safety = &summary.safety;
+    let followers = summary.vehicles.len();
     let mut out = Vec::new();
     for name in names {
         let m = match name.as_str() {
             "max_spacing_error_m" => match fleet {
-                Some(f) => f["per_platoon"]
-                    .as_array()
-                    .and_then(|ps| {
-                        ps.iter()
-                            .map(|p| p["max_spacing_error_m"].as_f64())
-                            .try_fold(0.0f64, |a, x| x.map(|x| a.max(x)))
-                    })
+                Some(f) => f
+                    .per_platoon
+                    .iter()
+                    .map(|p| finite(p.max_spacing_error_m))
+                    .try_fold(0.0f64, |a, x| x.map(|x| a.max(x)))
                     .map_or(Metric::Empty, Metric::Num),
-                None => over_vehicles(summary, &["spacing_error_m", "max_abs"], f64::max),
+                None => over_vehicles(summary, |v| v.spacing_error_m.max_abs, f64::max),
             },
             "rms_spacing_error_m" => {
-                let rms: Option<Vec<f64>> = vehicles(summary)
+                let rms: Option<Vec<f64>> = summary
+                    .vehicles
                     .iter()
-                    .map(|v| v["spacing_error_m"]["rms"].as_f64())
+                    .map(|v| finite(v.spacing_error_m.rms))
                     .collect();
                 match rms {
                     Some(r) if !r.is_empty() => {
@@ -224,78 +233,75 @@ pub fn extract(names: &[String], max_followers: usize, summary: &Value) -> Vec<M
                 }
             }
             "mean_spacing_error_m" => {
-                let n = vehicles(summary).len();
-                match over_vehicles(summary, &["spacing_error_m", "mean_abs"], |a, b| a + b) {
-                    Metric::Num(s) if n > 0 => Metric::Num(s / n as f64),
+                match over_vehicles(summary, |v| v.spacing_error_m.mean_abs, |a, b| a + b) {
+                    Metric::Num(s) if followers > 0 => Metric::Num(s / followers as f64),
                     _ => Metric::Empty,
                 }
             }
             "final_spacing_error_m" => {
-                over_vehicles(summary, &["spacing_error_m", "final_abs"], f64::max)
+                over_vehicles(summary, |v| v.spacing_error_m.final_abs, f64::max)
             }
-            "max_gap_error_m" => over_vehicles(summary, &["gap_error_m", "max_abs"], f64::max),
+            "max_gap_error_m" => over_vehicles(summary, |v| v.gap_error_m.max_abs, f64::max),
             "gap_error_growth" => {
-                let v = vehicles(summary);
-                let max = |x: Option<&Value>| x.and_then(|x| x["gap_error_m"]["max_abs"].as_f64());
+                let v = &summary.vehicles;
+                let max =
+                    |x: Option<&VehicleSummary>| x.and_then(|x| finite(x.gap_error_m.max_abs));
                 match (max(v.first()), max(v.last())) {
                     (Some(a), Some(b)) if v.len() > 1 && (b / a).is_finite() => Metric::Num(b / a),
                     _ => Metric::Empty,
                 }
             }
             "max_velocity_error_mps" => {
-                over_vehicles(summary, &["velocity_error_mps", "max_abs"], f64::max)
+                over_vehicles(summary, |v| v.velocity_error_mps.max_abs, f64::max)
             }
-            "min_gap_m" => num(&fleet.unwrap_or(safety)["min_gap_m"]),
-            "max_deceleration_mps2" => num(&fleet.unwrap_or(safety)["max_deceleration_mps2"]),
-            "safety_class" => fleet.unwrap_or(safety)["class"]
-                .as_str()
-                .map_or(Metric::Empty, |s| Metric::Text(s.into())),
-            "collided" => fleet.unwrap_or(safety)["collided"]
-                .as_bool()
-                .map_or(Metric::Empty, |c| Metric::Int(u64::from(c))),
-            "triggers_total" => int(&fleet.unwrap_or(summary)["triggers_total"]),
-            "triggers_per_follower" => {
-                let n = vehicles(summary).len();
-                match summary["triggers_total"].as_u64() {
-                    Some(t) if n > 0 => Metric::Num(t as f64 / n as f64),
-                    _ => Metric::Empty,
-                }
+            "min_gap_m" => num(Some(fleet.map_or(safety.min_gap_m, |f| f.min_gap_m))),
+            "max_deceleration_mps2" => {
+                num(Some(fleet.map_or(safety.max_deceleration_mps2, |f| {
+                    f.max_deceleration_mps2
+                })))
+            }
+            "safety_class" => Metric::Text(fleet.map_or(safety.class, |f| f.class).name().into()),
+            "collided" => Metric::Int(u64::from(fleet.map_or(safety.collided, |f| f.collided))),
+            "triggers_total" => {
+                Metric::Int(fleet.map_or(summary.triggers_total, |f| f.triggers_total))
+            }
+            "triggers_per_follower" if followers > 0 => {
+                Metric::Num(summary.triggers_total as f64 / followers as f64)
             }
             "triggers_by_follower" => {
                 for i in 1..=max_followers {
-                    out.push(int(&summary["triggers"][i.to_string()]));
+                    out.push(
+                        summary
+                            .triggers
+                            .get(&i.to_string())
+                            .map_or(Metric::Empty, |n| Metric::Int(*n)),
+                    );
                 }
                 continue;
             }
-            "min_inter_event_s" => num(&summary["min_inter_event_s"]),
-            "assumption2" => match summary["attack"]["assumption2"]["holds"].as_bool() {
-                Some(true) => Metric::Text("holds".into()),
-                Some(false) => Metric::Text("violated".into()),
+            "min_inter_event_s" => num(summary.min_inter_event_s),
+            "assumption2" => match &summary.attack.assumption2 {
+                Some(r) if r.holds => Metric::Text("holds".into()),
+                Some(_) => Metric::Text("violated".into()),
                 None => Metric::Empty,
             },
-            "attack_intervals" => int(&summary["attack"]["intervals"]),
-            "attacked_time_s" => num(&summary["attack"]["attacked_time_s"]),
-            "max_affected_time_s" => over_vehicles(summary, &["affected_time_s"], f64::max),
-            "rejected_packets" => summary["rejected_packets"]
-                .as_object()
-                .map(|o| o.values().filter_map(Value::as_u64).sum())
-                .map_or(Metric::Empty, Metric::Int),
-            "min_ttc_s" => num(&safety["min_ttc_s"]),
+            "attack_intervals" => Metric::Int(summary.attack.intervals as u64),
+            "attacked_time_s" => num(Some(summary.attack.attacked_time_s)),
+            "max_affected_time_s" => over_vehicles(summary, |v| v.affected_time_s, f64::max),
+            "rejected_packets" => Metric::Int(summary.rejected_packets.total()),
+            "min_ttc_s" => num(safety.min_ttc_s),
             "fallback_time_s" => Metric::Num(
-                vehicles(summary)
+                summary
+                    .vehicles
                     .iter()
-                    .filter_map(|v| v["mode_time_s"].as_object())
-                    .flat_map(|m| m.iter())
+                    .flat_map(|v| v.mode_time_s.iter())
                     .filter(|(mode, _)| mode.as_str() != "coop")
-                    .filter_map(|(_, t)| t.as_f64())
+                    .filter_map(|(_, t)| finite(*t))
                     .sum(),
             ),
-            "guard_activations" => Metric::Int(
-                vehicles(summary)
-                    .iter()
-                    .filter_map(|v| v["guard_activations"].as_u64())
-                    .sum(),
-            ),
+            "guard_activations" => {
+                Metric::Int(summary.vehicles.iter().map(|v| v.guard_activations).sum())
+            }
             _ => Metric::Empty,
         };
         out.push(m);
@@ -305,16 +311,15 @@ pub fn extract(names: &[String], max_followers: usize, summary: &Value) -> Vec<M
 
 /// Why a cell whose run finished must still count as failed: it diverged (non-finite errors,
 /// which `summary.json` writes as null) or stopped early.
-pub fn failure(summary: &Value) -> Option<String> {
-    if summary["complete"].as_bool() != Some(true) {
-        let why = summary["error"].as_str().unwrap_or("no reason given");
+pub fn failure(summary: &Summary) -> Option<String> {
+    if !summary.complete {
+        let why = summary.error.as_deref().unwrap_or("no reason given");
         return Some(format!("the run stopped early: {why}"));
     }
-    let diverged = vehicles(summary).iter().any(|v| {
-        v["spacing_error_m"]["max_abs"]
-            .as_f64()
-            .is_none_or(|x| !x.is_finite())
-    });
+    let diverged = summary
+        .vehicles
+        .iter()
+        .any(|v| !v.spacing_error_m.max_abs.is_finite());
     diverged.then(|| "the run diverged: a spacing error is not finite".to_string())
 }
 
@@ -322,26 +327,67 @@ pub fn failure(summary: &Value) -> Option<String> {
 mod tests {
     use super::*;
 
-    fn summary() -> Value {
-        serde_json::json!({
-            "complete": true,
-            "triggers": {"1": 10, "2": 20},
-            "triggers_total": 30,
-            "min_inter_event_s": 0.02,
-            "vehicles": [
-                {"spacing_error_m": {"max_abs": 1.5, "rms": 0.3, "mean_abs": 0.2, "final_abs": 0.01},
-                 "gap_error_m": {"max_abs": 2.0},
-                 "velocity_error_mps": {"max_abs": 1.0}, "affected_time_s": 2.0,
-                 "mode_time_s": {"coop": 50.0, "acc": 4.0, "blend": 1.0}, "guard_activations": 2},
-                {"spacing_error_m": {"max_abs": 0.5, "rms": 0.4, "mean_abs": 0.4, "final_abs": 0.02},
-                 "gap_error_m": {"max_abs": 0.5},
-                 "velocity_error_mps": {"max_abs": 2.0}, "affected_time_s": 3.0,
-                 "mode_time_s": {"coop": 52.5, "zero": 2.5}, "guard_activations": 1}
-            ],
-            "attack": {"intervals": 1, "attacked_time_s": 2.5, "assumption2": {"holds": false}},
-            "safety": {"collided": false, "min_gap_m": 7.0, "max_deceleration_mps2": 2.5, "class": "negligible", "min_ttc_s": 3.5},
-            "rejected_packets": {"non_finite": 1, "stale_seq": 2}
-        })
+    /// A real run's summary (the paper scenario, 10 steps) with the figures the tests expect.
+    fn summary() -> Summary {
+        let (_, mut scenario) = platoon_config::Embedded::Paper.parse().unwrap();
+        scenario.steps = 10;
+        let mut s = platoon_sim::run(scenario, |_| {}).unwrap();
+        s.vehicles.truncate(2);
+        s.triggers = [("1".to_string(), 10), ("2".to_string(), 20)].into();
+        s.triggers_total = 30;
+        s.min_inter_event_s = Some(0.02);
+        let figures = [
+            (
+                1.5,
+                0.3,
+                0.2,
+                0.01,
+                2.0,
+                1.0,
+                2.0,
+                2,
+                [("coop", 50.0), ("acc", 4.0), ("blend", 1.0)].as_slice(),
+            ),
+            (
+                0.5,
+                0.4,
+                0.4,
+                0.02,
+                0.5,
+                2.0,
+                3.0,
+                1,
+                [("coop", 52.5), ("zero", 2.5)].as_slice(),
+            ),
+        ];
+        for (v, (max, rms, mean, fin, gap, vel, affected, guard, modes)) in
+            s.vehicles.iter_mut().zip(figures)
+        {
+            v.spacing_error_m.max_abs = max;
+            v.spacing_error_m.rms = rms;
+            v.spacing_error_m.mean_abs = mean;
+            v.spacing_error_m.final_abs = fin;
+            v.gap_error_m.max_abs = gap;
+            v.velocity_error_mps.max_abs = vel;
+            v.affected_time_s = affected;
+            v.guard_activations = guard;
+            v.mode_time_s = modes.iter().map(|(m, t)| (m.to_string(), *t)).collect();
+        }
+        s.attack.intervals = 1;
+        s.attack.attacked_time_s = 2.5;
+        s.attack.assumption2 = Some(platoon_attacks::Assumption2Report {
+            holds: false,
+            worst_duration: None,
+            worst_frequency: None,
+        });
+        s.safety.collided = false;
+        s.safety.min_gap_m = 7.0;
+        s.safety.max_deceleration_mps2 = 2.5;
+        s.safety.class = platoon_sim::SafetyClass::Negligible;
+        s.safety.min_ttc_s = Some(3.5);
+        s.rejected_packets.non_finite = 1;
+        s.rejected_packets.stale_seq = 2;
+        s
     }
 
     #[test]
@@ -373,10 +419,18 @@ mod tests {
     #[test]
     fn diverged_and_incomplete_runs_fail() {
         let mut s = summary();
-        s["vehicles"][1]["spacing_error_m"]["max_abs"] = Value::Null;
+        s.vehicles[1].spacing_error_m.max_abs = f64::NAN;
+        // Through summary.json (NaN is written as null), as a campaign reads it.
+        let s = read(&serde_json::to_value(&s).unwrap()).unwrap();
         assert!(failure(&s).unwrap().contains("diverged"));
-        s["complete"] = Value::Bool(false);
-        s["error"] = Value::String("plant died".into());
+        assert_eq!(
+            extract(&["max_spacing_error_m".into()], 2, &s),
+            [Metric::Empty],
+            "a diverged follower leaves the largest error undefined"
+        );
+        let mut s = s;
+        s.complete = false;
+        s.error = Some("plant died".into());
         assert!(failure(&s).unwrap().contains("plant died"));
     }
 

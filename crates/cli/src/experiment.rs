@@ -107,7 +107,7 @@ struct ScalingRow {
     max_spacing_error_m: f64,
     min_gap_m: f64,
     collided: bool,
-    class: &'static str,
+    class: platoon_sim::SafetyClass,
     /// Predicted by the linearised analysis over the base's tau range.
     string_stable: bool,
     /// max |T_N1 / T_11|, the worst over the tau range.
@@ -155,7 +155,7 @@ struct DegradationRow {
     min_gap_m: f64,
     min_ttc_s: Option<f64>,
     max_deceleration_mps2: f64,
-    class: &'static str,
+    class: platoon_sim::SafetyClass,
     collided: bool,
     messages: u64,
     guard_activations: u64,

@@ -228,10 +228,10 @@ pub fn run(args: Args) -> Result<()> {
                 .is_some_and(|c| !c.is_empty())
             {
                 summary.safety.collided = true;
-                summary.safety.class = "severe";
+                summary.safety.class = platoon_sim::SafetyClass::Severe;
                 if let Some(f) = &mut summary.fleet {
                     f.collided = true;
-                    f.class = "severe";
+                    f.class = platoon_sim::SafetyClass::Severe;
                 }
             }
             extra.push(("sumo", report));

@@ -108,13 +108,7 @@ struct SumoSpec<'a> {
 }
 
 fn config_error(file: &Path, key: &str, message: String) -> anyhow::Error {
-    ConfigError {
-        file: file.to_path_buf(),
-        key: key.into(),
-        message,
-        line: None,
-    }
-    .into()
+    ConfigError::new(file, key, message).into()
 }
 
 /// A checked SUMO set-up, before any file is written.
@@ -228,7 +222,9 @@ pub fn plan<'a>(
     // Platoon 0 runs; the others are the same shifted back (to well under a millimetre).
     let back = scenario.fleet.offset(scenario.fleet.platoons - 1);
     let (mut lo, mut hi) = ((f64::INFINITY, 0.0), (f64::NEG_INFINITY, 0.0));
-    platoon_sim::run(scenario.clone(), |rows| {
+    let mut platoon0 = scenario.clone();
+    platoon0.fleet.platoons = 1;
+    platoon_sim::run(platoon0, |rows| {
         for r in rows {
             if r.p - back < lo.0 {
                 lo = (r.p - back, r.t);

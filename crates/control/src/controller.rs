@@ -4,7 +4,7 @@ use platoon_model::{FreeFlow, State, VehicleId};
 use platoon_topology::Topology;
 
 /// Packets a controller refused, by reason. A refused packet never changes an estimate.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct RejectCounts {
     /// NaN or infinite state.
     pub non_finite: u64,

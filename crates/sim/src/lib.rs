@@ -12,7 +12,7 @@ mod scenario;
 pub mod wire;
 
 pub use metrics::{
-    ErrorStats, FleetMetrics, FleetOverview, MetricsAccumulator, PlatoonBrief, Safety,
+    ErrorStats, FleetMetrics, FleetOverview, MetricsAccumulator, PlatoonBrief, Safety, SafetyClass,
     SafetyThresholds, Summary, VehicleSummary, VehicleWire, WireSummary,
 };
 pub use scenario::{Fleet, Scenario, ScenarioError};
@@ -428,14 +428,18 @@ impl FleetSimulation {
     }
 }
 
-/// Runs a whole scenario, calling `each` with the rows of every step, and returns its summary.
+/// Runs a whole scenario in process (every platoon of its fleet), calling `each` with the
+/// rows of every step (platoon by platoon, leader first), and returns its summary: platoon 0 in
+/// detail, the fleet in brief, and the wire tally, as `platoon run --transport inproc` records
+/// them.
 pub fn run(scenario: Scenario, mut each: impl FnMut(&[StepRow])) -> Result<Summary, ScenarioError> {
-    let mut sim = Simulation::new(scenario)?;
-    let mut metrics = MetricsAccumulator::new(sim.scenario());
+    let mut sim = FleetSimulation::new(&scenario)?;
+    let mut metrics = FleetMetrics::new(&scenario);
     while !sim.is_done() {
-        let rows = sim.step();
-        metrics.push(rows);
-        each(rows);
+        sim.step();
+        metrics.push_wire(sim.wire());
+        metrics.push(sim.rows());
+        each(sim.rows());
     }
-    Ok(metrics.finish(sim.controller().rejected()))
+    Ok(metrics.finish(sim.rejected()))
 }

@@ -1,19 +1,23 @@
 use crate::{Scenario, StepRow};
 use platoon_attacks::{Assumption2, Assumption2Report, DosSchedule};
 use platoon_control::RejectCounts;
-use serde::Serialize;
+use serde::{Deserialize, Deserializer, Serialize};
 use std::collections::BTreeMap;
 
 /// Mean, max and RMS of an error's magnitude over a run, and its final value.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct ErrorStats {
     /// Mean of |e| over all steps.
+    #[serde(deserialize_with = "nullable")]
     pub mean_abs: f64,
     /// Largest |e|.
+    #[serde(deserialize_with = "nullable")]
     pub max_abs: f64,
     /// Root mean square of e.
+    #[serde(deserialize_with = "nullable")]
     pub rms: f64,
     /// |e| at the last step.
+    #[serde(deserialize_with = "nullable")]
     pub final_abs: f64,
 }
 
@@ -46,7 +50,7 @@ impl ErrorAcc {
 }
 
 /// One follower's figures.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct VehicleSummary {
     /// Follower id.
     pub vehicle: u16,
@@ -66,8 +70,10 @@ pub struct VehicleSummary {
     /// Velocity error `v_i - v_0` (m/s).
     pub velocity_error_mps: ErrorStats,
     /// Time affected by attacks (`A*`, s).
+    #[serde(deserialize_with = "nullable")]
     pub affected_time_s: f64,
     /// Most negative acceleration (m/s^2).
+    #[serde(deserialize_with = "nullable")]
     pub min_acceleration_mps2: f64,
     /// Time spent in each mode it was in (s): `coop`, its fallback, `blend`.
     pub mode_time_s: BTreeMap<String, f64>,
@@ -76,39 +82,82 @@ pub struct VehicleSummary {
     /// Times the emergency-braking guard took over (from not braking to braking).
     pub guard_activations: u64,
     /// Time the guard was braking (s).
+    #[serde(deserialize_with = "nullable")]
     pub guard_time_s: f64,
 }
 
 /// Gaps, decelerations and the run's safety class.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Safety {
     /// A gap reached zero (a collision; the class is then `severe`). Not the same as "safe": a
     /// run without collision can still be `severe` by its deceleration.
     pub collided: bool,
     /// Smallest bumper-to-bumper gap `p_{i-1} - p_i - length` (m).
+    #[serde(deserialize_with = "nullable")]
     pub min_gap_m: f64,
     /// The follower behind that gap.
     pub min_gap_vehicle: u16,
     /// When it happened (s).
+    #[serde(deserialize_with = "nullable")]
     pub min_gap_t_s: f64,
     /// Smallest time to collision `gap / closing speed` of any follower while closing in on
     /// the vehicle ahead (s; true states, not the radar); None if no follower ever closed in.
     pub min_ttc_s: Option<f64>,
     /// The largest deceleration any follower needed (m/s^2, positive).
+    #[serde(deserialize_with = "nullable")]
     pub max_deceleration_mps2: f64,
     /// The run's class, as attack-injection studies (e.g. ComFASE) class outcomes: `none`,
     /// `negligible`, `benign` or `severe`, from the largest deceleration against the scenario's
     /// [`SafetyThresholds`]; a collision (a gap at or below zero) is always `severe`.
-    pub class: &'static str,
+    pub class: SafetyClass,
     /// The thresholds used.
     pub thresholds: SafetyThresholds,
+}
+
+/// A run's safety class, as attack-injection studies (e.g. ComFASE) class outcomes, from the
+/// mildest to the worst (`Ord` follows severity).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum SafetyClass {
+    /// No more deceleration than the reference itself demands.
+    None,
+    /// Comfortable braking.
+    Negligible,
+    /// Hard braking, below emergency braking.
+    Benign,
+    /// Emergency braking or a collision.
+    Severe,
+}
+
+impl SafetyClass {
+    /// Its name in files: `none`, `negligible`, `benign` or `severe`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::None => "none",
+            Self::Negligible => "negligible",
+            Self::Benign => "benign",
+            Self::Severe => "severe",
+        }
+    }
+}
+
+impl std::fmt::Display for SafetyClass {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// `summary.json` writes a number that is not finite (a diverged run, an empty minimum) as
+/// `null`, as JSON has no NaN; this reads it back as NaN so that a summary round-trips.
+fn nullable<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::NAN))
 }
 
 /// Deceleration thresholds (m/s^2, positive) that class a run's safety: at most `none` is
 /// class `none` (no more than the reference itself demands), at most `negligible` is
 /// `negligible` (comfortable braking), at most `benign` is `benign` (hard but below emergency
 /// braking); beyond, or any collision, is `severe`.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct SafetyThresholds {
     /// Upper bound of class `none`.
     pub none: f64,
@@ -131,22 +180,22 @@ impl Default for SafetyThresholds {
 
 impl SafetyThresholds {
     /// The class of a run with this largest deceleration and whether it collided.
-    pub fn class(&self, max_deceleration: f64, collided: bool) -> &'static str {
+    pub fn class(&self, max_deceleration: f64, collided: bool) -> SafetyClass {
         if collided || max_deceleration > self.benign {
-            "severe"
+            SafetyClass::Severe
         } else if max_deceleration > self.negligible {
-            "benign"
+            SafetyClass::Benign
         } else if max_deceleration > self.none {
-            "negligible"
+            SafetyClass::Negligible
         } else {
-            "none"
+            SafetyClass::None
         }
     }
 }
 
 /// The config's DoS schedule: its figures and its Assumption-2 verdict. What actually happened
 /// on the channel is [`Summary::wire`].
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct AttackSummary {
     /// Whether platoon's channel applied this schedule (false when a third-party injector
     /// replaced it: `--injector-mode replace`).
@@ -154,6 +203,7 @@ pub struct AttackSummary {
     /// Number of attack intervals `N(0, T)`.
     pub intervals: usize,
     /// Exact attacked time `|A(0, T)|` (s).
+    #[serde(deserialize_with = "nullable")]
     pub attacked_time_s: f64,
     /// Steps whose instant fell inside an attack.
     pub attacked_steps: u64,
@@ -164,7 +214,7 @@ pub struct AttackSummary {
 }
 
 /// What `summary.json` holds.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Summary {
     /// The run reached its last step.
     pub complete: bool,
@@ -178,16 +228,20 @@ pub struct Summary {
     /// Steps run.
     pub steps: u64,
     /// Step length (s).
+    #[serde(deserialize_with = "nullable")]
     pub dt_s: f64,
     /// Simulated time (s).
+    #[serde(deserialize_with = "nullable")]
     pub duration_s: f64,
     /// The triggering rule.
     pub rule: String,
     /// How often event conditions were checked (s).
+    #[serde(deserialize_with = "nullable")]
     pub check_period_s: f64,
     /// The spacing policy: `constant` or `time_headway`.
     pub spacing_policy: String,
     /// Its time headway (s; 0 with constant spacing).
+    #[serde(deserialize_with = "nullable")]
     pub time_headway_s: f64,
     /// Broadcasts per follower (keys are follower ids).
     pub triggers: BTreeMap<String, u64>,
@@ -210,7 +264,7 @@ pub struct Summary {
 }
 
 /// The V2V channel over a run, as measured on the wire (see [`crate::wire`]).
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct WireSummary {
     /// Every vehicle of every platoon, plus deliveries to no vehicle.
     pub totals: crate::WireCounts,
@@ -221,7 +275,7 @@ pub struct WireSummary {
 }
 
 /// One vehicle's link packets over a run.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct VehicleWire {
     /// The vehicle (0 = leader).
     pub vehicle: u16,
@@ -309,7 +363,7 @@ impl MetricsAccumulator {
             last_t: 0.0,
             safety: Safety {
                 max_deceleration_mps2: 0.0,
-                class: "none",
+                class: SafetyClass::None,
                 thresholds: scenario.safety,
                 collided: false,
                 min_gap_m: f64::INFINITY,
@@ -481,22 +535,24 @@ impl Summary {
 }
 
 /// One platoon of a fleet, in brief.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct PlatoonBrief {
     /// Its index.
     pub platoon: u16,
     /// Broadcasts of its followers.
     pub triggers_total: u64,
     /// Its largest spacing error (m).
+    #[serde(deserialize_with = "nullable")]
     pub max_spacing_error_m: f64,
     /// Its smallest gap (m).
+    #[serde(deserialize_with = "nullable")]
     pub min_gap_m: f64,
     /// Its safety class.
-    pub class: &'static str,
+    pub class: SafetyClass,
 }
 
 /// What `summary.json` says about a whole fleet.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct FleetOverview {
     /// Number of platoons.
     pub platoons: usize,
@@ -507,11 +563,13 @@ pub struct FleetOverview {
     /// A gap reached zero in some platoon.
     pub collided: bool,
     /// The smallest gap of any platoon (m).
+    #[serde(deserialize_with = "nullable")]
     pub min_gap_m: f64,
     /// The largest deceleration any follower needed (m/s^2).
+    #[serde(deserialize_with = "nullable")]
     pub max_deceleration_mps2: f64,
     /// The worst class of any platoon.
-    pub class: &'static str,
+    pub class: SafetyClass,
     /// Every platoon.
     pub per_platoon: Vec<PlatoonBrief>,
 }
@@ -584,11 +642,6 @@ impl FleetMetrics {
             });
         }
         if self.per.len() > 1 {
-            let rank = |c: &str| {
-                ["none", "negligible", "benign", "severe"]
-                    .iter()
-                    .position(|x| *x == c)
-            };
             let all: Vec<Summary> = self
                 .per
                 .iter()
@@ -621,8 +674,8 @@ impl FleetMetrics {
                 class: all
                     .iter()
                     .map(|s| s.safety.class)
-                    .max_by_key(|c| rank(c))
-                    .unwrap_or("none"),
+                    .max()
+                    .unwrap_or(SafetyClass::None),
                 per_platoon,
             });
         }

@@ -3,10 +3,10 @@
 //! runtimes feed the same function, so `summary.json` and `wire.csv` agree bit for bit.
 use platoon_control::{Delivery, Packet};
 use platoon_model::VehicleId;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// One receiver's link packets in one step (or summed over a run).
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct WireCounts {
     /// Link packets broadcast to it (one per sender that broadcast).
     pub sent: u64,

@@ -106,6 +106,7 @@ fn finished_before(staging: &Path, campaign: &Campaign, cell: &Cell) -> Option<O
     }
     let summary: Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).ok()?).ok()?;
+    metrics::read(&summary).ok()?;
     Some(Outcome {
         ok: true,
         error: None,
@@ -257,10 +258,11 @@ pub fn run(args: Args) -> Result<()> {
         };
         let outcome = match (reply.summary, reply.error) {
             (Some(s), _) => {
-                let why = metrics::failure(&s);
+                let why =
+                    metrics::read(&s).and_then(|run| metrics::failure(&run).map_or(Ok(()), Err));
                 Outcome {
-                    ok: why.is_none(),
-                    error: why,
+                    ok: why.is_ok(),
+                    error: why.err(),
                     summary: Some(s),
                     reused: false,
                 }

@@ -37,8 +37,8 @@ impl<'a> Table<'a> {
             .iter()
             .map(|o| {
                 let o = o.as_ref()?;
-                let s = o.summary.as_ref()?;
-                o.ok.then(|| metrics::extract(&campaign.metrics, max, s))
+                let s = metrics::read(o.summary.as_ref()?).ok()?;
+                o.ok.then(|| metrics::extract(&campaign.metrics, max, &s))
             })
             .collect();
         Self {
