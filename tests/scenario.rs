@@ -40,6 +40,12 @@ fn paper_schedule_matches_fig5b_totals_and_assumption_2() {
 fn dynamic_triggers_less_than_static_on_every_vehicle_under_dos() {
     let (_, d) = run_rows(paper());
     let (_, st) = run_rows(with_rule(paper(), TriggerRule::Static));
+    // Section IV's broadcasts per follower as the README quotes them, measured by this code;
+    // runs are bit-deterministic, so any change is a behaviour change: update README.md with it.
+    let counts = |s: &Summary| s.vehicles.iter().map(|v| v.triggers).collect::<Vec<_>>();
+    assert_eq!(counts(&d), [613, 646, 689, 690]);
+    assert_eq!(d.triggers_total, 2638);
+    assert!((d.safety.min_gap_m - 8.45).abs() < 0.005, "{:?}", d.safety);
     for (a, b) in d.vehicles.iter().zip(&st.vehicles) {
         assert!(
             a.triggers < b.triggers,
@@ -63,11 +69,16 @@ fn every_follower_converges_after_the_last_attack() {
             .map(|r| r.spacing_error.abs())
             .collect();
         let (first, last) = (after[0], *after.last().unwrap());
+        // The README's final spacing errors (mm, two decimals), measured by this code; runs are
+        // bit-deterministic, so any change is a behaviour change: update README.md with it.
+        let printed_mm = [1.01, 0.52, 0.10, 0.13][usize::from(v.vehicle) - 1];
         assert!(
-            last < 0.01,
-            "follower {}: final spacing error {last} m",
-            v.vehicle
+            (last * 1e3 - printed_mm).abs() < 0.005,
+            "follower {}: final spacing error {} mm, the README says {printed_mm}",
+            v.vehicle,
+            last * 1e3
         );
+        assert_eq!(last, v.spacing_error_m.final_abs);
         assert!(
             last <= first,
             "follower {}: {first} m -> {last} m after the last attack",
@@ -82,13 +93,30 @@ fn table1_dynamic_saves_broadcasts_with_comparable_tracking() {
     let (_, d) = run_rows(table1());
     let (_, st) = run_rows(with_rule(table1(), TriggerRule::Static));
     assert_eq!(d.attack.intervals, 0);
-    for (a, b) in d.vehicles.iter().zip(&st.vehicles) {
+    // The README's "the same tracking error": the mean |spacing error| of every follower is at
+    // most the static rule's and at least 97 % of it (measured: 97.5-99.5 %), so neither a rule
+    // that tracks worse nor one that tracks markedly better passes. The means themselves are
+    // pinned to 4 decimals (table1.md prints the platoon's mean to 4: 0.1363 and 0.1384),
+    // measured by this code; runs are bit-deterministic, so any change is a behaviour change.
+    let dynamic_m = [0.1300, 0.1105, 0.1311, 0.1736];
+    let static_m = [0.1306, 0.1133, 0.1340, 0.1755];
+    for (i, (a, b)) in d.vehicles.iter().zip(&st.vehicles).enumerate() {
         assert!(a.triggers < b.triggers, "follower {}", a.vehicle);
         let (ea, eb) = (a.spacing_error_m.mean_abs, b.spacing_error_m.mean_abs);
         assert!(
-            ea < 1.25 * eb,
+            ea <= eb && ea >= 0.97 * eb,
             "follower {}: tracking error {ea} vs static {eb}",
             a.vehicle
+        );
+        assert!(
+            (ea - dynamic_m[i]).abs() < 5e-5,
+            "follower {}: {ea}",
+            a.vehicle
+        );
+        assert!(
+            (eb - static_m[i]).abs() < 5e-5,
+            "follower {}: {eb}",
+            b.vehicle
         );
     }
 }
@@ -193,10 +221,46 @@ fn attacks_on_the_leaders_ramp_hurt_more_than_during_cruise() {
 
 #[test]
 fn non_resilient_and_periodic_variants_run() {
+    // With the paper's fallback (u = 0 while jammed) the plant follows the open-loop
+    // estimators, so no event rule fires inside an attack: the resilient mechanism (11), which
+    // acts only on a broadcast that falls in one, never engages, and turning it off changes
+    // nothing at all.
+    let (rows, resilient) = run_rows(paper());
+    let in_attack = |rows: &[StepRow]| {
+        rows.iter()
+            .filter(|r| r.vehicle > 0 && r.triggered && r.under_attack)
+            .count()
+    };
+    assert_eq!(in_attack(&rows), 0);
     let mut s = paper();
     s.control.resilient = false;
     let (_, summary) = run_rows(s);
     assert!(summary.complete);
+    assert_eq!(summary, resilient);
+    // Holding the last input, the event rule does fire inside attacks. Resilient, a follower
+    // whose broadcast is jammed samples every h until one gets through (so it stays affected a
+    // little longer than the 10 s attacked); without it, it broadcasts only when its event rule
+    // fires and is affected exactly while jammed. The counts are measured by this code (runs
+    // are bit-deterministic, so any change is a behaviour change).
+    let hold = |resilient: bool| {
+        let mut s = paper();
+        s.control.fallback.mode = FallbackMode::Hold;
+        s.control.resilient = resilient;
+        run_rows(s)
+    };
+    let counts = |s: &Summary| s.vehicles.iter().map(|v| v.triggers).collect::<Vec<_>>();
+    let ((rows_r, r), (rows_n, n)) = (hold(true), hold(false));
+    assert_eq!(counts(&r), [903, 964, 988, 987]);
+    assert_eq!(counts(&n), [619, 686, 639, 688]);
+    assert_eq!((in_attack(&rows_r), in_attack(&rows_n)), (1172, 80));
+    for (a, b) in r.vehicles.iter().zip(&n.vehicles) {
+        assert!(a.affected_time_s > 10.0 + 1e-9, "follower {}", a.vehicle);
+        assert!(
+            (b.affected_time_s - 10.0).abs() < 1e-9,
+            "follower {}",
+            b.vehicle
+        );
+    }
     let (_, periodic) = run_rows(with_rule(
         table1(),
         TriggerRule::Periodic { period_steps: 10 },
@@ -207,6 +271,7 @@ fn non_resilient_and_periodic_variants_run() {
         "{:?}",
         periodic.triggers
     );
+    assert_eq!(periodic.triggers_total, 4 * 551);
 }
 
 /// Issue 14: with constant spacing a long predecessor-following platoon is string unstable (gap
@@ -232,7 +297,7 @@ fn a_time_headway_damps_gap_errors_along_a_long_platoon_that_constant_spacing_am
     let (rows, th) = run_rows(th);
     let (_, cs) = run_rows(cs);
     assert_eq!(
-        (th.spacing_policy.as_str(), cs.spacing_policy.as_str()),
+        (th.spacing_policy, cs.spacing_policy),
         ("time_headway", "constant")
     );
     // In formation at t = 0: every gap is l + h_t v0 = 10 + 15 m, no error.
