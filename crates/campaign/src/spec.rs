@@ -14,7 +14,7 @@ pub struct CampaignFile {
     /// scenario, configs/paper.toml].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub base: Option<String>,
-    /// Campaign seed: every Monte Carlo draw derives from it and the sample index [0].
+    /// Campaign seed: every Monte Carlo draw derives from it and the sample index \[0\].
     #[serde(default)]
     pub seed: u64,
     /// How each cell runs: `inproc` (the pure core in the campaign's own workers, the oracle)
@@ -112,10 +112,10 @@ pub struct MonteCarlo {
     /// `[min, max]`: a constant true tau drawn uniformly (replaces `plant.tau`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub tau_s: Option<[f64; 2]>,
-    /// Largest initial position offset of a follower (m), uniform [0].
+    /// Largest initial position offset of a follower (m), uniform \[0\].
     #[serde(default, skip_serializing_if = "is_zero")]
     pub position_jitter_m: f64,
-    /// Largest initial speed offset of a follower (m/s), uniform [0].
+    /// Largest initial speed offset of a follower (m/s), uniform \[0\].
     #[serde(default, skip_serializing_if = "is_zero")]
     pub speed_jitter_mps: f64,
 }

@@ -60,13 +60,13 @@ pub struct Config {
 #[serde(deny_unknown_fields)]
 pub struct OutputConfig {
     /// `csv`, `parquet` (zstd, the same columns) or `auto`: Parquet when the trajectories would
-    /// exceed [`AUTO_PARQUET_ROWS`] rows [auto].
+    /// exceed [`AUTO_PARQUET_ROWS`] rows \[auto\].
     #[serde(default = "auto")]
     pub format: String,
-    /// Write every n-th step to the trajectories (metrics and plots still use every step) [1].
+    /// Write every n-th step to the trajectories (metrics and plots still use every step) \[1\].
     #[serde(default = "one_step")]
     pub decimate: u64,
-    /// Which of `trajectories`, `events`, `channel`, `wire` to write [all].
+    /// Which of `trajectories`, `events`, `channel`, `wire` to write \[all\].
     #[serde(default = "all_files")]
     pub files: Vec<String>,
 }
@@ -102,13 +102,13 @@ fn all_files() -> Vec<String> {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct FleetConfig {
-    /// Number of platoons [1].
+    /// Number of platoons \[1\].
     #[serde(default = "one_platoon")]
     pub platoons: usize,
     /// Lanes used in turn (SUMO plant) [the `[sumo] lane`].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub lanes: Option<Vec<u32>>,
-    /// Distance between the leaders of consecutive platoons on one lane (m) [200].
+    /// Distance between the leaders of consecutive platoons on one lane (m) \[200\].
     #[serde(default = "fleet_gap")]
     pub gap_m: f64,
 }
@@ -344,7 +344,7 @@ pub struct Platoon {
     /// distance with `spacing_policy = "constant"`, the standstill part with `"time_headway"`.
     pub spacing_m: f64,
     /// `constant` (the paper: the desired distance is `spacing_m`) or `time_headway` (it is
-    /// `spacing_m + time_headway_s * v`, v the speed of the rear vehicle) [constant].
+    /// `spacing_m + time_headway_s * v`, v the speed of the rear vehicle) \[constant\].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub spacing_policy: Option<String>,
     /// The time headway h_t of `spacing_policy = "time_headway"` (s), > 0.
@@ -371,16 +371,16 @@ pub struct Platoon {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Formation {
-    /// The leader's initial position (m) [0].
+    /// The leader's initial position (m) \[0\].
     #[serde(default)]
     pub leader_position_m: f64,
-    /// Largest position offset of a follower (m) [0].
+    /// Largest position offset of a follower (m) \[0\].
     #[serde(default)]
     pub position_jitter_m: f64,
-    /// Largest speed offset of a follower (m/s) [0].
+    /// Largest speed offset of a follower (m/s) \[0\].
     #[serde(default)]
     pub speed_jitter_mps: f64,
-    /// Seed of the jitter [0].
+    /// Seed of the jitter \[0\].
     #[serde(default)]
     pub seed: u64,
 }
@@ -482,19 +482,19 @@ pub struct Control {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct FallbackConfig {
-    /// `zero` (the paper), `hold`, `predict` or `acc` [zero].
+    /// `zero` (the paper), `hold`, `predict` or `acc` \[zero\].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub mode: Option<FallbackMode>,
     /// One mode per follower instead (follower 1 first).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub per_vehicle: Option<Vec<FallbackMode>>,
-    /// Time a vehicle stays in its fallback once it is no longer affected (s) [0].
+    /// Time a vehicle stays in its fallback once it is no longer affected (s) \[0\].
     #[serde(default)]
     pub dwell_s: f64,
     /// Time over which it then returns to the cooperative law, bumplessly (s) [0: at once].
     #[serde(default)]
     pub blend_s: f64,
-    /// ...or longer, so that the gap its fallback left closes at most this fast (m/s) [2].
+    /// ...or longer, so that the gap its fallback left closes at most this fast (m/s) \[2\].
     #[serde(default = "two")]
     pub closing_mps: f64,
     /// The ACC law.
@@ -523,7 +523,7 @@ fn two() -> f64 {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct RadarConfig {
-    /// Range (m) [150].
+    /// Range (m) \[150\].
     pub range_m: f64,
     /// Measurement period (s), a whole number of steps [0.05].
     pub period_s: f64,
@@ -531,9 +531,9 @@ pub struct RadarConfig {
     pub noise_m: f64,
     /// Standard deviation of the closing speed's noise (m/s) [0.05].
     pub noise_mps: f64,
-    /// Probability a measurement is lost [0].
+    /// Probability a measurement is lost \[0\].
     pub dropout: f64,
-    /// Seed of noise and dropouts [1].
+    /// Seed of noise and dropouts \[1\].
     pub seed: u64,
 }
 
@@ -559,7 +559,7 @@ pub struct GuardConfig {
     /// Time to collision below which it brakes (s) [4: the paper's engine lag of up to
     /// 0.82 s makes a later trigger too late].
     pub ttc_s: f64,
-    /// Its deceleration (m/s^2) [8].
+    /// Its deceleration (m/s^2) \[8\].
     pub decel_mps2: f64,
 }
 

@@ -1,6 +1,6 @@
 //! The session every process of an iceoryx2 run shares, below the built-in nodes and the SDKs:
-//! a node's endpoint, wake-up listener and control/status channels ([`Ctx`]: READY, START,
-//! DONE, STOP/ABORT, orphan detection), failure reporting ([`reporting`]), the fleet's vehicle
+//! a node's endpoint, wake-up listener and control/status channels (READY, START, DONE,
+//! STOP/ABORT, orphan detection), failure reporting, the fleet's vehicle
 //! numbering on the wire ([`Numbering`]) and the conversions between wire payloads and the pure
 //! core's types. The injector SDK ([`crate::injector`]) and the built-in nodes
 //! ([`crate::nodes`]) are both written on it; neither imports the other's internals.

@@ -45,15 +45,15 @@ impl Stats {
 /// process that publishes next, its computation, and the publish itself.
 #[derive(Debug, Clone, Default)]
 pub struct StageClock {
-    /// states[k] -> tx[k]: the controllers' triggering rules.
+    /// `states[k] -> tx[k]`: the controllers' triggering rules.
     pub controller_tx: Vec<u64>,
-    /// tx[k] -> rx[k]: the injector hop.
+    /// `tx[k] -> rx[k]`: the injector hop.
     pub injector: Vec<u64>,
-    /// rx[k] -> commands[k]: estimators and control law.
+    /// `rx[k] -> commands[k]`: estimators and control law.
     pub controller_rx: Vec<u64>,
-    /// commands[k] -> states[k+1]: the plant.
+    /// `commands[k] -> states[k+1]`: the plant.
     pub plant: Vec<u64>,
-    /// states[k] -> states[k+1]: one whole step.
+    /// `states[k] -> states[k+1]`: one whole step.
     pub step: Vec<u64>,
     last: Option<(u64, u64)>,
 }
@@ -86,15 +86,15 @@ impl StageClock {
 /// What `timing.json` holds: percentiles of each stage of a step (µs).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Timing {
-    /// One whole step (states[k] -> states[k+1]).
+    /// One whole step (`states[k] -> states[k+1]`).
     pub step: Option<Stats>,
-    /// states[k] -> tx[k].
+    /// `states[k] -> tx[k]`.
     pub controller_tx: Option<Stats>,
-    /// tx[k] -> rx[k]: the V2V hop through the injector.
+    /// `tx[k] -> rx[k]`: the V2V hop through the injector.
     pub injector: Option<Stats>,
-    /// rx[k] -> commands[k].
+    /// `rx[k] -> commands[k]`.
     pub controller_rx: Option<Stats>,
-    /// commands[k] -> states[k+1].
+    /// `commands[k] -> states[k+1]`.
     pub plant: Option<Stats>,
 }
 

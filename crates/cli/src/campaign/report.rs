@@ -349,7 +349,7 @@ fn median(vals: &mut [f64]) -> Option<f64> {
     Some(quantile(vals, 0.5))
 }
 
-/// z[iy][ix]: `agg` of metric `k` over the cells at (ix, iy) (samples and other dimensions).
+/// `z[iy][ix]`: `agg` of metric `k` over the cells at (ix, iy) (samples and other dimensions).
 fn grid(
     table: &Table,
     dx: usize,
