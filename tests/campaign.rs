@@ -123,6 +123,16 @@ fn dos_timing_lights_up_the_ramps_and_each_cell_equals_platoon_run() {
         json(&run.join("summary.json"))
     );
     assert_eq!(json(&cell.join("cell.json"))["status"], "ok");
+    // An in-process run writes timing.json too, but none of what
+    // a_sumo_campaign_runs_full_co_simulations takes as the proof of an iceoryx2 run: no stage
+    // timings (null), no duplicate count, no run.json, no logs/.
+    let timing = json(&run.join("timing.json"));
+    assert!(timing["step"]["p50_us"].is_f64(), "{timing}");
+    for stage in ["controller_tx", "injector", "controller_rx", "plant"] {
+        assert!(timing[stage].is_null(), "{stage}: {timing}");
+    }
+    assert!(timing.get("duplicate_samples").is_none(), "{timing}");
+    assert!(!run.join("run.json").exists() && !run.join("logs").exists());
 }
 
 #[test]
@@ -246,9 +256,24 @@ fn a_sumo_campaign_runs_full_co_simulations() {
         assert_eq!(r["status"], "ok", "{r:?}");
         let summary = json(&out.join(format!("cells/c000{i}/summary.json")));
         assert!(summary["sumo"]["sumo_version"].is_string(), "SUMO ran");
+        // What only an iceoryx2 run writes (an in-process run, kept with --keep-runs, writes
+        // timing.json too, but with no stage timings, no duplicate count, no run.json and no
+        // logs/): the run id its services were named with, the time of each stage between two
+        // processes, and one log per node process.
         let run = out.join(format!("runs/c000{i}"));
-        assert!(run.join("timing.json").is_file(), "an iceoryx2 run");
-        assert!(run.join("logs/plant.log").is_file());
+        let run_json = json(&run.join("run.json"));
+        assert!(
+            run_json["run_id"].as_str().is_some_and(|id| !id.is_empty()),
+            "{run_json}"
+        );
+        let timing = json(&run.join("timing.json"));
+        for stage in ["controller_tx", "injector", "controller_rx", "plant"] {
+            assert!(timing[stage]["p50_us"].is_f64(), "{stage}: {timing}");
+        }
+        assert!(timing["duplicate_samples"].is_object(), "{timing}");
+        for node in ["plant", "controller", "injector"] {
+            assert!(run.join(format!("logs/{node}.log")).is_file(), "{node}.log");
+        }
     }
     // Background traffic does not move the platoon.
     assert_eq!(
