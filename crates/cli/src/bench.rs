@@ -1,7 +1,7 @@
 //! `platoon bench`: what the co-simulation costs on this machine, measured side by side in one
 //! run (medians, percentiles and ratios; the machines are shared and noisy, so no absolute
 //! thresholds anywhere). `platoon bench all` runs every benchmark and writes BENCHMARKS.md.
-use crate::output::RunDir;
+use platoon_output::rundir::RunDir;
 use anyhow::{bail, Context, Result};
 use platoon_runtime::timing::Stats;
 use platoon_sim::FleetSimulation;
@@ -207,8 +207,11 @@ fn latency(a: LatencyArgs) -> Result<LatencyReport> {
     if a.iterations == 0 {
         bail!("--iterations must be at least 1");
     }
-    let (config, scenario, stem) =
-        crate::run::load(a.config.as_deref(), platoon_config::PAPER_TOML, "paper")?;
+    let platoon_config::Loaded {
+        config,
+        scenario,
+        stem,
+    } = platoon_config::load_or(a.config.as_deref(), platoon_config::Embedded::Paper)?;
     let out = a
         .out
         .unwrap_or_else(|| PathBuf::from("runs").join("bench-latency"));
@@ -465,10 +468,10 @@ fn latency(a: LatencyArgs) -> Result<LatencyReport> {
 /// One histogram per method (µs, up to each method's p99.9).
 fn histograms(path: &Path, samples: &[(&str, Vec<u64>)]) -> Result<()> {
     use plotters::prelude::*;
-    crate::plots::ensure_font();
+    platoon_output::plots::ensure_font();
     let root =
         BitMapBackend::new(path, (1000, 250 * samples.len().max(1) as u32)).into_drawing_area();
-    root.fill(&WHITE).map_err(crate::plots::err)?;
+    root.fill(&WHITE).map_err(platoon_output::plots::err)?;
     let areas = root.split_evenly((samples.len().max(1), 1));
     for ((name, v), area) in samples.iter().zip(areas) {
         let mut us: Vec<f64> = v.iter().map(|&x| x as f64 / 1e3).collect();
@@ -491,12 +494,12 @@ fn histograms(path: &Path, samples: &[(&str, Vec<u64>)]) -> Result<()> {
             .x_label_area_size(30)
             .y_label_area_size(50)
             .build_cartesian_2d(0.0..hi, 0.0..top * 1.1)
-            .map_err(crate::plots::err)?;
+            .map_err(platoon_output::plots::err)?;
         chart
             .configure_mesh()
             .disable_x_mesh()
             .draw()
-            .map_err(crate::plots::err)?;
+            .map_err(platoon_output::plots::err)?;
         chart
             .draw_series(counts.iter().enumerate().map(|(i, &c)| {
                 let x0 = i as f64 * width;
@@ -505,9 +508,9 @@ fn histograms(path: &Path, samples: &[(&str, Vec<u64>)]) -> Result<()> {
                     BLUE.mix(0.6).filled(),
                 )
             }))
-            .map_err(crate::plots::err)?;
+            .map_err(platoon_output::plots::err)?;
     }
-    root.present().map_err(crate::plots::err)?;
+    root.present().map_err(platoon_output::plots::err)?;
     Ok(())
 }
 
@@ -708,13 +711,13 @@ fn step(a: StepArgs) -> Result<Vec<StepRow>> {
         fits.push(
             serde_json::json!({"mode": mode, "intercept_us": a0, "slope_us_per_follower": b}),
         );
-        series.push(crate::plots::Series {
+        series.push(platoon_output::plots::Series {
             label: format!("{mode}: {a0:.1} + {b:.3} N µs"),
             color: i,
             points: pts,
         });
     }
-    crate::plots::scatter_with_lines(
+    platoon_output::plots::scatter_with_lines(
         &dir.path("step.png"),
         "Co-simulation cost per step (p50) against followers",
         "followers N",

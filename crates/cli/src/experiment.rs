@@ -1,6 +1,6 @@
 //! `platoon experiment`: the paper's Section IV experiments.
-use crate::output::RunDir;
-use crate::plots::{self, Series};
+use platoon_output::rundir::RunDir;
+use platoon_output::plots::{self, Series};
 use crate::run::simulate;
 use anyhow::Result;
 use platoon_control::TriggerRule;

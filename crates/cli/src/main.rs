@@ -8,12 +8,9 @@ mod campaign;
 mod design;
 mod experiment;
 mod node;
-mod output;
-mod plots;
 mod run;
 mod signals;
 mod sumo;
-mod tables;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;

@@ -1,6 +1,6 @@
 //! `platoon run`: one scenario, in process, into a run directory.
-use crate::output::RunDir;
-use crate::plots;
+use platoon_output::rundir::RunDir;
+use platoon_output::plots;
 use anyhow::{Context, Result};
 use platoon_config::{Config, Transport};
 use platoon_sim::{Scenario, StepRow, Summary};
@@ -284,9 +284,9 @@ fn progress_bar(steps: u64, what: &str) -> indicatif::ProgressBar {
 /// Streams rows to trajectories.csv and broadcasts to events.csv, keeps platoon 0's rows for
 /// the plots (memory stays bounded for large fleets) and sums the metrics.
 struct Recording {
-    trajectories: crate::tables::Table<StepRow>,
-    events: crate::tables::Table<EventRow>,
-    wire: crate::tables::Table<WireRow>,
+    trajectories: platoon_output::tables::Table<StepRow>,
+    events: platoon_output::tables::Table<EventRow>,
+    wire: platoon_output::tables::Table<WireRow>,
     decimate: u64,
     last: Vec<Option<u64>>,
     modes: Vec<platoon_control::Mode>,
@@ -347,17 +347,17 @@ impl Recording {
         what: Option<&str>,
     ) -> Result<Self> {
         let steps = scenario.steps + 1;
-        let format = crate::tables::Format::of(output, scenario);
+        let format = platoon_output::tables::Format::of(output, scenario);
         let on = |f: &str| output.files.iter().any(|x| x == f);
         Ok(Self {
-            trajectories: crate::tables::Table::create(
+            trajectories: platoon_output::tables::Table::create(
                 dir,
                 "trajectories",
                 format,
                 on("trajectories"),
             )?,
-            events: crate::tables::Table::create(dir, "events", format, on("events"))?,
-            wire: crate::tables::Table::create(dir, "wire", format, on("wire"))?,
+            events: platoon_output::tables::Table::create(dir, "events", format, on("events"))?,
+            wire: platoon_output::tables::Table::create(dir, "wire", format, on("wire"))?,
             decimate: output.decimate,
             last: vec![None; scenario.vehicles()],
             modes: vec![platoon_control::Mode::Coop; scenario.vehicles()],
@@ -471,8 +471,8 @@ pub fn simulate_until(
 ) -> Result<(Vec<StepRow>, Summary)> {
     let mut rec = Recording::new(scenario, output, dir, progress.then_some("simulating"))?;
     let mut sim = platoon_sim::FleetSimulation::new(scenario)?;
-    let format = crate::tables::Format::of(output, scenario);
-    let mut log = crate::tables::Table::create(
+    let format = platoon_output::tables::Format::of(output, scenario);
+    let mut log = platoon_output::tables::Table::create(
         dir,
         "channel",
         format,
@@ -610,12 +610,12 @@ fn channel_log_format(
     output: &platoon_config::OutputConfig,
     dir: &RunDir,
 ) -> Result<()> {
-    let format = crate::tables::Format::of(output, scenario);
+    let format = platoon_output::tables::Format::of(output, scenario);
     let csv_path = dir.path("channel.csv");
-    if format != crate::tables::Format::Parquet || !csv_path.exists() {
+    if format != platoon_output::tables::Format::Parquet || !csv_path.exists() {
         return Ok(());
     }
-    let mut table = crate::tables::Table::create(dir, "channel", format, true)?;
+    let mut table = platoon_output::tables::Table::create(dir, "channel", format, true)?;
     let mut reader = csv::Reader::from_path(&csv_path)
         .with_context(|| format!("reading {}", csv_path.display()))?;
     for row in reader.deserialize::<platoon_attacks::channel::ChannelEvent>() {

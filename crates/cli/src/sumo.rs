@@ -1,5 +1,5 @@
 //! SUMO as the plant: the bridge's Python environment, the road check, and plant.json.
-use crate::output::RunDir;
+use platoon_output::rundir::RunDir;
 use anyhow::{bail, Context, Result};
 use platoon_config::{Config, ConfigError};
 use platoon_runtime::Program;

@@ -1,6 +1,6 @@
 //! Running cells: one cell (in process, or as a `platoon run` co-simulation), a local worker
 //! pool, and a Dask cluster through `bridge/dask_cells.py`.
-use crate::output::RunDir;
+use platoon_output::rundir::RunDir;
 use anyhow::{bail, Context, Result};
 use platoon_campaign::Transport;
 use serde::{Deserialize, Serialize};

@@ -3,7 +3,7 @@
 pub mod exec;
 mod report;
 
-use crate::output::RunDir;
+use platoon_output::rundir::RunDir;
 use crate::signals::Interrupt;
 use anyhow::{Context, Result};
 use exec::{CellJob, CellReply};

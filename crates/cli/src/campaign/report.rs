@@ -1,5 +1,5 @@
 //! What a campaign writes once its cells are in: `cells.csv`, `campaign.json` and the plots.
-use crate::plots::{ensure_font, err};
+use platoon_output::plots::{ensure_font, err};
 use anyhow::{Context, Result};
 use platoon_campaign::metrics::{self, Metric};
 use platoon_campaign::{Campaign, Cell};
@@ -555,7 +555,7 @@ fn class_map(path: &Path, table: &Table, (dx, dy): (usize, usize), k: usize) -> 
             .label(name)
             .legend(move |(x, y)| Rectangle::new([(x, y - 6), (x + 14, y + 6)], color.filled()));
     }
-    crate::plots::legend(&mut chart, SeriesLabelPosition::UpperRight)?;
+    platoon_output::plots::legend(&mut chart, SeriesLabelPosition::UpperRight)?;
     root.present().map_err(err)?;
     Ok(())
 }
@@ -685,7 +685,7 @@ fn lines(path: &Path, table: &Table, x: usize, others: &[usize], k: usize) -> Re
                     )
                     .map_err(err)?;
             }
-            crate::plots::legend(&mut chart, SeriesLabelPosition::UpperLeft)?;
+            platoon_output::plots::legend(&mut chart, SeriesLabelPosition::UpperLeft)?;
         }};
     }
     let mut builder = ChartBuilder::on(&root);
@@ -778,7 +778,7 @@ fn ecdf(path: &Path, table: &Table, dims: &[usize], k: usize) -> Result<()> {
                 PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2))
             });
     }
-    crate::plots::legend(&mut chart, SeriesLabelPosition::LowerRight)?;
+    platoon_output::plots::legend(&mut chart, SeriesLabelPosition::LowerRight)?;
     root.present().map_err(err)?;
     Ok(())
 }

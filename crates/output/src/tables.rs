@@ -2,7 +2,7 @@
 //! streamed: Parquet rows are buffered in batches of [`BATCH`] and written as row groups
 //! (zstd), so memory stays flat however long the run. The columns are the row type's fields in
 //! both formats.
-use crate::output::RunDir;
+use crate::rundir::RunDir;
 use anyhow::{Context, Result};
 use arrow_schema::FieldRef;
 use parquet::arrow::ArrowWriter;
