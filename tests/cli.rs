@@ -666,14 +666,59 @@ fn bench_latency_measures_every_baseline() {
         .iter()
         .map(|x| x["quantity"].as_str().unwrap())
         .collect();
-    for q in [
-        "raw_iceoryx2_hop",
-        "udp_loopback_hop",
-        "unix_socket_hop",
-        "injector_hop",
-        "cosim_step",
+    // Every row, in order (without --busy-poll), the Python SDK's included: a baseline that
+    // cannot run fails the benchmark instead of leaving its row out.
+    assert_eq!(
+        names,
+        [
+            "raw_iceoryx2_hop",
+            "udp_loopback_hop",
+            "unix_socket_hop",
+            "injector_hop",
+            "injector_hop_python_sdk",
+            "injector_hop_one_core",
+            "injector_hop_python_sdk_one_core",
+            "cosim_step",
+            "cosim_step_one_core",
+            "inproc_step",
+            "stage_controller_tx",
+            "stage_controller_rx",
+            "stage_plant",
+        ]
+    );
+    // Samples per row, exactly: the ping-pongs --iterations hops; the paper scenario (55 s at
+    // dt = 0.01 s) has 5501 steps k = 0..=5500, each with a tx batch, an injector hop and an rx
+    // batch (and one in-process step), and 5500 transitions states[k] -> states[k+1], each a
+    // co-simulation step and a plant stage.
+    for row in r["rows"].as_array().unwrap() {
+        let q = row["quantity"].as_str().unwrap();
+        let n = row["n"].as_u64().unwrap();
+        let expected = match q {
+            "raw_iceoryx2_hop" | "udp_loopback_hop" | "unix_socket_hop" => 200,
+            "cosim_step" | "cosim_step_one_core" | "stage_plant" => 5500,
+            _ => 5501,
+        };
+        assert_eq!(n, expected, "{q}");
+        let p50 = row["p50_us"].as_f64().unwrap();
+        assert!(p50.is_finite() && p50 > 0.0, "{q}: p50 {p50}");
+        // Every hop has its ratio to the raw iceoryx2 hop; the steps and stages none.
+        assert_eq!(row["over_raw_p50"].is_f64(), q.contains("hop"), "{q}");
+    }
+    for k in [
+        "injector_hop_over_raw_hop_p50",
+        "python_sdk_over_builtin_injector_p50",
+        "python_sdk_over_builtin_injector_p50_one_core",
+        "step_overhead_p50_us",
+        "step_overhead_p50_us_one_core",
     ] {
-        assert!(names.contains(&q), "{q} missing from {names:?}");
+        assert!(r[k].as_f64().is_some_and(f64::is_finite), "{k}: {}", r[k]);
+    }
+    // Nothing skipped, said anywhere.
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    let json = std::fs::read_to_string(tmp.path().join("b/latency.json")).unwrap();
+    for text in [&*stdout, &*json] {
+        assert!(!text.contains("not measured"), "{text}");
+        assert!(!text.contains("skipped"), "{text}");
     }
     let samples = std::fs::read_to_string(tmp.path().join("b/latency-samples.csv")).unwrap();
     assert_eq!(samples.lines().count(), 1 + 3 * 200);

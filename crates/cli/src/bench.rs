@@ -32,7 +32,8 @@ pub enum Bench {
     /// LMI design time against the number of followers (TPSF, `design synthesize` defaults),
     /// and the time of the checks of `design check-gain` (the paper's K on PLF: the smallest
     /// ratio with a common and with a block-diagonal Lyapunov matrix, the largest-decay
-    /// bisection) against the number of followers. Writes design.csv and check.csv.
+    /// bisection, the closed-loop spectrum and string stability) against the number of
+    /// followers. Writes design.csv and check.csv.
     Design(DesignArgs),
     /// Campaign throughput: the paper scenario with a random admissible DoS schedule per cell
     /// (`platoon campaign`, in process, metrics only, no plots), run with each --jobs value,
@@ -166,8 +167,10 @@ struct Row {
     over_raw_p50: Option<f64>,
 }
 
-fn row(quantity: &str, s: Option<Stats>) -> Option<Row> {
-    s.map(|s| Row {
+/// The row of `quantity`; no samples is an error (the benchmark measures every row or fails).
+fn row(quantity: &str, s: Option<Stats>) -> Result<Row> {
+    let s = s.with_context(|| format!("{quantity}: no samples were recorded"))?;
+    Ok(Row {
         quantity: quantity.into(),
         n: s.n,
         p50_us: s.p50_us,
@@ -186,17 +189,81 @@ struct LatencyReport {
     vehicles: usize,
     batch_items: usize,
     rows: Vec<Row>,
-    skipped: Vec<String>,
     injector_hop_over_raw_hop_p50: f64,
     /// The Python SDK's injector hop over the built-in (Rust SDK) one, p50, measured in the
     /// same session, the nodes on any CPU.
-    python_sdk_over_builtin_injector_p50: Option<f64>,
+    python_sdk_over_builtin_injector_p50: f64,
     /// The same with every node of both runs on one core (the SDK's own cost, without
     /// cross-core wake-ups).
-    python_sdk_over_builtin_injector_p50_one_core: Option<f64>,
+    python_sdk_over_builtin_injector_p50_one_core: f64,
     step_overhead_p50_us: f64,
     /// The same with the nodes on one core.
     step_overhead_p50_us_one_core: f64,
+    /// `guest_halt_poll_ns` as read during the run (how long an idle vCPU polls before it
+    /// halts), or None where it is not readable.
+    guest_halt_poll_ns: Option<String>,
+}
+
+/// Where the haltpoll cpuidle driver (KVM guests) exposes how long an idle vCPU polls before
+/// halting.
+const HALT_POLL: &str = "/sys/module/haltpoll/parameters/guest_halt_poll_ns";
+
+/// `guest_halt_poll_ns`, read from this machine (None where it is not readable).
+fn guest_halt_poll_ns() -> Option<String> {
+    std::fs::read_to_string(HALT_POLL)
+        .ok()
+        .map(|v| v.trim().to_string())
+        .filter(|v| !v.is_empty())
+}
+
+/// What was read of `guest_halt_poll_ns`, for the report.
+fn describe_halt_poll(v: Option<&str>) -> String {
+    match v {
+        Some("0") => format!(
+            "`guest_halt_poll_ns` = 0, read from {HALT_POLL}: idle vCPUs halt without polling"
+        ),
+        Some(v) => format!(
+            "`guest_halt_poll_ns` = {v}, read from {HALT_POLL}: idle vCPUs poll up to {v} ns before halting"
+        ),
+        None => format!("`guest_halt_poll_ns` not readable here ({HALT_POLL})"),
+    }
+}
+
+/// The commit of the source tree this binary was built from, as git reports it when the
+/// benchmarks start: the short hash, with " + uncommitted changes" when a tracked file other
+/// than BENCHMARKS.md (the report itself) differs from it, or "unknown" without git or the tree.
+fn commit() -> String {
+    let tree = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let git = |args: &[&str]| -> Option<String> {
+        let o = Command::new("git")
+            .arg("-C")
+            .arg(tree)
+            .args(args)
+            .stderr(std::process::Stdio::null())
+            .output()
+            .ok()?;
+        o.status
+            .success()
+            .then(|| String::from_utf8_lossy(&o.stdout).into_owned())
+    };
+    let Some(head) = git(&["rev-parse", "--short", "HEAD"]) else {
+        return "unknown".into();
+    };
+    let head = head.trim().to_string();
+    match git(&["status", "--porcelain", "--untracked-files=no"]) {
+        Some(status) => {
+            let changed = status
+                .lines()
+                .filter_map(|l| l.get(3..))
+                .any(|path| path != "BENCHMARKS.md");
+            if changed {
+                format!("{head} + uncommitted changes")
+            } else {
+                head
+            }
+        }
+        None => format!("{head} (uncommitted changes unknown)"),
+    }
 }
 
 fn cores() -> usize {
@@ -236,7 +303,6 @@ fn latency(a: LatencyArgs) -> Result<LatencyReport> {
         .expect("static template"),
     );
     let mut samples: Vec<(&str, Vec<u64>)> = Vec::new();
-    let mut skipped = Vec::new();
 
     bar.set_message("raw iceoryx2 hop");
     let raw = platoon_runtime::bench::raw_hop(
@@ -275,17 +341,20 @@ fn latency(a: LatencyArgs) -> Result<LatencyReport> {
         platoon_runtime::bench::Socket::Uds,
     ] {
         bar.set_message(format!("{} hop", socket.name()));
-        match platoon_runtime::bench::socket_hop(socket, &exe, a.iterations, a.warmup, bytes) {
-            Ok(h) => samples.push((
-                if socket.name() == "udp" {
-                    "udp_loopback_hop"
-                } else {
-                    "unix_socket_hop"
-                },
-                h,
-            )),
-            Err(e) => skipped.push(format!("{} baseline not measured: {e}", socket.name())),
-        }
+        let name = match socket {
+            platoon_runtime::bench::Socket::Udp => "udp_loopback_hop",
+            platoon_runtime::bench::Socket::Uds => "unix_socket_hop",
+        };
+        // A baseline that cannot run fails the benchmark: the report compares side by side.
+        let h = platoon_runtime::bench::socket_hop(socket, &exe, a.iterations, a.warmup, bytes)
+            .with_context(|| {
+                format!(
+                    "the {name} baseline (a ping-pong with `platoon node echo-{}` in another \
+                     process) failed; fix it before benchmarking",
+                    socket.name()
+                )
+            })?;
+        samples.push((name, h));
         bar.inc(1);
     }
 
@@ -331,22 +400,31 @@ fn latency(a: LatencyArgs) -> Result<LatencyReport> {
     let builtin_one_core = cosim(platoon_runtime::Program::Builtin, &one_core)
         .context("the iceoryx2 co-simulation on one core")?;
     bar.set_message("co-simulating with the Python SDK injector");
-    let python_sdk = (|| -> Result<[platoon_runtime::timing::Timing; 2]> {
-        let python = crate::sumo::ensure_venv()?;
-        let script = crate::sumo::bridge_dir()?.join("examples/dos_jammer.py");
-        let program = platoon_runtime::Program::Exec {
-            program: python,
-            args: vec![script.display().to_string()],
-        };
-        Ok([cosim(program.clone(), &[])?, cosim(program, &one_core)?])
-    })();
-    let [python_sdk, python_sdk_one_core] = match python_sdk {
-        Ok([any, one]) => [any.injector, one.injector],
-        Err(e) => {
-            skipped.push(format!("Python SDK injector not measured: {e:#}"));
-            [None, None]
-        }
+    // The Python rows are part of the report: if they cannot be measured, the benchmark fails.
+    let python = crate::sumo::ensure_venv().context(
+        "the Python SDK injector needs the bridge's Python environment (bridge/setup-venv.sh)",
+    )?;
+    let script = crate::sumo::bridge_dir()?.join("examples/dos_jammer.py");
+    let program = platoon_runtime::Program::Exec {
+        program: python.clone(),
+        args: vec![script.display().to_string()],
     };
+    // Names what failed and how to reproduce it outside the benchmark.
+    let failed = |what: &str| {
+        format!(
+            "the iceoryx2 co-simulation{what} with the Python SDK injector failed; reproduce \
+             and fix it with `platoon run --injector \"{} {}\"`{}",
+            python.display(),
+            script.display(),
+            if what.is_empty() { "" } else { " --cpus N" }
+        )
+    };
+    let python_sdk = cosim(program.clone(), &[])
+        .with_context(|| failed(""))?
+        .injector;
+    let python_sdk_one_core = cosim(program, &one_core)
+        .with_context(|| failed(" on one core"))?
+        .injector;
     let mut sim = FleetSimulation::new(&scenario)?;
     let mut inproc = Vec::with_capacity(scenario.steps as usize + 1);
     while !sim.is_done() {
@@ -356,10 +434,11 @@ fn latency(a: LatencyArgs) -> Result<LatencyReport> {
     }
     bar.finish_and_clear();
 
+    // Every row is required: a quantity with no samples fails the benchmark, by name.
     let mut rows: Vec<Row> = samples
         .iter()
-        .filter_map(|(name, v)| row(name, Stats::of(&mut v.clone())))
-        .collect();
+        .map(|(name, v)| row(name, Stats::of(&mut v.clone())))
+        .collect::<Result<_>>()?;
     let t = outcome.timing;
     rows.extend(
         [
@@ -375,7 +454,7 @@ fn latency(a: LatencyArgs) -> Result<LatencyReport> {
             row("stage_plant", t.plant),
         ]
         .into_iter()
-        .flatten(),
+        .collect::<Result<Vec<_>>>()?,
     );
     let raw_p50 = rows[0].p50_us;
     for r in &mut rows {
@@ -386,7 +465,8 @@ fn latency(a: LatencyArgs) -> Result<LatencyReport> {
     let p50 = |q: &str| {
         rows.iter()
             .find(|r| r.quantity == q)
-            .map_or(f64::NAN, |r| r.p50_us)
+            .map(|r| r.p50_us)
+            .expect("every row is measured")
     };
     let report = LatencyReport {
         machine_cores: cores(),
@@ -394,18 +474,13 @@ fn latency(a: LatencyArgs) -> Result<LatencyReport> {
         vehicles: n + 1,
         batch_items: items,
         injector_hop_over_raw_hop_p50: p50("injector_hop") / p50("raw_iceoryx2_hop"),
-        python_sdk_over_builtin_injector_p50: Some(
-            p50("injector_hop_python_sdk") / p50("injector_hop"),
-        )
-        .filter(|x| x.is_finite()),
-        python_sdk_over_builtin_injector_p50_one_core: Some(
-            p50("injector_hop_python_sdk_one_core") / p50("injector_hop_one_core"),
-        )
-        .filter(|x| x.is_finite()),
+        python_sdk_over_builtin_injector_p50: p50("injector_hop_python_sdk") / p50("injector_hop"),
+        python_sdk_over_builtin_injector_p50_one_core: p50("injector_hop_python_sdk_one_core")
+            / p50("injector_hop_one_core"),
         step_overhead_p50_us: p50("cosim_step") - p50("inproc_step"),
         step_overhead_p50_us_one_core: p50("cosim_step_one_core") - p50("inproc_step"),
+        guest_halt_poll_ns: guest_halt_poll_ns(),
         rows,
-        skipped,
     };
     let mut csv = csv::Writer::from_writer(dir.writer("latency.csv")?);
     for r in &report.rows {
@@ -444,9 +519,6 @@ fn latency(a: LatencyArgs) -> Result<LatencyReport> {
             r.over_raw_p50.map_or(String::new(), |x| format!("{x:.2}"))
         );
     }
-    for s in &report.skipped {
-        println!("{s}");
-    }
     println!(
         "injector hop / raw iceoryx2 hop (p50): {:.2} (target < 2)",
         report.injector_hop_over_raw_hop_p50
@@ -455,12 +527,16 @@ fn latency(a: LatencyArgs) -> Result<LatencyReport> {
         "co-simulation step overhead over in-process (p50): {:.1} µs (target < 60 µs); nodes on one core: {:.1} µs",
         report.step_overhead_p50_us, report.step_overhead_p50_us_one_core
     );
-    if let Some(x) = report.python_sdk_over_builtin_injector_p50 {
-        println!("Python SDK injector hop / built-in (Rust SDK) injector hop (p50): {x:.2} (target <= 2)");
-    }
-    if let Some(x) = report.python_sdk_over_builtin_injector_p50_one_core {
-        println!("the same with the nodes on one core (--cpus): {x:.2}");
-    }
+    println!(
+        "Python SDK injector hop / built-in (Rust SDK) injector hop (p50): {:.2} (target <= 2); \
+         nodes on one core (--cpus): {:.2}",
+        report.python_sdk_over_builtin_injector_p50,
+        report.python_sdk_over_builtin_injector_p50_one_core
+    );
+    println!(
+        "{}",
+        describe_halt_poll(report.guest_halt_poll_ns.as_deref())
+    );
     println!("outputs: {}", path.display());
     Ok(report)
 }
@@ -805,6 +881,11 @@ struct CheckRow {
     block_diagonal_ratio: Option<f64>,
     /// The largest-decay bisection.
     max_decay_s: f64,
+    /// The closed-loop spectrum at 51 taus over the paper's tau range.
+    spectrum_s: f64,
+    /// String stability at the paper's smallest, nominal and largest tau.
+    string_stability_s: f64,
+    /// Everything above: what `design check-gain` computes for this platoon.
     total_s: f64,
 }
 
@@ -833,6 +914,16 @@ fn design(a: DesignArgs) -> Result<(Vec<DesignRow>, Vec<CheckRow>)> {
             designed_on: d.as_ref().map(|d| d.designed_on),
         });
     }
+    // The tau grids of `design check-gain` for the paper scenario: 51 taus over its range for
+    // the spectrum; its smallest, nominal and largest for string stability.
+    let (_, paper) = platoon_config::Embedded::Paper.parse()?;
+    let (lo, hi) = paper.tau_range();
+    let spectrum_taus: Vec<f64> = (0..=50)
+        .map(|i| lo + (hi - lo) * f64::from(i) / 50.0)
+        .collect();
+    let mut string_taus = vec![lo, paper.control.tau_nominal, hi];
+    string_taus.sort_by(f64::total_cmp);
+    string_taus.dedup();
     let mut checks = Vec::new();
     for &n in &a.check_followers {
         eprintln!("checking the paper's K on {n} followers (PLF) ...");
@@ -858,6 +949,16 @@ fn design(a: DesignArgs) -> Result<(Vec<DesignRow>, Vec<CheckRow>)> {
         let t2 = Instant::now();
         platoon_synthesis::theorem1_max_decay(k, &g, &[0.5], 10.0, 1e-3)?;
         let max_decay_s = t2.elapsed().as_secs_f64();
+        let t3 = Instant::now();
+        std::hint::black_box(platoon_synthesis::closed_loop_spectrum(
+            k,
+            &g,
+            &spectrum_taus,
+        ));
+        let spectrum_s = t3.elapsed().as_secs_f64();
+        let t4 = Instant::now();
+        std::hint::black_box(platoon_synthesis::string_stability(k, &g, &string_taus));
+        let string_stability_s = t4.elapsed().as_secs_f64();
         checks.push(CheckRow {
             followers: n,
             common_s,
@@ -865,6 +966,8 @@ fn design(a: DesignArgs) -> Result<(Vec<DesignRow>, Vec<CheckRow>)> {
             block_diagonal_s: block_s,
             block_diagonal_ratio: block,
             max_decay_s,
+            spectrum_s,
+            string_stability_s,
             total_s: started.elapsed().as_secs_f64(),
         });
     }
@@ -897,8 +1000,8 @@ fn design(a: DesignArgs) -> Result<(Vec<DesignRow>, Vec<CheckRow>)> {
     }
     for r in &checks {
         println!(
-            "check, N = {:>3} (PLF): {:>6.2} s in all (common P {:.2} s, one P per follower {:.2} s, largest decay {:.2} s)",
-            r.followers, r.total_s, r.common_s, r.block_diagonal_s, r.max_decay_s
+            "check, N = {:>3} (PLF): {:>6.2} s in all (common P {:.2} s, one P per follower {:.2} s, largest decay {:.2} s, spectrum {:.2} s, string stability {:.2} s)",
+            r.followers, r.total_s, r.common_s, r.block_diagonal_s, r.max_decay_s, r.spectrum_s, r.string_stability_s
         );
     }
     if let Some(e) = growth_exponent(&checks) {
@@ -1053,6 +1156,11 @@ fn all(a: AllArgs) -> Result<()> {
         );
     }
     std::fs::create_dir_all(&out)?;
+    // Read before anything runs: the commit that measures every section below.
+    let commit = commit();
+    println!("benchmarking commit {commit}");
+    let measured =
+        |command: &str| format!("Measured by `platoon {command}` at commit `{commit}`.\n");
     let lat = latency(LatencyArgs {
         config: None,
         iterations: 20_000,
@@ -1088,17 +1196,22 @@ fn all(a: AllArgs) -> Result<()> {
     let _ = writeln!(
         md,
         "Regenerate with `cargo run --release -- bench all --force` (writes this file and runs/bench/). \
-         Machine: {} cores, `{}`. The machines are shared and noisy: read medians and ratios \
+         Measured in one `platoon bench all` run at commit `{commit}` (`git rev-parse --short HEAD` \
+         when the run started, \"+ uncommitted changes\" when tracked files differed from it); \
+         each section repeats the commit that measured it. \
+         Machine: {} cores, `{}`; {}. The machines are shared and noisy: read medians and ratios \
          measured side by side in one run, not absolute thresholds.\n",
         cores(),
         std::fs::read_to_string("/proc/cpuinfo")
             .ok()
             .and_then(|c| c.lines().find(|l| l.starts_with("model name")).map(|l| l.split(':').nth(1).unwrap_or("").trim().to_string()))
-            .unwrap_or_else(|| "unknown CPU".into())
+            .unwrap_or_else(|| "unknown CPU".into()),
+        describe_halt_poll(lat.guest_halt_poll_ns.as_deref())
     );
     let _ = writeln!(
         md,
-        "## V2V hop and step overhead (`platoon bench latency`)\n"
+        "## V2V hop and step overhead (`platoon bench latency`)\n\n{}",
+        measured("bench latency")
     );
     let _ = writeln!(
         md,
@@ -1120,35 +1233,35 @@ fn all(a: AllArgs) -> Result<()> {
             r.over_raw_p50.map_or(String::new(), |x| format!("{x:.2}"))
         );
     }
-    for s in &lat.skipped {
-        let _ = writeln!(md, "\n{s}");
-    }
     let _ = writeln!(
         md,
         "\nInjector hop / raw iceoryx2 hop (p50): **{:.2}** (target < 2: {}). Step overhead over in-process (p50): **{:.1} µs** (target < 60 µs: {}); with the nodes on one core (`--cpus`): **{:.1} µs** ({}).\n",
         lat.injector_hop_over_raw_hop_p50,
         if lat.injector_hop_over_raw_hop_p50 < 2.0 { "met" } else { "missed" },
         lat.step_overhead_p50_us,
-        if lat.step_overhead_p50_us < 60.0 { "met" } else { "missed: a step is four event-driven hops, and on this VM a wake-up on the other core costs about one raw hop" },
+        if lat.step_overhead_p50_us < 60.0 { "met" } else { "missed: a step is four event-driven hops, each a wake-up of another process, possibly on the other core" },
         lat.step_overhead_p50_us_one_core,
         if lat.step_overhead_p50_us_one_core < 60.0 { "met" } else { "missed" }
     );
-    if let (Some(any), Some(one)) = (
+    let (any, one) = (
         lat.python_sdk_over_builtin_injector_p50,
         lat.python_sdk_over_builtin_injector_p50_one_core,
-    ) {
-        let _ = writeln!(
-            md,
-            "Injector SDKs: the built-in injector is written on the Rust SDK (`platoon_runtime::injector`), so its hop is the Rust SDK's (1.0x by construction). The Python SDK's `bridge/examples/dos_jammer.py` in the same scenario, with the nodes on one core (`--cpus`, the `_one_core` rows): **{one:.2}x** the built-in hop (p50; target <= 2: {}). With the nodes on any CPU: **{any:.2}x** ({}).\n",
-            if one <= 2.0 { "met" } else { "missed: each step crosses into Python and copies the batch through ctypes" },
-            if any <= 2.0 {
-                "within the target too"
-            } else {
-                "here the hop is mostly the wake-up of a process on the other core, which this VM pays with a halted vCPU (`guest_halt_poll_ns` = 0): the scheduler keeps the built-in injector on the controller's core more often than the Python process, whose stage is longer; `platoon run --cpus 0` avoids it"
-            }
-        );
-    }
-    let _ = writeln!(md, "## Step cost against size (`platoon bench step`)\n");
+    );
+    let _ = writeln!(
+        md,
+        "Injector SDKs: the built-in injector is written on the Rust SDK (`platoon_runtime::injector`), so its hop is the Rust SDK's (1.0x by construction). The Python SDK's `bridge/examples/dos_jammer.py` in the same scenario, with the nodes on one core (`--cpus`, the `_one_core` rows): **{one:.2}x** the built-in hop (p50; target <= 2: {}). With the nodes on any CPU: **{any:.2}x** ({}).\n",
+        if one <= 2.0 { "met" } else { "missed: each step crosses into Python and copies the batch through ctypes" },
+        if any <= 2.0 {
+            "within the target too"
+        } else {
+            "what the one-core rows do not pay is the wake-up of a process on the other core; `platoon run --cpus 0` avoids it"
+        }
+    );
+    let _ = writeln!(
+        md,
+        "## Step cost against size (`platoon bench step`)\n\n{}",
+        measured("bench step")
+    );
     let _ = writeln!(md, "Platoons of 4 followers (PF, dynamic ETM, no DoS), 5 simulated seconds per case, dt = 0.01 s. p50 µs per step:\n");
     let _ = writeln!(md, "Modes ending in -1cpu run the nodes on one core (`platoon run --cpus`). Peak RSS is the sum over every process of the run (`platoon run` and its nodes; `timing.json` has each), in MiB.\n");
     let _ = writeln!(md, "| mode | followers | vehicles | step | x real time | plant | controller | injector | SUMO step | bridge | SUMO step, tight loop | bridge, tight loop | peak RSS |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|");
@@ -1212,7 +1325,7 @@ fn all(a: AllArgs) -> Result<()> {
         md,
         "The scaling plot with the least-squares lines is runs/bench/step/step.png.\n"
     );
-    let _ = writeln!(md, "## LMI design time (`platoon bench design`)\n\n| followers (TPSF) | seconds | SDPs | beta1/beta2 | certificate | designed on |\n|---|---|---|---|---|---|");
+    let _ = writeln!(md, "## LMI design time (`platoon bench design`)\n\n{}\n| followers (TPSF) | seconds | SDPs | beta1/beta2 | certificate | designed on |\n|---|---|---|---|---|---|", measured("bench design"));
     for r in &designs {
         let _ = writeln!(
             md,
@@ -1229,21 +1342,24 @@ fn all(a: AllArgs) -> Result<()> {
     let _ = writeln!(md, "\nTargets: under 1 s for N = 4, under 30 s for N = 20.");
     let _ = writeln!(
         md,
-        "\nThe checks of `design check-gain` for the paper's K on PLF (nominal tau; the spectrum and \
-         string stability, about 2 s more at N = 100, are not included):\n\n\
-         | followers (PLF) | common P (s) | ratio | one P per follower (s) | ratio | largest decay (s) | all (s) |\n|---|---|---|---|---|---|---|"
+        "\nThe checks of `design check-gain` for the paper's K on PLF (the LMIs at the nominal tau; \
+         the closed-loop spectrum at 51 taus and string stability at the smallest, nominal and \
+         largest tau of the paper's range):\n\n\
+         | followers (PLF) | common P (s) | ratio | one P per follower (s) | ratio | largest decay (s) | spectrum (s) | string stability (s) | all (s) |\n|---|---|---|---|---|---|---|---|---|"
     );
     let ratio = |x: Option<f64>| x.map_or("infeasible".to_string(), |x| format!("{x:.1}"));
     for r in &checks {
         let _ = writeln!(
             md,
-            "| {} | {:.2} | {} | {:.2} | {} | {:.2} | {:.2} |",
+            "| {} | {:.2} | {} | {:.2} | {} | {:.2} | {:.2} | {:.2} | {:.2} |",
             r.followers,
             r.common_s,
             ratio(r.common_ratio),
             r.block_diagonal_s,
             ratio(r.block_diagonal_ratio),
             r.max_decay_s,
+            r.spectrum_s,
+            r.string_stability_s,
             r.total_s
         );
     }
@@ -1253,7 +1369,11 @@ fn all(a: AllArgs) -> Result<()> {
             "\nThe check time grows as N^{e:.2} (least squares on log-log). Target: under 60 s for N = 100."
         );
     }
-    let _ = writeln!(md, "\n## Campaign throughput (`platoon bench campaign`)\n");
+    let _ = writeln!(
+        md,
+        "\n## Campaign throughput (`platoon bench campaign`)\n\n{}",
+        measured("bench campaign")
+    );
     let _ = writeln!(
         md,
         "The paper scenario with a random admissible DoS schedule per cell, in process, metrics only, \
@@ -1295,4 +1415,37 @@ fn all(a: AllArgs) -> Result<()> {
     std::fs::write(&a.markdown, md).with_context(|| format!("writing {}", a.markdown.display()))?;
     println!("wrote {}", a.markdown.display());
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The stamp of BENCHMARKS.md: a short hash (with a note when the tree differs from it), or
+    /// "unknown" where git or the source tree is missing.
+    #[test]
+    fn the_commit_is_a_short_hash_or_unknown() {
+        let c = commit();
+        let hash = c.split(' ').next().unwrap_or_default();
+        assert!(
+            c == "unknown"
+                || (hash.len() >= 7
+                    && hash.chars().all(|x| x.is_ascii_hexdigit())
+                    && [hash.to_string(), format!("{hash} + uncommitted changes")].contains(&c)),
+            "{c}"
+        );
+    }
+
+    /// `guest_halt_poll_ns` is reported as read, never assumed.
+    #[test]
+    fn halt_polling_is_reported_as_read() {
+        assert!(describe_halt_poll(Some("0")).contains("= 0, read from"));
+        assert!(describe_halt_poll(Some("200000")).contains("poll up to 200000 ns"));
+        assert!(describe_halt_poll(None).contains("not readable here"));
+        let read = describe_halt_poll(guest_halt_poll_ns().as_deref());
+        match std::fs::read_to_string(HALT_POLL) {
+            Ok(v) => assert!(read.contains(&format!("= {},", v.trim())), "{read}"),
+            Err(_) => assert!(read.contains("not readable here"), "{read}"),
+        }
+    }
 }
