@@ -297,7 +297,7 @@ fn a_time_headway_damps_gap_errors_along_a_long_platoon_that_constant_spacing_am
     let (rows, th) = run_rows(th);
     let (_, cs) = run_rows(cs);
     assert_eq!(
-        (th.spacing_policy, cs.spacing_policy),
+        (th.spacing_policy.as_str(), cs.spacing_policy.as_str()),
         ("time_headway", "constant")
     );
     // In formation at t = 0: every gap is l + h_t v0 = 10 + 15 m, no error.
