@@ -1,8 +1,8 @@
 //! `platoon bench`: what the co-simulation costs on this machine, measured side by side in one
 //! run (medians, percentiles and ratios; the machines are shared and noisy, so no absolute
 //! thresholds anywhere). `platoon bench all` runs every benchmark and writes BENCHMARKS.md.
-use platoon_output::rundir::RunDir;
 use anyhow::{bail, Context, Result};
+use platoon_output::rundir::RunDir;
 use platoon_runtime::timing::Stats;
 use platoon_sim::FleetSimulation;
 use std::fmt::Write as _;
@@ -401,10 +401,10 @@ fn latency(a: LatencyArgs) -> Result<LatencyReport> {
         .context("the iceoryx2 co-simulation on one core")?;
     bar.set_message("co-simulating with the Python SDK injector");
     // The Python rows are part of the report: if they cannot be measured, the benchmark fails.
-    let python = crate::sumo::ensure_venv().context(
+    let python = platoon_app::sumo::ensure_venv().context(
         "the Python SDK injector needs the bridge's Python environment (bridge/setup-venv.sh)",
     )?;
-    let script = crate::sumo::bridge_dir()?.join("examples/dos_jammer.py");
+    let script = platoon_app::sumo::bridge_dir()?.join("examples/dos_jammer.py");
     let program = platoon_runtime::Program::Exec {
         program: python.clone(),
         args: vec![script.display().to_string()],
@@ -615,7 +615,7 @@ struct StepRow {
 /// A platoon-of-4 fleet config with `followers` followers in all, `seconds` long.
 fn fleet_config(followers: usize, seconds: f64, sumo: bool) -> Result<String> {
     let platoons = followers / 4;
-    let net = crate::sumo::bridge_dir()?.join("../sumo/highway-long/highway-long.net.xml");
+    let net = platoon_app::sumo::bridge_dir()?.join("../sumo/highway-long/highway-long.net.xml");
     let mut text = platoon_config::TABLE1_TOML
         .replace("duration_s = 55.0", &format!("duration_s = {seconds:?}"))
         .replace("preset = \"tpsf\"", "preset = \"pf\"")
@@ -639,9 +639,9 @@ fn fleet_config(followers: usize, seconds: f64, sumo: bool) -> Result<String> {
 /// `bridge/sumo_plant.py --tight-loop`: the same SUMO and model as a run's plant.json, timed
 /// in a loop with no co-simulation around it.
 fn tight_loop(plant_json: &std::path::Path, steps: u32) -> Result<serde_json::Value> {
-    let python = crate::sumo::ensure_venv()?;
+    let python = platoon_app::sumo::ensure_venv()?;
     let o = Command::new(python)
-        .arg(crate::sumo::bridge_dir()?.join("sumo_plant.py"))
+        .arg(platoon_app::sumo::bridge_dir()?.join("sumo_plant.py"))
         .args(["--tight-loop", &steps.to_string()])
         .env("PLATOON_PLANT_SPEC", plant_json)
         .output()?;

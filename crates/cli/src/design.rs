@@ -1,7 +1,7 @@
 //! `platoon design`: Theorem 1 checks of a gain on clarabel's SDP solver, certificates and their
 //! independent re-check, and the DoS bounds (16).
-use platoon_output::rundir::RunDir;
 use anyhow::{bail, Context, Result};
+use platoon_output::rundir::RunDir;
 use platoon_synthesis::{
     closed_loop_spectrum, dos_bounds, min_ratio, theorem1_max_decay, Certificate, Coupling,
     Feasibility,

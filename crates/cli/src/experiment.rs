@@ -1,9 +1,9 @@
 //! `platoon experiment`: the paper's Section IV experiments.
-use platoon_output::rundir::RunDir;
-use platoon_output::plots::{self, Series};
-use crate::run::simulate;
 use anyhow::Result;
+use platoon_app::run::simulate;
 use platoon_control::TriggerRule;
+use platoon_output::plots::{self, Series};
+use platoon_output::rundir::RunDir;
 use platoon_sim::{Scenario, StepRow, Summary};
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -748,8 +748,8 @@ fn table1(args: Table1Args) -> Result<()> {
         let mut scenario = base.clone();
         scenario.control.rule = rule;
         let sub = RunDir::create(&dir.path(name), true)?;
-        let (rows, summary) = simulate(&scenario, &sub, true)?;
-        crate::run::write_outputs(&sub, &config, &scenario, &rows, &summary, false, &[])?;
+        let (rows, summary) = simulate(&scenario, &sub, &crate::progress::Bar::default())?;
+        platoon_app::run::write_outputs(&sub, &config, &scenario, &rows, &summary, false, &[])?;
         sub.commit()?;
         results.push((name, summary, average_error(&rows)));
     }
@@ -921,8 +921,8 @@ fn robust(args: RobustArgs) -> Result<()> {
         scenario.control.gain = nalgebra::RowVector3::from(d.k);
         scenario.control.beta1 = d.certificate.ratio * scenario.control.beta2;
         let sub = RunDir::create(&dir.path(name), true)?;
-        let (rows, summary) = simulate(&scenario, &sub, true)?;
-        crate::run::write_outputs(&sub, &config, &scenario, &rows, &summary, false, &[])?;
+        let (rows, summary) = simulate(&scenario, &sub, &crate::progress::Bar::default())?;
+        platoon_app::run::write_outputs(&sub, &config, &scenario, &rows, &summary, false, &[])?;
         sub.commit()?;
         let e = average_error(&rows);
         let phase = |a: f64, b: f64| {

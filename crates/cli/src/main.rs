@@ -3,14 +3,13 @@
 // `runs/<name>` and `[fallback]` there are for a terminal, not rustdoc markup.
 #![allow(rustdoc::broken_intra_doc_links, rustdoc::invalid_html_tags)]
 mod bench;
-mod bundle;
 mod campaign;
 mod design;
 mod experiment;
 mod node;
+mod progress;
 mod run;
 mod signals;
-mod sumo;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;

@@ -139,9 +139,9 @@ impl<T: Serialize + DeserializeOwned> Table<T> {
     }
 
     /// Writes what is buffered and closes the file.
-    pub fn finish(mut self) -> Result<()> {
+    pub fn finish(&mut self) -> Result<()> {
         self.flush_batch()?;
-        match self.sink {
+        match std::mem::replace(&mut self.sink, Sink::Off) {
             Sink::Off => Ok(()),
             Sink::Csv(mut w) => w.flush().with_context(|| format!("writing {}", self.name)),
             Sink::Parquet { writer, .. } => writer

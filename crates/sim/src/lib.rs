@@ -31,6 +31,7 @@ pub struct StepWire<'a> {
 use platoon_attacks::channel::{Channel, ChannelEvent};
 use platoon_control::{Delivery, FollowerStep, Packet, PlatoonController};
 use platoon_model::{leader_step, plant_step, LeaderProfile, State, TauSchedule, VehicleId};
+use std::ops::ControlFlow;
 
 /// One vehicle at one step: what `trajectories.csv` holds.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -433,13 +434,28 @@ impl FleetSimulation {
 /// detail, the fleet in brief, and the wire tally, as `platoon run --transport inproc` records
 /// them.
 pub fn run(scenario: Scenario, mut each: impl FnMut(&[StepRow])) -> Result<Summary, ScenarioError> {
-    let mut sim = FleetSimulation::new(&scenario)?;
-    let mut metrics = FleetMetrics::new(&scenario);
+    run_until(&scenario, |sim| {
+        each(sim.rows());
+        ControlFlow::Continue(())
+    })
+}
+
+/// The in-process step loop every front-end shares: steps `scenario`'s fleet and hands `each`
+/// the simulation after every step (its rows, what happened on the wire, the channel's log),
+/// until the last step or until `each` breaks (the summary then says `complete: false`).
+pub fn run_until(
+    scenario: &Scenario,
+    mut each: impl FnMut(&FleetSimulation) -> ControlFlow<()>,
+) -> Result<Summary, ScenarioError> {
+    let mut sim = FleetSimulation::new(scenario)?;
+    let mut metrics = FleetMetrics::new(scenario);
     while !sim.is_done() {
         sim.step();
         metrics.push_wire(sim.wire());
         metrics.push(sim.rows());
-        each(sim.rows());
+        if each(&sim).is_break() {
+            break;
+        }
     }
     Ok(metrics.finish(sim.rejected()))
 }

@@ -1,8 +1,8 @@
 //! Running cells: one cell (in process, or as a `platoon run` co-simulation), a local worker
 //! pool, and a Dask cluster through `bridge/dask_cells.py`.
-use platoon_output::rundir::RunDir;
 use anyhow::{bail, Context, Result};
 use platoon_campaign::Transport;
+use platoon_output::rundir::RunDir;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 use std::io::{BufRead, BufReader, Write};
@@ -65,26 +65,24 @@ fn in_process(job: &CellJob) -> Result<Value> {
         Some(out) => {
             let dir = RunDir::replace(out)?;
             dir.write("config.toml", job.config.as_bytes())?;
-            let (rows, summary) =
-                crate::run::simulate_until(&scenario, &config.output, &dir, false, None)?;
-            let extra = [("injector", crate::run::builtin_injector_json())];
-            crate::run::write_outputs(&dir, &config, &scenario, &rows, &summary, false, &extra)?;
+            let (rows, summary) = platoon_app::run::simulate_until(
+                &scenario,
+                &config.output,
+                &dir,
+                &(),
+                &platoon_app::Stop::default(),
+            )?;
+            let extra = [("injector", platoon_app::run::builtin_injector_json())];
+            platoon_app::run::write_outputs(
+                &dir, &config, &scenario, &rows, &summary, false, &extra,
+            )?;
             dir.commit()?;
             summary
         }
-        None => {
-            let mut sim = platoon_sim::FleetSimulation::new(&scenario)?;
-            let mut metrics = platoon_sim::FleetMetrics::new(&scenario);
-            while !sim.is_done() {
-                sim.step();
-                metrics.push(sim.rows());
-                metrics.push_wire(sim.wire());
-            }
-            metrics.finish(sim.rejected())
-        }
+        None => platoon_sim::run(scenario, |_| {})?,
     };
     let mut json = serde_json::to_value(summary)?;
-    json["injector"] = crate::run::builtin_injector_json();
+    json["injector"] = platoon_app::run::builtin_injector_json();
     Ok(json)
 }
 
@@ -197,8 +195,8 @@ pub fn dask(
     child: &std::sync::atomic::AtomicU32,
     mut record: impl FnMut(CellReply) -> Result<()>,
 ) -> Result<()> {
-    let python = crate::sumo::ensure_venv()?;
-    let script = crate::sumo::bridge_dir()?.join("dask_cells.py");
+    let python = platoon_app::sumo::ensure_venv()?;
+    let script = platoon_app::sumo::bridge_dir()?.join("dask_cells.py");
     let exe = std::env::current_exe().context("locating the platoon binary")?;
     let log_file =
         std::fs::File::create(log).with_context(|| format!("creating {}", log.display()))?;
@@ -270,8 +268,8 @@ impl LocalCluster {
     /// Starts a scheduler and `workers` single-threaded workers, logging into `dir`, and waits
     /// (at most a minute) until every worker has registered.
     pub fn start(workers: usize, dir: &Path) -> Result<Self> {
-        crate::sumo::ensure_venv()?;
-        let dask = crate::sumo::bridge_dir()?.join(".venv/bin/dask");
+        platoon_app::sumo::ensure_venv()?;
+        let dask = platoon_app::sumo::bridge_dir()?.join(".venv/bin/dask");
         let file = dir.join("scheduler.json");
         let log = |name: &str| -> Result<std::fs::File> {
             std::fs::File::create(dir.join(name))

@@ -3,11 +3,11 @@
 pub mod exec;
 mod report;
 
-use platoon_output::rundir::RunDir;
 use crate::signals::Interrupt;
 use anyhow::{Context, Result};
 use exec::{CellJob, CellReply};
 use platoon_campaign::{metrics, Campaign, Cell};
+use platoon_output::rundir::RunDir;
 use report::{Outcome, RunInfo, Table};
 use serde_json::{json, Value};
 use std::path::{Path, PathBuf};
@@ -170,7 +170,7 @@ pub fn run(args: Args) -> Result<()> {
         .clone()
         .unwrap_or_else(|| PathBuf::from("runs").join(&campaign.name));
     if campaign.cells.iter().any(|c| c.plant == "sumo") {
-        crate::sumo::ensure_venv()?;
+        platoon_app::sumo::ensure_venv()?;
     }
     let interrupt = Interrupt::install(
         "stopping: no new cells start; the cells in flight finish or are dropped",

@@ -1,8 +1,8 @@
 //! What a campaign writes once its cells are in: `cells.csv`, `campaign.json` and the plots.
-use platoon_output::plots::{ensure_font, err};
 use anyhow::{Context, Result};
 use platoon_campaign::metrics::{self, Metric};
 use platoon_campaign::{Campaign, Cell};
+use platoon_output::plots::{ensure_font, err};
 use plotters::prelude::*;
 use plotters::style::colors::colormaps::ViridisRGB;
 use serde_json::{json, Value};

@@ -1,7 +1,7 @@
 //! SUMO as the plant: the bridge's Python environment, the road check, and plant.json.
-use platoon_output::rundir::RunDir;
 use anyhow::{bail, Context, Result};
 use platoon_config::{Config, ConfigError};
+use platoon_output::rundir::RunDir;
 use platoon_runtime::Program;
 use platoon_sim::{PlantSpec, Scenario};
 use std::path::{Path, PathBuf};

@@ -1,0 +1,798 @@
+//! Running one scenario: in process or co-simulated over iceoryx2, one platoon or a fleet, the
+//! native plant or SUMO. [`run`] records into a run directory (the outputs of `platoon run`);
+//! [`record`] drives the same step loop into any [`StepSink`]; [`platoon_sim::run`] gives the
+//! summary alone, with no files at all.
+use crate::progress::Progress;
+use anyhow::{Context, Result};
+use platoon_attacks::channel::ChannelEvent;
+use platoon_config::{Config, Transport};
+use platoon_output::plots;
+use platoon_output::rundir::RunDir;
+use platoon_output::tables::{Format, Table};
+use platoon_sim::{Scenario, StepRow, StepWire, Summary};
+use std::ops::ControlFlow;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+/// What integrates the vehicles.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PlantKind {
+    /// The model in Rust (`platoon node plant`).
+    Native,
+    /// SUMO through the libsumo bridge (bridge/sumo_plant.py).
+    Sumo,
+}
+
+/// How a third-party injector composes with the built-in channel.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum InjectorMode {
+    /// Instead of the built-in channel.
+    Replace,
+    /// After the built-in channel, on what survived it.
+    After,
+}
+
+/// A third-party attack injector: a shell command and how it composes with the built-in
+/// channel (`docs/injector-contract.md`).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Injector {
+    /// The command, run by `sh -c`.
+    pub command: String,
+    /// Instead of, or after, the built-in channel.
+    pub mode: InjectorMode,
+}
+
+/// How a run runs; [`RunOptions::default`] is `platoon run`'s default.
+#[derive(Debug, Clone)]
+pub struct RunOptions {
+    /// Separate processes over iceoryx2, or the same core in one process.
+    pub transport: Transport,
+    /// Overrides the config's `simulation.plant`.
+    pub plant: Option<PlantKind>,
+    /// A third-party injector (iceoryx2 only); None: the built-in channel.
+    pub injector: Option<Injector>,
+    /// How long the run waits for one process's sample of a step (iceoryx2).
+    pub step_timeout: Duration,
+    /// Read-only observers that may attach (iceoryx2).
+    pub observers: usize,
+    /// CPUs to pin the run's processes to (iceoryx2; empty: any).
+    pub cpus: Vec<usize>,
+    /// Draw the PNG figures.
+    pub plots: bool,
+    /// The program whose `node <role>` subcommand runs the processes of an iceoryx2 run
+    /// (None: this executable, the `platoon` binary).
+    pub node_program: Option<PathBuf>,
+    /// The file the config came from, named by SUMO set-up errors.
+    pub config_file: PathBuf,
+}
+
+impl Default for RunOptions {
+    fn default() -> Self {
+        Self {
+            transport: Transport::Iceoryx2,
+            plant: None,
+            injector: None,
+            step_timeout: Duration::from_secs(1),
+            observers: 4,
+            cpus: Vec::new(),
+            plots: true,
+            node_program: None,
+            config_file: PathBuf::from(platoon_config::Embedded::Paper.label()),
+        }
+    }
+}
+
+/// Asks a run to stop: the flag its loop checks, and what to say of why (e.g. "interrupted by
+/// SIGINT").
+#[derive(Clone, Default)]
+pub struct Stop {
+    /// Set to stop after the current step.
+    pub flag: Arc<AtomicBool>,
+    reason: Option<Arc<dyn Fn() -> Option<String> + Send + Sync>>,
+}
+
+impl Stop {
+    /// A flag, and what to record as the reason once it is set (None: no stop was asked).
+    pub fn new(
+        flag: Arc<AtomicBool>,
+        reason: impl Fn() -> Option<String> + Send + Sync + 'static,
+    ) -> Self {
+        Self {
+            flag,
+            reason: Some(Arc::new(reason)),
+        }
+    }
+
+    /// Why the run was asked to stop, if it was.
+    pub fn reason(&self) -> Option<String> {
+        self.reason.as_ref().and_then(|r| r())
+    }
+
+    fn requested(&self) -> bool {
+        self.flag.load(Ordering::SeqCst)
+    }
+}
+
+/// A finished run: what it recorded and where.
+#[derive(Debug)]
+pub struct RunOutcome {
+    /// The run directory, complete.
+    pub dir: PathBuf,
+    /// Platoon 0's rows (what the plots show).
+    pub rows: Vec<StepRow>,
+    /// What `summary.json` holds (without the extra keys `injector` and `sumo`).
+    pub summary: Summary,
+    /// The process that failed, if one did (the run directory then says `complete: false`).
+    pub failure: Option<platoon_runtime::RunError>,
+    /// Why it was stopped early, if it was asked to (the summary says so too).
+    pub stopped: Option<String>,
+    /// Wall time of the steps.
+    pub compute: Duration,
+}
+
+/// Takes the gain and the ratio beta1/beta2 of a certificate (`platoon design synthesize` or
+/// `check-gain`) into `config`: control.gain = its K, control.beta1 = its ratio x beta2. Fails
+/// unless the certificate holds; returns a warning when it was issued for another graph or
+/// spacing policy (it then certifies nothing about this run, but its K and ratio are used).
+pub fn apply_design(
+    config: &mut Config,
+    scenario: &mut Scenario,
+    stem: &str,
+    file: &Path,
+) -> Result<Option<String>> {
+    let text = std::fs::read_to_string(file)
+        .with_context(|| format!("reading the design {}", file.display()))?;
+    let cert: platoon_synthesis::Certificate = serde_json::from_str(&text)
+        .with_context(|| format!("{} is not a certificate", file.display()))?;
+    if !cert.verify()?.holds {
+        anyhow::bail!(
+            "{}: the certificate does not hold (platoon design verify says why)",
+            file.display()
+        );
+    }
+    let h = scenario.topology.h_matrix();
+    let same_graph = cert.h.len() == h.nrows()
+        && cert
+            .h
+            .iter()
+            .enumerate()
+            .all(|(i, row)| row.iter().enumerate().all(|(j, &x)| x == h[(i, j)]));
+    let warning = (!same_graph || cert.headway != scenario.headway()).then(|| {
+        format!(
+            "{} was issued for {} followers with a time headway of {} s; this run has {} with {} s, so it certifies nothing about this run (its K and ratio are used anyway)",
+            file.display(),
+            cert.h.len(),
+            cert.headway,
+            h.nrows(),
+            scenario.headway()
+        )
+    });
+    config.control.gain = cert.k;
+    config.control.beta1 = cert.ratio * config.control.beta2;
+    let label = format!("{} with the design {}", stem, file.display());
+    *scenario = platoon_config::parse(&platoon_config::to_toml(config), Path::new(&label))?.1;
+    Ok(warning)
+}
+
+/// Runs `config`'s scenario into the run directory `out` (created; replaced with `force`),
+/// written atomically: config.toml, the per-step tables, timing.json, the plots and
+/// summary.json, then renamed from `<out>.partial` to `out`. A run that a process ended early
+/// or that `stop` stopped is still recorded, marked `complete: false`, and returned with the
+/// failure or the reason. `progress` hears of the steps.
+pub fn run(
+    mut config: Config,
+    scenario: &Scenario,
+    opts: &RunOptions,
+    out: &Path,
+    force: bool,
+    stop: &Stop,
+    progress: &dyn Progress,
+) -> Result<RunOutcome> {
+    if opts.injector.is_some() && opts.transport == Transport::Inproc {
+        anyhow::bail!("--injector needs --transport iceoryx2: an external injector is a process");
+    }
+    match opts.plant {
+        Some(PlantKind::Sumo) => config.simulation.plant = "sumo".into(),
+        Some(PlantKind::Native) => config.simulation.plant = "native".into(),
+        None => {}
+    }
+    let sumo_plan = if config.simulation.plant == "sumo" {
+        if opts.transport == Transport::Inproc {
+            anyhow::bail!(
+                "the SUMO plant is a process: use --transport iceoryx2 (the default), or --plant native"
+            );
+        }
+        Some(crate::sumo::plan(&opts.config_file, &config, scenario)?)
+    } else {
+        None
+    };
+    if opts.step_timeout.is_zero() {
+        anyhow::bail!("--step-timeout must be a positive number of seconds");
+    }
+    let dir = RunDir::create(out, force)?;
+    dir.write("config.toml", platoon_config::to_toml(&config).as_bytes())?;
+    let started = Instant::now();
+    let (rows, summary, failure) = match opts.transport {
+        Transport::Inproc => {
+            let (rows, summary) = simulate_until(scenario, &config.output, &dir, progress, stop)?;
+            (rows, summary, None)
+        }
+        Transport::Iceoryx2 => {
+            let plant = sumo_plan.as_ref().map(|p| p.launch(&dir)).transpose()?;
+            cosimulate(scenario, &config.output, &dir, opts, plant, stop, progress)?
+        }
+    };
+    // A stop wins over whatever it caused (a node that died of the same Ctrl-C, say).
+    let stopped = stop.reason();
+    let (mut summary, failure) = match &stopped {
+        Some(why) => {
+            let mut summary = summary;
+            summary.complete = false;
+            summary.error = Some(format!(
+                "{why} after {} of {} steps",
+                summary.steps,
+                scenario.steps + 1
+            ));
+            (summary, None)
+        }
+        None => (summary, failure),
+    };
+    let compute = started.elapsed();
+    summary.attack.applied = opts
+        .injector
+        .as_ref()
+        .is_none_or(|i| i.mode == InjectorMode::After);
+    let mut extra = vec![(
+        "injector",
+        match &opts.injector {
+            None => builtin_injector_json(),
+            Some(i) => serde_json::json!({
+                "program": i.command,
+                "mode": match i.mode {
+                    InjectorMode::Replace => "replace: the config's attacks were not applied by platoon",
+                    InjectorMode::After => "after: the config's attacks first, then this program",
+                },
+            }),
+        },
+    )];
+    if sumo_plan.is_some() {
+        if let Some(report) = crate::sumo::report(&dir)? {
+            if report["collisions"]
+                .as_array()
+                .is_some_and(|c| !c.is_empty())
+            {
+                summary.safety.collided = true;
+                summary.safety.class = platoon_sim::SafetyClass::Severe;
+                if let Some(f) = &mut summary.fleet {
+                    f.collided = true;
+                    f.class = platoon_sim::SafetyClass::Severe;
+                }
+            }
+            extra.push(("sumo", report));
+        }
+    }
+    write_outputs(&dir, &config, scenario, &rows, &summary, opts.plots, &extra)?;
+    let dir = dir.commit()?;
+    Ok(RunOutcome {
+        dir,
+        rows,
+        summary,
+        failure,
+        stopped,
+        compute,
+    })
+}
+
+/// Where a run's per-step data goes, step by step, whichever transport ran it.
+pub trait StepSink {
+    /// One step: every platoon's rows (platoon by platoon, leader first) and what happened on
+    /// the wire.
+    fn step(&mut self, rows: &[StepRow], wire: StepWire<'_>) -> Result<()>;
+    /// What the built-in channel did not deliver as sent, as it happened (in process only: a
+    /// co-simulation's injector writes its own log).
+    fn channel(&mut self, _event: &ChannelEvent) -> Result<()> {
+        Ok(())
+    }
+    /// After the last step.
+    fn finish(&mut self) -> Result<()> {
+        Ok(())
+    }
+}
+
+/// A sink that keeps nothing.
+impl StepSink for () {
+    fn step(&mut self, _rows: &[StepRow], _wire: StepWire<'_>) -> Result<()> {
+        Ok(())
+    }
+}
+
+/// Runs `scenario` in process, feeding every step to `sink` until the last step or `stop`;
+/// returns the summary (`complete: false` when stopped) and each step's compute time (ns).
+pub fn record(
+    scenario: &Scenario,
+    sink: &mut dyn StepSink,
+    stop: &Stop,
+    progress: &dyn Progress,
+) -> Result<(Summary, Vec<u64>)> {
+    let steps = scenario.steps + 1;
+    progress.start("simulating", steps);
+    let mut step_ns = Vec::with_capacity(steps.min(1 << 20) as usize);
+    let mut failure = None;
+    let mut last = Instant::now();
+    let summary = platoon_sim::run_until(scenario, |sim| {
+        step_ns.push(last.elapsed().as_nanos() as u64);
+        let written = sim.channel_log().iter().try_for_each(|e| sink.channel(e));
+        if let Err(e) = written.and_then(|()| sink.step(sim.rows(), sim.wire())) {
+            failure = Some(e);
+            return ControlFlow::Break(());
+        }
+        let k = sim.rows()[0].step;
+        if k.is_multiple_of(1000) {
+            progress.at(k);
+        }
+        last = Instant::now();
+        if stop.requested() {
+            ControlFlow::Break(())
+        } else {
+            ControlFlow::Continue(())
+        }
+    })?;
+    progress.finish();
+    if let Some(e) = failure {
+        return Err(e);
+    }
+    sink.finish()?;
+    Ok((summary, step_ns))
+}
+
+/// The files of a run directory's per-step data: trajectories (every `decimate`-th step),
+/// events (broadcasts and mode switches), wire (vehicles whose links were not all delivered as
+/// sent) and the channel log, as CSV or Parquet; keeps platoon 0's rows for the plots (memory
+/// stays bounded for large fleets).
+pub struct RunFiles {
+    trajectories: Table<StepRow>,
+    events: Table<EventRow>,
+    wire: Table<WireRow>,
+    channel: Option<Table<ChannelEvent>>,
+    decimate: u64,
+    last: Vec<Option<u64>>,
+    modes: Vec<platoon_control::Mode>,
+    per_platoon: usize,
+    dt: f64,
+    rows: Vec<StepRow>,
+}
+
+/// One row of wire.csv: a vehicle's link packets in a step where not everything sent to it was
+/// delivered as sent.
+#[derive(serde::Serialize, serde::Deserialize)]
+struct WireRow {
+    step: u64,
+    t: f64,
+    platoon: u16,
+    vehicle: u16,
+    sent: u64,
+    delivered_as_sent: u64,
+    altered: u64,
+    dropped: u64,
+    injected: u64,
+    jammed: u64,
+}
+
+/// One row per broadcast of a follower, and one per change of its mode.
+#[derive(serde::Serialize, serde::Deserialize)]
+struct EventRow {
+    platoon: u16,
+    vehicle: u16,
+    step: u64,
+    t: f64,
+    /// `broadcast`, or `switch` (the vehicle's mode changed at this step).
+    event: Event,
+    /// The mode it is in (after the switch).
+    mode: platoon_control::Mode,
+    /// Broadcasts: the time since its previous broadcast.
+    inter_event_s: Option<f64>,
+    under_attack: bool,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+enum Event {
+    Broadcast,
+    Switch,
+}
+
+impl RunFiles {
+    /// Opens the tables `output` asks for in `dir`; `channel` also opens the channel log
+    /// (in process; a co-simulation's injector writes its own).
+    pub fn create(
+        scenario: &Scenario,
+        output: &platoon_config::OutputConfig,
+        dir: &RunDir,
+        channel: bool,
+    ) -> Result<Self> {
+        let steps = scenario.steps + 1;
+        let format = Format::of(output, scenario);
+        let on = |f: &str| output.files.iter().any(|x| x == f);
+        Ok(Self {
+            trajectories: Table::create(dir, "trajectories", format, on("trajectories"))?,
+            events: Table::create(dir, "events", format, on("events"))?,
+            wire: Table::create(dir, "wire", format, on("wire"))?,
+            channel: channel
+                .then(|| Table::create(dir, "channel", format, on("channel")))
+                .transpose()?,
+            decimate: output.decimate,
+            last: vec![None; scenario.vehicles()],
+            modes: vec![platoon_control::Mode::Coop; scenario.vehicles()],
+            per_platoon: scenario.vehicles_per_platoon(),
+            dt: scenario.dt(),
+            // Platoon 0's rows for the plots; grown as needed past a million steps.
+            rows: Vec::with_capacity(steps.min(1 << 20) as usize * scenario.vehicles_per_platoon()),
+        })
+    }
+
+    /// Platoon 0's rows so far.
+    pub fn into_rows(self) -> Vec<StepRow> {
+        self.rows
+    }
+}
+
+impl StepSink for RunFiles {
+    fn step(&mut self, step: &[StepRow], wire: StepWire<'_>) -> Result<()> {
+        self.rows.extend(step.iter().take_while(|r| r.platoon == 0));
+        let k = step[0].step;
+        for (i, counts) in wire.per_vehicle.iter().enumerate() {
+            if counts.is_eventful() {
+                self.wire.write(WireRow {
+                    step: k,
+                    t: step[0].t,
+                    platoon: (i / self.per_platoon) as u16,
+                    vehicle: (i % self.per_platoon) as u16,
+                    sent: counts.sent,
+                    delivered_as_sent: counts.delivered_as_sent,
+                    altered: counts.altered,
+                    dropped: counts.dropped,
+                    injected: counts.injected,
+                    jammed: counts.jammed,
+                })?;
+            }
+        }
+        let keep = k.is_multiple_of(self.decimate);
+        for r in step {
+            if keep {
+                self.trajectories.write(*r)?;
+            }
+            if r.vehicle == 0 {
+                continue;
+            }
+            let v = usize::from(r.platoon) * self.per_platoon + usize::from(r.vehicle);
+            let row = |event, inter_event_s| EventRow {
+                platoon: r.platoon,
+                vehicle: r.vehicle,
+                step: r.step,
+                t: r.t,
+                event,
+                mode: r.mode,
+                inter_event_s,
+                under_attack: r.under_attack,
+            };
+            if r.mode != self.modes[v] {
+                self.modes[v] = r.mode;
+                self.events.write(row(Event::Switch, None))?;
+            }
+            if r.triggered {
+                let prev = &mut self.last[v];
+                let inter = prev.map(|p| (r.step - p) as f64 * self.dt);
+                self.events.write(row(Event::Broadcast, inter))?;
+                *prev = Some(r.step);
+            }
+        }
+        Ok(())
+    }
+
+    fn channel(&mut self, event: &ChannelEvent) -> Result<()> {
+        match &mut self.channel {
+            Some(t) => t.write(*event),
+            None => Ok(()),
+        }
+    }
+
+    fn finish(&mut self) -> Result<()> {
+        self.trajectories.finish()?;
+        self.events.finish()?;
+        self.wire.finish()?;
+        if let Some(t) = &mut self.channel {
+            t.finish()?;
+        }
+        Ok(())
+    }
+}
+
+/// Runs the scenario in process into `dir` (the per-step tables and timing.json); returns
+/// platoon 0's rows and the summary.
+pub fn simulate(
+    scenario: &Scenario,
+    dir: &RunDir,
+    progress: &dyn Progress,
+) -> Result<(Vec<StepRow>, Summary)> {
+    simulate_until(
+        scenario,
+        &Default::default(),
+        dir,
+        progress,
+        &Stop::default(),
+    )
+}
+
+/// [`simulate`] with the config's `[output]`, stopping after the step at which `stop` is seen
+/// set (the summary then says `complete: false`).
+pub fn simulate_until(
+    scenario: &Scenario,
+    output: &platoon_config::OutputConfig,
+    dir: &RunDir,
+    progress: &dyn Progress,
+    stop: &Stop,
+) -> Result<(Vec<StepRow>, Summary)> {
+    let mut files = RunFiles::create(scenario, output, dir, true)?;
+    let (summary, mut step_ns) = record(scenario, &mut files, stop, progress)?;
+    // In process a step has no stages: only its compute time.
+    let timing = platoon_runtime::timing::Timing {
+        step: platoon_runtime::timing::Stats::of(&mut step_ns),
+        controller_tx: None,
+        injector: None,
+        controller_rx: None,
+        plant: None,
+    };
+    let mut timing = serde_json::to_value(&timing)?;
+    timing["peak_rss_mib"] = peak_rss_mib(&[]);
+    dir.write(
+        "timing.json",
+        (serde_json::to_string_pretty(&timing)? + "\n").as_bytes(),
+    )?;
+    Ok((files.into_rows(), summary))
+}
+
+/// `timing.json`'s `peak_rss_mib`: the peak resident memory of `platoon run` itself (which
+/// records and writes the outputs) and of each node process.
+fn peak_rss_mib(nodes: &[(&str, u64)]) -> serde_json::Value {
+    let mib = |kib: u64| (kib as f64 / 1024.0 * 10.0).round() / 10.0;
+    let mut m = serde_json::Map::new();
+    if let Some(own) = platoon_runtime::peak_rss_kib(None) {
+        m.insert("platoon_run".into(), mib(own).into());
+    }
+    for (node, kib) in nodes {
+        m.insert((*node).into(), mib(*kib).into());
+    }
+    m.into()
+}
+
+/// Runs the scenario across processes over iceoryx2. A failed run still returns what it
+/// recorded, with the summary marked incomplete, and the error.
+fn cosimulate(
+    scenario: &Scenario,
+    output: &platoon_config::OutputConfig,
+    dir: &RunDir,
+    opts: &RunOptions,
+    plant: Option<crate::sumo::SumoPlant>,
+    stop: &Stop,
+    progress: &dyn Progress,
+) -> Result<(Vec<StepRow>, Summary, Option<platoon_runtime::RunError>)> {
+    let logs = dir.path("logs");
+    std::fs::create_dir_all(&logs).with_context(|| format!("creating {}", logs.display()))?;
+    let injector = match &opts.injector {
+        Some(i) => platoon_runtime::Program::Shell(i.command.clone()),
+        None => platoon_runtime::Program::Builtin,
+    };
+    let after = opts
+        .injector
+        .as_ref()
+        .is_some_and(|i| i.mode == InjectorMode::After);
+    let (plant, env) = match plant {
+        Some(p) => (p.program, p.env),
+        None => (platoon_runtime::Program::Builtin, Vec::new()),
+    };
+    let run_id = platoon_runtime::new_run_id();
+    write_run_json(dir, &run_id, scenario, opts.observers)?;
+    progress.message(&format!(
+        "run id {run_id}; observers: {} (docs/observer-contract.md)",
+        dir.path("run.json").display()
+    ));
+    let exe = match &opts.node_program {
+        Some(p) => p.clone(),
+        None => std::env::current_exe().context("locating the platoon binary")?,
+    };
+    let rt = platoon_runtime::Options {
+        run_id,
+        exe,
+        config: std::path::absolute(dir.path("config.toml"))
+            .context("resolving the run directory")?,
+        channel_log: ((injector == platoon_runtime::Program::Builtin || after)
+            && output.files.iter().any(|f| f == "channel"))
+        .then(|| dir.path("channel.csv")),
+        injector,
+        plant,
+        env,
+        log_dir: Some(logs),
+        step_timeout: opts.step_timeout,
+        ready_timeout: Duration::from_secs(60),
+        stop: Some(stop.flag.clone()),
+        observers: opts.observers,
+        cpus: opts.cpus.clone(),
+        channel_first: after,
+    };
+    let steps = scenario.steps + 1;
+    progress.start("co-simulating", steps);
+    let mut files = RunFiles::create(scenario, output, dir, false)?;
+    let mut metrics = platoon_sim::FleetMetrics::new(scenario);
+    let mut failure: Option<anyhow::Error> = None;
+    let result = platoon_runtime::orchestrate(&rt, scenario, |rows, wire| {
+        if failure.is_none() {
+            if let Err(e) = files.step(rows, wire) {
+                failure = Some(e);
+            }
+        }
+        metrics.push_wire(wire);
+        metrics.push(rows);
+        if rows[0].step.is_multiple_of(1000) {
+            progress.at(rows[0].step);
+        }
+    });
+    progress.finish();
+    if let Some(e) = failure {
+        return Err(e);
+    }
+    files.finish()?;
+    let rows = files.into_rows();
+    match result {
+        Ok(outcome) => {
+            let summary = metrics.finish(outcome.rejected);
+            channel_log_format(scenario, output, dir)?;
+            let mut timing = serde_json::to_value(&outcome.timing)?;
+            timing["duplicate_samples"] = serde_json::to_value(outcome.duplicates)?;
+            timing["peak_rss_mib"] = peak_rss_mib(&outcome.peak_rss_kib);
+            let json = serde_json::to_string_pretty(&timing)? + "\n";
+            dir.write("timing.json", json.as_bytes())?;
+            if outcome.duplicates.total() > 0 {
+                progress.message(&format!(
+                    "warning: {} samples repeated a step already published (states {}, tx {}, rx {}, commands {}); they were dropped, but they slow the run (timing.json counts them)",
+                    outcome.duplicates.total(),
+                    outcome.duplicates.states,
+                    outcome.duplicates.tx,
+                    outcome.duplicates.rx,
+                    outcome.duplicates.commands
+                ));
+            }
+            Ok((rows, summary, None))
+        }
+        Err(e) => {
+            let mut summary = metrics.finish(Default::default());
+            summary.complete = false;
+            summary.error = Some(e.to_string());
+            Ok((rows, summary, Some(e)))
+        }
+    }
+}
+
+/// The injector node writes its channel log as CSV; with Parquet output it is converted, row
+/// by row (memory stays flat), and the CSV removed.
+fn channel_log_format(
+    scenario: &Scenario,
+    output: &platoon_config::OutputConfig,
+    dir: &RunDir,
+) -> Result<()> {
+    let format = Format::of(output, scenario);
+    let csv_path = dir.path("channel.csv");
+    if format != Format::Parquet || !csv_path.exists() {
+        return Ok(());
+    }
+    let mut table = Table::create(dir, "channel", format, true)?;
+    let mut reader = csv::Reader::from_path(&csv_path)
+        .with_context(|| format!("reading {}", csv_path.display()))?;
+    for row in reader.deserialize::<ChannelEvent>() {
+        table.write(row.with_context(|| format!("reading {}", csv_path.display()))?)?;
+    }
+    table.finish()?;
+    std::fs::remove_file(&csv_path).with_context(|| format!("removing {}", csv_path.display()))
+}
+
+/// summary.json's `injector` when the built-in channel gates the links.
+pub fn builtin_injector_json() -> serde_json::Value {
+    serde_json::json!({ "program": "built-in", "mode": "built-in" })
+}
+
+/// `run.json`, written the moment an iceoryx2 run starts: what an outside observer needs to find
+/// this run's services (and not another's) and read them.
+fn write_run_json(dir: &RunDir, run_id: &str, scenario: &Scenario, observers: usize) -> Result<()> {
+    use platoon_wire::{service_name, Observed, Service};
+    let observe: serde_json::Map<String, serde_json::Value> = Observed::ALL
+        .iter()
+        .map(|&o| {
+            (
+                o.leaf().to_string(),
+                service_name(run_id, Service::Observe(o)).into(),
+            )
+        })
+        .collect();
+    let json = serde_json::json!({
+        "run_id": run_id,
+        "pid": std::process::id(),
+        "config": std::path::absolute(dir.path("config.toml")).unwrap_or_default(),
+        "observers": observers,
+        "observe": observe,
+        "platoons": scenario.fleet.platoons,
+        "vehicles_per_platoon": scenario.vehicles_per_platoon(),
+        "spacing_m": scenario.spacing(),
+        "spacing_policy": scenario.spacing_policy().name(),
+        "time_headway_s": scenario.headway(),
+        "dt_s": scenario.dt(),
+        "steps": scenario.steps + 1,
+    });
+    dir.write(
+        "run.json",
+        (serde_json::to_string_pretty(&json)? + "\n").as_bytes(),
+    )
+}
+
+/// Writes config.toml (if not yet there), the plots (of platoon 0's `rows`), and summary.json
+/// (with the `extra` keys) last.
+pub fn write_outputs(
+    dir: &RunDir,
+    config: &Config,
+    scenario: &Scenario,
+    rows: &[StepRow],
+    summary: &Summary,
+    plots: bool,
+    extra: &[(&str, serde_json::Value)],
+) -> Result<()> {
+    if !dir.path("config.toml").exists() {
+        dir.write("config.toml", platoon_config::to_toml(config).as_bytes())?;
+    }
+    if plots {
+        for (name, draw) in [
+            (
+                "fig6.png",
+                plots::fig6 as fn(&Path, &Scenario, &[StepRow]) -> Result<()>,
+            ),
+            ("fig7.png", plots::fig7),
+        ] {
+            let path = dir.path(name);
+            draw(&path, scenario, rows).with_context(|| format!("drawing {}", path.display()))?;
+        }
+        if summary.vehicles.len() > 1 {
+            // String (in)stability at a glance: the largest gap error along the platoon.
+            let path = dir.path("gaps.png");
+            let policy = scenario.spacing_policy();
+            plots::scatter_with_lines(
+                &path,
+                &format!("Largest |gap error to the predecessor| per follower ({policy})"),
+                "follower",
+                "largest |gap error| (m)",
+                &[plots::Series {
+                    label: "measured in the plant".into(),
+                    color: 0,
+                    points: summary
+                        .vehicles
+                        .iter()
+                        .map(|v| (f64::from(v.vehicle), v.gap_error_m.max_abs))
+                        .collect(),
+                }],
+            )
+            .with_context(|| format!("drawing {}", path.display()))?;
+        }
+        if rows
+            .iter()
+            .any(|r| r.mode != platoon_control::Mode::Coop || r.guard)
+        {
+            let path = dir.path("modes.png");
+            plots::modes(&path, scenario, rows)
+                .with_context(|| format!("drawing {}", path.display()))?;
+        }
+    }
+    let mut json = serde_json::to_value(summary)?;
+    for (key, value) in extra {
+        json[*key] = value.clone();
+    }
+    let json = serde_json::to_string_pretty(&json)? + "\n";
+    dir.write("summary.json", json.as_bytes())
+}
