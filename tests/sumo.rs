@@ -519,16 +519,48 @@ fn a_binary_moved_out_of_the_checkout_runs_sumo_with_the_bridge_it_carries() {
         trajectories(&work.join("moved")),
         trajectories(&tmp.path().join("checkout"))
     );
-    // A second run reuses the bundle without a word.
-    let o = moved(&[
-        "run",
-        "--transport",
-        "inproc",
-        "--no-plots",
-        "--out",
-        "again",
-    ]);
+    // A second SUMO run reuses the bundle and its Python environment without a word: neither
+    // the unpacking nor the venv set-up says anything (both speak whenever they write), no second
+    // bundle or staging directory appears, no file of the bundle or the venv's requirements
+    // stamp (rewritten only by a pip install) is written again, the run reads the bundle's
+    // network, and it is the first run bit for bit.
+    let bundle = &bundles[0];
+    let mtime = |p: PathBuf| std::fs::metadata(&p).unwrap().modified().unwrap();
+    let watched = [
+        bundle.join("bridge/sumo_plant.py"),
+        bundle.join("sumo/highway/highway.net.xml"),
+        bundle.join("bridge/.venv/.requirements"),
+    ];
+    let before: Vec<_> = watched.iter().cloned().map(mtime).collect();
+    let o = moved(&["run", "--plant", "sumo", "--no-plots", "--out", "again"]);
     ok(&o);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !stderr.contains("unpacked") && !stderr.contains("setting up the bridge"),
+        "{stderr}"
+    );
+    let after: Vec<PathBuf> = std::fs::read_dir(data.join("platoon"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    assert_eq!(after, bundles);
+    assert_eq!(
+        watched.iter().cloned().map(mtime).collect::<Vec<_>>(),
+        before
+    );
+    let net = json(&work.join("again/plant.json"))["sumo"]["net"].clone();
+    let net = PathBuf::from(net.as_str().unwrap()).canonicalize().unwrap();
+    assert_eq!(
+        net,
+        bundle
+            .join("sumo/highway/highway.net.xml")
+            .canonicalize()
+            .unwrap()
+    );
+    assert_eq!(
+        trajectories(&work.join("again")),
+        trajectories(&work.join("moved"))
+    );
     let o = moved(&[
         "run",
         "--plant",
