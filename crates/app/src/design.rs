@@ -1,178 +1,91 @@
-//! `platoon design`: Theorem 1 checks of a gain on clarabel's SDP solver, certificates and their
-//! independent re-check, and the DoS bounds (16).
+//! LMI design as library calls: Theorem 1 (or 2) checks of a gain on clarabel's SDP solver
+//! ([`check_gain`]), gain synthesis ([`synthesize`]), certificates and their independent
+//! re-check ([`verify`]), and the DoS bounds (16) ([`bounds`]). Results come back in memory;
+//! [`CheckReport::write`] and [`Synthesis::write`] put the files of `platoon design` into a run
+//! directory the caller opened.
 use anyhow::{bail, Context, Result};
+use platoon_config::Config;
 use platoon_output::rundir::RunDir;
+use platoon_sim::Scenario;
 use platoon_synthesis::{
-    closed_loop_spectrum, dos_bounds, min_ratio, theorem1_max_decay, Certificate, Coupling,
-    Feasibility,
+    closed_loop_spectrum, dos_bounds, min_ratio, theorem1_max_decay, Certificate, Coupling, Design,
+    Feasibility, Spectrum, StringStability, Verdict,
 };
-use std::path::PathBuf;
+use std::path::Path;
 
-/// LMI design and checks (Theorems 1 and 2 of the paper, as readings R8 and R14-R21 of
-/// docs/paper-readings.md read them).
-#[derive(Debug, clap::Subcommand)]
-pub enum Design {
-    /// Evaluate a gain K on a scenario's topology: closed-loop eigenvalues over the tau range,
-    /// the smallest beta1/beta2 for which Theorem 1's LMI (13) holds (an exact SDP for a fixed
-    /// K) with a common Lyapunov matrix (I_N kron P) and with one P per follower
-    /// (block-diagonal: it holds where the common one fails, at a transient growth it reports),
-    /// the largest decay c the common one certifies, and string stability. Writes
-    /// certificate.json (the smallest-ratio certificate), certificate-block-diagonal.json,
-    /// certificate-max-decay.json, spectrum.csv and check.json.
-    CheckGain(CheckGainArgs),
-    /// Re-check a certificate independently of the solver: assemble (13) from its numbers and
-    /// print the eigenvalue margin. Exits 1 if it does not hold.
-    Verify {
-        /// A certificate.json.
-        file: PathBuf,
-    },
-    /// The DoS bounds (16): T2 > (2 ln phi + (s1 + s2) h) / s*, D2 > (s1 + s2) / (s1 - s*).
-    Bounds(BoundsArgs),
-    /// Design K and beta1/beta2 for Theorem 1 (or 2, robust) on a scenario's topology (Remark 1
-    /// with its non-convex block linearised, a convex-concave procedure, bisection on
-    /// beta1/beta2, and |K| <= --k-max so the gain stays usable at the run's step). The gain is
-    /// then certified by the exact SDP. Writes certificate.json (which `platoon run --design`
-    /// uses), certificate-max-decay.json and design.json (decay rates, DoS bounds (16) and the
-    /// verdict on the config's attack schedule). An infeasible request writes nothing.
-    Synthesize(SynthesizeArgs),
+/// Which of the paper's conditions (13) is imposed at.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Theorem {
+    /// Theorem 1: (13) at the nominal tau.
+    #[default]
+    Nominal,
+    /// Theorem 2 as we read it (docs/paper-readings.md#R18): (13) at both ends of the
+    /// scenario's tau range with one P, robust to every tau between.
+    Robust,
 }
 
-/// Arguments of `platoon design synthesize`.
-#[derive(Debug, clap::Args)]
-pub struct SynthesizeArgs {
-    /// Scenario config (its topology and nominal tau) [default: the embedded paper config].
-    pub config: Option<PathBuf>,
-    /// Decay parameter c.
-    #[arg(long, default_value_t = 0.0)]
-    pub c: f64,
-    /// Bound on |K| (2-norm).
-    #[arg(long, default_value_t = 20.0)]
-    pub k_max: f64,
-    /// 1: the nominal tau; 2: both ends of the config's tau range (robust).
-    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u8).range(1..=2))]
-    pub theorem: u8,
-    /// Largest beta1/beta2 tried.
-    #[arg(long, default_value_t = 1e4)]
-    pub ratio_max: f64,
-    /// The spacing policy's time headway h_t (s), overriding the config's
-    /// (`platoon.spacing_policy`): 0 for constant spacing. (13) is then imposed on the
-    /// time-headway error dynamics (README, "Time headway").
-    #[arg(long, value_name = "SECONDS")]
-    pub time_headway: Option<f64>,
-    /// varsigma* as a fraction of varsigma1, in (0, 1): trades the dwell-time bound T2 against
-    /// the duration bound D2 of (16).
-    #[arg(long, default_value_t = 0.5)]
-    pub star_fraction: f64,
-    /// Output directory [default: runs/design].
-    #[arg(long)]
-    pub out: Option<PathBuf>,
-    /// Replace the output directory if it exists.
-    #[arg(long)]
-    pub force: bool,
-}
+impl Theorem {
+    /// 1 or 2, as the paper numbers them.
+    pub fn number(self) -> u8 {
+        match self {
+            Theorem::Nominal => 1,
+            Theorem::Robust => 2,
+        }
+    }
 
-/// Arguments of `platoon design check-gain`.
-#[derive(Debug, clap::Args)]
-pub struct CheckGainArgs {
-    /// Scenario config (its topology, tau range and gain) [default: the embedded paper config].
-    pub config: Option<PathBuf>,
-    /// The gain to check, "k1,k2,k3" [default: the config's control.gain].
-    #[arg(long, value_name = "K1,K2,K3")]
-    pub gain: Option<String>,
-    /// Decay parameter c for the smallest-ratio SDP.
-    #[arg(long, default_value_t = 0.0)]
-    pub c: f64,
-    /// 1: (13) at the nominal tau; 2: at both ends of the config's tau range with one P
-    /// (robust to every tau between; our reading of Theorem 2: docs/paper-readings.md#R18).
-    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u8).range(1..=2))]
-    pub theorem: u8,
-    /// The spacing policy's time headway h_t (s), overriding the config's
-    /// (`platoon.spacing_policy`): 0 for constant spacing. (13) is then imposed on the
-    /// time-headway error dynamics (README, "Time headway").
-    #[arg(long, value_name = "SECONDS")]
-    pub time_headway: Option<f64>,
-    /// Output directory [default: runs/design-check].
-    #[arg(long)]
-    pub out: Option<PathBuf>,
-    /// Replace the output directory if it exists.
-    #[arg(long)]
-    pub force: bool,
-}
+    /// The theorem numbered `n` (1 or 2).
+    pub fn from_number(n: u8) -> Option<Self> {
+        match n {
+            1 => Some(Theorem::Nominal),
+            2 => Some(Theorem::Robust),
+            _ => None,
+        }
+    }
 
-/// Arguments of `platoon design bounds`.
-#[derive(Debug, clap::Args)]
-pub struct BoundsArgs {
-    /// varsigma1, the decay rate without attacks.
-    #[arg(long, default_value_t = 0.41)]
-    pub varsigma1: f64,
-    /// varsigma2, the growth rate under attack.
-    #[arg(long, default_value_t = 0.27)]
-    pub varsigma2: f64,
-    /// varsigma*, in (0, varsigma1).
-    #[arg(long, default_value_t = 0.35)]
-    pub varsigma_star: f64,
-    /// phi, the gain scheduler between the two Lyapunov functions.
-    #[arg(long, default_value_t = 5.2)]
-    pub phi: f64,
-    /// h, the resilient sampling period (s).
-    #[arg(long, default_value_t = 0.02)]
-    pub h: f64,
-}
-
-pub fn run(d: Design) -> Result<()> {
-    match d {
-        Design::CheckGain(a) => check_gain(a),
-        Design::Verify { file } => verify(file),
-        Design::Synthesize(a) => synthesize(a),
-        Design::Bounds(b) => {
-            let (t2, d2) = dos_bounds(b.varsigma1, b.varsigma2, b.varsigma_star, b.phi, b.h)?;
-            println!("T2 > {t2:.2}");
-            println!("D2 > {d2:.2}");
-            Ok(())
+    /// The taus (13) is imposed at for `scenario`.
+    pub fn taus(self, scenario: &Scenario) -> Vec<f64> {
+        match self {
+            Theorem::Nominal => vec![scenario.control.tau_nominal],
+            Theorem::Robust => {
+                let (lo, hi) = scenario.tau_range();
+                vec![lo, hi]
+            }
         }
     }
 }
 
-fn parse_gain(s: &str) -> Result<[f64; 3]> {
-    let v: Vec<f64> = s
-        .trim_start_matches("K=")
-        .split(',')
-        .map(|x| x.trim().parse::<f64>())
-        .collect::<Result<_, _>>()
-        .with_context(|| format!("--gain {s:?}: expected three numbers like 4.81,9.12,2.97"))?;
-    match v.as_slice() {
-        [a, b, c] if v.iter().all(|x| x.is_finite()) => Ok([*a, *b, *c]),
-        _ => bail!("--gain {s:?}: expected three finite numbers like 4.81,9.12,2.97"),
-    }
-}
-
 /// The scenario's graph and spacing policy, the policy's headway replaced by `time_headway`
-/// when given.
-fn coupling(scenario: &platoon_sim::Scenario, time_headway: Option<f64>) -> Result<Coupling> {
+/// when given (which must be a finite number of seconds >= 0; 0: constant spacing).
+pub fn coupling(scenario: &Scenario, time_headway: Option<f64>) -> Result<Coupling> {
     let headway = time_headway.unwrap_or(scenario.headway());
-    if !(headway.is_finite() && headway >= 0.0) {
-        bail!("--time-headway {headway}: must be a finite number of seconds >= 0 (0: constant spacing)");
-    }
+    check_headway(headway)?;
     Ok(Coupling::time_headway(
         scenario.topology.h_matrix(),
         headway,
     ))
 }
 
-/// "constant spacing" or "time headway 0.5 s".
-fn policy(g: &Coupling) -> String {
-    platoon_control::SpacingPolicy::from_headway(g.headway).to_string()
+fn check_headway(headway: f64) -> Result<()> {
+    if !(headway.is_finite() && headway >= 0.0) {
+        bail!("--time-headway {headway}: must be a finite number of seconds >= 0 (0: constant spacing)");
+    }
+    Ok(())
+}
+
+/// "constant spacing" or "time headway 0.5 s": the spacing policy of a time headway (s).
+pub fn policy(headway: f64) -> String {
+    platoon_control::SpacingPolicy::from_headway(headway).to_string()
 }
 
 /// String stability of `k` for the config's platoon and, for a preset topology, for the same
 /// preset with 100 followers (where string instability shows): at the config's tau range, with
 /// the spacing policy of `g`.
-fn string_report(
+pub fn string_report(
     k: [f64; 3],
-    config: &platoon_config::Config,
-    scenario: &platoon_sim::Scenario,
+    config: &Config,
+    scenario: &Scenario,
     g: &Coupling,
-) -> Vec<platoon_synthesis::StringStability> {
+) -> Vec<StringStability> {
     let (lo, hi) = scenario.tau_range();
     let mut taus = vec![lo, scenario.control.tau_nominal, hi];
     taus.sort_by(f64::total_cmp);
@@ -188,141 +101,178 @@ fn string_report(
     out
 }
 
-fn print_string(report: &[platoon_synthesis::StringStability]) {
-    for r in report {
-        let worst = r
-            .per_tau
-            .iter()
-            .max_by(|a, b| a.amplification.total_cmp(&b.amplification));
-        if let Some(w) = worst {
-            println!(
-                "  string stability, {} followers: {} (a disturbance at follower 1 reaches follower {} amplified {:.3e}x, {:.4}x per follower, at {:.2} rad/s, tau = {} s)",
-                r.followers,
-                if r.string_stable { "string stable" } else { "STRING UNSTABLE: spacing errors grow along the platoon" },
-                r.followers,
-                w.amplification,
-                w.per_follower,
-                w.at_rad_s,
-                w.tau
-            );
+/// How [`check_gain`] checks; [`CheckOptions::default`] is `platoon design check-gain`'s default.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CheckOptions {
+    /// The gain to check (None: the config's `control.gain`).
+    pub gain: Option<[f64; 3]>,
+    /// Decay parameter c for the smallest-ratio SDP.
+    pub c: f64,
+    /// (13) at the nominal tau, or at both ends of the tau range.
+    pub theorem: Theorem,
+    /// The spacing policy's time headway (s), overriding the config's: 0 for constant spacing
+    /// (`--time-headway`).
+    pub time_headway: Option<f64>,
+}
+
+impl Default for CheckOptions {
+    fn default() -> Self {
+        Self {
+            gain: None,
+            c: 0.0,
+            theorem: Theorem::Nominal,
+            time_headway: None,
         }
     }
 }
 
-#[derive(serde::Serialize)]
-struct CheckReport {
-    k: [f64; 3],
-    topology_followers: usize,
+impl CheckOptions {
+    /// Fails on options no check can use (a negative or non-finite time headway), before
+    /// anything is computed.
+    pub fn validate(&self) -> Result<()> {
+        if let Some(h) = self.time_headway {
+            check_headway(h)?;
+        }
+        if let Some(k) = self.gain {
+            if !k.iter().all(|x| x.is_finite()) {
+                bail!("gain {k:?}: expected three finite numbers");
+            }
+        }
+        Ok(())
+    }
+}
+
+/// What [`check_gain`] found. Serialised, it is `check.json`; the fields `serde` skips are the
+/// other files (the spectrum and the certificates) and what `platoon design check-gain` prints.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct CheckReport {
+    /// The gain checked.
+    pub k: [f64; 3],
+    /// The followers of the scenario's platoon.
+    pub topology_followers: usize,
     /// The time headway the conditions were imposed with (s; 0: constant spacing).
-    time_headway_s: f64,
-    tau_nominal: f64,
-    tau_range: (f64, f64),
-    stable_over_tau_range: bool,
-    worst_max_real: f64,
-    fastest_mode: f64,
-    min_ratio_at_c: Option<(f64, f64)>,
-    config_ratio: f64,
-    config_ratio_certified: bool,
-    max_decay_c: Option<f64>,
+    pub time_headway_s: f64,
+    /// The nominal tau (s).
+    pub tau_nominal: f64,
+    /// The scenario's tau range (s).
+    pub tau_range: (f64, f64),
+    /// Whether every closed-loop eigenvalue has a negative real part over the tau range.
+    pub stable_over_tau_range: bool,
+    /// The largest real part of a closed-loop eigenvalue over the tau range.
+    pub worst_max_real: f64,
+    /// The largest modulus of a closed-loop eigenvalue over the tau range (rad/s).
+    pub fastest_mode: f64,
+    /// (c, the smallest beta1/beta2) with a common Lyapunov matrix I_N kron P; None where
+    /// (13) is infeasible for this gain.
+    pub min_ratio_at_c: Option<(f64, f64)>,
+    /// The config's beta1/beta2.
+    pub config_ratio: f64,
+    /// Whether the config's ratio is certified with the common Lyapunov matrix.
+    pub config_ratio_certified: bool,
+    /// The largest decay c the common Lyapunov matrix certifies.
+    pub max_decay_c: Option<f64>,
     /// Theorem 1 at c with one Lyapunov block per follower (certificate-block-diagonal.json);
     /// None where that is infeasible too.
-    block_diagonal: Option<BlockReport>,
+    pub block_diagonal: Option<BlockReport>,
     /// Whether spacing errors grow along the platoon (see platoon_synthesis::string).
-    string_stability: Vec<platoon_synthesis::StringStability>,
+    pub string_stability: Vec<StringStability>,
+    /// The theorem checked.
+    #[serde(skip)]
+    pub theorem: Theorem,
+    /// The decay parameter c of the smallest-ratio SDPs.
+    #[serde(skip)]
+    pub c: f64,
+    /// The taus (13) was imposed at.
+    #[serde(skip)]
+    pub lmi_taus: Vec<f64>,
+    /// The closed-loop spectrum at 51 taus over the tau range (spectrum.csv).
+    #[serde(skip)]
+    pub spectrum: Vec<Spectrum>,
+    /// The smallest-ratio certificate with a common P (certificate.json).
+    #[serde(skip)]
+    pub certificate: Option<Certificate>,
+    /// The smallest-ratio certificate with one P per follower
+    /// (certificate-block-diagonal.json).
+    #[serde(skip)]
+    pub block_diagonal_certificate: Option<Certificate>,
+    /// The certificate of the largest decay c (certificate-max-decay.json).
+    #[serde(skip)]
+    pub max_decay: Option<Certificate>,
+    /// Wall time of the smallest-ratio SDP with a common P (s).
+    #[serde(skip)]
+    pub sdp_seconds: f64,
 }
 
 /// The block-diagonal certificate in `check.json`.
-#[derive(serde::Serialize)]
-struct BlockReport {
-    min_ratio: f64,
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct BlockReport {
+    /// The smallest beta1/beta2 with one P per follower.
+    pub min_ratio: f64,
     /// sqrt(lambda_max / lambda_min) over every block: the bound on how far the tracking error
     /// may grow before it decays.
-    transient_growth: f64,
-    config_ratio_certified: bool,
+    pub transient_growth: f64,
+    /// Whether the config's ratio is certified with one P per follower.
+    pub config_ratio_certified: bool,
 }
 
-fn check_gain(a: CheckGainArgs) -> Result<()> {
-    let platoon_config::Loaded {
-        config, scenario, ..
-    } = platoon_config::load_or(a.config.as_deref(), platoon_config::Embedded::Paper)?;
-    let k = match &a.gain {
-        Some(g) => parse_gain(g)?,
-        None => config.control.gain,
-    };
+/// Evaluates a gain on `scenario`'s topology (`config` gives its beta1/beta2 and preset): the
+/// closed-loop eigenvalues over the tau range, the smallest beta1/beta2 for which (13) holds
+/// (an exact SDP for a fixed K) with a common Lyapunov matrix and with one P per follower, the
+/// largest decay c the common one certifies, and string stability. Writes nothing.
+pub fn check_gain(
+    config: &Config,
+    scenario: &Scenario,
+    opts: &CheckOptions,
+) -> Result<CheckReport> {
+    opts.validate()?;
+    let k = opts.gain.unwrap_or(config.control.gain);
     let n = scenario.topology.followers();
-    let g = coupling(&scenario, a.time_headway)?;
+    let g = coupling(scenario, opts.time_headway)?;
     let tau = scenario.control.tau_nominal;
     let (lo, hi) = scenario.tau_range();
     let taus: Vec<f64> = (0..=50)
         .map(|i| lo + (hi - lo) * f64::from(i) / 50.0)
         .collect();
     let spectrum = closed_loop_spectrum(k, &g, &taus);
-    let taus_lmi = if a.theorem == 2 {
-        vec![lo, hi]
-    } else {
-        vec![tau]
-    };
+    let taus_lmi = opts.theorem.taus(scenario);
     let worst = spectrum
         .iter()
         .map(|s| s.max_real)
         .fold(f64::NEG_INFINITY, f64::max);
     let fastest = spectrum.iter().map(|s| s.max_modulus).fold(0.0, f64::max);
 
-    let out = a
-        .out
-        .unwrap_or_else(|| PathBuf::from("runs").join("design-check"));
-    let dir = RunDir::create(&out, a.force)?;
-    let mut csv = csv::Writer::from_writer(dir.writer("spectrum.csv")?);
-    for s in &spectrum {
-        csv.serialize(s)?;
-    }
-    csv.flush()?;
-
     let started = std::time::Instant::now();
-    let min = min_ratio(k, a.c, &g, &taus_lmi, 1e-6)?;
-    let sdp_s = started.elapsed().as_secs_f64();
+    let min = min_ratio(k, opts.c, &g, &taus_lmi, 1e-6)?;
+    let sdp_seconds = started.elapsed().as_secs_f64();
     let config_ratio = config.control.beta1 / config.control.beta2;
-    let (min_ratio, certified) = match &min {
+    let (certificate, min_ratio, certified) = match min {
         Feasibility::Feasible(cert) => {
-            dir.write(
-                "certificate.json",
-                (serde_json::to_string_pretty(cert)? + "\n").as_bytes(),
-            )?;
             let mut at_config = cert.clone();
             at_config.ratio = config_ratio;
-            (
-                Some((a.c, cert.ratio)),
-                config_ratio >= cert.ratio && at_config.verify()?.holds,
-            )
+            let certified = config_ratio >= cert.ratio && at_config.verify()?.holds;
+            let ratio = cert.ratio;
+            (Some(cert), Some((opts.c, ratio)), certified)
         }
-        Feasibility::Infeasible => (None, false),
+        Feasibility::Infeasible => (None, None, false),
     };
     // The richer certificate: one P per follower (it holds where I_N kron P does not, e.g. PF
     // and TPSF beyond a few followers, at the price of a transient growth).
-    let block = match platoon_synthesis::min_ratio_block_diagonal(k, a.c, &g, &taus_lmi, 1e-6)? {
-        Feasibility::Feasible(cert) => {
-            dir.write(
-                "certificate-block-diagonal.json",
-                (serde_json::to_string_pretty(&cert)? + "\n").as_bytes(),
-            )?;
-            let mut at_config = cert.clone();
-            at_config.ratio = config_ratio;
-            Some(BlockReport {
-                min_ratio: cert.ratio,
-                transient_growth: cert.transient_growth()?,
-                config_ratio_certified: config_ratio >= cert.ratio && at_config.verify()?.holds,
-            })
-        }
-        Feasibility::Infeasible => None,
-    };
+    let (block_certificate, block) =
+        match platoon_synthesis::min_ratio_block_diagonal(k, opts.c, &g, &taus_lmi, 1e-6)? {
+            Feasibility::Feasible(cert) => {
+                let mut at_config = cert.clone();
+                at_config.ratio = config_ratio;
+                let report = BlockReport {
+                    min_ratio: cert.ratio,
+                    transient_growth: cert.transient_growth()?,
+                    config_ratio_certified: config_ratio >= cert.ratio && at_config.verify()?.holds,
+                };
+                (Some(cert), Some(report))
+            }
+            Feasibility::Infeasible => (None, None),
+        };
     let best = theorem1_max_decay(k, &g, &taus_lmi, 10.0, 1e-3)?;
-    if let Some(cert) = &best {
-        dir.write(
-            "certificate-max-decay.json",
-            (serde_json::to_string_pretty(cert)? + "\n").as_bytes(),
-        )?;
-    }
-    let report = CheckReport {
+    Ok(CheckReport {
         k,
         topology_followers: n,
         time_headway_s: g.headway,
@@ -336,156 +286,248 @@ fn check_gain(a: CheckGainArgs) -> Result<()> {
         config_ratio_certified: certified,
         max_decay_c: best.as_ref().map(|c| c.c),
         block_diagonal: block,
-        string_stability: string_report(k, &config, &scenario, &g),
-    };
-    dir.write(
-        "check.json",
-        (serde_json::to_string_pretty(&report)? + "\n").as_bytes(),
-    )?;
-    let path = dir.commit()?;
-
-    println!(
-        "K = [{}, {}, {}] on {n} followers, {}",
-        k[0],
-        k[1],
-        k[2],
-        policy(&g)
-    );
-    print_string(&report.string_stability);
-    println!(
-        "  closed loop over tau in [{lo}, {hi}] s: {} (largest real part {worst:.4}, fastest mode {fastest:.1} rad/s)",
-        if worst < 0.0 { "stable" } else { "UNSTABLE" }
-    );
-    match min_ratio {
-        Some((c, r)) => println!(
-            "  Theorem {} (13) at tau = {taus_lmi:?}, c = {c}: smallest beta1/beta2 = {r:.2} ({sdp_s:.2} s); the config's {config_ratio:.2} is {}",
-            a.theorem,
-            if certified { "certified" } else { "NOT certified" }
-        ),
-        None => println!(
-            "  Theorem {} (13) at tau = {taus_lmi:?}, c = {}: INFEASIBLE for this K",
-            a.theorem, a.c
-        ),
-    }
-    match &report.block_diagonal {
-        Some(b) => println!(
-            "  with one P per follower (block-diagonal): smallest beta1/beta2 = {:.2}, the error may grow {:.1}x before it decays; the config's {config_ratio:.2} is {}",
-            b.min_ratio,
-            b.transient_growth,
-            if b.config_ratio_certified { "certified" } else { "NOT certified" }
-        ),
-        None => println!(
-            "  with one P per follower (block-diagonal): INFEASIBLE too (within delta I <= P_i <= {:.0e} I)",
-            platoon_synthesis::P_MAX
-        ),
-    }
-    match &best {
-        Some(c) => println!(
-            "  largest certified decay c = {:.3} (beta1/beta2 = {:.2})",
-            c.c, c.ratio
-        ),
-        None => println!("  no decay c >= 0 is certified"),
-    }
-    println!("outputs: {}", path.display());
-    Ok(())
+        string_stability: string_report(k, config, scenario, &g),
+        theorem: opts.theorem,
+        c: opts.c,
+        lmi_taus: taus_lmi,
+        spectrum,
+        certificate,
+        block_diagonal_certificate: block_certificate,
+        max_decay: best,
+        sdp_seconds,
+    })
 }
 
-fn verify(file: PathBuf) -> Result<()> {
-    let text =
-        std::fs::read_to_string(&file).with_context(|| format!("reading {}", file.display()))?;
-    let cert: Certificate = serde_json::from_str(&text)
-        .with_context(|| format!("{} is not a certificate", file.display()))?;
-    let v = cert.verify()?;
-    println!(
-        "{}: {} (13) {} (largest eigenvalue {:.4e}, margin {:.4e}; smallest eigenvalue of P {:.4e}; transient growth {:.2}x)",
-        file.display(),
-        cert.condition,
-        if v.holds { "holds" } else { "does NOT hold" },
-        v.max_eigenvalue,
-        -v.max_eigenvalue,
-        v.p_min_eigenvalue,
-        v.transient_growth
-    );
-    if !v.holds {
-        bail!("the certificate does not hold");
+/// A value as pretty JSON with a final newline, as every JSON file of platoon is written.
+fn pretty(value: &impl serde::Serialize) -> Result<Vec<u8>> {
+    Ok((serde_json::to_string_pretty(value)? + "\n").into_bytes())
+}
+
+impl CheckReport {
+    /// Writes `platoon design check-gain`'s files into `dir`: spectrum.csv, the certificates
+    /// found (certificate.json, certificate-block-diagonal.json, certificate-max-decay.json)
+    /// and check.json.
+    pub fn write(&self, dir: &RunDir) -> Result<()> {
+        let mut csv = csv::Writer::from_writer(dir.writer("spectrum.csv")?);
+        for s in &self.spectrum {
+            csv.serialize(s)?;
+        }
+        csv.flush()?;
+        for (name, cert) in [
+            ("certificate.json", &self.certificate),
+            (
+                "certificate-block-diagonal.json",
+                &self.block_diagonal_certificate,
+            ),
+            ("certificate-max-decay.json", &self.max_decay),
+        ] {
+            if let Some(cert) = cert {
+                dir.write(name, &pretty(cert)?)?;
+            }
+        }
+        dir.write("check.json", &pretty(self)?)
     }
-    Ok(())
+}
+
+/// Reads a certificate (`certificate*.json`).
+pub fn read_certificate(file: &Path) -> Result<Certificate> {
+    let text =
+        std::fs::read_to_string(file).with_context(|| format!("reading {}", file.display()))?;
+    serde_json::from_str(&text).with_context(|| format!("{} is not a certificate", file.display()))
+}
+
+/// Re-checks a certificate independently of the solver: (13) assembled from its numbers, its
+/// eigenvalue margin, the smallest eigenvalue of P and the transient growth.
+pub fn verify(cert: &Certificate) -> Result<Verdict> {
+    Ok(cert.verify()?)
+}
+
+/// The parameters of the DoS bounds (16); [`BoundsOptions::default`] is
+/// `platoon design bounds`'s default (the paper's Section IV).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BoundsOptions {
+    /// varsigma1, the decay rate without attacks.
+    pub varsigma1: f64,
+    /// varsigma2, the growth rate under attack.
+    pub varsigma2: f64,
+    /// varsigma*, in (0, varsigma1).
+    pub varsigma_star: f64,
+    /// phi, the gain scheduler between the two Lyapunov functions.
+    pub phi: f64,
+    /// h, the resilient sampling period (s).
+    pub h: f64,
+}
+
+impl Default for BoundsOptions {
+    fn default() -> Self {
+        Self {
+            varsigma1: 0.41,
+            varsigma2: 0.27,
+            varsigma_star: 0.35,
+            phi: 5.2,
+            h: 0.02,
+        }
+    }
+}
+
+/// The DoS bounds (16): (T2, D2) with T2 > (2 ln phi + (s1 + s2) h) / s* and
+/// D2 > (s1 + s2) / (s1 - s*).
+pub fn bounds(b: &BoundsOptions) -> Result<(f64, f64)> {
+    Ok(dos_bounds(
+        b.varsigma1,
+        b.varsigma2,
+        b.varsigma_star,
+        b.phi,
+        b.h,
+    )?)
+}
+
+/// How [`synthesize`] designs; [`SynthesisOptions::default`] is `platoon design synthesize`'s
+/// default.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SynthesisOptions {
+    /// Decay parameter c.
+    pub c: f64,
+    /// Bound on |K| (2-norm).
+    pub k_max: f64,
+    /// (13) at the nominal tau, or at both ends of the tau range (robust).
+    pub theorem: Theorem,
+    /// Largest beta1/beta2 tried.
+    pub ratio_max: f64,
+    /// The spacing policy's time headway (s), overriding the config's: 0 for constant spacing
+    /// (`--time-headway`).
+    pub time_headway: Option<f64>,
+    /// varsigma* as a fraction of varsigma1, in (0, 1) (`--star-fraction`): trades the
+    /// dwell-time bound T2 against the duration bound D2 of (16).
+    pub star_fraction: f64,
+}
+
+impl Default for SynthesisOptions {
+    fn default() -> Self {
+        Self {
+            c: 0.0,
+            k_max: 20.0,
+            theorem: Theorem::Nominal,
+            ratio_max: 1e4,
+            time_headway: None,
+            star_fraction: 0.5,
+        }
+    }
+}
+
+impl SynthesisOptions {
+    /// Fails on options no design can use (a star fraction outside (0, 1), a negative or
+    /// non-finite time headway), before anything is computed.
+    pub fn validate(&self) -> Result<()> {
+        if !(self.star_fraction > 0.0 && self.star_fraction < 1.0) {
+            bail!("--star-fraction must be in (0, 1)");
+        }
+        if let Some(h) = self.time_headway {
+            check_headway(h)?;
+        }
+        Ok(())
+    }
 }
 
 /// What `design.json` holds: the design, its decay figures, the DoS bounds (16) and the
 /// verdict on the config's attack schedule.
-#[derive(serde::Serialize)]
-struct DesignReport {
-    theorem: u8,
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct DesignReport {
+    /// 1 or 2.
+    pub theorem: u8,
     /// The time headway the conditions were imposed with (s; 0: constant spacing).
-    time_headway_s: f64,
-    k: [f64; 3],
-    beta1: f64,
-    beta2: f64,
-    beta1_over_beta2: f64,
-    c: f64,
-    p: [[f64; 3]; 3],
+    pub time_headway_s: f64,
+    /// The designed gain.
+    pub k: [f64; 3],
+    /// beta1 = the certified ratio x the config's beta2.
+    pub beta1: f64,
+    /// The config's beta2.
+    pub beta2: f64,
+    /// The certified beta1/beta2.
+    pub beta1_over_beta2: f64,
+    /// The decay the design guarantees.
+    pub c: f64,
+    /// The Lyapunov matrix (of the max-decay certificate where there is one).
+    pub p: [[f64; 3]; 3],
     /// Remark 1's variables for this P: M = P^-1 and U = K M.
-    m: [[f64; 3]; 3],
-    u: [f64; 3],
+    pub m: [[f64; 3]; 3],
+    /// U = K M.
+    pub u: [f64; 3],
     /// The Lyapunov matrix during attacks (we take Q = P, hence phi = 1).
-    q: [[f64; 3]; 3],
-    varsigma1: f64,
-    varsigma2: f64,
-    varsigma_star: f64,
-    phi: f64,
-    t2_bound: Option<f64>,
-    d2_bound: Option<f64>,
-    schedule_verdict: Option<String>,
-    certificate: &'static str,
-    certificate_max_decay: Option<&'static str>,
-    sdps: usize,
+    pub q: [[f64; 3]; 3],
+    /// The decay rate without attacks: min(c, the dynamic trigger's cap).
+    pub varsigma1: f64,
+    /// The growth rate under attack.
+    pub varsigma2: f64,
+    /// varsigma* = the star fraction x varsigma1.
+    pub varsigma_star: f64,
+    /// 1: one Lyapunov matrix in and out of attacks.
+    pub phi: f64,
+    /// T2 of (16), if varsigma1 > 0.
+    pub t2_bound: Option<f64>,
+    /// D2 of (16), if varsigma1 > 0.
+    pub d2_bound: Option<f64>,
+    /// Whether the config's DoS schedule satisfies Assumption 2 with these bounds (None: the
+    /// config has no Assumption-2 bounds).
+    pub schedule_verdict: Option<String>,
+    /// The certificate's file name.
+    pub certificate: &'static str,
+    /// The max-decay certificate's file name, if there is one.
+    pub certificate_max_decay: Option<&'static str>,
+    /// SDPs solved.
+    pub sdps: usize,
     /// The followers the procedure ran on (the certificate is for all of them).
-    designed_on: usize,
-    seconds: f64,
+    pub designed_on: usize,
+    /// Wall time of the design and its decay figures (s).
+    pub seconds: f64,
     /// Whether spacing errors grow along the platoon with this gain.
-    string_stability: Vec<platoon_synthesis::StringStability>,
+    pub string_stability: Vec<StringStability>,
 }
 
-fn synthesize(a: SynthesizeArgs) -> Result<()> {
-    if !(a.star_fraction > 0.0 && a.star_fraction < 1.0) {
-        bail!("--star-fraction must be in (0, 1)");
-    }
-    let platoon_config::Loaded {
-        config, scenario, ..
-    } = platoon_config::load_or(a.config.as_deref(), platoon_config::Embedded::Paper)?;
+/// A designed gain ([`synthesize`]): the design with its certificate, the certificate of the
+/// largest decay within twice its ratio, and `design.json`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Synthesis {
+    /// K, its exact certificate (certificate.json), the SDPs solved and the followers it was
+    /// designed on.
+    pub design: Design,
+    /// The largest decay certified with beta1/beta2 within twice the design's
+    /// (certificate-max-decay.json).
+    pub max_decay: Option<Certificate>,
+    /// design.json.
+    pub report: DesignReport,
+    /// The dynamic trigger's cap on varsigma1, varrho - phi (1 - eta) (infinite for the other
+    /// rules).
+    pub trigger_cap: f64,
+}
+
+/// Designs K and beta1/beta2 for Theorem 1 (or 2, robust) on `scenario`'s topology (Remark 1
+/// with its non-convex block linearised, a convex-concave procedure, bisection on
+/// beta1/beta2, |K| <= `k_max`), certified by the exact SDP; then its decay rates, the DoS
+/// bounds (16) and the verdict on the scenario's attack schedule. `config` gives beta2 and the
+/// preset. An infeasible request is an error. Writes nothing.
+pub fn synthesize(
+    config: &Config,
+    scenario: &Scenario,
+    opts: &SynthesisOptions,
+) -> Result<Synthesis> {
+    opts.validate()?;
     let n = scenario.topology.followers();
-    let g = coupling(&scenario, a.time_headway)?;
-    let tau = scenario.control.tau_nominal;
-    let (lo, hi) = scenario.tau_range();
-    let taus = if a.theorem == 2 {
-        vec![lo, hi]
-    } else {
-        vec![tau]
-    };
+    let g = coupling(scenario, opts.time_headway)?;
+    let taus = opts.theorem.taus(scenario);
     let spec = platoon_synthesis::DesignSpec {
-        c: a.c,
+        c: opts.c,
         taus: taus.clone(),
-        k_max: a.k_max,
-        ratio_max: a.ratio_max,
+        k_max: opts.k_max,
+        ratio_max: opts.ratio_max,
         ..Default::default()
     };
-    let out = a
-        .out
-        .unwrap_or_else(|| PathBuf::from("runs").join("design"));
-    if out.exists() && !a.force {
-        bail!(
-            "output directory {} exists; choose another --out or pass --force to replace it",
-            out.display()
-        );
-    }
     let started = std::time::Instant::now();
     let design = platoon_synthesis::design_theorem1(&spec, &g)?;
     let Some(d) = design else {
-        // Nothing is written for an infeasible request.
         bail!(
             "infeasible: no gain with |K| <= {} satisfies Theorem {} on this topology ({n} followers, {}) with beta1/beta2 <= {} at c = {} ({:.2} s); raise --k-max or --ratio-max, or lower --c{}",
-            a.k_max, a.theorem, policy(&g), a.ratio_max, a.c, started.elapsed().as_secs_f64(),
+            opts.k_max, opts.theorem.number(), policy(g.headway), opts.ratio_max, opts.c, started.elapsed().as_secs_f64(),
             if g.headway > 0.0 { "; with a time headway the gain is designed for constant spacing and then checked, so a smaller --time-headway may pass" } else { "" }
         );
     };
@@ -526,7 +568,7 @@ fn synthesize(a: SynthesizeArgs) -> Result<()> {
     let minv = p
         .try_inverse()
         .ok_or_else(|| anyhow::anyhow!("the certificate's P is singular"))?;
-    let varsigma_star = a.star_fraction * varsigma1;
+    let varsigma_star = opts.star_fraction * varsigma1;
     let h_s = f64::from(scenario.control.h_steps) * scenario.dt();
     // One Lyapunov matrix in and out of attacks: Q = P, so phi = 1.
     let bounds = dos_bounds(varsigma1, varsigma2, varsigma_star, 1.0, h_s).ok();
@@ -548,7 +590,7 @@ fn synthesize(a: SynthesizeArgs) -> Result<()> {
         (_, None) => None,
     };
     let report = DesignReport {
-        theorem: a.theorem,
+        theorem: opts.theorem.number(),
         time_headway_s: g.headway,
         k: d.k,
         beta1: d.certificate.ratio * config.control.beta2,
@@ -568,72 +610,32 @@ fn synthesize(a: SynthesizeArgs) -> Result<()> {
         phi: 1.0,
         t2_bound: bounds.map(|b| b.0),
         d2_bound: bounds.map(|b| b.1),
-        schedule_verdict: verdict.clone(),
+        schedule_verdict: verdict,
         certificate: "certificate.json",
         certificate_max_decay: decay.as_ref().map(|_| "certificate-max-decay.json"),
         sdps: d.sdps,
         designed_on: d.designed_on,
         seconds,
-        string_stability: string_report(d.k, &config, &scenario, &g),
+        string_stability: string_report(d.k, config, scenario, &g),
     };
-    let dir = RunDir::create(&out, a.force)?;
-    dir.write(
-        "certificate.json",
-        (serde_json::to_string_pretty(&d.certificate)? + "\n").as_bytes(),
-    )?;
-    if let Some(x) = &decay {
-        dir.write(
-            "certificate-max-decay.json",
-            (serde_json::to_string_pretty(x)? + "\n").as_bytes(),
-        )?;
+    Ok(Synthesis {
+        design: d,
+        max_decay: decay,
+        report,
+        trigger_cap,
+    })
+}
+
+impl Synthesis {
+    /// Writes `platoon design synthesize`'s files into `dir`: certificate.json (which
+    /// `platoon run --design` uses), certificate-max-decay.json and design.json.
+    pub fn write(&self, dir: &RunDir) -> Result<()> {
+        dir.write("certificate.json", &pretty(&self.design.certificate)?)?;
+        if let Some(x) = &self.max_decay {
+            dir.write("certificate-max-decay.json", &pretty(x)?)?;
+        }
+        dir.write("design.json", &pretty(&self.report)?)
     }
-    dir.write(
-        "design.json",
-        (serde_json::to_string_pretty(&report)? + "\n").as_bytes(),
-    )?;
-    let path = dir.commit()?;
-    let norm = d.k.iter().map(|x| x * x).sum::<f64>().sqrt();
-    print_string(&report.string_stability);
-    println!(
-        "K = [{:.4}, {:.4}, {:.4}] (|K| = {norm:.2} <= {}), beta1/beta2 = {:.2} on {n} followers, {}",
-        d.k[0], d.k[1], d.k[2], a.k_max, d.certificate.ratio, policy(&g)
-    );
-    println!(
-        "  certified by the exact SDP of {} at tau = {:?} (margin {:.2e}{}); {} SDPs in {seconds:.2} s",
-        d.certificate.condition,
-        d.certificate.taus,
-        -d.certificate.max_eigenvalue,
-        match &d.certificate.p_blocks {
-            Some(_) => format!(
-                ", one P per follower: the error may grow {:.1}x before it decays",
-                d.certificate.transient_growth()?
-            ),
-            None => String::new(),
-        },
-        d.sdps
-    );
-    if d.designed_on < n {
-        println!(
-            "  designed on the first {} followers (with {}), certified on all {n}",
-            d.designed_on,
-            if g.headway > 0.0 {
-                "a time headway the procedure is not linear"
-            } else {
-                "constant spacing the whole platoon admits no common P for this procedure"
-            }
-        );
-    }
-    println!(
-        "  varsigma1 = {varsigma1:.4} (c = {c:.4}, trigger cap {trigger_cap:.4}), varsigma2 = {varsigma2:.4}, varsigma* = {varsigma_star:.4}, phi = 1"
-    );
-    if let Some((t2, d2)) = bounds {
-        println!("  DoS bounds (16): T2 > {t2:.2}, D2 > {d2:.2}");
-    }
-    if let Some(v) = verdict {
-        println!("  {v}");
-    }
-    println!("outputs: {}", path.display());
-    Ok(())
 }
 
 fn rows3(m: &nalgebra::Matrix3<f64>) -> [[f64; 3]; 3] {

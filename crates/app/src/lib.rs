@@ -9,6 +9,7 @@
 #![warn(missing_docs)]
 
 mod bundle;
+pub mod design;
 pub mod progress;
 pub mod run;
 pub mod sumo;

@@ -4,7 +4,6 @@
 #![allow(rustdoc::broken_intra_doc_links, rustdoc::invalid_html_tags)]
 mod bench;
 mod campaign;
-#[path = "../../app/src/design.rs"]
 mod design;
 #[path = "../../app/src/experiment.rs"]
 mod experiment;
