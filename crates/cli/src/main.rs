@@ -3,6 +3,7 @@
 // `runs/<name>` and `[fallback]` there are for a terminal, not rustdoc markup.
 #![allow(rustdoc::broken_intra_doc_links, rustdoc::invalid_html_tags)]
 mod bench;
+#[path = "../../app/src/campaign/mod.rs"]
 mod campaign;
 mod design;
 #[path = "../../app/src/experiment.rs"]
