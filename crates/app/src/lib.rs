@@ -10,6 +10,7 @@
 
 mod bundle;
 pub mod design;
+pub mod experiment;
 pub mod progress;
 pub mod run;
 pub mod sumo;

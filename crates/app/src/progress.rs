@@ -14,6 +14,11 @@ pub trait Progress: Sync {
     }
     /// The current stage is over.
     fn finish(&self) {}
+    /// What the current unit is (a platoon being designed, a run's parameters): a note beside
+    /// the count, replaced by the next.
+    fn detail(&self, text: &str) {
+        let _ = text;
+    }
     /// A note for the person running the operation (a run id, a warning).
     fn message(&self, text: &str) {
         let _ = text;

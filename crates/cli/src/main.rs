@@ -6,7 +6,6 @@ mod bench;
 #[path = "../../app/src/campaign/mod.rs"]
 mod campaign;
 mod design;
-#[path = "../../app/src/experiment.rs"]
 mod experiment;
 mod node;
 mod progress;

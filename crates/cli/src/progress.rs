@@ -3,9 +3,27 @@
 use std::sync::Mutex;
 
 /// A progress bar per stage, drawn on stderr.
-#[derive(Default)]
 pub struct Bar {
     bar: Mutex<Option<indicatif::ProgressBar>>,
+    /// What the stages count ("steps").
+    unit: &'static str,
+}
+
+impl Default for Bar {
+    /// A bar of simulated steps.
+    fn default() -> Self {
+        Self::counting("steps")
+    }
+}
+
+impl Bar {
+    /// A bar whose stages count `unit`s ("platoons", "runs").
+    pub fn counting(unit: &'static str) -> Self {
+        Self {
+            bar: Mutex::default(),
+            unit,
+        }
+    }
 }
 
 impl platoon_app::Progress for Bar {
@@ -13,7 +31,8 @@ impl platoon_app::Progress for Bar {
         let bar = indicatif::ProgressBar::new(total);
         bar.set_style(
             indicatif::ProgressStyle::with_template(&format!(
-                "{{spinner}} {what} {{pos}}/{{len}} steps [{{elapsed}}] {{wide_bar}}"
+                "{{spinner}} {what} {{pos}}/{{len}} {} [{{elapsed}}] {{wide_bar}} {{msg}}",
+                self.unit
             ))
             .expect("static template"),
         );
@@ -30,6 +49,12 @@ impl platoon_app::Progress for Bar {
     fn at(&self, done: u64) {
         if let Some(bar) = &*self.bar.lock().unwrap_or_else(|e| e.into_inner()) {
             bar.set_position(done);
+        }
+    }
+
+    fn detail(&self, text: &str) {
+        if let Some(bar) = &*self.bar.lock().unwrap_or_else(|e| e.into_inner()) {
+            bar.set_message(text.to_string());
         }
     }
 

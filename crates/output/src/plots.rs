@@ -151,6 +151,15 @@ pub fn line_panel(
     Ok(())
 }
 
+/// One line chart of its own, 1200 x 600 (Fig. 8 and 9: the average tracking error over time).
+pub fn lines(path: &Path, title: &str, y_label: &str, series: &[Series]) -> Result<()> {
+    let root = BitMapBackend::new(path, (1200, 600)).into_drawing_area();
+    root.fill(&WHITE).map_err(err)?;
+    line_panel(&root, title, y_label, series, &[])?;
+    root.present().map_err(err)?;
+    Ok(())
+}
+
 fn per_vehicle(
     rows: &[StepRow],
     n: usize,

@@ -1,0 +1,154 @@
+//! `platoon_app::experiment` as library calls: the counts and tables `platoon experiment`
+//! prints, in memory with no files, the same with a run directory, and progress heard.
+use platoon_app::experiment::{self, Base, DegradationOptions, ScalingOptions, TopologiesOptions};
+use platoon_app::Progress;
+use platoon_config::Embedded;
+use platoon_output::rundir::RunDir;
+use std::sync::Mutex;
+
+/// Table I as tests/cli.rs and the README pin it (no DoS, tau = 0.5 s, conditions checked
+/// every step).
+const OURS: [(&str, [u64; 4], &str); 3] = [
+    ("dynamic", [633, 708, 724, 736], "0.1363"),
+    ("static", [735, 829, 943, 1009], "0.1384"),
+    ("mixed", [636, 708, 708, 710], "0.1372"),
+];
+
+#[test]
+fn table1_counts_come_back_in_memory_and_the_directory_holds_the_same() {
+    let base = Base::load(None, Embedded::Table1).unwrap();
+    assert_eq!(base.label, Embedded::Table1.label());
+    let t = experiment::table1(&base, None, &()).unwrap();
+    let counts: Vec<(&str, Vec<u64>)> = OURS.iter().map(|(r, c, _)| (*r, c.to_vec())).collect();
+    assert_eq!(t.triggers(), counts);
+    for ((rule, [a, b, c, d], mean), run) in OURS.iter().zip(&t.rules) {
+        assert_eq!(run.name, *rule);
+        let row = format!("| {rule} (ours) | {a} | {b} | {c} | {d} | {mean} |");
+        assert!(
+            t.markdown.contains(&row),
+            "{row} missing from\n{}",
+            t.markdown
+        );
+        // Fig. 8's curve: one point per step.
+        assert_eq!(
+            run.mean_abs_spacing_error.len() as u64,
+            base.scenario.steps + 1
+        );
+    }
+    assert!(t
+        .markdown
+        .contains("fewer times than static on every vehicle: yes"));
+
+    // With a directory: the same results, and the files of `platoon experiment table1`.
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = RunDir::create(&tmp.path().join("t1"), false).unwrap();
+    let written = experiment::table1(&base, Some(&dir), &()).unwrap();
+    let out = dir.commit().unwrap();
+    assert_eq!(written.triggers(), t.triggers());
+    assert_eq!(written.markdown, t.markdown);
+    for (a, b) in written.rules.iter().zip(&t.rules) {
+        assert_eq!(a.summary, b.summary);
+        assert_eq!(a.mean_abs_spacing_error, b.mean_abs_spacing_error);
+    }
+    assert_eq!(
+        std::fs::read_to_string(out.join("table1.md")).unwrap(),
+        t.markdown
+    );
+    for f in [
+        "table1.csv",
+        "table1.png",
+        "fig8.csv",
+        "fig8.png",
+        "config.toml",
+        "dynamic/summary.json",
+        "static/trajectories.csv",
+        "mixed/summary.json",
+    ] {
+        assert!(out.join(f).is_file(), "{f} missing");
+    }
+    let summary: platoon_sim::Summary =
+        serde_json::from_str(&std::fs::read_to_string(out.join("dynamic/summary.json")).unwrap())
+            .unwrap();
+    assert_eq!(summary, t.rules[0].summary);
+}
+
+/// Bases and options an experiment cannot use are refused before anything runs.
+#[test]
+fn unusable_bases_and_options_are_refused() {
+    let paper = Base::load(None, Embedded::Paper).unwrap();
+    let mut static_rule = paper.clone();
+    static_rule.scenario.control.rule = platoon_control::TriggerRule::Static;
+    assert!(experiment::check_table1_base(&paper).is_ok());
+    let e = experiment::table1(&static_rule, None, &()).unwrap_err();
+    assert!(e.to_string().contains("dynamic"), "{e}");
+    assert!(experiment::check_topologies_base(&static_rule).is_err());
+    let mut no_bounds = paper.clone();
+    no_bounds.scenario.assumption2 = None;
+    let e = experiment::check_topologies_base(&no_bounds).unwrap_err();
+    assert!(e.to_string().contains("assumption2"), "{e}");
+    let sizes = TopologiesOptions {
+        sizes: vec![0],
+        ..TopologiesOptions::default()
+    };
+    assert!(experiment::topologies(&paper, &sizes, None, &()).is_err());
+    let followers = DegradationOptions { followers: vec![] };
+    assert!(experiment::degradation(&paper, &followers, None, &()).is_err());
+    for bad in [
+        ScalingOptions {
+            sizes: vec![4, 0],
+            ..ScalingOptions::default()
+        },
+        ScalingOptions {
+            time_headway: 0.0,
+            ..ScalingOptions::default()
+        },
+        ScalingOptions {
+            design_followers: 0,
+            ..ScalingOptions::default()
+        },
+    ] {
+        assert!(experiment::scaling(&paper, &bad, None, &()).is_err());
+    }
+}
+
+/// A progress of the caller's: what it was told.
+#[derive(Default)]
+struct Heard(Mutex<Vec<String>>);
+
+impl Progress for Heard {
+    fn start(&self, what: &str, total: u64) {
+        self.0.lock().unwrap().push(format!("start {what} {total}"));
+    }
+    fn at(&self, done: u64) {
+        self.0.lock().unwrap().push(format!("at {done}"));
+    }
+    fn finish(&self) {
+        self.0.lock().unwrap().push("finish".into());
+    }
+}
+
+/// Graceful degradation on the paper's platoon alone: one row per attack, fallback and guard
+/// setting, in memory; the caller's progress counts every run.
+#[test]
+fn degradation_rows_in_memory_with_progress() {
+    let base = Base::load(None, Embedded::Degradation).unwrap();
+    let opts = DegradationOptions { followers: vec![4] };
+    let heard = Heard::default();
+    let d = experiment::degradation(&base, &opts, None, &heard).unwrap();
+    let runs = experiment::DEGRADATION_ATTACKS.len() * 4 * 2;
+    assert_eq!(d.rows.len(), runs);
+    let heard = heard.0.into_inner().unwrap();
+    assert_eq!(heard[0], format!("start simulating {runs}"));
+    assert_eq!(heard[runs], format!("at {runs}"));
+    assert_eq!(heard.last().unwrap(), "finish");
+    // The guard can only help against a collision on the braking ramp with the zero fallback.
+    let row = |guard| {
+        d.rows
+            .iter()
+            .find(|r| r.attack == "braking-ramp" && r.fallback == "zero" && r.guard == guard)
+            .unwrap()
+    };
+    assert!(row(false).collided);
+    assert!(!row(true).collided && row(true).guard_activations > 0);
+    assert_eq!(d.markdown.lines().count(), runs + 2);
+}

@@ -1,0 +1,264 @@
+//! `platoon experiment`: the arguments and what is printed; the experiments are
+//! [`platoon_app::experiment`]'s.
+use anyhow::Result;
+use platoon_app::experiment::{
+    self, Base, DegradationOptions, RobustOptions, ScalingOptions, TopologiesOptions,
+};
+use platoon_config::Embedded;
+use platoon_output::rundir::RunDir;
+use std::path::PathBuf;
+
+/// The experiments.
+#[derive(Debug, clap::Subcommand)]
+pub enum Experiment {
+    /// Table I and Fig. 8: trigger counts and tracking errors of the dynamic ETM (4), the static
+    /// ETM (21) and a third baseline (`mixed`: static ETM with an exponentially decaying offset),
+    /// without DoS and without parameter uncertainty. Writes table1.csv, table1.md (the paper's
+    /// numbers beside ours), table1.png, fig8.png, fig8.csv and one summary per rule.
+    Table1(Table1Args),
+    /// Fig. 9: controllers designed by Theorem 1 at the nominal tau, by Theorem 2 (robust over
+    /// the config's tau range: docs/paper-readings.md#R18) and by Theorem 1 at the lower bound
+    /// of tau (the "lower-bound method" the paper compares to), each run on the config's tau(t)
+    /// schedule without DoS. Writes designs.csv, the three certificates, fig9.csv, fig9.png and
+    /// fig9.md (mean tracking error per phase of tau).
+    Robust(RobustArgs),
+    /// Fig. 10: varsigma1 (the guaranteed decay rate) for PF, TPSF and BPF platoons of several
+    /// sizes under four conditions: nominal (Theorem 1 design), with tau uncertainty (robust
+    /// design), with conservative trigger parameters, and with DoS. Writes topologies.csv and
+    /// fig10.png; shows a progress bar (each point is a synthesis and a bisection of SDPs).
+    Topologies(TopologiesArgs),
+    /// Graceful degradation: the same attacks (an 8 s jam on the leader's acceleration ramp,
+    /// one on its braking ramp, a 10 s jam during cruise, the paper's schedule, and a 20 s
+    /// jam) on the paper's platoon and a longer one, for every fallback (zero, hold, predict,
+    /// acc), each with and without the emergency-braking guard, side by side. Writes
+    /// degradation.csv (one row per run: largest spacing error, smallest gap and time to
+    /// collision, largest deceleration, safety class, messages, guard activations, time in
+    /// fallback), degradation.md (the table) and degradation.png (smallest gap per attack and
+    /// fallback).
+    Degradation(DegradationArgs),
+    /// Long platoons: the largest gap error against the platoon's size for each topology, the
+    /// paper's gain with constant spacing beside a gain designed for a time headway (Theorem 1
+    /// on the time-headway error dynamics, designed on --design-followers), with and without
+    /// the base config's DoS, in process, in formation at t = 0 (errors come from the leader's
+    /// ramps and the attacks). Each row also holds what the analysis predicts: string stability
+    /// (the amplification from the first follower to the last) and, up to --certify-up-to
+    /// followers, the smallest beta1/beta2 Theorem 1 certifies. Writes scaling.csv, scaling.md,
+    /// scaling.png (one panel per topology, log-log), designs.csv and the designs'
+    /// certificates; shows a progress bar.
+    Scaling(ScalingArgs),
+}
+
+/// Arguments of `experiment scaling`.
+#[derive(Debug, clap::Args)]
+pub struct ScalingArgs {
+    /// Base scenario (TOML) [default: the embedded configs/paper.toml]: its leader profile, tau,
+    /// trigger, DoS schedule and vehicle length are kept; size, topology, gain and spacing
+    /// policy are varied.
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// Platoon sizes (followers).
+    #[arg(long, value_delimiter = ',', default_value = "4,10,25,50,100")]
+    pub sizes: Vec<usize>,
+    /// Topologies (pf, plf, tpsf, bpf).
+    #[arg(long, value_delimiter = ',', default_value = "pf,plf,tpsf,bpf")]
+    pub presets: Vec<String>,
+    /// The time headway h_t of the designed gains (s).
+    #[arg(long, default_value_t = ScalingOptions::default().time_headway)]
+    pub time_headway: f64,
+    /// The platoon size the time-headway gains are designed and certified on.
+    #[arg(long, default_value_t = ScalingOptions::default().design_followers)]
+    pub design_followers: usize,
+    /// Bound on |K| for the designs.
+    #[arg(long, default_value_t = ScalingOptions::default().k_max)]
+    pub k_max: f64,
+    /// Certify (Theorem 1 at the nominal tau, with a common and with a block-diagonal
+    /// Lyapunov matrix) each gain on each size up to this many followers (two SDPs of size 9N
+    /// each, about a second at N = 100; larger sizes get empty certificate columns).
+    #[arg(long, default_value_t = ScalingOptions::default().certify_up_to)]
+    pub certify_up_to: usize,
+    /// Output directory [default: runs/scaling-experiment].
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Replace the output directory if it exists.
+    #[arg(long)]
+    pub force: bool,
+}
+
+/// Arguments of `experiment degradation`.
+#[derive(Debug, clap::Args)]
+pub struct DegradationArgs {
+    /// Base scenario (TOML) [default: the embedded configs/degradation.toml]: its [fallback],
+    /// [radar] and [guard] settings are kept, its mode, guard switch, attacks and size varied.
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// Platoon sizes (followers); the base's initial states are replaced by a formation when
+    /// the size differs.
+    #[arg(long, value_delimiter = ',', default_value = "4,10")]
+    pub followers: Vec<usize>,
+    /// Output directory [default: runs/degradation].
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Replace the output directory if it exists.
+    #[arg(long)]
+    pub force: bool,
+}
+
+/// Arguments of `experiment topologies`.
+#[derive(Debug, clap::Args)]
+pub struct TopologiesArgs {
+    /// Base scenario (TOML) [default: the embedded configs/paper.toml]: tau range, trigger
+    /// parameters and Assumption-2 bounds come from it.
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// Platoon sizes (followers).
+    #[arg(long, value_delimiter = ',', default_value = "2,4,6,8")]
+    pub sizes: Vec<usize>,
+    /// The conservative trigger: varrho (the base's eta and phi are kept).
+    #[arg(long, default_value_t = TopologiesOptions::default().conservative_rho)]
+    pub conservative_rho: f64,
+    /// Bound on |K| for the designs.
+    #[arg(long, default_value_t = TopologiesOptions::default().k_max)]
+    pub k_max: f64,
+    /// Output directory [default: runs/topologies].
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Replace the output directory if it exists.
+    #[arg(long)]
+    pub force: bool,
+}
+
+/// Arguments of `experiment robust`.
+#[derive(Debug, clap::Args)]
+pub struct RobustArgs {
+    /// Base scenario (TOML) [default: the embedded configs/paper.toml]; its attacks are removed.
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// Bound on |K| for the designs.
+    #[arg(long, default_value_t = RobustOptions::default().k_max)]
+    pub k_max: f64,
+    /// Output directory [default: runs/robust].
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Replace the output directory if it exists.
+    #[arg(long)]
+    pub force: bool,
+}
+
+/// Arguments of `experiment table1`.
+#[derive(Debug, clap::Args)]
+pub struct Table1Args {
+    /// Base scenario (TOML); its trigger rule is replaced by each rule in turn. Without it, the
+    /// embedded configs/table1.toml is used.
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// Output directory [default: runs/table1].
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Replace the output directory if it exists.
+    #[arg(long)]
+    pub force: bool,
+}
+
+pub fn run(e: Experiment) -> Result<()> {
+    match e {
+        Experiment::Table1(args) => table1(args),
+        Experiment::Robust(args) => robust(args),
+        Experiment::Topologies(args) => topologies(args),
+        Experiment::Degradation(args) => degradation(args),
+        Experiment::Scaling(args) => scaling(args),
+    }
+}
+
+/// The output directory, `--out` or the default.
+fn out_dir(out: Option<PathBuf>, default: &str) -> PathBuf {
+    out.unwrap_or_else(|| PathBuf::from(default))
+}
+
+/// Commits the finished directory, then prints `text` and where the outputs are.
+fn commit(dir: RunDir, text: &str) -> Result<()> {
+    let path = dir.commit()?;
+    print!("{text}");
+    println!("outputs: {}", path.display());
+    Ok(())
+}
+
+fn table1(args: Table1Args) -> Result<()> {
+    let base = Base::load(args.config.as_deref(), Embedded::Table1)?;
+    experiment::check_table1_base(&base)?;
+    let dir = RunDir::create(&out_dir(args.out, "runs/table1"), args.force)?;
+    let t = experiment::table1(&base, Some(&dir), &crate::progress::Bar::default())?;
+    commit(dir, &t.markdown)
+}
+
+fn robust(args: RobustArgs) -> Result<()> {
+    let base = Base::load(args.config.as_deref(), Embedded::Paper)?;
+    let dir = RunDir::create(&out_dir(args.out, "runs/robust"), args.force)?;
+    let opts = RobustOptions { k_max: args.k_max };
+    let r = experiment::robust(&base, &opts, Some(&dir), &crate::progress::Bar::default())?;
+    commit(dir, &r.markdown)
+}
+
+fn topologies(args: TopologiesArgs) -> Result<()> {
+    let opts = TopologiesOptions {
+        sizes: args.sizes,
+        conservative_rho: args.conservative_rho,
+        k_max: args.k_max,
+    };
+    opts.validate()?;
+    let base = Base::load(args.config.as_deref(), Embedded::Paper)?;
+    experiment::check_topologies_base(&base)?;
+    let dir = RunDir::create(&out_dir(args.out, "runs/topologies"), args.force)?;
+    let bar = crate::progress::Bar::counting("platoons");
+    let t = experiment::topologies(&base, &opts, Some(&dir), &bar)?;
+    let path = dir.commit()?;
+    println!(
+        "{:<6} {:>3} {:>13} {:>10} {:>8} {:>12}",
+        "graph", "N", "condition", "varsigma1", "c", "b1/b2"
+    );
+    for r in &t.rows {
+        println!(
+            "{:<6} {:>3} {:>13} {:>10.4} {:>8.4} {:>12.1}",
+            r.topology, r.followers, r.condition, r.varsigma1, r.c, r.beta1_over_beta2
+        );
+    }
+    println!("outputs: {}", path.display());
+    Ok(())
+}
+
+fn degradation(args: DegradationArgs) -> Result<()> {
+    let opts = DegradationOptions {
+        followers: args.followers,
+    };
+    opts.validate()?;
+    let base = Base::load(args.config.as_deref(), Embedded::Degradation)?;
+    let dir = RunDir::create(&out_dir(args.out, "runs/degradation"), args.force)?;
+    let bar = crate::progress::Bar::counting("runs");
+    let d = experiment::degradation(&base, &opts, Some(&dir), &bar)?;
+    commit(dir, &d.markdown)
+}
+
+fn scaling(args: ScalingArgs) -> Result<()> {
+    let mut opts = ScalingOptions {
+        sizes: args.sizes,
+        presets: Vec::new(),
+        time_headway: args.time_headway,
+        design_followers: args.design_followers,
+        k_max: args.k_max,
+        certify_up_to: args.certify_up_to,
+    };
+    opts.validate()?;
+    opts.presets = args
+        .presets
+        .iter()
+        .map(|p| {
+            platoon_topology::Preset::from_name(p).ok_or_else(|| {
+                anyhow::anyhow!("--presets: unknown topology {p:?}; use pf, plf, tpsf or bpf")
+            })
+        })
+        .collect::<Result<_>>()?;
+    let base = Base::load(args.config.as_deref(), Embedded::Paper)?;
+    let dir = RunDir::create(&out_dir(args.out, "runs/scaling-experiment"), args.force)?;
+    let bar = crate::progress::Bar::counting("runs");
+    let s = experiment::scaling(&base, &opts, Some(&dir), &bar)?;
+    commit(dir, &s.markdown)
+}
