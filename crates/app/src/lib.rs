@@ -1,8 +1,10 @@
 //! The operations of `platoon` as a library, under every front-end (the `platoon` binary, the
 //! Python package, a notebook, a Dask task): run a scenario in process or co-simulated over
-//! iceoryx2, one platoon or a fleet, native or SUMO ([`run`]); the SUMO set-up ([`sumo`]).
-//! Results come back in memory; files are written only into the run directory the caller
-//! names; progress is reported through [`Progress`], never drawn here.
+//! iceoryx2, one platoon or a fleet, native or SUMO ([`run`]); LMI design: check a gain,
+//! synthesise one, re-check a certificate, the DoS bounds ([`design`]); the paper's Section IV
+//! experiments and ours ([`experiment`]); the SUMO set-up ([`sumo`]). Results come back in
+//! memory; files are written only into the run directory the caller names; progress is
+//! reported through [`Progress`], never drawn here.
 //!
 //! The pure core is below (`platoon-sim` runs a scenario in process with no files at all:
 //! [`platoon_sim::run`]); the files of a run are `platoon-output`'s.
