@@ -2,15 +2,17 @@
 //! Python package, a notebook, a Dask task): run a scenario in process or co-simulated over
 //! iceoryx2, one platoon or a fleet, native or SUMO ([`run`]); LMI design: check a gain,
 //! synthesise one, re-check a certificate, the DoS bounds ([`design`]); the paper's Section IV
-//! experiments and ours ([`experiment`]); the SUMO set-up ([`sumo`]). Results come back in
-//! memory; files are written only into the run directory the caller names; progress is
-//! reported through [`Progress`], never drawn here.
+//! experiments and ours ([`experiment`]); campaigns, their cells run by any executor and resumed
+//! ([`campaign`]); the SUMO set-up ([`sumo`]). Results come back in memory; files are written
+//! only into the run (or campaign) directory the caller names; progress is reported through
+//! [`Progress`], never drawn here.
 //!
 //! The pure core is below (`platoon-sim` runs a scenario in process with no files at all:
 //! [`platoon_sim::run`]); the files of a run are `platoon-output`'s.
 #![warn(missing_docs)]
 
 mod bundle;
+pub mod campaign;
 pub mod design;
 pub mod experiment;
 pub mod progress;

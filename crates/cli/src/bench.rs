@@ -1122,7 +1122,7 @@ fn campaign(a: CampaignArgs) -> Result<Vec<CampaignRow>> {
         )?);
         let logs = dir.path("dask-logs");
         std::fs::create_dir_all(&logs)?;
-        let cluster = crate::campaign::exec::LocalCluster::start(2, &logs)?;
+        let cluster = platoon_app::campaign::LocalCluster::start(2, &logs)?;
         rows.push(measure(
             "dask",
             &small,

@@ -3,7 +3,6 @@
 // `runs/<name>` and `[fallback]` there are for a terminal, not rustdoc markup.
 #![allow(rustdoc::broken_intra_doc_links, rustdoc::invalid_html_tags)]
 mod bench;
-#[path = "../../app/src/campaign/mod.rs"]
 mod campaign;
 mod design;
 mod experiment;
@@ -131,7 +130,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Run(args) => run::run(args),
         Command::Campaign(args) => campaign::run(args),
-        Command::CampaignCell => campaign::exec::cell_command(),
+        Command::CampaignCell => campaign::cell_command(),
         Command::Experiment(e) => experiment::run(e),
         Command::Node(args) => node::run(args),
         Command::Bench(b) => bench::run(b),

@@ -7,6 +7,8 @@ pub struct Bar {
     bar: Mutex<Option<indicatif::ProgressBar>>,
     /// What the stages count ("steps").
     unit: &'static str,
+    /// Show the time left (stages whose units take long, such as campaign cells).
+    eta: bool,
 }
 
 impl Default for Bar {
@@ -22,6 +24,16 @@ impl Bar {
         Self {
             bar: Mutex::default(),
             unit,
+            eta: false,
+        }
+    }
+
+    /// A bar of campaign cells, with the time left; a stage's first position is where it
+    /// starts (cells finished before), not progress.
+    pub fn cells() -> Self {
+        Self {
+            eta: true,
+            ..Self::counting("")
         }
     }
 }
@@ -29,13 +41,15 @@ impl Bar {
 impl platoon_app::Progress for Bar {
     fn start(&self, what: &str, total: u64) {
         let bar = indicatif::ProgressBar::new(total);
-        bar.set_style(
-            indicatif::ProgressStyle::with_template(&format!(
+        let template = if self.eta {
+            format!("{{spinner}} {what} {{pos}}/{{len}} [{{elapsed}} elapsed, ETA {{eta}}] {{wide_bar}} {{msg}}")
+        } else {
+            format!(
                 "{{spinner}} {what} {{pos}}/{{len}} {} [{{elapsed}}] {{wide_bar}} {{msg}}",
                 self.unit
-            ))
-            .expect("static template"),
-        );
+            )
+        };
+        bar.set_style(indicatif::ProgressStyle::with_template(&template).expect("static template"));
         if let Some(old) = self
             .bar
             .lock()
@@ -48,7 +62,11 @@ impl platoon_app::Progress for Bar {
 
     fn at(&self, done: u64) {
         if let Some(bar) = &*self.bar.lock().unwrap_or_else(|e| e.into_inner()) {
+            let first = bar.position() == 0;
             bar.set_position(done);
+            if self.eta && first {
+                bar.reset_eta();
+            }
         }
     }
 

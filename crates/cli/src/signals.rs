@@ -2,7 +2,7 @@
 //! loop checks, so the command stops cleanly, writes what it has and exits with 128 + the
 //! signal, as shells report it.
 use anyhow::{Context, Result};
-use std::sync::atomic::{AtomicBool, AtomicI32, AtomicU32, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicI32, Ordering};
 use std::sync::Arc;
 
 /// Set by SIGINT or SIGTERM.
@@ -10,8 +10,6 @@ pub struct Interrupt {
     /// Stop taking new work.
     pub stop: Arc<AtomicBool>,
     signal: Arc<AtomicI32>,
-    /// A child process to pass SIGTERM on to (0: none), e.g. the Dask driver.
-    pub driver: Arc<AtomicU32>,
 }
 
 impl Interrupt {
@@ -21,22 +19,16 @@ impl Interrupt {
         let me = Self {
             stop: Arc::new(AtomicBool::new(false)),
             signal: Arc::new(AtomicI32::new(0)),
-            driver: Arc::new(AtomicU32::new(0)),
         };
         let mut signals = signal_hook::iterator::Signals::new([SIGINT, SIGTERM])
             .context("installing the SIGINT/SIGTERM handler")?;
-        let (stop, signal, driver) = (me.stop.clone(), me.signal.clone(), me.driver.clone());
+        let (stop, signal) = (me.stop.clone(), me.signal.clone());
         // A thread blocked on the signal pipe: woken only by a signal.
         std::thread::spawn(move || {
             if let Some(sig) = signals.forever().next() {
                 signal.store(sig, Ordering::SeqCst);
                 stop.store(true, Ordering::SeqCst);
                 eprintln!("\n{}: {message}", name(sig));
-                let pid = driver.load(Ordering::SeqCst);
-                if pid != 0 {
-                    // SAFETY: signalling our own child process by its id.
-                    unsafe { libc::kill(pid as libc::pid_t, libc::SIGTERM) };
-                }
             }
         });
         Ok(me)

@@ -1,5 +1,8 @@
-//! Running cells: one cell (in process, or as a `platoon run` co-simulation), a local worker
-//! pool, and a Dask cluster through `bridge/dask_cells.py`.
+//! Running cells: one cell where this process is ([`execute`]: in process, or as a
+//! `platoon run` co-simulation), and the executors that run many: the [`LocalPool`] of worker
+//! threads, a Dask cluster through `bridge/dask_cells.py` ([`Dask`]), or the caller's own
+//! ([`Executor`]).
+use crate::run::Stop;
 use anyhow::{bail, Context, Result};
 use platoon_campaign::Transport;
 use platoon_output::rundir::RunDir;
@@ -10,10 +13,10 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::mpsc;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 /// What a worker needs to run one cell (the JSON a Dask worker receives).
-#[derive(Debug, Clone, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct CellJob {
     /// The cell's index.
     pub index: usize,
@@ -26,7 +29,7 @@ pub struct CellJob {
 }
 
 /// What a worker sends back: the run's `summary.json`, or why there is none.
-#[derive(Debug, Clone, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct CellReply {
     /// The cell's index.
     pub index: usize,
@@ -38,11 +41,42 @@ pub struct CellReply {
     pub error: Option<String>,
 }
 
-/// Runs one cell where this process is.
-pub fn execute(job: &CellJob) -> CellReply {
+/// Runs a campaign's cells (see [`super::run`]): whatever runs a cell hands back its
+/// [`CellReply`], and the campaign records it.
+pub trait Executor {
+    /// How `campaign.json` names it ("local pool, 4 jobs", "dask tcp://10.0.0.5:8786").
+    fn name(&self) -> String;
+
+    /// Runs `jobs`, handing each reply to `record` on the calling thread as it comes, in any
+    /// order. Starts no new job once `stop`'s flag is set. An error of `record` ends the
+    /// execution with that error (later replies are not recorded). `dir` is the campaign
+    /// directory being written, for the executor's own logs (e.g. `dask.log`). An error is the
+    /// executor's failure: the replies recorded so far are kept and the campaign stays
+    /// resumable.
+    fn execute(
+        &self,
+        jobs: &[CellJob],
+        dir: &Path,
+        stop: &Stop,
+        record: &mut dyn FnMut(CellReply) -> Result<()>,
+    ) -> Result<()>;
+}
+
+/// The `platoon` binary that runs what needs a process: `program`, else this executable.
+fn platoon_program(program: Option<&Path>) -> Result<PathBuf> {
+    match program {
+        Some(p) => Ok(p.to_path_buf()),
+        None => std::env::current_exe().context("locating the platoon binary"),
+    }
+}
+
+/// Runs one cell where this process is: an in-process cell on this thread, a co-simulated one
+/// (`transport = "iceoryx2"`) as a `platoon run` child of `program` (None: this executable,
+/// the `platoon` binary). A cell that fails is a reply with an error.
+pub fn execute(job: &CellJob, program: Option<&Path>) -> CellReply {
     let result = match job.transport {
         Transport::Inproc => in_process(job),
-        Transport::Iceoryx2 => co_simulation(job),
+        Transport::Iceoryx2 => co_simulation(job, program),
     };
     match result {
         Ok(summary) => CellReply {
@@ -65,30 +99,23 @@ fn in_process(job: &CellJob) -> Result<Value> {
         Some(out) => {
             let dir = RunDir::replace(out)?;
             dir.write("config.toml", job.config.as_bytes())?;
-            let (rows, summary) = platoon_app::run::simulate_until(
-                &scenario,
-                &config.output,
-                &dir,
-                &(),
-                &platoon_app::Stop::default(),
-            )?;
-            let extra = [("injector", platoon_app::run::builtin_injector_json())];
-            platoon_app::run::write_outputs(
-                &dir, &config, &scenario, &rows, &summary, false, &extra,
-            )?;
+            let (rows, summary) =
+                crate::run::simulate_until(&scenario, &config.output, &dir, &(), &Stop::default())?;
+            let extra = [("injector", crate::run::builtin_injector_json())];
+            crate::run::write_outputs(&dir, &config, &scenario, &rows, &summary, false, &extra)?;
             dir.commit()?;
             summary
         }
         None => platoon_sim::run(scenario, |_| {})?,
     };
     let mut json = serde_json::to_value(summary)?;
-    json["injector"] = platoon_app::run::builtin_injector_json();
+    json["injector"] = crate::run::builtin_injector_json();
     Ok(json)
 }
 
 /// `platoon run --transport iceoryx2` in a child process (its own run id, so concurrent cells
 /// never share services); the summary is read from its run directory.
-fn co_simulation(job: &CellJob) -> Result<Value> {
+fn co_simulation(job: &CellJob, program: Option<&Path>) -> Result<Value> {
     let scratch = tempfile::Builder::new()
         .prefix("platoon-cell-")
         .tempdir()
@@ -100,8 +127,7 @@ fn co_simulation(job: &CellJob) -> Result<Value> {
         .keep
         .clone()
         .unwrap_or_else(|| scratch.path().join("run"));
-    let exe = std::env::current_exe().context("locating the platoon binary")?;
-    let output = Command::new(exe)
+    let output = Command::new(platoon_program(program)?)
         .arg("run")
         .arg(&config)
         .arg("--out")
@@ -133,84 +159,153 @@ fn co_simulation(job: &CellJob) -> Result<Value> {
     }
 }
 
-/// `platoon campaign-cell`: one job as JSON on stdin, its reply as JSON on stdout (what a Dask
-/// worker runs). A cell that fails is a reply with an error, not a failed command.
-pub fn cell_command() -> Result<()> {
-    let mut text = String::new();
-    std::io::Read::read_to_string(&mut std::io::stdin(), &mut text)
-        .context("reading the cell job from stdin")?;
-    let job: CellJob = serde_json::from_str(&text).context("the cell job is not valid JSON")?;
-    let reply = execute(&job);
-    println!("{}", serde_json::to_string(&reply)?);
-    Ok(())
+/// Cells on worker threads of this process (in-process cells run on the thread; co-simulated
+/// ones as `platoon run` children).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct LocalPool {
+    /// Cells run at once.
+    pub jobs: usize,
+    /// The `platoon` binary co-simulated cells run (None: this executable).
+    pub program: Option<PathBuf>,
 }
 
-/// Runs `jobs` on `workers` threads of this process, handing each reply to `record` on the
-/// calling thread as it comes. Stops taking new jobs once `stop` is set.
-pub fn local_pool(
-    jobs: &[CellJob],
-    workers: usize,
-    stop: &AtomicBool,
-    mut record: impl FnMut(CellReply) -> Result<()>,
-) -> Result<()> {
-    let next = AtomicUsize::new(0);
-    let (tx, rx) = mpsc::channel::<CellReply>();
-    std::thread::scope(|s| {
-        for _ in 0..workers.max(1).min(jobs.len().max(1)) {
-            let tx = tx.clone();
-            let next = &next;
-            s.spawn(move || loop {
-                if stop.load(Ordering::SeqCst) {
-                    break;
-                }
-                let i = next.fetch_add(1, Ordering::SeqCst);
-                let Some(job) = jobs.get(i) else { break };
-                if tx.send(execute(job)).is_err() {
-                    break;
-                }
-            });
+impl LocalPool {
+    /// A pool of `jobs` workers (None: as many as this machine has cores).
+    pub fn new(jobs: Option<std::num::NonZeroUsize>) -> Self {
+        Self {
+            jobs: jobs
+                .or_else(|| std::thread::available_parallelism().ok())
+                .map_or(1, |n| n.get()),
+            program: None,
         }
-        drop(tx);
-        let mut result = Ok(());
-        for reply in rx {
-            if result.is_ok() {
-                result = record(reply);
-                if result.is_err() {
-                    stop.store(true, Ordering::SeqCst);
+    }
+}
+
+impl Default for LocalPool {
+    fn default() -> Self {
+        Self::new(None)
+    }
+}
+
+impl Executor for LocalPool {
+    fn name(&self) -> String {
+        format!("local pool, {} jobs", self.jobs)
+    }
+
+    fn execute(
+        &self,
+        jobs: &[CellJob],
+        _dir: &Path,
+        stop: &Stop,
+        record: &mut dyn FnMut(CellReply) -> Result<()>,
+    ) -> Result<()> {
+        let next = AtomicUsize::new(0);
+        // Set by the caller's stop, or here when recording failed.
+        let failed = AtomicBool::new(false);
+        let (tx, rx) = mpsc::channel::<CellReply>();
+        let program = self.program.as_deref();
+        std::thread::scope(|s| {
+            for _ in 0..self.jobs.max(1).min(jobs.len().max(1)) {
+                let tx = tx.clone();
+                let (next, failed) = (&next, &failed);
+                s.spawn(move || loop {
+                    if stop.flag.load(Ordering::SeqCst) || failed.load(Ordering::SeqCst) {
+                        break;
+                    }
+                    let i = next.fetch_add(1, Ordering::SeqCst);
+                    let Some(job) = jobs.get(i) else { break };
+                    if tx.send(execute(job, program)).is_err() {
+                        break;
+                    }
+                });
+            }
+            drop(tx);
+            let mut result = Ok(());
+            for reply in rx {
+                if result.is_ok() {
+                    result = record(reply);
+                    if result.is_err() {
+                        failed.store(true, Ordering::SeqCst);
+                    }
                 }
             }
-        }
-        result
-    })
+            result
+        })
+    }
 }
 
-/// Sends `jobs` to the Dask scheduler at `address` through `bridge/dask_cells.py` (in the
-/// bridge's venv, which pins `distributed`); each worker runs `platoon campaign-cell` with the
-/// same binary. Replies are handed to `record` as they complete. `child` receives the driver's
-/// process id so a signal can stop it. The driver's log goes to `log`.
-pub fn dask(
+/// Cells on a Dask cluster: `bridge/dask_cells.py` (in the bridge's venv, which pins
+/// `distributed`) is fed the jobs as JSON lines and submits them to the scheduler; each task
+/// runs `platoon campaign-cell` on a worker, with the binary at `program`'s path (a shared file
+/// system) or at `$PLATOON_EXE` on the worker. The driver's log goes to `dask.log` in the
+/// campaign directory; a stop ends the driver (SIGTERM).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Dask {
+    /// The scheduler's address (e.g. `tcp://10.0.0.5:8786`).
+    pub address: String,
+    /// The `platoon` binary the workers run (None: this executable).
+    pub program: Option<PathBuf>,
+}
+
+impl Dask {
+    /// The scheduler at `address`; the workers run this executable.
+    pub fn new(address: impl Into<String>) -> Self {
+        Self {
+            address: address.into(),
+            program: None,
+        }
+    }
+}
+
+impl Executor for Dask {
+    fn name(&self) -> String {
+        format!("dask {}", self.address)
+    }
+
+    fn execute(
+        &self,
+        jobs: &[CellJob],
+        dir: &Path,
+        stop: &Stop,
+        record: &mut dyn FnMut(CellReply) -> Result<()>,
+    ) -> Result<()> {
+        dask(
+            &self.address,
+            &platoon_program(self.program.as_deref())?,
+            jobs,
+            &dir.join("dask.log"),
+            stop,
+            record,
+        )
+    }
+}
+
+/// Sends `jobs` to the Dask scheduler at `address` through the driver, whose workers run
+/// `exe campaign-cell`. Replies are handed to `record` as they complete; once `stop` is set
+/// the driver gets SIGTERM. The driver's log goes to `log`.
+fn dask(
     address: &str,
+    exe: &Path,
     jobs: &[CellJob],
     log: &Path,
-    child: &std::sync::atomic::AtomicU32,
-    mut record: impl FnMut(CellReply) -> Result<()>,
+    stop: &Stop,
+    record: &mut dyn FnMut(CellReply) -> Result<()>,
 ) -> Result<()> {
-    let python = platoon_app::sumo::ensure_venv()?;
-    let script = platoon_app::sumo::bridge_dir()?.join("dask_cells.py");
-    let exe = std::env::current_exe().context("locating the platoon binary")?;
+    let python = crate::sumo::ensure_venv()?;
+    let script = crate::sumo::bridge_dir()?.join("dask_cells.py");
     let log_file =
         std::fs::File::create(log).with_context(|| format!("creating {}", log.display()))?;
     let started = Instant::now();
     let mut driver = Command::new(&python)
         .arg(&script)
         .arg(address)
-        .arg(&exe)
+        .arg(exe)
         .stdin(Stdio::piped())
         .stdout(Stdio::piped())
         .stderr(log_file)
         .spawn()
         .with_context(|| format!("starting {} {}", python.display(), script.display()))?;
-    child.store(driver.id(), Ordering::SeqCst);
+    let pid = driver.id();
     let mut stdin = driver.stdin.take().context("the Dask driver's stdin")?;
     let stdout = driver.stdout.take().context("the Dask driver's stdout")?;
     let lines: Vec<String> = jobs
@@ -224,19 +319,47 @@ pub fn dask(
         }
         Ok(()) // dropping stdin closes it: the driver then submits
     });
-    let mut result = Ok(());
-    let mut received = 0usize;
-    for line in BufReader::new(stdout).lines() {
-        let line = line.context("reading the Dask driver's output")?;
-        let reply: CellReply = serde_json::from_str(&line)
-            .with_context(|| format!("the Dask driver sent a line that is not a reply: {line}"))?;
-        received += 1;
-        if result.is_ok() {
-            result = record(reply);
+    // Passes a stop on to the driver while its output lasts (it is waited for only after
+    // this ends, so its pid is still ours whenever it is signalled).
+    let over = AtomicBool::new(false);
+    let (result, received, status) = std::thread::scope(|s| -> Result<_> {
+        let watcher = s.spawn(|| {
+            while !over.load(Ordering::SeqCst) {
+                if stop.flag.load(Ordering::SeqCst) {
+                    // SAFETY: signalling our own child, not yet waited for.
+                    unsafe { libc::kill(pid as libc::pid_t, libc::SIGTERM) };
+                    break;
+                }
+                std::thread::sleep(Duration::from_millis(20));
+            }
+        });
+        let mut result = Ok(());
+        let mut received = 0usize;
+        let read = || -> Result<()> {
+            for line in BufReader::new(stdout).lines() {
+                let line = line.context("reading the Dask driver's output")?;
+                let reply: CellReply = serde_json::from_str(&line).with_context(|| {
+                    format!("the Dask driver sent a line that is not a reply: {line}")
+                })?;
+                received += 1;
+                if result.is_ok() {
+                    result = record(reply);
+                }
+            }
+            Ok(())
+        };
+        let read = read();
+        over.store(true, Ordering::SeqCst);
+        let _ = watcher.join();
+        if let Err(e) = read {
+            // Not left running: it would go on submitting cells nobody records.
+            let _ = driver.kill();
+            let _ = driver.wait();
+            return Err(e);
         }
-    }
-    let status = driver.wait().context("waiting for the Dask driver")?;
-    child.store(0, Ordering::SeqCst);
+        let status = driver.wait().context("waiting for the Dask driver")?;
+        Ok((result, received, status))
+    })?;
     let _ = writer.join();
     result?;
     if !status.success() && received < jobs.len() {
@@ -268,8 +391,8 @@ impl LocalCluster {
     /// Starts a scheduler and `workers` single-threaded workers, logging into `dir`, and waits
     /// (at most a minute) until every worker has registered.
     pub fn start(workers: usize, dir: &Path) -> Result<Self> {
-        platoon_app::sumo::ensure_venv()?;
-        let dask = platoon_app::sumo::bridge_dir()?.join(".venv/bin/dask");
+        crate::sumo::ensure_venv()?;
+        let dask = crate::sumo::bridge_dir()?.join(".venv/bin/dask");
         let file = dir.join("scheduler.json");
         let log = |name: &str| -> Result<std::fs::File> {
             std::fs::File::create(dir.join(name))
@@ -295,7 +418,7 @@ impl LocalCluster {
             procs: vec![scheduler],
             address: String::new(),
         };
-        let deadline = Instant::now() + std::time::Duration::from_secs(60);
+        let deadline = Instant::now() + Duration::from_secs(60);
         let wait = |what: &str| -> Result<()> {
             if Instant::now() > deadline {
                 bail!(
@@ -303,7 +426,7 @@ impl LocalCluster {
                     dir.display()
                 );
             }
-            std::thread::sleep(std::time::Duration::from_millis(100));
+            std::thread::sleep(Duration::from_millis(100));
             Ok(())
         };
         me.address = loop {
@@ -344,9 +467,9 @@ impl Drop for LocalCluster {
             unsafe { libc::kill(p.id() as libc::pid_t, libc::SIGTERM) };
         }
         for p in &mut self.procs {
-            let deadline = Instant::now() + std::time::Duration::from_secs(10);
+            let deadline = Instant::now() + Duration::from_secs(10);
             while matches!(p.try_wait(), Ok(None)) && Instant::now() < deadline {
-                std::thread::sleep(std::time::Duration::from_millis(50));
+                std::thread::sleep(Duration::from_millis(50));
             }
             let _ = p.kill();
             let _ = p.wait();

@@ -1,51 +1,200 @@
-//! `platoon campaign`: many cells of one scenario, in a local worker pool or on a Dask cluster,
-//! into one campaign directory that an interrupted run resumes.
-pub mod exec;
+//! Campaigns: many cells of one scenario ([`platoon_campaign`] decides what each cell is),
+//! executed by any [`Executor`] (the [`LocalPool`] of worker threads, a Dask cluster through
+//! [`Dask`], or the caller's own), recorded into one campaign directory that an interrupted run
+//! resumes.
+//!
+//! [`run`] returns every cell's typed result (its [`Summary`] and its metrics) and the report
+//! ([`Report`], what `campaign.json` holds) in memory, and writes files only into the campaign
+//! directory the caller names: `campaign.toml`, `base.toml`, `cells/<cNNNN>/` (each cell's
+//! config, summary and record, written atomically as it finishes), `runs/<cNNNN>/` when the
+//! cells' full outputs are kept, `cells.csv`, `campaign.json` and `plots/`. Whatever executes the
+//! cells only returns each run's `summary.json` ([`CellReply`]); this process alone records them,
+//! so every executor gives the same bytes.
+mod exec;
 mod report;
 
-use crate::signals::Interrupt;
+pub use exec::{execute, CellJob, CellReply, Dask, Executor, LocalCluster, LocalPool};
+pub use platoon_campaign::metrics::Metric;
+pub use platoon_campaign::{Campaign, Cell};
+pub use report::{Axis, Failure, Group, Quantiles, Report};
+
+use crate::progress::Progress;
+use crate::run::Stop;
 use anyhow::{Context, Result};
-use exec::{CellJob, CellReply};
-use platoon_campaign::{metrics, Campaign, Cell};
+use platoon_campaign::metrics;
 use platoon_output::rundir::RunDir;
-use report::{Outcome, RunInfo, Table};
+use platoon_sim::Summary;
+use report::Table;
 use serde_json::{json, Value};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::Ordering;
 use std::time::Instant;
 
-/// Arguments of `platoon campaign` (the help text is on the command in main.rs).
-#[derive(Debug, clap::Args)]
-pub struct Args {
-    /// The campaign file (TOML; see campaigns/ for commented examples).
-    pub campaign: PathBuf,
-    /// Campaign directory [default: runs/<campaign name>]. An unfinished `<DIR>.partial` from
-    /// an interrupted run is resumed: cells finished with the same resolved config are kept.
-    #[arg(long)]
-    pub out: Option<PathBuf>,
-    /// Start over: discard an unfinished `<DIR>.partial` and replace a finished `<DIR>` when
-    /// this run completes.
-    #[arg(long)]
+/// How [`run`] runs a campaign; [`CampaignOptions::default`] is `platoon campaign`'s default.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct CampaignOptions {
+    /// Start over: discard an unfinished `<out>.partial` and replace a finished `out` when
+    /// this run completes (without it a finished `out` is an error).
     pub force: bool,
-    /// Cells run at once by the local pool [default: the number of cores].
-    #[arg(long, short = 'j')]
-    pub jobs: Option<std::num::NonZeroUsize>,
-    /// Send the cells to a running Dask scheduler (e.g. tcp://10.0.0.5:8786) instead of the
-    /// local pool; the workers run this same platoon binary (see the README).
-    #[arg(long, value_name = "ADDRESS")]
-    pub dask: Option<String>,
-    /// Keep every cell's full run outputs (trajectories.csv, events.csv, ...) under runs/;
-    /// without it each cell keeps its config.toml and summary.json only.
-    #[arg(long)]
+    /// Keep every cell's full run outputs (trajectories, events, ...) under `runs/<cNNNN>/`;
+    /// otherwise each cell keeps its config.toml and summary.json only.
     pub keep_runs: bool,
-    /// Override `monte_carlo.samples` (a quick pilot of a large study).
-    #[arg(long)]
-    pub samples: Option<usize>,
-    /// Skip the PNG plots.
-    #[arg(long)]
-    pub no_plots: bool,
+    /// Draw the PNG plots (once every cell is done).
+    pub plots: bool,
 }
 
+impl Default for CampaignOptions {
+    fn default() -> Self {
+        Self {
+            force: false,
+            keep_runs: false,
+            plots: true,
+        }
+    }
+}
+
+/// What became of a cell.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CellStatus {
+    /// It ran to the end and its summary is usable.
+    Ok,
+    /// It has no usable result: an invalid scenario, a run that failed, stopped early or
+    /// diverged ([`CellResult::error`] says which).
+    Failed,
+    /// It did not run (the campaign was stopped or its executor failed first).
+    NotRun,
+}
+
+impl CellStatus {
+    /// `cells.csv`'s spelling: `ok`, `failed` or `not_run`.
+    pub fn name(self) -> &'static str {
+        match self {
+            CellStatus::Ok => "ok",
+            CellStatus::Failed => "failed",
+            CellStatus::NotRun => "not_run",
+        }
+    }
+}
+
+/// One cell's result (a row of `cells.csv`).
+#[derive(Debug, Clone)]
+pub struct CellResult {
+    /// Ok, failed or not run.
+    pub status: CellStatus,
+    /// Why it failed.
+    pub error: Option<String>,
+    /// The run's summary, when it produced one that reads as a summary (a failed cell may
+    /// have one: a run that stopped early or diverged).
+    pub summary: Option<Summary>,
+    /// The campaign's metric values ([`CampaignOutcome::columns`] names them), for ok cells.
+    pub metrics: Option<Vec<Metric>>,
+    /// Kept from an earlier, unfinished run of the campaign rather than run now.
+    pub reused: bool,
+    /// The summary as recorded (`summary.json`, with the keys beyond [`Summary`] such as
+    /// `injector` and `sumo`).
+    json: Option<Value>,
+}
+
+impl CellResult {
+    fn not_run() -> Self {
+        Self {
+            status: CellStatus::NotRun,
+            error: None,
+            summary: None,
+            metrics: None,
+            reused: false,
+            json: None,
+        }
+    }
+
+    fn failed(error: String) -> Self {
+        Self {
+            status: CellStatus::Failed,
+            error: Some(error),
+            ..Self::not_run()
+        }
+    }
+
+    /// A run's summary: ok, unless it does not read as a summary, stopped early or diverged.
+    fn of_summary(campaign: &Campaign, json: Value, reused: bool) -> Self {
+        let (summary, why) = match metrics::read(&json) {
+            Ok(s) => {
+                let why = metrics::failure(&s);
+                (Some(s), why)
+            }
+            Err(e) => (None, Some(e)),
+        };
+        let metrics = match (&summary, &why) {
+            (Some(s), None) => Some(metrics::extract(
+                &campaign.metrics,
+                campaign.max_followers(),
+                s,
+            )),
+            _ => None,
+        };
+        Self {
+            status: if why.is_none() {
+                CellStatus::Ok
+            } else {
+                CellStatus::Failed
+            },
+            error: why,
+            summary,
+            metrics,
+            reused,
+            json: Some(json),
+        }
+    }
+
+    /// The summary as `summary.json` holds it, with the keys beyond [`Summary`] (`injector`,
+    /// and `sumo` for SUMO cells).
+    pub fn summary_json(&self) -> Option<&Value> {
+        self.json.as_ref()
+    }
+
+    fn done(&self) -> bool {
+        self.status != CellStatus::NotRun
+    }
+}
+
+/// A campaign's run ([`run`]): every cell's result, the report, and where they are.
+#[derive(Debug)]
+pub struct CampaignOutcome {
+    /// The campaign directory: `out` once complete; `<out>.partial` while cells remain (after
+    /// a stop or an executor's failure), which the next [`run`] of the same campaign resumes.
+    pub dir: PathBuf,
+    /// Whether the directory was renamed into place (not when stopped or when the executor
+    /// failed).
+    pub committed: bool,
+    /// Whether an unfinished directory of an earlier run was resumed.
+    pub resumed: bool,
+    /// Every cell's result, in cell order, whatever order they finished in.
+    pub cells: Vec<CellResult>,
+    /// The metric columns of `cells.csv` (`triggers_by_follower` expanded), naming the values of
+    /// [`CellResult::metrics`].
+    pub columns: Vec<String>,
+    /// What `campaign.json` holds.
+    pub report: Report,
+    /// Why the executor stopped before every cell was in (the cells done are recorded and the
+    /// directory stays unfinished).
+    pub failure: Option<anyhow::Error>,
+    /// Why the campaign was stopped, if [`Stop`] asked it to (its reason, e.g. "SIGINT").
+    pub stopped: Option<String>,
+}
+
+impl CampaignOutcome {
+    /// How many cells have `status`.
+    pub fn count(&self, status: CellStatus) -> usize {
+        self.cells.iter().filter(|c| c.status == status).count()
+    }
+
+    /// How many cells were kept from an earlier, unfinished run.
+    pub fn reused(&self) -> usize {
+        self.cells.iter().filter(|c| c.reused).count()
+    }
+}
+
+/// CPU seconds of this process and its waited-for children.
 fn cpu_seconds() -> f64 {
     let mut total = 0.0;
     for who in [libc::RUSAGE_SELF, libc::RUSAGE_CHILDREN] {
@@ -62,7 +211,12 @@ fn cpu_seconds() -> f64 {
 
 /// The record of a finished cell: `cells/<cNNNN>/{config.toml, summary.json, cell.json}`,
 /// written atomically (cell.json identifies it when the campaign resumes).
-fn write_cell(staging: &Path, campaign: &Campaign, cell: &Cell, outcome: &Outcome) -> Result<()> {
+fn write_cell(
+    staging: &Path,
+    campaign: &Campaign,
+    cell: &Cell,
+    outcome: &CellResult,
+) -> Result<()> {
     let dir = RunDir::create(
         &staging
             .join("cells")
@@ -72,7 +226,7 @@ fn write_cell(staging: &Path, campaign: &Campaign, cell: &Cell, outcome: &Outcom
     if let Ok(config) = &cell.config {
         dir.write("config.toml", config.as_bytes())?;
     }
-    if let Some(s) = &outcome.summary {
+    if let Some(s) = &outcome.json {
         dir.write(
             "summary.json",
             (serde_json::to_string_pretty(s)? + "\n").as_bytes(),
@@ -81,7 +235,7 @@ fn write_cell(staging: &Path, campaign: &Campaign, cell: &Cell, outcome: &Outcom
     let record = json!({
         "cell": cell.index,
         "hash": cell.hash,
-        "status": if outcome.ok { "ok" } else { "failed" },
+        "status": if outcome.status == CellStatus::Ok { "ok" } else { "failed" },
         "error": outcome.error,
         "sample": cell.sample,
         "seed": cell.seed,
@@ -95,7 +249,7 @@ fn write_cell(staging: &Path, campaign: &Campaign, cell: &Cell, outcome: &Outcom
 }
 
 /// A cell finished by an earlier run of this campaign, if its record matches.
-fn finished_before(staging: &Path, campaign: &Campaign, cell: &Cell) -> Option<Outcome> {
+fn finished_before(staging: &Path, campaign: &Campaign, cell: &Cell) -> Option<CellResult> {
     let dir = staging
         .join("cells")
         .join(cell.dir_name(campaign.cells.len()));
@@ -106,18 +260,25 @@ fn finished_before(staging: &Path, campaign: &Campaign, cell: &Cell) -> Option<O
     }
     let summary: Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).ok()?).ok()?;
-    metrics::read(&summary).ok()?;
-    Some(Outcome {
-        ok: true,
+    let s = metrics::read(&summary).ok()?;
+    // Recorded ok: kept as it was recorded (what it says of failure was read when it ran).
+    Some(CellResult {
+        status: CellStatus::Ok,
         error: None,
-        summary: Some(summary),
+        metrics: Some(metrics::extract(
+            &campaign.metrics,
+            campaign.max_followers(),
+            &s,
+        )),
+        summary: Some(s),
         reused: true,
+        json: Some(summary),
     })
 }
 
 /// Removes what an earlier version of the campaign left under cells/ and runs/ that no cell of
 /// this one owns (and unfinished cell directories), saying how many.
-fn prune(staging: &Path, campaign: &Campaign) -> Result<()> {
+fn prune(staging: &Path, campaign: &Campaign, progress: &dyn Progress) -> Result<()> {
     let names: std::collections::HashSet<String> = campaign
         .cells
         .iter()
@@ -138,72 +299,65 @@ fn prune(staging: &Path, campaign: &Campaign) -> Result<()> {
         }
     }
     if removed > 0 {
-        eprintln!(
+        progress.message(&format!(
             "removed {removed} cell directories of an earlier version of this campaign from {}",
             staging.display()
-        );
+        ));
     }
     Ok(())
 }
 
-fn progress(total: u64, done: u64) -> indicatif::ProgressBar {
-    let bar = indicatif::ProgressBar::new(total);
-    bar.set_style(
-        indicatif::ProgressStyle::with_template(
-            "{spinner} cells {pos}/{len} [{elapsed} elapsed, ETA {eta}] {wide_bar} {msg}",
-        )
-        .expect("static template"),
-    );
-    bar.set_position(done);
-    bar.reset_eta();
-    bar
-}
-
-pub fn run(args: Args) -> Result<()> {
-    let campaign = Campaign::load(&args.campaign, args.samples)?;
-    let jobs = args
-        .jobs
-        .or_else(|| std::thread::available_parallelism().ok())
-        .map_or(1, |n| n.get());
-    let out = args
-        .out
-        .clone()
-        .unwrap_or_else(|| PathBuf::from("runs").join(&campaign.name));
+/// Runs `campaign` into the campaign directory `out`, its cells executed by `executor`.
+///
+/// The directory is written as `<out>.partial` and renamed to `out` once the executor is done
+/// (a finished `out` is an error unless `opts.force`). An unfinished `<out>.partial` of an
+/// earlier run is resumed: its cells recorded ok with the same resolved config are kept, the
+/// rest run (with `force` it is discarded). Each cell is recorded as it finishes; a cell that
+/// fails is recorded with its error and the campaign goes on.
+///
+/// Once `stop`'s flag is set, no new cells start; the cells in flight finish (then they are
+/// recorded) or fail (then they are left to the next run), `cells.csv` and `campaign.json`
+/// say what is done, and the directory stays unfinished. An executor's failure also leaves it
+/// unfinished, in [`CampaignOutcome::failure`]. `progress` hears of the cells ("cells"), of
+/// failed ones as a detail, and gets the campaign's messages.
+///
+/// Errors (nothing run): `out` cannot be opened, the SUMO environment cannot be set up for
+/// SUMO cells, a record cannot be written.
+pub fn run(
+    campaign: &Campaign,
+    out: &Path,
+    opts: &CampaignOptions,
+    executor: &dyn Executor,
+    stop: &Stop,
+    progress: &dyn Progress,
+) -> Result<CampaignOutcome> {
     if campaign.cells.iter().any(|c| c.plant == "sumo") {
-        platoon_app::sumo::ensure_venv()?;
+        crate::sumo::ensure_venv()?;
     }
-    let interrupt = Interrupt::install(
-        "stopping: no new cells start; the cells in flight finish or are dropped",
-    )?;
     let started = Instant::now();
     let cpu0 = cpu_seconds();
-    let (dir, resumed) = RunDir::resumable(&out, args.force)?;
+    let (dir, resumed) = RunDir::resumable(out, opts.force)?;
     let staging = dir.staging().to_path_buf();
     dir.write("campaign.toml", campaign.resolved_toml().as_bytes())?;
     dir.write("base.toml", campaign.base_toml.as_bytes())?;
     if resumed {
-        prune(&staging, &campaign)?;
+        prune(&staging, campaign, progress)?;
     }
 
     // What is already done, what cannot run, what to run.
-    let mut outcomes: Vec<Option<Outcome>> = vec![None; campaign.cells.len()];
+    let mut outcomes: Vec<CellResult> = vec![CellResult::not_run(); campaign.cells.len()];
     let mut pending = Vec::new();
     for cell in &campaign.cells {
         match &cell.config {
             Err(e) => {
-                let o = Outcome {
-                    ok: false,
-                    error: Some(format!("invalid scenario: {e}")),
-                    summary: None,
-                    reused: false,
-                };
-                write_cell(&staging, &campaign, cell, &o)?;
-                outcomes[cell.index] = Some(o);
+                let o = CellResult::failed(format!("invalid scenario: {e}"));
+                write_cell(&staging, campaign, cell, &o)?;
+                outcomes[cell.index] = o;
             }
             Ok(config) => {
                 if resumed {
-                    if let Some(o) = finished_before(&staging, &campaign, cell) {
-                        outcomes[cell.index] = Some(o);
+                    if let Some(o) = finished_before(&staging, campaign, cell) {
+                        outcomes[cell.index] = o;
                         continue;
                     }
                 }
@@ -211,7 +365,7 @@ pub fn run(args: Args) -> Result<()> {
                     index: cell.index,
                     config: config.clone(),
                     transport: campaign.spec.transport,
-                    keep: args.keep_runs.then(|| {
+                    keep: opts.keep_runs.then(|| {
                         std::path::absolute(
                             staging
                                 .join("runs")
@@ -223,12 +377,9 @@ pub fn run(args: Args) -> Result<()> {
             }
         }
     }
-    let reused = outcomes.iter().flatten().filter(|o| o.reused).count();
-    let executor = match &args.dask {
-        Some(a) => format!("dask {a}"),
-        None => format!("local pool, {jobs} jobs"),
-    };
-    eprintln!(
+    let reused = outcomes.iter().filter(|o| o.reused).count();
+    let executor_name = executor.name();
+    progress.message(&format!(
         "campaign {}: {} cells ({} to run{}), {}, transport {}",
         campaign.name,
         campaign.cells.len(),
@@ -241,13 +392,12 @@ pub fn run(args: Args) -> Result<()> {
         } else {
             String::new()
         },
-        executor,
+        executor_name,
         campaign.spec.transport.name()
-    );
-    let bar = progress(
-        campaign.cells.len() as u64,
-        (campaign.cells.len() - pending.len()) as u64,
-    );
+    ));
+    progress.start("cells", campaign.cells.len() as u64);
+    let mut done = (campaign.cells.len() - pending.len()) as u64;
+    progress.at(done);
     let mut failed_now = 0usize;
     let mut record = |reply: CellReply| -> Result<()> {
         let Some(cell) = campaign.cells.get(reply.index) else {
@@ -257,114 +407,72 @@ pub fn run(args: Args) -> Result<()> {
             );
         };
         let outcome = match (reply.summary, reply.error) {
-            (Some(s), _) => {
-                let why =
-                    metrics::read(&s).and_then(|run| metrics::failure(&run).map_or(Ok(()), Err));
-                Outcome {
-                    ok: why.is_ok(),
-                    error: why.err(),
-                    summary: Some(s),
-                    reused: false,
-                }
-            }
-            (None, e) => Outcome {
-                ok: false,
-                error: Some(e.unwrap_or_else(|| "no result".into())),
-                summary: None,
-                reused: false,
-            },
+            (Some(s), _) => CellResult::of_summary(campaign, s, false),
+            (None, e) => CellResult::failed(e.unwrap_or_else(|| "no result".into())),
         };
-        if !outcome.ok && interrupt.stop.load(Ordering::SeqCst) {
-            return Ok(()); // most likely stopped by the same signal: left to the next run
+        let ok = outcome.status == CellStatus::Ok;
+        if !ok && stop.flag.load(Ordering::SeqCst) {
+            return Ok(()); // most likely stopped by the same cause: left to the next run
         }
-        if !outcome.ok {
+        if !ok {
             failed_now += 1;
-            bar.set_message(format!("{failed_now} failed"));
+            progress.detail(&format!("{failed_now} failed"));
         }
-        write_cell(&staging, &campaign, cell, &outcome)?;
-        outcomes[cell.index] = Some(outcome);
-        bar.inc(1);
+        write_cell(&staging, campaign, cell, &outcome)?;
+        outcomes[cell.index] = outcome;
+        done += 1;
+        progress.at(done);
         Ok(())
     };
-    let executed = match &args.dask {
-        None => exec::local_pool(&pending, jobs, &interrupt.stop, &mut record),
-        Some(address) => exec::dask(
-            address,
-            &pending,
-            &staging.join("dask.log"),
-            &interrupt.driver,
-            &mut record,
-        ),
-    };
-    bar.finish_and_clear();
+    let executed = executor.execute(&pending, &staging, stop, &mut record);
+    progress.finish();
 
-    // Reports, then the directory goes into place (unless interrupted: it stays .partial).
-    let table = Table::new(&campaign, &outcomes);
+    // Reports, then the directory goes into place (unless stopped: it stays .partial).
+    let table = Table::new(campaign, &outcomes);
     report::cells_csv(&dir.path("cells.csv"), &table, &outcomes)?;
-    let interrupted = interrupt.signal();
-    let complete =
-        interrupted.is_none() && executed.is_ok() && outcomes.iter().all(|o| o.is_some());
-    let plots = if args.no_plots || !complete {
+    let stopped = stop
+        .flag
+        .load(Ordering::SeqCst)
+        .then(|| stop.reason().unwrap_or_else(|| "stopped".into()));
+    let complete = stopped.is_none() && executed.is_ok() && outcomes.iter().all(|o| o.done());
+    let plots = if !opts.plots || !complete {
         Vec::new()
     } else {
         report::plots(&dir.path("plots"), &table)?
     };
-    let info = RunInfo {
-        complete,
-        interrupted: interrupted.map(|s| {
-            if s == libc::SIGINT {
-                "SIGINT"
-            } else {
-                "SIGTERM"
-            }
-        }),
-        executor,
-        wall_s: started.elapsed().as_secs_f64(),
-        cpu_s: cpu_seconds() - cpu0,
-        plots,
-    };
-    let summary = report::campaign_json(&table, &outcomes, &info);
+    let report = Report::new(
+        &table,
+        &outcomes,
+        report::RunInfo {
+            complete,
+            interrupted: stopped.clone(),
+            executor: executor_name,
+            wall_s: started.elapsed().as_secs_f64(),
+            cpu_s: cpu_seconds() - cpu0,
+            plots,
+        },
+    );
+    // Through a Value: its keys sorted, as campaign.json has always had them.
+    let json = serde_json::to_value(&report)?;
     dir.write(
         "campaign.json",
-        (serde_json::to_string_pretty(&summary)? + "\n").as_bytes(),
+        (serde_json::to_string_pretty(&json)? + "\n").as_bytes(),
     )?;
-    let done = outcomes.iter().filter(|o| o.is_some()).count();
-    if let Some(sig) = interrupted {
-        eprintln!(
-            "interrupted: {done} of {} cells are done and kept in {}; run the same command again to resume",
-            campaign.cells.len(),
-            staging.display()
-        );
-        std::process::exit(crate::signals::exit_code(sig));
-    }
-    if let Err(e) = executed {
-        eprintln!(
-            "{done} of {} cells are done and kept in {}; run the same command again to resume",
-            campaign.cells.len(),
-            staging.display()
-        );
-        return Err(e);
-    }
-    let path = dir.commit()?;
-    let failed = summary["failed"].as_u64().unwrap_or(0);
-    println!(
-        "{} cells: {} ok, {failed} failed{}, in {:.1} s ({:.1} s CPU)",
-        campaign.cells.len(),
-        summary["ok"],
-        if reused > 0 {
-            format!(" ({reused} kept from the interrupted run)")
-        } else {
-            String::new()
-        },
-        info.wall_s,
-        info.cpu_s
-    );
-    println!("outputs: {}", path.display());
-    if failed > 0 {
-        anyhow::bail!(
-            "{failed} of {} cells failed; campaign.json lists them with their errors",
-            campaign.cells.len()
-        );
-    }
-    Ok(())
+    let columns = table.columns;
+    let failure = executed.err();
+    let (dir, committed) = if stopped.is_none() && failure.is_none() {
+        (dir.commit()?, true)
+    } else {
+        (staging, false)
+    };
+    Ok(CampaignOutcome {
+        dir,
+        committed,
+        resumed,
+        cells: outcomes,
+        columns,
+        report,
+        failure,
+        stopped,
+    })
 }

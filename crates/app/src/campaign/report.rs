@@ -1,46 +1,27 @@
-//! What a campaign writes once its cells are in: `cells.csv`, `campaign.json` and the plots.
+//! What a campaign writes once its cells are in: `cells.csv`, `campaign.json` ([`Report`]) and
+//! the plots.
+use super::{CellResult, CellStatus};
 use anyhow::{Context, Result};
 use platoon_campaign::metrics::{self, Metric};
 use platoon_campaign::{Campaign, Cell};
 use platoon_output::plots::{ensure_font, err};
 use plotters::prelude::*;
 use plotters::style::colors::colormaps::ViridisRGB;
-use serde_json::{json, Value};
+use serde::Serialize;
 use std::collections::BTreeMap;
 use std::path::Path;
 
-/// A cell's result.
-#[derive(Debug, Clone)]
-pub struct Outcome {
-    /// `ok` or `failed`.
-    pub ok: bool,
-    /// Why it failed.
-    pub error: Option<String>,
-    /// The run's summary, when it produced one.
-    pub summary: Option<Value>,
-    /// Taken from an earlier, interrupted run of the campaign.
-    pub reused: bool,
-}
-
-/// The metric values of every cell (empty for cells without a summary).
-pub struct Table<'a> {
-    pub campaign: &'a Campaign,
-    pub columns: Vec<String>,
-    pub values: Vec<Option<Vec<Metric>>>,
+/// The metric values of every cell (None for cells that are not ok).
+pub(crate) struct Table<'a> {
+    pub(crate) campaign: &'a Campaign,
+    pub(crate) columns: Vec<String>,
+    pub(crate) values: Vec<Option<Vec<Metric>>>,
 }
 
 impl<'a> Table<'a> {
-    pub fn new(campaign: &'a Campaign, outcomes: &[Option<Outcome>]) -> Self {
-        let max = campaign.max_followers();
-        let columns = metrics::columns(&campaign.metrics, max);
-        let values = outcomes
-            .iter()
-            .map(|o| {
-                let o = o.as_ref()?;
-                let s = metrics::read(o.summary.as_ref()?).ok()?;
-                o.ok.then(|| metrics::extract(&campaign.metrics, max, &s))
-            })
-            .collect();
+    pub(crate) fn new(campaign: &'a Campaign, outcomes: &[CellResult]) -> Self {
+        let columns = metrics::columns(&campaign.metrics, campaign.max_followers());
+        let values = outcomes.iter().map(|o| o.metrics.clone()).collect();
         Self {
             campaign,
             columns,
@@ -62,7 +43,7 @@ fn field(v: &toml::Value) -> String {
 }
 
 /// `cells.csv`: one row per cell, in cell order, whatever order the cells finished in.
-pub fn cells_csv(path: &Path, table: &Table, outcomes: &[Option<Outcome>]) -> Result<()> {
+pub(crate) fn cells_csv(path: &Path, table: &Table, outcomes: &[CellResult]) -> Result<()> {
     let c = table.campaign;
     let mut w =
         csv::Writer::from_path(path).with_context(|| format!("creating {}", path.display()))?;
@@ -80,12 +61,11 @@ pub fn cells_csv(path: &Path, table: &Table, outcomes: &[Option<Outcome>]) -> Re
         row.push(cell.sample.to_string());
         row.push(cell.seed.map(|s| s.to_string()).unwrap_or_default());
         row.extend(cell.drawn.iter().map(|x| format!("{x}")));
-        let (status, error) = match outcome {
-            None => ("not_run", String::new()),
-            Some(o) if o.ok => ("ok", String::new()),
-            Some(o) => ("failed", o.error.clone().unwrap_or_default()),
+        let error = match outcome.status {
+            CellStatus::Failed => outcome.error.clone().unwrap_or_default(),
+            CellStatus::Ok | CellStatus::NotRun => String::new(),
         };
-        row.push(status.into());
+        row.push(outcome.status.name().into());
         match &table.values[cell.index] {
             Some(v) => row.extend(v.iter().map(|m| m.to_string())),
             None => row.extend(std::iter::repeat_n(String::new(), table.columns.len())),
@@ -153,9 +133,48 @@ fn group_label(c: &Campaign, dims: &[usize], cell: &Cell) -> String {
         .join(", ")
 }
 
+/// Quantiles of one metric over a group's ok cells (its finite values).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Quantiles {
+    /// The smallest value.
+    pub min: f64,
+    /// The 10th percentile (linear interpolation).
+    pub p10: f64,
+    /// The median.
+    pub median: f64,
+    /// The 90th percentile.
+    pub p90: f64,
+    /// The largest value.
+    pub max: f64,
+    /// The mean.
+    pub mean: f64,
+}
+
+/// One combination of the varying dimensions (every sample of it): counts, the safety
+/// classes and the quantiles of every numeric metric (what a Monte Carlo study reads first).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Group {
+    /// The combination, e.g. `trigger.rule = dynamic, dos.duration_s = 1`.
+    pub group: String,
+    /// Its cells.
+    pub cells: usize,
+    /// Its ok cells.
+    pub ok: usize,
+    /// How many ok cells fell in each safety class (with the `safety_class` metric).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub safety_classes: Option<BTreeMap<String, usize>>,
+    /// The share of ok cells classed severe (with the `safety_class` metric and ok cells).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub severe_fraction: Option<f64>,
+    /// Per numeric metric with a finite value (not the per-follower trigger counts): its
+    /// quantiles.
+    #[serde(flatten)]
+    pub metrics: BTreeMap<String, Quantiles>,
+}
+
 /// Per combination of the varying dimensions: counts, the safety classes and quantiles of
-/// every numeric metric over its samples (what a Monte Carlo study reads first).
-fn groups(table: &Table) -> Vec<Value> {
+/// every numeric metric over its samples.
+fn groups(table: &Table) -> Vec<Group> {
     let c = table.campaign;
     let dims = varying(c);
     let mut by: BTreeMap<Vec<usize>, Vec<usize>> = BTreeMap::new();
@@ -172,11 +191,14 @@ fn groups(table: &Table) -> Vec<Value> {
                 .copied()
                 .filter(|&i| table.values[i].is_some())
                 .collect();
-            let mut g = json!({
-                "group": group_label(c, &dims, first),
-                "cells": cells.len(),
-                "ok": ok.len(),
-            });
+            let mut g = Group {
+                group: group_label(c, &dims, first),
+                cells: cells.len(),
+                ok: ok.len(),
+                safety_classes: None,
+                severe_fraction: None,
+                metrics: BTreeMap::new(),
+            };
             if let Some(k) = class_col {
                 let mut classes: BTreeMap<String, usize> = BTreeMap::new();
                 for &i in &ok {
@@ -185,9 +207,9 @@ fn groups(table: &Table) -> Vec<Value> {
                     }
                 }
                 let severe = classes.get("severe").copied().unwrap_or(0);
-                g["safety_classes"] = json!(classes);
+                g.safety_classes = Some(classes);
                 if !ok.is_empty() {
-                    g["severe_fraction"] = json!(severe as f64 / ok.len() as f64);
+                    g.severe_fraction = Some(severe as f64 / ok.len() as f64);
                 }
             }
             for (k, name) in table.columns.iter().enumerate() {
@@ -204,69 +226,149 @@ fn groups(table: &Table) -> Vec<Value> {
                     continue;
                 }
                 xs.sort_by(f64::total_cmp);
-                g[name.as_str()] = json!({
-                    "min": xs[0],
-                    "p10": quantile(&xs, 0.1),
-                    "median": quantile(&xs, 0.5),
-                    "p90": quantile(&xs, 0.9),
-                    "max": xs[xs.len() - 1],
-                    "mean": xs.iter().sum::<f64>() / xs.len() as f64,
-                });
+                g.metrics.insert(
+                    name.clone(),
+                    Quantiles {
+                        min: xs[0],
+                        p10: quantile(&xs, 0.1),
+                        median: quantile(&xs, 0.5),
+                        p90: quantile(&xs, 0.9),
+                        max: xs[xs.len() - 1],
+                        mean: xs.iter().sum::<f64>() / xs.len() as f64,
+                    },
+                );
             }
             g
         })
         .collect()
 }
 
-/// What `campaign.json` holds.
-pub struct RunInfo<'a> {
+/// How the run went, beside the cells.
+pub(crate) struct RunInfo {
+    pub(crate) complete: bool,
+    pub(crate) interrupted: Option<String>,
+    pub(crate) executor: String,
+    pub(crate) wall_s: f64,
+    pub(crate) cpu_s: f64,
+    pub(crate) plots: Vec<String>,
+}
+
+/// An axis of the campaign (a `cells.csv` column).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct Axis {
+    /// The config key (dotted path) or the drawn value's name.
+    pub name: String,
+    /// How many values it takes.
+    pub values: usize,
+    /// The dimension it varies along (axes of one zip group share one).
+    pub dimension: usize,
+}
+
+/// A failed cell.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct Failure {
+    /// Its index.
+    pub cell: usize,
+    /// Its record, relative to the campaign directory (`cells/c0001`).
+    pub directory: String,
+    /// Why it failed.
+    pub error: Option<String>,
+}
+
+/// The campaign's report: what `campaign.json` holds.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Report {
+    /// The campaign's name.
+    pub name: String,
+    /// The campaign file.
+    pub campaign_file: String,
+    /// The base scenario it varies.
+    pub base: String,
+    /// Every cell done and nothing stopped the run (the directory is in place).
     pub complete: bool,
-    pub interrupted: Option<&'a str>,
+    /// Why the run was stopped, if it was (`SIGINT` from the `platoon` binary).
+    pub interrupted_by: Option<String>,
+    /// How many cells the campaign has.
+    pub cells: usize,
+    /// How many are ok.
+    pub ok: usize,
+    /// How many failed.
+    pub failed: usize,
+    /// How many did not run.
+    pub not_run: usize,
+    /// How many were kept from an earlier, unfinished run.
+    pub reused_from_an_earlier_run: usize,
+    /// How the cells ran: `inproc` or `iceoryx2`.
+    pub transport: &'static str,
+    /// What executed them ([`super::Executor::name`]).
     pub executor: String,
+    /// The campaign seed.
+    pub seed: u64,
+    /// Monte Carlo samples per combination of the axes.
+    pub samples: usize,
+    /// The axes.
+    pub axes: Vec<Axis>,
+    /// The metric columns.
+    pub metrics: Vec<String>,
+    /// Wall time of this run (s).
     pub wall_s: f64,
+    /// CPU time of this process and its children during this run (s).
     pub cpu_s: f64,
+    /// The failed cells, with their errors.
+    pub failures: Vec<Failure>,
+    /// Statistics per combination of the varying dimensions.
+    pub groups: Vec<Group>,
+    /// The plots drawn, relative to the campaign directory.
     pub plots: Vec<String>,
 }
 
-pub fn campaign_json(table: &Table, outcomes: &[Option<Outcome>], info: &RunInfo) -> Value {
-    let c = table.campaign;
-    let count = |f: &dyn Fn(&Option<Outcome>) -> bool| outcomes.iter().filter(|o| f(o)).count();
-    let failures: Vec<Value> = c
-        .cells
-        .iter()
-        .zip(outcomes)
-        .filter_map(|(cell, o)| match o {
-            Some(o) if !o.ok => Some(json!({
-                "cell": cell.index,
-                "directory": format!("cells/{}", cell.dir_name(c.cells.len())),
-                "error": o.error,
-            })),
-            _ => None,
-        })
-        .collect();
-    json!({
-        "name": c.name,
-        "campaign_file": c.file.display().to_string(),
-        "base": c.base_label,
-        "complete": info.complete,
-        "interrupted_by": info.interrupted,
-        "cells": c.cells.len(),
-        "ok": count(&|o| o.as_ref().is_some_and(|o| o.ok)),
-        "failed": failures.len(),
-        "not_run": count(&|o| o.is_none()),
-        "reused_from_an_earlier_run": count(&|o| o.as_ref().is_some_and(|o| o.reused)),
-        "transport": c.spec.transport.name(),
-        "executor": info.executor,
-        "seed": c.spec.seed,
-        "samples": c.samples,
-        "axes": c.columns.iter().map(|col| json!({"name": col.name, "values": col.values.len(), "dimension": col.dim})).collect::<Vec<_>>(),
-        "metrics": table.columns,
-        "wall_s": info.wall_s,
-        "cpu_s": info.cpu_s,
-        "failures": failures,
-        "groups": groups(table),
-        "plots": info.plots,
-    })
+impl Report {
+    pub(crate) fn new(table: &Table, outcomes: &[CellResult], info: RunInfo) -> Self {
+        let c = table.campaign;
+        let count = |s: CellStatus| outcomes.iter().filter(|o| o.status == s).count();
+        let failures: Vec<Failure> = c
+            .cells
+            .iter()
+            .zip(outcomes)
+            .filter(|(_, o)| o.status == CellStatus::Failed)
+            .map(|(cell, o)| Failure {
+                cell: cell.index,
+                directory: format!("cells/{}", cell.dir_name(c.cells.len())),
+                error: o.error.clone(),
+            })
+            .collect();
+        Self {
+            name: c.name.clone(),
+            campaign_file: c.file.display().to_string(),
+            base: c.base_label.clone(),
+            complete: info.complete,
+            interrupted_by: info.interrupted,
+            cells: c.cells.len(),
+            ok: count(CellStatus::Ok),
+            failed: failures.len(),
+            not_run: count(CellStatus::NotRun),
+            reused_from_an_earlier_run: outcomes.iter().filter(|o| o.reused).count(),
+            transport: c.spec.transport.name(),
+            executor: info.executor,
+            seed: c.spec.seed,
+            samples: c.samples,
+            axes: c
+                .columns
+                .iter()
+                .map(|col| Axis {
+                    name: col.name.clone(),
+                    values: col.values.len(),
+                    dimension: col.dim,
+                })
+                .collect(),
+            metrics: table.columns.clone(),
+            wall_s: info.wall_s,
+            cpu_s: info.cpu_s,
+            failures,
+            groups: groups(table),
+            plots: info.plots,
+        }
+    }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -282,7 +384,7 @@ const FAILED: RGBColor = RGBColor(170, 170, 170);
 
 /// Which plots a campaign gets: heatmaps for two varying dimensions, lines with spread bands
 /// over one, ECDFs for Monte Carlo. Returns the files written (relative to `dir`).
-pub fn plots(dir: &Path, table: &Table) -> Result<Vec<String>> {
+pub(crate) fn plots(dir: &Path, table: &Table) -> Result<Vec<String>> {
     let c = table.campaign;
     let dims = varying(c);
     let mut written = Vec::new();

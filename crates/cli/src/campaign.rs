@@ -1,0 +1,121 @@
+//! `platoon campaign` and the hidden `platoon campaign-cell`: the arguments, the signals, what
+//! is printed and the exit codes; the campaign itself is [`platoon_app::campaign`].
+use anyhow::{Context, Result};
+use platoon_app::campaign::{CampaignOptions, CellJob, CellStatus, Dask, Executor, LocalPool};
+use platoon_app::Stop;
+use platoon_campaign::Campaign;
+use std::path::PathBuf;
+
+/// Arguments of `platoon campaign` (the help text is on the command in main.rs).
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// The campaign file (TOML; see campaigns/ for commented examples).
+    pub campaign: PathBuf,
+    /// Campaign directory [default: runs/<campaign name>]. An unfinished `<DIR>.partial` from
+    /// an interrupted run is resumed: cells finished with the same resolved config are kept.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Start over: discard an unfinished `<DIR>.partial` and replace a finished `<DIR>` when
+    /// this run completes.
+    #[arg(long)]
+    pub force: bool,
+    /// Cells run at once by the local pool [default: the number of cores].
+    #[arg(long, short = 'j')]
+    pub jobs: Option<std::num::NonZeroUsize>,
+    /// Send the cells to a running Dask scheduler (e.g. tcp://10.0.0.5:8786) instead of the
+    /// local pool; the workers run this same platoon binary (see the README).
+    #[arg(long, value_name = "ADDRESS")]
+    pub dask: Option<String>,
+    /// Keep every cell's full run outputs (trajectories.csv, events.csv, ...) under runs/;
+    /// without it each cell keeps its config.toml and summary.json only.
+    #[arg(long)]
+    pub keep_runs: bool,
+    /// Override `monte_carlo.samples` (a quick pilot of a large study).
+    #[arg(long)]
+    pub samples: Option<usize>,
+    /// Skip the PNG plots.
+    #[arg(long)]
+    pub no_plots: bool,
+}
+
+pub fn run(args: Args) -> Result<()> {
+    let campaign = Campaign::load(&args.campaign, args.samples)?;
+    let executor: Box<dyn Executor> = match &args.dask {
+        Some(address) => Box::new(Dask::new(address.clone())),
+        None => Box::new(LocalPool::new(args.jobs)),
+    };
+    let out = args
+        .out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("runs").join(&campaign.name));
+    let interrupt = std::sync::Arc::new(crate::signals::Interrupt::install(
+        "stopping: no new cells start; the cells in flight finish or are dropped",
+    )?);
+    let signalled = interrupt.clone();
+    let stop = Stop::new(interrupt.stop.clone(), move || {
+        signalled
+            .signal()
+            .map(|sig| crate::signals::name(sig).to_string())
+    });
+    let opts = CampaignOptions {
+        force: args.force,
+        keep_runs: args.keep_runs,
+        plots: !args.no_plots,
+    };
+    let outcome = platoon_app::campaign::run(
+        &campaign,
+        &out,
+        &opts,
+        &*executor,
+        &stop,
+        &crate::progress::Bar::cells(),
+    )?;
+    let cells = campaign.cells.len();
+    let done = cells - outcome.count(CellStatus::NotRun);
+    if outcome.stopped.is_some() {
+        let sig = interrupt.signal().unwrap_or(libc::SIGINT);
+        eprintln!(
+            "interrupted: {done} of {cells} cells are done and kept in {}; run the same command again to resume",
+            outcome.dir.display()
+        );
+        std::process::exit(crate::signals::exit_code(sig));
+    }
+    if let Some(e) = outcome.failure {
+        eprintln!(
+            "{done} of {cells} cells are done and kept in {}; run the same command again to resume",
+            outcome.dir.display()
+        );
+        return Err(e);
+    }
+    let (failed, reused) = (outcome.report.failed, outcome.reused());
+    println!(
+        "{cells} cells: {} ok, {failed} failed{}, in {:.1} s ({:.1} s CPU)",
+        outcome.report.ok,
+        if reused > 0 {
+            format!(" ({reused} kept from the interrupted run)")
+        } else {
+            String::new()
+        },
+        outcome.report.wall_s,
+        outcome.report.cpu_s
+    );
+    println!("outputs: {}", outcome.dir.display());
+    if failed > 0 {
+        anyhow::bail!(
+            "{failed} of {cells} cells failed; campaign.json lists them with their errors"
+        );
+    }
+    Ok(())
+}
+
+/// `platoon campaign-cell`: one job as JSON on stdin, its reply as JSON on stdout (what a Dask
+/// worker runs). A cell that fails is a reply with an error, not a failed command.
+pub fn cell_command() -> Result<()> {
+    let mut text = String::new();
+    std::io::Read::read_to_string(&mut std::io::stdin(), &mut text)
+        .context("reading the cell job from stdin")?;
+    let job: CellJob = serde_json::from_str(&text).context("the cell job is not valid JSON")?;
+    let reply = platoon_app::campaign::execute(&job, None);
+    println!("{}", serde_json::to_string(&reply)?);
+    Ok(())
+}
