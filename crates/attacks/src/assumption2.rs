@@ -9,6 +9,7 @@ use serde::{Deserialize, Serialize};
 ///  N(t1, t2)  <= T1 + (t2 - t1) / T2        (frequency)
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schemars", derive(schemars::JsonSchema))]
 #[serde(deny_unknown_fields)]
 #[allow(non_snake_case)]
 pub struct Assumption2 {

@@ -34,6 +34,7 @@ use serde::{Deserialize, Serialize};
 
 /// What a follower applies while it is affected by an attack (`A*` of the paper).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "schemars", derive(schemars::JsonSchema))]
 #[serde(rename_all = "snake_case")]
 pub enum FallbackMode {
     /// `u_i = 0`, the paper's choice (Section II-E).
@@ -112,9 +113,11 @@ impl Mode {
     }
 }
 
-/// The ACC fallback's law (see the module docs); `[fallback.acc]` in a config, every key
-/// optional.
+/// The ACC fallback's law on the radar's gap and closing speed, `u = (lambda e - c) / h` with
+/// `e` the gap's error to `h v` (Rajamani's constant-time-headway law, see
+/// `platoon_control::fallback`); `[fallback.acc]` in a config, every key optional.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schemars", derive(schemars::JsonSchema))]
 #[serde(default, deny_unknown_fields)]
 pub struct AccParams {
     /// Constant time headway h (s), > 0.

@@ -24,6 +24,7 @@ pub enum TauError {
 
 /// How tau varies between knots `(t, tau)`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schemars", derive(schemars::JsonSchema))]
 #[serde(rename_all = "snake_case")]
 pub enum Interpolation {
     /// Holds each knot's value until the next knot.
