@@ -91,7 +91,7 @@ pub fn string_report(
     taus.sort_by(f64::total_cmp);
     taus.dedup();
     let mut out = vec![platoon_synthesis::string_stability(k, g, &taus)];
-    let preset = platoon_topology::Preset::from_name(&config.topology.preset);
+    let preset = config.topology.preset();
     if let Some(p) = preset.filter(|_| scenario.topology.followers() < 100) {
         if let Ok(t) = platoon_topology::Topology::preset(p, 100) {
             let long = Coupling::time_headway(t.h_matrix(), g.headway);

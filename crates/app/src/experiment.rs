@@ -912,8 +912,9 @@ pub fn degradation(
                     c.fallback.mode = Some(mode);
                     c.guard.enabled = guard;
                     c.attack = platoon_config::Attack {
-                        kind: "intervals".into(),
-                        intervals: Some(intervals.to_vec()),
+                        kind: platoon_config::DosConfig::Intervals {
+                            intervals: intervals.to_vec(),
+                        },
                         ..Default::default()
                     };
                     let scenario = platoon_config::to_scenario(&mut c).map_err(|(key, e)| {
@@ -1268,26 +1269,14 @@ pub fn scaling(
                         speed_jitter_mps: 0.0,
                         seed: 0,
                     });
-                    c.platoon.spacing_policy = Some(
-                        if headway > 0.0 {
-                            "time_headway"
-                        } else {
-                            "constant"
-                        }
-                        .into(),
-                    );
-                    c.platoon.time_headway_s = (headway > 0.0).then_some(headway);
-                    c.topology.preset = name.into();
-                    c.topology.adjacency = None;
-                    c.topology.pinning = None;
+                    c.platoon.spacing =
+                        platoon_control::SpacingPolicy::from_headway(headway).into();
+                    c.topology = preset.into();
                     c.control.gain = k;
                     c.control.beta1 = ratio * c.control.beta2;
                     c.fallback.per_vehicle = None;
                     if dos == "none" {
-                        c.attack = platoon_config::Attack {
-                            kind: "none".into(),
-                            ..Default::default()
-                        };
+                        c.attack = platoon_config::Attack::default();
                     }
                     let scenario = platoon_config::to_scenario(&mut c).map_err(|(key, e)| {
                         anyhow::anyhow!(

@@ -5,7 +5,7 @@
 use crate::progress::Progress;
 use anyhow::{Context, Result};
 use platoon_attacks::channel::ChannelEvent;
-use platoon_config::{Config, Transport};
+use platoon_config::{Config, OutputFile, Transport};
 use platoon_output::plots;
 use platoon_output::rundir::RunDir;
 use platoon_output::tables::{Format, Table};
@@ -16,14 +16,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-/// What integrates the vehicles.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum PlantKind {
-    /// The model in Rust (`platoon node plant`).
-    Native,
-    /// SUMO through the libsumo bridge (bridge/sumo_plant.py).
-    Sumo,
-}
+pub use platoon_config::PlantKind;
 
 /// How a third-party injector composes with the built-in channel.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -193,12 +186,10 @@ pub fn run(
     if opts.injector.is_some() && opts.transport == Transport::Inproc {
         anyhow::bail!("--injector needs --transport iceoryx2: an external injector is a process");
     }
-    match opts.plant {
-        Some(PlantKind::Sumo) => config.simulation.plant = "sumo".into(),
-        Some(PlantKind::Native) => config.simulation.plant = "native".into(),
-        None => {}
+    if let Some(plant) = opts.plant {
+        config.simulation.plant = plant;
     }
-    let sumo_plan = if config.simulation.plant == "sumo" {
+    let sumo_plan = if config.simulation.plant == PlantKind::Sumo {
         if opts.transport == Transport::Inproc {
             anyhow::bail!(
                 "the SUMO plant is a process: use --transport iceoryx2 (the default), or --plant native"
@@ -414,13 +405,13 @@ impl RunFiles {
     ) -> Result<Self> {
         let steps = scenario.steps + 1;
         let format = Format::of(output, scenario);
-        let on = |f: &str| output.files.iter().any(|x| x == f);
+        let on = |f: OutputFile| output.writes(f);
         Ok(Self {
-            trajectories: Table::create(dir, "trajectories", format, on("trajectories"))?,
-            events: Table::create(dir, "events", format, on("events"))?,
-            wire: Table::create(dir, "wire", format, on("wire"))?,
+            trajectories: Table::create(dir, "trajectories", format, on(OutputFile::Trajectories))?,
+            events: Table::create(dir, "events", format, on(OutputFile::Events))?,
+            wire: Table::create(dir, "wire", format, on(OutputFile::Wire))?,
             channel: channel
-                .then(|| Table::create(dir, "channel", format, on("channel")))
+                .then(|| Table::create(dir, "channel", format, on(OutputFile::Channel)))
                 .transpose()?,
             decimate: output.decimate,
             last: vec![None; scenario.vehicles()],
@@ -608,7 +599,7 @@ fn cosimulate(
         config: std::path::absolute(dir.path("config.toml"))
             .context("resolving the run directory")?,
         channel_log: ((injector == platoon_runtime::Program::Builtin || after)
-            && output.files.iter().any(|f| f == "channel"))
+            && output.writes(platoon_config::OutputFile::Channel))
         .then(|| dir.path("channel.csv")),
         injector,
         plant,

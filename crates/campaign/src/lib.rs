@@ -56,8 +56,8 @@ pub struct Cell {
     pub hash: String,
     /// Followers per platoon (0 for an invalid config).
     pub followers: usize,
-    /// The cell's plant (`native` or `sumo`).
-    pub plant: String,
+    /// The cell's plant (`None` for an invalid config).
+    pub plant: Option<platoon_config::PlantKind>,
 }
 
 impl Cell {
@@ -254,19 +254,15 @@ impl Campaign {
             let line = at(&format!("\"{key}\""));
             let mut v = base.clone();
             set(&mut v, key, value.clone()).map_err(|m| error(file, line, what, m))?;
-            let de = v.clone();
-            serde_path_to_error::deserialize::<_, platoon_config::Config>(de)
+            drop_excluded(&mut v, &[key]);
+            platoon_config::from_value(v)
                 .map(|_| ())
-                .map_err(|e| {
+                .map_err(|(at, message)| {
                     error(
                         file,
                         line,
                         what,
-                        format!(
-                            "`{key}` = {value}: {} (at scenario key `{}`)",
-                            e.inner().message().trim(),
-                            e.path()
-                        ),
+                        format!("`{key}` = {value}: {message} (at scenario key `{at}`)"),
                     )
                 })
         };
@@ -486,7 +482,8 @@ impl Campaign {
             campaign.cells.push(cell);
         }
         if campaign.spec.transport == Transport::Inproc {
-            if let Some(c) = campaign.cells.iter().find(|c| c.plant == "sumo") {
+            let sumo = Some(platoon_config::PlantKind::Sumo);
+            if let Some(c) = campaign.cells.iter().find(|c| c.plant == sumo) {
                 return Err(error(
                     file,
                     at("transport"),
@@ -633,7 +630,7 @@ impl Campaign {
                     hash: cell_hash(&text, transport),
                     config: Ok(text),
                     followers: scenario.topology.followers(),
-                    plant: config.simulation.plant,
+                    plant: Some(config.simulation.plant),
                 }
             }
             Err(e) => Cell {
@@ -645,7 +642,7 @@ impl Campaign {
                 hash: cell_hash(&e, transport),
                 config: Err(e),
                 followers: 0,
-                plant: String::new(),
+                plant: None,
             },
         }
     }

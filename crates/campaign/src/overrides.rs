@@ -97,72 +97,65 @@ fn under(path: &str, prefix: &str) -> bool {
             .is_some_and(|r| r.starts_with('.') || r.starts_with('['))
 }
 
-/// Keys that belong to one value of a selector (a rule's or a kind's parameters): the
-/// scenario refuses them under any other value, so a campaign that sets the selector drops them.
-/// `(table, selector, [(selector value, keys only that value uses)])`.
-type Exclusive = (
-    &'static str,
-    &'static str,
-    &'static [(&'static str, &'static [&'static str])],
-);
-
-const EXCLUSIVE: &[Exclusive] = &[
-    (
-        "trigger",
-        "rule",
-        &[
-            ("dynamic", &["phi", "rho", "eta", "theta0"]),
-            ("mixed", &["mu", "alpha"]),
-            ("periodic", &["period_s"]),
-        ],
-    ),
-    (
-        "attack",
-        "kind",
-        &[
-            ("intervals", &["intervals"]),
-            ("periodic", &["period_s", "duration_s", "offset_s"]),
-            (
-                "random",
-                &[
-                    "seed",
-                    "min_gap_s",
-                    "max_gap_s",
-                    "min_duration_s",
-                    "max_duration_s",
-                ],
-            ),
-        ],
-    ),
-];
+/// The concrete paths of `pattern` (`channel.attacks[]`) in `root`, with their tables.
+fn instances<'a>(root: &'a mut toml::Value, pattern: &str) -> Vec<(String, &'a mut toml::Table)> {
+    let mut here: Vec<(String, &'a mut toml::Value)> = vec![(String::new(), root)];
+    for part in pattern.split('.') {
+        let (key, arrays) = match part.find('[') {
+            Some(i) => (&part[..i], part[i..].matches("[]").count()),
+            None => (part, 0),
+        };
+        let mut next = Vec::new();
+        for (path, value) in here {
+            let Some(v) = value.get_mut(key) else {
+                continue;
+            };
+            let path = if path.is_empty() {
+                key.to_string()
+            } else {
+                format!("{path}.{key}")
+            };
+            let mut level = vec![(path, v)];
+            for _ in 0..arrays {
+                level = level
+                    .into_iter()
+                    .filter_map(|(p, v)| v.as_array_mut().map(|a| (p, a)))
+                    .flat_map(|(p, a)| {
+                        a.iter_mut()
+                            .enumerate()
+                            .map(move |(i, v)| (format!("{p}[{i}]"), v))
+                    })
+                    .collect();
+            }
+            next.extend(level);
+        }
+        here = next;
+    }
+    here.into_iter()
+        .filter_map(|(p, v)| v.as_table_mut().map(|t| (p, t)))
+        .collect()
+}
 
 /// After a campaign set `touched` keys: drops the keys of the base that the new values make
-/// invalid, unless the campaign set them itself. A rule's or kind's parameters go when the rule
-/// or kind changes (`trigger.rule = "static"` drops `trigger.phi`, ...), and
-/// `platoon.initial_states` and `platoon.formation` exclude each other.
+/// invalid, unless the campaign set them itself. In a tagged table (`platoon_config::
+/// tagged_tables`: `trigger`, `attack`, `channel.attacks[i]`, `platoon`, `topology`, ...),
+/// when the campaign sets the selector, the keys the new `rule` or `kind` does not take go
+/// (`trigger.rule = "static"` drops `trigger.phi`, ...); and `platoon.initial_states` and
+/// `platoon.formation` exclude each other.
 pub fn drop_excluded(root: &mut toml::Value, touched: &[&str]) {
     let set_by_campaign = |key: &str| touched.iter().any(|t| under(t, key));
-    for (table, selector, owners) in EXCLUSIVE {
-        if !set_by_campaign(&format!("{table}.{selector}")) {
-            continue;
-        }
-        let Some(t) = root.get_mut(*table).and_then(|t| t.as_table_mut()) else {
-            continue;
-        };
-        let chosen = t
-            .get(*selector)
-            .and_then(|v| v.as_str())
-            .unwrap_or_default()
-            .to_string();
-        for (owner, keys) in owners.iter() {
-            if *owner == chosen {
+    for t in platoon_config::tagged_tables() {
+        for (path, table) in instances(root, &t.path) {
+            if !set_by_campaign(&format!("{path}.{}", t.selector)) {
                 continue;
             }
-            for k in keys.iter() {
-                if !set_by_campaign(&format!("{table}.{k}")) {
-                    t.remove(*k);
-                }
+            let Some(tag) = t.tag_of(table).map(str::to_string) else {
+                continue;
+            };
+            if t.variant(&tag).is_none() {
+                continue;
             }
+            table.retain(|k, _| t.allows(&tag, k) || set_by_campaign(&format!("{path}.{k}")));
         }
     }
     if let Some(p) = root.get_mut("platoon").and_then(|t| t.as_table_mut()) {
@@ -224,6 +217,46 @@ mod tests {
             v["trigger"].get("phi").is_some(),
             "rule not touched: left alone"
         );
+    }
+
+    #[test]
+    fn a_new_kind_drops_the_old_kinds_keys_in_every_tagged_table() {
+        let mut v = doc(
+            "[attack]\nkind = \"intervals\"\nperiod_s = 2.0\nintervals = [[1.0, 2.0]]\n\
+             [[channel.attacks]]\nkind = \"bernoulli\"\np_good_bad = 0.1\np_bad_good = 0.2\n\
+             loss_good = 0.0\nloss_bad = 1.0\nstart_s = 0.0\nsenders = [1]\n\
+             [[channel.attacks]]\nkind = \"delay\"\ndelay_s = 0.1\n\
+             [platoon]\nspacing_policy = \"constant\"\ntime_headway_s = 1.0\nfollowers = 4\n\
+             [topology]\npreset = \"pf\"\nadjacency = [[0.0]]\npinning = [1.0]\n",
+        );
+        drop_excluded(
+            &mut v,
+            &[
+                "attack.kind",
+                "channel.attacks[0].kind",
+                "channel.attacks[0].loss",
+                "platoon.spacing_policy",
+                "topology.preset",
+            ],
+        );
+        let keys = |t: &toml::Value| t.as_table().unwrap().keys().cloned().collect::<Vec<_>>();
+        assert_eq!(
+            keys(&v["attack"]),
+            ["intervals", "kind"],
+            "period_s is a periodic key"
+        );
+        assert_eq!(
+            keys(&v["channel"]["attacks"][0]),
+            ["kind", "senders", "start_s"],
+            "the Gilbert-Elliott keys go, the keys of every kind stay"
+        );
+        assert_eq!(
+            keys(&v["channel"]["attacks"][1]),
+            ["delay_s", "kind"],
+            "its kind was not set: left alone"
+        );
+        assert_eq!(keys(&v["platoon"]), ["followers", "spacing_policy"]);
+        assert_eq!(keys(&v["topology"]), ["preset"]);
     }
 
     #[test]

@@ -1,4 +1,5 @@
 use super::*;
+use platoon_config::{DosConfig, LinkKindConfig, RuleConfig};
 
 fn parse(text: &str) -> Result<Campaign, ConfigError> {
     Campaign::parse(text, Path::new("test.toml"), None)
@@ -33,7 +34,11 @@ fn axes_cross_with_the_first_slowest_and_zipped_axes_advance_together() {
         .iter()
         .map(|cell| {
             let k = config(cell);
-            (k.trigger.rule, k.control.beta1, k.control.beta2)
+            (
+                k.trigger.rule.name().to_string(),
+                k.control.beta1,
+                k.control.beta2,
+            )
         })
         .collect();
     assert_eq!(got[0], ("dynamic".into(), 100.0, 1.0));
@@ -41,8 +46,11 @@ fn axes_cross_with_the_first_slowest_and_zipped_axes_advance_together() {
     assert_eq!(got[3], ("static".into(), 100.0, 1.0));
     // The static rule's cells lost the dynamic rule's parameters instead of failing.
     assert!(c.cells.iter().all(|cell| cell.config.is_ok()));
-    assert_eq!(config(&c.cells[3]).trigger.phi, None);
-    assert_eq!(config(&c.cells[0]).trigger.phi, Some(0.33));
+    assert_eq!(config(&c.cells[3]).trigger.rule, RuleConfig::Static {});
+    assert!(matches!(
+        config(&c.cells[0]).trigger.rule,
+        RuleConfig::Dynamic { phi: 0.33, .. }
+    ));
 }
 
 #[test]
@@ -82,8 +90,12 @@ fn the_dos_window_puts_one_interval_in_each_cell_and_keeps_the_bounds() {
     .unwrap();
     assert_eq!(c.cells.len(), 6);
     let k = config(&c.cells[5]);
-    assert_eq!(k.attack.kind, "intervals");
-    assert_eq!(k.attack.intervals, Some(vec![[10.0, 2.0]]));
+    assert_eq!(
+        k.attack.kind,
+        DosConfig::Intervals {
+            intervals: vec![[10.0, 2.0]]
+        }
+    );
     assert!(k.attack.assumption2.is_some(), "the base's bounds are kept");
     assert_eq!(c.columns[0].name, "dos.onset_s");
 }
@@ -122,10 +134,12 @@ fn monte_carlo_seeds_depend_on_the_campaign_seed_and_sample_only() {
     assert_ne!(a.cells[0].seed, a.cells[1].seed);
     assert_ne!(a.cells[0].seed, other.cells[0].seed);
     let k = config(&a.cells[1]);
-    assert_eq!(k.attack.kind, "random");
+    assert_eq!(k.attack.kind.name(), "random");
     assert_eq!(
-        k.channel.attacks.last().unwrap().loss,
-        Some(a.cells[1].drawn[0])
+        k.channel.attacks.last().unwrap().kind,
+        LinkKindConfig::Bernoulli {
+            loss: a.cells[1].drawn[0]
+        }
     );
     let states = k.platoon.initial_states.unwrap();
     let paper = [8.0, -1.0, -9.5, -19.0];

@@ -1,16 +1,27 @@
 //! Scenario configuration files (TOML).
 //!
-//! Unknown keys are errors; every default is written in one place (the `default_*` functions and
-//! `Default` impls here); a bad value is reported as `FILE: KEY: what is wrong`. [`load`] parses and
-//! validates a file into a resolved [`Config`] (every default written out, so it can be saved next
-//! to a run's outputs) and a runnable [`Scenario`].
+//! Unknown keys are errors; every default is written in one place (the schema types' serde
+//! defaults and `Default` impls); a bad value is reported as `FILE:LINE: key `KEY`: what is
+//! wrong`. [`load`] parses and validates a file into a resolved [`Config`] (every default
+//! written out, so it can be saved next to a run's outputs) and a runnable [`Scenario`].
+//!
+//! A table whose keys depend on a selector (`[trigger] rule`, `[attack] kind`,
+//! `[[channel.attacks]] kind`, `[platoon] spacing_policy`, `[topology] preset`) is a typed enum
+//! ([`RuleConfig`], [`DosConfig`], [`LinkKindConfig`], [`SpacingConfig`], [`TopologyConfig`])
+//! flattened into it; [`tagged_tables`] lists them, read from the JSON Schema the
+//! [`mod@reference`] module derives from the types.
 #![warn(missing_docs)]
 
+pub mod reference;
 mod schema;
+mod serde_util;
+mod tagged;
 mod transport;
 mod validate;
 
+pub use reference::{json_schema, reference_markdown, schema_json};
 pub use schema::*;
+pub use tagged::{tagged_tables, TaggedTable, TaggedVariant};
 pub use transport::Transport;
 pub use validate::to_scenario;
 
@@ -141,31 +152,144 @@ pub fn load_or(path: Option<&Path>, default: Embedded) -> Result<Loaded, ConfigE
 /// The paper's Section IV scenario, embedded so `platoon run` works with nothing but cargo.
 pub const PAPER_TOML: &str = include_str!("../../../configs/paper.toml");
 
+/// A deserialisation error: the error, and the span of the value it is about.
+type Spanned = (ConfigError, Option<std::ops::Range<usize>>);
+
+/// The 1-based line of byte `at` of `text`.
+fn line_at(text: &str, at: usize) -> usize {
+    let mut at = at.min(text.len());
+    while !text.is_char_boundary(at) {
+        at -= 1;
+    }
+    text[..at].lines().count().max(1) + usize::from(text[..at].ends_with('\n'))
+}
+
+fn deserialize_spanned<T: serde::de::DeserializeOwned>(
+    text: &str,
+    file: &Path,
+) -> Result<T, Spanned> {
+    let de = toml::Deserializer::new(text);
+    serde_path_to_error::deserialize(de).map_err(|e| {
+        let key = e.path().to_string();
+        let inner = e.into_inner();
+        let span = inner.span();
+        let line = span.as_ref().map(|s| {
+            let l = line_at(text, s.start);
+            // A span starting at a line's end is about the next line.
+            l.min(text.lines().count().max(1))
+        });
+        let error = ConfigError::new(
+            file,
+            if key == "." { String::new() } else { key },
+            inner.message().trim(),
+        )
+        .at_line(line);
+        (error, span)
+    })
+}
+
 /// Deserialises TOML text (from `file`, used in errors) into any of our file schemas, with the
 /// line and dotted key of the first error (`FILE:LINE: key `KEY`: ...`).
 pub fn deserialize<T: serde::de::DeserializeOwned>(
     text: &str,
     file: &Path,
 ) -> Result<T, ConfigError> {
-    let de = toml::Deserializer::new(text);
-    serde_path_to_error::deserialize(de).map_err(|e| {
-        let key = e.path().to_string();
-        let inner = e.into_inner();
-        let line = inner
-            .span()
-            .map(|s| text[..s.start.min(text.len())].lines().count().max(1));
-        ConfigError::new(
-            file,
-            if key == "." { String::new() } else { key },
-            inner.message().trim(),
-        )
-        .at_line(line)
+    deserialize_spanned(text, file).map_err(|(e, _)| e)
+}
+
+/// `missing field `X`` at `table` is about the key `table.X`.
+fn missing_key(path: &str, message: &str) -> Option<String> {
+    let rest = message.strip_prefix("missing field `")?;
+    let key = &rest[..rest.find('`')?];
+    Some(if path.is_empty() {
+        key.to_string()
+    } else {
+        format!("{path}.{key}")
+    })
+}
+
+/// The key at fault when deserialising a config failed at `path` with `message`: serde reports
+/// the errors inside a tagged table (a flattened enum) at the table; [`tagged::diagnose`] finds
+/// the key and says what is wrong in the config's terms (`trigger.mu` is not used with
+/// `rule = "dynamic"`). `None` when the error is already about a key.
+fn refine(path: &str, message: &str, document: &toml::Value) -> Option<(String, String)> {
+    let value = refine_value(document, path)?;
+    let parent = path.rsplit_once('.').map(|(p, _)| p).unwrap_or("");
+    tagged::diagnose(path, value, message)
+        .or_else(|| {
+            // An unknown selector value is reported at the selector, below its table.
+            let table = refine_value(document, parent)?;
+            tagged::diagnose(parent, table, message).filter(|(k, _)| k == path)
+        })
+        .or_else(|| missing_key(path, message).map(|k| (k, message.to_string())))
+}
+
+/// The value at a dotted `path` (`channel.attacks[1]`) of `document`.
+fn refine_value<'a>(document: &'a toml::Value, path: &str) -> Option<&'a toml::Value> {
+    let mut value = document;
+    for segment in path.split('.').filter(|s| !s.is_empty()) {
+        let (name, indices) = match segment.find('[') {
+            Some(i) => (&segment[..i], &segment[i..]),
+            None => (segment, ""),
+        };
+        value = value.get(name)?;
+        for index in indices.split(['[', ']']).filter(|s| !s.is_empty()) {
+            value = value.get(index.parse::<usize>().ok()?)?;
+        }
+    }
+    Some(value)
+}
+
+/// The line of `key` (its last segment) within the span of its table, if it is written there
+/// (at the start of a line, or after `{` or `,` in an inline table, not in a comment).
+fn key_line(text: &str, span: &std::ops::Range<usize>, key: &str) -> Option<usize> {
+    let name = key.rsplit('.').next()?;
+    let region = text.get(span.clone())?;
+    let mut from = 0;
+    while let Some(i) = region[from..].find(name) {
+        let at = from + i;
+        let line_start = region[..at].rfind('\n').map_or(0, |n| n + 1);
+        let before = region[line_start..at].trim_end();
+        let in_comment = region[line_start..at].contains('#');
+        let starts_key = before.is_empty() || before.ends_with('{') || before.ends_with(',');
+        let after = region[at + name.len()..].trim_start();
+        if starts_key && !in_comment && after.starts_with('=') {
+            return Some(line_at(text, span.start + at));
+        }
+        from = at + name.len();
+    }
+    None
+}
+
+/// Deserialises a config's TOML text, naming the key at fault in a tagged table.
+fn deserialize_config(text: &str, file: &Path) -> Result<Config, ConfigError> {
+    deserialize_spanned(text, file).map_err(|(mut e, span)| {
+        let document: Option<toml::Value> = toml::from_str(text).ok();
+        if let Some((key, message)) = document.and_then(|d| refine(&e.key, &e.message, &d)) {
+            if let Some(line) = span.as_ref().and_then(|s| key_line(text, s, &key)) {
+                e.line = Some(line);
+            }
+            e.key = key;
+            e.message = message;
+        }
+        e
+    })
+}
+
+/// Deserialises a config held as a TOML value (a campaign's cell before it is written), the
+/// error as `(key, message)` with the key at fault named as [`parse`] names it.
+pub fn from_value(value: toml::Value) -> Result<Config, (String, String)> {
+    serde_path_to_error::deserialize::<_, Config>(value.clone()).map_err(|e| {
+        let path = e.path().to_string();
+        let path = if path == "." { String::new() } else { path };
+        let message = e.inner().message().trim().to_string();
+        refine(&path, &message, &value).unwrap_or((path, message))
     })
 }
 
 /// Parses TOML text (from `file`, used in errors) into a resolved config and its scenario.
 pub fn parse(text: &str, file: &Path) -> Result<(Config, Scenario), ConfigError> {
-    let mut config: Config = deserialize(text, file)?;
+    let mut config: Config = deserialize_config(text, file)?;
     let scenario =
         to_scenario(&mut config).map_err(|(key, message)| ConfigError::new(file, key, message))?;
     Ok((config, scenario))

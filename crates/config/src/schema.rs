@@ -1,11 +1,23 @@
+use crate::serde_util::{self, DefaultTag};
 use platoon_attacks::Assumption2;
 use platoon_control::fallback::AccParams;
-use platoon_control::FallbackMode;
+use platoon_control::{FallbackMode, SpacingPolicy};
 use platoon_model::tau::Interpolation;
-use serde::{Deserialize, Serialize};
+use platoon_topology::Preset;
+use schemars::JsonSchema;
+use serde::ser::SerializeMap;
+use serde::{Deserialize, Serialize, Serializer};
+
+// A table whose keys depend on a selector (`[trigger] rule`, `[attack] kind`,
+// `[[channel.attacks]] kind`, `[platoon] spacing_policy`, `[topology] preset`) holds an
+// internally tagged enum, flattened into the table: one variant per value of the selector, each
+// with its own keys. The enum is the one list of those keys: deserialisation refuses the keys of
+// another variant, the JSON Schema (`crate::reference`) documents them, and campaigns drop
+// them when they change the selector (`crate::tagged`). Variants without keys are written
+// `Name {}`, so that their keys too are checked.
 
 /// A scenario file. See `configs/paper.toml` for every key with a comment.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Config {
     /// Free-form name of the scenario.
@@ -56,59 +68,107 @@ pub struct Config {
 }
 
 /// `[output]`: the per-step files (trajectories, events, channel log, wire log).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct OutputConfig {
-    /// `csv`, `parquet` (zstd, the same columns) or `auto`: Parquet when the trajectories would
-    /// exceed [`AUTO_PARQUET_ROWS`] rows \[auto\].
-    #[serde(default = "auto")]
-    pub format: String,
-    /// Write every n-th step to the trajectories (metrics and plots still use every step) \[1\].
+    /// The files' format.
+    #[serde(default)]
+    pub format: OutputFormat,
+    /// Write every n-th step to the trajectories (metrics and plots still use every step), >= 1.
     #[serde(default = "one_step")]
     pub decimate: u64,
-    /// Which of `trajectories`, `events`, `channel`, `wire` to write \[all\].
+    /// Which files to write.
     #[serde(default = "all_files")]
-    pub files: Vec<String>,
+    pub files: Vec<OutputFile>,
 }
 
 /// `format = "auto"` writes Parquet from this many trajectory rows on.
 pub const AUTO_PARQUET_ROWS: u64 = 2_000_000;
 
-/// The per-step files a run can write.
-pub const OUTPUT_FILES: [&str; 4] = ["trajectories", "events", "channel", "wire"];
+/// `[output] format`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum OutputFormat {
+    /// Comma-separated text with one header line.
+    Csv,
+    /// Apache Parquet (zstd), the same columns.
+    Parquet,
+    /// Parquet when the trajectories would have 2 million rows (`AUTO_PARQUET_ROWS`) or more,
+    /// CSV below.
+    #[default]
+    Auto,
+}
+
+/// A per-step file a run can write (`[output] files`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum OutputFile {
+    /// Every vehicle's state and command at every (n-th) step.
+    Trajectories,
+    /// Broadcasts, attacks and mode changes.
+    Events,
+    /// The packets the channel did not deliver as sent.
+    Channel,
+    /// What crossed the wire per link and step.
+    Wire,
+}
+
+impl OutputFile {
+    /// Every file, in the order of [`OutputConfig::files`]' default.
+    pub const ALL: [OutputFile; 4] = [
+        OutputFile::Trajectories,
+        OutputFile::Events,
+        OutputFile::Channel,
+        OutputFile::Wire,
+    ];
+
+    /// Its name in configs, and the stem of the file it writes.
+    pub fn name(self) -> &'static str {
+        match self {
+            OutputFile::Trajectories => "trajectories",
+            OutputFile::Events => "events",
+            OutputFile::Channel => "channel",
+            OutputFile::Wire => "wire",
+        }
+    }
+}
+
+impl OutputConfig {
+    /// Whether the run writes `file`.
+    pub fn writes(&self, file: OutputFile) -> bool {
+        self.files.contains(&file)
+    }
+}
 
 impl Default for OutputConfig {
     fn default() -> Self {
         Self {
-            format: auto(),
+            format: OutputFormat::default(),
             decimate: one_step(),
             files: all_files(),
         }
     }
 }
 
-fn auto() -> String {
-    "auto".into()
-}
 fn one_step() -> u64 {
     1
 }
-fn all_files() -> Vec<String> {
-    OUTPUT_FILES.iter().map(|s| s.to_string()).collect()
+fn all_files() -> Vec<OutputFile> {
+    OutputFile::ALL.to_vec()
 }
 
 /// `[fleet]`: platoon j drives on `lanes[j % len]`, `(j / len) * gap_m` behind platoon 0, with
 /// channel seed `channel.seed + j`; all share the DoS schedule.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct FleetConfig {
-    /// Number of platoons \[1\].
+    /// Number of platoons.
     #[serde(default = "one_platoon")]
     pub platoons: usize,
-    /// Lanes used in turn (SUMO plant) [the `[sumo] lane`].
+    /// Lanes used in turn (SUMO plant); absent: the one lane `sumo.lane`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub lanes: Option<Vec<u32>>,
-    /// Distance between the leaders of consecutive platoons on one lane (m) \[200\].
+    /// Distance between the leaders of consecutive platoons on one lane (m).
     #[serde(default = "fleet_gap")]
     pub gap_m: f64,
 }
@@ -131,11 +191,11 @@ fn fleet_gap() -> f64 {
 }
 
 /// `[sumo]`: where the platoon drives when SUMO is the plant.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Sumo {
-    /// The network (`.net.xml`), relative to the config file [default: the bundled
-    /// sumo/highway/highway.net.xml, a straight 3-lane, 3 km highway].
+    /// The network (`.net.xml`), relative to the config file; absent: the bundled
+    /// `sumo/highway/highway.net.xml`, a straight 3-lane, 3 km highway.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub net: Option<String>,
     /// The edge the platoon drives on.
@@ -148,20 +208,18 @@ pub struct Sumo {
     /// are shifted by this much onto the road.
     #[serde(default = "fifty")]
     pub start_m: f64,
-    /// SUMO's `--collision.action`: `warn` (record and go on), `none`, `remove` or `teleport`.
-    #[serde(default = "warn")]
-    pub collision_action: String,
-    /// What the controllers see: `sumo` (SUMO's positions and speeds: SUMO is the plant) or
-    /// `model` (the vehicle model's, bit-identical to the native plant, with SUMO checked
-    /// against them every step).
-    #[serde(default = "sumo_states")]
-    pub states: String,
+    /// SUMO's `--collision.action`.
+    #[serde(default)]
+    pub collision_action: CollisionAction,
+    /// What the controllers see.
+    #[serde(default)]
+    pub states: SumoStates,
     /// How often SUMO writes a line per vehicle to fcd.xml, for replay in sumo-gui (s); 0
-    /// writes no FCD output [every step].
+    /// writes no FCD output; absent: every step.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub fcd_period_s: Option<f64>,
     /// Background traffic: vehicles of SUMO's own car-following model on the lanes no platoon
-    /// uses, spread along the road with seeded speeds [0: none].
+    /// uses, spread along the road with seeded speeds (0: none).
     #[serde(default)]
     pub background_vehicles: usize,
     /// Seed of the background traffic's speeds and spacing.
@@ -173,9 +231,33 @@ pub struct Sumo {
     pub tolerance_m: f64,
 }
 
-fn sumo_states() -> String {
-    "sumo".into()
+/// SUMO's `--collision.action` (`[sumo] collision_action`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum CollisionAction {
+    /// Record the collision and go on.
+    #[default]
+    Warn,
+    /// Ignore it.
+    None,
+    /// Remove the vehicles involved.
+    Remove,
+    /// Teleport them.
+    Teleport,
 }
+
+/// Whose positions and speeds the controllers see (`[sumo] states`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum SumoStates {
+    /// SUMO's: SUMO is the plant.
+    #[default]
+    Sumo,
+    /// The vehicle model's, bit-identical to the native plant, with SUMO checked against them
+    /// every step.
+    Model,
+}
+
 fn tolerance() -> f64 {
     1e-6
 }
@@ -187,8 +269,8 @@ impl Default for Sumo {
             edge: highway_edge(),
             lane: one(),
             start_m: fifty(),
-            collision_action: warn(),
-            states: sumo_states(),
+            collision_action: CollisionAction::default(),
+            states: SumoStates::default(),
             fcd_period_s: None,
             background_vehicles: 0,
             background_seed: 0,
@@ -206,21 +288,19 @@ fn one() -> u32 {
 fn fifty() -> f64 {
     50.0
 }
-fn warn() -> String {
-    "warn".into()
-}
 
 /// `[safety]`: the largest deceleration any follower needed classes the run (m/s^2).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct SafetyConfig {
-    /// At most this: class `none` [2.0, the paper leader's own braking].
+    /// At most this: class `none` (by default the paper leader's own braking).
     #[serde(default = "none_decel")]
     pub none_decel_mps2: f64,
-    /// At most this: `negligible` [3.5, comfortable braking].
+    /// At most this: `negligible` (by default comfortable braking).
     #[serde(default = "negligible_decel")]
     pub negligible_decel_mps2: f64,
-    /// At most this: `benign` [6.0, emergency braking]; beyond it, or any collision: `severe`.
+    /// At most this: `benign` (by default emergency braking); beyond it, or any collision:
+    /// `severe`.
     #[serde(default = "benign_decel")]
     pub benign_decel_mps2: f64,
 }
@@ -246,7 +326,7 @@ fn benign_decel() -> f64 {
 }
 
 /// `[channel]`: a seed and a list of `[[channel.attacks]]`.
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Channel {
     /// Seed of the random losses (Bernoulli, Gilbert-Elliott).
@@ -263,93 +343,171 @@ impl Channel {
     }
 }
 
-/// `[[channel.attacks]]`. Keys that belong to another kind are errors.
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+/// `[[channel.attacks]]`: one link attack, its `kind` and that kind's keys (the keys of another
+/// kind are errors), active on `[start_s, end_s)` for the links it targets.
+#[derive(Debug, Clone, PartialEq, Deserialize, JsonSchema)]
 pub struct LinkAttackConfig {
-    /// `bernoulli`, `gilbert_elliott`, `delay`, `range_jamming`, `replay` or `false_data`.
-    pub kind: String,
-    /// Start of activity (s) [default 0].
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub start_s: Option<f64>,
-    /// End of activity (s, exclusive) [default: the end of the run].
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub end_s: Option<f64>,
-    /// Targeted senders (vehicle ids, 0 = leader) [default: all].
+    /// What it does to the packets it hits.
+    #[serde(flatten)]
+    pub kind: LinkKindConfig,
+    /// Start of activity (s).
+    #[serde(default)]
+    pub start_s: f64,
+    /// End of activity (s, exclusive); `inf`, the default: the end of the run.
+    #[serde(default = "forever")]
+    #[schemars(default = "forever_in_json")]
+    pub end_s: f64,
+    /// Targeted senders (vehicle ids, 0 = leader); absent: all.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub senders: Option<Vec<u16>>,
-    /// Targeted receivers [default: all].
+    /// Targeted receivers; absent: all.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub receivers: Option<Vec<u16>>,
-    /// `bernoulli`: loss probability.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub loss: Option<f64>,
-    /// `gilbert_elliott`: good -> bad probability per packet.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub p_good_bad: Option<f64>,
-    /// `gilbert_elliott`: bad -> good probability per packet.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub p_bad_good: Option<f64>,
-    /// `gilbert_elliott`: loss probability in the good state [default 0].
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub loss_good: Option<f64>,
-    /// `gilbert_elliott`: loss probability in the bad state [default 1].
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub loss_bad: Option<f64>,
-    /// `delay`: delay (s), a whole number of steps.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub delay_s: Option<f64>,
-    /// `range_jamming`: jammer position at t = 0 (m).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub position_m: Option<f64>,
-    /// `range_jamming`: jammer speed (m/s) [default 0].
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub speed_mps: Option<f64>,
-    /// `range_jamming`: radius (m).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub radius_m: Option<f64>,
-    /// `replay`: age of the replayed packets (s), a whole number of steps.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub lag_s: Option<f64>,
-    /// `false_data`: offset added to `[p, v, a]`.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub offset: Option<[f64; 3]>,
 }
 
-/// `[simulation]`
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+fn forever() -> f64 {
+    f64::INFINITY
+}
+
+/// JSON has no infinity: the schema gives TOML's spelling.
+fn forever_in_json() -> &'static str {
+    "inf"
+}
+
+/// The selector first, the keys every kind has, then the kind's own (a config's order).
+impl Serialize for LinkAttackConfig {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let mut m = s.serialize_map(None)?;
+        m.serialize_entry("kind", self.kind.name())?;
+        m.serialize_entry("start_s", &self.start_s)?;
+        m.serialize_entry("end_s", &self.end_s)?;
+        if let Some(v) = &self.senders {
+            m.serialize_entry("senders", v)?;
+        }
+        if let Some(v) = &self.receivers {
+            m.serialize_entry("receivers", v)?;
+        }
+        serde_util::entries(&mut m, &self.kind, "kind")?;
+        m.end()
+    }
+}
+
+/// `[[channel.attacks]] kind` and its keys.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum LinkKindConfig {
+    /// Each packet on each targeted link is lost with probability `loss`.
+    Bernoulli {
+        /// Loss probability in `[0, 1]`.
+        loss: f64,
+    },
+    /// Burst loss: a two-state (good/bad) Markov chain per link, advanced once per packet on
+    /// that link; a packet is lost with `loss_good` or `loss_bad` depending on the state.
+    GilbertElliott {
+        /// Probability of going from good to bad, per packet.
+        p_good_bad: f64,
+        /// Probability of going from bad to good, per packet.
+        p_bad_good: f64,
+        /// Loss probability in the good state.
+        #[serde(default)]
+        loss_good: f64,
+        /// Loss probability in the bad state.
+        #[serde(default = "certain")]
+        loss_bad: f64,
+    },
+    /// Every targeted packet arrives `delay_s` late (the receiver propagates it open-loop).
+    Delay {
+        /// The delay (s), a whole number of steps.
+        delay_s: f64,
+    },
+    /// A jammer (e.g. a drone) at `position_m + speed_mps t` along the road: a vehicle within
+    /// `radius_m` of it can neither send nor receive, and senses its channel jammed.
+    RangeJamming {
+        /// Jammer position at t = 0 (m, road coordinate of the platoon).
+        position_m: f64,
+        /// Jammer speed (m/s).
+        #[serde(default)]
+        speed_mps: f64,
+        /// Jamming radius (m).
+        radius_m: f64,
+    },
+    /// The targeted senders' packets are replaced by the ones they sent `lag_s` earlier, with
+    /// their old sequence numbers.
+    Replay {
+        /// Age of the replayed packets (s), a whole number of steps.
+        lag_s: f64,
+    },
+    /// False data injection: `offset` is added to the state in the targeted senders' packets.
+    FalseData {
+        /// Offset added to `[p, v, a]`.
+        offset: [f64; 3],
+    },
+}
+
+fn certain() -> f64 {
+    1.0
+}
+
+impl LinkKindConfig {
+    /// Its `kind`.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Self::Bernoulli { .. } => "bernoulli",
+            Self::GilbertElliott { .. } => "gilbert_elliott",
+            Self::Delay { .. } => "delay",
+            Self::RangeJamming { .. } => "range_jamming",
+            Self::Replay { .. } => "replay",
+            Self::FalseData { .. } => "false_data",
+        }
+    }
+}
+
+/// `[simulation]`: the time grid and what integrates the vehicles.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Simulation {
     /// Simulated time (s); a multiple of `dt_s`.
     pub duration_s: f64,
     /// Step length (s).
     pub dt_s: f64,
-    /// What integrates the vehicles: `native` (the model in Rust) or `sumo` (SUMO through
-    /// the libsumo bridge, see `[sumo]`); `platoon run --plant` overrides it.
-    #[serde(default = "native")]
-    pub plant: String,
+    /// What integrates the vehicles; `platoon run --plant` overrides it.
+    #[serde(default)]
+    pub plant: PlantKind,
 }
 
-fn native() -> String {
-    "native".into()
+/// What integrates the vehicles (`[simulation] plant`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, JsonSchema)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+#[serde(rename_all = "snake_case")]
+pub enum PlantKind {
+    /// The vehicle model in Rust (`platoon node plant`).
+    #[default]
+    Native,
+    /// SUMO through the libsumo bridge (`bridge/sumo_plant.py`), see `[sumo]`.
+    Sumo,
 }
 
-/// `[platoon]`
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+impl PlantKind {
+    /// Its name in configs and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            PlantKind::Native => "native",
+            PlantKind::Sumo => "sumo",
+        }
+    }
+}
+
+/// `[platoon]`: the vehicles, their spacing policy and their initial states.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 pub struct Platoon {
     /// Number of followers N.
     pub followers: usize,
     /// Desired spacing l between consecutive vehicles (m), front to front: the whole desired
     /// distance with `spacing_policy = "constant"`, the standstill part with `"time_headway"`.
     pub spacing_m: f64,
-    /// `constant` (the paper: the desired distance is `spacing_m`) or `time_headway` (it is
-    /// `spacing_m + time_headway_s * v`, v the speed of the rear vehicle) \[constant\].
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub spacing_policy: Option<String>,
-    /// The time headway h_t of `spacing_policy = "time_headway"` (s), > 0.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub time_headway_s: Option<f64>,
+    /// The spacing policy (`spacing_policy`) and its keys.
+    #[serde(flatten, deserialize_with = "serde_util::with_default_tag")]
+    pub spacing: SpacingConfig,
     /// Vehicle length for gap and safety figures (m); 0 treats vehicles as points.
     #[serde(default)]
     pub vehicle_length_m: f64,
@@ -362,31 +520,77 @@ pub struct Platoon {
     pub formation: Option<Formation>,
 }
 
+/// `[platoon] spacing_policy` and its keys: which distance the law keeps
+/// ([`platoon_control::SpacingPolicy`]).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(tag = "spacing_policy", rename_all = "snake_case", deny_unknown_fields)]
+#[schemars(transform = serde_util::default_tag_schema::<SpacingConfig>)]
+pub enum SpacingConfig {
+    /// The paper: the desired distance is `spacing_m`.
+    Constant {},
+    /// The desired distance is `spacing_m + time_headway_s * v`, v the speed of the rear
+    /// vehicle.
+    TimeHeadway {
+        /// The time headway h_t (s), > 0.
+        time_headway_s: f64,
+    },
+}
+
+impl DefaultTag for SpacingConfig {
+    const SELECTOR: &'static str = "spacing_policy";
+    const DEFAULT: &'static str = "constant";
+}
+
+impl Default for SpacingConfig {
+    fn default() -> Self {
+        Self::Constant {}
+    }
+}
+
+impl SpacingConfig {
+    /// The policy it names (not validated: see [`crate::to_scenario`]).
+    pub fn policy(self) -> SpacingPolicy {
+        match self {
+            Self::Constant {} => SpacingPolicy::Constant,
+            Self::TimeHeadway { time_headway_s } => SpacingPolicy::TimeHeadway(time_headway_s),
+        }
+    }
+}
+
+impl From<SpacingPolicy> for SpacingConfig {
+    fn from(p: SpacingPolicy) -> Self {
+        match p {
+            SpacingPolicy::Constant => Self::Constant {},
+            SpacingPolicy::TimeHeadway(h) => Self::TimeHeadway { time_headway_s: h },
+        }
+    }
+}
+
 /// `[platoon.formation]`: the leader at `leader_position_m` with its profile's speed v0 at t = 0,
 /// follower i at `leader_position_m - i spacing_m` (`- i (spacing_m + time_headway_s v0)` with
 /// the time-headway policy) with the same speed and zero acceleration,
 /// then each follower's position and speed moved by independent uniform draws from
 /// `[-position_jitter_m, position_jitter_m]` and `[-speed_jitter_mps, speed_jitter_mps]`
 /// (ChaCha8 seeded with `seed`; the leader is never jittered).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Formation {
-    /// The leader's initial position (m) \[0\].
+    /// The leader's initial position (m).
     #[serde(default)]
     pub leader_position_m: f64,
-    /// Largest position offset of a follower (m) \[0\].
+    /// Largest position offset of a follower (m).
     #[serde(default)]
     pub position_jitter_m: f64,
-    /// Largest speed offset of a follower (m/s) \[0\].
+    /// Largest speed offset of a follower (m/s).
     #[serde(default)]
     pub speed_jitter_mps: f64,
-    /// Seed of the jitter \[0\].
+    /// Seed of the jitter.
     #[serde(default)]
     pub seed: u64,
 }
 
-/// `[leader]`
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+/// `[leader]`: the leader's velocity profile and how often it broadcasts.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Leader {
     /// The velocity profile.
@@ -397,13 +601,12 @@ pub struct Leader {
     pub broadcast_period_s: Option<f64>,
 }
 
-/// `leader.profile`
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+/// `leader.profile`: the leader's velocity over time, `kind` and that kind's keys.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum LeaderProfileConfig {
     /// Section IV's profile (docs/paper-readings.md#R4).
-    #[default]
-    Paper,
+    Paper {},
     /// Constant speed.
     Constant {
         /// Speed (m/s).
@@ -416,22 +619,71 @@ pub enum LeaderProfileConfig {
     },
 }
 
-/// `[topology]`
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct TopologyConfig {
-    /// `pf`, `plf`, `bpf`, `tpsf`, or `explicit` (then `adjacency` and `pinning` are required).
-    pub preset: String,
-    /// Row i lists whom follower i receives from (a_ij = 1), only with `preset = "explicit"`.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub adjacency: Option<Vec<Vec<f64>>>,
-    /// h_i = 1 if follower i receives from the leader, only with `preset = "explicit"`.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub pinning: Option<Vec<f64>>,
+impl Default for LeaderProfileConfig {
+    fn default() -> Self {
+        Self::Paper {}
+    }
 }
 
-/// `[plant]`
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+/// `[topology]`: a preset graph (`preset` names it), or an explicit one.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(tag = "preset", rename_all = "snake_case", deny_unknown_fields)]
+pub enum TopologyConfig {
+    /// Predecessor following: i hears i-1 (follower 1 hears the leader).
+    Pf {},
+    /// Predecessor-leader following: i hears i-1 and the leader.
+    Plf {},
+    /// Bidirectional predecessor following: i hears i-1 and i+1 (follower 1 hears the leader).
+    Bpf {},
+    /// Two-predecessor single following: i hears i-1 and i-2, where vehicle 0 is the leader
+    /// (docs/paper-readings.md#R7: pinning diag(1, 1, 0, ...)).
+    Tpsf {},
+    /// Any graph, given by its adjacency and pinning.
+    Explicit {
+        /// Row i lists whom follower i receives from (a_ij = 1).
+        adjacency: Vec<Vec<f64>>,
+        /// h_i = 1 if follower i receives from the leader.
+        pinning: Vec<f64>,
+    },
+}
+
+impl TopologyConfig {
+    /// The preset it names (`None` for an explicit graph).
+    pub fn preset(&self) -> Option<Preset> {
+        match self {
+            Self::Pf {} => Some(Preset::Pf),
+            Self::Plf {} => Some(Preset::Plf),
+            Self::Bpf {} => Some(Preset::Bpf),
+            Self::Tpsf {} => Some(Preset::Tpsf),
+            Self::Explicit { .. } => None,
+        }
+    }
+
+    /// Its `preset` name.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Self::Pf {} => "pf",
+            Self::Plf {} => "plf",
+            Self::Bpf {} => "bpf",
+            Self::Tpsf {} => "tpsf",
+            Self::Explicit { .. } => "explicit",
+        }
+    }
+}
+
+impl From<Preset> for TopologyConfig {
+    fn from(p: Preset) -> Self {
+        match p {
+            Preset::Pf => Self::Pf {},
+            Preset::Plf => Self::Plf {},
+            Preset::Bpf => Self::Bpf {},
+            Preset::Tpsf => Self::Tpsf {},
+        }
+    }
+}
+
+/// `[plant]`: the vehicles' engine time constant, true and nominal.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Plant {
     /// Nominal time constant used by the controllers' estimators (s).
@@ -443,18 +695,18 @@ pub struct Plant {
     pub tau_per_vehicle: Option<Vec<TauConfig>>,
 }
 
-/// A tau schedule.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+/// A tau schedule (`plant.tau`, `plant.tau_per_vehicle`): `kind` and that kind's keys.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum TauConfig {
     /// Fig. 5(a): 0.34 s until 20 s, a linear ramp, 0.82 s from 35 s.
-    Paper,
+    Paper {},
     /// A constant.
     Constant {
         /// tau (s).
         value_s: f64,
     },
-    /// Through `[t, tau]` knots with the given interpolation (`step`, `linear` or `smooth`).
+    /// Through `[t, tau]` knots with the given interpolation.
     Knots {
         /// `[t (s), tau (s)]` pairs with increasing t.
         knots: Vec<[f64; 2]>,
@@ -463,8 +715,8 @@ pub enum TauConfig {
     },
 }
 
-/// `[control]`
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+/// `[control]`: the control law's gain and the trigger conditions' weights.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Control {
     /// K in `u_i = -K q_i` (docs/paper-readings.md#R1).
@@ -473,28 +725,30 @@ pub struct Control {
     pub beta1: f64,
     /// Weight of |q|^2 in the trigger conditions.
     pub beta2: f64,
-    /// The older name of `fallback.mode` (`zero` or `hold`); set one of them.
+    /// The older name of `fallback.mode`; set one of them. The resolved config says
+    /// `fallback.mode`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub attack_input: Option<FallbackMode>,
 }
 
 /// `[fallback]`: what a follower does while affected by an attack, and how it comes back.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct FallbackConfig {
-    /// `zero` (the paper), `hold`, `predict` or `acc` \[zero\].
+    /// Every follower's fallback (`control.attack_input`, its older name, if given; else
+    /// `zero`, the paper's).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub mode: Option<FallbackMode>,
     /// One mode per follower instead (follower 1 first).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub per_vehicle: Option<Vec<FallbackMode>>,
-    /// Time a vehicle stays in its fallback once it is no longer affected (s) \[0\].
+    /// Time a vehicle stays in its fallback once it is no longer affected (s).
     #[serde(default)]
     pub dwell_s: f64,
-    /// Time over which it then returns to the cooperative law, bumplessly (s) [0: at once].
+    /// Time over which it then returns to the cooperative law, bumplessly (s; 0: at once).
     #[serde(default)]
     pub blend_s: f64,
-    /// ...or longer, so that the gap its fallback left closes at most this fast (m/s) \[2\].
+    /// ...or longer, so that the gap its fallback left closes at most this fast (m/s).
     #[serde(default = "two")]
     pub closing_mps: f64,
     /// The ACC law.
@@ -509,7 +763,7 @@ impl Default for FallbackConfig {
             per_vehicle: None,
             dwell_s: 0.0,
             blend_s: 0.0,
-            closing_mps: 2.0,
+            closing_mps: two(),
             acc: AccParams::default(),
         }
     }
@@ -520,20 +774,20 @@ fn two() -> f64 {
 }
 
 /// `[radar]`: every follower's on-board radar (read by the `acc` fallback and the guard).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(default, deny_unknown_fields)]
 pub struct RadarConfig {
-    /// Range (m) \[150\].
+    /// Range (m).
     pub range_m: f64,
-    /// Measurement period (s), a whole number of steps [0.05].
+    /// Measurement period (s), a whole number of steps.
     pub period_s: f64,
-    /// Standard deviation of the gap's noise (m) [0.05].
+    /// Standard deviation of the gap's noise (m).
     pub noise_m: f64,
-    /// Standard deviation of the closing speed's noise (m/s) [0.05].
+    /// Standard deviation of the closing speed's noise (m/s).
     pub noise_mps: f64,
-    /// Probability a measurement is lost \[0\].
+    /// Probability a measurement is lost.
     pub dropout: f64,
-    /// Seed of noise and dropouts \[1\].
+    /// Seed of noise and dropouts.
     pub seed: u64,
 }
 
@@ -551,15 +805,15 @@ impl Default for RadarConfig {
 }
 
 /// `[guard]`: emergency braking on the radar's time to collision, in every mode.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(default, deny_unknown_fields)]
 pub struct GuardConfig {
-    /// Whether it is on [false].
+    /// Whether it is on.
     pub enabled: bool,
-    /// Time to collision below which it brakes (s) [4: the paper's engine lag of up to
-    /// 0.82 s makes a later trigger too late].
+    /// Time to collision below which it brakes (s; the paper's engine lag of up to 0.82 s
+    /// makes a trigger much later than the default too late).
     pub ttc_s: f64,
-    /// Its deceleration (m/s^2) \[8\].
+    /// Its deceleration (m/s^2).
     pub decel_mps2: f64,
 }
 
@@ -573,100 +827,151 @@ impl Default for GuardConfig {
     }
 }
 
-/// `[trigger]`. Keys that belong to another rule are errors.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+/// `[trigger]`: the rule (`rule`) and its keys (the keys of another rule are errors), and how
+/// often and how resiliently it is checked.
+#[derive(Debug, Clone, PartialEq, Deserialize, JsonSchema)]
 pub struct Trigger {
-    /// `dynamic` (4)+(12), `static` (21), `mixed` (the Table I baseline) or `periodic`.
-    pub rule: String,
-    /// How often the event condition is checked (s); default: every step
-    /// (docs/paper-readings.md#R10).
+    /// The triggering rule and its parameters.
+    #[serde(flatten)]
+    pub rule: RuleConfig,
+    /// How often the event condition is checked (s), a whole number of steps; absent: every
+    /// step (docs/paper-readings.md#R10; the resolved config says the step).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub check_period_s: Option<f64>,
     /// Use the resilient mechanism (11) during attacks.
     #[serde(default = "yes")]
     pub resilient: bool,
-    /// Sampling period h of the resilient mechanism (s).
+    /// Sampling period h of the resilient mechanism (s), a whole number of steps.
     pub h_s: f64,
-    /// Dynamic rule: phi_i.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub phi: Option<f64>,
-    /// Dynamic rule: rho_i.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub rho: Option<f64>,
-    /// Dynamic rule: eta_i.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub eta: Option<f64>,
-    /// Dynamic rule: theta_i(0).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub theta0: Option<f64>,
-    /// Mixed rule: offset at t = 0.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub mu: Option<f64>,
-    /// Mixed rule: offset decay rate (1/s).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub alpha: Option<f64>,
-    /// Periodic rule: period (s).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub period_s: Option<f64>,
+}
+
+/// The selector first, the keys every rule has, then the rule's own (a config's order).
+impl Serialize for Trigger {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let mut m = s.serialize_map(None)?;
+        m.serialize_entry("rule", self.rule.name())?;
+        if let Some(p) = &self.check_period_s {
+            m.serialize_entry("check_period_s", p)?;
+        }
+        m.serialize_entry("resilient", &self.resilient)?;
+        m.serialize_entry("h_s", &self.h_s)?;
+        serde_util::entries(&mut m, &self.rule, "rule")?;
+        m.end()
+    }
 }
 
 fn yes() -> bool {
     true
 }
 
-/// `[attack]`. Keys that belong to another kind are errors.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+/// `[trigger] rule` and its keys.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(tag = "rule", rename_all = "snake_case", deny_unknown_fields)]
+pub enum RuleConfig {
+    /// The paper's dynamic event-triggering mechanism (4)+(12).
+    Dynamic {
+        /// phi_i, the weight of the internal variable theta in the condition.
+        phi: f64,
+        /// rho_i, theta's decay rate.
+        rho: f64,
+        /// eta_i, the gain of the static condition in theta's dynamics.
+        eta: f64,
+        /// theta_i(0).
+        theta0: f64,
+    },
+    /// The static event-triggering mechanism (21).
+    Static {},
+    /// Table I's baseline: the static condition with an exponentially decaying offset
+    /// `beta1 mu exp(-alpha t)` (docs/paper-readings.md#R13).
+    Mixed {
+        /// The offset at t = 0.
+        #[serde(default)]
+        mu: f64,
+        /// The offset's decay rate (1/s).
+        #[serde(default)]
+        alpha: f64,
+    },
+    /// Time-triggered: a broadcast every `period_s`.
+    Periodic {
+        /// The period (s), a whole number of steps.
+        period_s: f64,
+    },
+}
+
+impl RuleConfig {
+    /// Its `rule`.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Self::Dynamic { .. } => "dynamic",
+            Self::Static {} => "static",
+            Self::Mixed { .. } => "mixed",
+            Self::Periodic { .. } => "periodic",
+        }
+    }
+}
+
+/// `[attack]`: the DoS attack, its `kind` and that kind's keys (the keys of another kind are
+/// errors).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize, JsonSchema)]
 pub struct Attack {
-    /// `none`, `intervals`, `periodic` or `random`.
-    pub kind: String,
-    /// `intervals`: `[start (s), duration (s)]` pairs.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub intervals: Option<Vec<[f64; 2]>>,
-    /// `periodic`: period (s).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub period_s: Option<f64>,
-    /// `periodic`: attack length (s).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub duration_s: Option<f64>,
-    /// `periodic`: first start (s).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub offset_s: Option<f64>,
-    /// `random`: seed.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub seed: Option<u64>,
-    /// `random`: smallest quiet time (s).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub min_gap_s: Option<f64>,
-    /// `random`: largest proposed quiet time (s).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub max_gap_s: Option<f64>,
-    /// `random`: shortest proposed attack (s).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub min_duration_s: Option<f64>,
-    /// `random`: longest proposed attack (s).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub max_duration_s: Option<f64>,
-    /// Bounds of Assumption 2 to check the schedule against (required for `random`).
+    /// When the channel is jammed.
+    #[serde(flatten)]
+    pub kind: DosConfig,
+    /// Bounds of Assumption 2 to check the schedule against (required with `kind = "random"`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub assumption2: Option<Assumption2>,
 }
 
-impl Default for Attack {
+/// `[attack] kind` and its keys.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum DosConfig {
+    /// No DoS.
+    None {},
+    /// Given intervals.
+    Intervals {
+        /// `[start (s), duration (s)]` pairs.
+        intervals: Vec<[f64; 2]>,
+    },
+    /// An attack of `duration_s` every `period_s`, the first at `offset_s`.
+    Periodic {
+        /// Period (s).
+        period_s: f64,
+        /// Attack length (s).
+        duration_s: f64,
+        /// First start (s).
+        #[serde(default)]
+        offset_s: f64,
+    },
+    /// Seeded random attacks that satisfy `assumption2`.
+    Random {
+        /// Seed.
+        seed: u64,
+        /// Smallest quiet time (s).
+        min_gap_s: f64,
+        /// Largest proposed quiet time (s).
+        max_gap_s: f64,
+        /// Shortest proposed attack (s).
+        min_duration_s: f64,
+        /// Longest proposed attack (s).
+        max_duration_s: f64,
+    },
+}
+
+impl Default for DosConfig {
     fn default() -> Self {
-        Attack {
-            kind: "none".into(),
-            intervals: None,
-            period_s: None,
-            duration_s: None,
-            offset_s: None,
-            seed: None,
-            min_gap_s: None,
-            max_gap_s: None,
-            min_duration_s: None,
-            max_duration_s: None,
-            assumption2: None,
+        Self::None {}
+    }
+}
+
+impl DosConfig {
+    /// Its `kind`.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Self::None {} => "none",
+            Self::Intervals { .. } => "intervals",
+            Self::Periodic { .. } => "periodic",
+            Self::Random { .. } => "random",
         }
     }
 }

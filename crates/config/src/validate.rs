@@ -5,7 +5,7 @@ use platoon_attacks::{DosSchedule, RandomDos};
 use platoon_control::{ControllerParams, TriggerRule};
 use platoon_model::{LeaderProfile, State, TauSchedule, VehicleId};
 use platoon_sim::Scenario;
-use platoon_topology::{Preset, Topology};
+use platoon_topology::Topology;
 
 type Invalid = (String, String);
 
@@ -120,17 +120,9 @@ fn fallback(
     Ok(params)
 }
 
-fn only_for(key: &str, given: bool, owner: &str) -> Result<(), Invalid> {
-    if given {
-        bad(key, format!("is only used with {owner}; remove it"))
-    } else {
-        Ok(())
-    }
-}
-
 fn tau_schedule(key: &str, t: &TauConfig) -> Result<TauSchedule, Invalid> {
     let r = match t {
-        TauConfig::Paper => Ok(TauSchedule::paper()),
+        TauConfig::Paper {} => Ok(TauSchedule::paper()),
         TauConfig::Constant { value_s } => TauSchedule::constant(*value_s),
         TauConfig::Knots {
             knots,
@@ -142,7 +134,7 @@ fn tau_schedule(key: &str, t: &TauConfig) -> Result<TauSchedule, Invalid> {
 
 fn leader_profile(profile: &LeaderProfileConfig) -> Result<LeaderProfile, Invalid> {
     Ok(match profile {
-        LeaderProfileConfig::Paper => LeaderProfile::paper(),
+        LeaderProfileConfig::Paper {} => LeaderProfile::paper(),
         LeaderProfileConfig::Constant { speed_mps } => {
             LeaderProfile::constant(finite("leader.profile.speed_mps", *speed_mps)?)
         }
@@ -239,35 +231,19 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
         );
     }
     let spacing = positive("platoon.spacing_m", p.spacing_m)?;
-    let headway = match (p.spacing_policy.as_deref(), p.time_headway_s) {
-        (None | Some("constant"), None) => 0.0,
-        (None | Some("constant"), Some(_)) => {
-            return bad(
-                "platoon.time_headway_s",
-                "is only used with platoon.spacing_policy = \"time_headway\"; set that, or remove the key",
-            )
-        }
-        (Some("time_headway"), None) => {
-            return bad(
-                "platoon.time_headway_s",
-                "missing: spacing_policy = \"time_headway\" needs the headway in seconds (e.g. 0.5)",
-            )
-        }
-        (Some("time_headway"), Some(h)) => {
-            let h = positive("platoon.time_headway_s", h)?;
+    let headway = match p.spacing {
+        SpacingConfig::Constant {} => 0.0,
+        SpacingConfig::TimeHeadway { time_headway_s } => {
+            let h = positive("platoon.time_headway_s", time_headway_s)?;
             if h > 60.0 {
                 return bad(
                     "platoon.time_headway_s",
-                    format!("{h} s is not a time headway (vehicles keep 0.5 to 3 s); use at most 60"),
+                    format!(
+                        "{h} s is not a time headway (vehicles keep 0.5 to 3 s); use at most 60"
+                    ),
                 );
             }
             h
-        }
-        (Some(other), _) => {
-            return bad(
-                "platoon.spacing_policy",
-                format!("unknown policy {other:?}; use constant or time_headway"),
-            )
         }
     };
     let vehicle_length = finite("platoon.vehicle_length_m", p.vehicle_length_m)?;
@@ -334,36 +310,12 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
     };
 
     // [topology]
-    let t = &c.topology;
-    let topology = if t.preset == "explicit" {
-        let (Some(a), Some(h)) = (&t.adjacency, &t.pinning) else {
-            return bad(
-                "topology",
-                "preset = \"explicit\" needs both `adjacency` and `pinning`",
-            );
-        };
-        Topology::explicit(a.clone(), h.clone())
-    } else {
-        only_for(
-            "topology.adjacency",
-            t.adjacency.is_some(),
-            "preset = \"explicit\"",
-        )?;
-        only_for(
-            "topology.pinning",
-            t.pinning.is_some(),
-            "preset = \"explicit\"",
-        )?;
-        let Some(preset) = Preset::from_name(&t.preset) else {
-            return bad(
-                "topology.preset",
-                format!(
-                    "unknown preset {:?}; use pf, plf, bpf, tpsf or explicit",
-                    t.preset
-                ),
-            );
-        };
-        Topology::preset(preset, n)
+    let topology = match (&c.topology, c.topology.preset()) {
+        (TopologyConfig::Explicit { adjacency, pinning }, _) => {
+            Topology::explicit(adjacency.clone(), pinning.clone())
+        }
+        (_, Some(preset)) => Topology::preset(preset, n),
+        (_, None) => unreachable!("every topology but an explicit one is a preset"),
     }
     .or_else(|e| bad("topology", e.to_string()))?;
     if topology.followers() != n {
@@ -408,58 +360,31 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
     let check_period = *tr.check_period_s.get_or_insert(dt);
     let check_steps = steps_of("trigger.check_period_s", check_period, dt)?;
     let h_steps = steps_of("trigger.h_s", tr.h_s, dt)?;
-    let dynamic_keys =
-        tr.phi.is_some() || tr.rho.is_some() || tr.eta.is_some() || tr.theta0.is_some();
-    let mixed_keys = tr.mu.is_some() || tr.alpha.is_some();
-    let periodic_keys = tr.period_s.is_some();
-    // Keys of the other rules are errors, so a config never carries parameters that do nothing.
-    let unused_besides = |rule: &str| -> Result<(), Invalid> {
-        let owner = |r: &str| format!("rule = \"{r}\"");
-        only_for(
-            "trigger.phi",
-            dynamic_keys && rule != "dynamic",
-            &owner("dynamic"),
-        )?;
-        only_for("trigger.mu", mixed_keys && rule != "mixed", &owner("mixed"))?;
-        only_for(
-            "trigger.period_s",
-            periodic_keys && rule != "periodic",
-            &owner("periodic"),
-        )
-    };
-    let need = |key: &str, v: Option<f64>| {
-        v.map_or_else(
-            || bad(key, format!("is required with rule = \"{}\"", tr.rule)),
-            |x| finite(key, x),
-        )
-    };
-    let rule = match tr.rule.as_str() {
-        "dynamic" => TriggerRule::Dynamic {
-            phi: need("trigger.phi", tr.phi)?,
-            rho: need("trigger.rho", tr.rho)?,
-            eta: need("trigger.eta", tr.eta)?,
-            theta0: need("trigger.theta0", tr.theta0)?,
+    let rule = match tr.rule {
+        RuleConfig::Dynamic {
+            phi,
+            rho,
+            eta,
+            theta0,
+        } => TriggerRule::Dynamic {
+            phi: finite("trigger.phi", phi)?,
+            rho: finite("trigger.rho", rho)?,
+            eta: finite("trigger.eta", eta)?,
+            theta0: finite("trigger.theta0", theta0)?,
         },
-        "static" => TriggerRule::Static,
-        "mixed" => TriggerRule::Mixed {
-            mu: finite("trigger.mu", tr.mu.unwrap_or(0.0))?,
-            alpha: finite("trigger.alpha", tr.alpha.unwrap_or(0.0))?,
+        RuleConfig::Static {} => TriggerRule::Static,
+        RuleConfig::Mixed { mu, alpha } => TriggerRule::Mixed {
+            mu: finite("trigger.mu", mu)?,
+            alpha: finite("trigger.alpha", alpha)?,
         },
-        "periodic" => TriggerRule::Periodic {
+        RuleConfig::Periodic { period_s } => TriggerRule::Periodic {
             period_steps: steps_of(
                 "trigger.period_s",
-                need("trigger.period_s", tr.period_s)?,
+                finite("trigger.period_s", period_s)?,
                 dt,
             )?,
         },
-        other => {
-            return bad(
-                "trigger.rule",
-                format!("unknown rule {other:?}; use dynamic, static, mixed or periodic"),
-            )
-        }
     };
-    unused_besides(&tr.rule)?;
     let resilient = tr.resilient;
     let gain = RowVector3::new(k.gain[0], k.gain[1], k.gain[2]);
     let fallback = fallback(c, dt, vehicle_length)?;
@@ -496,117 +421,52 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
         b.validate()
             .or_else(|e| bad("attack.assumption2", e.to_string()))?;
     }
-    let interval_keys = a.intervals.is_some();
-    let periodic_keys = a.period_s.is_some() || a.duration_s.is_some() || a.offset_s.is_some();
-    let random_keys = a.seed.is_some()
-        || a.min_gap_s.is_some()
-        || a.max_gap_s.is_some()
-        || a.min_duration_s.is_some()
-        || a.max_duration_s.is_some();
-    let check_unused = |intervals: bool, periodic: bool, random: bool| -> Result<(), Invalid> {
-        only_for(
-            "attack.intervals",
-            intervals && interval_keys,
-            "kind = \"intervals\"",
-        )?;
-        only_for(
-            "attack.period_s",
-            periodic && periodic_keys,
-            "kind = \"periodic\"",
-        )?;
-        only_for("attack.seed", random && random_keys, "kind = \"random\"")
-    };
-    let dos = match a.kind.as_str() {
-        "none" => {
-            check_unused(true, true, true)?;
-            DosSchedule::none()
-        }
-        "intervals" => {
-            check_unused(false, true, true)?;
-            let Some(list) = &a.intervals else {
-                return bad("attack.intervals", "is required with kind = \"intervals\"");
-            };
-            let pairs: Vec<(f64, f64)> = list.iter().map(|p| (p[0], p[1])).collect();
+    let dos = match &a.kind {
+        DosConfig::None {} => DosSchedule::none(),
+        DosConfig::Intervals { intervals } => {
+            let pairs: Vec<(f64, f64)> = intervals.iter().map(|p| (p[0], p[1])).collect();
             DosSchedule::from_intervals(&pairs)
                 .or_else(|e| bad("attack.intervals", e.to_string()))?
         }
-        "periodic" => {
-            check_unused(true, false, true)?;
-            let need = |key: &str, v: Option<f64>| {
-                v.map_or_else(|| bad(key, "is required with kind = \"periodic\""), Ok)
-            };
-            DosSchedule::periodic(
-                need("attack.period_s", a.period_s)?,
-                need("attack.duration_s", a.duration_s)?,
-                a.offset_s.unwrap_or(0.0),
-                duration,
-            )
-            .or_else(|e| bad("attack.period_s", e.to_string()))?
-        }
-        "random" => {
-            check_unused(true, true, false)?;
+        DosConfig::Periodic {
+            period_s,
+            duration_s,
+            offset_s,
+        } => DosSchedule::periodic(*period_s, *duration_s, *offset_s, duration)
+            .or_else(|e| bad("attack.period_s", e.to_string()))?,
+        DosConfig::Random {
+            seed,
+            min_gap_s,
+            max_gap_s,
+            min_duration_s,
+            max_duration_s,
+        } => {
             let Some(bounds) = &a.assumption2 else {
                 return bad(
                     "attack.assumption2",
                     "is required with kind = \"random\" (the generator satisfies these bounds)",
                 );
             };
-            let need = |key: &str, v: Option<f64>| {
-                v.map_or_else(|| bad(key, "is required with kind = \"random\""), Ok)
-            };
             let generator = RandomDos {
-                seed: a.seed.map_or_else(
-                    || bad("attack.seed", "is required with kind = \"random\""),
-                    Ok,
-                )?,
-                min_gap: need("attack.min_gap_s", a.min_gap_s)?,
-                max_gap: need("attack.max_gap_s", a.max_gap_s)?,
-                min_duration: need("attack.min_duration_s", a.min_duration_s)?,
-                max_duration: need("attack.max_duration_s", a.max_duration_s)?,
+                seed: *seed,
+                min_gap: *min_gap_s,
+                max_gap: *max_gap_s,
+                min_duration: *min_duration_s,
+                max_duration: *max_duration_s,
             };
             generator
                 .generate(bounds, duration)
                 .or_else(|e| bad("attack", e.to_string()))?
         }
-        other => {
-            return bad(
-                "attack.kind",
-                format!("unknown kind {other:?}; use none, intervals, periodic or random"),
-            )
-        }
     };
 
     let (link_attacks, channel_seed) = channel(&c.channel, dt, n)?;
-    if !matches!(c.simulation.plant.as_str(), "native" | "sumo") {
-        return bad(
-            "simulation.plant",
-            format!("unknown plant {:?}; use native or sumo", c.simulation.plant),
-        );
-    }
-    if !matches!(
-        c.sumo.collision_action.as_str(),
-        "warn" | "none" | "remove" | "teleport"
-    ) {
-        return bad(
-            "sumo.collision_action",
-            format!(
-                "unknown action {:?}; use warn, none, remove or teleport",
-                c.sumo.collision_action
-            ),
-        );
-    }
     finite("sumo.start_m", c.sumo.start_m)?;
     positive("sumo.tolerance_m", c.sumo.tolerance_m)?;
     if let Some(p) = c.sumo.fcd_period_s {
         if finite("sumo.fcd_period_s", p)? != 0.0 {
             steps_of("sumo.fcd_period_s", p, dt)?;
         }
-    }
-    if !matches!(c.sumo.states.as_str(), "sumo" | "model") {
-        return bad(
-            "sumo.states",
-            format!("unknown source {:?}; use sumo or model", c.sumo.states),
-        );
     }
     let sf = &c.safety;
     positive("safety.none_decel_mps2", sf.none_decel_mps2)?;
@@ -623,20 +483,8 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
     let f = &c.fleet;
     let lanes = f.lanes.clone().unwrap_or_else(|| vec![c.sumo.lane]);
     let o = &c.output;
-    if !matches!(o.format.as_str(), "csv" | "parquet" | "auto") {
-        return bad(
-            "output.format",
-            format!("unknown format {:?}; use csv, parquet or auto", o.format),
-        );
-    }
     if o.decimate == 0 {
         return bad("output.decimate", "must be at least 1 (every step)");
-    }
-    if let Some(f) = o.files.iter().find(|f| !OUTPUT_FILES.contains(&f.as_str())) {
-        return bad(
-            "output.files",
-            format!("unknown file {f:?}; use {}", OUTPUT_FILES.join(", ")),
-        );
     }
     if f.platoons == 0 {
         return bad("fleet.platoons", "needs at least one platoon");
@@ -708,12 +556,6 @@ fn channel(c: &Channel, dt: f64, followers: usize) -> Result<(Vec<LinkAttack>, u
     let mut out = Vec::with_capacity(c.attacks.len());
     for (i, a) in c.attacks.iter().enumerate() {
         let key = |k: &str| format!("channel.attacks[{i}].{k}");
-        let need = |k: &str, v: Option<f64>| {
-            v.map_or_else(
-                || bad(&key(k), format!("is required with kind = {:?}", a.kind)),
-                |x| finite(&key(k), x),
-            )
-        };
         let probability = |k: &str, v: f64| {
             if (0.0..=1.0).contains(&v) {
                 Ok(v)
@@ -731,80 +573,45 @@ fn channel(c: &Channel, dt: f64, followers: usize) -> Result<(Vec<LinkAttack>, u
             }
             Ok(v.into_iter().map(VehicleId).collect())
         };
-        let used: &[&str] = match a.kind.as_str() {
-            "bernoulli" => &["loss"],
-            "gilbert_elliott" => &["p_good_bad", "p_bad_good", "loss_good", "loss_bad"],
-            "delay" => &["delay_s"],
-            "range_jamming" => &["position_m", "speed_mps", "radius_m"],
-            "replay" => &["lag_s"],
-            "false_data" => &["offset"],
-            other => {
-                return bad(
-                    &key("kind"),
-                    format!(
-                        "unknown kind {other:?}; use bernoulli, gilbert_elliott, delay, \
-                         range_jamming, replay or false_data"
-                    ),
-                )
-            }
-        };
-        let given = [
-            ("loss", a.loss.is_some()),
-            ("p_good_bad", a.p_good_bad.is_some()),
-            ("p_bad_good", a.p_bad_good.is_some()),
-            ("loss_good", a.loss_good.is_some()),
-            ("loss_bad", a.loss_bad.is_some()),
-            ("delay_s", a.delay_s.is_some()),
-            ("position_m", a.position_m.is_some()),
-            ("speed_mps", a.speed_mps.is_some()),
-            ("radius_m", a.radius_m.is_some()),
-            ("lag_s", a.lag_s.is_some()),
-            ("offset", a.offset.is_some()),
-        ];
-        for (k, is_given) in given {
-            if is_given && !used.contains(&k) {
-                return bad(
-                    &key(k),
-                    format!("is not used with kind = {:?}; remove it", a.kind),
-                );
-            }
-        }
-        let kind = match a.kind.as_str() {
-            "bernoulli" => LinkAttackKind::Bernoulli {
-                loss: probability("loss", need("loss", a.loss)?)?,
+        let kind = match a.kind {
+            LinkKindConfig::Bernoulli { loss } => LinkAttackKind::Bernoulli {
+                loss: probability("loss", finite(&key("loss"), loss)?)?,
             },
-            "gilbert_elliott" => LinkAttackKind::GilbertElliott {
-                p_good_bad: probability("p_good_bad", need("p_good_bad", a.p_good_bad)?)?,
-                p_bad_good: probability("p_bad_good", need("p_bad_good", a.p_bad_good)?)?,
-                loss_good: probability("loss_good", a.loss_good.unwrap_or(0.0))?,
-                loss_bad: probability("loss_bad", a.loss_bad.unwrap_or(1.0))?,
+            LinkKindConfig::GilbertElliott {
+                p_good_bad,
+                p_bad_good,
+                loss_good,
+                loss_bad,
+            } => LinkAttackKind::GilbertElliott {
+                p_good_bad: probability("p_good_bad", finite(&key("p_good_bad"), p_good_bad)?)?,
+                p_bad_good: probability("p_bad_good", finite(&key("p_bad_good"), p_bad_good)?)?,
+                loss_good: probability("loss_good", loss_good)?,
+                loss_bad: probability("loss_bad", loss_bad)?,
             },
-            "delay" => LinkAttackKind::Delay {
-                steps: steps_of(&key("delay_s"), need("delay_s", a.delay_s)?, dt)?,
+            LinkKindConfig::Delay { delay_s } => LinkAttackKind::Delay {
+                steps: steps_of(&key("delay_s"), finite(&key("delay_s"), delay_s)?, dt)?,
             },
-            "range_jamming" => LinkAttackKind::RangeJamming {
-                position_m: need("position_m", a.position_m)?,
-                speed_mps: finite(&key("speed_mps"), a.speed_mps.unwrap_or(0.0))?,
-                radius_m: positive(&key("radius_m"), need("radius_m", a.radius_m)?)?,
+            LinkKindConfig::RangeJamming {
+                position_m,
+                speed_mps,
+                radius_m,
+            } => LinkAttackKind::RangeJamming {
+                position_m: finite(&key("position_m"), position_m)?,
+                speed_mps: finite(&key("speed_mps"), speed_mps)?,
+                radius_m: positive(&key("radius_m"), finite(&key("radius_m"), radius_m)?)?,
             },
-            "replay" => LinkAttackKind::Replay {
-                lag_steps: u64::from(steps_of(&key("lag_s"), need("lag_s", a.lag_s)?, dt)?),
+            LinkKindConfig::Replay { lag_s } => LinkAttackKind::Replay {
+                lag_steps: u64::from(steps_of(&key("lag_s"), finite(&key("lag_s"), lag_s)?, dt)?),
             },
-            _ => {
-                let offset = a.offset.ok_or_else(|| {
-                    (
-                        key("offset"),
-                        "is required with kind = \"false_data\"".into(),
-                    )
-                })?;
+            LinkKindConfig::FalseData { offset } => {
                 if offset.iter().any(|x| !x.is_finite()) {
                     return bad(&key("offset"), "must be finite");
                 }
                 LinkAttackKind::FalseData { offset }
             }
         };
-        let start_s = finite(&key("start_s"), a.start_s.unwrap_or(0.0))?;
-        let end_s = a.end_s.unwrap_or(f64::INFINITY);
+        let start_s = finite(&key("start_s"), a.start_s)?;
+        let end_s = a.end_s;
         if end_s.is_nan() || end_s <= start_s {
             return bad(&key("end_s"), format!("must be after start_s = {start_s}"));
         }

@@ -29,11 +29,12 @@ pub enum Format {
 impl Format {
     /// The format `[output] format` asks for, for the trajectory rows `scenario` will write.
     pub fn of(output: &platoon_config::OutputConfig, scenario: &platoon_sim::Scenario) -> Format {
+        use platoon_config::OutputFormat;
         let rows = (scenario.steps + 1).div_ceil(output.decimate) * scenario.vehicles() as u64;
-        match output.format.as_str() {
-            "parquet" => Format::Parquet,
-            "auto" if rows >= platoon_config::AUTO_PARQUET_ROWS => Format::Parquet,
-            _ => Format::Csv,
+        match output.format {
+            OutputFormat::Parquet => Format::Parquet,
+            OutputFormat::Auto if rows >= platoon_config::AUTO_PARQUET_ROWS => Format::Parquet,
+            OutputFormat::Auto | OutputFormat::Csv => Format::Csv,
         }
     }
 

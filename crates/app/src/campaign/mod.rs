@@ -331,7 +331,11 @@ pub fn run(
     stop: &Stop,
     progress: &dyn Progress,
 ) -> Result<CampaignOutcome> {
-    if campaign.cells.iter().any(|c| c.plant == "sumo") {
+    if campaign
+        .cells
+        .iter()
+        .any(|c| c.plant == Some(platoon_config::PlantKind::Sumo))
+    {
         crate::sumo::ensure_venv()?;
     }
     let started = Instant::now();

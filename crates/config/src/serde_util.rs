@@ -1,0 +1,229 @@
+//! Serde plumbing for the tagged tables: a selector key (`rule`, `kind`, `spacing_policy`, ...)
+//! whose value picks the other keys a table may hold, written flat in the table as users write
+//! it, held as a typed enum in [`crate::Config`].
+
+use serde::de::{DeserializeOwned, Deserializer};
+use serde::ser::{self, Impossible, Serialize, SerializeMap, SerializeStruct};
+
+/// An internally tagged enum whose tag may be left out: the table then means [`Self::DEFAULT`].
+pub(crate) trait DefaultTag {
+    /// The selector key (`spacing_policy`).
+    const SELECTOR: &'static str;
+    /// The variant an absent selector means (`constant`).
+    const DEFAULT: &'static str;
+}
+
+/// `#[serde(flatten, deserialize_with = "with_default_tag")]`: the enum of the table's other
+/// keys, with [`DefaultTag::DEFAULT`] when the selector is absent.
+pub(crate) fn with_default_tag<'de, D, T>(deserializer: D) -> Result<T, D::Error>
+where
+    D: Deserializer<'de>,
+    T: DefaultTag + DeserializeOwned,
+{
+    let mut table: toml::Table = serde::Deserialize::deserialize(deserializer)?;
+    if !table.contains_key(T::SELECTOR) {
+        table.insert(T::SELECTOR.into(), T::DEFAULT.into());
+    }
+    T::deserialize(toml::Value::Table(table))
+        .map_err(|e| serde::de::Error::custom(e.message().trim()))
+}
+
+/// `#[schemars(transform = default_tag_schema::<T>)]`: the default variant's selector is not
+/// required, and the selector's schema says its default.
+pub(crate) fn default_tag_schema<T: DefaultTag>(schema: &mut schemars::Schema) {
+    let Some(variants) = schema.get_mut("oneOf").and_then(|v| v.as_array_mut()) else {
+        return;
+    };
+    for v in variants {
+        let is_default = v
+            .pointer(&format!("/properties/{}/const", T::SELECTOR))
+            .and_then(|c| c.as_str())
+            == Some(T::DEFAULT);
+        if !is_default {
+            continue;
+        }
+        if let Some(required) = v.get_mut("required").and_then(|r| r.as_array_mut()) {
+            required.retain(|k| k.as_str() != Some(T::SELECTOR));
+        }
+        if let Some(p) = v.pointer_mut(&format!("/properties/{}", T::SELECTOR)) {
+            if let Some(p) = p.as_object_mut() {
+                p.insert("default".into(), T::DEFAULT.into());
+            }
+        }
+    }
+}
+
+/// Writes the fields of `value` (a struct, or a struct variant of an internally tagged enum) as
+/// entries of `map`, leaving out the key `skip` (the tag, written before). The map is a table
+/// being written: this is how a tagged table puts its selector first, its common keys next and
+/// the variant's keys last, the order its files have always had.
+pub(crate) fn entries<M, T>(map: &mut M, value: &T, skip: &'static str) -> Result<(), M::Error>
+where
+    M: SerializeMap,
+    T: Serialize + ?Sized,
+{
+    value.serialize(Entries { map, skip })
+}
+
+struct Entries<'a, M> {
+    map: &'a mut M,
+    skip: &'static str,
+}
+
+impl<M: SerializeMap> SerializeStruct for Entries<'_, M> {
+    type Ok = ();
+    type Error = M::Error;
+
+    fn serialize_field<T: Serialize + ?Sized>(
+        &mut self,
+        key: &'static str,
+        value: &T,
+    ) -> Result<(), M::Error> {
+        if key == self.skip {
+            Ok(())
+        } else {
+            self.map.serialize_entry(key, value)
+        }
+    }
+
+    fn end(self) -> Result<(), M::Error> {
+        Ok(())
+    }
+}
+
+fn not_a_struct<E: ser::Error>() -> E {
+    E::custom("a tagged table's variant must be a struct")
+}
+
+impl<'a, M: SerializeMap> ser::Serializer for Entries<'a, M> {
+    type Ok = ();
+    type Error = M::Error;
+    type SerializeSeq = Impossible<(), M::Error>;
+    type SerializeTuple = Impossible<(), M::Error>;
+    type SerializeTupleStruct = Impossible<(), M::Error>;
+    type SerializeTupleVariant = Impossible<(), M::Error>;
+    type SerializeMap = Impossible<(), M::Error>;
+    type SerializeStruct = Self;
+    type SerializeStructVariant = Impossible<(), M::Error>;
+
+    fn serialize_struct(
+        self,
+        _: &'static str,
+        _: usize,
+    ) -> Result<Self::SerializeStruct, M::Error> {
+        Ok(self)
+    }
+
+    fn serialize_bool(self, _: bool) -> Result<(), M::Error> {
+        Err(not_a_struct())
+    }
+    fn serialize_i8(self, _: i8) -> Result<(), M::Error> {
+        Err(not_a_struct())
+    }
+    fn serialize_i16(self, _: i16) -> Result<(), M::Error> {
+        Err(not_a_struct())
+    }
+    fn serialize_i32(self, _: i32) -> Result<(), M::Error> {
+        Err(not_a_struct())
+    }
+    fn serialize_i64(self, _: i64) -> Result<(), M::Error> {
+        Err(not_a_struct())
+    }
+    fn serialize_u8(self, _: u8) -> Result<(), M::Error> {
+        Err(not_a_struct())
+    }
+    fn serialize_u16(self, _: u16) -> Result<(), M::Error> {
+        Err(not_a_struct())
+    }
+    fn serialize_u32(self, _: u32) -> Result<(), M::Error> {
+        Err(not_a_struct())
+    }
+    fn serialize_u64(self, _: u64) -> Result<(), M::Error> {
+        Err(not_a_struct())
+    }
+    fn serialize_f32(self, _: f32) -> Result<(), M::Error> {
+        Err(not_a_struct())
+    }
+    fn serialize_f64(self, _: f64) -> Result<(), M::Error> {
+        Err(not_a_struct())
+    }
+    fn serialize_char(self, _: char) -> Result<(), M::Error> {
+        Err(not_a_struct())
+    }
+    fn serialize_str(self, _: &str) -> Result<(), M::Error> {
+        Err(not_a_struct())
+    }
+    fn serialize_bytes(self, _: &[u8]) -> Result<(), M::Error> {
+        Err(not_a_struct())
+    }
+    fn serialize_none(self) -> Result<(), M::Error> {
+        Err(not_a_struct())
+    }
+    fn serialize_some<T: Serialize + ?Sized>(self, _: &T) -> Result<(), M::Error> {
+        Err(not_a_struct())
+    }
+    fn serialize_unit(self) -> Result<(), M::Error> {
+        Err(not_a_struct())
+    }
+    fn serialize_unit_struct(self, _: &'static str) -> Result<(), M::Error> {
+        Err(not_a_struct())
+    }
+    fn serialize_unit_variant(
+        self,
+        _: &'static str,
+        _: u32,
+        _: &'static str,
+    ) -> Result<(), M::Error> {
+        Err(not_a_struct())
+    }
+    fn serialize_newtype_struct<T: Serialize + ?Sized>(
+        self,
+        _: &'static str,
+        _: &T,
+    ) -> Result<(), M::Error> {
+        Err(not_a_struct())
+    }
+    fn serialize_newtype_variant<T: Serialize + ?Sized>(
+        self,
+        _: &'static str,
+        _: u32,
+        _: &'static str,
+        _: &T,
+    ) -> Result<(), M::Error> {
+        Err(not_a_struct())
+    }
+    fn serialize_seq(self, _: Option<usize>) -> Result<Self::SerializeSeq, M::Error> {
+        Err(not_a_struct())
+    }
+    fn serialize_tuple(self, _: usize) -> Result<Self::SerializeTuple, M::Error> {
+        Err(not_a_struct())
+    }
+    fn serialize_tuple_struct(
+        self,
+        _: &'static str,
+        _: usize,
+    ) -> Result<Self::SerializeTupleStruct, M::Error> {
+        Err(not_a_struct())
+    }
+    fn serialize_tuple_variant(
+        self,
+        _: &'static str,
+        _: u32,
+        _: &'static str,
+        _: usize,
+    ) -> Result<Self::SerializeTupleVariant, M::Error> {
+        Err(not_a_struct())
+    }
+    fn serialize_map(self, _: Option<usize>) -> Result<Self::SerializeMap, M::Error> {
+        Err(not_a_struct())
+    }
+    fn serialize_struct_variant(
+        self,
+        _: &'static str,
+        _: u32,
+        _: &'static str,
+        _: usize,
+    ) -> Result<Self::SerializeStructVariant, M::Error> {
+        Err(not_a_struct())
+    }
+}

@@ -1,0 +1,63 @@
+//! The committed config reference is what the schema types generate: `docs/config.schema.json`
+//! (the JSON Schema editors read) and `docs/config-reference.md`. After changing a schema type,
+//! `PLATOON_BLESS=1 cargo test -p platoon-config --test reference` rewrites both.
+use std::path::{Path, PathBuf};
+
+fn docs() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../docs")
+}
+
+fn check(name: &str, generated: &str) {
+    let path = docs().join(name);
+    if std::env::var_os("PLATOON_BLESS").is_some() {
+        std::fs::write(&path, generated).unwrap();
+        return;
+    }
+    let committed = std::fs::read_to_string(&path).unwrap_or_default();
+    if committed != generated {
+        let line = committed
+            .lines()
+            .zip(generated.lines())
+            .position(|(a, b)| a != b)
+            .unwrap_or_else(|| committed.lines().count().min(generated.lines().count()));
+        panic!(
+            "docs/{name} is not what the schema types generate (first difference at line {}): \
+             run `PLATOON_BLESS=1 cargo test -p platoon-config --test reference` and commit it",
+            line + 1
+        );
+    }
+}
+
+#[test]
+fn the_json_schema_is_current() {
+    check("config.schema.json", &platoon_config::schema_json());
+}
+
+#[test]
+fn the_reference_page_is_current() {
+    check("config-reference.md", &platoon_config::reference_markdown());
+}
+
+#[test]
+fn the_reference_names_every_key_of_every_table() {
+    let page = platoon_config::reference_markdown();
+    for key in [
+        "`[trigger]`",
+        "**`rule = \"dynamic\"`**",
+        "`theta0`",
+        "`[[channel.attacks]]`",
+        "**`kind = \"gilbert_elliott\"`**",
+        "`loss_bad`",
+        "`spacing_policy = \"time_headway\"`",
+        "`[topology]`",
+        "`[fallback.acc]`",
+        "`[attack.assumption2]`",
+        "`[output]`",
+        "`\"parquet\"`",
+    ] {
+        assert!(page.contains(key), "{key} in the reference");
+    }
+    // Defaults come from the code, not from comments.
+    assert!(page.contains("| `gap_m` | number | `200.0` |"), "{page}");
+    assert!(page.contains("| `end_s` | number | `inf` |"), "{page}");
+}

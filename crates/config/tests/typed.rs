@@ -1,0 +1,345 @@
+//! The typed tables: each selector (`rule`, `kind`, `spacing_policy`, `preset`) is an enum whose
+//! variants hold their own keys; errors still name the file, the line and the key; every
+//! default reaches the resolved config; older spellings still load.
+use platoon_config::{
+    parse, to_toml, Config, ConfigError, DosConfig, LinkKindConfig, OutputFile, OutputFormat,
+    PlantKind, RuleConfig, SpacingConfig, TopologyConfig, PAPER_TOML,
+};
+use std::path::Path;
+
+fn paper_with(from: &str, to: &str) -> Result<(Config, platoon_sim::Scenario), ConfigError> {
+    assert!(PAPER_TOML.contains(from), "the paper config lacks {from:?}");
+    parse(&PAPER_TOML.replacen(from, to, 1), Path::new("bad.toml"))
+}
+
+fn paper_plus(extra: &str) -> Result<(Config, platoon_sim::Scenario), ConfigError> {
+    parse(&format!("{PAPER_TOML}\n{extra}"), Path::new("bad.toml"))
+}
+
+/// The 1-based line of the first line of `text` that starts with `start`.
+fn line_of(text: &str, start: &str) -> usize {
+    text.lines().position(|l| l.starts_with(start)).unwrap() + 1
+}
+
+#[track_caller]
+fn assert_error(
+    result: Result<(Config, platoon_sim::Scenario), ConfigError>,
+    key: &str,
+    line: usize,
+    words: &str,
+) {
+    let e = result.expect_err("the config should be rejected");
+    let shown = e.to_string();
+    assert_eq!(e.key, key, "{shown}");
+    assert_eq!(e.line, Some(line), "{shown}");
+    assert!(
+        shown.starts_with(&format!("bad.toml:{line}: key `{key}`: ")),
+        "{shown}"
+    );
+    assert!(shown.contains(words), "{shown} should say {words:?}");
+}
+
+#[test]
+fn errors_in_a_tagged_table_name_the_key_at_fault_and_its_line() {
+    let trigger = line_of(PAPER_TOML, "[trigger]");
+    let rule = line_of(PAPER_TOML, "rule =");
+    let phi = line_of(PAPER_TOML, "phi =");
+    assert_error(
+        paper_with("rule = \"dynamic\"", "rule = \"dymanic\""),
+        "trigger.rule",
+        rule,
+        "unknown rule \"dymanic\"; use dynamic, static, mixed or periodic",
+    );
+    assert_error(
+        paper_with("phi = 0.33", "phi = 0.33\nmu = 1.0"),
+        "trigger.mu",
+        phi + 1,
+        "is not used with rule = \"dynamic\"; it is only used with rule = \"mixed\"",
+    );
+    assert_error(
+        paper_with("phi = 0.33", "phi = \"x\""),
+        "trigger.phi",
+        phi,
+        "invalid type: string \"x\", expected f64",
+    );
+    assert_error(
+        paper_with("phi = 0.33\n", ""),
+        "trigger.phi",
+        trigger,
+        "missing: required with rule = \"dynamic\"",
+    );
+    assert_error(
+        paper_with("h_s = 0.02\n", ""),
+        "trigger.h_s",
+        trigger,
+        "missing field `h_s`",
+    );
+    assert_error(
+        paper_with("rule = \"dynamic\"", "rule = \"static\""),
+        "trigger.eta",
+        line_of(PAPER_TOML, "eta ="),
+        "only used with rule = \"dynamic\"",
+    );
+    let preset = line_of(PAPER_TOML, "preset =");
+    assert_error(
+        paper_with("preset = \"tpsf\"", "preset = \"star\""),
+        "topology.preset",
+        preset,
+        "unknown preset \"star\"; use pf, plf, bpf, tpsf or explicit",
+    );
+    assert_error(
+        paper_with("preset = \"tpsf\"", "preset = \"tpsf\"\npinning = [1.0]"),
+        "topology.pinning",
+        preset + 1,
+        "only used with preset = \"explicit\"",
+    );
+    let kind = line_of(PAPER_TOML, "kind = \"intervals\"");
+    assert_error(
+        paper_with("kind = \"intervals\"", "kind = \"intervals\"\nseed = 3"),
+        "attack.seed",
+        kind + 1,
+        "only used with kind = \"random\"",
+    );
+    assert_error(
+        paper_with(
+            "tau = { kind = \"paper\" }",
+            "tau = { kind = \"paper\", value_s = 1.0 }",
+        ),
+        "plant.tau.value_s",
+        line_of(PAPER_TOML, "tau = {"),
+        "only used with kind = \"constant\"",
+    );
+    let spacing = line_of(PAPER_TOML, "spacing_m =");
+    assert_error(
+        paper_with("spacing_m = 10.0", "spacing_m = 10.0\nzzz = 1"),
+        "platoon.zzz",
+        spacing + 1,
+        "unknown field `zzz`",
+    );
+    assert_error(
+        paper_with(
+            "spacing_m = 10.0",
+            "spacing_m = 10.0\nspacing_policy = \"time_headway\"\ntime_headway_s = \"long\"",
+        ),
+        "platoon.time_headway_s",
+        spacing + 2,
+        "invalid type",
+    );
+}
+
+#[test]
+fn link_attack_errors_name_the_attack_and_the_line() {
+    let at = PAPER_TOML.lines().count() + 2;
+    assert_error(
+        paper_plus("[[channel.attacks]]\nkind = \"bernoulli\"\nloss = 0.1\n[[channel.attacks]]\nkind = \"delay\"\nloss = 0.1\n"),
+        "channel.attacks[1].loss",
+        at + 5,
+        "is not used with kind = \"delay\"; it is only used with kind = \"bernoulli\"",
+    );
+    assert_error(
+        paper_plus("[[channel.attacks]]\nkind = \"bernoulli\"\nloss = \"a\"\n"),
+        "channel.attacks[0].loss",
+        at + 2,
+        "invalid type",
+    );
+    assert_error(
+        paper_plus("[[channel.attacks]]\nkind = \"gilbert_elliott\"\np_good_bad = 0.1\n"),
+        "channel.attacks[0].p_bad_good",
+        at,
+        "missing: required with kind = \"gilbert_elliott\"",
+    );
+    assert_error(
+        paper_plus("[channel]\nattacks = [{ kind = \"replay\", lag_s = 0.1, loss = 0.2 }]\n"),
+        "channel.attacks[0].loss",
+        at + 1,
+        "only used with kind = \"bernoulli\"",
+    );
+}
+
+#[test]
+fn enum_values_are_checked_at_their_key() {
+    let at = PAPER_TOML.lines().count() + 2;
+    assert_error(
+        paper_plus("[output]\nformat = \"xml\"\n"),
+        "output.format",
+        at + 1,
+        "unknown variant `xml`, expected one of `csv`, `parquet`, `auto`",
+    );
+    assert_error(
+        paper_plus("[output]\nfiles = [\"events\", \"plots\"]\n"),
+        "output.files[1]",
+        at + 1,
+        "unknown variant `plots`",
+    );
+    assert_error(
+        paper_plus("[sumo]\ncollision_action = \"explode\"\n"),
+        "sumo.collision_action",
+        at + 1,
+        "unknown variant `explode`",
+    );
+    assert_error(
+        paper_with("dt_s = 0.01", "dt_s = 0.01\nplant = \"unity\""),
+        "simulation.plant",
+        line_of(PAPER_TOML, "dt_s") + 1,
+        "expected `native` or `sumo`",
+    );
+}
+
+#[test]
+fn the_config_holds_enums_not_strings() {
+    let (c, _) = paper_with("dt_s = 0.01", "dt_s = 0.01\nplant = \"sumo\"").unwrap();
+    assert_eq!(c.simulation.plant, PlantKind::Sumo);
+    assert_eq!(c.output.format, OutputFormat::Auto);
+    assert_eq!(c.output.files, OutputFile::ALL);
+    assert_eq!(c.topology, TopologyConfig::Tpsf {});
+    assert_eq!(c.topology.preset(), Some(platoon_topology::Preset::Tpsf));
+    assert_eq!(
+        c.trigger.rule,
+        RuleConfig::Dynamic {
+            phi: 0.33,
+            rho: 0.5,
+            eta: 0.5,
+            theta0: 200.0
+        }
+    );
+    assert_eq!(c.platoon.spacing, SpacingConfig::Constant {});
+    assert!(matches!(c.attack.kind, DosConfig::Intervals { .. }));
+}
+
+/// The defaults that used to be applied in validation only (`unwrap_or`) are in the schema now,
+/// so the resolved config says them.
+#[test]
+fn the_resolved_config_writes_out_every_default() {
+    let (c, _) = paper_plus(
+        "[[channel.attacks]]\nkind = \"gilbert_elliott\"\np_good_bad = 0.1\np_bad_good = 0.2\n\
+         [[channel.attacks]]\nkind = \"range_jamming\"\nposition_m = 0.0\nradius_m = 5.0\n",
+    )
+    .unwrap();
+    let text = to_toml(&c);
+    assert!(text.contains("spacing_policy = \"constant\""), "{text}");
+    for default in [
+        "start_s = 0.0\nend_s = inf\n",
+        "loss_good = 0.0\nloss_bad = 1.0\n",
+        "speed_mps = 0.0\n",
+    ] {
+        assert!(text.contains(default), "{default:?} in {text}");
+    }
+    assert_eq!(parse(&text, Path::new("r.toml")).unwrap().0, c);
+    assert_eq!(
+        c.channel.attacks[0].kind,
+        LinkKindConfig::GilbertElliott {
+            p_good_bad: 0.1,
+            p_bad_good: 0.2,
+            loss_good: 0.0,
+            loss_bad: 1.0
+        }
+    );
+
+    // Table I's mixed row without mu and alpha.
+    let mut mixed = PAPER_TOML.replacen("rule = \"dynamic\"", "rule = \"mixed\"", 1);
+    for key in [
+        "phi = 0.33\n",
+        "rho = 0.5\n",
+        "eta = 0.5\n",
+        "theta0 = 200.0\n",
+    ] {
+        assert!(mixed.contains(key), "{key}");
+        mixed = mixed.replacen(key, "", 1);
+    }
+    let (c, _) = parse(&mixed, Path::new("m.toml")).unwrap();
+    assert_eq!(
+        c.trigger.rule,
+        RuleConfig::Mixed {
+            mu: 0.0,
+            alpha: 0.0
+        }
+    );
+    assert!(to_toml(&c).contains("h_s = 0.02\nmu = 0.0\nalpha = 0.0\n"));
+
+    // A periodic DoS without offset_s.
+    let start = PAPER_TOML.find("kind = \"intervals\"").unwrap();
+    let end = PAPER_TOML.find("assumption2 =").unwrap();
+    let periodic = format!(
+        "{}kind = \"periodic\"\nperiod_s = 10.0\nduration_s = 1.0\n{}",
+        &PAPER_TOML[..start],
+        &PAPER_TOML[end..]
+    );
+    let (c, _) = parse(&periodic, Path::new("p.toml")).unwrap();
+    assert!(to_toml(&c)
+        .contains("kind = \"periodic\"\nperiod_s = 10.0\nduration_s = 1.0\noffset_s = 0.0\n"));
+}
+
+/// A tagged table is written as before: its selector first, then the keys every variant has,
+/// then the variant's own.
+#[test]
+fn tagged_tables_keep_their_order_when_written() {
+    let (c, _) = paper_plus(
+        "[[channel.attacks]]\nsenders = [1]\nlag_s = 0.5\nkind = \"replay\"\nend_s = 20.0\n",
+    )
+    .unwrap();
+    let text = to_toml(&c);
+    assert!(
+        text.contains(
+            "[trigger]\nrule = \"dynamic\"\ncheck_period_s = 0.01\nresilient = true\nh_s = 0.02\n\
+             phi = 0.33\nrho = 0.5\neta = 0.5\ntheta0 = 200.0\n"
+        ),
+        "{text}"
+    );
+    assert!(
+        text.contains(
+            "[[channel.attacks]]\nkind = \"replay\"\nstart_s = 0.0\nend_s = 20.0\nsenders = [1]\nlag_s = 0.5\n"
+        ),
+        "{text}"
+    );
+    assert!(text.contains("[platoon]\nfollowers = 4\nspacing_m = 10.0\nspacing_policy = \"constant\"\nvehicle_length_m = 0.0\n"), "{text}");
+}
+
+/// Files written before the selectors were typed: `control.attack_input` (the older name of
+/// `fallback.mode`) and resolved configs without the defaults written out load as they did.
+#[test]
+fn older_spellings_still_load() {
+    let gain = "beta2 = 5.62";
+    let older = PAPER_TOML
+        .replacen(gain, "beta2 = 5.62\nattack_input = \"hold\"", 1)
+        .replacen("mode = \"zero\"", "", 1);
+    let (c, s) = parse(&older, Path::new("older.toml")).unwrap();
+    assert_eq!(c.fallback.mode, Some(platoon_control::FallbackMode::Hold));
+    assert_eq!(
+        c.control.attack_input, None,
+        "resolved under its current name"
+    );
+    assert_eq!(s.control.fallback.mode, platoon_control::FallbackMode::Hold);
+    let text = to_toml(&c);
+    assert!(text.contains("mode = \"hold\"") && !text.contains("attack_input"));
+    // Both names, disagreeing: the older one is the error.
+    let e = paper_with(gain, "beta2 = 5.62\nattack_input = \"hold\"").unwrap_err();
+    assert_eq!(e.key, "control.attack_input", "{e}");
+    assert!(e.message.contains("set only fallback.mode"), "{e}");
+
+    // A resolved config of the previous version: no spacing_policy, no start_s/end_s.
+    let (now, _) = paper_plus("[[channel.attacks]]\nkind = \"bernoulli\"\nloss = 0.05\n").unwrap();
+    let old = to_toml(&now)
+        .replace("spacing_policy = \"constant\"\n", "")
+        .replace("start_s = 0.0\nend_s = inf\n", "");
+    assert!(
+        !old.contains("spacing_policy") && !old.contains("\nend_s"),
+        "{old}"
+    );
+    assert_eq!(parse(&old, Path::new("old.toml")).unwrap().0, now);
+}
+
+#[test]
+fn a_spacing_policy_converts_to_and_from_the_controls_type() {
+    use platoon_control::SpacingPolicy;
+    for p in [SpacingPolicy::Constant, SpacingPolicy::TimeHeadway(1.5)] {
+        assert_eq!(SpacingConfig::from(p).policy(), p);
+    }
+    for preset in [
+        platoon_topology::Preset::Pf,
+        platoon_topology::Preset::Plf,
+        platoon_topology::Preset::Bpf,
+        platoon_topology::Preset::Tpsf,
+    ] {
+        assert_eq!(TopologyConfig::from(preset).preset(), Some(preset));
+    }
+}
