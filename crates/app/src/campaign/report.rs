@@ -5,6 +5,7 @@ use anyhow::{Context, Result};
 use platoon_campaign::metrics::{self, Metric};
 use platoon_campaign::{Campaign, Cell};
 use platoon_output::plots::{ensure_font, err};
+use platoon_sim::SafetyClass;
 use plotters::prelude::*;
 use plotters::style::colors::colormaps::ViridisRGB;
 use serde::Serialize;
@@ -206,7 +207,10 @@ fn groups(table: &Table) -> Vec<Group> {
                         *classes.entry(s.clone()).or_default() += 1;
                     }
                 }
-                let severe = classes.get("severe").copied().unwrap_or(0);
+                let severe = classes
+                    .get(SafetyClass::Severe.name())
+                    .copied()
+                    .unwrap_or(0);
                 g.safety_classes = Some(classes);
                 if !ok.is_empty() {
                     g.severe_fraction = Some(severe as f64 / ok.len() as f64);
@@ -374,11 +378,11 @@ impl Report {
 // ---------------------------------------------------------------------------------------------
 // Plots
 
-const CLASSES: [(&str, RGBColor); 4] = [
-    ("none", RGBColor(46, 139, 87)),
-    ("negligible", RGBColor(154, 205, 50)),
-    ("benign", RGBColor(255, 165, 0)),
-    ("severe", RGBColor(200, 30, 30)),
+const CLASSES: [(SafetyClass, RGBColor); 4] = [
+    (SafetyClass::None, RGBColor(46, 139, 87)),
+    (SafetyClass::Negligible, RGBColor(154, 205, 50)),
+    (SafetyClass::Benign, RGBColor(255, 165, 0)),
+    (SafetyClass::Severe, RGBColor(200, 30, 30)),
 ];
 const FAILED: RGBColor = RGBColor(170, 170, 170);
 
@@ -620,7 +624,7 @@ fn class_map(path: &Path, table: &Table, (dx, dy): (usize, usize), k: usize) -> 
     let mut worst = vec![vec![None::<usize>; nx]; ny];
     for cell in &c.cells {
         if let Some(Metric::Text(s)) = table.metric(cell.index, k) {
-            let rank = CLASSES.iter().position(|(n, _)| n == s);
+            let rank = CLASSES.iter().position(|(n, _)| n.name() == s);
             let w = &mut worst[cell.coords[dy]][cell.coords[dx]];
             *w = (*w).max(rank);
         }
@@ -644,7 +648,7 @@ fn class_map(path: &Path, table: &Table, (dx, dy): (usize, usize), k: usize) -> 
         .map_err(err)?;
     let legend = CLASSES
         .iter()
-        .copied()
+        .map(|&(class, color)| (class.name(), color))
         .chain(std::iter::once(("failed / not run", FAILED)));
     for (name, color) in legend {
         // An empty rectangle: only its legend entry shows.
