@@ -4,7 +4,7 @@
 //!
 //! Method: the scenario is parsed once; each iteration runs `platoon_sim::run` from scratch and
 //! folds every step into a checksum so nothing is optimised away. Criterion reports the median of
-//! its samples. Run: `cargo bench -p platoon-cli --bench scenario`.
+//! its samples. Run: `cargo bench -p platoon-bench --bench scenario`.
 use criterion::{black_box, criterion_group, criterion_main, Criterion};
 use platoon_control::TriggerRule;
 use std::path::Path;

@@ -1,6 +1,8 @@
-//! `platoon bench`: what the co-simulation costs on this machine, measured side by side in one
-//! run (medians, percentiles and ratios; the machines are shared and noisy, so no absolute
-//! thresholds anywhere). `platoon bench all` runs every benchmark and writes BENCHMARKS.md.
+//! The benchmark harness behind `platoon bench`: what the co-simulation costs on this machine,
+//! measured side by side in one run (medians, percentiles and ratios; the machines are shared
+//! and noisy, so no absolute thresholds anywhere). `platoon bench all` runs every benchmark and
+//! writes BENCHMARKS.md. The co-simulations it starts run the processes of the `platoon` binary
+//! it is called from (`platoon node ...`), so it runs from that binary, not on its own.
 use anyhow::{bail, Context, Result};
 use platoon_output::rundir::RunDir;
 use platoon_runtime::timing::Stats;
@@ -495,7 +497,7 @@ fn latency(a: LatencyArgs) -> Result<LatencyReport> {
         }
     }
     raw_csv.flush()?;
-    histograms(&dir.path("latency.png"), &samples)?;
+    platoon_output::plots::histograms(&dir.path("latency.png"), &samples)?;
     dir.write(
         "latency.json",
         (serde_json::to_string_pretty(&report)? + "\n").as_bytes(),
@@ -541,55 +543,6 @@ fn latency(a: LatencyArgs) -> Result<LatencyReport> {
     Ok(report)
 }
 
-/// One histogram per method (µs, up to each method's p99.9).
-fn histograms(path: &Path, samples: &[(&str, Vec<u64>)]) -> Result<()> {
-    use plotters::prelude::*;
-    platoon_output::plots::ensure_font();
-    let root =
-        BitMapBackend::new(path, (1000, 250 * samples.len().max(1) as u32)).into_drawing_area();
-    root.fill(&WHITE).map_err(platoon_output::plots::err)?;
-    let areas = root.split_evenly((samples.len().max(1), 1));
-    for ((name, v), area) in samples.iter().zip(areas) {
-        let mut us: Vec<f64> = v.iter().map(|&x| x as f64 / 1e3).collect();
-        us.sort_by(f64::total_cmp);
-        if us.is_empty() {
-            continue;
-        }
-        let hi = us[((us.len() as f64 * 0.999) as usize).min(us.len() - 1)].max(1.0);
-        let bins = 60;
-        let width = hi / bins as f64;
-        let mut counts = vec![0u32; bins];
-        for x in &us {
-            let b = ((x / width) as usize).min(bins - 1);
-            counts[b] += 1;
-        }
-        let top = f64::from(*counts.iter().max().unwrap_or(&1));
-        let mut chart = ChartBuilder::on(&area)
-            .caption(format!("{name} (µs, n = {})", us.len()), ("sans-serif", 18))
-            .margin(8)
-            .x_label_area_size(30)
-            .y_label_area_size(50)
-            .build_cartesian_2d(0.0..hi, 0.0..top * 1.1)
-            .map_err(platoon_output::plots::err)?;
-        chart
-            .configure_mesh()
-            .disable_x_mesh()
-            .draw()
-            .map_err(platoon_output::plots::err)?;
-        chart
-            .draw_series(counts.iter().enumerate().map(|(i, &c)| {
-                let x0 = i as f64 * width;
-                Rectangle::new(
-                    [(x0, 0.0), (x0 + width, f64::from(c))],
-                    BLUE.mix(0.6).filled(),
-                )
-            }))
-            .map_err(platoon_output::plots::err)?;
-    }
-    root.present().map_err(platoon_output::plots::err)?;
-    Ok(())
-}
-
 #[derive(Debug, Clone, serde::Serialize)]
 struct StepRow {
     mode: String,
@@ -612,28 +565,31 @@ struct StepRow {
     bridge_tight_p50_us: Option<f64>,
 }
 
-/// A platoon-of-4 fleet config with `followers` followers in all, `seconds` long.
+/// A platoon-of-4 fleet config with `followers` followers in all, `seconds` long: Table I's
+/// scenario, resolved, with its keys set by dotted path as a campaign sets them.
 fn fleet_config(followers: usize, seconds: f64, sumo: bool) -> Result<String> {
-    let platoons = followers / 4;
     let net = platoon_app::sumo::bridge_dir()?.join("../sumo/highway-long/highway-long.net.xml");
-    let mut text = platoon_config::TABLE1_TOML
-        .replace("duration_s = 55.0", &format!("duration_s = {seconds:?}"))
-        .replace("preset = \"tpsf\"", "preset = \"pf\"")
-        .replace("vehicle_length_m = 0.0", "vehicle_length_m = 4.0");
-    if !text.contains("vehicle_length_m") {
-        text = text.replace(
-            "spacing_m = 10.0",
-            "spacing_m = 10.0\nvehicle_length_m = 4.0",
-        );
-    }
-    text.push_str(&format!(
-        "\n[fleet]\nplatoons = {platoons}\nlanes = [0, 1, 2, 3]\ngap_m = 60.0\n\n[sumo]\nnet = {:?}\nfcd_period_s = 0.0\n",
-        net.display().to_string()
-    ));
+    let (config, _) = platoon_config::Embedded::Table1.parse()?;
+    let mut root = toml::Value::try_from(&config).context("the resolved Table I config")?;
+    let lanes: Vec<toml::Value> = (0..4).map(toml::Value::Integer).collect();
+    let mut keys: Vec<(&str, toml::Value)> = vec![
+        ("simulation.duration_s", seconds.into()),
+        ("topology.preset", "pf".into()),
+        ("platoon.vehicle_length_m", 4.0.into()),
+        ("fleet.platoons", (followers as i64 / 4).into()),
+        ("fleet.lanes", lanes.into()),
+        ("fleet.gap_m", 60.0.into()),
+        ("sumo.net", net.display().to_string().into()),
+        ("sumo.fcd_period_s", 0.0.into()),
+    ];
     if sumo {
-        text = text.replace("[simulation]\n", "[simulation]\nplant = \"sumo\"\n");
+        keys.push(("simulation.plant", "sumo".into()));
     }
-    Ok(text)
+    for (key, value) in keys {
+        platoon_campaign::overrides::set(&mut root, key, value)
+            .map_err(|e| anyhow::anyhow!("the benchmark's fleet config: {e}"))?;
+    }
+    Ok(toml::to_string(&root)?)
 }
 
 /// `bridge/sumo_plant.py --tight-loop`: the same SUMO and model as a run's plant.json, timed

@@ -10,7 +10,7 @@
 #![warn(missing_docs)]
 
 pub mod metrics;
-mod overrides;
+pub mod overrides;
 mod spec;
 
 pub use overrides::{drop_excluded, set};

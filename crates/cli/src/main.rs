@@ -2,7 +2,6 @@
 // The doc comments of the argument types are the `--help` text clap prints as written: `<DIR>`,
 // `runs/<name>` and `[fallback]` there are for a terminal, not rustdoc markup.
 #![allow(rustdoc::broken_intra_doc_links, rustdoc::invalid_html_tags)]
-mod bench;
 mod campaign;
 mod design;
 mod experiment;
@@ -103,7 +102,7 @@ enum Command {
     Design(design::Design),
     /// Measure what the co-simulation costs on this machine (`bench all` writes BENCHMARKS.md).
     #[command(subcommand)]
-    Bench(bench::Bench),
+    Bench(platoon_bench::Bench),
     /// One process of an iceoryx2 run (started by `platoon run`, not by hand).
     #[command(hide = true)]
     Node(node::Args),
@@ -133,7 +132,7 @@ fn main() -> ExitCode {
         Command::CampaignCell => campaign::cell_command(),
         Command::Experiment(e) => experiment::run(e),
         Command::Node(args) => node::run(args),
-        Command::Bench(b) => bench::run(b),
+        Command::Bench(b) => platoon_bench::run(b),
         Command::Design(d) => design::run(d),
         Command::WireLayout => {
             print!("{}", platoon_wire::layouts_json());

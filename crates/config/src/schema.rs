@@ -728,6 +728,7 @@ pub struct Control {
     /// The older name of `fallback.mode`; set one of them. The resolved config says
     /// `fallback.mode`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(extend("deprecated" = true))]
     pub attack_input: Option<FallbackMode>,
 }
 

@@ -574,6 +574,54 @@ pub fn log_log_panels(
     Ok(())
 }
 
+/// One histogram per method (µs, up to each method's p99.9).
+pub fn histograms(path: &Path, samples: &[(&str, Vec<u64>)]) -> Result<()> {
+    ensure_font();
+    let root =
+        BitMapBackend::new(path, (1000, 250 * samples.len().max(1) as u32)).into_drawing_area();
+    root.fill(&WHITE).map_err(err)?;
+    let areas = root.split_evenly((samples.len().max(1), 1));
+    for ((name, v), area) in samples.iter().zip(areas) {
+        let mut us: Vec<f64> = v.iter().map(|&x| x as f64 / 1e3).collect();
+        us.sort_by(f64::total_cmp);
+        if us.is_empty() {
+            continue;
+        }
+        let hi = us[((us.len() as f64 * 0.999) as usize).min(us.len() - 1)].max(1.0);
+        let bins = 60;
+        let width = hi / bins as f64;
+        let mut counts = vec![0u32; bins];
+        for x in &us {
+            let b = ((x / width) as usize).min(bins - 1);
+            counts[b] += 1;
+        }
+        let top = f64::from(*counts.iter().max().unwrap_or(&1));
+        let mut chart = ChartBuilder::on(&area)
+            .caption(format!("{name} (µs, n = {})", us.len()), ("sans-serif", 18))
+            .margin(8)
+            .x_label_area_size(30)
+            .y_label_area_size(50)
+            .build_cartesian_2d(0.0..hi, 0.0..top * 1.1)
+            .map_err(err)?;
+        chart
+            .configure_mesh()
+            .disable_x_mesh()
+            .draw()
+            .map_err(err)?;
+        chart
+            .draw_series(counts.iter().enumerate().map(|(i, &c)| {
+                let x0 = i as f64 * width;
+                Rectangle::new(
+                    [(x0, 0.0), (x0 + width, f64::from(c))],
+                    BLUE.mix(0.6).filled(),
+                )
+            }))
+            .map_err(err)?;
+    }
+    root.present().map_err(err)?;
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
