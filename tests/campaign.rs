@@ -290,7 +290,7 @@ struct Cluster {
 }
 
 impl Cluster {
-    /// Workers run `exe` (through `$PLATOON_EXE`, as the README documents) with `WORKER` set.
+    /// Workers run `exe` (through `$PLATOON_EXE`, as docs/campaigns.md documents) with `WORKER` set.
     fn start(dir: &Path, exe: &Path) -> Cluster {
         let setup = repo().join("bridge/setup-venv.sh");
         assert!(Command::new(&setup).status().unwrap().success());

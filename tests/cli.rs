@@ -119,9 +119,9 @@ fn table1_experiment_writes_table_and_figures() {
     ] {
         assert!(tmp.path().join("t1").join(f).exists(), "{f} missing");
     }
-    // Our counts, exactly: the README's Table I, measured by this code (no DoS, tau = 0.5 s,
+    // Our counts, exactly: docs/paper.md's Table I, measured by this code (no DoS, tau = 0.5 s,
     // conditions checked every step). Runs are bit-deterministic, so any change is a behaviour
-    // change: update README.md's table with it. The mean spacing error is printed to 4
+    // change: update docs/paper.md's table with it. The mean spacing error is printed to 4
     // decimals; the paper's rows are constants the experiment prints beside ours.
     let ours = [
         ("dynamic", [633, 708, 724, 736], "0.1363"),
@@ -445,9 +445,9 @@ fn design_checks_the_papers_gain_and_its_certificate_re_checks() {
         serde_json::from_str(&std::fs::read_to_string(tmp.path().join("d/check.json")).unwrap())
             .unwrap();
     // Reading R15: the paper's ratio 56.83 is an order of magnitude too small for its K.
-    // 707.37 is the README's figure (12.4x the paper's), and 141.31 / 13.18x those of the
+    // 707.37 is docs/design.md's figure (12.4x the paper's), and 141.31 / 13.18x those of the
     // block-diagonal certificate (printed as 141.31 and 13.2x), measured by this code; the SDPs
-    // are deterministic, so any change is a change of the answer: update README.md with it.
+    // are deterministic, so any change is a change of the answer: update docs/design.md with it.
     let min = check["min_ratio_at_c"][1].as_f64().unwrap();
     assert!((min - 707.37).abs() < 0.005, "{min}");
     assert_eq!(format!("{:.1}", min / 56.83), "12.4");

@@ -38,7 +38,11 @@ fn acc_keeps_a_positive_gap_through_a_long_jam_on_the_braking_ramp_where_zero_co
     let (rows, acc) = run_rows(with(FallbackMode::Acc, false));
     assert!(!acc.safety.collided, "{:?}", acc.safety);
     assert!(acc.safety.min_gap_m > 2.0, "{:?}", acc.safety);
-    assert!(acc.safety.class != platoon_sim::SafetyClass::Severe, "{:?}", acc.safety);
+    assert!(
+        acc.safety.class != platoon_sim::SafetyClass::Severe,
+        "{:?}",
+        acc.safety
+    );
     // Every follower was in ACC for the jam, came back through the blend, and ends cooperative.
     for v in &acc.vehicles {
         let t = |m: &str| v.mode_time_s.get(m).copied().unwrap_or(0.0);
@@ -294,7 +298,7 @@ fn the_degradation_experiment_compares_every_fallback_side_by_side() {
             .unwrap()
             .clone()
     };
-    // What the README says: on the braking ramp u = 0 collides and ACC does not; during
+    // What docs/degradation.md says: on the braking ramp u = 0 collides and ACC does not; during
     // cruise ACC's opened gap costs more deceleration than u = 0.
     assert_eq!(
         &find("braking-ramp", "zero", "false")[col("collided")],

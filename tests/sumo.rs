@@ -130,7 +130,7 @@ fn sumo_reproduces_the_native_plant() {
 
     // Fed the model's states, the run is the native run bit for bit. SUMO, stepped open loop
     // beside the model, stays within 4.2e-11 m of it (measured 4.16e-11 m with SUMO 1.28.0,
-    // deterministic; the README quotes it): the roundings of 5501 updates in lane coordinates,
+    // deterministic; docs/sumo.md quotes it): the roundings of 5501 updates in lane coordinates,
     // which partly cancel. A systematic error of one rounding per step would already reach 1e-9
     // m. Speeds are updated by the same single operation on both sides: exactly equal.
     for f in ["trajectories.csv", "events.csv"] {
@@ -154,7 +154,7 @@ fn sumo_reproduces_the_native_plant() {
         "{r}"
     );
     assert_eq!(r["max_deviation_mps"].as_f64(), Some(0.0), "{r}");
-    // The trigger counts are the native run's (the README quotes them).
+    // The trigger counts are the native run's (docs/sumo.md quotes them).
     assert_eq!(
         json(&n.join("summary.json"))["triggers"],
         serde_json::json!({"1": 613, "2": 646, "3": 689, "4": 690})
@@ -164,13 +164,13 @@ fn sumo_reproduces_the_native_plant() {
         json(&n.join("summary.json"))["triggers"]
     );
     // Over the whole run, the closed loop drifts from the native one only by what the loop makes
-    // of those last-bit differences (see README). While every trigger fires at the same step in
+    // of those last-bit differences (see docs/sumo.md). While every trigger fires at the same step in
     // both runs, the loop carries them up to 3.9e-6 m (measured); a plant or a wire that is
     // wrong by more than rounding (a position a step stale: 0.15 m; single precision on the
     // wire: 6e-5 m at 1 km) exceeds 1e-5 m at once. From there on the event rule turns them
     // into moved trigger instants: 12 triggers one to four steps apart, so 24 of the 27 505
     // rows' flags differ and the counts above agree (measured with SUMO 1.28.0, deterministic,
-    // quoted in the README), and the drift stays below the 4e-5 m the README publishes
+    // quoted in docs/sumo.md), and the drift stays below the 4e-5 m docs/sumo.md publishes
     // (measured 3.54e-5 m).
     let (sumo_rows, native_rows) = (rows(&s), rows(&n));
     assert_eq!(sumo_rows.len(), 27_505);

@@ -23,7 +23,7 @@ pub struct Args {
     #[arg(long, short = 'j')]
     pub jobs: Option<std::num::NonZeroUsize>,
     /// Send the cells to a running Dask scheduler (e.g. tcp://10.0.0.5:8786) instead of the
-    /// local pool; the workers run this same platoon binary (see the README).
+    /// local pool; the workers run this same platoon binary (see docs/campaigns.md).
     #[arg(long, value_name = "ADDRESS")]
     pub dask: Option<String>,
     /// Keep every cell's full run outputs (trajectories.csv, events.csv, ...) under runs/;

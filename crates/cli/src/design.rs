@@ -55,7 +55,7 @@ pub struct SynthesizeArgs {
     pub ratio_max: f64,
     /// The spacing policy's time headway h_t (s), overriding the config's
     /// (`platoon.spacing_policy`): 0 for constant spacing. (13) is then imposed on the
-    /// time-headway error dynamics (README, "Time headway").
+    /// time-headway error dynamics (docs/long-platoons.md, "Error dynamics and Theorem 1").
     #[arg(long, value_name = "SECONDS")]
     pub time_headway: Option<f64>,
     /// varsigma* as a fraction of varsigma1, in (0, 1): trades the dwell-time bound T2 against
@@ -87,7 +87,7 @@ pub struct CheckGainArgs {
     pub theorem: u8,
     /// The spacing policy's time headway h_t (s), overriding the config's
     /// (`platoon.spacing_policy`): 0 for constant spacing. (13) is then imposed on the
-    /// time-headway error dynamics (README, "Time headway").
+    /// time-headway error dynamics (docs/long-platoons.md, "Error dynamics and Theorem 1").
     #[arg(long, value_name = "SECONDS")]
     pub time_headway: Option<f64>,
     /// Output directory [default: runs/design-check].

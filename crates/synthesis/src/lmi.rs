@@ -822,10 +822,10 @@ mod tests {
     /// settings; the retries with more regularisation solve it, to a ratio between the ones
     /// N = 10 and N = 50 give (the ratio grows with N towards about 179.4 on PLF).
     ///
-    /// The ratios are the README's figures (and BENCHMARKS.md's for 10 and 50), measured by this
+    /// The ratios are docs/design.md's figures (and BENCHMARKS.md's for 10 and 50), measured by this
     /// code, asserted to the printed two decimals: the SDP minimises the ratio itself, to the
     /// solver's tolerance (far below 0.005), and is deterministic, so only a different answer
-    /// moves them. Update README.md with any change.
+    /// moves them. Update docs/design.md with any change.
     #[test]
     fn numerical_trouble_is_retried_before_it_is_reported() {
         for (n, printed) in [(10, 178.73), (20, 179.34), (50, 179.39)] {
