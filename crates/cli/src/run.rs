@@ -50,7 +50,7 @@ pub struct Args {
     /// model in Rust) or sumo (SUMO through the libsumo bridge in bridge/, whose Python
     /// environment is created on first use; writes fcd.xml and sumo.json too).
     #[arg(long, value_enum)]
-    pub plant: Option<PlantKind>,
+    pub plant: Option<platoon_config::PlantKind>,
     /// Read-only observers that may attach to the run's `observe/*` services (iceoryx2 only;
     /// see docs/observer-contract.md). More than this are refused at attach time; the run is
     /// never affected either way.
@@ -76,15 +76,6 @@ impl CpuList {
     fn parse(list: &str) -> Result<Self, String> {
         platoon_runtime::parse_cpus(list).map(Self)
     }
-}
-
-/// What integrates the vehicles.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum PlantKind {
-    /// The model in Rust (`platoon node plant`).
-    Native,
-    /// SUMO through the libsumo bridge (bridge/sumo_plant.py).
-    Sumo,
 }
 
 /// How a third-party injector composes with the built-in channel.
@@ -114,10 +105,7 @@ pub fn run(args: Args) -> Result<()> {
     }
     let opts = RunOptions {
         transport: args.transport,
-        plant: args.plant.map(|p| match p {
-            PlantKind::Native => platoon_app::run::PlantKind::Native,
-            PlantKind::Sumo => platoon_app::run::PlantKind::Sumo,
-        }),
+        plant: args.plant,
         injector: args.injector.clone().map(|command| Injector {
             command,
             mode: match args.injector_mode {

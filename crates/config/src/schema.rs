@@ -480,10 +480,10 @@ pub struct Simulation {
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "snake_case")]
 pub enum PlantKind {
-    /// The vehicle model in Rust (`platoon node plant`).
+    /// The model in Rust (`platoon node plant`).
     #[default]
     Native,
-    /// SUMO through the libsumo bridge (`bridge/sumo_plant.py`), see `[sumo]`.
+    /// SUMO through the libsumo bridge (bridge/sumo_plant.py).
     Sumo,
 }
 
