@@ -5,18 +5,9 @@
 //! --test reference` rewrites them), so the reference cannot drift from the code: the keys, their
 //! types, their defaults (taken from the code, not from comments) and their doc comments.
 
-use crate::tagged::{alternatives, resolve, selector_of};
+use crate::tagged::{alternatives, raw_schema, resolve, selector_of};
 use serde_json::{Map, Value};
 use std::fmt::Write;
-
-/// The schema as schemars derives it from [`crate::Config`] (JSON Schema draft 7, the dialect
-/// TOML editors support best).
-pub(crate) fn raw_schema() -> Value {
-    schemars::generate::SchemaSettings::draft07()
-        .into_generator()
-        .into_root_schema_for::<crate::Config>()
-        .to_value()
-}
 
 /// The JSON Schema of a scenario config file: [`crate::Config`]'s, with each tagged table's
 /// variants closed (a variant lists the table's common keys beside its own and no others), so

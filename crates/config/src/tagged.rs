@@ -1,4 +1,4 @@
-//! The tagged tables of a config, read from its JSON Schema (see [`crate::reference`]): the
+//! The tagged tables of a config, read from its JSON Schema (derived here, [`raw_schema`]): the
 //! tables whose selector key (`trigger.rule`, `attack.kind`, `channel.attacks[].kind`,
 //! `platoon.spacing_policy`, `topology.preset`, `plant.tau.kind`, `leader.profile.kind`, ...)
 //! decides which other keys they hold. The schema enums are the one list of those keys; this
@@ -8,6 +8,15 @@
 
 use serde_json::{Map, Value};
 use std::sync::OnceLock;
+
+/// The schema as schemars derives it from [`crate::Config`] (JSON Schema draft 7, the dialect
+/// TOML editors support best).
+pub(crate) fn raw_schema() -> Value {
+    schemars::generate::SchemaSettings::draft07()
+        .into_generator()
+        .into_root_schema_for::<crate::Config>()
+        .to_value()
+}
 
 /// A table whose selector key picks the other keys it may hold.
 #[derive(Debug, Clone, PartialEq)]
@@ -104,7 +113,7 @@ fn pattern(path: &str) -> String {
 pub fn tagged_tables() -> &'static [TaggedTable] {
     static TABLES: OnceLock<Vec<TaggedTable>> = OnceLock::new();
     TABLES.get_or_init(|| {
-        let schema = crate::reference::raw_schema();
+        let schema = raw_schema();
         let mut out = Vec::new();
         walk(&schema, &schema, "", &mut out, 0);
         out
@@ -410,7 +419,7 @@ pub(crate) fn diagnose(path: &str, value: &toml::Value, message: &str) -> Option
             return Some((at(key), format!("missing: required with {}", said(tag))));
         }
     }
-    let root = crate::reference::raw_schema();
+    let root = raw_schema();
     for (key, v) in table {
         if let Some(s) = variant.schemas.get(key) {
             if !fits(&root, s, v, 0) {
