@@ -215,3 +215,34 @@ fn an_invalid_cell_is_a_failed_result_naming_the_key_and_the_rest_runs() {
     assert_eq!(done.report.failures[0].cell, 1);
     assert_eq!(done.report.failures[0].directory, "cells/c0001");
 }
+
+/// With no campaign directory at all: every cell's result in memory, the same as a run into a
+/// directory gives, and a stop leaves the remaining cells not run.
+#[test]
+fn a_campaign_evaluated_in_memory_gives_what_the_directory_run_records() {
+    let tmp = tempfile::tempdir().unwrap();
+    let c = two(tmp.path());
+    let before = names(tmp.path());
+    let cells = campaign::evaluate(&c, None, &Stop::default(), &());
+    assert_eq!(names(tmp.path()), before, "nothing written");
+    let done = campaign::run(
+        &c,
+        &tmp.path().join("two"),
+        &no_plots(),
+        &LocalPool::default(),
+        &Stop::default(),
+        &(),
+    )
+    .unwrap();
+    assert_eq!(cells.len(), 2);
+    for (mem, dir) in cells.iter().zip(&done.cells) {
+        assert_eq!(mem.status, CellStatus::Ok, "{:?}", mem.error);
+        assert_eq!(mem.summary, dir.summary);
+        assert_eq!(mem.metrics, dir.metrics);
+        assert_eq!(mem.summary_json(), dir.summary_json());
+    }
+
+    let stopped = Stop::new(Arc::new(AtomicBool::new(true)), || Some("test".into()));
+    let cells = campaign::evaluate(&c, None, &stopped, &());
+    assert!(cells.iter().all(|r| r.status == CellStatus::NotRun));
+}

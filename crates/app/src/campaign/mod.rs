@@ -307,6 +307,48 @@ fn prune(staging: &Path, campaign: &Campaign, progress: &dyn Progress) -> Result
     Ok(())
 }
 
+/// Runs every cell of `campaign` in this process, one after the other, and returns each
+/// cell's result in memory, with no campaign directory: in-process cells touch no file at all
+/// (co-simulated ones run as `program run` in a scratch directory that is removed). Once
+/// `stop`'s flag is set, the remaining cells are left [`CellStatus::NotRun`]. `progress` hears
+/// of the cells ("cells"). What [`run`] adds is the campaign directory: the records, resuming,
+/// `cells.csv`, `campaign.json` and the plots.
+pub fn evaluate(
+    campaign: &Campaign,
+    program: Option<&Path>,
+    stop: &Stop,
+    progress: &dyn Progress,
+) -> Vec<CellResult> {
+    progress.start("cells", campaign.cells.len() as u64);
+    let mut results = Vec::with_capacity(campaign.cells.len());
+    for cell in &campaign.cells {
+        if stop.flag.load(std::sync::atomic::Ordering::SeqCst) {
+            results.push(CellResult::not_run());
+            continue;
+        }
+        let result = match &cell.config {
+            Err(e) => CellResult::failed(format!("invalid scenario: {e}")),
+            Ok(config) => {
+                let job = CellJob {
+                    index: cell.index,
+                    config: config.clone(),
+                    transport: campaign.spec.transport,
+                    keep: None,
+                };
+                let reply = execute(&job, program);
+                match (reply.summary, reply.error) {
+                    (Some(json), _) => CellResult::of_summary(campaign, json, false),
+                    (None, e) => CellResult::failed(e.unwrap_or_else(|| "no result".into())),
+                }
+            }
+        };
+        results.push(result);
+        progress.at(results.len() as u64);
+    }
+    progress.finish();
+    results
+}
+
 /// Runs `campaign` into the campaign directory `out`, its cells executed by `executor`.
 ///
 /// The directory is written as `<out>.partial` and renamed to `out` once the executor is done
