@@ -72,11 +72,6 @@ fn check_headway(headway: f64) -> Result<()> {
     Ok(())
 }
 
-/// "constant spacing" or "time headway 0.5 s": the spacing policy of a time headway (s).
-pub fn policy(headway: f64) -> String {
-    platoon_control::SpacingPolicy::from_headway(headway).to_string()
-}
-
 /// String stability of `k` for the config's platoon and, for a preset topology, for the same
 /// preset with 100 followers (where string instability shows): at the config's tau range, with
 /// the spacing policy of `g`.
@@ -527,7 +522,7 @@ pub fn synthesize(
     let Some(d) = design else {
         bail!(
             "infeasible: no gain with |K| <= {} satisfies Theorem {} on this topology ({n} followers, {}) with beta1/beta2 <= {} at c = {} ({:.2} s); raise --k-max or --ratio-max, or lower --c{}",
-            opts.k_max, opts.theorem.number(), policy(g.headway), opts.ratio_max, opts.c, started.elapsed().as_secs_f64(),
+            opts.k_max, opts.theorem.number(), platoon_control::SpacingPolicy::from_headway(g.headway), opts.ratio_max, opts.c, started.elapsed().as_secs_f64(),
             if g.headway > 0.0 { "; with a time headway the gain is designed for constant spacing and then checked, so a smaller --time-headway may pass" } else { "" }
         );
     };

@@ -1074,16 +1074,6 @@ impl ScalingOptions {
     }
 }
 
-/// A preset's name in a config (`topology.preset`).
-pub fn preset_name(p: Preset) -> &'static str {
-    match p {
-        Preset::Pf => "pf",
-        Preset::Plf => "plf",
-        Preset::Bpf => "bpf",
-        Preset::Tpsf => "tpsf",
-    }
-}
-
 /// One run of [`scaling`] (a row of scaling.csv).
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct ScalingRow {
@@ -1194,7 +1184,7 @@ pub fn scaling(
     let mut rows = Vec::with_capacity(total);
     let mut designs = Vec::new();
     for &preset in &opts.presets {
-        let name = preset_name(preset);
+        let name = preset.name();
         progress.detail(&format!("designing for {name}"));
         let h_design = Topology::preset(preset, opts.design_followers)?.h_matrix();
         let spec = platoon_synthesis::DesignSpec {
@@ -1358,7 +1348,7 @@ fn scaling_markdown(rows: &[ScalingRow], label: &str, opts: &ScalingOptions) -> 
         let _ = writeln!(
             md,
             "| {} | {} | {} | {} | {} | {} | {} | {}{} | {} ({}) | {:.1} | {} | {} |",
-            preset_name(r.preset),
+            r.preset.name(),
             r.followers,
             r.gain,
             r.dos,
@@ -1394,10 +1384,10 @@ impl Scaling {
             "certificate",
         ])?;
         for ScalingDesign { preset, design: d } in &self.designs {
-            let file = format!("certificate-{}.json", preset_name(*preset));
+            let file = format!("certificate-{}.json", preset.name());
             dir.write(&file, &pretty(&d.certificate)?)?;
             designs.write_record([
-                preset_name(*preset).to_string(),
+                preset.name().to_string(),
                 opts.design_followers.to_string(),
                 opts.time_headway.to_string(),
                 d.k[0].to_string(),
@@ -1447,7 +1437,7 @@ impl Scaling {
                 })
                 .filter(|s| !s.points.is_empty())
                 .collect();
-                (preset_name(preset).to_uppercase(), series)
+                (preset.name().to_uppercase(), series)
             })
             .collect();
         plots::log_log_panels(

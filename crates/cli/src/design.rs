@@ -215,7 +215,7 @@ fn print_check(report: &CheckReport) {
         k[0],
         k[1],
         k[2],
-        design::policy(report.time_headway_s)
+        platoon_control::SpacingPolicy::from_headway(report.time_headway_s)
     );
     print_string(&report.string_stability);
     println!(
@@ -313,7 +313,7 @@ fn print_synthesis(s: &Synthesis, opts: &SynthesisOptions, n: usize) -> Result<(
         design: d, report, ..
     } = s;
     let norm = d.k.iter().map(|x| x * x).sum::<f64>().sqrt();
-    let policy = design::policy(report.time_headway_s);
+    let policy = platoon_control::SpacingPolicy::from_headway(report.time_headway_s);
     print_string(&report.string_stability);
     println!(
         "K = [{:.4}, {:.4}, {:.4}] (|K| = {norm:.2} <= {}), beta1/beta2 = {:.2} on {n} followers, {policy}",

@@ -39,6 +39,16 @@ impl Preset {
             _ => None,
         }
     }
+
+    /// Its name in a config's `topology.preset`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Preset::Pf => "pf",
+            Preset::Plf => "plf",
+            Preset::Bpf => "bpf",
+            Preset::Tpsf => "tpsf",
+        }
+    }
 }
 
 /// Why a topology was rejected.
