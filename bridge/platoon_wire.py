@@ -51,7 +51,8 @@ class VehicleState(ctypes.Structure):
 
 
 class V2vPacket(ctypes.Structure):
-    """A V2V broadcast: sender, sequence number, sampling step, send time stamp, state."""
+    """A V2V broadcast: sender, sequence number, sampling step, send time stamp, state [p, v, a],
+    and the sender's latest commanded acceleration u."""
 
     _fields_ = [
         ("sender", ctypes.c_uint32),
@@ -59,6 +60,7 @@ class V2vPacket(ctypes.Structure):
         ("step", ctypes.c_uint64),
         ("stamp_ns", ctypes.c_uint64),
         ("state", ctypes.c_double * 3),
+        ("u", ctypes.c_double),
     ]
 
     @staticmethod

@@ -2,9 +2,9 @@
 //! DoS schedule and the link-level attack models. Pure and seeded: the in-process runner and the
 //! iceoryx2 injector process run this same code, so they deliver the same packets bit for bit.
 use crate::DosSchedule;
-use platoon_control::{Delivery, Packet};
 use platoon_model::{State, VehicleId};
 use platoon_topology::Topology;
+use platoon_v2v::{Delivery, Packet};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
@@ -383,6 +383,7 @@ mod tests {
             seq,
             step,
             state: State::new(f64::from(sender), 1.0, 0.0),
+            u: 0.0,
         }
     }
 

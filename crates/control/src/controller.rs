@@ -276,6 +276,7 @@ impl PlatoonController {
                 seq: self.leader_seq,
                 step: k,
                 state: states[0],
+                u: states[0][2],
             });
         }
         let t = k as f64 * p.dt;
@@ -324,6 +325,7 @@ impl PlatoonController {
                     seq: f.seq,
                     step: k,
                     state: x,
+                    u: f.last_u,
                 });
             }
         }
@@ -523,6 +525,38 @@ impl PlatoonController {
             x = self.flow.advance(&x);
         }
         f.estimates[s] = x;
+    }
+}
+
+impl crate::Controller for PlatoonController {
+    fn transmit(&mut self, k: u64, states: &[State], out: &mut Vec<Packet>) {
+        PlatoonController::transmit(self, k, states, out);
+    }
+
+    fn set_radar_truth(&mut self, truth: &[Option<RadarTruth>]) {
+        PlatoonController::set_radar_truth(self, truth);
+    }
+
+    fn receive(
+        &mut self,
+        k: u64,
+        states: &[State],
+        deliveries: &[Delivery],
+        jammed: &[bool],
+    ) -> &[f64] {
+        PlatoonController::receive(self, k, states, deliveries, jammed)
+    }
+
+    fn commands(&self) -> &[f64] {
+        &self.commands
+    }
+
+    fn follower_step(&self, i: VehicleId) -> FollowerStep {
+        PlatoonController::follower_step(self, i)
+    }
+
+    fn rejected(&self) -> RejectCounts {
+        self.rejected
     }
 }
 
@@ -776,6 +810,7 @@ mod tests {
             seq,
             step,
             state: State::new(p, 15.0, 0.0),
+            u: 0.0,
         };
         let bad = [
             Delivery {
@@ -838,6 +873,7 @@ mod tests {
                         seq: 1,
                         step: k,
                         state: states[1],
+                        u: 0.0,
                     });
                 forged.seq = u32::MAX - 1;
                 forged.step = k;
@@ -854,6 +890,7 @@ mod tests {
                         seq: 11,
                         step: k,
                         state: states[1],
+                        u: 0.0,
                     }),
                 );
             }
@@ -867,6 +904,7 @@ mod tests {
                         seq: 21,
                         step: k,
                         state: teleported,
+                        u: 0.0,
                     }),
                 );
             }
@@ -900,6 +938,7 @@ mod tests {
             seq: 9,
             step: 3,
             state: State::new(1.0, 16.0, 1.0),
+            u: 0.0,
         };
         let flow = FreeFlow::new(0.5, 0.01);
         let now = Packet {

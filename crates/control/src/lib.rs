@@ -24,34 +24,14 @@
 
 mod controller;
 pub mod fallback;
+pub mod seam;
 mod spacing;
 mod trigger;
 
 pub use controller::{FollowerStep, PlatoonController, RejectCounts, PLAUSIBLE_ACCEL};
 pub use fallback::{FallbackMode, FallbackParams, Mode};
+pub use seam::{build, Controller};
 pub use spacing::SpacingPolicy;
 pub use trigger::{ControllerParams, ParamsError, TriggerRule};
 
-use platoon_model::{State, VehicleId};
-
-/// A V2V broadcast: the sender's sampled state at a step.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Packet {
-    /// Who sent it.
-    pub sender: VehicleId,
-    /// The sender's sequence number, +1 per broadcast (the first is 1).
-    pub seq: u32,
-    /// The step at which the state was sampled.
-    pub step: u64,
-    /// The sampled state `[p, v, a]`.
-    pub state: State,
-}
-
-/// A packet as it reached one receiver.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Delivery {
-    /// Who received it.
-    pub receiver: VehicleId,
-    /// What was received (possibly altered or old).
-    pub packet: Packet,
-}
+pub use platoon_v2v::{Delivery, Packet};

@@ -9,7 +9,7 @@ use crate::session::{
 use crate::{monotonic_ns, RunError};
 use platoon_attacks::channel::{Channel, ChannelEvent};
 use platoon_control::fallback::{radar_truth, RadarTruth};
-use platoon_control::{Delivery, Packet, PlatoonController};
+use platoon_control::{Delivery, Packet};
 use platoon_model::{State, VehicleId};
 use platoon_sim::{Plant, Scenario};
 use platoon_wire::{Command, ControlMsg, LinkPacket, Node, Service, V2vPacket, VehicleState};
@@ -135,7 +135,7 @@ pub fn controller(run_id: &str, scenario: &Scenario) -> Result<(), RunError> {
         let mut controllers = scenario
             .replicas()
             .iter()
-            .map(|s| PlatoonController::new(s.control.clone(), &s.topology, &s.initial))
+            .map(|s| platoon_control::build(&s.control, &s.topology, &s.initial))
             .collect::<Result<Vec<_>, _>>()
             .map_err(|e| contract(Node::Controller, e.to_string()))?;
         let mut states: Option<Vec<State>> = None;

@@ -225,6 +225,7 @@ pub fn packet_to_wire(p: &Packet, stamp_ns: u64) -> V2vPacket {
         step: p.step,
         stamp_ns,
         state: [p.state[0], p.state[1], p.state[2]],
+        u: p.u,
     }
 }
 
@@ -236,5 +237,6 @@ pub fn packet_from_wire(p: &V2vPacket) -> Packet {
         seq: p.seq,
         step: p.step,
         state: State::from(p.state),
+        u: p.u,
     }
 }

@@ -29,7 +29,7 @@ pub struct StepWire<'a> {
 }
 
 use platoon_attacks::channel::{Channel, ChannelEvent};
-use platoon_control::{Delivery, FollowerStep, Packet, PlatoonController};
+use platoon_control::{Controller, Delivery, FollowerStep, Packet};
 use platoon_model::{leader_step, plant_step, LeaderProfile, State, TauSchedule, VehicleId};
 use std::ops::ControlFlow;
 
@@ -229,7 +229,7 @@ pub fn step_rows(
 #[derive(Debug, Clone)]
 pub struct Simulation {
     scenario: Scenario,
-    controller: PlatoonController,
+    controller: Box<dyn Controller>,
     channel: Channel,
     plant: Plant,
     step: u64,
@@ -246,11 +246,8 @@ impl Simulation {
     /// Prepares a run of `scenario` from its initial states.
     pub fn new(scenario: Scenario) -> Result<Self, ScenarioError> {
         scenario.validate()?;
-        let controller = PlatoonController::new(
-            scenario.control.clone(),
-            &scenario.topology,
-            &scenario.initial,
-        )?;
+        let controller =
+            platoon_control::build(&scenario.control, &scenario.topology, &scenario.initial)?;
         let n = scenario.topology.followers();
         Ok(Self {
             channel: Channel::new(scenario.channel_spec(), n + 1),
@@ -274,8 +271,8 @@ impl Simulation {
     }
 
     /// The controllers (e.g. for their reject counts).
-    pub fn controller(&self) -> &PlatoonController {
-        &self.controller
+    pub fn controller(&self) -> &dyn Controller {
+        self.controller.as_ref()
     }
 
     /// The next step to run.
@@ -332,7 +329,7 @@ impl Simulation {
         );
 
         let leader_triggered = self.tx.first().is_some_and(|p| p.sender.is_leader());
-        let controller = &self.controller;
+        let controller = self.controller.as_ref();
         self.rows.clear();
         step_rows(
             k,

@@ -130,6 +130,7 @@ mod tests {
             seq,
             step: 3,
             state: State::new(p, 1.0, 0.0),
+            u: 0.0,
         }
     }
 

@@ -85,6 +85,8 @@ pub struct V2vPacket {
     pub stamp_ns: u64,
     /// The sampled state `[p, v, a]`.
     pub state: [f64; 3],
+    /// The sender's latest commanded acceleration (m/s^2; `platoon_v2v::Packet::u`).
+    pub u: f64,
 }
 
 /// A packet on one link (sender -> receiver): the items of the tx batch (controller ->
@@ -407,7 +409,7 @@ pub fn layouts() -> Vec<Layout> {
         layout!(
             V2vPacket,
             "platoon::V2vPacket",
-            [sender, seq, step, stamp_ns, state]
+            [sender, seq, step, stamp_ns, state, u]
         ),
         layout!(LinkPacket, "platoon::LinkPacket", [receiver, kind, packet]),
         layout!(Command, "platoon::Command", [vehicle, flags, u, theta]),

@@ -1,0 +1,36 @@
+//! The V2V messages every part of the pure core speaks: what a vehicle broadcasts ([`Packet`])
+//! and what one receiver got ([`Delivery`]).
+//!
+//! Controllers (`platoon-control`) make and consume them; the channel and the attacks
+//! (`platoon-attacks`) gate, drop, delay or alter them on the way. Neither depends on the other
+//! for these two types. Their wire form is `platoon_wire::V2vPacket`.
+#![warn(missing_docs)]
+
+use platoon_model::{State, VehicleId};
+
+/// A V2V broadcast: the sender's sampled state at a step.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Packet {
+    /// Who sent it.
+    pub sender: VehicleId,
+    /// The sender's sequence number, +1 per broadcast (the first is 1).
+    pub seq: u32,
+    /// The step at which the state was sampled.
+    pub step: u64,
+    /// The sampled state `[p, v, a]`.
+    pub state: State,
+    /// The sender's latest commanded acceleration when it sampled (m/s^2): the command of the
+    /// step before for a follower, the acceleration it applies over this step for the leader.
+    /// For laws with a feed-forward of the predecessor's input (Ploeg et al.); the paper's law
+    /// does not read it.
+    pub u: f64,
+}
+
+/// A packet as it reached one receiver.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Delivery {
+    /// Who received it.
+    pub receiver: VehicleId,
+    /// What was received (possibly altered or old).
+    pub packet: Packet,
+}
