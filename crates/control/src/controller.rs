@@ -1,72 +1,8 @@
+use crate::checks::{PacketChecks, RejectCounts};
 use crate::fallback::{acc_command, radar_truth, Radar, RadarTruth};
 use crate::{ControllerParams, Delivery, FallbackMode, Mode, Packet, ParamsError, TriggerRule};
 use platoon_model::{FreeFlow, State, VehicleId};
 use platoon_topology::Topology;
-
-/// Packets a controller refused, by reason. A refused packet never changes an estimate.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-pub struct RejectCounts {
-    /// NaN or infinite state.
-    pub non_finite: u64,
-    /// The sender is not one of the receiver's neighbours (or the receiver is not a follower).
-    pub unknown_sender: u64,
-    /// Sampled at a step later than the current one.
-    pub future_step: u64,
-    /// Not newer than the last packet accepted from that sender: sampled at the same or an
-    /// earlier step (a replay, a duplicate, or a delayed packet overtaken by a newer one).
-    pub stale_seq: u64,
-    /// A sequence number ahead of what the sender can have sent by the packet's step (a vehicle
-    /// broadcasts at most once per step, so `seq <= step + 1`).
-    pub implausible_seq: u64,
-    /// A state no vehicle can reach from the sender's last accepted state in the elapsed time
-    /// (|a| above [`PLAUSIBLE_ACCEL`], or a jump in speed or position beyond it).
-    pub implausible_state: u64,
-}
-
-impl RejectCounts {
-    /// Total of all reasons.
-    pub fn total(&self) -> u64 {
-        self.as_array().iter().sum()
-    }
-
-    /// The counts in wire order: non-finite, unknown sender, future step, stale, implausible
-    /// sequence number, implausible state.
-    pub fn as_array(&self) -> [u64; 6] {
-        [
-            self.non_finite,
-            self.unknown_sender,
-            self.future_step,
-            self.stale_seq,
-            self.implausible_seq,
-            self.implausible_state,
-        ]
-    }
-
-    /// From [`RejectCounts::as_array`]'s order.
-    pub fn from_array([a, b, c, d, e, f]: [u64; 6]) -> Self {
-        Self {
-            non_finite: a,
-            unknown_sender: b,
-            future_step: c,
-            stale_seq: d,
-            implausible_seq: e,
-            implausible_state: f,
-        }
-    }
-}
-
-/// The largest acceleration any vehicle can have (m/s^2, 5 g): a packet whose state implies a
-/// larger one since the sender's last accepted packet is refused as implausible.
-pub const PLAUSIBLE_ACCEL: f64 = 50.0;
-
-/// The last packet accepted from one neighbour: when it was sampled, its sequence number and
-/// state (at first, the initial state, assumed delivered at step 0).
-#[derive(Debug, Clone, Copy, PartialEq)]
-struct Heard {
-    step: Option<u64>,
-    seq: u32,
-    state: State,
-}
 
 /// What one follower did in a step.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -119,7 +55,6 @@ struct Follower {
     own: State,
     neighbours: Vec<VehicleId>,
     estimates: Vec<State>,
-    heard: Vec<Heard>,
     theta: f64,
     sampling: Sampling,
     seq: u32,
@@ -142,7 +77,7 @@ pub struct PlatoonController {
     theta_gain: f64,
     followers: Vec<Follower>,
     leader_seq: u32,
-    rejected: RejectCounts,
+    checks: PacketChecks,
     commands: Vec<f64>,
     truth: Vec<Option<RadarTruth>>,
     /// The plant gave this step's radar truth ([`PlatoonController::set_radar_truth`]).
@@ -185,14 +120,6 @@ impl PlatoonController {
                 Follower {
                     id,
                     own: initial[i],
-                    heard: estimates
-                        .iter()
-                        .map(|&state| Heard {
-                            step: None,
-                            seq: 0,
-                            state,
-                        })
-                        .collect(),
                     neighbours,
                     estimates,
                     theta: theta0,
@@ -226,7 +153,7 @@ impl PlatoonController {
             theta_gain,
             followers,
             leader_seq: 0,
-            rejected: RejectCounts::default(),
+            checks: PacketChecks::new(topology, initial, params.dt),
             commands: vec![0.0; n],
             truth: Vec::with_capacity(n + 1),
             truth_given: false,
@@ -257,7 +184,7 @@ impl PlatoonController {
 
     /// Packets refused so far.
     pub fn rejected(&self) -> RejectCounts {
-        self.rejected
+        self.checks.rejected()
     }
 
     /// What follower `i` (1-based) did in the last step.
@@ -468,63 +395,16 @@ impl PlatoonController {
     }
 
     fn accept(&mut self, k: u64, d: &Delivery) {
-        let pk = &d.packet;
-        if pk.state.iter().any(|x| !x.is_finite()) {
-            self.rejected.non_finite += 1;
+        let Some((fi, s)) = self.checks.admit(k, d) else {
             return;
-        }
-        if pk.step > k {
-            self.rejected.future_step += 1;
-            return;
-        }
-        let r = d.receiver.index();
-        let slot = (r >= 1 && r <= self.followers.len())
-            .then(|| {
-                let f = &self.followers[r - 1];
-                f.neighbours
-                    .iter()
-                    .position(|&j| j == pk.sender)
-                    .map(|s| (r - 1, s))
-            })
-            .flatten();
-        let Some((fi, s)) = slot else {
-            self.rejected.unknown_sender += 1;
-            return;
-        };
-        let f = &mut self.followers[fi];
-        // Freshness by the sampling step, not by the sequence number alone: a forged packet
-        // with a huge sequence number would otherwise lock the genuine sender out for good
-        // (issue 13). A forged packet that passes can hold off genuine ones of its own step
-        // only, since steps ahead of the receiver's are refused above.
-        let heard = f.heard[s];
-        if heard.step.is_some_and(|h| pk.step <= h) {
-            self.rejected.stale_seq += 1;
-            return;
-        }
-        if u64::from(pk.seq) > pk.step + 1 {
-            self.rejected.implausible_seq += 1;
-            return;
-        }
-        let since = heard.step.unwrap_or(0);
-        if !plausible(
-            &heard.state,
-            &pk.state,
-            (pk.step - since) as f64 * self.params.dt,
-        ) {
-            self.rejected.implausible_state += 1;
-            return;
-        }
-        f.heard[s] = Heard {
-            step: Some(pk.step),
-            seq: pk.seq,
-            state: pk.state,
         };
         // An old (delayed) sample is propagated open-loop to the current step.
+        let pk = &d.packet;
         let mut x = pk.state;
         for _ in pk.step..k {
             x = self.flow.advance(&x);
         }
-        f.estimates[s] = x;
+        self.followers[fi].estimates[s] = x;
     }
 }
 
@@ -556,18 +436,8 @@ impl crate::Controller for PlatoonController {
     }
 
     fn rejected(&self) -> RejectCounts {
-        self.rejected
+        self.checks.rejected()
     }
-}
-
-/// Whether a vehicle at `from` can be at `to` after `t` seconds with |a| <= [`PLAUSIBLE_ACCEL`]
-/// (|v - v0| <= A t, |p - p0 - v0 t| <= A t^2 / 2), with room for rounding.
-fn plausible(from: &State, to: &State, t: f64) -> bool {
-    let a = PLAUSIBLE_ACCEL;
-    let tol = 1e-6 + 1e-12 * from[0].abs().max(to[0].abs());
-    to[2].abs() <= a
-        && (to[1] - from[1]).abs() <= a * t + tol
-        && (to[0] - from[0] - from[1] * t).abs() <= 0.5 * a * t * t + tol
 }
 
 impl Follower {

@@ -22,13 +22,15 @@
 //!    all estimators advance to step `k + 1`.
 #![warn(missing_docs)]
 
+pub mod checks;
 mod controller;
 pub mod fallback;
 pub mod seam;
 mod spacing;
 mod trigger;
 
-pub use controller::{FollowerStep, PlatoonController, RejectCounts, PLAUSIBLE_ACCEL};
+pub use checks::{PacketChecks, RejectCounts, PLAUSIBLE_ACCEL};
+pub use controller::{FollowerStep, PlatoonController};
 pub use fallback::{FallbackMode, FallbackParams, Mode};
 pub use seam::{build, Controller};
 pub use spacing::SpacingPolicy;

@@ -1,0 +1,208 @@
+//! The checks every received packet passes before a controller may use it, shared by every
+//! [`crate::Controller`] implementation (and open to users writing their own): finite, from a
+//! neighbour, not from the future, newer than the last one accepted from that sender, a
+//! plausible sequence number and a state the sender can have reached. A refused packet is
+//! counted by reason and changes nothing.
+
+use crate::{Delivery, Packet};
+use platoon_model::{State, VehicleId};
+use platoon_topology::Topology;
+
+/// Packets a controller refused, by reason. A refused packet never changes an estimate.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct RejectCounts {
+    /// NaN or infinite state.
+    pub non_finite: u64,
+    /// The sender is not one of the receiver's neighbours (or the receiver is not a follower).
+    pub unknown_sender: u64,
+    /// Sampled at a step later than the current one.
+    pub future_step: u64,
+    /// Not newer than the last packet accepted from that sender: sampled at the same or an
+    /// earlier step (a replay, a duplicate, or a delayed packet overtaken by a newer one).
+    pub stale_seq: u64,
+    /// A sequence number ahead of what the sender can have sent by the packet's step (a vehicle
+    /// broadcasts at most once per step, so `seq <= step + 1`).
+    pub implausible_seq: u64,
+    /// A state no vehicle can reach from the sender's last accepted state in the elapsed time
+    /// (|a| above [`PLAUSIBLE_ACCEL`], or a jump in speed or position beyond it).
+    pub implausible_state: u64,
+}
+
+impl RejectCounts {
+    /// Total of all reasons.
+    pub fn total(&self) -> u64 {
+        self.as_array().iter().sum()
+    }
+
+    /// The counts in wire order: non-finite, unknown sender, future step, stale, implausible
+    /// sequence number, implausible state.
+    pub fn as_array(&self) -> [u64; 6] {
+        [
+            self.non_finite,
+            self.unknown_sender,
+            self.future_step,
+            self.stale_seq,
+            self.implausible_seq,
+            self.implausible_state,
+        ]
+    }
+
+    /// From [`RejectCounts::as_array`]'s order.
+    pub fn from_array([a, b, c, d, e, f]: [u64; 6]) -> Self {
+        Self {
+            non_finite: a,
+            unknown_sender: b,
+            future_step: c,
+            stale_seq: d,
+            implausible_seq: e,
+            implausible_state: f,
+        }
+    }
+}
+
+/// The largest acceleration any vehicle can have (m/s^2, 5 g): a packet whose state implies a
+/// larger one since the sender's last accepted packet is refused as implausible.
+pub const PLAUSIBLE_ACCEL: f64 = 50.0;
+
+/// The last packet accepted from one neighbour (at first, the initial state, assumed delivered
+/// at step 0).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Heard {
+    /// The step it was sampled at (`None`: the initial state).
+    pub step: Option<u64>,
+    /// Its sequence number (0 for the initial state).
+    pub seq: u32,
+    /// The sampled state `[p, v, a]`.
+    pub state: State,
+    /// The sender's command it carried ([`Packet::u`]; 0 for the initial state).
+    pub u: f64,
+}
+
+/// The packet checks of one platoon's followers: who each may hear from, the last packet
+/// accepted from each of them, and the refusals so far.
+#[derive(Debug, Clone)]
+pub struct PacketChecks {
+    neighbours: Vec<Vec<VehicleId>>,
+    heard: Vec<Vec<Heard>>,
+    rejected: RejectCounts,
+    dt: f64,
+}
+
+impl PacketChecks {
+    /// Checks for the followers of `topology` (each hears its in-neighbours), with the initial
+    /// states (`initial[0]` is the leader's) as what was last heard; `dt` is the step (s).
+    pub fn new(topology: &Topology, initial: &[State], dt: f64) -> Self {
+        let neighbours: Vec<Vec<VehicleId>> = (1..=topology.followers())
+            .map(|i| topology.in_neighbours(VehicleId::follower(i)).to_vec())
+            .collect();
+        let heard = neighbours
+            .iter()
+            .map(|ns| {
+                ns.iter()
+                    .map(|j| Heard {
+                        step: None,
+                        seq: 0,
+                        state: initial[j.index()],
+                        u: 0.0,
+                    })
+                    .collect()
+            })
+            .collect();
+        Self {
+            neighbours,
+            heard,
+            rejected: RejectCounts::default(),
+            dt,
+        }
+    }
+
+    /// Checks one delivery at step `k`. Accepted: recorded as the last heard from its sender,
+    /// and `(i - 1, s)` returned, i the receiving follower and s the sender's place in
+    /// [`PacketChecks::neighbours`]`(i)`. Refused: counted, `None`.
+    pub fn admit(&mut self, k: u64, d: &Delivery) -> Option<(usize, usize)> {
+        let pk = &d.packet;
+        if pk.state.iter().any(|x| !x.is_finite()) || !pk.u.is_finite() {
+            self.rejected.non_finite += 1;
+            return None;
+        }
+        if pk.step > k {
+            self.rejected.future_step += 1;
+            return None;
+        }
+        let r = d.receiver.index();
+        let slot = (r >= 1 && r <= self.neighbours.len())
+            .then(|| {
+                self.neighbours[r - 1]
+                    .iter()
+                    .position(|&j| j == pk.sender)
+                    .map(|s| (r - 1, s))
+            })
+            .flatten();
+        let Some((fi, s)) = slot else {
+            self.rejected.unknown_sender += 1;
+            return None;
+        };
+        // Freshness by the sampling step, not by the sequence number alone: a forged packet
+        // with a huge sequence number would otherwise lock the genuine sender out for good
+        // (issue 13). A forged packet that passes can hold off genuine ones of its own step
+        // only, since steps ahead of the receiver's are refused above.
+        let heard = self.heard[fi][s];
+        if heard.step.is_some_and(|h| pk.step <= h) {
+            self.rejected.stale_seq += 1;
+            return None;
+        }
+        if u64::from(pk.seq) > pk.step + 1 {
+            self.rejected.implausible_seq += 1;
+            return None;
+        }
+        let since = heard.step.unwrap_or(0);
+        if !plausible(&heard.state, &pk.state, (pk.step - since) as f64 * self.dt) {
+            self.rejected.implausible_state += 1;
+            return None;
+        }
+        self.heard[fi][s] = Heard {
+            step: Some(pk.step),
+            seq: pk.seq,
+            state: pk.state,
+            u: pk.u,
+        };
+        Some((fi, s))
+    }
+
+    /// Who follower `i` (1-based) hears from, in the order of [`PacketChecks::heard`].
+    pub fn neighbours(&self, i: VehicleId) -> &[VehicleId] {
+        &self.neighbours[i.index() - 1]
+    }
+
+    /// The last packet accepted by follower `i` (1-based) from each of its neighbours.
+    pub fn heard(&self, i: VehicleId) -> &[Heard] {
+        &self.heard[i.index() - 1]
+    }
+
+    /// Packets refused so far.
+    pub fn rejected(&self) -> RejectCounts {
+        self.rejected
+    }
+}
+
+/// A packet as a receiver last accepted it.
+impl From<&Packet> for Heard {
+    fn from(p: &Packet) -> Self {
+        Self {
+            step: Some(p.step),
+            seq: p.seq,
+            state: p.state,
+            u: p.u,
+        }
+    }
+}
+
+/// Whether a vehicle at `from` can be at `to` after `t` seconds with |a| <= [`PLAUSIBLE_ACCEL`]
+/// (|v - v0| <= A t, |p - p0 - v0 t| <= A t^2 / 2), with room for rounding.
+fn plausible(from: &State, to: &State, t: f64) -> bool {
+    let a = PLAUSIBLE_ACCEL;
+    let tol = 1e-6 + 1e-12 * from[0].abs().max(to[0].abs());
+    to[2].abs() <= a
+        && (to[1] - from[1]).abs() <= a * t + tol
+        && (to[0] - from[0] - from[1] * t).abs() <= 0.5 * a * t * t + tol
+}
