@@ -23,13 +23,16 @@
 #![warn(missing_docs)]
 
 pub mod checks;
+pub mod composed;
 mod controller;
 pub mod fallback;
+pub mod laws;
 pub mod seam;
 mod spacing;
 mod trigger;
 
 pub use checks::{PacketChecks, RejectCounts, PLAUSIBLE_ACCEL};
+pub use composed::{ComposedController, Composition, Law, View};
 pub use controller::{FollowerStep, PlatoonController};
 pub use fallback::{FallbackMode, FallbackParams, Mode};
 pub use seam::{build, Controller};

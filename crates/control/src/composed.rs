@@ -1,0 +1,442 @@
+//! A controller composed of parts a user can swap one at a time: a [`Law`] (what command from
+//! what a follower knows), periodic beaconing (who broadcasts when), the shared packet checks
+//! ([`crate::checks`]) and the fallback of [`crate::fallback`] while a follower is affected.
+//!
+//! The field's CACC laws ([`crate::laws`]) run on it; so does any law a user writes: implement
+//! [`Law`] and hand it to [`ComposedController::new`]. Each follower uses, per neighbour, the
+//! last packet it accepted, as it is: no prediction between beacons (what Plexe does).
+//!
+//! While a follower senses its channel jammed it is affected: it applies its fallback
+//! (`zero`, `hold`, `acc` on its radar, or `predict`: the law on what it last heard), stays in
+//! it `dwell` steps after the last jammed one, then blends from the fallback's command to the
+//! law's over `blend` steps (the command's mismatch at the hand-over shrinks linearly to 0).
+//! The emergency-braking guard applies in every mode.
+
+use crate::checks::{Heard, PacketChecks, RejectCounts};
+use crate::fallback::{acc_command, radar_truth, Radar, RadarTruth};
+use crate::{Controller, Delivery, FallbackMode, FallbackParams, FollowerStep, Mode, Packet};
+use platoon_model::{State, VehicleId};
+use platoon_topology::Topology;
+
+/// What one follower knows when its law decides at step `k`.
+#[derive(Debug, Clone, Copy)]
+pub struct View<'a> {
+    /// The step.
+    pub k: u64,
+    /// The step length (s).
+    pub dt: f64,
+    /// The follower (1-based).
+    pub id: VehicleId,
+    /// Its own measured state `[p, v, a]` (p: front bumper).
+    pub own: State,
+    /// Its own command of the step before (m/s^2).
+    pub last_u: f64,
+    /// What an ideal radar sees of the vehicle ahead (bumper-to-bumper gap, closing speed), as
+    /// the plant measured it (`None`: nothing ahead).
+    pub radar: Option<RadarTruth>,
+    /// Who it hears from, in the order of `heard`.
+    pub neighbours: &'a [VehicleId],
+    /// The last packet accepted from each neighbour (at first the initial state).
+    pub heard: &'a [Heard],
+}
+
+impl View<'_> {
+    /// The last packet accepted from vehicle `j`, if `j` is a neighbour.
+    pub fn from(&self, j: VehicleId) -> Option<&Heard> {
+        self.neighbours
+            .iter()
+            .position(|&n| n == j)
+            .map(|s| &self.heard[s])
+    }
+
+    /// The last packet accepted from the vehicle directly ahead, if it is a neighbour.
+    pub fn predecessor(&self) -> Option<&Heard> {
+        self.from(VehicleId(self.id.0 - 1))
+    }
+
+    /// The last packet accepted from the leader, if it is a neighbour.
+    pub fn leader(&self) -> Option<&Heard> {
+        self.from(VehicleId::LEADER)
+    }
+}
+
+/// A control law: a follower's command from what it knows. Pure: no I/O, no clocks; the same
+/// views give the same commands.
+pub trait Law: std::fmt::Debug + Send + dyn_clone::DynClone {
+    /// The command `u_i[k]` (m/s^2).
+    fn command(&mut self, view: &View<'_>) -> f64;
+}
+
+dyn_clone::clone_trait_object!(Law);
+
+/// The parts a [`ComposedController`] is made of besides its law.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Composition {
+    /// Step length (s).
+    pub dt: f64,
+    /// Every follower broadcasts every this many steps (periodic beaconing, from step 0).
+    pub beacon_steps: u32,
+    /// The leader broadcasts every this many steps.
+    pub leader_broadcast_steps: u32,
+    /// The platoon's spacing `l` (m, front to front): the `acc` fallback keeps `l + h v`.
+    pub spacing: f64,
+    /// What a follower does while affected, and how it comes back (`closing_mps` unused: the
+    /// way back blends commands, not spacing offsets).
+    pub fallback: FallbackParams,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Phase {
+    Law,
+    /// In its fallback since `since`; unaffected for the last `calm` steps.
+    Fallback {
+        since: u64,
+        calm: u32,
+    },
+    /// Blending back since step `exit`, from a command mismatch of `mismatch`.
+    Back {
+        exit: u64,
+        mismatch: f64,
+    },
+}
+
+#[derive(Debug, Clone)]
+struct Follower {
+    id: VehicleId,
+    seq: u32,
+    last_u: f64,
+    held: f64,
+    step: FollowerStep,
+    fallback: FallbackMode,
+    phase: Phase,
+    radar: Radar,
+}
+
+/// One platoon's followers, each running the same [`Law`] on its own copy (module docs).
+#[derive(Debug, Clone)]
+pub struct ComposedController {
+    parts: Composition,
+    laws: Vec<Box<dyn Law>>,
+    followers: Vec<Follower>,
+    checks: PacketChecks,
+    leader_seq: u32,
+    commands: Vec<f64>,
+    truth: Vec<Option<RadarTruth>>,
+    truth_given: bool,
+}
+
+impl ComposedController {
+    /// Controllers for the followers of `topology` running `law` (each its own clone), with
+    /// the initial states (`initial[0]` is the leader) as what was last heard.
+    pub fn new(
+        law: Box<dyn Law>,
+        parts: Composition,
+        topology: &Topology,
+        initial: &[State],
+    ) -> Result<Self, crate::ParamsError> {
+        let n = topology.followers();
+        let err = |field, message| crate::ParamsError { field, message };
+        if initial.len() != n + 1 {
+            return Err(err(
+                "initial_states",
+                format!(
+                    "need {} states (leader + {n} followers), got {}",
+                    n + 1,
+                    initial.len()
+                ),
+            ));
+        }
+        if !(parts.dt.is_finite() && parts.dt > 0.0) {
+            return Err(err("dt", format!("must be > 0 (got {})", parts.dt)));
+        }
+        if parts.beacon_steps == 0 || parts.leader_broadcast_steps == 0 {
+            return Err(err(
+                "period_s",
+                "beacons need a period of at least one step".into(),
+            ));
+        }
+        parts
+            .fallback
+            .validate(n)
+            .map_err(|(field, message)| err(field, message))?;
+        let followers = (1..=n)
+            .map(|i| Follower {
+                id: VehicleId::follower(i),
+                seq: 0,
+                last_u: 0.0,
+                held: 0.0,
+                step: FollowerStep::default(),
+                fallback: parts.fallback.of(i),
+                phase: Phase::Law,
+                radar: Radar::new(parts.fallback.radar.seed, i as u16),
+            })
+            .collect();
+        Ok(Self {
+            laws: (0..n).map(|_| law.clone()).collect(),
+            followers,
+            checks: PacketChecks::new(topology, initial, parts.dt),
+            leader_seq: 0,
+            commands: vec![0.0; n],
+            truth: Vec::with_capacity(n + 1),
+            truth_given: false,
+            parts,
+        })
+    }
+}
+
+impl Controller for ComposedController {
+    fn transmit(&mut self, k: u64, states: &[State], out: &mut Vec<Packet>) {
+        if k.is_multiple_of(u64::from(self.parts.leader_broadcast_steps)) {
+            self.leader_seq += 1;
+            out.push(Packet {
+                sender: VehicleId::LEADER,
+                seq: self.leader_seq,
+                step: k,
+                state: states[0],
+                u: states[0][2],
+            });
+        }
+        let beacon = k.is_multiple_of(u64::from(self.parts.beacon_steps));
+        for f in &mut self.followers {
+            f.step = FollowerStep::default();
+            if beacon {
+                f.seq += 1;
+                f.step.triggered = true;
+                out.push(Packet {
+                    sender: f.id,
+                    seq: f.seq,
+                    step: k,
+                    state: states[f.id.index()],
+                    u: f.last_u,
+                });
+            }
+        }
+    }
+
+    fn set_radar_truth(&mut self, truth: &[Option<RadarTruth>]) {
+        self.truth.clear();
+        self.truth.extend_from_slice(truth);
+        self.truth.resize(self.followers.len() + 1, None);
+        self.truth_given = true;
+    }
+
+    fn receive(
+        &mut self,
+        k: u64,
+        states: &[State],
+        deliveries: &[Delivery],
+        jammed: &[bool],
+    ) -> &[f64] {
+        for d in deliveries {
+            self.checks.admit(k, d);
+        }
+        let fb = &self.parts.fallback;
+        if !self.truth_given {
+            radar_truth(states, fb.vehicle_length, &mut self.truth);
+        }
+        self.truth_given = false;
+        let radar_on = fb.uses_radar();
+        let blend_steps = u64::from(fb.blend_steps);
+        for ((f, law), u_out) in self
+            .followers
+            .iter_mut()
+            .zip(&mut self.laws)
+            .zip(self.commands.iter_mut())
+        {
+            let own = states[f.id.index()];
+            let truth = self.truth[f.id.index()];
+            let view = View {
+                k,
+                dt: self.parts.dt,
+                id: f.id,
+                own,
+                last_u: f.last_u,
+                radar: truth,
+                neighbours: self.checks.neighbours(f.id),
+                heard: self.checks.heard(f.id),
+            };
+            let lawful = law.command(&view);
+            let reading = if radar_on {
+                f.radar.read(k, &fb.radar, truth)
+            } else {
+                None
+            };
+            let fallback_u = |since: u64, held: f64| match f.fallback {
+                FallbackMode::Zero => 0.0,
+                FallbackMode::Hold => held,
+                FallbackMode::Predict => lawful,
+                FallbackMode::Acc => {
+                    let h = if fb.acc.opening_s > 0.0 {
+                        let t = (k - since) as f64 * view.dt;
+                        fb.acc.headway_s * (t / fb.acc.opening_s).min(1.0)
+                    } else {
+                        fb.acc.headway_s
+                    };
+                    acc_command(
+                        &fb.acc,
+                        reading,
+                        h,
+                        own[1],
+                        self.parts.spacing,
+                        fb.vehicle_length,
+                    )
+                }
+            };
+            let affected = jammed[f.id.index()];
+            f.phase = match (f.phase, affected) {
+                (Phase::Fallback { since, .. }, true) => Phase::Fallback { since, calm: 0 },
+                (_, true) => {
+                    f.held = f.last_u;
+                    Phase::Fallback { since: k, calm: 0 }
+                }
+                (Phase::Fallback { since, calm }, false) if calm < fb.dwell_steps => {
+                    Phase::Fallback {
+                        since,
+                        calm: calm + 1,
+                    }
+                }
+                (Phase::Fallback { since, .. }, false) if blend_steps > 0 => Phase::Back {
+                    exit: k,
+                    mismatch: fallback_u(since, f.held) - lawful,
+                },
+                (back @ Phase::Back { exit, .. }, false) if k - exit < blend_steps => back,
+                (_, false) => Phase::Law,
+            };
+            let (mode, mut u) = match f.phase {
+                Phase::Law => (Mode::Coop, lawful),
+                Phase::Fallback { since, .. } => (f.fallback.mode(), fallback_u(since, f.held)),
+                Phase::Back { exit, mismatch } => {
+                    let j = (k - exit) as f64;
+                    (
+                        Mode::Blend,
+                        lawful + mismatch * (1.0 - j / blend_steps as f64).max(0.0),
+                    )
+                }
+            };
+            let guard = match (&fb.guard, reading) {
+                (Some(g), Some(r)) if r.ttc() < g.ttc_s => {
+                    u = u.min(-g.decel_mps2);
+                    true
+                }
+                _ => false,
+            };
+            f.last_u = u;
+            f.step.u = u;
+            f.step.affected = affected;
+            f.step.mode = mode;
+            f.step.guard = guard;
+            *u_out = u;
+        }
+        &self.commands
+    }
+
+    fn commands(&self) -> &[f64] {
+        &self.commands
+    }
+
+    fn follower_step(&self, i: VehicleId) -> FollowerStep {
+        self.followers[i.index() - 1].step
+    }
+
+    fn rejected(&self) -> RejectCounts {
+        self.checks.rejected()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use platoon_topology::Preset;
+
+    /// A law that echoes the predecessor's speed in its last packet, so a test sees which
+    /// packet a follower used.
+    #[derive(Debug, Clone)]
+    struct Echo;
+
+    impl Law for Echo {
+        fn command(&mut self, view: &View<'_>) -> f64 {
+            view.predecessor().map_or(f64::NAN, |h| h.state[1])
+        }
+    }
+
+    fn controller(beacon_steps: u32, fallback: FallbackParams) -> ComposedController {
+        let topology = Topology::preset(Preset::Pf, 3).unwrap();
+        let initial: Vec<State> = (0..=3)
+            .map(|i| State::new(-10.0 * i as f64, 15.0, 0.0))
+            .collect();
+        let parts = Composition {
+            dt: 0.01,
+            beacon_steps,
+            leader_broadcast_steps: 1,
+            spacing: 10.0,
+            fallback,
+        };
+        ComposedController::new(Box::new(Echo), parts, &topology, &initial).unwrap()
+    }
+
+    fn deliver_all(packets: &[Packet]) -> Vec<Delivery> {
+        packets
+            .iter()
+            .map(|&packet| Delivery {
+                receiver: VehicleId(packet.sender.0 + 1),
+                packet,
+            })
+            .collect()
+    }
+
+    #[test]
+    fn followers_beacon_every_period_and_laws_use_the_last_packet() {
+        let mut c = controller(10, FallbackParams::default());
+        let mut out = Vec::new();
+        for k in 0..25u64 {
+            // Accelerating at 1 m/s^2: every packet is plausible.
+            let t = k as f64 * 0.01;
+            let states: Vec<State> = (0..=3)
+                .map(|i| State::new(-10.0 * i as f64 + 15.0 * t + 0.5 * t * t, 15.0 + t, 1.0))
+                .collect();
+            out.clear();
+            c.transmit(k, &states, &mut out);
+            let followers = out.iter().filter(|p| !p.sender.is_leader()).count();
+            assert_eq!(followers, if k % 10 == 0 { 3 } else { 0 }, "step {k}");
+            let u = c
+                .receive(k, &states, &deliver_all(&out), &[false; 4])
+                .to_vec();
+            // Follower 1 hears the leader every step, the others their predecessor's beacon.
+            assert_eq!(u[0], states[0][1]);
+            assert_eq!(u[2], 15.0 + (k - k % 10) as f64 * 0.01);
+        }
+    }
+
+    #[test]
+    fn a_jammed_follower_falls_back_and_blends_back() {
+        let fallback = FallbackParams {
+            mode: FallbackMode::Zero,
+            dwell_steps: 2,
+            blend_steps: 4,
+            ..FallbackParams::default()
+        };
+        let mut c = controller(1, fallback);
+        let states: Vec<State> = (0..=3)
+            .map(|i| State::new(-10.0 * i as f64, 15.0, 0.0))
+            .collect();
+        let mut out = Vec::new();
+        let mut seen = Vec::new();
+        for k in 0..12u64 {
+            out.clear();
+            c.transmit(k, &states, &mut out);
+            let jammed = [false, (3..5).contains(&k), false, false];
+            let u = c.receive(k, &states, &deliver_all(&out), &jammed)[0];
+            seen.push((c.follower_step(VehicleId(1)).mode, u));
+        }
+        let modes: Vec<Mode> = seen.iter().map(|s| s.0).collect();
+        use Mode::*;
+        assert_eq!(
+            modes,
+            [Coop, Coop, Coop, Zero, Zero, Zero, Zero, Blend, Blend, Blend, Blend, Coop]
+        );
+        // From 0 back to the law's 15 in equal steps.
+        assert_eq!(seen[7].1, 0.0);
+        assert_eq!(seen[9].1, 7.5);
+        assert_eq!(seen[11].1, 15.0);
+    }
+}
