@@ -8,9 +8,10 @@ the same laws (crates/control/src/laws.rs) can be checked against it
 The scenario: a leader and 4 followers (4 m cars, 10 m front to front, so 6 m bumper to bumper)
 at 15 m/s on lane 0 of the committed straight highway (sumo/highway), no lane changes, no other
 traffic. The leader follows the velocity profile exactly (15 m/s; +2 m/s^2 on [10, 15) s;
-25 m/s; -2 m/s^2 on [35, 40) s; 15 m/s after) through setSpeed every step: it is a CC vehicle
-whose engine lag is zero, so its speed is the commanded one and the controller acceleration it
-reports is the profile's. The followers run the chosen controller (Plexe's `ccac`) with SUMO's
+25 m/s; -2 m/s^2 on [35, 40) s; 15 m/s after) through setSpeed every step (speed mode 0, which
+overrides the CC model's speed, engine lag included); it is a CC vehicle whose cruise control
+never limits, so the controller acceleration SUMO records for it, which the followers read, is
+the profile's acceleration. The followers run the chosen controller (Plexe's `ccac`) with SUMO's
 default parameters, a first-order-lag engine with tau 0.5 s (tauEngine), and receive their
 predecessor's and the leader's data from SUMO every step (Plexe's auto-feeding, `ccaf`); the
 consensus controller is not auto-fed in Plexe, so the script gives every follower every other
@@ -84,10 +85,11 @@ def write_routes(path, args, lanes_count):
     lines = [
         '<?xml version="1.0" encoding="UTF-8"?>',
         "<routes>",
-        # The leader: no engine lag, so setSpeed is followed exactly; and a cruise control that
-        # never limits (ccAccel), so the controller acceleration SUMO records for it (the lesser
-        # of its CC's and the commanded speed's) is the profile's acceleration.
-        f'    <vType id="plexe_leader" {common} tauEngine="0" ccAccel="1000"/>',
+        # The leader: setSpeed (speed mode 0) sets its speed, engine lag or not; the controller
+        # acceleration SUMO records for it (and the followers read) is the lesser of its own
+        # controller's command and the commanded speed change, so its cruise control must never
+        # limit (ccAccel, default 1.5) for that to be the profile's acceleration.
+        f'    <vType id="plexe_leader" {common} tauEngine="{args.tau!r}" ccAccel="1000"/>',
         f'    <vType id="plexe" {common} tauEngine="{args.tau!r}"/>',
         f'    <route id="road" edges="{args.edge}"/>',
     ]
