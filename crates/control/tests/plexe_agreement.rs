@@ -238,9 +238,9 @@ fn max_gap_deviation(law: Law, reference: &Reference, limits: Limits) -> Vec<f64
     let flat = FlatbedParams::default();
     let mut worst = vec![0.0_f64; n];
     for k in 0..steps {
-        // The leader as SUMO moved it. Its engine has no lag, so the controller acceleration
-        // SUMO recorded for it at its last step is its acceleration now.
-        let lead = rows[k][0];
+        // The leader as SUMO moved it (setSpeed). The controller acceleration SUMO recorded
+        // for it at its last step is the speed change it was commanded (its cruise control never
+        // limits), i.e. its acceleration now.
         cars[0] = Car {
             p: lead.p,
             v: lead.v,
