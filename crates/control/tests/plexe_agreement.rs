@@ -241,6 +241,7 @@ fn max_gap_deviation(law: Law, reference: &Reference, limits: Limits) -> Vec<f64
         // The leader as SUMO moved it (setSpeed). The controller acceleration SUMO recorded
         // for it at its last step is the speed change it was commanded (its cruise control never
         // limits), i.e. its acceleration now.
+        let lead = rows[k][0];
         cars[0] = Car {
             p: lead.p,
             v: lead.v,
