@@ -715,21 +715,91 @@ pub enum TauConfig {
     },
 }
 
-/// `[control]`: the control law's gain and the trigger conditions' weights.
+/// `[control]`: which law the followers run; the paper's law's gain and the trigger
+/// conditions' weights; the parameters of one of the field's laws in its own table.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Control {
-    /// K in `u_i = -K q_i` (docs/paper-readings.md#R1).
+    /// The law (docs/controllers.md): the paper's (its keys: `gain`, `beta1`, `beta2`, and the
+    /// event triggers of `[trigger]`), or one of the field's, which beacon periodically
+    /// (`[trigger] rule = "periodic"`) and take their parameters from `[control.<law>]`
+    /// (every key optional, SUMO's Plexe defaults).
+    #[serde(default)]
+    pub law: LawName,
+    /// K in `u_i = -K q_i` (docs/paper-readings.md#R1); the paper's law only.
+    #[serde(default = "paper_gain")]
     pub gain: [f64; 3],
-    /// Weight of |eps|^2 in the trigger conditions.
+    /// Weight of |eps|^2 in the trigger conditions; the paper's law only.
+    #[serde(default = "paper_beta1")]
     pub beta1: f64,
-    /// Weight of |q|^2 in the trigger conditions.
+    /// Weight of |q|^2 in the trigger conditions; the paper's law only.
+    #[serde(default = "paper_beta2")]
     pub beta2: f64,
+    /// `law = "acc"`: Plexe's ACC (radar only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub acc: Option<platoon_control::laws::PlexeAccParams>,
+    /// `law = "path_cacc"`: the PATH CACC (Rajamani).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub path_cacc: Option<platoon_control::laws::PathCaccParams>,
+    /// `law = "ploeg"`: Ploeg et al.'s CACC.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ploeg: Option<platoon_control::laws::PloegParams>,
+    /// `law = "consensus"`: the consensus law (Santini et al.).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub consensus: Option<platoon_control::laws::ConsensusParams>,
+    /// `law = "flatbed"`: the flatbed controller (Segata, Bernardini).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub flatbed: Option<platoon_control::laws::FlatbedParams>,
     /// The older name of `fallback.mode`; set one of them. The resolved config says
     /// `fallback.mode`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     #[schemars(extend("deprecated" = true))]
     pub attack_input: Option<FallbackMode>,
+}
+
+/// `[control] law`: which law the followers run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum LawName {
+    /// The paper's `u = -K q` on open-loop estimates, with its event triggers.
+    #[default]
+    Paper,
+    /// Plexe's ACC: cruise control and a constant time headway on the radar, no V2V.
+    Acc,
+    /// The PATH CACC (Rajamani et al.): constant spacing, predecessor and leader.
+    PathCacc,
+    /// Ploeg et al.'s CACC: time headway, the predecessor's command fed forward.
+    Ploeg,
+    /// The consensus law of Santini et al.
+    Consensus,
+    /// The flatbed controller of Segata and Bernardini.
+    Flatbed,
+}
+
+impl LawName {
+    /// Its config name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Paper => "paper",
+            Self::Acc => "acc",
+            Self::PathCacc => "path_cacc",
+            Self::Ploeg => "ploeg",
+            Self::Consensus => "consensus",
+            Self::Flatbed => "flatbed",
+        }
+    }
+}
+
+fn paper_gain() -> [f64; 3] {
+    [4.81, 9.12, 2.97]
+}
+
+fn paper_beta1() -> f64 {
+    319.38
+}
+
+fn paper_beta2() -> f64 {
+    5.62
 }
 
 /// `[fallback]`: what a follower does while affected by an attack, and how it comes back.

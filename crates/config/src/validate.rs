@@ -48,6 +48,40 @@ fn steps_of(key: &str, period: f64, dt: f64) -> Result<u32, Invalid> {
     Ok(n as u32)
 }
 
+/// `[control] law` and its table: the params of the law it names (its table filled with the
+/// defaults, so the resolved config says them); a table of another law is an error.
+fn law(k: &mut crate::Control) -> Result<platoon_control::LawParams, Invalid> {
+    use platoon_control::LawParams as P;
+    let chosen = k.law;
+    let tables = [
+        (LawName::Acc, k.acc.is_some()),
+        (LawName::PathCacc, k.path_cacc.is_some()),
+        (LawName::Ploeg, k.ploeg.is_some()),
+        (LawName::Consensus, k.consensus.is_some()),
+        (LawName::Flatbed, k.flatbed.is_some()),
+    ];
+    if let Some((other, _)) = tables.iter().find(|(n, given)| *given && *n != chosen) {
+        return bad(
+            &format!("control.{}", other.name()),
+            format!(
+                "is the table of law = \"{}\", but law = \"{}\": remove it or set law",
+                other.name(),
+                chosen.name()
+            ),
+        );
+    }
+    Ok(match chosen {
+        LawName::Paper => P::Paper,
+        LawName::Acc => P::Acc(*k.acc.get_or_insert_with(Default::default)),
+        LawName::PathCacc => P::PathCacc(*k.path_cacc.get_or_insert_with(Default::default)),
+        LawName::Ploeg => P::Ploeg(*k.ploeg.get_or_insert_with(Default::default)),
+        LawName::Consensus => {
+            P::Consensus(k.consensus.get_or_insert_with(Default::default).clone())
+        }
+        LawName::Flatbed => P::Flatbed(*k.flatbed.get_or_insert_with(Default::default)),
+    })
+}
+
 /// `[fallback]`, `[radar]` and `[guard]` (and the older `control.attack_input`).
 fn fallback(
     c: &Config,
@@ -391,7 +425,41 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
     // The resolved config says the mode under its current name.
     c.fallback.mode = Some(fallback.mode);
     c.control.attack_input = None;
+    let law = law(&mut c.control)?;
+    if law != platoon_control::LawParams::Paper {
+        // The outputs measure every law against the platoon's spacing policy: it must be the
+        // one the law keeps.
+        let name = law.name();
+        let Some((l, h)) = law.spacing_policy(vehicle_length) else {
+            return bad(
+                &format!("control.{name}.headways_s"),
+                "the outputs need one time headway for every vehicle",
+            );
+        };
+        let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * a.abs().max(b.abs()).max(1.0);
+        if !close(spacing, l) || !close(headway, h) {
+            let policy = if h == 0.0 {
+                "spacing_policy = \"constant\"".to_string()
+            } else {
+                format!("spacing_policy = \"time_headway\", time_headway_s = {h}")
+            };
+            return bad(
+                if close(spacing, l) {
+                    "platoon.spacing_policy"
+                } else {
+                    "platoon.spacing_m"
+                },
+                format!(
+                    "law = \"{name}\" keeps {l} m + {h} s x v front to front (its [control.{name}] \
+                     distances plus platoon.vehicle_length_m), the platoon says {spacing} m + \
+                     {headway} s x v: set spacing_m = {l} and {policy} in [platoon], or change \
+                     [control.{name}]"
+                ),
+            );
+        }
+    }
     let control = ControllerParams {
+        law,
         gain,
         beta1,
         beta2,
@@ -406,14 +474,24 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
         headway,
         leader_broadcast_steps,
     };
-    control.validate().or_else(|e| {
-        let section = if matches!(e.field, "phi" | "rho" | "eta" | "mu" | "period" | "h") {
-            "trigger"
-        } else {
-            "control"
-        };
-        bad(&format!("{section}.{}", e.field), e.message)
-    })?;
+    control
+        .validate()
+        .and_then(|()| platoon_control::check_topology(&control, &topology))
+        .or_else(|e| {
+            let section = if matches!(
+                e.field,
+                "phi" | "rho" | "eta" | "mu" | "period" | "h" | "rule"
+            ) {
+                "trigger".to_string()
+            } else if e.field == "preset" {
+                "topology".to_string()
+            } else if c.control.law != LawName::Paper && !matches!(e.field, "dt" | "headway") {
+                format!("control.{}", c.control.law.name())
+            } else {
+                "control".to_string()
+            };
+            bad(&format!("{section}.{}", e.field), e.message)
+        })?;
 
     // [attack]
     let a = &c.attack;

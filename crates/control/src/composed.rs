@@ -27,6 +27,8 @@ pub struct View<'a> {
     pub dt: f64,
     /// The follower (1-based).
     pub id: VehicleId,
+    /// Vehicles in its platoon, the leader included.
+    pub vehicles: usize,
     /// Its own measured state `[p, v, a]` (p: front bumper).
     pub own: State,
     /// Its own command of the step before (m/s^2).
@@ -237,6 +239,7 @@ impl Controller for ComposedController {
         self.truth_given = false;
         let radar_on = fb.uses_radar();
         let blend_steps = u64::from(fb.blend_steps);
+        let n1 = self.followers.len() + 1;
         for ((f, law), u_out) in self
             .followers
             .iter_mut()
@@ -249,6 +252,7 @@ impl Controller for ComposedController {
                 k,
                 dt: self.parts.dt,
                 id: f.id,
+                vehicles: n1,
                 own,
                 last_u: f.last_u,
                 radar: truth,

@@ -477,6 +477,7 @@ mod tests {
 
     fn params(rule: TriggerRule) -> ControllerParams {
         ControllerParams {
+            law: crate::LawParams::Paper,
             gain: RowVector3::new(4.81, 9.12, 2.97),
             beta1: 319.38,
             beta2: 5.62,

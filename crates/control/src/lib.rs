@@ -22,6 +22,7 @@
 //!    all estimators advance to step `k + 1`.
 #![warn(missing_docs)]
 
+mod catalogue;
 pub mod checks;
 pub mod composed;
 mod controller;
@@ -31,11 +32,12 @@ pub mod seam;
 mod spacing;
 mod trigger;
 
+pub use catalogue::LawParams;
 pub use checks::{PacketChecks, RejectCounts, PLAUSIBLE_ACCEL};
 pub use composed::{ComposedController, Composition, Law, View};
 pub use controller::{FollowerStep, PlatoonController};
 pub use fallback::{FallbackMode, FallbackParams, Mode};
-pub use seam::{build, Controller};
+pub use seam::{build, check_topology, Controller};
 pub use spacing::SpacingPolicy;
 pub use trigger::{ControllerParams, ParamsError, TriggerRule};
 

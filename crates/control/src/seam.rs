@@ -56,15 +56,84 @@ pub trait Controller: std::fmt::Debug + Send + dyn_clone::DynClone {
 dyn_clone::clone_trait_object!(Controller);
 
 /// The controller `params` names, for the followers of `topology` starting from `initial`
-/// (leader first).
+/// (leader first): the paper's [`crate::PlatoonController`], or one of the field's laws on a
+/// [`crate::ComposedController`] (refused, naming the key, when the topology does not let a
+/// follower hear whom its law reads).
 pub fn build(
     params: &ControllerParams,
     topology: &Topology,
     initial: &[State],
 ) -> Result<Box<dyn Controller>, ParamsError> {
-    Ok(Box::new(crate::PlatoonController::new(
-        params.clone(),
-        topology,
-        initial,
+    params.validate()?;
+    let Some(law) = params.law.law(params.fallback.vehicle_length) else {
+        return Ok(Box::new(crate::PlatoonController::new(
+            params.clone(),
+            topology,
+            initial,
+        )?));
+    };
+    check_topology(params, topology)?;
+    let err = |field, message| ParamsError { field, message };
+    let crate::TriggerRule::Periodic { period_steps } = params.rule else {
+        return Err(err("rule", "the field's laws beacon periodically".into()));
+    };
+    let parts = crate::Composition {
+        dt: params.dt,
+        beacon_steps: period_steps,
+        leader_broadcast_steps: params.leader_broadcast_steps,
+        spacing: params.spacing,
+        fallback: params.fallback.clone(),
+    };
+    Ok(Box::new(crate::ComposedController::new(
+        law, parts, topology, initial,
     )?))
+}
+
+/// Whether `topology` lets every follower hear whom the law of `params` reads (the field
+/// `preset` for a predecessor or the leader missing, `adjacency` for a consensus row).
+pub fn check_topology(params: &ControllerParams, topology: &Topology) -> Result<(), ParamsError> {
+    let err = |field, message| ParamsError { field, message };
+    let n = topology.followers();
+    let (predecessor, leader) = params.law.needs();
+    for i in 1..=n {
+        let id = VehicleId::follower(i);
+        let hears = |j: u16| topology.in_neighbours(id).contains(&VehicleId(j));
+        let missing = if predecessor && !hears(id.0 - 1) {
+            Some(("its predecessor", id.0 - 1))
+        } else if leader && !hears(0) {
+            Some(("the leader", 0))
+        } else {
+            None
+        };
+        if let Some((whom, j)) = missing {
+            return Err(err(
+                "preset",
+                format!(
+                    "law = \"{}\" needs every follower to hear {whom}, but follower {i} does \
+                     not hear vehicle {j} in this topology",
+                    params.law.name()
+                ),
+            ));
+        }
+    }
+    if let crate::LawParams::Consensus(c) = &params.law {
+        c.check(n + 1).map_err(|m| err("gains", m))?;
+        for i in 1..=n {
+            for j in (0..=n).filter(|&j| j != i && c.adjacency[i][j] != 0.0) {
+                if !topology
+                    .in_neighbours(VehicleId::follower(i))
+                    .contains(&VehicleId(j as u16))
+                {
+                    return Err(err(
+                        "adjacency",
+                        format!(
+                            "consensus row {i} listens to vehicle {j}, whom follower {i} does \
+                             not hear in this topology"
+                        ),
+                    ));
+                }
+            }
+        }
+    }
+    Ok(())
 }

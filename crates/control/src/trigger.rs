@@ -43,6 +43,10 @@ pub enum TriggerRule {
 /// Everything a follower controller needs besides the graph.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ControllerParams {
+    /// The law the followers run: the paper's (the fields below) or one of the field's, which
+    /// beacon with the periodic [`TriggerRule`] and use `fallback`, `dt`, `spacing` and
+    /// `leader_broadcast_steps` too.
+    pub law: crate::LawParams,
     /// Controller gain `K` (the law is `u = -K q`).
     pub gain: RowVector3<f64>,
     /// Weight of `|eps|^2` in the triggering conditions.
@@ -90,10 +94,25 @@ impl ControllerParams {
     pub fn validate(&self) -> Result<(), ParamsError> {
         let err = |field, message: String| Err(ParamsError { field, message });
         let pos = |x: f64| x.is_finite() && x > 0.0;
-        if self.gain.iter().any(|g| !g.is_finite()) {
+        if self.law != crate::LawParams::Paper {
+            self.law
+                .validate()
+                .map_err(|(field, message)| ParamsError { field, message })?;
+            if !matches!(self.rule, TriggerRule::Periodic { .. }) {
+                return err(
+                    "rule",
+                    format!(
+                        "the {} rule needs the paper's law (its estimators); law = \"{}\" \
+                         beacons periodically: rule = \"periodic\" with period_s",
+                        self.rule.name(),
+                        self.law.name()
+                    ),
+                );
+            }
+        } else if self.gain.iter().any(|g| !g.is_finite()) {
             return err("gain", "must be finite".into());
         }
-        if !pos(self.beta1) || !pos(self.beta2) {
+        if self.law == crate::LawParams::Paper && (!pos(self.beta1) || !pos(self.beta2)) {
             return err(
                 "beta",
                 format!(

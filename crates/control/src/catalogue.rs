@@ -1,0 +1,293 @@
+//! The built-in laws a config names (`[control] law`): the paper's, and the field's from
+//! [`crate::laws`] as [`Law`]s on a [`crate::ComposedController`].
+//!
+//! What each of the field's laws reads, as Plexe does (docs/controllers.md): the radar's gap
+//! and closing speed to the vehicle ahead (ideal: the plant's), its own speed and
+//! acceleration, and the last packet accepted from the predecessor and the leader, whose
+//! acceleration is the command they sent (Plexe's default, `useControllerAcceleration`).
+
+use crate::composed::{Law, View};
+use crate::laws::{
+    consensus, flatbed, path_cacc, plexe_acc, ploeg, ConsensusParams, ConsensusVehicle,
+    FlatbedParams, PathCaccParams, PlexeAccParams, PloegParams,
+};
+use platoon_model::VehicleId;
+
+/// Which law the followers run, with its parameters.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub enum LawParams {
+    /// The paper's `u = -K q` on open-loop estimates with its event triggers
+    /// ([`crate::PlatoonController`]).
+    #[default]
+    Paper,
+    /// Plexe's ACC: radar only, no V2V.
+    Acc(PlexeAccParams),
+    /// The PATH CACC (Rajamani): predecessor and leader.
+    PathCacc(PathCaccParams),
+    /// Ploeg's CACC: the predecessor and its command.
+    Ploeg(PloegParams),
+    /// The consensus law (Santini et al.): every vehicle its row names, and the leader.
+    Consensus(ConsensusParams),
+    /// The flatbed controller (Segata, Bernardini): predecessor and leader.
+    Flatbed(FlatbedParams),
+}
+
+impl LawParams {
+    /// Every law's config name, the paper's first.
+    pub const NAMES: [&'static str; 6] =
+        ["paper", "acc", "path_cacc", "ploeg", "consensus", "flatbed"];
+
+    /// Its config name (`[control] law`).
+    pub fn name(&self) -> &'static str {
+        match self {
+            Self::Paper => "paper",
+            Self::Acc(_) => "acc",
+            Self::PathCacc(_) => "path_cacc",
+            Self::Ploeg(_) => "ploeg",
+            Self::Consensus(_) => "consensus",
+            Self::Flatbed(_) => "flatbed",
+        }
+    }
+
+    /// The [`Law`] of one of the field's laws (`None` for the paper's, which is a controller of
+    /// its own).
+    pub fn law(&self, vehicle_length: f64) -> Option<Box<dyn Law>> {
+        Some(match self {
+            Self::Paper => return None,
+            Self::Acc(p) => Box::new(Acc(*p)),
+            Self::PathCacc(p) => Box::new(PathCacc(*p)),
+            Self::Ploeg(p) => Box::new(Ploeg(*p)),
+            Self::Consensus(p) => Box::new(Consensus {
+                params: p.clone(),
+                vehicle_length,
+                scratch: Vec::new(),
+            }),
+            Self::Flatbed(p) => Box::new(Flatbed(*p)),
+        })
+    }
+
+    /// The distance this law keeps between consecutive vehicles in steady state, as the
+    /// platoon's spacing policy: `(l, h_t)` with the front-to-front distance `l + h_t v`, for
+    /// vehicles `vehicle_length` long (`None` for the paper's, which takes the platoon's; a
+    /// consensus law whose headways differ between vehicles has none).
+    pub fn spacing_policy(&self, vehicle_length: f64) -> Option<(f64, f64)> {
+        let l = vehicle_length;
+        match self {
+            Self::Paper => None,
+            Self::Acc(p) => Some((p.standstill_m + l, p.headway_s)),
+            Self::PathCacc(p) => Some((p.spacing_m + l, 0.0)),
+            Self::Ploeg(p) => Some((p.standstill_m + l, p.headway_s)),
+            // d + h (v - v_lead): d at a common speed.
+            Self::Flatbed(p) => Some((p.spacing_m + l, 0.0)),
+            Self::Consensus(p) => {
+                let h = *p.headways_s.first()?;
+                p.headways_s
+                    .iter()
+                    .all(|&x| x == h)
+                    .then_some((p.standstill_m + l, h))
+            }
+        }
+    }
+
+    /// Checks ranges; the error names the key (under `control.`).
+    pub fn validate(&self) -> Result<(), (&'static str, String)> {
+        let check = |key: &'static str, x: f64, ok: bool, what: &str| {
+            if x.is_finite() && ok {
+                Ok(())
+            } else {
+                Err((key, format!("must be {what} (got {x})")))
+            }
+        };
+        match self {
+            Self::Paper => Ok(()),
+            Self::Acc(p) => {
+                check("headway_s", p.headway_s, p.headway_s > 0.0, "> 0")?;
+                check("lambda_per_s", p.lambda_per_s, true, "finite")?;
+                check("standstill_m", p.standstill_m, true, "finite")?;
+                check("desired_speed_mps", p.desired_speed_mps, true, "finite")?;
+                check("cc_kp_per_s", p.cc_kp_per_s, true, "finite")?;
+                check(
+                    "cc_accel_mps2",
+                    p.cc_accel_mps2,
+                    p.cc_accel_mps2 > 0.0,
+                    "> 0",
+                )?;
+                check(
+                    "cc_decel_mps2",
+                    p.cc_decel_mps2,
+                    p.cc_decel_mps2 > 0.0,
+                    "> 0",
+                )?;
+                check(
+                    "radar_range_m",
+                    p.radar_range_m,
+                    p.radar_range_m > 0.0,
+                    "> 0",
+                )
+            }
+            Self::PathCacc(p) => {
+                check("c1", p.c1, (0.0..=1.0).contains(&p.c1), "in [0, 1]")?;
+                check("xi", p.xi, p.xi >= 1.0, ">= 1")?;
+                check(
+                    "omega_n_radps",
+                    p.omega_n_radps,
+                    p.omega_n_radps > 0.0,
+                    "> 0",
+                )?;
+                check("spacing_m", p.spacing_m, true, "finite")
+            }
+            Self::Ploeg(p) => {
+                check("headway_s", p.headway_s, p.headway_s > 0.0, "> 0")?;
+                check("kp_per_s2", p.kp_per_s2, true, "finite")?;
+                check("kd_per_s", p.kd_per_s, true, "finite")?;
+                check("standstill_m", p.standstill_m, true, "finite")
+            }
+            Self::Flatbed(p) => {
+                check("ka", p.ka, true, "finite")?;
+                check("kv_per_s", p.kv_per_s, true, "finite")?;
+                check("kp_per_s2", p.kp_per_s2, true, "finite")?;
+                check("headway_s", p.headway_s, true, "finite")?;
+                check("spacing_m", p.spacing_m, true, "finite")
+            }
+            Self::Consensus(p) => {
+                check("scale", p.scale, p.scale > 0.0, "> 0")?;
+                check("standstill_m", p.standstill_m, true, "finite")?;
+                let all = p.gains.iter().chain(&p.adjacency).flatten();
+                for x in all.chain(&p.speed_gains).chain(&p.headways_s) {
+                    check("gains", *x, true, "finite")?;
+                }
+                Ok(())
+            }
+        }
+    }
+
+    /// Which vehicles a follower of this law must hear from (besides nobody for the ACC):
+    /// `(predecessor, leader)`.
+    pub fn needs(&self) -> (bool, bool) {
+        match self {
+            Self::Paper | Self::Acc(_) => (false, false),
+            Self::PathCacc(_) | Self::Flatbed(_) => (true, true),
+            Self::Ploeg(_) => (true, false),
+            Self::Consensus(_) => (false, true),
+        }
+    }
+}
+
+/// The radar's gap and the speed of the vehicle ahead it implies (`v - closing`), or nothing
+/// ahead (an infinite gap, the own speed).
+fn radar(view: &View<'_>) -> (f64, f64) {
+    match view.radar {
+        Some(r) => (r.gap, view.own[1] - r.closing),
+        None => (f64::INFINITY, view.own[1]),
+    }
+}
+
+/// The last packet from `who`, or the own state if `who` is not a neighbour (the law then
+/// reads zero errors, never garbage: configs are checked against [`LawParams::needs`]).
+fn heard(view: &View<'_>, who: Option<&crate::checks::Heard>) -> (f64, f64, f64) {
+    match who {
+        Some(h) => (h.state[1], h.u, h.state[0]),
+        None => (view.own[1], view.last_u, view.own[0]),
+    }
+}
+
+#[derive(Debug, Clone)]
+struct Acc(PlexeAccParams);
+
+impl Law for Acc {
+    fn command(&mut self, view: &View<'_>) -> f64 {
+        let (gap, v_pred) = radar(view);
+        plexe_acc(&self.0, view.own[1], gap, v_pred)
+    }
+}
+
+#[derive(Debug, Clone)]
+struct PathCacc(PathCaccParams);
+
+impl Law for PathCacc {
+    fn command(&mut self, view: &View<'_>) -> f64 {
+        let (gap, _) = radar(view);
+        let (v_pred, a_pred, _) = heard(view, view.predecessor());
+        let (v_lead, a_lead, _) = heard(view, view.leader());
+        path_cacc(&self.0, view.own[1], gap, v_pred, a_pred, v_lead, a_lead)
+    }
+}
+
+#[derive(Debug, Clone)]
+struct Ploeg(PloegParams);
+
+impl Law for Ploeg {
+    fn command(&mut self, view: &View<'_>) -> f64 {
+        let (gap, _) = radar(view);
+        let (v_pred, u_pred, _) = heard(view, view.predecessor());
+        let own = view.own;
+        ploeg(
+            &self.0,
+            view.dt,
+            view.last_u,
+            own[1],
+            own[2],
+            gap,
+            v_pred,
+            u_pred,
+        )
+    }
+}
+
+#[derive(Debug, Clone)]
+struct Flatbed(FlatbedParams);
+
+impl Law for Flatbed {
+    fn command(&mut self, view: &View<'_>) -> f64 {
+        let (gap, _) = radar(view);
+        let (v_pred, _, _) = heard(view, view.predecessor());
+        let (v_lead, _, _) = heard(view, view.leader());
+        let own = view.own;
+        flatbed(&self.0, own[1], own[2], gap, v_pred, v_lead)
+    }
+}
+
+#[derive(Debug, Clone)]
+struct Consensus {
+    params: ConsensusParams,
+    vehicle_length: f64,
+    scratch: Vec<ConsensusVehicle>,
+}
+
+impl Law for Consensus {
+    fn command(&mut self, view: &View<'_>) -> f64 {
+        // Every vehicle, predicted with its speed to the end of the step (the own one by dt);
+        // those it does not hear from have no weight (a_ij = 0 for them is checked with the
+        // config), so their entry only has to be finite.
+        let i = view.id.index();
+        let end = (view.k + 1) as f64 * view.dt;
+        self.scratch.clear();
+        for j in 0..view.vehicles {
+            let vehicle = if j == i {
+                ConsensusVehicle {
+                    position: view.own[0] + view.own[1] * view.dt,
+                    speed: view.own[1],
+                    length: self.vehicle_length,
+                }
+            } else {
+                match view.from(VehicleId(j as u16)) {
+                    Some(h) => {
+                        let sampled = h.step.unwrap_or(0) as f64 * view.dt;
+                        ConsensusVehicle {
+                            position: h.state[0] + h.state[1] * (end - sampled),
+                            speed: h.state[1],
+                            length: self.vehicle_length,
+                        }
+                    }
+                    None => ConsensusVehicle {
+                        position: view.own[0],
+                        speed: view.own[1],
+                        length: self.vehicle_length,
+                    },
+                }
+            };
+            self.scratch.push(vehicle);
+        }
+        consensus(&self.params, i, &self.scratch)
+    }
+}
