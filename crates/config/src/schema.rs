@@ -693,6 +693,11 @@ pub struct Plant {
     /// Per-follower overrides of `tau` (N entries).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub tau_per_vehicle: Option<Vec<TauConfig>>,
+    /// How the native plant moves the followers: `exact` (the paper's model sampled exactly:
+    /// a ballistic move, then the exact lag) or `plexe` (SUMO's CC model, Plexe: a
+    /// backward-Euler lag, then a ballistic move with the new acceleration; docs/controllers.md).
+    #[serde(default)]
+    pub discretisation: platoon_model::Discretisation,
 }
 
 /// A tau schedule (`plant.tau`, `plant.tau_per_vehicle`): `kind` and that kind's keys.

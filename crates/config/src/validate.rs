@@ -607,11 +607,22 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
         negligible: sf.negligible_decel_mps2,
         benign: sf.benign_decel_mps2,
     };
+    let discretisation = c.plant.discretisation;
+    if discretisation != platoon_model::Discretisation::Exact
+        && c.simulation.plant == PlantKind::Sumo
+    {
+        return bad(
+            "plant.discretisation",
+            "the SUMO plant moves vehicles its own way; \"plexe\" is for the native plant \
+             (simulation.plant = \"native\")",
+        );
+    }
     let scenario = Scenario {
         steps: steps as u64,
         initial,
         leader,
         taus,
+        discretisation,
         topology,
         control,
         dos,

@@ -122,6 +122,8 @@ pub struct ComposedController {
     followers: Vec<Follower>,
     checks: PacketChecks,
     leader_seq: u32,
+    /// The leader's acceleration over the step before (what its packets carry as `u`).
+    leader_last_u: f64,
     commands: Vec<f64>,
     truth: Vec<Option<RadarTruth>>,
     truth_given: bool,
@@ -178,6 +180,7 @@ impl ComposedController {
             followers,
             checks: PacketChecks::new(topology, initial, parts.dt),
             leader_seq: 0,
+            leader_last_u: 0.0,
             commands: vec![0.0; n],
             truth: Vec::with_capacity(n + 1),
             truth_given: false,
@@ -195,9 +198,10 @@ impl Controller for ComposedController {
                 seq: self.leader_seq,
                 step: k,
                 state: states[0],
-                u: states[0][2],
+                u: self.leader_last_u,
             });
         }
+        self.leader_last_u = states[0][2];
         let beacon = k.is_multiple_of(u64::from(self.parts.beacon_steps));
         for f in &mut self.followers {
             f.step = FollowerStep::default();

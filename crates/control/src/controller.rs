@@ -77,6 +77,8 @@ pub struct PlatoonController {
     theta_gain: f64,
     followers: Vec<Follower>,
     leader_seq: u32,
+    /// The leader's acceleration over the step before (what its packets carry as `u`).
+    leader_last_u: f64,
     checks: PacketChecks,
     commands: Vec<f64>,
     truth: Vec<Option<RadarTruth>>,
@@ -153,6 +155,7 @@ impl PlatoonController {
             theta_gain,
             followers,
             leader_seq: 0,
+            leader_last_u: 0.0,
             checks: PacketChecks::new(topology, initial, params.dt),
             commands: vec![0.0; n],
             truth: Vec::with_capacity(n + 1),
@@ -203,9 +206,10 @@ impl PlatoonController {
                 seq: self.leader_seq,
                 step: k,
                 state: states[0],
-                u: states[0][2],
+                u: self.leader_last_u,
             });
         }
+        self.leader_last_u = states[0][2];
         let t = k as f64 * p.dt;
         for f in &mut self.followers {
             let x = states[f.id.index()];

@@ -39,6 +39,7 @@ pub use leader::{LeaderProfile, ProfileError};
 pub use tau::{TauError, TauSchedule};
 
 use nalgebra::{Matrix3, Vector3};
+use serde::{Deserialize, Serialize};
 
 /// A vehicle's longitudinal state `[p, v, a]` (m, m/s, m/s^2).
 pub type State = Vector3<f64>;
@@ -55,6 +56,54 @@ pub fn plant_step(x: &State, u: f64, tau: f64, dt: f64) -> State {
         v + a * dt,
         u + (a - u) * (-dt / tau).exp(),
     )
+}
+
+/// How the followers' plant is discretised.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "schemars", derive(schemars::JsonSchema))]
+#[serde(rename_all = "snake_case")]
+pub enum Discretisation {
+    /// [`plant_step`]: a ballistic move with the acceleration at the start of the step, then
+    /// the exact zero-order-hold lag (the paper's model, sampled exactly).
+    #[default]
+    Exact,
+    /// [`plant_step_plexe`]: SUMO's `CC` car-following model (Plexe), a backward-Euler lag
+    /// first, then a ballistic move with the new acceleration.
+    Plexe,
+}
+
+impl Discretisation {
+    /// One step of a follower under this discretisation.
+    #[inline]
+    pub fn step(self, x: &State, u: f64, tau: f64, dt: f64) -> State {
+        match self {
+            Self::Exact => plant_step(x, u, tau, dt),
+            Self::Plexe => plant_step_plexe(x, u, tau, dt),
+        }
+    }
+}
+
+/// One step as SUMO 1.28 moves a vehicle of its `CC` car-following model (Plexe's first-order
+/// lag engine, ballistic update), operation by operation so that the numbers are SUMO's:
+///
+/// ```text
+/// alpha = dt / (tau + dt)
+/// a_e   = alpha u + (1 - alpha) a        backward-Euler lag of tau a' + a = u
+/// v'    = max(0, v + a_e dt)
+/// a'    = (v' - v) / dt
+/// p'    = p + (v + a' dt / 2) dt
+/// ```
+///
+/// SUMO also clamps the command and `a_e` to the vehicle type's acceleration limits; this plant
+/// has none. Its lag acts like the exact one with `tau + dt / 2`.
+#[inline]
+pub fn plant_step_plexe(x: &State, u: f64, tau: f64, dt: f64) -> State {
+    let (p, v, a) = (x[0], x[1], x[2]);
+    let alpha = dt / (tau + dt);
+    let a_e = alpha * u + (1.0 - alpha) * a;
+    let v_next = (v + a_e * dt).max(0.0);
+    let a_next = (v_next - v) / dt;
+    State::new(p + (v + 0.5 * (a_next * dt)) * dt, v_next, a_next)
 }
 
 /// Advances the leader by one step with the profile's acceleration `a_ref` held over the step.

@@ -30,7 +30,7 @@ pub struct StepWire<'a> {
 
 use platoon_attacks::channel::{Channel, ChannelEvent};
 use platoon_control::{Controller, Delivery, FollowerStep, Packet};
-use platoon_model::{leader_step, plant_step, LeaderProfile, State, TauSchedule, VehicleId};
+use platoon_model::{leader_step, LeaderProfile, State, TauSchedule, VehicleId};
 use std::ops::ControlFlow;
 
 /// One vehicle at one step: what `trajectories.csv` holds.
@@ -77,6 +77,7 @@ pub struct StepRow {
 pub struct Plant {
     states: Vec<State>,
     taus: Vec<TauSchedule>,
+    discretisation: platoon_model::Discretisation,
     leader: LeaderProfile,
     dt: f64,
 }
@@ -89,6 +90,7 @@ impl Plant {
         Self {
             states,
             taus: scenario.taus.clone(),
+            discretisation: scenario.discretisation,
             leader: scenario.leader.clone(),
             dt: scenario.dt(),
         }
@@ -103,7 +105,9 @@ impl Plant {
     pub fn advance(&mut self, k: u64, u: &[f64]) {
         let t = k as f64 * self.dt;
         for (i, x) in self.states.iter_mut().enumerate().skip(1) {
-            *x = plant_step(x, u[i - 1], self.taus[i - 1].at(t), self.dt);
+            *x = self
+                .discretisation
+                .step(x, u[i - 1], self.taus[i - 1].at(t), self.dt);
         }
         self.states[0] = leader_step(
             &self.states[0],

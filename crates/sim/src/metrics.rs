@@ -233,6 +233,9 @@ pub struct Summary {
     /// Simulated time (s).
     #[serde(deserialize_with = "nullable")]
     pub duration_s: f64,
+    /// The control law (`[control] law`; summaries from before it existed read `paper`).
+    #[serde(default = "paper")]
+    pub law: String,
     /// The triggering rule.
     pub rule: String,
     /// How often event conditions were checked (s).
@@ -307,6 +310,7 @@ struct VehicleAcc {
 #[derive(Debug, Clone)]
 pub struct MetricsAccumulator {
     dt: f64,
+    law: &'static str,
     rule: &'static str,
     check_period: f64,
     spacing_policy: &'static str,
@@ -329,6 +333,7 @@ impl MetricsAccumulator {
         let n = scenario.topology.followers();
         Self {
             dt: scenario.dt(),
+            law: scenario.control.law.name(),
             rule: scenario.control.rule.name(),
             check_period: f64::from(scenario.control.check_steps) * scenario.dt(),
             spacing_policy: scenario.spacing_policy().name(),
@@ -470,6 +475,7 @@ impl MetricsAccumulator {
             steps: self.steps,
             dt_s: self.dt,
             duration_s: self.last_t,
+            law: self.law.to_string(),
             rule: self.rule.to_string(),
             check_period_s: self.check_period,
             spacing_policy: self.spacing_policy.into(),
@@ -681,4 +687,8 @@ impl FleetMetrics {
         }
         summary
     }
+}
+
+fn paper() -> String {
+    "paper".into()
 }

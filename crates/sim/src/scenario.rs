@@ -31,6 +31,8 @@ pub struct Scenario {
     pub leader: LeaderProfile,
     /// Each follower's time-constant schedule (length N).
     pub taus: Vec<TauSchedule>,
+    /// How the native plant moves the followers.
+    pub discretisation: platoon_model::Discretisation,
     /// The communication graph.
     pub topology: Topology,
     /// Controller, trigger and spacing parameters (holds the step `dt`).

@@ -19,10 +19,10 @@ pub struct Packet {
     pub step: u64,
     /// The sampled state `[p, v, a]`.
     pub state: State,
-    /// The sender's latest commanded acceleration when it sampled (m/s^2): the command of the
-    /// step before for a follower, the acceleration it applies over this step for the leader.
-    /// For laws with a feed-forward of the predecessor's input (Ploeg et al.); the paper's law
-    /// does not read it.
+    /// The sender's latest commanded acceleration when it sampled (m/s^2): its command of the
+    /// step before (for the leader, the acceleration it applied over the step before; 0 at
+    /// step 0), as Plexe sends it. For laws with a feed-forward of the predecessor's or the
+    /// leader's input (PATH CACC, Ploeg et al.); the paper's law does not read it.
     pub u: f64,
 }
 
