@@ -108,6 +108,7 @@ def load_run() -> Run:
 
 def run(make) -> int:
     """Runs the injector `make(run)` returns until the run ends; returns the exit code."""
+    w.check_contract_version()  # before anything that depends on the run's formats
     info = load_run()
     injector = make(info)
     vehicles = info.vehicles_per_platoon * info.platoons

@@ -12,6 +12,44 @@ import time
 
 import iceoryx2 as iox
 
+# The contract version (crates/wire CONTRACT_VERSION; tests/test_layout.py checks it against
+# wire_layout.json). Every payload's type name carries it, so iceoryx2 refuses to connect
+# processes of different versions; `platoon run` gives every process it starts the run's
+# version in PLATOON_CONTRACT_VERSION, and `Endpoint` compares it with this one first.
+# v1: the first published contract; v2: V2vPacket gained `u` (the sender's latest command).
+CONTRACT_VERSION = 2
+CONTRACT_VERSION_ENV = "PLATOON_CONTRACT_VERSION"
+CONTRACT_DOC = "docs/injector-contract.md"
+
+
+def type_name(short: str) -> str:
+    """The iceoryx2 type name of payload `short`: platoon::v<CONTRACT_VERSION>::<short>."""
+    return f"platoon::v{CONTRACT_VERSION}::{short}"
+
+
+def check_contract_version(run=None) -> None:
+    """Exits (SystemExit, status 1, message on stderr) if the run that started this process
+    speaks another contract version than this module; `run` defaults to the environment's
+    PLATOON_CONTRACT_VERSION (absent: not started by `platoon run`, nothing to compare)."""
+    if run is None:
+        run = os.environ.get(CONTRACT_VERSION_ENV)
+    if run is None:
+        return
+    try:
+        version = int(run.strip())
+    except ValueError:
+        raise SystemExit(
+            f"this plug-in speaks platoon contract v{CONTRACT_VERSION}, but "
+            f"{CONTRACT_VERSION_ENV} is {run!r}, not a version number (see {CONTRACT_DOC})"
+        ) from None
+    if version != CONTRACT_VERSION:
+        raise SystemExit(
+            f"this plug-in speaks platoon contract v{CONTRACT_VERSION}, but the run speaks "
+            f"v{version} ({CONTRACT_VERSION_ENV}={version}): use the bridge/ (platoon_wire.py, "
+            f'platoon_injector.py) of v{version} (see "Contract versions" in {CONTRACT_DOC} '
+            "for what changed)"
+        )
+
 
 class StepHeader(ctypes.Structure):
     """User header of every step sample. `count` is the number of items: read that, never the
@@ -26,7 +64,7 @@ class StepHeader(ctypes.Structure):
 
     @staticmethod
     def type_name() -> str:
-        return "platoon::StepHeader"
+        return type_name("StepHeader")
 
 
 class VehicleState(ctypes.Structure):
@@ -47,7 +85,7 @@ class VehicleState(ctypes.Structure):
 
     @staticmethod
     def type_name() -> str:
-        return "platoon::VehicleState"
+        return type_name("VehicleState")
 
 
 class V2vPacket(ctypes.Structure):
@@ -65,7 +103,7 @@ class V2vPacket(ctypes.Structure):
 
     @staticmethod
     def type_name() -> str:
-        return "platoon::V2vPacket"
+        return type_name("V2vPacket")
 
 
 class LinkPacket(ctypes.Structure):
@@ -82,7 +120,7 @@ class LinkPacket(ctypes.Structure):
 
     @staticmethod
     def type_name() -> str:
-        return "platoon::LinkPacket"
+        return type_name("LinkPacket")
 
 
 class Command(ctypes.Structure):
@@ -103,7 +141,7 @@ class Command(ctypes.Structure):
 
     @staticmethod
     def type_name() -> str:
-        return "platoon::Command"
+        return type_name("Command")
 
 
 class ControlMsg(ctypes.Structure):
@@ -122,7 +160,7 @@ class ControlMsg(ctypes.Structure):
 
     @staticmethod
     def type_name() -> str:
-        return "platoon::ControlMsg"
+        return type_name("ControlMsg")
 
 
 ALL_TYPES = [StepHeader, VehicleState, V2vPacket, LinkPacket, Command, ControlMsg]
@@ -155,6 +193,7 @@ class Endpoint:
     """One node of a run: opens (never creates) the services the orchestrator made."""
 
     def __init__(self, role: str, run_id: str | None = None):
+        check_contract_version()  # before opening anything: other versions cannot connect
         iox.set_log_level_from_env_or(iox.LogLevel.Error)
         self.role = role
         self.run_id = run_id or os.environ["PLATOON_RUN_ID"]

@@ -5,7 +5,19 @@ set -eu
 here=$(cd "$(dirname "$0")" && pwd)
 venv="$here/.venv"
 stamp="$venv/.requirements"
+# The venv's Python imports the SDK (platoon_injector, platoon_wire) from a script anywhere:
+# a .pth file in its site-packages names this directory (rewritten if the checkout moved).
+bridge_on_path() {
+    for site in "$venv"/lib/python*/site-packages; do
+        [ -d "$site" ] || continue
+        pth="$site/platoon-bridge.pth"
+        if [ "$(cat "$pth" 2>/dev/null)" != "$here" ]; then
+            printf '%s\n' "$here" >"$pth.$$" && mv -f "$pth.$$" "$pth"
+        fi
+    done
+}
 if [ -f "$stamp" ] && cmp -s "$stamp" "$here/requirements.txt"; then
+    bridge_on_path
     exit 0
 fi
 python=${PYTHON:-python3}
@@ -22,5 +34,6 @@ echo "setting up the bridge's Python environment in $venv (one time) ..." >&2
     echo "error: pip could not install bridge/requirements.txt (is PyPI reachable?)" >&2
     exit 1
 }
+bridge_on_path
 cp "$here/requirements.txt" "$stamp"
 echo "bridge environment ready" >&2

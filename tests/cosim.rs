@@ -888,6 +888,156 @@ fn an_injector_after_the_builtin_channel_stacks_on_the_configs_attacks() {
     assert!(affected(&builtin, 0) > 0.0);
 }
 
+/// The contract version this build speaks, as `bridge/wire_layout.json` records it.
+fn contract_version() -> u64 {
+    json(&repo().join("bridge/wire_layout.json"))["contract_version"]
+        .as_u64()
+        .unwrap()
+}
+
+/// A Python injector written in its own directory, outside `bridge/`, importing the SDK the
+/// way the contract says (no sys.path of its own), run with `--injector` on table1; platoon's
+/// stderr and the run's error.
+fn run_own_injector(dir: &Path, script: &str) -> (String, String) {
+    let file = dir.join("my_injector.py");
+    std::fs::write(&file, script).unwrap();
+    let config = repo().join("configs/table1.toml");
+    let injector = format!("{} {}", python(), file.display());
+    let o = platoon(
+        &[
+            "run",
+            config.to_str().unwrap(),
+            "--no-plots",
+            "--out",
+            "r",
+            "--injector",
+            &injector,
+        ],
+        dir,
+    );
+    let stderr = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert!(!o.status.success(), "the run must fail: {stderr}");
+    let error = summary(&dir.join("r"))["error"]
+        .as_str()
+        .unwrap()
+        .to_string();
+    (stderr, error)
+}
+
+/// Issue 22: a third-party injector that failed at step 0 said only "the injector process
+/// exited at step 0: exit status: 1". The error quotes its last lines of stderr, names its log,
+/// and says which contract version the run speaks.
+#[test]
+fn a_dying_plugin_is_quoted_from_its_log_and_told_the_runs_contract() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (stderr, error) = run_own_injector(
+        tmp.path(),
+        r#"
+import os
+import sys
+
+import platoon_injector as pi
+
+print("PYTHONPATH=" + os.environ.get("PYTHONPATH", ""), file=sys.stderr)
+
+
+class Dies(pi.Injector):
+    def step(self, step, rx):
+        for i in range(15):
+            print(f"my injector says {i}", file=sys.stderr)
+        sys.exit(1)
+
+
+pi.run(lambda run: Dies())
+"#,
+    );
+    for text in [&stderr, &error] {
+        assert!(
+            text.contains("the injector process") && text.contains("exited at step 0"),
+            "{text}"
+        );
+        assert!(text.contains("logs/injector.log"), "{text}");
+        assert!(
+            text.contains("| my injector says 14") && text.contains("| my injector says 5"),
+            "the last lines are quoted: {text}"
+        );
+        assert!(
+            !text.contains("| my injector says 4"),
+            "the last 10 lines only: {text}"
+        );
+        assert!(
+            text.contains(&format!(
+                "this run speaks platoon contract v{}",
+                contract_version()
+            )),
+            "{text}"
+        );
+    }
+    // The bridge is first on the plug-in's PYTHONPATH.
+    let log = std::fs::read_to_string(tmp.path().join("r/logs/injector.log")).unwrap();
+    let bridge = repo().join("bridge");
+    assert!(
+        log.contains(&format!("PYTHONPATH={}", bridge.display())),
+        "{log}"
+    );
+}
+
+/// A plug-in of another contract version is told at once which version it speaks and which
+/// the run speaks: a Python one whose SDK is of another version, and a Rust one started in a
+/// run that claims another version.
+#[test]
+fn a_plugin_of_another_contract_version_is_told_both_versions() {
+    let ours = contract_version();
+    let old = ours - 1;
+    let tmp = tempfile::tempdir().unwrap();
+    let (stderr, error) = run_own_injector(
+        tmp.path(),
+        &format!(
+            "import platoon_wire as w\n\
+             w.CONTRACT_VERSION = {old}  # an SDK of another version\n\
+             import platoon_injector as pi\n\
+             pi.run(lambda run: pi.Injector())\n"
+        ),
+    );
+    for text in [&stderr, &error] {
+        assert!(
+            text.contains(&format!(
+                "this plug-in speaks platoon contract v{old}, but the run speaks v{ours}"
+            )),
+            "{text}"
+        );
+        assert!(text.contains("docs/injector-contract.md"), "{text}");
+    }
+
+    let rust = tempfile::tempdir().unwrap();
+    let config = repo().join("configs/table1.toml");
+    let injector = format!(
+        "env PLATOON_CONTRACT_VERSION={old} {}",
+        sdk_example("dos_jammer")
+    );
+    let o = platoon(
+        &[
+            "run",
+            config.to_str().unwrap(),
+            "--no-plots",
+            "--out",
+            "r",
+            "--injector",
+            &injector,
+        ],
+        rust.path(),
+    );
+    assert!(!o.status.success());
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        stderr.contains(&format!(
+            "this plug-in speaks platoon contract v{ours}, but the run speaks v{old}"
+        )),
+        "{stderr}"
+    );
+    assert!(stderr.contains("docs/injector-contract.md"), "{stderr}");
+}
+
 #[test]
 fn an_injector_command_that_does_not_exist_is_named() {
     let tmp = tempfile::tempdir().unwrap();

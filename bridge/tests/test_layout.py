@@ -12,11 +12,18 @@ sys.path.insert(0, os.path.join(HERE, ".."))
 import platoon_wire as w  # noqa: E402
 
 with open(os.path.join(HERE, "..", "wire_layout.json")) as f:
-    RUST = json.load(f)
+    LAYOUT = json.load(f)
+RUST = LAYOUT["types"]
+
+
+def test_the_contract_version_is_the_rust_one():
+    assert w.CONTRACT_VERSION == LAYOUT["contract_version"]
 
 
 def test_every_rust_type_has_a_mirror():
     assert sorted(RUST) == sorted(t.type_name() for t in w.ALL_TYPES)
+    for t in w.ALL_TYPES:
+        assert t.type_name() == f"platoon::v{w.CONTRACT_VERSION}::{t.__name__}"
 
 
 def test_size_alignment_and_offsets_match():

@@ -583,6 +583,11 @@ fn cosimulate(
         Some(p) => (p.program, p.env),
         None => (platoon_runtime::Program::Builtin, Vec::new()),
     };
+    // A plug-in imports the Python SDK from wherever it is: the bridge goes on its PYTHONPATH
+    // (if there is no bridge, a Python plug-in's import error is quoted when it dies).
+    let plugins =
+        injector != platoon_runtime::Program::Builtin || plant != platoon_runtime::Program::Builtin;
+    let python_path = plugins.then(|| crate::sumo::bridge_dir().ok()).flatten();
     let run_id = platoon_runtime::new_run_id();
     write_run_json(dir, &run_id, scenario, opts.observers)?;
     progress.message(&format!(
@@ -605,6 +610,7 @@ fn cosimulate(
         plant,
         env,
         log_dir: Some(logs),
+        python_path,
         step_timeout: opts.step_timeout,
         ready_timeout: Duration::from_secs(60),
         stop: Some(stop.flag.clone()),

@@ -372,6 +372,7 @@ fn latency(a: LatencyArgs) -> Result<LatencyReport> {
         env: Vec::new(),
         channel_log: None,
         log_dir: Some(logs),
+        python_path: None,
         step_timeout: Duration::from_secs(5),
         ready_timeout: Duration::from_secs(60),
         stop: None,

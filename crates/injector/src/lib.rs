@@ -36,7 +36,7 @@ pub use platoon_wire::{LinkPacket, V2vPacket, VehicleState};
 use std::path::PathBuf;
 
 /// Why an injector could not run.
-#[derive(Debug, thiserror::Error)]
+#[derive(thiserror::Error)]
 pub enum Error {
     /// Not started by `platoon run --injector` (a variable of its environment is missing).
     #[error(
@@ -51,11 +51,22 @@ pub enum Error {
     Run(#[from] platoon_runtime::RunError),
 }
 
+/// As its message: `fn main() -> Result<(), Error>` prints an error with `Debug`, and the run
+/// quotes the injector's last lines of stderr.
+impl std::fmt::Debug for Error {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        std::fmt::Display::fmt(self, f)
+    }
+}
+
 /// Runs the injector `make` builds from the run's scenario (read from `PLATOON_CONFIG`) as the
 /// injector of the run `PLATOON_RUN_ID`, until the run ends. With `--injector-mode after`
 /// (`PLATOON_INJECTOR_INPUT=gated`) each [`Step::tx`] holds what survived the built-in channel:
 /// deliveries and jammed notices; forward the notices you want the receivers to see.
+/// A run of another contract version (`PLATOON_CONTRACT_VERSION`) is refused at once, naming
+/// both versions.
 pub fn run<I: Injector>(make: impl FnOnce(&Scenario) -> I) -> Result<(), Error> {
+    platoon_runtime::session::check_contract_version()?;
     let run_id = std::env::var("PLATOON_RUN_ID").map_err(|_| Error::NotInARun("PLATOON_RUN_ID"))?;
     let config: PathBuf = std::env::var_os("PLATOON_CONFIG")
         .ok_or(Error::NotInARun("PLATOON_CONFIG"))?

@@ -65,6 +65,7 @@ pub fn raw_hop(
                     pid: child.id(),
                     step: 0,
                     status: status.to_string(),
+                    detail: String::new(),
                 });
             }
             if started.elapsed() > Duration::from_secs(30) {
@@ -97,6 +98,7 @@ pub fn raw_hop(
                         pid: child.id(),
                         step: i,
                         status: status.to_string(),
+                        detail: String::new(),
                     });
                 }
             };

@@ -41,7 +41,7 @@ pub enum RunError {
         source: std::io::Error,
     },
     /// A node's process exited before the end of the run.
-    #[error("the {node} process (pid {pid}) exited at step {step}: {status}")]
+    #[error("the {node} process (pid {pid}) exited at step {step}: {status}{detail}")]
     Died {
         /// Which.
         node: &'static str,
@@ -51,7 +51,14 @@ pub enum RunError {
         step: u64,
         /// How it ended.
         status: String,
+        /// What else helps: the last lines of its log, the run's contract version (empty, or
+        /// starting with a line break).
+        detail: String,
     },
+    /// This process was built for another contract version than the run that started it
+    /// speaks (`platoon_wire::check_contract_version`).
+    #[error("{0}")]
+    ContractVersion(String),
     /// A node did not publish what the run waited for.
     #[error(
         "the {node} process published nothing for step {step} within {waited_s} s ({what}){}",

@@ -45,8 +45,13 @@ pub struct Options {
     pub env: Vec<(String, String)>,
     /// Where the built-in injector writes its channel log (CSV).
     pub channel_log: Option<PathBuf>,
-    /// Where each node's stderr goes (`<dir>/<node>.log`); inherited if `None`.
+    /// Where each node's stderr goes (`<dir>/<node>.log`); inherited if `None`. The error of a
+    /// process that dies quotes the last lines of its log.
     pub log_dir: Option<PathBuf>,
+    /// Prepended to `PYTHONPATH` of every plug-in process (a program that is not
+    /// [`Program::Builtin`]): the bridge directory, so a Python plug-in imports the SDK
+    /// (`platoon_injector`, `platoon_wire`) from wherever it is.
+    pub python_path: Option<PathBuf>,
     /// How long the run waits for one step before naming the node that holds it up.
     pub step_timeout: Duration,
     /// How long the nodes may take to start.
@@ -100,16 +105,26 @@ impl DuplicateSamples {
     }
 }
 
+/// One process of the run.
+struct Proc {
+    node: Node,
+    child: Child,
+    /// Where its stdout and stderr go.
+    log: Option<PathBuf>,
+    /// Not built in: a program of the user's (`--injector`) or the SUMO bridge.
+    plugin: bool,
+}
+
 struct Children {
-    procs: Vec<(Node, Child)>,
+    procs: Vec<Proc>,
 }
 
 impl Children {
     /// A child that has exited, with its status.
-    fn exited(&mut self) -> Option<(Node, u32, String)> {
-        for (node, c) in &mut self.procs {
-            if let Ok(Some(status)) = c.try_wait() {
-                return Some((*node, c.id(), status.to_string()));
+    fn exited(&mut self) -> Option<(&Proc, String)> {
+        for p in &mut self.procs {
+            if let Ok(Some(status)) = p.child.try_wait() {
+                return Some((&*p, status.to_string()));
             }
         }
         None
@@ -119,14 +134,14 @@ impl Children {
     fn peak_rss_kib(&self) -> Vec<(&'static str, u64)> {
         self.procs
             .iter()
-            .filter_map(|(node, c)| Some((node.name(), crate::peak_rss_kib(Some(c.id()))?)))
+            .filter_map(|p| Some((p.node.name(), crate::peak_rss_kib(Some(p.child.id()))?)))
             .collect()
     }
 
     /// Waits up to `grace` for every child to exit, then kills what is left.
     fn shut_down(&mut self, grace: Duration) {
         let until = Instant::now() + grace;
-        for (_, c) in &mut self.procs {
+        for Proc { child: c, .. } in &mut self.procs {
             while Instant::now() < until {
                 if let Ok(Some(_)) = c.try_wait() {
                     break;
@@ -492,14 +507,87 @@ fn check_failed(m: &ControlMsg) -> Result<(), RunError> {
 
 fn watch(children: &mut Children, step: u64) -> Result<(), RunError> {
     match children.exited() {
-        Some((node, pid, status)) => Err(RunError::Died {
-            node: node.name(),
-            pid,
+        Some((p, status)) => Err(RunError::Died {
+            node: p.node.name(),
+            pid: p.child.id(),
             step,
             status,
+            detail: died_detail(p, step),
         }),
         None => Ok(()),
     }
+}
+
+/// How many of a dead process's last log lines its error quotes.
+const TAIL_LINES: usize = 10;
+
+/// What the error of a process that died adds, one line each: the last lines of its log (its
+/// stderr and stdout) and where that log is, and for a plug-in that died before the run got
+/// past step 0 (starting, or at its first step: where a plug-in of another contract version
+/// fails) the contract version the run speaks.
+fn died_detail(p: &Proc, step: u64) -> String {
+    let mut s = String::new();
+    if let Some(log) = &p.log {
+        // The log directory is `logs/` in the run directory, which is renamed when the run
+        // ends: name it from there.
+        let shown = match log.parent().and_then(|d| d.file_name()) {
+            Some(dir) => format!("{}/{}", dir.to_string_lossy(), p.node.name()),
+            None => p.node.name().to_string(),
+        };
+        let tail = last_lines(log, TAIL_LINES);
+        if tail.is_empty() {
+            s += &format!("\n  it wrote nothing to {shown}.log (in the run directory)");
+        } else {
+            s += &format!("\n  the last lines of {shown}.log (in the run directory):");
+            for line in tail {
+                s += &format!("\n  | {line}");
+            }
+        }
+    }
+    if p.plugin && step == 0 {
+        use platoon_wire::{CONTRACT_DOC, CONTRACT_VERSION, CONTRACT_VERSION_ENV};
+        s += &format!(
+            "\n  this run speaks platoon contract v{CONTRACT_VERSION} (type names \
+             platoon::v{CONTRACT_VERSION}::*, {CONTRACT_VERSION_ENV}={CONTRACT_VERSION} in the \
+             {}'s environment); a plug-in written for another version fails as it starts: \
+             see \"Contract versions\" in {CONTRACT_DOC}",
+            p.node.name()
+        );
+    }
+    s
+}
+
+/// The last `n` non-empty lines of a log file (of its last 64 KiB), each cut to 300
+/// characters; none if it cannot be read.
+fn last_lines(path: &std::path::Path, n: usize) -> Vec<String> {
+    use std::io::{Read, Seek, SeekFrom};
+    const WINDOW: u64 = 64 * 1024;
+    let Ok(mut file) = std::fs::File::open(path) else {
+        return Vec::new();
+    };
+    let len = file.metadata().map(|m| m.len()).unwrap_or(0);
+    let mut bytes = Vec::new();
+    if file
+        .seek(SeekFrom::Start(len.saturating_sub(WINDOW)))
+        .is_err()
+        || file.read_to_end(&mut bytes).is_err()
+    {
+        return Vec::new();
+    }
+    let text = String::from_utf8_lossy(&bytes);
+    let mut lines: Vec<String> = text
+        .lines()
+        .map(str::trim_end)
+        .filter(|l| !l.is_empty())
+        .rev()
+        .take(n)
+        .map(|l| match l.char_indices().nth(300) {
+            Some((i, _)) => format!("{}...", &l[..i]),
+            None => l.to_string(),
+        })
+        .collect();
+    lines.reverse();
+    lines
 }
 
 fn spawn_all(opts: &Options, children: &mut Children) -> Result<(), RunError> {
@@ -544,23 +632,54 @@ fn spawn_all(opts: &Options, children: &mut Children) -> Result<(), RunError> {
         }
         cmd.env("PLATOON_RUN_ID", &opts.run_id)
             .env("PLATOON_CONFIG", &opts.config)
+            .env(
+                platoon_wire::CONTRACT_VERSION_ENV,
+                platoon_wire::CONTRACT_VERSION.to_string(),
+            )
             .envs(opts.env.iter().map(|(k, v)| (k, v)))
             .stdin(Stdio::null());
+        let plugin = *program != Program::Builtin;
+        if let (true, Some(dir)) = (plugin, &opts.python_path) {
+            cmd.env("PYTHONPATH", python_path(dir, &opts.env));
+        }
         let spawn_err = |source| RunError::Spawn {
             node: node.name(),
             command: shown.clone(),
             source,
         };
-        if let Some(dir) = &opts.log_dir {
-            let file = std::fs::File::create(dir.join(format!("{}.log", node.name())))
-                .map_err(spawn_err)?;
+        let log = opts
+            .log_dir
+            .as_ref()
+            .map(|dir| dir.join(format!("{}.log", node.name())));
+        if let Some(log) = &log {
+            let file = std::fs::File::create(log).map_err(spawn_err)?;
             let out = file.try_clone().map_err(spawn_err)?;
             cmd.stdout(out).stderr(file);
         }
         let child = cmd.spawn().map_err(spawn_err)?;
-        children.procs.push((node, child));
+        children.procs.push(Proc {
+            node,
+            child,
+            log,
+            plugin,
+        });
     }
     Ok(())
+}
+
+/// `dir` before the `PYTHONPATH` a plug-in would otherwise get (from `env`, the run's
+/// [`Options::env`], else this process's), which it keeps.
+fn python_path(dir: &std::path::Path, env: &[(String, String)]) -> std::ffi::OsString {
+    let theirs = match env.iter().rev().find(|(k, _)| k == "PYTHONPATH") {
+        Some((_, v)) => Some(std::ffi::OsString::from(v)),
+        None => std::env::var_os("PYTHONPATH"),
+    };
+    let mut path = dir.as_os_str().to_owned();
+    if let Some(theirs) = theirs.filter(|t| !t.is_empty()) {
+        path.push(":");
+        path.push(theirs);
+    }
+    path
 }
 
 /// Restricts the child to `cpus` (before it runs anything, so its threads inherit it).
@@ -702,5 +821,62 @@ impl<'a> Recorder<'a> {
         }
         let _ = self.scenario;
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn dead(node: Node, log: Option<PathBuf>, plugin: bool) -> Proc {
+        let mut child = Process::new("true").spawn().unwrap();
+        child.wait().unwrap();
+        Proc {
+            node,
+            child,
+            log,
+            plugin,
+        }
+    }
+
+    #[test]
+    fn a_dead_plugin_is_quoted_from_its_log_and_told_the_contract() {
+        let dir = std::env::temp_dir().join(format!("platoon-died-{}", std::process::id()));
+        let logs = dir.join("logs");
+        std::fs::create_dir_all(&logs).unwrap();
+        let log = logs.join("injector.log");
+        let mut text: String = (1..=15).map(|i| format!("line {i}\n\n")).collect();
+        text += &"x".repeat(1000);
+        std::fs::write(&log, text).unwrap();
+        let d = died_detail(&dead(Node::Injector, Some(log.clone()), true), 0);
+        assert!(d.contains("logs/injector.log"), "{d}");
+        assert!(d.contains("| line 15\n") && d.contains("| line 7\n"), "{d}");
+        assert!(!d.contains("line 6\n"), "10 lines only: {d}");
+        assert!(d.contains(&format!("| {}...", "x".repeat(300))), "{d}");
+        assert!(!d.contains(&"x".repeat(301)), "{d}");
+        assert!(
+            d.contains(&format!("contract v{}", platoon_wire::CONTRACT_VERSION)),
+            "{d}"
+        );
+        // A built-in node, or a plug-in past step 0: no contract note.
+        let later = died_detail(&dead(Node::Injector, Some(log.clone()), true), 5);
+        assert!(!later.contains("contract") && later.contains("| line 15"));
+        let builtin = died_detail(&dead(Node::Plant, Some(logs.join("plant.log")), false), 0);
+        assert!(
+            builtin.contains("it wrote nothing to logs/plant.log"),
+            "{builtin}"
+        );
+        assert!(!builtin.contains("contract"), "{builtin}");
+        assert_eq!(died_detail(&dead(Node::Plant, None, false), 3), "");
+        let _ = std::fs::remove_dir_all(dir);
+    }
+
+    #[test]
+    fn plugins_get_the_bridge_first_on_their_python_path() {
+        let bridge = std::path::Path::new("/b/bridge");
+        let mut env = vec![("PYTHONPATH".to_string(), "/mine:/also".to_string())];
+        assert_eq!(python_path(bridge, &env), "/b/bridge:/mine:/also");
+        env[0].1 = String::new();
+        assert_eq!(python_path(bridge, &env), "/b/bridge");
     }
 }

@@ -31,6 +31,9 @@ pub(crate) struct Ctx {
 
 impl Ctx {
     fn new(run_id: &str, role: Node) -> Result<Self, RunError> {
+        // Before opening anything: a process of another version cannot connect, and would only
+        // say that the services are incompatible.
+        check_contract_version()?;
         let endpoint = Endpoint::new(run_id, role)?;
         let control = ControlInlet::new(&endpoint.control_service(Service::Control, false)?)?;
         let status = endpoint.control_outlet(
@@ -93,6 +96,14 @@ impl Ctx {
             .status
             .send(ControlMsg::new(ControlMsg::FAILED, self.role, step).with_reason(&e.to_string()));
     }
+}
+
+/// Whether this process speaks the contract version of the run that started it
+/// (`PLATOON_CONTRACT_VERSION`, set by `platoon run` for every process; absent: nothing to
+/// compare). The error names both versions and the document to read.
+pub fn check_contract_version() -> Result<(), RunError> {
+    let run = std::env::var(platoon_wire::CONTRACT_VERSION_ENV).ok();
+    platoon_wire::check_contract_version(run.as_deref()).map_err(RunError::ContractVersion)
 }
 
 pub(crate) fn contract(node: Node, message: String) -> RunError {

@@ -10,9 +10,46 @@
 
 use iceoryx2::prelude::ZeroCopySend;
 
+/// The version of this contract (payload layouts and their meaning). Every payload's type name
+/// carries it (`platoon::v2::LinkPacket`), so iceoryx2 refuses to connect a process built for
+/// another version, and `platoon run` tells every process it starts which version the run
+/// speaks ([`CONTRACT_VERSION_ENV`]); the SDKs compare it with their own before opening anything
+/// ([`check_contract_version`]). Raise it with any change of a payload's layout or meaning, and
+/// say what changed in `docs/injector-contract.md` ("Contract versions").
+///
+/// - v1: the first published contract.
+/// - v2: [`V2vPacket`] gained `u`, the sender's latest command (56 bytes, was 48).
+pub const CONTRACT_VERSION: u32 = 2;
+
+/// The environment variable in which `platoon run` gives every process it starts the contract
+/// version of the run ([`CONTRACT_VERSION`]).
+pub const CONTRACT_VERSION_ENV: &str = "PLATOON_CONTRACT_VERSION";
+
+/// Where a plug-in's author reads what changed between contract versions.
+pub const CONTRACT_DOC: &str = "docs/injector-contract.md";
+
+/// Whether a process built for contract [`CONTRACT_VERSION`] may join a run whose
+/// [`CONTRACT_VERSION_ENV`] is `run` (`None`: not started by `platoon run`, nothing to compare).
+/// The error names both versions and the document to read.
+pub fn check_contract_version(run: Option<&str>) -> Result<(), String> {
+    let Some(run) = run else { return Ok(()) };
+    match run.trim().parse::<u32>() {
+        Ok(v) if v == CONTRACT_VERSION => Ok(()),
+        Ok(v) => Err(format!(
+            "this plug-in speaks platoon contract v{CONTRACT_VERSION}, but the run speaks v{v} \
+             ({CONTRACT_VERSION_ENV}={v}): build it against the SDK of v{v} (see \
+             \"Contract versions\" in {CONTRACT_DOC} for what changed)"
+        )),
+        Err(_) => Err(format!(
+            "this plug-in speaks platoon contract v{CONTRACT_VERSION}, but {CONTRACT_VERSION_ENV} \
+             is {run:?}, not a version number (see {CONTRACT_DOC})"
+        )),
+    }
+}
+
 /// The user header of every step sample: which step it belongs to, and how many items it holds.
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
-#[type_name("platoon::StepHeader")]
+#[type_name("platoon::v2::StepHeader")]
 #[repr(C)]
 pub struct StepHeader {
     /// Step index k.
@@ -43,7 +80,7 @@ impl StepHeader {
 
 /// A vehicle's true state at a step (plant -> controller, injector, orchestrator).
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
-#[type_name("platoon::VehicleState")]
+#[type_name("platoon::v2::VehicleState")]
 #[repr(C)]
 pub struct VehicleState {
     /// Vehicle id (0 = leader).
@@ -72,7 +109,7 @@ impl VehicleState {
 
 /// A V2V broadcast (controller -> injector, and inside [`LinkPacket`]).
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
-#[type_name("platoon::V2vPacket")]
+#[type_name("platoon::v2::V2vPacket")]
 #[repr(C)]
 pub struct V2vPacket {
     /// Sender id (0 = leader).
@@ -93,7 +130,7 @@ pub struct V2vPacket {
 /// injector: one per out-neighbour of each broadcast) and of the rx batch (injector ->
 /// controller: what each receiver gets, plus `JAMMED` notices).
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
-#[type_name("platoon::LinkPacket")]
+#[type_name("platoon::v2::LinkPacket")]
 #[repr(C)]
 pub struct LinkPacket {
     /// The receiving vehicle (for `JAMMED`: the vehicle that sensed jamming).
@@ -113,7 +150,7 @@ impl LinkPacket {
 
 /// A follower's command and what its controller did (controller -> plant, orchestrator).
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
-#[type_name("platoon::Command")]
+#[type_name("platoon::v2::Command")]
 #[repr(C)]
 pub struct Command {
     /// Follower id (>= 1).
@@ -156,7 +193,7 @@ impl Command {
 
 /// Control and status messages (orchestrator <-> every node), one per sample.
 #[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
-#[type_name("platoon::ControlMsg")]
+#[type_name("platoon::v2::ControlMsg")]
 #[repr(C)]
 pub struct ControlMsg {
     /// One of the `ControlMsg::*` kinds.
@@ -383,9 +420,11 @@ pub struct Layout {
 }
 
 macro_rules! layout {
-    ($t:ty, $name:expr, [$($f:ident),*]) => {
+    ($t:ty, [$($f:ident),*]) => {
         Layout {
-            type_name: $name,
+            // SAFETY: the name is read, not relied on; that every language's type of this
+            // name has this layout is what `bridge/wire_layout.json` and its tests check.
+            type_name: unsafe { <$t as ZeroCopySend>::type_name() },
             size: core::mem::size_of::<$t>(),
             align: core::mem::align_of::<$t>(),
             fields: vec![$((stringify!($f), core::mem::offset_of!($t, $f))),*],
@@ -396,34 +435,19 @@ macro_rules! layout {
 /// The layout of every payload type.
 pub fn layouts() -> Vec<Layout> {
     vec![
-        layout!(
-            StepHeader,
-            "platoon::StepHeader",
-            [step, time_s, count, stamp_ns]
-        ),
-        layout!(
-            VehicleState,
-            "platoon::VehicleState",
-            [vehicle, flags, p, v, a, gap, closing]
-        ),
-        layout!(
-            V2vPacket,
-            "platoon::V2vPacket",
-            [sender, seq, step, stamp_ns, state, u]
-        ),
-        layout!(LinkPacket, "platoon::LinkPacket", [receiver, kind, packet]),
-        layout!(Command, "platoon::Command", [vehicle, flags, u, theta]),
-        layout!(
-            ControlMsg,
-            "platoon::ControlMsg",
-            [kind, node, step, counts, reason]
-        ),
+        layout!(StepHeader, [step, time_s, count, stamp_ns]),
+        layout!(VehicleState, [vehicle, flags, p, v, a, gap, closing]),
+        layout!(V2vPacket, [sender, seq, step, stamp_ns, state, u]),
+        layout!(LinkPacket, [receiver, kind, packet]),
+        layout!(Command, [vehicle, flags, u, theta]),
+        layout!(ControlMsg, [kind, node, step, counts, reason]),
     ]
 }
 
-/// [`layouts`] as the JSON of `bridge/wire_layout.json` (stable order, one type per line).
+/// [`CONTRACT_VERSION`] and [`layouts`] as the JSON of `bridge/wire_layout.json` (stable
+/// order, one type per line).
 pub fn layouts_json() -> String {
-    let mut s = String::from("{\n");
+    let mut s = format!("{{\n  \"contract_version\": {CONTRACT_VERSION},\n  \"types\": {{\n");
     let all = layouts();
     for (i, l) in all.iter().enumerate() {
         let fields: Vec<String> = l
@@ -432,7 +456,7 @@ pub fn layouts_json() -> String {
             .map(|(f, o)| format!("[\"{f}\", {o}]"))
             .collect();
         s += &format!(
-            "  \"{}\": {{\"size\": {}, \"align\": {}, \"fields\": [{}]}}{}\n",
+            "    \"{}\": {{\"size\": {}, \"align\": {}, \"fields\": [{}]}}{}\n",
             l.type_name,
             l.size,
             l.align,
@@ -440,7 +464,7 @@ pub fn layouts_json() -> String {
             if i + 1 < all.len() { "," } else { "" }
         );
     }
-    s + "}\n"
+    s + "  }\n}\n"
 }
 
 #[cfg(test)]
@@ -459,18 +483,65 @@ mod tests {
     }
 
     #[test]
-    fn type_names_are_the_declared_ones() {
-        use iceoryx2::prelude::ZeroCopySend;
-        for (l, name) in layouts().iter().zip([
+    fn every_type_name_carries_the_contract_version() {
+        let names = [
             unsafe { StepHeader::type_name() },
             unsafe { VehicleState::type_name() },
             unsafe { V2vPacket::type_name() },
             unsafe { LinkPacket::type_name() },
             unsafe { Command::type_name() },
             unsafe { ControlMsg::type_name() },
-        ]) {
-            assert_eq!(l.type_name, name);
+        ];
+        let prefix = format!("platoon::v{CONTRACT_VERSION}::");
+        for name in names {
+            let short = name.strip_prefix(&prefix).unwrap_or_else(|| {
+                panic!("{name} does not carry contract v{CONTRACT_VERSION}: name it {prefix}...")
+            });
+            assert!(!short.contains(':'), "{name}");
         }
+        let listed: Vec<_> = layouts().iter().map(|l| l.type_name).collect();
+        assert_eq!(listed, names, "layouts() lists every payload type");
+    }
+
+    #[test]
+    fn a_plugin_of_another_contract_version_is_told_both_versions() {
+        assert_eq!(check_contract_version(None), Ok(()));
+        assert_eq!(
+            check_contract_version(Some(&CONTRACT_VERSION.to_string())),
+            Ok(())
+        );
+        let other = CONTRACT_VERSION + 1;
+        let e = check_contract_version(Some(&other.to_string())).unwrap_err();
+        for needle in [
+            format!("speaks platoon contract v{CONTRACT_VERSION}"),
+            format!("the run speaks v{other}"),
+            CONTRACT_DOC.to_string(),
+        ] {
+            assert!(e.contains(&needle), "{needle:?} not in {e}");
+        }
+        let e = check_contract_version(Some("two")).unwrap_err();
+        assert!(
+            e.contains("\"two\"") && e.contains(CONTRACT_VERSION_ENV),
+            "{e}"
+        );
+    }
+
+    /// The payload table of the contract document names every type as it is on the wire, with
+    /// its size.
+    #[test]
+    fn the_contract_doc_lists_every_type_with_its_size() {
+        let doc = include_str!("../../../docs/injector-contract.md");
+        for l in layouts() {
+            let row = format!("| `{}` | {} |", l.type_name, l.size);
+            assert!(
+                doc.contains(&row),
+                "docs/injector-contract.md has no payload row starting {row:?}"
+            );
+        }
+        assert!(
+            doc.contains(&format!("contract v{CONTRACT_VERSION}")),
+            "docs/injector-contract.md does not say which contract version it describes"
+        );
     }
 
     #[test]

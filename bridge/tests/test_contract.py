@@ -1,0 +1,87 @@
+"""The contract version and importing the SDK: a plug-in started for a run of another contract
+version exits at once naming both versions and the document to read, and the SDK imports from a
+user's script outside bridge/ the ways docs/injector-contract.md says."""
+
+import os
+import subprocess
+import sys
+
+import pytest
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+BRIDGE = os.path.dirname(HERE)
+sys.path.insert(0, BRIDGE)
+
+import platoon_injector as pi  # noqa: E402
+import platoon_wire as w  # noqa: E402
+
+
+def test_the_same_version_or_none_passes(monkeypatch):
+    monkeypatch.delenv(w.CONTRACT_VERSION_ENV, raising=False)
+    w.check_contract_version()
+    w.check_contract_version(str(w.CONTRACT_VERSION))
+
+
+def test_a_plugin_of_another_version_is_told_both_versions(monkeypatch):
+    other = w.CONTRACT_VERSION + 1
+    monkeypatch.setenv(w.CONTRACT_VERSION_ENV, str(other))
+    with pytest.raises(SystemExit) as e:
+        w.check_contract_version()
+    message = str(e.value)
+    assert f"speaks platoon contract v{w.CONTRACT_VERSION}" in message
+    assert f"the run speaks v{other}" in message
+    assert w.CONTRACT_DOC in message
+    with pytest.raises(SystemExit) as e:
+        w.check_contract_version("two")
+    assert "'two'" in str(e.value)
+
+
+def test_the_injector_sdk_checks_before_reading_the_run(monkeypatch):
+    """An old SDK meets a new run: the version is named, not a missing variable or a key error
+    of a config format it does not know."""
+    monkeypatch.setenv(w.CONTRACT_VERSION_ENV, str(w.CONTRACT_VERSION + 1))
+    monkeypatch.delenv("PLATOON_CONFIG", raising=False)
+    with pytest.raises(SystemExit) as e:
+        pi.run(lambda run: pi.Injector())
+    assert "contract" in str(e.value)
+
+
+def test_type_names_follow_the_version(monkeypatch):
+    monkeypatch.setattr(w, "CONTRACT_VERSION", 1)
+    assert w.LinkPacket.type_name() == "platoon::v1::LinkPacket"
+
+
+SCRIPT = """
+import platoon_injector as pi
+import platoon_wire as w
+print(w.CONTRACT_VERSION, pi.jammed(3).kind)
+"""
+
+
+def run_elsewhere(tmp_path, **env):
+    script = tmp_path / "my_injector.py"
+    script.write_text(SCRIPT)
+    clean = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    return subprocess.run(
+        [sys.executable, str(script)],
+        cwd=tmp_path,
+        env={**clean, **env},
+        capture_output=True,
+        text=True,
+    )
+
+
+def test_the_sdk_imports_from_a_script_anywhere_with_pythonpath(tmp_path):
+    o = run_elsewhere(tmp_path, PYTHONPATH=BRIDGE)
+    assert o.returncode == 0, o.stderr
+    assert o.stdout.split() == [str(w.CONTRACT_VERSION), "1"]
+
+
+@pytest.mark.skipif(
+    os.path.realpath(sys.prefix) != os.path.realpath(os.path.join(BRIDGE, ".venv")),
+    reason="only the bridge's venv (bridge/setup-venv.sh) has bridge/ on its path",
+)
+def test_the_bridge_venv_imports_the_sdk_from_a_script_anywhere(tmp_path):
+    o = run_elsewhere(tmp_path)
+    assert o.returncode == 0, f"{o.stderr}\n(run bridge/setup-venv.sh: it adds platoon-bridge.pth)"
+    assert o.stdout.split() == [str(w.CONTRACT_VERSION), "1"]
