@@ -1038,6 +1038,35 @@ fn a_plugin_of_another_contract_version_is_told_both_versions() {
     assert!(stderr.contains("docs/injector-contract.md"), "{stderr}");
 }
 
+/// Issue 22: a run without a DoS printed "-0.00 s jammed" (and summary.json
+/// `"attacked_time_s": -0.0`), and one with an injector "the config's 0 attacks were not
+/// applied".
+#[test]
+fn a_run_without_dos_says_none_and_never_minus_zero() {
+    let tmp = tempfile::tempdir().unwrap();
+    let config = repo().join("configs/table1.toml");
+    let run = |out: &str, extra: &[&str]| {
+        let mut args = vec!["run", config.to_str().unwrap(), "--no-plots", "--out", out];
+        args.extend_from_slice(extra);
+        let o = platoon(&args, tmp.path());
+        ok(&o);
+        let text = std::fs::read_to_string(tmp.path().join(out).join("summary.json")).unwrap();
+        (String::from_utf8_lossy(&o.stdout).into_owned(), text)
+    };
+    let (stdout, summary) = run("builtin", &[]);
+    assert!(stdout.contains("  DoS: none\n"), "{stdout}");
+    assert!(!stdout.contains("-0.00"), "{stdout}");
+    assert!(!summary.contains("-0.0"), "{summary}");
+    let parsed: serde_json::Value = serde_json::from_str(&summary).unwrap();
+    let attacked = parsed["attack"]["attacked_time_s"].as_f64().unwrap();
+    assert!(attacked == 0.0 && attacked.is_sign_positive());
+
+    let (stdout, summary) = run("injector", &["--injector", &drop_sender("")]);
+    assert!(!stdout.contains("0 attacks"), "{stdout}");
+    assert!(stdout.contains("DoS: none in the config"), "{stdout}");
+    assert!(!summary.contains("-0.0"), "{summary}");
+}
+
 #[test]
 fn an_injector_command_that_does_not_exist_is_named() {
     let tmp = tempfile::tempdir().unwrap();

@@ -558,6 +558,22 @@ fn peak_rss_mib(nodes: &[(&str, u64)]) -> serde_json::Value {
     m.into()
 }
 
+/// The warning about samples that repeated a step, if any did.
+fn duplicates_warning(d: &platoon_runtime::DuplicateSamples) -> Option<String> {
+    let total = d.total();
+    (total > 0).then(|| {
+        let (samples, they) = if total == 1 {
+            ("sample", "it was")
+        } else {
+            ("samples", "they were")
+        };
+        format!(
+            "warning: {total} {samples} repeated a step already published (states {}, tx {}, rx {}, commands {}); {they} dropped, but duplicates slow the run (timing.json counts them)",
+            d.states, d.tx, d.rx, d.commands
+        )
+    })
+}
+
 /// Runs the scenario across processes over iceoryx2. A failed run still returns what it
 /// recorded, with the summary marked incomplete, and the error.
 fn cosimulate(
@@ -650,15 +666,8 @@ fn cosimulate(
             timing["peak_rss_mib"] = peak_rss_mib(&outcome.peak_rss_kib);
             let json = serde_json::to_string_pretty(&timing)? + "\n";
             dir.write("timing.json", json.as_bytes())?;
-            if outcome.duplicates.total() > 0 {
-                progress.message(&format!(
-                    "warning: {} samples repeated a step already published (states {}, tx {}, rx {}, commands {}); they were dropped, but they slow the run (timing.json counts them)",
-                    outcome.duplicates.total(),
-                    outcome.duplicates.states,
-                    outcome.duplicates.tx,
-                    outcome.duplicates.rx,
-                    outcome.duplicates.commands
-                ));
+            if let Some(warning) = duplicates_warning(&outcome.duplicates) {
+                progress.message(&warning);
             }
             Ok((rows, summary, None))
         }
@@ -792,4 +801,32 @@ pub fn write_outputs(
     }
     let json = serde_json::to_string_pretty(&json)? + "\n";
     dir.write("summary.json", json.as_bytes())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_duplicates_warning_counts_in_words() {
+        let mut d = platoon_runtime::DuplicateSamples::default();
+        assert_eq!(duplicates_warning(&d), None);
+        d.rx = 1;
+        let one = duplicates_warning(&d).unwrap();
+        assert!(
+            one.starts_with("warning: 1 sample repeated a step"),
+            "{one}"
+        );
+        assert!(
+            one.contains("rx 1") && one.contains("it was dropped"),
+            "{one}"
+        );
+        d.tx = 2;
+        let three = duplicates_warning(&d).unwrap();
+        assert!(
+            three.starts_with("warning: 3 samples repeated a step"),
+            "{three}"
+        );
+        assert!(three.contains("they were dropped"), "{three}");
+    }
 }

@@ -156,10 +156,11 @@ impl DosSchedule {
 
     /// `|A(t1, t2)|`: total attack time within `[t1, t2)`.
     pub fn active_time(&self, t1: f64, t2: f64) -> f64 {
+        // Folded from +0.0: `Sum for f64` starts from -0.0, so no attack would be "-0 s".
         self.intervals
             .iter()
             .map(|iv| (iv.end.min(t2) - iv.start.max(t1)).max(0.0))
-            .sum()
+            .fold(0.0, |total, d| total + d)
     }
 
     /// `N(t1, t2)`: number of off-to-on switches (attack starts) within `[t1, t2)`.
@@ -174,6 +175,14 @@ impl DosSchedule {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn no_attack_is_no_time_not_minus_zero() {
+        let t = DosSchedule::none().active_time(0.0, 10.0);
+        assert!(t == 0.0 && t.is_sign_positive(), "{t:?}");
+        let outside = DosSchedule::from_intervals(&[(20.0, 1.0)]).unwrap();
+        assert!(outside.active_time(0.0, 10.0).is_sign_positive());
+    }
 
     #[test]
     fn intervals_are_sorted_and_merged() {

@@ -190,16 +190,28 @@ fn print_summary(s: &Summary, compute_s: f64) {
         Some(_) => "VIOLATES Assumption 2",
         None => "no Assumption-2 bounds given",
     };
-    if a.applied {
-        println!(
-            "  DoS: {} attacks, {:.2} s jammed, {verdict}",
-            a.intervals, a.attacked_time_s
-        );
-    } else {
-        println!(
-            "  DoS: the config's {} attacks were not applied (--injector-mode replace); what the injector did is in wire.csv",
-            a.intervals
-        );
+    let attacks = |n: usize| {
+        if n == 1 {
+            "1 attack".to_string()
+        } else {
+            format!("{n} attacks")
+        }
+    };
+    match (a.applied, a.intervals) {
+        (true, 0) => println!("  DoS: none"),
+        (true, n) => println!(
+            "  DoS: {}, {:.2} s jammed, {verdict}",
+            attacks(n),
+            a.attacked_time_s
+        ),
+        (false, 0) => println!(
+            "  DoS: none in the config; what the injector did is in wire.csv"
+        ),
+        (false, n) => println!(
+            "  DoS: the config's {} {} not applied (--injector-mode replace); what the injector did is in wire.csv",
+            attacks(n),
+            if n == 1 { "was" } else { "were" }
+        ),
     }
     if let Some(f) = &s.fleet {
         println!(
