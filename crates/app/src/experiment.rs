@@ -1,6 +1,7 @@
 //! The paper's Section IV experiments, and ours, as library calls: Table I and Fig. 8
 //! ([`table1`]), Fig. 9 ([`robust`]), Fig. 10 ([`topologies`]), graceful degradation
-//! ([`degradation`]) and long platoons ([`scaling`]). Each runs on a [`Base`] scenario and
+//! ([`degradation`]), long platoons ([`scaling`]) and controllers side by side under attack
+//! ([`controllers`]). Each runs on a [`Base`] scenario and
 //! returns its results in memory; given a run directory it also writes the files of
 //! `platoon experiment` there (the caller creates and commits it). Progress goes to a
 //! [`Progress`].
@@ -16,6 +17,11 @@ use platoon_synthesis::Design;
 use platoon_topology::Preset;
 use std::fmt::Write as _;
 use std::path::Path;
+
+mod controllers;
+pub use controllers::{
+    controllers, Controllers, ControllersOptions, ControllersRow, ATTACKS as CONTROLLER_ATTACKS,
+};
 
 /// The scenario an experiment starts from: its config, what it runs, and how errors name it.
 #[derive(Debug, Clone)]

@@ -2,7 +2,8 @@
 //! [`platoon_app::experiment`]'s.
 use anyhow::Result;
 use platoon_app::experiment::{
-    self, Base, DegradationOptions, RobustOptions, ScalingOptions, TopologiesOptions,
+    self, Base, ControllersOptions, DegradationOptions, RobustOptions, ScalingOptions,
+    TopologiesOptions,
 };
 use platoon_config::Embedded;
 use platoon_output::rundir::RunDir;
@@ -46,6 +47,46 @@ pub enum Experiment {
     /// scaling.png (one panel per topology, log-log), designs.csv and the designs'
     /// certificates; shows a progress bar.
     Scaling(ScalingArgs),
+    /// Controllers side by side under the same attacks: the paper's law and the field's (acc,
+    /// path_cacc, ploeg, consensus, flatbed, as Plexe computes them) under no attack, a
+    /// periodic DoS, a random admissible DoS, burst loss, a 0.2 s delay, a false-data bias and
+    /// a replay, on predecessor following (pf) and predecessor-leader following (plf), in
+    /// process, each law with its own beaconing (the paper's its event trigger, the others
+    /// periodic beacons) and its own distances, starting in formation. A law that needs a
+    /// neighbour the topology does not give is reported as not run. Writes controllers.csv
+    /// (one row per law, topology and attack: safety class, smallest gap, largest gap and
+    /// spacing errors, messages, time in fallback), controllers.md and one smallest-gap plot
+    /// per topology (controllers-<topology>.png).
+    Controllers(ControllersArgs),
+}
+
+/// Arguments of `experiment controllers`.
+#[derive(Debug, clap::Args)]
+pub struct ControllersArgs {
+    /// Base scenario (TOML) [default: the embedded configs/paper.toml]: its leader profile,
+    /// tau, vehicle length, fallback, radar and guard are kept; law, topology, spacing,
+    /// beaconing, initial states and attacks are varied.
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// The laws: paper, acc, path_cacc, ploeg, consensus, flatbed.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "paper,acc,path_cacc,ploeg,consensus,flatbed"
+    )]
+    pub laws: Vec<String>,
+    /// The topologies: pf, plf, bpf, tpsf.
+    #[arg(long, value_delimiter = ',', default_value = "pf,plf")]
+    pub topologies: Vec<String>,
+    /// The field's laws' beacon period (s), a whole number of steps (0.1: 10 Hz, CAM-like).
+    #[arg(long, default_value_t = 0.1)]
+    pub beacon_period: f64,
+    /// Output directory [default: runs/controllers].
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Replace the output directory if it exists.
+    #[arg(long)]
+    pub force: bool,
 }
 
 /// Arguments of `experiment scaling`.
@@ -166,6 +207,7 @@ pub fn run(e: Experiment) -> Result<()> {
         Experiment::Topologies(args) => topologies(args),
         Experiment::Degradation(args) => degradation(args),
         Experiment::Scaling(args) => scaling(args),
+        Experiment::Controllers(args) => controllers(args),
     }
 }
 
@@ -235,6 +277,41 @@ fn degradation(args: DegradationArgs) -> Result<()> {
     let bar = crate::progress::Bar::counting("runs");
     let d = experiment::degradation(&base, &opts, Some(&dir), &bar)?;
     commit(dir, &d.markdown)
+}
+
+fn controllers(args: ControllersArgs) -> Result<()> {
+    let opts = ControllersOptions {
+        laws: args
+            .laws
+            .iter()
+            .map(|l| {
+                platoon_config::LawName::from_name(l).ok_or_else(|| {
+                    anyhow::anyhow!(
+                        "--laws: unknown law {l:?}; use paper, acc, path_cacc, ploeg, \
+                         consensus or flatbed"
+                    )
+                })
+            })
+            .collect::<Result<_>>()?,
+        topologies: args
+            .topologies
+            .iter()
+            .map(|p| {
+                platoon_topology::Preset::from_name(p).ok_or_else(|| {
+                    anyhow::anyhow!(
+                        "--topologies: unknown topology {p:?}; use pf, plf, tpsf or bpf"
+                    )
+                })
+            })
+            .collect::<Result<_>>()?,
+        beacon_period_s: args.beacon_period,
+    };
+    opts.validate()?;
+    let base = Base::load(args.config.as_deref(), Embedded::Paper)?;
+    let dir = RunDir::create(&out_dir(args.out, "runs/controllers"), args.force)?;
+    let bar = crate::progress::Bar::counting("runs");
+    let c = experiment::controllers(&base, &opts, Some(&dir), &bar)?;
+    commit(dir, &c.markdown)
 }
 
 fn scaling(args: ScalingArgs) -> Result<()> {

@@ -782,6 +782,21 @@ pub enum LawName {
 }
 
 impl LawName {
+    /// Every law, the paper's first.
+    pub const ALL: [LawName; 6] = [
+        Self::Paper,
+        Self::Acc,
+        Self::PathCacc,
+        Self::Ploeg,
+        Self::Consensus,
+        Self::Flatbed,
+    ];
+
+    /// The law of a config name (`ploeg`).
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|l| l.name() == name)
+    }
+
     /// Its config name.
     pub fn name(self) -> &'static str {
         match self {

@@ -199,6 +199,10 @@ impl Law for Acc {
         let (gap, v_pred) = radar(view);
         plexe_acc(&self.0, view.own[1], gap, v_pred)
     }
+
+    fn uses_v2v(&self) -> bool {
+        false
+    }
 }
 
 #[derive(Debug, Clone)]

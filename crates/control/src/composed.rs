@@ -6,7 +6,8 @@
 //! [`Law`] and hand it to [`ComposedController::new`]. Each follower uses, per neighbour, the
 //! last packet it accepted, as it is: no prediction between beacons (what Plexe does).
 //!
-//! While a follower senses its channel jammed it is affected: it applies its fallback
+//! While a follower whose law reads V2V ([`Law::uses_v2v`]) senses its channel jammed it is
+//! affected: it applies its fallback
 //! (`zero`, `hold`, `acc` on its radar, or `predict`: the law on what it last heard), stays in
 //! it `dwell` steps after the last jammed one, then blends from the fallback's command to the
 //! law's over `blend` steps (the command's mismatch at the hand-over shrinks linearly to 0).
@@ -67,6 +68,12 @@ impl View<'_> {
 pub trait Law: std::fmt::Debug + Send + dyn_clone::DynClone {
     /// The command `u_i[k]` (m/s^2).
     fn command(&mut self, view: &View<'_>) -> f64;
+
+    /// Whether it reads V2V packets at all: a law on the radar alone (an ACC) is never
+    /// affected by a jammed channel, so it never falls back.
+    fn uses_v2v(&self) -> bool {
+        true
+    }
 }
 
 dyn_clone::clone_trait_object!(Law);
@@ -290,7 +297,7 @@ impl Controller for ComposedController {
                     )
                 }
             };
-            let affected = jammed[f.id.index()];
+            let affected = jammed[f.id.index()] && law.uses_v2v();
             f.phase = match (f.phase, affected) {
                 (Phase::Fallback { since, .. }, true) => Phase::Fallback { since, calm: 0 },
                 (_, true) => {
