@@ -48,6 +48,7 @@ fn a_local_pool_gives_each_cell_the_pure_cores_summary_and_metrics() {
     let pool = LocalPool {
         jobs: 2,
         program: None,
+        controller: None,
     };
     let done = campaign::run(&c, &out, &no_plots(), &pool, &Stop::default(), &()).unwrap();
     assert!(done.committed && !done.resumed);
@@ -145,6 +146,7 @@ fn any_executor_gives_the_same_bytes_and_a_stopped_campaign_resumes() {
     let pool = LocalPool {
         jobs: 1,
         program: None,
+        controller: None,
     };
     campaign::run(&c, &pooled, &no_plots(), &pool, &Stop::default(), &()).unwrap();
 
@@ -245,4 +247,134 @@ fn a_campaign_evaluated_in_memory_gives_what_the_directory_run_records() {
     let stopped = Stop::new(Arc::new(AtomicBool::new(true)), || Some("test".into()));
     let cells = campaign::evaluate(&c, None, &stopped, &());
     assert!(cells.iter().all(|r| r.status == CellStatus::NotRun));
+}
+
+/// `control.law` is a campaign axis like any key: each cell runs the law it names, and says so.
+#[test]
+fn the_law_is_a_campaign_axis() {
+    // The paper's scenario with periodic beacons at 10 Hz on plf, 5 m apart.
+    let paper = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs/paper.toml"),
+    )
+    .unwrap();
+    let mut base = String::new();
+    for line in paper.lines() {
+        let line = match line.split_whitespace().next() {
+            Some("phi" | "rho" | "eta" | "theta0" | "check_period_s") => continue,
+            Some("rule") => "rule = \"periodic\"\nperiod_s = 0.1",
+            Some("preset") => "preset = \"plf\"",
+            Some("spacing_m") => "spacing_m = 5.0",
+            Some("duration_s") => "duration_s = 10.0",
+            _ => line,
+        };
+        base.push_str(line);
+        base.push('\n');
+    }
+    let tmp = tempfile::tempdir().unwrap();
+    std::fs::write(tmp.path().join("base.toml"), base).unwrap();
+    let text = r#"
+name = "laws"
+base = "base.toml"
+metrics = ["max_spacing_error_m", "triggers_total", "safety_class"]
+[[axes]]
+key = "control.law"
+values = ["paper", "path_cacc", "flatbed"]
+"#;
+    let c = Campaign::parse(text, &tmp.path().join("laws.toml"), None).unwrap();
+    let cells = campaign::evaluate(&c, None, &Stop::default(), &());
+    let laws: Vec<String> = cells
+        .iter()
+        .map(|cell| {
+            cell.summary_json().unwrap()["law"]
+                .as_str()
+                .unwrap()
+                .to_string()
+        })
+        .collect();
+    assert_eq!(laws, ["paper", "path_cacc", "flatbed"]);
+    let errors: Vec<f64> = cells
+        .iter()
+        .map(|cell| {
+            cell.summary_json().unwrap()["vehicles"][0]["spacing_error_m"]["mean_abs"]
+                .as_f64()
+                .unwrap()
+        })
+        .collect();
+    assert!(
+        errors[0] != errors[1] && errors[1] != errors[2],
+        "{errors:?}"
+    );
+}
+
+/// A law of the caller's, in Rust, runs a campaign's in-process cells with no process per cell:
+/// each cell's summary is what the pure core gives with that controller.
+#[test]
+fn a_callers_controller_runs_in_process_cells() {
+    use platoon_control::{ComposedController, Composition, Law, View};
+    use platoon_sim::ControllerFactory;
+
+    /// A PD law on the radar: 8 m of bumper gap.
+    #[derive(Debug, Clone)]
+    struct Radar;
+    impl Law for Radar {
+        fn command(&mut self, view: &View<'_>) -> f64 {
+            view.radar
+                .map_or(0.0, |r| 0.5 * (r.gap - 8.0) - 1.2 * r.closing)
+        }
+    }
+    let factory = ControllerFactory::new(|s| {
+        let parts = Composition {
+            dt: s.control.dt,
+            beacon_steps: 10,
+            leader_broadcast_steps: 1,
+            spacing: s.control.spacing,
+            fallback: s.control.fallback.clone(),
+        };
+        Ok(Box::new(ComposedController::new(
+            Box::new(Radar),
+            parts,
+            &s.topology,
+            &s.initial,
+        )?))
+    });
+    let tmp = tempfile::tempdir().unwrap();
+    let c = two(tmp.path());
+    let pool = LocalPool {
+        jobs: 2,
+        program: None,
+        controller: Some(factory.clone()),
+    };
+    let done = campaign::run(
+        &c,
+        &tmp.path().join("mine"),
+        &no_plots(),
+        &pool,
+        &Stop::default(),
+        &(),
+    )
+    .unwrap();
+    let builtin = campaign::evaluate(&c, None, &Stop::default(), &());
+    for ((cell, ours), theirs) in done.cells.iter().zip(&c.cells).zip(&builtin) {
+        let config = ours.config.as_ref().unwrap();
+        let (_, scenario) = platoon_config::parse(config, Path::new("cell.toml")).unwrap();
+        let direct = platoon_sim::run_until_with(&scenario, &factory, |_| {
+            std::ops::ControlFlow::Continue(())
+        })
+        .unwrap();
+        let got = cell.summary_json().unwrap();
+        assert_eq!(
+            got["triggers_total"],
+            serde_json::json!(direct.triggers_total)
+        );
+        assert_eq!(
+            got["vehicles"][1]["gap_error_m"]["max_abs"],
+            serde_json::json!(direct.vehicles[1].gap_error_m.max_abs)
+        );
+        // Beacons every 10 steps: 51 per follower in 5 s, not the paper's trigger's count.
+        assert_eq!(direct.triggers_total, 4 * 51);
+        assert_ne!(
+            got["triggers_total"],
+            theirs.summary_json().unwrap()["triggers_total"]
+        );
+    }
 }

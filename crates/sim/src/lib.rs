@@ -229,6 +229,57 @@ pub fn step_rows(
     }
 }
 
+/// What makes a platoon's controller from its scenario (its replica, for a fleet), in process:
+/// [`ControllerFactory::builtin`] builds the one the config names (`platoon_control::build`);
+/// [`ControllerFactory::new`] takes the caller's, e.g. a `ComposedController` with a law of
+/// its own, for runs and campaigns without a process per cell.
+#[derive(Clone)]
+pub struct ControllerFactory(std::sync::Arc<MakeController>);
+
+/// The function behind a [`ControllerFactory`].
+pub type MakeController =
+    dyn Fn(&Scenario) -> Result<Box<dyn Controller>, platoon_control::ParamsError> + Send + Sync;
+
+impl ControllerFactory {
+    /// The caller's controllers.
+    pub fn new(
+        make: impl Fn(&Scenario) -> Result<Box<dyn Controller>, platoon_control::ParamsError>
+            + Send
+            + Sync
+            + 'static,
+    ) -> Self {
+        Self(std::sync::Arc::new(make))
+    }
+
+    /// The controller each scenario's config names.
+    pub fn builtin() -> Self {
+        Self::new(|s| platoon_control::build(&s.control, &s.topology, &s.initial))
+    }
+
+    /// The controller of `scenario`.
+    pub fn make(
+        &self,
+        scenario: &Scenario,
+    ) -> Result<Box<dyn Controller>, platoon_control::ParamsError> {
+        (self.0)(scenario)
+    }
+}
+
+impl std::fmt::Debug for ControllerFactory {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("ControllerFactory")
+    }
+}
+
+/// The same factory (the same function object), not merely an equal one.
+impl PartialEq for ControllerFactory {
+    fn eq(&self, other: &Self) -> bool {
+        std::sync::Arc::ptr_eq(&self.0, &other.0)
+    }
+}
+
+impl Eq for ControllerFactory {}
+
 /// A scenario being run step by step.
 #[derive(Debug, Clone)]
 pub struct Simulation {
@@ -247,11 +298,17 @@ pub struct Simulation {
 }
 
 impl Simulation {
-    /// Prepares a run of `scenario` from its initial states.
+    /// Prepares a run of `scenario` from its initial states, with the controller its config
+    /// names.
     pub fn new(scenario: Scenario) -> Result<Self, ScenarioError> {
+        Self::with(scenario, &ControllerFactory::builtin())
+    }
+
+    /// Prepares a run of `scenario` with the controller `factory` makes for it (a law or a
+    /// whole controller of the caller's, in process).
+    pub fn with(scenario: Scenario, factory: &ControllerFactory) -> Result<Self, ScenarioError> {
         scenario.validate()?;
-        let controller =
-            platoon_control::build(&scenario.control, &scenario.topology, &scenario.initial)?;
+        let controller = factory.make(&scenario)?;
         let n = scenario.topology.followers();
         Ok(Self {
             channel: Channel::new(scenario.channel_spec(), n + 1),
@@ -363,11 +420,17 @@ pub struct FleetSimulation {
 impl FleetSimulation {
     /// Prepares every platoon of `scenario`'s fleet.
     pub fn new(scenario: &Scenario) -> Result<Self, ScenarioError> {
+        Self::with(scenario, &ControllerFactory::builtin())
+    }
+
+    /// Prepares every platoon of `scenario`'s fleet with the controllers `factory` makes (one
+    /// per platoon, from its replica).
+    pub fn with(scenario: &Scenario, factory: &ControllerFactory) -> Result<Self, ScenarioError> {
         scenario.validate()?;
         let sims = scenario
             .replicas()
             .into_iter()
-            .map(Simulation::new)
+            .map(|r| Simulation::with(r, factory))
             .collect::<Result<Vec<_>, _>>()?;
         Ok(Self {
             rows: Vec::with_capacity(scenario.vehicles()),
@@ -446,9 +509,18 @@ pub fn run(scenario: Scenario, mut each: impl FnMut(&[StepRow])) -> Result<Summa
 /// until the last step or until `each` breaks (the summary then says `complete: false`).
 pub fn run_until(
     scenario: &Scenario,
+    each: impl FnMut(&FleetSimulation) -> ControlFlow<()>,
+) -> Result<Summary, ScenarioError> {
+    run_until_with(scenario, &ControllerFactory::builtin(), each)
+}
+
+/// [`run_until`] with the controllers `factory` makes.
+pub fn run_until_with(
+    scenario: &Scenario,
+    factory: &ControllerFactory,
     mut each: impl FnMut(&FleetSimulation) -> ControlFlow<()>,
 ) -> Result<Summary, ScenarioError> {
-    let mut sim = FleetSimulation::new(scenario)?;
+    let mut sim = FleetSimulation::with(scenario, factory)?;
     let mut metrics = FleetMetrics::new(scenario);
     while !sim.is_done() {
         sim.step();

@@ -6,6 +6,7 @@ use crate::run::Stop;
 use anyhow::{bail, Context, Result};
 use platoon_campaign::Transport;
 use platoon_output::rundir::RunDir;
+use platoon_sim::ControllerFactory;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 use std::io::{BufRead, BufReader, Write};
@@ -74,8 +75,18 @@ fn platoon_program(program: Option<&Path>) -> Result<PathBuf> {
 /// (`transport = "iceoryx2"`) as a `platoon run` child of `program` (None: this executable,
 /// the `platoon` binary). A cell that fails is a reply with an error.
 pub fn execute(job: &CellJob, program: Option<&Path>) -> CellReply {
+    execute_with(job, program, None)
+}
+
+/// [`execute`], in-process cells with the controllers `controller` makes (None: the ones
+/// their configs name).
+pub fn execute_with(
+    job: &CellJob,
+    program: Option<&Path>,
+    controller: Option<&ControllerFactory>,
+) -> CellReply {
     let result = match job.transport {
-        Transport::Inproc => in_process(job),
+        Transport::Inproc => in_process(job, controller),
         Transport::Iceoryx2 => co_simulation(job, program),
     };
     match result {
@@ -92,11 +103,24 @@ pub fn execute(job: &CellJob, program: Option<&Path>) -> CellReply {
     }
 }
 
-fn in_process(job: &CellJob) -> Result<Value> {
+fn in_process(job: &CellJob, controller: Option<&ControllerFactory>) -> Result<Value> {
     let label = format!("cell {}", job.index);
     let (config, scenario) = platoon_config::parse(&job.config, Path::new(&label))?;
-    let summary = match &job.keep {
-        Some(out) => {
+    let summary = match (&job.keep, controller) {
+        (_, Some(factory)) => {
+            if job.keep.is_some() {
+                anyhow::bail!(
+                    "keeping the runs of cells is not supported with a controller of the \
+                     caller's: leave --keep-runs out"
+                );
+            }
+            platoon_sim::run_until_with(
+                &scenario,
+                factory,
+                |_| std::ops::ControlFlow::Continue(()),
+            )?
+        }
+        (Some(out), None) => {
             let dir = RunDir::replace(out)?;
             dir.write("config.toml", job.config.as_bytes())?;
             let (rows, summary) =
@@ -106,7 +130,7 @@ fn in_process(job: &CellJob) -> Result<Value> {
             dir.commit()?;
             summary
         }
-        None => platoon_sim::run(scenario, |_| {})?,
+        (None, None) => platoon_sim::run(scenario, |_| {})?,
     };
     let mut json = serde_json::to_value(summary)?;
     json["injector"] = crate::run::builtin_injector_json();
@@ -167,6 +191,9 @@ pub struct LocalPool {
     pub jobs: usize,
     /// The `platoon` binary co-simulated cells run (None: this executable).
     pub program: Option<PathBuf>,
+    /// What makes in-process cells' controllers (None: the ones their configs name): a
+    /// controller of the caller's, in Rust, with no process per cell.
+    pub controller: Option<ControllerFactory>,
 }
 
 impl LocalPool {
@@ -177,6 +204,7 @@ impl LocalPool {
                 .or_else(|| std::thread::available_parallelism().ok())
                 .map_or(1, |n| n.get()),
             program: None,
+            controller: None,
         }
     }
 }
@@ -214,7 +242,10 @@ impl Executor for LocalPool {
                     }
                     let i = next.fetch_add(1, Ordering::SeqCst);
                     let Some(job) = jobs.get(i) else { break };
-                    if tx.send(execute(job, program)).is_err() {
+                    if tx
+                        .send(execute_with(job, program, self.controller.as_ref()))
+                        .is_err()
+                    {
                         break;
                     }
                 });
