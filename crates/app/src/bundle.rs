@@ -27,6 +27,7 @@ pub const FILES: &[(&str, &[u8])] = files!(
     "bridge/platoon_injector.py",
     "bridge/platoon_plant.py",
     "bridge/platoon_wire.py",
+    "bridge/plexe_reference.py",
     "bridge/requirements-tools.txt",
     "bridge/requirements.txt",
     "bridge/setup-venv.sh",
