@@ -325,7 +325,7 @@ fn a_callers_controller_runs_in_process_cells() {
     let factory = ControllerFactory::new(|s| {
         let parts = Composition {
             dt: s.control.dt,
-            beacon_steps: 10,
+            beaconing: Box::new(platoon_control::Periodic { steps: 10 }),
             leader_broadcast_steps: 1,
             spacing: s.control.spacing,
             fallback: s.control.fallback.clone(),

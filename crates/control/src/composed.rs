@@ -1,5 +1,6 @@
 //! A controller composed of parts a user can swap one at a time: a [`Law`] (what command from
-//! what a follower knows), periodic beaconing (who broadcasts when), the shared packet checks
+//! what a follower knows), a [`Beaconing`] (who broadcasts when: [`Periodic`] beacons, or a
+//! triggering scheme of the user's), the shared packet checks
 //! ([`crate::checks`]) and the fallback of [`crate::fallback`] while a follower is affected.
 //!
 //! The field's CACC laws ([`crate::laws`]) run on it; so does any law a user writes: implement
@@ -78,13 +79,36 @@ pub trait Law: std::fmt::Debug + Send + dyn_clone::DynClone {
 
 dyn_clone::clone_trait_object!(Law);
 
+/// When a follower broadcasts: a part of a [`ComposedController`] of its own, so a triggering
+/// scheme can be tried with any law. Pure, like a [`Law`].
+pub trait Beaconing: std::fmt::Debug + Send + dyn_clone::DynClone {
+    /// Whether follower `id` broadcasts at step `k`, with its state `own` now and what it last
+    /// broadcast (`(step, state)`, `None` before its first).
+    fn fires(&mut self, k: u64, id: VehicleId, own: &State, last: Option<(u64, &State)>) -> bool;
+}
+
+dyn_clone::clone_trait_object!(Beaconing);
+
+/// Every follower broadcasts every `steps` steps, from step 0 (CAM-like beacons).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Periodic {
+    /// The period in steps, >= 1.
+    pub steps: u32,
+}
+
+impl Beaconing for Periodic {
+    fn fires(&mut self, k: u64, _: VehicleId, _: &State, _: Option<(u64, &State)>) -> bool {
+        k.is_multiple_of(u64::from(self.steps.max(1)))
+    }
+}
+
 /// The parts a [`ComposedController`] is made of besides its law.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone)]
 pub struct Composition {
     /// Step length (s).
     pub dt: f64,
-    /// Every follower broadcasts every this many steps (periodic beaconing, from step 0).
-    pub beacon_steps: u32,
+    /// When followers broadcast (e.g. [`Periodic`]).
+    pub beaconing: Box<dyn Beaconing>,
     /// The leader broadcasts every this many steps.
     pub leader_broadcast_steps: u32,
     /// The platoon's spacing `l` (m, front to front): the `acc` fallback keeps `l + h v`.
@@ -113,6 +137,7 @@ enum Phase {
 struct Follower {
     id: VehicleId,
     seq: u32,
+    last_sent: Option<(u64, State)>,
     last_u: f64,
     held: f64,
     step: FollowerStep,
@@ -160,10 +185,10 @@ impl ComposedController {
         if !(parts.dt.is_finite() && parts.dt > 0.0) {
             return Err(err("dt", format!("must be > 0 (got {})", parts.dt)));
         }
-        if parts.beacon_steps == 0 || parts.leader_broadcast_steps == 0 {
+        if parts.leader_broadcast_steps == 0 {
             return Err(err(
-                "period_s",
-                "beacons need a period of at least one step".into(),
+                "broadcast_period_s",
+                "the leader's beacons need a period of at least one step".into(),
             ));
         }
         parts
@@ -174,6 +199,7 @@ impl ComposedController {
             .map(|i| Follower {
                 id: VehicleId::follower(i),
                 seq: 0,
+                last_sent: None,
                 last_u: 0.0,
                 held: 0.0,
                 step: FollowerStep::default(),
@@ -209,17 +235,19 @@ impl Controller for ComposedController {
             });
         }
         self.leader_last_u = states[0][2];
-        let beacon = k.is_multiple_of(u64::from(self.parts.beacon_steps));
         for f in &mut self.followers {
             f.step = FollowerStep::default();
-            if beacon {
+            let own = &states[f.id.index()];
+            let last = f.last_sent.as_ref().map(|(step, x)| (*step, x));
+            if self.parts.beaconing.fires(k, f.id, own, last) {
                 f.seq += 1;
                 f.step.triggered = true;
+                f.last_sent = Some((k, *own));
                 out.push(Packet {
                     sender: f.id,
                     seq: f.seq,
                     step: k,
-                    state: states[f.id.index()],
+                    state: *own,
                     u: f.last_u,
                 });
             }
@@ -381,7 +409,9 @@ mod tests {
             .collect();
         let parts = Composition {
             dt: 0.01,
-            beacon_steps,
+            beaconing: Box::new(Periodic {
+                steps: beacon_steps,
+            }),
             leader_broadcast_steps: 1,
             spacing: 10.0,
             fallback,
@@ -453,5 +483,48 @@ mod tests {
         assert_eq!(seen[7].1, 0.0);
         assert_eq!(seen[9].1, 7.5);
         assert_eq!(seen[11].1, 15.0);
+    }
+
+    /// A triggering scheme of the user's: broadcast when the speed moved 0.045 m/s from the last
+    /// broadcast.
+    #[derive(Debug, Clone)]
+    struct OnSpeedChange;
+
+    impl Beaconing for OnSpeedChange {
+        fn fires(
+            &mut self,
+            _: u64,
+            _: VehicleId,
+            own: &State,
+            last: Option<(u64, &State)>,
+        ) -> bool {
+            last.is_none_or(|(_, x)| (own[1] - x[1]).abs() >= 0.045)
+        }
+    }
+
+    #[test]
+    fn a_users_beaconing_decides_who_broadcasts() {
+        let mut c = controller(1, FallbackParams::default());
+        c.parts.beaconing = Box::new(OnSpeedChange);
+        let mut sent = Vec::new();
+        let mut out = Vec::new();
+        for k in 0..30u64 {
+            // Accelerating at 1 m/s^2: 0.01 m/s per step, so a broadcast every 5 steps.
+            let t = k as f64 * 0.01;
+            let states: Vec<State> = (0..=3)
+                .map(|i| State::new(-10.0 * i as f64 + 15.0 * t + 0.5 * t * t, 15.0 + t, 1.0))
+                .collect();
+            out.clear();
+            c.transmit(k, &states, &mut out);
+            if out.iter().any(|p| p.sender == VehicleId(2)) {
+                sent.push(k);
+            }
+            c.receive(k, &states, &deliver_all(&out), &[false; 4]);
+            assert_eq!(
+                c.follower_step(VehicleId(2)).triggered,
+                sent.last() == Some(&k)
+            );
+        }
+        assert_eq!(sent, [0, 5, 10, 15, 20, 25]);
     }
 }

@@ -34,7 +34,7 @@ mod trigger;
 
 pub use catalogue::LawParams;
 pub use checks::{PacketChecks, RejectCounts, PLAUSIBLE_ACCEL};
-pub use composed::{ComposedController, Composition, Law, View};
+pub use composed::{Beaconing, ComposedController, Composition, Law, Periodic, View};
 pub use controller::{FollowerStep, PlatoonController};
 pub use fallback::{FallbackMode, FallbackParams, Mode};
 pub use seam::{build, check_topology, Controller};

@@ -79,7 +79,9 @@ pub fn build(
     };
     let parts = crate::Composition {
         dt: params.dt,
-        beacon_steps: period_steps,
+        beaconing: Box::new(crate::composed::Periodic {
+            steps: period_steps,
+        }),
         leader_broadcast_steps: params.leader_broadcast_steps,
         spacing: params.spacing,
         fallback: params.fallback.clone(),
