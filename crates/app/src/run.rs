@@ -46,6 +46,9 @@ pub struct RunOptions {
     pub plant: Option<PlantKind>,
     /// A third-party injector (iceoryx2 only); None: the built-in channel.
     pub injector: Option<Injector>,
+    /// A third-party controller service, a shell command (iceoryx2 only,
+    /// `docs/controller-contract.md`); None: the built-in controllers of the config.
+    pub controller: Option<String>,
     /// How long the run waits for one process's sample of a step (iceoryx2).
     pub step_timeout: Duration,
     /// Read-only observers that may attach (iceoryx2).
@@ -67,6 +70,7 @@ impl Default for RunOptions {
             transport: Transport::Iceoryx2,
             plant: None,
             injector: None,
+            controller: None,
             step_timeout: Duration::from_secs(1),
             observers: 4,
             cpus: Vec::new(),
@@ -115,7 +119,7 @@ pub struct RunOutcome {
     pub dir: PathBuf,
     /// Platoon 0's rows (what the plots show).
     pub rows: Vec<StepRow>,
-    /// What `summary.json` holds (without the extra keys `injector` and `sumo`).
+    /// What `summary.json` holds (without the extra keys `injector`, `controller` and `sumo`).
     pub summary: Summary,
     /// The process that failed, if one did (the run directory then says `complete: false`).
     pub failure: Option<platoon_runtime::RunError>,
@@ -186,6 +190,11 @@ pub fn run(
     if opts.injector.is_some() && opts.transport == Transport::Inproc {
         anyhow::bail!("--injector needs --transport iceoryx2: an external injector is a process");
     }
+    if opts.controller.is_some() && opts.transport == Transport::Inproc {
+        anyhow::bail!(
+            "--controller needs --transport iceoryx2: an external controller is a process"
+        );
+    }
     if let Some(plant) = opts.plant {
         config.simulation.plant = plant;
     }
@@ -248,6 +257,10 @@ pub fn run(
             }),
         },
     )];
+    // Which controller service ran, when it was not the built-in one.
+    if let Some(program) = &opts.controller {
+        extra.push(("controller", serde_json::json!({ "program": program })));
+    }
     if sumo_plan.is_some() {
         if let Some(report) = crate::sumo::report(&dir)? {
             if report["collisions"]
@@ -591,6 +604,10 @@ fn cosimulate(
         Some(i) => platoon_runtime::Program::Shell(i.command.clone()),
         None => platoon_runtime::Program::Builtin,
     };
+    let controller = match &opts.controller {
+        Some(command) => platoon_runtime::Program::Shell(command.clone()),
+        None => platoon_runtime::Program::Builtin,
+    };
     let after = opts
         .injector
         .as_ref()
@@ -601,8 +618,9 @@ fn cosimulate(
     };
     // A plug-in imports the Python SDK from wherever it is: the bridge goes on its PYTHONPATH
     // (if there is no bridge, a Python plug-in's import error is quoted when it dies).
-    let plugins =
-        injector != platoon_runtime::Program::Builtin || plant != platoon_runtime::Program::Builtin;
+    let plugins = [&injector, &controller, &plant]
+        .into_iter()
+        .any(|p| *p != platoon_runtime::Program::Builtin);
     let python_path = plugins.then(|| crate::sumo::bridge_dir().ok()).flatten();
     let run_id = platoon_runtime::new_run_id();
     write_run_json(dir, &run_id, scenario, opts.observers)?;
@@ -623,6 +641,7 @@ fn cosimulate(
             && output.writes(platoon_config::OutputFile::Channel))
         .then(|| dir.path("channel.csv")),
         injector,
+        controller,
         plant,
         env,
         log_dir: Some(logs),

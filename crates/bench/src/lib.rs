@@ -368,6 +368,7 @@ fn latency(a: LatencyArgs) -> Result<LatencyReport> {
         exe: exe.clone(),
         config: std::path::absolute(dir.path("config.toml"))?,
         injector: platoon_runtime::Program::Builtin,
+        controller: platoon_runtime::Program::Builtin,
         plant: platoon_runtime::Program::Builtin,
         env: Vec::new(),
         channel_log: None,

@@ -37,6 +37,12 @@ pub struct Args {
     /// summary.json records the mode under "injector".
     #[arg(long, value_enum, default_value_t = InjectorMode::Replace, requires = "injector")]
     pub injector_mode: InjectorMode,
+    /// Run this program as the controller service instead of the built-in controllers
+    /// (iceoryx2 only), e.g. "bridge/.venv/bin/python bridge/examples/paper_law.py". It gets
+    /// PLATOON_RUN_ID and PLATOON_CONFIG in its environment; docs/controller-contract.md says
+    /// what it must do. summary.json records it under "controller".
+    #[arg(long, value_name = "COMMAND")]
+    pub controller: Option<String>,
     /// Seconds the run waits for a process's sample of one step before it stops and names the
     /// process (iceoryx2 only).
     #[arg(
@@ -113,6 +119,7 @@ pub fn run(args: Args) -> Result<()> {
                 InjectorMode::After => platoon_app::run::InjectorMode::After,
             },
         }),
+        controller: args.controller.clone(),
         step_timeout: std::time::Duration::from_secs_f64(args.step_timeout),
         observers: args.observers,
         cpus: args.cpus.clone().map(|c| c.0).unwrap_or_default(),

@@ -15,6 +15,7 @@
 #![warn(missing_docs)]
 
 pub mod bench;
+pub mod controller;
 pub mod injector;
 pub mod ipc;
 pub mod nodes;

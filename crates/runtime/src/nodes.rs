@@ -1,16 +1,16 @@
 //! The plant, controller and (Rust) injector processes, written on [`crate::session`]. Each
 //! composes the pure core and blocks on its wake-up listener between samples; none of them
-//! busy-polls. The built-in channel is an injector on the SDK ([`crate::injector`]).
+//! busy-polls. The built-in channel is an injector on the SDK ([`crate::injector`]), the
+//! built-in controller a controller on the SDK ([`crate::controller`]).
 use crate::ipc::{Inlet, Outlet};
 use crate::session::{
-    contract, deliveries_from_wire, packet_from_wire, packet_to_wire, reporting, states_from_wire,
-    Numbering,
+    contract, packet_from_wire, packet_to_wire, reporting, states_from_wire, Numbering,
 };
 use crate::{monotonic_ns, RunError};
 use platoon_attacks::channel::{Channel, ChannelEvent};
 use platoon_control::fallback::{radar_truth, RadarTruth};
 use platoon_control::{Delivery, Packet};
-use platoon_model::{State, VehicleId};
+use platoon_model::VehicleId;
 use platoon_sim::{Plant, Scenario};
 use platoon_wire::{Command, ControlMsg, LinkPacket, Node, Service, V2vPacket, VehicleState};
 use std::path::Path;
@@ -109,126 +109,11 @@ fn commands_into(cmds: &[Command], num: Numbering, u: &mut [f64]) -> Result<(), 
 }
 
 /// The controller service: every follower's triggering rule, estimators and control law, for
-/// every platoon.
+/// every platoon: the controllers [`platoon_control::build`] makes from the config, on the
+/// controller SDK ([`crate::controller`]) like any third-party one.
 pub fn controller(run_id: &str, scenario: &Scenario) -> Result<(), RunError> {
-    reporting(run_id, Node::Controller, |ctx, k| {
-        let e = &ctx.endpoint;
-        let num = Numbering::of(scenario);
-        let n1 = num.per_platoon;
-        let mut states_in: Inlet<VehicleState> =
-            Inlet::new(&e.open_step_service(Service::States)?, Node::Plant)?;
-        let mut rx_in: Inlet<LinkPacket> =
-            Inlet::new(&e.open_step_service(Service::Rx)?, Node::Injector)?;
-        let links: usize = (0..n1)
-            .map(|v| scenario.topology.out_neighbours(VehicleId(v as u16)).len())
-            .sum();
-        let tx_out: Outlet<LinkPacket> = e.outlet(
-            &e.open_step_service(Service::Tx)?,
-            Service::Tx,
-            links * num.platoons,
-        )?;
-        let cmd_out: Outlet<Command> = e.outlet(
-            &e.open_step_service(Service::Commands)?,
-            Service::Commands,
-            num.followers(),
-        )?;
-        let mut controllers = scenario
-            .replicas()
-            .iter()
-            .map(|s| platoon_control::build(&s.control, &s.topology, &s.initial))
-            .collect::<Result<Vec<_>, _>>()
-            .map_err(|e| contract(Node::Controller, e.to_string()))?;
-        let mut states: Option<Vec<State>> = None;
-        // The radar reads the plant's view of the vehicle ahead (SUMO: its lane leader).
-        let radar_from_plant = scenario.control.fallback.uses_radar();
-        let mut truths: Vec<Option<RadarTruth>> = Vec::with_capacity(num.vehicles());
-        let (mut tx, mut wire_tx, mut deliveries, mut jammed, mut cmds) = (
-            Vec::new(),
-            Vec::new(),
-            vec![Vec::new(); num.platoons],
-            vec![false; num.vehicles()],
-            Vec::with_capacity(num.followers()),
-        );
-        if !ctx.ready()? {
-            return Ok(());
-        }
-        loop {
-            if states.is_none() {
-                if let Some(s) = states_in.take(*k)? {
-                    truths.clear();
-                    truths.extend(s.iter().map(|x| {
-                        (x.flags & VehicleState::AHEAD != 0).then_some(RadarTruth {
-                            gap: x.gap,
-                            closing: x.closing,
-                        })
-                    }));
-                    let s = states_from_wire(&s, num.vehicles())?;
-                    wire_tx.clear();
-                    let stamp = monotonic_ns();
-                    for (j, c) in controllers.iter_mut().enumerate() {
-                        tx.clear();
-                        c.transmit(*k, &s[j * n1..(j + 1) * n1], &mut tx);
-                        for p in &tx {
-                            let mut packet = packet_to_wire(p, stamp);
-                            packet.sender = num.global(j, p.sender);
-                            wire_tx.extend(scenario.topology.out_neighbours(p.sender).iter().map(
-                                |&r| LinkPacket {
-                                    receiver: num.global(j, r),
-                                    kind: LinkPacket::DELIVERY,
-                                    packet,
-                                },
-                            ));
-                        }
-                    }
-                    tx_out.send(*k, scenario.dt(), &wire_tx)?;
-                    states = Some(s);
-                }
-            }
-            if let Some(s) = &states {
-                if let Some(items) = rx_in.take(*k)? {
-                    deliveries_from_wire(&items, num, &mut deliveries, &mut jammed);
-                    cmds.clear();
-                    for (j, c) in controllers.iter_mut().enumerate() {
-                        let range = j * n1..(j + 1) * n1;
-                        if radar_from_plant {
-                            c.set_radar_truth(&truths[range.clone()]);
-                        }
-                        c.receive(*k, &s[range.clone()], &deliveries[j], &jammed[range]);
-                        cmds.extend((1..n1).map(|i| {
-                            let f = c.follower_step(VehicleId(i as u16));
-                            Command {
-                                vehicle: num.global(j, VehicleId(i as u16)),
-                                flags: Command::flags_of(
-                                    f.triggered,
-                                    f.affected,
-                                    f.guard,
-                                    f.mode.code(),
-                                ),
-                                u: f.u,
-                                theta: f.theta,
-                            }
-                        }));
-                    }
-                    cmd_out.send(*k, scenario.dt(), &cmds)?;
-                    states = None;
-                    if *k == scenario.steps {
-                        let mut done = ControlMsg::new(ControlMsg::DONE, Node::Controller, *k);
-                        for c in &controllers {
-                            let r = c.rejected();
-                            for (sum, x) in done.counts.iter_mut().zip(r.as_array()) {
-                                *sum += x;
-                            }
-                        }
-                        return ctx.done(done);
-                    }
-                    *k += 1;
-                    continue; // the next states may already be here
-                }
-            }
-            if !ctx.wait()? {
-                return Ok(());
-            }
-        }
+    crate::controller::run(run_id, scenario, |s| {
+        platoon_control::build(&s.control, &s.topology, &s.initial).map_err(|e| e.to_string())
     })
 }
 

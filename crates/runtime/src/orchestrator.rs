@@ -12,10 +12,11 @@ use std::path::PathBuf;
 use std::process::{Child, Command as Process, Stdio};
 use std::time::{Duration, Instant};
 
-/// Which program plays a role (plant or injector).
+/// Which program plays a role (plant, controller or injector).
 #[derive(Debug, Clone, PartialEq)]
 pub enum Program {
-    /// `platoon node <role>`: the native plant, or the channel of `platoon-attacks`.
+    /// `platoon node <role>`: the native plant, the controllers of `platoon-control`, or the
+    /// channel of `platoon-attacks`.
     Builtin,
     /// A command line given by the user, run with `sh -c "exec <command>"`.
     Shell(String),
@@ -39,6 +40,9 @@ pub struct Options {
     pub config: PathBuf,
     /// The injector.
     pub injector: Program,
+    /// The controller service (`docs/controller-contract.md`): a plug-in is treated as a
+    /// plug-in injector is (named when it dies, stalls or sends something malformed).
+    pub controller: Program,
     /// The plant.
     pub plant: Program,
     /// More environment for every process (e.g. `PLATOON_PLANT_SPEC`).
@@ -284,7 +288,20 @@ pub fn orchestrate(
             progressed |= streams.record(scenario, &mut run, &mut clock, &observe, &mut on_step)?;
             while let Some(m) = status.next()? {
                 progressed = true;
-                check_failed(&m)?;
+                if let Err(failed) = check_failed(&m) {
+                    // What it failed on may be a malformed sample of another node (a plant
+                    // refusing a controller's commands) that arrived with the steps complete
+                    // before it: record those, and name the sender if its sample is the cause.
+                    let mut streams = Streams {
+                        states: &mut states,
+                        tx: &mut tx,
+                        rx: &mut rx,
+                        commands: &mut commands,
+                    };
+                    streams.drain_all();
+                    streams.record(scenario, &mut run, &mut clock, &observe, &mut on_step)?;
+                    return Err(failed);
+                }
                 if m.kind == ControlMsg::DONE {
                     if let Some(n) = Node::from_u32(m.node) {
                         done[n as usize] = true;
@@ -598,6 +615,7 @@ fn spawn_all(opts: &Options, children: &mut Children) -> Result<(), RunError> {
     {
         let program = match node {
             Node::Plant => &opts.plant,
+            Node::Controller => &opts.controller,
             Node::Injector => &opts.injector,
             _ => &Program::Builtin,
         };
@@ -767,6 +785,24 @@ impl<'a> Recorder<'a> {
                 node: "controller",
                 message: format!("{} commands for {} followers", c.len(), num.followers()),
             });
+        }
+        // Follower i of platoon j at j * N + i - 1 with a finite command: anything else would be
+        // recorded against the wrong vehicle (a plug-in controller's mistake, named; the step
+        // is not recorded).
+        for (x, cmd) in c.iter().enumerate() {
+            let i = platoon_model::VehicleId((x % (n1 - 1) + 1) as u16);
+            let want = num.global(x / (n1 - 1), i);
+            if cmd.vehicle != want || !cmd.u.is_finite() {
+                return Err(RunError::Contract {
+                    node: "controller",
+                    message: format!(
+                        "step {}: command {x} is for vehicle {} with u = {}; a step's commands \
+                         list every follower in order (vehicle {want} here), each with a \
+                         finite u",
+                        self.step, cmd.vehicle, cmd.u
+                    ),
+                });
+            }
         }
         // Which leaders broadcast: one pass over the tx batch, not one per platoon.
         self.leader_sent.fill(false);

@@ -2,8 +2,9 @@
 //! a node's endpoint, wake-up listener and control/status channels (READY, START, DONE,
 //! STOP/ABORT, orphan detection), failure reporting, the fleet's vehicle
 //! numbering on the wire ([`Numbering`]) and the conversions between wire payloads and the pure
-//! core's types. The injector SDK ([`crate::injector`]) and the built-in nodes
-//! ([`crate::nodes`]) are both written on it; neither imports the other's internals.
+//! core's types. The injector and controller SDKs ([`crate::injector`], [`crate::controller`])
+//! and the built-in nodes ([`crate::nodes`]) are written on it; none imports another's
+//! internals.
 use crate::ipc::{wait, ControlInlet, ControlOutlet, Endpoint};
 use crate::RunError;
 use iceoryx2::port::listener::Listener;

@@ -1,0 +1,172 @@
+//! The controller SDK: run any [`platoon_control::Controller`] as the controller service of an
+//! iceoryx2 run.
+//!
+//! [`run`] drives one controller per platoon (each built by the caller from its platoon's
+//! replica of the scenario) through the whole contract of `docs/controller-contract.md`: it
+//! opens the ports, reports READY, waits for START, blocks on its wake-up listener (no busy
+//! polling), and at every step k reads the plant's `states[k]`, calls
+//! [`Controller::transmit`](platoon_control::Controller::transmit) and publishes the broadcasts
+//! as `tx[k]` (one item per link, to every out-neighbour of the sender), reads the injector's
+//! `rx[k]`, sorts it into each platoon's deliveries and jammed notices, calls
+//! [`Controller::receive`](platoon_control::Controller::receive) and publishes every follower's
+//! command and what it did ([`Controller::follower_step`](platoon_control::Controller::follower_step))
+//! as `commands[k]`; after the last step it reports DONE with the packets the controllers
+//! refused, and it exits on STOP, ABORT or when `platoon run` is gone. An error (a controller
+//! that cannot be built, a command that is not finite) names the controller and the step in the
+//! run's summary.
+//!
+//! The built-in controller node ([`crate::nodes::controller`]) is [`run`] with
+//! [`platoon_control::build`]; the `platoon-controller` crate wraps it for users.
+use crate::ipc::{Inlet, Outlet};
+use crate::session::{
+    contract, deliveries_from_wire, packet_to_wire, reporting, states_from_wire, Numbering,
+};
+use crate::{monotonic_ns, RunError};
+use platoon_control::fallback::RadarTruth;
+use platoon_control::Controller;
+use platoon_model::{State, VehicleId};
+use platoon_sim::Scenario;
+use platoon_wire::{Command, ControlMsg, LinkPacket, Node, Service, VehicleState};
+
+/// Runs the controllers `make` builds, one per platoon from its replica of `scenario`
+/// ([`Scenario::replicas`], in order), as the controller service of run `run_id` until the run
+/// ends. An error of `make` stops the run and names the controller.
+pub fn run(
+    run_id: &str,
+    scenario: &Scenario,
+    mut make: impl FnMut(&Scenario) -> Result<Box<dyn Controller>, String>,
+) -> Result<(), RunError> {
+    reporting(run_id, Node::Controller, |ctx, k| {
+        let e = &ctx.endpoint;
+        let num = Numbering::of(scenario);
+        let n1 = num.per_platoon;
+        let mut states_in: Inlet<VehicleState> =
+            Inlet::new(&e.open_step_service(Service::States)?, Node::Plant)?;
+        let mut rx_in: Inlet<LinkPacket> =
+            Inlet::new(&e.open_step_service(Service::Rx)?, Node::Injector)?;
+        let links: usize = (0..n1)
+            .map(|v| scenario.topology.out_neighbours(VehicleId(v as u16)).len())
+            .sum();
+        let tx_out: Outlet<LinkPacket> = e.outlet(
+            &e.open_step_service(Service::Tx)?,
+            Service::Tx,
+            links * num.platoons,
+        )?;
+        let cmd_out: Outlet<Command> = e.outlet(
+            &e.open_step_service(Service::Commands)?,
+            Service::Commands,
+            num.followers(),
+        )?;
+        let fail = |m: String| contract(Node::Controller, m);
+        let mut controllers = scenario
+            .replicas()
+            .iter()
+            .map(&mut make)
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(fail)?;
+        let mut states: Option<Vec<State>> = None;
+        // The radar reads the plant's view of the vehicle ahead (SUMO: its lane leader).
+        let radar_from_plant = scenario.control.fallback.uses_radar();
+        let mut truths: Vec<Option<RadarTruth>> = Vec::with_capacity(num.vehicles());
+        let (mut tx, mut wire_tx, mut deliveries, mut jammed, mut cmds) = (
+            Vec::new(),
+            Vec::new(),
+            vec![Vec::new(); num.platoons],
+            vec![false; num.vehicles()],
+            Vec::with_capacity(num.followers()),
+        );
+        if !ctx.ready()? {
+            return Ok(());
+        }
+        loop {
+            if states.is_none() {
+                if let Some(s) = states_in.take(*k)? {
+                    truths.clear();
+                    truths.extend(s.iter().map(|x| {
+                        (x.flags & VehicleState::AHEAD != 0).then_some(RadarTruth {
+                            gap: x.gap,
+                            closing: x.closing,
+                        })
+                    }));
+                    let s = states_from_wire(&s, num.vehicles())?;
+                    wire_tx.clear();
+                    let stamp = monotonic_ns();
+                    for (j, c) in controllers.iter_mut().enumerate() {
+                        tx.clear();
+                        c.transmit(*k, &s[j * n1..(j + 1) * n1], &mut tx);
+                        for p in &tx {
+                            let Some(to) = (p.sender.index() < n1)
+                                .then(|| scenario.topology.out_neighbours(p.sender))
+                            else {
+                                return Err(fail(format!(
+                                    "step {k}: platoon {j} broadcast as vehicle {}, which it \
+                                     does not have",
+                                    p.sender.0
+                                )));
+                            };
+                            let mut packet = packet_to_wire(p, stamp);
+                            packet.sender = num.global(j, p.sender);
+                            wire_tx.extend(to.iter().map(|&r| LinkPacket {
+                                receiver: num.global(j, r),
+                                kind: LinkPacket::DELIVERY,
+                                packet,
+                            }));
+                        }
+                    }
+                    tx_out.send(*k, scenario.dt(), &wire_tx)?;
+                    states = Some(s);
+                }
+            }
+            if let Some(s) = &states {
+                if let Some(items) = rx_in.take(*k)? {
+                    deliveries_from_wire(&items, num, &mut deliveries, &mut jammed);
+                    cmds.clear();
+                    for (j, c) in controllers.iter_mut().enumerate() {
+                        let range = j * n1..(j + 1) * n1;
+                        if radar_from_plant {
+                            c.set_radar_truth(&truths[range.clone()]);
+                        }
+                        c.receive(*k, &s[range.clone()], &deliveries[j], &jammed[range]);
+                        for i in 1..n1 {
+                            let f = c.follower_step(VehicleId(i as u16));
+                            if !f.u.is_finite() {
+                                return Err(fail(format!(
+                                    "step {k}: the command of follower {i} of platoon {j} is {}",
+                                    f.u
+                                )));
+                            }
+                            cmds.push(Command {
+                                vehicle: num.global(j, VehicleId(i as u16)),
+                                flags: Command::flags_of(
+                                    f.triggered,
+                                    f.affected,
+                                    f.guard,
+                                    f.mode.code(),
+                                ),
+                                u: f.u,
+                                theta: f.theta,
+                            });
+                        }
+                    }
+                    cmd_out.send(*k, scenario.dt(), &cmds)?;
+                    states = None;
+                    if *k == scenario.steps {
+                        let mut done = ControlMsg::new(ControlMsg::DONE, Node::Controller, *k);
+                        for c in &controllers {
+                            let r = c.rejected();
+                            for (sum, x) in done.counts.iter_mut().zip(r.as_array()) {
+                                *sum += x;
+                            }
+                        }
+                        return ctx.done(done);
+                    }
+                    *k += 1;
+                    continue; // the next states may already be here
+                }
+            }
+            if !ctx.wait()? {
+                return Ok(());
+            }
+        }
+    })
+}
