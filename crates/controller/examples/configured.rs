@@ -1,0 +1,14 @@
+//! The config's own controllers ([`platoon_controller::build`]: the paper's, or one of the
+//! field's laws) as a plug-in controller service: what the built-in controller service runs,
+//! started by `platoon run --controller` instead. A run with it equals the built-in run byte for
+//! byte (tested):
+//!
+//! ```sh
+//! cargo build --example configured
+//! platoon run configs/paper.toml --controller target/debug/examples/configured
+//! ```
+use platoon_controller::{build, run};
+
+fn main() -> Result<(), platoon_controller::Error> {
+    run(|platoon| build(&platoon.control, &platoon.topology, &platoon.initial))
+}

@@ -1,0 +1,114 @@
+//! Write the controller service of `platoon run --controller` in Rust.
+//!
+//! Implement [`Controller`] for one platoon's followers (two methods per step, because the
+//! network sits between them: [`Controller::transmit`] gets what the vehicles measured and
+//! returns the broadcasts, [`Controller::receive`] gets what the network delivered and computes
+//! every follower's command) and hand a builder to [`run`] from `main`; [`run`] builds one per
+//! platoon of the run. Everything else of `docs/controller-contract.md` is done for you: the
+//! ports of the run named by `PLATOON_RUN_ID`, READY, waiting on wake-ups (never busy polling),
+//! one tx sample per step (each broadcast sent to every out-neighbour of its sender), sorting
+//! the rx sample into deliveries and jammed notices, one commands sample per step, DONE with the
+//! packets your checks refused, STOP/ABORT, and exiting when `platoon run` is gone.
+//!
+//! ```no_run
+//! use platoon_controller::{run, Controller, Delivery, FollowerStep, Packet, RejectCounts};
+//! use platoon_controller::{State, VehicleId};
+//!
+//! /// Every follower brakes gently, whatever it hears; nobody broadcasts but the leader.
+//! #[derive(Debug, Clone)]
+//! struct Brake {
+//!     u: Vec<f64>,
+//! }
+//!
+//! impl Controller for Brake {
+//!     fn transmit(&mut self, k: u64, states: &[State], out: &mut Vec<Packet>) {
+//!         let seq = k as u32 + 1;
+//!         out.push(Packet { sender: VehicleId(0), seq, step: k, state: states[0], u: 0.0 });
+//!     }
+//!     fn receive(&mut self, _k: u64, _s: &[State], _d: &[Delivery], _j: &[bool]) -> &[f64] {
+//!         self.u.fill(-0.5);
+//!         &self.u
+//!     }
+//!     fn commands(&self) -> &[f64] {
+//!         &self.u
+//!     }
+//!     fn follower_step(&self, i: VehicleId) -> FollowerStep {
+//!         FollowerStep { u: self.u[i.index() - 1], ..FollowerStep::default() }
+//!     }
+//!     fn rejected(&self) -> RejectCounts {
+//!         RejectCounts::default()
+//!     }
+//! }
+//!
+//! fn main() -> Result<(), platoon_controller::Error> {
+//!     run(|platoon| Ok(Box::new(Brake { u: vec![0.0; platoon.topology.followers()] })))
+//! }
+//! ```
+//!
+//! `examples/paper_law.rs` re-implements the paper's controller (u = -K q with the dynamic
+//! trigger, the resilient sampling (11) and u = 0 while affected) on this crate and reproduces
+//! the built-in run of `configs/paper.toml` byte for byte; `examples/configured.rs` runs the
+//! config's own controllers ([`platoon_control::build`], what the built-in controller service
+//! runs) as a plug-in. Both run in the tests through `platoon run --controller`. The packet
+//! checks every built-in controller applies are [`PacketChecks`], yours to reuse; the field's
+//! laws on swappable parts are [`ComposedController`] with your own [`Law`].
+#![warn(missing_docs)]
+
+pub use platoon_control::{
+    build, ComposedController, Composition, Controller, ControllerParams, Delivery, FallbackMode,
+    FollowerStep, Law, Mode, Packet, PacketChecks, RejectCounts, TriggerRule, View,
+};
+pub use platoon_model::{FreeFlow, State, VehicleId};
+pub use platoon_sim::Scenario;
+pub use platoon_topology::Topology;
+
+use std::path::PathBuf;
+
+/// Why a controller service could not run.
+#[derive(thiserror::Error)]
+pub enum Error {
+    /// Not started by `platoon run --controller` (a variable of its environment is missing).
+    #[error(
+        "{0} is not set: run this program as `platoon run CONFIG --controller \"PROGRAM ARGS\"`"
+    )]
+    NotInARun(&'static str),
+    /// The run's config could not be read.
+    #[error("the run's config: {0}")]
+    Config(#[from] platoon_config::ConfigError),
+    /// The run failed or stopped this controller service.
+    #[error("{0}")]
+    Run(#[from] platoon_runtime::RunError),
+}
+
+/// As its message: `fn main() -> Result<(), Error>` prints an error with `Debug`, and the run
+/// quotes the controller's last lines of stderr.
+impl std::fmt::Debug for Error {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        std::fmt::Display::fmt(self, f)
+    }
+}
+
+/// Runs the controllers `make` builds as the controller service of the run `PLATOON_RUN_ID`
+/// (its scenario read from `PLATOON_CONFIG`) until the run ends. `make` is called once per
+/// platoon, in order, with that platoon's replica of the scenario ([`Scenario::replicas`]: its
+/// own initial states; vehicle ids are the platoon's own, leader 0). An error of `make` stops
+/// the run and names the controller, with its message. A run of another contract version
+/// (`PLATOON_CONTRACT_VERSION`) is refused at once, naming both versions.
+pub fn run<E: std::fmt::Display>(
+    mut make: impl FnMut(&Scenario) -> Result<Box<dyn Controller>, E>,
+) -> Result<(), Error> {
+    platoon_runtime::session::check_contract_version()?;
+    let run_id = std::env::var("PLATOON_RUN_ID").map_err(|_| Error::NotInARun("PLATOON_RUN_ID"))?;
+    let config: PathBuf = std::env::var_os("PLATOON_CONFIG")
+        .ok_or(Error::NotInARun("PLATOON_CONFIG"))?
+        .into();
+    let (_, scenario) = platoon_config::load(&config)?;
+    let built = platoon_runtime::controller::run(&run_id, &scenario, |platoon| {
+        make(platoon).map_err(|e| e.to_string())
+    });
+    match built {
+        // Stopped by the run (it failed elsewhere, or `platoon run` is gone): nothing to add.
+        Err(platoon_runtime::RunError::Aborted(_) | platoon_runtime::RunError::Orphaned) => Ok(()),
+        other => other.map_err(Error::from),
+    }
+}
