@@ -20,30 +20,15 @@ with its `count` (even when empty), waking the controller, DONE, STOP/ABORT, and
 
 import os
 import sys
-import tomllib
-from dataclasses import dataclass
 
+import platoon_plugin as _plugin
 import platoon_wire as w
+from platoon_plugin import Run, stop_received  # noqa: F401 (part of this SDK's API)
 
 
-@dataclass
-class Run:
-    """What an injector knows about its run."""
-
-    run_id: str
-    config: dict  # the resolved scenario config (PLATOON_CONFIG), parsed
-    dt: float
-    steps: int  # the last step is `steps`
-    vehicles_per_platoon: int
-    platoons: int
-
-    def vehicles(self):
-        """Every vehicle's wire id (vehicle i of platoon j is j * (N + 1) + i)."""
-        return range(self.vehicles_per_platoon * self.platoons)
-
-    def local(self, vehicle_id: int) -> int:
-        """The vehicle's index within its platoon (0 = leader)."""
-        return vehicle_id % self.vehicles_per_platoon
+def send_failed(outlet, step: int, reason: str) -> None:
+    """FAILED with a reason: the run stops and names the injector."""
+    _plugin.send_failed(outlet, step, reason, "injector")
 
 
 class Step:
@@ -87,23 +72,7 @@ def jammed(receiver: int) -> w.LinkPacket:
 
 def load_run() -> Run:
     """The run that started this process, from PLATOON_RUN_ID and PLATOON_CONFIG (a path)."""
-    missing = [v for v in ("PLATOON_RUN_ID", "PLATOON_CONFIG") if v not in os.environ]
-    if missing:
-        raise SystemExit(
-            f"{missing[0]} is not set: run this program as "
-            '`platoon run CONFIG --injector "python PROGRAM ARGS"`'
-        )
-    with open(os.environ["PLATOON_CONFIG"], "rb") as f:
-        config = tomllib.load(f)
-    dt = config["simulation"]["dt_s"]
-    return Run(
-        run_id=os.environ["PLATOON_RUN_ID"],
-        config=config,
-        dt=dt,
-        steps=round(config["simulation"]["duration_s"] / dt),
-        vehicles_per_platoon=config["platoon"]["followers"] + 1,
-        platoons=config.get("fleet", {}).get("platoons", 1),
-    )
+    return _plugin.load_run("--injector")
 
 
 def run(make) -> int:
@@ -151,27 +120,3 @@ def run(make) -> int:
                 node.wait()
             return 0
         k += 1
-
-
-def stop_received(control) -> bool:
-    """Drains the control channel; True once STOP or ABORT is among its messages."""
-    stop = False
-    msg = control.receive()
-    while msg is not None:
-        stop |= msg.payload().contents.kind in (w.ControlMsg.STOP, w.ControlMsg.ABORT)
-        msg = control.receive()
-    return stop
-
-
-def send_failed(outlet, step: int, reason: str) -> None:
-    """FAILED with a reason: the run stops and names the injector."""
-    publisher, wakers = outlet
-    msg = w.ControlMsg()
-    msg.kind = w.ControlMsg.FAILED
-    msg.node = w.NODES["injector"]
-    msg.step = step
-    data = reason.encode()[: len(msg.reason)]
-    msg.reason[: len(data)] = data
-    publisher.send_copy(msg)
-    for waker in wakers:
-        waker.notify()

@@ -1,0 +1,270 @@
+"""Write the controller service of `platoon run --controller` in Python: one method per phase of
+a step.
+
+A step k has two phases because the V2V network sits between them: `transmit` gets what the
+vehicles measured and appends the broadcasts of step k; `receive` gets what the network
+delivered and appends every follower's command. Subclass `Controller` (one object per platoon,
+with the platoon's own vehicle ids: 0 the leader, 1..N the followers) and pass a factory to
+`run`; everything else of docs/controller-contract.md is done here (the same shape as the Rust
+SDK, crates/controller): the ports of the run named by PLATOON_RUN_ID, READY, waiting on
+wake-ups (never busy polling), one tx sample per step with each broadcast sent to every
+out-neighbour of its sender ([topology] of the config), sorting the rx sample into deliveries
+and jammed notices, one commands sample per step with its flags, DONE with the packets your
+controller refused, STOP/ABORT, and exiting when `platoon run` is gone. An exception in your
+code, a missing or non-finite command, or a broadcast from a vehicle the platoon does not have
+stops the run, which names the controller.
+
+    import platoon_controller as pc
+
+    class Brake(pc.Controller):
+        def __init__(self, run, platoon):
+            self.n = run.vehicles_per_platoon - 1
+
+        def transmit(self, step, tx):
+            leader = step.states[0]
+            tx.append(pc.Packet(0, step.k + 1, step.k, (leader.p, leader.v, leader.a), leader.a))
+
+        def receive(self, step, commands):
+            commands.extend([-0.5] * self.n)  # or pc.Command(u, theta, affected, mode, guard)
+
+    pc.run(Brake)
+
+`bridge/examples/paper_law.py` re-implements the paper's law and reproduces the built-in run
+of configs/paper.toml byte for byte; `bridge/examples/sliding_mode.py` is a law the project does
+not have (a sliding-mode CACC on the radar and the predecessor's broadcast acceleration).
+"""
+
+import math
+import sys
+import time
+from typing import NamedTuple
+
+import platoon_plugin as _plugin
+import platoon_wire as w
+from platoon_plugin import Run, Topology  # noqa: F401 (part of this SDK's API)
+
+# Modes a command may report (Command.mode), as the outputs name them.
+COOP, ZERO, HOLD, PREDICT, ACC, BLEND = range(6)
+
+# A vehicle id that no vehicle has (Rust: u16::MAX): what a delivery's receiver or sender becomes
+# when the rx batch names a vehicle that is not in this platoon.
+UNKNOWN = 0xFFFF
+
+
+class Packet(NamedTuple):
+    """A V2V broadcast: the sender (0 = the leader), its sequence number, the step its state was
+    sampled at, that state (p, v, a) and the sender's latest command u."""
+
+    sender: int
+    seq: int
+    step: int
+    state: tuple
+    u: float = 0.0
+
+
+class Delivery(NamedTuple):
+    """A packet the network delivered to `receiver` (a follower of this platoon, or UNKNOWN)."""
+
+    receiver: int
+    packet: Packet
+
+
+class Command:
+    """A follower's command u and what its controller did, for the outputs: theta (the trigger's
+    internal variable, 0 if none), affected (by an attack), mode (COOP, ZERO, ...), guard
+    (emergency braking) and triggered (it broadcast in this step; None: whether it is the sender
+    of a packet of this step's transmit)."""
+
+    __slots__ = ("u", "theta", "affected", "mode", "guard", "triggered")
+
+    def __init__(self, u, theta=0.0, affected=False, mode=COOP, guard=False, triggered=None):
+        self.u, self.theta, self.affected = u, theta, affected
+        self.mode, self.guard, self.triggered = mode, guard, triggered
+
+
+class Step:
+    """What a controller sees in a phase of step k: `k`, `t`, `platoon` (its index in the
+    fleet), `states` (this platoon's vehicles as the plant measured them, leader first:
+    `.p .v .a`, and the radar's view of the vehicle ahead `.gap .closing`, valid when
+    `.flags & AHEAD`); in `receive` also `deliveries` (a list of Delivery) and `jammed`
+    (jammed[v]: vehicle v was told its channel was jammed in this step)."""
+
+    __slots__ = ("k", "t", "platoon", "states", "deliveries", "jammed")
+
+    def __init__(self, k, t, platoon, states, deliveries=None, jammed=None):
+        self.k, self.t, self.platoon, self.states = k, t, platoon, states
+        self.deliveries, self.jammed = deliveries, jammed
+
+
+AHEAD = w.VehicleState.AHEAD
+
+
+class Controller:
+    """One platoon's follower controllers."""
+
+    def transmit(self, step: Step, tx: list) -> None:
+        """Phase 1 of step k: append the Packets broadcast at step k (the leader's too, if it
+        broadcasts). Each goes to every vehicle that hears its sender."""
+        raise NotImplementedError
+
+    def receive(self, step: Step, commands: list) -> None:
+        """Phase 2 of step k: append one command per follower, 1..N in order: a float (u) or a
+        Command."""
+        raise NotImplementedError
+
+    def rejected(self):
+        """Packets refused so far, by reason: non-finite, unknown sender, future step, stale,
+        implausible sequence number, implausible state (reported in summary.json)."""
+        return (0, 0, 0, 0, 0, 0)
+
+    def finish(self) -> None:
+        """Called once after the last step."""
+
+
+class ContractError(Exception):
+    """What the controller gave cannot be sent."""
+
+
+def load_run() -> Run:
+    """The run that started this process, from PLATOON_RUN_ID and PLATOON_CONFIG (a path)."""
+    return _plugin.load_run("--controller")
+
+
+def run(make) -> int:
+    """Runs the controllers `make(run, platoon)` returns (one per platoon, in order) until the
+    run ends; returns the exit code."""
+    w.check_contract_version()  # before anything that depends on the run's formats
+    info = load_run()
+    n1, platoons = info.vehicles_per_platoon, info.platoons
+    out = info.topology.out_neighbours
+    node = w.Endpoint("controller", info.run_id)
+    states_in = node.inlet("states", w.VehicleState)
+    rx_in = node.inlet("rx", w.LinkPacket)
+    tx_out = node.outlet("tx", w.LinkPacket, sum(map(len, out)) * platoons)
+    cmd_out = node.outlet("commands", w.Command, (n1 - 1) * platoons)
+    control = node.control_inlet()
+    status = node.status_outlet()  # keep it: a dropped publisher takes its samples with it
+    k = 0
+
+    def failed(e):
+        print(f"controller: step {k}: {type(e).__name__}: {e}", file=sys.stderr)
+        _plugin.send_failed(status, k, f"{type(e).__name__}: {e}", "controller")
+        return 1
+
+    try:
+        controllers = [make(info, j) for j in range(platoons)]
+    except Exception as e:  # noqa: BLE001: any failure of user code stops the run
+        return failed(e)
+    w.send_status(status, w.ControlMsg.READY, "controller")
+    sent = [[False] * n1 for _ in range(platoons)]
+    states = None
+    while True:
+        t = k * info.dt
+        try:
+            if states is None:
+                states = states_in.take(k)
+                if states is not None:
+                    tx_out.send(k, t, _transmit(controllers, k, t, states, n1, out, sent))
+            if states is not None:
+                rx = rx_in.take(k)
+                if rx is not None:
+                    commands = _receive(controllers, k, t, states, rx, n1, sent)
+                    cmd_out.send(k, t, commands)
+                    states = None
+                    if k == info.steps:
+                        counts = [0] * 6
+                        for c in controllers:
+                            c.finish()
+                            counts = [a + b for a, b in zip(counts, c.rejected())]
+                        _plugin.send_done(status, "controller", k, counts)
+                        while not _plugin.stop_received(control):
+                            node.wait()
+                        return 0
+                    k += 1
+                    continue  # the next states may already be here
+        except Exception as e:  # noqa: BLE001: any failure of user code stops the run
+            return failed(e)
+        # Nothing to do: the only time to look at the control channel (STOP/ABORT).
+        if _plugin.stop_received(control):
+            return 0
+        node.wait()
+
+
+def _transmit(controllers, k, t, states, n1, out, sent):
+    """Phase 1 for every platoon: the tx items, one per link."""
+    items = []
+    stamp = time.monotonic_ns()
+    for j, c in enumerate(controllers):
+        base = j * n1
+        tx = []
+        c.transmit(Step(k, t, j, states[base : base + n1]), tx)
+        flags = sent[j]
+        for v in range(n1):
+            flags[v] = False
+        for p in tx:
+            s = p.sender
+            if not 0 <= s < n1:
+                raise ContractError(f"platoon {j} broadcast as vehicle {s}, which it does not have")
+            flags[s] = True
+            packet = w.V2vPacket(
+                sender=base + s, seq=p.seq, step=p.step, stamp_ns=stamp, u=p.u
+            )
+            packet.state[0], packet.state[1], packet.state[2] = p.state
+            for r in out[s]:
+                items.append(w.LinkPacket(receiver=base + r, kind=w.LinkPacket.DELIVERY, packet=packet))
+    return items
+
+
+def _packet(p, sender) -> Packet:
+    return Packet(sender, p.seq, p.step, (p.state[0], p.state[1], p.state[2]), p.u)
+
+
+def sort_rx(rx, n1, platoons):
+    """An rx batch as each platoon's deliveries and jammed notices, as the Rust SDK sorts it
+    (crates/runtime session::deliveries_from_wire): a receiver no vehicle has goes to platoon 0
+    as a delivery to UNKNOWN (its checks count it), a sender of another platoon or of no vehicle
+    becomes UNKNOWN, a jammed notice for no vehicle is ignored."""
+    total = n1 * platoons
+    deliveries = [[] for _ in range(platoons)]
+    jammed = [[False] * n1 for _ in range(platoons)]
+    for it in rx:
+        g = it.receiver
+        if g >= total:
+            if it.kind != w.LinkPacket.JAMMED:
+                s = it.packet.sender
+                deliveries[0].append(Delivery(UNKNOWN, _packet(it.packet, s if s < UNKNOWN else UNKNOWN)))
+            continue
+        j, r = divmod(g, n1)
+        if it.kind == w.LinkPacket.JAMMED:
+            jammed[j][r] = True
+            continue
+        s = it.packet.sender
+        sender = s - j * n1 if j * n1 <= s < (j + 1) * n1 else UNKNOWN
+        deliveries[j].append(Delivery(r, _packet(it.packet, sender)))
+    return deliveries, jammed
+
+
+def _receive(controllers, k, t, states, rx, n1, sent):
+    """Phase 2 for every platoon: the commands of every follower, in order."""
+    deliveries, jammed = sort_rx(rx, n1, len(controllers))
+    commands = []
+    for j, c in enumerate(controllers):
+        base = j * n1
+        got = []
+        c.receive(Step(k, t, j, states[base : base + n1], deliveries[j], jammed[j]), got)
+        if len(got) != n1 - 1:
+            raise ContractError(f"platoon {j} gave {len(got)} commands for {n1 - 1} followers")
+        for i, cmd in enumerate(got, start=1):
+            if not isinstance(cmd, Command):
+                cmd = Command(cmd)
+            if not math.isfinite(cmd.u):
+                raise ContractError(f"the command of follower {i} of platoon {j} is {cmd.u}")
+            triggered = sent[j][i] if cmd.triggered is None else cmd.triggered
+            flags = (
+                (w.Command.TRIGGERED if triggered else 0)
+                | (w.Command.AFFECTED if cmd.affected else 0)
+                | (w.Command.GUARD if cmd.guard else 0)
+                | ((cmd.mode & w.Command.MODE_MASK) << w.Command.MODE_SHIFT)
+            )
+            commands.append(w.Command(vehicle=base + i, flags=flags, u=cmd.u, theta=cmd.theta))
+    return commands

@@ -1,0 +1,144 @@
+"""What the Python SDKs of plug-ins share (platoon_injector.py, platoon_controller.py): the run
+that started the process (PLATOON_RUN_ID, PLATOON_CONFIG), its V2V graph, and the status
+messages every node sends (READY/DONE/FAILED) and the control messages it reads (STOP/ABORT).
+"""
+
+import os
+import tomllib
+from dataclasses import dataclass, field
+
+import platoon_wire as w
+
+
+@dataclass
+class Run:
+    """What a plug-in knows about its run."""
+
+    run_id: str
+    config: dict  # the resolved scenario config (PLATOON_CONFIG), parsed
+    dt: float
+    steps: int  # the last step is `steps`
+    vehicles_per_platoon: int
+    platoons: int
+    topology: "Topology | None" = field(default=None, repr=False)
+
+    def vehicles(self):
+        """Every vehicle's wire id (vehicle i of platoon j is j * (N + 1) + i)."""
+        return range(self.vehicles_per_platoon * self.platoons)
+
+    def local(self, vehicle_id: int) -> int:
+        """The vehicle's index within its platoon (0 = leader)."""
+        return vehicle_id % self.vehicles_per_platoon
+
+    def global_id(self, platoon: int, vehicle: int) -> int:
+        """The wire id of vehicle `vehicle` (0 = leader) of platoon `platoon`."""
+        return platoon * self.vehicles_per_platoon + vehicle
+
+
+class Topology:
+    """The V2V graph of one platoon (crates/topology), from the config's [topology]: whom each
+    follower hears (`in_neighbours[i]`, leader first, then followers in order) and who hears
+    each vehicle (`out_neighbours[v]`, v = 0 the leader), in the Rust order."""
+
+    PRESETS = {
+        "pf": lambda i: [i - 1],
+        "plf": lambda i: [i - 1, -1],
+        "bpf": lambda i: [i - 1, i + 1],
+        "tpsf": lambda i: [i - 1, i - 2],
+    }
+
+    def __init__(self, adjacency, pinning):
+        n = len(pinning)
+        self.followers = n
+        self.in_neighbours = [[] for _ in range(n + 1)]  # index 0 (the leader) stays empty
+        self.out_neighbours = [[] for _ in range(n + 1)]
+        for i in range(n):
+            me = i + 1
+            if pinning[i] == 1.0:
+                self.in_neighbours[me].append(0)
+                self.out_neighbours[0].append(me)
+            for j in range(n):
+                if adjacency[i][j] == 1.0:
+                    self.in_neighbours[me].append(j + 1)
+                    self.out_neighbours[j + 1].append(me)
+
+    @classmethod
+    def from_config(cls, config: dict) -> "Topology":
+        n = config["platoon"]["followers"]
+        t = config["topology"]
+        if t["preset"] == "explicit":
+            return cls(t["adjacency"], t["pinning"])
+        hears = cls.PRESETS[t["preset"]]
+        # Follower i (0-based) hears follower j (0-based) or, for -1, the leader.
+        adjacency = [[0.0] * n for _ in range(n)]
+        pinning = [0.0] * n
+        for i in range(n):
+            for j in hears(i):
+                if j == -1:
+                    pinning[i] = 1.0
+                elif 0 <= j < n:
+                    adjacency[i][j] = 1.0
+        return cls(adjacency, pinning)
+
+
+def load_run(option: str = "--injector") -> Run:
+    """The run that started this process, from PLATOON_RUN_ID and PLATOON_CONFIG (a path);
+    `option` is the `platoon run` option that starts this kind of plug-in, for the error."""
+    missing = [v for v in ("PLATOON_RUN_ID", "PLATOON_CONFIG") if v not in os.environ]
+    if missing:
+        raise SystemExit(
+            f"{missing[0]} is not set: run this program as "
+            f'`platoon run CONFIG {option} "python PROGRAM ARGS"`'
+        )
+    with open(os.environ["PLATOON_CONFIG"], "rb") as f:
+        config = tomllib.load(f)
+    dt = config["simulation"]["dt_s"]
+    return Run(
+        run_id=os.environ["PLATOON_RUN_ID"],
+        config=config,
+        dt=dt,
+        steps=round(config["simulation"]["duration_s"] / dt),
+        vehicles_per_platoon=config["platoon"]["followers"] + 1,
+        platoons=config.get("fleet", {}).get("platoons", 1),
+        topology=Topology.from_config(config),
+    )
+
+
+def stop_received(control) -> bool:
+    """Drains the control channel; True once STOP or ABORT is among its messages."""
+    stop = False
+    msg = control.receive()
+    while msg is not None:
+        stop |= msg.payload().contents.kind in (w.ControlMsg.STOP, w.ControlMsg.ABORT)
+        msg = control.receive()
+    return stop
+
+
+def send_failed(outlet, step: int, reason: str, node: str = "injector") -> None:
+    """FAILED with a reason: the run stops and names `node`."""
+    msg = w.ControlMsg()
+    msg.kind = w.ControlMsg.FAILED
+    msg.node = w.NODES[node]
+    msg.step = step
+    data = reason.encode()[: len(msg.reason)]
+    msg.reason[: len(data)] = data
+    _send(outlet, msg)
+
+
+def send_done(outlet, node: str, step: int, counts=()) -> None:
+    """DONE after the last step, with up to six counts (a controller's refused packets, in the
+    order of docs/controller-contract.md)."""
+    msg = w.ControlMsg()
+    msg.kind = w.ControlMsg.DONE
+    msg.node = w.NODES[node]
+    msg.step = step
+    for i, c in enumerate(counts):
+        msg.counts[i] = c
+    _send(outlet, msg)
+
+
+def _send(outlet, msg) -> None:
+    publisher, wakers = outlet
+    publisher.send_copy(msg)
+    for waker in wakers:
+        waker.notify()

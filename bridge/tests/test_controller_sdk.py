@@ -1,0 +1,111 @@
+"""The Python controller SDK's pieces that need no running co-simulation: the V2V graph read
+from a config (the Rust order of neighbours), the fan-out of broadcasts to links, the sorting
+of an rx batch, and the commands' checks and flags."""
+
+import math
+import os
+import sys
+
+import pytest
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.join(HERE, ".."))
+
+import platoon_controller as pc  # noqa: E402
+import platoon_wire as w  # noqa: E402
+
+
+def config(preset, n=4, **topology):
+    return {"platoon": {"followers": n}, "topology": {"preset": preset, **topology}}
+
+
+def test_presets_give_the_rust_neighbour_lists():
+    t = pc.Topology.from_config(config("tpsf"))
+    assert t.in_neighbours == [[], [0], [0, 1], [1, 2], [2, 3]]
+    assert t.out_neighbours == [[1, 2], [2, 3], [3, 4], [4], []]
+    t = pc.Topology.from_config(config("plf"))
+    assert t.in_neighbours == [[], [0], [0, 1], [0, 2], [0, 3]]
+    t = pc.Topology.from_config(config("bpf", 3))
+    assert t.in_neighbours == [[], [0, 2], [1, 3], [2]]
+    assert t.out_neighbours == [[1], [2], [1, 3], [2]]
+    t = pc.Topology.from_config(config("pf", 2))
+    assert t.out_neighbours == [[1], [2], []]
+    t = pc.Topology.from_config(
+        config("explicit", 2, adjacency=[[0.0, 1.0], [1.0, 0.0]], pinning=[0.0, 1.0])
+    )
+    assert t.in_neighbours == [[], [2], [0, 1]]
+    assert t.out_neighbours == [[2], [2], [1]]
+
+
+class Broadcasting(pc.Controller):
+    def __init__(self, senders):
+        self.senders = senders
+
+    def transmit(self, step, tx):
+        for s in self.senders:
+            tx.append(pc.Packet(s, 7, step.k, (1.0, 2.0, 3.0), 0.5))
+
+
+def test_each_broadcast_goes_to_every_out_neighbour_numbered_by_platoon():
+    topo = pc.Topology.from_config(config("tpsf", 2))
+    sent = [[False] * 3, [False] * 3]
+    items = pc._transmit(
+        [Broadcasting([0]), Broadcasting([1, 2])], 4, 0.04, [None] * 6, 3, topo.out_neighbours, sent
+    )
+    # Platoon 0: the leader to 1 and 2. Platoon 1 (ids 3..5): 1 to 2, 2 to nobody.
+    assert [(it.receiver, it.packet.sender) for it in items] == [(1, 0), (2, 0), (5, 4)]
+    assert all(it.kind == w.LinkPacket.DELIVERY and it.packet.step == 4 for it in items)
+    assert list(items[0].packet.state) == [1.0, 2.0, 3.0] and items[0].packet.u == 0.5
+    assert sent == [[True, False, False], [False, True, True]]
+    with pytest.raises(pc.ContractError, match="vehicle 3"):
+        pc._transmit([Broadcasting([3])], 0, 0.0, [None] * 3, 3, topo.out_neighbours, sent)
+
+
+def link(receiver, sender, kind=w.LinkPacket.DELIVERY):
+    it = w.LinkPacket(receiver=receiver, kind=kind)
+    it.packet.sender = sender
+    it.packet.step = 1
+    return it
+
+
+def test_an_rx_batch_is_sorted_as_the_rust_sdk_sorts_it():
+    rx = [
+        link(1, 0),
+        link(4, 3),
+        link(5, 1),  # a sender of another platoon
+        link(9, 2),  # a receiver no vehicle has: platoon 0, UNKNOWN
+        link(2, 0, w.LinkPacket.JAMMED),
+        link(9, 0, w.LinkPacket.JAMMED),  # ignored
+    ]
+    deliveries, jammed = pc.sort_rx(rx, 3, 2)
+    assert [(d.receiver, d.packet.sender) for d in deliveries[0]] == [(1, 0), (pc.UNKNOWN, 2)]
+    assert [(d.receiver, d.packet.sender) for d in deliveries[1]] == [(1, 0), (2, pc.UNKNOWN)]
+    assert jammed == [[False, False, True], [False, False, False]]
+
+
+class Commanding(pc.Controller):
+    def __init__(self, commands):
+        self.commands = commands
+
+    def receive(self, step, commands):
+        commands.extend(self.commands)
+
+
+def test_commands_carry_their_flags_and_bad_ones_are_refused():
+    sent = [[False, True, False]]
+    out = pc._receive(
+        [Commanding([0.5, pc.Command(-1.0, theta=3.0, affected=True, mode=pc.ZERO, guard=True)])],
+        2,
+        0.02,
+        [None] * 3,
+        [],
+        3,
+        sent,
+    )
+    assert [(c.vehicle, c.u, c.theta) for c in out] == [(1, 0.5, 0.0), (2, -1.0, 3.0)]
+    assert out[0].flags == w.Command.TRIGGERED  # it broadcast in this step's transmit
+    assert out[1].flags == w.Command.AFFECTED | w.Command.GUARD | (pc.ZERO << 4)
+    with pytest.raises(pc.ContractError, match="1 commands for 2 followers"):
+        pc._receive([Commanding([0.0])], 0, 0.0, [None] * 3, [], 3, sent)
+    with pytest.raises(pc.ContractError, match="follower 2 of platoon 0 is nan"):
+        pc._receive([Commanding([0.0, math.nan])], 0, 0.0, [None] * 3, [], 3, sent)
