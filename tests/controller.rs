@@ -1,0 +1,320 @@
+//! Controllers from outside (issue 22, section 3): `platoon run --controller` replaces the
+//! controller service with the user's process. The paper's law re-implemented on the Rust and
+//! the Python SDK reproduces the built-in run byte for byte, a law the project does not have
+//! runs to completion, and a controller that crashes, hangs, repeats itself or sends malformed
+//! commands is named, the complete steps are kept, `complete: false`, and the exit is non-zero.
+mod common;
+
+use common::{json, ok, platoon, platoon_command, repo};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use std::sync::OnceLock;
+use std::time::{Duration, Instant};
+
+/// The bridge's Python (creating the venv on first use, as .ci/run does).
+fn python() -> String {
+    static PYTHON: OnceLock<String> = OnceLock::new();
+    PYTHON
+        .get_or_init(|| {
+            let o = Command::new(repo().join("bridge/setup-venv.sh"))
+                .output()
+                .unwrap();
+            assert!(
+                o.status.success(),
+                "bridge/setup-venv.sh failed: {}",
+                String::from_utf8_lossy(&o.stderr)
+            );
+            repo().join("bridge/.venv/bin/python").display().to_string()
+        })
+        .clone()
+}
+
+/// `bridge/examples/<name> ARGS` run by the bridge's Python, as `--controller` takes it.
+fn py_example(name: &str, args: &str) -> String {
+    format!(
+        "{} {} {args}",
+        python(),
+        repo().join("bridge/examples").join(name).display()
+    )
+}
+
+/// An example of the Rust controller SDK (crates/controller/examples), built here once (a
+/// no-op when it is fresh) so that the test never runs a stale one.
+fn sdk_example(name: &str) -> String {
+    static BUILT: OnceLock<()> = OnceLock::new();
+    BUILT.get_or_init(|| {
+        let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+        let o = Command::new(cargo)
+            .current_dir(repo())
+            .args(["build", "-p", "platoon-controller", "--examples"])
+            .output()
+            .unwrap();
+        assert!(
+            o.status.success(),
+            "building the controller SDK's examples: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+    });
+    let exe = Path::new(env!("CARGO_BIN_EXE_platoon"))
+        .parent()
+        .unwrap()
+        .join("examples")
+        .join(name);
+    assert!(exe.exists(), "{} is missing", exe.display());
+    exe.display().to_string()
+}
+
+/// `platoon run configs/<config> --no-plots --out <out> EXTRA` in `dir`.
+fn run_in(dir: &Path, config: &str, out: &str, extra: &[&str]) -> Output {
+    let c = repo().join("configs").join(config);
+    let mut args = vec!["run", c.to_str().unwrap(), "--no-plots", "--out", out];
+    args.extend_from_slice(extra);
+    platoon(&args, dir)
+}
+
+/// The per-step files and the summary of two runs are equal byte for byte, but for the
+/// summary's `controller` key, which says what each ran.
+fn same_run_but_the_controller(a: &Path, b: &Path) {
+    for f in ["trajectories.csv", "events.csv", "wire.csv", "channel.csv"] {
+        let (x, y) = (std::fs::read(a.join(f)), std::fs::read(b.join(f)));
+        assert!(
+            x.is_ok() && x.as_ref().ok() == y.as_ref().ok(),
+            "{f} differs between {} and {}",
+            a.display(),
+            b.display()
+        );
+    }
+    let (mut sa, mut sb) = (json(&a.join("summary.json")), json(&b.join("summary.json")));
+    assert_ne!(sa["controller"], sb["controller"]);
+    sa["controller"] = serde_json::Value::Null;
+    sb["controller"] = serde_json::Value::Null;
+    assert_eq!(sa, sb);
+}
+
+/// The paper's law re-implemented on the Rust SDK (and the config's own controllers run as a
+/// plug-in) reproduces the built-in run of the paper scenario, its DoS included, byte for byte.
+#[test]
+fn the_paper_law_on_the_rust_sdk_reproduces_the_builtin_run_byte_for_byte() {
+    let tmp = tempfile::tempdir().unwrap();
+    ok(&run_in(tmp.path(), "paper.toml", "builtin", &[]));
+    let builtin = tmp.path().join("builtin");
+    for example in ["paper_law", "configured"] {
+        let exe = sdk_example(example);
+        ok(&run_in(
+            tmp.path(),
+            "paper.toml",
+            example,
+            &["--controller", &exe],
+        ));
+        let run = tmp.path().join(example);
+        same_run_but_the_controller(&run, &builtin);
+        assert_eq!(
+            json(&run.join("summary.json"))["controller"]["program"],
+            exe
+        );
+    }
+    // The paper's run has broadcasts, attacks and both modes: a law that got any of them
+    // wrong would differ.
+    let s = json(&builtin.join("summary.json"));
+    assert!(s["vehicles"][0]["triggers"].as_u64().unwrap() > 10);
+    assert!(s["vehicles"][0]["affected_time_s"].as_f64().unwrap() > 1.0);
+}
+
+/// The same law re-implemented in Python (bridge/examples/paper_law.py), from the config's
+/// numbers: the paper scenario byte for byte, and a run with link attacks (loss, delays,
+/// replays: its packet checks refuse what the built-in ones refuse) too.
+#[test]
+fn the_paper_law_on_the_python_sdk_reproduces_the_builtin_run_byte_for_byte() {
+    let tmp = tempfile::tempdir().unwrap();
+    let law = py_example("paper_law.py", "");
+    for config in ["paper.toml", "link-attacks.toml"] {
+        ok(&run_in(tmp.path(), config, "builtin", &["--force"]));
+        ok(&run_in(
+            tmp.path(),
+            config,
+            "python",
+            &["--force", "--controller", &law],
+        ));
+        same_run_but_the_controller(&tmp.path().join("python"), &tmp.path().join("builtin"));
+    }
+    let s = json(&tmp.path().join("python/summary.json"));
+    assert!(
+        s["rejected_packets"]["stale_seq"].as_u64().unwrap() > 0,
+        "the link attacks make the checks refuse packets: {}",
+        s["rejected_packets"]
+    );
+}
+
+/// A law the project does not have (bridge/examples/sliding_mode.py, a sliding-mode CACC on
+/// the radar and the predecessor's broadcasts) runs the paper scenario to completion, keeps
+/// the platoon together through the DoS, and reports its own degraded mode.
+#[test]
+fn a_sliding_mode_law_on_the_python_sdk_runs_to_completion() {
+    let tmp = tempfile::tempdir().unwrap();
+    let law = py_example("sliding_mode.py", "");
+    ok(&run_in(
+        tmp.path(),
+        "paper.toml",
+        "smc",
+        &["--controller", &law],
+    ));
+    let s = json(&tmp.path().join("smc/summary.json"));
+    assert_eq!(s["complete"], true);
+    assert_eq!(s["steps"], 5501);
+    assert_eq!(s["safety"]["collided"], false);
+    for v in s["vehicles"].as_array().unwrap() {
+        // Every follower broadcasts at every step; it tracks within a few metres.
+        assert_eq!(v["triggers"], 5501, "{v}");
+        assert!(
+            v["spacing_error_m"]["max_abs"].as_f64().unwrap() < 15.0,
+            "{v}"
+        );
+        // Without its predecessor's packets during the DoS it says it is on its radar alone.
+        assert!(v["mode_time_s"]["acc"].as_f64().unwrap() > 5.0, "{v}");
+    }
+}
+
+/// A faulty controller (bridge/examples/radar_controller.py, on the raw protocol) stops a long
+/// run: returns the run's stderr, summary and how long the run took.
+fn faulty(fault: &str, step_timeout: &str) -> (String, serde_json::Value, Duration, PathBuf) {
+    let tmp = tempfile::tempdir().unwrap().keep();
+    let base = std::fs::read_to_string(repo().join("configs/table1.toml")).unwrap();
+    let config = tmp.join("long.toml");
+    std::fs::write(
+        &config,
+        base.replace("duration_s = 55.0", "duration_s = 600.0"),
+    )
+    .unwrap();
+    let controller = py_example("radar_controller.py", fault);
+    let started = Instant::now();
+    let o = platoon_command(&tmp)
+        .args([
+            "run",
+            config.to_str().unwrap(),
+            "--no-plots",
+            "--out",
+            "r",
+            "--controller",
+            &controller,
+            "--step-timeout",
+            step_timeout,
+        ])
+        .output()
+        .unwrap();
+    let took = started.elapsed();
+    assert!(!o.status.success(), "the run must fail");
+    assert_eq!(o.status.code(), Some(1));
+    let run = tmp.join("r");
+    assert!(!tmp.join("r.partial").exists());
+    let s = json(&run.join("summary.json"));
+    assert_eq!(s["complete"], false);
+    // Every complete step is kept: one row per vehicle and step.
+    let rows = std::fs::read_to_string(run.join("trajectories.csv")).unwrap();
+    assert_eq!(
+        rows.lines().count() as u64,
+        1 + 5 * s["steps"].as_u64().unwrap()
+    );
+    (
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+        s,
+        took,
+        tmp,
+    )
+}
+
+#[test]
+fn a_controller_that_crashes_is_named_at_once() {
+    let (stderr, s, took, dir) = faulty("--crash-at 5", "20");
+    let error = s["error"].as_str().unwrap();
+    for text in [&stderr, error] {
+        assert!(
+            text.contains("the controller process") && text.contains("exited at step 5"),
+            "{text}"
+        );
+        assert!(
+            text.contains("| radar_controller: crashing at step 5"),
+            "{text}"
+        );
+    }
+    assert_eq!(s["steps"], 5);
+    // Its death is seen within 100 ms, whatever the step timeout (20 s here).
+    assert!(took < Duration::from_secs(15), "{took:?}");
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+#[test]
+fn a_controller_that_hangs_is_named_after_the_step_timeout() {
+    let (stderr, s, _, dir) = faulty("--hang-at 50", "1");
+    let error = s["error"].as_str().unwrap();
+    assert!(
+        error.contains("the controller process published nothing for step 50 within 1 s"),
+        "{error}"
+    );
+    assert!(stderr.contains(error), "{stderr}");
+    assert_eq!(s["steps"], 50);
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+#[test]
+fn a_controller_repeating_one_step_is_named_after_the_step_timeout() {
+    let (_, s, _, dir) = faulty("--spam-at 60", "1");
+    let error = s["error"].as_str().unwrap();
+    // commands[60] arrived (again and again): steps 0..=60 are recorded, 61 never comes.
+    assert_eq!(s["steps"], 61);
+    assert!(
+        error.contains("the controller process published nothing for step 61")
+            && error.contains("duplicate samples"),
+        "{error}"
+    );
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+#[test]
+fn malformed_commands_are_named_and_the_steps_before_them_kept() {
+    for (fault, step, needle) in [
+        ("--wrong-ids-at 70", 70, "command 0 is for vehicle 0"),
+        ("--nan-at 80", 80, "with u = NaN"),
+    ] {
+        let (stderr, s, took, dir) = faulty(fault, "20");
+        let error = s["error"].as_str().unwrap();
+        assert!(
+            error.starts_with(&format!("controller: step {step}: ")) && error.contains(needle),
+            "{error}"
+        );
+        assert!(stderr.contains(error), "{stderr}");
+        assert_eq!(s["steps"], step, "{error}");
+        assert!(took < Duration::from_secs(15), "{took:?}");
+        let _ = std::fs::remove_dir_all(dir);
+    }
+}
+
+/// A controller that cannot run this config says why before the run starts (the Rust SDK
+/// reports its builder's error), and `--controller` needs processes.
+#[test]
+fn a_controller_that_refuses_the_config_and_an_inproc_controller_are_named() {
+    let tmp = tempfile::tempdir().unwrap();
+    let law = sdk_example("paper_law");
+    let o = run_in(tmp.path(), "degradation.toml", "r", &["--controller", &law]);
+    assert!(!o.status.success());
+    let s = json(&tmp.path().join("r/summary.json"));
+    let error = s["error"].as_str().unwrap();
+    assert!(
+        error.contains("the controller process failed at step 0")
+            && error.contains("paper_law does not implement this config's"),
+        "{error}"
+    );
+    assert_eq!(s["steps"], 0);
+    let o = run_in(
+        tmp.path(),
+        "paper.toml",
+        "x",
+        &["--transport", "inproc", "--controller", &law],
+    );
+    assert!(!o.status.success());
+    assert!(
+        String::from_utf8_lossy(&o.stderr).contains("--controller needs --transport iceoryx2"),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(!tmp.path().join("x").exists());
+}
