@@ -343,3 +343,120 @@ fn a_spacing_policy_converts_to_and_from_the_controls_type() {
         assert_eq!(TopologyConfig::from(preset).preset(), Some(preset));
     }
 }
+
+/// The paper's scenario turned to one of the field's laws: periodic beacons on plf, the
+/// platoon's spacing the law's (`spacing`), plus `extra` keys after `[control]`'s.
+fn law_config(law: &str, spacing: &str, extra: &str) -> String {
+    PAPER_TOML
+        .replacen(
+            "beta2 = 5.62",
+            &format!("beta2 = 5.62\nlaw = \"{law}\"\n{extra}"),
+            1,
+        )
+        .replacen("preset = \"tpsf\"", "preset = \"plf\"", 1)
+        .replacen("spacing_m = 10.0", spacing, 1)
+        .replacen(
+            "rule = \"dynamic\"",
+            "rule = \"periodic\"\nperiod_s = 0.1",
+            1,
+        )
+        .lines()
+        .filter(|l| {
+            !["phi", "rho", "eta", "theta0", "check_period_s"]
+                .iter()
+                .any(|k| l.starts_with(k))
+        })
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+#[test]
+fn a_field_law_takes_its_own_table_and_is_checked_against_the_platoon() {
+    // Accepted, the law's table written out with its defaults.
+    let text = law_config("path_cacc", "spacing_m = 5.0", "");
+    let (config, scenario) = parse(&text, Path::new("law.toml")).unwrap();
+    assert_eq!(scenario.control.law.name(), "path_cacc");
+    let written = to_toml(&config);
+    assert!(written.contains("[control.path_cacc]"), "{written}");
+    assert!(written.contains("omega_n_radps = 0.2"), "{written}");
+    let (again, _) = parse(&written, Path::new("resolved.toml")).unwrap();
+    assert_eq!(again, config);
+
+    let bad = |t: String| parse(&t, Path::new("bad.toml")).expect_err("refused");
+    // An unknown key of the law's table, by key.
+    let e = bad(law_config(
+        "path_cacc",
+        "spacing_m = 5.0",
+        "[control.path_cacc]\nxi = 1.0\nomega = 3.0\n",
+    ));
+    assert!(e.key.contains("control.path_cacc"), "{e}");
+    assert!(e.to_string().contains("omega"), "{e}");
+    // Another law's table.
+    let e = bad(law_config(
+        "path_cacc",
+        "spacing_m = 5.0",
+        "[control.ploeg]\nheadway_s = 0.6\n",
+    ));
+    assert_eq!(e.key, "control.ploeg", "{e}");
+    assert!(e.to_string().contains("law = \"path_cacc\""), "{e}");
+    // A value out of range, by key.
+    let e = bad(law_config(
+        "path_cacc",
+        "spacing_m = 5.0",
+        "[control.path_cacc]\nxi = 0.5\n",
+    ));
+    assert_eq!(e.key, "control.path_cacc.xi", "{e}");
+    // The paper's event triggers need the paper's law.
+    let e = bad(law_config("path_cacc", "spacing_m = 5.0", "").replacen(
+        "rule = \"periodic\"\nperiod_s = 0.1",
+        "rule = \"static\"",
+        1,
+    ));
+    assert_eq!(e.key, "trigger.rule", "{e}");
+    // The leader out of earshot.
+    let e = bad(law_config("path_cacc", "spacing_m = 5.0", "").replacen(
+        "preset = \"plf\"",
+        "preset = \"pf\"",
+        1,
+    ));
+    assert_eq!(e.key, "topology.preset", "{e}");
+    assert!(e.to_string().contains("the leader"), "{e}");
+    // The platoon's spacing is not the law's: the message says what to set.
+    let e = bad(law_config("path_cacc", "spacing_m = 10.0", ""));
+    assert_eq!(e.key, "platoon.spacing_m", "{e}");
+    assert!(e.to_string().contains("set spacing_m = 5"), "{e}");
+    let e = bad(law_config("ploeg", "spacing_m = 2.0", ""));
+    assert_eq!(e.key, "platoon.spacing_policy", "{e}");
+    assert!(e.to_string().contains("time_headway_s = 0.5"), "{e}");
+    // Ploeg with its time headway is accepted.
+    let ok = law_config(
+        "ploeg",
+        "spacing_m = 2.0\nspacing_policy = \"time_headway\"\ntime_headway_s = 0.5",
+        "",
+    );
+    parse(&ok, Path::new("ploeg.toml")).unwrap();
+}
+
+#[test]
+fn the_plexe_discretisation_is_for_the_native_plant() {
+    let (_, s) = paper_plus("").unwrap();
+    assert_eq!(s.discretisation, platoon_model::Discretisation::Exact);
+    let (_, s) = paper_with(
+        "tau = { kind = \"paper\" }",
+        "tau = { kind = \"paper\" }\ndiscretisation = \"plexe\"",
+    )
+    .unwrap();
+    assert_eq!(s.discretisation, platoon_model::Discretisation::Plexe);
+    let e = parse(
+        &PAPER_TOML
+            .replacen(
+                "tau = { kind = \"paper\" }",
+                "tau = { kind = \"paper\" }\ndiscretisation = \"plexe\"",
+                1,
+            )
+            .replacen("[simulation]", "[simulation]\nplant = \"sumo\"", 1),
+        Path::new("bad.toml"),
+    )
+    .expect_err("refused");
+    assert_eq!(e.key, "plant.discretisation", "{e}");
+}
