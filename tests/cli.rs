@@ -616,6 +616,39 @@ fn fig10_decay_rates_per_topology_under_four_conditions() {
 }
 
 #[test]
+fn experiment_controllers_writes_its_table_and_refuses_unknown_laws() {
+    let tmp = tempfile::tempdir().unwrap();
+    let o = platoon(
+        &[
+            "experiment",
+            "controllers",
+            "--laws",
+            "paper,ploeg,flatbed",
+            "--topologies",
+            "pf",
+            "--out",
+            "c",
+        ],
+        tmp.path(),
+    );
+    ok(&o);
+    let md = std::fs::read_to_string(tmp.path().join("c/controllers.md")).unwrap();
+    // Printed as written; 3 laws x 7 attacks on one topology.
+    assert!(String::from_utf8_lossy(&o.stdout).contains(&md));
+    assert_eq!(md.lines().filter(|l| l.starts_with("| ploeg | pf |")).count(), 7);
+    assert_eq!(
+        md.lines()
+            .filter(|l| l.starts_with("| flatbed | pf |") && l.contains("not run"))
+            .count(),
+        7
+    );
+    assert!(tmp.path().join("c/controllers-pf.png").exists());
+    let o = platoon(&["experiment", "controllers", "--laws", "pid"], tmp.path());
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("unknown law \"pid\""));
+}
+
+#[test]
 fn bench_arguments_are_checked_before_anything_runs() {
     let tmp = tempfile::tempdir().unwrap();
     for (args, words) in [
