@@ -4,16 +4,14 @@
 //! [`run`] drives one controller per platoon (each built by the caller from its platoon's
 //! replica of the scenario) through the whole contract of `docs/controller-contract.md`: it
 //! opens the ports, reports READY, waits for START, blocks on its wake-up listener (no busy
-//! polling), and at every step k reads the plant's `states[k]`, calls
-//! [`Controller::transmit`](platoon_control::Controller::transmit) and publishes the broadcasts
-//! as `tx[k]` (one item per link, to every out-neighbour of the sender), reads the injector's
-//! `rx[k]`, sorts it into each platoon's deliveries and jammed notices, calls
-//! [`Controller::receive`](platoon_control::Controller::receive) and publishes every follower's
-//! command and what it did ([`Controller::follower_step`](platoon_control::Controller::follower_step))
-//! as `commands[k]`; after the last step it reports DONE with the packets the controllers
-//! refused, and it exits on STOP, ABORT or when `platoon run` is gone. An error (a controller
-//! that cannot be built, a command that is not finite) names the controller and the step in the
-//! run's summary.
+//! polling), and at every step k reads the plant's `states[k]`, calls [`Controller::transmit`]
+//! and publishes the broadcasts as `tx[k]` (one item per link, to every out-neighbour of the
+//! sender), reads the injector's `rx[k]`, sorts it into each platoon's deliveries and jammed
+//! notices, calls [`Controller::receive`] and publishes every follower's command and what it did
+//! ([`Controller::follower_step`]) as `commands[k]`; after the last step it reports DONE with
+//! the packets the controllers refused, and it exits on STOP, ABORT or when `platoon run` is
+//! gone. An error (a controller that cannot be built, a command that is not finite) names the
+//! controller and the step in the run's summary.
 //!
 //! The built-in controller node ([`crate::nodes::controller`]) is [`run`] with
 //! [`platoon_control::build`]; the `platoon-controller` crate wraps it for users.
