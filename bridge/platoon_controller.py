@@ -206,12 +206,12 @@ def _transmit(controllers, k, t, states, n1, out, sent):
             if not 0 <= s < n1:
                 raise ContractError(f"platoon {j} broadcast as vehicle {s}, which it does not have")
             flags[s] = True
-            packet = w.V2vPacket(
-                sender=base + s, seq=p.seq, step=p.step, stamp_ns=stamp, u=p.u
-            )
+            packet = w.V2vPacket(sender=base + s, seq=p.seq, step=p.step, stamp_ns=stamp, u=p.u)
             packet.state[0], packet.state[1], packet.state[2] = p.state
             for r in out[s]:
-                items.append(w.LinkPacket(receiver=base + r, kind=w.LinkPacket.DELIVERY, packet=packet))
+                items.append(
+                    w.LinkPacket(receiver=base + r, kind=w.LinkPacket.DELIVERY, packet=packet)
+                )
     return items
 
 
@@ -232,7 +232,8 @@ def sort_rx(rx, n1, platoons):
         if g >= total:
             if it.kind != w.LinkPacket.JAMMED:
                 s = it.packet.sender
-                deliveries[0].append(Delivery(UNKNOWN, _packet(it.packet, s if s < UNKNOWN else UNKNOWN)))
+                sender = s if s < UNKNOWN else UNKNOWN
+                deliveries[0].append(Delivery(UNKNOWN, _packet(it.packet, sender)))
             continue
         j, r = divmod(g, n1)
         if it.kind == w.LinkPacket.JAMMED:
