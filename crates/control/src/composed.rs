@@ -15,7 +15,7 @@
 //! The emergency-braking guard applies in every mode.
 
 use crate::checks::{Heard, PacketChecks, RejectCounts};
-use crate::fallback::{acc_command, radar_truth, Radar, RadarTruth};
+use crate::fallback::{acc_command, opened_headway, GuardParams, Radar, RadarTruth, Truths};
 use crate::{Controller, Delivery, FallbackMode, FallbackParams, FollowerStep, Mode, Packet};
 use platoon_model::{State, VehicleId};
 use platoon_topology::Topology;
@@ -157,8 +157,7 @@ pub struct ComposedController {
     /// The leader's acceleration over the step before (what its packets carry as `u`).
     leader_last_u: f64,
     commands: Vec<f64>,
-    truth: Vec<Option<RadarTruth>>,
-    truth_given: bool,
+    truths: Truths,
 }
 
 impl ComposedController {
@@ -215,8 +214,7 @@ impl ComposedController {
             leader_seq: 0,
             leader_last_u: 0.0,
             commands: vec![0.0; n],
-            truth: Vec::with_capacity(n + 1),
-            truth_given: false,
+            truths: Truths::default(),
             parts,
         })
     }
@@ -255,10 +253,7 @@ impl Controller for ComposedController {
     }
 
     fn set_radar_truth(&mut self, truth: &[Option<RadarTruth>]) {
-        self.truth.clear();
-        self.truth.extend_from_slice(truth);
-        self.truth.resize(self.followers.len() + 1, None);
-        self.truth_given = true;
+        self.truths.give(truth, self.followers.len() + 1);
     }
 
     fn receive(
@@ -272,10 +267,7 @@ impl Controller for ComposedController {
             self.checks.admit(k, d);
         }
         let fb = &self.parts.fallback;
-        if !self.truth_given {
-            radar_truth(states, fb.vehicle_length, &mut self.truth);
-        }
-        self.truth_given = false;
+        let truths = self.truths.take(states, fb.vehicle_length, true);
         let radar_on = fb.uses_radar();
         let blend_steps = u64::from(fb.blend_steps);
         let n1 = self.followers.len() + 1;
@@ -286,7 +278,7 @@ impl Controller for ComposedController {
             .zip(self.commands.iter_mut())
         {
             let own = states[f.id.index()];
-            let truth = self.truth[f.id.index()];
+            let truth = truths[f.id.index()];
             let view = View {
                 k,
                 dt: self.parts.dt,
@@ -309,12 +301,7 @@ impl Controller for ComposedController {
                 FallbackMode::Hold => held,
                 FallbackMode::Predict => lawful,
                 FallbackMode::Acc => {
-                    let h = if fb.acc.opening_s > 0.0 {
-                        let t = (k - since) as f64 * view.dt;
-                        fb.acc.headway_s * (t / fb.acc.opening_s).min(1.0)
-                    } else {
-                        fb.acc.headway_s
-                    };
+                    let h = opened_headway(&fb.acc, (k - since) as f64 * view.dt);
                     acc_command(
                         &fb.acc,
                         reading,
@@ -345,7 +332,7 @@ impl Controller for ComposedController {
                 (back @ Phase::Back { exit, .. }, false) if k - exit < blend_steps => back,
                 (_, false) => Phase::Law,
             };
-            let (mode, mut u) = match f.phase {
+            let (mode, u) = match f.phase {
                 Phase::Law => (Mode::Coop, lawful),
                 Phase::Fallback { since, .. } => (f.fallback.mode(), fallback_u(since, f.held)),
                 Phase::Back { exit, mismatch } => {
@@ -356,13 +343,7 @@ impl Controller for ComposedController {
                     )
                 }
             };
-            let guard = match (&fb.guard, reading) {
-                (Some(g), Some(r)) if r.ttc() < g.ttc_s => {
-                    u = u.min(-g.decel_mps2);
-                    true
-                }
-                _ => false,
-            };
+            let (u, guard) = GuardParams::apply(fb.guard.as_ref(), reading, u);
             f.last_u = u;
             f.step.u = u;
             f.step.affected = affected;

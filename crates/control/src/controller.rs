@@ -1,5 +1,5 @@
 use crate::checks::{PacketChecks, RejectCounts};
-use crate::fallback::{acc_command, radar_truth, Radar, RadarTruth};
+use crate::fallback::{acc_command, opened_headway, GuardParams, Radar, RadarTruth, Truths};
 use crate::{ControllerParams, Delivery, FallbackMode, Mode, Packet, ParamsError, TriggerRule};
 use platoon_model::{FreeFlow, State, VehicleId};
 use platoon_topology::Topology;
@@ -81,9 +81,8 @@ pub struct PlatoonController {
     leader_last_u: f64,
     checks: PacketChecks,
     commands: Vec<f64>,
-    truth: Vec<Option<RadarTruth>>,
-    /// The plant gave this step's radar truth ([`PlatoonController::set_radar_truth`]).
-    truth_given: bool,
+    /// What the radars see this step ([`PlatoonController::set_radar_truth`] or the states).
+    truths: Truths,
 }
 
 impl PlatoonController {
@@ -158,8 +157,7 @@ impl PlatoonController {
             leader_last_u: 0.0,
             checks: PacketChecks::new(topology, initial, params.dt),
             commands: vec![0.0; n],
-            truth: Vec::with_capacity(n + 1),
-            truth_given: false,
+            truths: Truths::default(),
             params,
         })
     }
@@ -179,10 +177,7 @@ impl PlatoonController {
     /// Without it the radar sees the platoon's predecessor in the states (the native plant,
     /// which gives the same numbers).
     pub fn set_radar_truth(&mut self, truth: &[Option<RadarTruth>]) {
-        self.truth.clear();
-        self.truth.extend_from_slice(truth);
-        self.truth.resize(self.followers.len() + 1, None);
-        self.truth_given = true;
+        self.truths.give(truth, self.followers.len() + 1);
     }
 
     /// Packets refused so far.
@@ -280,10 +275,7 @@ impl PlatoonController {
         let p = &self.params;
         let fb = &p.fallback;
         let radar_on = fb.uses_radar();
-        if radar_on && !self.truth_given {
-            radar_truth(states, fb.vehicle_length, &mut self.truth);
-        }
-        self.truth_given = false;
+        let truths = self.truths.take(states, fb.vehicle_length, radar_on);
         for (f, u_out) in self.followers.iter_mut().zip(self.commands.iter_mut()) {
             let jam = jammed[f.id.index()];
             if f.step.triggered && p.resilient {
@@ -299,7 +291,7 @@ impl PlatoonController {
             let q = neighbourhood_error(f, p.spacing, p.headway);
             let coop = -(p.gain * q)[0];
             let reading = if radar_on {
-                f.radar.read(k, &fb.radar, self.truth[f.id.index()])
+                f.radar.read(k, &fb.radar, truths[f.id.index()])
             } else {
                 None
             };
@@ -312,14 +304,7 @@ impl PlatoonController {
                 acc_command(&fb.acc, reading, h, own[1], p.spacing, fb.vehicle_length)
             };
             // The ACC headway grows from 0 to h over `opening_s` after the switch.
-            let opened = |since: u64| {
-                if fb.acc.opening_s > 0.0 {
-                    let t = (k - since) as f64 * p.dt;
-                    fb.acc.headway_s * (t / fb.acc.opening_s).min(1.0)
-                } else {
-                    fb.acc.headway_s
-                }
-            };
+            let opened = |since: u64| opened_headway(&fb.acc, (k - since) as f64 * p.dt);
             let mode_of = f.fallback;
             let fallback_u = |since: u64, held: f64| match mode_of {
                 FallbackMode::Zero => 0.0,
@@ -361,7 +346,7 @@ impl PlatoonController {
                 }
                 (_, false) => Phase::Coop,
             };
-            let (mode, mut u) = match f.phase {
+            let (mode, u) = match f.phase {
                 Phase::Coop => (Mode::Coop, coop),
                 Phase::Fallback { since, .. } => (f.fallback.mode(), fallback_u(since, f.held)),
                 Phase::Back { exit, mismatch, .. } => {
@@ -370,13 +355,7 @@ impl PlatoonController {
                     (Mode::Blend, -(p.gain * (q + f.offset(k)))[0] + rest)
                 }
             };
-            let guard = match (&fb.guard, reading) {
-                (Some(g), Some(r)) if r.ttc() < g.ttc_s => {
-                    u = u.min(-g.decel_mps2);
-                    true
-                }
-                _ => false,
-            };
+            let (u, guard) = GuardParams::apply(fb.guard.as_ref(), reading, u);
             if !affected {
                 if let TriggerRule::Dynamic { .. } = p.rule {
                     let eps2 = (f.own - own).norm_squared();

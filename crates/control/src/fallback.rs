@@ -186,6 +186,50 @@ pub struct GuardParams {
     pub decel_mps2: f64,
 }
 
+impl GuardParams {
+    /// The guard on a command: with the radar's `reading` closing in faster than `ttc_s`, at
+    /// most `-decel_mps2`. Returns the command and whether the guard overrode it.
+    pub fn apply(guard: Option<&GuardParams>, reading: Option<Reading>, u: f64) -> (f64, bool) {
+        match (guard, reading) {
+            (Some(g), Some(r)) if r.ttc() < g.ttc_s => (u.min(-g.decel_mps2), true),
+            _ => (u, false),
+        }
+    }
+}
+
+/// What the radar of every vehicle sees in a step (leader first): given by the plant, or else
+/// taken from the platoon's states (the vehicle ahead is the predecessor).
+#[derive(Debug, Clone, Default)]
+pub(crate) struct Truths {
+    truth: Vec<Option<RadarTruth>>,
+    given: bool,
+}
+
+impl Truths {
+    /// The plant's view for the coming step, padded or cut to `vehicles`.
+    pub(crate) fn give(&mut self, truth: &[Option<RadarTruth>], vehicles: usize) {
+        self.truth.clear();
+        self.truth.extend_from_slice(truth);
+        self.truth.resize(vehicles, None);
+        self.given = true;
+    }
+
+    /// This step's view: the plant's if it gave one, else (when `needed`) the states'. The next
+    /// step starts without one again.
+    pub(crate) fn take(
+        &mut self,
+        states: &[platoon_model::State],
+        vehicle_length: f64,
+        needed: bool,
+    ) -> &[Option<RadarTruth>] {
+        if needed && !self.given {
+            radar_truth(states, vehicle_length, &mut self.truth);
+        }
+        self.given = false;
+        &self.truth
+    }
+}
+
 /// Everything about degradation, for every follower of a platoon.
 #[derive(Debug, Clone, PartialEq)]
 pub struct FallbackParams {
@@ -382,6 +426,16 @@ impl Radar {
 fn gaussian(rng: &mut ChaCha8Rng, std: f64) -> f64 {
     let z: f64 = StandardNormal.sample(rng);
     std * z
+}
+
+/// The ACC's headway `elapsed_s` after the switch to it: growing from 0 to `headway_s` over
+/// `opening_s` (at once without one).
+pub fn opened_headway(acc: &AccParams, elapsed_s: f64) -> f64 {
+    if acc.opening_s > 0.0 {
+        acc.headway_s * (elapsed_s / acc.opening_s).min(1.0)
+    } else {
+        acc.headway_s
+    }
 }
 
 /// The ACC law's command with the gap opened to `headway` (s); `v` is the own speed and
