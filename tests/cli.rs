@@ -635,7 +635,12 @@ fn experiment_controllers_writes_its_table_and_refuses_unknown_laws() {
     let md = std::fs::read_to_string(tmp.path().join("c/controllers.md")).unwrap();
     // Printed as written; 3 laws x 7 attacks on one topology.
     assert!(String::from_utf8_lossy(&o.stdout).contains(&md));
-    assert_eq!(md.lines().filter(|l| l.starts_with("| ploeg | pf |")).count(), 7);
+    assert_eq!(
+        md.lines()
+            .filter(|l| l.starts_with("| ploeg | pf |"))
+            .count(),
+        7
+    );
     assert_eq!(
         md.lines()
             .filter(|l| l.starts_with("| flatbed | pf |") && l.contains("not run"))

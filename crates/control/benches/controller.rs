@@ -35,7 +35,7 @@ fn benches(c: &mut Criterion) {
         }
         let rows = sim.step().to_vec();
         let states: Vec<State> = rows.iter().map(|r| State::new(r.p, r.v, r.a)).collect();
-        let controller = sim.controller().clone();
+        let controller = dyn_clone::clone_box(sim.controller());
         let k = rows[0].step + 1;
 
         c.bench_with_input(
