@@ -41,7 +41,10 @@
 //! }
 //!
 //! fn main() -> Result<(), platoon_controller::Error> {
-//!     run(|platoon| Ok(Box::new(Brake { u: vec![0.0; platoon.topology.followers()] })))
+//!     run(|platoon| {
+//!         let n = platoon.topology.followers();
+//!         Ok::<_, String>(Box::new(Brake { u: vec![0.0; n] }))
+//!     })
 //! }
 //! ```
 //!
