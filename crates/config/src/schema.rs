@@ -987,6 +987,39 @@ pub enum RuleConfig {
         /// The period (s), a whole number of steps.
         period_s: f64,
     },
+    /// ETSI EN 302 637-2's CAM generation rules, usable with every law: a new message when the
+    /// vehicle moved more than `position_m` or its speed changed more than `speed_mps` since
+    /// its last one, never sooner than `min_interval_s` nor later than `max_interval_s`.
+    Cam {
+        /// The shortest interval (s), a whole number of steps.
+        #[serde(default = "cam_min")]
+        min_interval_s: f64,
+        /// The longest interval (s), a whole number of steps.
+        #[serde(default = "cam_max")]
+        max_interval_s: f64,
+        /// Displacement that triggers a message (m).
+        #[serde(default = "cam_position")]
+        position_m: f64,
+        /// Speed change that triggers a message (m/s).
+        #[serde(default = "cam_speed")]
+        speed_mps: f64,
+    },
+}
+
+fn cam_min() -> f64 {
+    0.1
+}
+
+fn cam_max() -> f64 {
+    1.0
+}
+
+fn cam_position() -> f64 {
+    4.0
+}
+
+fn cam_speed() -> f64 {
+    0.5
 }
 
 impl RuleConfig {
@@ -997,6 +1030,7 @@ impl RuleConfig {
             Self::Static {} => "static",
             Self::Mixed { .. } => "mixed",
             Self::Periodic { .. } => "periodic",
+            Self::Cam { .. } => "cam",
         }
     }
 }

@@ -411,6 +411,25 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
             mu: finite("trigger.mu", mu)?,
             alpha: finite("trigger.alpha", alpha)?,
         },
+        RuleConfig::Cam {
+            min_interval_s,
+            max_interval_s,
+            position_m,
+            speed_mps,
+        } => TriggerRule::Cam(platoon_control::CamRule {
+            min_steps: steps_of(
+                "trigger.min_interval_s",
+                finite("trigger.min_interval_s", min_interval_s)?,
+                dt,
+            )?,
+            max_steps: steps_of(
+                "trigger.max_interval_s",
+                finite("trigger.max_interval_s", max_interval_s)?,
+                dt,
+            )?,
+            position_m: finite("trigger.position_m", position_m)?,
+            speed_mps: finite("trigger.speed_mps", speed_mps)?,
+        }),
         RuleConfig::Periodic { period_s } => TriggerRule::Periodic {
             period_steps: steps_of(
                 "trigger.period_s",

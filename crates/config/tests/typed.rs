@@ -460,3 +460,57 @@ fn the_plexe_discretisation_is_for_the_native_plant() {
     .expect_err("refused");
     assert_eq!(e.key, "plant.discretisation", "{e}");
 }
+
+#[test]
+fn the_cam_rule_serves_every_law_with_etsis_defaults() {
+    use platoon_control::{CamRule, TriggerRule};
+    let etsi = TriggerRule::Cam(CamRule {
+        min_steps: 10,
+        max_steps: 100,
+        position_m: 4.0,
+        speed_mps: 0.5,
+    });
+    for (law, spacing) in [
+        ("path_cacc", "spacing_m = 5.0"),
+        (
+            "ploeg",
+            "spacing_m = 2.0\nspacing_policy = \"time_headway\"\ntime_headway_s = 0.5",
+        ),
+    ] {
+        let text = law_config(law, spacing, "").replacen(
+            "rule = \"periodic\"\nperiod_s = 0.1",
+            "rule = \"cam\"",
+            1,
+        );
+        let (config, scenario) = parse(&text, Path::new("cam.toml")).unwrap();
+        assert_eq!(scenario.control.rule, etsi, "{law}");
+        assert!(to_toml(&config).contains("min_interval_s = 0.1"));
+        // Every follower sends between once a second and ten times a second.
+        let s = platoon_sim::run(scenario, |_| {}).unwrap();
+        for v in &s.vehicles[1..] {
+            assert!(
+                (56..=551).contains(&v.triggers),
+                "{law}: {} CAMs",
+                v.triggers
+            );
+        }
+    }
+    // The paper's law too, and the interval must be whole steps.
+    let paper_cam = |extra: &str| {
+        let text: Vec<&str> = PAPER_TOML
+            .lines()
+            .filter(|l| {
+                !["phi", "rho", "eta", "theta0"]
+                    .iter()
+                    .any(|k| l.starts_with(k))
+            })
+            .collect();
+        text.join("\n")
+            .replacen("rule = \"dynamic\"", &format!("rule = \"cam\"\n{extra}"), 1)
+    };
+    let (_, scenario) = parse(&paper_cam(""), Path::new("cam.toml")).unwrap();
+    assert_eq!(scenario.control.rule, etsi);
+    let e =
+        parse(&paper_cam("min_interval_s = 0.015"), Path::new("bad.toml")).expect_err("refused");
+    assert_eq!(e.key, "trigger.min_interval_s", "{e}");
+}

@@ -102,6 +102,13 @@ impl Beaconing for Periodic {
     }
 }
 
+/// ETSI's CAM rules as beacons (the first at step 0).
+impl Beaconing for crate::CamRule {
+    fn fires(&mut self, k: u64, _: VehicleId, own: &State, last: Option<(u64, &State)>) -> bool {
+        last.is_none_or(|(step, x)| crate::CamRule::fires(self, k - step, own, x))
+    }
+}
+
 /// The parts a [`ComposedController`] is made of besides its law.
 #[derive(Debug, Clone)]
 pub struct Composition {

@@ -58,6 +58,8 @@ struct Follower {
     theta: f64,
     sampling: Sampling,
     seq: u32,
+    /// The step and state of its last broadcast (for the CAM rule).
+    last_sent: (u64, State),
     last_u: f64,
     /// What `hold` applies: the input of the step before it entered its fallback.
     held: f64,
@@ -126,6 +128,7 @@ impl PlatoonController {
                     theta: theta0,
                     sampling: Sampling::Event,
                     seq: 0,
+                    last_sent: (0, initial[i]),
                     last_u: 0.0,
                     held: 0.0,
                     step: FollowerStep::default(),
@@ -232,6 +235,10 @@ impl PlatoonController {
                             TriggerRule::Periodic { period_steps } => {
                                 k.is_multiple_of(u64::from(period_steps))
                             }
+                            TriggerRule::Cam(cam) => {
+                                let (step, last) = f.last_sent;
+                                cam.fires(k - step, &x, &last)
+                            }
                             _ if !k.is_multiple_of(u64::from(p.check_steps)) => false,
                             TriggerRule::Static => s() > 0.0,
                             TriggerRule::Dynamic { phi, .. } => s() - phi * f.theta > 0.0,
@@ -244,6 +251,7 @@ impl PlatoonController {
             };
             if fire {
                 f.own = x;
+                f.last_sent = (k, x);
                 f.seq += 1;
                 f.step.triggered = true;
                 out.push(Packet {

@@ -39,6 +39,6 @@ pub use controller::{FollowerStep, PlatoonController};
 pub use fallback::{FallbackMode, FallbackParams, Mode};
 pub use seam::{build, check_topology, Controller};
 pub use spacing::SpacingPolicy;
-pub use trigger::{ControllerParams, ParamsError, TriggerRule};
+pub use trigger::{CamRule, ControllerParams, ParamsError, TriggerRule};
 
 pub use platoon_v2v::{Delivery, Packet};

@@ -74,14 +74,21 @@ pub fn build(
     };
     check_topology(params, topology)?;
     let err = |field, message| ParamsError { field, message };
-    let crate::TriggerRule::Periodic { period_steps } = params.rule else {
-        return Err(err("rule", "the field's laws beacon periodically".into()));
+    let beaconing: Box<dyn crate::Beaconing> = match params.rule {
+        crate::TriggerRule::Periodic { period_steps } => Box::new(crate::composed::Periodic {
+            steps: period_steps,
+        }),
+        crate::TriggerRule::Cam(cam) => Box::new(cam),
+        _ => {
+            return Err(err(
+                "rule",
+                "the field's laws beacon periodically or by CAM rules".into(),
+            ))
+        }
     };
     let parts = crate::Composition {
         dt: params.dt,
-        beaconing: Box::new(crate::composed::Periodic {
-            steps: period_steps,
-        }),
+        beaconing,
         leader_broadcast_steps: params.leader_broadcast_steps,
         spacing: params.spacing,
         fallback: params.fallback.clone(),

@@ -10,6 +10,8 @@ pub enum TriggerRule {
         /// Broadcast period in steps.
         period_steps: u32,
     },
+    /// ETSI EN 302 637-2's CAM generation rules ([`CamRule`]).
+    Cam(CamRule),
     /// Static ETM (21): `beta1 |eps|^2 - beta2 |q|^2 > 0` (strict, docs/paper-readings.md#R12).
     Static,
     /// Dynamic ETM (4) with the internal variable (12):
@@ -98,12 +100,16 @@ impl ControllerParams {
             self.law
                 .validate()
                 .map_err(|(field, message)| ParamsError { field, message })?;
-            if !matches!(self.rule, TriggerRule::Periodic { .. }) {
+            if !matches!(
+                self.rule,
+                TriggerRule::Periodic { .. } | TriggerRule::Cam(_)
+            ) {
                 return err(
                     "rule",
                     format!(
                         "the {} rule needs the paper's law (its estimators); law = \"{}\" \
-                         beacons periodically: rule = \"periodic\" with period_s",
+                         beacons periodically (rule = \"periodic\" with period_s) or by \
+                         ETSI's CAM rules (rule = \"cam\")",
                         self.rule.name(),
                         self.law.name()
                     ),
@@ -140,6 +146,9 @@ impl ControllerParams {
             TriggerRule::Periodic { period_steps: 0 } => {
                 return err("period", "must be at least one step".into())
             }
+            TriggerRule::Cam(cam) => cam
+                .validate()
+                .map_err(|(field, message)| ParamsError { field, message })?,
             TriggerRule::Dynamic {
                 phi,
                 rho,
@@ -176,9 +185,120 @@ impl TriggerRule {
     pub fn name(&self) -> &'static str {
         match self {
             TriggerRule::Periodic { .. } => "periodic",
+            TriggerRule::Cam(_) => "cam",
             TriggerRule::Static => "static",
             TriggerRule::Dynamic { .. } => "dynamic",
             TriggerRule::Mixed { .. } => "mixed",
         }
+    }
+}
+
+/// ETSI EN 302 637-2's CAM generation rules on a straight road: a new message when the
+/// position moved more than `position_m` or the speed changed more than `speed_mps` since the
+/// last one (the heading rule never fires), never sooner than `min_steps` after it nor later
+/// than `max_steps`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct CamRule {
+    /// The shortest interval in steps (ETSI: 100 ms).
+    pub min_steps: u32,
+    /// The longest interval in steps (ETSI: 1 s).
+    pub max_steps: u32,
+    /// Displacement since the last message that triggers a new one (m; ETSI: 4).
+    pub position_m: f64,
+    /// Speed change since the last message that triggers a new one (m/s; ETSI: 0.5).
+    pub speed_mps: f64,
+}
+
+impl CamRule {
+    /// Whether a vehicle at `now`, which last sent `last` `since` steps ago, sends again.
+    pub fn fires(
+        &self,
+        since: u64,
+        now: &platoon_model::State,
+        last: &platoon_model::State,
+    ) -> bool {
+        since >= u64::from(self.max_steps)
+            || (since >= u64::from(self.min_steps)
+                && ((now[0] - last[0]).abs() > self.position_m
+                    || (now[1] - last[1]).abs() > self.speed_mps))
+    }
+
+    /// Checks ranges; the error names the config key (under `trigger.`).
+    pub fn validate(&self) -> Result<(), (&'static str, String)> {
+        if self.min_steps == 0 || self.max_steps < self.min_steps {
+            return Err((
+                "min_interval_s",
+                format!(
+                    "needs 1 step <= min_interval_s <= max_interval_s (got {} and {} steps)",
+                    self.min_steps, self.max_steps
+                ),
+            ));
+        }
+        if !(self.position_m.is_finite() && self.position_m > 0.0) {
+            return Err((
+                "position_m",
+                format!("must be > 0 (got {})", self.position_m),
+            ));
+        }
+        if !(self.speed_mps.is_finite() && self.speed_mps > 0.0) {
+            return Err(("speed_mps", format!("must be > 0 (got {})", self.speed_mps)));
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use platoon_model::State;
+
+    const ETSI: CamRule = CamRule {
+        min_steps: 10,
+        max_steps: 100,
+        position_m: 4.0,
+        speed_mps: 0.5,
+    };
+
+    /// When a vehicle at constant speed `v` (m/s), sampled every 0.01 s, sends its CAMs.
+    fn sends(v: f64, dv_per_step: f64, steps: u64) -> Vec<u64> {
+        let mut last = (0, State::new(0.0, v, 0.0));
+        let mut out = vec![0];
+        for k in 1..steps {
+            let now = State::new(v * k as f64 * 0.01, v + dv_per_step * k as f64, 0.0);
+            if ETSI.fires(k - last.0, &now, &last.1) {
+                out.push(k);
+                last = (k, now);
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn cams_follow_the_etsi_rules() {
+        // 15 m/s: 4 m is passed after 27 steps (4.05 m).
+        assert_eq!(sends(15.0, 0.0, 100), [0, 27, 54, 81]);
+        // Standing still: every second.
+        assert_eq!(sends(0.0, 0.0, 350), [0, 100, 200, 300]);
+        // At 60 m/s the position rule would fire every 7 steps: never sooner than 100 ms.
+        assert_eq!(sends(60.0, 0.0, 35), [0, 10, 20, 30]);
+        // Slow, but the speed changes 0.5 m/s in 0.25 s: the speed rule.
+        assert_eq!(sends(1.0, 0.02, 80), [0, 26, 52, 78]);
+        assert!(ETSI.validate().is_ok());
+        let bad = CamRule {
+            min_steps: 20,
+            ..ETSI
+        };
+        assert!(CamRule {
+            max_steps: 10,
+            ..bad
+        }
+        .validate()
+        .is_err());
+        assert!(CamRule {
+            speed_mps: 0.0,
+            ..ETSI
+        }
+        .validate()
+        .is_err());
     }
 }
