@@ -50,6 +50,10 @@ pub const ALL: &[(&str, &str)] = &[
     ),
     ("collided", "a gap reached zero"),
     (
+        "first_collision_s",
+        "when a gap first reached zero (any platoon), s; empty without a collision",
+    ),
+    (
         "triggers_total",
         "broadcasts of all followers (all platoons)",
     ),
@@ -262,6 +266,9 @@ pub fn extract(names: &[String], max_followers: usize, summary: &Summary) -> Vec
             }
             "safety_class" => Metric::Text(fleet.map_or(safety.class, |f| f.class).name().into()),
             "collided" => Metric::Int(u64::from(fleet.map_or(safety.collided, |f| f.collided))),
+            "first_collision_s" => {
+                num(fleet.map_or(safety.first_collision_t_s, |f| f.first_collision_t_s))
+            }
             "triggers_total" => {
                 Metric::Int(fleet.map_or(summary.triggers_total, |f| f.triggers_total))
             }
@@ -404,6 +411,7 @@ mod tests {
         assert_eq!(get("gap_error_growth"), "0.25");
         assert_eq!(get("safety_class"), "negligible");
         assert_eq!(get("collided"), "0");
+        assert_eq!(get("first_collision_s"), "", "no collision");
         assert_eq!(get("triggers_per_follower"), "15");
         assert_eq!(get("triggers_2"), "20");
         assert_eq!(get("triggers_3"), "", "a follower this cell does not have");

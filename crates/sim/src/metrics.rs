@@ -103,6 +103,9 @@ pub struct Safety {
     /// Smallest time to collision `gap / closing speed` of any follower while closing in on
     /// the vehicle ahead (s; true states, not the radar); None if no follower ever closed in.
     pub min_ttc_s: Option<f64>,
+    /// When a gap first reached zero (s); absent without a collision.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub first_collision_t_s: Option<f64>,
     /// The largest deceleration any follower needed (m/s^2, positive).
     #[serde(deserialize_with = "nullable")]
     pub max_deceleration_mps2: f64,
@@ -375,6 +378,7 @@ impl MetricsAccumulator {
                 min_gap_vehicle: 0,
                 min_gap_t_s: 0.0,
                 min_ttc_s: None,
+                first_collision_t_s: None,
             },
         }
     }
@@ -418,6 +422,9 @@ impl MetricsAccumulator {
                 if self.safety.min_ttc_s.is_none_or(|m| ttc < m) {
                     self.safety.min_ttc_s = Some(ttc);
                 }
+            }
+            if gap <= 0.0 && self.safety.first_collision_t_s.is_none() {
+                self.safety.first_collision_t_s = Some(r.t);
             }
             if gap < self.safety.min_gap_m {
                 self.safety.min_gap_m = gap;
@@ -576,6 +583,9 @@ pub struct FleetOverview {
     pub max_deceleration_mps2: f64,
     /// The worst class of any platoon.
     pub class: SafetyClass,
+    /// When a gap of any platoon first reached zero (s); absent without a collision.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub first_collision_t_s: Option<f64>,
     /// Every platoon.
     pub per_platoon: Vec<PlatoonBrief>,
 }
@@ -682,6 +692,10 @@ impl FleetMetrics {
                     .map(|s| s.safety.class)
                     .max()
                     .unwrap_or(SafetyClass::None),
+                first_collision_t_s: all
+                    .iter()
+                    .filter_map(|s| s.safety.first_collision_t_s)
+                    .reduce(f64::min),
                 per_platoon,
             });
         }
