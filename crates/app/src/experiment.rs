@@ -19,6 +19,7 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 mod controllers;
+pub(crate) use controllers::configure as configure_law;
 pub use controllers::{
     controllers, Controllers, ControllersOptions, ControllersRow, ATTACKS as CONTROLLER_ATTACKS,
 };

@@ -3,9 +3,9 @@
 //! iceoryx2, one platoon or a fleet, native or SUMO ([`run`]); LMI design: check a gain,
 //! synthesise one, re-check a certificate, the DoS bounds ([`design`]); the paper's Section IV
 //! experiments and ours ([`experiment`]); campaigns, their cells run by any executor and resumed
-//! ([`campaign`]); the SUMO set-up ([`sumo`]). Results come back in memory; files are written
-//! only into the run (or campaign) directory the caller names; progress is reported through
-//! [`Progress`], never drawn here.
+//! ([`campaign`]); the search for the worst admissible DoS ([`search`]); the SUMO set-up
+//! ([`sumo`]). Results come back in memory; files are written only into the run (or campaign)
+//! directory the caller names; progress is reported through [`Progress`], never drawn here.
 //!
 //! The pure core is below (`platoon-sim` runs a scenario in process with no files at all:
 //! [`platoon_sim::run`]); the files of a run are `platoon-output`'s.
@@ -17,6 +17,7 @@ pub mod design;
 pub mod experiment;
 pub mod progress;
 pub mod run;
+pub mod search;
 pub mod sumo;
 
 pub use progress::Progress;

@@ -233,19 +233,18 @@ impl Budget {
         cert
     }
 
-    /// The schedule of `plan` on `grid`, in seconds.
+    /// The schedule of `plan` on `grid`, in seconds: each jam's start and length on the grid
+    /// (certified as they are, by [`Budget::certify`]).
     pub fn schedule(&self, grid: &Grid, plan: &Plan) -> Schedule {
         Schedule {
             jams: plan
                 .0
                 .iter()
-                .map(|j| {
-                    let start_s = grid.time(j.start);
-                    Jamming {
-                        start_s,
-                        duration_s: grid.time(j.end()) - start_s,
-                        target: self.targets[j.target.min(self.targets.len() - 1)],
-                    }
+                .map(|j| Jamming {
+                    start_s: grid.time(j.start),
+                    // The length of `len` steps (6.58, not 41.58 - 35 = 6.579999999999998).
+                    duration_s: grid.time(j.len),
+                    target: self.targets[j.target.min(self.targets.len() - 1)],
                 })
                 .collect(),
         }

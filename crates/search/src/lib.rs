@@ -214,7 +214,7 @@ impl Schedule {
 }
 
 impl fmt::Display for Schedule {
-    /// `34.9+6.5 s` per jam (`@0->1` for a link), `none` without.
+    /// `34.9+6.5 s` per jam, to the millisecond (`@0->1` for a link), `none` without.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         if self.jams.is_empty() {
             return f.write_str("none");
@@ -223,7 +223,7 @@ impl fmt::Display for Schedule {
             if i > 0 {
                 f.write_str(", ")?;
             }
-            write!(f, "{}+{} s", j.start_s, round6(j.duration_s))?;
+            write!(f, "{}+{} s", round3(j.start_s), round3(j.duration_s))?;
             if j.target != Target::Channel {
                 write!(f, " @{}", j.target)?;
             }
@@ -232,9 +232,9 @@ impl fmt::Display for Schedule {
     }
 }
 
-/// `x` to 6 decimals (a duration `41.4 - 34.9` prints as 6.5).
-fn round6(x: f64) -> f64 {
-    (x * 1e6).round() / 1e6
+/// `x` to the millisecond, for people (the exact schedule is in [`Schedule::jams`]).
+fn round3(x: f64) -> f64 {
+    (x * 1e3).round() / 1e3
 }
 
 #[cfg(test)]
@@ -268,7 +268,7 @@ mod tests {
                 },
                 Jamming {
                     start_s: 50.0,
-                    duration_s: 1.0,
+                    duration_s: 1.0004,
                     target: Target::Link {
                         sender: 0,
                         receiver: 1,

@@ -151,42 +151,7 @@ fn cell(
     preset: Preset,
     attack: &'static str,
 ) -> Result<ControllersRow> {
-    let mut c = base.config.clone();
-    c.control.law = law;
-    c.control.acc = None;
-    c.control.path_cacc = None;
-    c.control.ploeg = None;
-    c.control.consensus = None;
-    c.control.flatbed = None;
-    c.topology = TopologyConfig::from(preset);
-    if law == LawName::Acc {
-        // The cruise control's set speed above the profile's 25 m/s (SUMO's 14 m/s would
-        // hold the followers below the leader's speed).
-        c.control.acc = Some(platoon_control::laws::PlexeAccParams {
-            desired_speed_mps: 30.0,
-            ..Default::default()
-        });
-    }
-    let params = law_defaults(law);
-    if let Some((l, h)) = params.spacing_policy(c.platoon.vehicle_length_m) {
-        c.platoon.spacing_m = l;
-        c.platoon.spacing = if h == 0.0 {
-            SpacingConfig::Constant {}
-        } else {
-            SpacingConfig::TimeHeadway { time_headway_s: h }
-        };
-        c.trigger.rule = RuleConfig::Periodic {
-            period_s: opts.beacon_period_s,
-        };
-        c.trigger.check_period_s = None;
-    }
-    c.platoon.initial_states = None;
-    c.platoon.formation = Some(Formation {
-        leader_position_m: 0.0,
-        position_jitter_m: 0.0,
-        speed_jitter_mps: 0.0,
-        seed: 0,
-    });
+    let mut c = configure(&base.config, law, preset, opts.beacon_period_s);
     apply_attack(&mut c, attack);
     let row = |not_run: String| ControllersRow {
         law: law.name(),
@@ -229,6 +194,55 @@ fn cell(
         ),
         ..row(String::new())
     })
+}
+
+/// The base config switched to `law` on `preset`, as [`controllers`] runs each law: its own
+/// beaconing (the field's laws periodic beacons every `beacon_period_s`), its own distances
+/// (SUMO's Plexe defaults; the platoon's spacing policy set to the one the law keeps), the
+/// platoon starting in formation at the leader's speed. The attacks are the base's.
+pub(crate) fn configure(
+    base: &platoon_config::Config,
+    law: LawName,
+    preset: Preset,
+    beacon_period_s: f64,
+) -> platoon_config::Config {
+    let mut c = base.clone();
+    c.control.law = law;
+    c.control.acc = None;
+    c.control.path_cacc = None;
+    c.control.ploeg = None;
+    c.control.consensus = None;
+    c.control.flatbed = None;
+    c.topology = TopologyConfig::from(preset);
+    if law == LawName::Acc {
+        // The cruise control's set speed above the profile's 25 m/s (SUMO's 14 m/s would
+        // hold the followers below the leader's speed).
+        c.control.acc = Some(platoon_control::laws::PlexeAccParams {
+            desired_speed_mps: 30.0,
+            ..Default::default()
+        });
+    }
+    let params = law_defaults(law);
+    if let Some((l, h)) = params.spacing_policy(c.platoon.vehicle_length_m) {
+        c.platoon.spacing_m = l;
+        c.platoon.spacing = if h == 0.0 {
+            SpacingConfig::Constant {}
+        } else {
+            SpacingConfig::TimeHeadway { time_headway_s: h }
+        };
+        c.trigger.rule = RuleConfig::Periodic {
+            period_s: beacon_period_s,
+        };
+        c.trigger.check_period_s = None;
+    }
+    c.platoon.initial_states = None;
+    c.platoon.formation = Some(Formation {
+        leader_position_m: 0.0,
+        position_jitter_m: 0.0,
+        speed_jitter_mps: 0.0,
+        seed: 0,
+    });
+    c
 }
 
 /// A law with SUMO's Plexe defaults (the paper's: its own).
