@@ -632,7 +632,11 @@ fn every_shipped_campaign_parses() {
     let mut seen = 0;
     for entry in std::fs::read_dir(repo().join("campaigns")).unwrap() {
         let path = entry.unwrap().path();
-        if path.extension().is_some_and(|e| e == "toml") {
+        // worst-dos*.toml are search files (`platoon search`; tests/search.rs parses them).
+        let search = path
+            .file_name()
+            .is_some_and(|n| n.to_string_lossy().starts_with("worst-dos"));
+        if path.extension().is_some_and(|e| e == "toml") && !search {
             let c = platoon_campaign::Campaign::load(&path, None).unwrap_or_else(|e| panic!("{e}"));
             assert!(
                 c.cells.iter().all(|cell| cell.config.is_ok()),

@@ -44,6 +44,11 @@ pub enum Bench {
     /// (campaign.json), so start-up, per-cell records and cells.csv are included. Writes
     /// campaign.csv and campaign.json.
     Campaign(CampaignArgs),
+    /// Worst-case DoS search throughput: `platoon search`'s search (no baselines, no figures)
+    /// on the paper scenario under its Assumption 2, in process, with each --jobs value; each
+    /// figure is the search's own wall time (search.json: proposing, certifying, running and
+    /// measuring every candidate). Writes search.csv and search.json.
+    Search(SearchArgs),
     /// Every benchmark above with its defaults, and BENCHMARKS.md (method, machine, figures).
     All(AllArgs),
 }
@@ -133,6 +138,23 @@ pub struct CampaignArgs {
     pub force: bool,
 }
 
+/// Arguments of `platoon bench search`.
+#[derive(Debug, clap::Args)]
+pub struct SearchArgs {
+    /// Evaluations of the search.
+    #[arg(long, default_value_t = 1000)]
+    pub evaluations: usize,
+    /// Local pool sizes to measure.
+    #[arg(long, value_delimiter = ',', default_value = "1,2")]
+    pub jobs: Vec<usize>,
+    /// Output directory [default: runs/bench-search].
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Replace the output directory if it exists.
+    #[arg(long)]
+    pub force: bool,
+}
+
 /// Arguments of `platoon bench all`.
 #[derive(Debug, clap::Args)]
 pub struct AllArgs {
@@ -153,6 +175,7 @@ pub fn run(b: Bench) -> Result<()> {
         Bench::Step(a) => step(a).map(|_| ()),
         Bench::Design(a) => design(a).map(|_| ()),
         Bench::Campaign(a) => campaign(a).map(|_| ()),
+        Bench::Search(a) => search(a).map(|_| ()),
         Bench::All(a) => all(a),
     }
 }
@@ -1105,6 +1128,75 @@ fn campaign(a: CampaignArgs) -> Result<Vec<CampaignRow>> {
     Ok(rows)
 }
 
+/// One measured search.
+#[derive(Debug, Clone, serde::Serialize)]
+struct SearchRow {
+    jobs: usize,
+    evaluations: usize,
+    wall_s: f64,
+    evaluations_per_s: f64,
+    ms_per_evaluation: f64,
+    /// The largest spacing error found (m), the same for every pool size.
+    harm: f64,
+}
+
+fn search(a: SearchArgs) -> Result<Vec<SearchRow>> {
+    if a.evaluations == 0 || a.jobs.is_empty() || a.jobs.contains(&0) {
+        bail!("--evaluations and every --jobs value must be at least 1");
+    }
+    let out = a
+        .out
+        .unwrap_or_else(|| PathBuf::from("runs").join("bench-search"));
+    let dir = RunDir::create(&out, a.force)?;
+    let file = dir.path("bench.toml");
+    std::fs::write(&file, "name = \"bench\"\nseed = 1\ncompare = []\n")
+        .with_context(|| format!("writing {}", file.display()))?;
+    let spec = platoon_app::search::load(&file, Some(a.evaluations))?;
+    let mut rows = Vec::new();
+    for &j in &a.jobs {
+        let pool = platoon_app::campaign::LocalPool::new(std::num::NonZeroUsize::new(j));
+        let opts = platoon_app::search::SearchOptions {
+            force: true,
+            plots: false,
+        };
+        let o = platoon_app::search::run(
+            &spec,
+            &dir.path(&format!("jobs-{j}")),
+            &opts,
+            &pool,
+            &platoon_app::Stop::default(),
+            &(),
+        )?;
+        let m = &o.problems[0].methods[0];
+        let row = SearchRow {
+            jobs: j,
+            evaluations: m.evaluations,
+            wall_s: m.wall_s,
+            evaluations_per_s: m.evaluations as f64 / m.wall_s,
+            ms_per_evaluation: 1e3 * m.wall_s / m.evaluations as f64,
+            harm: m.best.as_ref().and_then(|b| b.harm).unwrap_or(f64::NAN),
+        };
+        println!(
+            "search, local pool {:>2} jobs: {:>5} evaluations in {:>6.2} s ({:>6.1}/s), largest spacing error {:.2} m",
+            j, row.evaluations, row.wall_s, row.evaluations_per_s, row.harm
+        );
+        rows.push(row);
+    }
+    let mut w = csv::Writer::from_writer(dir.writer("search.csv")?);
+    for r in &rows {
+        w.serialize(r)?;
+    }
+    w.flush()?;
+    let json = serde_json::json!({ "machine_cores": cores(), "rows": rows });
+    dir.write(
+        "search.json",
+        (serde_json::to_string_pretty(&json)? + "\n").as_bytes(),
+    )?;
+    let path = dir.commit()?;
+    println!("outputs: {}", path.display());
+    Ok(rows)
+}
+
 fn all(a: AllArgs) -> Result<()> {
     let out = a.out.unwrap_or_else(|| PathBuf::from("runs").join("bench"));
     if out.exists() && !a.force {
@@ -1147,6 +1239,12 @@ fn all(a: AllArgs) -> Result<()> {
         jobs: vec![1, 2],
         dask_cells: 200,
         out: Some(out.join("campaign")),
+        force: true,
+    })?;
+    let searches = search(SearchArgs {
+        evaluations: 1000,
+        jobs: vec![1, 2],
+        out: Some(out.join("search")),
         force: true,
     })?;
     let mut md = String::new();
@@ -1368,6 +1466,36 @@ fn all(a: AllArgs) -> Result<()> {
             remote.ms_per_cell,
             local.ms_per_cell,
             remote.ms_per_cell / local.ms_per_cell
+        );
+    }
+    let _ = writeln!(
+        md,
+        "\n## Worst-case DoS search (`platoon bench search`)\n\n{}",
+        measured("bench search")
+    );
+    let _ = writeln!(
+        md,
+        "`platoon search`'s search alone (no baselines, no figures) on the paper scenario under its \
+         Assumption 2, in process; wall time as search.json reports it (proposing, certifying, \
+         running and measuring every candidate).\n"
+    );
+    let _ = writeln!(
+        md,
+        "| jobs | evaluations | wall (s) | evaluations/s | ms per evaluation | largest spacing error found (m) |\n|---|---|---|---|---|---|"
+    );
+    for r in &searches {
+        let _ = writeln!(
+            md,
+            "| {} | {} | {:.2} | {:.0} | {:.2} | {:.2} |",
+            r.jobs, r.evaluations, r.wall_s, r.evaluations_per_s, r.ms_per_evaluation, r.harm
+        );
+    }
+    if let Some(r) = searches.iter().find(|r| r.jobs == 2) {
+        let _ = writeln!(
+            md,
+            "\n1000 evaluations on 2 jobs: {:.2} s (target < 5 s: {}).",
+            r.wall_s,
+            if r.wall_s < 5.0 { "met" } else { "missed" }
         );
     }
     std::fs::write(&a.markdown, md).with_context(|| format!("writing {}", a.markdown.display()))?;

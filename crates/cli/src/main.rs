@@ -8,6 +8,7 @@ mod experiment;
 mod node;
 mod progress;
 mod run;
+mod search;
 mod signals;
 
 use clap::{Parser, Subcommand};
@@ -71,8 +72,9 @@ enum Command {
     ///
     /// Metrics (cells.csv columns): max_spacing_error_m, rms_spacing_error_m,
     /// mean_spacing_error_m, final_spacing_error_m, max_velocity_error_mps, min_gap_m,
-    /// max_deceleration_mps2, safety_class, collided, triggers_total, triggers_per_follower,
-    /// triggers_by_follower (triggers_1, ...), min_inter_event_s, assumption2,
+    /// max_deceleration_mps2, safety_class, collided, first_collision_s, triggers_total,
+    /// triggers_per_follower, triggers_by_follower (triggers_1, ...), min_inter_event_s,
+    /// assumption2,
     /// attack_intervals, attacked_time_s, max_affected_time_s, rejected_packets, min_ttc_s,
     /// fallback_time_s, guard_activations. Default: the
     /// spacing errors (max, RMS), min_gap_m, max_deceleration_mps2, safety_class, the
@@ -90,6 +92,21 @@ enum Command {
     /// resolved config is unchanged are kept. A bad campaign file exits with code 2 and writes
     /// nothing.
     Campaign(campaign::Args),
+    /// Search for the most harmful DoS schedule an attacker's budget allows, beside random
+    /// admissible sampling and the DoS-timing grid at the same number of runs.
+    ///
+    /// The search file (TOML; campaigns/worst-dos.toml is a commented example; none: the paper
+    /// scenario) names the scenario (`base`), the harm (a numeric campaign metric, e.g.
+    /// max_spacing_error_m, min_gap_m, max_deceleration_mps2, first_collision_s), the budget
+    /// (`[budget]`: Assumption 2's T1, T2, D1, D2 [the base's], max_jammed_s, max_intervals,
+    /// min/max_interval_s, jam = "channel" or "links"), `evaluations` per strategy, `seed`, and
+    /// `[study]` (laws x topologies) for one search per law and topology. Every schedule run
+    /// is certified by the exact Assumption-2 checker first. Writes DIR (default
+    /// runs/<name>), staged in DIR.partial: search.json (per strategy the most harmful schedule,
+    /// its harm, class and Assumption-2 margins), evaluations.csv, convergence.csv and .png,
+    /// worst.toml (re-run it with `platoon run`) and worst/ (its run directory); with [study],
+    /// one such directory per law and topology, study.csv and study.md. See docs/search.md.
+    Search(search::Args),
     /// One campaign cell: a job as JSON on stdin, the reply on stdout (what Dask workers run).
     #[command(hide = true)]
     CampaignCell,
@@ -130,6 +147,7 @@ fn main() -> ExitCode {
         Command::Run(args) => run::run(args),
         Command::Campaign(args) => campaign::run(args),
         Command::CampaignCell => campaign::cell_command(),
+        Command::Search(args) => search::run(args),
         Command::Experiment(e) => experiment::run(e),
         Command::Node(args) => node::run(args),
         Command::Bench(b) => platoon_bench::run(b),

@@ -1,0 +1,118 @@
+//! `platoon search`: the arguments, the signals, what is printed and the exit codes; the search
+//! itself is [`platoon_app::search`].
+use anyhow::Result;
+use platoon_app::campaign::{Dask, Executor, LocalPool};
+use platoon_app::search::{SearchOptions, SearchOutcome};
+use platoon_app::Stop;
+use std::path::{Path, PathBuf};
+
+/// Arguments of `platoon search` (the help text is on the command in main.rs).
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// The search file (TOML; campaigns/worst-dos.toml is a commented example) [default: the
+    /// paper scenario under its Assumption 2, 1000 evaluations of max_spacing_error_m].
+    pub search: Option<PathBuf>,
+    /// Output directory [default: runs/<search name>].
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Replace the output directory if it exists.
+    #[arg(long)]
+    pub force: bool,
+    /// Runs at once in the local pool [default: the number of cores].
+    #[arg(long, short = 'j')]
+    pub jobs: Option<std::num::NonZeroUsize>,
+    /// Send the runs to a Dask scheduler (e.g. tcp://10.0.0.5:8786) instead of the local pool,
+    /// a generation per batch; the workers run this same platoon binary (docs/campaigns.md).
+    #[arg(long, value_name = "ADDRESS")]
+    pub dask: Option<String>,
+    /// Override `evaluations` (runs per strategy; a quick pilot).
+    #[arg(long)]
+    pub evaluations: Option<usize>,
+    /// Skip the PNG figures.
+    #[arg(long)]
+    pub no_plots: bool,
+}
+
+pub fn run(args: Args) -> Result<()> {
+    let search = match &args.search {
+        Some(file) => platoon_app::search::load(file, args.evaluations)?,
+        None => platoon_app::search::parse("", Path::new("search.toml"), args.evaluations)?,
+    };
+    let executor: Box<dyn Executor> = match &args.dask {
+        Some(address) => Box::new(Dask::new(address.clone())),
+        None => Box::new(LocalPool::new(args.jobs)),
+    };
+    let out = args
+        .out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("runs").join(&search.name));
+    let interrupt = std::sync::Arc::new(crate::signals::Interrupt::install(
+        "stopping: no new batch starts; what is done is written",
+    )?);
+    let signalled = interrupt.clone();
+    let stop = Stop::new(interrupt.stop.clone(), move || {
+        signalled
+            .signal()
+            .map(|sig| crate::signals::name(sig).to_string())
+    });
+    let opts = SearchOptions {
+        force: args.force,
+        plots: !args.no_plots,
+    };
+    let outcome = platoon_app::search::run(
+        &search,
+        &out,
+        &opts,
+        &*executor,
+        &stop,
+        &crate::progress::Bar::cells(),
+    )?;
+    print(&search, &outcome);
+    if outcome.stopped.is_some() {
+        let sig = interrupt.signal().unwrap_or(libc::SIGINT);
+        eprintln!("interrupted: what was done is in {}", outcome.dir.display());
+        std::process::exit(crate::signals::exit_code(sig));
+    }
+    Ok(())
+}
+
+fn print(search: &platoon_app::search::Search, outcome: &SearchOutcome) {
+    let harm = search.harm.name();
+    let f = |h: Option<f64>| h.map_or("-".to_string(), |h| format!("{h:.2}"));
+    for p in &outcome.problems {
+        if let Some(why) = &p.not_run {
+            println!("{}: not run ({why})", p.label);
+            continue;
+        }
+        println!("{}: {harm}", p.label);
+        for m in &p.methods {
+            let best = m.best.as_ref();
+            println!(
+                "  {:<7} {:>9} in {:>4} runs{}: {} ({}), {:.1} s",
+                m.method,
+                f(best.and_then(|b| b.harm)),
+                m.evaluations,
+                best.map_or(String::new(), |b| format!(" (at run {})", b.evaluation)),
+                best.map_or("-".into(), |b| b.text.clone()),
+                best.and_then(|b| b.class)
+                    .map_or("-".into(), |c| c.to_string()),
+                m.wall_s
+            );
+        }
+        if let Some(r) = &p.reference {
+            println!(
+                "  {:<7} {:>9} reference: {} ({})",
+                "",
+                f(r.harm),
+                r.text,
+                r.class.map_or("-".into(), |c| c.to_string())
+            );
+        }
+    }
+    println!(
+        "{} in {:.1} s; outputs: {}",
+        if outcome.committed { "done" } else { "stopped" },
+        outcome.wall_s,
+        outcome.dir.display()
+    );
+}
