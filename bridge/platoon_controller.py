@@ -21,8 +21,8 @@ stops the run, which names the controller.
             self.n = run.vehicles_per_platoon - 1
 
         def transmit(self, step, tx):
-            leader = step.states[0]
-            tx.append(pc.Packet(0, step.k + 1, step.k, (leader.p, leader.v, leader.a), leader.a))
+            leader = step.states[0]  # u: a command of the step before (0.0: none here)
+            tx.append(pc.Packet(0, step.k + 1, step.k, (leader.p, leader.v, leader.a), 0.0))
 
         def receive(self, step, commands):
             commands.extend([-0.5] * self.n)  # or pc.Command(u, theta, affected, mode, guard)

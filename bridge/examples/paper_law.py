@@ -91,7 +91,7 @@ class PaperLaw(pc.Controller):
         elif c.get("guard", {}).get("enabled", False):
             refuse = "guard.enabled (only false)"
         elif c["trigger"]["rule"] not in ("dynamic", "static", "periodic"):
-            refuse = 'trigger.rule (not "mixed")'
+            refuse = 'trigger.rule (only "dynamic", "static" or "periodic")'
         if refuse:
             raise SystemExit(f"paper_law.py does not implement this config's {refuse}")
         tr = c["trigger"]
@@ -123,6 +123,8 @@ class PaperLaw(pc.Controller):
         self.topology = run.topology
         self.followers = None  # built from the states of step 0: the initial states
         self.leader_seq = 0
+        # The leader's acceleration of the step before: what its packets carry as u.
+        self.leader_last_a = 0.0
         self.refused = [0] * 6
 
     def start(self, states):
@@ -158,7 +160,10 @@ class PaperLaw(pc.Controller):
         leader = step.states[0]
         if k % self.leader_every == 0:
             self.leader_seq += 1
-            tx.append(pc.Packet(0, self.leader_seq, k, (leader.p, leader.v, leader.a), leader.a))
+            tx.append(
+                pc.Packet(0, self.leader_seq, k, (leader.p, leader.v, leader.a), self.leader_last_a)
+            )
+        self.leader_last_a = leader.a
         for f in self.followers:
             s = step.states[f.i]
             x = (s.p, s.v, s.a)

@@ -199,6 +199,13 @@ pub fn run(
         config.simulation.plant = plant;
     }
     let sumo_plan = if config.simulation.plant == PlantKind::Sumo {
+        if config.plant.discretisation != platoon_model::Discretisation::Exact {
+            anyhow::bail!(
+                "--plant sumo: the SUMO plant moves vehicles its own way; plant.discretisation = \
+                 \"plexe\" is for the native plant (leave --plant out, or set discretisation = \
+                 \"exact\")"
+            );
+        }
         if opts.transport == Transport::Inproc {
             anyhow::bail!(
                 "the SUMO plant is a process: use --transport iceoryx2 (the default), or --plant native"

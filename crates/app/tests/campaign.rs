@@ -328,6 +328,7 @@ fn a_callers_controller_runs_in_process_cells() {
             beaconing: Box::new(platoon_control::Periodic { steps: 10 }),
             leader_broadcast_steps: 1,
             spacing: s.control.spacing,
+            headway: s.control.headway,
             fallback: s.control.fallback.clone(),
         };
         Ok(Box::new(ComposedController::new(

@@ -726,8 +726,9 @@ pub enum TauConfig {
 #[serde(deny_unknown_fields)]
 pub struct Control {
     /// The law (docs/controllers.md): the paper's (its keys: `gain`, `beta1`, `beta2`, and the
-    /// event triggers of `[trigger]`), or one of the field's, which beacon periodically
-    /// (`[trigger] rule = "periodic"`) and take their parameters from `[control.<law>]`
+    /// event triggers of `[trigger]`), or one of the field's, which beacon periodically or by
+    /// ETSI's CAM rules (`[trigger] rule = "periodic"` or `"cam"`) and take their parameters
+    /// from `[control.<law>]`
     /// (every key optional, SUMO's Plexe defaults).
     #[serde(default)]
     pub law: LawName,
@@ -752,7 +753,7 @@ pub struct Control {
     /// `law = "consensus"`: the consensus law (Santini et al.).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub consensus: Option<platoon_control::laws::ConsensusParams>,
-    /// `law = "flatbed"`: the flatbed controller (Segata, Bernardini).
+    /// `law = "flatbed"`: the flatbed controller (Ali, Garcia, Martinet; in Plexe by Segata).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub flatbed: Option<platoon_control::laws::FlatbedParams>,
     /// The older name of `fallback.mode`; set one of them. The resolved config says
@@ -777,7 +778,7 @@ pub enum LawName {
     Ploeg,
     /// The consensus law of Santini et al.
     Consensus,
-    /// The flatbed controller of Segata and Bernardini.
+    /// The flatbed controller of Ali, Garcia and Martinet (2015), as Plexe has it.
     Flatbed,
 }
 
@@ -795,6 +796,19 @@ impl LawName {
     /// The law of a config name (`ploeg`).
     pub fn from_name(name: &str) -> Option<Self> {
         Self::ALL.into_iter().find(|l| l.name() == name)
+    }
+
+    /// The law with its default parameters (SUMO's Plexe defaults; the paper's own).
+    pub fn defaults(self) -> platoon_control::LawParams {
+        use platoon_control::LawParams as P;
+        match self {
+            Self::Paper => P::Paper,
+            Self::Acc => P::Acc(Default::default()),
+            Self::PathCacc => P::PathCacc(Default::default()),
+            Self::Ploeg => P::Ploeg(Default::default()),
+            Self::Consensus => P::Consensus(Default::default()),
+            Self::Flatbed => P::Flatbed(Default::default()),
+        }
     }
 
     /// Its config name.

@@ -463,10 +463,12 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
                 format!("spacing_policy = \"time_headway\", time_headway_s = {h}")
             };
             return bad(
-                if close(spacing, l) {
-                    "platoon.spacing_policy"
-                } else {
+                if !close(spacing, l) {
                     "platoon.spacing_m"
+                } else if headway > 0.0 && h > 0.0 {
+                    "platoon.time_headway_s"
+                } else {
+                    "platoon.spacing_policy"
                 },
                 format!(
                     "law = \"{name}\" keeps {l} m + {h} s x v front to front (its [control.{name}] \
@@ -499,7 +501,16 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
         .or_else(|e| {
             let section = if matches!(
                 e.field,
-                "phi" | "rho" | "eta" | "mu" | "period" | "h" | "rule"
+                "phi"
+                    | "rho"
+                    | "eta"
+                    | "mu"
+                    | "period"
+                    | "h"
+                    | "rule"
+                    | "min_interval_s"
+                    | "position_m"
+                    | "speed_mps"
             ) {
                 "trigger".to_string()
             } else if e.field == "preset" {

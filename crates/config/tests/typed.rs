@@ -48,7 +48,7 @@ fn errors_in_a_tagged_table_name_the_key_at_fault_and_its_line() {
         paper_with("rule = \"dynamic\"", "rule = \"dymanic\""),
         "trigger.rule",
         rule,
-        "unknown rule \"dymanic\"; use dynamic, static, mixed or periodic",
+        "unknown rule \"dymanic\"; use dynamic, static, mixed, periodic or cam",
     );
     assert_error(
         paper_with("phi = 0.33", "phi = 0.33\nmu = 1.0"),
@@ -389,8 +389,7 @@ fn a_field_law_takes_its_own_table_and_is_checked_against_the_platoon() {
         "spacing_m = 5.0",
         "[control.path_cacc]\nxi = 1.0\nomega = 3.0\n",
     ));
-    assert!(e.key.contains("control.path_cacc"), "{e}");
-    assert!(e.to_string().contains("omega"), "{e}");
+    assert_eq!(e.key, "control.path_cacc.omega", "{e}");
     // Another law's table.
     let e = bad(law_config(
         "path_cacc",
@@ -513,4 +512,55 @@ fn the_cam_rule_serves_every_law_with_etsis_defaults() {
     let e =
         parse(&paper_cam("min_interval_s = 0.015"), Path::new("bad.toml")).expect_err("refused");
     assert_eq!(e.key, "trigger.min_interval_s", "{e}");
+}
+
+#[test]
+fn consensus_rows_and_cam_keys_are_refused_by_key() {
+    let consensus = |extra: &str, preset: &str| {
+        law_config(
+            "consensus",
+            "spacing_m = 15.0\nspacing_policy = \"time_headway\"\ntime_headway_s = 0.8",
+            extra,
+        )
+        .replacen("preset = \"plf\"", preset, 1)
+    };
+    parse(&consensus("", "preset = \"plf\""), Path::new("ok.toml")).unwrap();
+    let bad = |t: String| parse(&t, Path::new("bad.toml")).expect_err("refused");
+    // Follower 3 listens to follower 1, whom it does not hear on plf.
+    let mut adjacency = vec![vec![0.0; 8]; 8];
+    for (i, row) in adjacency.iter_mut().enumerate().skip(1) {
+        row[0] = 1.0;
+        row[i - 1] = 1.0;
+    }
+    adjacency[3][1] = 1.0;
+    let rows: Vec<String> = adjacency.iter().map(|r| format!("{r:?}")).collect();
+    let e = bad(consensus(
+        &format!("[control.consensus]\nadjacency = [{}]\n", rows.join(", ")),
+        "preset = \"plf\"",
+    ));
+    assert_eq!(e.key, "control.consensus.adjacency", "{e}");
+    assert!(e.to_string().contains("row 3 listens to vehicle 1"), "{e}");
+    // SUMO's defaults serve 7 followers at most: 9 vehicles need more entries.
+    let mut eight = String::new();
+    let mut skipping = false;
+    for line in consensus("", "preset = \"plf\"").lines() {
+        if line.starts_with("initial_states = [") {
+            skipping = true;
+            eight.push_str("formation = { leader_position_m = 0.0 }\n");
+        } else if skipping {
+            skipping = line.trim() != "]";
+        } else {
+            eight.push_str(&line.replacen("followers = 4", "followers = 8", 1));
+            eight.push('\n');
+        }
+    }
+    let e = bad(eight);
+    assert_eq!(e.key, "control.consensus.gains", "{e}");
+    // A CAM key out of range, under [trigger].
+    let cam = law_config("path_cacc", "spacing_m = 5.0", "").replacen(
+        "rule = \"periodic\"\nperiod_s = 0.1",
+        "rule = \"cam\"\nposition_m = 0.0",
+        1,
+    );
+    assert_eq!(bad(cam).key, "trigger.position_m");
 }

@@ -28,15 +28,12 @@ pub enum LawParams {
     Ploeg(PloegParams),
     /// The consensus law (Santini et al.): every vehicle its row names, and the leader.
     Consensus(ConsensusParams),
-    /// The flatbed controller (Segata, Bernardini): predecessor and leader.
+    /// The flatbed controller (Ali, Garcia, Martinet 2015, as Plexe has it): predecessor and
+    /// leader.
     Flatbed(FlatbedParams),
 }
 
 impl LawParams {
-    /// Every law's config name, the paper's first.
-    pub const NAMES: [&'static str; 6] =
-        ["paper", "acc", "path_cacc", "ploeg", "consensus", "flatbed"];
-
     /// Its config name (`[control] law`).
     pub fn name(&self) -> &'static str {
         match self {

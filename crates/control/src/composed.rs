@@ -118,8 +118,10 @@ pub struct Composition {
     pub beaconing: Box<dyn Beaconing>,
     /// The leader broadcasts every this many steps.
     pub leader_broadcast_steps: u32,
-    /// The platoon's spacing `l` (m, front to front): the `acc` fallback keeps `l + h v`.
+    /// The platoon's spacing `l` (m, front to front): the `acc` fallback keeps `l + h v`...
     pub spacing: f64,
+    /// ...with `h` never below the platoon's own time headway (s; 0 for constant spacing).
+    pub headway: f64,
     /// What a follower does while affected, and how it comes back (`closing_mps` unused: the
     /// way back blends commands, not spacing offsets).
     pub fallback: FallbackParams,
@@ -308,7 +310,8 @@ impl Controller for ComposedController {
                 FallbackMode::Hold => held,
                 FallbackMode::Predict => lawful,
                 FallbackMode::Acc => {
-                    let h = opened_headway(&fb.acc, (k - since) as f64 * view.dt);
+                    let h = opened_headway(&fb.acc, (k - since) as f64 * view.dt)
+                        .max(self.parts.headway);
                     acc_command(
                         &fb.acc,
                         reading,
@@ -402,6 +405,7 @@ mod tests {
             }),
             leader_broadcast_steps: 1,
             spacing: 10.0,
+            headway: 0.0,
             fallback,
         };
         ComposedController::new(Box::new(Echo), parts, &topology, &initial).unwrap()

@@ -114,7 +114,7 @@ pub fn plexe_acc(p: &PlexeAccParams, v: f64, gap: f64, v_pred: f64) -> f64 {
 #[cfg_attr(feature = "schemars", derive(schemars::JsonSchema))]
 #[serde(deny_unknown_fields, default)]
 pub struct PathCaccParams {
-    /// C1, the weight of the leader's acceleration against the predecessor's, in [0, 1)
+    /// C1, the weight of the leader's acceleration against the predecessor's, in [0, 1]
     /// (dimensionless). SUMO: 0.5 (vType `c1`, `ccc1`).
     pub c1: f64,
     /// xi, the damping ratio, >= 1 (dimensionless). SUMO: 1 (vType `xi`, `ccxi`).
@@ -310,25 +310,31 @@ impl Default for ConsensusParams {
 impl ConsensusParams {
     /// Whether these parameters serve a platoon of `n` vehicles (leader included): square
     /// matrices and vectors of at least `n` entries, every row with a neighbour.
-    pub fn check(&self, n: usize) -> Result<(), String> {
-        let short = |what: &str, len: usize| {
-            format!("consensus {what} has {len} entries, the platoon {n} vehicles")
+    pub fn check(&self, n: usize) -> Result<(), (&'static str, String)> {
+        let short = |what: &'static str, len: usize| {
+            Err((
+                what,
+                format!("has {len} entries, the platoon {n} vehicles (one per vehicle at least)"),
+            ))
         };
         if self.gains.len() < n {
-            return Err(short("gains", self.gains.len()));
+            return short("gains", self.gains.len());
         }
         if self.adjacency.len() < n {
-            return Err(short("adjacency", self.adjacency.len()));
+            return short("adjacency", self.adjacency.len());
         }
         if self.speed_gains.len() < n {
-            return Err(short("speed_gains", self.speed_gains.len()));
+            return short("speed_gains", self.speed_gains.len());
         }
         if self.headways_s.len() < n {
-            return Err(short("headways_s", self.headways_s.len()));
+            return short("headways_s", self.headways_s.len());
         }
         for i in 1..n {
-            if self.gains[i].len() < n || self.adjacency[i].len() < n {
-                return Err(format!("consensus row {i} has fewer than {n} columns"));
+            if self.gains[i].len() < n {
+                return Err(("gains", format!("row {i} has fewer than {n} columns")));
+            }
+            if self.adjacency[i].len() < n {
+                return Err(("adjacency", format!("row {i} has fewer than {n} columns")));
             }
             if (0..n)
                 .filter(|&j| j != i)
@@ -336,7 +342,7 @@ impl ConsensusParams {
                 .sum::<f64>()
                 == 0.0
             {
-                return Err(format!("consensus row {i} has no neighbour"));
+                return Err(("adjacency", format!("row {i} has no neighbour")));
             }
         }
         Ok(())

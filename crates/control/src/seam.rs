@@ -91,6 +91,7 @@ pub fn build(
         beaconing,
         leader_broadcast_steps: params.leader_broadcast_steps,
         spacing: params.spacing,
+        headway: params.headway,
         fallback: params.fallback.clone(),
     };
     Ok(Box::new(crate::ComposedController::new(
@@ -126,7 +127,7 @@ pub fn check_topology(params: &ControllerParams, topology: &Topology) -> Result<
         }
     }
     if let crate::LawParams::Consensus(c) = &params.law {
-        c.check(n + 1).map_err(|m| err("gains", m))?;
+        c.check(n + 1).map_err(|(field, m)| err(field, m))?;
         for i in 1..=n {
             for j in (0..=n).filter(|&j| j != i && c.adjacency[i][j] != 0.0) {
                 if !topology

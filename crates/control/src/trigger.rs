@@ -46,8 +46,8 @@ pub enum TriggerRule {
 #[derive(Debug, Clone, PartialEq)]
 pub struct ControllerParams {
     /// The law the followers run: the paper's (the fields below) or one of the field's, which
-    /// beacon with the periodic [`TriggerRule`] and use `fallback`, `dt`, `spacing` and
-    /// `leader_broadcast_steps` too.
+    /// beacon with the periodic or the CAM [`TriggerRule`] and use `fallback`, `dt`,
+    /// `spacing`, `headway` and `leader_broadcast_steps` too.
     pub law: crate::LawParams,
     /// Controller gain `K` (the law is `u = -K q`).
     pub gain: RowVector3<f64>,

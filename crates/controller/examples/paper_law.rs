@@ -51,6 +51,7 @@ struct PaperLaw {
     theta_gain: f64,
     followers: Vec<Follower>,
     leader_seq: u32,
+    leader_last_u: f64,
     checks: PacketChecks,
     u: Vec<f64>,
 }
@@ -67,8 +68,8 @@ impl PaperLaw {
             Some("fallback.dwell_s and fallback.blend_s (only 0)")
         } else if fb.guard.is_some() {
             Some("guard.enabled (only false)")
-        } else if matches!(p.rule, TriggerRule::Mixed { .. }) {
-            Some("trigger.rule (not \"mixed\")")
+        } else if matches!(p.rule, TriggerRule::Mixed { .. } | TriggerRule::Cam(_)) {
+            Some("trigger.rule (not \"mixed\" nor \"cam\")")
         } else {
             None
         };
@@ -122,6 +123,7 @@ impl PaperLaw {
             u: vec![0.0; followers.len()],
             followers,
             leader_seq: 0,
+            leader_last_u: 0.0,
             checks,
         })
     }
@@ -153,9 +155,12 @@ impl Controller for PaperLaw {
                 seq: self.leader_seq,
                 step: k,
                 state: states[0],
-                u: states[0][2],
+                u: self.leader_last_u,
             });
         }
+        // Packets carry the sender's command of the step before (for the leader, the
+        // acceleration it applied then).
+        self.leader_last_u = states[0][2];
         for n in 0..self.followers.len() {
             let f = &self.followers[n];
             let x = states[f.id.index()];
@@ -171,7 +176,8 @@ impl Controller for PaperLaw {
                     TriggerRule::Dynamic { phi, .. } => {
                         self.s(f, &x, &self.q(f)) - phi * f.theta > 0.0
                     }
-                    TriggerRule::Mixed { .. } => unreachable!("refused in new"),
+                    // Refused in `new`.
+                    TriggerRule::Mixed { .. } | TriggerRule::Cam(_) => false,
                 },
             };
             let f = &mut self.followers[n];

@@ -124,13 +124,16 @@ pub fn run(
                         if radar_from_plant {
                             c.set_radar_truth(&truths[range.clone()]);
                         }
+                        // The commands are `commands()`, what the in-process runner hands the
+                        // plant; `follower_step` adds the flags.
                         c.receive(*k, &s[range.clone()], &deliveries[j], &jammed[range]);
+                        let u = c.commands();
                         for i in 1..n1 {
                             let f = c.follower_step(VehicleId(i as u16));
-                            if !f.u.is_finite() {
+                            let u = u.get(i - 1).copied().unwrap_or(f64::NAN);
+                            if !u.is_finite() {
                                 return Err(fail(format!(
-                                    "step {k}: the command of follower {i} of platoon {j} is {}",
-                                    f.u
+                                    "step {k}: the command of follower {i} of platoon {j} is {u}"
                                 )));
                             }
                             cmds.push(Command {
@@ -141,7 +144,7 @@ pub fn run(
                                     f.guard,
                                     f.mode.code(),
                                 ),
-                                u: f.u,
+                                u,
                                 theta: f.theta,
                             });
                         }

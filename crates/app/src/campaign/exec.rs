@@ -86,6 +86,10 @@ pub fn execute_with(
     controller: Option<&ControllerFactory>,
 ) -> CellReply {
     let result = match job.transport {
+        Transport::Iceoryx2 if controller.is_some() => Err(anyhow::anyhow!(
+            "a controller of the caller's runs in process only: set transport = \"inproc\" \
+             (or run it as a process with platoon run --controller)"
+        )),
         Transport::Inproc => in_process(job, controller),
         Transport::Iceoryx2 => co_simulation(job, program),
     };

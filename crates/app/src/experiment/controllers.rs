@@ -6,7 +6,6 @@ use platoon_config::{
     Attack, DosConfig, Formation, LawName, LinkAttackConfig, LinkKindConfig, RuleConfig,
     SpacingConfig, TopologyConfig,
 };
-use platoon_control::LawParams;
 use platoon_output::plots;
 use platoon_output::rundir::RunDir;
 use platoon_sim::SafetyClass;
@@ -222,7 +221,7 @@ pub(crate) fn configure(
             ..Default::default()
         });
     }
-    let params = law_defaults(law);
+    let params = law.defaults();
     if let Some((l, h)) = params.spacing_policy(c.platoon.vehicle_length_m) {
         c.platoon.spacing_m = l;
         c.platoon.spacing = if h == 0.0 {
@@ -243,18 +242,6 @@ pub(crate) fn configure(
         seed: 0,
     });
     c
-}
-
-/// A law with SUMO's Plexe defaults (the paper's: its own).
-fn law_defaults(law: LawName) -> LawParams {
-    match law {
-        LawName::Paper => LawParams::Paper,
-        LawName::Acc => LawParams::Acc(Default::default()),
-        LawName::PathCacc => LawParams::PathCacc(Default::default()),
-        LawName::Ploeg => LawParams::Ploeg(Default::default()),
-        LawName::Consensus => LawParams::Consensus(Default::default()),
-        LawName::Flatbed => LawParams::Flatbed(Default::default()),
-    }
 }
 
 /// The attack `name` of [`ATTACKS`] into the config (replacing its own).
