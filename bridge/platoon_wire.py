@@ -45,8 +45,8 @@ def check_contract_version(run=None) -> None:
     if version != CONTRACT_VERSION:
         raise SystemExit(
             f"this plug-in speaks platoon contract v{CONTRACT_VERSION}, but the run speaks "
-            f"v{version} ({CONTRACT_VERSION_ENV}={version}): use the bridge/ (platoon_wire.py, "
-            f'platoon_injector.py) of v{version} (see "Contract versions" in {CONTRACT_DOC} '
+            f"v{version} ({CONTRACT_VERSION_ENV}={version}): use the bridge/ (platoon_wire.py and the "
+            f'injector or controller SDK) of v{version} (see "Contract versions" in {CONTRACT_DOC} '
             "for what changed)"
         )
 
