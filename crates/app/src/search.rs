@@ -1344,36 +1344,106 @@ fn write_problem(
         dir.write(&path("worst.toml"), text.as_bytes())?;
     }
     if opts.plots {
-        let series: Vec<plots::Series> = outcome
-            .methods
-            .iter()
-            .enumerate()
-            .map(|(i, m)| plots::Series {
-                label: m.method.to_string(),
-                color: i,
-                points: m
-                    .convergence()
-                    .iter()
-                    .enumerate()
-                    .filter_map(|(k, b)| b.map(|b| ((k + 1) as f64, b)))
-                    .collect(),
-            })
-            .filter(|s| !s.points.is_empty())
-            .collect();
-        if !series.is_empty() {
-            plots::scatter_with_lines(
-                &dir.path(&path("convergence.png")),
-                &format!(
-                    "{}: most harmful {} found against evaluations",
-                    problem.label,
-                    search.harm.name()
-                ),
-                "evaluations",
-                search.harm.name(),
-                &series,
-            )?;
-        }
+        convergence_plot(
+            &dir.path(&path("convergence.png")),
+            &format!(
+                "{}: most harmful {} found against runs",
+                problem.label,
+                search.harm.name()
+            ),
+            search.harm.name(),
+            &outcome.methods,
+            outcome.reference.as_ref().and_then(|r| r.harm),
+        )?;
     }
+    Ok(())
+}
+
+/// The best harm against runs, one step line per strategy, the reference dashed.
+fn convergence_plot(
+    path: &Path,
+    title: &str,
+    harm: &str,
+    methods: &[MethodOutcome],
+    reference: Option<f64>,
+) -> Result<()> {
+    use plotters::prelude::*;
+    let lines: Vec<(&str, Vec<(f64, f64)>)> = methods
+        .iter()
+        .map(|m| {
+            let mut pts: Vec<(f64, f64)> = Vec::new();
+            for (k, b) in m.convergence().iter().enumerate() {
+                let Some(b) = *b else { continue };
+                let x = (k + 1) as f64;
+                if let Some(&(_, last)) = pts.last() {
+                    if last != b {
+                        pts.push((x, last));
+                    }
+                }
+                pts.push((x, b));
+            }
+            (m.method, pts)
+        })
+        .filter(|(_, p)| !p.is_empty())
+        .collect();
+    let ys = lines
+        .iter()
+        .flat_map(|(_, p)| p.iter().map(|q| q.1))
+        .chain(reference)
+        .filter(|y| y.is_finite());
+    let (lo, hi) = ys.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), y| {
+        (a.min(y), b.max(y))
+    });
+    if !lo.is_finite() {
+        return Ok(());
+    }
+    let pad = ((hi - lo) * 0.08).max(0.5);
+    let (y0, y1) = (if lo >= 0.0 { 0.0 } else { lo - pad }, hi + pad);
+    let x1 = lines
+        .iter()
+        .flat_map(|(_, p)| p.iter().map(|q| q.0))
+        .fold(1.0, f64::max);
+    plots::ensure_font();
+    let root = BitMapBackend::new(path, (1000, 600)).into_drawing_area();
+    root.fill(&WHITE).map_err(plots::err)?;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(title, ("sans-serif", 22))
+        .margin(15)
+        .x_label_area_size(40)
+        .y_label_area_size(70)
+        .build_cartesian_2d(0.0..x1 * 1.02, y0..y1)
+        .map_err(plots::err)?;
+    chart
+        .configure_mesh()
+        .x_desc("runs")
+        .y_desc(harm)
+        .draw()
+        .map_err(plots::err)?;
+    for (i, (name, pts)) in lines.iter().enumerate() {
+        let color = Palette99::pick(i).to_rgba();
+        chart
+            .draw_series(LineSeries::new(pts.clone(), color.stroke_width(3)))
+            .map_err(plots::err)?
+            .label(name.to_string())
+            .legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(3))
+            });
+    }
+    if let Some(r) = reference {
+        let black = BLACK.stroke_width(1);
+        chart
+            .draw_series(DashedLineSeries::new(
+                vec![(0.0, r), (x1 * 1.02, r)],
+                6,
+                4,
+                black,
+            ))
+            .map_err(plots::err)?
+            .label("reference")
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], black));
+    }
+    plots::legend(&mut chart, SeriesLabelPosition::LowerRight)?;
+    root.present().map_err(plots::err)?;
     Ok(())
 }
 
