@@ -52,26 +52,26 @@ pub const BASELINES: [&str; 2] = ["random", "grid"];
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SearchFile {
-    /// Free-form name [the file's stem].
+    /// Free-form name \[the file's stem\].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub name: Option<String>,
-    /// The scenario, relative to this file [the embedded paper scenario]. Its DoS is replaced by
+    /// The scenario, relative to this file \[the embedded paper scenario\]. Its DoS is replaced by
     /// each candidate; its link attacks stay.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub base: Option<String>,
     /// Seed of the search \[0\].
     #[serde(default)]
     pub seed: u64,
-    /// Runs per strategy [1000].
+    /// Runs per strategy \[1000\].
     #[serde(default = "default_evaluations")]
     pub evaluations: usize,
-    /// What the attacker maximises: a campaign metric [max_spacing_error_m].
+    /// What the attacker maximises: a campaign metric \[max_spacing_error_m\].
     #[serde(default = "default_harm")]
     pub harm: String,
-    /// The strategies run beside the search at the same evaluations [random, grid].
+    /// The strategies run beside the search at the same evaluations \[random, grid\].
     #[serde(default = "default_compare")]
     pub compare: Vec<String>,
-    /// How each candidate runs [inproc].
+    /// How each candidate runs \[inproc\].
     #[serde(default = "in_process")]
     pub transport: Transport,
     /// A schedule of your own to report beside them, `[start (s), duration (s)]` pairs (the
@@ -128,10 +128,10 @@ pub struct BudgetFile {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub max_interval_s: Option<f64>,
     /// `channel` (the paper's DoS: every vehicle senses it) or `links` (one V2V link at a
-    /// time, the receivers not told) [channel].
+    /// time, the receivers not told) \[channel\].
     #[serde(default)]
     pub jam: JamKind,
-    /// With `jam = "links"`: the links, `[sender, receiver]` [every link of the topology].
+    /// With `jam = "links"`: the links, `[sender, receiver]` \[every link of the topology\].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub links: Option<Vec<[u16; 2]>>,
 }
@@ -152,20 +152,20 @@ pub enum JamKind {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RandomFile {
-    /// Its seed, as a Monte Carlo campaign's `seed` [the search's]: 2024 meets the schedules of
+    /// Its seed, as a Monte Carlo campaign's `seed` \[the search's\]: 2024 meets the schedules of
     /// `campaigns/monte-carlo.toml`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub seed: Option<u64>,
-    /// Smallest quiet time between two jams (s) [1].
+    /// Smallest quiet time between two jams (s) \[1\].
     #[serde(default = "rs_min_gap")]
     pub min_gap_s: f64,
-    /// Largest proposed quiet time (s) [12].
+    /// Largest proposed quiet time (s) \[12\].
     #[serde(default = "rs_max_gap")]
     pub max_gap_s: f64,
-    /// Shortest proposed jam (s) [0.5].
+    /// Shortest proposed jam (s) \[0.5\].
     #[serde(default = "rs_min_duration")]
     pub min_duration_s: f64,
-    /// Longest proposed jam (s) [3].
+    /// Longest proposed jam (s) \[3\].
     #[serde(default = "rs_max_duration")]
     pub max_duration_s: f64,
 }
@@ -208,7 +208,7 @@ impl RandomFile {
     }
 }
 
-/// `[grid]`: the one-jam grid baseline [the DoS-timing campaign's].
+/// `[grid]`: the one-jam grid baseline \[the DoS-timing campaign's\].
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct GridFile {
@@ -241,13 +241,13 @@ impl Default for GridFile {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct StudyFile {
-    /// The laws [every law].
+    /// The laws \[every law\].
     #[serde(default = "all_laws")]
     pub laws: Vec<LawName>,
-    /// The topologies [pf, plf].
+    /// The topologies \[pf, plf\].
     #[serde(default = "pf_plf")]
     pub topologies: Vec<Preset>,
-    /// The field's laws' beacon period (s) [0.1].
+    /// The field's laws' beacon period (s) \[0.1\].
     #[serde(default = "beacon")]
     pub beacon_period_s: f64,
 }

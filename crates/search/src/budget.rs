@@ -45,7 +45,7 @@ pub struct Budget {
     /// Number of jams.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub max_intervals: Option<usize>,
-    /// Shortest jam (s) [one step].
+    /// Shortest jam (s) \[one step\].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub min_interval_s: Option<f64>,
     /// Longest jam (s).

@@ -275,19 +275,19 @@ impl Strategy for GridSampler {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct EvolutionSettings {
-    /// Schedules per generation (a batch run in parallel) [24].
+    /// Schedules per generation (a batch run in parallel) \[24\].
     #[serde(default = "default_population")]
     pub population: usize,
-    /// Differential weight F [0.6].
+    /// Differential weight F \[0.6\].
     #[serde(default = "default_f")]
     pub f: f64,
-    /// Crossover rate CR [0.9].
+    /// Crossover rate CR \[0.9\].
     #[serde(default = "default_cr")]
     pub cr: f64,
-    /// Fraction of the evaluations left to the pattern search around the best [0.3].
+    /// Fraction of the evaluations left to the pattern search around the best \[0.3\].
     #[serde(default = "default_refine")]
     pub refine: f64,
-    /// Jam slots per candidate [the most the budget allows, at most 8].
+    /// Jam slots per candidate \[the most the budget allows, at most 8\].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub slots: Option<usize>,
 }
@@ -354,7 +354,7 @@ impl EvolutionSettings {
     }
 }
 
-/// A member of the population: genes in [0, 1], three per slot (onset, length, target).
+/// A member of the population: genes in \[0, 1\], three per slot (onset, length, target).
 #[derive(Debug, Clone)]
 struct Member {
     genes: Vec<f64>,
@@ -383,7 +383,7 @@ enum Phase {
 }
 
 /// The search: differential evolution (DE/current-to-best/1/bin) over a fixed number of jam
-/// slots, each three genes in [0, 1] (onset, length, target), decoded onto the step grid and
+/// slots, each three genes in \[0, 1\] (onset, length, target), decoded onto the step grid and
 /// repaired into the budget ([`Budget::repair`]), the repaired plan written back into the
 /// member (so the population stays admissible). The first generation holds, besides random
 /// members, the longest jam the budget allows ending at and starting from each of the leader's
