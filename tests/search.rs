@@ -157,6 +157,11 @@ fn the_search_beats_the_hand_made_jam_and_its_worst_schedule_reruns_exactly() {
         .fold(f64::NEG_INFINITY, f64::max);
     assert_eq!(rerun_harm, harm(&methods[0]));
     assert_eq!(summary["attack"]["assumption2"]["holds"], true);
+    // A collision is in the summary exactly when it says so.
+    assert_eq!(
+        summary["safety"]["collided"].as_bool().unwrap(),
+        summary["safety"]["first_collision_t_s"].is_f64()
+    );
     assert!(out.join("worst/summary.json").is_file());
     // The convergence curve never goes down and ends at the best.
     let conv = std::fs::read_to_string(out.join("convergence.csv")).unwrap();
@@ -206,11 +211,45 @@ fn the_search_beats_the_hand_made_jam_and_its_worst_schedule_reruns_exactly() {
 #[test]
 fn collision_time_on_links_and_a_study_of_two_laws() {
     let tmp = tempfile::tempdir().unwrap();
-    // The first collision as early as possible, one link at a time (the receivers not told).
+    // The first collision as early as possible: a collision, during the worst jam.
+    let file = write(
+        tmp.path(),
+        "collision.toml",
+        "seed = 3\nevaluations = 24\nharm = \"first_collision_s\"\ncompare = []\n\
+         [search]\npopulation = 12\n",
+    );
+    let out = tmp.path().join("collision");
+    ok(&platoon(
+        &[
+            "search",
+            file.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--no-plots",
+        ],
+        tmp.path(),
+    ));
+    let s = json(&out.join("search.json"));
+    let p = &s["problems"][0];
+    assert_eq!(s["minimised"], true);
+    assert_eq!(p["reproduced"], true);
+    let best = &p["methods"][0]["best"];
+    let collision = best["harm"].as_f64().expect("a collision");
+    let j = jams(&best["schedule"]);
+    assert!(admissible(&j), "{best}");
+    assert!(j.iter().any(|(a, _, _)| *a < collision), "{best}");
+    let summary = rerun(&out.join("worst.toml"), tmp.path());
+    assert_eq!(summary["safety"]["collided"], true);
+    assert_eq!(
+        summary["safety"]["first_collision_t_s"].as_f64(),
+        Some(collision)
+    );
+
+    // One link at a time (the receivers not told), at most two jams.
     let file = write(
         tmp.path(),
         "links.toml",
-        "seed = 3\nevaluations = 24\nharm = \"first_collision_s\"\ncompare = []\n\
+        "seed = 3\nevaluations = 24\nharm = \"min_gap_m\"\ncompare = []\n\
          [budget]\njam = \"links\"\nmax_intervals = 2\n[search]\npopulation = 12\n",
     );
     let out = tmp.path().join("links");
@@ -233,11 +272,9 @@ fn collision_time_on_links_and_a_study_of_two_laws() {
     assert!(j.iter().all(|(_, _, t)| t != "channel"), "{best}");
     assert!(admissible(&j), "{best}");
     assert_eq!(p["reproduced"], true);
-    // The re-run's summary holds the same figure: a collision time, or none (then harm is
-    // null and the run did not collide).
     let summary = rerun(&out.join("worst.toml"), tmp.path());
     assert_eq!(
-        summary["safety"]["first_collision_t_s"].as_f64(),
+        summary["safety"]["min_gap_m"].as_f64(),
         best["harm"].as_f64()
     );
     let config = std::fs::read_to_string(out.join("worst.toml")).unwrap();
