@@ -1230,3 +1230,80 @@ fn cpus_pins_every_node_and_changes_no_result() {
 fn iceoryx2_run_with_a_time_headway_is_bit_identical_to_inproc() {
     transports_agree("configs/time-headway.toml");
 }
+
+/// The paper's scenario with `extra` appended (TOML sections), in `dir`.
+fn paper_plus(dir: &Path, name: &str, extra: &str) -> std::path::PathBuf {
+    let text = std::fs::read_to_string(repo().join("configs/paper.toml")).unwrap();
+    let path = dir.join(name);
+    std::fs::write(&path, format!("{text}\n{extra}")).unwrap();
+    path
+}
+
+#[test]
+fn iceoryx2_run_on_the_80211p_radio_is_bit_identical_to_inproc() {
+    let tmp = tempfile::tempdir().unwrap();
+    // A loaded channel: 0.12 vehicles/m beaconing at 25 Hz loses packets even at 10 m.
+    let c = paper_plus(
+        tmp.path(),
+        "radio.toml",
+        "[channel]\nmodel = \"80211p\"\nradio = { density_veh_per_m = 0.12, beacon_hz = 25.0 }\n",
+    );
+    transports_agree(c.to_str().unwrap());
+    ok(&platoon(
+        &[
+            "run",
+            c.to_str().unwrap(),
+            "--out",
+            "r",
+            "--no-plots",
+            "--transport",
+            "inproc",
+        ],
+        tmp.path(),
+    ));
+    let log = std::fs::read_to_string(tmp.path().join("r/channel.csv")).unwrap();
+    assert!(log.contains("dropped_radio"), "the radio lost nothing");
+    // The resolved config says every parameter of the model.
+    let resolved = std::fs::read_to_string(tmp.path().join("r/config.toml")).unwrap();
+    assert!(resolved.contains("tx_power_dbm = 23.0"), "{resolved}");
+}
+
+#[test]
+fn iceoryx2_runs_of_the_fields_laws_are_bit_identical_to_inproc() {
+    let tmp = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(repo().join("configs/paper.toml")).unwrap();
+    // Ploeg's CACC (its own radar, the predecessor's command fed forward) on CAM beacons, and
+    // the PATH CACC on 10 Hz beacons, under the paper's DoS.
+    for (name, law, spacing, rule) in [
+        (
+            "ploeg.toml",
+            "ploeg",
+            "spacing_m = 2.0\nspacing_policy = \"time_headway\"\ntime_headway_s = 0.5",
+            "rule = \"cam\"",
+        ),
+        (
+            "path.toml",
+            "path_cacc",
+            "spacing_m = 5.0",
+            "rule = \"periodic\"\nperiod_s = 0.1",
+        ),
+    ] {
+        let body: Vec<&str> = text
+            .lines()
+            .filter(|l| {
+                !["phi", "rho", "eta", "theta0"]
+                    .iter()
+                    .any(|k| l.starts_with(k))
+            })
+            .collect();
+        let config = body
+            .join("\n")
+            .replacen("spacing_m = 10.0", spacing, 1)
+            .replacen("preset = \"tpsf\"", "preset = \"plf\"", 1)
+            .replacen("beta2 = 5.62", &format!("beta2 = 5.62\nlaw = \"{law}\""), 1)
+            .replacen("rule = \"dynamic\"", rule, 1);
+        let path = tmp.path().join(name);
+        std::fs::write(&path, config).unwrap();
+        transports_agree(path.to_str().unwrap());
+    }
+}

@@ -120,6 +120,10 @@ pub struct ChannelSpec {
     pub seed: u64,
     /// The platoon this channel serves (its log rows carry it).
     pub platoon: u16,
+    /// IEEE 802.11p delivery against distance and load (`[channel] model = "80211p"`): every
+    /// packet on every link is delivered with the model's probability for the link's distance;
+    /// `None`: an ideal radio.
+    pub radio: Option<std::sync::Arc<platoon_radio::Model>>,
 }
 
 /// What the channel did to one packet on one link.
@@ -132,6 +136,9 @@ pub enum Action {
     DroppedJammed,
     /// Dropped: random loss (Bernoulli or Gilbert-Elliott).
     DroppedLoss,
+    /// Dropped: lost on the radio (802.11p: propagation, collision, busy receiver, below the
+    /// sensing threshold), drawn from the model's delivery ratio at the link's distance.
+    DroppedRadio,
     /// Held back; delivered at a later step.
     Delayed,
     /// A held-back packet delivered now.
@@ -167,6 +174,8 @@ pub struct ChannelEvent {
 pub struct Channel {
     spec: ChannelSpec,
     rng: ChaCha8Rng,
+    /// The radio's losses' own stream.
+    radio_rng: ChaCha8Rng,
     /// Per link (sender * n + receiver): in the bad state.
     bad: Vec<bool>,
     vehicles: usize,
@@ -191,6 +200,12 @@ impl Channel {
             .unwrap_or(0);
         Self {
             rng: ChaCha8Rng::seed_from_u64(spec.seed),
+            radio_rng: {
+                // Its own stream: the radio's draws never shift the link attacks'.
+                let mut r = ChaCha8Rng::seed_from_u64(spec.seed);
+                r.set_stream(1);
+                r
+            },
             bad: vec![false; vehicles * vehicles],
             vehicles,
             in_flight: VecDeque::new(),
@@ -259,6 +274,15 @@ impl Channel {
                 if jammed[sent.sender.index()] || jammed[receiver.index()] {
                     log.push(event(at, sent, receiver, Action::DroppedJammed, None));
                     continue;
+                }
+                if let Some(radio) = &self.spec.radio {
+                    // Distance between the antennas, front to front (the platoon's vehicles
+                    // share one length).
+                    let d = (states[sent.sender.index()][0] - states[receiver.index()][0]).abs();
+                    if self.radio_rng.gen::<f64>() >= radio.pdr(d) {
+                        log.push(event(at, sent, receiver, Action::DroppedRadio, None));
+                        continue;
+                    }
                 }
                 self.link(k, t, *sent, receiver, out, log);
             }
@@ -426,9 +450,53 @@ mod tests {
                 attacks,
                 seed: 1,
                 platoon: 0,
+                radio: None,
             },
             4,
         )
+    }
+
+    #[test]
+    fn the_80211p_radio_delivers_each_link_with_the_models_ratio_at_its_distance() {
+        let model = platoon_radio::Model::new(platoon_radio::Params80211p {
+            density_veh_per_m: 0.12,
+            beacon_hz: 25.0,
+            ..Default::default()
+        })
+        .unwrap();
+        // Follower 1 is 50 m behind the leader, follower 2 400 m behind follower 1.
+        let states = vec![
+            State::new(450.0, 15.0, 0.0),
+            State::new(400.0, 15.0, 0.0),
+            State::new(0.0, 15.0, 0.0),
+        ];
+        let (near, far) = (model.pdr(50.0), model.pdr(400.0));
+        assert!(near > 0.5 && far < near, "{near} {far}");
+        let mut c = Channel::new(
+            ChannelSpec {
+                radio: Some(std::sync::Arc::new(model)),
+                ..channel(vec![]).spec().clone()
+            },
+            3,
+        );
+        let (mut got_near, mut got_far) = (0, 0);
+        let steps = 4000;
+        for k in 0..steps {
+            let o = gate(&mut c, k, &[packet(0, 1, k), packet(1, 1, k)], &states);
+            got_near += o.deliveries.iter().filter(|d| d.receiver.0 == 1).count();
+            got_far += o.deliveries.iter().filter(|d| d.receiver.0 == 2).count();
+            assert!(o.log.iter().all(|e| e.action == Action::DroppedRadio));
+            assert_eq!(o.deliveries.len() + o.log.len(), 2);
+        }
+        // Within 4 standard deviations of the binomial.
+        for (got, p) in [(got_near, near), (got_far, far)] {
+            let n = steps as f64;
+            let sd = (n * p * (1.0 - p)).sqrt().max(1.0);
+            assert!(
+                (got as f64 - n * p).abs() < 4.0 * sd,
+                "{got} of {n} at p = {p}"
+            );
+        }
     }
 
     #[test]

@@ -335,6 +335,28 @@ pub struct Channel {
     /// The attacks, applied in this order to each packet on each link.
     #[serde(default)]
     pub attacks: Vec<LinkAttackConfig>,
+    /// The radio: `ideal` (every packet the attacks leave arrives) or `80211p` (IEEE 802.11p
+    /// delivery against distance and channel load, the analytical model of Sepulcre et al.,
+    /// docs/channel-80211p.md, with `[channel.radio]`).
+    #[serde(default)]
+    pub model: RadioModel,
+    /// `model = "80211p"`: the model's parameters (every key optional: the paper's base case,
+    /// 0.06 vehicles/m at 10 Hz, 23 dBm, 6 Mbps, 190 bytes). The density and beacon rate are
+    /// the channel's load, the platoon's included.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub radio: Option<platoon_radio::Params80211p>,
+}
+
+/// `[channel] model`: the radio under the attacks.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, JsonSchema)]
+pub enum RadioModel {
+    /// Every packet the attacks leave is delivered.
+    #[default]
+    #[serde(rename = "ideal")]
+    Ideal,
+    /// IEEE 802.11p's delivery ratio at the link's distance (docs/channel-80211p.md).
+    #[serde(rename = "80211p")]
+    Ieee80211p,
 }
 
 impl Channel {

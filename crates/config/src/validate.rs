@@ -569,6 +569,7 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
     };
 
     let (link_attacks, channel_seed) = channel(&c.channel, dt, n)?;
+    let radio = radio(&mut c.channel)?;
     finite("sumo.start_m", c.sumo.start_m)?;
     positive("sumo.tolerance_m", c.sumo.tolerance_m)?;
     if let Some(p) = c.sumo.fcd_period_s {
@@ -658,6 +659,7 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
         dos,
         link_attacks,
         channel_seed,
+        radio,
         assumption2: a.assumption2,
         vehicle_length,
         safety,
@@ -668,6 +670,48 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
         .validate()
         .or_else(|e| bad("scenario", e.to_string()))?;
     Ok(scenario)
+}
+
+/// `[channel] model` and `[channel.radio]`: the 802.11p model (its table filled with the
+/// defaults, so the resolved config says them), built once per distinct configuration in this
+/// process (a model costs milliseconds to tabulate; a campaign's cells share it).
+fn radio(c: &mut Channel) -> Result<Option<std::sync::Arc<platoon_radio::Model>>, Invalid> {
+    use std::sync::{Arc, Mutex, OnceLock};
+    match c.model {
+        RadioModel::Ideal => {
+            if c.radio.is_some() {
+                return bad(
+                    "channel.radio",
+                    "is the 802.11p model's table, but channel.model = \"ideal\": remove it or \
+                     set model = \"80211p\"",
+                );
+            }
+            Ok(None)
+        }
+        RadioModel::Ieee80211p => {
+            let params = *c.radio.get_or_insert_with(Default::default);
+            static MODELS: OnceLock<Mutex<Vec<Arc<platoon_radio::Model>>>> = OnceLock::new();
+            let models = MODELS.get_or_init(Default::default);
+            let mut cache = models.lock().unwrap_or_else(|e| e.into_inner());
+            if let Some(m) = cache.iter().find(|m| *m.params() == params) {
+                return Ok(Some(m.clone()));
+            }
+            let model = platoon_radio::Model::new(params).or_else(|e| {
+                let key = match &e {
+                    platoon_radio::Error::Parameter { name, .. } => format!("channel.radio.{name}"),
+                    _ => "channel.radio".to_string(),
+                };
+                bad(&key, e.to_string())
+            })?;
+            let model = Arc::new(model);
+            // A handful of configurations at most in one process; keep the latest 16.
+            if cache.len() >= 16 {
+                cache.remove(0);
+            }
+            cache.push(model.clone());
+            Ok(Some(model))
+        }
+    }
 }
 
 /// `[channel]`: the link-level attacks.

@@ -564,3 +564,23 @@ fn consensus_rows_and_cam_keys_are_refused_by_key() {
     );
     assert_eq!(bad(cam).key, "trigger.position_m");
 }
+
+#[test]
+fn the_80211p_radio_is_a_channel_model_with_its_own_table() {
+    let (config, scenario) = paper_plus("[channel]\nmodel = \"80211p\"\n").unwrap();
+    let model = scenario.radio.as_ref().expect("a radio");
+    assert_eq!(*model.params(), platoon_radio::Params80211p::default());
+    assert!(to_toml(&config).contains("[channel.radio]"));
+    // The same parameters share one tabulated model.
+    let (_, again) = paper_plus("[channel]\nmodel = \"80211p\"\n").unwrap();
+    assert!(std::sync::Arc::ptr_eq(model, again.radio.as_ref().unwrap()));
+    assert!(paper_plus("").unwrap().1.radio.is_none());
+    let e = paper_plus("[channel]\nradio = { beacon_hz = 10.0 }\n").expect_err("refused");
+    assert_eq!(e.key, "channel.radio", "{e}");
+    let e = paper_plus("[channel]\nmodel = \"80211p\"\nradio = { data_rate_mbps = 7.0 }\n")
+        .expect_err("refused");
+    assert_eq!(e.key, "channel.radio.data_rate_mbps", "{e}");
+    let e =
+        paper_plus("[channel]\nmodel = \"80211p\"\nradio = { rate = 6.0 }\n").expect_err("refused");
+    assert!(e.key.starts_with("channel.radio"), "{e}");
+}

@@ -65,7 +65,9 @@ const OFDM_RATES_20MHZ: [f64; 8] = [6.0, 9.0, 12.0, 18.0, 24.0, 36.0, 48.0, 54.0
 /// The configuration of the 802.11p model: the traffic, the radio and the channel. `default()`
 /// is the paper's base case (0.06 veh/m, 10 Hz, 23 dBm, 6 Mbps, 190 bytes) with the paper's
 /// radio and propagation constants.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[cfg_attr(feature = "schemars", derive(schemars::JsonSchema))]
+#[serde(deny_unknown_fields, default)]
 pub struct Params80211p {
     /// Vehicles per metre of road, evenly spaced (the paper: 0.06 and 0.12). In (0, 1].
     pub density_veh_per_m: f64,

@@ -43,6 +43,8 @@ pub struct Scenario {
     pub link_attacks: Vec<LinkAttack>,
     /// Seed of the channel's random losses.
     pub channel_seed: u64,
+    /// The 802.11p radio model, if the channel has one (shared by every platoon of a fleet).
+    pub radio: Option<std::sync::Arc<platoon_radio::Model>>,
     /// Bounds to check the DoS schedule against, if given.
     pub assumption2: Option<Assumption2>,
     /// Vehicle length for gap computations (m); 0 treats vehicles as points.
@@ -123,6 +125,7 @@ impl Scenario {
             attacks: self.link_attacks.clone(),
             seed: self.channel_seed,
             platoon: self.platoon,
+            radio: self.radio.clone(),
         }
     }
 
