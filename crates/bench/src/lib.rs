@@ -1113,6 +1113,42 @@ fn campaign(a: CampaignArgs) -> Result<Vec<CampaignRow>> {
             2,
         )?);
     }
+    // The 802.11p channel's cost per cell beside Bernoulli loss: the same Monte Carlo cells on
+    // one job, the paper scenario with each channel.
+    let paper = platoon_config::PAPER_TOML;
+    let channels = [
+        (
+            "bernoulli",
+            "Bernoulli loss 5 %, 1 job",
+            "[channel]\nseed = 1\n[[channel.attacks]]\nkind = \"bernoulli\"\nloss = 0.05\n",
+        ),
+        (
+            "80211p",
+            "802.11p (0.12 veh/m, 25 Hz), 1 job",
+            "[channel]\nseed = 1\nmodel = \"80211p\"\nradio = { density_veh_per_m = 0.12, beacon_hz = 25.0 }\n",
+        ),
+    ];
+    let channel_cells = a.cells.min(200);
+    for (name, executor, section) in channels {
+        let base = dir.path(&format!("base-{name}.toml"));
+        std::fs::write(&base, format!("{paper}\n{section}"))
+            .with_context(|| format!("writing {}", base.display()))?;
+        let path = dir.path(&format!("bench-{name}.toml"));
+        let text = format!(
+            "name = \"bench-{name}\"\nbase = \"base-{name}.toml\"\nseed = 1\n[monte_carlo]\nsamples = {channel_cells}\n\
+             dos = {{ T1 = 2.0, T2 = 9.46, D1 = 6.0, D2 = 11.33, min_gap_s = 1.0, max_gap_s = 12.0, \
+             min_duration_s = 0.5, max_duration_s = 3.0 }}\n"
+        );
+        std::fs::write(&path, text).with_context(|| format!("writing {}", path.display()))?;
+        rows.push(measure(
+            "channel",
+            &path,
+            &format!("channel-{name}"),
+            &["--jobs", "1"],
+            executor.into(),
+            1,
+        )?);
+    }
     let mut w = csv::Writer::from_writer(dir.writer("campaign.csv")?);
     for r in &rows {
         w.serialize(r)?;
@@ -1455,6 +1491,18 @@ fn all(a: AllArgs) -> Result<()> {
             "\n1000 cells on 2 jobs: {:.2} s (target <= 10 s: {}).",
             r.wall_s,
             if r.wall_s <= 10.0 { "met" } else { "missed" }
+        );
+    }
+    let channel: Vec<&CampaignRow> = campaigns.iter().filter(|r| r.part == "channel").collect();
+    if let [bernoulli, radio] = channel[..] {
+        let ratio = radio.ms_per_cell / bernoulli.ms_per_cell;
+        let _ = writeln!(
+            md,
+            "A cell on the 802.11p channel costs {:.2} ms against {:.2} ms with Bernoulli loss \
+             ({ratio:.2}x; target within 2x: {}).",
+            radio.ms_per_cell,
+            bernoulli.ms_per_cell,
+            if ratio <= 2.0 { "met" } else { "missed" }
         );
     }
     let dask: Vec<&CampaignRow> = campaigns.iter().filter(|r| r.part == "dask").collect();
