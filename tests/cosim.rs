@@ -1307,3 +1307,45 @@ fn iceoryx2_runs_of_the_fields_laws_are_bit_identical_to_inproc() {
         transports_agree(path.to_str().unwrap());
     }
 }
+
+/// A jammer on the road: what the vehicles sensed is measured in the run, and Assumption 2 is
+/// checked on it (not on the config's schedule); both transports agree bit for bit.
+#[test]
+fn a_jammer_on_the_road_is_a_dos_observed_by_the_vehicles() {
+    let tmp = tempfile::tempdir().unwrap();
+    // 20 dBm beside the road at 250 m, on from 10 s to 30 s: the platoon drives through it.
+    let c = paper_plus(
+        tmp.path(),
+        "jammer.toml",
+        "[[channel.jammers]]\nposition_m = 250.0\npower_dbm = 20.0\nstart_s = 10.0\nend_s = 30.0\n",
+    );
+    transports_agree(c.to_str().unwrap());
+    ok(&platoon(
+        &[
+            "run",
+            c.to_str().unwrap(),
+            "--out",
+            "r",
+            "--no-plots",
+            "--transport",
+            "inproc",
+        ],
+        tmp.path(),
+    ));
+    let s = summary(&tmp.path().join("r"));
+    let observed = &s["attack"]["observed"];
+    let jammed = observed["jammed_time_s"].as_f64().unwrap();
+    // The config's own DoS (10 s, admissible) plus the jammer's (well over Assumption 2's
+    // duration bound: one long outage).
+    assert!(jammed > 10.0, "{observed}");
+    assert_eq!(s["attack"]["assumption2"]["holds"], true);
+    assert_eq!(observed["assumption2"]["holds"], false, "{observed}");
+    // Without a jammer, nothing is measured (summaries of other runs are unchanged).
+    ok(&platoon(
+        &["run", "--out", "p", "--no-plots", "--transport", "inproc"],
+        tmp.path(),
+    ));
+    assert!(summary(&tmp.path().join("p"))["attack"]
+        .get("observed")
+        .is_none());
+}

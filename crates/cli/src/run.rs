@@ -220,6 +220,18 @@ fn print_summary(s: &Summary, compute_s: f64) {
             if n == 1 { "was" } else { "were" }
         ),
     }
+    if let Some(o) = &a.observed {
+        let verdict = match &o.assumption2 {
+            Some(r) if r.holds => "satisfies Assumption 2",
+            Some(_) => "VIOLATES Assumption 2",
+            None => "no Assumption-2 bounds given",
+        };
+        println!(
+            "  jamming observed by the vehicles: {}, {:.2} s, {verdict}",
+            attacks(o.intervals).replace("attack", "interval"),
+            o.jammed_time_s
+        );
+    }
     if let Some(f) = &s.fleet {
         println!(
             "  fleet: {} platoons, {} vehicles, {} broadcasts, smallest gap {:.2} m, largest deceleration {:.2} m/s^2, class {}{}",

@@ -345,6 +345,42 @@ pub struct Channel {
     /// the channel's load, the platoon's included.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub radio: Option<platoon_radio::Params80211p>,
+    /// Jammers as transmitters on the road (docs/channel-80211p.md#jammers).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub jammers: Vec<JammerConfig>,
+}
+
+/// `[[channel.jammers]]`: a transmitter on the road. A vehicle that receives it above the
+/// radio's sensing threshold (the path loss of `[channel.radio]`, its defaults without one)
+/// senses its channel jammed and can neither send nor receive, as under the paper's DoS.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct JammerConfig {
+    /// Its road coordinate at t = 0 (m; the platoon's coordinates).
+    pub position_m: f64,
+    /// Its speed along the road (m/s; 0: roadside).
+    #[serde(default)]
+    pub speed_mps: f64,
+    /// Its transmit power (dBm).
+    #[serde(default = "jammer_power")]
+    pub power_dbm: f64,
+    /// When it starts (s).
+    #[serde(default)]
+    pub start_s: f64,
+    /// When it stops (s; `inf`: never).
+    #[serde(default = "forever")]
+    #[schemars(default = "forever_in_json")]
+    pub end_s: f64,
+    /// Periodic: on for `on_s`, then off for `off_s`, from `start_s` (absent: always on).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub on_s: Option<f64>,
+    /// Periodic: off time between two bursts (s).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub off_s: Option<f64>,
+}
+
+fn jammer_power() -> f64 {
+    23.0
 }
 
 /// `[channel] model`: the radio under the attacks.

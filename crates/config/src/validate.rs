@@ -568,7 +568,7 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
         }
     };
 
-    let (link_attacks, channel_seed) = channel(&c.channel, dt, n)?;
+    let (link_attacks, channel_seed) = channel(&c.channel, dt, duration, n)?;
     let radio = radio(&mut c.channel)?;
     finite("sumo.start_m", c.sumo.start_m)?;
     positive("sumo.tolerance_m", c.sumo.tolerance_m)?;
@@ -715,7 +715,12 @@ fn radio(c: &mut Channel) -> Result<Option<std::sync::Arc<platoon_radio::Model>>
 }
 
 /// `[channel]`: the link-level attacks.
-fn channel(c: &Channel, dt: f64, followers: usize) -> Result<(Vec<LinkAttack>, u64), Invalid> {
+fn channel(
+    c: &Channel,
+    dt: f64,
+    duration: f64,
+    followers: usize,
+) -> Result<(Vec<LinkAttack>, u64), Invalid> {
     let mut out = Vec::with_capacity(c.attacks.len());
     for (i, a) in c.attacks.iter().enumerate() {
         let key = |k: &str| format!("channel.attacks[{i}].{k}");
@@ -785,6 +790,58 @@ fn channel(c: &Channel, dt: f64, followers: usize) -> Result<(Vec<LinkAttack>, u
             senders: ids("senders", &a.senders)?,
             receivers: ids("receivers", &a.receivers)?,
         });
+    }
+    // Jammers as transmitters: every vehicle within the distance at which the jammer is heard
+    // above the sensing threshold senses its channel jammed, burst by burst.
+    let radio = c.radio.unwrap_or_default();
+    for (i, j) in c.jammers.iter().enumerate() {
+        let key = |k: &str| format!("channel.jammers[{i}].{k}");
+        let position_m = finite(&key("position_m"), j.position_m)?;
+        let speed_mps = finite(&key("speed_mps"), j.speed_mps)?;
+        let power = finite(&key("power_dbm"), j.power_dbm)?;
+        let radius_m = radio.sensing_radius_m(power);
+        if radius_m <= 0.0 {
+            return bad(
+                &key("power_dbm"),
+                format!(
+                    "{power} dBm is below the sensing threshold ({} dBm) even at 1 m",
+                    radio.sensing_threshold_dbm
+                ),
+            );
+        }
+        let start = finite(&key("start_s"), j.start_s)?;
+        let end = j.end_s.min(duration + dt);
+        if j.end_s.is_nan() || j.end_s <= start {
+            return bad(&key("end_s"), format!("must be after start_s = {start}"));
+        }
+        let mut bursts = Vec::new();
+        match (j.on_s, j.off_s) {
+            (None, None) => bursts.push((start, j.end_s)),
+            (Some(on), Some(off)) => {
+                let on = positive(&key("on_s"), finite(&key("on_s"), on)?)?;
+                let off = positive(&key("off_s"), finite(&key("off_s"), off)?)?;
+                let mut t = start;
+                while t < end {
+                    if bursts.len() >= 100_000 {
+                        return bad(&key("on_s"), "more than 100000 bursts in the run");
+                    }
+                    bursts.push((t, (t + on).min(j.end_s)));
+                    t += on + off;
+                }
+            }
+            _ => return bad(&key("off_s"), "a periodic jammer needs both on_s and off_s"),
+        }
+        out.extend(bursts.into_iter().map(|(start_s, end_s)| LinkAttack {
+            kind: LinkAttackKind::RangeJamming {
+                position_m,
+                speed_mps,
+                radius_m,
+            },
+            start_s,
+            end_s,
+            senders: Vec::new(),
+            receivers: Vec::new(),
+        }));
     }
     Ok((out, c.seed))
 }

@@ -584,3 +584,32 @@ fn the_80211p_radio_is_a_channel_model_with_its_own_table() {
         paper_plus("[channel]\nmodel = \"80211p\"\nradio = { rate = 6.0 }\n").expect_err("refused");
     assert!(e.key.starts_with("channel.radio"), "{e}");
 }
+
+#[test]
+fn jammers_are_transmitters_heard_out_to_their_sensing_radius() {
+    use platoon_attacks::channel::LinkAttackKind;
+    let (_, s) = paper_plus(
+        "[[channel.jammers]]\nposition_m = 300.0\npower_dbm = 10.0\non_s = 1.0\noff_s = 4.0\nstart_s = 2.0\nend_s = 20.0\n",
+    )
+    .unwrap();
+    let radius = platoon_radio::Params80211p::default().sensing_radius_m(10.0);
+    let bursts: Vec<(f64, f64)> = s
+        .link_attacks
+        .iter()
+        .map(|a| match a.kind {
+            LinkAttackKind::RangeJamming { radius_m, .. } => {
+                assert_eq!(radius_m, radius);
+                (a.start_s, a.end_s)
+            }
+            _ => panic!("a jammer is range jamming"),
+        })
+        .collect();
+    assert_eq!(bursts, [(2.0, 3.0), (7.0, 8.0), (12.0, 13.0), (17.0, 18.0)]);
+    let bad = |extra: &str| paper_plus(extra).expect_err("refused");
+    let e = bad("[[channel.jammers]]\nposition_m = 0.0\npower_dbm = -200.0\n");
+    assert_eq!(e.key, "channel.jammers[0].power_dbm", "{e}");
+    let e = bad("[[channel.jammers]]\nposition_m = 0.0\non_s = 1.0\n");
+    assert_eq!(e.key, "channel.jammers[0].off_s", "{e}");
+    let e = bad("[[channel.jammers]]\nposition_m = 0.0\nrange_m = 3.0\n");
+    assert!(e.key.starts_with("channel.jammers"), "{e}");
+}

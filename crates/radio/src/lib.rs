@@ -153,6 +153,31 @@ pub enum Error {
 }
 
 impl Params80211p {
+    /// How far a transmitter of `power_dbm` is heard above the sensing threshold, at the mean
+    /// path loss of these parameters (no shadowing): within it, a receiver senses its channel
+    /// busy (m; 0 when not even at 1 m).
+    pub fn sensing_radius_m(&self, power_dbm: f64) -> f64 {
+        let path_loss = PathLoss::new(self);
+        let heard = |d: f64| power_dbm - path_loss.db(d) >= self.sensing_threshold_dbm;
+        if !heard(1.0) {
+            return 0.0;
+        }
+        let (mut lo, mut hi) = (1.0, 1.0e5);
+        if heard(hi) {
+            return hi;
+        }
+        // The path loss grows with distance: bisection to a millimetre.
+        while hi - lo > 1e-3 {
+            let mid = 0.5 * (lo + hi);
+            if heard(mid) {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        lo
+    }
+
     /// Checks every field against its documented range; the error names the first at fault.
     pub fn validate(&self) -> Result<(), Error> {
         fn check(
@@ -737,6 +762,22 @@ fn autocorrelation(s: &[f64]) -> Vec<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_jammer_is_heard_out_to_its_sensing_radius() {
+        let p = Params80211p::default();
+        let r10 = p.sensing_radius_m(10.0);
+        let r23 = p.sensing_radius_m(23.0);
+        assert!(r10 > 1.0 && r23 > r10, "{r10} {r23}");
+        // At the radius the mean received power is the sensing threshold.
+        let path_loss = PathLoss::new(&p);
+        assert!((23.0 - path_loss.db(r23) - p.sensing_threshold_dbm).abs() < 1e-3);
+        assert_eq!(p.sensing_radius_m(-200.0), 0.0);
+        // What docs/channel-80211p.md says: 20 dBm is heard out to a few hundred metres.
+        let r20 = p.sensing_radius_m(20.0);
+        println!("sensing radius: 10 dBm {r10:.0} m, 20 dBm {r20:.0} m, 23 dBm {r23:.0} m");
+        assert!((100.0..1000.0).contains(&r20), "{r20}");
+    }
 
     #[test]
     fn defaults_are_valid_and_each_bad_field_is_named() {

@@ -214,6 +214,24 @@ pub struct AttackSummary {
     pub assumption2_bounds: Option<Assumption2>,
     /// The exact verdict on every window, if bounds were given.
     pub assumption2: Option<Assumption2Report>,
+    /// What jamming the vehicles sensed, measured in the run: with range jammers or jammers as
+    /// transmitters (`[[channel.jammers]]`), whose DoS is not the config's schedule.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub observed: Option<ObservedJamming>,
+}
+
+/// The DoS the vehicles observed: the steps in which at least one of them sensed its channel
+/// jammed, as intervals, and the paper's Assumption 2 checked on them.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ObservedJamming {
+    /// Jamming intervals (a run of jammed steps is one, `[start, start + steps dt)`).
+    pub intervals: usize,
+    /// Their total duration (s).
+    pub jammed_time_s: f64,
+    /// `[start (s), duration (s)]` of each.
+    pub schedule: Vec<[f64; 2]>,
+    /// The exact verdict on the observed schedule, if the config gave bounds.
+    pub assumption2: Option<Assumption2Report>,
 }
 
 /// What `summary.json` holds.
@@ -326,6 +344,10 @@ pub struct MetricsAccumulator {
     steps: u64,
     expected_steps: u64,
     attacked_steps: u64,
+    /// Whether to measure the observed jamming (range jammers present), and its runs of
+    /// jammed steps `(first, steps)`.
+    observe: bool,
+    observed: Vec<(u64, u64)>,
     last_t: f64,
     safety: Safety,
 }
@@ -368,6 +390,13 @@ impl MetricsAccumulator {
             steps: 0,
             expected_steps: scenario.steps + 1,
             attacked_steps: 0,
+            observe: scenario.link_attacks.iter().any(|a| {
+                matches!(
+                    a.kind,
+                    platoon_attacks::channel::LinkAttackKind::RangeJamming { .. }
+                )
+            }),
+            observed: Vec::new(),
             last_t: 0.0,
             safety: Safety {
                 max_deceleration_mps2: 0.0,
@@ -389,6 +418,12 @@ impl MetricsAccumulator {
         self.steps += 1;
         self.last_t = leader.t;
         self.attacked_steps += u64::from(leader.under_attack);
+        if self.observe && rows.iter().any(|r| r.under_attack) {
+            match self.observed.last_mut() {
+                Some((first, n)) if *first + *n == leader.step => *n += 1,
+                _ => self.observed.push((leader.step, 1)),
+            }
+        }
         for w in rows.windows(2) {
             let (front, r) = (&w[0], &w[1]);
             let acc = &mut self.vehicles[r.vehicle as usize - 1];
@@ -503,6 +538,22 @@ impl MetricsAccumulator {
                 attacked_steps: self.attacked_steps,
                 assumption2_bounds: self.assumption2,
                 assumption2: self.assumption2.map(|b| b.check(&self.dos, horizon)),
+                observed: self.observe.then(|| {
+                    let schedule: Vec<[f64; 2]> = self
+                        .observed
+                        .iter()
+                        .map(|&(first, n)| [first as f64 * self.dt, n as f64 * self.dt])
+                        .collect();
+                    let pairs: Vec<(f64, f64)> = schedule.iter().map(|w| (w[0], w[1])).collect();
+                    let dos = DosSchedule::from_intervals(&pairs).ok();
+                    ObservedJamming {
+                        intervals: schedule.len(),
+                        jammed_time_s: self.observed.iter().map(|&(_, n)| n).sum::<u64>() as f64
+                            * self.dt,
+                        assumption2: self.assumption2.zip(dos).map(|(b, d)| b.check(&d, horizon)),
+                        schedule,
+                    }
+                }),
             },
             safety: Safety {
                 collided: self.safety.min_gap_m <= 0.0,
