@@ -646,7 +646,50 @@ fn every_shipped_campaign_parses() {
             seen += 1;
         }
     }
-    assert_eq!(seen, 5);
+    assert_eq!(seen, 6);
+}
+
+/// campaigns/jammer.toml: the README's findings on four of its cells, measured in the run.
+#[test]
+fn a_jammer_on_the_road_breaks_the_platoon_as_the_readme_says() {
+    let tmp = tempfile::tempdir().unwrap();
+    let file = shipped("jammer", tmp.path(), |t| {
+        let axes = toml::from_str::<toml::Table>(
+            "[[axes]]\nkey = \"channel.jammers[0].power_dbm\"\nvalues = [0.0, 20.0, 25.0]\nzip = \"j\"\n\
+             [[axes]]\nkey = \"channel.jammers[0].lateral_m\"\nvalues = [50.0, 300.0, 10.0]\nzip = \"j\"\n\
+             [[axes]]\nkey = \"fallback.mode\"\nvalues = [\"zero\", \"acc\"]",
+        )
+        .unwrap();
+        t.insert("axes".into(), axes["axes"].clone());
+    });
+    let out = tmp.path().join("out");
+    ok(&campaign(
+        &[file.to_str().unwrap(), "--out", out.to_str().unwrap()],
+        tmp.path(),
+    ));
+    let rows = cells(&out);
+    assert_eq!(rows.len(), 6);
+    let at = |power: &str, mode: &str| {
+        rows.iter()
+            .find(|r| r["channel.jammers[0].power_dbm"] == power && r["fallback.mode"] == mode)
+            .unwrap()
+    };
+    // 0 dBm at 50 m: an admissible observed DoS of ~5.8 s, and u = 0 collides.
+    let weak = at("0", "zero");
+    assert_eq!(weak["observed_assumption2"], "holds");
+    assert!(
+        (5.0..6.5).contains(&num(weak, "observed_jammed_s")),
+        "{weak:?}"
+    );
+    assert!(num(weak, "min_gap_m") < 0.0);
+    // 20 dBm at 300 m never reaches the road: nothing observed, the unattacked 8.45 m.
+    let far = at("20", "zero");
+    assert_eq!(num(far, "observed_jammed_s"), 0.0);
+    assert!((num(far, "min_gap_m") - 8.45).abs() < 0.01);
+    // 25 dBm at 10 m: violated; u = 0 collides, ACC keeps ~8 m.
+    assert_eq!(at("25", "zero")["observed_assumption2"], "violated");
+    assert!(num(at("25", "zero"), "min_gap_m") < 0.0);
+    assert!(num(at("25", "acc"), "min_gap_m") > 7.0);
 }
 
 #[test]

@@ -76,6 +76,14 @@ pub const ALL: &[(&str, &str)] = &[
     ("attack_intervals", "DoS intervals in the run"),
     ("attacked_time_s", "time the channel was jammed, s"),
     (
+        "observed_jammed_s",
+        "time some vehicle sensed jamming, measured (runs with jammers), s",
+    ),
+    (
+        "observed_assumption2",
+        "Assumption 2 on the observed jamming: holds or violated (runs with jammers and bounds)",
+    ),
+    (
         "max_affected_time_s",
         "longest time a follower was affected by attacks (A*), s",
     ),
@@ -294,6 +302,19 @@ pub fn extract(names: &[String], max_followers: usize, summary: &Summary) -> Vec
             },
             "attack_intervals" => Metric::Int(summary.attack.intervals as u64),
             "attacked_time_s" => num(Some(summary.attack.attacked_time_s)),
+            "observed_jammed_s" => num(summary.attack.observed.as_ref().map(|o| o.jammed_time_s)),
+            "observed_assumption2" => {
+                match summary
+                    .attack
+                    .observed
+                    .as_ref()
+                    .and_then(|o| o.assumption2.as_ref())
+                {
+                    Some(r) if r.holds => Metric::Text("holds".into()),
+                    Some(_) => Metric::Text("violated".into()),
+                    None => Metric::Empty,
+                }
+            }
             "max_affected_time_s" => over_vehicles(summary, |v| v.affected_time_s, f64::max),
             "rejected_packets" => Metric::Int(summary.rejected_packets.total()),
             "min_ttc_s" => num(safety.min_ttc_s),

@@ -361,6 +361,10 @@ pub struct JammerConfig {
     /// Its speed along the road (m/s; 0: roadside).
     #[serde(default)]
     pub speed_mps: f64,
+    /// Its distance from the road (m): it reaches the road over the part of it within its
+    /// sensing radius, none when it stands farther away than that.
+    #[serde(default)]
+    pub lateral_m: f64,
     /// Its transmit power (dBm).
     #[serde(default = "jammer_power")]
     pub power_dbm: f64,

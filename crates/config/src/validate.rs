@@ -799,8 +799,14 @@ fn channel(
         let position_m = finite(&key("position_m"), j.position_m)?;
         let speed_mps = finite(&key("speed_mps"), j.speed_mps)?;
         let power = finite(&key("power_dbm"), j.power_dbm)?;
-        let radius_m = radio.sensing_radius_m(power);
-        if radius_m <= 0.0 {
+        let heard_m = radio.sensing_radius_m(power);
+        let lateral = finite(&key("lateral_m"), j.lateral_m)?;
+        if lateral < 0.0 {
+            return bad(&key("lateral_m"), format!("must be >= 0 (got {lateral})"));
+        }
+        // Along the road, the part within its radius (none when it stands farther away).
+        let radius_m = (heard_m * heard_m - lateral * lateral).max(0.0).sqrt();
+        if heard_m <= 0.0 {
             return bad(
                 &key("power_dbm"),
                 format!(
