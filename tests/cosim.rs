@@ -58,7 +58,9 @@ fn same_outputs(a: &Path, b: &Path, files: &[&str]) {
     }
 }
 
-fn transports_agree(config: &str) {
+/// Runs `config` over both transports (into `ipc/` and `inproc/` of the returned directory) and
+/// checks their outputs agree byte for byte.
+fn transports_agree(config: &str) -> tempfile::TempDir {
     let tmp = tempfile::tempdir().unwrap();
     let config = repo().join(config);
     let c = config.to_str().unwrap();
@@ -82,6 +84,7 @@ fn transports_agree(config: &str) {
         &tmp.path().join("inproc"),
         &COMPARED,
     );
+    tmp
 }
 
 #[test]
@@ -1248,23 +1251,12 @@ fn iceoryx2_run_on_the_80211p_radio_is_bit_identical_to_inproc() {
         "radio.toml",
         "[channel]\nmodel = \"80211p\"\nradio = { density_veh_per_m = 0.12, beacon_hz = 25.0 }\n",
     );
-    transports_agree(c.to_str().unwrap());
-    ok(&platoon(
-        &[
-            "run",
-            c.to_str().unwrap(),
-            "--out",
-            "r",
-            "--no-plots",
-            "--transport",
-            "inproc",
-        ],
-        tmp.path(),
-    ));
-    let log = std::fs::read_to_string(tmp.path().join("r/channel.csv")).unwrap();
+    let runs = transports_agree(c.to_str().unwrap());
+    let r = runs.path().join("inproc");
+    let log = std::fs::read_to_string(r.join("channel.csv")).unwrap();
     assert!(log.contains("dropped_radio"), "the radio lost nothing");
     // The resolved config says every parameter of the model.
-    let resolved = std::fs::read_to_string(tmp.path().join("r/config.toml")).unwrap();
+    let resolved = std::fs::read_to_string(r.join("config.toml")).unwrap();
     assert!(resolved.contains("tx_power_dbm = 23.0"), "{resolved}");
 }
 
@@ -1319,20 +1311,9 @@ fn a_jammer_on_the_road_is_a_dos_observed_by_the_vehicles() {
         "jammer.toml",
         "[[channel.jammers]]\nposition_m = 250.0\npower_dbm = 20.0\nstart_s = 10.0\nend_s = 30.0\n",
     );
-    transports_agree(c.to_str().unwrap());
-    ok(&platoon(
-        &[
-            "run",
-            c.to_str().unwrap(),
-            "--out",
-            "r",
-            "--no-plots",
-            "--transport",
-            "inproc",
-        ],
-        tmp.path(),
-    ));
-    let s = summary(&tmp.path().join("r"));
+    let runs = transports_agree(c.to_str().unwrap());
+    let r = runs.path().join("inproc");
+    let s = summary(&r);
     let observed = &s["attack"]["observed"];
     let jammed = observed["jammed_time_s"].as_f64().unwrap();
     // The config's own DoS (10 s, admissible) plus the jammer's (well over Assumption 2's

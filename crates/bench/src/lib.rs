@@ -1025,16 +1025,20 @@ fn campaign(a: CampaignArgs) -> Result<Vec<CampaignRow>> {
         .unwrap_or_else(|| PathBuf::from("runs").join("bench-campaign"));
     let dir = RunDir::create(&out, a.force)?;
     let exe = std::env::current_exe().context("locating the platoon binary")?;
-    let file = |samples: usize| -> Result<PathBuf> {
-        let path = dir.path(&format!("bench-{samples}.toml"));
+    // A Monte Carlo campaign of `samples` cells on `base` (a file in the output directory; None:
+    // the embedded paper scenario), written as `bench-<name>.toml`.
+    let file_on = |name: &str, samples: usize, base: Option<&str>| -> Result<PathBuf> {
+        let path = dir.path(&format!("bench-{name}.toml"));
+        let base = base.map_or(String::new(), |b| format!("base = \"{b}\"\n"));
         let text = format!(
-            "name = \"bench\"\nseed = 1\n[monte_carlo]\nsamples = {samples}\n\
+            "name = \"bench-{name}\"\n{base}seed = 1\n[monte_carlo]\nsamples = {samples}\n\
              dos = {{ T1 = 2.0, T2 = 9.46, D1 = 6.0, D2 = 11.33, min_gap_s = 1.0, max_gap_s = 12.0, \
              min_duration_s = 0.5, max_duration_s = 3.0 }}\n"
         );
         std::fs::write(&path, text).with_context(|| format!("writing {}", path.display()))?;
         Ok(path)
     };
+    let file = |samples: usize| file_on(&samples.to_string(), samples, None);
     let measure = |part: &'static str,
                    file: &Path,
                    name: &str,
@@ -1133,13 +1137,7 @@ fn campaign(a: CampaignArgs) -> Result<Vec<CampaignRow>> {
         let base = dir.path(&format!("base-{name}.toml"));
         std::fs::write(&base, format!("{paper}\n{section}"))
             .with_context(|| format!("writing {}", base.display()))?;
-        let path = dir.path(&format!("bench-{name}.toml"));
-        let text = format!(
-            "name = \"bench-{name}\"\nbase = \"base-{name}.toml\"\nseed = 1\n[monte_carlo]\nsamples = {channel_cells}\n\
-             dos = {{ T1 = 2.0, T2 = 9.46, D1 = 6.0, D2 = 11.33, min_gap_s = 1.0, max_gap_s = 12.0, \
-             min_duration_s = 0.5, max_duration_s = 3.0 }}\n"
-        );
-        std::fs::write(&path, text).with_context(|| format!("writing {}", path.display()))?;
+        let path = file_on(name, channel_cells, Some(&format!("base-{name}.toml")))?;
         rows.push(measure(
             "channel",
             &path,
