@@ -229,9 +229,13 @@ mod tests {
         assert!(parse_cpus("3-1").unwrap_err().contains("empty"));
         let own = peak_rss_kib(None).unwrap();
         assert!(own > 100, "{own} KiB");
-        assert_eq!(
-            peak_rss_kib(Some(std::process::id())).map(|k| k >= own),
-            Some(true)
+        // The same process by pid. Not `>= own`: the kernel folds the current RSS into VmHWM
+        // lazily, so a second read can be lower when the tests running beside this one have
+        // freed memory in between (seen once in CI).
+        let by_pid = peak_rss_kib(Some(std::process::id())).unwrap();
+        assert!(
+            by_pid > 100 && by_pid <= 2 * own && own <= 2 * by_pid,
+            "{by_pid} vs {own} KiB"
         );
         let err = parse_cpus("100000").unwrap_err();
         assert!(err.contains("CPU 100000 is not available"), "{err}");
