@@ -184,6 +184,9 @@ pub struct Channel {
     /// Recent packets per sender, oldest first.
     history: Vec<VecDeque<Packet>>,
     max_lag: u64,
+    /// SUMO's background vehicles this step (`bg<b>` at index b), road positions in the
+    /// platoon's coordinates (NaN: not on the road).
+    background: Vec<f64>,
 }
 
 impl Channel {
@@ -211,8 +214,22 @@ impl Channel {
             in_flight: VecDeque::new(),
             history: vec![VecDeque::new(); vehicles],
             max_lag,
+            background: Vec::new(),
             spec,
         }
+    }
+
+    /// Tells the channel where SUMO's background vehicles are at the coming step: `positions_m[b]`
+    /// is vehicle `bg<b>`'s road position in the platoon's coordinates (NaN: not on the road).
+    /// They load the 802.11p channel and may carry jammers. Without a call: none.
+    pub fn set_background(&mut self, positions_m: &[f64]) {
+        self.background.clear();
+        self.background.extend_from_slice(positions_m);
+    }
+
+    /// SUMO's background vehicles as last given to [`Channel::set_background`].
+    pub fn background(&self) -> &[f64] {
+        &self.background
     }
 
     /// The spec.
