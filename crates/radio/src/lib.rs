@@ -39,8 +39,11 @@
 #![warn(missing_docs)]
 
 mod fer;
+mod load;
 mod math;
 mod propagation;
+
+pub use load::LoadFamily;
 
 use fer::{FerCurve, FER_TABLE, FLOOR_STEP_DB};
 use math::{cdf, gauss_hermite, upper_tail};
@@ -69,9 +72,12 @@ const OFDM_RATES_20MHZ: [f64; 8] = [6.0, 9.0, 12.0, 18.0, 24.0, 36.0, 48.0, 54.0
 #[cfg_attr(feature = "schemars", derive(schemars::JsonSchema))]
 #[serde(deny_unknown_fields, default)]
 pub struct Params80211p {
-    /// Vehicles per metre of road, evenly spaced (the paper: 0.06 and 0.12). In (0, 1].
+    /// Vehicles per metre of road, evenly spaced (the paper: 0.06 and 0.12). In [0, 1] (0: no
+    /// other traffic). As `[channel.radio]` of a run, the traffic besides the simulated
+    /// vehicles (which `[channel] load = "scenario"` adds, counted from the run).
     pub density_veh_per_m: f64,
-    /// Packets each vehicle broadcasts per second (the paper: 10 and 25). In (0, 100].
+    /// Packets each vehicle broadcasts per second (the paper: 10 and 25). In (0, 100]. As
+    /// `[channel.radio]` of a run, the beacon rate of that other traffic.
     pub beacon_hz: f64,
     /// Transmit power, dBm (the paper: 15, 23, 30). In [-10, 33].
     pub tx_power_dbm: f64,
@@ -201,8 +207,8 @@ impl Params80211p {
         check(
             "density_veh_per_m",
             p.density_veh_per_m,
-            p.density_veh_per_m > 0.0 && p.density_veh_per_m <= 1.0,
-            "vehicles per metre must be in (0, 1]",
+            p.density_veh_per_m >= 0.0 && p.density_veh_per_m <= 1.0,
+            "vehicles per metre must be in [0, 1]",
         )?;
         check(
             "beacon_hz",
@@ -790,7 +796,7 @@ mod tests {
                 other => panic!("{other}"),
             }
         };
-        assert_eq!(bad(|p| p.density_veh_per_m = 0.0), "density_veh_per_m");
+        assert_eq!(bad(|p| p.density_veh_per_m = -0.01), "density_veh_per_m");
         assert_eq!(bad(|p| p.beacon_hz = f64::NAN), "beacon_hz");
         assert_eq!(bad(|p| p.tx_power_dbm = 40.0), "tx_power_dbm");
         assert_eq!(bad(|p| p.data_rate_mbps = 7.0), "data_rate_mbps");
