@@ -1,4 +1,5 @@
-//! Cost of the 802.11p model: one `pdr()` lookup (what the channel pays per packet) and one
+//! Cost of the 802.11p model: one `pdr()` lookup (what the channel pays per packet), one
+//! `pdr_with_interference()` lookup (what it pays per packet while a jammer transmits) and one
 //! `Model::new` (once per configuration), for the paper's base case and its densest published
 //! configuration. Run: `cargo bench -p platoon-radio --bench pdr`.
 use criterion::{black_box, criterion_group, criterion_main, Criterion};
@@ -21,6 +22,21 @@ fn bench(c: &mut Criterion) {
             let mut sum = 0.0;
             for &d in &distances {
                 sum += model.pdr(black_box(d));
+            }
+            black_box(sum)
+        })
+    });
+    // With a jammer on, the channel pays this per packet per link instead (the table behind it
+    // is built before timing starts).
+    let interference: Vec<f64> = (0..1000)
+        .map(|i| -110.0 + (i as f64 * 3.7) % 70.0)
+        .collect();
+    model.pdr_with_interference(1.0, -90.0);
+    c.bench_function("pdr_with_interference_1000_lookups", |b| {
+        b.iter(|| {
+            let mut sum = 0.0;
+            for (&d, &i) in distances.iter().zip(&interference) {
+                sum += model.pdr_with_interference(black_box(d), black_box(i));
             }
             black_box(sum)
         })

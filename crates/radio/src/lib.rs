@@ -39,6 +39,7 @@
 #![warn(missing_docs)]
 
 mod fer;
+mod interference;
 mod load;
 mod math;
 mod propagation;
@@ -359,6 +360,8 @@ pub struct Model {
     losses: Vec<Losses>,
     /// `pdr[k]` of `losses[k]`, kept apart for the per-packet lookup.
     pdr: Vec<f64>,
+    /// What survives a jammer's interference, built on first use.
+    interference: interference::InterferenceTable,
 }
 
 /// Beyond the table: nothing is sensed.
@@ -596,6 +599,7 @@ impl Builder {
             cbr: self.cbr,
             losses,
             pdr,
+            interference: Default::default(),
         }
     }
 
