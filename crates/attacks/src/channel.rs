@@ -1,6 +1,8 @@
 //! The V2V channel between the controllers: what each receiver gets from each broadcast, under the
 //! DoS schedule and the link-level attack models. Pure and seeded: the in-process runner and the
 //! iceoryx2 injector process run this same code, so they deliver the same packets bit for bit.
+pub use crate::medium::{BackgroundBeacons, Dcc, LoadSource, RadioSpec, RadioStats};
+use crate::medium::{Gated, Medium};
 use crate::DosSchedule;
 use platoon_model::{State, VehicleId};
 use platoon_topology::Topology;
@@ -121,9 +123,9 @@ pub struct ChannelSpec {
     /// The platoon this channel serves (its log rows carry it).
     pub platoon: u16,
     /// IEEE 802.11p delivery against distance and load (`[channel] model = "80211p"`): every
-    /// packet on every link is delivered with the model's probability for the link's distance;
-    /// `None`: an ideal radio.
-    pub radio: Option<std::sync::Arc<platoon_radio::Model>>,
+    /// packet on every link is delivered with the model's probability for the link's distance
+    /// at the load the receiver's radio sees; `None`: an ideal radio.
+    pub radio: Option<RadioSpec>,
 }
 
 /// What the channel did to one packet on one link.
@@ -139,6 +141,11 @@ pub enum Action {
     /// Dropped: lost on the radio (802.11p: propagation, collision, busy receiver, below the
     /// sensing threshold), drawn from the model's delivery ratio at the link's distance.
     DroppedRadio,
+    /// Held back by the sender's DCC (its `T_off` since its last transmission had not passed):
+    /// sent at a later step unless a newer packet replaces it.
+    DccDeferred,
+    /// A packet DCC had held back, dropped for a newer one of the same sender.
+    DroppedDcc,
     /// Held back; delivered at a later step.
     Delayed,
     /// A held-back packet delivered now.
@@ -176,6 +183,11 @@ pub struct Channel {
     rng: ChaCha8Rng,
     /// The radio's losses' own stream.
     radio_rng: ChaCha8Rng,
+    /// The 802.11p medium's load and DCC, with the radio.
+    medium: Option<Medium>,
+    /// The packets that go on the air at the current step (after DCC).
+    on_air: Vec<Packet>,
+    gated: Vec<Gated>,
     /// Per link (sender * n + receiver): in the bad state.
     bad: Vec<bool>,
     vehicles: usize,
@@ -209,6 +221,9 @@ impl Channel {
                 r.set_stream(1);
                 r
             },
+            medium: spec.radio.clone().map(|r| Medium::new(r, vehicles)),
+            on_air: Vec::with_capacity(vehicles),
+            gated: Vec::new(),
             bad: vec![false; vehicles * vehicles],
             vehicles,
             in_flight: VecDeque::new(),
@@ -230,6 +245,43 @@ impl Channel {
     /// SUMO's background vehicles as last given to [`Channel::set_background`].
     pub fn background(&self) -> &[f64] {
         &self.background
+    }
+
+    /// Whether this channel's load counts the rest of the fleet (give it with
+    /// [`Channel::set_fleet`] before each step).
+    pub fn counts_fleet(&self) -> bool {
+        self.medium
+            .as_ref()
+            .is_some_and(|m| m.spec.load == LoadSource::Scenario)
+    }
+
+    /// Tells the channel where every vehicle of the fleet is and how often it beacons at the
+    /// coming step: `all[i] = (road position, rate in Hz)` (from [`Channel::beacon_rate`] of
+    /// each platoon's channel), of which `own` are this platoon's (skipped: it counts its own).
+    pub fn set_fleet(&mut self, all: &[(f64, f64)], own: std::ops::Range<usize>) {
+        if let Some(m) = &mut self.medium {
+            m.set_fleet(all, own);
+        }
+    }
+
+    /// Vehicle `v`'s beacon rate as the radio measured it over the window before step `k`
+    /// (Hz; 0 without the 802.11p radio).
+    pub fn beacon_rate(&self, v: VehicleId, k: u64) -> f64 {
+        self.medium
+            .as_ref()
+            .filter(|_| v.index() < self.vehicles)
+            .map_or(0.0, |m| m.rate(v.index(), k))
+    }
+
+    /// The channel busy ratio each vehicle's radio measured at the last step (empty without the
+    /// 802.11p radio).
+    pub fn cbr(&self) -> &[f64] {
+        self.medium.as_ref().map_or(&[], |m| m.cbr())
+    }
+
+    /// What the 802.11p radio measured so far (`None` without it).
+    pub fn radio_stats(&self) -> Option<RadioStats> {
+        self.medium.as_ref().map(Medium::stats)
     }
 
     /// The spec.
@@ -282,7 +334,30 @@ impl Channel {
             ));
             out.push(d);
         }
-        for sent in tx {
+        // The radio: the load each vehicle sees, then the access layer (DCC) picks what goes on
+        // the air at this step.
+        let mut on_air = std::mem::take(&mut self.on_air);
+        on_air.clear();
+        match &mut self.medium {
+            Some(m) => {
+                m.measure(k, states, &self.background);
+                self.gated.clear();
+                m.access(k, tx, &mut on_air, &mut self.gated);
+                for g in &self.gated {
+                    let (p, action) = match g {
+                        Gated::Deferred(p) => (p, Action::DccDeferred),
+                        Gated::Dropped(p) => (p, Action::DroppedDcc),
+                    };
+                    for &receiver in topology.out_neighbours(p.sender) {
+                        log.push(event(at, p, receiver, action, None));
+                    }
+                }
+                m.record(k, &on_air);
+            }
+            None => on_air.extend_from_slice(tx),
+        }
+        let with_dcc = self.medium.as_ref().is_some_and(|m| m.spec.dcc.is_some());
+        for sent in &on_air {
             for &receiver in topology.out_neighbours(sent.sender) {
                 if dos {
                     log.push(event(at, sent, receiver, Action::DroppedDos, None));
@@ -292,14 +367,23 @@ impl Channel {
                     log.push(event(at, sent, receiver, Action::DroppedJammed, None));
                     continue;
                 }
-                if let Some(radio) = &self.spec.radio {
+                if let Some(m) = &self.medium {
                     // Distance between the antennas, front to front (the platoon's vehicles
                     // share one length).
                     let d = (states[sent.sender.index()][0] - states[receiver.index()][0]).abs();
-                    if self.radio_rng.gen::<f64>() >= radio.pdr(d) {
+                    if self.radio_rng.gen::<f64>() >= m.pdr(d, receiver.index()) {
                         log.push(event(at, sent, receiver, Action::DroppedRadio, None));
                         continue;
                     }
+                }
+                if with_dcc && sent.step < k {
+                    // Held back by DCC: it arrives late (unless an attack drops it).
+                    let before = out.len();
+                    self.link(k, t, *sent, receiver, out, log);
+                    if out.len() > before {
+                        log.push(event(at, sent, receiver, Action::DeliveredLate, None));
+                    }
+                    continue;
                 }
                 self.link(k, t, *sent, receiver, out, log);
             }
@@ -312,6 +396,7 @@ impl Channel {
                 }
             }
         }
+        self.on_air = on_air;
     }
 
     /// One packet on one link through the attack models.
@@ -473,6 +558,142 @@ mod tests {
         )
     }
 
+    fn radio(params: platoon_radio::Params80211p, load: LoadSource, dcc: Option<Dcc>) -> RadioSpec {
+        RadioSpec {
+            family: std::sync::Arc::new(platoon_radio::LoadFamily::new(params).unwrap()),
+            load,
+            background_beacons: BackgroundBeacons::Fixed,
+            dcc,
+            window_steps: 100,
+            dt: 0.01,
+        }
+    }
+
+    /// The ETSI reactive table the config defaults to.
+    fn etsi() -> Dcc {
+        Dcc {
+            cbr_thresholds: vec![0.3, 0.4, 0.5, 0.65],
+            t_off_s: vec![0.06, 0.1, 0.18, 0.26, 1.0],
+        }
+    }
+
+    #[test]
+    fn the_load_counts_the_platoons_measured_beacons_the_fleet_and_the_background() {
+        let quiet = platoon_radio::Params80211p {
+            density_veh_per_m: 0.0,
+            ..Default::default()
+        };
+        let states = vec![State::new(100.0, 15.0, 0.0), State::new(80.0, 15.0, 0.0)];
+        let mut c = Channel::new(
+            ChannelSpec {
+                radio: Some(radio(quiet, LoadSource::Scenario, None)),
+                ..channel(vec![]).spec().clone()
+            },
+            2,
+        );
+        assert!(c.counts_fleet());
+        // The leader beacons every 5 steps (20 Hz), the follower every 10 (10 Hz).
+        for k in 0..200 {
+            let tx: Vec<Packet> = [(0u16, 5), (1, 10)]
+                .iter()
+                .filter(|(_, every)| k % every == 0)
+                .map(|&(v, _)| packet(v, k as u32, k))
+                .collect();
+            gate(&mut c, k, &tx, &states);
+        }
+        assert_eq!(c.beacon_rate(VehicleId(0), 200), 20.0);
+        assert_eq!(c.beacon_rate(VehicleId(1), 200), 10.0);
+        // 30 packets a second within 1000 m: 30 / 2000 m.
+        let own = c.medium.as_ref().unwrap().load(1);
+        assert!((own - 30.0 / 2000.0).abs() < 1e-12, "{own}");
+        let cbr_alone = c.cbr()[1];
+        // A fleet vehicle 500 m away at 10 Hz, one 5 km away (out of range), and two SUMO
+        // background vehicles at the configured 10 Hz.
+        c.set_fleet(&[(100.0, 7.0), (600.0, 10.0), (5100.0, 10.0)], 0..1);
+        c.set_background(&[50.0, f64::NAN, 900.0]);
+        gate(&mut c, 200, &[], &states);
+        let load = c.medium.as_ref().unwrap().load(1);
+        assert!(
+            (load - (30.0 + 10.0 + 20.0) / 2000.0).abs() < 1e-12,
+            "{load}"
+        );
+        assert!(c.cbr()[1] > cbr_alone);
+        let stats = c.radio_stats().unwrap();
+        assert_eq!(stats.transmissions, 40 + 20);
+        assert_eq!(stats.samples, 2 * 201);
+        // The fixed load is the configured traffic alone, whatever the vehicles send.
+        let mut fixed = Channel::new(
+            ChannelSpec {
+                radio: Some(radio(
+                    platoon_radio::Params80211p::default(),
+                    LoadSource::Fixed,
+                    None,
+                )),
+                ..channel(vec![]).spec().clone()
+            },
+            2,
+        );
+        gate(&mut fixed, 0, &[packet(0, 0, 0)], &states);
+        assert_eq!(fixed.medium.as_ref().unwrap().load(1), 0.6);
+        assert!(!fixed.counts_fleet());
+    }
+
+    #[test]
+    fn dcc_spaces_a_vehicles_transmissions_by_t_off_and_sends_the_newest_late() {
+        let mut c = Channel::new(
+            ChannelSpec {
+                radio: Some(radio(
+                    platoon_radio::Params80211p {
+                        density_veh_per_m: 0.0,
+                        ..Default::default()
+                    },
+                    LoadSource::Fixed,
+                    Some(etsi()),
+                )),
+                ..channel(vec![]).spec().clone()
+            },
+            2,
+        );
+        // The leader wants to send at every step; relaxed DCC lets it out every 6 (60 ms).
+        let states = vec![State::new(10.0, 15.0, 0.0), State::new(0.0, 15.0, 0.0)];
+        let mut delivered = Vec::new();
+        let mut actions = Vec::new();
+        for k in 0..13 {
+            let o = gate(&mut c, k, &[packet(0, k as u32, k)], &states);
+            delivered.extend(o.deliveries.iter().map(|d| (k, d.packet.seq)));
+            actions.extend(o.log.iter().map(|e| (e.step, e.seq, e.action)));
+        }
+        // Sent at 0, 6, 12; at 6 and 12 the packet of that very step (the held one of step 5
+        // is replaced at step 6 before it could go).
+        let sent: Vec<u64> = delivered.iter().map(|d| d.0).collect();
+        assert_eq!(sent, vec![0, 6, 12], "{delivered:?}");
+        assert!(delivered.iter().all(|(k, seq)| u64::from(*seq) == *k));
+        assert!(actions.contains(&(1, 1, Action::DccDeferred)));
+        assert!(actions.contains(&(2, 1, Action::DroppedDcc)));
+        let stats = c.radio_stats().unwrap();
+        assert_eq!((stats.transmissions, stats.dcc_deferred), (3, 10));
+        assert_eq!(stats.dcc_dropped, 10);
+        // A packet held back and not replaced goes out late, when T_off has passed.
+        let mut c = Channel::new(c.spec().clone(), 2);
+        let mut late = Vec::new();
+        for k in 0..8 {
+            let tx: Vec<Packet> = [0u64, 2]
+                .iter()
+                .filter(|&&s| s == k)
+                .map(|&s| packet(0, s as u32, s))
+                .collect();
+            let o = gate(&mut c, k, &tx, &states);
+            late.extend(o.deliveries.iter().map(|d| (k, d.packet.step)));
+            if k == 6 {
+                assert!(o.log.iter().any(|e| e.action == Action::DeliveredLate));
+            }
+        }
+        assert_eq!(late, vec![(0, 0), (6, 2)]);
+        assert_eq!(etsi().state(0.29), 0);
+        assert_eq!(etsi().state(0.3), 1);
+        assert_eq!(etsi().state(0.9), 4);
+    }
+
     #[test]
     fn the_80211p_radio_delivers_each_link_with_the_models_ratio_at_its_distance() {
         let model = platoon_radio::Model::new(platoon_radio::Params80211p {
@@ -491,7 +712,7 @@ mod tests {
         assert!(near > 0.5 && far < near, "{near} {far}");
         let mut c = Channel::new(
             ChannelSpec {
-                radio: Some(std::sync::Arc::new(model)),
+                radio: Some(radio(*model.params(), LoadSource::Fixed, None)),
                 ..channel(vec![]).spec().clone()
             },
             3,

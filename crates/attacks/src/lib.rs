@@ -14,6 +14,7 @@
 
 mod assumption2;
 pub mod channel;
+mod medium;
 #[cfg(test)]
 mod oracle;
 mod random;
