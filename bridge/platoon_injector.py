@@ -33,15 +33,18 @@ def send_failed(outlet, step: int, reason: str) -> None:
 
 class Step:
     """What an injector sees at step k: `k`, `t`, `tx` (the broadcasts of step k, one
-    LinkPacket per link) and `states` (every vehicle, platoon by platoon, leader first), which
-    is copied out of shared memory only when first read: an injector that never reads it does
-    not pay for it within the hop."""
+    LinkPacket per link), `states` (every vehicle, platoon by platoon, leader first) and
+    `traffic` (the plant's background vehicles, a TrafficVehicle per vehicle: SUMO's `bg<b>` as
+    item b, `p` NaN and `flags & ON_ROAD` clear when it is not on the road; empty when the run
+    has none). Both are copied out of shared memory only when first read: an injector that
+    never reads them does not pay for them within the hop."""
 
-    __slots__ = ("k", "t", "tx", "_states", "_inlet")
+    __slots__ = ("k", "t", "tx", "_states", "_inlet", "_traffic", "_traffic_inlet")
 
-    def __init__(self, k: int, t: float, tx, inlet):
+    def __init__(self, k: int, t: float, tx, inlet, traffic_inlet=None):
         self.k, self.t, self.tx = k, t, tx
         self._states, self._inlet = None, inlet
+        self._traffic, self._traffic_inlet = None, traffic_inlet
 
     @property
     def states(self) -> "ctypes.Array[w.VehicleState]":
@@ -50,6 +53,20 @@ class Step:
             if self._states is None:
                 raise RuntimeError(f"the plant's states of step {self.k} are missing")
         return self._states
+
+    @property
+    def traffic(self):
+        if self._traffic is None:
+            if self._traffic_inlet is None:
+                self._traffic = ()
+            else:
+                self._traffic = self._traffic_inlet.take(self.k)
+                if self._traffic is None:
+                    raise RuntimeError(
+                        f"the plant's traffic sample of step {self.k} is missing (it is "
+                        "published before the states of the step)"
+                    )
+        return self._traffic
 
 
 class Injector:
@@ -83,6 +100,10 @@ def run(make) -> int:
     vehicles = info.vehicles_per_platoon * info.platoons
     node = w.Endpoint("injector", info.run_id)
     states_in = node.inlet("states", w.VehicleState)
+    # Only runs with background traffic (SUMO's) have it.
+    traffic_in = (
+        node.inlet("traffic", w.TrafficVehicle) if node.has_service("traffic") else None
+    )
     # `--injector-mode after`: read what survived the built-in channel (deliveries and jammed
     # notices) instead of the broadcasts.
     tx_in = node.inlet(os.environ.get("PLATOON_INJECTOR_INPUT", "tx"), w.LinkPacket)
@@ -102,7 +123,7 @@ def run(make) -> int:
                 return 0
             node.wait()
             continue
-        step = Step(k, k * info.dt, tx, states_in)
+        step = Step(k, k * info.dt, tx, states_in, traffic_in)
         rx = []
         try:
             injector.step(step, rx)
@@ -113,6 +134,8 @@ def run(make) -> int:
         rx_out.send(k, step.t, rx)
         if step._states is None:
             states_in.take(k)  # drained after the hop, off its path
+        if step._traffic is None and traffic_in is not None:
+            traffic_in.take(k)
         if k == info.steps:
             injector.finish()
             w.send_status(status, w.ControlMsg.DONE, "injector", k)

@@ -16,7 +16,8 @@ import iceoryx2 as iox
 # wire_layout.json). Every payload's type name carries it, so iceoryx2 refuses to connect
 # processes of different versions; `platoon run` gives every process it starts the run's
 # version in PLATOON_CONTRACT_VERSION, and `Endpoint` compares it with this one first.
-# v1: the first published contract; v2: V2vPacket gained `u` (the sender's latest command).
+# v1: the first published contract; v2: V2vPacket gained `u` (the sender's latest command);
+# later, still v2: the optional `traffic` service (TrafficVehicle; no v2 payload changed).
 CONTRACT_VERSION = 2
 CONTRACT_VERSION_ENV = "PLATOON_CONTRACT_VERSION"
 CONTRACT_DOC = "docs/injector-contract.md"
@@ -144,6 +145,25 @@ class Command(ctypes.Structure):
         return type_name("Command")
 
 
+class TrafficVehicle(ctypes.Structure):
+    """A vehicle of the plant's background traffic at a step (plant -> injector, orchestrator,
+    service `traffic`, published before the states of the step): SUMO's `bg<index>`. `p` is
+    its position along the road in the platoon's coordinates when `flags & ON_ROAD`, else NaN
+    (not inserted yet, or left the road)."""
+
+    ON_ROAD = 1
+
+    _fields_ = [
+        ("index", ctypes.c_uint32),
+        ("flags", ctypes.c_uint32),
+        ("p", ctypes.c_double),
+    ]
+
+    @staticmethod
+    def type_name() -> str:
+        return type_name("TrafficVehicle")
+
+
 class ControlMsg(ctypes.Structure):
     """Control (orchestrator -> nodes) and status (nodes -> orchestrator) messages."""
 
@@ -163,7 +183,7 @@ class ControlMsg(ctypes.Structure):
         return type_name("ControlMsg")
 
 
-ALL_TYPES = [StepHeader, VehicleState, V2vPacket, LinkPacket, Command, ControlMsg]
+ALL_TYPES = [StepHeader, VehicleState, V2vPacket, LinkPacket, Command, TrafficVehicle, ControlMsg]
 
 NODES = {"orchestrator": 0, "plant": 1, "controller": 2, "injector": 3, "channel": 4}
 
@@ -174,6 +194,7 @@ WAKES = {
     "gated": ["injector"],
     "rx": ["controller"],
     "commands": ["plant", "orchestrator"],
+    "traffic": [],  # published before the states; its readers are woken by what follows
     "control": ["plant", "controller", "injector"],
     "status": ["orchestrator"],
 }
@@ -226,6 +247,16 @@ class Endpoint:
             .publish_subscribe(iox.Slice[item])
             .user_header(StepHeader)
             .open()
+        )
+
+    def has_service(self, service: str) -> bool:
+        """Whether the run has step service `service` (the orchestrator creates the optional
+        ones, such as `traffic`, only when some node publishes them)."""
+        return iox.Service.does_exist(
+            iox.ServiceName.new(service_name(self.run_id, service)),
+            self.node.config,
+            iox.MessagingPattern.PublishSubscribe,
+            iox.ServiceType.Ipc,
         )
 
     def inlet(self, service: str, item) -> "Inlet":

@@ -3,7 +3,8 @@ platoon model, speaking the same iceoryx2 contract as the native plant (`platoon
 
 Started by `platoon run --plant sumo` with PLATOON_RUN_ID and PLATOON_PLANT_SPEC (plant.json:
 time grid, initial states, leader profile, tau schedules, and the SUMO options). Per step k:
-publish the states read from SUMO, wait for commands[k], hold each vehicle's acceleration a[k]
+publish the background traffic's positions (`traffic`, with `[sumo] background_vehicles`) and
+the states read from SUMO, wait for commands[k], hold each vehicle's acceleration a[k]
 over the step (`setAcceleration`, ballistic update, speed mode 0), step SUMO, check collisions,
 and update a[k+1] with the engine lag (platoon_plant.py). Writes SUMO's FCD output and
 sumo.json (SUMO version, per-step costs, collisions) into the run directory.
@@ -246,12 +247,69 @@ class Kinematics:
             self.max_dp, self.max_dv = max(self.max_dp, dp), max(self.max_dv, dv)
 
 
+class Traffic:
+    """SUMO's background vehicles (`bg<b>`) as the `traffic` sample of a step: each one's lane
+    position minus the run's offset (the platoon's road coordinates, as the states), flagged
+    ON_ROAD, or NaN before it is inserted and after it leaves the road. Who is on the road is
+    kept from SUMO's departed and arrived lists (two calls per step), and each position is one
+    `getLanePosition` call: per-vehicle calls cost less than subscriptions in libsumo
+    (docs/performance.md, "What was tried")."""
+
+    def __init__(self, spec, sumo):
+        self.sumo = sumo
+        self.offset = float(spec["sumo"]["offset_m"])
+        n = int(spec["sumo"].get("background_vehicles", 0))
+        self.ids = [f"bg{b}" for b in range(n)]
+        self.index = {vid: b for b, vid in enumerate(self.ids)}
+        self.on_road = [False] * n
+        self.depart(sumo.vehicle.getIDList())
+        self.out = (w.TrafficVehicle * n)()
+        self.view = np.ctypeslib.as_array(self.out) if n else None
+        if n:
+            self.view["index"] = np.arange(n, dtype=np.uint32)
+        self.nan = float("nan")
+
+    def __len__(self):
+        return len(self.ids)
+
+    def depart(self, vids):
+        for vid in vids:
+            b = self.index.get(vid)
+            if b is not None:
+                self.on_road[b] = True
+
+    def read(self):
+        """The traffic sample of the current SUMO step."""
+        sim = self.sumo.simulation
+        self.depart(sim.getDepartedIDList())
+        for vid in sim.getArrivedIDList():
+            b = self.index.get(vid)
+            if b is not None:
+                self.on_road[b] = False
+        get_pos, offset, nan = self.sumo.vehicle.getLanePosition, self.offset, self.nan
+        p = [nan] * len(self.ids)
+        for b, vid in enumerate(self.ids):
+            if self.on_road[b]:
+                try:
+                    p[b] = get_pos(vid) - offset
+                except self.sumo.TraCIException:  # removed some other way (a collision)
+                    self.on_road[b] = False
+        self.view["p"] = p
+        self.view["flags"] = self.on_road
+        return self.out
+
+
 def run(spec) -> int:
     n = len(spec["initial"])
     steps = int(spec["steps"])
     dt = float(spec["dt"])
     node = w.Endpoint("plant")
     states_out = node.outlet("states", w.VehicleState, n)
+    # The background traffic, published before the states of each step (the injector reads it
+    # once the tx batch that follows the states wakes it). The orchestrator creates the service
+    # exactly when there is background traffic.
+    nb = int(spec["sumo"].get("background_vehicles", 0))
+    traffic_out = node.outlet("traffic", w.TrafficVehicle, nb) if nb else None
     commands_in = node.inlet("commands", w.Command)
     control = node.control_inlet()
     status = node.status_outlet()
@@ -284,6 +342,7 @@ def run(spec) -> int:
         report["sumo_version"] = sumo.getVersion()[1]
         dyn = platoon_plant.Dynamics(spec)
         kin = Kinematics(spec, sumo, spec["sumo"]["states"])
+        traffic = Traffic(spec, sumo)
         tolerance = float(spec["sumo"]["tolerance_m"])
     except Exception as e:  # libsumo raises its own exception types
         fail(f"SUMO could not start: {e}")
@@ -304,6 +363,8 @@ def run(spec) -> int:
             msg = control.receive()
 
     try:
+        if traffic_out is not None:
+            traffic_out.send(0, 0.0, traffic.read())
         states_out.send(0, 0.0, kin.read(0, dyn.accel))
         while True:
             msg = control.receive()
@@ -354,6 +415,8 @@ def run(spec) -> int:
                     f"{kin.worst['dv_mps']:.3g} m/s (vehicle {kin.worst['vehicle']}; "
                     f"tolerance sumo.tolerance_m = {tolerance:g})"
                 )
+            if traffic_out is not None:
+                traffic_out.send(k, k * dt, traffic.read())
             states_out.send(k, k * dt, states)
             t3 = time.perf_counter_ns()
             c3 = time.thread_time_ns()
@@ -413,6 +476,7 @@ def tight_loop(spec, steps: int) -> dict:
     sumo = start_sumo(spec)
     dyn = platoon_plant.Dynamics(spec)
     kin = Kinematics(spec, sumo, spec["sumo"]["states"])
+    traffic = Traffic(spec, sumo)
     u = np.zeros(len(spec["taus"])) if dyn.vector else [0.0] * len(spec["taus"])
     dt = float(spec["dt"])
     sumo_ns, bridge_ns = [], []
@@ -427,6 +491,8 @@ def tight_loop(spec, steps: int) -> dict:
         kin.step(dyn.accel, k)
         dyn.advance(k, u)
         kin.read(k + 1, dyn.accel)
+        if len(traffic):
+            traffic.read()
         t3 = time.perf_counter_ns()
         sumo_ns.append(t2 - t1)
         bridge_ns.append((t1 - t0) + (t3 - t2))

@@ -537,6 +537,14 @@ fn seeded_background_traffic_drives_beside_the_platoon_without_touching_it() {
             tmp.path(),
         ));
     }
+    // The built-in channel was told where they are, every step (issue 24).
+    let log = std::fs::read_to_string(tmp.path().join("bg/logs/injector.log")).unwrap();
+    assert!(
+        log.contains("channel: background traffic: 30 vehicles over 1001 steps"),
+        "{log}"
+    );
+    let plain = std::fs::read_to_string(tmp.path().join("plain/logs/injector.log")).unwrap();
+    assert!(!plain.contains("background traffic"), "{plain}");
     let fcd = std::fs::read_to_string(tmp.path().join("bg/fcd.xml")).unwrap();
     let doc = roxmltree::Document::parse(&fcd).unwrap();
     let mut bg: Vec<&str> = doc
@@ -566,6 +574,206 @@ fn seeded_background_traffic_drives_beside_the_platoon_without_touching_it() {
     let o = platoon(&["run", full.to_str().unwrap(), "--out", "x"], tmp.path());
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("sumo.background_vehicles"));
+}
+
+/// Issue 24: SUMO's background vehicles reach the V2V channel. The bridge publishes their
+/// positions on `traffic` before each step's states; the built-in channel (here in front of a
+/// Python injector, `--injector-mode after`) hands them to `Channel::set_background` and says
+/// in its log what it was told, and the Python SDK gives them to the injector as `step.traffic`:
+/// every vehicle every step, in the platoon's road coordinates (SUMO's lane position minus the
+/// run's offset: where the bridge put them at step 0), moving forward.
+#[test]
+fn the_channel_and_the_injector_see_sumos_background_traffic() {
+    let tmp = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(repo().join("configs/sumo-paper.toml")).unwrap();
+    let config = tmp.path().join("bg.toml");
+    std::fs::write(
+        &config,
+        text.replace(
+            "tolerance_m = 1e-6",
+            "tolerance_m = 1e-6\nbackground_vehicles = 12\nbackground_seed = 3",
+        )
+        .replace("duration_s = 55.0", "duration_s = 2.0"),
+    )
+    .unwrap();
+    let script = tmp.path().join("record_traffic.py");
+    std::fs::write(
+        &script,
+        r#"
+import json
+import sys
+
+import platoon_injector as pi
+
+
+class Record(pi.Injector):
+    def __init__(self):
+        self.seen = []
+
+    def step(self, step, rx):
+        rx.extend(step.tx)
+        assert [t.index for t in step.traffic] == list(range(len(step.traffic)))
+        self.seen.append([t.p if t.flags & 1 else None for t in step.traffic])
+
+    def finish(self):
+        with open(sys.argv[1], "w") as f:
+            json.dump(self.seen, f)
+
+
+pi.run(lambda run: Record())
+"#,
+    )
+    .unwrap();
+    let seen = tmp.path().join("seen.json");
+    let python = repo().join("bridge/.venv/bin/python");
+    let injector = format!(
+        "{} {} {}",
+        python.display(),
+        script.display(),
+        seen.display()
+    );
+    let o = platoon(
+        &[
+            "run",
+            config.to_str().unwrap(),
+            "--out",
+            "r",
+            "--no-plots",
+            "--injector-mode",
+            "after",
+            "--injector",
+            &injector,
+        ],
+        tmp.path(),
+    );
+    ok(&o);
+    let log = std::fs::read_to_string(tmp.path().join("r/logs/channel.log")).unwrap();
+    assert!(
+        log.contains("channel: background traffic: 12 vehicles over 201 steps, 2412 positions"),
+        "{log}"
+    );
+    let seen: Vec<Vec<Option<f64>>> =
+        serde_json::from_str(&std::fs::read_to_string(&seen).unwrap()).unwrap();
+    assert_eq!(seen.len(), 201);
+    assert!(seen
+        .iter()
+        .all(|s| s.len() == 12 && s.iter().all(Option::is_some)));
+    let p = |k: usize, b: usize| seen[k][b].unwrap();
+    // Where the bridge put bg<b> at step 0: lane position 50 + slot (b / lanes) plus up to 0.3
+    // slot of jitter, slot = (lane length - 100) / vehicles per lane.
+    let spec = json(&tmp.path().join("r/plant.json"));
+    let offset = spec["sumo"]["offset_m"].as_f64().unwrap();
+    let lanes = spec["sumo"]["background_lanes"].as_array().unwrap();
+    let per_lane = 12usize.div_ceil(lanes.len());
+    for b in 0..12 {
+        let length = lanes[b % lanes.len()][1].as_f64().unwrap();
+        let slot = (length - 100.0) / per_lane as f64;
+        let lo = 50.0 + (b / lanes.len()) as f64 * slot - offset;
+        assert!(
+            (lo..=lo + 0.3 * slot).contains(&p(0, b)),
+            "bg{b} at {} at step 0, not in [{lo}, {}]",
+            p(0, b),
+            lo + 0.3 * slot
+        );
+        // 20-30 m/s at the start, over 2 s.
+        let moved = p(200, b) - p(0, b);
+        assert!(moved > 20.0 && moved < 80.0, "bg{b} moved {moved} m");
+        assert!((1..=200).all(|k| p(k, b) >= p(k - 1, b)), "bg{b} went back");
+    }
+}
+
+/// A copy of the checkout's bridge with `sumo_plant.py` edited by `patch`, beside the networks,
+/// whose `.venv/bin/python` is the checkout's (so nothing of the real bridge is touched).
+fn patched_bridge(dir: &Path, patch: impl Fn(String) -> String) -> PathBuf {
+    let bridge = dir.join("bridge");
+    std::fs::create_dir_all(bridge.join(".venv/bin")).unwrap();
+    for entry in std::fs::read_dir(repo().join("bridge")).unwrap() {
+        let path = entry.unwrap().path();
+        let name = path.file_name().unwrap().to_str().unwrap().to_string();
+        if name.ends_with(".py") || name == "setup-venv.sh" || name == "requirements.txt" {
+            std::fs::copy(&path, bridge.join(&name)).unwrap();
+        }
+    }
+    let plant = bridge.join("sumo_plant.py");
+    let text = std::fs::read_to_string(&plant).unwrap();
+    let patched = patch(text.clone());
+    assert_ne!(patched, text, "the patch changed nothing");
+    std::fs::write(&plant, patched).unwrap();
+    // setup-venv.sh only checks a venv whose stamp is the requirements.
+    std::fs::copy(
+        repo().join("bridge/requirements.txt"),
+        bridge.join(".venv/.requirements"),
+    )
+    .unwrap();
+    let python = bridge.join(".venv/bin/python");
+    std::fs::write(
+        &python,
+        format!(
+            "#!/bin/sh\nexec {} \"$@\"\n",
+            repo().join("bridge/.venv/bin/python").display()
+        ),
+    )
+    .unwrap();
+    let mut perms = std::fs::metadata(&python).unwrap().permissions();
+    std::os::unix::fs::PermissionsExt::set_mode(&mut perms, 0o755);
+    std::fs::set_permissions(&python, perms).unwrap();
+    std::os::unix::fs::symlink(repo().join("sumo"), dir.join("sumo")).unwrap();
+    bridge
+}
+
+/// A traffic sample the SUMO plant leaves out or gets wrong stops the run with an error that
+/// names the plant and the step (the injector, which reads it, fails too, but the plant's
+/// sample is the cause).
+#[test]
+fn a_missing_or_malformed_traffic_sample_names_the_plant() {
+    let text = std::fs::read_to_string(repo().join("configs/sumo-paper.toml")).unwrap();
+    let config = text
+        .replace(
+            "tolerance_m = 1e-6",
+            "tolerance_m = 1e-6\nbackground_vehicles = 6",
+        )
+        .replace("duration_s = 55.0", "duration_s = 1.0");
+    let send = "            if traffic_out is not None:\n                traffic_out.send(k, k * dt, traffic.read())";
+    type Patch = fn(String) -> String;
+    let cases: [(Patch, &str); 2] = [
+        (
+            |t| {
+                t.replace(
+                    "            if traffic_out is not None:\n                traffic_out.send(k, k * dt",
+                    "            if traffic_out is not None and k != 5:\n                traffic_out.send(k, k * dt",
+                )
+            },
+            "plant: no traffic sample for step 5",
+        ),
+        (
+            |t| {
+                t.replace(
+                    "        self.view[\"flags\"] = self.on_road\n",
+                    "        self.view[\"flags\"] = self.on_road\n        self.view[\"p\"][3] = float(\"inf\")\n",
+                )
+            },
+            "plant: the traffic sample of step 0 has background vehicle 3 on the road at p = inf",
+        ),
+    ];
+    assert!(std::fs::read_to_string(repo().join("bridge/sumo_plant.py"))
+        .unwrap()
+        .contains(send));
+    for (patch, needle) in cases {
+        let tmp = tempfile::tempdir().unwrap();
+        let bridge = patched_bridge(tmp.path(), patch);
+        let c = tmp.path().join("bg.toml");
+        std::fs::write(&c, &config).unwrap();
+        let o = platoon_command(tmp.path())
+            .args(["run", c.to_str().unwrap(), "--out", "r", "--no-plots"])
+            .env("PLATOON_BRIDGE_DIR", &bridge)
+            .output()
+            .unwrap();
+        assert!(!o.status.success());
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(err.contains(needle), "{needle:?} not in {err}");
+        let s = json(&tmp.path().join("r/summary.json"));
+        assert_eq!(s["complete"], false);
+    }
 }
 
 /// A copy of the binary outside the repository (as `cargo install` or a release archive leaves

@@ -38,3 +38,9 @@ def test_size_alignment_and_offsets_match():
 def test_service_names_match_the_rust_function():
     assert w.service_name("r1", "tx") == "platoon/r1/tx"
     assert w.wake_name("r1", "injector") == "platoon/r1/wake/injector"
+
+
+def test_traffic_is_a_service_that_wakes_nobody():
+    assert w.service_name("r1", "traffic") == "platoon/r1/traffic"
+    assert w.WAKES["traffic"] == []
+    assert w.TrafficVehicle.ON_ROAD == 1

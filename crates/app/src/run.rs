@@ -619,9 +619,9 @@ fn cosimulate(
         .injector
         .as_ref()
         .is_some_and(|i| i.mode == InjectorMode::After);
-    let (plant, env) = match plant {
-        Some(p) => (p.program, p.env),
-        None => (platoon_runtime::Program::Builtin, Vec::new()),
+    let (plant, env, traffic) = match plant {
+        Some(p) => (p.program, p.env, p.traffic),
+        None => (platoon_runtime::Program::Builtin, Vec::new(), 0),
     };
     // A plug-in imports the Python SDK from wherever it is: the bridge goes on its PYTHONPATH
     // (if there is no bridge, a Python plug-in's import error is quoted when it dies).
@@ -650,6 +650,7 @@ fn cosimulate(
         injector,
         controller,
         plant,
+        traffic,
         env,
         log_dir: Some(logs),
         python_path,

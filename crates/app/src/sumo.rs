@@ -79,6 +79,8 @@ pub struct SumoPlant {
     pub program: Program,
     /// `PLATOON_PLANT_SPEC`.
     pub env: Vec<(String, String)>,
+    /// Its background vehicles, whose positions it publishes every step (`traffic`).
+    pub traffic: usize,
 }
 
 /// `plant.json`: the plant spec plus the SUMO options.
@@ -306,6 +308,7 @@ impl SumoPlan<'_> {
                 args: vec![bridge_dir()?.join("sumo_plant.py").display().to_string()],
             },
             env: vec![("PLATOON_PLANT_SPEC".into(), path("plant.json")?)],
+            traffic: self.config.sumo.background_vehicles,
         })
     }
 }

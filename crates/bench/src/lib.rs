@@ -393,6 +393,7 @@ fn latency(a: LatencyArgs) -> Result<LatencyReport> {
         injector: platoon_runtime::Program::Builtin,
         controller: platoon_runtime::Program::Builtin,
         plant: platoon_runtime::Program::Builtin,
+        traffic: 0,
         env: Vec::new(),
         channel_log: None,
         log_dir: Some(logs),

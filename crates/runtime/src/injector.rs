@@ -4,15 +4,16 @@
 //! crate wraps this with the environment `platoon run --injector` gives). [`run`] does the whole
 //! contract of `docs/injector-contract.md`: it opens the ports, reports READY, waits for START,
 //! blocks on its wake-up listener (no busy polling), hands you every step's states and tx batch
-//! in order, publishes exactly one rx sample per step (with its `count`, even when empty) and
+//! in order (and, when the plant publishes it, the background traffic), publishes exactly one rx
+//! sample per step (with its `count`, even when empty) and
 //! wakes the controller, reports DONE after the last step, and exits on STOP, ABORT or when
 //! `platoon run` is gone. An error you return names the injector and the step in the run's
 //! summary. The built-in channel ([`crate::nodes::ChannelInjector`]) is written on this SDK.
 use crate::ipc::{Inlet, Outlet};
-use crate::session::{contract, reporting, Numbering};
+use crate::session::{check_traffic, contract, reporting, Numbering};
 use crate::RunError;
 use platoon_sim::Scenario;
-use platoon_wire::{ControlMsg, LinkPacket, Node, Service, VehicleState};
+use platoon_wire::{ControlMsg, LinkPacket, Node, Service, TrafficVehicle, VehicleState};
 
 /// What an injector sees at step `k`.
 #[derive(Debug, Clone, Copy)]
@@ -27,6 +28,11 @@ pub struct Step<'a> {
     /// The broadcasts of step k, one item per link (`kind = DELIVERY`, `receiver` = the
     /// out-neighbour the packet is meant for).
     pub tx: &'a [LinkPacket],
+    /// The plant's background traffic at step k (SUMO's `bg<b>` as item b, every step the same
+    /// vehicles; `TrafficVehicle::position` is NaN for one not on the road): empty when the
+    /// run has none (the native plant, or SUMO without `[sumo] background_vehicles`). Checked
+    /// before you see it; ignore it if your injector does not need it.
+    pub traffic: &'a [TrafficVehicle],
 }
 
 /// An attack injector: decides, every step, what each receiver gets.
@@ -107,6 +113,12 @@ pub fn run_on(
             Node::Controller
         };
         let mut tx_in: Inlet<LinkPacket> = Inlet::new(&e.open_step_service(ports.input)?, from)?;
+        // Only when the run has background traffic (the orchestrator created the service).
+        let mut traffic_in: Option<Inlet<TrafficVehicle>> = e
+            .open_optional_step_service(Service::Traffic)?
+            .map(|s| Inlet::new(&s, Node::Plant))
+            .transpose()?;
+        let mut traffic_count: Option<usize> = None;
         let rx_out: Outlet<LinkPacket> = e.outlet(
             &e.open_step_service(ports.output)?,
             ports.output,
@@ -124,12 +136,31 @@ pub fn run_on(
             }
             if let Some(s) = &states {
                 if let Some(tx) = tx_in.take(*k)? {
+                    // Published before the states of step k, so here by now.
+                    let traffic = match &mut traffic_in {
+                        Some(inlet) => {
+                            let t = inlet.take(*k)?.ok_or_else(|| {
+                                contract(
+                                    Node::Plant,
+                                    format!(
+                                        "no traffic sample for step {k} (the plant publishes \
+                                         it before the states of the step)"
+                                    ),
+                                )
+                            })?;
+                            check_traffic(&t, traffic_count, *k)?;
+                            traffic_count = Some(t.len());
+                            t
+                        }
+                        None => Vec::new(),
+                    };
                     items.clear();
                     let step = Step {
                         k: *k,
                         t: *k as f64 * scenario.dt(),
                         states: s,
                         tx: &tx,
+                        traffic: &traffic,
                     };
                     injector.step(&step, &mut items).map_err(fail)?;
                     rx_out.send(*k, scenario.dt(), &items)?;

@@ -118,6 +118,28 @@ impl Endpoint {
             .map_err(|e| ipc_err(format!("opening service {name}"), e))
     }
 
+    /// Opens an optional step service ([`Service::Traffic`]): `None` if the orchestrator did
+    /// not create it for this run.
+    pub fn open_optional_step_service<T: Debug + ZeroCopySend + 'static>(
+        &self,
+        s: Service,
+    ) -> Result<Option<StepService<T>>, RunError> {
+        let name = self.name(s)?;
+        match self
+            .node
+            .service_builder(&name)
+            .publish_subscribe::<[T]>()
+            .user_header::<StepHeader>()
+            .open()
+        {
+            Ok(service) => Ok(Some(service)),
+            Err(iceoryx2::service::builder::publish_subscribe::PublishSubscribeOpenError::DoesNotExist) => {
+                Ok(None)
+            }
+            Err(e) => Err(ipc_err(format!("opening service {name}"), e)),
+        }
+    }
+
     /// Creates (orchestrator) or opens the control or status service.
     pub fn control_service(&self, s: Service, create: bool) -> Result<ControlService, RunError> {
         let name = self.name(s)?;
@@ -349,6 +371,14 @@ impl<T: Debug + Copy + ZeroCopySend + 'static> Inlet<T> {
     /// Whether the sample of step `k` is buffered.
     pub fn has(&self, k: u64) -> bool {
         self.pending.iter().any(|(h, _)| h.step == k)
+    }
+
+    /// The items of step `k` if they are buffered, left there.
+    pub fn peek(&self, k: u64) -> Option<&[T]> {
+        self.pending
+            .iter()
+            .find(|(h, _)| h.step == k)
+            .map(|(_, v)| v.as_slice())
     }
 
     /// The sample of step `k`, if it arrived; samples of earlier steps are dropped.

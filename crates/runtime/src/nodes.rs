@@ -148,6 +148,62 @@ pub struct ChannelInjector {
     deliveries: Vec<Delivery>,
     jammed: Vec<bool>,
     events: Vec<ChannelEvent>,
+    /// Every vehicle's (road position, measured beacon rate) for loads that count the fleet.
+    beacons: Vec<(f64, f64)>,
+    /// The background traffic's positions of the step (NaN: not on the road).
+    background: Vec<f64>,
+    seen: BackgroundSeen,
+}
+
+/// What the channel was told about the background traffic over a run, said in its log when
+/// the run had any.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct BackgroundSeen {
+    /// Steps with a traffic sample.
+    pub steps: u64,
+    /// Background vehicles per sample.
+    pub vehicles: usize,
+    /// Positions on the road, summed over the steps.
+    pub on_road: u64,
+    /// Each vehicle's first and latest position on the road.
+    pub first: Vec<f64>,
+    /// See `first`.
+    pub last: Vec<f64>,
+}
+
+impl BackgroundSeen {
+    fn push(&mut self, positions: &[f64]) {
+        if positions.is_empty() {
+            return;
+        }
+        self.steps += 1;
+        self.vehicles = positions.len();
+        self.first.resize(positions.len(), f64::NAN);
+        self.last.resize(positions.len(), f64::NAN);
+        for (b, &p) in positions.iter().enumerate() {
+            if p.is_finite() {
+                self.on_road += 1;
+                if self.first[b].is_nan() {
+                    self.first[b] = p;
+                }
+                self.last[b] = p;
+            }
+        }
+    }
+
+    /// How far the vehicles seen on the road moved between their first and latest positions
+    /// (least, greatest; m), if any was seen.
+    pub fn moved_m(&self) -> Option<(f64, f64)> {
+        self.first
+            .iter()
+            .zip(&self.last)
+            .filter(|(f, _)| f.is_finite())
+            .map(|(f, l)| l - f)
+            .fold(None, |acc, d| match acc {
+                None => Some((d, d)),
+                Some((lo, hi)) => Some((d.min(lo), d.max(hi))),
+            })
+    }
 }
 
 impl ChannelInjector {
@@ -174,7 +230,20 @@ impl ChannelInjector {
             deliveries: Vec::new(),
             jammed: vec![false; num.per_platoon],
             events: Vec::new(),
+            beacons: Vec::new(),
+            background: Vec::new(),
+            seen: BackgroundSeen::default(),
         })
+    }
+
+    /// Every platoon's channel.
+    pub fn channels(&self) -> &[Channel] {
+        &self.channels
+    }
+
+    /// What the channel was told about the background traffic so far.
+    pub fn background_seen(&self) -> &BackgroundSeen {
+        &self.seen
     }
 }
 
@@ -205,9 +274,30 @@ impl crate::injector::Injector for ChannelInjector {
                 list.push(p);
             }
         }
+        // The background traffic in the platoons' road coordinates (every platoon of a fleet
+        // shares them); none without a traffic service.
+        self.background.clear();
+        self.background
+            .extend(step.traffic.iter().map(|t| t.position()));
+        self.seen.push(&self.background);
         self.events.clear();
+        if self.channels.len() > 1 && self.channels[0].counts_fleet() {
+            // Every platoon's radios hear the others (as platoon_sim::FleetSimulation does):
+            // each vehicle's position and measured beacon rate before any platoon is gated.
+            self.beacons.clear();
+            for (j, channel) in self.channels.iter().enumerate() {
+                self.beacons.extend((0..n1).map(|v| {
+                    let rate = channel.beacon_rate(VehicleId(v as u16), step.k);
+                    (states[j * n1 + v][0], rate)
+                }));
+            }
+            for (j, channel) in self.channels.iter_mut().enumerate() {
+                channel.set_fleet(&self.beacons, j * n1..(j + 1) * n1);
+            }
+        }
         for (j, channel) in self.channels.iter_mut().enumerate() {
             self.deliveries.clear();
+            channel.set_background(&self.background);
             channel.gate(
                 step.k,
                 step.k as f64 * self.dt,
@@ -249,11 +339,100 @@ impl crate::injector::Injector for ChannelInjector {
     }
 
     fn finish(&mut self) -> Result<(), String> {
+        let s = &self.seen;
+        if s.steps > 0 {
+            // In the node's log (logs/injector.log or logs/channel.log of the run).
+            let moved = s.moved_m().map_or(String::new(), |(lo, hi)| {
+                format!(", each moved {lo:.1} m to {hi:.1} m")
+            });
+            eprintln!(
+                "channel: background traffic: {} vehicles over {} steps, {} positions on the \
+                 road{moved}",
+                s.vehicles, s.steps, s.on_road
+            );
+        }
         match &mut self.writer {
             Some(w) => w
                 .flush()
                 .map_err(|e| format!("writing the channel log: {e}")),
             None => Ok(()),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::injector::{Injector, Step};
+    use platoon_wire::TrafficVehicle;
+
+    fn paper() -> Scenario {
+        platoon_config::parse(platoon_config::PAPER_TOML, Path::new("paper.toml"))
+            .unwrap()
+            .1
+    }
+
+    fn states(scenario: &Scenario) -> Vec<VehicleState> {
+        scenario
+            .initial
+            .iter()
+            .enumerate()
+            .map(|(i, x)| VehicleState {
+                vehicle: i as u32,
+                p: x[0],
+                v: x[1],
+                ..Default::default()
+            })
+            .collect()
+    }
+
+    fn on_road(index: u32, p: f64) -> TrafficVehicle {
+        TrafficVehicle {
+            index,
+            flags: TrafficVehicle::ON_ROAD,
+            p,
+        }
+    }
+
+    fn step<'a>(k: u64, states: &'a [VehicleState], traffic: &'a [TrafficVehicle]) -> Step<'a> {
+        Step {
+            k,
+            t: k as f64 * 0.01,
+            states,
+            tx: &[],
+            traffic,
+        }
+    }
+
+    /// The background traffic of a step reaches every platoon's channel before it gates, as
+    /// positions with NaN for a vehicle not on the road; a run without traffic gives none.
+    #[test]
+    fn the_channel_is_told_where_the_background_traffic_is() {
+        let scenario = paper();
+        let mut sut = ChannelInjector::new(&scenario, None).unwrap();
+        let s = states(&scenario);
+        let mut rx = Vec::new();
+        sut.step(&step(0, &s, &[]), &mut rx).unwrap();
+        assert!(sut.channels().iter().all(|c| c.background().is_empty()));
+        assert_eq!(sut.background_seen().steps, 0);
+
+        let absent = TrafficVehicle {
+            index: 1,
+            flags: 0,
+            p: f64::NAN,
+        };
+        let first = [on_road(0, -40.0), absent, on_road(2, 310.5)];
+        sut.step(&step(1, &s, &first), &mut rx).unwrap();
+        for c in sut.channels() {
+            let b = c.background();
+            assert_eq!(b.len(), 3);
+            assert_eq!((b[0], b[2]), (-40.0, 310.5));
+            assert!(b[1].is_nan());
+        }
+        let moved = [on_road(0, -15.0), on_road(1, 100.0), on_road(2, 330.5)];
+        sut.step(&step(2, &s, &moved), &mut rx).unwrap();
+        let seen = sut.background_seen();
+        assert_eq!((seen.steps, seen.vehicles, seen.on_road), (2, 3, 5));
+        assert_eq!(seen.moved_m(), Some((0.0, 25.0)));
     }
 }

@@ -2,12 +2,16 @@
 //! processes, waits until all are ready, records every step, and shuts everything down, on
 //! success or failure, leaving no process behind.
 use crate::ipc::{wait, ControlInlet, Endpoint, Inlet};
-use crate::session::{deliveries_from_wire, packet_from_wire, states_from_wire, Numbering};
+use crate::session::{
+    check_traffic, deliveries_from_wire, packet_from_wire, states_from_wire, Numbering,
+};
 use crate::timing::{StageClock, Timing};
 use crate::RunError;
 use platoon_control::{FollowerStep, RejectCounts};
 use platoon_sim::{step_rows, Scenario, StepRow, StepWire, WireCounts};
-use platoon_wire::{Command, ControlMsg, LinkPacket, Node, Observed, Service, VehicleState};
+use platoon_wire::{
+    Command, ControlMsg, LinkPacket, Node, Observed, Service, TrafficVehicle, VehicleState,
+};
 use std::path::PathBuf;
 use std::process::{Child, Command as Process, Stdio};
 use std::time::{Duration, Instant};
@@ -45,6 +49,9 @@ pub struct Options {
     pub controller: Program,
     /// The plant.
     pub plant: Program,
+    /// The background vehicles the plant publishes every step on `traffic` (SUMO's
+    /// `[sumo] background_vehicles`); 0: the run has no `traffic` service.
+    pub traffic: usize,
     /// More environment for every process (e.g. `PLATOON_PLANT_SPEC`).
     pub env: Vec<(String, String)>,
     /// Where the built-in injector writes its channel log (CSV).
@@ -172,6 +179,7 @@ struct Services {
     _rx: crate::ipc::StepService<LinkPacket>,
     _commands: crate::ipc::StepService<Command>,
     _gated: crate::ipc::StepService<LinkPacket>,
+    _traffic: Option<crate::ipc::StepService<TrafficVehicle>>,
     _wake: Vec<crate::ipc::WakeService>,
 }
 
@@ -195,6 +203,9 @@ pub fn orchestrate(
         _rx: e.create_step_service(Service::Rx)?,
         _commands: e.create_step_service(Service::Commands)?,
         _gated: e.create_step_service(Service::Gated)?,
+        _traffic: (opts.traffic > 0)
+            .then(|| e.create_step_service(Service::Traffic))
+            .transpose()?,
         _wake: wake,
     };
     let control_service = e.control_service(Service::Control, true)?;
@@ -206,6 +217,11 @@ pub fn orchestrate(
     let mut tx: Inlet<LinkPacket> = Inlet::new(&services._tx, Node::Controller)?;
     let mut rx: Inlet<LinkPacket> = Inlet::new(&services._rx, Node::Injector)?;
     let mut commands: Inlet<Command> = Inlet::new(&services._commands, Node::Controller)?;
+    let mut traffic: Option<Inlet<TrafficVehicle>> = services
+        ._traffic
+        .as_ref()
+        .map(|s| Inlet::new(s, Node::Plant))
+        .transpose()?;
     let observe = Observe::create(&e, opts.observers, scenario)?;
 
     let mut children = Children { procs: Vec::new() };
@@ -274,13 +290,22 @@ pub fn orchestrate(
             let mut progressed = false;
             // A malformed sample stops the run, but only after every step that was complete
             // before it is recorded.
-            // Each inlet is drained even when another's sample was malformed.
-            let drained = [states.drain(), tx.drain(), rx.drain(), commands.drain()]
-                .into_iter()
-                .find(Result::is_err)
-                .unwrap_or(Ok(0));
+            // Each inlet is drained even when another's sample was malformed; traffic after
+            // states, so the traffic of every step whose states are in is in too (the plant
+            // publishes it first).
+            let drained = [
+                states.drain(),
+                traffic.as_mut().map_or(Ok(0), Inlet::drain),
+                tx.drain(),
+                rx.drain(),
+                commands.drain(),
+            ]
+            .into_iter()
+            .find(Result::is_err)
+            .unwrap_or(Ok(0));
             let mut streams = Streams {
                 states: &mut states,
+                traffic: traffic.as_mut().map(|t| (t, opts.traffic)),
                 tx: &mut tx,
                 rx: &mut rx,
                 commands: &mut commands,
@@ -294,6 +319,7 @@ pub fn orchestrate(
                     // before it: record those, and name the sender if its sample is the cause.
                     let mut streams = Streams {
                         states: &mut states,
+                        traffic: traffic.as_mut().map(|t| (t, opts.traffic)),
                         tx: &mut tx,
                         rx: &mut rx,
                         commands: &mut commands,
@@ -324,6 +350,8 @@ pub fn orchestrate(
                     (late.name(), "it never reported DONE")
                 } else if !states.has(k) {
                     ("plant", "states")
+                } else if traffic.as_ref().is_some_and(|t| !t.has(k)) {
+                    ("plant", "the traffic sample")
                 } else if !tx.has(k) {
                     ("controller", "the tx batch")
                 } else if !rx.has(k) {
@@ -337,6 +365,7 @@ pub fn orchestrate(
                     waited_s: opts.step_timeout.as_secs_f64(),
                     what,
                     duplicates: states.duplicates()
+                        + traffic.as_ref().map_or(0, Inlet::duplicates)
                         + tx.duplicates()
                         + rx.duplicates()
                         + commands.duplicates(),
@@ -347,6 +376,7 @@ pub fn orchestrate(
                 // every step that is complete before saying so.
                 let mut streams = Streams {
                     states: &mut states,
+                    traffic: traffic.as_mut().map(|t| (t, opts.traffic)),
                     tx: &mut tx,
                     rx: &mut rx,
                     commands: &mut commands,
@@ -389,9 +419,10 @@ pub fn orchestrate(
     result
 }
 
-/// The orchestrator's four inlets.
+/// The orchestrator's four inlets, and the plant's traffic with its count if the run has it.
 struct Streams<'a> {
     states: &'a mut Inlet<VehicleState>,
+    traffic: Option<(&'a mut Inlet<TrafficVehicle>, usize)>,
     tx: &'a mut Inlet<LinkPacket>,
     rx: &'a mut Inlet<LinkPacket>,
     commands: &'a mut Inlet<Command>,
@@ -401,6 +432,9 @@ impl Streams<'_> {
     /// Reads what arrived on every inlet, ignoring malformed samples (the run is stopping).
     fn drain_all(&mut self) {
         let _ = self.states.drain();
+        if let Some((t, _)) = &mut self.traffic {
+            let _ = t.drain();
+        }
         let _ = self.tx.drain();
         let _ = self.rx.drain();
         let _ = self.commands.drain();
@@ -416,13 +450,27 @@ impl Streams<'_> {
         on_step: &mut impl FnMut(&[StepRow], StepWire<'_>),
     ) -> Result<bool, RunError> {
         let mut progressed = false;
-        while run.step <= scenario.steps
-            && self.states.has(run.step)
-            && self.tx.has(run.step)
-            && self.rx.has(run.step)
-            && self.commands.has(run.step)
-        {
+        while run.step <= scenario.steps && self.states.has(run.step) {
             let k = run.step;
+            // The traffic of step k is published before its states, and drained after them:
+            // missing or malformed, it is the plant's fault, whoever else failed on it since
+            // (the injector reads it too).
+            if let Some((inlet, count)) = &self.traffic {
+                let items = inlet.peek(k).ok_or_else(|| RunError::Contract {
+                    node: "plant",
+                    message: format!(
+                        "no traffic sample for step {k} (the plant publishes it before the \
+                         states of the step)"
+                    ),
+                })?;
+                check_traffic(items, Some(*count), k)?;
+            }
+            if !(self.tx.has(k) && self.rx.has(k) && self.commands.has(k)) {
+                break;
+            }
+            if let Some((inlet, _)) = &mut self.traffic {
+                inlet.take_buffered(k);
+            }
             let (hs, s) = self.states.take_buffered(k).expect("has");
             let (ht, t) = self.tx.take_buffered(k).expect("has");
             let (hr, r) = self.rx.take_buffered(k).expect("has");

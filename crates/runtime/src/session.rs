@@ -12,7 +12,9 @@ use iceoryx2::prelude::ipc;
 use platoon_control::{Delivery, Packet};
 use platoon_model::{State, VehicleId};
 use platoon_sim::Scenario;
-use platoon_wire::{ControlMsg, LinkPacket, Node, Service, V2vPacket, VehicleState};
+use platoon_wire::{
+    ControlMsg, LinkPacket, Node, Service, TrafficVehicle, V2vPacket, VehicleState,
+};
 use std::time::Duration;
 
 /// How long a node sleeps between checks that its orchestrator is still there.
@@ -191,6 +193,49 @@ pub fn states_from_wire(s: &[VehicleState], vehicles: usize) -> Result<Vec<State
     Ok(s.iter().map(|x| State::new(x.p, x.v, x.a)).collect())
 }
 
+/// Checks a traffic sample of step `k` from the plant: background vehicle `b` as item `b`, a
+/// finite position for every vehicle on the road, and `expected` items if given (the count
+/// never changes during a run). The error names the plant.
+pub fn check_traffic(
+    items: &[TrafficVehicle],
+    expected: Option<usize>,
+    k: u64,
+) -> Result<(), RunError> {
+    if let Some(n) = expected.filter(|&n| n != items.len()) {
+        return Err(contract(
+            Node::Plant,
+            format!(
+                "the traffic sample of step {k} lists {} background vehicles, not {n}",
+                items.len()
+            ),
+        ));
+    }
+    for (b, it) in items.iter().enumerate() {
+        if it.index as usize != b {
+            return Err(contract(
+                Node::Plant,
+                format!(
+                    "the traffic sample of step {k} has vehicle {} as item {b}: it lists the \
+                     background vehicles 0..{} in order",
+                    it.index,
+                    items.len()
+                ),
+            ));
+        }
+        if it.flags & TrafficVehicle::ON_ROAD != 0 && !it.p.is_finite() {
+            return Err(contract(
+                Node::Plant,
+                format!(
+                    "the traffic sample of step {k} has background vehicle {b} on the road at \
+                     p = {}",
+                    it.p
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// Sorts an rx batch into each platoon's deliveries and jammed notices (both cleared first).
 /// Whatever the items hold, nothing panics: a receiver no vehicle has goes to platoon 0 as a
 /// delivery to an unknown receiver (its controllers count it), a sender of another platoon or
@@ -250,5 +295,43 @@ pub fn packet_from_wire(p: &V2vPacket) -> Packet {
         step: p.step,
         state: State::from(p.state),
         u: p.u,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn t(index: u32, flags: u32, p: f64) -> TrafficVehicle {
+        TrafficVehicle { index, flags, p }
+    }
+
+    /// A malformed traffic sample is a contract error that names the plant, never a panic.
+    #[test]
+    fn a_malformed_traffic_sample_names_the_plant() {
+        let on = TrafficVehicle::ON_ROAD;
+        let good = [t(0, on, 1.0), t(1, 0, f64::NAN), t(2, on, -3.0)];
+        assert!(check_traffic(&good, None, 4).is_ok());
+        assert!(check_traffic(&good, Some(3), 4).is_ok());
+        assert!(check_traffic(&[], None, 4).is_ok());
+        for (items, expected, needle) in [
+            (&good[..], Some(4), "lists 3 background vehicles, not 4"),
+            (
+                &[t(0, on, 1.0), t(2, on, 2.0)][..],
+                None,
+                "has vehicle 2 as item 1",
+            ),
+            (&[t(0, on, f64::NAN)][..], None, "on the road at p = NaN"),
+            (
+                &[t(0, on, f64::INFINITY)][..],
+                None,
+                "on the road at p = inf",
+            ),
+        ] {
+            let e = check_traffic(items, expected, 7).unwrap_err();
+            assert_eq!(e.node(), Some("plant"), "{e}");
+            let text = e.to_string();
+            assert!(text.contains(needle) && text.contains("step 7"), "{text}");
+        }
     }
 }

@@ -18,7 +18,9 @@ use iceoryx2::prelude::ZeroCopySend;
 /// say what changed in `docs/injector-contract.md` ("Contract versions").
 ///
 /// - v1: the first published contract.
-/// - v2: [`V2vPacket`] gained `u`, the sender's latest command (56 bytes, was 48).
+/// - v2: [`V2vPacket`] gained `u`, the sender's latest command (56 bytes, was 48). Later, still
+///   v2: the optional [`Service::Traffic`] of [`TrafficVehicle`]s (a new service; no payload
+///   of v2 changed, and a plug-in that does not open it is unaffected).
 pub const CONTRACT_VERSION: u32 = 2;
 
 /// The environment variable in which `platoon run` gives every process it starts the contract
@@ -191,6 +193,37 @@ impl Command {
     }
 }
 
+/// A vehicle of the plant's background traffic at a step (plant -> injector, orchestrator, on
+/// [`Service::Traffic`]): SUMO's `bg<index>`, which drives on the lanes no platoon uses and
+/// loads the V2V channel. Only the SUMO plant with `[sumo] background_vehicles` publishes it.
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[type_name("platoon::v2::TrafficVehicle")]
+#[repr(C)]
+pub struct TrafficVehicle {
+    /// Its index b (SUMO's `bg<b>`): item b of every traffic sample.
+    pub index: u32,
+    /// Bit 0 ([`TrafficVehicle::ON_ROAD`]): it is in the network at this step and `p` holds its
+    /// position; otherwise (not inserted yet, or left the road) `p` is NaN.
+    pub flags: u32,
+    /// Position along the road (m) in the platoon's coordinates (SUMO's lane position minus
+    /// the run's offset, as the platoon's [`VehicleState::p`]).
+    pub p: f64,
+}
+
+impl TrafficVehicle {
+    /// `flags` bit: on the road at this step (`p` is its position).
+    pub const ON_ROAD: u32 = 1;
+
+    /// Its position (m), NaN when it is not on the road.
+    pub fn position(&self) -> f64 {
+        if self.flags & Self::ON_ROAD != 0 {
+            self.p
+        } else {
+            f64::NAN
+        }
+    }
+}
+
 /// Control and status messages (orchestrator <-> every node), one per sample.
 #[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
 #[type_name("platoon::v2::ControlMsg")]
@@ -308,6 +341,11 @@ pub enum Service {
     Rx,
     /// `[Command]`, controller -> plant, orchestrator.
     Commands,
+    /// `[TrafficVehicle]`, plant -> injector (and the channel), orchestrator: the background
+    /// traffic at a step, published before that step's states. Only the SUMO plant with
+    /// background vehicles publishes it; the orchestrator creates it only then, so whether the
+    /// service exists says whether a run has it.
+    Traffic,
     /// `[LinkPacket]`, channel -> injector, with `--injector-mode after`: what survived the
     /// config's attacks (deliveries and jammed notices), the injector's input instead of `tx`.
     Gated,
@@ -364,6 +402,7 @@ pub fn service_name(run_id: &str, service: Service) -> String {
         Service::Tx => "tx",
         Service::Rx => "rx",
         Service::Commands => "commands",
+        Service::Traffic => "traffic",
         Service::Gated => "gated",
         Service::Control => "control",
         Service::Status => "status",
@@ -400,6 +439,9 @@ pub fn wakes(service: Service) -> &'static [Node] {
         Service::Gated => &[Node::Injector],
         Service::Rx => &[Node::Controller],
         Service::Commands => &[Node::Plant, Node::Orchestrator],
+        // Published before the states, which precede the tx batch that wakes the injector:
+        // whoever reads it has it by then.
+        Service::Traffic => &[],
         Service::Control => &[Node::Plant, Node::Controller, Node::Injector],
         Service::Status => &[Node::Orchestrator],
         Service::Wake(_) | Service::Observe(_) => &[],
@@ -440,6 +482,7 @@ pub fn layouts() -> Vec<Layout> {
         layout!(V2vPacket, [sender, seq, step, stamp_ns, state, u]),
         layout!(LinkPacket, [receiver, kind, packet]),
         layout!(Command, [vehicle, flags, u, theta]),
+        layout!(TrafficVehicle, [index, flags, p]),
         layout!(ControlMsg, [kind, node, step, counts, reason]),
     ]
 }
@@ -490,6 +533,7 @@ mod tests {
             unsafe { V2vPacket::type_name() },
             unsafe { LinkPacket::type_name() },
             unsafe { Command::type_name() },
+            unsafe { TrafficVehicle::type_name() },
             unsafe { ControlMsg::type_name() },
         ];
         let prefix = format!("platoon::v{CONTRACT_VERSION}::");
@@ -554,6 +598,7 @@ mod tests {
     #[test]
     fn service_names_carry_the_run_id() {
         assert_eq!(service_name("r1", Service::Tx), "platoon/r1/tx");
+        assert_eq!(service_name("r1", Service::Traffic), "platoon/r1/traffic");
         assert_eq!(
             service_name("r1", Service::Observe(Observed::Rx)),
             "platoon/r1/observe/rx"
