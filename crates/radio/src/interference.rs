@@ -71,6 +71,14 @@ impl Table {
     }
 }
 
+impl crate::Params80211p {
+    /// Mean path loss (dB, WINNER+ B1 line of sight) over `distance_m` with these parameters'
+    /// geometry: what a jammer's power loses on its way to a receiver.
+    pub fn path_loss_db(&self, distance_m: f64) -> f64 {
+        PathLoss::new(self).db(distance_m)
+    }
+}
+
 impl Model {
     /// The packet delivery ratio at `distance_m` when an interferer adds `interference_dbm` of
     /// constant mean power at the receiver (a jammer's transmit power minus its path loss): the
