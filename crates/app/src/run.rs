@@ -644,8 +644,10 @@ fn cosimulate(
         exe,
         config: std::path::absolute(dir.path("config.toml"))
             .context("resolving the run directory")?,
+        // With jammers as transmitters the links' outages are read from it, wanted or not.
         channel_log: ((injector == platoon_runtime::Program::Builtin || after)
-            && output.writes(platoon_config::OutputFile::Channel))
+            && (output.writes(platoon_config::OutputFile::Channel)
+                || !scenario.jammers.is_empty()))
         .then(|| dir.path("channel.csv")),
         injector,
         controller,
@@ -686,6 +688,7 @@ fn cosimulate(
     let rows = files.into_rows();
     match result {
         Ok(outcome) => {
+            link_outages(scenario, output, dir, &mut metrics)?;
             let summary = metrics.finish(outcome.rejected);
             channel_log_format(scenario, output, dir)?;
             let mut timing = serde_json::to_value(&outcome.timing)?;
@@ -705,6 +708,39 @@ fn cosimulate(
             Ok((rows, summary, Some(e)))
         }
     }
+}
+
+/// With jammers as transmitters: the links' outages, from the channel log the injector node
+/// wrote, step by step as the in-process run reads it; the log is removed if the output does not
+/// want it.
+fn link_outages(
+    scenario: &Scenario,
+    output: &platoon_config::OutputConfig,
+    dir: &RunDir,
+    metrics: &mut platoon_sim::FleetMetrics,
+) -> Result<()> {
+    let path = dir.path("channel.csv");
+    if scenario.jammers.is_empty() || !path.exists() {
+        return Ok(());
+    }
+    let mut reader =
+        csv::Reader::from_path(&path).with_context(|| format!("reading {}", path.display()))?;
+    let mut step: Vec<ChannelEvent> = Vec::new();
+    for row in reader.deserialize::<ChannelEvent>() {
+        let e = row.with_context(|| format!("reading {}", path.display()))?;
+        if step.first().is_some_and(|f| f.step != e.step) {
+            step.sort_by_key(|e| e.platoon);
+            metrics.push_channel(&step);
+            step.clear();
+        }
+        step.push(e);
+    }
+    step.sort_by_key(|e| e.platoon);
+    metrics.push_channel(&step);
+    if !output.writes(platoon_config::OutputFile::Channel) {
+        std::fs::remove_file(&path).with_context(|| format!("removing {}", path.display()))?;
+    }
+    Ok(())
 }
 
 /// The injector node writes its channel log as CSV; with Parquet output it is converted, row

@@ -1,6 +1,7 @@
 //! The V2V channel between the controllers: what each receiver gets from each broadcast, under the
 //! DoS schedule and the link-level attack models. Pure and seeded: the in-process runner and the
 //! iceoryx2 injector process run this same code, so they deliver the same packets bit for bit.
+use crate::jammer::Jammers;
 pub use crate::medium::{BackgroundBeacons, Dcc, LoadSource, RadioSpec, RadioStats};
 use crate::medium::{Gated, Medium};
 use crate::DosSchedule;
@@ -126,6 +127,8 @@ pub struct ChannelSpec {
     /// packet on every link is delivered with the model's probability for the link's distance
     /// at the load the receiver's radio sees; `None`: an ideal radio.
     pub radio: Option<RadioSpec>,
+    /// Jammers as transmitters (`[[channel.jammers]]`), see [`crate::jammer`].
+    pub jammers: Vec<crate::jammer::Jammer>,
 }
 
 /// What the channel did to one packet on one link.
@@ -136,6 +139,12 @@ pub enum Action {
     DroppedDos,
     /// Dropped: the sender or receiver is within a range jammer's radius.
     DroppedJammed,
+    /// Dropped: a jammer's interference (in the SINR with the 802.11p radio; within a reactive
+    /// jammer's radius with the ideal one) lost a packet the radio would have delivered.
+    DroppedInterference,
+    /// Delivered: the first packet through on a link after jamming losses on it (logged only
+    /// with `[[channel.jammers]]`, so each link's outage can be read from the log).
+    Restored,
     /// Dropped: random loss (Bernoulli or Gilbert-Elliott).
     DroppedLoss,
     /// Dropped: lost on the radio (802.11p: propagation, collision, busy receiver, below the
@@ -199,6 +208,10 @@ pub struct Channel {
     /// SUMO's background vehicles this step (`bg<b>` at index b), road positions in the
     /// platoon's coordinates (NaN: not on the road).
     background: Vec<f64>,
+    /// The jammers as transmitters.
+    jammers: Jammers,
+    /// Per link (sender * n + receiver), with jammers: its last packet was lost to jamming.
+    jam_out: Vec<bool>,
 }
 
 impl Channel {
@@ -230,6 +243,12 @@ impl Channel {
             history: vec![VecDeque::new(); vehicles],
             max_lag,
             background: Vec::new(),
+            jammers: Jammers::new(&spec.jammers, spec.seed),
+            jam_out: if spec.jammers.is_empty() {
+                Vec::new()
+            } else {
+                vec![false; vehicles * vehicles]
+            },
             spec,
         }
     }
@@ -323,6 +342,7 @@ impl Channel {
                 }
             }
         }
+        self.jammers.step(t, states, &self.background, jammed);
         while self.in_flight.front().is_some_and(|(due, _)| *due <= k) {
             let (_, d) = self.in_flight.pop_front().expect("checked non-empty");
             log.push(event(
@@ -365,14 +385,34 @@ impl Channel {
                 }
                 if jammed[sent.sender.index()] || jammed[receiver.index()] {
                     log.push(event(at, sent, receiver, Action::DroppedJammed, None));
+                    self.jam_cut(sent.sender, receiver);
+                    continue;
+                }
+                let (xs, xr) = (states[sent.sender.index()][0], states[receiver.index()][0]);
+                if self.medium.is_none() && self.jammers.blocks(xs, xr) {
+                    log.push(event(at, sent, receiver, Action::DroppedInterference, None));
+                    self.jam_cut(sent.sender, receiver);
                     continue;
                 }
                 if let Some(m) = &self.medium {
                     // Distance between the antennas, front to front (the platoon's vehicles
                     // share one length).
                     let d = (states[sent.sender.index()][0] - states[receiver.index()][0]).abs();
-                    if self.radio_rng.gen::<f64>() >= m.pdr(d, receiver.index()) {
-                        log.push(event(at, sent, receiver, Action::DroppedRadio, None));
+                    let u = self.radio_rng.gen::<f64>();
+                    let jam = self
+                        .jammers
+                        .interference_dbm(m.spec.family.params(), xs, xr);
+                    if u >= m.pdr_with_interference(d, receiver.index(), jam) {
+                        // Lost to the jammer if the radio alone would have delivered it.
+                        let action = if jam > f64::NEG_INFINITY && u < m.pdr(d, receiver.index()) {
+                            Action::DroppedInterference
+                        } else {
+                            Action::DroppedRadio
+                        };
+                        log.push(event(at, sent, receiver, action, None));
+                        if action == Action::DroppedInterference {
+                            self.jam_cut(sent.sender, receiver);
+                        }
                         continue;
                     }
                 }
@@ -472,7 +512,23 @@ impl Channel {
                 }
             }
         }
+        if let Some(cut) = self.jam_out.get_mut(link) {
+            if *cut {
+                *cut = false;
+                log.push(event(at, &packet, receiver, Action::Restored, None));
+            }
+        }
         out.push(Delivery { receiver, packet });
+    }
+
+    /// A packet on link `sender -> receiver` was lost to jamming (tracked with jammers only).
+    fn jam_cut(&mut self, sender: VehicleId, receiver: VehicleId) {
+        if let Some(cut) = self
+            .jam_out
+            .get_mut(sender.index() * self.vehicles + receiver.index())
+        {
+            *cut = true;
+        }
     }
 }
 
@@ -553,6 +609,7 @@ mod tests {
                 seed: 1,
                 platoon: 0,
                 radio: None,
+                jammers: Vec::new(),
             },
             4,
         )

@@ -9,11 +9,13 @@
 //!   construction (the property tests check it, and the checker, against a brute-force oracle
 //!   in exact arithmetic: `oracle.rs`).
 //! * [`channel::Channel`]: the V2V channel under the DoS schedule and link-level attacks
-//!   (Bernoulli and Gilbert-Elliott loss, delay, range jamming, replay, false data injection).
+//!   (Bernoulli and Gilbert-Elliott loss, delay, range jamming, replay, false data injection),
+//!   and [`jammer::Jammers`], jammers as transmitters (placed, powered, with a behaviour).
 #![warn(missing_docs)]
 
 mod assumption2;
 pub mod channel;
+pub mod jammer;
 mod medium;
 #[cfg(test)]
 mod oracle;

@@ -29,7 +29,9 @@ pub enum BackgroundBeacons {
     /// `[channel.radio] beacon_hz`.
     #[default]
     Fixed,
-    /// The platoon's mean measured rate: every vehicle on the road beacons as the platoon does.
+    /// The platoon's mean rate so far (transmissions per vehicle and second since the start;
+    /// the configured rate in the first window): every vehicle on the road beacons as the
+    /// platoon does, at other times.
     Platoon,
 }
 
@@ -190,9 +192,14 @@ impl Medium {
                 let rates: Vec<f64> = (0..vehicles).map(|v| self.rate(v, k)).collect();
                 let background_hz = match self.spec.background_beacons {
                     BackgroundBeacons::Fixed => p.beacon_hz,
-                    BackgroundBeacons::Platoon => {
-                        rates.iter().sum::<f64>() / vehicles.max(1) as f64
+                    // Their long-run rate: the platoon's transmissions so far per vehicle and
+                    // second (other vehicles manoeuvre at other times than the platoon, so
+                    // its bursts are not theirs); the configured rate in the first window.
+                    BackgroundBeacons::Platoon if k >= self.spec.window_steps => {
+                        self.stats.transmissions as f64
+                            / (vehicles.max(1) as f64 * k as f64 * self.spec.dt)
                     }
+                    BackgroundBeacons::Platoon => p.beacon_hz,
                 };
                 let uniform = p.density_veh_per_m * background_hz;
                 let reach = p.interferer_range_m;
@@ -296,7 +303,22 @@ impl Medium {
         self.spec.family.pdr(distance_m, self.load[receiver])
     }
 
+    /// [`Medium::pdr`] with jammers' `interference_dbm` at the receiver (exactly `pdr` for
+    /// `-inf`).
+    pub(crate) fn pdr_with_interference(
+        &self,
+        distance_m: f64,
+        receiver: usize,
+        interference_dbm: f64,
+    ) -> f64 {
+        let load = self.load[receiver];
+        self.spec
+            .family
+            .pdr_with_interference(distance_m, load, interference_dbm)
+    }
+
     /// The load vehicle `v`'s radio saw at the last step (packets/s/m).
+    #[cfg(test)]
     pub(crate) fn load(&self, v: usize) -> f64 {
         self.load[v]
     }

@@ -89,6 +89,30 @@ pub const ALL: &[(&str, &str)] = &[
     ),
     ("rejected_packets", "packets the controllers refused"),
     (
+        "delivery_ratio",
+        "link packets delivered as sent over link packets sent, measured on the wire (all platoons)",
+    ),
+    (
+        "mean_cbr",
+        "mean channel busy ratio the vehicles' radios measured (802.11p runs)",
+    ),
+    (
+        "max_cbr",
+        "largest channel busy ratio a vehicle's radio measured (802.11p runs)",
+    ),
+    (
+        "channel_load",
+        "mean load a vehicle's radio saw, packets per second per metre (802.11p runs)",
+    ),
+    (
+        "transmissions",
+        "packets the vehicles put on the air (802.11p runs, after DCC)",
+    ),
+    (
+        "dcc_deferred",
+        "packets DCC held back for a later step (802.11p runs with [channel.dcc])",
+    ),
+    (
         "min_ttc_s",
         "smallest time to collision of a follower closing in (platoon 0), s",
     ),
@@ -303,6 +327,19 @@ pub fn extract(names: &[String], max_followers: usize, summary: &Summary) -> Vec
             "attack_intervals" => Metric::Int(summary.attack.intervals as u64),
             "attacked_time_s" => num(Some(summary.attack.attacked_time_s)),
             "observed_jammed_s" => num(summary.attack.observed.as_ref().map(|o| o.jammed_time_s)),
+            "delivery_ratio" => num(summary.wire.as_ref().and_then(|w| {
+                (w.totals.sent > 0)
+                    .then(|| w.totals.delivered_as_sent as f64 / w.totals.sent as f64)
+            })),
+            "mean_cbr" => num(summary.channel.map(|c| c.mean_cbr)),
+            "max_cbr" => num(summary.channel.map(|c| c.max_cbr)),
+            "channel_load" => num(summary.channel.map(|c| c.mean_load)),
+            "transmissions" => summary
+                .channel
+                .map_or(Metric::Empty, |c| Metric::Int(c.transmissions)),
+            "dcc_deferred" => summary
+                .channel
+                .map_or(Metric::Empty, |c| Metric::Int(c.dcc_deferred)),
             "observed_assumption2" => {
                 match summary
                     .attack

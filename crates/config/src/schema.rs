@@ -342,23 +342,70 @@ pub struct Channel {
     pub model: RadioModel,
     /// `model = "80211p"`: the model's parameters (every key optional: the paper's base case,
     /// 0.06 vehicles/m at 10 Hz, 23 dBm, 6 Mbps, 190 bytes). The density and beacon rate are
-    /// the channel's load, the platoon's included.
+    /// the traffic the run does not simulate, evenly spread (0 vehicles/m: none).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub radio: Option<platoon_radio::Params80211p>,
+    /// `model = "80211p"`: where the channel's load comes from: `scenario` (the default: the
+    /// radio's traffic plus every transmitter of the run within its interferer range, the
+    /// platoon's and the fleet's vehicles at their measured beacon rate, SUMO's background
+    /// vehicles at the radio's beacon rate) or `fixed` (the radio's traffic alone).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub load: Option<LoadConfig>,
+    /// `model = "80211p"`: the beacon rate of the traffic the run does not simulate (the
+    /// radio's density and SUMO's background vehicles): `fixed` (the default, the radio's
+    /// `beacon_hz`) or `platoon` (the platoon's mean rate since the start: every vehicle
+    /// beacons as the platoon does, at other times).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub background_beacons: Option<BackgroundBeaconsConfig>,
+    /// `model = "80211p"`: the window the vehicles' beacon rates are measured over (s; default
+    /// 1).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub load_window_s: Option<f64>,
+    /// `model = "80211p"`: reactive decentralised congestion control (ETSI TS 102 687) in each
+    /// vehicle's access layer; an empty `[channel.dcc]` turns it on with the standard's table.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dcc: Option<DccConfig>,
     /// Jammers as transmitters on the road (docs/channel-80211p.md#jammers).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub jammers: Vec<JammerConfig>,
 }
 
-/// `[[channel.jammers]]`: a transmitter on the road. A vehicle that receives it above the
-/// radio's sensing threshold (the path loss of `[channel.radio]`, its defaults without one)
-/// senses its channel jammed and can neither send nor receive, as under the paper's DoS.
+/// `[[channel.jammers]]`: a transmitter on the road. While it transmits, a vehicle that
+/// receives it above the radio's sensing threshold (the path loss of `[channel.radio]`, its
+/// defaults without one) senses its channel jammed and can neither send nor receive, as under
+/// the paper's DoS; with `[channel] model = "80211p"` its power also enters every other link's
+/// SINR. It stands at `position_m` (moving at `speed_mps`), rides with platoon vehicle `member`
+/// (at `offset_m`), or rides SUMO background vehicle `background`: exactly one of the three.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct JammerConfig {
-    /// Its road coordinate at t = 0 (m; the platoon's coordinates).
-    pub position_m: f64,
-    /// Its speed along the road (m/s; 0: roadside).
+    /// Its road coordinate at t = 0 (m; the platoon's coordinates): a roadside jammer.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub position_m: Option<f64>,
+    /// Rides with this platoon vehicle (0 = the leader), `offset_m` along the road from it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub member: Option<u16>,
+    /// With `member`: its offset along the road from that vehicle (m; negative: behind).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub offset_m: Option<f64>,
+    /// Rides SUMO background vehicle `bg<background>` (`simulation.plant = "sumo"` with
+    /// `sumo.background_vehicles` above it); silent while that vehicle is off the road.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub background: Option<usize>,
+    /// When it transmits within `[start_s, end_s)`: `constant`, `periodic` (`on_s`/`off_s`),
+    /// `random` (exponential on/off times of means `mean_on_s`/`mean_off_s`, seeded from
+    /// `[channel] seed`) or `reactive` (only while it senses a vehicle's transmission; it then
+    /// destroys that packet wherever it is heard). Absent: `periodic` with `on_s`/`off_s`,
+    /// `constant` without.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub behaviour: Option<JammerBehaviour>,
+    /// Random: mean burst length (s).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mean_on_s: Option<f64>,
+    /// Random: mean pause between bursts (s).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mean_off_s: Option<f64>,
+    /// Its speed along the road (m/s; 0: roadside; with `position_m` only).
     #[serde(default)]
     pub speed_mps: f64,
     /// Its distance from the road (m): it reaches the road over the part of it within its
@@ -383,8 +430,66 @@ pub struct JammerConfig {
     pub off_s: Option<f64>,
 }
 
+/// `[[channel.jammers]] behaviour`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum JammerBehaviour {
+    /// Transmits all the time.
+    Constant,
+    /// On for `on_s`, off for `off_s`.
+    Periodic,
+    /// Exponential on/off times.
+    Random,
+    /// Transmits only while it senses a transmission.
+    Reactive,
+}
+
 fn jammer_power() -> f64 {
     23.0
+}
+
+/// `[channel] load`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum LoadConfig {
+    /// The radio's traffic plus the run's transmitters, measured as the run goes.
+    Scenario,
+    /// The radio's traffic alone.
+    Fixed,
+}
+
+/// `[channel] background_beacons`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum BackgroundBeaconsConfig {
+    /// `[channel.radio] beacon_hz`.
+    Fixed,
+    /// The platoon's mean beacon rate since the start.
+    Platoon,
+}
+
+/// `[channel.dcc]`: reactive DCC's states (ETSI TS 102 687 V1.2.1, Annex A, packets of at most
+/// 0.5 ms on air): a vehicle measuring a CBR below `cbr_thresholds[i]` (and at or above the
+/// one before) waits at least `t_off_s[i]` between two transmissions; at or above the last
+/// threshold, the last `t_off_s`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct DccConfig {
+    /// The CBR limits between the states, increasing in (0, 1) (default: relaxed below 0.30,
+    /// active 1 to 3 below 0.40, 0.50 and 0.65, restrictive above).
+    #[serde(default = "dcc_thresholds")]
+    pub cbr_thresholds: Vec<f64>,
+    /// The least time between two transmissions in each state (s), one more than the
+    /// thresholds, not decreasing (default: 0.06, 0.10, 0.18, 0.26, 1.0).
+    #[serde(default = "dcc_t_off")]
+    pub t_off_s: Vec<f64>,
+}
+
+fn dcc_thresholds() -> Vec<f64> {
+    vec![0.30, 0.40, 0.50, 0.65]
+}
+fn dcc_t_off() -> Vec<f64> {
+    vec![0.06, 0.10, 0.18, 0.26, 1.0]
 }
 
 /// `[channel] model`: the radio under the attacks.

@@ -1,6 +1,8 @@
 use crate::schema::*;
 use nalgebra::RowVector3;
-use platoon_attacks::channel::{LinkAttack, LinkAttackKind};
+use platoon_attacks::channel::{
+    BackgroundBeacons, Dcc, LinkAttack, LinkAttackKind, LoadSource, RadioSpec,
+};
 use platoon_attacks::{DosSchedule, RandomDos};
 use platoon_control::{ControllerParams, TriggerRule};
 use platoon_model::{LeaderProfile, State, TauSchedule, VehicleId};
@@ -568,8 +570,9 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
         }
     };
 
-    let (link_attacks, channel_seed) = channel(&c.channel, dt, duration, n)?;
-    let radio = radio(&mut c.channel)?;
+    let (link_attacks, channel_seed) = channel(&c.channel, dt, n)?;
+    let jammers = jammers(c, n)?;
+    let radio = radio(&mut c.channel, dt)?;
     finite("sumo.start_m", c.sumo.start_m)?;
     positive("sumo.tolerance_m", c.sumo.tolerance_m)?;
     if let Some(p) = c.sumo.fcd_period_s {
@@ -658,6 +661,7 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
         control,
         dos,
         link_attacks,
+        jammers,
         channel_seed,
         radio,
         assumption2: a.assumption2,
@@ -675,14 +679,21 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
 /// `[channel] model` and `[channel.radio]`: the 802.11p model (its table filled with the
 /// defaults, so the resolved config says them), built once per distinct configuration in this
 /// process (a model costs milliseconds to tabulate; a campaign's cells share it).
-fn radio(c: &mut Channel) -> Result<Option<std::sync::Arc<platoon_radio::Model>>, Invalid> {
+fn radio(c: &mut Channel, dt: f64) -> Result<Option<RadioSpec>, Invalid> {
     use std::sync::{Arc, Mutex, OnceLock};
     match c.model {
         RadioModel::Ideal => {
-            if c.radio.is_some() {
+            let radio_only = [
+                ("channel.radio", c.radio.is_some()),
+                ("channel.load", c.load.is_some()),
+                ("channel.background_beacons", c.background_beacons.is_some()),
+                ("channel.load_window_s", c.load_window_s.is_some()),
+                ("channel.dcc", c.dcc.is_some()),
+            ];
+            if let Some((key, _)) = radio_only.iter().find(|(_, set)| *set) {
                 return bad(
-                    "channel.radio",
-                    "is the 802.11p model's table, but channel.model = \"ideal\": remove it or \
+                    key,
+                    "belongs to the 802.11p radio, but channel.model = \"ideal\": remove it or \
                      set model = \"80211p\"",
                 );
             }
@@ -690,37 +701,110 @@ fn radio(c: &mut Channel) -> Result<Option<std::sync::Arc<platoon_radio::Model>>
         }
         RadioModel::Ieee80211p => {
             let params = *c.radio.get_or_insert_with(Default::default);
-            static MODELS: OnceLock<Mutex<Vec<Arc<platoon_radio::Model>>>> = OnceLock::new();
-            let models = MODELS.get_or_init(Default::default);
-            let mut cache = models.lock().unwrap_or_else(|e| e.into_inner());
-            if let Some(m) = cache.iter().find(|m| *m.params() == params) {
-                return Ok(Some(m.clone()));
-            }
-            let model = platoon_radio::Model::new(params).or_else(|e| {
-                let key = match &e {
-                    platoon_radio::Error::Parameter { name, .. } => format!("channel.radio.{name}"),
-                    _ => "channel.radio".to_string(),
-                };
-                bad(&key, e.to_string())
-            })?;
-            let model = Arc::new(model);
-            // A handful of configurations at most in one process; keep the latest 16.
-            if cache.len() >= 16 {
-                cache.remove(0);
-            }
-            cache.push(model.clone());
-            Ok(Some(model))
+            let load = match *c.load.get_or_insert(LoadConfig::Scenario) {
+                LoadConfig::Scenario => LoadSource::Scenario,
+                LoadConfig::Fixed => LoadSource::Fixed,
+            };
+            let background_beacons = match *c
+                .background_beacons
+                .get_or_insert(BackgroundBeaconsConfig::Fixed)
+            {
+                BackgroundBeaconsConfig::Fixed => BackgroundBeacons::Fixed,
+                BackgroundBeaconsConfig::Platoon => BackgroundBeacons::Platoon,
+            };
+            let window_s = positive(
+                "channel.load_window_s",
+                finite("channel.load_window_s", *c.load_window_s.get_or_insert(1.0))?,
+            )?;
+            let window_steps = steps_of("channel.load_window_s", window_s, dt)?.max(1) as u64;
+            let dcc = match &c.dcc {
+                None => None,
+                Some(d) => Some(dcc(d)?),
+            };
+            // One family per distinct radio in this process: its models are built as runs
+            // reach their loads, and a campaign's cells share them.
+            static FAMILIES: OnceLock<Mutex<Vec<Arc<platoon_radio::LoadFamily>>>> = OnceLock::new();
+            let families = FAMILIES.get_or_init(Default::default);
+            let mut cache = families.lock().unwrap_or_else(|e| e.into_inner());
+            let family = match cache.iter().find(|m| *m.params() == params) {
+                Some(f) => f.clone(),
+                None => {
+                    let family = platoon_radio::LoadFamily::new(params).or_else(|e| {
+                        let key = match &e {
+                            platoon_radio::Error::Parameter { name, .. } => {
+                                format!("channel.radio.{name}")
+                            }
+                            _ => "channel.radio".to_string(),
+                        };
+                        bad(&key, e.to_string())
+                    })?;
+                    let family = Arc::new(family);
+                    // A handful of configurations at most in one process; keep the latest 16.
+                    if cache.len() >= 16 {
+                        cache.remove(0);
+                    }
+                    cache.push(family.clone());
+                    family
+                }
+            };
+            Ok(Some(RadioSpec {
+                family,
+                load,
+                background_beacons,
+                dcc,
+                window_steps,
+                dt,
+            }))
         }
     }
 }
 
+/// `[channel.dcc]`: the reactive states' thresholds and `T_off`s.
+fn dcc(d: &DccConfig) -> Result<Dcc, Invalid> {
+    let (th, off) = (&d.cbr_thresholds, &d.t_off_s);
+    for (i, &x) in th.iter().enumerate() {
+        let key = format!("channel.dcc.cbr_thresholds[{i}]");
+        if !(x > 0.0 && x < 1.0) {
+            return bad(&key, format!("must be in (0, 1) (got {x})"));
+        }
+        if i > 0 && x <= th[i - 1] {
+            return bad(
+                &key,
+                format!("must be above the one before ({})", th[i - 1]),
+            );
+        }
+    }
+    if off.len() != th.len() + 1 {
+        return bad(
+            "channel.dcc.t_off_s",
+            format!(
+                "needs one entry per state: {} thresholds make {} states, got {} times",
+                th.len(),
+                th.len() + 1,
+                off.len()
+            ),
+        );
+    }
+    for (i, &x) in off.iter().enumerate() {
+        let key = format!("channel.dcc.t_off_s[{i}]");
+        if !(x.is_finite() && x >= 0.0) {
+            return bad(&key, format!("must be a time >= 0 s (got {x})"));
+        }
+        if i > 0 && x < off[i - 1] {
+            return bad(
+                &key,
+                format!("must not be below the one before ({})", off[i - 1]),
+            );
+        }
+    }
+    Ok(Dcc {
+        cbr_thresholds: th.clone(),
+        t_off_s: off.clone(),
+    })
+}
+
 /// `[channel]`: the link-level attacks.
-fn channel(
-    c: &Channel,
-    dt: f64,
-    duration: f64,
-    followers: usize,
-) -> Result<(Vec<LinkAttack>, u64), Invalid> {
+fn channel(c: &Channel, dt: f64, followers: usize) -> Result<(Vec<LinkAttack>, u64), Invalid> {
     let mut out = Vec::with_capacity(c.attacks.len());
     for (i, a) in c.attacks.iter().enumerate() {
         let key = |k: &str| format!("channel.attacks[{i}].{k}");
@@ -791,63 +875,147 @@ fn channel(
             receivers: ids("receivers", &a.receivers)?,
         });
     }
-    // Jammers as transmitters: every vehicle within the distance at which the jammer is heard
-    // above the sensing threshold senses its channel jammed, burst by burst.
-    let radio = c.radio.unwrap_or_default();
-    for (i, j) in c.jammers.iter().enumerate() {
+    Ok((out, c.seed))
+}
+
+/// `[[channel.jammers]]`: jammers as transmitters. Each is heard above the sensing threshold out
+/// to the radio's sensing radius for its power (`[channel.radio]`, its defaults without one),
+/// and senses the vehicles out to theirs.
+fn jammers(c: &Config, followers: usize) -> Result<Vec<platoon_attacks::jammer::Jammer>, Invalid> {
+    use crate::schema::JammerBehaviour as B;
+    use platoon_attacks::jammer::{Behaviour, Jammer, Placement};
+    let radio = c.channel.radio.unwrap_or_default();
+    let mut out = Vec::with_capacity(c.channel.jammers.len());
+    for (i, j) in c.channel.jammers.iter().enumerate() {
         let key = |k: &str| format!("channel.jammers[{i}].{k}");
-        let position_m = finite(&key("position_m"), j.position_m)?;
-        let speed_mps = finite(&key("speed_mps"), j.speed_mps)?;
-        let power = finite(&key("power_dbm"), j.power_dbm)?;
-        let heard_m = radio.sensing_radius_m(power);
-        let lateral = finite(&key("lateral_m"), j.lateral_m)?;
-        if lateral < 0.0 {
-            return bad(&key("lateral_m"), format!("must be >= 0 (got {lateral})"));
+        let lateral_m = finite(&key("lateral_m"), j.lateral_m)?;
+        if lateral_m < 0.0 {
+            return bad(&key("lateral_m"), format!("must be >= 0 (got {lateral_m})"));
         }
-        // Along the road, the part within its radius (none when it stands farther away).
-        let radius_m = (heard_m * heard_m - lateral * lateral).max(0.0).sqrt();
+        let speed_mps = finite(&key("speed_mps"), j.speed_mps)?;
+        let placement = match (j.position_m, j.member, j.background) {
+            (Some(x), None, None) => Placement::Roadside {
+                position_m: finite(&key("position_m"), x)?,
+                speed_mps,
+                lateral_m,
+            },
+            (None, Some(v), None) => {
+                if usize::from(v) > followers {
+                    return bad(
+                        &key("member"),
+                        format!("vehicle {v} does not exist (ids are 0 = leader to {followers})"),
+                    );
+                }
+                Placement::Member {
+                    vehicle: VehicleId(v),
+                    offset_m: finite(&key("offset_m"), j.offset_m.unwrap_or(0.0))?,
+                    lateral_m,
+                }
+            }
+            (None, None, Some(index)) => {
+                let bg = c.sumo.background_vehicles;
+                if c.simulation.plant != PlantKind::Sumo || index >= bg {
+                    return bad(
+                        &key("background"),
+                        format!(
+                            "rides SUMO background vehicle bg{index}: needs simulation.plant = \"sumo\" \
+                             and sumo.background_vehicles > {index} (it is {bg})"
+                        ),
+                    );
+                }
+                Placement::Background { index, lateral_m }
+            }
+            (None, None, None) => {
+                return bad(
+                    &key("position_m"),
+                    "missing: give position_m (roadside), member (a platoon vehicle) or \
+                     background (a SUMO background vehicle)",
+                )
+            }
+            _ => {
+                return bad(
+                    &key("position_m"),
+                    "give only one of position_m, member and background",
+                )
+            }
+        };
+        if j.offset_m.is_some() && j.member.is_none() {
+            return bad(
+                &key("offset_m"),
+                "is the offset from a member; give member too",
+            );
+        }
+        if speed_mps != 0.0 && j.position_m.is_none() {
+            return bad(
+                &key("speed_mps"),
+                "only a roadside jammer (position_m) has its own speed",
+            );
+        }
+        let power_dbm = finite(&key("power_dbm"), j.power_dbm)?;
+        let heard_m = radio.sensing_radius_m(power_dbm);
         if heard_m <= 0.0 {
             return bad(
                 &key("power_dbm"),
                 format!(
-                    "{power} dBm is below the sensing threshold ({} dBm) even at 1 m",
+                    "{power_dbm} dBm is below the sensing threshold ({} dBm) even at 1 m",
                     radio.sensing_threshold_dbm
                 ),
             );
         }
-        let start = finite(&key("start_s"), j.start_s)?;
-        let end = j.end_s.min(duration + dt);
-        if j.end_s.is_nan() || j.end_s <= start {
-            return bad(&key("end_s"), format!("must be after start_s = {start}"));
+        let start_s = finite(&key("start_s"), j.start_s)?;
+        if j.end_s.is_nan() || j.end_s <= start_s {
+            return bad(&key("end_s"), format!("must be after start_s = {start_s}"));
         }
-        let mut bursts = Vec::new();
-        match (j.on_s, j.off_s) {
-            (None, None) => bursts.push((start, j.end_s)),
-            (Some(on), Some(off)) => {
-                let on = positive(&key("on_s"), finite(&key("on_s"), on)?)?;
-                let off = positive(&key("off_s"), finite(&key("off_s"), off)?)?;
-                let mut t = start;
-                while t < end {
-                    if bursts.len() >= 100_000 {
-                        return bad(&key("on_s"), "more than 100000 bursts in the run");
-                    }
-                    bursts.push((t, (t + on).min(j.end_s)));
-                    t += on + off;
+        let periodic = j.on_s.is_some() || j.off_s.is_some();
+        let random = j.mean_on_s.is_some() || j.mean_off_s.is_some();
+        let kind = j
+            .behaviour
+            .unwrap_or(if periodic { B::Periodic } else { B::Constant });
+        if periodic && kind != B::Periodic {
+            return bad(
+                &key("on_s"),
+                "on_s and off_s are for behaviour = \"periodic\"",
+            );
+        }
+        if random && kind != B::Random {
+            return bad(
+                &key("mean_on_s"),
+                "mean_on_s and mean_off_s are for behaviour = \"random\"",
+            );
+        }
+        let time = |k: &str, v: Option<f64>, what: &str| match v {
+            Some(v) => positive(&key(k), finite(&key(k), v)?),
+            None => bad(&key(k), format!("a {what} jammer needs it")),
+        };
+        let behaviour = match kind {
+            B::Constant => Behaviour::Constant,
+            B::Reactive => Behaviour::Reactive,
+            B::Periodic => {
+                if j.on_s.is_none() {
+                    return bad(&key("on_s"), "a periodic jammer needs both on_s and off_s");
+                }
+                if j.off_s.is_none() {
+                    return bad(&key("off_s"), "a periodic jammer needs both on_s and off_s");
+                }
+                Behaviour::Periodic {
+                    on_s: time("on_s", j.on_s, "periodic")?,
+                    off_s: time("off_s", j.off_s, "periodic")?,
                 }
             }
-            _ => return bad(&key("off_s"), "a periodic jammer needs both on_s and off_s"),
-        }
-        out.extend(bursts.into_iter().map(|(start_s, end_s)| LinkAttack {
-            kind: LinkAttackKind::RangeJamming {
-                position_m,
-                speed_mps,
-                radius_m,
+            B::Random => Behaviour::Random {
+                mean_on_s: time("mean_on_s", j.mean_on_s, "random")?,
+                mean_off_s: time("mean_off_s", j.mean_off_s, "random")?,
             },
+        };
+        out.push(Jammer {
+            placement,
+            power_dbm,
             start_s,
-            end_s,
-            senders: Vec::new(),
-            receivers: Vec::new(),
-        }));
+            end_s: j.end_s,
+            behaviour,
+            heard_m,
+            senses_m: radio.sensing_radius_m(radio.tx_power_dbm),
+        });
     }
-    Ok((out, c.seed))
+    Ok(out)
 }

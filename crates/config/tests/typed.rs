@@ -568,12 +568,30 @@ fn consensus_rows_and_cam_keys_are_refused_by_key() {
 #[test]
 fn the_80211p_radio_is_a_channel_model_with_its_own_table() {
     let (config, scenario) = paper_plus("[channel]\nmodel = \"80211p\"\n").unwrap();
-    let model = scenario.radio.as_ref().expect("a radio");
-    assert_eq!(*model.params(), platoon_radio::Params80211p::default());
-    assert!(to_toml(&config).contains("[channel.radio]"));
-    // The same parameters share one tabulated model.
+    let radio = scenario.radio.as_ref().expect("a radio");
+    assert_eq!(
+        *radio.family.params(),
+        platoon_radio::Params80211p::default()
+    );
+    assert_eq!(radio.load, platoon_attacks::channel::LoadSource::Scenario);
+    assert_eq!((radio.window_steps, radio.dcc.as_ref()), (100, None));
+    // The resolved config says the defaults it took.
+    let resolved = to_toml(&config);
+    for key in [
+        "[channel.radio]",
+        "load = \"scenario\"",
+        "background_beacons = \"fixed\"",
+    ] {
+        assert!(resolved.contains(key), "{key} in {resolved}");
+    }
+    // The same parameters share one family of tabulated models.
     let (_, again) = paper_plus("[channel]\nmodel = \"80211p\"\n").unwrap();
-    assert!(std::sync::Arc::ptr_eq(model, again.radio.as_ref().unwrap()));
+    assert!(std::sync::Arc::ptr_eq(
+        &radio.family,
+        &again.radio.as_ref().unwrap().family
+    ));
+    // Without the radio none of its keys is written (other configs resolve as before).
+    assert!(!to_toml(&paper_plus("").unwrap().0).contains("load"));
     assert!(paper_plus("").unwrap().1.radio.is_none());
     let e = paper_plus("[channel]\nradio = { beacon_hz = 10.0 }\n").expect_err("refused");
     assert_eq!(e.key, "channel.radio", "{e}");
@@ -586,30 +604,121 @@ fn the_80211p_radio_is_a_channel_model_with_its_own_table() {
 }
 
 #[test]
+fn the_radios_load_and_dcc_are_checked_key_by_key() {
+    let radio = |extra: &str| paper_plus(&format!("[channel]\nmodel = \"80211p\"\n{extra}"));
+    let (_, s) = radio("load = \"fixed\"\nload_window_s = 0.5\n[channel.dcc]\n").unwrap();
+    let r = s.radio.unwrap();
+    assert_eq!(r.load, platoon_attacks::channel::LoadSource::Fixed);
+    assert_eq!(r.window_steps, 50);
+    let dcc = r.dcc.expect("an empty [channel.dcc] turns it on");
+    assert_eq!(dcc.t_off_s, vec![0.06, 0.10, 0.18, 0.26, 1.0]);
+    let (_, s) = radio("background_beacons = \"platoon\"\n").unwrap();
+    assert_eq!(
+        s.radio.unwrap().background_beacons,
+        platoon_attacks::channel::BackgroundBeacons::Platoon
+    );
+    for (extra, key) in [
+        ("load_window_s = 0.0\n", "channel.load_window_s"),
+        ("load = \"sometimes\"\n", "channel.load"),
+        (
+            "[channel.dcc]\ncbr_thresholds = [0.5, 0.4]\nt_off_s = [0.1, 0.2, 0.3]\n",
+            "channel.dcc.cbr_thresholds[1]",
+        ),
+        (
+            "[channel.dcc]\ncbr_thresholds = [0.5]\nt_off_s = [0.1]\n",
+            "channel.dcc.t_off_s",
+        ),
+        (
+            "[channel.dcc]\ncbr_thresholds = [0.5]\nt_off_s = [0.2, 0.1]\n",
+            "channel.dcc.t_off_s[1]",
+        ),
+        (
+            "[channel.dcc]\ncbr_thresholds = [1.5]\nt_off_s = [0.1, 0.2]\n",
+            "channel.dcc.cbr_thresholds[0]",
+        ),
+    ] {
+        let e = radio(extra).expect_err(extra);
+        assert!(e.key.starts_with(key), "{extra}: {e}");
+    }
+    // The radio's keys without the radio.
+    for (extra, key) in [
+        ("[channel]\nload = \"fixed\"\n", "channel.load"),
+        ("[channel.dcc]\n", "channel.dcc"),
+    ] {
+        assert_eq!(paper_plus(extra).expect_err(extra).key, key);
+    }
+}
+
+#[test]
 fn jammers_are_transmitters_heard_out_to_their_sensing_radius() {
-    use platoon_attacks::channel::LinkAttackKind;
+    use platoon_attacks::jammer::{Behaviour, Placement};
     let (_, s) = paper_plus(
         "[[channel.jammers]]\nposition_m = 300.0\npower_dbm = 10.0\non_s = 1.0\noff_s = 4.0\nstart_s = 2.0\nend_s = 20.0\n",
     )
     .unwrap();
-    let radius = platoon_radio::Params80211p::default().sensing_radius_m(10.0);
-    let bursts: Vec<(f64, f64)> = s
-        .link_attacks
-        .iter()
-        .map(|a| match a.kind {
-            LinkAttackKind::RangeJamming { radius_m, .. } => {
-                assert_eq!(radius_m, radius);
-                (a.start_s, a.end_s)
-            }
-            _ => panic!("a jammer is range jamming"),
-        })
-        .collect();
-    assert_eq!(bursts, [(2.0, 3.0), (7.0, 8.0), (12.0, 13.0), (17.0, 18.0)]);
+    let p = platoon_radio::Params80211p::default();
+    let j = &s.jammers[0];
+    assert!(s.link_attacks.is_empty());
+    assert_eq!(j.heard_m, p.sensing_radius_m(10.0));
+    assert_eq!(j.senses_m, p.sensing_radius_m(p.tx_power_dbm));
+    assert_eq!(
+        j.behaviour,
+        Behaviour::Periodic {
+            on_s: 1.0,
+            off_s: 4.0
+        }
+    );
+    assert_eq!((j.start_s, j.end_s), (2.0, 20.0));
+    // Each behaviour and placement by its keys.
+    let one = |extra: &str| paper_plus(extra).unwrap().1.jammers[0];
+    let j = one("[[channel.jammers]]\nmember = 2\noffset_m = -5.0\nbehaviour = \"reactive\"\n");
+    assert_eq!(j.behaviour, Behaviour::Reactive);
+    assert!(matches!(j.placement, Placement::Member { offset_m, .. } if offset_m == -5.0));
+    let j = one("[[channel.jammers]]\nposition_m = 0.0\nbehaviour = \"random\"\nmean_on_s = 0.5\nmean_off_s = 2.0\n");
+    assert_eq!(
+        j.behaviour,
+        Behaviour::Random {
+            mean_on_s: 0.5,
+            mean_off_s: 2.0
+        }
+    );
+    assert_eq!(
+        one("[[channel.jammers]]\nposition_m = 0.0\n").behaviour,
+        Behaviour::Constant
+    );
     let bad = |extra: &str| paper_plus(extra).expect_err("refused");
     let e = bad("[[channel.jammers]]\nposition_m = 0.0\npower_dbm = -200.0\n");
     assert_eq!(e.key, "channel.jammers[0].power_dbm", "{e}");
     let e = bad("[[channel.jammers]]\nposition_m = 0.0\non_s = 1.0\n");
     assert_eq!(e.key, "channel.jammers[0].off_s", "{e}");
+    for (extra, key) in [
+        ("member = 9", "member"),
+        ("background = 0", "background"),
+        ("position_m = 0.0\nmember = 1", "position_m"),
+        ("speed_mps = 1.0", "position_m"),
+        ("member = 1\nspeed_mps = 1.0", "speed_mps"),
+        ("position_m = 0.0\noffset_m = 1.0", "offset_m"),
+        (
+            "position_m = 0.0\nbehaviour = \"random\"\nmean_on_s = 1.0",
+            "mean_off_s",
+        ),
+        (
+            "position_m = 0.0\nbehaviour = \"random\"\nmean_on_s = 0.0\nmean_off_s = 1.0",
+            "mean_on_s",
+        ),
+        (
+            "position_m = 0.0\nmean_on_s = 1.0\nmean_off_s = 1.0",
+            "mean_on_s",
+        ),
+        (
+            "position_m = 0.0\nbehaviour = \"reactive\"\non_s = 1.0\noff_s = 1.0",
+            "on_s",
+        ),
+        ("position_m = 0.0\nbehaviour = \"periodic\"", "on_s"),
+    ] {
+        let e = bad(&format!("[[channel.jammers]]\n{extra}\n"));
+        assert_eq!(e.key, format!("channel.jammers[0].{key}"), "{extra}: {e}");
+    }
     let e = bad("[[channel.jammers]]\nposition_m = 0.0\nrange_m = 3.0\n");
     assert!(e.key.starts_with("channel.jammers"), "{e}");
 }

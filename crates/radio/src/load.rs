@@ -132,6 +132,26 @@ impl LoadFamily {
         a + (self.model(hi).pdr(distance_m) - a) * t
     }
 
+    /// [`LoadFamily::pdr`] with a jammer's `interference_dbm` at the receiver
+    /// ([`Model::pdr_with_interference`]); exactly `pdr` for `-inf`.
+    pub fn pdr_with_interference(&self, distance_m: f64, load: f64, interference_dbm: f64) -> f64 {
+        if interference_dbm.is_nan() || interference_dbm == f64::NEG_INFINITY {
+            return self.pdr(distance_m, load);
+        }
+        let (lo, hi, t) = self.bracket(load);
+        let a = self
+            .model(lo)
+            .pdr_with_interference(distance_m, interference_dbm);
+        if t == 0.0 {
+            return a;
+        }
+        a + (self
+            .model(hi)
+            .pdr_with_interference(distance_m, interference_dbm)
+            - a)
+            * t
+    }
+
     /// The channel busy ratio at `load`, interpolated like [`LoadFamily::pdr`].
     pub fn cbr(&self, load: f64) -> f64 {
         let (lo, hi, t) = self.bracket(load);

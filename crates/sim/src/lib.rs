@@ -12,8 +12,8 @@ mod scenario;
 pub mod wire;
 
 pub use metrics::{
-    ErrorStats, FleetMetrics, FleetOverview, MetricsAccumulator, PlatoonBrief, Safety, SafetyClass,
-    SafetyThresholds, Summary, VehicleSummary, VehicleWire, WireSummary,
+    ErrorStats, FleetMetrics, FleetOverview, LinkOutage, MetricsAccumulator, PlatoonBrief, Safety,
+    SafetyClass, SafetyThresholds, Summary, VehicleSummary, VehicleWire, WireSummary,
 };
 pub use scenario::{Fleet, Scenario, ScenarioError};
 pub use wire::WireCounts;
@@ -356,6 +356,11 @@ impl Simulation {
         &self.wire
     }
 
+    /// The channel (its radio's measured load, CBR and beacon rates).
+    pub fn channel(&self) -> &Channel {
+        &self.channel
+    }
+
     /// Runs step k and returns one row per vehicle (leader first) for it.
     pub fn step(&mut self) -> &[StepRow] {
         let k = self.step;
@@ -415,6 +420,9 @@ pub struct FleetSimulation {
     rows: Vec<StepRow>,
     log: Vec<ChannelEvent>,
     wire: Vec<WireCounts>,
+    /// Every vehicle's (road position, measured beacon rate), for channels that count the
+    /// fleet in their load.
+    beacons: Vec<(f64, f64)>,
 }
 
 impl FleetSimulation {
@@ -436,8 +444,19 @@ impl FleetSimulation {
             rows: Vec::with_capacity(scenario.vehicles()),
             log: Vec::new(),
             wire: Vec::with_capacity(scenario.vehicles()),
+            beacons: Vec::new(),
             sims,
         })
+    }
+
+    /// What the platoons' 802.11p radios measured so far, over the fleet (`None` without it).
+    pub fn radio_stats(&self) -> Option<platoon_attacks::channel::RadioStats> {
+        let mut all = self.sims.iter().filter_map(|s| s.channel.radio_stats());
+        let mut sum = all.next()?;
+        for s in all {
+            sum.merge(&s);
+        }
+        Some(sum)
     }
 
     /// The platoons.
@@ -455,6 +474,27 @@ impl FleetSimulation {
         self.rows.clear();
         self.log.clear();
         self.wire.clear();
+        if self.sims.len() > 1 && self.sims[0].channel.counts_fleet() {
+            // Every platoon's radios hear the others: where each vehicle is and how often it
+            // has been beaconing, before any platoon steps.
+            self.beacons.clear();
+            for s in &self.sims {
+                let k = s.step;
+                self.beacons.extend(
+                    s.plant
+                        .states()
+                        .iter()
+                        .enumerate()
+                        .map(|(v, x)| (x[0], s.channel.beacon_rate(VehicleId(v as u16), k))),
+                );
+            }
+            let mut from = 0;
+            for s in &mut self.sims {
+                let n = s.plant.states().len();
+                s.channel.set_fleet(&self.beacons, from..from + n);
+                from += n;
+            }
+        }
         for s in &mut self.sims {
             self.rows.extend_from_slice(s.step());
             self.log.extend_from_slice(s.channel_log());
@@ -525,10 +565,13 @@ pub fn run_until_with(
     while !sim.is_done() {
         sim.step();
         metrics.push_wire(sim.wire());
+        metrics.push_channel(sim.channel_log());
         metrics.push(sim.rows());
         if each(&sim).is_break() {
             break;
         }
     }
-    Ok(metrics.finish(sim.rejected()))
+    let mut summary = metrics.finish(sim.rejected());
+    summary.channel = sim.radio_stats();
+    Ok(summary)
 }

@@ -232,6 +232,28 @@ pub struct ObservedJamming {
     pub schedule: Vec<[f64; 2]>,
     /// The exact verdict on the observed schedule, if the config gave bounds.
     pub assumption2: Option<Assumption2Report>,
+    /// With jammers as transmitters: every link that jamming cut, measured from the channel's
+    /// log (a link is out from a packet lost to jamming, `dropped_jammed` or
+    /// `dropped_interference`, until the next packet through, `restored`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub links: Vec<LinkOutage>,
+}
+
+/// One link's outages caused by jamming, in aggregate.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct LinkOutage {
+    /// The sender (0 = the leader).
+    pub sender: u16,
+    /// The receiver.
+    pub receiver: u16,
+    /// Outage intervals: from a packet lost to jamming to the next one through (exclusive).
+    pub intervals: usize,
+    /// Their total duration (s).
+    pub jammed_time_s: f64,
+    /// The longest (s).
+    pub longest_s: f64,
+    /// The exact verdict on the link's outages as a DoS schedule, if the config gave bounds.
+    pub assumption2: Option<Assumption2Report>,
 }
 
 /// What `summary.json` holds.
@@ -285,6 +307,10 @@ pub struct Summary {
     /// controllers received, whatever injector ran (absent when nothing measured it).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub wire: Option<WireSummary>,
+    /// What the 802.11p radio measured (`[channel] model = "80211p"` only): the load and the
+    /// channel busy ratio the vehicles' radios saw, and what DCC did; over the fleet.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub channel: Option<platoon_attacks::channel::RadioStats>,
 }
 
 /// The V2V channel over a run, as measured on the wire (see [`crate::wire`]).
@@ -327,6 +353,9 @@ struct VehicleAcc {
     guard_steps: u64,
 }
 
+/// One link's outage: the step it began if it is out, and its past outages `(first, steps)`.
+type LinkRuns = (Option<u64>, Vec<(u64, u64)>);
+
 /// Accumulates a run's metrics step by step (constant memory), so long runs need not keep rows.
 #[derive(Debug, Clone)]
 pub struct MetricsAccumulator {
@@ -348,6 +377,10 @@ pub struct MetricsAccumulator {
     /// jammed steps `(first, steps)`.
     observe: bool,
     observed: Vec<(u64, u64)>,
+    /// With jammers as transmitters: per link (sender, receiver), the step its outage began if
+    /// it is out, and its outages `(first step, steps)`.
+    links: Option<BTreeMap<(u16, u16), LinkRuns>>,
+    last_step: u64,
     last_t: f64,
     safety: Safety,
 }
@@ -390,13 +423,16 @@ impl MetricsAccumulator {
             steps: 0,
             expected_steps: scenario.steps + 1,
             attacked_steps: 0,
-            observe: scenario.link_attacks.iter().any(|a| {
-                matches!(
-                    a.kind,
-                    platoon_attacks::channel::LinkAttackKind::RangeJamming { .. }
-                )
-            }),
+            observe: !scenario.jammers.is_empty()
+                || scenario.link_attacks.iter().any(|a| {
+                    matches!(
+                        a.kind,
+                        platoon_attacks::channel::LinkAttackKind::RangeJamming { .. }
+                    )
+                }),
             observed: Vec::new(),
+            links: (!scenario.jammers.is_empty()).then(BTreeMap::new),
+            last_step: 0,
             last_t: 0.0,
             safety: Safety {
                 max_deceleration_mps2: 0.0,
@@ -417,6 +453,7 @@ impl MetricsAccumulator {
         let Some(leader) = rows.first() else { return };
         self.steps += 1;
         self.last_t = leader.t;
+        self.last_step = leader.step;
         self.attacked_steps += u64::from(leader.under_attack);
         if self.observe && rows.iter().any(|r| r.under_attack) {
             match self.observed.last_mut() {
@@ -467,6 +504,56 @@ impl MetricsAccumulator {
                 self.safety.min_gap_t_s = r.t;
             }
         }
+    }
+
+    /// Adds one step of this platoon's channel log (with jammers as transmitters, the links'
+    /// outages; otherwise nothing).
+    pub fn push_channel(&mut self, events: &[platoon_attacks::channel::ChannelEvent]) {
+        use platoon_attacks::channel::Action;
+        let Some(links) = &mut self.links else { return };
+        for e in events {
+            match e.action {
+                Action::DroppedJammed | Action::DroppedInterference => {
+                    let (open, _) = links.entry((e.sender, e.receiver)).or_default();
+                    open.get_or_insert(e.step);
+                }
+                Action::Restored => {
+                    if let Some((open, done)) = links.get_mut(&(e.sender, e.receiver)) {
+                        if let Some(first) = open.take() {
+                            done.push((first, e.step - first));
+                        }
+                    }
+                }
+                _ => {}
+            }
+        }
+    }
+
+    fn link_outages(&self, horizon: f64) -> Vec<LinkOutage> {
+        let Some(links) = &self.links else {
+            return Vec::new();
+        };
+        links
+            .iter()
+            .map(|(&(sender, receiver), (open, done))| {
+                let mut runs: Vec<(f64, f64)> = done
+                    .iter()
+                    .chain(open.map(|f| (f, self.last_step + 1 - f)).as_ref())
+                    .filter(|(_, n)| *n > 0)
+                    .map(|&(f, n)| (f as f64 * self.dt, n as f64 * self.dt))
+                    .collect();
+                runs.sort_by(|a, b| a.0.total_cmp(&b.0));
+                let dos = DosSchedule::from_intervals(&runs).ok();
+                LinkOutage {
+                    sender,
+                    receiver,
+                    intervals: runs.len(),
+                    jammed_time_s: runs.iter().map(|r| r.1).sum(),
+                    longest_s: runs.iter().map(|r| r.1).fold(0.0, f64::max),
+                    assumption2: self.assumption2.zip(dos).map(|(b, d)| b.check(&d, horizon)),
+                }
+            })
+            .collect()
     }
 
     fn max_decel(&self) -> f64 {
@@ -552,6 +639,7 @@ impl MetricsAccumulator {
                             * self.dt,
                         assumption2: self.assumption2.zip(dos).map(|(b, d)| b.check(&d, horizon)),
                         schedule,
+                        links: self.link_outages(horizon),
                     }
                 }),
             },
@@ -566,6 +654,7 @@ impl MetricsAccumulator {
             },
             rejected_packets: rejected,
             wire: None,
+            channel: None,
             vehicles,
         }
     }
@@ -674,6 +763,15 @@ impl FleetMetrics {
         }
         self.wire_outside.add(&step.outside);
         self.wire_steps += 1;
+    }
+
+    /// Adds one step of the channels' log (every platoon's; each row names its platoon).
+    pub fn push_channel(&mut self, events: &[platoon_attacks::channel::ChannelEvent]) {
+        for (j, acc) in self.per.iter_mut().enumerate() {
+            let start = events.partition_point(|e| usize::from(e.platoon) < j);
+            let end = events.partition_point(|e| usize::from(e.platoon) <= j);
+            acc.push_channel(&events[start..end]);
+        }
     }
 
     /// Adds one step's rows (every platoon's, platoon by platoon).

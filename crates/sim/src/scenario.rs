@@ -41,10 +41,13 @@ pub struct Scenario {
     pub dos: DosSchedule,
     /// Link-level attacks, applied in order after the DoS schedule.
     pub link_attacks: Vec<LinkAttack>,
+    /// Jammers as transmitters (`[[channel.jammers]]`), every platoon's channel has them all.
+    pub jammers: Vec<platoon_attacks::jammer::Jammer>,
     /// Seed of the channel's random losses.
     pub channel_seed: u64,
-    /// The 802.11p radio model, if the channel has one (shared by every platoon of a fleet).
-    pub radio: Option<std::sync::Arc<platoon_radio::Model>>,
+    /// The 802.11p radio, if the channel has one (its models shared by every platoon of a
+    /// fleet).
+    pub radio: Option<platoon_attacks::channel::RadioSpec>,
     /// Bounds to check the DoS schedule against, if given.
     pub assumption2: Option<Assumption2>,
     /// Vehicle length for gap computations (m); 0 treats vehicles as points.
@@ -126,6 +129,7 @@ impl Scenario {
             seed: self.channel_seed,
             platoon: self.platoon,
             radio: self.radio.clone(),
+            jammers: self.jammers.clone(),
         }
     }
 
