@@ -1260,6 +1260,37 @@ fn iceoryx2_run_on_the_80211p_radio_is_bit_identical_to_inproc() {
     assert!(resolved.contains("tx_power_dbm = 23.0"), "{resolved}");
 }
 
+/// The load counted from the run (a fleet's platoons loading each other's channels, the other
+/// traffic beaconing as the platoon does) and reactive DCC: the injector process measures what
+/// the in-process channel does, and reports the radio's figures with DONE.
+#[test]
+fn iceoryx2_fleet_with_counted_load_and_dcc_is_bit_identical_to_inproc() {
+    let tmp = tempfile::tempdir().unwrap();
+    let c = paper_plus(
+        tmp.path(),
+        "load.toml",
+        "[fleet]\nplatoons = 2\nlanes = [0, 1]\ngap_m = 150.0\n\
+         [channel]\nmodel = \"80211p\"\nbackground_beacons = \"platoon\"\n\
+         radio = { density_veh_per_m = 0.3 }\n[channel.dcc]\n",
+    );
+    let runs = transports_agree(c.to_str().unwrap());
+    let s = summary(&runs.path().join("ipc"));
+    let radio = &s["channel"];
+    // 2 platoons of 5 vehicles measured at each of 5501 steps; DCC held packets back.
+    assert_eq!(radio["samples"], 2 * 5 * 5501);
+    assert!(radio["dcc_deferred"].as_u64().unwrap() > 0, "{radio}");
+    assert!(radio["mean_cbr"].as_f64().unwrap() > 0.1, "{radio}");
+    let log = std::fs::read_to_string(runs.path().join("ipc/channel.csv")).unwrap();
+    for action in [
+        "dcc_deferred",
+        "dropped_dcc",
+        "delivered_late",
+        "dropped_radio",
+    ] {
+        assert!(log.contains(action), "no {action} in the channel log");
+    }
+}
+
 #[test]
 fn iceoryx2_runs_of_the_fields_laws_are_bit_identical_to_inproc() {
     let tmp = tempfile::tempdir().unwrap();

@@ -689,7 +689,8 @@ fn cosimulate(
     match result {
         Ok(outcome) => {
             link_outages(scenario, output, dir, &mut metrics)?;
-            let summary = metrics.finish(outcome.rejected);
+            let mut summary = metrics.finish(outcome.rejected);
+            summary.channel = outcome.radio;
             channel_log_format(scenario, output, dir)?;
             let mut timing = serde_json::to_value(&outcome.timing)?;
             timing["duplicate_samples"] = serde_json::to_value(outcome.duplicates)?;

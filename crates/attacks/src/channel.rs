@@ -196,6 +196,8 @@ pub struct Channel {
     medium: Option<Medium>,
     /// The packets that go on the air at the current step (after DCC).
     on_air: Vec<Packet>,
+    /// This step's broadcasts that some vehicle listens to.
+    addressed: Vec<Packet>,
     gated: Vec<Gated>,
     /// Per link (sender * n + receiver): in the bad state.
     bad: Vec<bool>,
@@ -236,6 +238,7 @@ impl Channel {
             },
             medium: spec.radio.clone().map(|r| Medium::new(r, vehicles)),
             on_air: Vec::with_capacity(vehicles),
+            addressed: Vec::with_capacity(vehicles),
             gated: Vec::new(),
             bad: vec![false; vehicles * vehicles],
             vehicles,
@@ -362,7 +365,17 @@ impl Channel {
             Some(m) => {
                 m.measure(k, states, &self.background);
                 self.gated.clear();
-                m.access(k, tx, &mut on_air, &mut self.gated);
+                // A broadcast no vehicle of the topology listens to is not sent (on the wire
+                // a controller publishes one item per link, so an injector process never
+                // sees it): it neither loads the channel nor counts in the sender's rate.
+                let mut addressed = std::mem::take(&mut self.addressed);
+                addressed.clear();
+                addressed.extend(
+                    tx.iter()
+                        .filter(|p| !topology.out_neighbours(p.sender).is_empty()),
+                );
+                m.access(k, &addressed, &mut on_air, &mut self.gated);
+                self.addressed = addressed;
                 for g in &self.gated {
                     let (p, action) = match g {
                         Gated::Deferred(p) => (p, Action::DccDeferred),
@@ -640,18 +653,23 @@ mod tests {
             density_veh_per_m: 0.0,
             ..Default::default()
         };
-        let states = vec![State::new(100.0, 15.0, 0.0), State::new(80.0, 15.0, 0.0)];
+        let states = vec![
+            State::new(100.0, 15.0, 0.0),
+            State::new(80.0, 15.0, 0.0),
+            State::new(60.0, 15.0, 0.0),
+        ];
         let mut c = Channel::new(
             ChannelSpec {
                 radio: Some(radio(quiet, LoadSource::Scenario, None)),
                 ..channel(vec![]).spec().clone()
             },
-            2,
+            3,
         );
         assert!(c.counts_fleet());
-        // The leader beacons every 5 steps (20 Hz), the follower every 10 (10 Hz).
+        // The leader beacons every 5 steps (20 Hz), follower 1 every 10 (10 Hz); follower 2's
+        // broadcasts have no listener in the predecessor-following graph, so they are not sent.
         for k in 0..200 {
-            let tx: Vec<Packet> = [(0u16, 5), (1, 10)]
+            let tx: Vec<Packet> = [(0u16, 5), (1, 10), (2, 1)]
                 .iter()
                 .filter(|(_, every)| k % every == 0)
                 .map(|&(v, _)| packet(v, k as u32, k))
@@ -660,6 +678,7 @@ mod tests {
         }
         assert_eq!(c.beacon_rate(VehicleId(0), 200), 20.0);
         assert_eq!(c.beacon_rate(VehicleId(1), 200), 10.0);
+        assert_eq!(c.beacon_rate(VehicleId(2), 200), 0.0);
         // 30 packets a second within 1000 m: 30 / 2000 m.
         let own = c.medium.as_ref().unwrap().load(1);
         assert!((own - 30.0 / 2000.0).abs() < 1e-12, "{own}");
@@ -677,7 +696,7 @@ mod tests {
         assert!(c.cbr()[1] > cbr_alone);
         let stats = c.radio_stats().unwrap();
         assert_eq!(stats.transmissions, 40 + 20);
-        assert_eq!(stats.samples, 2 * 201);
+        assert_eq!(stats.samples, 3 * 201);
         // The fixed load is the configured traffic alone, whatever the vehicles send.
         let mut fixed = Channel::new(
             ChannelSpec {
@@ -688,7 +707,7 @@ mod tests {
                 )),
                 ..channel(vec![]).spec().clone()
             },
-            2,
+            3,
         );
         gate(&mut fixed, 0, &[packet(0, 0, 0)], &states);
         assert_eq!(fixed.medium.as_ref().unwrap().load(1), 0.6);

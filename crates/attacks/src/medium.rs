@@ -102,6 +102,33 @@ pub struct RadioStats {
 }
 
 impl RadioStats {
+    /// The six numbers a channel process reports with DONE (`ControlMsg::counts`): the means
+    /// and the largest CBR as their bits, then the three counts. `samples` is not among them
+    /// (every vehicle measures every step: the receiver knows it).
+    pub fn to_counts(&self) -> [u64; 6] {
+        [
+            self.mean_load.to_bits(),
+            self.mean_cbr.to_bits(),
+            self.max_cbr.to_bits(),
+            self.transmissions,
+            self.dcc_deferred,
+            self.dcc_dropped,
+        ]
+    }
+
+    /// The stats [`RadioStats::to_counts`] reported, over `samples` vehicle-steps.
+    pub fn from_counts(c: [u64; 6], samples: u64) -> RadioStats {
+        RadioStats {
+            samples,
+            mean_load: f64::from_bits(c[0]),
+            mean_cbr: f64::from_bits(c[1]),
+            max_cbr: f64::from_bits(c[2]),
+            transmissions: c[3],
+            dcc_deferred: c[4],
+            dcc_dropped: c[5],
+        }
+    }
+
     /// Adds another platoon's (a fleet's summary).
     pub fn merge(&mut self, other: &RadioStats) {
         let n = self.samples + other.samples;

@@ -47,6 +47,13 @@ pub trait Injector {
     fn finish(&mut self) -> Result<(), String> {
         Ok(())
     }
+
+    /// Six numbers reported to the orchestrator with DONE (`ControlMsg::counts`), read after
+    /// [`Injector::finish`]; the built-in channel reports its radio's measurements (see
+    /// `RadioStats::to_counts`). Third-party injectors leave it.
+    fn done_counts(&self) -> [u64; 6] {
+        [0; 6]
+    }
 }
 
 /// Which node an injector is and which services it reads and writes.
@@ -167,7 +174,9 @@ pub fn run_on(
                     states = None;
                     if *k == scenario.steps {
                         injector.finish().map_err(fail)?;
-                        return ctx.done(ControlMsg::new(ControlMsg::DONE, ports.role, *k));
+                        let mut done = ControlMsg::new(ControlMsg::DONE, ports.role, *k);
+                        done.counts = injector.done_counts();
+                        return ctx.done(done);
                     }
                     *k += 1;
                     continue;

@@ -338,6 +338,17 @@ impl crate::injector::Injector for ChannelInjector {
         Ok(())
     }
 
+    fn done_counts(&self) -> [u64; 6] {
+        let mut all = self.channels.iter().filter_map(Channel::radio_stats);
+        let Some(mut sum) = all.next() else {
+            return [0; 6];
+        };
+        for s in all {
+            sum.merge(&s);
+        }
+        sum.to_counts()
+    }
+
     fn finish(&mut self) -> Result<(), String> {
         let s = &self.seen;
         if s.steps > 0 {

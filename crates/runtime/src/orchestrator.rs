@@ -93,6 +93,10 @@ pub struct Outcome {
     pub duplicates: DuplicateSamples,
     /// Each node's peak resident memory in KiB (`VmHWM`), read as the run ends.
     pub peak_rss_kib: Vec<(&'static str, u64)>,
+    /// What the built-in channel's 802.11p radio measured (`summary.json`'s `channel`), as it
+    /// reported with DONE; `None` without the radio or when a third-party injector replaced the
+    /// channel.
+    pub radio: Option<platoon_attacks::channel::RadioStats>,
 }
 
 /// Samples the orchestrator received for a step it already had, per service (a publisher
@@ -281,6 +285,18 @@ pub fn orchestrate(
         done[Node::Orchestrator as usize] = true;
         done[Node::Injector as usize] = true;
         done[Node::Channel as usize] = !opts.channel_first;
+        // The built-in channel reports its radio's measurements with DONE: wait for it.
+        let radio_node = scenario.radio.as_ref().and_then(|_| {
+            if opts.channel_first {
+                Some(Node::Channel)
+            } else {
+                matches!(opts.injector, Program::Builtin).then_some(Node::Injector)
+            }
+        });
+        if let Some(n) = radio_node {
+            done[n as usize] = false;
+        }
+        let mut radio = None;
         loop {
             if stopped() {
                 return Err(RunError::Interrupted { step: run.step });
@@ -335,6 +351,13 @@ pub fn orchestrate(
                     if m.node == Node::Controller as u32 {
                         rejected = Some(RejectCounts::from_array(m.counts));
                     }
+                    if radio_node.is_some_and(|n| m.node == n as u32) {
+                        // Every vehicle of every platoon measures at every step.
+                        let samples = scenario.vehicles() as u64 * (scenario.steps + 1);
+                        radio = Some(platoon_attacks::channel::RadioStats::from_counts(
+                            m.counts, samples,
+                        ));
+                    }
                 }
             }
             drained?;
@@ -388,6 +411,7 @@ pub fn orchestrate(
             wait(&listener, Duration::from_millis(100))?;
         }
         Ok(Outcome {
+            radio,
             rejected: rejected.unwrap_or_default(),
             timing: clock.report(),
             duplicates: DuplicateSamples {
