@@ -726,3 +726,91 @@ fn fallback_timing_maps_which_fallback_survives_a_jam_on_the_braking_ramp() {
     assert!(num(at("acc", "false"), "fallback_time_s") > 4.0 * 8.0);
     assert!(num(at("acc", "false"), "min_ttc_s") > 0.0);
 }
+
+/// campaigns/density.toml: the README's findings on the load the platoon's beaconing puts on the
+/// 802.11p channel, measured in the run (a subset of its cells).
+#[test]
+fn the_density_study_finds_what_the_readme_says() {
+    let tmp = tempfile::tempdir().unwrap();
+    let file = shipped("density", tmp.path(), |t| {
+        let axes = t["axes"].as_array().unwrap().clone();
+        let mut keep = Vec::new();
+        for mut a in axes {
+            let table = a.as_table_mut().unwrap();
+            match table["key"].as_str().unwrap() {
+                "channel.radio.density_veh_per_m" => {
+                    table.insert(
+                        "values".into(),
+                        toml::Value::Array(vec![0.0.into(), 0.48.into()]),
+                    );
+                }
+                // CAM, static and dynamic (the first is periodic).
+                "trigger" => {
+                    let v = table["values"].as_array().unwrap()[1..].to_vec();
+                    table.insert("values".into(), toml::Value::Array(v));
+                }
+                _ => {}
+            }
+            keep.push(a);
+        }
+        t.insert("axes".into(), toml::Value::Array(keep));
+    });
+    let out = tmp.path().join("out");
+    ok(&campaign(
+        &[file.to_str().unwrap(), "--out", out.to_str().unwrap()],
+        tmp.path(),
+    ));
+    let rows = cells(&out);
+    assert_eq!(rows.len(), 24);
+    let at = |density: &str, rule: &str, background: &str, dcc: bool| {
+        rows.iter()
+            .find(|r| {
+                r["channel.radio.density_veh_per_m"] == density
+                    && r["trigger"].contains(&format!("rule = \"{rule}\""))
+                    && r["channel.background_beacons"] == background
+                    && r["channel.dcc.t_off_s"].contains("0.06") == dcc
+            })
+            .unwrap_or_else(|| panic!("{density} {rule} {background} {dcc}"))
+    };
+    // Around traffic beaconing at 10 Hz, the platoon's rule hardly moves the channel.
+    let (s, d) = (
+        at("0.48", "static", "fixed", false),
+        at("0.48", "dynamic", "fixed", false),
+    );
+    assert!(
+        (num(s, "mean_cbr") - num(d, "mean_cbr")).abs() < 0.01,
+        "{s:?} {d:?}"
+    );
+    assert!((num(s, "delivery_ratio") - num(d, "delivery_ratio")).abs() < 0.01);
+    // When every vehicle beacons as the platoon does, the dynamic trigger's fewer packets buy a
+    // less busy channel and a better delivery ratio than the static one's.
+    let (s, d) = (
+        at("0.48", "static", "platoon", false),
+        at("0.48", "dynamic", "platoon", false),
+    );
+    assert!(
+        num(d, "transmissions") < 0.9 * num(s, "transmissions"),
+        "{s:?} {d:?}"
+    );
+    assert!(
+        num(d, "mean_cbr") < num(s, "mean_cbr") - 0.03,
+        "{s:?} {d:?}"
+    );
+    assert!(
+        num(d, "delivery_ratio") > num(s, "delivery_ratio") + 0.02,
+        "{s:?} {d:?}"
+    );
+    // Reactive DCC in a busy channel holds the paper's triggers back: the gap error doubles.
+    let (off, on) = (
+        at("0.48", "dynamic", "fixed", false),
+        at("0.48", "dynamic", "fixed", true),
+    );
+    assert!(num(on, "dcc_deferred") > 1000.0, "{on:?}");
+    assert!(num(on, "rms_spacing_error_m") > 1.5 * num(off, "rms_spacing_error_m"));
+    // The paper's law on CAM beacons collides even on an empty channel, without DoS.
+    let cam = at("0", "cam", "fixed", false);
+    assert!(
+        num(cam, "delivery_ratio") > 0.99 && num(cam, "min_gap_m") < 0.0,
+        "{cam:?}"
+    );
+}
