@@ -152,9 +152,13 @@ pub(crate) struct Medium {
     pub(crate) spec: RadioSpec,
     /// Per vehicle: the steps of its transmissions within the window, oldest first.
     sent: Vec<VecDeque<u64>>,
-    /// Per vehicle, at the current step: the load its radio sees and the CBR it measures.
+    /// Per vehicle, at the current step: the load its radio sees, where that is on the model's
+    /// grid, and the CBR it measures.
     load: Vec<f64>,
+    point: Vec<platoon_radio::LoadPoint>,
     cbr: Vec<f64>,
+    /// Scratch: the vehicles' rates at the current step.
+    rates: Vec<f64>,
     /// The rest of the fleet this step: (road position, beacon rate).
     fleet: Vec<(f64, f64)>,
     /// DCC: per vehicle, the packet held back, and the step of its last transmission.
@@ -179,8 +183,10 @@ impl Medium {
         Medium {
             spec,
             sent: vec![VecDeque::new(); vehicles],
-            load: vec![0.0; vehicles],
+            load: vec![f64::NAN; vehicles],
+            point: vec![Default::default(); vehicles],
             cbr: vec![0.0; vehicles],
+            rates: Vec::with_capacity(vehicles),
             fleet: Vec::new(),
             held: vec![None; vehicles],
             last_sent: vec![None; vehicles],
@@ -194,7 +200,9 @@ impl Medium {
     /// steps `k - window ..= k - 1`, whatever happened at step `k` itself.
     pub(crate) fn rate(&self, v: usize, k: u64) -> f64 {
         let from = k.saturating_sub(self.spec.window_steps);
-        let count = self.sent[v].iter().filter(|&&s| s >= from && s < k).count();
+        // The steps are increasing: two binary searches.
+        let sent = &self.sent[v];
+        let count = sent.partition_point(|&s| s < k) - sent.partition_point(|&s| s < from);
         count as f64 / (self.spec.window_steps as f64 * self.spec.dt)
     }
 
@@ -210,56 +218,71 @@ impl Medium {
 
     /// Measures, at step `k`, the load each vehicle's radio sees and its CBR.
     pub(crate) fn measure(&mut self, k: u64, states: &[State], background: &[f64]) {
-        let family = &self.spec.family;
-        let p = family.params();
         let vehicles = states.len().min(self.load.len());
-        match self.spec.load {
-            LoadSource::Fixed => self.load.fill(family.own_load()),
-            LoadSource::Scenario => {
-                let rates: Vec<f64> = (0..vehicles).map(|v| self.rate(v, k)).collect();
-                let background_hz = match self.spec.background_beacons {
-                    BackgroundBeacons::Fixed => p.beacon_hz,
-                    // Their long-run rate: the platoon's transmissions so far per vehicle and
-                    // second (other vehicles manoeuvre at other times than the platoon, so
-                    // its bursts are not theirs); the configured rate in the first window.
-                    BackgroundBeacons::Platoon if k >= self.spec.window_steps => {
-                        self.stats.transmissions as f64
-                            / (vehicles.max(1) as f64 * k as f64 * self.spec.dt)
-                    }
-                    BackgroundBeacons::Platoon => p.beacon_hz,
-                };
-                let uniform = p.density_veh_per_m * background_hz;
-                let reach = p.interferer_range_m;
-                for (r, load) in self.load.iter_mut().enumerate().take(vehicles) {
-                    let x = states[r][0];
-                    let near = |y: f64| (y - x).abs() <= reach;
-                    let counted: f64 = if reach > 0.0 {
-                        let own: f64 = (0..vehicles)
-                            .filter(|&i| near(states[i][0]))
-                            .map(|i| rates[i])
-                            .sum();
-                        let fleet: f64 = self
-                            .fleet
-                            .iter()
-                            .filter(|(y, _)| near(*y))
-                            .map(|(_, hz)| hz)
-                            .sum();
-                        let sumo = background.iter().filter(|&&y| near(y)).count() as f64;
-                        (own + fleet + sumo * background_hz) / (2.0 * reach)
-                    } else {
-                        0.0
-                    };
-                    *load = uniform + counted;
+        let own_load = self.spec.family.own_load();
+        if self.spec.load == LoadSource::Scenario {
+            let mut rates = std::mem::take(&mut self.rates);
+            rates.clear();
+            rates.extend((0..vehicles).map(|v| self.rate(v, k)));
+            let p = self.spec.family.params();
+            let background_hz = match self.spec.background_beacons {
+                BackgroundBeacons::Fixed => p.beacon_hz,
+                // Their long-run rate: the platoon's transmissions so far per vehicle and
+                // second (other vehicles manoeuvre at other times than the platoon, so its
+                // bursts are not theirs); the configured rate in the first window.
+                BackgroundBeacons::Platoon if k >= self.spec.window_steps => {
+                    self.stats.transmissions as f64
+                        / (vehicles.max(1) as f64 * k as f64 * self.spec.dt)
                 }
+                BackgroundBeacons::Platoon => p.beacon_hz,
+            };
+            let uniform = p.density_veh_per_m * background_hz;
+            let reach = p.interferer_range_m;
+            for r in 0..vehicles {
+                let x = states[r][0];
+                let near = |y: f64| (y - x).abs() <= reach;
+                let counted = if reach > 0.0 {
+                    let own: f64 = (0..vehicles)
+                        .filter(|&i| near(states[i][0]))
+                        .map(|i| rates[i])
+                        .sum();
+                    let fleet: f64 = self
+                        .fleet
+                        .iter()
+                        .filter(|(y, _)| near(*y))
+                        .map(|(_, hz)| hz)
+                        .sum();
+                    let sumo = background.iter().filter(|&&y| near(y)).count() as f64;
+                    (own + fleet + sumo * background_hz) / (2.0 * reach)
+                } else {
+                    0.0
+                };
+                self.locate(r, uniform + counted);
+            }
+            self.rates = rates;
+        } else {
+            for r in 0..vehicles {
+                self.locate(r, own_load);
             }
         }
         for v in 0..vehicles {
-            self.cbr[v] = family.cbr(self.load[v]);
             self.sum_load += self.load[v];
             self.sum_cbr += self.cbr[v];
             self.stats.max_cbr = self.stats.max_cbr.max(self.cbr[v]);
         }
         self.stats.samples += vehicles as u64;
+    }
+
+    /// Vehicle `v`'s radio sees `load`: where it is on the grid and the CBR there, computed
+    /// again only when the load changed (a beacon entering or leaving the window, a vehicle
+    /// coming into or out of range).
+    fn locate(&mut self, v: usize, load: f64) {
+        if load.to_bits() != self.load[v].to_bits() {
+            let family = &self.spec.family;
+            self.load[v] = load;
+            self.point[v] = family.point(load);
+            self.cbr[v] = family.cbr_at(self.point[v]);
+        }
     }
 
     /// The access layer at step `k`: which of `tx` (and of the packets held back before) go on
@@ -327,7 +350,7 @@ impl Medium {
     /// The delivery ratio of a packet over `distance_m` to vehicle `receiver`, at the load its
     /// radio sees.
     pub(crate) fn pdr(&self, distance_m: f64, receiver: usize) -> f64 {
-        self.spec.family.pdr(distance_m, self.load[receiver])
+        self.spec.family.pdr_at(self.point[receiver], distance_m)
     }
 
     /// [`Medium::pdr`] with jammers' `interference_dbm` at the receiver (exactly `pdr` for
@@ -338,10 +361,11 @@ impl Medium {
         receiver: usize,
         interference_dbm: f64,
     ) -> f64 {
-        let load = self.load[receiver];
-        self.spec
-            .family
-            .pdr_with_interference(distance_m, load, interference_dbm)
+        self.spec.family.pdr_with_interference_at(
+            self.point[receiver],
+            distance_m,
+            interference_dbm,
+        )
     }
 
     /// The load vehicle `v`'s radio saw at the last step (packets/s/m).

@@ -44,7 +44,7 @@ mod load;
 mod math;
 mod propagation;
 
-pub use load::LoadFamily;
+pub use load::{LoadFamily, LoadPoint};
 
 use fer::{FerCurve, FER_TABLE, FLOOR_STEP_DB};
 use math::{cdf, gauss_hermite, upper_tail};

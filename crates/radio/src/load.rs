@@ -97,70 +97,91 @@ impl LoadFamily {
         })
     }
 
-    /// The two grid models around `load` and the weight of the upper one (0 at a grid point).
-    fn bracket(&self, load: f64) -> (usize, usize, f64) {
+    /// Where `load` falls on the grid: the two models around it and the weight of the upper one
+    /// (0 at a grid point). A run that asks several things at one load locates it once.
+    pub fn point(&self, load: f64) -> LoadPoint {
         let last = self.loads.len() - 1;
-        if load.is_nan() || load <= self.loads[0] {
-            return (0, 0, 0.0);
+        let (lo, hi, t) = if load.is_nan() || load <= self.loads[0] {
+            (0, 0, 0.0)
+        } else if load >= self.loads[last] {
+            (last, last, 0.0)
+        } else {
+            let hi = self.loads.partition_point(|&q| q <= load);
+            let lo = hi - 1;
+            if self.loads[lo] == load {
+                (lo, lo, 0.0)
+            } else {
+                let t = (load / self.loads[lo]).ln() / (self.loads[hi] / self.loads[lo]).ln();
+                (lo, hi, t)
+            }
+        };
+        LoadPoint { lo, hi, t }
+    }
+
+    /// `f` of the two models around `at`, interpolated (the lower one's alone at a grid point).
+    fn mix(&self, at: LoadPoint, f: impl Fn(&Model) -> f64) -> f64 {
+        let a = f(self.model(at.lo));
+        if at.t == 0.0 {
+            return a;
         }
-        if load >= self.loads[last] {
-            return (last, last, 0.0);
-        }
-        let hi = self.loads.partition_point(|&q| q <= load);
-        let lo = hi - 1;
-        if self.loads[lo] == load {
-            return (lo, lo, 0.0);
-        }
-        let t = (load / self.loads[lo]).ln() / (self.loads[hi] / self.loads[lo]).ln();
-        (lo, hi, t)
+        a + (f(self.model(at.hi)) - a) * at.t
     }
 
     /// The model nearest to `load` on the grid (for its table, range and airtime).
     pub fn nearest(&self, load: f64) -> &Model {
-        let (lo, hi, t) = self.bracket(load);
-        self.model(if t < 0.5 { lo } else { hi })
+        let at = self.point(load);
+        self.model(if at.t < 0.5 { at.lo } else { at.hi })
     }
 
     /// The delivery ratio over `distance_m` when the channel carries `load` packets per second
     /// per metre: the two bracketing models' ratios interpolated in the logarithm of the load.
     pub fn pdr(&self, distance_m: f64, load: f64) -> f64 {
-        let (lo, hi, t) = self.bracket(load);
-        let a = self.model(lo).pdr(distance_m);
-        if t == 0.0 {
-            return a;
-        }
-        a + (self.model(hi).pdr(distance_m) - a) * t
+        self.pdr_at(self.point(load), distance_m)
+    }
+
+    /// [`LoadFamily::pdr`] at a located load.
+    pub fn pdr_at(&self, at: LoadPoint, distance_m: f64) -> f64 {
+        self.mix(at, |m| m.pdr(distance_m))
     }
 
     /// [`LoadFamily::pdr`] with a jammer's `interference_dbm` at the receiver
     /// ([`Model::pdr_with_interference`]); exactly `pdr` for `-inf`.
     pub fn pdr_with_interference(&self, distance_m: f64, load: f64, interference_dbm: f64) -> f64 {
+        self.pdr_with_interference_at(self.point(load), distance_m, interference_dbm)
+    }
+
+    /// [`LoadFamily::pdr_with_interference`] at a located load.
+    pub fn pdr_with_interference_at(
+        &self,
+        at: LoadPoint,
+        distance_m: f64,
+        interference_dbm: f64,
+    ) -> f64 {
         if interference_dbm.is_nan() || interference_dbm == f64::NEG_INFINITY {
-            return self.pdr(distance_m, load);
+            return self.pdr_at(at, distance_m);
         }
-        let (lo, hi, t) = self.bracket(load);
-        let a = self
-            .model(lo)
-            .pdr_with_interference(distance_m, interference_dbm);
-        if t == 0.0 {
-            return a;
-        }
-        a + (self
-            .model(hi)
-            .pdr_with_interference(distance_m, interference_dbm)
-            - a)
-            * t
+        self.mix(at, |m| {
+            m.pdr_with_interference(distance_m, interference_dbm)
+        })
     }
 
     /// The channel busy ratio at `load`, interpolated like [`LoadFamily::pdr`].
     pub fn cbr(&self, load: f64) -> f64 {
-        let (lo, hi, t) = self.bracket(load);
-        let a = self.model(lo).cbr();
-        if t == 0.0 {
-            return a;
-        }
-        a + (self.model(hi).cbr() - a) * t
+        self.cbr_at(self.point(load))
     }
+
+    /// [`LoadFamily::cbr`] at a located load.
+    pub fn cbr_at(&self, at: LoadPoint) -> f64 {
+        self.mix(at, Model::cbr)
+    }
+}
+
+/// A load located on a [`LoadFamily`]'s grid ([`LoadFamily::point`]).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct LoadPoint {
+    lo: usize,
+    hi: usize,
+    t: f64,
 }
 
 #[cfg(test)]
@@ -214,7 +235,7 @@ mod tests {
             }
         }
         // Between grid points the interpolation stays within the bracketing models.
-        let (lo, hi, t) = family.bracket(0.35);
+        let LoadPoint { lo, hi, t } = family.point(0.35);
         assert!(t > 0.0 && t < 1.0 && lo + 1 == hi);
         let p = family.pdr(150.0, 0.35);
         let (a, b) = (family.model(lo).pdr(150.0), family.model(hi).pdr(150.0));
