@@ -1001,3 +1001,42 @@ fn a_time_headway_platoon_runs_with_sumo_as_the_plant() {
         / vs[0]["gap_error_m"]["max_abs"].as_f64().unwrap();
     assert!(growth < 0.5, "{growth}");
 }
+
+/// With SUMO as the plant, the 802.11p channel's load is what SUMO has: its background
+/// vehicles within range load every radio of the platoon, at the radio's beacon rate.
+#[test]
+fn sumos_background_traffic_loads_the_80211p_channel() {
+    let tmp = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(repo().join("configs/sumo-paper.toml")).unwrap();
+    let load = |background: usize| {
+        let dir = tmp.path().join(format!("bg{background}"));
+        std::fs::create_dir_all(&dir).unwrap();
+        let config = dir.join("c.toml");
+        std::fs::write(
+            &config,
+            text.replace(
+                "tolerance_m = 1e-6",
+                &format!("tolerance_m = 1e-6\nbackground_vehicles = {background}\nbackground_seed = 3"),
+            )
+            .replace("duration_s = 55.0", "duration_s = 2.0")
+                // No traffic besides the run's: the platoon and SUMO's background vehicles.
+                + "\n[channel]\nmodel = \"80211p\"\nradio = { density_veh_per_m = 0.0 }\n",
+        )
+        .unwrap();
+        ok(&platoon(
+            &["run", config.to_str().unwrap(), "--out", "r", "--no-plots"],
+            &dir,
+        ));
+        json(&dir.join("r/summary.json"))["channel"].clone()
+    };
+    let (alone, busy) = (load(0), load(30));
+    let f = |c: &serde_json::Value, k: &str| c[k].as_f64().unwrap();
+    // 30 vehicles at 10 Hz over at most 2 km of road around each radio: up to 0.15 packets/s/m
+    // more (fewer when some are farther than 1 km), against the platoon's own few.
+    let more = f(&busy, "mean_load") - f(&alone, "mean_load");
+    assert!(more > 0.03 && more <= 0.15 + 1e-9, "{alone} {busy}");
+    assert!(
+        f(&busy, "mean_cbr") > f(&alone, "mean_cbr"),
+        "{alone} {busy}"
+    );
+}
