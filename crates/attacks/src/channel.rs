@@ -246,7 +246,12 @@ impl Channel {
             history: vec![VecDeque::new(); vehicles],
             max_lag,
             background: Vec::new(),
-            jammers: Jammers::new(&spec.jammers, spec.seed),
+            // Every platoon of a fleet meets the same random jammers: their streams come from
+            // the fleet's seed (platoon j's channel seed is the fleet's + j).
+            jammers: Jammers::new(
+                &spec.jammers,
+                spec.seed.wrapping_sub(u64::from(spec.platoon)),
+            ),
             jam_out: if spec.jammers.is_empty() {
                 Vec::new()
             } else {
@@ -385,11 +390,10 @@ impl Channel {
                         log.push(event(at, p, receiver, action, None));
                     }
                 }
-                m.record(k, &on_air);
+                m.record(k, &on_air, jammed);
             }
             None => on_air.extend_from_slice(tx),
         }
-        let with_dcc = self.medium.as_ref().is_some_and(|m| m.spec.dcc.is_some());
         for sent in &on_air {
             for &receiver in topology.out_neighbours(sent.sender) {
                 if dos {
@@ -429,7 +433,11 @@ impl Channel {
                         continue;
                     }
                 }
-                if with_dcc && sent.step < k {
+                if self
+                    .medium
+                    .as_ref()
+                    .is_some_and(|m| m.sent_late(sent.sender.index()))
+                {
                     // Held back by DCC: it arrives late (unless an attack drops it).
                     let before = out.len();
                     self.link(k, t, *sent, receiver, out, log);

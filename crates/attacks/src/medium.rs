@@ -161,8 +161,11 @@ pub(crate) struct Medium {
     rates: Vec<f64>,
     /// The rest of the fleet this step: (road position, beacon rate).
     fleet: Vec<(f64, f64)>,
-    /// DCC: per vehicle, the packet held back, and the step of its last transmission.
-    held: Vec<Option<Packet>>,
+    /// DCC: per vehicle, the packet held back and the step since which it is held, whether
+    /// the packet it sends at the current step was held from an earlier one, and the step of
+    /// its last transmission.
+    held: Vec<Option<(Packet, u64)>>,
+    late: Vec<bool>,
     last_sent: Vec<Option<u64>>,
     sum_load: f64,
     sum_cbr: f64,
@@ -189,6 +192,7 @@ impl Medium {
             rates: Vec::with_capacity(vehicles),
             fleet: Vec::new(),
             held: vec![None; vehicles],
+            late: vec![false; vehicles],
             last_sent: vec![None; vehicles],
             sum_load: 0.0,
             sum_cbr: 0.0,
@@ -197,13 +201,23 @@ impl Medium {
     }
 
     /// Vehicle `v`'s beacon rate over the window before step `k` (Hz): its transmissions in
-    /// steps `k - window ..= k - 1`, whatever happened at step `k` itself.
+    /// steps `k - window ..= k - 1` (in the first window, over the steps so far; 0 at step 0),
+    /// whatever happened at step `k` itself.
     pub(crate) fn rate(&self, v: usize, k: u64) -> f64 {
-        let from = k.saturating_sub(self.spec.window_steps);
+        let steps = k.min(self.spec.window_steps);
+        if steps == 0 {
+            return 0.0;
+        }
         // The steps are increasing: two binary searches.
         let sent = &self.sent[v];
-        let count = sent.partition_point(|&s| s < k) - sent.partition_point(|&s| s < from);
-        count as f64 / (self.spec.window_steps as f64 * self.spec.dt)
+        let count = sent.partition_point(|&s| s < k) - sent.partition_point(|&s| s < k - steps);
+        count as f64 / (steps as f64 * self.spec.dt)
+    }
+
+    /// Whether vehicle `v`'s packet on the air at the current step was held back by DCC from
+    /// an earlier step.
+    pub(crate) fn sent_late(&self, v: usize) -> bool {
+        self.late.get(v).copied().unwrap_or(false)
     }
 
     pub(crate) fn set_fleet(&mut self, all: &[(f64, f64)], own: std::ops::Range<usize>) {
@@ -294,15 +308,16 @@ impl Medium {
         on_air: &mut Vec<Packet>,
         gated: &mut Vec<Gated>,
     ) {
+        self.late.fill(false);
         let Some(dcc) = &self.spec.dcc else {
             on_air.extend_from_slice(tx);
             return;
         };
         let dt = self.spec.dt;
-        // A vehicle may send at step k when T_off has passed since its last transmission (to
-        // the step: the half-step tolerance absorbs T_off / dt not being whole).
+        // A vehicle may send at step k once T_off has passed since its last transmission (a
+        // minimum: at the first step at or after it, up to rounding).
         let may_send = |last: Option<u64>, cbr: f64| {
-            last.is_none_or(|l| ((k - l) as f64 + 0.5) * dt >= dcc.t_off_s[dcc.state(cbr)])
+            last.is_none_or(|l| (k - l) as f64 * dt >= dcc.t_off_s[dcc.state(cbr)] - 1e-9)
         };
         // The newest packet of each vehicle: this step's replaces one held back.
         for p in tx {
@@ -311,17 +326,20 @@ impl Medium {
                 on_air.push(*p);
                 continue;
             }
-            if let Some(old) = self.held[v].replace(*p) {
+            if let Some((old, _)) = self.held[v].replace((*p, k)) {
                 gated.push(Gated::Dropped(old));
                 self.stats.dcc_dropped += 1;
             }
         }
         for v in 0..self.held.len() {
-            let Some(p) = self.held[v] else { continue };
+            let Some((p, since)) = self.held[v] else {
+                continue;
+            };
             if may_send(self.last_sent[v], self.cbr[v]) {
                 on_air.push(p);
                 self.held[v] = None;
-            } else if p.step == k {
+                self.late[v] = since < k;
+            } else if since == k {
                 gated.push(Gated::Deferred(p));
                 self.stats.dcc_deferred += 1;
             }
@@ -329,14 +347,17 @@ impl Medium {
         on_air.sort_by_key(|p| p.sender);
     }
 
-    /// Records that `on_air` went on the air at step `k`.
-    pub(crate) fn record(&mut self, k: u64, on_air: &[Packet]) {
+    /// Records that `on_air` went on the air at step `k`, but for the senders that sense their
+    /// channel jammed (`jammed`, the DoS included): they defer, and send nothing.
+    pub(crate) fn record(&mut self, k: u64, on_air: &[Packet], jammed: &[bool]) {
         let keep_from = k.saturating_sub(self.spec.window_steps);
+        let mut sent = 0;
         for p in on_air {
             let v = p.sender.index();
-            if v < self.sent.len() {
+            if v < self.sent.len() && !jammed.get(v).copied().unwrap_or(false) {
                 self.sent[v].push_back(k);
                 self.last_sent[v] = Some(k);
+                sent += 1;
             }
         }
         for s in &mut self.sent {
@@ -344,7 +365,7 @@ impl Medium {
                 s.pop_front();
             }
         }
-        self.stats.transmissions += on_air.len() as u64;
+        self.stats.transmissions += sent;
     }
 
     /// The delivery ratio of a packet over `distance_m` to vehicle `receiver`, at the load its

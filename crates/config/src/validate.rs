@@ -571,7 +571,7 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
     };
 
     let (link_attacks, channel_seed) = channel(&c.channel, dt, n)?;
-    let jammers = jammers(c, n)?;
+    let jammers = jammers(c, n, dt)?;
     let radio = radio(&mut c.channel, dt)?;
     finite("sumo.start_m", c.sumo.start_m)?;
     positive("sumo.tolerance_m", c.sumo.tolerance_m)?;
@@ -705,17 +705,39 @@ fn radio(c: &mut Channel, dt: f64) -> Result<Option<RadioSpec>, Invalid> {
                 LoadConfig::Scenario => LoadSource::Scenario,
                 LoadConfig::Fixed => LoadSource::Fixed,
             };
-            let background_beacons = match *c
-                .background_beacons
-                .get_or_insert(BackgroundBeaconsConfig::Fixed)
-            {
-                BackgroundBeaconsConfig::Fixed => BackgroundBeacons::Fixed,
-                BackgroundBeaconsConfig::Platoon => BackgroundBeacons::Platoon,
+            // The counted load's keys mean nothing with the fixed one: refused, not ignored
+            // (and not filled in, so the resolved config reads back).
+            if load == LoadSource::Fixed {
+                for (key, set) in [
+                    ("channel.background_beacons", c.background_beacons.is_some()),
+                    ("channel.load_window_s", c.load_window_s.is_some()),
+                ] {
+                    if set {
+                        return bad(
+                            key,
+                            "is for the load counted from the run, but channel.load = \"fixed\": \
+                             remove it or set load = \"scenario\"",
+                        );
+                    }
+                }
+            }
+            let background_beacons = match load {
+                LoadSource::Fixed => BackgroundBeacons::Fixed,
+                LoadSource::Scenario => match *c
+                    .background_beacons
+                    .get_or_insert(BackgroundBeaconsConfig::Fixed)
+                {
+                    BackgroundBeaconsConfig::Fixed => BackgroundBeacons::Fixed,
+                    BackgroundBeaconsConfig::Platoon => BackgroundBeacons::Platoon,
+                },
             };
-            let window_s = positive(
-                "channel.load_window_s",
-                finite("channel.load_window_s", *c.load_window_s.get_or_insert(1.0))?,
-            )?;
+            let window_s = match load {
+                LoadSource::Fixed => 1.0,
+                LoadSource::Scenario => positive(
+                    "channel.load_window_s",
+                    finite("channel.load_window_s", *c.load_window_s.get_or_insert(1.0))?,
+                )?,
+            };
             let window_steps = steps_of("channel.load_window_s", window_s, dt)?.max(1) as u64;
             let dcc = match &c.dcc {
                 None => None,
@@ -881,7 +903,11 @@ fn channel(c: &Channel, dt: f64, followers: usize) -> Result<(Vec<LinkAttack>, u
 /// `[[channel.jammers]]`: jammers as transmitters. Each is heard above the sensing threshold out
 /// to the radio's sensing radius for its power (`[channel.radio]`, its defaults without one),
 /// and senses the vehicles out to theirs.
-fn jammers(c: &Config, followers: usize) -> Result<Vec<platoon_attacks::jammer::Jammer>, Invalid> {
+fn jammers(
+    c: &Config,
+    followers: usize,
+    dt: f64,
+) -> Result<Vec<platoon_attacks::jammer::Jammer>, Invalid> {
     use crate::schema::JammerBehaviour as B;
     use platoon_attacks::jammer::{Behaviour, Jammer, Placement};
     let radio = c.channel.radio.unwrap_or_default();
@@ -952,6 +978,12 @@ fn jammers(c: &Config, followers: usize) -> Result<Vec<platoon_attacks::jammer::
             );
         }
         let power_dbm = finite(&key("power_dbm"), j.power_dbm)?;
+        if !(-30.0..=60.0).contains(&power_dbm) {
+            return bad(
+                &key("power_dbm"),
+                format!("must be in [-30, 60] dBm (1 µW to 1 kW), got {power_dbm}"),
+            );
+        }
         let heard_m = radio.sensing_radius_m(power_dbm);
         if heard_m <= 0.0 {
             return bad(
@@ -963,6 +995,9 @@ fn jammers(c: &Config, followers: usize) -> Result<Vec<platoon_attacks::jammer::
             );
         }
         let start_s = finite(&key("start_s"), j.start_s)?;
+        if start_s < 0.0 {
+            return bad(&key("start_s"), format!("must be >= 0 s (got {start_s})"));
+        }
         if j.end_s.is_nan() || j.end_s <= start_s {
             return bad(&key("end_s"), format!("must be after start_s = {start_s}"));
         }
@@ -983,8 +1018,13 @@ fn jammers(c: &Config, followers: usize) -> Result<Vec<platoon_attacks::jammer::
                 "mean_on_s and mean_off_s are for behaviour = \"random\"",
             );
         }
+        // On and off times of at least a step: the channel changes only from step to step.
         let time = |k: &str, v: Option<f64>, what: &str| match v {
-            Some(v) => positive(&key(k), finite(&key(k), v)?),
+            Some(v) if finite(&key(k), v)? >= dt => Ok(v),
+            Some(v) => bad(
+                &key(k),
+                format!("must be at least one step ({dt} s), got {v}"),
+            ),
             None => bad(&key(k), format!("a {what} jammer needs it")),
         };
         let behaviour = match kind {

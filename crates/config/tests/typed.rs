@@ -606,10 +606,18 @@ fn the_80211p_radio_is_a_channel_model_with_its_own_table() {
 #[test]
 fn the_radios_load_and_dcc_are_checked_key_by_key() {
     let radio = |extra: &str| paper_plus(&format!("[channel]\nmodel = \"80211p\"\n{extra}"));
-    let (_, s) = radio("load = \"fixed\"\nload_window_s = 0.5\n[channel.dcc]\n").unwrap();
+    let (_, s) = radio("load_window_s = 0.5\n[channel.dcc]\n").unwrap();
     let r = s.radio.unwrap();
-    assert_eq!(r.load, platoon_attacks::channel::LoadSource::Fixed);
+    assert_eq!(r.load, platoon_attacks::channel::LoadSource::Scenario);
     assert_eq!(r.window_steps, 50);
+    let (config, s) = radio("load = \"fixed\"\n").unwrap();
+    assert_eq!(
+        s.radio.unwrap().load,
+        platoon_attacks::channel::LoadSource::Fixed
+    );
+    // The resolved config of a fixed load reads back (the counted load's keys stay out).
+    let resolved = to_toml(&config);
+    assert!(!resolved.contains("load_window_s"), "{resolved}");
     let dcc = r.dcc.expect("an empty [channel.dcc] turns it on");
     assert_eq!(dcc.t_off_s, vec![0.06, 0.10, 0.18, 0.26, 1.0]);
     let (_, s) = radio("background_beacons = \"platoon\"\n").unwrap();
@@ -619,6 +627,14 @@ fn the_radios_load_and_dcc_are_checked_key_by_key() {
     );
     for (extra, key) in [
         ("load_window_s = 0.0\n", "channel.load_window_s"),
+        (
+            "load = \"fixed\"\nload_window_s = 2.0\n",
+            "channel.load_window_s",
+        ),
+        (
+            "load = \"fixed\"\nbackground_beacons = \"platoon\"\n",
+            "channel.background_beacons",
+        ),
         ("load = \"sometimes\"\n", "channel.load"),
         (
             "[channel.dcc]\ncbr_thresholds = [0.5, 0.4]\nt_off_s = [0.1, 0.2, 0.3]\n",
@@ -721,4 +737,31 @@ fn jammers_are_transmitters_heard_out_to_their_sensing_radius() {
     }
     let e = bad("[[channel.jammers]]\nposition_m = 0.0\nrange_m = 3.0\n");
     assert!(e.key.starts_with("channel.jammers"), "{e}");
+}
+
+#[test]
+fn a_jammers_times_and_power_are_bounded_so_a_run_cannot_stall_on_them() {
+    for (jammer, key) in [
+        (
+            "position_m = 0.0\non_s = 1e-17\noff_s = 1.0",
+            "channel.jammers[0].on_s",
+        ),
+        (
+            "position_m = 0.0\nbehaviour = \"random\"\nmean_on_s = 1.0\nmean_off_s = 1e-300",
+            "channel.jammers[0].mean_off_s",
+        ),
+        (
+            "position_m = 0.0\nstart_s = -1e9",
+            "channel.jammers[0].start_s",
+        ),
+        (
+            "position_m = 0.0\npower_dbm = 5000.0",
+            "channel.jammers[0].power_dbm",
+        ),
+    ] {
+        let e = paper_plus(&format!("[[channel.jammers]]\n{jammer}\n")).expect_err(jammer);
+        assert_eq!(e.key, key, "{jammer}: {e}");
+    }
+    // One step is enough.
+    paper_plus("[[channel.jammers]]\nposition_m = 0.0\non_s = 0.01\noff_s = 0.01\n").unwrap();
 }

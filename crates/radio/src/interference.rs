@@ -98,10 +98,12 @@ impl Model {
         let table = self.interference.0.get_or_init(|| Table::new(self));
         let noise = self.params.noise_dbm;
         let x = (power_sum_dbm(interference_dbm, noise) - noise).max(0.0) / FLOOR_STEP_DB;
-        let n = x as usize;
-        if n + 1 >= table.levels {
+        // Beyond the table (an interference above every signal, or infinite): nothing gets
+        // through.
+        if !x.is_finite() || x >= (table.levels - 1) as f64 {
             return 0.0;
         }
+        let n = x as usize;
         let f = x - n as f64;
         let at = |k: usize| {
             let row = &table.keep[k * table.levels..];

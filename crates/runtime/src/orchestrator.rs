@@ -285,15 +285,17 @@ pub fn orchestrate(
         done[Node::Orchestrator as usize] = true;
         done[Node::Injector as usize] = true;
         done[Node::Channel as usize] = !opts.channel_first;
-        // The built-in channel reports its radio's measurements with DONE: wait for it.
-        let radio_node = scenario.radio.as_ref().and_then(|_| {
+        // The built-in channel reports its radio's measurements with DONE, and flushes the
+        // channel log the run reads back for jammers' per-link outages before it: wait for it.
+        let waits = scenario.radio.is_some() || !scenario.jammers.is_empty();
+        let channel_node = waits.then_some(()).and_then(|_| {
             if opts.channel_first {
                 Some(Node::Channel)
             } else {
                 matches!(opts.injector, Program::Builtin).then_some(Node::Injector)
             }
         });
-        if let Some(n) = radio_node {
+        if let Some(n) = channel_node {
             done[n as usize] = false;
         }
         let mut radio = None;
@@ -351,7 +353,8 @@ pub fn orchestrate(
                     if m.node == Node::Controller as u32 {
                         rejected = Some(RejectCounts::from_array(m.counts));
                     }
-                    if radio_node.is_some_and(|n| m.node == n as u32) {
+                    if scenario.radio.is_some() && channel_node.is_some_and(|n| m.node == n as u32)
+                    {
                         // Every vehicle of every platoon measures at every step.
                         let samples = scenario.vehicles() as u64 * (scenario.steps + 1);
                         radio = Some(platoon_attacks::channel::RadioStats::from_counts(
