@@ -29,8 +29,8 @@ pub enum BackgroundBeacons {
     /// `[channel.radio] beacon_hz`.
     #[default]
     Fixed,
-    /// The platoon's mean rate so far (transmissions per vehicle and second since the start;
-    /// the configured rate in the first window): every vehicle on the road beacons as the
+    /// The platoon's mean rate so far (transmissions per beaconing vehicle and second since the
+    /// start; the configured rate in the first window): every vehicle on the road beacons as the
     /// platoon does, at other times.
     Platoon,
 }
@@ -244,9 +244,12 @@ impl Medium {
                 // Their long-run rate: the platoon's transmissions so far per vehicle and
                 // second (other vehicles manoeuvre at other times than the platoon, so its
                 // bursts are not theirs); the configured rate in the first window.
+                // Over the vehicles that beacon at all (in a graph where nobody listens to the
+                // last vehicle, it sends nothing).
                 BackgroundBeacons::Platoon if k >= self.spec.window_steps => {
+                    let beaconing = self.last_sent.iter().filter(|l| l.is_some()).count();
                     self.stats.transmissions as f64
-                        / (vehicles.max(1) as f64 * k as f64 * self.spec.dt)
+                        / (beaconing.max(1) as f64 * k as f64 * self.spec.dt)
                 }
                 BackgroundBeacons::Platoon => p.beacon_hz,
             };
