@@ -85,7 +85,7 @@ impl Model {
     /// propagation term's frame error rate evaluated against noise plus interference instead of
     /// noise, the other losses unchanged (the module's approximation). Exactly [`Model::pdr`]
     /// for `-inf` (or NaN: no interferer); 0 beyond the range or when the interference is
-    /// [`ABOVE_SIGNAL_DB`] above the strongest signal. Interpolated linearly in distance and in
+    /// 40 dB above the strongest signal. Interpolated linearly in distance and in
     /// the interference-plus-noise level (0.25 dB steps); the table behind it is built on the
     /// first call (tens of milliseconds), then a call costs a few tens of nanoseconds.
     pub fn pdr_with_interference(&self, distance_m: f64, interference_dbm: f64) -> f64 {
