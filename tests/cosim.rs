@@ -1260,6 +1260,54 @@ fn iceoryx2_run_on_the_80211p_radio_is_bit_identical_to_inproc() {
     assert!(resolved.contains("tx_power_dbm = 23.0"), "{resolved}");
 }
 
+/// Issue 23: the state-altering link attacks (random offsets per link and per packet, a drift,
+/// feigned braking, a scaled acceleration) give the same bytes over iceoryx2 as in process. The
+/// insider's random offset covers every sender, also the last follower, whose broadcasts have no
+/// listener (not sent, so no draw, on either transport).
+#[test]
+fn iceoryx2_run_with_the_state_altering_attacks_is_bit_identical_to_inproc() {
+    let tmp = tempfile::tempdir().unwrap();
+    let c = paper_plus(
+        tmp.path(),
+        "altering.toml",
+        r#"
+[[channel.attacks]]
+kind = "random_offset"
+senders = [0]
+std = [0.3, 0.1, 0.05]
+
+[[channel.attacks]]
+kind = "random_offset"
+start_s = 5.0
+std = [0.3, 0.1, 0.05]
+insider = true
+
+[[channel.attacks]]
+kind = "drift"
+senders = [2]
+start_s = 10.0
+rate = [0.02, 0.0, 0.0]
+
+[[channel.attacks]]
+kind = "feigned_braking"
+senders = [1]
+start_s = 20.0
+end_s = 22.0
+accel_mps2 = -6.0
+
+[[channel.attacks]]
+kind = "accel_scale"
+senders = [3]
+start_s = 30.0
+factor = 3.0
+insider = true
+"#,
+    );
+    let runs = transports_agree(c.to_str().unwrap());
+    let log = std::fs::read_to_string(runs.path().join("inproc/channel.csv")).unwrap();
+    assert!(log.contains("altered"), "nothing altered");
+}
+
 /// The load counted from the run (a fleet's platoons loading each other's channels, the other
 /// traffic beaconing as the platoon does) and reactive DCC: the injector process measures what
 /// the in-process channel does, and reports the radio's figures with DONE.

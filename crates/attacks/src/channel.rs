@@ -59,6 +59,30 @@ pub enum LinkAttackKind {
         /// Offset on `[p, v, a]`.
         offset: [f64; 3],
     },
+    /// Random false data: zero-mean normal noise with standard deviation `std` (per component)
+    /// is added to the state, drawn per packet and link from the channel's seeded stream (per
+    /// packet with [`LinkAttack::insider`]).
+    RandomOffset {
+        /// Standard deviation on `[p, v, a]`, >= 0.
+        std: [f64; 3],
+    },
+    /// A slow drift: the offset `rate (t - start_s)` grows linearly from the attack's start
+    /// (sized to stay inside sensor noise, it hides from plausibility checks for a while).
+    Drift {
+        /// Growth of the offset on `[p, v, a]` per second.
+        rate: [f64; 3],
+    },
+    /// Feigned braking: the claimed acceleration is replaced by `accel` (e.g. -6 m/s^2);
+    /// position and speed stay true.
+    FeignedBraking {
+        /// The claimed acceleration (m/s^2).
+        accel: f64,
+    },
+    /// The claimed acceleration multiplied by `factor`; position and speed stay true.
+    AccelScale {
+        /// The factor.
+        factor: f64,
+    },
 }
 
 impl LinkAttackKind {
@@ -71,8 +95,55 @@ impl LinkAttackKind {
             Self::RangeJamming { .. } => "range_jamming",
             Self::Replay { .. } => "replay",
             Self::FalseData { .. } => "false_data",
+            Self::RandomOffset { .. } => "random_offset",
+            Self::Drift { .. } => "drift",
+            Self::FeignedBraking { .. } => "feigned_braking",
+            Self::AccelScale { .. } => "accel_scale",
         }
     }
+
+    /// Whether the model alters a packet's state (the kinds an insider can be given).
+    pub fn alters_state(&self) -> bool {
+        matches!(
+            self,
+            Self::FalseData { .. }
+                | Self::RandomOffset { .. }
+                | Self::Drift { .. }
+                | Self::FeignedBraking { .. }
+                | Self::AccelScale { .. }
+        )
+    }
+
+    /// Alters `state` as the model says at `since_s` after the attack's start (drawing from
+    /// `rng` for the random offset); false for the kinds that do not alter states.
+    fn alter(&self, since_s: f64, state: &mut State, rng: &mut ChaCha8Rng) -> bool {
+        match *self {
+            Self::FalseData { offset } => *state += State::from(offset),
+            Self::RandomOffset { std } => {
+                let z = [normal(rng), normal(rng), normal(rng)];
+                *state += State::new(std[0] * z[0], std[1] * z[1], std[2] * z[2]);
+            }
+            Self::Drift { rate } => {
+                *state += State::new(rate[0] * since_s, rate[1] * since_s, rate[2] * since_s);
+            }
+            Self::FeignedBraking { accel } => state[2] = accel,
+            Self::AccelScale { factor } => state[2] *= factor,
+            Self::Bernoulli { .. }
+            | Self::GilbertElliott { .. }
+            | Self::Delay { .. }
+            | Self::RangeJamming { .. }
+            | Self::Replay { .. } => return false,
+        }
+        true
+    }
+}
+
+/// A standard normal draw (Box-Muller, two uniform draws): no distribution crate, and the same
+/// numbers on every platform the channel runs on.
+fn normal(rng: &mut ChaCha8Rng) -> f64 {
+    let u1 = 1.0 - rng.gen::<f64>(); // (0, 1]: ln is finite
+    let u2 = rng.gen::<f64>();
+    (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
 }
 
 /// A link attack, active on `[start_s, end_s)` for the links it targets.
@@ -88,6 +159,12 @@ pub struct LinkAttack {
     pub senders: Vec<VehicleId>,
     /// Targeted receivers (empty: all).
     pub receivers: Vec<VehicleId>,
+    /// An insider (a platoon member lying about itself) rather than an outsider on the links:
+    /// for the kinds that alter states, the alteration is made once per packet when it goes on
+    /// the air, so every receiver gets the same lie (one draw per packet for the random offset),
+    /// and every receiver is targeted. Outsiders alter each link's copy on its own. Other kinds
+    /// ignore it.
+    pub insider: bool,
 }
 
 impl LinkAttack {
@@ -99,7 +176,13 @@ impl LinkAttack {
             end_s: f64::INFINITY,
             senders: Vec::new(),
             receivers: Vec::new(),
+            insider: false,
         }
+    }
+
+    /// Whether it alters packets at their sender, once per packet.
+    fn lies_at_source(&self) -> bool {
+        self.insider && self.kind.alters_state()
     }
 
     fn active(&self, t: f64) -> bool {
@@ -394,7 +477,11 @@ impl Channel {
             }
             None => on_air.extend_from_slice(tx),
         }
-        for sent in &on_air {
+        for sent in &mut on_air {
+            // Insiders lie once per packet, before it reaches any link (a broadcast nobody
+            // listens to is not sent: see above).
+            let lied = !topology.out_neighbours(sent.sender).is_empty() && self.lie(t, sent);
+            let sent = &*sent;
             for &receiver in topology.out_neighbours(sent.sender) {
                 if dos {
                     log.push(event(at, sent, receiver, Action::DroppedDos, None));
@@ -440,13 +527,13 @@ impl Channel {
                 {
                     // Held back by DCC: it arrives late (unless an attack drops it).
                     let before = out.len();
-                    self.link(k, t, *sent, receiver, out, log);
+                    self.link(k, t, *sent, lied, receiver, out, log);
                     if out.len() > before {
                         log.push(event(at, sent, receiver, Action::DeliveredLate, None));
                     }
                     continue;
                 }
-                self.link(k, t, *sent, receiver, out, log);
+                self.link(k, t, *sent, lied, receiver, out, log);
             }
             if self.max_lag > 0 {
                 let h = &mut self.history[sent.sender.index()];
@@ -460,20 +547,43 @@ impl Channel {
         self.on_air = on_air;
     }
 
-    /// One packet on one link through the attack models.
+    /// The insiders' lies in `packet` as it goes on the air at time `t` (in the attacks'
+    /// order); whether there was any.
+    fn lie(&mut self, t: f64, packet: &mut Packet) -> bool {
+        let mut lied = false;
+        for a in &self.spec.attacks {
+            if a.lies_at_source()
+                && a.active(t)
+                && (a.senders.is_empty() || a.senders.contains(&packet.sender))
+            {
+                lied |= a
+                    .kind
+                    .alter(t - a.start_s, &mut packet.state, &mut self.rng);
+            }
+        }
+        lied
+    }
+
+    /// One packet on one link through the attack models; `lied`: an insider altered it (logged
+    /// as altered on every link it goes through).
+    #[allow(clippy::too_many_arguments)]
     fn link(
         &mut self,
         k: u64,
         t: f64,
         mut packet: Packet,
+        lied: bool,
         receiver: VehicleId,
         out: &mut Vec<Delivery>,
         log: &mut Vec<ChannelEvent>,
     ) {
         let at = (k, self.spec.platoon);
         let link = packet.sender.index() * self.vehicles + receiver.index();
+        if lied {
+            log.push(event(at, &packet, receiver, Action::Altered, None));
+        }
         for a in &self.spec.attacks {
-            if !a.active(t) || !a.targets(packet.sender, receiver) {
+            if a.lies_at_source() || !a.active(t) || !a.targets(packet.sender, receiver) {
                 continue;
             }
             match a.kind {
@@ -527,8 +637,13 @@ impl Channel {
                         ));
                     }
                 }
-                LinkAttackKind::FalseData { offset } => {
-                    packet.state += State::from(offset);
+                LinkAttackKind::FalseData { .. }
+                | LinkAttackKind::RandomOffset { .. }
+                | LinkAttackKind::Drift { .. }
+                | LinkAttackKind::FeignedBraking { .. }
+                | LinkAttackKind::AccelScale { .. } => {
+                    a.kind
+                        .alter(t - a.start_s, &mut packet.state, &mut self.rng);
                     log.push(event(at, &packet, receiver, Action::Altered, None));
                 }
             }
@@ -935,6 +1050,116 @@ mod tests {
         let o = gate(&mut c, 0, &[packet(0, 1, 0), packet(1, 1, 0)], &states(3));
         assert_eq!(o.deliveries[0].packet.state[0], 0.0);
         assert_eq!(o.deliveries[1].packet.state[0], 3.0);
+    }
+
+    /// Follower 1's packet to followers 2 and 3 (a two-predecessor graph) under `attacks`, at
+    /// steps `0..steps`: what each receiver got, per step.
+    fn two_receivers(attacks: Vec<LinkAttack>, steps: u64) -> (Vec<[State; 2]>, Vec<ChannelEvent>) {
+        let topology = Topology::preset(platoon_topology::Preset::Tpsf, 3).unwrap();
+        let mut c = channel(attacks);
+        let (mut got, mut log) = (Vec::new(), Vec::new());
+        for k in 0..steps {
+            let mut out = Vec::new();
+            c.gate(
+                k,
+                k as f64 * 0.01,
+                &topology,
+                &states(3),
+                &[packet(1, k as u32 + 1, k)],
+                &mut out,
+                &mut [false; 4],
+                &mut log,
+            );
+            assert_eq!(out.len(), 2);
+            got.push([out[0].packet.state, out[1].packet.state]);
+        }
+        (got, log)
+    }
+
+    #[test]
+    fn a_random_offset_is_seeded_zero_mean_per_link_and_one_lie_per_packet_for_an_insider() {
+        let noisy = |insider| {
+            vec![LinkAttack {
+                insider,
+                ..LinkAttack::everywhere(LinkAttackKind::RandomOffset {
+                    std: [0.5, 0.1, 0.0],
+                })
+            }]
+        };
+        let (outsider, log) = two_receivers(noisy(false), 4000);
+        assert_eq!(outsider, two_receivers(noisy(false), 4000).0, "seeded");
+        assert_eq!(log.len(), 8000);
+        assert!(log.iter().all(|e| e.action == Action::Altered));
+        let sent = packet(1, 1, 0).state;
+        let errors: Vec<State> = outsider.iter().flatten().map(|x| x - sent).collect();
+        let n = errors.len() as f64;
+        for (i, sd) in [0.5, 0.1].into_iter().enumerate() {
+            let mean = errors.iter().map(|e| e[i]).sum::<f64>() / n;
+            let var = errors.iter().map(|e| (e[i] - mean).powi(2)).sum::<f64>() / n;
+            assert!(mean.abs() < 4.0 * sd / n.sqrt(), "mean {mean}");
+            assert!((var.sqrt() / sd - 1.0).abs() < 0.05, "sd {}", var.sqrt());
+        }
+        assert!(errors.iter().all(|e| e[2] == 0.0));
+        // An outsider's receivers get different noise; an insider's the same lie.
+        assert!(outsider.iter().all(|[a, b]| a != b));
+        let (insider, log) = two_receivers(noisy(true), 100);
+        assert!(insider.iter().all(|[a, b]| a == b && *a != sent));
+        assert_eq!(log.len(), 200);
+        assert!(log.iter().all(|e| e.action == Action::Altered));
+    }
+
+    #[test]
+    fn a_drift_grows_from_the_attacks_start() {
+        let mut a = LinkAttack::everywhere(LinkAttackKind::Drift {
+            rate: [0.1, 0.0, 0.0],
+        });
+        a.start_s = 0.5;
+        let (got, log) = two_receivers(vec![a], 151);
+        let sent = packet(1, 1, 0).state;
+        assert_eq!(got[49][0], sent, "inactive before its start");
+        assert_eq!(got[50][0], sent, "no offset yet at its start");
+        assert!((got[150][0][0] - sent[0] - 0.1).abs() < 1e-12);
+        assert_eq!(got[150][0].as_slice()[1..], sent.as_slice()[1..]);
+        assert_eq!(log.len(), 2 * 101);
+    }
+
+    #[test]
+    fn feigned_braking_and_a_scaled_acceleration_change_only_the_acceleration() {
+        let mut sent = packet(1, 1, 0).state;
+        sent[2] = 0.5;
+        for (kind, a) in [
+            (LinkAttackKind::FeignedBraking { accel: -6.0 }, -6.0),
+            (LinkAttackKind::AccelScale { factor: 3.0 }, 1.5),
+        ] {
+            let mut c = channel(vec![LinkAttack::everywhere(kind)]);
+            let mut tx = packet(1, 1, 0);
+            tx.state = sent;
+            let o = gate(&mut c, 0, &[tx], &states(3));
+            let got = o.deliveries[0].packet.state;
+            assert_eq!((got[0], got[1], got[2]), (sent[0], sent[1], a));
+            assert_eq!(o.log[0].action, Action::Altered);
+        }
+    }
+
+    #[test]
+    fn the_new_kinds_draw_nothing_from_the_stream_of_the_old_ones() {
+        let loss = || LinkAttack::everywhere(LinkAttackKind::Bernoulli { loss: 0.5 });
+        let mut later = LinkAttack::everywhere(LinkAttackKind::RandomOffset { std: [1.0; 3] });
+        later.start_s = 100.0;
+        let drift = LinkAttack::everywhere(LinkAttackKind::Drift { rate: [1.0; 3] });
+        let received = |attacks: Vec<LinkAttack>| {
+            let mut c = channel(attacks);
+            (0..500)
+                .map(|k| {
+                    gate(&mut c, k, &[packet(1, 1, k)], &states(3))
+                        .deliveries
+                        .len()
+                })
+                .collect::<Vec<_>>()
+        };
+        let alone = received(vec![loss()]);
+        assert_eq!(alone, received(vec![loss(), later]));
+        assert_eq!(alone, received(vec![drift, loss()]));
     }
 
     #[test]

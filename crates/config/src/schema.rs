@@ -608,6 +608,61 @@ pub enum LinkKindConfig {
     FalseData {
         /// Offset added to `[p, v, a]`.
         offset: [f64; 3],
+        /// An insider (a platoon member lying about itself): the packet is altered once as it
+        /// is sent, so every receiver gets the same lie; not with `receivers`. Otherwise an
+        /// outsider alters each link's copy on its own.
+        #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+        #[schemars(extend("default" = false))]
+        insider: bool,
+    },
+    /// Random false data: zero-mean normal noise of standard deviation `std` added to the state,
+    /// drawn from the channel's seeded stream per packet and link (per packet for an insider,
+    /// whose receivers all get the same draw).
+    RandomOffset {
+        /// Standard deviation on `[p, v, a]` (m, m/s, m/s^2), each >= 0.
+        std: [f64; 3],
+        /// An insider (a platoon member lying about itself): the packet is altered once as it
+        /// is sent, so every receiver gets the same lie; not with `receivers`. Otherwise an
+        /// outsider alters each link's copy on its own.
+        #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+        #[schemars(extend("default" = false))]
+        insider: bool,
+    },
+    /// A slow drift: the offset `rate (t - start_s)` on the state grows linearly from the
+    /// attack's start; sized to stay inside sensor noise, it passes plausibility checks for a
+    /// while.
+    Drift {
+        /// Growth of the offset on `[p, v, a]` per second (m/s, m/s^2, m/s^3).
+        rate: [f64; 3],
+        /// An insider (a platoon member lying about itself): the packet is altered once as it
+        /// is sent, so every receiver gets the same lie; not with `receivers`. Otherwise an
+        /// outsider alters each link's copy on its own.
+        #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+        #[schemars(extend("default" = false))]
+        insider: bool,
+    },
+    /// Feigned braking: the claimed acceleration is replaced by `accel_mps2`; position and
+    /// speed stay true.
+    FeignedBraking {
+        /// The claimed acceleration (m/s^2), e.g. -6.
+        accel_mps2: f64,
+        /// An insider (a platoon member lying about itself): the packet is altered once as it
+        /// is sent, so every receiver gets the same lie; not with `receivers`. Otherwise an
+        /// outsider alters each link's copy on its own.
+        #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+        #[schemars(extend("default" = false))]
+        insider: bool,
+    },
+    /// The claimed acceleration multiplied by `factor`; position and speed stay true.
+    AccelScale {
+        /// The factor.
+        factor: f64,
+        /// An insider (a platoon member lying about itself): the packet is altered once as it
+        /// is sent, so every receiver gets the same lie; not with `receivers`. Otherwise an
+        /// outsider alters each link's copy on its own.
+        #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+        #[schemars(extend("default" = false))]
+        insider: bool,
     },
 }
 
@@ -625,6 +680,26 @@ impl LinkKindConfig {
             Self::RangeJamming { .. } => "range_jamming",
             Self::Replay { .. } => "replay",
             Self::FalseData { .. } => "false_data",
+            Self::RandomOffset { .. } => "random_offset",
+            Self::Drift { .. } => "drift",
+            Self::FeignedBraking { .. } => "feigned_braking",
+            Self::AccelScale { .. } => "accel_scale",
+        }
+    }
+
+    /// Whether the attacker is an insider (false for the kinds that do not alter states).
+    pub fn insider(&self) -> bool {
+        match *self {
+            Self::FalseData { insider, .. }
+            | Self::RandomOffset { insider, .. }
+            | Self::Drift { insider, .. }
+            | Self::FeignedBraking { insider, .. }
+            | Self::AccelScale { insider, .. } => insider,
+            Self::Bernoulli { .. }
+            | Self::GilbertElliott { .. }
+            | Self::Delay { .. }
+            | Self::RangeJamming { .. }
+            | Self::Replay { .. } => false,
         }
     }
 }

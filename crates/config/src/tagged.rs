@@ -484,7 +484,11 @@ mod tests {
                 "delay",
                 "range_jamming",
                 "replay",
-                "false_data"
+                "false_data",
+                "random_offset",
+                "drift",
+                "feigned_braking",
+                "accel_scale"
             ]
         );
         assert!(link.matches("channel.attacks[12]"));

@@ -825,6 +825,14 @@ fn dcc(d: &DccConfig) -> Result<Dcc, Invalid> {
     })
 }
 
+/// Three finite numbers, `[p, v, a]`.
+fn finite3(key: &str, x: [f64; 3]) -> Result<[f64; 3], Invalid> {
+    if x.iter().any(|v| !v.is_finite()) {
+        return bad(key, "must be finite");
+    }
+    Ok(x)
+}
+
 /// `[channel]`: the link-level attacks.
 fn channel(c: &Channel, dt: f64, followers: usize) -> Result<(Vec<LinkAttack>, u64), Invalid> {
     let mut out = Vec::with_capacity(c.attacks.len());
@@ -877,13 +885,34 @@ fn channel(c: &Channel, dt: f64, followers: usize) -> Result<(Vec<LinkAttack>, u
             LinkKindConfig::Replay { lag_s } => LinkAttackKind::Replay {
                 lag_steps: u64::from(steps_of(&key("lag_s"), finite(&key("lag_s"), lag_s)?, dt)?),
             },
-            LinkKindConfig::FalseData { offset } => {
-                if offset.iter().any(|x| !x.is_finite()) {
-                    return bad(&key("offset"), "must be finite");
+            LinkKindConfig::FalseData { offset, .. } => LinkAttackKind::FalseData {
+                offset: finite3(&key("offset"), offset)?,
+            },
+            LinkKindConfig::RandomOffset { std, .. } => {
+                if std.iter().any(|&x| x < 0.0) {
+                    return bad(&key("std"), format!("must be >= 0 (got {std:?})"));
                 }
-                LinkAttackKind::FalseData { offset }
+                LinkAttackKind::RandomOffset {
+                    std: finite3(&key("std"), std)?,
+                }
             }
+            LinkKindConfig::Drift { rate, .. } => LinkAttackKind::Drift {
+                rate: finite3(&key("rate"), rate)?,
+            },
+            LinkKindConfig::FeignedBraking { accel_mps2, .. } => LinkAttackKind::FeignedBraking {
+                accel: finite(&key("accel_mps2"), accel_mps2)?,
+            },
+            LinkKindConfig::AccelScale { factor, .. } => LinkAttackKind::AccelScale {
+                factor: finite(&key("factor"), factor)?,
+            },
         };
+        let insider = a.kind.insider();
+        if insider && a.receivers.is_some() {
+            return bad(
+                &key("insider"),
+                "an insider's broadcast reaches every receiver alike: drop `receivers`",
+            );
+        }
         let start_s = finite(&key("start_s"), a.start_s)?;
         let end_s = a.end_s;
         if end_s.is_nan() || end_s <= start_s {
@@ -895,6 +924,7 @@ fn channel(c: &Channel, dt: f64, followers: usize) -> Result<(Vec<LinkAttack>, u
             end_s,
             senders: ids("senders", &a.senders)?,
             receivers: ids("receivers", &a.receivers)?,
+            insider,
         });
     }
     Ok((out, c.seed))

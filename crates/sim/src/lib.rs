@@ -9,6 +9,7 @@
 
 mod metrics;
 mod scenario;
+pub mod truth;
 pub mod wire;
 
 pub use metrics::{

@@ -301,6 +301,7 @@ fn apply_attack(c: &mut platoon_config::Config, name: &str) {
             ..link(
                 LinkKindConfig::FalseData {
                     offset: [0.2, 1.0, 0.0],
+                    insider: false,
                 },
                 Some(vec![1]),
             )

@@ -1,0 +1,105 @@
+//! Issue 23's link attacks in config files: the state-altering kinds, outsider or insider, their
+//! keys checked by name, and the resolved config saying `insider` only when it is one.
+use platoon_attacks::channel::LinkAttackKind;
+use platoon_config::{parse, to_toml, PAPER_TOML};
+use std::path::Path;
+
+const KINDS: &str = r#"
+[[channel.attacks]]
+kind = "random_offset"
+std = [0.5, 0.1, 0.0]
+
+[[channel.attacks]]
+kind = "drift"
+senders = [2]
+start_s = 10.0
+rate = [0.05, 0.0, 0.0]
+insider = true
+
+[[channel.attacks]]
+kind = "feigned_braking"
+accel_mps2 = -6.0
+
+[[channel.attacks]]
+kind = "accel_scale"
+factor = 2.5
+insider = false
+"#;
+
+fn paper_plus(extra: &str) -> Result<(platoon_config::Config, platoon_sim::Scenario), String> {
+    parse(&format!("{PAPER_TOML}\n{extra}"), Path::new("bad.toml"))
+        .map_err(|e| format!("{}: {}", e.key, e.message))
+}
+
+#[test]
+fn the_state_altering_kinds_load_as_outsiders_or_insiders() {
+    let (config, scenario) = paper_plus(KINDS).unwrap();
+    let got: Vec<(LinkAttackKind, bool)> = scenario
+        .link_attacks
+        .iter()
+        .map(|a| (a.kind.clone(), a.insider))
+        .collect();
+    assert_eq!(
+        got,
+        [
+            (
+                LinkAttackKind::RandomOffset {
+                    std: [0.5, 0.1, 0.0]
+                },
+                false
+            ),
+            (
+                LinkAttackKind::Drift {
+                    rate: [0.05, 0.0, 0.0]
+                },
+                true
+            ),
+            (LinkAttackKind::FeignedBraking { accel: -6.0 }, false),
+            (LinkAttackKind::AccelScale { factor: 2.5 }, false),
+        ]
+    );
+    assert!(got.iter().all(|(k, _)| k.alters_state()));
+    // The resolved config says `insider` only for the insider, and reads back the same.
+    let text = to_toml(&config);
+    assert_eq!(text.matches("insider").count(), 1, "{text}");
+    let (again, _) = parse(&text, Path::new("resolved.toml")).unwrap();
+    assert_eq!(again, config);
+}
+
+#[test]
+fn bad_keys_of_the_new_kinds_are_named() {
+    let cases = [
+        (
+            "kind = \"random_offset\"\nstd = [0.5, -0.1, 0.0]",
+            "channel.attacks[0].std: must be >= 0",
+        ),
+        (
+            "kind = \"drift\"\nrate = [0.0, nan, 0.0]",
+            "channel.attacks[0].rate: must be finite",
+        ),
+        (
+            "kind = \"feigned_braking\"\naccel_mps2 = inf",
+            "channel.attacks[0].accel_mps2: must be a finite number",
+        ),
+        (
+            "kind = \"accel_scale\"\nfactor = nan",
+            "channel.attacks[0].factor: must be a finite number",
+        ),
+        (
+            "kind = \"false_data\"\noffset = [1.0, 0.0, 0.0]\ninsider = true\nreceivers = [2]",
+            "channel.attacks[0].insider: an insider's broadcast reaches every receiver alike",
+        ),
+        (
+            "kind = \"bernoulli\"\nloss = 0.1\ninsider = true",
+            "channel.attacks[0].insider: ",
+        ),
+        (
+            "kind = \"feigned_braking\"",
+            "channel.attacks[0].accel_mps2: ",
+        ),
+    ];
+    for (attack, want) in cases {
+        let e = paper_plus(&format!("[[channel.attacks]]\n{attack}\n")).unwrap_err();
+        assert!(e.starts_with(want), "{attack}: {e}");
+    }
+}
