@@ -330,6 +330,7 @@ fn a_callers_controller_runs_in_process_cells() {
             spacing: s.control.spacing,
             headway: s.control.headway,
             fallback: s.control.fallback.clone(),
+            detection: Default::default(),
         };
         Ok(Box::new(ComposedController::new(
             Box::new(Radar),

@@ -65,6 +65,37 @@ pub struct Config {
     /// Which per-step files a run writes, and how.
     #[serde(default)]
     pub output: OutputConfig,
+    /// Misbehaviour detection in the followers' receive path (docs/detection.md): absent, off.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub detection: Option<DetectionConfig>,
+}
+
+/// `[detection]`: the detectors every follower runs on the packets it accepts (each present
+/// table turns its detector on, an empty one with its defaults) and what a flag makes it do.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct DetectionConfig {
+    /// `[detection.plausibility]`: F2MD's legacy plausibility and consistency checks.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub plausibility: Option<platoon_detect::PlausibilityParams>,
+    /// `[detection.radar_cross]`: the predecessor's claim against the follower's radar.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub radar_cross: Option<platoon_detect::RadarCrossParams>,
+    /// `[detection.residual]`: a chi-square test of the claim against a prediction.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub residual: Option<platoon_detect::ResidualParams>,
+    /// What a follower does about a flagged sender: `log` (the default: nothing), `drop` (refuse
+    /// its packets until `quiet_s` pass without a flag) or `fallback` (refuse them and run the
+    /// fallback meanwhile).
+    #[serde(default)]
+    pub reaction: platoon_control::Reaction,
+    /// The quiet period after the last flag (s; default 1).
+    #[serde(default = "detection_quiet")]
+    pub quiet_s: f64,
+}
+
+fn detection_quiet() -> f64 {
+    1.0
 }
 
 /// `[output]`: the per-step files (trajectories, events, channel log, wire log).

@@ -496,6 +496,7 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
         spacing,
         headway,
         leader_broadcast_steps,
+        detection: detection(c.detection.as_ref(), dt)?,
     };
     control
         .validate()
@@ -779,6 +780,45 @@ fn radio(c: &mut Channel, dt: f64) -> Result<Option<RadioSpec>, Invalid> {
             }))
         }
     }
+}
+
+/// `[detection]`: the detectors in their tables' order and the reaction.
+fn detection(
+    d: Option<&DetectionConfig>,
+    dt: f64,
+) -> Result<platoon_control::DetectionParams, Invalid> {
+    let Some(d) = d else {
+        return Ok(Default::default());
+    };
+    let tables = platoon_detect::Detection {
+        plausibility: d.plausibility,
+        radar_cross: d.radar_cross,
+        residual: d.residual,
+    };
+    tables
+        .validate()
+        .or_else(|e| bad(&format!("detection.{}.{}", e.detector, e.field), e.to_string()))?;
+    let specs = tables.specs();
+    if specs.is_empty() {
+        return bad(
+            "detection",
+            "turns no detector on: add [detection.plausibility], [detection.radar_cross] or \
+             [detection.residual] (an empty table takes the defaults), or remove [detection]",
+        );
+    }
+    let quiet = finite("detection.quiet_s", d.quiet_s)?;
+    if quiet < 0.0 {
+        return bad("detection.quiet_s", format!("must be >= 0 s (got {quiet})"));
+    }
+    let quiet_steps = (quiet / dt).round();
+    if quiet_steps > f64::from(u32::MAX) {
+        return bad("detection.quiet_s", "is longer than any run");
+    }
+    Ok(platoon_control::DetectionParams {
+        specs,
+        reaction: d.reaction,
+        quiet_steps: quiet_steps as u32,
+    })
 }
 
 /// `[channel.dcc]`: the reactive states' thresholds and `T_off`s.

@@ -86,6 +86,8 @@ pub struct PacketChecks {
     heard: Vec<Vec<Heard>>,
     rejected: RejectCounts,
     dt: f64,
+    /// Misbehaviour detection after the checks (`[detection]`), if on.
+    screening: Option<crate::screening::Screening>,
 }
 
 impl PacketChecks {
@@ -113,13 +115,91 @@ impl PacketChecks {
             heard,
             rejected: RejectCounts::default(),
             dt,
+            screening: None,
         }
+    }
+
+    /// These checks followed by the detectors of `detection` (nothing changes when none is
+    /// on): see [`crate::screening`].
+    pub fn with_detection(
+        mut self,
+        detection: &crate::DetectionParams,
+    ) -> Result<Self, crate::screening::ParamError> {
+        if detection.is_on() {
+            self.screening = Some(crate::screening::Screening::new(
+                detection,
+                &self.neighbours,
+                self.dt,
+            )?);
+        }
+        Ok(self)
+    }
+
+    /// Starts step `k`'s deliveries: clears the last step's [`PacketChecks::inspections`].
+    pub fn begin_step(&mut self) {
+        if let Some(s) = &mut self.screening {
+            s.begin_step();
+        }
+    }
+
+    /// [`PacketChecks::admit`], then, for a packet that passed, the detectors with what the
+    /// receiver senses, and the reaction: a refused packet changes nothing.
+    pub fn admit_sensed(
+        &mut self,
+        k: u64,
+        d: &Delivery,
+        sensed: crate::screening::Sensed,
+    ) -> Option<(usize, usize)> {
+        let (fi, s) = self.verify(k, d)?;
+        if let Some(screening) = &mut self.screening {
+            let heard = self.heard[fi][s];
+            // The initial state counts as heard at step 0, as for the checks above.
+            let last = Some(platoon_detect::Last {
+                step: heard.step.unwrap_or(0),
+                state: heard.state,
+            });
+            if screening.screen(k, (fi, s), d.receiver, &d.packet, last, sensed) {
+                return None;
+            }
+        }
+        self.heard[fi][s] = Heard::from(&d.packet);
+        Some((fi, s))
+    }
+
+    /// Whether follower `i` (1-based) distrusts a neighbour at step `k` so much that it runs
+    /// its fallback (`reaction = "fallback"`).
+    pub fn distrusts(&self, i: VehicleId, k: u64) -> bool {
+        self.screening
+            .as_ref()
+            .is_some_and(|s| s.affects(i.index() - 1, k))
+    }
+
+    /// What the detectors said of each packet of the current step (empty without detection).
+    pub fn inspections(&self) -> &[crate::screening::Inspection] {
+        self.screening.as_ref().map_or(&[], |s| s.log())
+    }
+
+    /// The detectors' names, in the order of every inspection's verdicts.
+    pub fn detector_names(&self) -> &[&'static str] {
+        self.screening.as_ref().map_or(&[], |s| s.names())
+    }
+
+    /// Packets inspected, flagged and refused by the reaction so far.
+    pub fn screened(&self) -> crate::screening::ScreenCounts {
+        self.screening.as_ref().map(|s| s.counts()).unwrap_or_default()
     }
 
     /// Checks one delivery at step `k`. Accepted: recorded as the last heard from its sender,
     /// and `(i - 1, s)` returned, i the receiving follower and s the sender's place in
     /// [`PacketChecks::neighbours`]`(i)`. Refused: counted, `None`.
     pub fn admit(&mut self, k: u64, d: &Delivery) -> Option<(usize, usize)> {
+        let (fi, s) = self.verify(k, d)?;
+        self.heard[fi][s] = Heard::from(&d.packet);
+        Some((fi, s))
+    }
+
+    /// The checks of [`PacketChecks::admit`] without recording the packet.
+    fn verify(&mut self, k: u64, d: &Delivery) -> Option<(usize, usize)> {
         let pk = &d.packet;
         if pk.state.iter().any(|x| !x.is_finite()) || !pk.u.is_finite() {
             self.rejected.non_finite += 1;
@@ -160,12 +240,6 @@ impl PacketChecks {
             self.rejected.implausible_state += 1;
             return None;
         }
-        self.heard[fi][s] = Heard {
-            step: Some(pk.step),
-            seq: pk.seq,
-            state: pk.state,
-            u: pk.u,
-        };
         Some((fi, s))
     }
 

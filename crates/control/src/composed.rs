@@ -125,6 +125,8 @@ pub struct Composition {
     /// What a follower does while affected, and how it comes back (`closing_mps` unused: the
     /// way back blends commands, not spacing offsets).
     pub fallback: FallbackParams,
+    /// Misbehaviour detection in the receive path (off by default).
+    pub detection: crate::DetectionParams,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -167,6 +169,9 @@ pub struct ComposedController {
     leader_last_u: f64,
     commands: Vec<f64>,
     truths: Truths,
+    /// Each follower's radar reading of this step, read once for the detectors and the
+    /// fallback.
+    readings: Vec<Option<crate::fallback::Reading>>,
 }
 
 impl ComposedController {
@@ -219,11 +224,14 @@ impl ComposedController {
         Ok(Self {
             laws: (0..n).map(|_| law.clone()).collect(),
             followers,
-            checks: PacketChecks::new(topology, initial, parts.dt),
+            checks: PacketChecks::new(topology, initial, parts.dt)
+                .with_detection(&parts.detection)
+                .map_err(|e| err("detection", e.to_string()))?,
             leader_seq: 0,
             leader_last_u: 0.0,
             commands: vec![0.0; n],
             truths: Truths::default(),
+            readings: Vec::with_capacity(n),
             parts,
         })
     }
@@ -272,19 +280,46 @@ impl Controller for ComposedController {
         deliveries: &[Delivery],
         jammed: &[bool],
     ) -> &[f64] {
-        for d in deliveries {
-            self.checks.admit(k, d);
-        }
         let fb = &self.parts.fallback;
         let truths = self.truths.take(states, fb.vehicle_length, true);
         let radar_on = fb.uses_radar();
+        // The radars first: the detectors read them too (once a step either way, on each
+        // follower's own stream, so the fallback's readings do not move).
+        let radar_any = radar_on || self.parts.detection.reads_radar();
+        self.readings.clear();
+        for f in &mut self.followers {
+            self.readings.push(if radar_any {
+                f.radar.read(k, &fb.radar, truths[f.id.index()])
+            } else {
+                None
+            });
+        }
+        self.checks.begin_step();
+        for d in deliveries {
+            let r = d.receiver.index();
+            let sensed = crate::screening::Sensed {
+                own: states.get(r).copied().unwrap_or_else(State::zeros),
+                radar: r.checked_sub(1).and_then(|fi| {
+                    let reading = self.readings.get(fi).copied()??;
+                    Some(platoon_detect::RadarReading {
+                        gap_m: reading.gap,
+                        closing_mps: reading.closing,
+                        vehicle_length_m: fb.vehicle_length,
+                        age_s: k.saturating_sub(self.followers[fi].radar.taken()) as f64
+                            * self.parts.dt,
+                    })
+                }),
+            };
+            self.checks.admit_sensed(k, d, sensed);
+        }
         let blend_steps = u64::from(fb.blend_steps);
         let n1 = self.followers.len() + 1;
-        for ((f, law), u_out) in self
+        for (((f, law), u_out), reading) in self
             .followers
             .iter_mut()
             .zip(&mut self.laws)
             .zip(self.commands.iter_mut())
+            .zip(&self.readings)
         {
             let own = states[f.id.index()];
             let truth = truths[f.id.index()];
@@ -300,11 +335,7 @@ impl Controller for ComposedController {
                 heard: self.checks.heard(f.id),
             };
             let lawful = law.command(&view);
-            let reading = if radar_on {
-                f.radar.read(k, &fb.radar, truth)
-            } else {
-                None
-            };
+            let reading = if radar_on { *reading } else { None };
             let fallback_u = |since: u64, held: f64| match f.fallback {
                 FallbackMode::Zero => 0.0,
                 FallbackMode::Hold => held,
@@ -322,7 +353,8 @@ impl Controller for ComposedController {
                     )
                 }
             };
-            let affected = jammed[f.id.index()] && law.uses_v2v();
+            let affected = (jammed[f.id.index()] || self.checks.distrusts(f.id, k))
+                && law.uses_v2v();
             f.phase = match (f.phase, affected) {
                 (Phase::Fallback { since, .. }, true) => Phase::Fallback { since, calm: 0 },
                 (_, true) => {
@@ -375,6 +407,18 @@ impl Controller for ComposedController {
     fn rejected(&self) -> RejectCounts {
         self.checks.rejected()
     }
+
+    fn inspections(&self) -> &[crate::Inspection] {
+        self.checks.inspections()
+    }
+
+    fn detector_names(&self) -> &[&'static str] {
+        self.checks.detector_names()
+    }
+
+    fn screened(&self) -> crate::screening::ScreenCounts {
+        self.checks.screened()
+    }
 }
 
 #[cfg(test)]
@@ -407,6 +451,7 @@ mod tests {
             spacing: 10.0,
             headway: 0.0,
             fallback,
+            detection: Default::default(),
         };
         ComposedController::new(Box::new(Echo), parts, &topology, &initial).unwrap()
     }

@@ -85,6 +85,9 @@ pub struct PlatoonController {
     commands: Vec<f64>,
     /// What the radars see this step ([`PlatoonController::set_radar_truth`] or the states).
     truths: Truths,
+    /// Each follower's radar reading of this step, read once for the detectors and the
+    /// fallback.
+    readings: Vec<Option<crate::fallback::Reading>>,
 }
 
 impl PlatoonController {
@@ -158,9 +161,15 @@ impl PlatoonController {
             followers,
             leader_seq: 0,
             leader_last_u: 0.0,
-            checks: PacketChecks::new(topology, initial, params.dt),
+            checks: PacketChecks::new(topology, initial, params.dt)
+                .with_detection(&params.detection)
+                .map_err(|e| ParamsError {
+                    field: "detection",
+                    message: e.to_string(),
+                })?,
             commands: vec![0.0; n],
             truths: Truths::default(),
+            readings: Vec::with_capacity(n),
             params,
         })
     }
@@ -277,14 +286,34 @@ impl PlatoonController {
         deliveries: &[Delivery],
         jammed: &[bool],
     ) -> &[f64] {
+        let radar_on = self.params.fallback.uses_radar();
+        {
+            // The radars first: the detectors read them too (read once a step either way, on
+            // each follower's own stream, so the fallback's readings do not move).
+            let fb = &self.params.fallback;
+            let radar_any = radar_on || self.params.detection.reads_radar();
+            let truths = self.truths.take(states, fb.vehicle_length, radar_any);
+            self.readings.clear();
+            for f in &mut self.followers {
+                self.readings.push(if radar_any {
+                    f.radar.read(k, &fb.radar, truths[f.id.index()])
+                } else {
+                    None
+                });
+            }
+        }
+        self.checks.begin_step();
         for d in deliveries {
-            self.accept(k, d);
+            self.accept(k, d, states);
         }
         let p = &self.params;
         let fb = &p.fallback;
-        let radar_on = fb.uses_radar();
-        let truths = self.truths.take(states, fb.vehicle_length, radar_on);
-        for (f, u_out) in self.followers.iter_mut().zip(self.commands.iter_mut()) {
+        for ((f, u_out), reading) in self
+            .followers
+            .iter_mut()
+            .zip(self.commands.iter_mut())
+            .zip(&self.readings)
+        {
             let jam = jammed[f.id.index()];
             if f.step.triggered && p.resilient {
                 f.sampling = if jam {
@@ -295,14 +324,12 @@ impl PlatoonController {
                     Sampling::Event
                 };
             }
-            let affected = jam || matches!(f.sampling, Sampling::Attacked { .. });
+            let affected = jam
+                || matches!(f.sampling, Sampling::Attacked { .. })
+                || self.checks.distrusts(f.id, k);
             let q = neighbourhood_error(f, p.spacing, p.headway);
             let coop = -(p.gain * q)[0];
-            let reading = if radar_on {
-                f.radar.read(k, &fb.radar, truths[f.id.index()])
-            } else {
-                None
-            };
+            let reading = if radar_on { *reading } else { None };
             // Into the fallback when affected; out of it after `dwell` calm steps, through
             // `blend` steps of blending (none: at once, the paper).
             let own = states[f.id.index()];
@@ -385,8 +412,21 @@ impl PlatoonController {
         &self.commands
     }
 
-    fn accept(&mut self, k: u64, d: &Delivery) {
-        let Some((fi, s)) = self.checks.admit(k, d) else {
+    fn accept(&mut self, k: u64, d: &Delivery, states: &[State]) {
+        let r = d.receiver.index();
+        let sensed = crate::screening::Sensed {
+            own: states.get(r).copied().unwrap_or_else(State::zeros),
+            radar: r
+                .checked_sub(1)
+                .and_then(|fi| Some((self.readings.get(fi).copied()??, self.followers[fi].radar.taken())))
+                .map(|(reading, taken)| platoon_detect::RadarReading {
+                    gap_m: reading.gap,
+                    closing_mps: reading.closing,
+                    vehicle_length_m: self.params.fallback.vehicle_length,
+                    age_s: k.saturating_sub(taken) as f64 * self.params.dt,
+                }),
+        };
+        let Some((fi, s)) = self.checks.admit_sensed(k, d, sensed) else {
             return;
         };
         // An old (delayed) sample is propagated open-loop to the current step.
@@ -428,6 +468,18 @@ impl crate::Controller for PlatoonController {
 
     fn rejected(&self) -> RejectCounts {
         self.checks.rejected()
+    }
+
+    fn inspections(&self) -> &[crate::Inspection] {
+        self.checks.inspections()
+    }
+
+    fn detector_names(&self) -> &[&'static str] {
+        self.checks.detector_names()
+    }
+
+    fn screened(&self) -> crate::screening::ScreenCounts {
+        self.checks.screened()
     }
 }
 
@@ -482,6 +534,7 @@ mod tests {
             spacing: 10.0,
             headway: 0.0,
             leader_broadcast_steps: 1,
+            detection: Default::default(),
         }
     }
 

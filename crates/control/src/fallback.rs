@@ -393,6 +393,8 @@ impl Reading {
 pub struct Radar {
     rng: ChaCha8Rng,
     last: Option<Reading>,
+    /// The step `last` was measured at.
+    taken: u64,
 }
 
 impl Radar {
@@ -400,7 +402,16 @@ impl Radar {
     pub fn new(seed: u64, vehicle: u16) -> Self {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         rng.set_stream(u64::from(vehicle));
-        Self { rng, last: None }
+        Self {
+            rng,
+            last: None,
+            taken: 0,
+        }
+    }
+
+    /// The step the reading in use was measured at (a radar holds it between measurements).
+    pub fn taken(&self) -> u64 {
+        self.taken
     }
 
     /// The reading in use at step k, given the truth (`None`: no vehicle ahead).
@@ -419,6 +430,7 @@ impl Radar {
             gap: t.gap + n_gap,
             closing: t.closing + n_rate,
         });
+        self.taken = k;
         self.last
     }
 }

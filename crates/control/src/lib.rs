@@ -28,6 +28,7 @@ pub mod composed;
 mod controller;
 pub mod fallback;
 pub mod laws;
+pub mod screening;
 pub mod seam;
 mod spacing;
 mod trigger;
@@ -38,6 +39,7 @@ pub use composed::{Beaconing, ComposedController, Composition, Law, Periodic, Vi
 pub use controller::{FollowerStep, PlatoonController};
 pub use fallback::{FallbackMode, FallbackParams, Mode};
 pub use seam::{build, check_topology, Controller};
+pub use screening::{DetectionParams, Inspection, Reaction};
 pub use spacing::SpacingPolicy;
 pub use trigger::{CamRule, ControllerParams, ParamsError, TriggerRule};
 

@@ -51,6 +51,22 @@ pub trait Controller: std::fmt::Debug + Send + dyn_clone::DynClone {
 
     /// Packets refused so far, by reason.
     fn rejected(&self) -> RejectCounts;
+
+    /// What the misbehaviour detectors said of each packet of the last
+    /// [`receive`](Self::receive) (`[detection]`; empty without detectors).
+    fn inspections(&self) -> &[crate::Inspection] {
+        &[]
+    }
+
+    /// The detectors' names, in the order of every inspection's verdicts.
+    fn detector_names(&self) -> &[&'static str] {
+        &[]
+    }
+
+    /// Packets the detectors saw, flagged and had refused so far.
+    fn screened(&self) -> crate::screening::ScreenCounts {
+        Default::default()
+    }
 }
 
 dyn_clone::clone_trait_object!(Controller);
@@ -93,6 +109,7 @@ pub fn build(
         spacing: params.spacing,
         headway: params.headway,
         fallback: params.fallback.clone(),
+        detection: params.detection.clone(),
     };
     Ok(Box::new(crate::ComposedController::new(
         law, parts, topology, initial,

@@ -78,6 +78,8 @@ pub struct ControllerParams {
     pub headway: f64,
     /// The leader broadcasts every this many steps (1: every step, docs/paper-readings.md#R5).
     pub leader_broadcast_steps: u32,
+    /// Misbehaviour detection in the receive path (`[detection]`; off by default).
+    pub detection: crate::DetectionParams,
 }
 
 /// Why controller parameters were rejected; the field names match the config keys.

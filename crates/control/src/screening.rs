@@ -1,0 +1,226 @@
+//! Misbehaviour detection in the receive path (`[detection]`): every packet that passes the
+//! packet checks ([`crate::checks`]) is shown to the platoon's detectors (`platoon-detect`:
+//! plausibility, radar cross-check, model residual, or the caller's own), with what the
+//! receiver knows (its own state, its radar on the vehicle ahead, the sender's last accepted
+//! packet). What a follower then does is the reaction the user chose:
+//!
+//! - [`Reaction::Log`]: nothing; the verdicts are recorded ([`Inspection`]) and measured;
+//! - [`Reaction::Drop`]: a flagged packet is refused, and so is every packet of that sender to
+//!   that follower until `quiet_steps` pass without a flag;
+//! - [`Reaction::Fallback`]: as `Drop`, and the follower is affected meanwhile: it runs its
+//!   fallback (`[fallback] mode`, ACC on its radar for instance) until the quiet period ends,
+//!   then returns as after a DoS (dwell, blend).
+//!
+//! Pure and deterministic like the rest of the controller: the same deliveries give the same
+//! verdicts bit for bit, in process and in the iceoryx2 controller node.
+
+use platoon_detect::{Detectors, Last, Observation, RadarReading, Verdict};
+use platoon_model::{State, VehicleId};
+
+pub use platoon_detect::{Detection as DetectorTables, Detector, DetectorSpec, ParamError};
+
+/// What a follower does about a flagged sender (`[detection] reaction`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[cfg_attr(feature = "schemars", derive(schemars::JsonSchema))]
+#[serde(rename_all = "snake_case")]
+pub enum Reaction {
+    /// Record the verdicts only.
+    #[default]
+    Log,
+    /// Refuse the sender's packets until a quiet period passes without a flag.
+    Drop,
+    /// Refuse them and run the fallback meanwhile.
+    Fallback,
+}
+
+impl Reaction {
+    /// Its config name.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Self::Log => "log",
+            Self::Drop => "drop",
+            Self::Fallback => "fallback",
+        }
+    }
+}
+
+/// The detectors of a platoon and what a flag makes a follower do.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct DetectionParams {
+    /// The detectors, in the order of every [`Inspection`]'s verdicts (empty: detection off).
+    pub specs: Vec<DetectorSpec>,
+    /// The reaction to a flag.
+    pub reaction: Reaction,
+    /// Steps without a flag after which a distrusted sender is trusted again (`Drop`,
+    /// `Fallback`).
+    pub quiet_steps: u32,
+}
+
+impl DetectionParams {
+    /// Whether any detector is on.
+    pub fn is_on(&self) -> bool {
+        !self.specs.is_empty()
+    }
+
+    /// Whether a detector reads the radar (the controller then reads it every step even when
+    /// its fallback does not).
+    pub fn reads_radar(&self) -> bool {
+        self.specs
+            .iter()
+            .any(|s| matches!(s, DetectorSpec::RadarCross(_)))
+    }
+}
+
+/// The most detectors one platoon runs.
+pub const MAX_DETECTORS: usize = 8;
+
+/// What the detectors said of one packet a follower received, and what became of it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Inspection {
+    /// The step it was received.
+    pub k: u64,
+    /// The receiving follower.
+    pub receiver: VehicleId,
+    /// The claimed sender.
+    pub sender: VehicleId,
+    /// Its sequence number.
+    pub seq: u32,
+    /// The step it claims to have been sampled at.
+    pub step: u64,
+    /// Whether any detector flagged it.
+    pub flagged: bool,
+    /// Whether the reaction refused it (flagged, or its sender distrusted).
+    pub refused: bool,
+    verdicts: [Verdict; MAX_DETECTORS],
+    detectors: u8,
+}
+
+impl Inspection {
+    /// Each detector's verdict, in the order of [`DetectionParams::specs`].
+    pub fn verdicts(&self) -> &[Verdict] {
+        &self.verdicts[..usize::from(self.detectors)]
+    }
+}
+
+/// Counts over a run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+pub struct ScreenCounts {
+    /// Packets shown to the detectors.
+    pub inspected: u64,
+    /// Packets some detector flagged.
+    pub flagged: u64,
+    /// Packets the reaction refused.
+    pub refused: u64,
+}
+
+/// What the receiver knows besides the packet.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Sensed {
+    /// Its own state.
+    pub own: State,
+    /// Its radar on the vehicle ahead, if it reads one.
+    pub radar: Option<RadarReading>,
+}
+
+/// The detection state of one platoon's followers.
+#[derive(Debug, Clone)]
+pub(crate) struct Screening {
+    detectors: Detectors,
+    names: Vec<&'static str>,
+    reaction: Reaction,
+    quiet_steps: u64,
+    dt: f64,
+    /// Per follower and neighbour slot: distrusted up to (excluding) this step.
+    distrust_until: Vec<Vec<u64>>,
+    scratch: Vec<Verdict>,
+    log: Vec<Inspection>,
+    counts: ScreenCounts,
+}
+
+impl Screening {
+    pub(crate) fn new(
+        params: &DetectionParams,
+        neighbours: &[Vec<VehicleId>],
+        dt: f64,
+    ) -> Result<Screening, ParamError> {
+        let detectors = Detectors::from_specs(&params.specs)?;
+        Ok(Screening {
+            names: detectors.names().collect(),
+            detectors,
+            reaction: params.reaction,
+            quiet_steps: u64::from(params.quiet_steps),
+            dt,
+            distrust_until: neighbours.iter().map(|n| vec![0; n.len()]).collect(),
+            scratch: Vec::with_capacity(MAX_DETECTORS),
+            log: Vec::new(),
+            counts: ScreenCounts::default(),
+        })
+    }
+
+    pub(crate) fn begin_step(&mut self) {
+        self.log.clear();
+    }
+
+    /// Shows an admitted packet to the detectors; whether the reaction refuses it.
+    pub(crate) fn screen(
+        &mut self,
+        k: u64,
+        (fi, s): (usize, usize),
+        receiver: VehicleId,
+        packet: &crate::Packet,
+        last: Option<Last>,
+        sensed: Sensed,
+    ) -> bool {
+        let obs = Observation {
+            k,
+            dt: self.dt,
+            receiver,
+            own: sensed.own,
+            packet,
+            last,
+            radar: sensed.radar.filter(|_| packet.sender.index() + 1 == receiver.index()),
+        };
+        let flagged = self.detectors.inspect_all(&obs, &mut self.scratch);
+        if flagged {
+            self.distrust_until[fi][s] = k + 1 + self.quiet_steps;
+        }
+        let refused = self.reaction != Reaction::Log && k < self.distrust_until[fi][s];
+        let mut verdicts = [Verdict::NOT_TESTED; MAX_DETECTORS];
+        for (v, x) in verdicts.iter_mut().zip(&self.scratch) {
+            *v = *x;
+        }
+        self.log.push(Inspection {
+            k,
+            receiver,
+            sender: packet.sender,
+            seq: packet.seq,
+            step: packet.step,
+            flagged,
+            refused,
+            verdicts,
+            detectors: self.scratch.len().min(MAX_DETECTORS) as u8,
+        });
+        self.counts.inspected += 1;
+        self.counts.flagged += u64::from(flagged);
+        self.counts.refused += u64::from(refused);
+        refused
+    }
+
+    /// Whether follower `fi` (0-based) runs its fallback at step `k` because it distrusts a
+    /// neighbour (`Reaction::Fallback` only).
+    pub(crate) fn affects(&self, fi: usize, k: u64) -> bool {
+        self.reaction == Reaction::Fallback && self.distrust_until[fi].iter().any(|&u| k < u)
+    }
+
+    pub(crate) fn log(&self) -> &[Inspection] {
+        &self.log
+    }
+
+    pub(crate) fn names(&self) -> &[&'static str] {
+        &self.names
+    }
+
+    pub(crate) fn counts(&self) -> ScreenCounts {
+        self.counts
+    }
+}

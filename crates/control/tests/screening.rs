@@ -1,0 +1,115 @@
+//! Misbehaviour detection in the receive path: the detectors see what passed the packet
+//! checks, and the reaction decides what a follower does with a flagged sender.
+use platoon_control::screening::{DetectorSpec, Sensed};
+use platoon_control::{Delivery, DetectionParams, Packet, PacketChecks, Reaction};
+use platoon_model::{State, VehicleId};
+use platoon_topology::{Preset, Topology};
+
+const DT: f64 = 0.01;
+
+/// Two followers behind a leader at 20 m/s, 10 m apart; follower 1 hears the leader.
+fn checks(reaction: Reaction, quiet_steps: u32) -> (PacketChecks, Vec<State>) {
+    let topology = Topology::preset(Preset::Pf, 2).unwrap();
+    let initial: Vec<State> = (0..3)
+        .map(|i| State::new(-10.0 * i as f64, 20.0, 0.0))
+        .collect();
+    let detection = DetectionParams {
+        specs: vec![DetectorSpec::Residual(Default::default())],
+        reaction,
+        quiet_steps,
+    };
+    let checks = PacketChecks::new(&topology, &initial, DT)
+        .with_detection(&detection)
+        .unwrap();
+    (checks, initial)
+}
+
+/// The leader's packet of step k, true (20 m/s from 0 m) plus `offset_m` on its position.
+fn leader(k: u64, offset_m: f64) -> Delivery {
+    Delivery {
+        receiver: VehicleId(1),
+        packet: Packet {
+            sender: VehicleId::LEADER,
+            seq: k as u32 + 1,
+            step: k,
+            state: State::new(20.0 * k as f64 * DT + offset_m, 20.0, 0.0),
+            u: 0.0,
+        },
+    }
+}
+
+fn sensed(k: u64) -> Sensed {
+    Sensed {
+        own: State::new(20.0 * k as f64 * DT - 10.0, 20.0, 0.0),
+        radar: None,
+    }
+}
+
+#[test]
+fn a_flagged_sender_is_refused_for_the_quiet_period_and_the_follower_falls_back() {
+    let (mut c, _) = checks(Reaction::Fallback, 50);
+    assert_eq!(c.detector_names(), ["residual"]);
+    for k in 1..=10 {
+        c.begin_step();
+        assert!(c
+            .admit_sensed(k * 100, &leader(k * 100, 0.0), sensed(k * 100))
+            .is_some());
+        let i = c.inspections();
+        assert_eq!(i.len(), 1);
+        assert!(!i[0].flagged && !i[0].refused && i[0].verdicts()[0].tested());
+    }
+    assert!(!c.distrusts(VehicleId(1), 1100));
+    // A 5 m jump in the claimed position a second later (which the packet checks let through:
+    // a vehicle could get there): flagged and refused, the follower falls back.
+    c.begin_step();
+    assert!(c
+        .admit_sensed(1100, &leader(1100, 5.0), sensed(1100))
+        .is_none());
+    assert!(c.inspections()[0].flagged && c.inspections()[0].refused);
+    assert!(c.distrusts(VehicleId(1), 1100) && c.distrusts(VehicleId(1), 1150));
+    // Genuine packets within the quiet period are refused too; after it, trusted again.
+    c.begin_step();
+    assert!(c
+        .admit_sensed(1120, &leader(1120, 0.0), sensed(1120))
+        .is_none());
+    assert!(!c.inspections()[0].flagged && c.inspections()[0].refused);
+    assert!(!c.distrusts(VehicleId(1), 1171));
+    c.begin_step();
+    assert!(c
+        .admit_sensed(1180, &leader(1180, 0.0), sensed(1180))
+        .is_some());
+    let counts = c.screened();
+    assert_eq!(
+        (counts.inspected, counts.flagged, counts.refused),
+        (13, 1, 2)
+    );
+    // Follower 2 was never involved.
+    assert!(!c.distrusts(VehicleId(2), 120));
+}
+
+#[test]
+fn logging_only_changes_nothing_but_the_record() {
+    let (mut logged, initial) = checks(Reaction::Log, 50);
+    let topology = Topology::preset(Preset::Pf, 2).unwrap();
+    let mut plain = PacketChecks::new(&topology, &initial, DT);
+    for (k, offset) in [(100, 0.0), (200, 5.0), (300, 5.0), (400, 0.0)] {
+        logged.begin_step();
+        let a = logged.admit_sensed(k, &leader(k, offset), sensed(k));
+        assert_eq!(a, plain.admit(k, &leader(k, offset)));
+        assert_eq!(logged.heard(VehicleId(1)), plain.heard(VehicleId(1)));
+    }
+    assert!(logged.screened().flagged >= 1 && logged.screened().refused == 0);
+    assert!(!logged.distrusts(VehicleId(1), 300));
+}
+
+#[test]
+fn without_detectors_nothing_is_inspected() {
+    let topology = Topology::preset(Preset::Pf, 2).unwrap();
+    let initial = vec![State::zeros(); 3];
+    let mut c = PacketChecks::new(&topology, &initial, DT)
+        .with_detection(&DetectionParams::default())
+        .unwrap();
+    c.begin_step();
+    c.admit_sensed(1, &leader(1, 0.0), sensed(1));
+    assert!(c.inspections().is_empty() && c.detector_names().is_empty());
+}
