@@ -7,6 +7,7 @@
 //! `k + 1`.
 #![warn(missing_docs)]
 
+pub mod detection;
 mod metrics;
 mod scenario;
 pub mod truth;
@@ -296,6 +297,8 @@ pub struct Simulation {
     rows: Vec<StepRow>,
     wire: Vec<WireCounts>,
     wire_counter: wire::WireCounter,
+    /// The detectors measured against ground truth (`[detection]` only).
+    detection: Option<detection::DetectionRecorder>,
 }
 
 impl Simulation {
@@ -310,6 +313,14 @@ impl Simulation {
     pub fn with(scenario: Scenario, factory: &ControllerFactory) -> Result<Self, ScenarioError> {
         scenario.validate()?;
         let controller = factory.make(&scenario)?;
+        let detection = (!controller.detector_names().is_empty()).then(|| {
+            detection::DetectionRecorder::new(
+                scenario.platoon,
+                controller.detector_names(),
+                scenario.control.detection.reaction,
+                scenario.dt(),
+            )
+        });
         let n = scenario.topology.followers();
         Ok(Self {
             channel: Channel::new(scenario.channel_spec(), n + 1),
@@ -323,6 +334,7 @@ impl Simulation {
             rows: Vec::with_capacity(n + 1),
             wire: vec![WireCounts::default(); n + 1],
             wire_counter: wire::WireCounter::default(),
+            detection,
             scenario,
         })
     }
@@ -362,6 +374,18 @@ impl Simulation {
         &self.channel
     }
 
+    /// The detectors measured against ground truth so far (`[detection]` only).
+    pub fn detection(&self) -> Option<detection::DetectionSummary> {
+        let d = self.detection.as_ref()?;
+        Some(d.summary(self.controller.screened()))
+    }
+
+    /// The packets the detectors inspected at the last step, with their ground truth
+    /// (`[detection]` only; the per-message dataset).
+    pub fn scored(&self) -> &[detection::Scored] {
+        self.detection.as_ref().map_or(&[], |d| d.scored())
+    }
+
     /// Runs step k and returns one row per vehicle (leader first) for it.
     pub fn step(&mut self) -> &[StepRow] {
         let k = self.step;
@@ -394,6 +418,16 @@ impl Simulation {
             &mut self.wire,
             &mut outside,
         );
+
+        if let Some(d) = &mut self.detection {
+            d.record(
+                k,
+                states,
+                wire::links(&sc.topology, &self.tx),
+                &self.deliveries,
+                self.controller.as_ref(),
+            );
+        }
 
         let leader_triggered = self.tx.first().is_some_and(|p| p.sender.is_leader());
         let controller = self.controller.as_ref();
@@ -574,5 +608,6 @@ pub fn run_until_with(
     }
     let mut summary = metrics.finish(sim.rejected());
     summary.channel = sim.radio_stats();
+    summary.detection = sim.platoons()[0].detection();
     Ok(summary)
 }

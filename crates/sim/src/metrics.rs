@@ -311,6 +311,10 @@ pub struct Summary {
     /// channel busy ratio the vehicles' radios saw, and what DCC did; over the fleet.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub channel: Option<platoon_attacks::channel::RadioStats>,
+    /// The misbehaviour detectors measured against ground truth (`[detection]` only;
+    /// platoon 0).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub detection: Option<crate::detection::DetectionSummary>,
 }
 
 /// The V2V channel over a run, as measured on the wire (see [`crate::wire`]).
@@ -655,6 +659,7 @@ impl MetricsAccumulator {
             rejected_packets: rejected,
             wire: None,
             channel: None,
+            detection: None,
             vehicles,
         }
     }

@@ -1,0 +1,264 @@
+//! The misbehaviour detectors measured against ground truth: every packet a follower's
+//! detectors inspected (`Controller::inspections`) joined with what truly happened to it
+//! ([`crate::truth`]), per detector and per label: true and false positives and negatives,
+//! precision, recall, F1, the false-alarm rate on genuine traffic and the time to detect.
+//! Whoever holds the controllers records (the in-process runner, the iceoryx2 controller
+//! node), with this same code, so both give the same figures.
+use crate::truth::{Label, Labelled, TruthLabeler};
+use platoon_control::{Controller, Delivery, Inspection, Packet};
+use platoon_model::{State, VehicleId};
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+
+/// A confusion matrix: a flag on a packet that is not genuine is a true positive.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Confusion {
+    /// Misbehaving packets flagged.
+    pub tp: u64,
+    /// Genuine packets flagged.
+    pub fp: u64,
+    /// Genuine packets not flagged.
+    pub tn: u64,
+    /// Misbehaving packets not flagged.
+    #[serde(rename = "fn")]
+    pub fn_: u64,
+}
+
+impl Confusion {
+    fn add(&mut self, misbehaving: bool, flagged: bool) {
+        match (misbehaving, flagged) {
+            (true, true) => self.tp += 1,
+            (true, false) => self.fn_ += 1,
+            (false, true) => self.fp += 1,
+            (false, false) => self.tn += 1,
+        }
+    }
+
+    /// `tp / (tp + fp)`; `None` without a flag.
+    pub fn precision(&self) -> Option<f64> {
+        ratio(self.tp, self.tp + self.fp)
+    }
+
+    /// `tp / (tp + fn)`; `None` without a misbehaving packet.
+    pub fn recall(&self) -> Option<f64> {
+        ratio(self.tp, self.tp + self.fn_)
+    }
+
+    /// The harmonic mean of precision and recall (0 when either is 0).
+    pub fn f1(&self) -> Option<f64> {
+        let (p, r) = (self.precision()?, self.recall()?);
+        Some(if p + r > 0.0 {
+            2.0 * p * r / (p + r)
+        } else {
+            0.0
+        })
+    }
+
+    /// `fp / (fp + tn)`: flags on genuine packets; `None` without one.
+    pub fn false_alarm_rate(&self) -> Option<f64> {
+        ratio(self.fp, self.fp + self.tn)
+    }
+}
+
+fn ratio(a: u64, b: u64) -> Option<f64> {
+    (b > 0).then(|| a as f64 / b as f64)
+}
+
+/// One detector over a run.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct DetectorScore {
+    /// Its name (`residual`, ...).
+    pub name: String,
+    /// Over every inspected packet.
+    pub totals: Confusion,
+    /// Per ground-truth label of the inspected packets (`genuine`, `altered`, ...).
+    pub by_label: BTreeMap<String, Confusion>,
+    /// Precision, recall, F1 and false-alarm rate of `totals` (absent when undefined).
+    pub precision: Option<f64>,
+    /// See `precision`.
+    pub recall: Option<f64>,
+    /// See `precision`.
+    pub f1: Option<f64>,
+    /// See `precision`.
+    pub false_alarm_rate: Option<f64>,
+    /// From the first misbehaving packet inspected to this detector's first flag on one (s);
+    /// absent when there was none or it never flagged one.
+    pub time_to_detect_s: Option<f64>,
+}
+
+/// `summary.json`'s `detection` (runs with `[detection]`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct DetectionSummary {
+    /// The reaction to a flag (`log`, `drop`, `fallback`).
+    pub reaction: String,
+    /// Packets the detectors inspected, flagged (any detector) and the reaction refused.
+    pub inspected: u64,
+    /// See `inspected`.
+    pub flagged: u64,
+    /// See `inspected`.
+    pub refused: u64,
+    /// Inspected packets by ground-truth label.
+    pub labels: BTreeMap<String, u64>,
+    /// Each detector, in the order of `[detection]`.
+    pub detectors: Vec<DetectorScore>,
+    /// Any detector (what the reaction acts on).
+    pub any: DetectorScore,
+}
+
+/// One inspected packet with its ground truth: a row of the per-message dataset.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Scored {
+    /// The platoon.
+    pub platoon: u16,
+    /// What the detectors said and what became of it.
+    pub inspection: Inspection,
+    /// The packet as delivered.
+    pub packet: Packet,
+    /// What truly happened to it.
+    pub label: Label,
+    /// The claimed sender's true state at the packet's sampling step (if known).
+    pub truth: Option<State>,
+}
+
+/// Records one platoon's detection, step by step.
+#[derive(Debug, Clone)]
+pub struct DetectionRecorder {
+    platoon: u16,
+    dt: f64,
+    labeler: TruthLabeler,
+    labelled: Vec<Labelled>,
+    names: Vec<&'static str>,
+    reaction: &'static str,
+    per: Vec<(Confusion, BTreeMap<&'static str, Confusion>, Option<u64>)>,
+    any: (Confusion, BTreeMap<&'static str, Confusion>, Option<u64>),
+    first_bad: Option<u64>,
+    labels: BTreeMap<&'static str, u64>,
+    scored: Vec<Scored>,
+}
+
+impl DetectionRecorder {
+    /// For platoon `platoon` whose controller runs `names` (its `detector_names()`) with
+    /// `reaction`; `dt` the step.
+    pub fn new(
+        platoon: u16,
+        names: &[&'static str],
+        reaction: platoon_control::Reaction,
+        dt: f64,
+    ) -> Self {
+        Self {
+            platoon,
+            dt,
+            labeler: TruthLabeler::for_seconds(10.0, dt),
+            labelled: Vec::new(),
+            names: names.to_vec(),
+            reaction: reaction.name(),
+            per: vec![Default::default(); names.len()],
+            any: Default::default(),
+            first_bad: None,
+            labels: BTreeMap::new(),
+            scored: Vec::new(),
+        }
+    }
+
+    /// Step `k`: the true `states`, the step's `links` (broadcasts as (receiver, packet)), what
+    /// was delivered and what the controller's detectors said of it. The scored packets of the
+    /// step are then [`DetectionRecorder::scored`].
+    pub fn record(
+        &mut self,
+        k: u64,
+        states: &[State],
+        links: impl Iterator<Item = (VehicleId, Packet)>,
+        deliveries: &[Delivery],
+        controller: &dyn Controller,
+    ) {
+        self.labelled.clear();
+        self.labeler
+            .label(k, states, links, deliveries, &mut self.labelled);
+        self.scored.clear();
+        let mut used = vec![false; self.labelled.len()];
+        for i in controller.inspections() {
+            // The delivery it inspected: the first unused one of that link and packet.
+            let found = self.labelled.iter().enumerate().position(|(j, l)| {
+                !used[j]
+                    && l.delivery.receiver == i.receiver
+                    && l.delivery.packet.sender == i.sender
+                    && l.delivery.packet.seq == i.seq
+                    && l.delivery.packet.step == i.step
+            });
+            let Some(j) = found else { continue };
+            used[j] = true;
+            let l = self.labelled[j];
+            let bad = l.label.is_misbehaviour();
+            if bad && self.first_bad.is_none() {
+                self.first_bad = Some(k);
+            }
+            *self.labels.entry(l.label.name()).or_default() += 1;
+            for ((c, by, first), v) in self.per.iter_mut().zip(i.verdicts()) {
+                c.add(bad, v.flagged);
+                by.entry(l.label.name()).or_default().add(bad, v.flagged);
+                if bad && v.flagged && first.is_none() {
+                    *first = Some(k);
+                }
+            }
+            let (c, by, first) = &mut self.any;
+            c.add(bad, i.flagged);
+            by.entry(l.label.name()).or_default().add(bad, i.flagged);
+            if bad && i.flagged && first.is_none() {
+                *first = Some(k);
+            }
+            self.scored.push(Scored {
+                platoon: self.platoon,
+                inspection: *i,
+                packet: l.delivery.packet,
+                label: l.label,
+                truth: l.truth,
+            });
+        }
+    }
+
+    /// The packets scored at the last [`DetectionRecorder::record`].
+    pub fn scored(&self) -> &[Scored] {
+        &self.scored
+    }
+
+    /// The figures so far, with the controller's counts (`Controller::screened`).
+    pub fn summary(&self, screened: platoon_control::screening::ScreenCounts) -> DetectionSummary {
+        let score = |name: &str,
+                     (c, by, first): &(
+            Confusion,
+            BTreeMap<&'static str, Confusion>,
+            Option<u64>,
+        )| {
+            DetectorScore {
+                name: name.to_string(),
+                totals: *c,
+                by_label: by.iter().map(|(k, v)| (k.to_string(), *v)).collect(),
+                precision: c.precision(),
+                recall: c.recall(),
+                f1: c.f1(),
+                false_alarm_rate: c.false_alarm_rate(),
+                time_to_detect_s: first
+                    .zip(self.first_bad)
+                    .map(|(f, b)| f.saturating_sub(b) as f64 * self.dt),
+            }
+        };
+        DetectionSummary {
+            reaction: self.reaction.to_string(),
+            inspected: screened.inspected,
+            flagged: screened.flagged,
+            refused: screened.refused,
+            labels: self
+                .labels
+                .iter()
+                .map(|(k, v)| (k.to_string(), *v))
+                .collect(),
+            detectors: self
+                .names
+                .iter()
+                .zip(&self.per)
+                .map(|(n, p)| score(n, p))
+                .collect(),
+            any: score("any", &self.any),
+        }
+    }
+}
