@@ -135,6 +135,28 @@ impl PacketChecks {
         Ok(self)
     }
 
+    /// These checks followed by detectors of the caller's own (any [`platoon_detect::Detector`],
+    /// at most [`crate::screening::MAX_DETECTORS`]) and `reaction` with a quiet period of
+    /// `quiet_steps`: for a controller of one's own, or to add to the built-in detectors'
+    /// list (`Detectors::from_specs` then `push`).
+    pub fn with_detectors(
+        mut self,
+        detectors: crate::screening::Detectors,
+        reaction: crate::Reaction,
+        quiet_steps: u32,
+    ) -> Self {
+        self.screening = (!detectors.is_empty()).then(|| {
+            crate::screening::Screening::with(
+                detectors,
+                reaction,
+                quiet_steps,
+                &self.neighbours,
+                self.dt,
+            )
+        });
+        self
+    }
+
     /// Starts step `k`'s deliveries: clears the last step's [`PacketChecks::inspections`].
     pub fn begin_step(&mut self) {
         if let Some(s) = &mut self.screening {
@@ -186,7 +208,10 @@ impl PacketChecks {
 
     /// Packets inspected, flagged and refused by the reaction so far.
     pub fn screened(&self) -> crate::screening::ScreenCounts {
-        self.screening.as_ref().map(|s| s.counts()).unwrap_or_default()
+        self.screening
+            .as_ref()
+            .map(|s| s.counts())
+            .unwrap_or_default()
     }
 
     /// Checks one delivery at step `k`. Accepted: recorded as the last heard from its sender,

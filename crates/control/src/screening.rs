@@ -14,10 +14,12 @@
 //! Pure and deterministic like the rest of the controller: the same deliveries give the same
 //! verdicts bit for bit, in process and in the iceoryx2 controller node.
 
-use platoon_detect::{Detectors, Last, Observation, RadarReading, Verdict};
+use platoon_detect::{Last, Observation, RadarReading, Verdict};
 use platoon_model::{State, VehicleId};
 
-pub use platoon_detect::{Detection as DetectorTables, Detector, DetectorSpec, ParamError};
+pub use platoon_detect::{
+    Detection as DetectorTables, Detector, DetectorSpec, Detectors, ParamError,
+};
 
 /// What a follower does about a flagged sender (`[detection] reaction`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
@@ -144,17 +146,33 @@ impl Screening {
         dt: f64,
     ) -> Result<Screening, ParamError> {
         let detectors = Detectors::from_specs(&params.specs)?;
-        Ok(Screening {
+        Ok(Self::with(
+            detectors,
+            params.reaction,
+            params.quiet_steps,
+            neighbours,
+            dt,
+        ))
+    }
+
+    pub(crate) fn with(
+        detectors: Detectors,
+        reaction: Reaction,
+        quiet_steps: u32,
+        neighbours: &[Vec<VehicleId>],
+        dt: f64,
+    ) -> Screening {
+        Screening {
             names: detectors.names().collect(),
             detectors,
-            reaction: params.reaction,
-            quiet_steps: u64::from(params.quiet_steps),
+            reaction,
+            quiet_steps: u64::from(quiet_steps),
             dt,
             distrust_until: neighbours.iter().map(|n| vec![0; n.len()]).collect(),
             scratch: Vec::with_capacity(MAX_DETECTORS),
             log: Vec::new(),
             counts: ScreenCounts::default(),
-        })
+        }
     }
 
     pub(crate) fn begin_step(&mut self) {
@@ -178,7 +196,9 @@ impl Screening {
             own: sensed.own,
             packet,
             last,
-            radar: sensed.radar.filter(|_| packet.sender.index() + 1 == receiver.index()),
+            radar: sensed
+                .radar
+                .filter(|_| packet.sender.index() + 1 == receiver.index()),
         };
         let flagged = self.detectors.inspect_all(&obs, &mut self.scratch);
         if flagged {

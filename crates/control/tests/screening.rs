@@ -113,3 +113,41 @@ fn without_detectors_nothing_is_inspected() {
     c.admit_sensed(1, &leader(1, 0.0), sensed(1));
     assert!(c.inspections().is_empty() && c.detector_names().is_empty());
 }
+
+/// A detector of the user's own: flags every packet claiming more than 30 m/s.
+#[derive(Debug, Clone)]
+struct TooFast;
+
+impl platoon_control::screening::Detector for TooFast {
+    fn name(&self) -> &'static str {
+        "too_fast"
+    }
+
+    fn inspect(&mut self, obs: &platoon_detect::Observation) -> platoon_detect::Verdict {
+        let v = obs.packet.state[1];
+        platoon_detect::Verdict {
+            flagged: v > 30.0,
+            score: v,
+        }
+    }
+}
+
+#[test]
+fn a_users_own_detector_runs_in_the_receive_path() {
+    let topology = Topology::preset(Preset::Pf, 2).unwrap();
+    let initial = vec![State::new(0.0, 20.0, 0.0); 3];
+    let mut detectors = platoon_control::screening::Detectors::default();
+    detectors.push(Box::new(TooFast));
+    let mut c =
+        PacketChecks::new(&topology, &initial, DT).with_detectors(detectors, Reaction::Drop, 0);
+    assert_eq!(c.detector_names(), ["too_fast"]);
+    let mut fast = leader(100, 0.0);
+    fast.packet.state[1] = 31.0;
+    c.begin_step();
+    assert!(c.admit_sensed(100, &fast, sensed(100)).is_none());
+    assert_eq!(c.inspections()[0].verdicts()[0].score, 31.0);
+    c.begin_step();
+    assert!(c
+        .admit_sensed(200, &leader(200, 0.0), sensed(200))
+        .is_some());
+}
