@@ -9,6 +9,7 @@ use platoon_config::{Config, OutputFile, Transport};
 use platoon_output::plots;
 use platoon_output::rundir::RunDir;
 use platoon_output::tables::{Format, Table};
+use platoon_sim::detection::Scored;
 use platoon_sim::{Scenario, StepRow, StepWire, Summary};
 use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
@@ -306,6 +307,12 @@ pub trait StepSink {
     fn channel(&mut self, _event: &ChannelEvent) -> Result<()> {
         Ok(())
     }
+    /// The packets one platoon's detectors inspected in the step, with their ground truth
+    /// (in process, `[detection]` only; before the step's rows). `names` are its detectors, in
+    /// the order of each packet's verdicts.
+    fn detections(&mut self, _names: &[&'static str], _scored: &[Scored]) -> Result<()> {
+        Ok(())
+    }
     /// After the last step.
     fn finish(&mut self) -> Result<()> {
         Ok(())
@@ -334,7 +341,16 @@ pub fn record(
     let mut last = Instant::now();
     let summary = platoon_sim::run_until(scenario, |sim| {
         step_ns.push(last.elapsed().as_nanos() as u64);
-        let written = sim.channel_log().iter().try_for_each(|e| sink.channel(e));
+        let written = sim
+            .channel_log()
+            .iter()
+            .try_for_each(|e| sink.channel(e))
+            .and_then(|()| {
+                sim.platoons()
+                    .iter()
+                    .filter(|p| !p.scored().is_empty())
+                    .try_for_each(|p| sink.detections(p.controller().detector_names(), p.scored()))
+            });
         if let Err(e) = written.and_then(|()| sink.step(sim.rows(), sim.wire())) {
             failure = Some(e);
             return ControlFlow::Break(());
@@ -360,13 +376,14 @@ pub fn record(
 
 /// The files of a run directory's per-step data: trajectories (every `decimate`-th step),
 /// events (broadcasts and mode switches), wire (vehicles whose links were not all delivered as
-/// sent) and the channel log, as CSV or Parquet; keeps platoon 0's rows for the plots (memory
-/// stays bounded for large fleets).
+/// sent), the channel log and the detections (in process), as CSV or Parquet; keeps platoon 0's
+/// rows for the plots (memory stays bounded for large fleets).
 pub struct RunFiles {
     trajectories: Table<StepRow>,
     events: Table<EventRow>,
     wire: Table<WireRow>,
     channel: Option<Table<ChannelEvent>>,
+    detections: Table<DetectionRow>,
     decimate: u64,
     last: Vec<Option<u64>>,
     modes: Vec<platoon_control::Mode>,
@@ -389,6 +406,41 @@ struct WireRow {
     dropped: u64,
     injected: u64,
     jammed: u64,
+}
+
+/// One row of detections.csv: a packet a follower's detectors inspected, what it claimed, the
+/// truth, and each built-in detector's verdict (empty when that detector is off).
+#[derive(serde::Serialize, serde::Deserialize)]
+struct DetectionRow {
+    /// The step it was received (and inspected) at.
+    step: u64,
+    t: f64,
+    platoon: u16,
+    receiver: u16,
+    /// The claimed sender.
+    sender: u16,
+    seq: u32,
+    /// The step it claims to have been sampled at.
+    sampled_step: u64,
+    claimed_p: f64,
+    claimed_v: f64,
+    claimed_a: f64,
+    /// The claimed sender's true state at `sampled_step` (empty if unknown).
+    true_p: Option<f64>,
+    true_v: Option<f64>,
+    true_a: Option<f64>,
+    /// `platoon_sim::truth::Label`'s name: genuine, altered, lied, delayed, replayed, forged.
+    label: String,
+    /// Any detector flagged it.
+    flagged: bool,
+    /// The reaction refused it.
+    refused: bool,
+    plausibility_flagged: Option<bool>,
+    plausibility_score: Option<f64>,
+    radar_cross_flagged: Option<bool>,
+    radar_cross_score: Option<f64>,
+    residual_flagged: Option<bool>,
+    residual_score: Option<f64>,
 }
 
 /// One row per broadcast of a follower, and one per change of its mode.
@@ -415,8 +467,9 @@ enum Event {
 }
 
 impl RunFiles {
-    /// Opens the tables `output` asks for in `dir`; `channel` also opens the channel log
-    /// (in process; a co-simulation's injector writes its own).
+    /// Opens the tables `output` asks for in `dir`; `channel` (in process) also opens the
+    /// channel log (a co-simulation's injector writes its own) and, with `[detection]`, the
+    /// detections (the per-message dataset; in process only for now).
     pub fn create(
         scenario: &Scenario,
         output: &platoon_config::OutputConfig,
@@ -433,6 +486,12 @@ impl RunFiles {
             channel: channel
                 .then(|| Table::create(dir, "channel", format, on(OutputFile::Channel)))
                 .transpose()?,
+            detections: Table::create(
+                dir,
+                "detections",
+                format,
+                channel && scenario.control.detection.is_on() && on(OutputFile::Detections),
+            )?,
             decimate: output.decimate,
             last: vec![None; scenario.vehicles()],
             modes: vec![platoon_control::Mode::Coop; scenario.vehicles()],
@@ -509,10 +568,51 @@ impl StepSink for RunFiles {
         }
     }
 
+    fn detections(&mut self, names: &[&'static str], scored: &[Scored]) -> Result<()> {
+        for s in scored {
+            let i = &s.inspection;
+            let verdict = |name: &str| {
+                names
+                    .iter()
+                    .position(|n| *n == name)
+                    .and_then(|d| i.verdicts().get(d))
+            };
+            let flagged = |name: &str| verdict(name).map(|v| v.flagged);
+            // NaN: the detector had nothing to test (no radar reading, no earlier packet).
+            let score = |name: &str| verdict(name).map(|v| v.score).filter(|x| !x.is_nan());
+            self.detections.write(DetectionRow {
+                step: i.k,
+                t: i.k as f64 * self.dt,
+                platoon: s.platoon,
+                receiver: i.receiver.0,
+                sender: i.sender.0,
+                seq: i.seq,
+                sampled_step: i.step,
+                claimed_p: s.packet.state[0],
+                claimed_v: s.packet.state[1],
+                claimed_a: s.packet.state[2],
+                true_p: s.truth.map(|x| x[0]),
+                true_v: s.truth.map(|x| x[1]),
+                true_a: s.truth.map(|x| x[2]),
+                label: s.label.name().to_string(),
+                flagged: i.flagged,
+                refused: i.refused,
+                plausibility_flagged: flagged("plausibility"),
+                plausibility_score: score("plausibility"),
+                radar_cross_flagged: flagged("radar_cross"),
+                radar_cross_score: score("radar_cross"),
+                residual_flagged: flagged("residual"),
+                residual_score: score("residual"),
+            })?;
+        }
+        Ok(())
+    }
+
     fn finish(&mut self) -> Result<()> {
         self.trajectories.finish()?;
         self.events.finish()?;
         self.wire.finish()?;
+        self.detections.finish()?;
         if let Some(t) = &mut self.channel {
             t.finish()?;
         }

@@ -142,15 +142,19 @@ pub enum OutputFile {
     Channel,
     /// What crossed the wire per link and step.
     Wire,
+    /// One row per packet the detectors inspected, with its ground truth and every detector's
+    /// verdict (runs with `[detection]`, in process only).
+    Detections,
 }
 
 impl OutputFile {
     /// Every file, in the order of [`OutputConfig::files`]' default.
-    pub const ALL: [OutputFile; 4] = [
+    pub const ALL: [OutputFile; 5] = [
         OutputFile::Trajectories,
         OutputFile::Events,
         OutputFile::Channel,
         OutputFile::Wire,
+        OutputFile::Detections,
     ];
 
     /// Its name in configs, and the stem of the file it writes.
@@ -160,6 +164,7 @@ impl OutputFile {
             OutputFile::Events => "events",
             OutputFile::Channel => "channel",
             OutputFile::Wire => "wire",
+            OutputFile::Detections => "detections",
         }
     }
 }
