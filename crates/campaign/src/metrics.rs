@@ -113,6 +113,26 @@ pub const ALL: &[(&str, &str)] = &[
         "packets DCC held back for a later step (802.11p runs with [channel.dcc])",
     ),
     (
+        "detection_precision",
+        "share of flagged packets that misbehaved, any detector (runs with [detection])",
+    ),
+    (
+        "detection_recall",
+        "share of misbehaving packets flagged, any detector (runs with [detection])",
+    ),
+    (
+        "detection_f1",
+        "F1 of any detector's flags against the ground truth (runs with [detection])",
+    ),
+    (
+        "false_alarm_rate",
+        "share of genuine packets flagged, any detector (runs with [detection])",
+    ),
+    (
+        "time_to_detect_s",
+        "first misbehaving packet to the first flag on one, s (runs with [detection])",
+    ),
+    (
         "min_ttc_s",
         "smallest time to collision of a follower closing in (platoon 0), s",
     ),
@@ -332,6 +352,17 @@ pub fn extract(names: &[String], max_followers: usize, summary: &Summary) -> Vec
                     .then(|| w.totals.delivered_as_sent as f64 / w.totals.sent as f64)
             })),
             "mean_cbr" => num(summary.channel.map(|c| c.mean_cbr)),
+            "detection_precision" => num(summary.detection.as_ref().and_then(|d| d.any.precision)),
+            "detection_recall" => num(summary.detection.as_ref().and_then(|d| d.any.recall)),
+            "detection_f1" => num(summary.detection.as_ref().and_then(|d| d.any.f1)),
+            "false_alarm_rate" => num(summary
+                .detection
+                .as_ref()
+                .and_then(|d| d.any.false_alarm_rate)),
+            "time_to_detect_s" => num(summary
+                .detection
+                .as_ref()
+                .and_then(|d| d.any.time_to_detect_s)),
             "max_cbr" => num(summary.channel.map(|c| c.max_cbr)),
             "channel_load" => num(summary.channel.map(|c| c.mean_load)),
             "transmissions" => summary
