@@ -1260,6 +1260,48 @@ fn iceoryx2_run_on_the_80211p_radio_is_bit_identical_to_inproc() {
     assert!(resolved.contains("tx_power_dbm = 23.0"), "{resolved}");
 }
 
+/// Issue 23: the detectors measured against ground truth give the same `summary.json`
+/// `detection` over iceoryx2 (the controller node records them and the run reads them back) as
+/// in process, with an insider's false data, the fallback reaction and the ACC fallback on the
+/// radar the radar cross-check reads too.
+#[test]
+fn iceoryx2_run_with_detection_reports_the_inproc_detection_figures() {
+    let tmp = tempfile::tempdir().unwrap();
+    let paper = std::fs::read_to_string(repo().join("configs/paper.toml")).unwrap();
+    let acc = paper.replace("mode = \"zero\"", "mode = \"acc\"");
+    assert_ne!(
+        acc, paper,
+        "configs/paper.toml has no [fallback] mode = \"zero\""
+    );
+    let c = tmp.path().join("detection.toml");
+    std::fs::write(
+        &c,
+        format!(
+            "{acc}
+[[channel.attacks]]
+kind = \"false_data\"
+offset = [12.0, 0.0, 0.0]
+senders = [2]
+start_s = 20.0
+insider = true
+
+[detection]
+reaction = \"fallback\"
+[detection.residual]
+[detection.plausibility]
+[detection.radar_cross]
+"
+        ),
+    )
+    .unwrap();
+    let runs = transports_agree(c.to_str().unwrap());
+    let d = &summary(&runs.path().join("ipc"))["detection"];
+    assert!(d["inspected"].as_u64().unwrap() > 0, "{d}");
+    assert!(d["any"]["totals"]["tp"].as_u64().unwrap() > 0, "{d}");
+    assert_eq!(d["detectors"].as_array().unwrap().len(), 3, "{d}");
+    assert!(runs.path().join("ipc/logs/detection.json").exists());
+}
+
 /// Issue 23: the state-altering link attacks (random offsets per link and per packet, a drift,
 /// feigned braking, a scaled acceleration) give the same bytes over iceoryx2 as in process. The
 /// insider's random offset covers every sender, also the last follower, whose broadcasts have no

@@ -739,6 +739,15 @@ fn cosimulate(
         Some(p) => p.clone(),
         None => std::env::current_exe().context("locating the platoon binary")?,
     };
+    // The controller service measures its detectors against ground truth (`[detection]`).
+    let detection_log = scenario
+        .control
+        .detection
+        .is_on()
+        .then(|| std::path::absolute(logs.join("detection.json")))
+        .transpose()
+        .context("resolving the run directory")?;
+    let builtin_controller = controller == platoon_runtime::Program::Builtin;
     let rt = platoon_runtime::Options {
         run_id,
         exe,
@@ -749,6 +758,7 @@ fn cosimulate(
             && (output.writes(platoon_config::OutputFile::Channel)
                 || !scenario.jammers.is_empty()))
         .then(|| dir.path("channel.csv")),
+        detection_log: detection_log.clone(),
         injector,
         controller,
         plant,
@@ -791,6 +801,9 @@ fn cosimulate(
             link_outages(scenario, output, dir, &mut metrics)?;
             let mut summary = metrics.finish(outcome.rejected);
             summary.channel = outcome.radio;
+            if let Some(path) = &detection_log {
+                summary.detection = read_detection(path, builtin_controller)?;
+            }
             channel_log_format(scenario, output, dir)?;
             let mut timing = serde_json::to_value(&outcome.timing)?;
             timing["duplicate_samples"] = serde_json::to_value(outcome.duplicates)?;
@@ -842,6 +855,32 @@ fn link_outages(
         std::fs::remove_file(&path).with_context(|| format!("removing {}", path.display()))?;
     }
     Ok(())
+}
+
+/// The detection figures the controller service wrote before DONE (`summary.json`'s
+/// `detection`). The built-in controllers always write them; a plug-in may not (a Python one,
+/// or controllers without detectors): then there are none.
+fn read_detection(
+    path: &Path,
+    builtin_controller: bool,
+) -> Result<Option<platoon_sim::detection::DetectionSummary>> {
+    let text = match std::fs::read_to_string(path) {
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound && !builtin_controller => {
+            return Ok(None)
+        }
+        r => r.with_context(|| {
+            format!(
+                "reading the detection figures of the controller process ({})",
+                path.display()
+            )
+        })?,
+    };
+    serde_json::from_str(&text).map(Some).with_context(|| {
+        format!(
+            "reading the detection figures of the controller process ({})",
+            path.display()
+        )
+    })
 }
 
 /// The injector node writes its channel log as CSV; with Parquet output it is converted, row

@@ -396,6 +396,7 @@ fn latency(a: LatencyArgs) -> Result<LatencyReport> {
         traffic: 0,
         env: Vec::new(),
         channel_log: None,
+        detection_log: None,
         log_dir: Some(logs),
         python_path: None,
         step_timeout: Duration::from_secs(5),

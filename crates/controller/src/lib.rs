@@ -96,7 +96,9 @@ impl std::fmt::Debug for Error {
 /// platoon, in order, with that platoon's replica of the scenario ([`Scenario::replicas`]: its
 /// own initial states; vehicle ids are the platoon's own, leader 0). An error of `make` stops
 /// the run and names the controller, with its message. A run of another contract version
-/// (`PLATOON_CONTRACT_VERSION`) is refused at once, naming both versions.
+/// (`PLATOON_CONTRACT_VERSION`) is refused at once, naming both versions. When your
+/// controllers run misbehaviour detectors ([`Controller::detector_names`], `[detection]`), the
+/// run's `summary.json` gets their figures against ground truth (`detection`), as in process.
 pub fn run<E: std::fmt::Display>(
     mut make: impl FnMut(&Scenario) -> Result<Box<dyn Controller>, E>,
 ) -> Result<(), Error> {
@@ -106,9 +108,11 @@ pub fn run<E: std::fmt::Display>(
         .ok_or(Error::NotInARun("PLATOON_CONFIG"))?
         .into();
     let (_, scenario) = platoon_config::load(&config)?;
-    let built = platoon_runtime::controller::run(&run_id, &scenario, |platoon| {
-        make(platoon).map_err(|e| e.to_string())
-    });
+    let detection_log = platoon_runtime::controller::detection_log_from_env();
+    let built =
+        platoon_runtime::controller::run(&run_id, &scenario, detection_log.as_deref(), |platoon| {
+            make(platoon).map_err(|e| e.to_string())
+        });
     match built {
         // Stopped by the run (it failed elsewhere, or `platoon run` is gone): nothing to add.
         Err(platoon_runtime::RunError::Aborted(_) | platoon_runtime::RunError::Orphaned) => Ok(()),

@@ -56,6 +56,10 @@ pub struct Options {
     pub env: Vec<(String, String)>,
     /// Where the built-in injector writes its channel log (CSV).
     pub channel_log: Option<PathBuf>,
+    /// Where the controller service writes platoon 0's detection figures (JSON,
+    /// `platoon_sim::detection::DetectionSummary`) before DONE, if its controllers run detectors:
+    /// given to it, built-in or plug-in, as [`crate::controller::DETECTION_LOG_ENV`].
+    pub detection_log: Option<PathBuf>,
     /// Where each node's stderr goes (`<dir>/<node>.log`); inherited if `None`. The error of a
     /// process that dies quotes the last lines of its log.
     pub log_dir: Option<PathBuf>,
@@ -722,6 +726,9 @@ fn spawn_all(opts: &Options, children: &mut Children) -> Result<(), RunError> {
         pin(&mut cmd, &opts.cpus);
         if node == Node::Injector && opts.channel_first {
             cmd.env("PLATOON_INJECTOR_INPUT", "gated");
+        }
+        if let (Node::Controller, Some(log)) = (node, &opts.detection_log) {
+            cmd.env(crate::controller::DETECTION_LOG_ENV, log);
         }
         cmd.env("PLATOON_RUN_ID", &opts.run_id)
             .env("PLATOON_CONFIG", &opts.config)
