@@ -19,6 +19,11 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 mod controllers;
+mod detection;
+pub use detection::{
+    attack_kind, detection, Detection, DetectionOptions, DetectionRow, Intensity,
+    ATTACKS as DETECTION_ATTACKS, DETECTORS,
+};
 pub(crate) use controllers::configure as configure_law;
 pub use controllers::{
     controllers, Controllers, ControllersOptions, ControllersRow, ATTACKS as CONTROLLER_ATTACKS,

@@ -2,8 +2,8 @@
 //! [`platoon_app::experiment`]'s.
 use anyhow::Result;
 use platoon_app::experiment::{
-    self, Base, ControllersOptions, DegradationOptions, RobustOptions, ScalingOptions,
-    TopologiesOptions,
+    self, Base, ControllersOptions, DegradationOptions, DetectionOptions, Intensity, RobustOptions,
+    ScalingOptions, TopologiesOptions,
 };
 use platoon_config::Embedded;
 use platoon_output::rundir::RunDir;
@@ -58,6 +58,72 @@ pub enum Experiment {
     /// spacing errors, messages, time in fallback), controllers.md and one smallest-gap plot
     /// per topology (controllers-<topology>.png).
     Controllers(ControllersArgs),
+    /// Misbehaviour detection against ground truth: every detector (plausibility, radar_cross,
+    /// residual) against every attack of an insider (false_data, random_offset, drift,
+    /// feigned_braking, accel_scale, replay, delay; each stealthy and strong) and without an
+    /// attack, without a reaction (log) and with one (fallback to ACC on the radar, one
+    /// detector at a time), repeated with other radar and channel seeds, in process on worker
+    /// threads, on the paper's scenario without its DoS. A log run holds every detector (they
+    /// do not interact when nothing is refused) and also scores `any`. Writes detection.csv
+    /// (one row per run and detector: TP/FP/TN/FN, precision, recall, F1, false-alarm rate,
+    /// time to detect, smallest gap, collision, safety class), detection.md (means over the
+    /// repeats), f1.png (F1 per detector and attack, no reaction, a panel per intensity) and
+    /// safety.png (smallest gap per attack with and without the reaction).
+    Detection(DetectionArgs),
+}
+
+/// Arguments of `experiment detection`.
+#[derive(Debug, clap::Args)]
+pub struct DetectionArgs {
+    /// Base scenario (TOML) [default: the embedded configs/paper.toml]: its DoS, link attacks
+    /// and [detection] are replaced, its fallback set to acc, its duration to --duration.
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// The attacks (kinds of [[channel.attacks]]).
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "false_data,random_offset,drift,feigned_braking,accel_scale,replay,delay"
+    )]
+    pub attacks: Vec<String>,
+    /// The detectors.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "plausibility,radar_cross,residual"
+    )]
+    pub detectors: Vec<String>,
+    /// The intensities: stealthy (inside sensor noise or genuine dynamics), strong.
+    #[arg(long, value_delimiter = ',', default_value = "stealthy,strong")]
+    pub intensities: Vec<String>,
+    /// The reactions: log (record only), fallback (refuse the sender and run ACC on the radar
+    /// until a quiet second).
+    #[arg(long, value_delimiter = ',', default_value = "log,fallback")]
+    pub reactions: Vec<String>,
+    /// Leave out the run without an attack (the false-alarm baseline).
+    #[arg(long)]
+    pub no_clean: bool,
+    /// Runs of every cell, with the radar's and the channel's seeds + 0, 1, ...
+    #[arg(long, default_value_t = DetectionOptions::default().repeats)]
+    pub repeats: u32,
+    /// Each run's duration (s); 45 covers the leader's braking at 35-40 s.
+    #[arg(long, default_value_t = DetectionOptions::default().duration_s)]
+    pub duration: f64,
+    /// The insider whose packets are attacked (vehicle id).
+    #[arg(long, default_value_t = DetectionOptions::default().attacker)]
+    pub attacker: u16,
+    /// When the attack starts (s).
+    #[arg(long, default_value_t = DetectionOptions::default().start_s)]
+    pub start: f64,
+    /// Runs at once [default: the machine's cores].
+    #[arg(long)]
+    pub jobs: Option<usize>,
+    /// Output directory [default: runs/detection].
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Replace the output directory if it exists.
+    #[arg(long)]
+    pub force: bool,
 }
 
 /// Arguments of `experiment controllers`.
@@ -208,6 +274,7 @@ pub fn run(e: Experiment) -> Result<()> {
         Experiment::Degradation(args) => degradation(args),
         Experiment::Scaling(args) => scaling(args),
         Experiment::Controllers(args) => controllers(args),
+        Experiment::Detection(args) => detection(args),
     }
 }
 
@@ -312,6 +379,45 @@ fn controllers(args: ControllersArgs) -> Result<()> {
     let bar = crate::progress::Bar::counting("runs");
     let c = experiment::controllers(&base, &opts, Some(&dir), &bar)?;
     commit(dir, &c.markdown)
+}
+
+fn detection(args: DetectionArgs) -> Result<()> {
+    let opts = DetectionOptions {
+        attacks: args.attacks,
+        detectors: args.detectors,
+        intensities: args
+            .intensities
+            .iter()
+            .map(|i| {
+                Intensity::from_name(i).ok_or_else(|| {
+                    anyhow::anyhow!("--intensities: unknown intensity {i:?}; use stealthy, strong")
+                })
+            })
+            .collect::<Result<_>>()?,
+        reactions: args
+            .reactions
+            .iter()
+            .map(|r| match r.as_str() {
+                "log" => Ok(platoon_control::Reaction::Log),
+                "fallback" => Ok(platoon_control::Reaction::Fallback),
+                _ => Err(anyhow::anyhow!(
+                    "--reactions: unknown reaction {r:?}; use log, fallback"
+                )),
+            })
+            .collect::<Result<_>>()?,
+        clean: !args.no_clean,
+        repeats: args.repeats,
+        duration_s: args.duration,
+        attacker: args.attacker,
+        start_s: args.start,
+        jobs: args.jobs,
+    };
+    opts.validate()?;
+    let base = Base::load(args.config.as_deref(), Embedded::Paper)?;
+    let dir = RunDir::create(&out_dir(args.out, "runs/detection"), args.force)?;
+    let bar = crate::progress::Bar::counting("runs");
+    let d = experiment::detection(&base, &opts, Some(&dir), &bar)?;
+    commit(dir, &d.markdown)
 }
 
 fn scaling(args: ScalingArgs) -> Result<()> {
