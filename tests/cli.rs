@@ -653,6 +653,48 @@ fn experiment_controllers_writes_its_table_and_refuses_unknown_laws() {
     assert!(String::from_utf8_lossy(&o.stderr).contains("unknown law \"pid\""));
 }
 
+/// Issue 23: `experiment detection` on a reduced grid prints its table, writes its files and
+/// refuses unknown names.
+#[test]
+fn experiment_detection_writes_its_table_and_refuses_unknown_attacks() {
+    let tmp = tempfile::tempdir().unwrap();
+    let o = platoon(
+        &[
+            "experiment",
+            "detection",
+            "--attacks",
+            "drift",
+            "--detectors",
+            "radar_cross",
+            "--intensities",
+            "strong",
+            "--repeats",
+            "1",
+            "--duration",
+            "25",
+            "--out",
+            "d",
+        ],
+        tmp.path(),
+    );
+    ok(&o);
+    let md = std::fs::read_to_string(tmp.path().join("d/detection.md")).unwrap();
+    assert!(String::from_utf8_lossy(&o.stdout).contains(&md));
+    assert!(md.contains("| drift | strong | radar_cross |"), "{md}");
+    // Clean and drift, each logged and with the fallback: 4 rows and a header.
+    let csv = std::fs::read_to_string(tmp.path().join("d/detection.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 5, "{csv}");
+    for f in ["f1.png", "safety.png", "config.toml"] {
+        assert!(tmp.path().join("d").join(f).exists(), "{f}");
+    }
+    let o = platoon(
+        &["experiment", "detection", "--attacks", "sybil"],
+        tmp.path(),
+    );
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("unknown attack \"sybil\""));
+}
+
 #[test]
 fn bench_arguments_are_checked_before_anything_runs() {
     let tmp = tempfile::tempdir().unwrap();
