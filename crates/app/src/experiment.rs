@@ -1,7 +1,8 @@
 //! The paper's Section IV experiments, and ours, as library calls: Table I and Fig. 8
 //! ([`table1`]), Fig. 9 ([`robust`]), Fig. 10 ([`topologies`]), graceful degradation
-//! ([`degradation`]), long platoons ([`scaling`]) and controllers side by side under attack
-//! ([`controllers`]). Each runs on a [`Base`] scenario and
+//! ([`degradation`]), long platoons ([`scaling`]), controllers side by side under attack
+//! ([`controllers`]) and misbehaviour detectors against ground truth ([`detection`]). Each runs
+//! on a [`Base`] scenario and
 //! returns its results in memory; given a run directory it also writes the files of
 //! `platoon experiment` there (the caller creates and commits it). Progress goes to a
 //! [`Progress`].
