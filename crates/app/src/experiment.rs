@@ -21,13 +21,13 @@ use std::path::Path;
 
 mod controllers;
 mod detection;
-pub use detection::{
-    attack_kind, detection, Detection, DetectionOptions, DetectionRow, Intensity,
-    ATTACKS as DETECTION_ATTACKS, DETECTORS,
-};
 pub(crate) use controllers::configure as configure_law;
 pub use controllers::{
     controllers, Controllers, ControllersOptions, ControllersRow, ATTACKS as CONTROLLER_ATTACKS,
+};
+pub use detection::{
+    attack_kind, detection, Detection, DetectionOptions, DetectionRow, Intensity,
+    ATTACKS as DETECTION_ATTACKS, DETECTORS,
 };
 
 /// The scenario an experiment starts from: its config, what it runs, and how errors name it.
