@@ -795,9 +795,12 @@ fn detection(
         radar_cross: d.radar_cross,
         residual: d.residual,
     };
-    tables
-        .validate()
-        .or_else(|e| bad(&format!("detection.{}.{}", e.detector, e.field), e.to_string()))?;
+    tables.validate().or_else(|e| {
+        bad(
+            &format!("detection.{}.{}", e.detector, e.field),
+            e.to_string(),
+        )
+    })?;
     let specs = tables.specs();
     if specs.is_empty() {
         return bad(

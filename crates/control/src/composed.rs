@@ -353,8 +353,8 @@ impl Controller for ComposedController {
                     )
                 }
             };
-            let affected = (jammed[f.id.index()] || self.checks.distrusts(f.id, k))
-                && law.uses_v2v();
+            let affected =
+                (jammed[f.id.index()] || self.checks.distrusts(f.id, k)) && law.uses_v2v();
             f.phase = match (f.phase, affected) {
                 (Phase::Fallback { since, .. }, true) => Phase::Fallback { since, calm: 0 },
                 (_, true) => {

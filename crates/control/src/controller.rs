@@ -418,7 +418,12 @@ impl PlatoonController {
             own: states.get(r).copied().unwrap_or_else(State::zeros),
             radar: r
                 .checked_sub(1)
-                .and_then(|fi| Some((self.readings.get(fi).copied()??, self.followers[fi].radar.taken())))
+                .and_then(|fi| {
+                    Some((
+                        self.readings.get(fi).copied()??,
+                        self.followers[fi].radar.taken(),
+                    ))
+                })
                 .map(|(reading, taken)| platoon_detect::RadarReading {
                     gap_m: reading.gap,
                     closing_mps: reading.closing,

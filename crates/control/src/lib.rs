@@ -38,8 +38,8 @@ pub use checks::{PacketChecks, RejectCounts, PLAUSIBLE_ACCEL};
 pub use composed::{Beaconing, ComposedController, Composition, Law, Periodic, View};
 pub use controller::{FollowerStep, PlatoonController};
 pub use fallback::{FallbackMode, FallbackParams, Mode};
-pub use seam::{build, check_topology, Controller};
 pub use screening::{DetectionParams, Inspection, Reaction};
+pub use seam::{build, check_topology, Controller};
 pub use spacing::SpacingPolicy;
 pub use trigger::{CamRule, ControllerParams, ParamsError, TriggerRule};
 
