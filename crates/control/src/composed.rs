@@ -16,6 +16,7 @@
 
 use crate::checks::{Heard, PacketChecks, RejectCounts};
 use crate::fallback::{acc_command, opened_headway, GuardParams, Radar, RadarTruth, Truths};
+use crate::screening::{read_radars, sensed};
 use crate::{Controller, Delivery, FallbackMode, FallbackParams, FollowerStep, Mode, Packet};
 use platoon_model::{State, VehicleId};
 use platoon_topology::Topology;
@@ -171,7 +172,7 @@ pub struct ComposedController {
     truths: Truths,
     /// Each follower's radar reading of this step, read once for the detectors and the
     /// fallback.
-    readings: Vec<Option<crate::fallback::Reading>>,
+    readings: Vec<Option<(crate::fallback::Reading, u64)>>,
 }
 
 impl ComposedController {
@@ -283,33 +284,23 @@ impl Controller for ComposedController {
         let fb = &self.parts.fallback;
         let truths = self.truths.take(states, fb.vehicle_length, true);
         let radar_on = fb.uses_radar();
-        // The radars first: the detectors read them too (once a step either way, on each
-        // follower's own stream, so the fallback's readings do not move).
+        // The radars first: the detectors read them too.
         let radar_any = radar_on || self.parts.detection.reads_radar();
-        self.readings.clear();
-        for f in &mut self.followers {
-            self.readings.push(if radar_any {
-                f.radar.read(k, &fb.radar, truths[f.id.index()])
-            } else {
-                None
-            });
-        }
+        let radars = self
+            .followers
+            .iter_mut()
+            .map(|f| (&mut f.radar, truths.get(f.id.index()).copied().flatten()));
+        read_radars(k, &fb.radar, radar_any, radars, &mut self.readings);
         self.checks.begin_step();
         for d in deliveries {
-            let r = d.receiver.index();
-            let sensed = crate::screening::Sensed {
-                own: states.get(r).copied().unwrap_or_else(State::zeros),
-                radar: r.checked_sub(1).and_then(|fi| {
-                    let reading = self.readings.get(fi).copied()??;
-                    Some(platoon_detect::RadarReading {
-                        gap_m: reading.gap,
-                        closing_mps: reading.closing,
-                        vehicle_length_m: fb.vehicle_length,
-                        age_s: k.saturating_sub(self.followers[fi].radar.taken()) as f64
-                            * self.parts.dt,
-                    })
-                }),
-            };
+            let sensed = sensed(
+                k,
+                self.parts.dt,
+                d,
+                states,
+                &self.readings,
+                fb.vehicle_length,
+            );
             self.checks.admit_sensed(k, d, sensed);
         }
         let blend_steps = u64::from(fb.blend_steps);
@@ -335,7 +326,7 @@ impl Controller for ComposedController {
                 heard: self.checks.heard(f.id),
             };
             let lawful = law.command(&view);
-            let reading = if radar_on { *reading } else { None };
+            let reading = reading.filter(|_| radar_on).map(|(r, _)| r);
             let fallback_u = |since: u64, held: f64| match f.fallback {
                 FallbackMode::Zero => 0.0,
                 FallbackMode::Hold => held,

@@ -1,5 +1,6 @@
 use crate::checks::{PacketChecks, RejectCounts};
 use crate::fallback::{acc_command, opened_headway, GuardParams, Radar, RadarTruth, Truths};
+use crate::screening::{read_radars, sensed};
 use crate::{ControllerParams, Delivery, FallbackMode, Mode, Packet, ParamsError, TriggerRule};
 use platoon_model::{FreeFlow, State, VehicleId};
 use platoon_topology::Topology;
@@ -87,7 +88,7 @@ pub struct PlatoonController {
     truths: Truths,
     /// Each follower's radar reading of this step, read once for the detectors and the
     /// fallback.
-    readings: Vec<Option<crate::fallback::Reading>>,
+    readings: Vec<Option<(crate::fallback::Reading, u64)>>,
 }
 
 impl PlatoonController {
@@ -288,19 +289,15 @@ impl PlatoonController {
     ) -> &[f64] {
         let radar_on = self.params.fallback.uses_radar();
         {
-            // The radars first: the detectors read them too (read once a step either way, on
-            // each follower's own stream, so the fallback's readings do not move).
+            // The radars first: the detectors read them too.
             let fb = &self.params.fallback;
             let radar_any = radar_on || self.params.detection.reads_radar();
             let truths = self.truths.take(states, fb.vehicle_length, radar_any);
-            self.readings.clear();
-            for f in &mut self.followers {
-                self.readings.push(if radar_any {
-                    f.radar.read(k, &fb.radar, truths[f.id.index()])
-                } else {
-                    None
-                });
-            }
+            let radars = self
+                .followers
+                .iter_mut()
+                .map(|f| (&mut f.radar, truths.get(f.id.index()).copied().flatten()));
+            read_radars(k, &fb.radar, radar_any, radars, &mut self.readings);
         }
         self.checks.begin_step();
         for d in deliveries {
@@ -329,7 +326,7 @@ impl PlatoonController {
                 || self.checks.distrusts(f.id, k);
             let q = neighbourhood_error(f, p.spacing, p.headway);
             let coop = -(p.gain * q)[0];
-            let reading = if radar_on { *reading } else { None };
+            let reading = reading.filter(|_| radar_on).map(|(r, _)| r);
             // Into the fallback when affected; out of it after `dwell` calm steps, through
             // `blend` steps of blending (none: at once, the paper).
             let own = states[f.id.index()];
@@ -413,24 +410,15 @@ impl PlatoonController {
     }
 
     fn accept(&mut self, k: u64, d: &Delivery, states: &[State]) {
-        let r = d.receiver.index();
-        let sensed = crate::screening::Sensed {
-            own: states.get(r).copied().unwrap_or_else(State::zeros),
-            radar: r
-                .checked_sub(1)
-                .and_then(|fi| {
-                    Some((
-                        self.readings.get(fi).copied()??,
-                        self.followers[fi].radar.taken(),
-                    ))
-                })
-                .map(|(reading, taken)| platoon_detect::RadarReading {
-                    gap_m: reading.gap,
-                    closing_mps: reading.closing,
-                    vehicle_length_m: self.params.fallback.vehicle_length,
-                    age_s: k.saturating_sub(taken) as f64 * self.params.dt,
-                }),
-        };
+        let p = &self.params;
+        let sensed = sensed(
+            k,
+            p.dt,
+            d,
+            states,
+            &self.readings,
+            p.fallback.vehicle_length,
+        );
         let Some((fi, s)) = self.checks.admit_sensed(k, d, sensed) else {
             return;
         };

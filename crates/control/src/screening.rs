@@ -124,6 +124,56 @@ pub struct Sensed {
     pub radar: Option<RadarReading>,
 }
 
+/// Each follower's radar reading of step `k` with the step it was measured at, into `out`
+/// (followers in order): read once a step, for the detectors and the fallback alike, when
+/// `on`; on each radar's own stream, so who reads first does not move the draws.
+pub(crate) fn read_radars<'a>(
+    k: u64,
+    params: &crate::fallback::RadarParams,
+    on: bool,
+    radars: impl Iterator<
+        Item = (
+            &'a mut crate::fallback::Radar,
+            Option<crate::fallback::RadarTruth>,
+        ),
+    >,
+    out: &mut Vec<Option<(crate::fallback::Reading, u64)>>,
+) {
+    out.clear();
+    out.extend(radars.map(|(radar, truth)| {
+        if on {
+            radar.read(k, params, truth).map(|r| (r, radar.taken()))
+        } else {
+            None
+        }
+    }));
+}
+
+/// What the receiver of `d` senses at step `k`: its own state and, for a follower, its radar
+/// reading of this step ([`read_radars`]) brought to the detectors' terms.
+pub(crate) fn sensed(
+    k: u64,
+    dt: f64,
+    d: &crate::Delivery,
+    states: &[State],
+    readings: &[Option<(crate::fallback::Reading, u64)>],
+    vehicle_length: f64,
+) -> Sensed {
+    let r = d.receiver.index();
+    Sensed {
+        own: states.get(r).copied().unwrap_or_else(State::zeros),
+        radar: r
+            .checked_sub(1)
+            .and_then(|fi| readings.get(fi).copied().flatten())
+            .map(|(reading, taken)| RadarReading {
+                gap_m: reading.gap,
+                closing_mps: reading.closing,
+                vehicle_length_m: vehicle_length,
+                age_s: k.saturating_sub(taken) as f64 * dt,
+            }),
+    }
+}
+
 /// The detection state of one platoon's followers.
 #[derive(Debug, Clone)]
 pub(crate) struct Screening {
