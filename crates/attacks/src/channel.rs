@@ -275,6 +275,8 @@ pub struct Channel {
     rng: ChaCha8Rng,
     /// The radio's losses' own stream.
     radio_rng: ChaCha8Rng,
+    /// The random offsets' own stream: their draws never shift the losses'.
+    noise_rng: ChaCha8Rng,
     /// The 802.11p medium's load and DCC, with the radio.
     medium: Option<Medium>,
     /// The packets that go on the air at the current step (after DCC).
@@ -317,6 +319,12 @@ impl Channel {
                 // Its own stream: the radio's draws never shift the link attacks'.
                 let mut r = ChaCha8Rng::seed_from_u64(spec.seed);
                 r.set_stream(1);
+                r
+            },
+            noise_rng: {
+                // Far from the jammers' streams (2 + their index).
+                let mut r = ChaCha8Rng::seed_from_u64(spec.seed);
+                r.set_stream(1 << 32);
                 r
             },
             medium: spec.radio.clone().map(|r| Medium::new(r, vehicles)),
@@ -558,7 +566,7 @@ impl Channel {
             {
                 lied |= a
                     .kind
-                    .alter(t - a.start_s, &mut packet.state, &mut self.rng);
+                    .alter(t - a.start_s, &mut packet.state, &mut self.noise_rng);
             }
         }
         lied
@@ -643,7 +651,7 @@ impl Channel {
                 | LinkAttackKind::FeignedBraking { .. }
                 | LinkAttackKind::AccelScale { .. } => {
                     a.kind
-                        .alter(t - a.start_s, &mut packet.state, &mut self.rng);
+                        .alter(t - a.start_s, &mut packet.state, &mut self.noise_rng);
                     log.push(event(at, &packet, receiver, Action::Altered, None));
                 }
             }

@@ -89,6 +89,8 @@ pub struct Inspection {
     pub seq: u32,
     /// The step it claims to have been sampled at.
     pub step: u64,
+    /// The state it claims.
+    pub state: State,
     /// Whether any detector flagged it.
     pub flagged: bool,
     /// Whether the reaction refused it (flagged, or its sender distrusted).
@@ -265,6 +267,7 @@ impl Screening {
             sender: packet.sender,
             seq: packet.seq,
             step: packet.step,
+            state: packet.state,
             flagged,
             refused,
             verdicts,

@@ -44,14 +44,11 @@ impl Confusion {
         ratio(self.tp, self.tp + self.fn_)
     }
 
-    /// The harmonic mean of precision and recall (0 when either is 0).
+    /// The harmonic mean of precision and recall, `2 tp / (2 tp + fp + fn)`: defined whenever
+    /// there was a misbehaving packet (0 when none was flagged); `None` without one.
     pub fn f1(&self) -> Option<f64> {
-        let (p, r) = (self.precision()?, self.recall()?);
-        Some(if p + r > 0.0 {
-            2.0 * p * r / (p + r)
-        } else {
-            0.0
-        })
+        (self.tp + self.fn_ > 0)
+            .then(|| 2.0 * self.tp as f64 / (2 * self.tp + self.fp + self.fn_) as f64)
     }
 
     /// `fp / (fp + tn)`: flags on genuine packets; `None` without one.
@@ -175,18 +172,22 @@ impl DetectionRecorder {
         self.labeler
             .label(k, states, links, deliveries, &mut self.labelled);
         self.scored.clear();
-        let mut used = vec![false; self.labelled.len()];
+        // Inspections come in delivery order (the controllers admit deliveries in order, some
+        // refused by the checks before any detector): each is the next delivery of its link,
+        // sequence number, step and claimed state.
+        let mut next = 0;
         for i in controller.inspections() {
-            // The delivery it inspected: the first unused one of that link and packet.
-            let found = self.labelled.iter().enumerate().position(|(j, l)| {
-                !used[j]
-                    && l.delivery.receiver == i.receiver
+            let found = self.labelled[next..].iter().position(|l| {
+                l.delivery.receiver == i.receiver
                     && l.delivery.packet.sender == i.sender
                     && l.delivery.packet.seq == i.seq
                     && l.delivery.packet.step == i.step
+                    && l.delivery.packet.state == i.state
             });
-            let Some(j) = found else { continue };
-            used[j] = true;
+            let Some(j) = found.map(|j| next + j) else {
+                continue;
+            };
+            next = j + 1;
             let l = self.labelled[j];
             let bad = l.label.is_misbehaviour();
             if bad && self.first_bad.is_none() {

@@ -164,11 +164,9 @@ impl PlantSpec {
             lanes: (0..scenario.fleet.platoons)
                 .map(|j| scenario.fleet.lane(j))
                 .collect(),
-            radar_range_m: scenario
-                .control
-                .fallback
-                .uses_radar()
-                .then_some(scenario.control.fallback.radar.range_m),
+            radar_range_m: (scenario.control.fallback.uses_radar()
+                || scenario.control.detection.reads_radar())
+            .then_some(scenario.control.fallback.radar.range_m),
         }
     }
 }

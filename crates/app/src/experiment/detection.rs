@@ -426,7 +426,6 @@ fn run_cell(
 
 fn row(cell: &Cell, s: &DetectorScore, summary: &Summary) -> DetectionRow {
     let c = s.totals;
-    let bad = c.tp + c.fn_;
     DetectionRow {
         attack: cell.attack.clone().unwrap_or_else(|| "none".into()),
         intensity: cell.intensity.map_or("none", Intensity::name),
@@ -439,7 +438,7 @@ fn row(cell: &Cell, s: &DetectorScore, summary: &Summary) -> DetectionRow {
         fn_: c.fn_,
         precision: s.precision,
         recall: s.recall,
-        f1: (bad > 0).then(|| 2.0 * c.tp as f64 / (2 * c.tp + c.fp + c.fn_) as f64),
+        f1: s.f1,
         false_alarm_rate: s.false_alarm_rate,
         time_to_detect_s: s.time_to_detect_s,
         min_gap_m: summary.safety.min_gap_m,
