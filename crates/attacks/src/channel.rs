@@ -676,6 +676,35 @@ impl Channel {
     }
 }
 
+/// Lets every platoon's channel of a fleet hear the others before step `k` is gated:
+/// `platoons` are each platoon's channel with its vehicles' true states (leader first), in fleet
+/// order; `beacons` is scratch. Nothing to do unless the channels count the fleet in their load.
+/// The in-process runner and the injector process both call it, so their loads agree.
+pub fn hear_fleet(
+    k: u64,
+    platoons: &mut [(&mut Channel, &[State])],
+    beacons: &mut Vec<(f64, f64)>,
+) {
+    if platoons.len() < 2 || !platoons[0].0.counts_fleet() {
+        return;
+    }
+    // Where each vehicle is and how often it has been beaconing, before any platoon steps.
+    beacons.clear();
+    for (channel, states) in platoons.iter() {
+        beacons.extend(
+            states
+                .iter()
+                .enumerate()
+                .map(|(v, x)| (x[0], channel.beacon_rate(VehicleId(v as u16), k))),
+        );
+    }
+    let mut from = 0;
+    for (channel, states) in platoons.iter_mut() {
+        channel.set_fleet(beacons, from..from + states.len());
+        from += states.len();
+    }
+}
+
 fn event(
     (step, platoon): (u64, u16),
     p: &Packet,

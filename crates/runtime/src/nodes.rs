@@ -283,19 +283,11 @@ impl crate::injector::Injector for ChannelInjector {
             .extend(step.traffic.iter().map(|t| t.position()));
         self.seen.push(&self.background);
         self.events.clear();
-        if self.channels.len() > 1 && self.channels[0].counts_fleet() {
-            // Every platoon's radios hear the others (as platoon_sim::FleetSimulation does):
-            // each vehicle's position and measured beacon rate before any platoon is gated.
-            self.beacons.clear();
-            for (j, channel) in self.channels.iter().enumerate() {
-                self.beacons.extend((0..n1).map(|v| {
-                    let rate = channel.beacon_rate(VehicleId(v as u16), step.k);
-                    (states[j * n1 + v][0], rate)
-                }));
-            }
-            for (j, channel) in self.channels.iter_mut().enumerate() {
-                channel.set_fleet(&self.beacons, j * n1..(j + 1) * n1);
-            }
+        if self.channels.len() > 1 {
+            // Every platoon's radios hear the others, as in platoon_sim::FleetSimulation.
+            let mut platoons: Vec<(&mut Channel, &[platoon_model::State])> =
+                self.channels.iter_mut().zip(states.chunks(n1)).collect();
+            platoon_attacks::channel::hear_fleet(step.k, &mut platoons, &mut self.beacons);
         }
         for (j, channel) in self.channels.iter_mut().enumerate() {
             self.deliveries.clear();

@@ -292,13 +292,13 @@ pub fn orchestrate(
         // The built-in channel reports its radio's measurements with DONE, and flushes the
         // channel log the run reads back for jammers' per-link outages before it: wait for it.
         let waits = scenario.radio.is_some() || !scenario.jammers.is_empty();
-        let channel_node = waits.then_some(()).and_then(|_| {
-            if opts.channel_first {
-                Some(Node::Channel)
-            } else {
-                matches!(opts.injector, Program::Builtin).then_some(Node::Injector)
-            }
-        });
+        let channel_node = if !waits {
+            None
+        } else if opts.channel_first {
+            Some(Node::Channel)
+        } else {
+            matches!(opts.injector, Program::Builtin).then_some(Node::Injector)
+        };
         if let Some(n) = channel_node {
             done[n as usize] = false;
         }

@@ -507,26 +507,14 @@ impl FleetSimulation {
         self.rows.clear();
         self.log.clear();
         self.wire.clear();
-        if self.sims.len() > 1 && self.sims[0].channel.counts_fleet() {
-            // Every platoon's radios hear the others: where each vehicle is and how often it
-            // has been beaconing, before any platoon steps.
-            self.beacons.clear();
-            for s in &self.sims {
-                let k = s.step;
-                self.beacons.extend(
-                    s.plant
-                        .states()
-                        .iter()
-                        .enumerate()
-                        .map(|(v, x)| (x[0], s.channel.beacon_rate(VehicleId(v as u16), k))),
-                );
-            }
-            let mut from = 0;
-            for s in &mut self.sims {
-                let n = s.plant.states().len();
-                s.channel.set_fleet(&self.beacons, from..from + n);
-                from += n;
-            }
+        if self.sims.len() > 1 {
+            let k = self.sims[0].step;
+            let mut platoons: Vec<(&mut Channel, &[State])> = self
+                .sims
+                .iter_mut()
+                .map(|s| (&mut s.channel, s.plant.states()))
+                .collect();
+            platoon_attacks::channel::hear_fleet(k, &mut platoons, &mut self.beacons);
         }
         for s in &mut self.sims {
             self.rows.extend_from_slice(s.step());
