@@ -32,6 +32,12 @@ stops the run, which names the controller.
 `bridge/examples/paper_law.py` re-implements the paper's law and reproduces the built-in run
 of configs/paper.toml byte for byte; `bridge/examples/sliding_mode.py` is a law the project does
 not have (a sliding-mode CACC on the radar and the predecessor's broadcast acceleration).
+
+Misbehaviour detectors of your own: name them in the config (`[detection] plugin = ["mine"]`),
+and in `receive` append an `Inspection` per packet your detectors looked at to
+`step.inspections`, in the order of `step.deliveries`, with each detector's verdict. The run
+measures them against ground truth like the built-in detectors (`summary.json` `detection`,
+the `detections` dataset); `bridge/examples/speed_check.py` is one.
 """
 
 import math
@@ -69,6 +75,18 @@ class Delivery(NamedTuple):
     packet: Packet
 
 
+class Inspection(NamedTuple):
+    """What your detectors said of one delivery (append it to `step.inspections` in `receive`,
+    in the order of `step.deliveries`): `verdicts` maps a detector's name (one of
+    `run.detectors`, the config's `[detection]`) to whether it flagged the packet, or to
+    (flagged, score), score its test statistic (larger: more suspicious); a detector left out
+    did not test it. `refused`: your reaction refused the packet."""
+
+    delivery: Delivery
+    verdicts: dict
+    refused: bool = False
+
+
 class Command:
     """A follower's command u and what its controller did, for the outputs: theta (the trigger's
     internal variable, 0 if none), affected (by an attack), mode (COOP, ZERO, ...), guard
@@ -87,13 +105,16 @@ class Step:
     fleet), `states` (this platoon's vehicles as the plant measured them, leader first:
     `.p .v .a`, and the radar's view of the vehicle ahead `.gap .closing`, valid when
     `.flags & AHEAD`); in `receive` also `deliveries` (a list of Delivery) and `jammed`
-    (jammed[v]: vehicle v was told its channel was jammed in this step)."""
+    (jammed[v]: vehicle v was told its channel was jammed in this step) and `inspections`, a
+    list to which your detectors append an `Inspection` per delivery they looked at (runs with
+    `[detection]`)."""
 
-    __slots__ = ("k", "t", "platoon", "states", "deliveries", "jammed")
+    __slots__ = ("k", "t", "platoon", "states", "deliveries", "jammed", "inspections")
 
     def __init__(self, k, t, platoon, states, deliveries=None, jammed=None):
         self.k, self.t, self.platoon, self.states = k, t, platoon, states
         self.deliveries, self.jammed = deliveries, jammed
+        self.inspections = []
 
 
 AHEAD = w.VehicleState.AHEAD
@@ -125,6 +146,19 @@ class ContractError(Exception):
     """What the controller gave cannot be sent."""
 
 
+BUILTIN_DETECTORS = ("plausibility", "radar_cross", "residual")
+
+
+def detector_names(config: dict) -> list:
+    """The detectors a run measures, in the order of every inspection's verdicts (crates/control
+    `DetectionParams::names`): the built-in ones the config's `[detection]` turns on, then the
+    plug-in's (`plugin`). Empty: the run measures none, and has no `inspections` service."""
+    d = config.get("detection")
+    if not d:
+        return []
+    return [n for n in BUILTIN_DETECTORS if n in d] + list(d.get("plugin", []))
+
+
 def load_run() -> Run:
     """The run that started this process, from PLATOON_RUN_ID and PLATOON_CONFIG (a path)."""
     return _plugin.load_run("--controller")
@@ -142,6 +176,10 @@ def run(make) -> int:
     rx_in = node.inlet("rx", w.LinkPacket)
     tx_out = node.outlet("tx", w.LinkPacket, sum(map(len, out)) * platoons)
     cmd_out = node.outlet("commands", w.Command, (n1 - 1) * platoons)
+    detectors = detector_names(info.config)
+    info.detectors = detectors
+    links = sum(map(len, out)) * platoons
+    insp_out = node.outlet("inspections", w.Inspection, links) if detectors else None
     control = node.control_inlet()
     status = node.status_outlet()  # keep it: a dropped publisher takes its samples with it
     k = 0
@@ -168,7 +206,13 @@ def run(make) -> int:
             if states is not None:
                 rx = rx_in.take(k)
                 if rx is not None:
-                    commands = _receive(controllers, k, t, states, rx, n1, sent)
+                    commands, inspections = _receive(controllers, k, t, states, rx, n1, sent)
+                    if insp_out is not None:
+                        if len(inspections) > links:
+                            raise ContractError(
+                                f"{len(inspections)} inspections for the {links} links of the fleet"
+                            )
+                        insp_out.send(k, t, _inspections(inspections, detectors, n1))
                     cmd_out.send(k, t, commands)
                     states = None
                     if k == info.steps:
@@ -248,11 +292,13 @@ def sort_rx(rx, n1, platoons):
 def _receive(controllers, k, t, states, rx, n1, sent):
     """Phase 2 for every platoon: the commands of every follower, in order."""
     deliveries, jammed = sort_rx(rx, n1, len(controllers))
-    commands = []
+    commands, inspections = [], []
     for j, c in enumerate(controllers):
         base = j * n1
         got = []
-        c.receive(Step(k, t, j, states[base : base + n1], deliveries[j], jammed[j]), got)
+        step = Step(k, t, j, states[base : base + n1], deliveries[j], jammed[j])
+        c.receive(step, got)
+        inspections.extend((j, i) for i in step.inspections)
         if len(got) != n1 - 1:
             raise ContractError(f"platoon {j} gave {len(got)} commands for {n1 - 1} followers")
         for i, cmd in enumerate(got, start=1):
@@ -268,4 +314,43 @@ def _receive(controllers, k, t, states, rx, n1, sent):
                 | ((cmd.mode & w.Command.MODE_MASK) << w.Command.MODE_SHIFT)
             )
             commands.append(w.Command(vehicle=base + i, flags=flags, u=cmd.u, theta=cmd.theta))
-    return commands
+    return commands, inspections
+
+
+def _wire_id(j, n1, v):
+    return UNKNOWN_WIRE if v == UNKNOWN else j * n1 + v
+
+
+# What a vehicle id no vehicle has becomes on the wire (Rust: u32::MAX).
+UNKNOWN_WIRE = 0xFFFFFFFF
+
+
+def _inspections(inspections, detectors, n1):
+    """The controllers' inspections of a step as wire items (global ids, a flag bit and a
+    score per detector in the run's order)."""
+    index = {name: d for d, name in enumerate(detectors)}
+    items = []
+    for j, ins in inspections:
+        if not isinstance(ins, Inspection):
+            raise ContractError(f"platoon {j} appended {ins!r} to step.inspections, not an Inspection")
+        d, p = ins.delivery
+        item = w.Inspection(
+            receiver=_wire_id(j, n1, d), sender=_wire_id(j, n1, p.sender), seq=p.seq, step=p.step
+        )
+        item.state[0], item.state[1], item.state[2] = p.state
+        for x in range(8):
+            item.scores[x] = math.nan
+        flags = w.Inspection.REFUSED if ins.refused else 0
+        for name, verdict in ins.verdicts.items():
+            if name not in index:
+                raise ContractError(
+                    f"platoon {j} reported detector {name!r}, which the run does not measure "
+                    f"(its [detection] names {detectors}; add it to plugin = [...])"
+                )
+            flagged, score = verdict if isinstance(verdict, tuple) else (verdict, math.nan)
+            if flagged:
+                flags |= w.Inspection.FLAGGED | (1 << (w.Inspection.DETECTOR_SHIFT + index[name]))
+            item.scores[index[name]] = float(score)
+        item.flags = flags
+        items.append(item)
+    return items

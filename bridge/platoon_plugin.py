@@ -21,6 +21,9 @@ class Run:
     vehicles_per_platoon: int
     platoons: int
     topology: "Topology | None" = field(default=None, repr=False)
+    # The detectors the run measures, in the order of every inspection's verdicts (set by the
+    # controller SDK: platoon_controller.detector_names).
+    detectors: list = field(default_factory=list)
 
     def vehicles(self):
         """Every vehicle's wire id (vehicle i of platoon j is j * (N + 1) + i)."""

@@ -17,7 +17,8 @@ import iceoryx2 as iox
 # processes of different versions; `platoon run` gives every process it starts the run's
 # version in PLATOON_CONTRACT_VERSION, and `Endpoint` compares it with this one first.
 # v1: the first published contract; v2: V2vPacket gained `u` (the sender's latest command);
-# later, still v2: the optional `traffic` service (TrafficVehicle; no v2 payload changed).
+# later, still v2: the optional `traffic` service (TrafficVehicle; no v2 payload changed), then
+# the optional `inspections` service (Inspection; the same way).
 CONTRACT_VERSION = 2
 CONTRACT_VERSION_ENV = "PLATOON_CONTRACT_VERSION"
 CONTRACT_DOC = "docs/injector-contract.md"
@@ -164,6 +165,32 @@ class TrafficVehicle(ctypes.Structure):
         return type_name("TrafficVehicle")
 
 
+class Inspection(ctypes.Structure):
+    """What a follower's misbehaviour detectors said of one packet it received at a step, and
+    what its reaction did (controller -> orchestrator, service `inspections`, published before
+    the step's commands in runs that measure detectors): the receiver and the packet's sender
+    (wire ids), its seq, step and claimed state; flags: FLAGGED (any detector), REFUSED (the
+    reaction refused it), and bit DETECTOR_SHIFT + d when detector d flagged it (the run's
+    `[detection]` order: built-in ones, then `plugin`); scores[d] its statistic (NaN: not
+    tested)."""
+
+    FLAGGED, REFUSED, DETECTOR_SHIFT = 1, 2, 8
+
+    _fields_ = [
+        ("receiver", ctypes.c_uint32),
+        ("sender", ctypes.c_uint32),
+        ("seq", ctypes.c_uint32),
+        ("flags", ctypes.c_uint32),
+        ("step", ctypes.c_uint64),
+        ("state", ctypes.c_double * 3),
+        ("scores", ctypes.c_double * 8),
+    ]
+
+    @staticmethod
+    def type_name() -> str:
+        return type_name("Inspection")
+
+
 class ControlMsg(ctypes.Structure):
     """Control (orchestrator -> nodes) and status (nodes -> orchestrator) messages."""
 
@@ -183,7 +210,16 @@ class ControlMsg(ctypes.Structure):
         return type_name("ControlMsg")
 
 
-ALL_TYPES = [StepHeader, VehicleState, V2vPacket, LinkPacket, Command, TrafficVehicle, ControlMsg]
+ALL_TYPES = [
+    StepHeader,
+    VehicleState,
+    V2vPacket,
+    LinkPacket,
+    Command,
+    TrafficVehicle,
+    Inspection,
+    ControlMsg,
+]
 
 NODES = {"orchestrator": 0, "plant": 1, "controller": 2, "injector": 3, "channel": 4}
 
@@ -195,6 +231,7 @@ WAKES = {
     "rx": ["controller"],
     "commands": ["plant", "orchestrator"],
     "traffic": [],  # published before the states; its readers are woken by what follows
+    "inspections": [],  # published before the commands, which wake the orchestrator
     "control": ["plant", "controller", "injector"],
     "status": ["orchestrator"],
 }

@@ -1261,9 +1261,10 @@ fn iceoryx2_run_on_the_80211p_radio_is_bit_identical_to_inproc() {
 }
 
 /// Issue 23: the detectors measured against ground truth give the same `summary.json`
-/// `detection` over iceoryx2 (the controller node records them and the run reads them back) as
-/// in process, with an insider's false data, the fallback reaction and the ACC fallback on the
-/// radar the radar cross-check reads too.
+/// `detection` and the same per-message dataset (`detections.csv`) over iceoryx2 (the controller
+/// node publishes its verdicts, the orchestrator joins them with the truth) as in process, with
+/// an insider's false data, the fallback reaction and the ACC fallback on the radar the radar
+/// cross-check reads too.
 #[test]
 fn iceoryx2_run_with_detection_reports_the_inproc_detection_figures() {
     let tmp = tempfile::tempdir().unwrap();
@@ -1299,7 +1300,14 @@ reaction = \"fallback\"
     assert!(d["inspected"].as_u64().unwrap() > 0, "{d}");
     assert!(d["any"]["totals"]["tp"].as_u64().unwrap() > 0, "{d}");
     assert_eq!(d["detectors"].as_array().unwrap().len(), 3, "{d}");
-    assert!(runs.path().join("ipc/logs/detection.json").exists());
+    let ipc = runs.path().join("ipc");
+    same_outputs(&ipc, &runs.path().join("inproc"), &["detections.csv"]);
+    let rows = std::fs::read_to_string(ipc.join("detections.csv")).unwrap();
+    assert_eq!(
+        rows.lines().count() as u64 - 1,
+        d["inspected"].as_u64().unwrap(),
+        "one row per inspected packet"
+    );
 }
 
 /// Issue 23: the state-altering link attacks (random offsets per link and per packet, a drift,

@@ -93,7 +93,7 @@ class Commanding(pc.Controller):
 
 def test_commands_carry_their_flags_and_bad_ones_are_refused():
     sent = [[False, True, False]]
-    out = pc._receive(
+    out, inspections = pc._receive(
         [Commanding([0.5, pc.Command(-1.0, theta=3.0, affected=True, mode=pc.ZERO, guard=True)])],
         2,
         0.02,
@@ -103,9 +103,39 @@ def test_commands_carry_their_flags_and_bad_ones_are_refused():
         sent,
     )
     assert [(c.vehicle, c.u, c.theta) for c in out] == [(1, 0.5, 0.0), (2, -1.0, 3.0)]
+    assert inspections == []  # it inspected nothing
     assert out[0].flags == w.Command.TRIGGERED  # it broadcast in this step's transmit
     assert out[1].flags == w.Command.AFFECTED | w.Command.GUARD | (pc.ZERO << 4)
     with pytest.raises(pc.ContractError, match="1 commands for 2 followers"):
         pc._receive([Commanding([0.0])], 0, 0.0, [None] * 3, [], 3, sent)
     with pytest.raises(pc.ContractError, match="follower 2 of platoon 0 is nan"):
         pc._receive([Commanding([0.0, math.nan])], 0, 0.0, [None] * 3, [], 3, sent)
+
+
+def test_the_detectors_of_a_run_are_the_builtin_ones_then_the_plugins():
+    assert pc.detector_names({}) == []
+    d = {"residual": {}, "plausibility": {}, "plugin": ["mine", "other"], "reaction": "log"}
+    # The Rust order (plausibility, radar_cross, residual), whatever the table order.
+    assert pc.detector_names({"detection": d}) == ["plausibility", "residual", "mine", "other"]
+
+
+def test_inspections_go_on_the_wire_with_a_bit_and_a_score_per_detector():
+    packet = pc.Packet(0, 7, 41, (1.0, 2.0, 3.0))
+    d = pc.Delivery(2, packet)
+    names = ["residual", "mine"]
+    items = pc._inspections(
+        [(1, pc.Inspection(d, {"mine": (True, 4.5)}, refused=True))], names, 5
+    )
+    (it,) = items
+    # Vehicle 2 and the leader of platoon 1, in wire ids.
+    assert (it.receiver, it.sender, it.seq, it.step) == (7, 5, 7, 41)
+    assert list(it.state) == [1.0, 2.0, 3.0]
+    assert it.flags == w.Inspection.FLAGGED | w.Inspection.REFUSED | (1 << 9)
+    assert math.isnan(it.scores[0]) and it.scores[1] == 4.5
+    # A plain bool is a verdict without a score; not flagged sets no bit.
+    (it,) = pc._inspections([(0, pc.Inspection(d, {"residual": False}))], names, 5)
+    assert it.flags == 0 and math.isnan(it.scores[0])
+    with pytest.raises(pc.ContractError, match="'unknown'.*plugin"):
+        pc._inspections([(0, pc.Inspection(d, {"unknown": True}))], names, 5)
+    with pytest.raises(pc.ContractError, match="not an Inspection"):
+        pc._inspections([(0, "flagged")], names, 5)

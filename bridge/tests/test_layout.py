@@ -44,3 +44,9 @@ def test_traffic_is_a_service_that_wakes_nobody():
     assert w.service_name("r1", "traffic") == "platoon/r1/traffic"
     assert w.WAKES["traffic"] == []
     assert w.TrafficVehicle.ON_ROAD == 1
+
+
+def test_inspections_are_a_service_that_wakes_nobody():
+    assert w.service_name("r1", "inspections") == "platoon/r1/inspections"
+    assert w.WAKES["inspections"] == []
+    assert (w.Inspection.FLAGGED, w.Inspection.REFUSED, w.Inspection.DETECTOR_SHIFT) == (1, 2, 8)

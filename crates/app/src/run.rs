@@ -196,6 +196,15 @@ pub fn run(
             "--controller needs --transport iceoryx2: an external controller is a process"
         );
     }
+    let plugin = &scenario.control.detection.plugin;
+    if !plugin.is_empty() && opts.controller.is_none() {
+        anyhow::bail!(
+            "{}: detection.plugin names detectors a --controller plug-in runs ({}), but this run \
+             has none: give --controller (with --transport iceoryx2), or remove detection.plugin",
+            opts.config_file.display(),
+            plugin.join(", ")
+        );
+    }
     if let Some(plant) = opts.plant {
         config.simulation.plant = plant;
     }
@@ -307,10 +316,10 @@ pub trait StepSink {
     fn channel(&mut self, _event: &ChannelEvent) -> Result<()> {
         Ok(())
     }
-    /// The packets one platoon's detectors inspected in the step, with their ground truth
-    /// (in process, `[detection]` only; before the step's rows). `names` are its detectors, in
-    /// the order of each packet's verdicts.
-    fn detections(&mut self, _names: &[&'static str], _scored: &[Scored]) -> Result<()> {
+    /// The packets the detectors inspected in the step, with their ground truth (`[detection]`
+    /// only; before the step's rows). `names` are the detectors, in the order of each packet's
+    /// verdicts.
+    fn detections(&mut self, _names: &[&str], _scored: &[Scored]) -> Result<()> {
         Ok(())
     }
     /// After the last step.
@@ -468,8 +477,8 @@ enum Event {
 
 impl RunFiles {
     /// Opens the tables `output` asks for in `dir`; `channel` (in process) also opens the
-    /// channel log (a co-simulation's injector writes its own) and, with `[detection]`, the
-    /// detections (the per-message dataset; in process only for now).
+    /// channel log (a co-simulation's injector writes its own). With `[detection]`, the
+    /// detections (the per-message dataset) too.
     pub fn create(
         scenario: &Scenario,
         output: &platoon_config::OutputConfig,
@@ -490,7 +499,7 @@ impl RunFiles {
                 dir,
                 "detections",
                 format,
-                channel && scenario.control.detection.is_on() && on(OutputFile::Detections),
+                scenario.control.detection.is_measured() && on(OutputFile::Detections),
             )?,
             decimate: output.decimate,
             last: vec![None; scenario.vehicles()],
@@ -568,7 +577,7 @@ impl StepSink for RunFiles {
         }
     }
 
-    fn detections(&mut self, names: &[&'static str], scored: &[Scored]) -> Result<()> {
+    fn detections(&mut self, names: &[&str], scored: &[Scored]) -> Result<()> {
         for s in scored {
             let i = &s.inspection;
             let verdict = |name: &str| {
@@ -739,15 +748,6 @@ fn cosimulate(
         Some(p) => p.clone(),
         None => std::env::current_exe().context("locating the platoon binary")?,
     };
-    // The controller service measures its detectors against ground truth (`[detection]`).
-    let detection_log = scenario
-        .control
-        .detection
-        .is_on()
-        .then(|| std::path::absolute(logs.join("detection.json")))
-        .transpose()
-        .context("resolving the run directory")?;
-    let builtin_controller = controller == platoon_runtime::Program::Builtin;
     let rt = platoon_runtime::Options {
         run_id,
         exe,
@@ -758,7 +758,6 @@ fn cosimulate(
             && (output.writes(platoon_config::OutputFile::Channel)
                 || !scenario.jammers.is_empty()))
         .then(|| dir.path("channel.csv")),
-        detection_log: detection_log.clone(),
         injector,
         controller,
         plant,
@@ -778,9 +777,16 @@ fn cosimulate(
     let mut files = RunFiles::create(scenario, output, dir, false)?;
     let mut metrics = platoon_sim::FleetMetrics::new(scenario);
     let mut failure: Option<anyhow::Error> = None;
-    let result = platoon_runtime::orchestrate(&rt, scenario, |rows, wire| {
+    let names = scenario.control.detection.names();
+    let names: Vec<&str> = names.iter().map(String::as_str).collect();
+    let result = platoon_runtime::orchestrate(&rt, scenario, |rows, wire, scored| {
         if failure.is_none() {
-            if let Err(e) = files.step(rows, wire) {
+            let written = if scored.is_empty() {
+                Ok(())
+            } else {
+                files.detections(&names, scored)
+            };
+            if let Err(e) = written.and_then(|()| files.step(rows, wire)) {
                 failure = Some(e);
             }
         }
@@ -801,9 +807,7 @@ fn cosimulate(
             link_outages(scenario, output, dir, &mut metrics)?;
             let mut summary = metrics.finish(outcome.rejected);
             summary.channel = outcome.radio;
-            if let Some(path) = &detection_log {
-                summary.detection = read_detection(path, builtin_controller)?;
-            }
+            summary.detection = outcome.detection;
             channel_log_format(scenario, output, dir)?;
             let mut timing = serde_json::to_value(&outcome.timing)?;
             timing["duplicate_samples"] = serde_json::to_value(outcome.duplicates)?;
@@ -855,32 +859,6 @@ fn link_outages(
         std::fs::remove_file(&path).with_context(|| format!("removing {}", path.display()))?;
     }
     Ok(())
-}
-
-/// The detection figures the controller service wrote before DONE (`summary.json`'s
-/// `detection`). The built-in controllers always write them; a plug-in may not (a Python one,
-/// or controllers without detectors): then there are none.
-fn read_detection(
-    path: &Path,
-    builtin_controller: bool,
-) -> Result<Option<platoon_sim::detection::DetectionSummary>> {
-    let text = match std::fs::read_to_string(path) {
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound && !builtin_controller => {
-            return Ok(None)
-        }
-        r => r.with_context(|| {
-            format!(
-                "reading the detection figures of the controller process ({})",
-                path.display()
-            )
-        })?,
-    };
-    serde_json::from_str(&text).map(Some).with_context(|| {
-        format!(
-            "reading the detection figures of the controller process ({})",
-            path.display()
-        )
-    })
 }
 
 /// The injector node writes its channel log as CSV; with Parquet output it is converted, row

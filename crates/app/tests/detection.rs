@@ -29,6 +29,7 @@ fn config(detectors: &[&str], attack: Option<LinkKindConfig>) -> Config {
         residual: on("residual").then(Default::default),
         reaction: Reaction::Log,
         quiet_s: 1.0,
+        plugin: Vec::new(),
     });
     c
 }

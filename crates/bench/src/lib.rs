@@ -396,7 +396,6 @@ fn latency(a: LatencyArgs) -> Result<LatencyReport> {
         traffic: 0,
         env: Vec::new(),
         channel_log: None,
-        detection_log: None,
         log_dir: Some(logs),
         python_path: None,
         step_timeout: Duration::from_secs(5),
@@ -406,7 +405,7 @@ fn latency(a: LatencyArgs) -> Result<LatencyReport> {
         channel_first: false,
         cpus: Vec::new(),
     };
-    let outcome = platoon_runtime::orchestrate(&opts, &scenario, |_, _| {})
+    let outcome = platoon_runtime::orchestrate(&opts, &scenario, |_, _, _| {})
         .context("the iceoryx2 co-simulation")?;
     // The same run with the Python SDK's dos_jammer as the injector (the built-in one is
     // written on the Rust SDK, so its stage is the Rust SDK's), and both again with the nodes
@@ -423,7 +422,7 @@ fn latency(a: LatencyArgs) -> Result<LatencyReport> {
             cpus: cpus.to_vec(),
             ..opts.clone()
         };
-        Ok::<_, anyhow::Error>(platoon_runtime::orchestrate(&opts, &scenario, |_, _| {})?.timing)
+        Ok::<_, anyhow::Error>(platoon_runtime::orchestrate(&opts, &scenario, |_, _, _| {})?.timing)
     };
     bar.set_message("co-simulating with the nodes on one core");
     let builtin_one_core = cosim(platoon_runtime::Program::Builtin, &one_core)

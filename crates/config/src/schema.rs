@@ -92,6 +92,11 @@ pub struct DetectionConfig {
     /// The quiet period after the last flag (s; default 1).
     #[serde(default = "detection_quiet")]
     pub quiet_s: f64,
+    /// The names of detectors a `--controller` plug-in runs itself and reports on the wire
+    /// (docs/detection.md): measured against ground truth like the built-in ones, after them.
+    /// Only a run with a controller plug-in may name any.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub plugin: Vec<String>,
 }
 
 fn detection_quiet() -> f64 {
@@ -143,7 +148,7 @@ pub enum OutputFile {
     /// What crossed the wire per link and step.
     Wire,
     /// One row per packet the detectors inspected, with its ground truth and every detector's
-    /// verdict (runs with `[detection]`, in process only).
+    /// verdict (runs with `[detection]`).
     Detections,
 }
 

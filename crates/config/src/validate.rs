@@ -802,11 +802,44 @@ fn detection(
         )
     })?;
     let specs = tables.specs();
-    if specs.is_empty() {
+    if specs.is_empty() && d.plugin.is_empty() {
         return bad(
             "detection",
             "turns no detector on: add [detection.plausibility], [detection.radar_cross] or \
-             [detection.residual] (an empty table takes the defaults), or remove [detection]",
+             [detection.residual] (an empty table takes the defaults), name a plug-in's \
+             detectors in plugin = [...], or remove [detection]",
+        );
+    }
+    for (i, name) in d.plugin.iter().enumerate() {
+        let key = format!("detection.plugin[{i}]");
+        if name.is_empty()
+            || !name
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+        {
+            return bad(
+                &key,
+                format!("{name:?} is not a detector name (letters, digits, _ and - only)"),
+            );
+        }
+        if platoon_detect::DetectorSpec::NAMES.contains(&name.as_str()) {
+            return bad(
+                &key,
+                format!("{name:?} is a built-in detector: turn it on with [detection.{name}]"),
+            );
+        }
+        if d.plugin[..i].contains(name) {
+            return bad(&key, format!("names {name:?} twice"));
+        }
+    }
+    if specs.len() + d.plugin.len() > platoon_control::screening::MAX_DETECTORS {
+        return bad(
+            "detection.plugin",
+            format!(
+                "makes {} detectors; a platoon runs at most {}",
+                specs.len() + d.plugin.len(),
+                platoon_control::screening::MAX_DETECTORS
+            ),
         );
     }
     let quiet = finite("detection.quiet_s", d.quiet_s)?;
@@ -821,6 +854,7 @@ fn detection(
         specs,
         reaction: d.reaction,
         quiet_steps: quiet_steps as u32,
+        plugin: d.plugin.clone(),
     })
 }
 

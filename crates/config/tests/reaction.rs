@@ -49,3 +49,32 @@ fn falling_back_on_a_flagged_leader_turns_a_collision_into_a_safe_run() {
     let d = reacting.detection.as_ref().unwrap();
     assert!(d.refused > 0 && d.flagged > 0, "{d:?}");
 }
+
+/// `[detection] plugin` names the detectors a controller plug-in runs: the run measures them
+/// after the built-in ones, and a bad list is refused naming the key.
+#[test]
+fn a_plugins_detectors_are_named_after_the_builtin_ones_and_bad_names_are_refused() {
+    let with = |detection: &str| parse(&format!("{PAPER_TOML}\n{detection}"), Path::new("p.toml"));
+    let (_, s) = with("[detection]\nplugin = [\"pos_speed\"]\n[detection.residual]\n").unwrap();
+    let d = &s.control.detection;
+    assert_eq!(d.names(), ["residual", "pos_speed"]);
+    assert!(d.is_on() && d.is_measured());
+    // A plug-in's detectors alone: the built-in controllers run nothing, the run measures.
+    let (_, s) = with("[detection]\nplugin = [\"mine\"]\n").unwrap();
+    assert!(!s.control.detection.is_on() && s.control.detection.is_measured());
+    for (bad, key) in [
+        ("plugin = [\"a b\"]", "detection.plugin[0]"),
+        ("plugin = [\"x\", \"x\"]", "detection.plugin[1]"),
+        ("plugin = [\"residual\"]", "detection.plugin[0]"),
+        (
+            "plugin = [\"a\", \"b\", \"c\", \"d\", \"e\", \"f\", \"g\", \"h\", \"i\"]",
+            "detection.plugin",
+        ),
+        ("plugin = []", "detection"),
+    ] {
+        let e = with(&format!("[detection]\n{bad}\n"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(key), "{bad}: {e}");
+    }
+}

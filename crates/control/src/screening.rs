@@ -14,11 +14,11 @@
 //! Pure and deterministic like the rest of the controller: the same deliveries give the same
 //! verdicts bit for bit, in process and in the iceoryx2 controller node.
 
-use platoon_detect::{Last, Observation, RadarReading, Verdict};
+use platoon_detect::{Last, Observation, RadarReading};
 use platoon_model::{State, VehicleId};
 
 pub use platoon_detect::{
-    Detection as DetectorTables, Detector, DetectorSpec, Detectors, ParamError,
+    Detection as DetectorTables, Detector, DetectorSpec, Detectors, ParamError, Verdict,
 };
 
 /// What a follower does about a flagged sender (`[detection] reaction`).
@@ -56,12 +56,31 @@ pub struct DetectionParams {
     /// Steps without a flag after which a distrusted sender is trusted again (`Drop`,
     /// `Fallback`).
     pub quiet_steps: u32,
+    /// The detectors a controller plug-in runs itself (`[detection] plugin`): the built-in
+    /// controllers do not; a co-simulation records the plug-in's verdicts under these names,
+    /// after those of `specs`.
+    pub plugin: Vec<String>,
 }
 
 impl DetectionParams {
-    /// Whether any detector is on.
+    /// Whether a built-in detector is on (the built-in controllers run them).
     pub fn is_on(&self) -> bool {
         !self.specs.is_empty()
+    }
+
+    /// Whether the run measures detectors: built-in ones, or a plug-in's.
+    pub fn is_measured(&self) -> bool {
+        self.is_on() || !self.plugin.is_empty()
+    }
+
+    /// The names of every detector the run measures, in the order of each inspection's
+    /// verdicts: the built-in ones, then the plug-in's.
+    pub fn names(&self) -> Vec<String> {
+        self.specs
+            .iter()
+            .map(|s| s.name().to_string())
+            .chain(self.plugin.iter().cloned())
+            .collect()
     }
 
     /// Whether a detector reads the radar (the controller then reads it every step even when
@@ -100,6 +119,37 @@ pub struct Inspection {
 }
 
 impl Inspection {
+    /// The inspection of a packet `(sender, seq, step, state)` that `receiver` got at step `k`,
+    /// with each detector's verdict (at most [`MAX_DETECTORS`]; more are ignored): how the
+    /// co-simulation rebuilds what a controller process reported on the wire. `flagged` is
+    /// whether any verdict flagged it (a reaction may act on fewer detectors than it
+    /// reports), `refused` whether the reaction refused it.
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        k: u64,
+        receiver: VehicleId,
+        (sender, seq, step, state): (VehicleId, u32, u64, State),
+        flagged: bool,
+        refused: bool,
+        verdicts: &[Verdict],
+    ) -> Self {
+        let mut all = [Verdict::NOT_TESTED; MAX_DETECTORS];
+        let n = verdicts.len().min(MAX_DETECTORS);
+        all[..n].copy_from_slice(&verdicts[..n]);
+        Self {
+            k,
+            receiver,
+            sender,
+            seq,
+            step,
+            state,
+            flagged,
+            refused,
+            verdicts: all,
+            detectors: n as u8,
+        }
+    }
+
     /// Each detector's verdict, in the order of [`DetectionParams::specs`].
     pub fn verdicts(&self) -> &[Verdict] {
         &self.verdicts[..usize::from(self.detectors)]

@@ -17,6 +17,7 @@ fn checks(reaction: Reaction, quiet_steps: u32) -> (PacketChecks, Vec<State>) {
         specs: vec![DetectorSpec::Residual(Default::default())],
         reaction,
         quiet_steps,
+        plugin: Vec::new(),
     };
     let checks = PacketChecks::new(&topology, &initial, DT)
         .with_detection(&detection)

@@ -108,11 +108,9 @@ pub fn run<E: std::fmt::Display>(
         .ok_or(Error::NotInARun("PLATOON_CONFIG"))?
         .into();
     let (_, scenario) = platoon_config::load(&config)?;
-    let detection_log = platoon_runtime::controller::detection_log_from_env();
-    let built =
-        platoon_runtime::controller::run(&run_id, &scenario, detection_log.as_deref(), |platoon| {
-            make(platoon).map_err(|e| e.to_string())
-        });
+    let built = platoon_runtime::controller::run(&run_id, &scenario, |platoon| {
+        make(platoon).map_err(|e| e.to_string())
+    });
     match built {
         // Stopped by the run (it failed elsewhere, or `platoon run` is gone): nothing to add.
         Err(platoon_runtime::RunError::Aborted(_) | platoon_runtime::RunError::Orphaned) => Ok(()),

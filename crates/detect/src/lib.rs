@@ -298,6 +298,9 @@ pub enum DetectorSpec {
 }
 
 impl DetectorSpec {
+    /// The names of the built-in detectors, in the order of [`Detection::specs`].
+    pub const NAMES: [&'static str; 3] = [plausibility::NAME, radar::NAME, residual::NAME];
+
     /// The detector's name (its `kind`).
     pub fn name(&self) -> &'static str {
         match self {

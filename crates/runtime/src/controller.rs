@@ -10,61 +10,32 @@
 //! notices, calls [`Controller::receive`] and publishes every follower's command and what it did
 //! ([`Controller::follower_step`]) as `commands[k]`; after the last step it reports DONE with
 //! the packets the controllers refused, and it exits on STOP, ABORT or when `platoon run` is
-//! gone. When the controllers run misbehaviour detectors (`[detection]`: their
-//! [`Controller::detector_names`]) and the run names a detection log ([`DETECTION_LOG_ENV`]),
-//! it measures them against ground truth as the in-process runner does
-//! ([`platoon_sim::detection::DetectionRecorder`], one per platoon, fed the same states, links,
-//! deliveries and controller) and writes platoon 0's figures there before DONE. An error (a
-//! controller that cannot be built, a command that is not finite) names the controller and the
-//! step in the run's summary.
+//! gone. In runs that measure misbehaviour detectors (`[detection]`) it publishes what every
+//! controller's detectors said of the step's packets ([`Controller::inspections`]) on the
+//! `inspections` service before the commands; the orchestrator measures them against ground
+//! truth as the in-process runner does. An error (a controller that cannot be built, a command
+//! that is not finite) names the controller and the step in the run's summary.
 //!
 //! The built-in controller node ([`crate::nodes::controller`]) is [`run`] with
 //! [`platoon_control::build`]; the `platoon-controller` crate wraps it for users.
 use crate::ipc::{Inlet, Outlet};
 use crate::session::{
-    contract, deliveries_from_wire, packet_to_wire, reporting, states_from_wire, Numbering,
+    contract, deliveries_from_wire, inspection_to_wire, packet_to_wire, reporting,
+    states_from_wire, Numbering,
 };
 use crate::{monotonic_ns, RunError};
 use platoon_control::fallback::RadarTruth;
 use platoon_control::{Controller, Packet};
 use platoon_model::{State, VehicleId};
-use platoon_sim::detection::{DetectionRecorder, DetectionSummary};
 use platoon_sim::Scenario;
-use platoon_wire::{Command, ControlMsg, LinkPacket, Node, Service, VehicleState};
-use std::path::{Path, PathBuf};
-
-/// The variable of the controller service's environment naming the file where [`run`] writes
-/// platoon 0's [`DetectionSummary`] (JSON) after the last step, when its controllers run
-/// detectors; `platoon run` sets it for runs with `[detection]`. Unset: nothing is written.
-pub const DETECTION_LOG_ENV: &str = "PLATOON_DETECTION_LOG";
-
-/// The detection log this process was given ([`DETECTION_LOG_ENV`]), if any.
-pub fn detection_log_from_env() -> Option<PathBuf> {
-    std::env::var_os(DETECTION_LOG_ENV)
-        .filter(|p| !p.is_empty())
-        .map(PathBuf::from)
-}
-
-/// Writes `summary` to `path` as JSON, atomically (a sibling file renamed over it), so a reader
-/// finds the whole file or none.
-pub fn write_detection(path: &Path, summary: &DetectionSummary) -> std::io::Result<()> {
-    let json = serde_json::to_string_pretty(summary).map_err(std::io::Error::other)? + "\n";
-    let mut partial = path.as_os_str().to_owned();
-    partial.push(".partial");
-    let partial = PathBuf::from(partial);
-    std::fs::write(&partial, json)?;
-    std::fs::rename(&partial, path)
-}
+use platoon_wire::{Command, ControlMsg, Inspection, LinkPacket, Node, Service, VehicleState};
 
 /// Runs the controllers `make` builds, one per platoon from its replica of `scenario`
 /// ([`Scenario::replicas`], in order), as the controller service of run `run_id` until the run
-/// ends. An error of `make` stops the run and names the controller. With `detection_log` (see
-/// [`DETECTION_LOG_ENV`]) and controllers that run detectors, platoon 0's detection figures are
-/// written there before DONE.
+/// ends. An error of `make` stops the run and names the controller.
 pub fn run(
     run_id: &str,
     scenario: &Scenario,
-    detection_log: Option<&Path>,
     mut make: impl FnMut(&Scenario) -> Result<Box<dyn Controller>, String>,
 ) -> Result<(), RunError> {
     reporting(run_id, Node::Controller, |ctx, k| {
@@ -95,30 +66,28 @@ pub fn run(
             .map(&mut make)
             .collect::<Result<Vec<_>, _>>()
             .map_err(fail)?;
-        // The detectors measured against ground truth, as in process: one recorder per platoon
-        // whose controller runs detectors, only when someone reads the figures.
-        let mut recorders: Vec<Option<DetectionRecorder>> = controllers
-            .iter()
-            .zip(&replicas)
-            .map(|(c, r)| {
-                (detection_log.is_some() && !c.detector_names().is_empty()).then(|| {
-                    DetectionRecorder::new(
-                        r.platoon,
-                        c.detector_names(),
-                        r.control.detection.reaction,
-                        r.dt(),
-                    )
-                })
+        // What the detectors said, for the orchestrator to measure (`[detection]` runs only):
+        // at most every delivery of a step is inspected.
+        let inspections_out: Option<Outlet<Inspection>> = scenario
+            .control
+            .detection
+            .is_measured()
+            .then(|| {
+                e.outlet(
+                    &e.open_step_service(Service::Inspections)?,
+                    Service::Inspections,
+                    links * num.platoons,
+                )
             })
-            .collect();
+            .transpose()?;
+        let mut inspections: Vec<Inspection> = Vec::new();
         let mut states: Option<Vec<State>> = None;
         // The radar reads the plant's view of the vehicle ahead (SUMO: its lane leader), for
         // the fallback, the guard or a detector.
         let radar_from_plant =
             scenario.control.fallback.uses_radar() || scenario.control.detection.reads_radar();
         let mut truths: Vec<Option<RadarTruth>> = Vec::with_capacity(num.vehicles());
-        // Each platoon's broadcasts of the step (the links its recorder labels).
-        let mut tx: Vec<Vec<Packet>> = vec![Vec::new(); num.platoons];
+        let mut tx: Vec<Packet> = Vec::new();
         let (mut wire_tx, mut deliveries, mut jammed, mut cmds) = (
             Vec::new(),
             vec![Vec::new(); num.platoons],
@@ -141,9 +110,9 @@ pub fn run(
                     let s = states_from_wire(&s, num.vehicles())?;
                     wire_tx.clear();
                     let stamp = monotonic_ns();
-                    for ((j, c), tx) in controllers.iter_mut().enumerate().zip(&mut tx) {
+                    for (j, c) in controllers.iter_mut().enumerate() {
                         tx.clear();
-                        c.transmit(*k, &s[j * n1..(j + 1) * n1], tx);
+                        c.transmit(*k, &s[j * n1..(j + 1) * n1], &mut tx);
                         for p in tx.iter() {
                             let Some(to) = (p.sender.index() < n1)
                                 .then(|| scenario.topology.out_neighbours(p.sender))
@@ -171,6 +140,7 @@ pub fn run(
                 if let Some(items) = rx_in.take(*k)? {
                     deliveries_from_wire(&items, num, &mut deliveries, &mut jammed);
                     cmds.clear();
+                    inspections.clear();
                     for (j, c) in controllers.iter_mut().enumerate() {
                         let range = j * n1..(j + 1) * n1;
                         if radar_from_plant {
@@ -184,15 +154,11 @@ pub fn run(
                             &deliveries[j],
                             &jammed[range.clone()],
                         );
-                        if let Some(d) = &mut recorders[j] {
-                            // The in-process runner's inputs: a broadcast nobody listens to has
-                            // no link either way.
-                            d.record(
-                                *k,
-                                &s[range],
-                                platoon_sim::wire::links(&replicas[j].topology, &tx[j]),
-                                &deliveries[j],
-                                &**c,
+                        if inspections_out.is_some() {
+                            inspections.extend(
+                                c.inspections()
+                                    .iter()
+                                    .map(|i| inspection_to_wire(i, j, num)),
                             );
                         }
                         let u = c.commands();
@@ -217,18 +183,20 @@ pub fn run(
                             });
                         }
                     }
+                    if let Some(out) = &inspections_out {
+                        if inspections.len() > links * num.platoons {
+                            return Err(fail(format!(
+                                "step {k}: the detectors inspected {} packets, more than the {} \
+                                 links of the fleet",
+                                inspections.len(),
+                                links * num.platoons
+                            )));
+                        }
+                        out.send(*k, scenario.dt(), &inspections)?;
+                    }
                     cmd_out.send(*k, scenario.dt(), &cmds)?;
                     states = None;
                     if *k == scenario.steps {
-                        if let (Some(path), Some(Some(d))) = (detection_log, recorders.first()) {
-                            let summary = d.summary(controllers[0].screened());
-                            write_detection(path, &summary).map_err(|e| {
-                                fail(format!(
-                                    "writing the detection figures to {}: {e}",
-                                    path.display()
-                                ))
-                            })?;
-                        }
                         let mut done = ControlMsg::new(ControlMsg::DONE, Node::Controller, *k);
                         for c in &controllers {
                             let r = c.rejected();
@@ -247,34 +215,4 @@ pub fn run(
             }
         }
     })
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn the_detection_figures_are_written_whole_and_read_back_the_same() {
-        let recorder = DetectionRecorder::new(
-            0,
-            &["residual", "radar_cross"],
-            platoon_control::Reaction::Fallback,
-            0.01,
-        );
-        let summary = recorder.summary(Default::default());
-        let dir = std::env::temp_dir().join(format!("platoon-detection-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let path = dir.join("detection.json");
-        write_detection(&path, &summary).unwrap();
-        let back: DetectionSummary =
-            serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
-        let names: Vec<_> = std::fs::read_dir(&dir)
-            .unwrap()
-            .map(|e| e.unwrap().file_name())
-            .collect();
-        std::fs::remove_dir_all(&dir).unwrap();
-        assert_eq!(back, summary);
-        assert_eq!(back.detectors.len(), 2);
-        assert_eq!(names, ["detection.json"], "a partial file was left behind");
-    }
 }

@@ -16,6 +16,7 @@
 
 pub mod bench;
 pub mod controller;
+mod detection;
 pub mod injector;
 pub mod ipc;
 pub mod nodes;

@@ -110,11 +110,9 @@ fn commands_into(cmds: &[Command], num: Numbering, u: &mut [f64]) -> Result<(), 
 
 /// The controller service: every follower's triggering rule, estimators and control law, for
 /// every platoon: the controllers [`platoon_control::build`] makes from the config, on the
-/// controller SDK ([`crate::controller`]) like any third-party one (its detection figures go to
-/// the file of [`crate::controller::DETECTION_LOG_ENV`], if set).
+/// controller SDK ([`crate::controller`]) like any third-party one.
 pub fn controller(run_id: &str, scenario: &Scenario) -> Result<(), RunError> {
-    let log = crate::controller::detection_log_from_env();
-    crate::controller::run(run_id, scenario, log.as_deref(), |s| {
+    crate::controller::run(run_id, scenario, |s| {
         platoon_control::build(&s.control, &s.topology, &s.initial).map_err(|e| e.to_string())
     })
 }

@@ -1,6 +1,7 @@
 //! The orchestrator: creates the run's services, starts the plant, controller and injector
 //! processes, waits until all are ready, records every step, and shuts everything down, on
 //! success or failure, leaving no process behind.
+use crate::detection::Measure;
 use crate::ipc::{wait, ControlInlet, Endpoint, Inlet};
 use crate::session::{
     check_traffic, deliveries_from_wire, packet_from_wire, states_from_wire, Numbering,
@@ -8,9 +9,11 @@ use crate::session::{
 use crate::timing::{StageClock, Timing};
 use crate::RunError;
 use platoon_control::{FollowerStep, RejectCounts};
+use platoon_sim::detection::Scored;
 use platoon_sim::{step_rows, Scenario, StepRow, StepWire, WireCounts};
 use platoon_wire::{
-    Command, ControlMsg, LinkPacket, Node, Observed, Service, TrafficVehicle, VehicleState,
+    Command, ControlMsg, Inspection, LinkPacket, Node, Observed, Service, TrafficVehicle,
+    VehicleState,
 };
 use std::path::PathBuf;
 use std::process::{Child, Command as Process, Stdio};
@@ -56,10 +59,6 @@ pub struct Options {
     pub env: Vec<(String, String)>,
     /// Where the built-in injector writes its channel log (CSV).
     pub channel_log: Option<PathBuf>,
-    /// Where the controller service writes platoon 0's detection figures (JSON,
-    /// `platoon_sim::detection::DetectionSummary`) before DONE, if its controllers run detectors:
-    /// given to it, built-in or plug-in, as [`crate::controller::DETECTION_LOG_ENV`].
-    pub detection_log: Option<PathBuf>,
     /// Where each node's stderr goes (`<dir>/<node>.log`); inherited if `None`. The error of a
     /// process that dies quotes the last lines of its log.
     pub log_dir: Option<PathBuf>,
@@ -101,6 +100,9 @@ pub struct Outcome {
     /// reported with DONE; `None` without the radio or when a third-party injector replaced the
     /// channel.
     pub radio: Option<platoon_attacks::channel::RadioStats>,
+    /// Platoon 0's detectors measured against ground truth (`summary.json`'s `detection`), in
+    /// runs that measure them (`[detection]`).
+    pub detection: Option<platoon_sim::detection::DetectionSummary>,
 }
 
 /// Samples the orchestrator received for a step it already had, per service (a publisher
@@ -188,16 +190,19 @@ struct Services {
     _commands: crate::ipc::StepService<Command>,
     _gated: crate::ipc::StepService<LinkPacket>,
     _traffic: Option<crate::ipc::StepService<TrafficVehicle>>,
+    _inspections: Option<crate::ipc::StepService<Inspection>>,
     _wake: Vec<crate::ipc::WakeService>,
 }
 
 /// Runs `scenario` across processes and calls `on_step` with the rows of every step, in order,
-/// and what happened on the wire in it (measured between the tx and rx batches).
+/// what happened on the wire in it (measured between the tx and rx batches) and, in runs that
+/// measure detectors, the packets they inspected with their ground truth (the per-message
+/// dataset; empty otherwise).
 /// On failure every process is stopped and the error names the node and the step.
 pub fn orchestrate(
     opts: &Options,
     scenario: &Scenario,
-    mut on_step: impl FnMut(&[StepRow], StepWire<'_>),
+    mut on_step: impl FnMut(&[StepRow], StepWire<'_>, &[Scored]),
 ) -> Result<Outcome, RunError> {
     let e = Endpoint::new(&opts.run_id, Node::Orchestrator)?;
     // Create everything before any node starts, so nodes only ever open.
@@ -214,6 +219,12 @@ pub fn orchestrate(
         _traffic: (opts.traffic > 0)
             .then(|| e.create_step_service(Service::Traffic))
             .transpose()?,
+        _inspections: scenario
+            .control
+            .detection
+            .is_measured()
+            .then(|| e.create_step_service(Service::Inspections))
+            .transpose()?,
         _wake: wake,
     };
     let control_service = e.control_service(Service::Control, true)?;
@@ -229,6 +240,11 @@ pub fn orchestrate(
         ._traffic
         .as_ref()
         .map(|s| Inlet::new(s, Node::Plant))
+        .transpose()?;
+    let mut inspections: Option<Inlet<Inspection>> = services
+        ._inspections
+        .as_ref()
+        .map(|s| Inlet::new(s, Node::Controller))
         .transpose()?;
     let observe = Observe::create(&e, opts.observers, scenario)?;
 
@@ -320,6 +336,7 @@ pub fn orchestrate(
                 traffic.as_mut().map_or(Ok(0), Inlet::drain),
                 tx.drain(),
                 rx.drain(),
+                inspections.as_mut().map_or(Ok(0), Inlet::drain),
                 commands.drain(),
             ]
             .into_iter()
@@ -330,6 +347,7 @@ pub fn orchestrate(
                 traffic: traffic.as_mut().map(|t| (t, opts.traffic)),
                 tx: &mut tx,
                 rx: &mut rx,
+                inspections: inspections.as_mut(),
                 commands: &mut commands,
             };
             progressed |= streams.record(scenario, &mut run, &mut clock, &observe, &mut on_step)?;
@@ -344,6 +362,7 @@ pub fn orchestrate(
                         traffic: traffic.as_mut().map(|t| (t, opts.traffic)),
                         tx: &mut tx,
                         rx: &mut rx,
+                        inspections: inspections.as_mut(),
                         commands: &mut commands,
                     };
                     streams.drain_all();
@@ -386,6 +405,8 @@ pub fn orchestrate(
                     ("controller", "the tx batch")
                 } else if !rx.has(k) {
                     ("injector", "the rx batch")
+                } else if inspections.as_ref().is_some_and(|i| !i.has(k)) {
+                    ("controller", "the inspections")
                 } else {
                     ("controller", "commands")
                 };
@@ -398,6 +419,7 @@ pub fn orchestrate(
                         + traffic.as_ref().map_or(0, Inlet::duplicates)
                         + tx.duplicates()
                         + rx.duplicates()
+                        + inspections.as_ref().map_or(0, Inlet::duplicates)
                         + commands.duplicates(),
                 });
             }
@@ -409,6 +431,7 @@ pub fn orchestrate(
                     traffic: traffic.as_mut().map(|t| (t, opts.traffic)),
                     tx: &mut tx,
                     rx: &mut rx,
+                    inspections: inspections.as_mut(),
                     commands: &mut commands,
                 };
                 streams.drain_all();
@@ -419,6 +442,7 @@ pub fn orchestrate(
         }
         Ok(Outcome {
             radio,
+            detection: run.measure.as_ref().and_then(Measure::summary),
             rejected: rejected.unwrap_or_default(),
             timing: clock.report(),
             duplicates: DuplicateSamples {
@@ -456,6 +480,7 @@ struct Streams<'a> {
     traffic: Option<(&'a mut Inlet<TrafficVehicle>, usize)>,
     tx: &'a mut Inlet<LinkPacket>,
     rx: &'a mut Inlet<LinkPacket>,
+    inspections: Option<&'a mut Inlet<Inspection>>,
     commands: &'a mut Inlet<Command>,
 }
 
@@ -468,6 +493,9 @@ impl Streams<'_> {
         }
         let _ = self.tx.drain();
         let _ = self.rx.drain();
+        if let Some(i) = &mut self.inspections {
+            let _ = i.drain();
+        }
         let _ = self.commands.drain();
     }
 
@@ -478,7 +506,7 @@ impl Streams<'_> {
         run: &mut Recorder<'_>,
         clock: &mut StageClock,
         observe: &Observe,
-        on_step: &mut impl FnMut(&[StepRow], StepWire<'_>),
+        on_step: &mut impl FnMut(&[StepRow], StepWire<'_>, &[Scored]),
     ) -> Result<bool, RunError> {
         let mut progressed = false;
         while run.step <= scenario.steps && self.states.has(run.step) {
@@ -496,7 +524,11 @@ impl Streams<'_> {
                 })?;
                 check_traffic(items, Some(*count), k)?;
             }
-            if !(self.tx.has(k) && self.rx.has(k) && self.commands.has(k)) {
+            if !(self.tx.has(k)
+                && self.rx.has(k)
+                && self.commands.has(k)
+                && self.inspections.as_ref().is_none_or(|i| i.has(k)))
+            {
                 break;
             }
             if let Some((inlet, _)) = &mut self.traffic {
@@ -508,6 +540,10 @@ impl Streams<'_> {
             let (hc, c) = self.commands.take_buffered(k).expect("has");
             clock.push(hs.stamp_ns, ht.stamp_ns, hr.stamp_ns, hc.stamp_ns);
             run.record(&s, &t, &r, &c)?;
+            if let (Some(inlet), Some(m)) = (&mut self.inspections, &mut run.measure) {
+                let (_, items) = inlet.take_buffered(k).expect("has");
+                m.record(k, &s, &t, &r, &items)?;
+            }
             observe.publish(k, scenario.dt(), &s, &t, &r, &c)?;
             on_step(
                 &run.rows,
@@ -515,6 +551,7 @@ impl Streams<'_> {
                     per_vehicle: &run.wire,
                     outside: run.outside,
                 },
+                run.measure.as_ref().map_or(&[], Measure::scored),
             );
             run.step += 1;
             progressed = true;
@@ -727,9 +764,6 @@ fn spawn_all(opts: &Options, children: &mut Children) -> Result<(), RunError> {
         if node == Node::Injector && opts.channel_first {
             cmd.env("PLATOON_INJECTOR_INPUT", "gated");
         }
-        if let (Node::Controller, Some(log)) = (node, &opts.detection_log) {
-            cmd.env(crate::controller::DETECTION_LOG_ENV, log);
-        }
         cmd.env("PLATOON_RUN_ID", &opts.run_id)
             .env("PLATOON_CONFIG", &opts.config)
             .env(
@@ -828,6 +862,8 @@ struct Recorder<'a> {
     wire: Vec<WireCounts>,
     outside: WireCounts,
     wire_counter: platoon_sim::wire::WireCounter,
+    /// The detectors measured against ground truth (`[detection]` runs).
+    measure: Option<Measure>,
 }
 
 impl<'a> Recorder<'a> {
@@ -846,6 +882,7 @@ impl<'a> Recorder<'a> {
             wire: vec![WireCounts::default(); num.vehicles()],
             outside: WireCounts::default(),
             wire_counter: Default::default(),
+            measure: Measure::new(scenario),
         }
     }
 

@@ -274,6 +274,76 @@ pub fn deliveries_from_wire(
     }
 }
 
+/// A controller's inspection of a packet of platoon `j` onto the wire (wire ids; a vehicle the
+/// platoon does not have, `u16::MAX`, becomes `u32::MAX`).
+pub fn inspection_to_wire(
+    i: &platoon_control::Inspection,
+    j: usize,
+    num: Numbering,
+) -> platoon_wire::Inspection {
+    use platoon_wire::Inspection as W;
+    let global = |v: VehicleId| {
+        if v.0 == u16::MAX {
+            u32::MAX
+        } else {
+            num.global(j, v)
+        }
+    };
+    let mut flags = u32::from(i.flagged) * W::FLAGGED + u32::from(i.refused) * W::REFUSED;
+    let mut scores = [f64::NAN; 8];
+    for (d, (v, score)) in i.verdicts().iter().zip(&mut scores).enumerate() {
+        flags |= u32::from(v.flagged) << (W::DETECTOR_SHIFT + d as u32);
+        *score = v.score;
+    }
+    W {
+        receiver: global(i.receiver),
+        sender: global(i.sender),
+        seq: i.seq,
+        flags,
+        step: i.step,
+        state: [i.state[0], i.state[1], i.state[2]],
+        scores,
+    }
+}
+
+/// Inspections of step `k` from the wire, sorted into each platoon's (`detectors` verdicts
+/// each), in their order; ids of no vehicle of the platoon become `u16::MAX`, as
+/// [`deliveries_from_wire`] makes them, so an inspection still joins its delivery.
+pub fn inspections_from_wire(
+    k: u64,
+    items: &[platoon_wire::Inspection],
+    num: Numbering,
+    detectors: usize,
+    out: &mut [Vec<platoon_control::Inspection>],
+) {
+    for o in out.iter_mut() {
+        o.clear();
+    }
+    let mut verdicts = [platoon_control::screening::Verdict::NOT_TESTED; 8];
+    let detectors = detectors.min(verdicts.len());
+    for it in items {
+        let (j, receiver) = num.split(it.receiver).unwrap_or((0, VehicleId(u16::MAX)));
+        let sender = match num.split(it.sender) {
+            Some((js, i)) if js == j => i,
+            _ => VehicleId(u16::MAX),
+        };
+        for (d, v) in verdicts.iter_mut().enumerate().take(detectors) {
+            *v = platoon_control::screening::Verdict {
+                flagged: it.flagged_by(d),
+                score: it.scores[d],
+            };
+        }
+        out[j].push(platoon_control::Inspection::new(
+            k,
+            receiver,
+            (sender, it.seq, it.step, State::from(it.state)),
+            it.flags & platoon_wire::Inspection::FLAGGED != 0,
+            it.flags & platoon_wire::Inspection::REFUSED != 0,
+            &verdicts[..detectors],
+        ));
+    }
+}
+
 /// A packet onto the wire.
 pub fn packet_to_wire(p: &Packet, stamp_ns: u64) -> V2vPacket {
     V2vPacket {

@@ -5,7 +5,7 @@
 //! Whoever holds the controllers records (the in-process runner, the iceoryx2 controller
 //! node), with this same code, so both give the same figures.
 use crate::truth::{Label, Labelled, TruthLabeler};
-use platoon_control::{Controller, Delivery, Inspection, Packet};
+use platoon_control::{Delivery, Inspection, Packet};
 use platoon_model::{State, VehicleId};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -124,8 +124,9 @@ pub struct DetectionRecorder {
     dt: f64,
     labeler: TruthLabeler,
     labelled: Vec<Labelled>,
-    names: Vec<&'static str>,
+    names: Vec<String>,
     reaction: &'static str,
+    counts: platoon_control::screening::ScreenCounts,
     per: Vec<(Confusion, BTreeMap<&'static str, Confusion>, Option<u64>)>,
     any: (Confusion, BTreeMap<&'static str, Confusion>, Option<u64>),
     first_bad: Option<u64>,
@@ -134,11 +135,12 @@ pub struct DetectionRecorder {
 }
 
 impl DetectionRecorder {
-    /// For platoon `platoon` whose controller runs `names` (its `detector_names()`) with
+    /// For platoon `platoon` whose controller runs the detectors `names` (in process its
+    /// `detector_names()`; in a co-simulation the config's, `DetectionParams::names`) with
     /// `reaction`; `dt` the step.
     pub fn new(
         platoon: u16,
-        names: &[&'static str],
+        names: &[impl AsRef<str>],
         reaction: platoon_control::Reaction,
         dt: f64,
     ) -> Self {
@@ -147,8 +149,9 @@ impl DetectionRecorder {
             dt,
             labeler: TruthLabeler::for_seconds(10.0, dt),
             labelled: Vec::new(),
-            names: names.to_vec(),
+            names: names.iter().map(|n| n.as_ref().to_string()).collect(),
             reaction: reaction.name(),
+            counts: Default::default(),
             per: vec![Default::default(); names.len()],
             any: Default::default(),
             first_bad: None,
@@ -158,15 +161,16 @@ impl DetectionRecorder {
     }
 
     /// Step `k`: the true `states`, the step's `links` (broadcasts as (receiver, packet)), what
-    /// was delivered and what the controller's detectors said of it. The scored packets of the
-    /// step are then [`DetectionRecorder::scored`].
+    /// was delivered and what the controller's detectors said of it (its
+    /// `Controller::inspections`, or what a controller process reported on the wire). The
+    /// scored packets of the step are then [`DetectionRecorder::scored`].
     pub fn record(
         &mut self,
         k: u64,
         states: &[State],
         links: impl Iterator<Item = (VehicleId, Packet)>,
         deliveries: &[Delivery],
-        controller: &dyn Controller,
+        inspections: &[Inspection],
     ) {
         self.labelled.clear();
         self.labeler
@@ -176,7 +180,10 @@ impl DetectionRecorder {
         // refused by the checks before any detector): each is the next delivery of its link,
         // sequence number, step and claimed state.
         let mut next = 0;
-        for i in controller.inspections() {
+        for i in inspections {
+            self.counts.inspected += 1;
+            self.counts.flagged += u64::from(i.flagged);
+            self.counts.refused += u64::from(i.refused);
             let found = self.labelled[next..].iter().position(|l| {
                 l.delivery.receiver == i.receiver
                     && l.delivery.packet.sender == i.sender
@@ -222,8 +229,9 @@ impl DetectionRecorder {
         &self.scored
     }
 
-    /// The figures so far, with the controller's counts (`Controller::screened`).
-    pub fn summary(&self, screened: platoon_control::screening::ScreenCounts) -> DetectionSummary {
+    /// The figures so far.
+    pub fn summary(&self) -> DetectionSummary {
+        let screened = self.counts;
         let score = |name: &str,
                      (c, by, first): &(
             Confusion,

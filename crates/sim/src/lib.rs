@@ -375,7 +375,7 @@ impl Simulation {
     /// The detectors measured against ground truth so far (`[detection]` only).
     pub fn detection(&self) -> Option<detection::DetectionSummary> {
         let d = self.detection.as_ref()?;
-        Some(d.summary(self.controller.screened()))
+        Some(d.summary())
     }
 
     /// The packets the detectors inspected at the last step, with their ground truth
@@ -423,7 +423,7 @@ impl Simulation {
                 states,
                 wire::links(&sc.topology, &self.tx),
                 &self.deliveries,
-                self.controller.as_ref(),
+                self.controller.inspections(),
             );
         }
 

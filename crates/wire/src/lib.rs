@@ -20,7 +20,8 @@ use iceoryx2::prelude::ZeroCopySend;
 /// - v1: the first published contract.
 /// - v2: [`V2vPacket`] gained `u`, the sender's latest command (56 bytes, was 48). Later, still
 ///   v2: the optional [`Service::Traffic`] of [`TrafficVehicle`]s (a new service; no payload
-///   of v2 changed, and a plug-in that does not open it is unaffected).
+///   of v2 changed, and a plug-in that does not open it is unaffected). Later, still v2: the
+///   optional [`Service::Inspections`] of [`Inspection`]s (the same way: a new service).
 pub const CONTRACT_VERSION: u32 = 2;
 
 /// The environment variable in which `platoon run` gives every process it starts the contract
@@ -224,6 +225,49 @@ impl TrafficVehicle {
     }
 }
 
+/// What a follower's misbehaviour detectors said of one packet it received at a step, and what
+/// its reaction did (controller -> orchestrator, on [`Service::Inspections`]): the orchestrator
+/// joins it with what truly happened to the packet, as the in-process run does. Published only
+/// in runs that measure detectors (`[detection]`), one item per inspected packet, in the order
+/// the receivers got them (the rx batch's order).
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[type_name("platoon::v2::Inspection")]
+#[repr(C)]
+pub struct Inspection {
+    /// The receiving follower (wire id).
+    pub receiver: u32,
+    /// The packet's sender as delivered (wire id; [`V2vPacket::sender`]).
+    pub sender: u32,
+    /// Its sequence number.
+    pub seq: u32,
+    /// Bit 0 ([`Inspection::FLAGGED`]): a detector flagged it; bit 1
+    /// ([`Inspection::REFUSED`]): the reaction refused it; bit `8 + d`
+    /// ([`Inspection::DETECTOR_SHIFT`]): detector d (the run's `[detection]` order: built-in
+    /// ones, then `plugin`) flagged it.
+    pub flags: u32,
+    /// The step it claims to have been sampled at.
+    pub step: u64,
+    /// The state `[p, v, a]` it claims.
+    pub state: [f64; 3],
+    /// Detector d's test statistic (larger: more suspicious); NaN when it had nothing to test
+    /// or the run has fewer than `d + 1` detectors.
+    pub scores: [f64; 8],
+}
+
+impl Inspection {
+    /// `flags` bit: a detector flagged the packet.
+    pub const FLAGGED: u32 = 1;
+    /// `flags` bit: the reaction refused the packet.
+    pub const REFUSED: u32 = 2;
+    /// `flags` bit of detector d's flag: `1 << (DETECTOR_SHIFT + d)`.
+    pub const DETECTOR_SHIFT: u32 = 8;
+
+    /// Whether detector `d` flagged the packet.
+    pub fn flagged_by(&self, d: usize) -> bool {
+        d < self.scores.len() && self.flags & (1 << (Self::DETECTOR_SHIFT + d as u32)) != 0
+    }
+}
+
 /// Control and status messages (orchestrator <-> every node), one per sample.
 #[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
 #[type_name("platoon::v2::ControlMsg")]
@@ -349,6 +393,10 @@ pub enum Service {
     /// `[LinkPacket]`, channel -> injector, with `--injector-mode after`: what survived the
     /// config's attacks (deliveries and jammed notices), the injector's input instead of `tx`.
     Gated,
+    /// `[Inspection]`, controller -> orchestrator: what the followers' detectors said of the
+    /// packets of a step, published just before that step's commands. Only runs that measure
+    /// detectors (`[detection]`) have it; the orchestrator creates it only then.
+    Inspections,
     /// `ControlMsg`, orchestrator -> nodes.
     Control,
     /// `ControlMsg`, nodes -> orchestrator.
@@ -404,6 +452,7 @@ pub fn service_name(run_id: &str, service: Service) -> String {
         Service::Commands => "commands",
         Service::Traffic => "traffic",
         Service::Gated => "gated",
+        Service::Inspections => "inspections",
         Service::Control => "control",
         Service::Status => "status",
         Service::Wake(node) => return format!("platoon/{run_id}/wake/{}", node.name()),
@@ -442,6 +491,8 @@ pub fn wakes(service: Service) -> &'static [Node] {
         // Published before the states, which precede the tx batch that wakes the injector:
         // whoever reads it has it by then.
         Service::Traffic => &[],
+        // Published before the commands, which wake the orchestrator.
+        Service::Inspections => &[],
         Service::Control => &[Node::Plant, Node::Controller, Node::Injector],
         Service::Status => &[Node::Orchestrator],
         Service::Wake(_) | Service::Observe(_) => &[],
@@ -483,6 +534,10 @@ pub fn layouts() -> Vec<Layout> {
         layout!(LinkPacket, [receiver, kind, packet]),
         layout!(Command, [vehicle, flags, u, theta]),
         layout!(TrafficVehicle, [index, flags, p]),
+        layout!(
+            Inspection,
+            [receiver, sender, seq, flags, step, state, scores]
+        ),
         layout!(ControlMsg, [kind, node, step, counts, reason]),
     ]
 }
@@ -534,6 +589,7 @@ mod tests {
             unsafe { LinkPacket::type_name() },
             unsafe { Command::type_name() },
             unsafe { TrafficVehicle::type_name() },
+            unsafe { Inspection::type_name() },
             unsafe { ControlMsg::type_name() },
         ];
         let prefix = format!("platoon::v{CONTRACT_VERSION}::");

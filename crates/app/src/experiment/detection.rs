@@ -390,6 +390,7 @@ fn configure(
         reaction: cell.reaction,
         // `[detection] quiet_s`'s default.
         quiet_s: 1.0,
+        plugin: Vec::new(),
     });
     c
 }
