@@ -9,6 +9,10 @@ over the step (`setAcceleration`, ballistic update, speed mode 0), step SUMO, ch
 and update a[k+1] with the engine lag (platoon_plant.py). Writes SUMO's FCD output and
 sumo.json (SUMO version, per-step costs, collisions) into the run directory.
 
+The per-vehicle libsumo calls of a step (set every acceleration, step, read every state back)
+run in one call to a small C++ helper (sumo_native.py; PLATOON_SUMO_NATIVE=0 keeps them in
+Python); the arithmetic stays here, so both give the same bits.
+
 `sumo_plant.py --tight-loop STEPS` (with PLATOON_PLANT_SPEC) times the same SUMO and model in a
 loop without the co-simulation around it, for `platoon bench step`.
 """
@@ -28,6 +32,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
 import platoon_plant  # noqa: E402
 import platoon_wire as w  # noqa: E402
+import sumo_native  # noqa: E402
 
 
 class SumoError(Exception):
@@ -88,6 +93,21 @@ def write_routes(path, spec):
         f.write("\n".join(lines) + "\n")
 
 
+def open_native(spec, sumo):
+    """The C++ loop over this run's vehicles (sumo_native.Fleet), or None for the Python loop."""
+    n = len(spec["initial"])
+    n1 = int(spec["vehicles_per_platoon"])
+    radar = spec.get("radar_range_m")
+    return sumo_native.open_fleet(
+        sumo,
+        [vehicle_id(i) for i in range(n)],
+        [i for i in range(n) if i % n1] if radar is not None else [],
+        radar,
+        [f"bg{b}" for b in range(int(spec["sumo"].get("background_vehicles", 0)))],
+        say=lambda m: print(f"sumo_plant: {m}", file=sys.stderr, flush=True),
+    )
+
+
 def start_sumo(spec):
     import libsumo  # imported here: it sets SUMO_HOME for its own data files
 
@@ -132,8 +152,9 @@ class Kinematics:
     `plant_step`; with numpy for large fleets, as whole-array operations that round as the
     loop does), and how far apart they are."""
 
-    def __init__(self, spec, sumo, mode):
+    def __init__(self, spec, sumo, mode, native=None):
         self.sumo = sumo
+        self.native = native  # sumo_native.Fleet: SUMO's states come from its arrays
         self.mode = mode  # "sumo": the controllers see SUMO's states; "model": the model's
         self.offset = float(spec["sumo"]["offset_m"])
         self.dt = float(spec["dt"])
@@ -191,12 +212,20 @@ class Kinematics:
 
     def read(self, k, accel):
         """The states to publish at step k (a VehicleState array), after comparing SUMO with
-        the model. One libsumo call per vehicle and quantity: subscriptions cost more per
-        step here (BENCHMARKS.md)."""
+        the model. One libsumo call per vehicle and quantity (subscriptions cost more per
+        step here, from Python and from C++: BENCHMARKS.md), made by the C++ loop when there
+        is one, which leaves SUMO's values in its arrays."""
         get_pos, get_speed = self.sumo.vehicle.getLanePosition, self.sumo.vehicle.getSpeed
+        ids = self.ids
+        if self.native is not None:
+            lane, speed = self.native.states()
+            if not self.vector:
+                # The loop below, reading those values by index instead of asking libsumo.
+                ids = range(len(self.ids))
+                get_pos, get_speed = lane.tolist().__getitem__, speed.tolist().__getitem__
         if not self.vector:
             out = self.out
-            for i, vid in enumerate(self.ids):
+            for i, vid in enumerate(ids):
                 p = get_pos(vid) - self.offset
                 v = get_speed(vid)
                 self.compare(k, i, abs(p - self.p[i]), abs(v - self.v[i]))
@@ -206,8 +235,11 @@ class Kinematics:
                 s.p, s.v, s.a = self.p[i], self.v[i], accel[i]
             self.sense()
             return out
-        p = np.array([get_pos(vid) for vid in self.ids]) - self.offset
-        v = np.array([get_speed(vid) for vid in self.ids])
+        if self.native is not None:
+            p, v = lane - self.offset, speed.copy()
+        else:
+            p = np.array([get_pos(vid) for vid in self.ids]) - self.offset
+            v = np.array([get_speed(vid) for vid in self.ids])
         dp, dv = np.abs(p - self.p), np.abs(v - self.v)
         max_dp, max_dv = float(dp.max()), float(dv.max())
         if max_dp > self.max_dp or max_dv > self.max_dv:
@@ -227,6 +259,9 @@ class Kinematics:
         and the closing speed. The controllers keep only what is within the radar's range."""
         if self.radar_range is None:
             return
+        if self.native is not None:
+            self.sense_native()
+            return
         get_leader, get_speed = self.sumo.vehicle.getLeader, self.sumo.vehicle.getSpeed
         out = self.out
         for i in self.followers:
@@ -240,6 +275,29 @@ class Kinematics:
             else:
                 s.flags &= ~w.VehicleState.AHEAD
                 s.gap = s.closing = 0.0
+
+    def sense_native(self):
+        """`sense` from what the C++ loop read: the same values, the same subtraction."""
+        nat = self.native
+        if not self.vector:
+            out, speed = self.out, nat.speed.tolist()
+            gap, ahead_speed = nat.gap.tolist(), nat.ahead_speed.tolist()
+            for j, i in enumerate(self.followers):
+                s = out[i]
+                if nat.ahead[j]:
+                    s.flags |= w.VehicleState.AHEAD
+                    s.gap = gap[j]
+                    s.closing = speed[i] - ahead_speed[j]
+                else:
+                    s.flags &= ~w.VehicleState.AHEAD
+                    s.gap = s.closing = 0.0
+            return
+        f, ahead = nat.followers, nat.ahead.astype(bool)
+        view = self.view
+        flags = view["flags"][f]
+        view["flags"][f] = np.where(ahead, flags | w.VehicleState.AHEAD, flags & ~np.uint32(w.VehicleState.AHEAD))
+        view["gap"][f] = np.where(ahead, nat.gap, 0.0)
+        view["closing"][f] = np.where(ahead, nat.speed[f] - nat.ahead_speed, 0.0)
 
     def compare(self, k, i, dp, dv):
         if dp > self.max_dp or dv > self.max_dv:
@@ -255,8 +313,9 @@ class Traffic:
     `getLanePosition` call: per-vehicle calls cost less than subscriptions in libsumo
     (docs/performance.md, "What was tried")."""
 
-    def __init__(self, spec, sumo):
+    def __init__(self, spec, sumo, native=None):
         self.sumo = sumo
+        self.native = native  # sumo_native.Fleet: the positions come from the C++ loop
         self.offset = float(spec["sumo"]["offset_m"])
         n = int(spec["sumo"].get("background_vehicles", 0))
         self.ids = [f"bg{b}" for b in range(n)]
@@ -287,13 +346,17 @@ class Traffic:
             if b is not None:
                 self.on_road[b] = False
         get_pos, offset, nan = self.sumo.vehicle.getLanePosition, self.offset, self.nan
-        p = [nan] * len(self.ids)
-        for b, vid in enumerate(self.ids):
-            if self.on_road[b]:
-                try:
-                    p[b] = get_pos(vid) - offset
-                except self.sumo.TraCIException:  # removed some other way (a collision)
-                    self.on_road[b] = False
+        if self.native is not None:
+            lane = self.native.traffic(self.on_road)  # clears on_road for the removed ones
+            p = np.where(self.on_road, lane - offset, nan)
+        else:
+            p = [nan] * len(self.ids)
+            for b, vid in enumerate(self.ids):
+                if self.on_road[b]:
+                    try:
+                        p[b] = get_pos(vid) - offset
+                    except self.sumo.TraCIException:  # removed some other way (a collision)
+                        self.on_road[b] = False
         self.view["p"] = p
         self.view["flags"] = self.on_road
         return self.out
@@ -340,9 +403,11 @@ def run(spec) -> int:
     try:
         sumo = start_sumo(spec)
         report["sumo_version"] = sumo.getVersion()[1]
+        native = open_native(spec, sumo)
+        report["loop"] = "python" if native is None else "native"
         dyn = platoon_plant.Dynamics(spec)
-        kin = Kinematics(spec, sumo, spec["sumo"]["states"])
-        traffic = Traffic(spec, sumo)
+        kin = Kinematics(spec, sumo, spec["sumo"]["states"], native)
+        traffic = Traffic(spec, sumo, native)
         tolerance = float(spec["sumo"]["tolerance_m"])
     except Exception as e:  # libsumo raises its own exception types
         fail(f"SUMO could not start: {e}")
@@ -382,15 +447,25 @@ def run(spec) -> int:
             if len(cmds) != len(spec["taus"]):
                 raise SumoError(f"{len(cmds)} commands for {len(spec['taus'])} followers")
             u = kin.commands(cmds)
-            set_accel = sumo.vehicle.setAcceleration
-            accel = dyn.accel.tolist() if dyn.vector else dyn.accel
-            for vid, a in zip(kin.ids, accel):
-                set_accel(vid, a, dt)
-            t1 = time.perf_counter_ns()
-            c1 = time.thread_time_ns()
-            sumo.simulationStep()
-            t2 = time.perf_counter_ns()
-            c2 = time.thread_time_ns()
+            if native is not None:
+                # Set, step and read in one call; SUMO's step timed inside it.
+                t1 = time.perf_counter_ns()
+                c1 = time.thread_time_ns()
+                step_ns, step_cpu = native.step(dyn.accel, dt)
+                t2 = time.perf_counter_ns()
+                c2 = time.thread_time_ns()
+                # SUMO's step is its own part of the call; the rest of it is the bridge's work.
+                t1, c1 = t2 - step_ns, c2 - step_cpu
+            else:
+                set_accel = sumo.vehicle.setAcceleration
+                accel = dyn.accel.tolist() if dyn.vector else dyn.accel
+                for vid, a in zip(kin.ids, accel):
+                    set_accel(vid, a, dt)
+                t1 = time.perf_counter_ns()
+                c1 = time.thread_time_ns()
+                sumo.simulationStep()
+                t2 = time.perf_counter_ns()
+                c2 = time.thread_time_ns()
             for c in sumo.simulation.getCollisions():
                 report["collisions"].append(
                     {
@@ -474,20 +549,26 @@ def tight_loop(spec, steps: int) -> dict:
     spec = dict(spec, sumo=dict(spec["sumo"], routes=os.path.join(tmp.name, "routes.rou.xml"),
                                 fcd_period_s=0))
     sumo = start_sumo(spec)
+    native = open_native(spec, sumo)
     dyn = platoon_plant.Dynamics(spec)
-    kin = Kinematics(spec, sumo, spec["sumo"]["states"])
-    traffic = Traffic(spec, sumo)
+    kin = Kinematics(spec, sumo, spec["sumo"]["states"], native)
+    traffic = Traffic(spec, sumo, native)
     u = np.zeros(len(spec["taus"])) if dyn.vector else [0.0] * len(spec["taus"])
     dt = float(spec["dt"])
     sumo_ns, bridge_ns = [], []
     for k in range(steps):
         t0 = time.perf_counter_ns()
-        accel = dyn.accel.tolist() if dyn.vector else dyn.accel
-        for vid, a in zip(kin.ids, accel):
-            sumo.vehicle.setAcceleration(vid, a, dt)
-        t1 = time.perf_counter_ns()
-        sumo.simulationStep()
-        t2 = time.perf_counter_ns()
+        if native is not None:
+            step_ns, _ = native.step(dyn.accel, dt)
+            t2 = time.perf_counter_ns()
+            t1 = t2 - step_ns
+        else:
+            accel = dyn.accel.tolist() if dyn.vector else dyn.accel
+            for vid, a in zip(kin.ids, accel):
+                sumo.vehicle.setAcceleration(vid, a, dt)
+            t1 = time.perf_counter_ns()
+            sumo.simulationStep()
+            t2 = time.perf_counter_ns()
         kin.step(dyn.accel, k)
         dyn.advance(k, u)
         kin.read(k + 1, dyn.accel)
@@ -500,6 +581,7 @@ def tight_loop(spec, steps: int) -> dict:
     tmp.cleanup()
     return {
         "steps": steps,
+        "loop": "python" if native is None else "native",
         "sumo_step_p50_us": statistics.median(sumo_ns) / 1e3,
         "bridge_step_p50_us": statistics.median(bridge_ns) / 1e3,
     }

@@ -490,6 +490,133 @@ fn the_bridges_numpy_path_equals_its_loops_on_the_paper_platoon() {
     assert_eq!(dev("loops"), dev("numpy"));
 }
 
+/// The bridge's per-vehicle loop of a step in C++ (bridge/sumo_native.py, the default) and in
+/// Python (`PLATOON_SUMO_NATIVE=0`) make the same runs bit for bit: the paper platoon fed SUMO's
+/// own states (every position and speed SUMO gives is in the rows), the degradation scenario
+/// (every follower's radar read through SUMO's getLeader), and background traffic whose
+/// positions set the 802.11p channel's load and reach an injector, which records them.
+/// `PLATOON_SUMO_NATIVE=1` fails rather than fall back, so the C++ side really runs (sumo.json
+/// says which loop ran).
+#[test]
+fn the_bridges_cpp_loop_equals_its_python_loop() {
+    let tmp = tempfile::tempdir().unwrap();
+    let paper = std::fs::read_to_string(repo().join("configs/sumo-paper.toml")).unwrap();
+    assert!(paper.contains("states = \"sumo\""));
+    let degradation = std::fs::read_to_string(repo().join("configs/degradation.toml")).unwrap();
+    let traffic = paper
+        .replace(
+            "tolerance_m = 1e-6",
+            "tolerance_m = 1e-6\nbackground_vehicles = 30\nbackground_seed = 3",
+        )
+        .replace("duration_s = 55.0", "duration_s = 3.0")
+        + "\n[channel]\nmodel = \"80211p\"\nradio = { density_veh_per_m = 0.0 }\n";
+    let recorder = tmp.path().join("record_traffic.py");
+    std::fs::write(
+        &recorder,
+        r#"
+import json
+import sys
+
+import platoon_injector as pi
+
+
+class Record(pi.Injector):
+    def __init__(self):
+        self.seen = []
+
+    def step(self, step, rx):
+        rx.extend(step.tx)
+        self.seen.append([(t.flags, t.p) for t in step.traffic])
+
+    def finish(self):
+        with open(sys.argv[1], "w") as f:
+            json.dump(self.seen, f)  # repr of every float: exact
+
+
+pi.run(lambda run: Record())
+"#,
+    )
+    .unwrap();
+    let python = repo().join("bridge/.venv/bin/python");
+    for (name, text) in [
+        ("paper", paper.clone()),
+        ("degradation", degradation),
+        ("traffic", traffic),
+    ] {
+        let config = tmp.path().join(format!("{name}.toml"));
+        std::fs::write(&config, text).unwrap();
+        for (native, lp) in [("1", "native"), ("0", "python")] {
+            let out = format!("{name}-{lp}");
+            let mut run = platoon_command(tmp.path());
+            run.args(["run", config.to_str().unwrap(), "--plant", "sumo"])
+                .args(["--out", &out, "--no-plots"])
+                .env("PLATOON_SUMO_NATIVE", native);
+            if name == "traffic" {
+                let seen = tmp.path().join(format!("seen-{lp}.json"));
+                let injector = format!(
+                    "{} {} {}",
+                    python.display(),
+                    recorder.display(),
+                    seen.display()
+                );
+                run.args(["--injector-mode", "after", "--injector", &injector]);
+            }
+            let o = run.output().unwrap();
+            ok(&o);
+            let report = json(&tmp.path().join(&out).join("sumo.json"));
+            assert_eq!(report["loop"], lp, "{report}");
+        }
+        let (a, b) = (
+            tmp.path().join(format!("{name}-native")),
+            tmp.path().join(format!("{name}-python")),
+        );
+        for file in ["trajectories.csv", "events.csv"] {
+            same_files(&a, &b, file);
+        }
+        let plant = json(&a.join("plant.json"));
+        match name {
+            "degradation" => assert!(plant["radar_range_m"].is_f64(), "no radar read"),
+            "traffic" => {
+                assert_eq!(plant["sumo"]["background_vehicles"], 30);
+                let seen = |lp: &str| std::fs::read(tmp.path().join(format!("seen-{lp}.json")));
+                let (x, y) = (seen("native").unwrap(), seen("python").unwrap());
+                assert!(x == y, "the injector saw other background traffic");
+                assert!(x.len() > 301 * 30 * 10, "{} bytes", x.len());
+            }
+            _ => {}
+        }
+        let (ra, rb) = (json(&a.join("sumo.json")), json(&b.join("sumo.json")));
+        for key in [
+            "max_deviation_m",
+            "max_deviation_mps",
+            "worst_deviation",
+            "collisions",
+        ] {
+            assert_eq!(ra[key], rb[key], "{key}");
+        }
+    }
+    // SUMO raising (a crashed vehicle removed, then read) stops both at the same step with the
+    // same message.
+    let c = collision_config(tmp.path());
+    let text = std::fs::read_to_string(&c).unwrap().replace(
+        "collision_action = \"warn\"",
+        "collision_action = \"remove\"",
+    );
+    std::fs::write(&c, text).unwrap();
+    let failure = |native: &str| {
+        let o = platoon_command(tmp.path())
+            .args(["run", c.to_str().unwrap(), "--out", native, "--no-plots"])
+            .env("PLATOON_SUMO_NATIVE", native)
+            .output()
+            .unwrap();
+        assert!(!o.status.success());
+        let err = String::from_utf8_lossy(&o.stderr).into_owned();
+        let line = err.lines().find(|l| l.contains("SUMO at step"));
+        line.unwrap_or_else(|| panic!("{err}")).to_string()
+    };
+    assert_eq!(failure("1"), failure("0"));
+}
+
 #[test]
 fn sumo_removing_a_crashed_vehicle_stops_the_run_naming_sumo_and_the_step() {
     let tmp = tempfile::tempdir().unwrap();
@@ -693,6 +820,11 @@ fn patched_bridge(dir: &Path, patch: impl Fn(String) -> String) -> PathBuf {
         if name.ends_with(".py") || name == "setup-venv.sh" || name == "requirements.txt" {
             std::fs::copy(&path, bridge.join(&name)).unwrap();
         }
+    }
+    std::fs::create_dir_all(bridge.join("native")).unwrap();
+    for entry in std::fs::read_dir(repo().join("bridge/native")).unwrap() {
+        let path = entry.unwrap().path();
+        std::fs::copy(&path, bridge.join("native").join(path.file_name().unwrap())).unwrap();
     }
     let plant = bridge.join("sumo_plant.py");
     let text = std::fs::read_to_string(&plant).unwrap();
