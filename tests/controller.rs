@@ -349,7 +349,11 @@ fn a_python_detector_on_the_controller_sdk_is_measured_against_ground_truth() {
     );
     let check = py_example("speed_check.py", "");
     let run = |config: &str, out: &str, controller: &str| {
-        let mut args = vec!["run", config, "--no-plots", "--out", out];
+        // The lying run draws its plots: modes.png shows the flags.
+        let mut args = vec!["run", config, "--out", out];
+        if out != "lie" {
+            args.push("--no-plots");
+        }
         if !controller.is_empty() {
             args.extend(["--controller", controller]);
         }
@@ -381,6 +385,14 @@ fn a_python_detector_on_the_controller_sdk_is_measured_against_ground_truth() {
         "{s}"
     );
     assert!(s["time_to_detect_s"].as_f64().unwrap() <= 0.01, "{s}");
+    // Nobody left the cooperative law: modes.png is drawn for the flags alone, and events.csv
+    // has a row per flagged packet.
+    assert!(out.join("modes.png").exists());
+    let events = std::fs::read_to_string(out.join("events.csv")).unwrap();
+    assert_eq!(
+        events.lines().filter(|l| l.contains(",flagged,")).count() as u64,
+        d["flagged"].as_u64().unwrap()
+    );
     // The per-message dataset: a row per inspected packet, its flags the summary's.
     let rows = std::fs::read_to_string(out.join("detections.csv")).unwrap();
     assert_eq!(

@@ -1308,6 +1308,12 @@ reaction = \"fallback\"
         d["inspected"].as_u64().unwrap(),
         "one row per inspected packet"
     );
+    // The detection and reaction events (the same bytes on both transports, compared above):
+    // a row per flagged packet, and the fallback's refusing of the liar.
+    let events = std::fs::read_to_string(ipc.join("events.csv")).unwrap();
+    let count = |e: &str| events.lines().filter(|l| l.contains(e)).count() as u64;
+    assert_eq!(count(",flagged,"), d["flagged"].as_u64().unwrap());
+    assert!(count(",distrust,") > 0, "the reaction refused nobody");
 }
 
 /// Issue 23: the state-altering link attacks (random offsets per link and per packet, a drift,

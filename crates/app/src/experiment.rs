@@ -104,9 +104,10 @@ fn run_in(
         Some(dir) => {
             let sub = RunDir::create(&dir.path(name), true)?;
             let (rows, summary) = simulate(scenario, &sub, progress)?;
-            write_outputs(&sub, config, scenario, &rows, &summary, false, &[])?;
+            let plotted = crate::run::Plotted::from(rows);
+            write_outputs(&sub, config, scenario, &plotted, &summary, false, &[])?;
             sub.commit()?;
-            Ok((rows, summary))
+            Ok((plotted.rows, summary))
         }
         None => {
             let mut rows = Rows::default();

@@ -233,7 +233,7 @@ pub fn run(
     let started = Instant::now();
     let (rows, summary, failure) = match opts.transport {
         Transport::Inproc => {
-            let (rows, summary) = simulate_until(scenario, &config.output, &dir, progress, stop)?;
+            let (rows, summary) = simulate_plotted(scenario, &config.output, &dir, progress, stop)?;
             (rows, summary, None)
         }
         Transport::Iceoryx2 => {
@@ -298,7 +298,7 @@ pub fn run(
     let dir = dir.commit()?;
     Ok(RunOutcome {
         dir,
-        rows,
+        rows: rows.rows,
         summary,
         failure,
         stopped,
@@ -399,6 +399,13 @@ pub struct RunFiles {
     per_platoon: usize,
     dt: f64,
     rows: Vec<StepRow>,
+    /// The detection events of the step, written after its rows' own: (vehicle's index in the
+    /// fleet, event).
+    pending: Vec<(usize, Event)>,
+    /// The (vehicle, sender) pairs whose packets the reaction refuses (as last seen).
+    refusing: std::collections::BTreeSet<(usize, u16)>,
+    /// Platoon 0's detector flags (follower, t), for modes.png.
+    flags: Vec<(u16, f64)>,
 }
 
 /// One row of wire.csv: a vehicle's link packets in a step where not everything sent to it was
@@ -473,6 +480,22 @@ struct EventRow {
 enum Event {
     Broadcast,
     Switch,
+    /// A detector flagged a packet the vehicle received (`[detection]`).
+    Flagged,
+    /// Its reaction began refusing a sender's packets (the first refused after an accepted
+    /// one).
+    Distrust,
+    /// It accepted a packet of a sender it had been refusing.
+    Trust,
+}
+
+impl From<Vec<StepRow>> for Plotted {
+    fn from(rows: Vec<StepRow>) -> Self {
+        Self {
+            rows,
+            flags: Vec::new(),
+        }
+    }
 }
 
 impl RunFiles {
@@ -508,12 +531,23 @@ impl RunFiles {
             dt: scenario.dt(),
             // Platoon 0's rows for the plots; grown as needed past a million steps.
             rows: Vec::with_capacity(steps.min(1 << 20) as usize * scenario.vehicles_per_platoon()),
+            pending: Vec::new(),
+            refusing: Default::default(),
+            flags: Vec::new(),
         })
     }
 
     /// Platoon 0's rows so far.
     pub fn into_rows(self) -> Vec<StepRow> {
         self.rows
+    }
+
+    /// Platoon 0's rows and detector flags (follower, t) so far, for the plots.
+    pub fn into_plotted(self) -> Plotted {
+        Plotted {
+            rows: self.rows,
+            flags: self.flags,
+        }
     }
 }
 
@@ -566,7 +600,11 @@ impl StepSink for RunFiles {
                 self.events.write(row(Event::Broadcast, inter))?;
                 *prev = Some(r.step);
             }
+            for (_, e) in self.pending.iter().filter(|(x, _)| *x == v) {
+                self.events.write(row(*e, None))?;
+            }
         }
+        self.pending.clear();
         Ok(())
     }
 
@@ -580,6 +618,22 @@ impl StepSink for RunFiles {
     fn detections(&mut self, names: &[&str], scored: &[Scored]) -> Result<()> {
         for s in scored {
             let i = &s.inspection;
+            // The events of the receiver (a packet to no vehicle has none).
+            if usize::from(i.receiver.0) < self.per_platoon {
+                let v = usize::from(s.platoon) * self.per_platoon + usize::from(i.receiver.0);
+                if i.flagged {
+                    self.pending.push((v, Event::Flagged));
+                    if s.platoon == 0 {
+                        self.flags.push((i.receiver.0, i.k as f64 * self.dt));
+                    }
+                }
+                let key = (v, i.sender.0);
+                if i.refused && self.refusing.insert(key) {
+                    self.pending.push((v, Event::Distrust));
+                } else if !i.refused && self.refusing.remove(&key) {
+                    self.pending.push((v, Event::Trust));
+                }
+            }
             let verdict = |name: &str| {
                 names
                     .iter()
@@ -654,6 +708,27 @@ pub fn simulate_until(
     progress: &dyn Progress,
     stop: &Stop,
 ) -> Result<(Vec<StepRow>, Summary)> {
+    let (plotted, summary) = simulate_plotted(scenario, output, dir, progress, stop)?;
+    Ok((plotted.rows, summary))
+}
+
+/// Platoon 0's rows and detector flags, as the plots draw them.
+#[derive(Debug, Clone, Default)]
+pub struct Plotted {
+    /// Platoon 0's rows.
+    pub rows: Vec<StepRow>,
+    /// Platoon 0's detector flags: (follower, t), one per flagged packet.
+    pub flags: Vec<(u16, f64)>,
+}
+
+/// [`simulate_until`] returning what the plots draw.
+fn simulate_plotted(
+    scenario: &Scenario,
+    output: &platoon_config::OutputConfig,
+    dir: &RunDir,
+    progress: &dyn Progress,
+    stop: &Stop,
+) -> Result<(Plotted, Summary)> {
     let mut files = RunFiles::create(scenario, output, dir, true)?;
     let (summary, mut step_ns) = record(scenario, &mut files, stop, progress)?;
     // In process a step has no stages: only its compute time.
@@ -670,7 +745,7 @@ pub fn simulate_until(
         "timing.json",
         (serde_json::to_string_pretty(&timing)? + "\n").as_bytes(),
     )?;
-    Ok((files.into_rows(), summary))
+    Ok((files.into_plotted(), summary))
 }
 
 /// `timing.json`'s `peak_rss_mib`: the peak resident memory of `platoon run` itself (which
@@ -713,7 +788,7 @@ fn cosimulate(
     plant: Option<crate::sumo::SumoPlant>,
     stop: &Stop,
     progress: &dyn Progress,
-) -> Result<(Vec<StepRow>, Summary, Option<platoon_runtime::RunError>)> {
+) -> Result<(Plotted, Summary, Option<platoon_runtime::RunError>)> {
     let logs = dir.path("logs");
     std::fs::create_dir_all(&logs).with_context(|| format!("creating {}", logs.display()))?;
     let injector = match &opts.injector {
@@ -801,7 +876,7 @@ fn cosimulate(
         return Err(e);
     }
     files.finish()?;
-    let rows = files.into_rows();
+    let rows = files.into_plotted();
     match result {
         Ok(outcome) => {
             link_outages(scenario, output, dir, &mut metrics)?;
@@ -921,13 +996,13 @@ fn write_run_json(dir: &RunDir, run_id: &str, scenario: &Scenario, observers: us
     )
 }
 
-/// Writes config.toml (if not yet there), the plots (of platoon 0's `rows`), and summary.json
-/// (with the `extra` keys) last.
+/// Writes config.toml (if not yet there), the plots (of platoon 0's rows, `Plotted::from` them
+/// if there is nothing else to draw), and summary.json (with the `extra` keys) last.
 pub fn write_outputs(
     dir: &RunDir,
     config: &Config,
     scenario: &Scenario,
-    rows: &[StepRow],
+    plotted: &Plotted,
     summary: &Summary,
     plots: bool,
     extra: &[(&str, serde_json::Value)],
@@ -935,6 +1010,7 @@ pub fn write_outputs(
     if !dir.path("config.toml").exists() {
         dir.write("config.toml", platoon_config::to_toml(config).as_bytes())?;
     }
+    let rows = &plotted.rows;
     if plots {
         for (name, draw) in [
             (
@@ -967,12 +1043,13 @@ pub fn write_outputs(
             )
             .with_context(|| format!("drawing {}", path.display()))?;
         }
-        if rows
-            .iter()
-            .any(|r| r.mode != platoon_control::Mode::Coop || r.guard)
+        if !plotted.flags.is_empty()
+            || rows
+                .iter()
+                .any(|r| r.mode != platoon_control::Mode::Coop || r.guard)
         {
             let path = dir.path("modes.png");
-            plots::modes(&path, scenario, rows)
+            plots::modes(&path, scenario, rows, &plotted.flags)
                 .with_context(|| format!("drawing {}", path.display()))?;
         }
     }

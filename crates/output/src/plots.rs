@@ -279,9 +279,16 @@ fn mode_color(m: platoon_control::Mode) -> RGBColor {
 }
 
 /// The mode of every follower over time, one band each (white: cooperative; a colour per
-/// fallback and for the blend back), the guard's braking as red ticks above the band, and the
-/// observed jams shaded: drawn when some follower left the cooperative law.
-pub fn modes(path: &Path, scenario: &Scenario, rows: &[StepRow]) -> Result<()> {
+/// fallback and for the blend back), the guard's braking as red ticks above the band, the
+/// packets its misbehaviour detectors flagged (`flags`: follower, t) as black ticks below it,
+/// and the observed jams shaded: drawn when some follower left the cooperative law or a
+/// detector flagged something.
+pub fn modes(
+    path: &Path,
+    scenario: &Scenario,
+    rows: &[StepRow],
+    flags: &[(u16, f64)],
+) -> Result<()> {
     use platoon_control::Mode;
     ensure_font();
     let n = scenario.topology.followers();
@@ -324,6 +331,16 @@ pub fn modes(path: &Path, scenario: &Scenario, rows: &[StepRow]) -> Result<()> {
                     .map(|r| Rectangle::new([(r.t, y + 0.32), (r.t + dt, y + 0.45)], RED.filled())),
             )
             .map_err(err)?;
+        chart
+            .draw_series(
+                flags
+                    .iter()
+                    .filter(|(f, _)| usize::from(*f) == v)
+                    .map(|&(_, t)| {
+                        Rectangle::new([(t, y - 0.45), (t + dt, y - 0.32)], BLACK.filled())
+                    }),
+            )
+            .map_err(err)?;
     }
     for m in Mode::ALL.into_iter().filter(|m| *m != Mode::Coop) {
         let c = mode_color(m);
@@ -338,6 +355,13 @@ pub fn modes(path: &Path, scenario: &Scenario, rows: &[StepRow]) -> Result<()> {
         .map_err(err)?
         .label("guard braking")
         .legend(|(x, y)| Rectangle::new([(x, y - 5), (x + 12, y + 5)], RED.filled()));
+    if !flags.is_empty() {
+        chart
+            .draw_series(std::iter::empty::<Rectangle<(f64, f64)>>())
+            .map_err(err)?
+            .label("detector flag")
+            .legend(|(x, y)| Rectangle::new([(x, y - 5), (x + 12, y + 5)], BLACK.filled()));
+    }
     legend(&mut chart, SeriesLabelPosition::UpperRight)?;
     root.present().map_err(err)?;
     Ok(())

@@ -130,7 +130,15 @@ fn in_process(job: &CellJob, controller: Option<&ControllerFactory>) -> Result<V
             let (rows, summary) =
                 crate::run::simulate_until(&scenario, &config.output, &dir, &(), &Stop::default())?;
             let extra = [("injector", crate::run::builtin_injector_json())];
-            crate::run::write_outputs(&dir, &config, &scenario, &rows, &summary, false, &extra)?;
+            crate::run::write_outputs(
+                &dir,
+                &config,
+                &scenario,
+                &rows.into(),
+                &summary,
+                false,
+                &extra,
+            )?;
             dir.commit()?;
             summary
         }
