@@ -1499,3 +1499,99 @@ fn random_reactive_and_member_jammers_agree_across_transports_and_are_measured_p
     );
     assert!(log.contains("restored"));
 }
+
+/// Issue 23: the state-falsification attacks as an injector of one's own
+/// (bridge/examples/falsify.py, an outsider altering vehicle 2's copies): the orchestrator
+/// labels every delivered packet against what the controller sent, so a third-party injector's
+/// attacks are measured like the channel's. Every packet labelled `altered` claims what the
+/// injector made of the sender's true state, every `genuine` one claims that state exactly,
+/// and the detector that must catch each attack does.
+#[test]
+fn a_python_injectors_falsifications_are_labelled_against_the_truth() {
+    let tmp = tempfile::tempdir().unwrap();
+    let paper = std::fs::read_to_string(repo().join("configs/paper.toml")).unwrap();
+    let base = &paper[..paper.find("[attack]").expect("paper.toml has [attack]")];
+    let c = tmp.path().join("detect.toml");
+    std::fs::write(
+        &c,
+        format!(
+            "{base}[attack]\nkind = \"none\"\n\n[detection]\n[detection.residual]\n\
+             [detection.radar_cross]\n"
+        ),
+    )
+    .unwrap();
+    // (attack, what an altered claim is: f(claimed, true) must hold, the detector that catches it)
+    type Check = fn(&[f64], &[f64]) -> bool;
+    let cases: [(&str, Check, &str); 3] = [
+        (
+            "offset --value 5 0 0",
+            |c, t| (c[0] - t[0] - 5.0).abs() < 1e-9 && c[1] == t[1] && c[2] == t[2],
+            "radar_cross",
+        ),
+        (
+            "feigned_braking --value -6",
+            |c, t| c[0] == t[0] && c[1] == t[1] && c[2] == -6.0,
+            "residual",
+        ),
+        (
+            "drift --value 0 0.5 0",
+            |c, t| c[0] == t[0] && c[1] > t[1] && c[2] == t[2],
+            "radar_cross",
+        ),
+    ];
+    for (attack, altered_claim, catcher) in cases {
+        let injector = py_example("falsify.py", &format!("{attack} --sender 2 --start 20"));
+        let o = platoon(
+            &[
+                "run",
+                c.to_str().unwrap(),
+                "--out",
+                "run",
+                "--force",
+                "--no-plots",
+                "--injector",
+                &injector,
+            ],
+            tmp.path(),
+        );
+        ok(&o);
+        let run = tmp.path().join("run");
+        let s = summary(&run);
+        let d = &s["detection"];
+        let altered = d["labels"]["altered"].as_u64().unwrap_or(0);
+        assert!(altered > 100, "{attack}: {d}");
+        assert!(altered <= s["wire"]["totals"]["altered"].as_u64().unwrap());
+        let caught = d["detectors"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|x| x["name"] == catcher)
+            .unwrap();
+        assert!(
+            caught["by_label"]["altered"]["tp"].as_u64().unwrap() > 0,
+            "{attack}: {caught}"
+        );
+        let rows = std::fs::read_to_string(run.join("detections.csv")).unwrap();
+        let mut lines = rows.lines();
+        let head: Vec<&str> = lines.next().unwrap().split(',').collect();
+        let col = |name: &str| head.iter().position(|h| *h == name).unwrap();
+        let (claimed, truth, label) = (col("claimed_p"), col("true_p"), col("label"));
+        let mut seen = 0;
+        for line in lines {
+            let f: Vec<&str> = line.split(',').collect();
+            let num = |i: usize| f[i].parse::<f64>().unwrap();
+            let c = [num(claimed), num(claimed + 1), num(claimed + 2)];
+            let t = [num(truth), num(truth + 1), num(truth + 2)];
+            match f[label] {
+                "genuine" => assert_eq!(c, t, "{attack}: {line}"),
+                "altered" => {
+                    assert!(altered_claim(&c, &t), "{attack}: {line}");
+                    assert_eq!(f[col("sender")], "2", "{attack}: {line}");
+                    seen += 1;
+                }
+                other => panic!("{attack}: label {other} in {line}"),
+            }
+        }
+        assert_eq!(seen, altered, "{attack}");
+    }
+}
