@@ -20,6 +20,7 @@ pub const FILES: &[(&str, &[u8])] = files!(
     "bridge/dask_cells.py",
     "bridge/examples/dos_jammer.py",
     "bridge/examples/drop_sender.py",
+    "bridge/examples/falsify.py",
     "bridge/examples/ghost.py",
     "bridge/examples/hostile.py",
     "bridge/examples/observer.py",
