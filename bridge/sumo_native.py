@@ -117,18 +117,18 @@ _P = ctypes.c_void_p
 def _load(path):
     lib = ctypes.CDLL(path)
     lib.platoon_fleet_new.restype = _P
-    lib.platoon_fleet_new.argtypes = [_P, ctypes.c_int32, _P, ctypes.c_int32, ctypes.c_double, _P, ctypes.c_int32]
+    lib.platoon_fleet_new.argtypes = [_P, ctypes.c_int32, _P, ctypes.c_int32, ctypes.c_double, _P, ctypes.c_int32, _P]
     lib.platoon_fleet_free.argtypes = [_P]
     lib.platoon_fleet_error.restype = ctypes.c_char_p
     lib.platoon_fleet_error.argtypes = [_P]
     lib.platoon_fleet_subscribe.restype = ctypes.c_int32
     lib.platoon_fleet_subscribe.argtypes = [_P, ctypes.c_int32]
     lib.platoon_fleet_read.restype = ctypes.c_int32
-    lib.platoon_fleet_read.argtypes = [_P] * 6
+    lib.platoon_fleet_read.argtypes = [_P]
     lib.platoon_fleet_step.restype = ctypes.c_int32
-    lib.platoon_fleet_step.argtypes = [_P, _P, ctypes.c_double] + [_P] * 6
+    lib.platoon_fleet_step.argtypes = [_P, ctypes.c_double]
     lib.platoon_fleet_traffic.restype = ctypes.c_int32
-    lib.platoon_fleet_traffic.argtypes = [_P] * 3
+    lib.platoon_fleet_traffic.argtypes = [_P]
     return lib
 
 
@@ -148,20 +148,24 @@ class Fleet:
         n, m, nb = len(ids), len(followers), len(background)
         self._keep = [_strings(ids), _strings(background)]
         self.followers = np.array(followers, dtype=np.int32)
-        self.handle = self.lib.platoon_fleet_new(
-            self._keep[0][1], n, self.followers.ctypes.data, m,
-            -1.0 if radar_range is None else float(radar_range), self._keep[1][1], nb,
-        )
+        # The buffers the helper reads and fills, given to it once (kept alive by self).
         self.accel = np.zeros(n)
         self.lane, self.speed = np.zeros(n), np.zeros(n)
         self.ahead = np.zeros(m, dtype=np.uint8)
         self.gap, self.ahead_speed = np.zeros(m), np.zeros(m)
-        self.ns = np.zeros(2, dtype=np.int64)
+        self.ns = (ctypes.c_int64 * 2)()
         self.on_road = np.zeros(nb, dtype=np.uint8)
         self.bg_lane = np.zeros(nb)
-        out = [a.ctypes.data for a in (self.lane, self.speed, self.ahead, self.gap, self.ahead_speed)]
-        self._read_args = [self.handle, *out]
-        self._step_args = (self.handle, self.accel.ctypes.data, out)
+        arrays = [self.accel, self.lane, self.speed, self.ahead, self.gap, self.ahead_speed,
+                  self.ns, self.on_road, self.bg_lane]
+        self._arrays = (_P * len(arrays))(*[ctypes.addressof(a) if isinstance(a, ctypes.Array)
+                                             else a.ctypes.data for a in arrays])
+        self.handle = self.lib.platoon_fleet_new(
+            self._keep[0][1], n, self.followers.ctypes.data, m,
+            -1.0 if radar_range is None else float(radar_range), self._keep[1][1], nb,
+            self._arrays,
+        )
+        self._step, self._read = self.lib.platoon_fleet_step, self.lib.platoon_fleet_read
         self.filled = False  # the arrays hold the state after the last step, not yet read
         self.pending = None  # a read that failed after the step: raised when the states are read
 
@@ -184,18 +188,17 @@ class Fleet:
         Raises what SUMO raised while setting or stepping; a failed read is held until `states`,
         where the Python loop reads. Returns SUMO's step alone: (wall ns, thread CPU ns)."""
         self.accel[:] = accel
-        h, a, out = self._step_args
-        rc = self.lib.platoon_fleet_step(h, a, duration, *out, self.ns.ctypes.data)
+        rc = self._step(self.handle, duration)
         if rc == 1:
             raise NativeError(self._error())
         self.pending = self._error() if rc == 2 else None
         self.filled = True
-        return int(self.ns[0]), int(self.ns[1])
+        return self.ns[0], self.ns[1]
 
     def states(self):
         """(lane, speed) arrays of the current SUMO step (read now unless a step just did)."""
         if not self.filled:
-            if self.lib.platoon_fleet_read(*self._read_args):
+            if self._read(self.handle):
                 raise NativeError(self._error())
         self.filled = False
         if self.pending is not None:
@@ -206,7 +209,7 @@ class Fleet:
         """The background vehicles' lane positions (array; meaningful where on_road), and
         on_road with those SUMO no longer knows cleared (in place, a list of bools)."""
         self.on_road[:] = on_road
-        if self.lib.platoon_fleet_traffic(self.handle, self.on_road.ctypes.data, self.bg_lane.ctypes.data):
+        if self.lib.platoon_fleet_traffic(self.handle):
             raise NativeError(self._error())
         on_road[:] = self.on_road.astype(bool).tolist()
         return self.bg_lane

@@ -17,22 +17,28 @@
 
 namespace {
 
+// The arrays a step reads and fills (the caller's, one element per vehicle, radar follower or
+// background vehicle), given once.
+struct Out {
+    const double* accel;
+    double* lane;
+    double* speed;
+    uint8_t* ahead;
+    double* gap;
+    double* ahead_speed;
+    int64_t* ns;
+    uint8_t* on_road;
+    double* bg_lane;
+};
+
 struct Fleet {
     std::vector<std::string> ids;         // the platoon vehicles, in wire order
     std::vector<int32_t> followers;       // who has a radar (indices into ids)
     double radar_range = -1.0;            // < 0: no radar is read
     std::vector<std::string> background;  // bg0, bg1, ...
     int subscribed = 0;                   // 0: getters; 1, 2: subscriptions (measured only)
+    Out o;
     std::string error;
-};
-
-// The arrays a read fills (the caller's, one element per vehicle or follower).
-struct Out {
-    double* lane;
-    double* speed;
-    uint8_t* ahead;
-    double* gap;
-    double* ahead_speed;
 };
 
 int64_t now(clockid_t clock) {
@@ -45,7 +51,8 @@ double value(const libsumo::TraCIResults& r, int var) {
     return static_cast<const libsumo::TraCIDouble*>(r.at(var).get())->value;
 }
 
-void read_states(Fleet& f, const Out& o) {
+void read_states(Fleet& f) {
+    const Out& o = f.o;
     const size_t n = f.ids.size();
     if (f.subscribed == 2) {
         const libsumo::SubscriptionResults all = libsumo::Vehicle::getAllSubscriptionResults();
@@ -84,14 +91,22 @@ void read_states(Fleet& f, const Out& o) {
 extern "C" {
 
 // A fleet of n platoon vehicles (SUMO ids), m of them followers with a radar of radar_range
-// metres (read when radar_range >= 0), and nb background vehicles.
+// metres (read when radar_range >= 0), and nb background vehicles; `arrays` are the caller's
+// buffers in the order of Out (accel, lane, speed: n; ahead, gap, ahead_speed: m; ns: 2;
+// on_road, bg_lane: nb), which must outlive the fleet.
 void* platoon_fleet_new(const char* const* ids, int32_t n, const int32_t* followers, int32_t m,
-                        double radar_range, const char* const* background, int32_t nb) {
+                        double radar_range, const char* const* background, int32_t nb,
+                        void* const* arrays) {
     Fleet* f = new Fleet;
     f->ids.assign(ids, ids + n);
     f->followers.assign(followers, followers + m);
     f->radar_range = radar_range;
     f->background.assign(background, background + nb);
+    f->o = Out{static_cast<const double*>(arrays[0]), static_cast<double*>(arrays[1]),
+               static_cast<double*>(arrays[2]),       static_cast<uint8_t*>(arrays[3]),
+               static_cast<double*>(arrays[4]),       static_cast<double*>(arrays[5]),
+               static_cast<int64_t*>(arrays[6]),      static_cast<uint8_t*>(arrays[7]),
+               static_cast<double*>(arrays[8])};
     return f;
 }
 
@@ -118,13 +133,12 @@ int32_t platoon_fleet_subscribe(void* handle, int32_t how) {
     }
 }
 
-// Reads every vehicle's lane position and speed (and the radars) as SUMO has them now.
-// 0, or 2 with the message in platoon_fleet_error.
-int32_t platoon_fleet_read(void* handle, double* lane, double* speed, uint8_t* ahead,
-                           double* gap, double* ahead_speed) {
+// Reads every vehicle's lane position and speed (and the radars) as SUMO has them now into
+// lane, speed (ahead, gap, ahead_speed). 0, or 2 with the message in platoon_fleet_error.
+int32_t platoon_fleet_read(void* handle) {
     Fleet& f = *static_cast<Fleet*>(handle);
     try {
-        read_states(f, Out{lane, speed, ahead, gap, ahead_speed});
+        read_states(f);
         return 0;
     } catch (const std::exception& e) {
         f.error = e.what();
@@ -136,30 +150,31 @@ int32_t platoon_fleet_read(void* handle, double* lane, double* speed, uint8_t* a
 // then the read above. ns[0], ns[1]: wall and thread CPU time of SUMO's step alone (the clocks
 // of Python's perf_counter_ns and thread_time_ns). 0; 1 when setting or stepping failed (SUMO
 // did not step, or stepped and raised); 2 when reading failed after the step.
-int32_t platoon_fleet_step(void* handle, const double* accel, double duration, double* lane,
-                           double* speed, uint8_t* ahead, double* gap, double* ahead_speed,
-                           int64_t* ns) {
+int32_t platoon_fleet_step(void* handle, double duration) {
     Fleet& f = *static_cast<Fleet*>(handle);
+    const Out& o = f.o;
     try {
         for (size_t i = 0; i < f.ids.size(); ++i) {
-            libsumo::Vehicle::setAcceleration(f.ids[i], accel[i], duration);
+            libsumo::Vehicle::setAcceleration(f.ids[i], o.accel[i], duration);
         }
         const int64_t t0 = now(CLOCK_MONOTONIC), c0 = now(CLOCK_THREAD_CPUTIME_ID);
         libsumo::Simulation::step(0.);
-        ns[0] = now(CLOCK_MONOTONIC) - t0;
-        ns[1] = now(CLOCK_THREAD_CPUTIME_ID) - c0;
+        o.ns[0] = now(CLOCK_MONOTONIC) - t0;
+        o.ns[1] = now(CLOCK_THREAD_CPUTIME_ID) - c0;
     } catch (const std::exception& e) {
         f.error = e.what();
         return 1;
     }
-    return platoon_fleet_read(handle, lane, speed, ahead, gap, ahead_speed);
+    return platoon_fleet_read(handle);
 }
 
-// The lane positions of the background vehicles on the road (on_road[b] != 0); one SUMO no
-// longer knows (removed some other way, a collision) is marked off the road, as the Python
-// path does on libsumo's TraCIException. 0, or 2 with the message.
-int32_t platoon_fleet_traffic(void* handle, uint8_t* on_road, double* lane) {
+// The lane positions (bg_lane) of the background vehicles on the road (on_road[b] != 0); one
+// SUMO no longer knows (removed some other way, a collision) is marked off the road, as the
+// Python path does on libsumo's TraCIException. 0, or 2 with the message.
+int32_t platoon_fleet_traffic(void* handle) {
     Fleet& f = *static_cast<Fleet*>(handle);
+    uint8_t* on_road = f.o.on_road;
+    double* lane = f.o.bg_lane;
     for (size_t b = 0; b < f.background.size(); ++b) {
         if (!on_road[b]) {
             continue;
