@@ -1595,3 +1595,45 @@ fn a_python_injectors_falsifications_are_labelled_against_the_truth() {
         assert_eq!(seen, altered, "{attack}");
     }
 }
+
+/// Issue 23: the Sybil ghost (bridge/examples/ghost.py, a Python injector; the experiment runs
+/// in process and cannot hold it) faces the detectors over iceoryx2: its forged claims are
+/// consistent with each other, so only the radar of the follower right behind the impersonated
+/// vehicle flags them, on every packet to it (half of the ghost's packets), and neither the
+/// residual nor the plausibility checks do.
+#[test]
+fn only_the_radar_catches_the_sybil_ghost() {
+    let tmp = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(repo().join("configs/table1.toml")).unwrap();
+    let c = tmp.path().join("ghost.toml");
+    std::fs::write(
+        &c,
+        format!(
+            "{text}\n[detection]\n[detection.residual]\n[detection.radar_cross]\n\
+             [detection.plausibility]\n"
+        ),
+    )
+    .unwrap();
+    ok(&platoon(
+        &[
+            "run",
+            c.to_str().unwrap(),
+            "--no-plots",
+            "--out",
+            "ghost",
+            "--injector",
+            &py_example("ghost.py", "1 10 30 0.3"),
+        ],
+        tmp.path(),
+    ));
+    let d = &summary(&tmp.path().join("ghost"))["detection"];
+    let ghost = d["labels"]["altered"].as_u64().unwrap();
+    assert!(ghost > 100, "{d}");
+    for s in d["detectors"].as_array().unwrap() {
+        let tp = s["by_label"]["altered"]["tp"].as_u64().unwrap();
+        match s["name"].as_str().unwrap() {
+            "radar_cross" => assert!(tp * 2 >= ghost - 2 && tp * 2 <= ghost + 2, "{s}"),
+            _ => assert_eq!(tp, 0, "{s}"),
+        }
+    }
+}
