@@ -1,5 +1,7 @@
 """Benchmark (not a test): what one co-simulation step costs on the SUMO side, for 5, 100 and
-1000 vehicles, through libsumo (what the bridge uses) and through TraCI's socket.
+1000 vehicles, through libsumo from Python, through the bridge's C++ loop (sumo_native.py: the
+same libsumo calls in one call per step; with plain getters, which the bridge uses, and with
+libsumo subscriptions read per vehicle or all at once) and through TraCI's socket.
 
 Per step, as the bridge does it: set every vehicle's acceleration, step SUMO, read every
 vehicle's lane position and speed. Open loop (a fixed acceleration pattern), on the 4-lane,
@@ -9,6 +11,7 @@ get/set work, and the ratio TraCI / libsumo for the whole step. Needs eclipse-su
 
     bridge/.venv/bin/pip install -r bridge/requirements-tools.txt traci==1.28.0
     bridge/.venv/bin/python bridge/bench_sumo.py [--steps 500] [--sizes 5,100,1000]
+        [--no-traci] [--no-native]
 """
 
 import argparse
@@ -50,9 +53,26 @@ def run(api, n, steps, tmp, label):
         api.vehicle.setSpeedMode(v, 0)
         api.vehicle.setLaneChangeMode(v, 0)
     sumo_ns, bridge_ns = [], []
+    fleet = None
+    if label.startswith("native"):
+        import sumo_native
+
+        fleet = sumo_native.Fleet(api, ids)
+        if label != "native":
+            fleet.subscribe(1 if label == "native-subscribed" else 2)
+        accel = [0.0] * n
     for k in range(steps):
         a = 0.5 if (k // 100) % 2 == 0 else -0.5
         t0 = time.perf_counter_ns()
+        if fleet is not None:
+            # One call: set, step, read (SUMO's step timed inside it).
+            accel[:] = [a] * n
+            step_ns, _ = fleet.step(accel, 0.01)
+            fleet.states()
+            t3 = time.perf_counter_ns()
+            sumo_ns.append(step_ns)
+            bridge_ns.append(t3 - t0 - step_ns)
+            continue
         for v in ids:
             api.vehicle.setAcceleration(v, a, 0.01)
         t1 = time.perf_counter_ns()
@@ -75,11 +95,16 @@ def main():
     ap.add_argument("--steps", type=int, default=500)
     ap.add_argument("--sizes", default="5,100,1000")
     ap.add_argument("--no-traci", action="store_true")
+    ap.add_argument("--no-native", action="store_true")
     args = ap.parse_args()
     if args.steps < 1:
         sys.exit("--steps must be at least 1")
     import libsumo
     apis = [("libsumo", libsumo)]
+    if not args.no_native:
+        sys.path.insert(0, HERE)
+        apis += [("native", libsumo), ("native-subscribed", libsumo),
+                 ("native-subscribed-all", libsumo)]
     if not args.no_traci:
         try:
             import sumo  # noqa: F401  (the sumo binary for TraCI)
@@ -94,12 +119,12 @@ def main():
             for label, api in apis:
                 r = run(api, n, args.steps, tmp, label)
                 out[f"{label}/{n}"] = r
-                print(f"{label:8} {n:5} vehicles: SUMO step {r['sumo_step_us']:9.1f} µs, "
+                print(f"{label:21} {n:5} vehicles: SUMO step {r['sumo_step_us']:9.1f} µs, "
                       f"get/set {r['bridge_us']:9.1f} µs, total {r['total_us']:9.1f} µs",
                       flush=True)
             if f"traci/{n}" in out:
                 ratio = out[f"traci/{n}"]["total_us"] / out[f"libsumo/{n}"]["total_us"]
-                print(f"         {n:5} vehicles: TraCI / libsumo = {ratio:.1f}x")
+                print(f"                      {n:5} vehicles: TraCI / libsumo = {ratio:.1f}x")
     print(json.dumps(out, indent=2))
 
 
