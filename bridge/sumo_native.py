@@ -166,6 +166,12 @@ class Fleet:
             self._arrays,
         )
         self._step, self._read = self.lib.platoon_fleet_step, self.lib.platoon_fleet_read
+        # The helper must drive the SUMO this process started (the _libsumo.so `import libsumo`
+        # loaded, not a second copy): it reads the vehicles once, changing nothing.
+        if n and self._read(self.handle):
+            error = self._error()
+            self.close()
+            raise NativeError(f"the C++ loop does not see the bridge's SUMO: {error}")
         self.filled = False  # the arrays hold the state after the last step, not yet read
         self.pending = None  # a read that failed after the step: raised when the states are read
 
