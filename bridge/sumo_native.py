@@ -140,7 +140,7 @@ def _strings(names):
 class Fleet:
     """The platoon vehicles `ids` (wire order), the followers with a radar (`followers`, indices
     into ids, read when `radar_range` is not None) and the background vehicles, driven through
-    the C++ loop. After `step` (or `read`) the arrays hold what SUMO has: `lane` and `speed` per
+    the C++ loop. After `step` (or `states`) the arrays hold what SUMO has: `lane` and `speed` per
     vehicle, `ahead`, `gap` and `ahead_speed` per radar follower."""
 
     def __init__(self, libsumo, ids, followers=(), radar_range=None, background=()):
