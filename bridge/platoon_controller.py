@@ -208,10 +208,6 @@ def run(make) -> int:
                 if rx is not None:
                     commands, inspections = _receive(controllers, k, t, states, rx, n1, sent)
                     if insp_out is not None:
-                        if len(inspections) > links:
-                            raise ContractError(
-                                f"{len(inspections)} inspections for the {links} links of the fleet"
-                            )
                         insp_out.send(k, t, _inspections(inspections, detectors, n1))
                     cmd_out.send(k, t, commands)
                     states = None
@@ -347,7 +343,15 @@ def _inspections(inspections, detectors, n1):
                     f"platoon {j} reported detector {name!r}, which the run does not measure "
                     f"(its [detection] names {detectors}; add it to plugin = [...])"
                 )
-            flagged, score = verdict if isinstance(verdict, tuple) else (verdict, math.nan)
+            if isinstance(verdict, (tuple, list)):
+                if len(verdict) != 2:
+                    raise ContractError(
+                        f"platoon {j}: the verdict of {name!r} is {verdict!r}: give flagged or "
+                        "(flagged, score)"
+                    )
+                flagged, score = verdict
+            else:
+                flagged, score = verdict, math.nan
             if flagged:
                 flags |= w.Inspection.FLAGGED | (1 << (w.Inspection.DETECTOR_SHIFT + index[name]))
             item.scores[index[name]] = float(score)

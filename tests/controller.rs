@@ -415,6 +415,14 @@ fn a_python_detector_on_the_controller_sdk_is_measured_against_ground_truth() {
     );
     assert_eq!(json(&law.join("summary.json"))["detection"]["inspected"], 0);
 
+    // A raw-protocol controller that knows nothing of inspections still runs with
+    // [detection]: it inspected nothing.
+    ok(&run(&lying, "raw", &py_example("radar_controller.py", "")));
+    assert_eq!(
+        json(&tmp.path().join("raw/summary.json"))["detection"]["inspected"],
+        0
+    );
+
     let o = run(&lying, "none", "");
     assert!(!o.status.success());
     let e = String::from_utf8_lossy(&o.stderr);

@@ -385,7 +385,7 @@ pub fn record(
 
 /// The files of a run directory's per-step data: trajectories (every `decimate`-th step),
 /// events (broadcasts and mode switches), wire (vehicles whose links were not all delivered as
-/// sent), the channel log and the detections (in process), as CSV or Parquet; keeps platoon 0's
+/// sent), the channel log (in process) and the detections, as CSV or Parquet; keeps platoon 0's
 /// rows for the plots (memory stays bounded for large fleets).
 pub struct RunFiles {
     trajectories: Table<StepRow>,
@@ -459,14 +459,16 @@ struct DetectionRow {
     residual_score: Option<f64>,
 }
 
-/// One row per broadcast of a follower, and one per change of its mode.
+/// One row per broadcast of a follower, one per change of its mode, and with `[detection]` one
+/// per packet its detectors flagged and one when its reaction begins or ends refusing a sender.
 #[derive(serde::Serialize, serde::Deserialize)]
 struct EventRow {
     platoon: u16,
     vehicle: u16,
     step: u64,
     t: f64,
-    /// `broadcast`, or `switch` (the vehicle's mode changed at this step).
+    /// `broadcast`, `switch` (the vehicle's mode changed at this step), `flagged`, `distrust` or
+    /// `trust`.
     event: Event,
     /// The mode it is in (after the switch).
     mode: platoon_control::Mode,
@@ -572,6 +574,9 @@ impl StepSink for RunFiles {
             }
         }
         let keep = k.is_multiple_of(self.decimate);
+        // Each vehicle's in the order they happened (a stable sort).
+        self.pending.sort_by_key(|(v, _)| *v);
+        let mut next = 0;
         for r in step {
             if keep {
                 self.trajectories.write(*r)?;
@@ -600,8 +605,10 @@ impl StepSink for RunFiles {
                 self.events.write(row(Event::Broadcast, inter))?;
                 *prev = Some(r.step);
             }
-            for (_, e) in self.pending.iter().filter(|(x, _)| *x == v) {
-                self.events.write(row(*e, None))?;
+            // The step's detection events come sorted by vehicle (below), as the rows do.
+            while let Some(&(_, e)) = self.pending.get(next).filter(|(x, _)| *x == v) {
+                self.events.write(row(e, None))?;
+                next += 1;
             }
         }
         self.pending.clear();
@@ -618,8 +625,8 @@ impl StepSink for RunFiles {
     fn detections(&mut self, names: &[&str], scored: &[Scored]) -> Result<()> {
         for s in scored {
             let i = &s.inspection;
-            // The events of the receiver (a packet to no vehicle has none).
-            if usize::from(i.receiver.0) < self.per_platoon {
+            // The events of a follower (a packet to the leader or to no vehicle has none).
+            if (1..self.per_platoon).contains(&usize::from(i.receiver.0)) {
                 let v = usize::from(s.platoon) * self.per_platoon + usize::from(i.receiver.0);
                 if i.flagged {
                     self.pending.push((v, Event::Flagged));

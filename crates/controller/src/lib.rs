@@ -96,9 +96,11 @@ impl std::fmt::Debug for Error {
 /// platoon, in order, with that platoon's replica of the scenario ([`Scenario::replicas`]: its
 /// own initial states; vehicle ids are the platoon's own, leader 0). An error of `make` stops
 /// the run and names the controller, with its message. A run of another contract version
-/// (`PLATOON_CONTRACT_VERSION`) is refused at once, naming both versions. When your
-/// controllers run misbehaviour detectors ([`Controller::detector_names`], `[detection]`), the
-/// run's `summary.json` gets their figures against ground truth (`detection`), as in process.
+/// (`PLATOON_CONTRACT_VERSION`) is refused at once, naming both versions. In runs with
+/// `[detection]` every controller's [`Controller::inspections`] go to the run, which measures
+/// them against ground truth (`summary.json`'s `detection`, `detections.csv`); detectors of your
+/// own are named in `[detection] plugin`, and [`Controller::detector_names`] must be the
+/// config's names in order (the built-in tables' first), or empty.
 pub fn run<E: std::fmt::Display>(
     mut make: impl FnMut(&Scenario) -> Result<Box<dyn Controller>, E>,
 ) -> Result<(), Error> {

@@ -65,10 +65,14 @@ impl Measure {
             l.clear();
         }
         for it in tx {
-            // The controller's own batch, checked when recorded: every id exists.
-            if let (Some((j, receiver)), Some((_, sender))) =
+            // A link of platoon j; anything else in the controller's batch links nobody (the
+            // wire tally skips it too).
+            if let (Some((j, receiver)), Some((js, sender))) =
                 (num.split(it.receiver), num.split(it.packet.sender))
             {
+                if j != js {
+                    continue;
+                }
                 let mut packet = packet_from_wire(&it.packet);
                 packet.sender = sender;
                 self.links[j].push((receiver, packet));

@@ -117,12 +117,14 @@ pub struct DuplicateSamples {
     pub rx: u64,
     /// From the controller.
     pub commands: u64,
+    /// From the controller (runs with `[detection]`).
+    pub inspections: u64,
 }
 
 impl DuplicateSamples {
     /// All of them.
     pub fn total(&self) -> u64 {
-        self.states + self.tx + self.rx + self.commands
+        self.states + self.tx + self.rx + self.commands + self.inspections
     }
 }
 
@@ -293,6 +295,15 @@ pub fn orchestrate(
             }
             wait(&listener, Duration::from_millis(100))?;
         }
+        // A controller that does not publish inspections (a raw-protocol one, say) inspects
+        // nothing: its steps are recorded without waiting for them. Every node opened its
+        // ports before READY.
+        if services._inspections.as_ref().is_some_and(|s| {
+            use iceoryx2::service::port_factory::PortFactory as _;
+            s.dynamic_config().number_of_publishers() == 0
+        }) {
+            inspections = None;
+        }
         control.send(ControlMsg::new(ControlMsg::START, Node::Orchestrator, 0))?;
         run.last_progress = Instant::now();
 
@@ -450,6 +461,7 @@ pub fn orchestrate(
                 tx: tx.duplicates(),
                 rx: rx.duplicates(),
                 commands: commands.duplicates(),
+                inspections: inspections.as_ref().map_or(0, Inlet::duplicates),
             },
             peak_rss_kib: Vec::new(),
         })
@@ -540,9 +552,14 @@ impl Streams<'_> {
             let (hc, c) = self.commands.take_buffered(k).expect("has");
             clock.push(hs.stamp_ns, ht.stamp_ns, hr.stamp_ns, hc.stamp_ns);
             run.record(&s, &t, &r, &c)?;
-            if let (Some(inlet), Some(m)) = (&mut self.inspections, &mut run.measure) {
-                let (_, items) = inlet.take_buffered(k).expect("has");
-                m.record(k, &s, &t, &r, &items)?;
+            if let Some(m) = &mut run.measure {
+                match &mut self.inspections {
+                    Some(inlet) => {
+                        let (_, items) = inlet.take_buffered(k).expect("has");
+                        m.record(k, &s, &t, &r, &items)?;
+                    }
+                    None => m.record(k, &s, &t, &r, &[])?,
+                }
             }
             observe.publish(k, scenario.dt(), &s, &t, &r, &c)?;
             on_step(

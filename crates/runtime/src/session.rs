@@ -322,10 +322,17 @@ pub fn inspections_from_wire(
     let mut verdicts = [platoon_control::screening::Verdict::NOT_TESTED; 8];
     let detectors = detectors.min(verdicts.len());
     for it in items {
-        let (j, receiver) = num.split(it.receiver).unwrap_or((0, VehicleId(u16::MAX)));
-        let sender = match num.split(it.sender) {
-            Some((js, i)) if js == j => i,
-            _ => VehicleId(u16::MAX),
+        // As `deliveries_from_wire` sorts the deliveries they join.
+        let (j, receiver, sender) = match num.split(it.receiver) {
+            Some((j, receiver)) => match num.split(it.sender) {
+                Some((js, i)) if js == j => (j, receiver, i),
+                _ => (j, receiver, VehicleId(u16::MAX)),
+            },
+            None => (
+                0,
+                VehicleId(u16::MAX),
+                VehicleId(u16::try_from(it.sender).unwrap_or(u16::MAX)),
+            ),
         };
         for (d, v) in verdicts.iter_mut().enumerate().take(detectors) {
             *v = platoon_control::screening::Verdict {

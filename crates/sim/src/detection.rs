@@ -181,9 +181,6 @@ impl DetectionRecorder {
         // sequence number, step and claimed state.
         let mut next = 0;
         for i in inspections {
-            self.counts.inspected += 1;
-            self.counts.flagged += u64::from(i.flagged);
-            self.counts.refused += u64::from(i.refused);
             let found = self.labelled[next..].iter().position(|l| {
                 l.delivery.receiver == i.receiver
                     && l.delivery.packet.sender == i.sender
@@ -191,9 +188,14 @@ impl DetectionRecorder {
                     && l.delivery.packet.step == i.step
                     && l.delivery.packet.state == i.state
             });
+            // One that matches no delivery (a plug-in's, out of order or made up) is not
+            // counted: the figures are of packets that were delivered.
             let Some(j) = found.map(|j| next + j) else {
                 continue;
             };
+            self.counts.inspected += 1;
+            self.counts.flagged += u64::from(i.flagged);
+            self.counts.refused += u64::from(i.refused);
             next = j + 1;
             let l = self.labelled[j];
             let bad = l.label.is_misbehaviour();

@@ -110,6 +110,14 @@ pub fn execute_with(
 fn in_process(job: &CellJob, controller: Option<&ControllerFactory>) -> Result<Value> {
     let label = format!("cell {}", job.index);
     let (config, scenario) = platoon_config::parse(&job.config, Path::new(&label))?;
+    if controller.is_none() && !scenario.control.detection.plugin.is_empty() {
+        anyhow::bail!(
+            "{label}: detection.plugin names detectors a controller plug-in runs ({}), but the \
+             cell runs the built-in controllers in process: set transport = \"iceoryx2\" with \
+             a --controller, or remove detection.plugin",
+            scenario.control.detection.plugin.join(", ")
+        );
+    }
     let summary = match (&job.keep, controller) {
         (_, Some(factory)) => {
             if job.keep.is_some() {
