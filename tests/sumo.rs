@@ -91,6 +91,11 @@ fn sumo_paper(dir: &Path, states: &str) -> PathBuf {
     path
 }
 
+/// `text` (a config with `[sumo]`'s `tolerance_m = 1e-6`) with more `[sumo]` keys.
+fn with_sumo_keys(text: &str, keys: &str) -> String {
+    text.replace("tolerance_m = 1e-6", &format!("tolerance_m = 1e-6\n{keys}"))
+}
+
 #[test]
 fn sumo_reproduces_the_native_plant() {
     let tmp = tempfile::tempdir().unwrap();
@@ -503,11 +508,7 @@ fn the_bridges_cpp_loop_equals_its_python_loop() {
     let paper = std::fs::read_to_string(repo().join("configs/sumo-paper.toml")).unwrap();
     assert!(paper.contains("states = \"sumo\""));
     let degradation = std::fs::read_to_string(repo().join("configs/degradation.toml")).unwrap();
-    let traffic = paper
-        .replace(
-            "tolerance_m = 1e-6",
-            "tolerance_m = 1e-6\nbackground_vehicles = 30\nbackground_seed = 3",
-        )
+    let traffic = with_sumo_keys(&paper, "background_vehicles = 30\nbackground_seed = 3")
         .replace("duration_s = 55.0", "duration_s = 3.0")
         + "\n[channel]\nmodel = \"80211p\"\nradio = { density_veh_per_m = 0.0 }\n";
     let recorder = tmp.path().join("record_traffic.py");
@@ -645,11 +646,8 @@ fn seeded_background_traffic_drives_beside_the_platoon_without_touching_it() {
     let with = tmp.path().join("bg.toml");
     std::fs::write(
         &with,
-        text.replace(
-            "tolerance_m = 1e-6",
-            "tolerance_m = 1e-6\nbackground_vehicles = 30\nbackground_seed = 5",
-        )
-        .replace("duration_s = 55.0", "duration_s = 10.0"),
+        with_sumo_keys(&text, "background_vehicles = 30\nbackground_seed = 5")
+            .replace("duration_s = 55.0", "duration_s = 10.0"),
     )
     .unwrap();
     let without = tmp.path().join("plain.toml");
@@ -692,10 +690,8 @@ fn seeded_background_traffic_drives_beside_the_platoon_without_touching_it() {
     let full = tmp.path().join("full.toml");
     std::fs::write(
         &full,
-        text.replace(
-            "tolerance_m = 1e-6",
-            "tolerance_m = 1e-6\nbackground_vehicles = 3",
-        ) + "\n[fleet]\nplatoons = 3\nlanes = [0, 1, 2]\ngap_m = 100.0\n",
+        with_sumo_keys(&text, "background_vehicles = 3")
+            + "\n[fleet]\nplatoons = 3\nlanes = [0, 1, 2]\ngap_m = 100.0\n",
     )
     .unwrap();
     let o = platoon(&["run", full.to_str().unwrap(), "--out", "x"], tmp.path());
@@ -716,11 +712,8 @@ fn the_channel_and_the_injector_see_sumos_background_traffic() {
     let config = tmp.path().join("bg.toml");
     std::fs::write(
         &config,
-        text.replace(
-            "tolerance_m = 1e-6",
-            "tolerance_m = 1e-6\nbackground_vehicles = 12\nbackground_seed = 3",
-        )
-        .replace("duration_s = 55.0", "duration_s = 2.0"),
+        with_sumo_keys(&text, "background_vehicles = 12\nbackground_seed = 3")
+            .replace("duration_s = 55.0", "duration_s = 2.0"),
     )
     .unwrap();
     let script = tmp.path().join("record_traffic.py");
@@ -859,11 +852,7 @@ fn patched_bridge(dir: &Path, patch: impl Fn(String) -> String) -> PathBuf {
 #[test]
 fn a_missing_or_malformed_traffic_sample_names_the_plant() {
     let text = std::fs::read_to_string(repo().join("configs/sumo-paper.toml")).unwrap();
-    let config = text
-        .replace(
-            "tolerance_m = 1e-6",
-            "tolerance_m = 1e-6\nbackground_vehicles = 6",
-        )
+    let config = with_sumo_keys(&text, "background_vehicles = 6")
         .replace("duration_s = 55.0", "duration_s = 1.0");
     let send = "            if traffic_out is not None:\n                traffic_out.send(k, k * dt, traffic.read())";
     type Patch = fn(String) -> String;
@@ -1144,13 +1133,10 @@ fn sumos_background_traffic_loads_the_80211p_channel() {
         let dir = tmp.path().join(format!("bg{background}"));
         std::fs::create_dir_all(&dir).unwrap();
         let config = dir.join("c.toml");
+        let keys = format!("background_vehicles = {background}\nbackground_seed = 3");
         std::fs::write(
             &config,
-            text.replace(
-                "tolerance_m = 1e-6",
-                &format!("tolerance_m = 1e-6\nbackground_vehicles = {background}\nbackground_seed = 3"),
-            )
-            .replace("duration_s = 55.0", "duration_s = 2.0")
+            with_sumo_keys(&text, &keys).replace("duration_s = 55.0", "duration_s = 2.0")
                 // No traffic besides the run's: the platoon and SUMO's background vehicles.
                 + "\n[channel]\nmodel = \"80211p\"\nradio = { density_veh_per_m = 0.0 }\n",
         )

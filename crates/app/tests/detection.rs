@@ -34,6 +34,29 @@ fn config(detectors: &[&str], attack: Option<LinkKindConfig>) -> Config {
     c
 }
 
+/// `c` run in process into a temporary run directory (kept as long as the guard lives).
+fn run_inproc(c: Config) -> (tempfile::TempDir, platoon_app::run::RunOutcome) {
+    let mut c2 = c.clone();
+    let scenario = platoon_config::to_scenario(&mut c2).unwrap();
+    let tmp = tempfile::tempdir().unwrap();
+    let opts = platoon_app::RunOptions {
+        transport: platoon_config::Transport::Inproc,
+        plots: false,
+        ..Default::default()
+    };
+    let out = platoon_app::run::run(
+        c,
+        &scenario,
+        &opts,
+        &tmp.path().join("run"),
+        false,
+        &platoon_app::Stop::default(),
+        &(),
+    )
+    .unwrap();
+    (tmp, out)
+}
+
 fn detect(mut c: Config) -> DetectionSummary {
     let scenario = platoon_config::to_scenario(&mut c).unwrap();
     platoon_sim::run(scenario, |_| {})
@@ -107,24 +130,7 @@ fn the_dataset_has_one_row_per_inspected_packet_with_its_label() {
         &["plausibility", "radar_cross", "residual"],
         attack_kind("random_offset", Intensity::Strong),
     );
-    let mut c2 = c.clone();
-    let scenario = platoon_config::to_scenario(&mut c2).unwrap();
-    let tmp = tempfile::tempdir().unwrap();
-    let opts = platoon_app::RunOptions {
-        transport: platoon_config::Transport::Inproc,
-        plots: false,
-        ..Default::default()
-    };
-    let out = platoon_app::run::run(
-        c,
-        &scenario,
-        &opts,
-        &tmp.path().join("run"),
-        false,
-        &platoon_app::Stop::default(),
-        &(),
-    )
-    .unwrap();
+    let (_tmp, out) = run_inproc(c);
     let d = out.summary.detection.unwrap();
     let mut reader = csv::Reader::from_path(out.dir.join("detections.csv")).unwrap();
     let header = reader.headers().unwrap().clone();
@@ -155,24 +161,7 @@ fn the_dataset_has_one_row_per_inspected_packet_with_its_label() {
 fn without_detection_there_is_no_dataset() {
     let mut c = config(&[], None);
     c.detection = None;
-    let mut c2 = c.clone();
-    let scenario = platoon_config::to_scenario(&mut c2).unwrap();
-    let tmp = tempfile::tempdir().unwrap();
-    let opts = platoon_app::RunOptions {
-        transport: platoon_config::Transport::Inproc,
-        plots: false,
-        ..Default::default()
-    };
-    let out = platoon_app::run::run(
-        c,
-        &scenario,
-        &opts,
-        &tmp.path().join("run"),
-        false,
-        &platoon_app::Stop::default(),
-        &(),
-    )
-    .unwrap();
+    let (_tmp, out) = run_inproc(c);
     assert!(!out.dir.join("detections.csv").exists());
     assert!(out.summary.detection.is_none());
 }

@@ -3,15 +3,12 @@
 //! controller alike) joined with what truly happened to it, from the step's states, tx and rx
 //! batches, by the in-process runner's own code
 //! ([`platoon_sim::detection::DetectionRecorder`], one per platoon).
-use crate::session::{
-    deliveries_from_wire, inspections_from_wire, packet_from_wire, states_from_wire, Numbering,
-};
-use crate::RunError;
+use crate::session::{inspections_from_wire, link_from_wire, Numbering};
 use platoon_control::{Delivery, Packet};
 use platoon_model::{State, VehicleId};
 use platoon_sim::detection::{DetectionRecorder, DetectionSummary, Scored};
 use platoon_sim::Scenario;
-use platoon_wire::{Inspection, LinkPacket, VehicleState};
+use platoon_wire::{Inspection, LinkPacket};
 
 /// Every platoon's recorder and the step's inputs sorted per platoon.
 pub(crate) struct Measure {
@@ -19,8 +16,6 @@ pub(crate) struct Measure {
     detectors: usize,
     recorders: Vec<DetectionRecorder>,
     links: Vec<Vec<(VehicleId, Packet)>>,
-    deliveries: Vec<Vec<Delivery>>,
-    jammed: Vec<bool>,
     inspections: Vec<Vec<platoon_control::Inspection>>,
     scored: Vec<Scored>,
 }
@@ -43,42 +38,28 @@ impl Measure {
                 .map(|r| DetectionRecorder::new(r.platoon, &names, d.reaction, r.dt()))
                 .collect(),
             links: vec![Vec::new(); num.platoons],
-            deliveries: vec![Vec::new(); num.platoons],
-            jammed: vec![false; num.vehicles()],
             inspections: vec![Vec::new(); num.platoons],
             scored: Vec::new(),
         })
     }
 
-    /// Step `k`: the true states, the tx and rx batches and the controller's inspections.
+    /// Step `k`: every vehicle's true state, the tx batch, each platoon's deliveries (as the
+    /// orchestrator sorted the rx batch) and the controller's inspections.
     pub(crate) fn record(
         &mut self,
         k: u64,
-        states: &[VehicleState],
+        states: &[State],
         tx: &[LinkPacket],
-        rx: &[LinkPacket],
+        deliveries: &[Vec<Delivery>],
         inspections: &[Inspection],
-    ) -> Result<(), RunError> {
+    ) {
         let num = self.num;
-        let states: Vec<State> = states_from_wire(states, num.vehicles())?;
         for l in &mut self.links {
             l.clear();
         }
-        for it in tx {
-            // A link of platoon j; anything else in the controller's batch links nobody (the
-            // wire tally skips it too).
-            if let (Some((j, receiver)), Some((js, sender))) =
-                (num.split(it.receiver), num.split(it.packet.sender))
-            {
-                if j != js {
-                    continue;
-                }
-                let mut packet = packet_from_wire(&it.packet);
-                packet.sender = sender;
-                self.links[j].push((receiver, packet));
-            }
+        for (j, receiver, packet) in tx.iter().filter_map(|it| link_from_wire(it, num)) {
+            self.links[j].push((receiver, packet));
         }
-        deliveries_from_wire(rx, num, &mut self.deliveries, &mut self.jammed);
         inspections_from_wire(k, inspections, num, self.detectors, &mut self.inspections);
         self.scored.clear();
         let n1 = num.per_platoon;
@@ -87,12 +68,11 @@ impl Measure {
                 k,
                 &states[j * n1..(j + 1) * n1],
                 self.links[j].iter().copied(),
-                &self.deliveries[j],
+                &deliveries[j],
                 &self.inspections[j],
             );
             self.scored.extend_from_slice(r.scored());
         }
-        Ok(())
     }
 
     /// The packets scored at the last step, platoon by platoon.

@@ -4,7 +4,7 @@
 use crate::detection::Measure;
 use crate::ipc::{wait, ControlInlet, Endpoint, Inlet};
 use crate::session::{
-    check_traffic, deliveries_from_wire, packet_from_wire, states_from_wire, Numbering,
+    check_traffic, deliveries_from_wire, link_from_wire, states_from_wire, Numbering,
 };
 use crate::timing::{StageClock, Timing};
 use crate::RunError;
@@ -551,16 +551,11 @@ impl Streams<'_> {
             let (hr, r) = self.rx.take_buffered(k).expect("has");
             let (hc, c) = self.commands.take_buffered(k).expect("has");
             clock.push(hs.stamp_ns, ht.stamp_ns, hr.stamp_ns, hc.stamp_ns);
-            run.record(&s, &t, &r, &c)?;
-            if let Some(m) = &mut run.measure {
-                match &mut self.inspections {
-                    Some(inlet) => {
-                        let (_, items) = inlet.take_buffered(k).expect("has");
-                        m.record(k, &s, &t, &r, &items)?;
-                    }
-                    None => m.record(k, &s, &t, &r, &[])?,
-                }
-            }
+            let inspected = self
+                .inspections
+                .as_mut()
+                .map(|inlet| inlet.take_buffered(k).expect("has").1);
+            run.record(&s, &t, &r, &c, inspected.as_deref().unwrap_or(&[]))?;
             observe.publish(k, scenario.dt(), &s, &t, &r, &c)?;
             on_step(
                 &run.rows,
@@ -903,12 +898,15 @@ impl<'a> Recorder<'a> {
         }
     }
 
+    /// Step `self.step`'s samples, and what the controller's detectors said of its packets
+    /// (empty: nothing, or the run measures none).
     fn record(
         &mut self,
         s: &[VehicleState],
         t: &[LinkPacket],
         r: &[LinkPacket],
         c: &[Command],
+        inspections: &[Inspection],
     ) -> Result<(), RunError> {
         let num = self.num;
         let n1 = num.per_platoon;
@@ -975,13 +973,9 @@ impl<'a> Recorder<'a> {
         self.outside = WireCounts::default();
         for j in 0..num.platoons {
             let links = t.iter().filter_map(|it| {
-                let (jr, receiver) = num.split(it.receiver)?;
-                let (js, sender) = num.split(it.packet.sender)?;
-                (jr == j && js == j).then(|| {
-                    let mut p = packet_from_wire(&it.packet);
-                    p.sender = sender;
-                    (receiver, p)
-                })
+                link_from_wire(it, num)
+                    .filter(|l| l.0 == j)
+                    .map(|(_, receiver, p)| (receiver, p))
             });
             self.wire_counter.count(
                 links,
@@ -990,6 +984,9 @@ impl<'a> Recorder<'a> {
                 &mut self.wire[j * n1..(j + 1) * n1],
                 &mut self.outside,
             );
+        }
+        if let Some(m) = &mut self.measure {
+            m.record(self.step, &states, t, &self.deliveries, inspections);
         }
         let _ = self.scenario;
         Ok(())

@@ -351,6 +351,19 @@ pub fn inspections_from_wire(
     }
 }
 
+/// The link a tx item is of: its platoon, receiver and packet with the platoon's own sender
+/// id; `None` when an id is of no vehicle or the two are of different platoons (such an item
+/// links nobody).
+pub fn link_from_wire(it: &LinkPacket, num: Numbering) -> Option<(usize, VehicleId, Packet)> {
+    let (j, receiver) = num.split(it.receiver)?;
+    let (js, sender) = num.split(it.packet.sender)?;
+    (j == js).then(|| {
+        let mut packet = packet_from_wire(&it.packet);
+        packet.sender = sender;
+        (j, receiver, packet)
+    })
+}
+
 /// A packet onto the wire.
 pub fn packet_to_wire(p: &Packet, stamp_ns: u64) -> V2vPacket {
     V2vPacket {
