@@ -174,8 +174,8 @@ def run(make) -> int:
     node = w.Endpoint("controller", info.run_id)
     states_in = node.inlet("states", w.VehicleState)
     rx_in = node.inlet("rx", w.LinkPacket)
-    tx_out = node.outlet("tx", w.LinkPacket, sum(map(len, out)) * platoons)
-    cmd_out = node.outlet("commands", w.Command, (n1 - 1) * platoons)
+    tx_out = node.outlet("tx", w.LinkPacket, sum(map(len, out)) * platoons, grow=False)
+    cmd_out = node.outlet("commands", w.Command, (n1 - 1) * platoons, grow=False)
     detectors = detector_names(info.config)
     info.detectors = detectors
     links = sum(map(len, out)) * platoons

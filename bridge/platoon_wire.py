@@ -299,15 +299,25 @@ class Endpoint:
     def inlet(self, service: str, item) -> "Inlet":
         return Inlet(self._step_service(service, item).subscriber_builder().create(), item)
 
-    def outlet(self, service: str, item, max_len: int) -> "Outlet":
+    def outlet(self, service: str, item, max_len: int, grow: bool = True) -> "Outlet":
+        """A publisher of one sample per step on `service`, of up to `max_len` items.
+
+        With `grow=False` its shared memory holds exactly `max_len` items, and the run's
+        readers map it when the run starts: what this process published stays readable after
+        it exits (or crashes), and a batch of more than `max_len` items is an error. With
+        `grow=True` (the default) a larger batch reallocates it, but a reader maps that memory
+        only when it first reads from it, so samples not yet read when this process exits are
+        lost with it. Bound what you can (a controller's commands, its tx batch); grow what you
+        cannot (an injector that duplicates packets)."""
+        strategy = iox.AllocationStrategy.PowerOfTwo if grow else iox.AllocationStrategy.Static
         pub = (
             self._step_service(service, item)
             .publisher_builder()
             .initial_max_slice_len(max(1, max_len))
-            .allocation_strategy(iox.AllocationStrategy.PowerOfTwo)
+            .allocation_strategy(strategy)
             .create()
         )
-        return Outlet(pub, self._wakers(service))
+        return Outlet(pub, self._wakers(service), service, None if grow else max(1, max_len))
 
     def control_inlet(self):
         svc = (
@@ -370,9 +380,11 @@ class Inlet:
 class Outlet:
     """Publishes one sample per step and wakes its readers."""
 
-    def __init__(self, publisher, wakers):
+    def __init__(self, publisher, wakers, service: str = "", max_len=None):
         self.publisher = publisher
         self.wakers = wakers
+        self.service = service
+        self.max_len = max_len  # None: it grows
 
     def send(self, step: int, time_s: float, items) -> None:
         """Publishes `items`: a ctypes array of structures (copied straight into shared
@@ -386,6 +398,12 @@ class Outlet:
         """Publishes `count` items already laid out in `data` (bytes-like, e.g. packed with
         struct, or a ctypes array; `size` bytes of it, default len(data)): one copy into
         shared memory."""
+        if self.max_len is not None and count > self.max_len:
+            raise ValueError(
+                f"the {self.service} sample of step {step} holds {count} items, more than the "
+                f"{self.max_len} its outlet was opened for: open it with a larger max_len, "
+                "or with grow=True"
+            )
         sample = self.publisher.loan_slice_uninit(count)
         header = StepHeader.from_address(sample.user_header_ptr)
         header.step = step

@@ -367,12 +367,12 @@ def run(spec) -> int:
     steps = int(spec["steps"])
     dt = float(spec["dt"])
     node = w.Endpoint("plant")
-    states_out = node.outlet("states", w.VehicleState, n)
+    states_out = node.outlet("states", w.VehicleState, n, grow=False)
     # The background traffic, published before the states of each step (the injector reads it
     # once the tx batch that follows the states wakes it). The orchestrator creates the service
     # exactly when there is background traffic.
     nb = int(spec["sumo"].get("background_vehicles", 0))
-    traffic_out = node.outlet("traffic", w.TrafficVehicle, nb) if nb else None
+    traffic_out = node.outlet("traffic", w.TrafficVehicle, nb, grow=False) if nb else None
     commands_in = node.inlet("commands", w.Command)
     control = node.control_inlet()
     status = node.status_outlet()

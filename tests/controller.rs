@@ -202,8 +202,9 @@ fn faulty(fault: &str, step_timeout: &str) -> (String, serde_json::Value, Durati
         .output()
         .unwrap();
     let took = started.elapsed();
-    assert!(!o.status.success(), "the run must fail");
-    assert_eq!(o.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert!(!o.status.success(), "the run must fail: {stderr}");
+    assert_eq!(o.status.code(), Some(1), "{stderr}");
     let run = tmp.join("r");
     assert!(!tmp.join("r.partial").exists());
     let s = json(&run.join("summary.json"));
@@ -212,14 +213,10 @@ fn faulty(fault: &str, step_timeout: &str) -> (String, serde_json::Value, Durati
     let rows = std::fs::read_to_string(run.join("trajectories.csv")).unwrap();
     assert_eq!(
         rows.lines().count() as u64,
-        1 + 5 * s["steps"].as_u64().unwrap()
+        1 + 5 * s["steps"].as_u64().unwrap(),
+        "{stderr}\n{s}"
     );
-    (
-        String::from_utf8_lossy(&o.stderr).into_owned(),
-        s,
-        took,
-        tmp,
-    )
+    (stderr, s, took, tmp)
 }
 
 #[test]

@@ -54,8 +54,8 @@ def main() -> int:
     node = w.Endpoint("controller")
     states_in = node.inlet("states", w.VehicleState)
     rx_in = node.inlet("rx", w.LinkPacket)
-    tx_out = node.outlet("tx", w.LinkPacket, 1)
-    cmd_out = node.outlet("commands", w.Command, len(followers))
+    tx_out = node.outlet("tx", w.LinkPacket, 1, grow=False)
+    cmd_out = node.outlet("commands", w.Command, len(followers), grow=False)
     control = node.control_inlet()
     status = node.status_outlet()  # kept for the whole run
     w.send_status(status, w.ControlMsg.READY, "controller")

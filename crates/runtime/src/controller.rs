@@ -49,12 +49,12 @@ pub fn run(
         let links: usize = (0..n1)
             .map(|v| scenario.topology.out_neighbours(VehicleId(v as u16)).len())
             .sum();
-        let tx_out: Outlet<LinkPacket> = e.outlet(
+        let tx_out: Outlet<LinkPacket> = e.fixed_outlet(
             &e.open_step_service(Service::Tx)?,
             Service::Tx,
             links * num.platoons,
         )?;
-        let cmd_out: Outlet<Command> = e.outlet(
+        let cmd_out: Outlet<Command> = e.fixed_outlet(
             &e.open_step_service(Service::Commands)?,
             Service::Commands,
             num.followers(),
@@ -143,6 +143,14 @@ pub fn run(
                                 packet,
                             }));
                         }
+                    }
+                    if wire_tx.len() > links * num.platoons {
+                        return Err(fail(format!(
+                            "step {k}: {} packets to send over {} links: a vehicle broadcast \
+                             more than once in one step",
+                            wire_tx.len(),
+                            links * num.platoons
+                        )));
                     }
                     tx_out.send(*k, scenario.dt(), &wire_tx)?;
                     states = Some(s);

@@ -202,17 +202,42 @@ impl Endpoint {
             .collect()
     }
 
-    /// A publisher of step samples on `s` that wakes the readers.
+    /// A publisher of step samples on `s` that wakes the readers; its shared memory grows
+    /// with the batches. A reader maps grown memory only when it first reads from it, so what
+    /// this process published and nobody read yet is lost if it exits: use
+    /// [`Endpoint::fixed_outlet`] where the batch size is bounded.
     pub fn outlet<T: Debug + Copy + ZeroCopySend + 'static>(
         &self,
         service: &StepService<T>,
         s: Service,
         max_len: usize,
     ) -> Result<Outlet<T>, RunError> {
+        self.outlet_with(service, s, max_len, AllocationStrategy::PowerOfTwo)
+    }
+
+    /// A publisher of step samples of at most `max_len` items on `s`: its shared memory never
+    /// moves, and the orchestrator maps it before the first step ([`Inlet::connect`]), so its
+    /// samples stay readable after this process exits or panics.
+    pub fn fixed_outlet<T: Debug + Copy + ZeroCopySend + 'static>(
+        &self,
+        service: &StepService<T>,
+        s: Service,
+        max_len: usize,
+    ) -> Result<Outlet<T>, RunError> {
+        self.outlet_with(service, s, max_len, AllocationStrategy::Static)
+    }
+
+    fn outlet_with<T: Debug + Copy + ZeroCopySend + 'static>(
+        &self,
+        service: &StepService<T>,
+        s: Service,
+        max_len: usize,
+        strategy: AllocationStrategy,
+    ) -> Result<Outlet<T>, RunError> {
         let publisher = service
             .publisher_builder()
             .initial_max_slice_len(max_len.max(1))
-            .allocation_strategy(AllocationStrategy::PowerOfTwo)
+            .allocation_strategy(strategy)
             .create()
             .map_err(|e| ipc_err(format!("publisher on {s:?}"), e))?;
         Ok(Outlet {
@@ -323,6 +348,17 @@ impl<T: Debug + Copy + ZeroCopySend + 'static> Inlet<T> {
             floor: 0,
             duplicates: 0,
         })
+    }
+
+    /// Connects to every publisher the service has now. A publisher that goes away (its
+    /// process exits) takes the samples this subscriber never connected to with it; those of
+    /// a connection already made stay readable. So a run connects once every node has opened
+    /// its ports, before the first step, and what a crashing node published is not lost.
+    pub fn connect(&self) -> Result<(), RunError> {
+        use iceoryx2::port::update_connections::UpdateConnections as _;
+        self.subscriber
+            .update_connections()
+            .map_err(|e| ipc_err("connecting a subscriber", e))
     }
 
     /// Samples dropped because their step was already taken or already buffered: a publisher

@@ -20,7 +20,7 @@ pub fn plant(run_id: &str, scenario: &Scenario) -> Result<(), RunError> {
     reporting(run_id, Node::Plant, |ctx, k| {
         let e = &ctx.endpoint;
         let num = Numbering::of(scenario);
-        let states_out: Outlet<VehicleState> = e.outlet(
+        let states_out: Outlet<VehicleState> = e.fixed_outlet(
             &e.open_step_service(Service::States)?,
             Service::States,
             num.vehicles(),

@@ -304,6 +304,12 @@ pub fn orchestrate(
         }) {
             inspections = None;
         }
+        states.connect()?;
+        traffic.as_ref().map_or(Ok(()), Inlet::connect)?;
+        tx.connect()?;
+        rx.connect()?;
+        inspections.as_ref().map_or(Ok(()), Inlet::connect)?;
+        commands.connect()?;
         control.send(ControlMsg::new(ControlMsg::START, Node::Orchestrator, 0))?;
         run.last_progress = Instant::now();
 
