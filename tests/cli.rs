@@ -721,6 +721,46 @@ fn bench_arguments_are_checked_before_anything_runs() {
 }
 
 #[test]
+fn bench_step_runs_sumos_own_peers_on_the_same_fleet() {
+    let tmp = tempfile::tempdir().unwrap();
+    let o = platoon(
+        &[
+            "bench",
+            "step",
+            "--followers",
+            "4",
+            "--modes",
+            "sumo",
+            "--seconds",
+            "0.5",
+            "--out",
+            "b",
+        ],
+        tmp.path(),
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(tmp.path().join("b/step.json")).unwrap())
+            .unwrap();
+    let peers = r["peers"].as_array().unwrap();
+    let names: Vec<&str> = peers.iter().map(|p| p["peer"].as_str().unwrap()).collect();
+    // Every peer ran (a peer that cannot run fails the benchmark), on the case's 5 vehicles.
+    assert_eq!(names, ["floor", "krauss", "plexe_acc", "plexe_cacc"]);
+    for p in peers {
+        assert_eq!(p["vehicles"], 5, "{p}");
+        assert_eq!(p["followers"], 4, "{p}");
+        let (p50, p90) = (
+            p["step_p50_us"].as_f64().unwrap(),
+            p["step_p90_us"].as_f64().unwrap(),
+        );
+        assert!(p50 > 0.0 && p90 >= p50, "{p}");
+    }
+    let csv = std::fs::read_to_string(tmp.path().join("b/peers.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 1 + 4, "{csv}");
+    assert!(String::from_utf8_lossy(&o.stdout).contains("ours"));
+}
+
+#[test]
 fn bench_latency_measures_every_baseline() {
     let tmp = tempfile::tempdir().unwrap();
     let o = platoon(

@@ -16,6 +16,7 @@ macro_rules! files {
 /// Every file of the bundle, by its path in the repository.
 pub const FILES: &[(&str, &[u8])] = files!(
     "bridge/README.md",
+    "bridge/bench_peers.py",
     "bridge/bench_sumo.py",
     "bridge/dask_cells.py",
     "bridge/examples/dos_jammer.py",

@@ -93,6 +93,12 @@ pub struct StepArgs {
     /// Simulated seconds per case.
     #[arg(long, default_value_t = 5.0)]
     pub seconds: f64,
+    /// Skip the peers: after each `sumo` case, the same fleet driven by SUMO itself
+    /// (`bridge/bench_peers.py`: SUMO's Krauss model, Plexe's ACC and auto-fed CACC inside
+    /// SUMO's CC model, and the floor of any external driver from Python), so our step reads as
+    /// a ratio to each.
+    #[arg(long)]
+    pub no_peers: bool,
     /// Output directory [default: runs/bench-step].
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -591,6 +597,60 @@ struct StepRow {
     bridge_tight_p50_us: Option<f64>,
 }
 
+/// One peer of a SUMO case: the same fleet for the same steps, driven by SUMO itself
+/// (`bridge/bench_peers.py`).
+#[derive(Debug, Clone, serde::Serialize)]
+struct PeerRow {
+    followers: usize,
+    vehicles: usize,
+    /// krauss, plexe_acc, plexe_cacc or floor.
+    peer: String,
+    step_p50_us: f64,
+    step_p90_us: f64,
+    step_mean_us: f64,
+}
+
+/// What `platoon bench step` measured: our cases, and their peers.
+struct StepReport {
+    rows: Vec<StepRow>,
+    peers: Vec<PeerRow>,
+}
+
+/// `bridge/bench_peers.py` on a SUMO case's plant.json: each peer's step, µs.
+fn peers(plant_json: &std::path::Path, followers: usize) -> Result<Vec<PeerRow>> {
+    let python = platoon_app::sumo::ensure_venv()?;
+    let o = Command::new(python)
+        .arg(platoon_app::sumo::bridge_dir()?.join("bench_peers.py"))
+        .arg("--plant-json")
+        .arg(plant_json)
+        .output()?;
+    if !o.status.success() {
+        bail!("{}", String::from_utf8_lossy(&o.stderr).trim());
+    }
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout)
+        .context("bench_peers.py printed something other than its JSON report")?;
+    let peers = v
+        .as_object()
+        .context("bench_peers.py's report is not a JSON object")?;
+    peers
+        .iter()
+        .map(|(peer, r)| {
+            let num = |k: &str| {
+                r[k].as_f64()
+                    .with_context(|| format!("bench_peers.py's report: {peer}.{k} is missing"))
+            };
+            Ok(PeerRow {
+                followers,
+                vehicles: num("vehicles")? as usize,
+                peer: peer.clone(),
+                step_p50_us: num("p50_us")?,
+                step_p90_us: num("p90_us")?,
+                step_mean_us: num("mean_us")?,
+            })
+        })
+        .collect()
+}
+
 /// A platoon-of-4 fleet config with `followers` followers in all, `seconds` long: Table I's
 /// scenario, resolved, with its keys set by dotted path as a campaign sets them.
 fn fleet_config(followers: usize, seconds: f64, sumo: bool) -> Result<String> {
@@ -633,7 +693,7 @@ fn tight_loop(plant_json: &std::path::Path, steps: u32) -> Result<serde_json::Va
     Ok(serde_json::from_slice(&o.stdout)?)
 }
 
-fn step(a: StepArgs) -> Result<Vec<StepRow>> {
+fn step(a: StepArgs) -> Result<StepReport> {
     if a.followers.is_empty() || a.followers.iter().any(|&n| n == 0 || n % 4 != 0) {
         bail!(
             "--followers needs positive multiples of 4 (platoons of 4 followers), e.g. 4,100,1000"
@@ -668,6 +728,7 @@ fn step(a: StepArgs) -> Result<Vec<StepRow>> {
         .expect("static template"),
     );
     let mut rows = Vec::new();
+    let mut peer_rows = Vec::new();
     for &n in &a.followers {
         for mode in &a.modes {
             bar.set_message(format!("{mode}, {n} followers"));
@@ -717,6 +778,13 @@ fn step(a: StepArgs) -> Result<Vec<StepRow>> {
             } else {
                 None
             };
+            if mode == "sumo" && !a.no_peers {
+                bar.set_message(format!("SUMO's own peers, {n} followers"));
+                peer_rows.extend(
+                    peers(&case.join("plant.json"), n)
+                        .with_context(|| format!("running the peers for {n} followers"))?,
+                );
+            }
             let p = |v: &serde_json::Value, k: &str| v[k]["p50_us"].as_f64();
             let step_p50 = p(&timing, "step").unwrap_or(f64::NAN);
             let dt = 0.01;
@@ -756,6 +824,13 @@ fn step(a: StepArgs) -> Result<Vec<StepRow>> {
         csv.serialize(r)?;
     }
     csv.flush()?;
+    if !peer_rows.is_empty() {
+        let mut csv = csv::Writer::from_writer(dir.writer("peers.csv")?);
+        for r in &peer_rows {
+            csv.serialize(r)?;
+        }
+        csv.flush()?;
+    }
     // Least-squares line per mode: cost per step = a + b N.
     let mut series = Vec::new();
     let mut fits = Vec::new();
@@ -784,7 +859,9 @@ fn step(a: StepArgs) -> Result<Vec<StepRow>> {
     )?;
     dir.write(
         "step.json",
-        (serde_json::to_string_pretty(&serde_json::json!({"rows": rows, "fits": fits}))? + "\n")
+        (serde_json::to_string_pretty(
+            &serde_json::json!({"rows": rows, "fits": fits, "peers": peer_rows}),
+        )? + "\n")
             .as_bytes(),
     )?;
     let path = dir.commit()?;
@@ -820,8 +897,86 @@ fn step(a: StepArgs) -> Result<Vec<StepRow>> {
             _ => println!("{mode}: one size only, no fit of cost against N"),
         }
     }
+    if !peer_rows.is_empty() {
+        println!(
+            "\nthe same fleet driven by SUMO itself (step p50, and our sumo step as a ratio):"
+        );
+        for p in &peer_rows {
+            let ours = rows
+                .iter()
+                .find(|r| r.mode == "sumo" && r.followers == p.followers)
+                .map_or(f64::NAN, |r| r.step_p50_us);
+            println!(
+                "{:<11} {:>6} {:>9.1}µs  ours {:.2}x",
+                p.peer,
+                p.followers,
+                p.step_p50_us,
+                ours / p.step_p50_us
+            );
+        }
+    }
     println!("outputs: {}", path.display());
-    Ok(rows)
+    Ok(StepReport {
+        rows,
+        peers: peer_rows,
+    })
+}
+
+/// BENCHMARKS.md's table of the peers: the same fleets driven by SUMO itself, our `sumo` step
+/// as a ratio to each, and the target against Plexe's auto-fed CACC.
+fn peers_section(md: &mut String, steps: &[StepRow], peers: &[PeerRow]) {
+    if peers.is_empty() {
+        return;
+    }
+    let _ = writeln!(
+        md,
+        "### The same fleets driven by SUMO itself (`bridge/bench_peers.py`, in the same run)\n\n\
+         After each `sumo` case, its plant.json (network, vehicles, lanes, initial states, steps) \
+         runs again in one process through libsumo: `krauss`, SUMO's own model drives every \
+         vehicle; `plexe_acc` and `plexe_cacc`, Plexe's ACC and PATH CACC in SUMO's CC model (the \
+         CACC fed by SUMO itself every step, `ccaf`), leaders on cruise control; `floor`, any \
+         external driver's least work (per vehicle one `setAcceleration` and two getters from \
+         Python, no control). µs per step; \"ours\" is the `sumo` row's step (nodes on any CPU) \
+         over the peer's (p50):\n"
+    );
+    let _ = writeln!(
+        md,
+        "| followers | vehicles | peer | p50 | p90 | mean | ours / peer (p50) |\n|---|---|---|---|---|---|---|"
+    );
+    let ours = |n: usize| {
+        steps
+            .iter()
+            .find(|r| r.mode == "sumo" && r.followers == n)
+            .map(|r| r.step_p50_us)
+    };
+    for p in peers {
+        let _ = writeln!(
+            md,
+            "| {} | {} | {} | {:.1} | {:.1} | {:.1} | {} |",
+            p.followers,
+            p.vehicles,
+            p.peer,
+            p.step_p50_us,
+            p.step_p90_us,
+            p.step_mean_us,
+            ours(p.followers).map_or("-".into(), |o| format!("{:.2}", o / p.step_p50_us))
+        );
+    }
+    let big = peers.iter().map(|p| p.followers).max().unwrap_or(0);
+    if let (Some(o), Some(cacc)) = (
+        ours(big),
+        peers
+            .iter()
+            .find(|p| p.followers == big && p.peer == "plexe_cacc"),
+    ) {
+        let x = o / cacc.step_p50_us;
+        let _ = writeln!(
+            md,
+            "\n{big} followers ({} vehicles) with SUMO: our step is **{x:.2}x** Plexe's auto-fed CACC inside SUMO (target <= 0.8: {}).\n",
+            cacc.vehicles,
+            if x <= 0.8 { "met" } else { "missed" }
+        );
+    }
 }
 
 /// Least squares y = a + b x.
@@ -1260,9 +1415,14 @@ fn all(a: AllArgs) -> Result<()> {
             .map(String::from)
             .to_vec(),
         seconds: 5.0,
+        no_peers: false,
         out: Some(out.join("step")),
         force: true,
     })?;
+    let StepReport {
+        rows: steps,
+        peers: peer_rows,
+    } = steps;
     let (designs, checks) = design(DesignArgs {
         followers: vec![4, 10, 20],
         check_followers: vec![10, 25, 50, 100],
@@ -1412,6 +1572,7 @@ fn all(a: AllArgs) -> Result<()> {
         }
     }
     let _ = writeln!(md);
+    peers_section(&mut md, &steps, &peer_rows);
     let _ = writeln!(
         md,
         "The scaling plot with the least-squares lines is runs/bench/step/step.png.\n"
