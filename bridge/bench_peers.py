@@ -14,8 +14,8 @@ the same number of steps, in this process through libsumo, once per peer:
   floor       the floor of any external driver: speed mode 0 and, per vehicle and step, one
               setAcceleration and two getters (lane position, speed) from Python, no control.
 
-Per step the wall time of what the peer does (the SUMO step, plus the floor's calls) is timed;
-the report gives medians, p90 and means in µs, as JSON on stdout. Plexe's engine lag is the
+Per step the wall time of what the peer does (the SUMO step, plus the floor's calls) is timed,
+and SUMO's step alone; the report gives medians, p90 and means in µs, as JSON on stdout. Plexe's engine lag is the
 run's (its first follower's tau), its other parameters SUMO's defaults.
 
     bridge/.venv/bin/python bridge/bench_peers.py --plant-json runs/bench-step/sumo-1000/plant.json
@@ -116,7 +116,7 @@ def run_peer(spec, peer, steps):
                     got = libsumo.vehicle.getParameter(vid, "carFollowModel.ccac").strip()
                     if got != want:
                         raise PeerError(f"{peer}: {vid} runs Plexe controller {got!r}, not {want}")
-            step_ns = []
+            step_ns, sumo_ns = [], []
             set_acc = libsumo.vehicle.setAcceleration
             get_pos, get_speed = libsumo.vehicle.getLanePosition, libsumo.vehicle.getSpeed
             checksum = 0.0
@@ -126,12 +126,17 @@ def run_peer(spec, peer, steps):
                     a = 0.5 if (k // 100) % 2 == 0 else -0.5
                     for vid in ids:
                         set_acc(vid, a, dt)
+                    t1 = time.perf_counter_ns()
                     libsumo.simulationStep()
+                    t2 = time.perf_counter_ns()
                     for vid in ids:
                         checksum += get_pos(vid) + get_speed(vid)
                 else:
+                    t1 = time.perf_counter_ns()
                     libsumo.simulationStep()
+                    t2 = time.perf_counter_ns()
                 step_ns.append(time.perf_counter_ns() - t0)
+                sumo_ns.append(t2 - t1)
             if len(libsumo.vehicle.getIDList()) != n:
                 raise PeerError(f"{peer}: vehicles left the road during the run")
         except libsumo.TraCIException as e:
@@ -145,6 +150,8 @@ def run_peer(spec, peer, steps):
         "p50_us": statistics.median(step_ns) / 1e3,
         "p90_us": step_ns[min(len(step_ns) - 1, int(0.9 * len(step_ns)))] / 1e3,
         "mean_us": statistics.fmean(step_ns) / 1e3,
+        # SUMO's simulationStep alone (all of the step but the floor's calls).
+        "sumo_step_p50_us": statistics.median(sumo_ns) / 1e3,
     }
 
 

@@ -608,6 +608,8 @@ struct PeerRow {
     step_p50_us: f64,
     step_p90_us: f64,
     step_mean_us: f64,
+    /// SUMO's `simulationStep` alone (the floor's calls around it left out).
+    sumo_step_p50_us: f64,
 }
 
 /// What `platoon bench step` measured: our cases, and their peers.
@@ -646,6 +648,7 @@ fn peers(plant_json: &std::path::Path, followers: usize) -> Result<Vec<PeerRow>>
                 step_p50_us: num("p50_us")?,
                 step_p90_us: num("p90_us")?,
                 step_mean_us: num("mean_us")?,
+                sumo_step_p50_us: num("sumo_step_p50_us")?,
             })
         })
         .collect()
@@ -941,7 +944,7 @@ fn peers_section(md: &mut String, steps: &[StepRow], peers: &[PeerRow]) {
     );
     let _ = writeln!(
         md,
-        "| followers | vehicles | peer | p50 | p90 | mean | ours / peer (p50) |\n|---|---|---|---|---|---|---|"
+        "| followers | vehicles | peer | p50 | p90 | mean | SUMO's step alone (p50) | ours / peer (p50) |\n|---|---|---|---|---|---|---|---|"
     );
     let ours = |n: usize| {
         steps
@@ -952,13 +955,14 @@ fn peers_section(md: &mut String, steps: &[StepRow], peers: &[PeerRow]) {
     for p in peers {
         let _ = writeln!(
             md,
-            "| {} | {} | {} | {:.1} | {:.1} | {:.1} | {} |",
+            "| {} | {} | {} | {:.1} | {:.1} | {:.1} | {:.1} | {} |",
             p.followers,
             p.vehicles,
             p.peer,
             p.step_p50_us,
             p.step_p90_us,
             p.step_mean_us,
+            p.sumo_step_p50_us,
             ours(p.followers).map_or("-".into(), |o| format!("{:.2}", o / p.step_p50_us))
         );
     }
