@@ -6,8 +6,9 @@ time grid, initial states, leader profile, tau schedules, and the SUMO options).
 publish the background traffic's positions (`traffic`, with `[sumo] background_vehicles`) and
 the states read from SUMO, wait for commands[k], hold each vehicle's acceleration a[k]
 over the step (`setAcceleration`, ballistic update, speed mode 0), step SUMO, check collisions,
-and update a[k+1] with the engine lag (platoon_plant.py). Writes SUMO's FCD output and
-sumo.json (SUMO version, per-step costs, collisions) into the run directory.
+and update a[k+1] with the engine lag (platoon_plant.py). Writes sumo.json (SUMO version,
+per-step costs, collisions) and, with `[sumo] fcd = "sumo"` only, SUMO's FCD output into the
+run directory (by default platoon writes fcd.xml from the trajectories after the run).
 
 The per-vehicle libsumo calls of a step (set every acceleration, step, read every state back)
 run in one call to a small C++ helper (sumo_native.py; PLATOON_SUMO_NATIVE=0 keeps them in
@@ -382,7 +383,10 @@ def run(spec) -> int:
         "sumo_version": None,
         "steps": 0,
         "collisions": [],
-        "fcd": "fcd.xml" if spec["sumo"]["fcd_period_s"] > 0 else None,
+        # SUMO's FCD writer ([sumo] fcd = "sumo"); platoon's own (the default) fills this in
+        # after the run.
+        "fcd": {"file": "fcd.xml", "writer": "sumo", "period_s": spec["sumo"]["fcd_period_s"]}
+        if spec["sumo"]["fcd_period_s"] > 0 else None,
     }
     sumo_ns, bridge_ns, sumo_cpu, bridge_cpu = [], [], [], []
 

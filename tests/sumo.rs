@@ -235,6 +235,163 @@ fn fcd_output_holds_every_vehicle_at_every_step() {
             5
         );
     }
+    // platoon wrote it from the trajectories after the run (`[sumo] fcd = "recorded"`).
+    let fcd = &json(&tmp.path().join("r/summary.json"))["sumo"]["fcd"];
+    assert_eq!(fcd["writer"], "recorded");
+    assert_eq!(fcd["timesteps"], 5501);
+}
+
+/// The timesteps of an fcd.xml: time -> vehicle id -> its attributes.
+type Fcd =
+    std::collections::BTreeMap<String, std::collections::BTreeMap<String, Vec<(String, String)>>>;
+
+fn read_fcd(path: &Path) -> Fcd {
+    let text = std::fs::read_to_string(path).unwrap();
+    let doc = roxmltree::Document::parse(&text).expect("fcd.xml parses");
+    let mut out = Fcd::new();
+    for t in doc.descendants().filter(|n| n.has_tag_name("timestep")) {
+        let vehicles = out
+            .entry(t.attribute("time").unwrap().to_string())
+            .or_default();
+        for v in t.children().filter(|n| n.has_tag_name("vehicle")) {
+            let attrs = v
+                .attributes()
+                .map(|a| (a.name().to_string(), a.value().to_string()))
+                .collect();
+            vehicles.insert(v.attribute("id").unwrap().to_string(), attrs);
+        }
+    }
+    out
+}
+
+/// platoon's fcd.xml, written from the recorded trajectories, is SUMO's for the same run: two
+/// platoons (SUMO's ids p0.*, p1.*, on two lanes) for 2 s, SUMO writing its FCD output during
+/// the run (`fcd = "sumo"`) and `platoon fcd` converting the run directory afterwards.
+#[test]
+fn fcd_from_the_trajectories_is_what_sumo_writes() {
+    let tmp = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(repo().join("configs/sumo-paper.toml")).unwrap();
+    let c = tmp.path().join("fleet.toml");
+    std::fs::write(
+        &c,
+        with_sumo_keys(&text, "fcd = \"sumo\"").replace("duration_s = 55.0", "duration_s = 2.0")
+            + "\n[fleet]\nplatoons = 2\nlanes = [1, 2]\n",
+    )
+    .unwrap();
+    ok(&platoon(
+        &["run", c.to_str().unwrap(), "--out", "r", "--no-plots"],
+        tmp.path(),
+    ));
+    let r = tmp.path().join("r");
+    assert_eq!(
+        json(&r.join("summary.json"))["sumo"]["fcd"]["writer"],
+        "sumo"
+    );
+    ok(&platoon(&["fcd", "r", "--out", "ours.xml"], tmp.path()));
+    let sumo = read_fcd(&r.join("fcd.xml"));
+    let ours = read_fcd(&tmp.path().join("ours.xml"));
+    // SUMO also writes the step the bridge takes after the last recorded one.
+    let times: Vec<&String> = ours.keys().collect();
+    assert_eq!(times.len(), 201);
+    let mut sumo_times: Vec<&String> = sumo.keys().collect();
+    assert_eq!(sumo_times.pop().unwrap(), "2.01");
+    assert_eq!(times, sumo_times);
+    let number = |attrs: &[(String, String)], key: &str| -> f64 {
+        attrs
+            .iter()
+            .find(|(k, _)| k == key)
+            .unwrap()
+            .1
+            .parse()
+            .unwrap()
+    };
+    let mut compared = 0;
+    for (t, vehicles) in &ours {
+        let theirs = &sumo[t];
+        assert_eq!(
+            vehicles.keys().collect::<Vec<_>>(),
+            theirs.keys().collect::<Vec<_>>(),
+            "at {t}"
+        );
+        assert_eq!(vehicles.len(), 10);
+        for (id, attrs) in vehicles {
+            let other = &theirs[id];
+            // The same attributes in the same order, lane and type alike.
+            let keys =
+                |a: &[(String, String)]| a.iter().map(|(k, _)| k.clone()).collect::<Vec<_>>();
+            assert_eq!(keys(attrs), keys(other));
+            for key in ["lane", "type"] {
+                assert_eq!(
+                    attrs.iter().find(|(k, _)| k == key),
+                    other.iter().find(|(k, _)| k == key),
+                    "{id} at {t}"
+                );
+            }
+            // Both round SUMO's positions (which equal the recorded ones to ~1e-13 m) to 2
+            // decimals: at most one unit of the last digit apart.
+            for key in ["x", "y", "angle", "speed", "pos", "slope", "acceleration"] {
+                let (a, b) = (number(attrs, key), number(other, key));
+                assert!(
+                    (a - b).abs() <= 0.010001,
+                    "{id} at {t}: {key} {a} vs SUMO's {b}"
+                );
+            }
+            compared += 1;
+        }
+    }
+    assert_eq!(compared, 2010);
+
+    // Bad input names what is wrong: a network that is gone, a lane the network lacks.
+    let spec_path = r.join("plant.json");
+    let spec = std::fs::read_to_string(&spec_path).unwrap();
+    let mut bad: serde_json::Value = serde_json::from_str(&spec).unwrap();
+    bad["sumo"]["net"] = "/nowhere/gone.net.xml".into();
+    std::fs::write(&spec_path, bad.to_string()).unwrap();
+    let o = platoon(&["fcd", "r"], tmp.path());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success());
+    assert!(
+        err.contains("/nowhere/gone.net.xml") && err.contains("plant.json"),
+        "{err}"
+    );
+    let mut bad: serde_json::Value = serde_json::from_str(&spec).unwrap();
+    bad["sumo"]["edge"] = "nowhere".into();
+    std::fs::write(&spec_path, bad.to_string()).unwrap();
+    let o = platoon(&["fcd", "r"], tmp.path());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success());
+    assert!(
+        err.contains("highway.net.xml has no lane nowhere_1"),
+        "{err}"
+    );
+    // Neither left a file behind, and SUMO's fcd.xml is still there.
+    assert!(!r.join("fcd.xml.partial").exists());
+    assert_eq!(read_fcd(&r.join("fcd.xml")), sumo);
+}
+
+/// Recorded FCD needs the trajectories at its period's steps: a config error otherwise.
+#[test]
+fn recorded_fcd_without_its_trajectories_is_a_config_error() {
+    let tmp = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(repo().join("configs/sumo-paper.toml")).unwrap();
+    let text = text.replace("duration_s = 55.0", "duration_s = 1.0");
+    for (sumo, output, key) in [
+        // Absent, the period follows output.decimate; 2 steps are not a whole number of 3.
+        ("fcd_period_s = 0.02", "decimate = 3", "sumo.fcd_period_s"),
+        ("", "files = [\"events\"]", "sumo.fcd"),
+    ] {
+        let c = tmp.path().join("c.toml");
+        std::fs::write(
+            &c,
+            with_sumo_keys(&text, sumo) + "\n[output]\n" + output + "\n",
+        )
+        .unwrap();
+        let o = platoon(&["run", c.to_str().unwrap(), "--out", "r"], tmp.path());
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{err}");
+        assert!(err.contains(key), "{err}");
+        assert!(!tmp.path().join("r").exists());
+    }
 }
 
 /// Follower 1 starts 6 m behind the leader, 8 m/s faster, and the channel is jammed from the

@@ -278,8 +278,29 @@ pub fn run(
     if let Some(program) = &opts.controller {
         extra.push(("controller", serde_json::json!({ "program": program })));
     }
-    if sumo_plan.is_some() {
-        if let Some(report) = crate::sumo::report(&dir)? {
+    if let Some(plan) = &sumo_plan {
+        // fcd.xml from what was recorded (a stopped run's too), after the run's last step.
+        // A run that ended early may have recorded nothing to write: said in the report, the
+        // run's own failure stays the error.
+        let fcd = match plan.write_recorded_fcd(&dir) {
+            Ok(fcd) => fcd.map(|fcd| {
+                serde_json::json!({
+                    "file": "fcd.xml",
+                    "writer": "recorded",
+                    "period_s": fcd.period_s,
+                    "timesteps": fcd.timesteps,
+                    "vehicles": fcd.vehicles,
+                })
+            }),
+            Err(e) if !summary.complete => {
+                Some(serde_json::json!({ "writer": "recorded", "error": format!("{e:#}") }))
+            }
+            Err(e) => return Err(e),
+        };
+        if let Some(mut report) = crate::sumo::report(&dir)? {
+            if let Some(fcd) = fcd {
+                report["fcd"] = fcd;
+            }
             if report["collisions"]
                 .as_array()
                 .is_some_and(|c| !c.is_empty())

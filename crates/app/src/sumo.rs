@@ -100,7 +100,10 @@ struct SumoSpec<'a> {
     collision_action: platoon_config::CollisionAction,
     states: platoon_config::SumoStates,
     tolerance_m: f64,
+    /// SUMO's FCD writer's period (0: SUMO writes none).
     fcd_period_s: f64,
+    /// fcd.xml's period when platoon writes it from the trajectories after the run (0: not).
+    recorded_fcd_period_s: f64,
     background_vehicles: usize,
     background_seed: u64,
     background_lanes: Vec<(u32, f64)>,
@@ -121,6 +124,8 @@ pub struct SumoPlan<'a> {
     offset: f64,
     length: f64,
     free_lanes: Vec<(u32, f64)>,
+    /// fcd.xml's period (s; 0: none).
+    fcd_period_s: f64,
 }
 
 /// Checks the network, lane and that the platoon stays on the road for the whole run (from the
@@ -247,6 +252,7 @@ pub fn plan<'a>(
             ),
         ));
     }
+    let fcd_period_s = fcd_period(config_file, config, scenario)?;
     let margin = 1.0;
     if hi.0 + offset > lane_length - margin {
         return Err(config_error(
@@ -267,7 +273,42 @@ pub fn plan<'a>(
         offset,
         length,
         free_lanes,
+        fcd_period_s,
     })
+}
+
+/// fcd.xml's period: `[sumo] fcd_period_s`, else every step (SUMO's writer) or every step the
+/// trajectories hold (the recorded one, which needs them at the period's steps).
+fn fcd_period(config_file: &Path, config: &Config, scenario: &Scenario) -> Result<f64> {
+    let (s, o) = (&config.sumo, &config.output);
+    let dt = scenario.dt();
+    if s.fcd == platoon_config::FcdWriter::Sumo {
+        return Ok(s.fcd_period_s.unwrap_or(dt));
+    }
+    let period = s.fcd_period_s.unwrap_or(o.decimate as f64 * dt);
+    if period == 0.0 {
+        return Ok(0.0);
+    }
+    let hint = "or set sumo.fcd = \"sumo\" (SUMO writes it during the run) or sumo.fcd_period_s = 0 (none)";
+    if !o.writes(platoon_config::OutputFile::Trajectories) {
+        return Err(config_error(
+            config_file,
+            "sumo.fcd",
+            format!("fcd.xml is written from the trajectories, which output.files leaves out: add \"trajectories\", {hint}"),
+        ));
+    }
+    let steps = (period / dt).round() as u64;
+    if !steps.is_multiple_of(o.decimate) {
+        return Err(config_error(
+            config_file,
+            "sumo.fcd_period_s",
+            format!(
+                "{period} s ({steps} steps) is not a whole number of the trajectories' output.decimate = {} steps, from which fcd.xml is written: make it one, {hint}",
+                o.decimate
+            ),
+        ));
+    }
+    Ok(period)
 }
 
 impl SumoPlan<'_> {
@@ -288,7 +329,14 @@ impl SumoPlan<'_> {
                 collision_action: s.collision_action,
                 states: s.states,
                 tolerance_m: s.tolerance_m,
-                fcd_period_s: s.fcd_period_s.unwrap_or(self.scenario.dt()),
+                fcd_period_s: match s.fcd {
+                    platoon_config::FcdWriter::Sumo => self.fcd_period_s,
+                    platoon_config::FcdWriter::Recorded => 0.0,
+                },
+                recorded_fcd_period_s: match s.fcd {
+                    platoon_config::FcdWriter::Sumo => 0.0,
+                    platoon_config::FcdWriter::Recorded => self.fcd_period_s,
+                },
                 background_vehicles: s.background_vehicles,
                 background_seed: s.background_seed,
                 background_lanes: self.free_lanes.clone(),
@@ -311,6 +359,173 @@ impl SumoPlan<'_> {
             traffic: self.config.sumo.background_vehicles,
         })
     }
+}
+
+impl SumoPlan<'_> {
+    /// After the run: writes fcd.xml from the recorded trajectories into the run's (staging)
+    /// directory, if the config asks for it (`[sumo] fcd = "recorded"`, a period > 0).
+    pub fn write_recorded_fcd(&self, dir: &RunDir) -> Result<Option<FcdWritten>> {
+        if self.config.sumo.fcd != platoon_config::FcdWriter::Recorded || self.fcd_period_s == 0.0 {
+            return Ok(None);
+        }
+        let run = dir.path("plant.json");
+        let run = run.parent().unwrap_or(Path::new("."));
+        write_fcd(run, &FcdOptions::default()).map(Some)
+    }
+}
+
+/// What `write_fcd` is asked for: all defaults convert a run directory as its run would have.
+#[derive(Debug, Clone, Default)]
+pub struct FcdOptions {
+    /// The period (s); absent: the run's (`recorded_fcd_period_s` in its plant.json), else
+    /// every step the trajectories hold.
+    pub period_s: Option<f64>,
+    /// The network; absent: the one the run drove on (plant.json's `sumo.net`).
+    pub net: Option<PathBuf>,
+    /// Where to write; absent: `fcd.xml` in the run directory.
+    pub out: Option<PathBuf>,
+}
+
+/// What `write_fcd` wrote.
+#[derive(Debug, Clone)]
+pub struct FcdWritten {
+    /// The file.
+    pub path: PathBuf,
+    /// The period written (s; 0: every step the trajectories hold).
+    pub period_s: f64,
+    /// Its `<timestep>`s.
+    pub timesteps: u64,
+    /// Its `<vehicle>` lines, over all timesteps.
+    pub vehicles: u64,
+}
+
+/// The parts of a run's plant.json that place its vehicles.
+#[derive(serde::Deserialize)]
+struct RunPlant {
+    dt: f64,
+    vehicles_per_platoon: usize,
+    lanes: Vec<u32>,
+    sumo: RunSumo,
+}
+
+#[derive(serde::Deserialize)]
+struct RunSumo {
+    net: PathBuf,
+    edge: String,
+    offset_m: f64,
+    vehicle_length_m: f64,
+    /// Absent in run directories from before platoon wrote fcd.xml itself.
+    #[serde(default)]
+    recorded_fcd_period_s: f64,
+}
+
+/// Writes SUMO's FCD output for sumo-gui (`tools/fcdReplay.py`) from a SUMO run directory's
+/// recorded trajectories (trajectories.csv or .parquet) and its plant.json (the network, the
+/// edge and lanes, the shift onto the road), atomically (a `.partial` file renamed). The
+/// platoons' vehicles only: background traffic is not in the trajectories.
+pub fn write_fcd(run: &Path, opts: &FcdOptions) -> Result<FcdWritten> {
+    let spec_path = run.join("plant.json");
+    let text = std::fs::read_to_string(&spec_path).with_context(|| {
+        format!(
+            "reading {} (a SUMO run directory has one)",
+            spec_path.display()
+        )
+    })?;
+    let spec: RunPlant = serde_json::from_str(&text)
+        .with_context(|| format!("{}: not a SUMO plant spec", spec_path.display()))?;
+    let net_path = opts.net.clone().unwrap_or(spec.sumo.net.clone());
+    let net_text = std::fs::read_to_string(&net_path).with_context(|| {
+        format!(
+            "reading the network {} ({}sumo.net of {})",
+            net_path.display(),
+            if opts.net.is_some() {
+                "given instead of "
+            } else {
+                ""
+            },
+            spec_path.display()
+        )
+    })?;
+    let net = platoon_output::fcd::Network::parse(&net_text, &net_path.display().to_string())?;
+    let table = ["trajectories.parquet", "trajectories.csv"]
+        .iter()
+        .map(|f| run.join(f))
+        .find(|p| p.exists())
+        .ok_or_else(|| {
+            anyhow::anyhow!(
+                "{} has no trajectories.csv or trajectories.parquet to write fcd.xml from (`[output] files` must include trajectories)",
+                run.display()
+            )
+        })?;
+    let period_s = opts.period_s.unwrap_or(spec.sumo.recorded_fcd_period_s);
+    if !(period_s.is_finite() && period_s >= 0.0) {
+        bail!("the FCD period must be a number of seconds >= 0, not {period_s}");
+    }
+    let period_steps = ((period_s / spec.dt).round() as u64).max(1);
+    if period_s > 0.0
+        && ((period_steps as f64) * spec.dt - period_s).abs() > 1e-9 * period_s.max(1.0)
+    {
+        bail!(
+            "the FCD period {period_s} s is not a whole number of the run's steps of {} s",
+            spec.dt
+        );
+    }
+    let layout = platoon_output::fcd::Layout {
+        edge: spec.sumo.edge,
+        lanes: spec.lanes,
+        vehicles_per_platoon: spec.vehicles_per_platoon,
+        offset_m: spec.sumo.offset_m,
+        vehicle_length_m: spec.sumo.vehicle_length_m,
+        dt: spec.dt,
+        vtype: "platoon".into(),
+    };
+    let out = opts.out.clone().unwrap_or_else(|| run.join("fcd.xml"));
+    let mut partial = out.clone().into_os_string();
+    partial.push(".partial");
+    let partial = PathBuf::from(partial);
+    let file = std::fs::File::create(&partial)
+        .with_context(|| format!("creating {}", partial.display()))?;
+    let comment = format!(
+        "written by platoon {} from {} (the states the plant reported) on {}; the platoons' vehicles only",
+        env!("CARGO_PKG_VERSION"),
+        table.file_name().unwrap_or_default().to_string_lossy(),
+        net_path.display()
+    );
+    let written = (|| {
+        let mut w = platoon_output::fcd::FcdWriter::new(
+            &net,
+            layout,
+            period_steps,
+            std::io::BufWriter::with_capacity(1 << 20, file),
+            &comment,
+        )?;
+        platoon_output::tables::read_rows(&table, |r: platoon_sim::StepRow| w.row(&r))?;
+        let (out, count) = w.finish()?;
+        out.into_inner().map_err(|e| e.into_error())?.sync_all()?;
+        if count.timesteps == 0 {
+            bail!(
+                "{} has no step that is a multiple of the FCD period ({period_steps} steps)",
+                table.display()
+            );
+        }
+        Ok(count)
+    })()
+    .with_context(|| format!("writing {}", out.display()));
+    let count = match written {
+        Ok(count) => count,
+        Err(e) => {
+            let _ = std::fs::remove_file(&partial);
+            return Err(e);
+        }
+    };
+    std::fs::rename(&partial, &out)
+        .with_context(|| format!("renaming {} to {}", partial.display(), out.display()))?;
+    Ok(FcdWritten {
+        path: out,
+        period_s,
+        timesteps: count.timesteps,
+        vehicles: count.vehicles,
+    })
 }
 
 /// The bridge's sumo.json (SUMO version, per-step costs, collisions), if it wrote one.

@@ -5,6 +5,7 @@
 mod campaign;
 mod design;
 mod experiment;
+mod fcd;
 mod node;
 mod progress;
 mod run;
@@ -117,6 +118,14 @@ enum Command {
     /// the DoS bounds (16).
     #[command(subcommand)]
     Design(design::Design),
+    /// Write SUMO's FCD output (fcd.xml, for sumo-gui) from a SUMO run directory's trajectories.
+    ///
+    /// What a SUMO run does after its last step by default (`[sumo] fcd = "recorded"`), for a
+    /// run directory at hand: the platoons' vehicles under SUMO's ids, placed on the lane
+    /// shapes of the run's network (plant.json names it), every --period seconds. Background
+    /// traffic is not in the trajectories (`[sumo] fcd = "sumo"` has SUMO write it, at a cost
+    /// per step). Replay with SUMO's tools/fcdReplay.py on the run's network.
+    Fcd(fcd::Args),
     /// Measure what the co-simulation costs on this machine (`bench all` writes BENCHMARKS.md).
     #[command(subcommand)]
     Bench(platoon_bench::Bench),
@@ -152,6 +161,7 @@ fn main() -> ExitCode {
         Command::Node(args) => node::run(args),
         Command::Bench(b) => platoon_bench::run(b),
         Command::Design(d) => design::run(d),
+        Command::Fcd(args) => fcd::run(args),
         Command::WireLayout => {
             print!("{}", platoon_wire::layouts_json());
             Ok(())

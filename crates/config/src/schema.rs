@@ -255,8 +255,12 @@ pub struct Sumo {
     /// What the controllers see.
     #[serde(default)]
     pub states: SumoStates,
-    /// How often SUMO writes a line per vehicle to fcd.xml, for replay in sumo-gui (s); 0
-    /// writes no FCD output; absent: every step.
+    /// Who writes fcd.xml, SUMO's FCD output for replay in sumo-gui.
+    #[serde(default)]
+    pub fcd: FcdWriter,
+    /// How often fcd.xml has a line per vehicle (s); 0 writes no FCD output; absent: every
+    /// step the trajectories hold (every `output.decimate`-th; every step with `fcd = "sumo"`).
+    /// With `fcd = "recorded"` a whole number of `output.decimate` steps.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub fcd_period_s: Option<f64>,
     /// Background traffic: vehicles of SUMO's own car-following model on the lanes no platoon
@@ -270,6 +274,22 @@ pub struct Sumo {
     /// `states = "sumo"` mode over one step, in `model` mode accumulated over the run).
     #[serde(default = "tolerance")]
     pub tolerance_m: f64,
+}
+
+/// Who writes fcd.xml (`[sumo] fcd`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum FcdWriter {
+    /// platoon, after the run, from the recorded trajectories: the platoons' vehicles under
+    /// SUMO's ids, placed on the network's lane shapes (no background traffic); costs the run's
+    /// steps nothing. Needs `trajectories` in `output.files`. `platoon fcd DIR` does the same
+    /// for a run directory.
+    #[default]
+    Recorded,
+    /// SUMO, during the run (background traffic included): every step that writes costs the
+    /// plant ~1.5-2x SUMO's step at 1000 vehicles, so writing every tenth step doubles the
+    /// step time's p90 (BENCHMARKS.md).
+    Sumo,
 }
 
 /// SUMO's `--collision.action` (`[sumo] collision_action`).
@@ -312,6 +332,7 @@ impl Default for Sumo {
             start_m: fifty(),
             collision_action: CollisionAction::default(),
             states: SumoStates::default(),
+            fcd: FcdWriter::default(),
             fcd_period_s: None,
             background_vehicles: 0,
             background_seed: 0,

@@ -1,6 +1,8 @@
 //! The files of a run, for every front-end: run directories written atomically ([`RunDir`]:
 //! staged in `<DIR>.partial`, renamed when complete), the per-step tables as CSV or Parquet,
-//! streamed ([`tables`]), and the PNG figures ([`plots`]).
+//! streamed ([`tables`]), the PNG figures ([`plots`]), and SUMO's FCD output from the recorded
+//! trajectories ([`fcd`]).
+pub mod fcd;
 pub mod plots;
 pub mod rundir;
 pub mod tables;

@@ -156,16 +156,39 @@ impl<T: Serialize + DeserializeOwned> Table<T> {
 /// Reads a Parquet file written by [`Table`] back into rows.
 #[cfg(test)]
 pub fn read_parquet<T: Serialize + DeserializeOwned>(path: &std::path::Path) -> Result<Vec<T>> {
-    let file = File::open(path).with_context(|| format!("opening {}", path.display()))?;
-    let reader = parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder::try_new(file)
-        .with_context(|| format!("reading {}", path.display()))?
-        .build()?;
     let mut out = Vec::new();
-    for batch in reader {
-        let batch = batch.with_context(|| format!("reading {}", path.display()))?;
-        out.extend(serde_arrow::from_record_batch::<Vec<T>>(&batch)?);
-    }
+    read_rows(path, |r| {
+        out.push(r);
+        Ok(())
+    })?;
     Ok(out)
+}
+
+/// Streams the rows of a table file written by [`Table`] (`.csv` or `.parquet`, by its
+/// extension) to `each`, in file order, a Parquet row group at a time.
+pub fn read_rows<T: DeserializeOwned>(
+    path: &std::path::Path,
+    mut each: impl FnMut(T) -> Result<()>,
+) -> Result<()> {
+    let file = File::open(path).with_context(|| format!("opening {}", path.display()))?;
+    if path.extension().is_some_and(|e| e == "parquet") {
+        let reader = parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder::try_new(file)
+            .with_context(|| format!("reading {}", path.display()))?
+            .build()?;
+        for batch in reader {
+            let batch = batch.with_context(|| format!("reading {}", path.display()))?;
+            let rows = serde_arrow::from_record_batch::<Vec<T>>(&batch)
+                .with_context(|| format!("reading {}", path.display()))?;
+            rows.into_iter().try_for_each(&mut each)?;
+        }
+    } else {
+        let mut csv = csv::Reader::from_reader(std::io::BufReader::new(file));
+        for (line, row) in csv.deserialize().enumerate() {
+            let row = row.with_context(|| format!("{}: row {}", path.display(), line + 1))?;
+            each(row)?;
+        }
+    }
+    Ok(())
 }
 
 #[cfg(test)]
