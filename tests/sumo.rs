@@ -803,8 +803,12 @@ fn seeded_background_traffic_drives_beside_the_platoon_without_touching_it() {
     let with = tmp.path().join("bg.toml");
     std::fs::write(
         &with,
-        with_sumo_keys(&text, "background_vehicles = 30\nbackground_seed = 5")
-            .replace("duration_s = 55.0", "duration_s = 10.0"),
+        // SUMO's own FCD writer: the recorded one has the platoons only.
+        with_sumo_keys(
+            &text,
+            "background_vehicles = 30\nbackground_seed = 5\nfcd = \"sumo\"",
+        )
+        .replace("duration_s = 55.0", "duration_s = 10.0"),
     )
     .unwrap();
     let without = tmp.path().join("plain.toml");

@@ -286,9 +286,9 @@ pub enum FcdWriter {
     /// for a run directory.
     #[default]
     Recorded,
-    /// SUMO, during the run (background traffic included): every step that writes costs the
-    /// plant ~1.5-2x SUMO's step at 1000 vehicles, so writing every tenth step doubles the
-    /// step time's p90 (BENCHMARKS.md).
+    /// SUMO, during the run (background traffic included): at 1000 vehicles a step that
+    /// writes takes about 4x one that does not, so writing every tenth step puts the step
+    /// time's p90 at about 3x its median (BENCHMARKS.md, "SUMO's FCD output").
     Sumo,
 }
 
