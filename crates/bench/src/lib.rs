@@ -1581,6 +1581,10 @@ fn all(a: AllArgs) -> Result<()> {
         md,
         "The scaling plot with the least-squares lines is runs/bench/step/step.png.\n"
     );
+    // What was measured by hand (a `### ... (measured by hand` subsection of the report being
+    // replaced) is carried over: no run of `bench all` drops it.
+    let previous = std::fs::read_to_string(&a.markdown).unwrap_or_default();
+    md.push_str(&hand_sections(&previous));
     let _ = writeln!(md, "## LMI design time (`platoon bench design`)\n\n{}\n| followers (TPSF) | seconds | SDPs | beta1/beta2 | certificate | designed on |\n|---|---|---|---|---|---|", measured("bench design"));
     for r in &designs {
         let _ = writeln!(
@@ -1710,14 +1714,52 @@ fn all(a: AllArgs) -> Result<()> {
             if r.wall_s < 5.0 { "met" } else { "missed" }
         );
     }
-    std::fs::write(&a.markdown, md).with_context(|| format!("writing {}", a.markdown.display()))?;
+    // Written whole or not at all: a killed run leaves the previous report.
+    let partial = a.markdown.with_extension("md.partial");
+    std::fs::write(&partial, md)
+        .and_then(|()| std::fs::rename(&partial, &a.markdown))
+        .with_context(|| format!("writing {}", a.markdown.display()))?;
     println!("wrote {}", a.markdown.display());
     Ok(())
+}
+
+/// The subsections of a report measured by hand (a `### ` heading that says "(measured by
+/// hand"), each up to the next heading of level 2 or 3, in order.
+fn hand_sections(report: &str) -> String {
+    let mut out = String::new();
+    let mut keep = false;
+    for line in report.lines() {
+        if line.starts_with("## ") || line.starts_with("### ") {
+            keep = line.starts_with("### ") && line.contains("(measured by hand");
+        }
+        if keep {
+            out.push_str(line);
+            out.push('\n');
+        }
+    }
+    if !out.is_empty() && !out.ends_with("\n\n") {
+        out.push('\n');
+    }
+    out
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn hand_measured_subsections_are_carried_over_and_nothing_else() {
+        let old = "# Benchmarks\n\nintro\n\n## Step cost\n\n| generated |\n\n\
+                   ### The loop in C++ (measured by hand, not by `platoon bench`)\n\nfig 1\n\n\
+                   ### SUMO's FCD (measured by hand, not by `platoon bench`)\nfig 2\n\
+                   ## LMI design time\n\n| generated |\n### Other\nno\n";
+        assert_eq!(
+            hand_sections(old),
+            "### The loop in C++ (measured by hand, not by `platoon bench`)\n\nfig 1\n\n\
+             ### SUMO's FCD (measured by hand, not by `platoon bench`)\nfig 2\n\n"
+        );
+        assert_eq!(hand_sections("# Benchmarks\n## A\n### B\n"), "");
+    }
 
     /// The stamp of BENCHMARKS.md: a short hash (with a note when the tree differs from it), or
     /// "unknown" where git or the source tree is missing.
