@@ -394,6 +394,116 @@ fn recorded_fcd_without_its_trajectories_is_a_config_error() {
     }
 }
 
+/// `platoon fcd --period` must be a whole multiple of the time between the trajectories' rows
+/// (`output.decimate` in the run's config.toml); the default is the run's own fcd.xml period;
+/// empty trajectories are said to be empty.
+#[test]
+fn fcd_period_follows_the_decimated_trajectories() {
+    let tmp = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(repo().join("configs/sumo-paper.toml")).unwrap();
+    let c = tmp.path().join("c.toml");
+    std::fs::write(
+        &c,
+        text.replace("duration_s = 55.0", "duration_s = 1.0") + "\n[output]\ndecimate = 3\n",
+    )
+    .unwrap();
+    ok(&platoon(
+        &["run", c.to_str().unwrap(), "--out", "r", "--no-plots"],
+        tmp.path(),
+    ));
+    let r = tmp.path().join("r");
+    let fcd = &json(&r.join("summary.json"))["sumo"]["fcd"];
+    assert!(
+        (fcd["period_s"].as_f64().unwrap() - 0.03).abs() < 1e-12,
+        "{fcd}"
+    );
+    // 2 steps are not a whole number of the 3 the trajectories hold.
+    let o = platoon(
+        &["fcd", "r", "--period", "0.02", "--out", "x.xml"],
+        tmp.path(),
+    );
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success());
+    assert!(
+        err.contains("--period = 0.02 s") && err.contains("output.decimate = 3"),
+        "{err}"
+    );
+    assert!(!tmp.path().join("x.xml").exists());
+    ok(&platoon(
+        &["fcd", "r", "--period", "0.06", "--out", "six.xml"],
+        tmp.path(),
+    ));
+    let six = read_fcd(&tmp.path().join("six.xml"));
+    assert!(six.contains_key("0.06") && six.contains_key("0.12"));
+    assert!(!six.contains_key("0.03") && !six.contains_key("0.09"));
+    // The default: the run's period.
+    ok(&platoon(&["fcd", "r", "--out", "default.xml"], tmp.path()));
+    assert_eq!(
+        read_fcd(&tmp.path().join("default.xml")),
+        read_fcd(&r.join("fcd.xml"))
+    );
+    // Trajectories with no row.
+    let csv = std::fs::read_to_string(r.join("trajectories.csv")).unwrap();
+    let header = csv.lines().next().unwrap().to_string() + "\n";
+    std::fs::write(r.join("trajectories.csv"), header).unwrap();
+    let o = platoon(&["fcd", "r", "--out", "empty.xml"], tmp.path());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success());
+    assert!(
+        err.contains("trajectories.csv is empty: the run recorded no step"),
+        "{err}"
+    );
+    assert!(!tmp.path().join("empty.xml").exists());
+    assert!(!tmp.path().join("empty.xml.partial").exists());
+}
+
+/// fcd.xml is only a replay file: a conversion that fails after a complete run leaves the run
+/// complete, with the error in summary.json (`sumo.fcd.error`, even when the plant wrote no
+/// sumo.json), a warning on stderr, and no fcd.xml. The conversion reads the network from
+/// plant.json, which the patched plant points at a file that is not there once it is done.
+#[test]
+fn a_failed_fcd_conversion_keeps_the_run_complete() {
+    let text = std::fs::read_to_string(repo().join("configs/sumo-paper.toml")).unwrap();
+    let config = text.replace("duration_s = 55.0", "duration_s = 1.0");
+    let written = "    os.replace(tmp, spec[\"sumo\"][\"report\"])\n";
+    let gone = "    with open(os.environ[\"PLATOON_PLANT_SPEC\"]) as f:\n        gone = json.load(f)\n    gone[\"sumo\"][\"net\"] = \"/nowhere/gone.net.xml\"\n    with open(os.environ[\"PLATOON_PLANT_SPEC\"], \"w\") as f:\n        json.dump(gone, f)\n";
+    for without_report in [false, true] {
+        let tmp = tempfile::tempdir().unwrap();
+        let bridge = patched_bridge(tmp.path(), |t| {
+            assert_eq!(t.matches(written).count(), 1);
+            let mut patch = format!("{written}{gone}");
+            if without_report {
+                patch += "    os.remove(spec[\"sumo\"][\"report\"])\n";
+            }
+            t.replace(written, &patch)
+        });
+        let c = tmp.path().join("c.toml");
+        std::fs::write(&c, &config).unwrap();
+        let o = platoon_command(tmp.path())
+            .args(["run", c.to_str().unwrap(), "--out", "r", "--no-plots"])
+            .env("PLATOON_BRIDGE_DIR", &bridge)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(o.status.success(), "{err}");
+        assert!(
+            err.contains("warning: fcd.xml") && err.contains("/nowhere/gone.net.xml"),
+            "{err}"
+        );
+        let r = tmp.path().join("r");
+        assert!(!tmp.path().join("r.partial").exists());
+        let s = json(&r.join("summary.json"));
+        assert_eq!(s["complete"], true);
+        let fcd = &s["sumo"]["fcd"];
+        assert_eq!(fcd["writer"], "recorded");
+        let e = fcd["error"].as_str().unwrap();
+        assert!(e.contains("/nowhere/gone.net.xml"), "{e}");
+        assert_eq!(s["sumo"]["sumo_version"].is_null(), without_report);
+        assert!(!r.join("fcd.xml").exists());
+        assert!(!r.join("fcd.xml.partial").exists());
+    }
+}
+
 /// Follower 1 starts 6 m behind the leader, 8 m/s faster, and the channel is jammed from the
 /// start with u = 0: nothing brakes it.
 fn collision_config(dir: &Path) -> PathBuf {

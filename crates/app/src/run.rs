@@ -280,8 +280,9 @@ pub fn run(
     }
     if let Some(plan) = &sumo_plan {
         // fcd.xml from what was recorded (a stopped run's too), after the run's last step.
-        // A run that ended early may have recorded nothing to write: said in the report, the
-        // run's own failure stays the error.
+        // It is only a replay file: a conversion that fails (a run that ended early may have
+        // recorded nothing to write) is said in the report and on stderr, and the run is kept
+        // as it ended; its own failure, if any, stays the error.
         let fcd = match plan.write_recorded_fcd(&dir) {
             Ok(fcd) => fcd.map(|fcd| {
                 serde_json::json!({
@@ -292,12 +293,19 @@ pub fn run(
                     "vehicles": fcd.vehicles,
                 })
             }),
-            Err(e) if !summary.complete => {
+            Err(e) => {
+                if summary.complete {
+                    progress.message(&format!(
+                        "warning: fcd.xml (the replay file) was not written, the run is kept: {e:#}"
+                    ));
+                }
                 Some(serde_json::json!({ "writer": "recorded", "error": format!("{e:#}") }))
             }
-            Err(e) => return Err(e),
         };
-        if let Some(mut report) = crate::sumo::report(&dir)? {
+        // A plant that wrote no sumo.json (it died first) still has its fcd.xml reported.
+        let report =
+            crate::sumo::report(&dir)?.or_else(|| fcd.is_some().then(|| serde_json::json!({})));
+        if let Some(mut report) = report {
             if let Some(fcd) = fcd {
                 report["fcd"] = fcd;
             }

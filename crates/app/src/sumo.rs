@@ -377,7 +377,9 @@ impl SumoPlan<'_> {
 /// What `write_fcd` is asked for: all defaults convert a run directory as its run would have.
 #[derive(Debug, Clone, Default)]
 pub struct FcdOptions {
-    /// The period (s); absent: the run's (`recorded_fcd_period_s` in its plant.json), else
+    /// The period (s), a whole number of the steps the trajectories hold (`output.decimate` in
+    /// the run's config.toml); absent: the period of the run's own fcd.xml (plant.json's
+    /// `recorded_fcd_period_s`, or `fcd_period_s` when SUMO wrote it), else (0: it wrote none)
     /// every step the trajectories hold.
     pub period_s: Option<f64>,
     /// The network; absent: the one the run drove on (plant.json's `sumo.net`).
@@ -391,7 +393,7 @@ pub struct FcdOptions {
 pub struct FcdWritten {
     /// The file.
     pub path: PathBuf,
-    /// The period written (s; 0: every step the trajectories hold).
+    /// The period written (s).
     pub period_s: f64,
     /// Its `<timestep>`s.
     pub timesteps: u64,
@@ -417,6 +419,32 @@ struct RunSumo {
     /// Absent in run directories from before platoon wrote fcd.xml itself.
     #[serde(default)]
     recorded_fcd_period_s: f64,
+    /// SUMO's FCD writer's period (0: it wrote none).
+    #[serde(default)]
+    fcd_period_s: f64,
+}
+
+/// The run's `output.decimate` (every how many steps the trajectories hold a row), from the
+/// config.toml its run directory holds; 1 when it has none.
+fn run_decimate(run: &Path) -> Result<u64> {
+    let path = run.join("config.toml");
+    let text = match std::fs::read_to_string(&path) {
+        Ok(text) => text,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(1),
+        Err(e) => return Err(e).with_context(|| format!("reading {}", path.display())),
+    };
+    let value: toml::Value =
+        toml::from_str(&text).with_context(|| format!("parsing {}", path.display()))?;
+    match value.get("output").and_then(|o| o.get("decimate")) {
+        None => Ok(1),
+        Some(d) => match d.as_integer().and_then(|d| u64::try_from(d).ok()) {
+            Some(d) if d >= 1 => Ok(d),
+            _ => bail!(
+                "{}: output.decimate = {d} is not a step count",
+                path.display()
+            ),
+        },
+    }
 }
 
 /// Writes SUMO's FCD output for sumo-gui (`tools/fcdReplay.py`) from a SUMO run directory's
@@ -457,17 +485,29 @@ pub fn write_fcd(run: &Path, opts: &FcdOptions) -> Result<FcdWritten> {
                 run.display()
             )
         })?;
-    let period_s = opts.period_s.unwrap_or(spec.sumo.recorded_fcd_period_s);
+    let decimate = run_decimate(run)?;
+    let held = decimate as f64 * spec.dt;
+    let (period_s, key) = match opts.period_s {
+        Some(p) => (p, "--period"),
+        None if spec.sumo.recorded_fcd_period_s > 0.0 => (
+            spec.sumo.recorded_fcd_period_s,
+            "the run's sumo.fcd_period_s",
+        ),
+        None => (spec.sumo.fcd_period_s, "the run's sumo.fcd_period_s"),
+    };
     if !(period_s.is_finite() && period_s >= 0.0) {
-        bail!("the FCD period must be a number of seconds >= 0, not {period_s}");
+        bail!("{key}: the FCD period must be a number of seconds >= 0, not {period_s}");
     }
+    // 0: every step the trajectories hold.
+    let period_s = if period_s == 0.0 { held } else { period_s };
     let period_steps = ((period_s / spec.dt).round() as u64).max(1);
-    if period_s > 0.0
-        && ((period_steps as f64) * spec.dt - period_s).abs() > 1e-9 * period_s.max(1.0)
+    if ((period_steps as f64) * spec.dt - period_s).abs() > 1e-9 * period_s.max(1.0)
+        || !period_steps.is_multiple_of(decimate)
     {
         bail!(
-            "the FCD period {period_s} s is not a whole number of the run's steps of {} s",
-            spec.dt
+            "{key} = {period_s} s is not a whole multiple of the {held} s between the trajectories' rows (steps of {} s, output.decimate = {decimate} in {}): give --period as one",
+            spec.dt,
+            run.join("config.toml").display()
         );
     }
     let layout = platoon_output::fcd::Layout {
@@ -499,9 +539,19 @@ pub fn write_fcd(run: &Path, opts: &FcdOptions) -> Result<FcdWritten> {
             std::io::BufWriter::with_capacity(1 << 20, file),
             &comment,
         )?;
-        platoon_output::tables::read_rows(&table, |r: platoon_sim::StepRow| w.row(&r))?;
+        let mut rows = 0u64;
+        platoon_output::tables::read_rows(&table, |r: platoon_sim::StepRow| {
+            rows += 1;
+            w.row(&r)
+        })?;
         let (out, count) = w.finish()?;
         out.into_inner().map_err(|e| e.into_error())?.sync_all()?;
+        if rows == 0 {
+            bail!(
+                "{} is empty: the run recorded no step to write fcd.xml from",
+                table.display()
+            );
+        }
         if count.timesteps == 0 {
             bail!(
                 "{} has no step that is a multiple of the FCD period ({period_steps} steps)",

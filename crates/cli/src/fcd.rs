@@ -9,8 +9,10 @@ use std::path::PathBuf;
 pub struct Args {
     /// The run directory (of a `--plant sumo` run: it has plant.json and the trajectories).
     pub run: PathBuf,
-    /// Seconds between timesteps [default: the run's `[sumo] fcd_period_s`, else every step the
-    /// trajectories hold].
+    /// Seconds between timesteps, a whole multiple of the time between the trajectories' rows
+    /// (the step times the run's `output.decimate`) [default: the period of the run's own
+    /// fcd.xml, whichever writer wrote it; every step the trajectories hold if it wrote none;
+    /// 0: every step the trajectories hold].
     #[arg(long, value_name = "SECONDS")]
     pub period: Option<f64>,
     /// The network [default: the one the run drove on, named in its plant.json].

@@ -10,8 +10,9 @@
 //! the slope of the shape's segment; the acceleration is the one held over the step that
 //! ended at the timestep (SUMO's, under the ballistic update) when the trajectories hold the
 //! step before, else the vehicle's acceleration state at the timestep. Vehicles are sorted by
-//! id within a timestep, and values written to SUMO's default precision (2 decimals), as SUMO
-//! writes them.
+//! id within a timestep, and values written to SUMO's default precision, as SUMO writes them: 2
+//! decimals, 3 when the step is not a whole number of 10 ms (SUMO's MSFrame raises its default
+//! `--precision` then, and the bridge passes none).
 use anyhow::{bail, Result};
 use platoon_sim::StepRow;
 use std::collections::HashMap;
@@ -63,6 +64,9 @@ impl Network {
                 }
             };
             let length = number("length")?;
+            if length <= 0.0 {
+                bail!("{name}: lane {id} has length {length}, not a positive one");
+            }
             let shape = n.attribute("shape").unwrap_or("");
             let points = parse_shape(shape).filter(|p| p.len() >= 2).ok_or_else(|| {
                 anyhow::anyhow!("{name}: lane {id} has no valid shape (`{shape}`)")
@@ -120,8 +124,10 @@ fn distance(a: [f64; 3], b: [f64; 3]) -> f64 {
 }
 
 impl Lane {
-    /// A lane of `length` along the polyline `points` (at least two).
-    pub fn new(length: f64, points: Vec<[f64; 3]>) -> Lane {
+    /// A lane of `length` (> 0) along the polyline `points` (at least two): private, so that
+    /// only [`Network::parse`], which checks both, makes one.
+    fn new(length: f64, points: Vec<[f64; 3]>) -> Lane {
+        debug_assert!(points.len() >= 2 && length > 0.0);
         let mut at = Vec::with_capacity(points.len());
         let mut s = 0.0;
         at.push(0.0);
@@ -219,14 +225,16 @@ pub struct FcdWriter<'a, W: Write> {
     /// Per platoon: the lane's id and the lane.
     lanes: Vec<(String, &'a Lane)>,
     ids: Vec<Vec<String>>,
-    /// Each vehicle's (platoon * N + vehicle) line of the open timestep, and the order the
-    /// lines are written in (by id).
+    /// Each vehicle's (platoon * N + vehicle) line of the open timestep (a repeated row
+    /// replaces it), and the order the lines are written in (by id).
     lines: Vec<String>,
     order: Vec<usize>,
     /// Each vehicle's last row: (step, acceleration).
     last: Vec<Option<(u64, f64)>>,
     period_steps: u64,
     time_decimals: usize,
+    /// The values' decimals ([`precision`]).
+    precision: usize,
     current: Option<u64>,
     timesteps: u64,
     vehicles: u64,
@@ -236,7 +244,19 @@ pub struct FcdWriter<'a, W: Write> {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct FcdCount {
     pub timesteps: u64,
+    /// The `<vehicle>` lines: distinct vehicles per timestep, over all timesteps.
     pub vehicles: u64,
+}
+
+/// SUMO's default output precision for a step of `dt` s: 2 decimals, 3 when the step is not a
+/// whole number of 10 ms (MSFrame::checkOptions: `step-length % 10 ms != 0`).
+pub fn precision(dt: f64) -> usize {
+    let scaled = dt * 100.0;
+    if (scaled - scaled.round()).abs() < 1e-6 * scaled.max(1.0) {
+        2
+    } else {
+        3
+    }
 }
 
 fn decimals(dt: f64) -> usize {
@@ -286,6 +306,7 @@ impl<'a, W: Write> FcdWriter<'a, W> {
             r#"<fcd-export xmlns:xsi="http://www.w3.org/2001/XMLSchema-instance" xsi:noNamespaceSchemaLocation="http://sumo.dlr.de/xsd/fcd_file.xsd">"#
         )?;
         let time_decimals = decimals(layout.dt);
+        let precision = precision(layout.dt);
         Ok(Self {
             out,
             layout,
@@ -296,6 +317,7 @@ impl<'a, W: Write> FcdWriter<'a, W> {
             ids,
             period_steps: period_steps.max(1),
             time_decimals,
+            precision,
             current: None,
             timesteps: 0,
             vehicles: 0,
@@ -342,12 +364,13 @@ impl<'a, W: Write> FcdWriter<'a, W> {
         let id = &self.ids[j][i];
         let pos = r.p + self.layout.offset_m;
         let at = lane.place(pos, self.layout.vehicle_length_m);
+        let d = self.precision;
         let line = &mut self.lines[v];
         line.clear();
         // `+ 0.0` turns -0.0 into 0.0, which SUMO never writes.
         write!(
             line,
-            r#"        <vehicle id="{id}" x="{:.2}" y="{:.2}" angle="{:.2}" type="{}" speed="{:.2}" pos="{:.2}" lane="{lane_id}" slope="{:.2}" acceleration="{:.2}"/>"#,
+            r#"        <vehicle id="{id}" x="{:.d$}" y="{:.d$}" angle="{:.d$}" type="{}" speed="{:.d$}" pos="{:.d$}" lane="{lane_id}" slope="{:.d$}" acceleration="{:.d$}"/>"#,
             at.x + 0.0,
             at.y + 0.0,
             at.angle + 0.0,
@@ -357,7 +380,6 @@ impl<'a, W: Write> FcdWriter<'a, W> {
             at.slope + 0.0,
             held + 0.0,
         )?;
-        self.vehicles += 1;
         Ok(())
     }
 
@@ -368,6 +390,7 @@ impl<'a, W: Write> FcdWriter<'a, W> {
             if !line.is_empty() {
                 writeln!(self.out, "{line}")?;
                 line.clear();
+                self.vehicles += 1;
             }
         }
         writeln!(self.out, "    </timestep>")?;
@@ -572,6 +595,87 @@ mod tests {
         .unwrap();
         let e = w.row(&row(0, 0, 1, 0.0)).unwrap_err();
         assert!(e.to_string().contains("platoon 0, vehicle 1"), "{e}");
+    }
+
+    /// SUMO writes 3 decimals when the step is not a whole number of 10 ms, else 2.
+    #[test]
+    fn values_have_sumos_precision_for_the_step() {
+        for (dt, d) in [
+            (0.01, 2),
+            (0.1, 2),
+            (1.0, 2),
+            (0.05, 2),
+            (0.005, 3),
+            (0.001, 3),
+        ] {
+            assert_eq!(precision(dt), d, "dt = {dt}");
+        }
+        let net = Network::parse(NET, "net.xml").unwrap();
+        let layout = |dt: f64| Layout {
+            edge: "road".into(),
+            lanes: vec![0],
+            vehicles_per_platoon: 1,
+            offset_m: 5.0,
+            vehicle_length_m: 4.0,
+            dt,
+            vtype: "platoon".into(),
+        };
+        let mut w = FcdWriter::new(&net, layout(0.005), 1, Vec::new(), "").unwrap();
+        let mut r = row(1, 0, 0, 1.25);
+        r.t = 0.005;
+        w.row(&r).unwrap();
+        let text = String::from_utf8(w.finish().unwrap().0).unwrap();
+        assert!(text.contains(r#"<timestep time="0.005">"#), "{text}");
+        assert!(
+            text.contains(r#"x="6.250" y="0.000" angle="90.000" type="platoon" speed="15.000" pos="6.250" lane="road_0" slope="0.000" acceleration="0.004"/>"#),
+            "{text}"
+        );
+        let mut w = FcdWriter::new(&net, layout(0.02), 1, Vec::new(), "").unwrap();
+        w.row(&row(1, 0, 0, 1.25)).unwrap();
+        let text = String::from_utf8(w.finish().unwrap().0).unwrap();
+        assert!(text.contains(r#"x="6.25" y="0.00""#), "{text}");
+    }
+
+    /// A row repeated within a step is one vehicle: its line replaced, counted once.
+    #[test]
+    fn a_repeated_row_is_one_vehicle() {
+        let net = Network::parse(NET, "net.xml").unwrap();
+        let layout = Layout {
+            edge: "road".into(),
+            lanes: vec![0],
+            vehicles_per_platoon: 2,
+            offset_m: 0.0,
+            vehicle_length_m: 4.0,
+            dt: 0.01,
+            vtype: "platoon".into(),
+        };
+        let mut w = FcdWriter::new(&net, layout, 1, Vec::new(), "").unwrap();
+        for (step, vehicle) in [(0, 0), (0, 0), (0, 1), (1, 0), (1, 0)] {
+            w.row(&row(step, 0, vehicle, 1.0)).unwrap();
+        }
+        let (out, count) = w.finish().unwrap();
+        assert_eq!(
+            count,
+            FcdCount {
+                timesteps: 2,
+                vehicles: 3
+            }
+        );
+        let text = String::from_utf8(out).unwrap();
+        assert_eq!(text.matches("<vehicle ").count(), 3, "{text}");
+    }
+
+    #[test]
+    fn a_lane_of_no_length_is_named() {
+        let e = Network::parse(
+            r#"<net><lane id="a_0" length="0" shape="0,0 1,0"/></net>"#,
+            "n.net.xml",
+        )
+        .unwrap_err();
+        assert!(
+            e.to_string().contains("n.net.xml: lane a_0 has length 0"),
+            "{e}"
+        );
     }
 
     #[test]
