@@ -263,6 +263,10 @@ class Endpoint:
         )
         self.parent = os.getppid()
         self.listener = self._event(role).listener_builder().create()
+        # The Rust nodes hand a sleeping reader the CPU they wake it from (crates/runtime
+        # src/handoff.rs): back to this process's own CPUs once woken.
+        home = os.sched_getaffinity(0)
+        self._home = home if len(home) > 1 else None
 
     def _event(self, node: str):
         return (
@@ -340,6 +344,8 @@ class Endpoint:
     def wait(self, timeout_ms: int = 200) -> None:
         """Blocks until notified or the timeout; exits if the orchestrator is gone."""
         self.listener.timed_wait(iox.Duration.from_millis(timeout_ms))
+        if self._home is not None:
+            os.sched_setaffinity(0, self._home)
         if os.getppid() != self.parent:
             raise SystemExit("platoon: the orchestrator is gone")
 

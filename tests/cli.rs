@@ -794,6 +794,8 @@ fn bench_latency_measures_every_baseline() {
             "raw_iceoryx2_hop",
             "udp_loopback_hop",
             "unix_socket_hop",
+            "raw_iceoryx2_hop_one_core",
+            "unix_socket_hop_one_core",
             "injector_hop",
             "injector_hop_python_sdk",
             "injector_hop_one_core",
@@ -814,7 +816,11 @@ fn bench_latency_measures_every_baseline() {
         let q = row["quantity"].as_str().unwrap();
         let n = row["n"].as_u64().unwrap();
         let expected = match q {
-            "raw_iceoryx2_hop" | "udp_loopback_hop" | "unix_socket_hop" => 200,
+            "raw_iceoryx2_hop"
+            | "udp_loopback_hop"
+            | "unix_socket_hop"
+            | "raw_iceoryx2_hop_one_core"
+            | "unix_socket_hop_one_core" => 200,
             "cosim_step" | "cosim_step_one_core" | "stage_plant" => 5500,
             _ => 5501,
         };
@@ -841,7 +847,7 @@ fn bench_latency_measures_every_baseline() {
         assert!(!text.contains("skipped"), "{text}");
     }
     let samples = std::fs::read_to_string(tmp.path().join("b/latency-samples.csv")).unwrap();
-    assert_eq!(samples.lines().count(), 1 + 3 * 200);
+    assert_eq!(samples.lines().count(), 1 + 5 * 200);
     assert!(tmp.path().join("b/latency.png").exists());
 }
 

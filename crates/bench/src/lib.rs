@@ -235,6 +235,32 @@ struct LatencyReport {
     guest_halt_poll_ns: Option<String>,
 }
 
+/// Runs `f` with this process (and what it starts) on its first CPU, then restores its set.
+fn on_one_core<T>(f: impl FnOnce() -> T) -> Result<T> {
+    let size = std::mem::size_of::<libc::cpu_set_t>();
+    // SAFETY: cpu_set_t is plain data, filled in and read by the affinity calls of this
+    // process.
+    let mut home: libc::cpu_set_t = unsafe { std::mem::zeroed() };
+    if unsafe { libc::sched_getaffinity(0, size, &mut home) } != 0 {
+        bail!(
+            "reading this process's CPU set: {}",
+            std::io::Error::last_os_error()
+        );
+    }
+    let first = platoon_runtime::available_cpus()
+        .first()
+        .copied()
+        .context("this process may run on no CPU")?;
+    let mut one: libc::cpu_set_t = unsafe { std::mem::zeroed() };
+    unsafe { libc::CPU_SET(first, &mut one) };
+    if unsafe { libc::sched_setaffinity(0, size, &one) } != 0 {
+        bail!("moving to CPU {first}: {}", std::io::Error::last_os_error());
+    }
+    let out = f();
+    unsafe { libc::sched_setaffinity(0, size, &home) };
+    Ok(out)
+}
+
 /// Where the haltpoll cpuidle driver (KVM guests) exposes how long an idle vCPU polls before
 /// halting.
 const HALT_POLL: &str = "/sys/module/haltpoll/parameters/guest_halt_poll_ns";
@@ -388,6 +414,31 @@ fn latency(a: LatencyArgs) -> Result<LatencyReport> {
         samples.push((name, h));
         bar.inc(1);
     }
+    // The two baselines again with both processes on one core (this process's CPU set, which
+    // the echo inherits), so the one-core rows of the co-simulation compare like with like.
+    bar.set_message("raw iceoryx2 and Unix-socket hops on one core");
+    let (raw_one, uds_one) = on_one_core(|| -> Result<_> {
+        let raw = platoon_runtime::bench::raw_hop(
+            &platoon_runtime::new_run_id(),
+            &exe,
+            a.iterations,
+            a.warmup,
+            items,
+            false,
+        )
+        .context("raw iceoryx2 hop on one core")?;
+        let uds = platoon_runtime::bench::socket_hop(
+            platoon_runtime::bench::Socket::Uds,
+            &exe,
+            a.iterations,
+            a.warmup,
+            bytes,
+        )
+        .context("the Unix-socket hop on one core")?;
+        Ok((raw, uds))
+    })??;
+    samples.push(("raw_iceoryx2_hop_one_core", raw_one));
+    samples.push(("unix_socket_hop_one_core", uds_one));
 
     bar.set_message(format!("co-simulating {stem} over iceoryx2"));
     let logs = dir.path("logs");
@@ -625,9 +676,15 @@ fn peers(plant_json: &std::path::Path, followers: usize) -> Result<Vec<PeerRow>>
         .arg(platoon_app::sumo::bridge_dir()?.join("bench_peers.py"))
         .arg("--plant-json")
         .arg(plant_json)
-        .output()?;
+        .output()
+        .context("starting bridge/bench_peers.py")?;
     if !o.status.success() {
-        bail!("{}", String::from_utf8_lossy(&o.stderr).trim());
+        bail!(
+            "bridge/bench_peers.py on {} ended with {}: {}",
+            plant_json.display(),
+            o.status,
+            String::from_utf8_lossy(&o.stderr).trim()
+        );
     }
     let v: serde_json::Value = serde_json::from_slice(&o.stdout)
         .context("bench_peers.py printed something other than its JSON report")?;
@@ -966,6 +1023,7 @@ fn peers_section(md: &mut String, steps: &[StepRow], peers: &[PeerRow]) {
             ours(p.followers).map_or("-".into(), |o| format!("{:.2}", o / p.step_p50_us))
         );
     }
+    let _ = writeln!(md);
     let big = peers.iter().map(|p| p.followers).max().unwrap_or(0);
     if let (Some(o), Some(cacc)) = (
         ours(big),
@@ -976,7 +1034,7 @@ fn peers_section(md: &mut String, steps: &[StepRow], peers: &[PeerRow]) {
         let x = o / cacc.step_p50_us;
         let _ = writeln!(
             md,
-            "\n{big} followers ({} vehicles) with SUMO: our step is **{x:.2}x** Plexe's auto-fed CACC inside SUMO (target <= 0.8: {}).\n",
+            "{big} followers ({} vehicles) with SUMO: our step is **{x:.2}x** Plexe's auto-fed CACC inside SUMO (target <= 0.8: {}).\n",
             cacc.vehicles,
             if x <= 0.8 { "met" } else { "missed" }
         );
@@ -1498,6 +1556,22 @@ fn all(a: AllArgs) -> Result<()> {
         lat.step_overhead_p50_us_one_core,
         if lat.step_overhead_p50_us_one_core < 60.0 { "met" } else { "missed" }
     );
+    let p50 = |q: &str| {
+        lat.rows
+            .iter()
+            .find(|r| r.quantity == q)
+            .map_or(f64::NAN, |r| r.p50_us)
+    };
+    let step_ratio = lat.step_overhead_p50_us / lat.step_overhead_p50_us_one_core;
+    let hop_ratio = p50("injector_hop") / p50("unix_socket_hop");
+    let _ = writeln!(
+        md,
+        "Nodes on any CPU against one core: the step overhead is **{step_ratio:.2}x** the one-core figure (target <= 2: {}); the injector hop on any CPU is **{hop_ratio:.2}x** a Unix-datagram hop measured in the same run (target <= 3: {}). On one core the raw iceoryx2 hop is {:.2} µs and the Unix-datagram hop {:.2} µs. A node that wakes another first hands the sleeping reader its own CPU, and the reader returns to its CPU set once woken (`crates/runtime/src/handoff.rs`; `PLATOON_WAKE_HANDOFF=0` turns it off): without it, the woken process lands on the idle vCPU, which is halted (`guest_halt_poll_ns` above) and costs 20-30 µs to wake.\n",
+        if step_ratio <= 2.0 { "met" } else { "missed" },
+        if hop_ratio <= 3.0 { "met" } else { "missed" },
+        p50("raw_iceoryx2_hop_one_core"),
+        p50("unix_socket_hop_one_core"),
+    );
     let (any, one) = (
         lat.python_sdk_over_builtin_injector_p50,
         lat.python_sdk_over_builtin_injector_p50_one_core,
@@ -1576,11 +1650,11 @@ fn all(a: AllArgs) -> Result<()> {
         }
     }
     let _ = writeln!(md);
-    peers_section(&mut md, &steps, &peer_rows);
     let _ = writeln!(
         md,
         "The scaling plot with the least-squares lines is runs/bench/step/step.png.\n"
     );
+    peers_section(&mut md, &steps, &peer_rows);
     // What was measured by hand (a `### ... (measured by hand` subsection of the report being
     // replaced) is carried over: no run of `bench all` drops it.
     let previous = std::fs::read_to_string(&a.markdown).unwrap_or_default();

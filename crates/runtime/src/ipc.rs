@@ -12,6 +12,7 @@ use platoon_wire::{
 };
 use std::collections::VecDeque;
 use std::fmt::Debug;
+use std::sync::OnceLock;
 use std::time::Duration;
 
 /// Samples a subscriber can hold before its publisher waits: many steps, so a reader that falls
@@ -44,6 +45,7 @@ impl Endpoint {
             .create::<Ipc>()
             .map_err(|e| ipc_err("creating the iceoryx2 node", e))?;
         node.try_cleanup_dead_nodes();
+        crate::handoff::init();
         Ok(Self {
             run_id: run_id.to_string(),
             role,
@@ -187,17 +189,22 @@ impl Endpoint {
     }
 
     /// Notifiers that wake the readers of `s` (all but this node).
-    pub fn wakers(&self, s: Service) -> Result<Vec<(Role, Notifier<Ipc>)>, RunError> {
+    pub fn wakers(&self, s: Service) -> Result<Vec<Waker>, RunError> {
         wakes(s)
             .iter()
             .filter(|&&r| r != self.role)
             .map(|&r| {
-                let n = self
-                    .wake_service(r, false)?
+                let service = self.wake_service(r, false)?;
+                let notifier = service
                     .notifier_builder()
                     .create()
                     .map_err(|e| ipc_err(format!("notifier for {}", r.name()), e))?;
-                Ok((r, n))
+                Ok(Waker {
+                    role: r,
+                    notifier,
+                    service,
+                    pids: OnceLock::new(),
+                })
             })
             .collect()
     }
@@ -272,10 +279,51 @@ pub type ControlService =
 /// A wake-up event service's port factory.
 pub type WakeService = iceoryx2::service::port_factory::event::PortFactory<Ipc>;
 
+/// Wakes one node: its notifier, and the processes listening (for the wake-up hand-off, see
+/// `handoff`), looked up once some are there.
+pub struct Waker {
+    role: Role,
+    notifier: Notifier<Ipc>,
+    service: WakeService,
+    pids: OnceLock<Vec<libc::pid_t>>,
+}
+
+impl Waker {
+    /// Notifies the node, first handing it this process's CPU, except the orchestrator's (it
+    /// records and writes the outputs, off the chain of a step).
+    fn wake(&self) -> Result<(), RunError> {
+        if self.role != Role::Orchestrator && crate::handoff::enabled() {
+            crate::handoff::hand_to(self.listener_pids());
+        }
+        self.notifier
+            .notify()
+            .map(|_| ())
+            .map_err(|e| ipc_err("waking a reader", e))
+    }
+
+    fn listener_pids(&self) -> &[libc::pid_t] {
+        if let Some(pids) = self.pids.get() {
+            return pids;
+        }
+        let mut pids = Vec::new();
+        self.service.dynamic_config().list_listeners(|d| {
+            if let Ok(pid) = d.node_id.pid::<Ipc>() {
+                pids.push(pid.value() as libc::pid_t);
+            }
+            CallbackProgression::Continue
+        });
+        if pids.is_empty() {
+            // Not listening yet: look again at the next wake-up.
+            return &[];
+        }
+        self.pids.get_or_init(|| pids)
+    }
+}
+
 /// Publishes one sample per step and wakes its readers.
 pub struct Outlet<T: Debug + ZeroCopySend + 'static> {
     publisher: Publisher<Ipc, [T], StepHeader>,
-    wake: Vec<(Role, Notifier<Ipc>)>,
+    wake: Vec<Waker>,
 }
 
 impl<T: Debug + Copy + ZeroCopySend + 'static> Outlet<T> {
@@ -289,26 +337,23 @@ impl<T: Debug + Copy + ZeroCopySend + 'static> Outlet<T> {
         *sample.user_header_mut() = StepHeader::new(step, dt, items.len(), stamp);
         let sample = sample.write_from_slice(items);
         sample.send().map_err(|e| ipc_err("sending a sample", e))?;
-        for (role, n) in &self.wake {
-            if *role != Role::Orchestrator || step.is_multiple_of(ORCHESTRATOR_WAKE_EVERY) {
-                n.notify().map_err(|e| ipc_err("waking a reader", e))?;
+        for w in &self.wake {
+            if w.role != Role::Orchestrator || step.is_multiple_of(ORCHESTRATOR_WAKE_EVERY) {
+                w.wake()?;
             }
         }
         Ok(stamp)
     }
 }
 
-fn wake(notifiers: &[(Role, Notifier<Ipc>)]) -> Result<(), RunError> {
-    for (_, n) in notifiers {
-        n.notify().map_err(|e| ipc_err("waking a reader", e))?;
-    }
-    Ok(())
+fn wake(wakers: &[Waker]) -> Result<(), RunError> {
+    wakers.iter().try_for_each(Waker::wake)
 }
 
 /// Publishes control or status messages and wakes their readers.
 pub struct ControlOutlet {
     publisher: Publisher<Ipc, ControlMsg, ()>,
-    wake: Vec<(Role, Notifier<Ipc>)>,
+    wake: Vec<Waker>,
 }
 
 impl ControlOutlet {
@@ -475,5 +520,6 @@ pub fn wait(listener: &Listener<Ipc>, timeout: Duration) -> Result<(), RunError>
     listener
         .timed_wait(|_| {}, timeout)
         .map_err(|e| ipc_err("waiting for a wake-up", e))?;
+    crate::handoff::restore();
     Ok(())
 }

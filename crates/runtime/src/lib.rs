@@ -17,6 +17,7 @@
 pub mod bench;
 pub mod controller;
 mod detection;
+mod handoff;
 pub mod injector;
 pub mod ipc;
 pub mod nodes;
