@@ -3,10 +3,11 @@
 
 Reads a run's plant.json (PLATOON_PLANT_SPEC or --plant-json: the network, every vehicle's
 initial position, speed and lane, the platoons) and runs the same vehicles on the same road for
-the same number of steps, in this process through libsumo, once per peer:
+the same number of steps, in this process through libsumo, once per peer (the run's background
+traffic left out):
 
-  krauss      SUMO's own car-following model (Krauss, sigma 0) drives every vehicle: the cost of
-              SUMO's step with no controller outside it.
+  krauss      SUMO's own car-following model (Krauss, sigma 0) drives every vehicle, each at
+              most at its initial speed: the cost of SUMO's step with no controller outside it.
   plexe_acc   Plexe's CC car-following model inside SUMO: every follower runs Plexe's ACC
               (ccac 1), every leader its cruise control at its initial speed.
   plexe_cacc  the same with Plexe's PATH CACC (ccac 2) on the followers, fed with the leader's
@@ -72,6 +73,8 @@ def routes(spec, peer, path):
 def run_peer(spec, peer, steps):
     import libsumo
 
+    # The platoons only: a run's background traffic is not part of what the peers drive.
+    spec = dict(spec, sumo=dict(spec["sumo"], background_vehicles=0))
     n = len(spec["initial"])
     n1 = int(spec["vehicles_per_platoon"])
     ids = [sumo_plant.vehicle_id(g) for g in range(n)]
@@ -98,6 +101,9 @@ def run_peer(spec, peer, steps):
             par = libsumo.vehicle.setParameter
             for g, vid in enumerate(ids):
                 libsumo.vehicle.setLaneChangeMode(vid, 0)
+                if peer == "krauss":
+                    # The run's speeds, not the lane's limit (the vType allows 100 m/s).
+                    libsumo.vehicle.setMaxSpeed(vid, float(spec["initial"][g][1]))
                 if peer == "floor":
                     libsumo.vehicle.setSpeedMode(vid, 0)
                 elif peer.startswith("plexe"):

@@ -245,6 +245,10 @@ def _transmit(controllers, k, t, states, n1, out, sent):
             s = p.sender
             if not 0 <= s < n1:
                 raise ContractError(f"platoon {j} broadcast as vehicle {s}, which it does not have")
+            if flags[s]:
+                raise ContractError(
+                    f"platoon {j}: vehicle {s} broadcast twice in step {k} (at most once per step)"
+                )
             flags[s] = True
             packet = w.V2vPacket(sender=base + s, seq=p.seq, step=p.step, stamp_ns=stamp, u=p.u)
             packet.state[0], packet.state[1], packet.state[2] = p.state

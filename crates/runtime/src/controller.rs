@@ -100,6 +100,7 @@ pub fn run(
             scenario.control.fallback.uses_radar() || scenario.control.detection.reads_radar();
         let mut truths: Vec<Option<RadarTruth>> = Vec::with_capacity(num.vehicles());
         let mut tx: Vec<Packet> = Vec::new();
+        let mut sent: Vec<bool> = Vec::new();
         let (mut wire_tx, mut deliveries, mut jammed, mut cmds) = (
             Vec::new(),
             vec![Vec::new(); num.platoons],
@@ -125,6 +126,23 @@ pub fn run(
                     for (j, c) in controllers.iter_mut().enumerate() {
                         tx.clear();
                         c.transmit(*k, &s[j * n1..(j + 1) * n1], &mut tx);
+                        // At most one broadcast per vehicle and step: the tx outlet holds one
+                        // item per link.
+                        sent.clear();
+                        sent.resize(n1, false);
+                        for p in tx.iter() {
+                            let i = p.sender.index();
+                            if sent.get(i).copied().unwrap_or(false) {
+                                return Err(fail(format!(
+                                    "step {k}: platoon {j}: vehicle {} broadcast twice in one \
+                                     step (at most once per step)",
+                                    p.sender.0
+                                )));
+                            }
+                            if let Some(f) = sent.get_mut(i) {
+                                *f = true;
+                            }
+                        }
                         for p in tx.iter() {
                             let Some(to) = (p.sender.index() < n1)
                                 .then(|| scenario.topology.out_neighbours(p.sender))
@@ -143,14 +161,6 @@ pub fn run(
                                 packet,
                             }));
                         }
-                    }
-                    if wire_tx.len() > links * num.platoons {
-                        return Err(fail(format!(
-                            "step {k}: {} packets to send over {} links: a vehicle broadcast \
-                             more than once in one step",
-                            wire_tx.len(),
-                            links * num.platoons
-                        )));
                     }
                     tx_out.send(*k, scenario.dt(), &wire_tx)?;
                     states = Some(s);
