@@ -361,16 +361,18 @@ fn latency(a: LatencyArgs) -> Result<LatencyReport> {
     );
     let mut samples: Vec<(&str, Vec<u64>)> = Vec::new();
 
+    let raw_hop = |busy_poll: bool| {
+        platoon_runtime::bench::raw_hop(
+            &platoon_runtime::new_run_id(),
+            &exe,
+            a.iterations,
+            a.warmup,
+            items,
+            busy_poll,
+        )
+    };
     bar.set_message("raw iceoryx2 hop");
-    let raw = platoon_runtime::bench::raw_hop(
-        &platoon_runtime::new_run_id(),
-        &exe,
-        a.iterations,
-        a.warmup,
-        items,
-        false,
-    )
-    .context("raw iceoryx2 hop")?;
+    let raw = raw_hop(false).context("raw iceoryx2 hop")?;
     samples.push(("raw_iceoryx2_hop", raw));
     bar.inc(1);
     if a.busy_poll {
@@ -381,15 +383,7 @@ fn latency(a: LatencyArgs) -> Result<LatencyReport> {
             );
         }
         bar.set_message("busy-polling iceoryx2 hop");
-        let busy = platoon_runtime::bench::raw_hop(
-            &platoon_runtime::new_run_id(),
-            &exe,
-            a.iterations,
-            a.warmup,
-            items,
-            true,
-        )
-        .context("busy-polling iceoryx2 hop")?;
+        let busy = raw_hop(true).context("busy-polling iceoryx2 hop")?;
         samples.push(("raw_iceoryx2_hop_busy_poll", busy));
     }
     bar.inc(1);
@@ -418,15 +412,7 @@ fn latency(a: LatencyArgs) -> Result<LatencyReport> {
     // the echo inherits), so the one-core rows of the co-simulation compare like with like.
     bar.set_message("raw iceoryx2 and Unix-socket hops on one core");
     let (raw_one, uds_one) = on_one_core(|| -> Result<_> {
-        let raw = platoon_runtime::bench::raw_hop(
-            &platoon_runtime::new_run_id(),
-            &exe,
-            a.iterations,
-            a.warmup,
-            items,
-            false,
-        )
-        .context("raw iceoryx2 hop on one core")?;
+        let raw = raw_hop(false).context("raw iceoryx2 hop on one core")?;
         let uds = platoon_runtime::bench::socket_hop(
             platoon_runtime::bench::Socket::Uds,
             &exe,
