@@ -126,23 +126,8 @@ pub fn run(
                     for (j, c) in controllers.iter_mut().enumerate() {
                         tx.clear();
                         c.transmit(*k, &s[j * n1..(j + 1) * n1], &mut tx);
-                        // At most one broadcast per vehicle and step: the tx outlet holds one
-                        // item per link.
                         sent.clear();
                         sent.resize(n1, false);
-                        for p in tx.iter() {
-                            let i = p.sender.index();
-                            if sent.get(i).copied().unwrap_or(false) {
-                                return Err(fail(format!(
-                                    "step {k}: platoon {j}: vehicle {} broadcast twice in one \
-                                     step (at most once per step)",
-                                    p.sender.0
-                                )));
-                            }
-                            if let Some(f) = sent.get_mut(i) {
-                                *f = true;
-                            }
-                        }
                         for p in tx.iter() {
                             let Some(to) = (p.sender.index() < n1)
                                 .then(|| scenario.topology.out_neighbours(p.sender))
@@ -153,6 +138,15 @@ pub fn run(
                                     p.sender.0
                                 )));
                             };
+                            // At most one broadcast per vehicle and step: the tx outlet holds
+                            // one item per link.
+                            if std::mem::replace(&mut sent[p.sender.index()], true) {
+                                return Err(fail(format!(
+                                    "step {k}: platoon {j}: vehicle {} broadcast twice in one \
+                                     step (at most once per step)",
+                                    p.sender.0
+                                )));
+                            }
                             let mut packet = packet_to_wire(p, stamp);
                             packet.sender = num.global(j, p.sender);
                             wire_tx.extend(to.iter().map(|&r| LinkPacket {
