@@ -31,8 +31,8 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
+import platoon.wire as w  # noqa: E402
 import platoon_plant  # noqa: E402
-import platoon_wire as w  # noqa: E402
 import sumo_native  # noqa: E402
 
 

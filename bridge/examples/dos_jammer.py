@@ -11,7 +11,7 @@ import sys
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 
-import platoon_injector as pi  # noqa: E402
+import platoon.injector as pi  # noqa: E402
 
 
 class DosJammer(pi.Injector):

@@ -23,7 +23,7 @@ import sys
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 
-import platoon_injector as pi  # noqa: E402
+import platoon.injector as pi  # noqa: E402
 
 KINDS = ("offset", "random_offset", "drift", "feigned_braking", "accel_scale")
 

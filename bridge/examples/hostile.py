@@ -20,7 +20,7 @@ import time
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 
-import platoon_wire as w  # noqa: E402
+import platoon.wire as w  # noqa: E402
 
 
 def main() -> int:

@@ -25,7 +25,7 @@ sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."
 
 import iceoryx2 as iox  # noqa: E402
 
-import platoon_wire as w  # noqa: E402
+import platoon.wire as w  # noqa: E402
 
 
 def find_run(run_dir: str, wait_s: float) -> dict:

@@ -21,7 +21,7 @@ import sys
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 
-import platoon_controller as pc  # noqa: E402
+import platoon.controller as pc  # noqa: E402
 
 PLAUSIBLE_ACCEL = 50.0  # m/s^2: no vehicle accelerates harder (the packet checks)
 

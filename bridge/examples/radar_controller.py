@@ -22,7 +22,7 @@ import tomllib
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 
-import platoon_wire as w  # noqa: E402
+import platoon.wire as w  # noqa: E402
 
 KP, KV = 0.45, 1.2  # u = KP (gap - desired) - KV closing
 

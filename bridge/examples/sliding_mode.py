@@ -30,7 +30,7 @@ import sys
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 
-import platoon_controller as pc  # noqa: E402
+import platoon.controller as pc  # noqa: E402
 
 U_MIN, U_MAX = -8.0, 4.0
 FRESH_S = 0.1  # a predecessor's packet older than this is not used

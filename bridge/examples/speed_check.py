@@ -22,7 +22,7 @@ import sys
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 
-import platoon_controller as pc  # noqa: E402
+import platoon.controller as pc  # noqa: E402
 from paper_law import PaperLaw  # noqa: E402
 
 NAME = "pos_speed"

@@ -12,8 +12,8 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 BRIDGE = os.path.dirname(HERE)
 sys.path.insert(0, BRIDGE)
 
-import platoon_injector as pi  # noqa: E402
-import platoon_wire as w  # noqa: E402
+import platoon.injector as pi  # noqa: E402
+import platoon.wire as w  # noqa: E402
 
 
 def test_the_same_version_or_none_passes(monkeypatch):
@@ -52,8 +52,8 @@ def test_type_names_follow_the_version(monkeypatch):
 
 
 SCRIPT = """
-import platoon_injector as pi
-import platoon_wire as w
+import platoon.injector as pi
+import platoon.wire as w
 print(w.CONTRACT_VERSION, pi.jammed(3).kind)
 """
 

@@ -11,8 +11,8 @@ import pytest
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, ".."))
 
-import platoon_controller as pc  # noqa: E402
-import platoon_wire as w  # noqa: E402
+import platoon.controller as pc  # noqa: E402
+import platoon.wire as w  # noqa: E402
 
 
 def config(preset, n=4, **topology):

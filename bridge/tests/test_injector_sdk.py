@@ -11,7 +11,7 @@ sys.path.insert(0, os.path.join(HERE, ".."))
 sys.path.insert(0, os.path.join(HERE, "..", "examples"))
 
 import dos_jammer  # noqa: E402
-import platoon_injector as pi  # noqa: E402
+import platoon.injector as pi  # noqa: E402
 
 
 def make_run(intervals, dt=0.01, steps=3000):

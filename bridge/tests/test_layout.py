@@ -9,7 +9,7 @@ import sys
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, ".."))
 
-import platoon_wire as w  # noqa: E402
+import platoon.wire as w  # noqa: E402
 
 with open(os.path.join(HERE, "..", "wire_layout.json")) as f:
     LAYOUT = json.load(f)

@@ -9,7 +9,7 @@ import iceoryx2 as iox
 import pytest
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
-import platoon_wire as w  # noqa: E402
+import platoon.wire as w  # noqa: E402
 
 
 @pytest.fixture

@@ -9,7 +9,7 @@ import tempfile
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, ".."))
 
-import platoon_wire as w  # noqa: E402
+import platoon.wire as w  # noqa: E402
 import sumo_plant  # noqa: E402
 
 NET = os.path.join(HERE, "..", "..", "sumo", "highway", "highway.net.xml")

@@ -47,7 +47,7 @@ def check_contract_version(run=None) -> None:
     if version != CONTRACT_VERSION:
         raise SystemExit(
             f"this plug-in speaks platoon contract v{CONTRACT_VERSION}, but the run speaks "
-            f"v{version} ({CONTRACT_VERSION_ENV}={version}): use the bridge/ (platoon_wire.py and the "
+            f"v{version} ({CONTRACT_VERSION_ENV}={version}): use the bridge/ (platoon/wire.py and the "
             f'injector or controller SDK) of v{version} (see "Contract versions" in {CONTRACT_DOC} '
             "for what changed)"
         )
@@ -250,7 +250,7 @@ def wake_name(run_id: str, node: str) -> str:
 class Endpoint:
     """One node of a run: opens (never creates) the services the orchestrator made."""
 
-    def __init__(self, role: str, run_id: str | None = None):
+    def __init__(self, role: str, run_id: "str | None" = None):
         check_contract_version()  # before opening anything: other versions cannot connect
         iox.set_log_level_from_env_or(iox.LogLevel.Error)
         self.role = role

@@ -6,7 +6,7 @@ PLATOON_RUN_ID, READY, waiting on wake-ups (never busy polling), exactly one rx 
 with its `count` (even when empty), waking the controller, DONE, STOP/ABORT, and exiting when
 `platoon run` is gone. An exception in `step` stops the run, which names the injector.
 
-    import platoon_injector as pi
+    import platoon.injector as pi
 
     class DropTwo(pi.Injector):
         def step(self, step, rx):
@@ -21,9 +21,9 @@ with its `count` (even when empty), waking the controller, DONE, STOP/ABORT, and
 import os
 import sys
 
-import platoon_plugin as _plugin
-import platoon_wire as w
-from platoon_plugin import Run, stop_received  # noqa: F401 (part of this SDK's API)
+from . import plugin as _plugin
+from . import wire as w
+from .plugin import Run, stop_received  # noqa: F401 (part of this SDK's API)
 
 
 def send_failed(outlet, step: int, reason: str) -> None:

@@ -1,13 +1,17 @@
-"""What the Python SDKs of plug-ins share (platoon_injector.py, platoon_controller.py): the run
+"""What the Python SDKs of plug-ins share (platoon.injector, platoon.controller): the run
 that started the process (PLATOON_RUN_ID, PLATOON_CONFIG), its V2V graph, and the status
 messages every node sends (READY/DONE/FAILED) and the control messages it reads (STOP/ABORT).
 """
 
 import os
-import tomllib
 from dataclasses import dataclass, field
 
-import platoon_wire as w
+try:
+    import tomllib
+except ModuleNotFoundError:  # Python < 3.11
+    import tomli as tomllib
+
+from . import wire as w
 
 
 @dataclass
@@ -22,7 +26,7 @@ class Run:
     platoons: int
     topology: "Topology | None" = field(default=None, repr=False)
     # The detectors the run measures, in the order of every inspection's verdicts (set by the
-    # controller SDK: platoon_controller.detector_names).
+    # controller SDK: platoon.controller.detector_names).
     detectors: list = field(default_factory=list)
 
     def vehicles(self):

@@ -14,7 +14,7 @@ controller refused, STOP/ABORT, and exiting when `platoon run` is gone. An excep
 code, a missing or non-finite command, or a broadcast from a vehicle the platoon does not have
 stops the run, which names the controller.
 
-    import platoon_controller as pc
+    import platoon.controller as pc
 
     class Brake(pc.Controller):
         def __init__(self, run, platoon):
@@ -45,9 +45,9 @@ import sys
 import time
 from typing import NamedTuple
 
-import platoon_plugin as _plugin
-import platoon_wire as w
-from platoon_plugin import Run, Topology  # noqa: F401 (part of this SDK's API)
+from . import plugin as _plugin
+from . import wire as w
+from .plugin import Run, Topology  # noqa: F401 (part of this SDK's API)
 
 # Modes a command may report (Command.mode), as the outputs name them.
 COOP, ZERO, HOLD, PREDICT, ACC, BLEND = range(6)
