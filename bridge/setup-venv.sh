@@ -7,7 +7,7 @@ set -eu
 here=$(cd "$(dirname "$0")" && pwd)
 venv="$here/.venv"
 stamp="$venv/.requirements"
-# The venv's Python imports the SDK (platoon_injector, platoon_wire) from a script anywhere:
+# The venv's Python imports the SDK (platoon.injector, platoon.wire) from a script anywhere:
 # a .pth file in its site-packages names this directory (rewritten if the checkout moved).
 bridge_on_path() {
     for site in "$venv"/lib/python*/site-packages; do

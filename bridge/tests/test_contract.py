@@ -85,3 +85,36 @@ def test_the_bridge_venv_imports_the_sdk_from_a_script_anywhere(tmp_path):
     o = run_elsewhere(tmp_path)
     assert o.returncode == 0, f"{o.stderr}\n(run bridge/setup-venv.sh: it adds platoon-bridge.pth)"
     assert o.stdout.split() == [str(w.CONTRACT_VERSION), "1"]
+
+
+OLD_NAMES_SCRIPT = """
+import platoon.controller, platoon.injector, platoon.plugin, platoon.wire
+import platoon_controller, platoon_injector, platoon_plugin, platoon_wire
+from platoon_wire import LinkPacket
+from platoon_injector import Injector
+assert platoon_wire is platoon.wire and platoon_plugin is platoon.plugin
+assert platoon_injector is platoon.injector and platoon_controller is platoon.controller
+assert LinkPacket is platoon.wire.LinkPacket and Injector is platoon.injector.Injector
+assert isinstance(platoon.wire.LinkPacket(), platoon_wire.LinkPacket)
+assert isinstance(platoon_injector.jammed(3), platoon.wire.LinkPacket)
+assert platoon_controller.Topology is platoon_plugin.Topology is platoon.plugin.Topology
+assert platoon_injector.Run is platoon_controller.Run is platoon.plugin.Run
+print(platoon_wire.CONTRACT_VERSION, platoon_injector.jammed(3).kind)
+"""
+
+
+def test_the_old_module_names_are_the_same_modules(tmp_path):
+    """Scripts written before the package (`import platoon_injector`, `from platoon_wire import
+    ...`) get the package's modules themselves, so their objects pass the package's checks."""
+    script = tmp_path / "old_injector.py"
+    script.write_text(OLD_NAMES_SCRIPT)
+    clean = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    o = subprocess.run(
+        [sys.executable, str(script)],
+        cwd=tmp_path,
+        env={**clean, "PYTHONPATH": BRIDGE},
+        capture_output=True,
+        text=True,
+    )
+    assert o.returncode == 0, o.stderr
+    assert o.stdout.split() == [str(w.CONTRACT_VERSION), "1"]
