@@ -46,7 +46,7 @@ fn sdk_example(name: &str) -> String {
         let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
         let o = Command::new(cargo)
             .current_dir(repo())
-            .args(["build", "-p", "platoon-controller", "--examples"])
+            .args(["build", "--workspace", "--examples", "--locked"])
             .output()
             .unwrap();
         assert!(

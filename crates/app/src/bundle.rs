@@ -33,9 +33,13 @@ pub const FILES: &[(&str, &[u8])] = files!(
     "bridge/native/sumo_step.cpp",
     "bridge/parquet_equals_csv.py",
     "bridge/platoon/__init__.py",
+    "bridge/platoon/__main__.py",
+    "bridge/platoon/_cli.py",
     "bridge/platoon/controller.py",
+    "bridge/platoon/design.py",
     "bridge/platoon/injector.py",
     "bridge/platoon/plugin.py",
+    "bridge/platoon/py.typed",
     "bridge/platoon/wire.py",
     "bridge/platoon_controller.py",
     "bridge/platoon_injector.py",
@@ -43,6 +47,8 @@ pub const FILES: &[(&str, &[u8])] = files!(
     "bridge/platoon_plugin.py",
     "bridge/platoon_wire.py",
     "bridge/plexe_reference.py",
+    "bridge/pyproject.toml",
+    "bridge/requirements-package.txt",
     "bridge/requirements-tools.txt",
     "bridge/requirements.txt",
     "bridge/setup-venv.sh",
@@ -141,7 +147,8 @@ mod tests {
                 }
                 if path.is_dir() {
                     stack.push(path);
-                } else if !name.ends_with(".pyc") {
+                } else if !name.ends_with(".pyc") && !name.ends_with(".so") {
+                    // (.so: the package's compiled core, where an editable install put it)
                     let rel = path
                         .strip_prefix(&repo)
                         .unwrap()

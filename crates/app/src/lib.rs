@@ -21,4 +21,15 @@ pub mod search;
 pub mod sumo;
 
 pub use progress::Progress;
+
+/// The `platoon` program that runs what needs a process of its own (a co-simulation's nodes,
+/// co-simulated campaign cells, Dask workers' cells, a benchmark's runs): `$PLATOON_PROGRAM`
+/// when set, else this executable. The Python package sets it to its `platoon` script, since
+/// there this process is the Python interpreter.
+pub fn platoon_program() -> anyhow::Result<std::path::PathBuf> {
+    match std::env::var_os("PLATOON_PROGRAM").filter(|p| !p.is_empty()) {
+        Some(p) => Ok(p.into()),
+        None => anyhow::Context::context(std::env::current_exe(), "locating the platoon binary"),
+    }
+}
 pub use run::{RunOptions, RunOutcome, Stop};

@@ -4,6 +4,8 @@
 //! summary alone, with no files at all.
 use crate::progress::Progress;
 use anyhow::{Context, Result};
+use arrow_array::RecordBatch;
+use arrow_schema::SchemaRef;
 use platoon_attacks::channel::ChannelEvent;
 use platoon_config::{Config, OutputFile, Transport};
 use platoon_output::plots;
@@ -59,7 +61,7 @@ pub struct RunOptions {
     /// Draw the PNG figures.
     pub plots: bool,
     /// The program whose `node <role>` subcommand runs the processes of an iceoryx2 run
-    /// (None: this executable, the `platoon` binary).
+    /// (None: [`crate::platoon_program`], the `platoon` binary).
     pub node_program: Option<PathBuf>,
     /// The file the config came from, named by SUMO set-up errors.
     pub config_file: PathBuf,
@@ -246,12 +248,7 @@ pub fn run(
     let (mut summary, failure) = match &stopped {
         Some(why) => {
             let mut summary = summary;
-            summary.complete = false;
-            summary.error = Some(format!(
-                "{why} after {} of {} steps",
-                summary.steps,
-                scenario.steps + 1
-            ));
+            mark_stopped(&mut summary, why, scenario);
             (summary, None)
         }
         None => (summary, failure),
@@ -437,6 +434,96 @@ pub struct RunFiles {
     flags: Vec<(u16, f64)>,
 }
 
+/// Where [`RunFiles`] keeps its tables.
+enum Place<'a> {
+    Dir(&'a RunDir, Format),
+    Memory,
+}
+
+impl Place<'_> {
+    fn table<T: serde::Serialize + serde::de::DeserializeOwned>(
+        &self,
+        stem: &str,
+        enabled: bool,
+    ) -> Result<Table<T>> {
+        match self {
+            Place::Dir(dir, format) => Table::create(dir, stem, *format, enabled),
+            Place::Memory => Table::memory(stem, enabled),
+        }
+    }
+}
+
+/// A run's per-step tables as Arrow record batches, each by name (`trajectories`, `events`,
+/// `wire`, `channel`, `detections`: the files' stems) with its schema, the Parquet files'.
+pub type Tables = Vec<(&'static str, SchemaRef, Vec<RecordBatch>)>;
+
+/// Runs `scenario` in process and keeps everything in memory: the per-step tables `output`
+/// asks for (its `files` and `decimate`; the format does not matter) and the summary, marked
+/// `complete: false` with the reason when `stop` stopped it. No file is written.
+pub fn simulate_in_memory(
+    scenario: &Scenario,
+    output: &platoon_config::OutputConfig,
+    progress: &dyn Progress,
+    stop: &Stop,
+) -> Result<(Tables, Summary)> {
+    let mut files = RunFiles::in_memory(scenario, output)?;
+    let (mut summary, _) = record(scenario, &mut files, stop, progress)?;
+    summary.attack.applied = true; // the built-in channel: no injector runs in process
+    if let Some(why) = stop.reason() {
+        mark_stopped(&mut summary, &why, scenario);
+    }
+    Ok((files.into_tables()?, summary))
+}
+
+/// A stopped run's summary: not complete, and why, after how many steps.
+fn mark_stopped(summary: &mut Summary, why: &str, scenario: &Scenario) {
+    summary.complete = false;
+    summary.error = Some(format!(
+        "{why} after {} of {} steps",
+        summary.steps,
+        scenario.steps + 1
+    ));
+}
+
+/// The per-step tables of a finished run directory (CSV or Parquet, whichever it wrote), as
+/// [`simulate_in_memory`] returns them.
+pub fn read_tables(dir: &Path) -> Result<Tables> {
+    fn read<T: serde::Serialize + serde::de::DeserializeOwned>(
+        dir: &Path,
+        stem: &'static str,
+        tables: &mut Tables,
+    ) -> Result<()> {
+        for ext in ["csv", "parquet"] {
+            let path = dir.join(format!("{stem}.{ext}"));
+            if path.exists() {
+                let (schema, batches) = platoon_output::tables::read_batches::<T>(&path)?;
+                tables.push((stem, schema, batches));
+                break;
+            }
+        }
+        Ok(())
+    }
+    let mut tables = Tables::new();
+    read::<StepRow>(dir, "trajectories", &mut tables)?;
+    read::<EventRow>(dir, "events", &mut tables)?;
+    read::<WireRow>(dir, "wire", &mut tables)?;
+    read::<ChannelEvent>(dir, "channel", &mut tables)?;
+    read::<DetectionRow>(dir, "detections", &mut tables)?;
+    Ok(tables)
+}
+
+/// The JSON of `summary.json`: the summary with the `extra` keys (`injector`, ...) set.
+pub fn summary_json(
+    summary: &Summary,
+    extra: &[(&str, serde_json::Value)],
+) -> Result<serde_json::Value> {
+    let mut json = serde_json::to_value(summary)?;
+    for (key, value) in extra {
+        json[*key] = value.clone();
+    }
+    Ok(json)
+}
+
 /// One row of wire.csv: a vehicle's link packets in a step where not everything sent to it was
 /// delivered as sent.
 #[derive(serde::Serialize, serde::Deserialize)]
@@ -539,20 +626,37 @@ impl RunFiles {
         dir: &RunDir,
         channel: bool,
     ) -> Result<Self> {
+        Self::open(
+            scenario,
+            output,
+            Place::Dir(dir, Format::of(output, scenario)),
+            channel,
+        )
+    }
+
+    /// The same tables kept in memory as Arrow record batches ([`RunFiles::into_tables`]),
+    /// the channel log included; no file is written.
+    pub fn in_memory(scenario: &Scenario, output: &platoon_config::OutputConfig) -> Result<Self> {
+        Self::open(scenario, output, Place::Memory, true)
+    }
+
+    fn open(
+        scenario: &Scenario,
+        output: &platoon_config::OutputConfig,
+        place: Place<'_>,
+        channel: bool,
+    ) -> Result<Self> {
         let steps = scenario.steps + 1;
-        let format = Format::of(output, scenario);
         let on = |f: OutputFile| output.writes(f);
         Ok(Self {
-            trajectories: Table::create(dir, "trajectories", format, on(OutputFile::Trajectories))?,
-            events: Table::create(dir, "events", format, on(OutputFile::Events))?,
-            wire: Table::create(dir, "wire", format, on(OutputFile::Wire))?,
+            trajectories: place.table("trajectories", on(OutputFile::Trajectories))?,
+            events: place.table("events", on(OutputFile::Events))?,
+            wire: place.table("wire", on(OutputFile::Wire))?,
             channel: channel
-                .then(|| Table::create(dir, "channel", format, on(OutputFile::Channel)))
+                .then(|| place.table("channel", on(OutputFile::Channel)))
                 .transpose()?,
-            detections: Table::create(
-                dir,
+            detections: place.table(
                 "detections",
-                format,
                 scenario.control.detection.is_measured() && on(OutputFile::Detections),
             )?,
             decimate: output.decimate,
@@ -566,6 +670,25 @@ impl RunFiles {
             refusing: Default::default(),
             flags: Vec::new(),
         })
+    }
+
+    /// The tables of [`RunFiles::in_memory`] after the run (its sink's `finish`), by name; a
+    /// table `[output] files` leaves out is not there.
+    pub fn into_tables(mut self) -> Result<Tables> {
+        let mut tables = Tables::new();
+        let mut take = |name: &'static str, got: Option<(SchemaRef, Vec<RecordBatch>)>| {
+            if let Some((schema, batches)) = got {
+                tables.push((name, schema, batches));
+            }
+        };
+        take("trajectories", self.trajectories.take_batches()?);
+        take("events", self.events.take_batches()?);
+        take("wire", self.wire.take_batches()?);
+        if let Some(channel) = &mut self.channel {
+            take("channel", channel.take_batches()?);
+        }
+        take("detections", self.detections.take_batches()?);
+        Ok(tables)
     }
 
     /// Platoon 0's rows so far.
@@ -857,7 +980,7 @@ fn cosimulate(
     ));
     let exe = match &opts.node_program {
         Some(p) => p.clone(),
-        None => std::env::current_exe().context("locating the platoon binary")?,
+        None => crate::platoon_program()?,
     };
     let rt = platoon_runtime::Options {
         run_id,
@@ -1089,11 +1212,7 @@ pub fn write_outputs(
                 .with_context(|| format!("drawing {}", path.display()))?;
         }
     }
-    let mut json = serde_json::to_value(summary)?;
-    for (key, value) in extra {
-        json[*key] = value.clone();
-    }
-    let json = serde_json::to_string_pretty(&json)? + "\n";
+    let json = serde_json::to_string_pretty(&summary_json(summary, extra)?)? + "\n";
     dir.write("summary.json", json.as_bytes())
 }
 

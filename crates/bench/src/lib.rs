@@ -341,7 +341,7 @@ fn latency(a: LatencyArgs) -> Result<LatencyReport> {
         .unwrap_or_else(|| PathBuf::from("runs").join("bench-latency"));
     let dir = RunDir::create(&out, a.force)?;
     dir.write("config.toml", platoon_config::to_toml(&config).as_bytes())?;
-    let exe = std::env::current_exe().context("locating the platoon binary")?;
+    let exe = platoon_app::platoon_program()?;
     let n = scenario.topology.followers();
     let items: usize = (0..=n)
         .map(|v| {
@@ -762,7 +762,7 @@ fn step(a: StepArgs) -> Result<StepReport> {
         .out
         .unwrap_or_else(|| PathBuf::from("runs").join("bench-step"));
     let dir = RunDir::create(&out, a.force)?;
-    let exe = std::env::current_exe().context("locating the platoon binary")?;
+    let exe = platoon_app::platoon_program()?;
     let one_cpu = platoon_runtime::available_cpus()
         .first()
         .map_or_else(|| "0".to_string(), |c| c.to_string());
@@ -1228,7 +1228,7 @@ fn campaign(a: CampaignArgs) -> Result<Vec<CampaignRow>> {
         .out
         .unwrap_or_else(|| PathBuf::from("runs").join("bench-campaign"));
     let dir = RunDir::create(&out, a.force)?;
-    let exe = std::env::current_exe().context("locating the platoon binary")?;
+    let exe = platoon_app::platoon_program()?;
     // A Monte Carlo campaign of `samples` cells on `base` (a file in the output directory; None:
     // the embedded paper scenario), written as `bench-<name>.toml`.
     let file_on = |name: &str, samples: usize, base: Option<&str>| -> Result<PathBuf> {

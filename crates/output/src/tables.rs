@@ -1,9 +1,11 @@
 //! The per-step files of a run (trajectories, events, channel log, wire log) as CSV or Parquet,
 //! streamed: Parquet rows are buffered in batches of [`BATCH`] and written as row groups
 //! (zstd), so memory stays flat however long the run. The columns are the row type's fields in
-//! both formats.
+//! both formats. A table may also be kept in memory as Arrow record batches ([`Table::memory`]:
+//! what the Python package hands over), with the Parquet file's schema.
 use crate::rundir::RunDir;
 use anyhow::{Context, Result};
+use arrow_array::RecordBatch;
 use arrow_schema::FieldRef;
 use parquet::arrow::ArrowWriter;
 use parquet::basic::{Compression, ZstdLevel};
@@ -48,6 +50,11 @@ impl Format {
 
 enum Sink<T> {
     Off,
+    Memory {
+        fields: Vec<FieldRef>,
+        rows: Vec<T>,
+        batches: Vec<RecordBatch>,
+    },
     Csv(Box<csv::Writer<BufWriter<File>>>),
     Parquet {
         writer: Box<ArrowWriter<File>>,
@@ -103,10 +110,48 @@ impl<T: Serialize + DeserializeOwned> Table<T> {
         Ok(Self { name, sink })
     }
 
+    /// A table kept in memory as record batches of at most [`BATCH`] rows ([`Table::batches`]);
+    /// `enabled = false` keeps nothing. `stem` names it in errors.
+    pub fn memory(stem: &str, enabled: bool) -> Result<Self> {
+        let sink = match enabled {
+            false => Sink::Off,
+            true => Sink::Memory {
+                fields: fields::<T>()?,
+                rows: Vec::new(),
+                batches: Vec::new(),
+            },
+        };
+        Ok(Self {
+            name: stem.to_string(),
+            sink,
+        })
+    }
+
+    /// A table in memory: its schema and its batches so far (taken; call [`Table::finish`]
+    /// first for the last rows). None for a table written to a file or not kept.
+    pub fn take_batches(&mut self) -> Result<Option<(arrow_schema::SchemaRef, Vec<RecordBatch>)>> {
+        match &mut self.sink {
+            Sink::Memory {
+                fields, batches, ..
+            } => Ok(Some((
+                Arc::new(arrow_schema::Schema::new(fields.clone())),
+                std::mem::take(batches),
+            ))),
+            _ => Ok(None),
+        }
+    }
+
     /// Appends one row.
     pub fn write(&mut self, row: T) -> Result<()> {
         match &mut self.sink {
             Sink::Off => Ok(()),
+            Sink::Memory { rows, .. } => {
+                rows.push(row);
+                if rows.len() >= BATCH {
+                    self.flush_batch()?;
+                }
+                Ok(())
+            }
             Sink::Csv(w) => w
                 .serialize(row)
                 .with_context(|| format!("writing {}", self.name)),
@@ -121,6 +166,20 @@ impl<T: Serialize + DeserializeOwned> Table<T> {
     }
 
     fn flush_batch(&mut self) -> Result<()> {
+        if let Sink::Memory {
+            fields,
+            rows,
+            batches,
+        } = &mut self.sink
+        {
+            if !rows.is_empty() {
+                let batch = serde_arrow::to_record_batch(fields, rows)
+                    .with_context(|| format!("converting rows for {}", self.name))?;
+                batches.push(batch);
+                rows.clear();
+            }
+            return Ok(());
+        }
         if let Sink::Parquet {
             writer,
             fields,
@@ -142,8 +201,11 @@ impl<T: Serialize + DeserializeOwned> Table<T> {
     /// Writes what is buffered and closes the file.
     pub fn finish(&mut self) -> Result<()> {
         self.flush_batch()?;
+        if matches!(self.sink, Sink::Memory { .. }) {
+            return Ok(()); // kept for take_batches
+        }
         match std::mem::replace(&mut self.sink, Sink::Off) {
-            Sink::Off => Ok(()),
+            Sink::Off | Sink::Memory { .. } => Ok(()),
             Sink::Csv(mut w) => w.flush().with_context(|| format!("writing {}", self.name)),
             Sink::Parquet { writer, .. } => writer
                 .close()
@@ -162,6 +224,36 @@ pub fn read_parquet<T: Serialize + DeserializeOwned>(path: &std::path::Path) -> 
         Ok(())
     })?;
     Ok(out)
+}
+
+/// A table file written by [`Table`] as record batches (its schema and batches, the schema of
+/// [`fields`]): a Parquet file's row groups as they are, a CSV file's rows converted.
+pub fn read_batches<T: Serialize + DeserializeOwned>(
+    path: &std::path::Path,
+) -> Result<(arrow_schema::SchemaRef, Vec<RecordBatch>)> {
+    let fields = fields::<T>()?;
+    let schema = Arc::new(arrow_schema::Schema::new(fields.clone()));
+    let mut batches = Vec::new();
+    let mut rows: Vec<T> = Vec::new();
+    let convert = |rows: &mut Vec<T>, batches: &mut Vec<RecordBatch>| -> Result<()> {
+        if !rows.is_empty() {
+            batches.push(
+                serde_arrow::to_record_batch(&fields, rows)
+                    .with_context(|| format!("reading {}", path.display()))?,
+            );
+            rows.clear();
+        }
+        Ok(())
+    };
+    read_rows(path, |row: T| {
+        rows.push(row);
+        if rows.len() >= BATCH {
+            convert(&mut rows, &mut batches)?;
+        }
+        Ok(())
+    })?;
+    convert(&mut rows, &mut batches)?;
+    Ok((schema, batches))
 }
 
 /// Streams the rows of a table file written by [`Table`] (`.csv` or `.parquet`, by its

@@ -67,7 +67,7 @@ pub trait Executor {
 fn platoon_program(program: Option<&Path>) -> Result<PathBuf> {
     match program {
         Some(p) => Ok(p.to_path_buf()),
-        None => std::env::current_exe().context("locating the platoon binary"),
+        None => crate::platoon_program(),
     }
 }
 

@@ -1,0 +1,297 @@
+"""platoon: resilient event-triggered control of vehicle platoons under DoS attacks, from Python.
+
+The Rust core (runs, campaigns, LMI design) as a package; results as Arrow tables and dicts.
+
+    import platoon
+    cfg = platoon.scenario("paper")          # the embedded paper scenario, a dict to edit
+    cfg["trigger"]["rule"] = "static"
+    run = platoon.run(cfg)                   # in process; transport="iceoryx2", plant="sumo" too
+    run.summary["safety"]["class"]
+    df = run.trajectories.to_pandas()        # or .to_polars(), or .arrow (a pyarrow.Table)
+    cells = platoon.campaign("campaigns/dos-timing.toml", jobs=2)   # or dask=Client(...)
+    cert = platoon.design.check_gain(cfg)
+
+Submodules: `platoon.design` (LMI checks), `platoon.injector` and `platoon.controller` (the
+SDKs for attack injectors and controllers that a co-simulated run starts as processes, see
+docs/injector-contract.md and docs/controller-contract.md), `platoon.wire` (the shared-memory
+payloads). The SDKs need no compiled core: they also run from the bridge's venv of a checkout.
+
+Errors: `platoon.ConfigError` (a ValueError) for an invalid config or campaign, with `file`,
+`line`, `key` and `message` attributes; `platoon.PlatoonError` (a RuntimeError) for anything
+else that failed, with the message the `platoon` command would print. Ctrl-C
+(KeyboardInterrupt) stops a run or a campaign cleanly, as in the command, then is raised.
+"""
+
+import json
+import os
+import pathlib
+import shutil
+import sys
+import sysconfig
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "Campaign",
+    "ConfigError",
+    "PlatoonError",
+    "Run",
+    "Table",
+    "campaign",
+    "design",
+    "run",
+    "scenario",
+    "scenarios",
+]
+
+_TABLES = ("trajectories", "events", "wire", "channel", "detections")
+
+
+def _native():
+    """The compiled core, or an ImportError that says how to get it."""
+    try:
+        from . import _core as core
+    except ImportError as e:
+        raise ImportError(
+            "platoon's compiled core is not installed (this is the source tree's pure-Python "
+            "half, whose SDKs need no core): install the package with `pip install ./bridge` "
+            f"from a checkout ({e})"
+        ) from e
+    _program()
+    return core
+
+
+def _program():
+    """Points $PLATOON_PROGRAM at this environment's `platoon` script, which the core runs as
+    the processes of a co-simulation (here the running program is Python, not `platoon`)."""
+    if os.environ.get("PLATOON_PROGRAM"):
+        return
+    script = shutil.which("platoon", path=sysconfig.get_path("scripts"))
+    if script:
+        os.environ["PLATOON_PROGRAM"] = script
+
+
+def __getattr__(name):
+    # The core's exception classes, loaded with the core (the SDKs import this package too).
+    if name in ("ConfigError", "PlatoonError"):
+        return getattr(_native(), name)
+    if name == "design":
+        from . import design
+
+        return design
+    raise AttributeError(f"module 'platoon' has no attribute {name!r}")
+
+
+def scenarios():
+    """The names of the embedded scenarios (`paper`, `table1`, `degradation`)."""
+    return list(_native().scenario_names())
+
+
+def scenario(name="paper"):
+    """A scenario as a dict to edit and pass to `run`: an embedded one by name (see
+    `scenarios()`) or a TOML config file's path, resolved (every default written out, the keys
+    of docs/config-reference.md)."""
+    return json.loads(_native().scenario(os.fspath(name)))
+
+
+def _drop_none(value):
+    """A dict's None values mean "the default": they are left out (TOML has no null)."""
+    if isinstance(value, dict):
+        return {k: _drop_none(v) for k, v in value.items() if v is not None}
+    if isinstance(value, (list, tuple)):
+        return [_drop_none(v) for v in value]
+    return value
+
+
+def _config_arg(config):
+    """(text, is_path) for the core: a dict as JSON, a file's path, or an embedded name."""
+    if isinstance(config, dict):
+        return json.dumps(_drop_none(config), allow_nan=False), False
+    if isinstance(config, (str, os.PathLike)):
+        text = os.fspath(config)
+        if os.path.isfile(text):
+            return text, True
+        if text in _native().scenario_names():
+            return _native().scenario(text), False
+        raise FileNotFoundError(
+            f"config {text!r}: no such file, and not an embedded scenario ({', '.join(scenarios())})"
+        )
+    raise TypeError(
+        f"config: a dict (platoon.scenario(...)), a TOML file's path or an embedded scenario's "
+        f"name, not {type(config).__name__}"
+    )
+
+
+class Table:
+    """A per-step table of a run (trajectories, events, wire, channel, detections) or a
+    campaign's cells: a `pyarrow.Table` (`.arrow`), handed over from Rust without copying.
+
+    `to_pandas()`, `to_polars()` convert it; anything that reads the Arrow PyCapsule stream
+    interface (pyarrow.table, polars.DataFrame, duckdb) reads it directly. The columns are the
+    CSV file's of the same name (docs/outputs.md)."""
+
+    def __init__(self, name, arrow):
+        self.name = name
+        self.arrow = arrow
+
+    def to_pandas(self, **kwargs):
+        """A pandas DataFrame (pyarrow.Table.to_pandas; needs pandas)."""
+        return self.arrow.to_pandas(**kwargs)
+
+    def to_polars(self):
+        """A polars DataFrame (needs polars)."""
+        try:
+            import polars
+        except ImportError as e:
+            raise ImportError(f"Table.to_polars needs polars: pip install polars ({e})") from e
+        return polars.from_arrow(self.arrow)
+
+    def to_pylist(self):
+        """The rows as dicts."""
+        return self.arrow.to_pylist()
+
+    @property
+    def columns(self):
+        """The column names."""
+        return list(self.arrow.column_names)
+
+    def column(self, name):
+        """One column as a Python list."""
+        return self.arrow.column(name).to_pylist()
+
+    def __arrow_c_stream__(self, requested_schema=None):
+        return self.arrow.__arrow_c_stream__(requested_schema)
+
+    def __len__(self):
+        return self.arrow.num_rows
+
+    def __repr__(self):
+        return f"<platoon.Table {self.name}: {self.arrow.num_rows} rows x {self.arrow.num_columns} columns>"
+
+
+class Run:
+    """A finished run: `summary` (the dict of summary.json), its tables by name in `tables`
+    and as attributes (`trajectories`, `events`, `wire`, `channel` in process, `detections` with
+    [detection]), and `dir`, the run directory when one was asked for (else None)."""
+
+    def __init__(self, summary, tables, dir):
+        self.summary = summary
+        self.tables = tables
+        self.dir = dir
+
+    def __getattr__(self, name):
+        if name in _TABLES:
+            try:
+                return self.tables[name]
+            except KeyError:
+                raise AttributeError(
+                    f"this run has no {name} table ([output] files left it out, or the run "
+                    f"does not record it: {', '.join(self.tables) or 'none'} here)"
+                ) from None
+        raise AttributeError(f"'Run' object has no attribute {name!r}")
+
+    def __repr__(self):
+        s = self.summary
+        return (
+            f"<platoon.Run {s.get('steps')} steps, complete={s.get('complete')}, "
+            f"safety={s.get('safety', {}).get('class')}, tables={list(self.tables)}>"
+        )
+
+
+def run(
+    config="paper",
+    *,
+    transport="inproc",
+    plant=None,
+    out=None,
+    force=False,
+    plots=False,
+    injector=None,
+    injector_after=False,
+    controller=None,
+    step_timeout_s=1.0,
+):
+    """Runs one scenario and returns a `Run`.
+
+    config: a dict (see `scenario`), a TOML file's path, or an embedded scenario's name.
+    transport: "inproc" (one process, the default) or "iceoryx2" (the co-simulation's
+        processes over shared memory: controller, attack injector, plant).
+    plant: "native" or "sumo" (SUMO needs transport="iceoryx2"); None: the config's.
+    out: a run directory to write, as `platoon run --out` writes it (None: in process nothing
+        is written and the tables come from memory; otherwise a temporary directory is used
+        and removed). force: replace `out` if it exists. plots: draw the PNG figures there.
+    injector / controller: a shell command starting an external attack injector or controller
+        (iceoryx2 only; see platoon.injector, platoon.controller); injector_after runs the
+        config's attacks first, then the injector.
+    step_timeout_s: how long the run waits for one process's sample of a step (iceoryx2).
+
+    Raises ConfigError for an invalid config (file, line, key), PlatoonError when the run
+    fails (e.g. a process died: the error names it), KeyboardInterrupt after stopping it."""
+    text, is_path = _config_arg(config)
+    summary, tables, directory = _native().run(
+        text,
+        is_path,
+        transport,
+        plant=plant,
+        out=None if out is None else os.fspath(out),
+        force=force,
+        plots=plots,
+        injector=injector,
+        injector_after=injector_after,
+        controller=controller,
+        step_timeout_s=float(step_timeout_s),
+    )
+    return Run(
+        json.loads(summary),
+        {name: Table(name, t) for name, t in tables},
+        None if directory is None else pathlib.Path(directory),
+    )
+
+
+class Campaign:
+    """A finished campaign: `report` (campaign.json's dict), `cells` (cells.csv as a Table: one
+    row per cell, its parameters, status and metrics) and `dir`, the campaign directory."""
+
+    def __init__(self, report, cells, dir):
+        self.report = report
+        self.cells = cells
+        self.dir = dir
+
+    def __repr__(self):
+        r = self.report
+        return f"<platoon.Campaign {r.get('name')}: {len(self.cells)} cells, {r.get('ok')} ok, {r.get('failed')} failed, in {self.dir}>"
+
+
+def campaign(
+    spec,
+    *,
+    out=None,
+    jobs=None,
+    dask=None,
+    force=False,
+    keep_runs=False,
+    plots=False,
+    samples=None,
+):
+    """Runs a campaign file (campaigns/*.toml) as `platoon campaign` does; returns a Campaign.
+
+    out: the campaign directory (default runs/<name>); an unfinished one is resumed, a
+        finished one is an error unless force=True. jobs: cells at once on the local pool
+        (default: the cores). dask: a distributed.Client or a scheduler's address: the cells
+        run on its workers, in the workers' processes, batched (they need this package).
+    keep_runs: keep every cell's full outputs. samples: override monte_carlo.samples.
+    cells.csv is byte for byte the same whichever executor ran it."""
+    address = None
+    if dask is not None:
+        address = dask if isinstance(dask, str) else dask.scheduler.address
+    report, cells, directory = _native().campaign(
+        os.fspath(spec),
+        out=None if out is None else os.fspath(out),
+        jobs=jobs,
+        dask=address,
+        force=force,
+        keep_runs=keep_runs,
+        plots=plots,
+        samples=samples,
+    )
+    return Campaign(json.loads(report), Table("cells", cells), pathlib.Path(directory))

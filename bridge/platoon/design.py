@@ -1,0 +1,27 @@
+"""LMI design checks (Theorems 1 and 2 of the paper): `platoon design` of the command."""
+
+from . import _config_arg, _native
+
+
+def check_gain(config="paper", *, gain=None, c=0.0, theorem=1, time_headway=None):
+    """Evaluates a gain K on a scenario's topology, as `platoon design check-gain` does, and
+    returns its report (check.json) as a dict: closed-loop eigenvalues over the tau range
+    (`stable_over_tau_range`, `worst_max_real`), the smallest beta1/beta2 for which LMI (13)
+    holds (`min_ratio_at_c`, None where infeasible), string stability, ...
+
+    config: a dict, a TOML file's path or an embedded scenario's name. gain: (K1, K2, K3)
+    (None: the config's control.gain). c: the decay parameter. theorem: 1 (the nominal tau)
+    or 2 (both ends of the tau range). time_headway: overrides the spacing policy's (s)."""
+    import json
+
+    text, is_path = _config_arg(config)
+    return json.loads(
+        _native().check_gain(
+            text,
+            is_path,
+            gain=None if gain is None else [float(k) for k in gain],
+            c=float(c),
+            theorem=int(theorem),
+            time_headway=None if time_headway is None else float(time_headway),
+        )
+    )
