@@ -373,6 +373,20 @@ impl Drop for Cluster {
     }
 }
 
+/// The driver's log of a Dask campaign: how many cells ran in the workers' processes
+/// (platoon._core) and how many as `platoon campaign-cell` processes, from its last line.
+fn dask_paths(out: &Path) -> (usize, usize, String) {
+    let log = std::fs::read_to_string(out.join("dask.log")).unwrap();
+    let done = log
+        .lines()
+        .rev()
+        .find_map(|l| l.strip_prefix("dask_cells: done: "))
+        .unwrap_or_else(|| panic!("no summary line in dask.log:\n{log}"));
+    let words: Vec<&str> = done.split_whitespace().collect();
+    // "N cells in-worker, M by subprocess, K in failed batches"
+    (words[0].parse().unwrap(), words[3].parse().unwrap(), log)
+}
+
 #[test]
 fn a_dask_cluster_on_localhost_gives_the_local_cells_csv_byte_for_byte() {
     let tmp = tempfile::tempdir().unwrap();
@@ -394,17 +408,34 @@ fn a_dask_cluster_on_localhost_gives_the_local_cells_csv_byte_for_byte() {
         duration_s = [1.0, 2.0]
         "#,
     );
-    let local = tmp.path().join("local");
-    ok(&campaign(
-        &[
-            file.to_str().unwrap(),
-            "--no-plots",
-            "--out",
-            local.to_str().unwrap(),
-        ],
+    // Two co-simulated cells: in a worker's process they start `platoon run` children.
+    let cosim = write(
         tmp.path(),
-    ));
-    // The workers run platoon through a wrapper that logs each call: proof the cells ran there.
+        "cosim.toml",
+        r#"
+        name = "cosim"
+        transport = "iceoryx2"
+        [set]
+        "simulation.duration_s" = 5.0
+        [[axes]]
+        key = "trigger.rule"
+        values = ["dynamic", "static"]
+        "#,
+    );
+    let run = |file: &Path, out: &str, extra: &[&str], env: &[(&str, &str)]| -> PathBuf {
+        let out = tmp.path().join(out);
+        let mut args = vec![file.to_str().unwrap(), "--no-plots", "--out"];
+        args.push(out.to_str().unwrap());
+        args.extend_from_slice(extra);
+        let mut c = platoon_command(tmp.path());
+        c.arg("campaign").args(&args).envs(env.iter().copied());
+        ok(&c.output().unwrap());
+        out
+    };
+    let local = run(&file, "local", &[], &[]);
+    let local_cosim = run(&cosim, "local-cosim", &[], &[]);
+    // The workers run platoon through a wrapper that logs each call: proof the cells' processes
+    // ran there.
     let calls = tmp.path().join("calls.log");
     let wrapper = write(
         tmp.path(),
@@ -420,32 +451,75 @@ fn a_dask_cluster_on_localhost_gives_the_local_cells_csv_byte_for_byte() {
         std::os::unix::fs::PermissionsExt::from_mode(0o755),
     )
     .unwrap();
+    let calls_log = || std::fs::read_to_string(&calls).unwrap_or_default();
     let cluster = Cluster::start(tmp.path(), &wrapper);
-    let remote = tmp.path().join("remote");
-    let o = campaign(
-        &[
-            file.to_str().unwrap(),
-            "--no-plots",
-            "--dask",
-            &cluster.address,
-            "--out",
-            remote.to_str().unwrap(),
-        ],
-        tmp.path(),
-    );
-    ok(&o);
-    assert_eq!(
-        std::fs::read_to_string(local.join("cells.csv")).unwrap(),
-        std::fs::read_to_string(remote.join("cells.csv")).unwrap()
-    );
+    let dask = ["--dask", cluster.address.as_str()];
+    let same_cells = |a: &Path, b: &Path| {
+        assert_eq!(
+            std::fs::read_to_string(a.join("cells.csv")).unwrap(),
+            std::fs::read_to_string(b.join("cells.csv")).unwrap(),
+            "{} against {}",
+            a.display(),
+            b.display()
+        );
+    };
+
+    // By default each batch runs in a worker's process, on the installed package's core (CI
+    // installs it into bridge/.venv before the tests): no process per cell.
+    let remote = run(&file, "remote", &dask, &[]);
+    same_cells(&local, &remote);
     let summary = json(&remote.join("campaign.json"));
     assert!(summary["executor"]
         .as_str()
         .unwrap()
         .starts_with("dask tcp://127.0.0.1"));
     assert_eq!(summary["ok"], 12);
-    // The work ran on the workers: one `platoon campaign-cell` per cell, started by a worker.
-    let log = std::fs::read_to_string(&calls).unwrap();
+    let (in_worker, subprocess, log) = dask_paths(&remote);
+    assert_eq!(
+        (in_worker, subprocess),
+        (12, 0),
+        "the cells did not all run in the workers (is the platoon package installed in \
+         bridge/.venv? `pip install ./bridge`):\n{log}"
+    );
+    let batches: Vec<&str> = log
+        .lines()
+        .filter(|l| l.contains(": in-worker on "))
+        .collect();
+    assert!(batches.len() > 1, "{log}");
+    assert!(
+        batches.iter().all(
+            |l| (l.contains(" on w0 ") || l.contains(" on w1 ")) && l.contains("site-packages")
+        ),
+        "{log}"
+    );
+    assert_eq!(calls_log(), "", "no process per cell");
+    // Co-simulated cells in a worker's process start `platoon run` (which starts its nodes)
+    // from the worker's $PLATOON_EXE.
+    let remote_cosim = run(&cosim, "remote-cosim", &dask, &[]);
+    same_cells(&local_cosim, &remote_cosim);
+    assert_eq!(dask_paths(&remote_cosim).0, 2);
+    let log = calls_log();
+    let runs: Vec<&str> = log.lines().filter(|l| !l.contains(" node ")).collect();
+    assert_eq!(runs.len(), 2, "{log}");
+    assert!(
+        runs.iter()
+            .all(|l| (l.starts_with("w0 run ") || l.starts_with("w1 run "))
+                && l.contains("--transport iceoryx2")),
+        "{log}"
+    );
+    std::fs::remove_file(&calls).unwrap();
+
+    // PLATOON_DASK_IN_WORKER=0: one `platoon campaign-cell` per cell, started by a worker,
+    // and the same cells.csv.
+    let forced = run(&file, "forced", &dask, &[("PLATOON_DASK_IN_WORKER", "0")]);
+    same_cells(&local, &forced);
+    let (in_worker, subprocess, log) = dask_paths(&forced);
+    assert_eq!((in_worker, subprocess), (0, 12), "{log}");
+    assert!(
+        log.contains("subprocess on w") && log.contains("PLATOON_DASK_IN_WORKER=0"),
+        "{log}"
+    );
+    let log = calls_log();
     assert_eq!(log.lines().count(), 12, "{log}");
     assert!(
         log.lines()
