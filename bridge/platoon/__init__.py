@@ -75,10 +75,6 @@ def __getattr__(name):
     # The core's exception classes, loaded with the core (the SDKs import this package too).
     if name in ("ConfigError", "PlatoonError"):
         return getattr(_native(), name)
-    if name == "design":
-        from . import design
-
-        return design
     raise AttributeError(f"module 'platoon' has no attribute {name!r}")
 
 
@@ -295,3 +291,6 @@ def campaign(
         samples=samples,
     )
     return Campaign(json.loads(report), Table("cells", cells), pathlib.Path(directory))
+
+
+from . import design  # noqa: E402 (after what it imports from this module)

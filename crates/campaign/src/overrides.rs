@@ -168,12 +168,40 @@ pub fn drop_excluded(root: &mut toml::Value, touched: &[&str]) {
     }
 }
 
+/// A config edited as a whole (the Python package's dicts, which start from a resolved
+/// config holding every key of its variants): in each tagged table, drops the keys that belong
+/// to another `rule` or `kind` than the table's own, so switching `trigger.rule` needs no
+/// clean-up. A key no variant takes is kept, and stays an error that names it.
+pub fn drop_other_variants(root: &mut toml::Value) {
+    for t in platoon_config::tagged_tables() {
+        for (_, table) in instances(root, &t.path) {
+            let Some(tag) = t.tag_of(table).map(str::to_string) else {
+                continue;
+            };
+            if t.variant(&tag).is_none() {
+                continue;
+            }
+            let of_a_variant = |k: &str| t.variants.iter().any(|v| v.keys.iter().any(|x| x == k));
+            table.retain(|k, _| t.allows(&tag, k) || !of_a_variant(k));
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
     fn doc(text: &str) -> toml::Value {
         toml::from_str(text).unwrap()
+    }
+
+    #[test]
+    fn a_whole_config_keeps_only_its_variants_keys_and_the_unknown_ones() {
+        let mut v = doc("[trigger]\nrule = \"static\"\neta = 0.5\ntypo = 1\n");
+        drop_other_variants(&mut v);
+        let t = v["trigger"].as_table().unwrap();
+        assert!(t.get("eta").is_none(), "{t:?}");
+        assert!(t.get("typo").is_some() && t.get("rule").is_some(), "{t:?}");
     }
 
     #[test]

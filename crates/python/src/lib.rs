@@ -114,7 +114,8 @@ fn keyboard_stop() -> (Arc<AtomicBool>, Stop) {
 }
 
 /// The config a call names: a TOML file (`is_path`) or a dict as JSON (labelled `<dict>`; a
-/// dict has no lines, so its errors name the key alone).
+/// dict has no lines, so its errors name the key alone; keys of another rule or kind than a
+/// table's own are dropped).
 fn load_config(
     config: &str,
     is_path: bool,
@@ -125,8 +126,11 @@ fn load_config(
         return Ok((c, s, path));
     }
     let label = PathBuf::from("<dict>");
-    let value: toml::Value = serde_json::from_str(config)
+    let mut value: toml::Value = serde_json::from_str(config)
         .map_err(|e| ConfigFileError::new(&label, "", format!("not a config dict: {e}")))?;
+    // A dict starts from a resolved config, which holds its rule's parameters: switching the
+    // rule (or a kind) drops the old one's, as a campaign's axis does.
+    platoon_campaign::overrides::drop_other_variants(&mut value);
     let text = toml::to_string(&value)
         .map_err(|e| ConfigFileError::new(&label, "", format!("not a config dict: {e}")))?;
     let (c, s) = platoon_config::parse(&text, &label).map_err(|mut e| {

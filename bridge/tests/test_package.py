@@ -1,0 +1,269 @@
+"""The `platoon` Python package (bridge/pyproject.toml) against the `platoon` command: the same
+runs, campaigns and errors, the SDKs importable from anywhere, Ctrl-C and the GIL.
+
+Needs the package installed in this interpreter (.ci/run installs it into the bridge's venv:
+`pip install ./bridge`); the command is the `platoon` script the package installs beside it.
+"""
+
+import importlib
+import json
+import os
+import pathlib
+import signal
+import subprocess
+import sys
+import threading
+import time
+
+import numpy as np
+import pandas as pd
+import pyarrow as pa
+import pytest
+
+import platoon
+
+REPO = pathlib.Path(__file__).resolve().parents[2]
+BIN = pathlib.Path(sys.executable).parent
+PLATOON = str(BIN / "platoon")
+TABLES = ["trajectories", "events", "wire", "channel"]
+
+
+def assert_identical(a, b, what=""):
+    """Two Arrow tables hold the same schema and values, floats bit for bit (NaN included,
+    which pyarrow's equals() never equates)."""
+    assert a.schema == b.schema, what
+    assert a.num_rows == b.num_rows, what
+    for name in a.column_names:
+        x, y = a.column(name), b.column(name)
+        if pa.types.is_floating(x.type):
+            xs, ys = x.to_numpy(), y.to_numpy()
+            assert np.array_equal(xs.view(np.uint64), ys.view(np.uint64)), (what, name)
+        else:
+            assert x.to_pylist() == y.to_pylist(), (what, name)
+
+
+def cli(*args, cwd):
+    p = subprocess.run([PLATOON, *args], cwd=cwd, capture_output=True, text=True)
+    assert p.returncode == 0, f"platoon {' '.join(args)} exited {p.returncode}: {p.stderr}"
+    return p
+
+
+def assert_same_table(csv_path, table):
+    """A table the package handed over equals the command's CSV file value for value (floats
+    compared bit for bit, NaN included)."""
+    a = pd.read_csv(csv_path)
+    b = table.to_pandas()
+    assert list(a.columns) == list(b.columns), csv_path
+    assert len(a) == len(b), csv_path
+    for c in a.columns:
+        x, y = a[c].to_numpy(), b[c].to_numpy()
+        if a[c].dtype.kind in "fiu" and b[c].dtype.kind in "fiu":
+            assert np.array_equal(
+                x.astype(np.float64).view(np.uint64), y.astype(np.float64).view(np.uint64)
+            ) or np.array_equal(x.astype(float), y.astype(float), equal_nan=True), (csv_path, c)
+        else:
+            assert [str(v).lower() for v in x] == [str(v).lower() for v in y], (csv_path, c)
+
+
+def test_the_package_is_the_installed_one_with_its_core():
+    assert "site-packages" in platoon.__file__, platoon.__file__
+    assert importlib.import_module("platoon._core").__version__ == platoon.__version__
+    assert platoon.scenarios() == ["paper", "table1", "degradation"]
+
+
+def test_a_run_of_the_paper_scenario_equals_the_commands_files(tmp_path):
+    cli("run", "--transport", "inproc", "--no-plots", "--out", "cli", cwd=tmp_path)
+    run = platoon.run(platoon.scenario("paper"))
+    assert run.dir is None
+    assert sorted(run.tables) == sorted(TABLES)
+    for name in TABLES:
+        assert isinstance(run.tables[name].arrow, pa.Table)
+        assert_same_table(tmp_path / "cli" / f"{name}.csv", run.tables[name])
+    assert run.summary == json.loads((tmp_path / "cli" / "summary.json").read_text())
+    assert run.summary["complete"] is True
+
+
+def test_a_run_directory_from_python_is_the_commands(tmp_path):
+    cli("run", "--transport", "inproc", "--no-plots", "--out", "cli", cwd=tmp_path)
+    run = platoon.run("paper", out=tmp_path / "py")
+    assert run.dir == tmp_path / "py"
+    for name in ["trajectories.csv", "events.csv", "wire.csv", "channel.csv", "config.toml"]:
+        assert (tmp_path / "py" / name).read_bytes() == (tmp_path / "cli" / name).read_bytes(), name
+    assert_same_table(tmp_path / "cli" / "trajectories.csv", run.trajectories)
+
+
+def test_the_co_simulation_through_the_package_agrees_with_the_in_process_run():
+    cfg = platoon.scenario("paper")
+    cfg["simulation"]["duration_s"] = 5.0
+    inproc = platoon.run(cfg)
+    cosim = platoon.run(cfg, transport="iceoryx2")
+    assert cosim.summary["complete"] is True
+    for name in ["trajectories", "events", "wire"]:
+        assert_identical(cosim.tables[name].arrow, inproc.tables[name].arrow, name)
+
+
+def test_tables_convert_to_pandas_polars_and_read_through_the_capsule():
+    run = platoon.run("paper")
+    t = run.trajectories
+    assert len(t) == t.arrow.num_rows == len(t.to_pandas()) == len(t.to_polars())
+    assert_identical(pa.table(t), t.arrow)  # through __arrow_c_stream__
+    assert t.columns[:4] == ["step", "t", "platoon", "vehicle"]
+    with pytest.raises(AttributeError, match="no detections table"):
+        run.detections
+
+
+def test_an_edited_scenario_runs_what_the_edit_says():
+    cfg = platoon.scenario("paper")
+    cfg["trigger"]["rule"] = "static"
+    static = platoon.run(cfg)
+    paper = platoon.run("paper")
+    broadcasts = lambda r: (r.events.to_pandas()["event"] == "broadcast").sum()  # noqa: E731
+    assert broadcasts(static) != broadcasts(paper)
+
+
+def test_a_bad_key_in_a_dict_raises_config_error_naming_it():
+    cfg = platoon.scenario("paper")
+    cfg["trigger"]["h_s"] = -1.0
+    with pytest.raises(platoon.ConfigError) as e:
+        platoon.run(cfg)
+    assert e.value.key == "trigger.h_s"
+    assert e.value.file == "<dict>" and e.value.line is None
+    assert "trigger.h_s" in str(e.value)
+    assert isinstance(e.value, ValueError)
+    cfg = platoon.scenario("paper")
+    cfg["trigger"]["no_such_key"] = 1
+    with pytest.raises(platoon.ConfigError, match="no_such_key"):
+        platoon.run(cfg)
+
+
+def test_a_bad_file_raises_config_error_with_its_line(tmp_path):
+    bad = tmp_path / "bad.toml"
+    lines = (REPO / "configs" / "paper.toml").read_text().splitlines()
+    line = next(i for i, l in enumerate(lines) if l.startswith("h_s = ")) + 1
+    lines[line - 1] = 'h_s = "soon"'
+    bad.write_text("\n".join(lines) + "\n")
+    with pytest.raises(platoon.ConfigError) as e:
+        platoon.run(bad)
+    assert (e.value.file, e.value.key, e.value.line) == (str(bad), "trigger.h_s", line)
+    with pytest.raises(FileNotFoundError, match="not an embedded scenario"):
+        platoon.run(tmp_path / "missing.toml")
+
+
+def test_a_run_that_fails_raises_platoon_error_naming_why():
+    with pytest.raises(platoon.PlatoonError, match="--transport iceoryx2"):
+        platoon.run("paper", injector="true")
+
+
+def campaign_file(tmp_path):
+    spec = tmp_path / "small.toml"
+    spec.write_text(
+        f"""name = "small"
+base = "{REPO / 'configs' / 'paper.toml'}"
+transport = "inproc"
+set = {{ "simulation.duration_s" = 3.0 }}
+
+[[axes]]
+key = "trigger.rule"
+values = ["static", "dynamic"]
+
+[dos_window]
+onset_s = [0.5, 1.0]
+duration_s = [1.0]
+"""
+    )
+    return spec
+
+
+def test_a_campaign_through_the_package_equals_the_commands_cells_csv(tmp_path):
+    spec = campaign_file(tmp_path)
+    cli("campaign", str(spec), "--out", "cli", "--no-plots", "-j", "2", cwd=tmp_path)
+    result = platoon.campaign(spec, out=tmp_path / "py", jobs=2)
+    assert (tmp_path / "py" / "cells.csv").read_bytes() == (tmp_path / "cli" / "cells.csv").read_bytes()
+    assert result.dir == tmp_path / "py"
+    assert result.report["ok"] == 4 and len(result.cells) == 4
+    cells = result.cells.to_pandas()
+    assert list(cells["status"]) == ["ok"] * 4
+    expected = pd.read_csv(tmp_path / "cli" / "cells.csv")
+    assert list(cells.columns) == list(expected.columns)
+    assert cells.astype(str).replace("None", "nan").equals(expected.astype(str))
+
+
+def test_a_design_check_is_the_commands(tmp_path):
+    cli("design", "check-gain", "--out", "cli", cwd=tmp_path)
+    report = platoon.design.check_gain("paper")
+    assert report == json.loads((tmp_path / "cli" / "check.json").read_text())
+    assert report["stable_over_tau_range"] is True
+
+
+def test_the_sdks_import_from_any_directory(tmp_path):
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    code = (
+        "import platoon.injector, platoon.controller, platoon.wire, platoon; "
+        "print(platoon.__file__)"
+    )
+    p = subprocess.run(
+        [sys.executable, "-c", code], cwd=tmp_path, env=env, capture_output=True, text=True
+    )
+    assert p.returncode == 0, p.stderr
+    assert "site-packages" in p.stdout
+
+
+def test_the_command_is_installed_with_the_package(tmp_path):
+    p = cli("--version", cwd=tmp_path)
+    assert p.stdout.startswith("platoon ")
+    p = subprocess.run([PLATOON, "run", "--no-such-flag"], cwd=tmp_path, capture_output=True, text=True)
+    assert p.returncode == 2 and "--no-such-flag" in p.stderr
+
+
+def test_the_gil_is_released_while_the_core_runs():
+    ticks = []
+    done = threading.Event()
+
+    def count():
+        while not done.is_set():
+            ticks.append(1)
+            time.sleep(0.002)
+
+    t = threading.Thread(target=count)
+    t.start()
+    try:
+        platoon.run("paper")
+    finally:
+        done.set()
+        t.join()
+    # A run takes several hundred milliseconds; holding the GIL would have frozen the counter.
+    assert len(ticks) > 20, len(ticks)
+
+
+def test_ctrl_c_stops_a_long_run_cleanly_and_raises_keyboard_interrupt(tmp_path):
+    script = tmp_path / "long.py"
+    script.write_text(
+        "import platoon, sys\n"
+        "cfg = platoon.scenario('paper')\n"
+        "cfg['simulation']['duration_s'] = 100000.0\n"
+        "print('started', flush=True)\n"
+        "try:\n"
+        "    platoon.run(cfg, out=sys.argv[1], transport='inproc')\n"
+        "except KeyboardInterrupt:\n"
+        "    print('KeyboardInterrupt', flush=True)\n"
+        "    sys.exit(130)\n"
+    )
+    p = subprocess.Popen(
+        [sys.executable, str(script), str(tmp_path / "run")],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    assert p.stdout.readline().strip() == "started"
+    # Wait until the run is under way (its staging directory exists), then interrupt it.
+    deadline = time.monotonic() + 60
+    while not (tmp_path / "run.partial").exists() and time.monotonic() < deadline:
+        time.sleep(0.05)
+    time.sleep(0.5)
+    p.send_signal(signal.SIGINT)
+    out, err = p.communicate(timeout=120)
+    assert p.returncode == 130, (out, err)
+    assert "KeyboardInterrupt" in out
+    summary = json.loads((tmp_path / "run" / "summary.json").read_text())
+    assert summary["complete"] is False
+    assert "KeyboardInterrupt" in summary["error"]
