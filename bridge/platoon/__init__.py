@@ -22,6 +22,8 @@ else that failed, with the message the `platoon` command would print. Ctrl-C
 (KeyboardInterrupt) stops a run or a campaign cleanly, as in the command, then is raised.
 """
 
+from __future__ import annotations
+
 import json
 import os
 import pathlib
@@ -78,15 +80,17 @@ def __getattr__(name):
     raise AttributeError(f"module 'platoon' has no attribute {name!r}")
 
 
-def scenarios():
+def scenarios() -> list[str]:
     """The names of the embedded scenarios (`paper`, `table1`, `degradation`)."""
     return list(_native().scenario_names())
 
 
-def scenario(name="paper"):
+def scenario(name: str | os.PathLike = "paper") -> dict:
     """A scenario as a dict to edit and pass to `run`: an embedded one by name (see
     `scenarios()`) or a TOML config file's path, resolved (every default written out, the keys
-    of docs/config-reference.md)."""
+    of docs/config-reference.md). Switching a table's rule or kind in it (`trigger.rule`,
+    `attack.kind`, ...) drops the old one's parameters when it is run, as a campaign axis
+    does; a None value means the key's default."""
     return json.loads(_native().scenario(os.fspath(name)))
 
 
@@ -195,18 +199,18 @@ class Run:
 
 
 def run(
-    config="paper",
+    config: dict | str | os.PathLike = "paper",
     *,
-    transport="inproc",
-    plant=None,
-    out=None,
-    force=False,
-    plots=False,
-    injector=None,
-    injector_after=False,
-    controller=None,
-    step_timeout_s=1.0,
-):
+    transport: str = "inproc",
+    plant: str | None = None,
+    out: str | os.PathLike | None = None,
+    force: bool = False,
+    plots: bool = False,
+    injector: str | None = None,
+    injector_after: bool = False,
+    controller: str | None = None,
+    step_timeout_s: float = 1.0,
+) -> Run:
     """Runs one scenario and returns a `Run`.
 
     config: a dict (see `scenario`), a TOML file's path, or an embedded scenario's name.
@@ -259,16 +263,16 @@ class Campaign:
 
 
 def campaign(
-    spec,
+    spec: str | os.PathLike,
     *,
-    out=None,
-    jobs=None,
+    out: str | os.PathLike | None = None,
+    jobs: int | None = None,
     dask=None,
-    force=False,
-    keep_runs=False,
-    plots=False,
-    samples=None,
-):
+    force: bool = False,
+    keep_runs: bool = False,
+    plots: bool = False,
+    samples: int | None = None,
+) -> Campaign:
     """Runs a campaign file (campaigns/*.toml) as `platoon campaign` does; returns a Campaign.
 
     out: the campaign directory (default runs/<name>); an unfinished one is resumed, a

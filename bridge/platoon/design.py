@@ -1,9 +1,18 @@
 """LMI design checks (Theorems 1 and 2 of the paper): `platoon design` of the command."""
 
+from __future__ import annotations
+
 from . import _config_arg, _native
 
 
-def check_gain(config="paper", *, gain=None, c=0.0, theorem=1, time_headway=None):
+def check_gain(
+    config: dict | str = "paper",
+    *,
+    gain: tuple[float, float, float] | None = None,
+    c: float = 0.0,
+    theorem: int = 1,
+    time_headway: float | None = None,
+) -> dict:
     """Evaluates a gain K on a scenario's topology, as `platoon design check-gain` does, and
     returns its report (check.json) as a dict: closed-loop eigenvalues over the tau range
     (`stable_over_tau_range`, `worst_max_real`), the smallest beta1/beta2 for which LMI (13)

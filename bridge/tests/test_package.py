@@ -267,3 +267,26 @@ def test_ctrl_c_stops_a_long_run_cleanly_and_raises_keyboard_interrupt(tmp_path)
     summary = json.loads((tmp_path / "run" / "summary.json").read_text())
     assert summary["complete"] is False
     assert "KeyboardInterrupt" in summary["error"]
+
+
+def test_a_python_injector_example_through_the_package_reproduces_the_builtin_channel():
+    # bridge/examples/dos_jammer.py (on platoon.injector) replaces the built-in channel and
+    # reproduces its DoS byte for byte.
+    cfg = platoon.scenario("paper")
+    cfg["simulation"]["duration_s"] = 5.0
+    builtin = platoon.run(cfg, transport="iceoryx2")
+    example = REPO / "bridge" / "examples" / "dos_jammer.py"
+    injected = platoon.run(cfg, transport="iceoryx2", injector=f"{sys.executable} {example}")
+    assert "dos_jammer.py" in injected.summary["injector"]["program"]
+    for name in ["trajectories", "events"]:
+        assert_identical(injected.tables[name].arrow, builtin.tables[name].arrow, name)
+
+
+def test_a_sumo_run_through_the_package():
+    cfg = platoon.scenario(REPO / "configs" / "sumo-paper.toml")
+    cfg["simulation"]["duration_s"] = 1.0
+    run = platoon.run(cfg, transport="iceoryx2", plant="sumo")
+    assert run.summary["complete"] is True
+    assert "sumo" in run.summary
+    t = run.trajectories.to_pandas()
+    assert t["step"].max() == 100 and (t["v"] > 0).all()

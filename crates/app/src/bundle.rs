@@ -35,6 +35,7 @@ pub const FILES: &[(&str, &[u8])] = files!(
     "bridge/platoon/__init__.py",
     "bridge/platoon/__main__.py",
     "bridge/platoon/_cli.py",
+    "bridge/platoon/_core.pyi",
     "bridge/platoon/controller.py",
     "bridge/platoon/design.py",
     "bridge/platoon/injector.py",
