@@ -110,7 +110,7 @@ impl<T: Serialize + DeserializeOwned> Table<T> {
         Ok(Self { name, sink })
     }
 
-    /// A table kept in memory as record batches of at most [`BATCH`] rows ([`Table::batches`]);
+    /// A table kept in memory as record batches of at most [`BATCH`] rows ([`Table::take_batches`]);
     /// `enabled = false` keeps nothing. `stem` names it in errors.
     pub fn memory(stem: &str, enabled: bool) -> Result<Self> {
         let sink = match enabled {
