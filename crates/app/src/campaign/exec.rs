@@ -286,10 +286,14 @@ impl Executor for LocalPool {
 }
 
 /// Cells on a Dask cluster: `bridge/dask_cells.py` (in the bridge's venv, which pins
-/// `distributed`) is fed the jobs as JSON lines and submits them to the scheduler; each task
-/// runs `platoon campaign-cell` on a worker, with the binary at `program`'s path (a shared file
-/// system) or at `$PLATOON_EXE` on the worker. The driver's log goes to `dask.log` in the
-/// campaign directory; a stop ends the driver (SIGTERM).
+/// `distributed`) is fed the jobs as JSON lines and submits them to the scheduler in batches
+/// (about four per worker thread). A worker whose Python has the `platoon` package runs a
+/// batch in its own process (`platoon._core.execute_cells`); one without it, or every worker
+/// when `PLATOON_DASK_IN_WORKER=0` is set in this process's environment, runs a
+/// `platoon campaign-cell` process per cell, with the binary at `program`'s path (a shared
+/// file system) or at `$PLATOON_EXE` on the worker. The driver's log (which path ran each
+/// batch, on which worker) goes to `dask.log` in the campaign directory; a stop ends the
+/// driver (SIGTERM).
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Dask {
     /// The scheduler's address (e.g. `tcp://10.0.0.5:8786`).
@@ -331,8 +335,8 @@ impl Executor for Dask {
     }
 }
 
-/// Sends `jobs` to the Dask scheduler at `address` through the driver, whose workers run
-/// `exe campaign-cell`. Replies are handed to `record` as they complete; once `stop` is set
+/// Sends `jobs` to the Dask scheduler at `address` through the driver, whose workers run the
+/// cells in their process or as `exe campaign-cell` (see [`Dask`]). Replies are handed to `record` as they complete; once `stop` is set
 /// the driver gets SIGTERM. The driver's log goes to `log`.
 fn dask(
     address: &str,
