@@ -135,8 +135,9 @@ pub struct CampaignArgs {
     /// Local pool sizes to measure.
     #[arg(long, value_delimiter = ',', default_value = "1,2")]
     pub jobs: Vec<usize>,
-    /// Cells sent through Dask (0: skip Dask).
-    #[arg(long, default_value_t = 200)]
+    /// Cells sent through Dask (0: skip Dask); each way of running them pays about a second to
+    /// start the Python driver and its client, so fewer cells measure mostly that.
+    #[arg(long, default_value_t = 1000)]
     pub dask_cells: usize,
     /// Output directory [default: runs/bench-campaign].
     #[arg(long)]
@@ -1523,7 +1524,7 @@ fn all(a: AllArgs) -> Result<()> {
     let campaigns = campaign(CampaignArgs {
         cells: 1000,
         jobs: vec![1, 2],
-        dask_cells: 200,
+        dask_cells: 1000,
         out: Some(out.join("campaign")),
         force: true,
     })?;
