@@ -22,6 +22,7 @@ import json
 import math
 import os
 import sys
+import time
 import uuid
 
 # Batches per worker thread: enough that a slow batch does not leave the others idle at the end.
@@ -92,8 +93,12 @@ def run_batch(exe, batch, in_worker):
     return "subprocess", worker, why, [run_cell(exe, job) for job in jobs]
 
 
+STARTED = time.monotonic()
+
+
 def log(*args):
-    print("dask_cells:", *args, file=sys.stderr, flush=True)
+    """A line of dask.log, stamped with the seconds since the driver started."""
+    print(f"dask_cells: {time.monotonic() - STARTED:.3f} s:", *args, file=sys.stderr, flush=True)
 
 
 def main():
@@ -104,6 +109,7 @@ def main():
     lines = [line.strip() for line in sys.stdin if line.strip()]
     indices = [json.loads(line)["index"] for line in lines]
     in_worker = os.environ.get("PLATOON_DASK_IN_WORKER", "1") != "0"
+    log(f"{len(lines)} cells read")
     from distributed import Client, as_completed
 
     try:
@@ -111,13 +117,19 @@ def main():
     except OSError as e:
         print(f"cannot reach the Dask scheduler at {address}: {e}", file=sys.stderr)
         return 1
+    log(f"connected to {address}")
     with client:
         threads = max(1, sum(client.nthreads().values()))
         size = max(1, math.ceil(len(lines) / (BATCHES_PER_THREAD * threads)))
         starts = range(0, len(lines), size)
+        way = (
+            "in the workers where they have platoon._core"
+            if in_worker
+            else "a process per cell: PLATOON_DASK_IN_WORKER=0"
+        )
         log(
             f"{len(lines)} cells in {len(starts)} batches of up to {size} on {threads} worker "
-            f"threads ({'in the workers where they have platoon._core' if in_worker else 'a process per cell: PLATOON_DASK_IN_WORKER=0'})"
+            f"threads ({way})"
         )
         token = uuid.uuid4().hex[:12]
         futures = {}

@@ -380,7 +380,7 @@ fn dask_paths(out: &Path) -> (usize, usize, String) {
     let done = log
         .lines()
         .rev()
-        .find_map(|l| l.strip_prefix("dask_cells: done: "))
+        .find_map(|l| l.split_once(" s: done: ").map(|(_, done)| done))
         .unwrap_or_else(|| panic!("no summary line in dask.log:\n{log}"));
     let words: Vec<&str> = done.split_whitespace().collect();
     // "N cells in-worker, M by subprocess, K in failed batches"

@@ -1400,13 +1400,13 @@ fn campaign(a: CampaignArgs) -> Result<Vec<CampaignRow>> {
 }
 
 /// How many cells a Dask campaign ran in the workers' processes, from the driver's last line
-/// in its dask.log ("dask_cells: done: N cells in-worker, ...").
+/// in its dask.log ("dask_cells: T s: done: N cells in-worker, ...").
 fn dask_in_worker(log: &Path) -> Option<usize> {
     let text = std::fs::read_to_string(log).ok()?;
     let done = text
         .lines()
         .rev()
-        .find_map(|l| l.strip_prefix("dask_cells: done: "))?;
+        .find_map(|l| l.split_once(" s: done: ").map(|(_, done)| done))?;
     done.split_whitespace().next()?.parse().ok()
 }
 
