@@ -33,6 +33,11 @@ import sysconfig
 
 __version__ = "0.1.0"
 
+# The compiled core may be in another copy of this package further down sys.path: the installed
+# one, when a script or test puts the bridge's source tree (this folder's parent) first. Its
+# submodules are looked for in every copy.
+__path__ = __import__("pkgutil").extend_path(__path__, __name__)
+
 __all__ = [
     "Campaign",
     "ConfigError",
@@ -65,12 +70,21 @@ def _native():
 
 def _program():
     """Points $PLATOON_PROGRAM at this environment's `platoon` script, which the core runs as
-    the processes of a co-simulation (here the running program is Python, not `platoon`)."""
+    the processes of a co-simulation (here the running program is Python, not `platoon`): the
+    scripts directory of this interpreter's install scheme, the user scheme's (pip --user),
+    then the PATH's `platoon`. Set it yourself to run another `platoon` binary."""
     if os.environ.get("PLATOON_PROGRAM"):
         return
-    script = shutil.which("platoon", path=sysconfig.get_path("scripts"))
-    if script:
-        os.environ["PLATOON_PROGRAM"] = script
+    dirs = [sysconfig.get_path("scripts")]
+    try:
+        dirs.append(sysconfig.get_path("scripts", f"{os.name}_user"))
+    except KeyError:
+        pass
+    for where in [*dirs, None]:
+        script = shutil.which("platoon", path=where)
+        if script:
+            os.environ["PLATOON_PROGRAM"] = script
+            return
 
 
 def __getattr__(name):
@@ -85,13 +99,27 @@ def scenarios() -> list[str]:
     return list(_native().scenario_names())
 
 
-def scenario(name: str | os.PathLike = "paper") -> dict:
+class Scenario(dict):
+    """A scenario as a dict (what `scenario` returns): it remembers the resolved config it was
+    made from and the file it was read from, so that `run` can drop the parameters of a rule
+    you switched and resolve the file's relative paths (`sumo.net`, ...) against its folder."""
+
+    _origin = None
+    _source = None
+
+
+def scenario(name: str | os.PathLike = "paper") -> Scenario:
     """A scenario as a dict to edit and pass to `run`: an embedded one by name (see
     `scenarios()`) or a TOML config file's path, resolved (every default written out, the keys
     of docs/config-reference.md). Switching a table's rule or kind in it (`trigger.rule`,
-    `attack.kind`, ...) drops the old one's parameters when it is run, as a campaign axis
-    does; a None value means the key's default."""
-    return json.loads(_native().scenario(os.fspath(name)))
+    `attack.kind`, ...) drops the old one's parameters that you left as they were, as a
+    campaign axis does; a None value means the key's default."""
+    text = _native().scenario(os.fspath(name))
+    s = Scenario(json.loads(text))
+    s._origin = text
+    if os.fspath(name) not in _native().scenario_names():
+        s._source = os.path.abspath(os.fspath(name))
+    return s
 
 
 def _drop_none(value):
@@ -104,15 +132,21 @@ def _drop_none(value):
 
 
 def _config_arg(config):
-    """(text, is_path) for the core: a dict as JSON, a file's path, or an embedded name."""
+    """The core's config arguments: a dict as JSON (with where a Scenario came from), a file's
+    path, or an embedded scenario's name (names first, as `scenario` takes them)."""
     if isinstance(config, dict):
-        return json.dumps(_drop_none(config), allow_nan=False), False
+        return {
+            "config": json.dumps(_drop_none(config), allow_nan=False),
+            "is_path": False,
+            "origin": getattr(config, "_origin", None),
+            "source": getattr(config, "_source", None),
+        }
     if isinstance(config, (str, os.PathLike)):
         text = os.fspath(config)
-        if os.path.isfile(text):
-            return text, True
         if text in _native().scenario_names():
-            return _native().scenario(text), False
+            return _config_arg(scenario(text))
+        if os.path.isfile(text):
+            return {"config": text, "is_path": True}
         raise FileNotFoundError(
             f"config {text!r}: no such file, and not an embedded scenario ({', '.join(scenarios())})"
         )
@@ -219,19 +253,20 @@ def run(
     plant: "native" or "sumo" (SUMO needs transport="iceoryx2"); None: the config's.
     out: a run directory to write, as `platoon run --out` writes it (None: in process nothing
         is written and the tables come from memory; otherwise a temporary directory is used
-        and removed). force: replace `out` if it exists. plots: draw the PNG figures there.
+        and removed, or kept and named if the run fails). force: replace `out` if it exists.
+        plots: draw the PNG figures there (both need `out`).
     injector / controller: a shell command starting an external attack injector or controller
         (iceoryx2 only; see platoon.injector, platoon.controller); injector_after runs the
         config's attacks first, then the injector.
     step_timeout_s: how long the run waits for one process's sample of a step (iceoryx2).
 
     Raises ConfigError for an invalid config (file, line, key), PlatoonError when the run
-    fails (e.g. a process died: the error names it), KeyboardInterrupt after stopping it."""
-    text, is_path = _config_arg(config)
+    fails (e.g. a process died: the error names it), ValueError for options that do not go
+    together, KeyboardInterrupt after stopping it (a second one returns at once, leaving the
+    run to stop at its next step)."""
     summary, tables, directory = _native().run(
-        text,
-        is_path,
-        transport,
+        transport=transport,
+        **_config_arg(config),
         plant=plant,
         out=None if out is None else os.fspath(out),
         force=force,
@@ -278,7 +313,9 @@ def campaign(
     out: the campaign directory (default runs/<name>); an unfinished one is resumed, a
         finished one is an error unless force=True. jobs: cells at once on the local pool
         (default: the cores). dask: a distributed.Client or a scheduler's address: the cells
-        run on its workers, in the workers' processes, batched (they need this package).
+        run on its workers, in the workers' processes, batched (they need this package);
+        jobs does not go with it. A KeyboardInterrupt stops it cleanly (the cells done are
+        kept; call again to resume), then is raised.
     keep_runs: keep every cell's full outputs. samples: override monte_carlo.samples.
     cells.csv is byte for byte the same whichever executor ran it."""
     address = None

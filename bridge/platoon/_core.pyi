@@ -6,6 +6,7 @@ from typing import List, Optional, Sequence, Tuple
 import pyarrow
 
 __version__: str
+build_profile: str  # "dev" or "release"
 
 class PlatoonError(RuntimeError):
     """A platoon operation failed; the message says what, and what to do."""
@@ -24,6 +25,8 @@ def run(
     config: str,
     is_path: bool,
     transport: str,
+    origin: Optional[str] = None,
+    source: Optional[str] = None,
     plant: Optional[str] = None,
     out: Optional[str] = None,
     force: bool = False,
@@ -47,6 +50,8 @@ def execute_cells(jobs: str) -> str: ...
 def check_gain(
     config: str,
     is_path: bool,
+    origin: Optional[str] = None,
+    source: Optional[str] = None,
     gain: Optional[Sequence[float]] = None,
     c: float = 0.0,
     theorem: int = 1,

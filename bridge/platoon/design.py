@@ -20,14 +20,13 @@ def check_gain(
 
     config: a dict, a TOML file's path or an embedded scenario's name. gain: (K1, K2, K3)
     (None: the config's control.gain). c: the decay parameter. theorem: 1 (the nominal tau)
-    or 2 (both ends of the tau range). time_headway: overrides the spacing policy's (s)."""
+    or 2 (both ends of the tau range). time_headway: overrides the spacing policy's (s).
+    A check cannot be stopped halfway: Ctrl-C returns at once and leaves it to finish."""
     import json
 
-    text, is_path = _config_arg(config)
     return json.loads(
         _native().check_gain(
-            text,
-            is_path,
+            **_config_arg(config),
             gain=None if gain is None else [float(k) for k in gain],
             c=float(c),
             theorem=int(theorem),

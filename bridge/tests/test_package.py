@@ -65,9 +65,12 @@ def assert_same_table(csv_path, table):
             assert [str(v).lower() for v in x] == [str(v).lower() for v in y], (csv_path, c)
 
 
-def test_the_package_is_the_installed_one_with_its_core():
-    assert "site-packages" in platoon.__file__, platoon.__file__
-    assert importlib.import_module("platoon._core").__version__ == platoon.__version__
+def test_the_package_has_its_installed_core():
+    # The other bridge tests put the source tree first on sys.path: its platoon finds the
+    # installed core all the same.
+    core = importlib.import_module("platoon._core")
+    assert "site-packages" in core.__file__, core.__file__
+    assert core.__version__ == platoon.__version__
     assert platoon.scenarios() == ["paper", "table1", "degradation"]
 
 
@@ -80,6 +83,51 @@ def test_a_run_of_the_paper_scenario_equals_the_commands_files(tmp_path):
         assert isinstance(run.tables[name].arrow, pa.Table)
         assert_same_table(tmp_path / "cli" / f"{name}.csv", run.tables[name])
     assert run.summary == json.loads((tmp_path / "cli" / "summary.json").read_text())
+    assert run.summary["complete"] is True
+
+
+def test_a_run_in_memory_equals_the_commands_parquet_files_bit_for_bit(tmp_path):
+    import pyarrow.parquet as pq
+
+    config = tmp_path / "paper-parquet.toml"
+    config.write_text((REPO / "configs" / "paper.toml").read_text() + '\n[output]\nformat = "parquet"\n')
+    cli("run", str(config), "--transport", "inproc", "--no-plots", "--out", "cli", cwd=tmp_path)
+    run = platoon.run(platoon.scenario(config))
+    for name in TABLES:
+        ours = run.tables[name].arrow
+        # Parquet keeps no large_string (the dictionary columns' values): cast it back.
+        theirs = pq.read_table(tmp_path / "cli" / f"{name}.parquet").cast(ours.schema)
+        assert_identical(theirs, ours, name)
+
+
+def test_options_that_do_not_go_together_are_refused():
+    with pytest.raises(ValueError, match="give out= too"):
+        platoon.run("paper", plots=True)
+    with pytest.raises(ValueError, match="give injector= too"):
+        platoon.run("paper", transport="iceoryx2", injector_after=True)
+    with pytest.raises(ValueError, match="jobs= is the local pool's"):
+        platoon.campaign(REPO / "campaigns" / "dos-timing.toml", jobs=2, dask="tcp://127.0.0.1:1")
+    with pytest.raises(ValueError, match="transport="):
+        platoon.run("paper", transport="carrier-pigeon")
+
+
+def test_a_dict_keeps_the_keys_the_user_set_and_its_files_folder():
+    cfg = platoon.scenario("paper")
+    cfg["trigger"]["rule"] = "static"
+    cfg["trigger"]["eta"] = 123.0  # set by hand: refused, as in a file
+    with pytest.raises(platoon.ConfigError, match="trigger.eta"):
+        platoon.run(cfg)
+    # A plain dict (not from scenario()) switches nothing by itself either.
+    plain = json.loads(json.dumps(platoon.scenario("paper")))
+    plain["trigger"]["rule"] = "static"
+    with pytest.raises(platoon.ConfigError, match="is not used with rule"):
+        platoon.run(plain)
+    # A dict of a file resolves the file's relative paths against its folder (sumo.net).
+    cfg = platoon.scenario(REPO / "configs" / "highway-large.toml")
+    assert cfg["sumo"]["net"].startswith("..")
+    cfg["fleet"]["platoons"] = 1
+    cfg["simulation"]["duration_s"] = 0.05
+    run = platoon.run(cfg, transport="iceoryx2")
     assert run.summary["complete"] is True
 
 
@@ -185,7 +233,17 @@ def test_a_campaign_through_the_package_equals_the_commands_cells_csv(tmp_path):
     assert list(cells["status"]) == ["ok"] * 4
     expected = pd.read_csv(tmp_path / "cli" / "cells.csv")
     assert list(cells.columns) == list(expected.columns)
-    assert cells.astype(str).replace("None", "nan").equals(expected.astype(str))
+    for c in expected.columns:
+        x, y = cells[c], expected[c]
+        if x.dtype.kind in "fiu" and y.dtype.kind in "fiu":
+            assert np.array_equal(x.to_numpy(float), y.to_numpy(float), equal_nan=True), c
+        else:
+            assert [str(v) for v in x.fillna("")] == [str(v) for v in y.fillna("")], c
+    # The columns are typed by what they are, not by this campaign's values.
+    schema = result.cells.arrow.schema
+    assert schema.field("cell").type == pa.int64() and schema.field("seed").type == pa.uint64()
+    assert schema.field("attacked_time_s").type == pa.float64()  # whole numbers here
+    assert schema.field("error").type == pa.string()
 
 
 def test_a_design_check_is_the_commands(tmp_path):
@@ -290,3 +348,26 @@ def test_a_sumo_run_through_the_package():
     assert "sumo" in run.summary
     t = run.trajectories.to_pandas()
     assert t["step"].max() == 100 and (t["v"] > 0).all()
+
+
+def test_ctrl_c_leaves_a_design_check_that_does_not_end(tmp_path):
+    # A gain of 1e308 makes the SDP solver run on and on (the command hangs too, but Ctrl-C
+    # kills it there): from Python, Ctrl-C must still give the interpreter back at once.
+    script = tmp_path / "hang.py"
+    script.write_text(
+        "import platoon, sys\n"
+        "print('started', flush=True)\n"
+        "try:\n"
+        "    platoon.design.check_gain('paper', gain=(1e308, 1e308, 1e308))\n"
+        "    print('returned', flush=True)\n"
+        "except KeyboardInterrupt:\n"
+        "    print('KeyboardInterrupt', flush=True)\n"
+        "    sys.exit(130)\n"
+    )
+    p = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE, text=True)
+    assert p.stdout.readline().strip() == "started"
+    time.sleep(2)
+    p.send_signal(signal.SIGINT)
+    out, _ = p.communicate(timeout=60)
+    assert out.strip() in ("KeyboardInterrupt", "returned"), out
+    assert p.returncode in (0, 130)

@@ -425,6 +425,8 @@ pub struct RunFiles {
     per_platoon: usize,
     dt: f64,
     rows: Vec<StepRow>,
+    /// Keep platoon 0's rows for the plots (not when the tables are kept in memory).
+    keep_rows: bool,
     /// The detection events of the step, written after its rows' own: (vehicle's index in the
     /// fleet, event).
     pending: Vec<(usize, Event)>,
@@ -665,7 +667,13 @@ impl RunFiles {
             per_platoon: scenario.vehicles_per_platoon(),
             dt: scenario.dt(),
             // Platoon 0's rows for the plots; grown as needed past a million steps.
-            rows: Vec::with_capacity(steps.min(1 << 20) as usize * scenario.vehicles_per_platoon()),
+            rows: match place {
+                Place::Dir(..) => Vec::with_capacity(
+                    steps.min(1 << 20) as usize * scenario.vehicles_per_platoon(),
+                ),
+                Place::Memory => Vec::new(),
+            },
+            keep_rows: matches!(place, Place::Dir(..)),
             pending: Vec::new(),
             refusing: Default::default(),
             flags: Vec::new(),
@@ -707,7 +715,9 @@ impl RunFiles {
 
 impl StepSink for RunFiles {
     fn step(&mut self, step: &[StepRow], wire: StepWire<'_>) -> Result<()> {
-        self.rows.extend(step.iter().take_while(|r| r.platoon == 0));
+        if self.keep_rows {
+            self.rows.extend(step.iter().take_while(|r| r.platoon == 0));
+        }
         let k = step[0].step;
         for (i, counts) in wire.per_vehicle.iter().enumerate() {
             if counts.is_eventful() {

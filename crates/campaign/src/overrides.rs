@@ -168,21 +168,30 @@ pub fn drop_excluded(root: &mut toml::Value, touched: &[&str]) {
     }
 }
 
-/// A config edited as a whole (the Python package's dicts, which start from a resolved
-/// config holding every key of its variants): in each tagged table, drops the keys that belong
-/// to another `rule` or `kind` than the table's own, so switching `trigger.rule` needs no
-/// clean-up. A key no variant takes is kept, and stays an error that names it.
-pub fn drop_other_variants(root: &mut toml::Value) {
+/// A config edited as a whole from `origin`, the resolved config it was made from (the Python
+/// package's dicts, which hold every key of their variants): in each tagged table whose `rule`
+/// or `kind` now differs from the origin's, drops the keys of the old variant that the new one
+/// does not take and that still hold the origin's value, so switching `trigger.rule` needs no
+/// clean-up. A key the edit added or changed is kept, and stays an error that names it.
+pub fn drop_switched_variants(root: &mut toml::Value, origin: &toml::Value) {
+    let mut origin = origin.clone();
     for t in platoon_config::tagged_tables() {
-        for (_, table) in instances(root, &t.path) {
+        let before: std::collections::HashMap<String, toml::Table> =
+            instances(&mut origin, &t.path)
+                .into_iter()
+                .map(|(p, table)| (p, table.clone()))
+                .collect();
+        for (path, table) in instances(root, &t.path) {
+            let Some(old) = before.get(&path) else {
+                continue;
+            };
             let Some(tag) = t.tag_of(table).map(str::to_string) else {
                 continue;
             };
-            if t.variant(&tag).is_none() {
+            if t.variant(&tag).is_none() || t.tag_of(old) == Some(tag.as_str()) {
                 continue;
             }
-            let of_a_variant = |k: &str| t.variants.iter().any(|v| v.keys.iter().any(|x| x == k));
-            table.retain(|k, _| t.allows(&tag, k) || !of_a_variant(k));
+            table.retain(|k, v| t.allows(&tag, k) || old.get(k) != Some(v));
         }
     }
 }
@@ -196,12 +205,18 @@ mod tests {
     }
 
     #[test]
-    fn a_whole_config_keeps_only_its_variants_keys_and_the_unknown_ones() {
-        let mut v = doc("[trigger]\nrule = \"static\"\neta = 0.5\ntypo = 1\n");
-        drop_other_variants(&mut v);
+    fn a_switched_rule_drops_the_old_rules_untouched_keys_only() {
+        let origin = doc("[trigger]\nrule = \"dynamic\"\neta = 0.5\nphi = 0.3\n");
+        let mut v = doc("[trigger]\nrule = \"static\"\neta = 0.5\nphi = 0.4\ntypo = 1\n");
+        drop_switched_variants(&mut v, &origin);
         let t = v["trigger"].as_table().unwrap();
+        // eta untouched: dropped; phi changed and typo added by the edit: kept (and refused).
         assert!(t.get("eta").is_none(), "{t:?}");
-        assert!(t.get("typo").is_some() && t.get("rule").is_some(), "{t:?}");
+        assert!(t.get("phi").is_some() && t.get("typo").is_some(), "{t:?}");
+        // The same rule: nothing is dropped.
+        let mut same = origin.clone();
+        drop_switched_variants(&mut same, &origin);
+        assert_eq!(same, origin);
     }
 
     #[test]

@@ -226,8 +226,9 @@ pub fn read_parquet<T: Serialize + DeserializeOwned>(path: &std::path::Path) -> 
     Ok(out)
 }
 
-/// A table file written by [`Table`] as record batches (its schema and batches, the schema of
-/// [`fields`]): a Parquet file's row groups as they are, a CSV file's rows converted.
+/// A table file written by [`Table`] (CSV or Parquet) as record batches of at most [`BATCH`]
+/// rows with the schema of [`fields`]: its rows are read and converted, so both formats give
+/// the same batches.
 pub fn read_batches<T: Serialize + DeserializeOwned>(
     path: &std::path::Path,
 ) -> Result<(arrow_schema::SchemaRef, Vec<RecordBatch>)> {

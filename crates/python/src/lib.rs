@@ -55,51 +55,63 @@ fn py_err(py: Python<'_>, e: anyhow::Error) -> PyErr {
 }
 
 /// Runs `work` on a thread of its own without the GIL; the calling thread waits, checking for
-/// signals. On a KeyboardInterrupt (or any exception a signal handler raises) `flag` is set, the
-/// work is waited for (it stops at its next check of the flag), and the exception is raised.
-fn interruptible<T: Send>(
+/// signals every 100 ms. On a KeyboardInterrupt (or any exception a signal handler raises)
+/// with a `flag`, the flag is set and the work waited for (it stops at its next check of the
+/// flag), then the exception is raised. A second interrupt, or the first for work that cannot
+/// be stopped (`flag` None), is raised at once: the work is left to finish on its thread.
+fn interruptible<T: Send + 'static>(
     py: Python<'_>,
-    flag: &Arc<AtomicBool>,
-    work: impl FnOnce() -> T + Send,
+    flag: Option<&Arc<AtomicBool>>,
+    work: impl FnOnce() -> T + Send + 'static,
 ) -> PyResult<T> {
-    let done = Arc::new((Mutex::new(false), Condvar::new()));
-    std::thread::scope(|s| {
-        let signal_done = done.clone();
-        let worker = s.spawn(move || {
-            let out = work();
-            let (lock, cv) = &*signal_done;
+    /// Marks the work done however its thread ends (a panic too), and wakes the caller.
+    struct Finished(Arc<(Mutex<bool>, Condvar)>);
+    impl Drop for Finished {
+        fn drop(&mut self) {
+            let (lock, cv) = &*self.0;
             *lock.lock().unwrap_or_else(|p| p.into_inner()) = true;
             cv.notify_all();
-            out
+        }
+    }
+    let done = Arc::new((Mutex::new(false), Condvar::new()));
+    let finished = Finished(done.clone());
+    let worker = std::thread::Builder::new()
+        .name("platoon-core".into())
+        .spawn(move || {
+            let _finished = finished;
+            work()
+        })
+        .map_err(|e| PlatoonError::new_err(format!("cannot start a thread: {e}")))?;
+    let mut interrupt = None;
+    loop {
+        let over = py.detach(|| {
+            let (lock, cv) = &*done;
+            let guard = lock.lock().unwrap_or_else(|p| p.into_inner());
+            let (guard, _) = cv
+                .wait_timeout_while(guard, Duration::from_millis(100), |d| !*d)
+                .unwrap_or_else(|p| p.into_inner());
+            *guard
         });
-        let mut interrupt = None;
-        loop {
-            let finished = py.detach(|| {
-                let (lock, cv) = &*done;
-                let guard = lock.lock().unwrap_or_else(|p| p.into_inner());
-                let (guard, _) = cv
-                    .wait_timeout_while(guard, Duration::from_millis(100), |d| !*d)
-                    .unwrap_or_else(|p| p.into_inner());
-                *guard
-            });
-            if finished {
-                break;
-            }
-            if interrupt.is_none() {
-                if let Err(e) = py.check_signals() {
+        if over {
+            break;
+        }
+        if let Err(e) = py.check_signals() {
+            match (flag, &interrupt) {
+                (Some(flag), None) => {
                     flag.store(true, Ordering::SeqCst);
                     interrupt = Some(e);
                 }
+                _ => return Err(e),
             }
         }
-        let out = py.detach(|| worker.join()).map_err(|_| {
-            PyRuntimeError::new_err("platoon's core panicked (a bug: please report it)")
-        })?;
-        match interrupt {
-            Some(e) => Err(e),
-            None => Ok(out),
-        }
-    })
+    }
+    let out = py.detach(|| worker.join()).map_err(|_| {
+        PyRuntimeError::new_err("platoon's core panicked (a bug: please report it)")
+    })?;
+    match interrupt {
+        Some(e) => Err(e),
+        None => Ok(out),
+    }
 }
 
 /// A stop that a KeyboardInterrupt sets, named as the CLI names its signals.
@@ -113,24 +125,63 @@ fn keyboard_stop() -> (Arc<AtomicBool>, Stop) {
     (flag, stop)
 }
 
-/// The config a call names: a TOML file (`is_path`) or a dict as JSON (labelled `<dict>`; a
-/// dict has no lines, so its errors name the key alone; keys of another rule or kind than a
-/// table's own are dropped).
+/// Where a dict config came from: the resolved config it was made from (JSON), whose
+/// untouched keys of a switched rule may go, and the file it was read from, whose directory its
+/// relative paths (`sumo.net`, ...) are relative to.
+#[derive(Default)]
+struct DictOrigin {
+    config: Option<String>,
+    file: Option<PathBuf>,
+}
+
+/// The config a call names: a TOML file (`is_path`) or a dict as JSON, labelled `<dict>` (or
+/// `<dict of NAME>` beside the file NAME it was read from, which relative paths are resolved
+/// against); a dict has no lines, so its errors name the key alone. A dict made from a resolved
+/// config may switch a rule or kind without removing the old one's keys.
 fn load_config(
     config: &str,
     is_path: bool,
+    origin: &DictOrigin,
 ) -> Result<(platoon_config::Config, platoon_sim::Scenario, PathBuf)> {
     if is_path {
         let path = PathBuf::from(config);
         let (c, s) = platoon_config::load(&path)?;
         return Ok((c, s, path));
     }
-    let label = PathBuf::from("<dict>");
-    let mut value: toml::Value = serde_json::from_str(config)
-        .map_err(|e| ConfigFileError::new(&label, "", format!("not a config dict: {e}")))?;
-    // A dict starts from a resolved config, which holds its rule's parameters: switching the
-    // rule (or a kind) drops the old one's, as a campaign's axis does.
-    platoon_campaign::overrides::drop_other_variants(&mut value);
+    let label = match &origin.file {
+        Some(file) => {
+            let name = file.file_name().unwrap_or_default().to_string_lossy();
+            file.parent()
+                .unwrap_or(Path::new(""))
+                .join(format!("<dict of {name}>"))
+        }
+        None => PathBuf::from("<dict>"),
+    };
+    // JSON's nulls (a key left at its default) have no TOML form: they are left out.
+    fn without_nulls(v: serde_json::Value) -> serde_json::Value {
+        use serde_json::Value;
+        match v {
+            Value::Object(m) => Value::Object(
+                m.into_iter()
+                    .filter(|(_, v)| !v.is_null())
+                    .map(|(k, v)| (k, without_nulls(v)))
+                    .collect(),
+            ),
+            Value::Array(a) => Value::Array(a.into_iter().map(without_nulls).collect()),
+            other => other,
+        }
+    }
+    let parse_json = |text: &str| -> Result<toml::Value> {
+        let bad = |e: serde_json::Error| {
+            ConfigFileError::new(&label, "", format!("not a config dict: {e}"))
+        };
+        let json: serde_json::Value = serde_json::from_str(text).map_err(bad)?;
+        Ok(serde_json::from_value(without_nulls(json)).map_err(bad)?)
+    };
+    let mut value = parse_json(config)?;
+    if let Some(origin) = &origin.config {
+        platoon_campaign::overrides::drop_switched_variants(&mut value, &parse_json(origin)?);
+    }
     let text = toml::to_string(&value)
         .map_err(|e| ConfigFileError::new(&label, "", format!("not a config dict: {e}")))?;
     let (c, s) = platoon_config::parse(&text, &label).map_err(|mut e| {
@@ -187,15 +238,18 @@ type RunResult = (String, Vec<(String, Py<PyAny>)>, Option<String>);
 /// `run(...)`: one scenario. In process with no `out`, nothing touches the disk: the tables
 /// come from memory. Otherwise (a run directory asked for, a co-simulation, SUMO, an external
 /// injector or controller) it is `platoon run` into `out` (a temporary directory, removed
-/// after, when None), and the tables are read back from its files.
+/// after, when None; kept and named when the run fails), and the tables are read back from
+/// its files.
 #[pyfunction]
-#[pyo3(signature = (config, is_path, transport, plant=None, out=None, force=false, plots=false, injector=None, injector_after=false, controller=None, step_timeout_s=1.0))]
+#[pyo3(signature = (config, is_path, transport, origin=None, source=None, plant=None, out=None, force=false, plots=false, injector=None, injector_after=false, controller=None, step_timeout_s=1.0))]
 #[allow(clippy::too_many_arguments)]
 fn run(
     py: Python<'_>,
     config: &str,
     is_path: bool,
     transport: &str,
+    origin: Option<String>,
+    source: Option<PathBuf>,
     plant: Option<&str>,
     out: Option<PathBuf>,
     force: bool,
@@ -205,7 +259,12 @@ fn run(
     controller: Option<String>,
     step_timeout_s: f64,
 ) -> PyResult<RunResult> {
-    let (config, scenario, label) = load_config(config, is_path).map_err(|e| py_err(py, e))?;
+    let origin = DictOrigin {
+        config: origin,
+        file: source,
+    };
+    let (config, scenario, label) =
+        load_config(config, is_path, &origin).map_err(|e| py_err(py, e))?;
     let transport = match transport {
         "inproc" => Transport::Inproc,
         "iceoryx2" => Transport::Iceoryx2,
@@ -230,6 +289,16 @@ fn run(
             "step_timeout_s={step_timeout_s}: a positive number of seconds"
         )));
     }
+    if out.is_none() && (plots || force) {
+        return Err(PyValueError::new_err(
+            "plots=True and force=True are about a run directory: give out= too",
+        ));
+    }
+    if injector_after && injector.is_none() {
+        return Err(PyValueError::new_err(
+            "injector_after=True runs an injector after the config's attacks: give injector= too",
+        ));
+    }
     let (flag, stop) = keyboard_stop();
     let native = plant.unwrap_or(config.simulation.plant) == PlantKind::Native;
     if transport == Transport::Inproc
@@ -238,14 +307,14 @@ fn run(
         && injector.is_none()
         && controller.is_none()
     {
-        let (tables, summary) = interruptible(py, &flag, || {
-            platoon_app::run::simulate_in_memory(&scenario, &config.output, &(), &stop)
-        })?
-        .map_err(|e| py_err(py, e))?;
-        let extra = [("injector", platoon_app::run::builtin_injector_json())];
-        let json = platoon_app::run::summary_json(&summary, &extra)
-            .and_then(|j| Ok(serde_json::to_string(&j)?))
-            .map_err(|e| py_err(py, e))?;
+        let done = interruptible(py, Some(&flag), move || -> Result<(Tables, String)> {
+            let (tables, summary) =
+                platoon_app::run::simulate_in_memory(&scenario, &config.output, &(), &stop)?;
+            let extra = [("injector", platoon_app::run::builtin_injector_json())];
+            let json = platoon_app::run::summary_json(&summary, &extra)?;
+            Ok((tables, serde_json::to_string(&json)?))
+        })?;
+        let (tables, json) = done.map_err(|e| py_err(py, e))?;
         return Ok((json, to_pyarrow(py, tables)?, None));
     }
     let opts = RunOptions {
@@ -279,45 +348,74 @@ fn run(
                 })?,
         ),
     };
-    let dir = match (&out, &temp) {
-        (Some(out), _) => out.clone(),
+    let asked = out.is_some();
+    let dir = match (out, &temp) {
+        (Some(out), _) => out,
         (None, Some(t)) => t.path().join("run"),
         (None, None) => unreachable!("a temporary directory is made when no out is given"),
     };
-    let outcome = interruptible(py, &flag, || {
-        platoon_app::run::run(config, &scenario, &opts, &dir, force, &stop, &())
-    })?
-    .map_err(|e| py_err(py, e))?;
-    if let Some(failure) = &outcome.failure {
-        let kept = match &out {
-            Some(_) => format!(" (what it recorded is in {})", outcome.dir.display()),
-            None => String::new(),
-        };
-        return Err(PlatoonError::new_err(format!("{failure}{kept}")));
-    }
-    let read = || -> Result<(String, Tables)> {
-        let summary = outcome.dir.join("summary.json");
-        let json = std::fs::read_to_string(&summary)
-            .with_context(|| format!("reading {}", summary.display()))?;
-        Ok((json, platoon_app::run::read_tables(&outcome.dir)?))
-    };
-    let (json, tables) = read().map_err(|e| py_err(py, e))?;
-    let dir = out.map(|_| outcome.dir.display().to_string());
+    let done = interruptible(
+        py,
+        Some(&flag),
+        move || -> Result<(String, Tables, PathBuf)> {
+            let outcome = platoon_app::run::run(config, &scenario, &opts, &dir, force, &stop, &())?;
+            if let Some(failure) = &outcome.failure {
+                // What it recorded stays, in a temporary directory too (its logs say why).
+                let kept = match temp {
+                    Some(t) => t.keep().join("run"),
+                    None => outcome.dir.clone(),
+                };
+                anyhow::bail!("{failure} (what the run recorded is in {})", kept.display());
+            }
+            let summary = outcome.dir.join("summary.json");
+            let json = std::fs::read_to_string(&summary)
+                .with_context(|| format!("reading {}", summary.display()))?;
+            let tables = platoon_app::run::read_tables(&outcome.dir)?;
+            drop(temp);
+            Ok((json, tables, outcome.dir))
+        },
+    )?;
+    let (json, tables, dir) = done.map_err(|e| py_err(py, e))?;
+    let dir = asked.then(|| dir.display().to_string());
     Ok((json, to_pyarrow(py, tables)?, dir))
 }
 
-/// `cells.csv` as a `pyarrow.Table`, each column's type inferred from its values (a metric
-/// column is float64; an empty cell is null).
+/// `cells.csv`'s columns by their meaning, whatever the values of one campaign: `cell` and
+/// `sample` int64, `seed` uint64 (null without a seed), `status` and `error` strings, every
+/// other column (an axis, a drawn value, a metric) float64 unless it holds text in this
+/// campaign (a string axis or metric such as `safety_class`).
+fn cells_schema(inferred: &arrow_schema::Schema) -> arrow_schema::Schema {
+    use arrow_schema::{DataType, Field};
+    let fields: Vec<Field> = inferred
+        .fields()
+        .iter()
+        .map(|f| {
+            let t = match f.name().as_str() {
+                "cell" | "sample" => DataType::Int64,
+                "seed" => DataType::UInt64,
+                "status" | "error" => DataType::Utf8,
+                _ => match f.data_type() {
+                    DataType::Int64 | DataType::Float64 | DataType::Null => DataType::Float64,
+                    other => other.clone(),
+                },
+            };
+            Field::new(f.name(), t, true)
+        })
+        .collect();
+    arrow_schema::Schema::new(fields)
+}
+
+/// `cells.csv` as record batches with [`cells_schema`]'s types (an empty cell is null).
 fn read_cells(path: &Path) -> Result<(arrow_schema::SchemaRef, Vec<RecordBatch>)> {
     use std::io::Seek;
     let mut file =
         std::fs::File::open(path).with_context(|| format!("opening {}", path.display()))?;
     let format = arrow_csv::reader::Format::default().with_header(true);
-    let (schema, _) = format
+    let (inferred, _) = format
         .infer_schema(&mut file, None)
         .with_context(|| format!("reading {}", path.display()))?;
     file.rewind()?;
-    let schema = Arc::new(schema);
+    let schema = Arc::new(cells_schema(&inferred));
     let reader = arrow_csv::ReaderBuilder::new(schema.clone())
         .with_format(format)
         .build(file)
@@ -356,9 +454,14 @@ fn campaign(
                 .ok_or_else(|| PyValueError::new_err("jobs=0: at least one cell at a time"))?,
         ),
     };
-    let executor: Box<dyn Executor + Sync> = match dask {
-        Some(address) => Box::new(Dask::new(address)),
-        None => Box::new(LocalPool::new(jobs)),
+    let executor: Box<dyn Executor + Send> = match (dask, jobs) {
+        (Some(_), Some(_)) => {
+            return Err(PyValueError::new_err(
+                "jobs= is the local pool's; with dask= the cluster's workers run the cells",
+            ))
+        }
+        (Some(address), None) => Box::new(Dask::new(address)),
+        (None, jobs) => Box::new(LocalPool::new(jobs)),
     };
     let out = out.unwrap_or_else(|| PathBuf::from("runs").join(&campaign.name));
     let opts = CampaignOptions {
@@ -367,29 +470,35 @@ fn campaign(
         plots,
     };
     let (flag, stop) = keyboard_stop();
-    let outcome = interruptible(py, &flag, || {
-        platoon_app::campaign::run(&campaign, &out, &opts, &*executor, &stop, &())
-    })?
-    .map_err(|e| py_err(py, e))?;
-    if let Some(e) = outcome.failure {
-        let e = e.context(format!(
-            "the cells done are kept in {}; call again to resume",
-            outcome.dir.display()
-        ));
-        return Err(py_err(py, e));
-    }
-    let read = || -> Result<_> {
+    let done = interruptible(py, Some(&flag), move || -> Result<_> {
+        let outcome = platoon_app::campaign::run(&campaign, &out, &opts, &*executor, &stop, &())?;
+        if let Some(e) = outcome.failure {
+            return Err(e.context(format!(
+                "the cells done are kept in {}; call again to resume",
+                outcome.dir.display()
+            )));
+        }
+        if let Some(why) = outcome.stopped {
+            anyhow::bail!(
+                "{why}: the cells done are kept in {}; call again to resume",
+                outcome.dir.display()
+            );
+        }
         let report = outcome.dir.join("campaign.json");
         let json = std::fs::read_to_string(&report)
             .with_context(|| format!("reading {}", report.display()))?;
-        Ok((json, read_cells(&outcome.dir.join("cells.csv"))?))
-    };
-    let (json, (schema, batches)) = read().map_err(|e| py_err(py, e))?;
+        Ok((
+            json,
+            read_cells(&outcome.dir.join("cells.csv"))?,
+            outcome.dir,
+        ))
+    })?;
+    let (json, (schema, batches), dir) = done.map_err(|e| py_err(py, e))?;
     let cells = to_pyarrow(py, vec![("cells", schema, batches)])?
         .pop()
         .map(|(_, t)| t)
         .expect("one table in, one out");
-    Ok((json, cells, outcome.dir.display().to_string()))
+    Ok((json, cells, dir.display().to_string()))
 }
 
 /// `execute_cells(jobs)`: campaign cells in this process (what a Dask worker runs): a JSON list
@@ -401,25 +510,44 @@ fn execute_cells(py: Python<'_>, jobs: &str) -> PyResult<String> {
         .map_err(|e| PyValueError::new_err(format!("not a JSON list of cell jobs: {e}")))?;
     let replies: Vec<CellReply> = py.detach(|| {
         jobs.iter()
-            .map(|job| platoon_app::campaign::execute(job, None))
+            .map(|job| {
+                // A cell that panics is that cell's error, not its batch's.
+                std::panic::catch_unwind(|| platoon_app::campaign::execute(job, None))
+                    .unwrap_or_else(|_| CellReply {
+                        index: job.index,
+                        summary: None,
+                        error: Some(
+                            "platoon's core panicked on this cell (a bug: please report it)".into(),
+                        ),
+                    })
+            })
             .collect()
     });
     serde_json::to_string(&replies).map_err(|e| py_err(py, e.into()))
 }
 
-/// `check_gain(...)`: `platoon design check-gain`'s report (check.json) as JSON.
+/// `check_gain(...)`: `platoon design check-gain`'s report (check.json) as JSON. A design
+/// check cannot be stopped halfway: a KeyboardInterrupt returns at once and leaves it to
+/// finish on its thread.
 #[pyfunction]
-#[pyo3(signature = (config, is_path, gain=None, c=0.0, theorem=1, time_headway=None))]
+#[pyo3(signature = (config, is_path, origin=None, source=None, gain=None, c=0.0, theorem=1, time_headway=None))]
+#[allow(clippy::too_many_arguments)]
 fn check_gain(
     py: Python<'_>,
     config: &str,
     is_path: bool,
+    origin: Option<String>,
+    source: Option<PathBuf>,
     gain: Option<[f64; 3]>,
     c: f64,
     theorem: u8,
     time_headway: Option<f64>,
 ) -> PyResult<String> {
-    let (config, scenario, _) = load_config(config, is_path).map_err(|e| py_err(py, e))?;
+    let origin = DictOrigin {
+        config: origin,
+        file: source,
+    };
+    let (config, scenario, _) = load_config(config, is_path, &origin).map_err(|e| py_err(py, e))?;
     let theorem = platoon_app::design::Theorem::from_number(theorem)
         .ok_or_else(|| PyValueError::new_err(format!("theorem={theorem}: 1 or 2")))?;
     let opts = platoon_app::design::CheckOptions {
@@ -428,12 +556,11 @@ fn check_gain(
         theorem,
         time_headway,
     };
-    let (flag, _) = keyboard_stop();
-    let report = interruptible(py, &flag, || {
-        platoon_app::design::check_gain(&config, &scenario, &opts)
-    })?
-    .map_err(|e| py_err(py, e))?;
-    serde_json::to_string(&report).map_err(|e| py_err(py, e.into()))
+    let report = interruptible(py, None, move || -> Result<String> {
+        let report = platoon_app::design::check_gain(&config, &scenario, &opts)?;
+        Ok(serde_json::to_string(&report)?)
+    })?;
+    report.map_err(|e| py_err(py, e))
 }
 
 /// `cli(argv)`: the `platoon` command (argv[0] is the program name); returns its exit status.
@@ -447,13 +574,40 @@ fn cli(py: Python<'_>, argv: Vec<String>) -> u8 {
     })
 }
 
+/// The bridge of the checkout this core was built from (the SUMO plant, the Python examples,
+/// its venv), if it is still there: the core's program is the Python interpreter, so the
+/// command's own lookup (beside the running binary) would fall back to the copy it carries.
+fn built_bridge() -> Option<PathBuf> {
+    let bridge = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../bridge");
+    bridge
+        .join("setup-venv.sh")
+        .is_file()
+        .then(|| bridge.canonicalize().ok())
+        .flatten()
+}
+
 /// The compiled core of the `platoon` Python package.
 #[pymodule]
 #[pyo3(name = "_core")]
 fn core_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    if std::env::var_os("PLATOON_BRIDGE_DIR").is_none() {
+        if let Some(bridge) = built_bridge() {
+            // For this process's lookups and the processes it starts.
+            std::env::set_var("PLATOON_BRIDGE_DIR", bridge);
+        }
+    }
     m.add("PlatoonError", m.py().get_type::<PlatoonError>())?;
     m.add("ConfigError", m.py().get_type::<ConfigError>())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    // Benchmarks through the package should say when they measured an unoptimised core.
+    m.add(
+        "build_profile",
+        if cfg!(debug_assertions) {
+            "dev"
+        } else {
+            "release"
+        },
+    )?;
     m.add_function(wrap_pyfunction!(scenario, m)?)?;
     m.add_function(wrap_pyfunction!(scenario_names, m)?)?;
     m.add_function(wrap_pyfunction!(run, m)?)?;
