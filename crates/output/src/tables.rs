@@ -50,17 +50,20 @@ impl Format {
 
 enum Sink<T> {
     Off,
-    Memory {
-        fields: Vec<FieldRef>,
-        rows: Vec<T>,
-        batches: Vec<RecordBatch>,
-    },
     Csv(Box<csv::Writer<BufWriter<File>>>),
-    Parquet {
-        writer: Box<ArrowWriter<File>>,
+    /// Rows buffered into record batches of [`BATCH`], each written to `out` when full.
+    Batches {
         fields: Vec<FieldRef>,
         rows: Vec<T>,
+        out: BatchOut,
     },
+}
+
+/// Where full record batches go.
+enum BatchOut {
+    Parquet(Box<ArrowWriter<File>>),
+    /// Kept for [`Table::take_batches`].
+    Memory(Vec<RecordBatch>),
 }
 
 /// A table file being written (or not, when the run was told to skip it).
@@ -100,10 +103,10 @@ impl<T: Serialize + DeserializeOwned> Table<T> {
                     .build();
                 let writer = ArrowWriter::try_new(file, schema, Some(props))
                     .with_context(|| format!("starting {}", path.display()))?;
-                Sink::Parquet {
-                    writer: Box::new(writer),
+                Sink::Batches {
                     fields,
                     rows: Vec::with_capacity(BATCH),
+                    out: BatchOut::Parquet(Box::new(writer)),
                 }
             }
         };
@@ -115,10 +118,10 @@ impl<T: Serialize + DeserializeOwned> Table<T> {
     pub fn memory(stem: &str, enabled: bool) -> Result<Self> {
         let sink = match enabled {
             false => Sink::Off,
-            true => Sink::Memory {
+            true => Sink::Batches {
                 fields: fields::<T>()?,
                 rows: Vec::new(),
-                batches: Vec::new(),
+                out: BatchOut::Memory(Vec::new()),
             },
         };
         Ok(Self {
@@ -131,8 +134,10 @@ impl<T: Serialize + DeserializeOwned> Table<T> {
     /// first for the last rows). None for a table written to a file or not kept.
     pub fn take_batches(&mut self) -> Result<Option<(arrow_schema::SchemaRef, Vec<RecordBatch>)>> {
         match &mut self.sink {
-            Sink::Memory {
-                fields, batches, ..
+            Sink::Batches {
+                fields,
+                out: BatchOut::Memory(batches),
+                ..
             } => Ok(Some((
                 Arc::new(arrow_schema::Schema::new(fields.clone())),
                 std::mem::take(batches),
@@ -145,17 +150,10 @@ impl<T: Serialize + DeserializeOwned> Table<T> {
     pub fn write(&mut self, row: T) -> Result<()> {
         match &mut self.sink {
             Sink::Off => Ok(()),
-            Sink::Memory { rows, .. } => {
-                rows.push(row);
-                if rows.len() >= BATCH {
-                    self.flush_batch()?;
-                }
-                Ok(())
-            }
             Sink::Csv(w) => w
                 .serialize(row)
                 .with_context(|| format!("writing {}", self.name)),
-            Sink::Parquet { rows, .. } => {
+            Sink::Batches { rows, .. } => {
                 rows.push(row);
                 if rows.len() >= BATCH {
                     self.flush_batch()?;
@@ -166,32 +164,16 @@ impl<T: Serialize + DeserializeOwned> Table<T> {
     }
 
     fn flush_batch(&mut self) -> Result<()> {
-        if let Sink::Memory {
-            fields,
-            rows,
-            batches,
-        } = &mut self.sink
-        {
+        if let Sink::Batches { fields, rows, out } = &mut self.sink {
             if !rows.is_empty() {
                 let batch = serde_arrow::to_record_batch(fields, rows)
                     .with_context(|| format!("converting rows for {}", self.name))?;
-                batches.push(batch);
-                rows.clear();
-            }
-            return Ok(());
-        }
-        if let Sink::Parquet {
-            writer,
-            fields,
-            rows,
-        } = &mut self.sink
-        {
-            if !rows.is_empty() {
-                let batch = serde_arrow::to_record_batch(fields, rows)
-                    .with_context(|| format!("converting rows for {}", self.name))?;
-                writer
-                    .write(&batch)
-                    .with_context(|| format!("writing {}", self.name))?;
+                match out {
+                    BatchOut::Parquet(writer) => writer
+                        .write(&batch)
+                        .with_context(|| format!("writing {}", self.name))?,
+                    BatchOut::Memory(batches) => batches.push(batch),
+                }
                 rows.clear();
             }
         }
@@ -201,16 +183,23 @@ impl<T: Serialize + DeserializeOwned> Table<T> {
     /// Writes what is buffered and closes the file.
     pub fn finish(&mut self) -> Result<()> {
         self.flush_batch()?;
-        if matches!(self.sink, Sink::Memory { .. }) {
+        if let Sink::Batches {
+            out: BatchOut::Memory(_),
+            ..
+        } = self.sink
+        {
             return Ok(()); // kept for take_batches
         }
         match std::mem::replace(&mut self.sink, Sink::Off) {
-            Sink::Off | Sink::Memory { .. } => Ok(()),
+            Sink::Off => Ok(()),
             Sink::Csv(mut w) => w.flush().with_context(|| format!("writing {}", self.name)),
-            Sink::Parquet { writer, .. } => writer
-                .close()
-                .map(|_| ())
-                .with_context(|| format!("closing {}", self.name)),
+            Sink::Batches { out, .. } => match out {
+                BatchOut::Parquet(writer) => writer
+                    .close()
+                    .map(|_| ())
+                    .with_context(|| format!("closing {}", self.name)),
+                BatchOut::Memory(_) => Ok(()),
+            },
         }
     }
 }
@@ -320,5 +309,28 @@ mod tests {
             .map(|f| f.name().clone())
             .collect();
         assert_eq!(header, columns);
+        // In memory: the same rows, in batches of BATCH, and read back from either file alike.
+        let mut t = Table::<StepRow>::memory("trajectories", true).unwrap();
+        for r in &rows {
+            t.write(*r).unwrap();
+        }
+        t.finish().unwrap();
+        let (schema, batches) = t.take_batches().unwrap().unwrap();
+        assert_eq!(batches.len(), rows.len().div_ceil(BATCH));
+        assert!(batches.iter().all(|b| b.schema() == schema));
+        let mut kept: Vec<StepRow> = Vec::new();
+        for b in &batches {
+            kept.extend(serde_arrow::from_record_batch::<Vec<StepRow>>(b).unwrap());
+        }
+        assert_eq!(json(&kept), json(&rows));
+        for file in ["trajectories.csv", "trajectories.parquet"] {
+            let (s, b) = read_batches::<StepRow>(&dir.path(file)).unwrap();
+            assert_eq!((s, b), (schema.clone(), batches.clone()), "{file}");
+        }
+        assert!(Table::<StepRow>::memory("off", false)
+            .unwrap()
+            .take_batches()
+            .unwrap()
+            .is_none());
     }
 }
