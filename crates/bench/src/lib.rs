@@ -1212,7 +1212,9 @@ fn growth_exponent(checks: &[CheckRow]) -> Option<f64> {
 /// One measured campaign run.
 #[derive(Debug, Clone, serde::Serialize)]
 struct CampaignRow {
-    /// `throughput` (the pool sizes) or `dask` (the Dask comparison, local beside Dask).
+    /// `throughput` (the pool sizes), `dask` (the Dask comparison, local beside Dask) or
+    /// `dask-fifth` (local and Dask in the workers again on a fifth of the cells: the slope
+    /// between the two sizes is the cost per cell without the fixed start-up).
     part: &'static str,
     executor: String,
     workers: usize,
@@ -1352,6 +1354,30 @@ fn campaign(a: CampaignArgs) -> Result<Vec<CampaignRow>> {
             2,
             &[("PLATOON_DASK_IN_WORKER", "0")],
         )?);
+        // A fifth of the cells both ways: what a cell costs beyond the fixed start-up (the
+        // driver's Python and its connection) is the slope between the two sizes.
+        let fifth = a.dask_cells / 5;
+        if fifth > 0 {
+            let path = file(fifth)?;
+            rows.push(measure(
+                "dask-fifth",
+                &path,
+                "dask-local-2-fifth",
+                &["--jobs", "2"],
+                "local pool, 2 jobs".into(),
+                2,
+                &[],
+            )?);
+            rows.push(measure(
+                "dask-fifth",
+                &path,
+                "dask-2-fifth",
+                &["--dask", &cluster.address],
+                "Dask, 2 workers (127.0.0.1), in the workers".into(),
+                2,
+                &[],
+            )?);
+        }
     }
     // The 802.11p channel's cost per cell beside Bernoulli loss: the same Monte Carlo cells on
     // one job, the paper scenario with each channel.
@@ -1792,6 +1818,32 @@ fn all(a: AllArgs) -> Result<()> {
             process.ms_per_cell,
             process.ms_per_cell / local.ms_per_cell
         );
+        let fifth: Vec<&CampaignRow> = campaigns
+            .iter()
+            .filter(|r| r.part == "dask-fifth")
+            .collect();
+        if let [local_fifth, in_worker_fifth] = fifth[..] {
+            // ms per cell between the two sizes, and what is left at zero cells (s).
+            let slope = |big: &CampaignRow, small: &CampaignRow| {
+                (big.wall_s - small.wall_s) / (big.cells - small.cells) as f64 * 1e3
+            };
+            let fixed = |big: &CampaignRow, ms: f64| big.wall_s - ms * 1e-3 * big.cells as f64;
+            let (l, d) = (slope(local, local_fifth), slope(in_worker, in_worker_fifth));
+            let ratio = d / l;
+            let _ = writeln!(
+                md,
+                "Per cell beyond the fixed start-up (the slope between {} and {} cells): {d:.2} ms \
+                 through Dask in the workers against {l:.2} ms in the local pool ({ratio:.2}x; \
+                 target <= 1.5x: {}). Dask's fixed cost, the driver's start (a Python process \
+                 importing distributed) and its connection, is {:.2} s against the local pool's \
+                 {:.2} s.",
+                in_worker_fifth.cells,
+                in_worker.cells,
+                if ratio <= 1.5 { "met" } else { "missed" },
+                fixed(in_worker, d),
+                fixed(local, l)
+            );
+        }
     }
     let _ = writeln!(
         md,
