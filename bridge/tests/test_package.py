@@ -271,6 +271,10 @@ def test_the_command_is_installed_with_the_package(tmp_path):
     assert p.stdout.startswith("platoon ")
     p = subprocess.run([PLATOON, "run", "--no-such-flag"], cwd=tmp_path, capture_output=True, text=True)
     assert p.returncode == 2 and "--no-such-flag" in p.stderr
+    p = subprocess.run(
+        [sys.executable, "-m", "platoon", "--version"], cwd=tmp_path, capture_output=True, text=True
+    )
+    assert p.returncode == 0 and p.stdout.startswith("platoon "), p.stderr
 
 
 def test_the_gil_is_released_while_the_core_runs():
@@ -371,3 +375,35 @@ def test_ctrl_c_leaves_a_design_check_that_does_not_end(tmp_path):
     out, _ = p.communicate(timeout=60)
     assert out.strip() in ("KeyboardInterrupt", "returned"), out
     assert p.returncode in (0, 130)
+
+
+def test_ctrl_c_stops_a_campaign_which_then_resumes(tmp_path):
+    script = tmp_path / "campaign.py"
+    script.write_text(
+        "import platoon, sys\n"
+        "try:\n"
+        f"    c = platoon.campaign({str(REPO / 'campaigns' / 'dos-timing.toml')!r}, out=sys.argv[1], jobs=1)\n"
+        "    print('done', c.report['ok'], c.report.get('resumed'), flush=True)\n"
+        "except KeyboardInterrupt:\n"
+        "    print('KeyboardInterrupt', flush=True)\n"
+        "    sys.exit(130)\n"
+    )
+    out = tmp_path / "dos"
+    p = subprocess.Popen([sys.executable, str(script), str(out)], stdout=subprocess.PIPE, text=True)
+    # Interrupt once some cells are recorded (and long before the 510 are).
+    cells = tmp_path / "dos.partial" / "cells"
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and len(list(cells.glob("c*"))) < 5:
+        time.sleep(0.05)
+    p.send_signal(signal.SIGINT)
+    first, _ = p.communicate(timeout=120)
+    assert p.returncode == 130 and "KeyboardInterrupt" in first, first
+    assert not out.exists() and (tmp_path / "dos.partial").is_dir()
+    kept = len(list(cells.glob("c*")))
+    assert 5 <= kept < 510
+    second = subprocess.run(
+        [sys.executable, str(script), str(out)], capture_output=True, text=True, timeout=900
+    )
+    assert second.returncode == 0, second.stderr
+    assert second.stdout.split()[:2] == ["done", "510"], second.stdout
+    assert len(pd.read_csv(out / "cells.csv")) == 510
