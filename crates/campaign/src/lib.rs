@@ -386,7 +386,7 @@ impl Campaign {
                         file,
                         None,
                         "monte_carlo",
-                        "--samples needs a [monte_carlo] section",
+                        "a sample count (--samples, or samples= from Python) needs a [monte_carlo] section",
                     ));
                 }
                 1
