@@ -122,21 +122,12 @@ def scenario(name: str | os.PathLike = "paper") -> Scenario:
     return s
 
 
-def _drop_none(value):
-    """A dict's None values mean "the default": they are left out (TOML has no null)."""
-    if isinstance(value, dict):
-        return {k: _drop_none(v) for k, v in value.items() if v is not None}
-    if isinstance(value, (list, tuple)):
-        return [_drop_none(v) for v in value]
-    return value
-
-
 def _config_arg(config):
     """The core's config arguments: a dict as JSON (with where a Scenario came from), a file's
     path, or an embedded scenario's name (names first, as `scenario` takes them)."""
     if isinstance(config, dict):
         return {
-            "config": json.dumps(_drop_none(config), allow_nan=False),
+            "config": json.dumps(config, allow_nan=False),  # the core leaves None values out
             "is_path": False,
             "origin": getattr(config, "_origin", None),
             "source": getattr(config, "_source", None),

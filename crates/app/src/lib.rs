@@ -21,6 +21,7 @@ pub mod search;
 pub mod sumo;
 
 pub use progress::Progress;
+pub use run::{RunOptions, RunOutcome, Stop};
 
 /// The `platoon` program that runs what needs a process of its own (a co-simulation's nodes,
 /// co-simulated campaign cells, Dask workers' cells, a benchmark's runs): `$PLATOON_PROGRAM`
@@ -29,7 +30,9 @@ pub use progress::Progress;
 pub fn platoon_program() -> anyhow::Result<std::path::PathBuf> {
     match std::env::var_os("PLATOON_PROGRAM").filter(|p| !p.is_empty()) {
         Some(p) => Ok(p.into()),
-        None => anyhow::Context::context(std::env::current_exe(), "locating the platoon binary"),
+        None => {
+            use anyhow::Context;
+            std::env::current_exe().context("locating the platoon binary")
+        }
     }
 }
-pub use run::{RunOptions, RunOutcome, Stop};

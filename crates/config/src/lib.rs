@@ -91,6 +91,9 @@ pub enum Embedded {
 }
 
 impl Embedded {
+    /// Every embedded config.
+    pub const ALL: [Embedded; 3] = [Self::Paper, Self::Table1, Self::Degradation];
+
     /// Its stem in `configs/` (the default name of its runs).
     pub fn name(self) -> &'static str {
         match self {

@@ -128,7 +128,6 @@ fn keyboard_stop() -> (Arc<AtomicBool>, Stop) {
 /// Where a dict config came from: the resolved config it was made from (JSON), whose
 /// untouched keys of a switched rule may go, and the file it was read from, whose directory its
 /// relative paths (`sumo.net`, ...) are relative to.
-#[derive(Default)]
 struct DictOrigin {
     config: Option<String>,
     file: Option<PathBuf>,
@@ -191,21 +190,18 @@ fn load_config(
     Ok((c, s, label))
 }
 
-/// The embedded scenarios, by name.
-const EMBEDDED: [Embedded; 3] = [Embedded::Paper, Embedded::Table1, Embedded::Degradation];
-
 /// `scenario(name)`: an embedded scenario (`paper`, `table1`, `degradation`) or a TOML file,
 /// resolved (every default written out), as JSON.
 #[pyfunction]
 fn scenario(py: Python<'_>, name: &str) -> PyResult<String> {
-    let loaded = match EMBEDDED.iter().find(|e| e.name() == name) {
+    let loaded = match Embedded::ALL.iter().find(|e| e.name() == name) {
         Some(e) => e.parse().map_err(anyhow::Error::from),
         None if Path::new(name).is_file() => {
             platoon_config::load(Path::new(name)).map_err(Into::into)
         }
         None => Err(anyhow::anyhow!(
             "no scenario {name:?}: the embedded ones are {}, or give a TOML file's path",
-            EMBEDDED.map(|e| e.name()).join(", ")
+            Embedded::ALL.map(|e| e.name()).join(", ")
         )),
     };
     let (config, _) = loaded.map_err(|e| py_err(py, e))?;
@@ -215,7 +211,7 @@ fn scenario(py: Python<'_>, name: &str) -> PyResult<String> {
 /// The names of the embedded scenarios.
 #[pyfunction]
 fn scenario_names() -> Vec<&'static str> {
-    EMBEDDED.iter().map(|e| e.name()).collect()
+    Embedded::ALL.iter().map(|e| e.name()).collect()
 }
 
 /// `tables` as `pyarrow.Table`s by name: the batches are exported through the Arrow C data
@@ -334,10 +330,10 @@ fn run(
         config_file: label,
         ..RunOptions::default()
     };
-    let temp = match &out {
-        Some(_) => None,
-        None => Some(
-            tempfile::Builder::new()
+    let (dir, temp) = match out {
+        Some(out) => (out, None),
+        None => {
+            let temp = tempfile::Builder::new()
                 .prefix("platoon-run-")
                 .tempdir()
                 .map_err(|e| {
@@ -345,15 +341,11 @@ fn run(
                         py,
                         anyhow::Error::from(e).context("creating a temporary run directory"),
                     )
-                })?,
-        ),
+                })?;
+            (temp.path().join("run"), Some(temp))
+        }
     };
-    let asked = out.is_some();
-    let dir = match (out, &temp) {
-        (Some(out), _) => out,
-        (None, Some(t)) => t.path().join("run"),
-        (None, None) => unreachable!("a temporary directory is made when no out is given"),
-    };
+    let asked = temp.is_none();
     let done = interruptible(
         py,
         Some(&flag),
