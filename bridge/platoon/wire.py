@@ -221,6 +221,10 @@ ALL_TYPES = [
     ControlMsg,
 ]
 
+# A node keeps a CPU set the wake-up hand-off narrowed for this many wake-ups, then returns to
+# its own (crates/runtime/src/handoff.rs, RETURN_EVERY; a Rust test checks they agree).
+HANDOFF_RETURN_EVERY = 64
+
 NODES = {"orchestrator": 0, "plant": 1, "controller": 2, "injector": 3, "channel": 4}
 
 # Whom a publisher on each service wakes after every sample (crates/wire `wakes`).
@@ -264,9 +268,10 @@ class Endpoint:
         self.parent = os.getppid()
         self.listener = self._event(role).listener_builder().create()
         # The Rust nodes hand a sleeping reader the CPU they wake it from (crates/runtime
-        # src/handoff.rs): back to this process's own CPUs once woken.
+        # src/handoff.rs): kept for a few wake-ups, then back to this process's own CPUs.
         home = os.sched_getaffinity(0)
         self._home = home if len(home) > 1 else None
+        self._woken = 0
 
     def _event(self, node: str):
         return (
@@ -345,7 +350,10 @@ class Endpoint:
         """Blocks until notified or the timeout; exits if the orchestrator is gone."""
         self.listener.timed_wait(iox.Duration.from_millis(timeout_ms))
         if self._home is not None:
-            os.sched_setaffinity(0, self._home)
+            self._woken += 1
+            if self._woken >= HANDOFF_RETURN_EVERY:
+                self._woken = 0
+                os.sched_setaffinity(0, self._home)
         if os.getppid() != self.parent:
             raise SystemExit("platoon: the orchestrator is gone")
 

@@ -1622,7 +1622,7 @@ fn all(a: AllArgs) -> Result<()> {
     let hop_ratio = p50("injector_hop") / p50("unix_socket_hop");
     let _ = writeln!(
         md,
-        "Nodes on any CPU against one core: the step overhead is **{step_ratio:.2}x** the one-core figure (target <= 2: {}); the injector hop on any CPU is **{hop_ratio:.2}x** a Unix-datagram hop measured in the same run (target <= 3: {}). On one core the raw iceoryx2 hop is {:.2} µs and the Unix-datagram hop {:.2} µs. A node that wakes another first hands the sleeping reader its own CPU, and the reader returns to its CPU set once woken (`crates/runtime/src/handoff.rs`; `PLATOON_WAKE_HANDOFF=0` turns it off): without it, the woken process lands on the idle vCPU, which is halted (`guest_halt_poll_ns` above) and costs 20-30 µs to wake.\n",
+        "Nodes on any CPU against one core: the step overhead is **{step_ratio:.2}x** the one-core figure (target <= 2: {}); the injector hop on any CPU is **{hop_ratio:.2}x** a Unix-datagram hop measured in the same run (target <= 3: {}). On one core the raw iceoryx2 hop is {:.2} µs and the Unix-datagram hop {:.2} µs. A node that wakes another first hands the sleeping reader its own CPU unless the reader already has just that one, and the reader keeps it for 64 wake-ups before it returns to its CPU set (`crates/runtime/src/handoff.rs`; `PLATOON_WAKE_HANDOFF=0` turns it off): without it, the woken process lands on the idle vCPU, which is halted (`guest_halt_poll_ns` above) and costs 20-30 µs to wake.\n",
         if step_ratio <= 2.0 { "met" } else { "missed" },
         if hop_ratio <= 3.0 { "met" } else { "missed" },
         p50("raw_iceoryx2_hop_one_core"),

@@ -1,18 +1,29 @@
 //! The wake-up hand-off: a node that wakes another one on a multi-CPU machine first narrows the
-//! sleeping reader's CPU set to the CPU it runs on itself, and the reader restores its own set
-//! as soon as it wakes.
+//! sleeping reader's CPU set to the CPU it runs on itself, unless the reader already has just
+//! that CPU; the reader keeps the narrowed set for a few wake-ups and then returns to its own.
 //!
 //! Why: a step is a chain of hops, each a wake-up of a process that sleeps in iceoryx2's
 //! listener (a blocking Unix-datagram receive). Linux wakes a sleeper on an idle CPU when there
 //! is one, and on a VM an idle vCPU is halted: waking it costs 20-30 µs, most of a hop. Woken
 //! on the waker's CPU (which is about to block on its own listener), the hop costs what it
-//! costs on one core. No process is held to a CPU while it runs, nothing spins, and the load
-//! balancer still moves the chain; only a sleeping reader's set is narrowed, until it wakes.
+//! costs on one core. Nothing spins. A chain that stays on one CPU pays one `sched_getaffinity`
+//! (about 0.3 µs) per wake-up: the set is changed (about 1 µs a call) only when the chain moved
+//! or the reader went home. Every [`RETURN_EVERY`] wake-ups a node returns to its own set, so
+//! the load balancer can still move the chain; the orchestrator, which records off the chain,
+//! is never narrowed and stays free to run on the other CPU.
 //! `PLATOON_WAKE_HANDOFF=0` turns it off; it is off by itself where a process may run on one
 //! CPU only (`platoon run --cpus 0`), and failures (another user's process, a CPU outside the
 //! reader's cgroup) are ignored: the hop is then an ordinary one.
 
+use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::OnceLock;
+
+/// A node returns to its own CPU set every this many wake-ups (a narrowed set is kept between
+/// them, so a chain that stays on one CPU changes no set).
+pub(crate) const RETURN_EVERY: u32 = 64;
+
+/// Wake-ups since this process last returned to its own set.
+static WOKEN: AtomicU32 = AtomicU32::new(0);
 
 /// This process's CPU set when its endpoint was made, if the hand-off is on.
 static HOME: OnceLock<Option<libc::cpu_set_t>> = OnceLock::new();
@@ -39,8 +50,8 @@ pub(crate) fn enabled() -> bool {
     HOME.get().is_some_and(Option::is_some)
 }
 
-/// Narrows the sleeping processes `pids` to the CPU this one runs on: call it right before
-/// waking them.
+/// Narrows the sleeping processes `pids` to the CPU this one runs on, each unless it already
+/// has just that CPU: call it right before waking them.
 pub(crate) fn hand_to(pids: &[libc::pid_t]) {
     if pids.is_empty() || !enabled() {
         return;
@@ -50,11 +61,27 @@ pub(crate) fn hand_to(pids: &[libc::pid_t]) {
     if cpu < 0 {
         return;
     }
+    let size = std::mem::size_of::<libc::cpu_set_t>();
     let mut one: libc::cpu_set_t = unsafe { std::mem::zeroed() };
     unsafe { libc::CPU_SET(cpu as usize, &mut one) };
     for &pid in pids {
+        let mut now: libc::cpu_set_t = unsafe { std::mem::zeroed() };
+        // SAFETY: reads the CPU set of `pid` into `now`; an error leaves it empty.
+        let read = unsafe { libc::sched_getaffinity(pid, size, &mut now) } == 0;
+        if read && unsafe { libc::CPU_EQUAL(&now, &one) } {
+            continue;
+        }
         // SAFETY: only the CPU set of `pid` changes; an error leaves it as it was.
-        unsafe { libc::sched_setaffinity(pid, std::mem::size_of::<libc::cpu_set_t>(), &one) };
+        unsafe { libc::sched_setaffinity(pid, size, &one) };
+    }
+}
+
+/// After a wake-up: every [`RETURN_EVERY`]-th one, returns this process to its own CPU set
+/// (another node may have narrowed it); the others keep the set as it is.
+pub(crate) fn woken() {
+    if WOKEN.fetch_add(1, Ordering::Relaxed) + 1 >= RETURN_EVERY {
+        WOKEN.store(0, Ordering::Relaxed);
+        restore();
     }
 }
 
@@ -79,7 +106,7 @@ mod tests {
     }
 
     #[test]
-    fn a_sleeping_reader_is_handed_one_cpu_and_a_woken_one_gets_its_set_back() {
+    fn a_sleeping_reader_is_handed_one_cpu_and_gets_its_set_back_every_return_every_wake_ups() {
         init();
         let cpus = cpus_of(0);
         // On by itself wherever there is more than one CPU (unless turned off).
@@ -93,11 +120,34 @@ mod tests {
         assert_eq!(cpus_of(pid), cpus);
         hand_to(&[pid]);
         assert_eq!(cpus_of(pid), if enabled() { 1 } else { cpus });
-        // This process, narrowed as a reader is, returns to its own set.
+        // Handed the CPU it already has, it keeps it.
+        hand_to(&[pid]);
+        assert_eq!(cpus_of(pid), if enabled() { 1 } else { cpus });
+        // This process, narrowed as a reader is, keeps the narrowed set for RETURN_EVERY - 1
+        // wake-ups and returns to its own set at the next one.
+        hand_to(&[0]);
+        WOKEN.store(0, Ordering::Relaxed);
+        for _ in 1..RETURN_EVERY {
+            woken();
+        }
+        assert_eq!(cpus_of(0), if enabled() { 1 } else { cpus });
+        woken();
+        assert_eq!(cpus_of(0), cpus);
         hand_to(&[0]);
         restore();
         assert_eq!(cpus_of(0), cpus);
         let _ = child.kill();
         let _ = child.wait();
+    }
+
+    #[test]
+    fn python_nodes_return_home_as_often_as_rust_ones() {
+        let wire = concat!(env!("CARGO_MANIFEST_DIR"), "/../../bridge/platoon/wire.py");
+        let text = std::fs::read_to_string(wire).expect("bridge/platoon/wire.py");
+        let value = text
+            .lines()
+            .find_map(|l| l.strip_prefix("HANDOFF_RETURN_EVERY = "))
+            .expect("HANDOFF_RETURN_EVERY in bridge/platoon/wire.py");
+        assert_eq!(value.trim().parse::<u32>(), Ok(RETURN_EVERY));
     }
 }

@@ -520,6 +520,6 @@ pub fn wait(listener: &Listener<Ipc>, timeout: Duration) -> Result<(), RunError>
     listener
         .timed_wait(|_| {}, timeout)
         .map_err(|e| ipc_err("waiting for a wake-up", e))?;
-    crate::handoff::restore();
+    crate::handoff::woken();
     Ok(())
 }
