@@ -790,6 +790,13 @@ fn spawn_all(opts: &Options, children: &mut Children) -> Result<(), RunError> {
             )
             .envs(opts.env.iter().map(|(k, v)| (k, v)))
             .stdin(Stdio::null());
+        // A node computes one step at a time between wake-ups: a BLAS thread pool (this
+        // binary's OpenBLAS, numpy's in the Python nodes) buys it nothing, and its threads
+        // spin at start (some 50 ms of CPU each, beside SUMO starting). The user's value wins.
+        let blas = "OPENBLAS_NUM_THREADS";
+        if std::env::var_os(blas).is_none() && !opts.env.iter().any(|(k, _)| k == blas) {
+            cmd.env(blas, "1");
+        }
         let plugin = *program != Program::Builtin;
         if let (true, Some(dir)) = (plugin, &opts.python_path) {
             cmd.env("PYTHONPATH", python_path(dir, &opts.env));
