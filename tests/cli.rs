@@ -733,6 +733,8 @@ fn bench_step_runs_sumos_own_peers_on_the_same_fleet() {
             "sumo",
             "--seconds",
             "0.5",
+            "--rounds",
+            "2",
             "--out",
             "b",
         ],
@@ -742,6 +744,40 @@ fn bench_step_runs_sumos_own_peers_on_the_same_fleet() {
     let r: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(tmp.path().join("b/step.json")).unwrap())
             .unwrap();
+    // Two rounds of the case and its peers; the tables' rows are their medians.
+    assert_eq!(r["rounds"], 2);
+    let ours: Vec<f64> = r["round_rows"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x["step_p50_us"].as_f64().unwrap())
+        .collect();
+    assert_eq!(ours.len(), 2, "{r}");
+    let median_of_two = |x: &[f64]| 0.5 * (x[0] + x[1]);
+    assert_eq!(
+        r["rows"][0]["step_p50_us"].as_f64().unwrap(),
+        median_of_two(&ours)
+    );
+    // Our step over each peer's, round by round (the same round's runs), and their median.
+    let ratios = r["ratios"].as_array().unwrap();
+    assert_eq!(ratios.len(), 4, "{r}");
+    for x in ratios {
+        let each: Vec<f64> = x["rounds"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.as_f64().unwrap())
+            .collect();
+        let peer: Vec<f64> = r["round_peers"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter(|p| p["peer"] == x["peer"])
+            .map(|p| p["step_p50_us"].as_f64().unwrap())
+            .collect();
+        assert_eq!(each, [ours[0] / peer[0], ours[1] / peer[1]], "{x}");
+        assert_eq!(x["median"].as_f64().unwrap(), median_of_two(&each), "{x}");
+    }
     let peers = r["peers"].as_array().unwrap();
     let names: Vec<&str> = peers.iter().map(|p| p["peer"].as_str().unwrap()).collect();
     // Every peer ran (a peer that cannot run fails the benchmark), on the case's 5 vehicles.
@@ -755,8 +791,11 @@ fn bench_step_runs_sumos_own_peers_on_the_same_fleet() {
         );
         assert!(p50 > 0.0 && p90 >= p50, "{p}");
     }
+    // The CSV files have every round's rows.
     let csv = std::fs::read_to_string(tmp.path().join("b/peers.csv")).unwrap();
-    assert_eq!(csv.lines().count(), 1 + 4, "{csv}");
+    assert_eq!(csv.lines().count(), 1 + 2 * 4, "{csv}");
+    let csv = std::fs::read_to_string(tmp.path().join("b/step.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 1 + 2, "{csv}");
     assert!(String::from_utf8_lossy(&o.stdout).contains("ours"));
 }
 

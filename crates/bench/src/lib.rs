@@ -101,6 +101,14 @@ pub struct StepArgs {
     /// a ratio to each.
     #[arg(long)]
     pub no_peers: bool,
+    /// Rounds: every case (and its peers, right after it) runs this many times, the cases
+    /// interleaved; the tables give the median over the rounds of each figure, and our step's
+    /// ratio to a peer is the median of the rounds' ratios (this VM's speed drifts by up to 2x
+    /// over minutes, which a single run cannot tell from a real difference). step.csv and
+    /// peers.csv have every round's figures, step.json the medians and ratios too; the run
+    /// directories are the last round's.
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..))]
+    pub rounds: u32,
     /// Output directory [default: runs/bench-step].
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -617,6 +625,8 @@ fn latency(a: LatencyArgs) -> Result<LatencyReport> {
 
 #[derive(Debug, Clone, serde::Serialize)]
 struct StepRow {
+    /// The round (1, 2, ...), or 0 for the median over the rounds.
+    round: u32,
     mode: String,
     followers: usize,
     vehicles: usize,
@@ -641,6 +651,8 @@ struct StepRow {
 /// (`bridge/bench_peers.py`).
 #[derive(Debug, Clone, serde::Serialize)]
 struct PeerRow {
+    /// The round (1, 2, ...), or 0 for the median over the rounds.
+    round: u32,
     followers: usize,
     vehicles: usize,
     /// krauss, plexe_acc, plexe_cacc or floor.
@@ -652,14 +664,141 @@ struct PeerRow {
     sumo_step_p50_us: f64,
 }
 
-/// What `platoon bench step` measured: our cases, and their peers.
+/// What `platoon bench step` measured: our cases and their peers (medians over the rounds),
+/// and our `sumo` step over each peer's, per round.
 struct StepReport {
     rows: Vec<StepRow>,
     peers: Vec<PeerRow>,
+    ratios: Vec<PeerRatio>,
+}
+
+/// Our `sumo` step over a peer's, in each round (the same round's runs, one after the other).
+#[derive(Debug, Clone, serde::Serialize)]
+struct PeerRatio {
+    followers: usize,
+    peer: String,
+    /// One per round, in order.
+    rounds: Vec<f64>,
+    /// Their median.
+    median: f64,
+}
+
+/// The median of `xs` (NaN when there are none).
+fn median(mut xs: Vec<f64>) -> f64 {
+    xs.retain(|x| !x.is_nan());
+    xs.sort_by(f64::total_cmp);
+    match xs.len() {
+        0 => f64::NAN,
+        n if n % 2 == 1 => xs[n / 2],
+        n => 0.5 * (xs[n / 2 - 1] + xs[n / 2]),
+    }
+}
+
+/// The median over `rows` of a figure some rows may not have.
+fn median_of<T>(rows: &[&T], f: impl Fn(&T) -> Option<f64>) -> Option<f64> {
+    let xs: Vec<f64> = rows.iter().filter_map(|r| f(r)).collect();
+    (!xs.is_empty()).then(|| median(xs))
+}
+
+/// One row per case of the rounds' rows (in the order of `rounds`' first round): each figure
+/// the median over the rounds.
+fn median_rows(rounds: &[StepRow]) -> Vec<StepRow> {
+    let mut out: Vec<StepRow> = Vec::new();
+    for r in rounds {
+        if out
+            .iter()
+            .any(|o| o.mode == r.mode && o.followers == r.followers)
+        {
+            continue;
+        }
+        let same: Vec<&StepRow> = rounds
+            .iter()
+            .filter(|x| x.mode == r.mode && x.followers == r.followers)
+            .collect();
+        let step = median(same.iter().map(|x| x.step_p50_us).collect());
+        out.push(StepRow {
+            round: 0,
+            mode: r.mode.clone(),
+            followers: r.followers,
+            vehicles: r.vehicles,
+            steps: r.steps,
+            step_p50_us: step,
+            step_p99_us: median(same.iter().map(|x| x.step_p99_us).collect()),
+            real_time_factor: 0.01 * 1e6 / step,
+            plant_p50_us: median_of(&same, |x| x.plant_p50_us),
+            controller_p50_us: median_of(&same, |x| x.controller_p50_us),
+            injector_p50_us: median_of(&same, |x| x.injector_p50_us),
+            sumo_step_p50_us: median_of(&same, |x| x.sumo_step_p50_us),
+            bridge_p50_us: median_of(&same, |x| x.bridge_p50_us),
+            peak_rss_mib: median_of(&same, |x| x.peak_rss_mib),
+            sumo_step_tight_p50_us: median_of(&same, |x| x.sumo_step_tight_p50_us),
+            bridge_tight_p50_us: median_of(&same, |x| x.bridge_tight_p50_us),
+        });
+    }
+    out
+}
+
+/// The peers' rows of every round as one row per size and peer, each figure the median.
+fn median_peers(rounds: &[PeerRow]) -> Vec<PeerRow> {
+    let mut out: Vec<PeerRow> = Vec::new();
+    for r in rounds {
+        if out
+            .iter()
+            .any(|o| o.peer == r.peer && o.followers == r.followers)
+        {
+            continue;
+        }
+        let same: Vec<&PeerRow> = rounds
+            .iter()
+            .filter(|x| x.peer == r.peer && x.followers == r.followers)
+            .collect();
+        let m = |f: fn(&PeerRow) -> f64| median(same.iter().map(|x| f(x)).collect());
+        out.push(PeerRow {
+            round: 0,
+            followers: r.followers,
+            vehicles: r.vehicles,
+            peer: r.peer.clone(),
+            step_p50_us: m(|x| x.step_p50_us),
+            step_p90_us: m(|x| x.step_p90_us),
+            step_mean_us: m(|x| x.step_mean_us),
+            sumo_step_p50_us: m(|x| x.sumo_step_p50_us),
+        });
+    }
+    out
+}
+
+/// Our `sumo` step over each peer's, round by round.
+fn peer_ratios(steps: &[StepRow], peers: &[PeerRow]) -> Vec<PeerRatio> {
+    let mut out: Vec<PeerRatio> = Vec::new();
+    for p in peers {
+        if out
+            .iter()
+            .any(|o| o.peer == p.peer && o.followers == p.followers)
+        {
+            continue;
+        }
+        let rounds: Vec<f64> = peers
+            .iter()
+            .filter(|q| q.peer == p.peer && q.followers == p.followers)
+            .map(|q| {
+                steps
+                    .iter()
+                    .find(|r| r.mode == "sumo" && r.followers == q.followers && r.round == q.round)
+                    .map_or(f64::NAN, |r| r.step_p50_us / q.step_p50_us)
+            })
+            .collect();
+        out.push(PeerRatio {
+            followers: p.followers,
+            peer: p.peer.clone(),
+            median: median(rounds.clone()),
+            rounds,
+        });
+    }
+    out
 }
 
 /// `bridge/bench_peers.py` on a SUMO case's plant.json: each peer's step, µs.
-fn peers(plant_json: &std::path::Path, followers: usize) -> Result<Vec<PeerRow>> {
+fn peers(plant_json: &std::path::Path, followers: usize, round: u32) -> Result<Vec<PeerRow>> {
     let python = platoon_app::sumo::ensure_venv()?;
     let o = Command::new(python)
         .arg(platoon_app::sumo::bridge_dir()?.join("bench_peers.py"))
@@ -688,6 +827,7 @@ fn peers(plant_json: &std::path::Path, followers: usize) -> Result<Vec<PeerRow>>
                     .with_context(|| format!("bench_peers.py's report: {peer}.{k} is missing"))
             };
             Ok(PeerRow {
+                round,
                 followers,
                 vehicles: num("vehicles")? as usize,
                 peer: peer.clone(),
@@ -769,7 +909,8 @@ fn step(a: StepArgs) -> Result<StepReport> {
     let one_cpu = platoon_runtime::available_cpus()
         .first()
         .map_or_else(|| "0".to_string(), |c| c.to_string());
-    let bar = indicatif::ProgressBar::new((a.followers.len() * a.modes.len()) as u64);
+    let bar =
+        indicatif::ProgressBar::new((a.rounds as usize * a.followers.len() * a.modes.len()) as u64);
     bar.set_style(
         indicatif::ProgressStyle::with_template(
             "{spinner} {msg} [{elapsed}] {wide_bar} {pos}/{len}",
@@ -778,93 +919,101 @@ fn step(a: StepArgs) -> Result<StepReport> {
     );
     let mut rows = Vec::new();
     let mut peer_rows = Vec::new();
-    for &n in &a.followers {
-        for mode in &a.modes {
-            bar.set_message(format!("{mode}, {n} followers"));
-            let config = dir.path(&format!("{mode}-{n}.toml"));
-            let sumo = mode.starts_with("sumo");
-            std::fs::write(&config, fleet_config(n, a.seconds, sumo)?)?;
-            let case = dir.path(&format!("{mode}-{n}"));
-            let transport = if mode == "inproc" {
-                "inproc"
-            } else {
-                "iceoryx2"
-            };
-            let mut cmd = Command::new(&exe);
-            cmd.args([
-                "run",
-                config.to_str().unwrap_or_default(),
-                "--no-plots",
-                "--force",
-                "--transport",
-                transport,
-                "--out",
-            ])
-            .arg(&case);
-            if mode.ends_with("-1cpu") {
-                cmd.arg("--cpus").arg(one_cpu.as_str());
+    for round in 1..=a.rounds {
+        for &n in &a.followers {
+            for mode in &a.modes {
+                bar.set_message(format!("round {round}/{}: {mode}, {n} followers", a.rounds));
+                let config = dir.path(&format!("{mode}-{n}.toml"));
+                let sumo = mode.starts_with("sumo");
+                std::fs::write(&config, fleet_config(n, a.seconds, sumo)?)?;
+                let case = dir.path(&format!("{mode}-{n}"));
+                let transport = if mode == "inproc" {
+                    "inproc"
+                } else {
+                    "iceoryx2"
+                };
+                let mut cmd = Command::new(&exe);
+                cmd.args([
+                    "run",
+                    config.to_str().unwrap_or_default(),
+                    "--no-plots",
+                    "--force",
+                    "--transport",
+                    transport,
+                    "--out",
+                ])
+                .arg(&case);
+                if mode.ends_with("-1cpu") {
+                    cmd.arg("--cpus").arg(one_cpu.as_str());
+                }
+                let o = cmd
+                    .env("PLATOON_STEP_TIMEOUT", "30")
+                    .output()
+                    .with_context(|| format!("running the {mode} case with {n} followers"))?;
+                if !o.status.success() {
+                    bail!(
+                        "the {mode} case with {n} followers failed: {}",
+                        String::from_utf8_lossy(&o.stderr).trim()
+                    );
+                }
+                let read = |f: &str| -> Option<serde_json::Value> {
+                    serde_json::from_str(&std::fs::read_to_string(case.join(f)).ok()?).ok()
+                };
+                let timing = read("timing.json").context("timing.json missing")?;
+                let sumo = read("sumo.json");
+                let tight =
+                    if sumo.is_some() {
+                        Some(tight_loop(&case.join("plant.json"), 500).with_context(|| {
+                            format!("timing SUMO's tight loop for {n} followers")
+                        })?)
+                    } else {
+                        None
+                    };
+                if mode == "sumo" && !a.no_peers {
+                    bar.set_message(format!(
+                        "round {round}/{}: SUMO's own peers, {n} followers",
+                        a.rounds
+                    ));
+                    peer_rows.extend(
+                        peers(&case.join("plant.json"), n, round)
+                            .with_context(|| format!("running the peers for {n} followers"))?,
+                    );
+                }
+                let p = |v: &serde_json::Value, k: &str| v[k]["p50_us"].as_f64();
+                let step_p50 = p(&timing, "step").unwrap_or(f64::NAN);
+                let dt = 0.01;
+                rows.push(StepRow {
+                    round,
+                    mode: mode.clone(),
+                    followers: n,
+                    vehicles: n / 4 * 5,
+                    steps: (a.seconds / dt).round() as u64 + 1,
+                    step_p50_us: step_p50,
+                    step_p99_us: timing["step"]["p99_us"].as_f64().unwrap_or(f64::NAN),
+                    real_time_factor: dt * 1e6 / step_p50,
+                    plant_p50_us: p(&timing, "plant"),
+                    controller_p50_us: p(&timing, "controller_tx")
+                        .zip(p(&timing, "controller_rx"))
+                        .map(|(x, y)| x + y),
+                    injector_p50_us: p(&timing, "injector"),
+                    sumo_step_p50_us: sumo
+                        .as_ref()
+                        .and_then(|s| s["sumo_step"]["p50_us"].as_f64()),
+                    bridge_p50_us: sumo
+                        .as_ref()
+                        .and_then(|s| s["bridge_step"]["p50_us"].as_f64()),
+                    sumo_step_tight_p50_us: tight
+                        .as_ref()
+                        .and_then(|t| t["sumo_step_p50_us"].as_f64()),
+                    bridge_tight_p50_us: tight
+                        .as_ref()
+                        .and_then(|t| t["bridge_step_p50_us"].as_f64()),
+                    peak_rss_mib: timing["peak_rss_mib"]
+                        .as_object()
+                        .map(|m| m.values().filter_map(|v| v.as_f64()).sum()),
+                });
+                bar.inc(1);
             }
-            let o = cmd
-                .env("PLATOON_STEP_TIMEOUT", "30")
-                .output()
-                .with_context(|| format!("running the {mode} case with {n} followers"))?;
-            if !o.status.success() {
-                bail!(
-                    "the {mode} case with {n} followers failed: {}",
-                    String::from_utf8_lossy(&o.stderr).trim()
-                );
-            }
-            let read = |f: &str| -> Option<serde_json::Value> {
-                serde_json::from_str(&std::fs::read_to_string(case.join(f)).ok()?).ok()
-            };
-            let timing = read("timing.json").context("timing.json missing")?;
-            let sumo = read("sumo.json");
-            let tight = if sumo.is_some() {
-                Some(
-                    tight_loop(&case.join("plant.json"), 500)
-                        .with_context(|| format!("timing SUMO's tight loop for {n} followers"))?,
-                )
-            } else {
-                None
-            };
-            if mode == "sumo" && !a.no_peers {
-                bar.set_message(format!("SUMO's own peers, {n} followers"));
-                peer_rows.extend(
-                    peers(&case.join("plant.json"), n)
-                        .with_context(|| format!("running the peers for {n} followers"))?,
-                );
-            }
-            let p = |v: &serde_json::Value, k: &str| v[k]["p50_us"].as_f64();
-            let step_p50 = p(&timing, "step").unwrap_or(f64::NAN);
-            let dt = 0.01;
-            rows.push(StepRow {
-                mode: mode.clone(),
-                followers: n,
-                vehicles: n / 4 * 5,
-                steps: (a.seconds / dt).round() as u64 + 1,
-                step_p50_us: step_p50,
-                step_p99_us: timing["step"]["p99_us"].as_f64().unwrap_or(f64::NAN),
-                real_time_factor: dt * 1e6 / step_p50,
-                plant_p50_us: p(&timing, "plant"),
-                controller_p50_us: p(&timing, "controller_tx")
-                    .zip(p(&timing, "controller_rx"))
-                    .map(|(x, y)| x + y),
-                injector_p50_us: p(&timing, "injector"),
-                sumo_step_p50_us: sumo
-                    .as_ref()
-                    .and_then(|s| s["sumo_step"]["p50_us"].as_f64()),
-                bridge_p50_us: sumo
-                    .as_ref()
-                    .and_then(|s| s["bridge_step"]["p50_us"].as_f64()),
-                sumo_step_tight_p50_us: tight.as_ref().and_then(|t| t["sumo_step_p50_us"].as_f64()),
-                bridge_tight_p50_us: tight
-                    .as_ref()
-                    .and_then(|t| t["bridge_step_p50_us"].as_f64()),
-                peak_rss_mib: timing["peak_rss_mib"]
-                    .as_object()
-                    .map(|m| m.values().filter_map(|v| v.as_f64()).sum()),
-            });
-            bar.inc(1);
         }
     }
     bar.finish_and_clear();
@@ -880,6 +1029,10 @@ fn step(a: StepArgs) -> Result<StepReport> {
         }
         csv.flush()?;
     }
+    // From here on, one row per case and per peer: the median over the rounds.
+    let ratios = peer_ratios(&rows, &peer_rows);
+    let (round_rows, round_peers) = (rows, peer_rows);
+    let (rows, peer_rows) = (median_rows(&round_rows), median_peers(&round_peers));
     // Least-squares line per mode: cost per step = a + b N.
     let mut series = Vec::new();
     let mut fits = Vec::new();
@@ -908,9 +1061,15 @@ fn step(a: StepArgs) -> Result<StepReport> {
     )?;
     dir.write(
         "step.json",
-        (serde_json::to_string_pretty(
-            &serde_json::json!({"rows": rows, "fits": fits, "peers": peer_rows}),
-        )? + "\n")
+        (serde_json::to_string_pretty(&serde_json::json!({
+            "rounds": a.rounds,
+            "rows": rows,
+            "fits": fits,
+            "peers": peer_rows,
+            "ratios": ratios,
+            "round_rows": round_rows,
+            "round_peers": round_peers,
+        }))? + "\n")
             .as_bytes(),
     )?;
     let path = dir.commit()?;
@@ -948,19 +1107,26 @@ fn step(a: StepArgs) -> Result<StepReport> {
     }
     if !peer_rows.is_empty() {
         println!(
-            "\nthe same fleet driven by SUMO itself (step p50, and our sumo step as a ratio):"
+            "\nthe same fleet driven by SUMO itself (step p50, and our sumo step as a ratio, the \
+             median of the rounds' ratios, then each round's):"
         );
         for p in &peer_rows {
-            let ours = rows
+            let r = ratios
                 .iter()
-                .find(|r| r.mode == "sumo" && r.followers == p.followers)
-                .map_or(f64::NAN, |r| r.step_p50_us);
+                .find(|r| r.peer == p.peer && r.followers == p.followers);
+            let each = r.map_or(String::new(), |r| {
+                r.rounds
+                    .iter()
+                    .map(|x| format!("{x:.2}"))
+                    .collect::<Vec<_>>()
+                    .join(" ")
+            });
             println!(
-                "{:<11} {:>6} {:>9.1}µs  ours {:.2}x",
+                "{:<11} {:>6} {:>9.1}µs  ours {:.2}x  ({each})",
                 p.peer,
                 p.followers,
                 p.step_p50_us,
-                ours / p.step_p50_us
+                r.map_or(f64::NAN, |r| r.median)
             );
         }
     }
@@ -968,12 +1134,14 @@ fn step(a: StepArgs) -> Result<StepReport> {
     Ok(StepReport {
         rows,
         peers: peer_rows,
+        ratios,
     })
 }
 
 /// BENCHMARKS.md's table of the peers: the same fleets driven by SUMO itself, our `sumo` step
-/// as a ratio to each, and the target against Plexe's auto-fed CACC.
-fn peers_section(md: &mut String, steps: &[StepRow], peers: &[PeerRow]) {
+/// as a ratio to each (the median of the rounds' ratios), and the target against Plexe's
+/// auto-fed CACC.
+fn peers_section(md: &mut String, peers: &[PeerRow], ratios: &[PeerRatio]) {
     if peers.is_empty() {
         return;
     }
@@ -985,23 +1153,31 @@ fn peers_section(md: &mut String, steps: &[StepRow], peers: &[PeerRow]) {
          vehicle; `plexe_acc` and `plexe_cacc`, Plexe's ACC and PATH CACC in SUMO's CC model (the \
          CACC fed by SUMO itself every step, `ccaf`), leaders on cruise control; `floor`, any \
          external driver's least work (per vehicle one `setAcceleration` and two getters from \
-         Python, no control). µs per step; \"ours\" is the `sumo` row's step (nodes on any CPU) \
-         over the peer's (p50):\n"
+         Python, no control). µs per step, medians over the rounds; \"ours / peer\" is the `sumo` \
+         row's step (nodes on any CPU) over the peer's (p50), the median of the rounds' ratios, \
+         each taken between runs made one right after the other:\n"
     );
     let _ = writeln!(
         md,
-        "| followers | vehicles | peer | p50 | p90 | mean | SUMO's step alone (p50) | ours / peer (p50) |\n|---|---|---|---|---|---|---|---|"
+        "| followers | vehicles | peer | p50 | p90 | mean | SUMO's step alone (p50) | ours / peer (p50) | each round |\n|---|---|---|---|---|---|---|---|---|"
     );
-    let ours = |n: usize| {
-        steps
+    let ratio = |p: &PeerRow| {
+        ratios
             .iter()
-            .find(|r| r.mode == "sumo" && r.followers == n)
-            .map(|r| r.step_p50_us)
+            .find(|r| r.peer == p.peer && r.followers == p.followers)
+    };
+    let each = |r: &PeerRatio| {
+        r.rounds
+            .iter()
+            .map(|x| format!("{x:.2}"))
+            .collect::<Vec<_>>()
+            .join(", ")
     };
     for p in peers {
+        let r = ratio(p);
         let _ = writeln!(
             md,
-            "| {} | {} | {} | {:.1} | {:.1} | {:.1} | {:.1} | {} |",
+            "| {} | {} | {} | {:.1} | {:.1} | {:.1} | {:.1} | {} | {} |",
             p.followers,
             p.vehicles,
             p.peer,
@@ -1009,22 +1185,24 @@ fn peers_section(md: &mut String, steps: &[StepRow], peers: &[PeerRow]) {
             p.step_p90_us,
             p.step_mean_us,
             p.sumo_step_p50_us,
-            ours(p.followers).map_or("-".into(), |o| format!("{:.2}", o / p.step_p50_us))
+            r.map_or("-".into(), |r| format!("{:.2}", r.median)),
+            r.map_or("-".into(), each)
         );
     }
     let _ = writeln!(md);
     let big = peers.iter().map(|p| p.followers).max().unwrap_or(0);
-    if let (Some(o), Some(cacc)) = (
-        ours(big),
-        peers
-            .iter()
-            .find(|p| p.followers == big && p.peer == "plexe_cacc"),
-    ) {
-        let x = o / cacc.step_p50_us;
+    if let Some((cacc, r)) = peers
+        .iter()
+        .find(|p| p.followers == big && p.peer == "plexe_cacc")
+        .and_then(|p| Some((p, ratio(p)?)))
+    {
+        let x = r.median;
         let _ = writeln!(
             md,
-            "{big} followers ({} vehicles) with SUMO: our step is **{x:.2}x** Plexe's auto-fed CACC inside SUMO (target <= 0.8: {}).\n",
+            "{big} followers ({} vehicles) with SUMO: our step is **{x:.2}x** Plexe's auto-fed CACC inside SUMO, the median of {} rounds ({}; target <= 0.8: {}).\n",
             cacc.vehicles,
+            r.rounds.len(),
+            each(r),
             if x <= 0.8 { "met" } else { "missed" }
         );
     }
@@ -1534,12 +1712,14 @@ fn all(a: AllArgs) -> Result<()> {
             .to_vec(),
         seconds: 5.0,
         no_peers: false,
+        rounds: 3,
         out: Some(out.join("step")),
         force: true,
     })?;
     let StepReport {
         rows: steps,
         peers: peer_rows,
+        ratios,
     } = steps;
     let (designs, checks) = design(DesignArgs {
         followers: vec![4, 10, 20],
@@ -1647,7 +1827,7 @@ fn all(a: AllArgs) -> Result<()> {
         "## Step cost against size (`platoon bench step`)\n\n{}",
         measured("bench step")
     );
-    let _ = writeln!(md, "Platoons of 4 followers (PF, dynamic ETM, no DoS), 5 simulated seconds per case, dt = 0.01 s. p50 µs per step:\n");
+    let _ = writeln!(md, "Platoons of 4 followers (PF, dynamic ETM, no DoS), 5 simulated seconds per case, dt = 0.01 s, every case run in 3 rounds (interleaved). p50 µs per step, each figure the median over the rounds:\n");
     let _ = writeln!(md, "Modes ending in -1cpu run the nodes on one core (`platoon run --cpus`). Peak RSS is the sum over every process of the run (`platoon run` and its nodes; `timing.json` has each), in MiB.\n");
     let _ = writeln!(md, "| mode | followers | vehicles | step | x real time | plant | controller | injector | SUMO step | bridge | SUMO step, tight loop | bridge, tight loop | peak RSS |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     let f = |x: Option<f64>| x.map_or("-".to_string(), |v| format!("{v:.1}"));
@@ -1710,7 +1890,7 @@ fn all(a: AllArgs) -> Result<()> {
         md,
         "The scaling plot with the least-squares lines is runs/bench/step/step.png.\n"
     );
-    peers_section(&mut md, &steps, &peer_rows);
+    peers_section(&mut md, &peer_rows, &ratios);
     // What was measured by hand (a `### ... (measured by hand` subsection of the report being
     // replaced) is carried over: no run of `bench all` drops it.
     let previous = std::fs::read_to_string(&a.markdown).unwrap_or_default();
