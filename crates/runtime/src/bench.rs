@@ -115,6 +115,9 @@ pub fn raw_hop(
     }
     let _ = child.kill();
     let _ = child.wait();
+    // This process was a node (the echo's wake-ups narrowed it): what it starts next must not
+    // inherit that CPU.
+    crate::handoff::go_home();
     result?;
     Ok(hops)
 }

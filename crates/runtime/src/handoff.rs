@@ -10,12 +10,15 @@
 //! (about 0.3 µs) per wake-up: the set is changed (about 1 µs a call) only when the chain moved
 //! or the reader went home. Every [`RETURN_EVERY`] wake-ups a node returns to its own set, so
 //! the load balancer can still move the chain; the orchestrator, which records off the chain,
-//! is never narrowed and stays free to run on the other CPU.
+//! is never narrowed and stays free to run on the other CPU. A node that finds it has been
+//! waiting for its CPU (two runs' chains held on one CPU while the other is free) goes home at
+//! once and narrows no one for a while, so the chains part.
 //! `PLATOON_WAKE_HANDOFF=0` turns it off; it is off by itself where a process may run on one
 //! CPU only (`platoon run --cpus 0`), and failures (another user's process, a CPU outside the
 //! reader's cgroup) are ignored: the hop is then an ordinary one.
 
-use std::sync::atomic::{AtomicU32, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, Ordering};
+use std::sync::Mutex;
 use std::sync::OnceLock;
 
 /// A node returns to its own CPU set every this many wake-ups (a narrowed set is kept between
@@ -25,13 +28,22 @@ pub(crate) const RETURN_EVERY: u32 = 64;
 /// Wake-ups since this process last returned to its own set.
 static WOKEN: AtomicU32 = AtomicU32::new(0);
 
-/// This process's CPU set when its endpoint was made, if the hand-off is on.
-static HOME: OnceLock<Option<libc::cpu_set_t>> = OnceLock::new();
+/// `sched_setaffinity` calls on other processes so far (what the tests count).
+#[cfg(test)]
+static NARROWED: AtomicU32 = AtomicU32::new(0);
 
-/// Reads this process's CPU set, once: the set [`restore`] returns to. The hand-off is on when
-/// that set has more than one CPU and `PLATOON_WAKE_HANDOFF` is not `0`.
+/// Whether this process hands its wake-ups off (its own set has more than one CPU).
+static ON: AtomicBool = AtomicBool::new(false);
+
+/// This process's own CPU set, read when its endpoint was made, if the hand-off is on.
+static HOME: Mutex<Option<libc::cpu_set_t>> = Mutex::new(None);
+
+/// Reads this process's CPU set as it is now (each endpoint made reads it again): the set
+/// [`restore`] returns to. The hand-off is on when that set has more than one CPU and
+/// `PLATOON_WAKE_HANDOFF` is not `0`; a process pinned to one CPU (`platoon run --cpus`, the
+/// one-core rows of `bench latency`) neither narrows others nor leaves its CPU.
 pub(crate) fn init() {
-    HOME.get_or_init(|| {
+    let home = (|| {
         if std::env::var_os("PLATOON_WAKE_HANDOFF").is_some_and(|v| v == "0") {
             return None;
         }
@@ -42,18 +54,24 @@ pub(crate) fn init() {
             return None;
         }
         (unsafe { libc::CPU_COUNT(&set) } > 1).then_some(set)
-    });
+    })();
+    let mut slot = HOME.lock().unwrap_or_else(|e| e.into_inner());
+    ON.store(home.is_some(), Ordering::Relaxed);
+    WOKEN.store(0, Ordering::Relaxed);
+    QUIET.store(0, Ordering::Relaxed);
+    RUN_DELAY.store(0, Ordering::Relaxed);
+    *slot = home;
 }
 
 /// Whether this process hands its wake-ups off.
 pub(crate) fn enabled() -> bool {
-    HOME.get().is_some_and(Option::is_some)
+    ON.load(Ordering::Relaxed)
 }
 
 /// Narrows the sleeping processes `pids` to the CPU this one runs on, each unless it already
 /// has just that CPU: call it right before waking them.
 pub(crate) fn hand_to(pids: &[libc::pid_t]) {
-    if pids.is_empty() || !enabled() {
+    if pids.is_empty() || !enabled() || QUIET.load(Ordering::Relaxed) > 0 {
         return;
     }
     // SAFETY: sched_getcpu has no arguments; cpu_set_t is plain data.
@@ -71,31 +89,101 @@ pub(crate) fn hand_to(pids: &[libc::pid_t]) {
         if read && unsafe { libc::CPU_EQUAL(&now, &one) } {
             continue;
         }
+        #[cfg(test)]
+        NARROWED.fetch_add(1, Ordering::Relaxed);
         // SAFETY: only the CPU set of `pid` changes; an error leaves it as it was.
         unsafe { libc::sched_setaffinity(pid, size, &one) };
     }
 }
 
-/// After a wake-up: every [`RETURN_EVERY`]-th one, returns this process to its own CPU set
-/// (another node may have narrowed it); the others keep the set as it is.
+/// Every this many wake-ups a node reads how long it waited for a CPU since it last looked
+/// (the kernel's run delay, `/proc/thread-self/schedstat`, about 1 µs to read).
+const LOOK_EVERY: u32 = 8;
+
+/// More than this run delay a wake-up on average, and a node is sharing its CPU with another
+/// process that is not its chain's (another run's chain, usually): it goes home at once, so the
+/// balancer can move it, and the chain after it, to a CPU that is free.
+const CONTENDED_NS: u64 = 30_000;
+
+/// The run delay (ns) when this process last looked, 0 before the first look.
+static RUN_DELAY: AtomicU64 = AtomicU64::new(0);
+
+/// This thread's scheduler statistics, opened on the first look.
+static SCHEDSTAT: OnceLock<Option<std::fs::File>> = OnceLock::new();
+
+/// The run delay of the thread that first asked (the node's own), in ns.
+fn run_delay_ns() -> Option<u64> {
+    use std::os::unix::fs::FileExt as _;
+    let file = SCHEDSTAT
+        .get_or_init(|| std::fs::File::open("/proc/thread-self/schedstat").ok())
+        .as_ref()?;
+    let mut buf = [0u8; 96];
+    let n = file.read_at(&mut buf, 0).ok()?;
+    let text = std::str::from_utf8(&buf[..n]).ok()?;
+    text.split_whitespace().nth(1)?.parse().ok()
+}
+
+/// Whether a run delay that grew from `before` to `now` (ns) over [`LOOK_EVERY`] wake-ups means
+/// a shared CPU; `before` is 0 at the first look, which only sets the baseline.
+fn contended(before: u64, now: u64) -> bool {
+    before != 0 && now.saturating_sub(before) > CONTENDED_NS * u64::from(LOOK_EVERY)
+}
+
+/// After a wake-up: returns this process to its own CPU set (another node may have narrowed
+/// it) every [`RETURN_EVERY`]-th one; at once when it has been waiting for its CPU (see
+/// [`CONTENDED_NS`]), and then it also hands nothing off for [`RETURN_EVERY`] wake-ups, so its
+/// chain wakes where the scheduler puts it (a free CPU) instead of being held beside another
+/// run's chain. Otherwise it keeps the set as it is.
 pub(crate) fn woken() {
-    if WOKEN.fetch_add(1, Ordering::Relaxed) + 1 >= RETURN_EVERY {
+    if !enabled() {
+        return;
+    }
+    let n = WOKEN.fetch_add(1, Ordering::Relaxed) + 1;
+    let shared = LOOK.load(Ordering::Relaxed)
+        && n.is_multiple_of(LOOK_EVERY)
+        && run_delay_ns().is_some_and(|now| contended(RUN_DELAY.swap(now, Ordering::Relaxed), now));
+    if shared {
+        QUIET.store(RETURN_EVERY, Ordering::Relaxed);
+    } else if QUIET.load(Ordering::Relaxed) > 0 {
+        QUIET.fetch_sub(1, Ordering::Relaxed);
+    }
+    if shared || n >= RETURN_EVERY {
         WOKEN.store(0, Ordering::Relaxed);
         restore();
     }
 }
 
-/// Returns this process to its own CPU set after a wake-up (another node may have narrowed it).
+/// Whether [`woken`] looks at the run delay (the tests that count wake-ups turn it off: a busy
+/// test machine would make it go home early).
+static LOOK: AtomicBool = AtomicBool::new(true);
+
+/// Wake-ups left during which this process hands nothing off (it found its CPU shared).
+static QUIET: AtomicU32 = AtomicU32::new(0);
+
+/// Returns this process to its own CPU set (another node may have narrowed it).
 pub(crate) fn restore() {
-    if let Some(Some(home)) = HOME.get() {
+    let home = *HOME.lock().unwrap_or_else(|e| e.into_inner());
+    if let Some(home) = home {
         // SAFETY: sets this process's own CPU set to the one it started with.
-        unsafe { libc::sched_setaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), home) };
+        unsafe { libc::sched_setaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &home) };
+    }
+}
+
+/// Returns this process to its own CPU set for good, when it stops being a node (the bench
+/// process after a raw hop): what it starts next must not inherit a narrowed set.
+pub(crate) fn go_home() {
+    if enabled() {
+        WOKEN.store(0, Ordering::Relaxed);
+        restore();
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The hand-off's state is the process's: its tests run one at a time.
+    static SERIAL: Mutex<()> = Mutex::new(());
 
     fn cpus_of(pid: libc::pid_t) -> usize {
         // SAFETY: cpu_set_t is plain data, filled in by sched_getaffinity.
@@ -107,25 +195,36 @@ mod tests {
 
     #[test]
     fn a_sleeping_reader_is_handed_one_cpu_and_gets_its_set_back_every_return_every_wake_ups() {
+        let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
         init();
         let cpus = cpus_of(0);
         // On by itself wherever there is more than one CPU (unless turned off).
         let off = std::env::var_os("PLATOON_WAKE_HANDOFF").is_some_and(|v| v == "0");
         assert_eq!(enabled(), cpus > 1 && !off);
+        // This thread, narrowed as a reader is (so the CPU it hands on stays the same).
+        hand_to(&[0]);
         let mut child = std::process::Command::new("sleep")
             .arg("10")
             .spawn()
             .expect("sleep");
         let pid = child.id() as libc::pid_t;
+        // The child inherited the narrowed set; give it the whole one back first.
+        let home = HOME
+            .lock()
+            .unwrap()
+            .unwrap_or(unsafe { std::mem::zeroed() });
+        unsafe { libc::sched_setaffinity(pid, std::mem::size_of::<libc::cpu_set_t>(), &home) };
         assert_eq!(cpus_of(pid), cpus);
         hand_to(&[pid]);
         assert_eq!(cpus_of(pid), if enabled() { 1 } else { cpus });
-        // Handed the CPU it already has, it keeps it.
+        // Handed the CPU it already has, it keeps it, and its set is not written again.
+        let narrowed = NARROWED.load(Ordering::Relaxed);
         hand_to(&[pid]);
         assert_eq!(cpus_of(pid), if enabled() { 1 } else { cpus });
-        // This process, narrowed as a reader is, keeps the narrowed set for RETURN_EVERY - 1
-        // wake-ups and returns to its own set at the next one.
-        hand_to(&[0]);
+        assert_eq!(NARROWED.load(Ordering::Relaxed), narrowed);
+        // A narrowed node keeps its set for RETURN_EVERY - 1 wake-ups and returns to its own
+        // at the next one.
+        LOOK.store(false, Ordering::Relaxed);
         WOKEN.store(0, Ordering::Relaxed);
         for _ in 1..RETURN_EVERY {
             woken();
@@ -133,9 +232,70 @@ mod tests {
         assert_eq!(cpus_of(0), if enabled() { 1 } else { cpus });
         woken();
         assert_eq!(cpus_of(0), cpus);
+        // A process that stops being a node goes home for good.
         hand_to(&[0]);
-        restore();
+        go_home();
         assert_eq!(cpus_of(0), cpus);
+        LOOK.store(true, Ordering::Relaxed);
+        let _ = child.kill();
+        let _ = child.wait();
+    }
+
+    #[test]
+    fn a_process_pinned_to_one_cpu_hands_nothing_off_and_stays() {
+        let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
+        init();
+        let Some(home) = *HOME.lock().unwrap() else {
+            return; // one CPU, or turned off: nothing to pin away from
+        };
+        hand_to(&[0]);
+        // An endpoint made now (as in `bench latency`'s one-core rows) reads the pinned set.
+        init();
+        assert!(!enabled());
+        for _ in 0..RETURN_EVERY {
+            woken();
+        }
+        assert_eq!(cpus_of(0), 1);
+        // Back on its own CPUs, the next endpoint hands off again.
+        unsafe { libc::sched_setaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &home) };
+        init();
+        assert!(enabled());
+    }
+
+    #[test]
+    fn a_node_that_waits_for_its_cpu_goes_home_and_hands_nothing_off_for_a_while() {
+        let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
+        // The first look sets the baseline; then more than CONTENDED_NS a wake-up is sharing.
+        assert!(!contended(0, 10_000_000));
+        let per_look = CONTENDED_NS * u64::from(LOOK_EVERY);
+        assert!(!contended(1_000, 1_000 + per_look));
+        assert!(contended(1_000, 1_001 + per_look));
+        assert!(!contended(5_000, 4_000)); // never backwards
+                                           // This thread reads its own run delay.
+        assert!(run_delay_ns().is_some());
+        init();
+        if !enabled() {
+            return;
+        }
+        // Found sharing its CPU (as `woken` finds it): home at once, and quiet for a while.
+        LOOK.store(false, Ordering::Relaxed);
+        hand_to(&[0]);
+        QUIET.store(RETURN_EVERY, Ordering::Relaxed);
+        restore();
+        let cpus = cpus_of(0);
+        let mut child = std::process::Command::new("sleep")
+            .arg("10")
+            .spawn()
+            .expect("sleep");
+        let pid = child.id() as libc::pid_t;
+        hand_to(&[pid]);
+        assert_eq!(cpus_of(pid), cpus, "a quiet node narrows no one");
+        for _ in 0..RETURN_EVERY {
+            woken();
+        }
+        hand_to(&[pid]);
+        assert_eq!(cpus_of(pid), 1, "quiet no more");
+        LOOK.store(true, Ordering::Relaxed);
         let _ = child.kill();
         let _ = child.wait();
     }

@@ -790,11 +790,14 @@ fn spawn_all(opts: &Options, children: &mut Children) -> Result<(), RunError> {
             )
             .envs(opts.env.iter().map(|(k, v)| (k, v)))
             .stdin(Stdio::null());
-        // A node computes one step at a time between wake-ups: a BLAS thread pool (this
-        // binary's OpenBLAS, numpy's in the Python nodes) buys it nothing, and its threads
-        // spin at start (some 50 ms of CPU each, beside SUMO starting). The user's value wins.
+        // Our nodes compute one step at a time between wake-ups: a BLAS thread pool (this
+        // binary's OpenBLAS, numpy's in the SUMO bridge) buys them nothing, and its threads
+        // spin at start (some 50 ms of CPU each, beside SUMO starting). A user's command
+        // (`--injector`, `--controller`) gets the environment as it is; so does any node when
+        // the user set the variable.
         let blas = "OPENBLAS_NUM_THREADS";
-        if std::env::var_os(blas).is_none() && !opts.env.iter().any(|(k, _)| k == blas) {
+        let ours = !matches!(program, Program::Shell(_));
+        if ours && std::env::var_os(blas).is_none() && !opts.env.iter().any(|(k, _)| k == blas) {
             cmd.env(blas, "1");
         }
         let plugin = *program != Program::Builtin;
