@@ -10,16 +10,15 @@
 //! (about 0.3 µs) per wake-up: the set is changed (about 1 µs a call) only when the chain moved
 //! or the reader went home. Every [`RETURN_EVERY`] wake-ups a node returns to its own set, so
 //! the load balancer can still move the chain; the orchestrator, which records off the chain,
-//! is never narrowed and stays free to run on the other CPU. A node that finds it has been
-//! waiting for its CPU (two runs' chains held on one CPU while the other is free) goes home at
-//! once and narrows no one for a while, so the chains part.
+//! is never narrowed and stays free to run on the other CPU. Two runs at once may be held on
+//! one CPU for a while this way (their chains each follow their waker); `--cpus` with a
+//! different CPU per run is the fastest for runs side by side.
 //! `PLATOON_WAKE_HANDOFF=0` turns it off; it is off by itself where a process may run on one
 //! CPU only (`platoon run --cpus 0`), and failures (another user's process, a CPU outside the
 //! reader's cgroup) are ignored: the hop is then an ordinary one.
 
-use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 use std::sync::Mutex;
-use std::sync::OnceLock;
 
 /// A node returns to its own CPU set every this many wake-ups (a narrowed set is kept between
 /// them, so a chain that stays on one CPU changes no set).
@@ -58,8 +57,6 @@ pub(crate) fn init() {
     let mut slot = HOME.lock().unwrap_or_else(|e| e.into_inner());
     ON.store(home.is_some(), Ordering::Relaxed);
     WOKEN.store(0, Ordering::Relaxed);
-    QUIET.store(0, Ordering::Relaxed);
-    RUN_DELAY.store(0, Ordering::Relaxed);
     *slot = home;
 }
 
@@ -71,7 +68,7 @@ pub(crate) fn enabled() -> bool {
 /// Narrows the sleeping processes `pids` to the CPU this one runs on, each unless it already
 /// has just that CPU: call it right before waking them.
 pub(crate) fn hand_to(pids: &[libc::pid_t]) {
-    if pids.is_empty() || !enabled() || QUIET.load(Ordering::Relaxed) > 0 {
+    if pids.is_empty() || !enabled() {
         return;
     }
     // SAFETY: sched_getcpu has no arguments; cpu_set_t is plain data.
@@ -96,69 +93,17 @@ pub(crate) fn hand_to(pids: &[libc::pid_t]) {
     }
 }
 
-/// Every this many wake-ups a node reads how long it waited for a CPU since it last looked
-/// (the kernel's run delay, `/proc/thread-self/schedstat`, about 1 µs to read).
-const LOOK_EVERY: u32 = 8;
-
-/// More than this run delay a wake-up on average, and a node is sharing its CPU with another
-/// process that is not its chain's (another run's chain, usually): it goes home at once, so the
-/// balancer can move it, and the chain after it, to a CPU that is free.
-const CONTENDED_NS: u64 = 30_000;
-
-/// The run delay (ns) when this process last looked, 0 before the first look.
-static RUN_DELAY: AtomicU64 = AtomicU64::new(0);
-
-/// This thread's scheduler statistics, opened on the first look.
-static SCHEDSTAT: OnceLock<Option<std::fs::File>> = OnceLock::new();
-
-/// The run delay of the thread that first asked (the node's own), in ns.
-fn run_delay_ns() -> Option<u64> {
-    use std::os::unix::fs::FileExt as _;
-    let file = SCHEDSTAT
-        .get_or_init(|| std::fs::File::open("/proc/thread-self/schedstat").ok())
-        .as_ref()?;
-    let mut buf = [0u8; 96];
-    let n = file.read_at(&mut buf, 0).ok()?;
-    let text = std::str::from_utf8(&buf[..n]).ok()?;
-    text.split_whitespace().nth(1)?.parse().ok()
-}
-
-/// Whether a run delay that grew from `before` to `now` (ns) over [`LOOK_EVERY`] wake-ups means
-/// a shared CPU; `before` is 0 at the first look, which only sets the baseline.
-fn contended(before: u64, now: u64) -> bool {
-    before != 0 && now.saturating_sub(before) > CONTENDED_NS * u64::from(LOOK_EVERY)
-}
-
-/// After a wake-up: returns this process to its own CPU set (another node may have narrowed
-/// it) every [`RETURN_EVERY`]-th one; at once when it has been waiting for its CPU (see
-/// [`CONTENDED_NS`]), and then it also hands nothing off for [`RETURN_EVERY`] wake-ups, so its
-/// chain wakes where the scheduler puts it (a free CPU) instead of being held beside another
-/// run's chain. Otherwise it keeps the set as it is.
+/// After a wake-up: every [`RETURN_EVERY`]-th one, returns this process to its own CPU set
+/// (another node may have narrowed it); the others keep the set as it is.
 pub(crate) fn woken() {
     if !enabled() {
         return;
     }
-    let n = WOKEN.fetch_add(1, Ordering::Relaxed) + 1;
-    let shared = LOOK.load(Ordering::Relaxed)
-        && n.is_multiple_of(LOOK_EVERY)
-        && run_delay_ns().is_some_and(|now| contended(RUN_DELAY.swap(now, Ordering::Relaxed), now));
-    if shared {
-        QUIET.store(RETURN_EVERY, Ordering::Relaxed);
-    } else if QUIET.load(Ordering::Relaxed) > 0 {
-        QUIET.fetch_sub(1, Ordering::Relaxed);
-    }
-    if shared || n >= RETURN_EVERY {
+    if WOKEN.fetch_add(1, Ordering::Relaxed) + 1 >= RETURN_EVERY {
         WOKEN.store(0, Ordering::Relaxed);
         restore();
     }
 }
-
-/// Whether [`woken`] looks at the run delay (the tests that count wake-ups turn it off: a busy
-/// test machine would make it go home early).
-static LOOK: AtomicBool = AtomicBool::new(true);
-
-/// Wake-ups left during which this process hands nothing off (it found its CPU shared).
-static QUIET: AtomicU32 = AtomicU32::new(0);
 
 /// Returns this process to its own CPU set (another node may have narrowed it).
 pub(crate) fn restore() {
@@ -224,7 +169,6 @@ mod tests {
         assert_eq!(NARROWED.load(Ordering::Relaxed), narrowed);
         // A narrowed node keeps its set for RETURN_EVERY - 1 wake-ups and returns to its own
         // at the next one.
-        LOOK.store(false, Ordering::Relaxed);
         WOKEN.store(0, Ordering::Relaxed);
         for _ in 1..RETURN_EVERY {
             woken();
@@ -236,7 +180,6 @@ mod tests {
         hand_to(&[0]);
         go_home();
         assert_eq!(cpus_of(0), cpus);
-        LOOK.store(true, Ordering::Relaxed);
         let _ = child.kill();
         let _ = child.wait();
     }
@@ -260,44 +203,6 @@ mod tests {
         unsafe { libc::sched_setaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &home) };
         init();
         assert!(enabled());
-    }
-
-    #[test]
-    fn a_node_that_waits_for_its_cpu_goes_home_and_hands_nothing_off_for_a_while() {
-        let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
-        // The first look sets the baseline; then more than CONTENDED_NS a wake-up is sharing.
-        assert!(!contended(0, 10_000_000));
-        let per_look = CONTENDED_NS * u64::from(LOOK_EVERY);
-        assert!(!contended(1_000, 1_000 + per_look));
-        assert!(contended(1_000, 1_001 + per_look));
-        assert!(!contended(5_000, 4_000)); // never backwards
-                                           // This thread reads its own run delay.
-        assert!(run_delay_ns().is_some());
-        init();
-        if !enabled() {
-            return;
-        }
-        // Found sharing its CPU (as `woken` finds it): home at once, and quiet for a while.
-        LOOK.store(false, Ordering::Relaxed);
-        hand_to(&[0]);
-        QUIET.store(RETURN_EVERY, Ordering::Relaxed);
-        restore();
-        let cpus = cpus_of(0);
-        let mut child = std::process::Command::new("sleep")
-            .arg("10")
-            .spawn()
-            .expect("sleep");
-        let pid = child.id() as libc::pid_t;
-        hand_to(&[pid]);
-        assert_eq!(cpus_of(pid), cpus, "a quiet node narrows no one");
-        for _ in 0..RETURN_EVERY {
-            woken();
-        }
-        hand_to(&[pid]);
-        assert_eq!(cpus_of(pid), 1, "quiet no more");
-        LOOK.store(true, Ordering::Relaxed);
-        let _ = child.kill();
-        let _ = child.wait();
     }
 
     #[test]
