@@ -700,101 +700,95 @@ fn median_of<T>(rows: &[&T], f: impl Fn(&T) -> Option<f64>) -> Option<f64> {
     (!xs.is_empty()).then(|| median(xs))
 }
 
-/// One row per case of the rounds' rows (in the order of `rounds`' first round): each figure
-/// the median over the rounds.
-fn median_rows(rounds: &[StepRow]) -> Vec<StepRow> {
-    let mut out: Vec<StepRow> = Vec::new();
-    for r in rounds {
-        if out
-            .iter()
-            .any(|o| o.mode == r.mode && o.followers == r.followers)
-        {
-            continue;
+/// `rows` grouped by `key`, the groups in the order their first rows come (a case's or a
+/// peer's rows of every round).
+fn groups<T, K: PartialEq>(rows: &[T], key: impl Fn(&T) -> K) -> Vec<Vec<&T>> {
+    let mut out: Vec<(K, Vec<&T>)> = Vec::new();
+    for r in rows {
+        let k = key(r);
+        match out.iter_mut().find(|(g, _)| *g == k) {
+            Some((_, group)) => group.push(r),
+            None => out.push((k, vec![r])),
         }
-        let same: Vec<&StepRow> = rounds
-            .iter()
-            .filter(|x| x.mode == r.mode && x.followers == r.followers)
-            .collect();
-        let step = median(same.iter().map(|x| x.step_p50_us).collect());
-        out.push(StepRow {
-            round: 0,
-            mode: r.mode.clone(),
-            followers: r.followers,
-            vehicles: r.vehicles,
-            steps: r.steps,
-            step_p50_us: step,
-            step_p99_us: median(same.iter().map(|x| x.step_p99_us).collect()),
-            real_time_factor: 0.01 * 1e6 / step,
-            plant_p50_us: median_of(&same, |x| x.plant_p50_us),
-            controller_p50_us: median_of(&same, |x| x.controller_p50_us),
-            injector_p50_us: median_of(&same, |x| x.injector_p50_us),
-            sumo_step_p50_us: median_of(&same, |x| x.sumo_step_p50_us),
-            bridge_p50_us: median_of(&same, |x| x.bridge_p50_us),
-            peak_rss_mib: median_of(&same, |x| x.peak_rss_mib),
-            sumo_step_tight_p50_us: median_of(&same, |x| x.sumo_step_tight_p50_us),
-            bridge_tight_p50_us: median_of(&same, |x| x.bridge_tight_p50_us),
-        });
     }
-    out
+    out.into_iter().map(|(_, group)| group).collect()
+}
+
+/// One row per case of the rounds' rows (in the order of the first round): each figure the
+/// median over the rounds.
+fn median_rows(rounds: &[StepRow]) -> Vec<StepRow> {
+    groups(rounds, |r| (r.mode.clone(), r.followers))
+        .into_iter()
+        .map(|same| {
+            let r = same[0];
+            let step = median(same.iter().map(|x| x.step_p50_us).collect());
+            StepRow {
+                round: 0,
+                mode: r.mode.clone(),
+                followers: r.followers,
+                vehicles: r.vehicles,
+                steps: r.steps,
+                step_p50_us: step,
+                step_p99_us: median(same.iter().map(|x| x.step_p99_us).collect()),
+                real_time_factor: 0.01 * 1e6 / step,
+                plant_p50_us: median_of(&same, |x| x.plant_p50_us),
+                controller_p50_us: median_of(&same, |x| x.controller_p50_us),
+                injector_p50_us: median_of(&same, |x| x.injector_p50_us),
+                sumo_step_p50_us: median_of(&same, |x| x.sumo_step_p50_us),
+                bridge_p50_us: median_of(&same, |x| x.bridge_p50_us),
+                peak_rss_mib: median_of(&same, |x| x.peak_rss_mib),
+                sumo_step_tight_p50_us: median_of(&same, |x| x.sumo_step_tight_p50_us),
+                bridge_tight_p50_us: median_of(&same, |x| x.bridge_tight_p50_us),
+            }
+        })
+        .collect()
 }
 
 /// The peers' rows of every round as one row per size and peer, each figure the median.
 fn median_peers(rounds: &[PeerRow]) -> Vec<PeerRow> {
-    let mut out: Vec<PeerRow> = Vec::new();
-    for r in rounds {
-        if out
-            .iter()
-            .any(|o| o.peer == r.peer && o.followers == r.followers)
-        {
-            continue;
-        }
-        let same: Vec<&PeerRow> = rounds
-            .iter()
-            .filter(|x| x.peer == r.peer && x.followers == r.followers)
-            .collect();
-        let m = |f: fn(&PeerRow) -> f64| median(same.iter().map(|x| f(x)).collect());
-        out.push(PeerRow {
-            round: 0,
-            followers: r.followers,
-            vehicles: r.vehicles,
-            peer: r.peer.clone(),
-            step_p50_us: m(|x| x.step_p50_us),
-            step_p90_us: m(|x| x.step_p90_us),
-            step_mean_us: m(|x| x.step_mean_us),
-            sumo_step_p50_us: m(|x| x.sumo_step_p50_us),
-        });
-    }
-    out
+    groups(rounds, |r| (r.peer.clone(), r.followers))
+        .into_iter()
+        .map(|same| {
+            let r = same[0];
+            let m = |f: fn(&PeerRow) -> f64| median(same.iter().map(|x| f(x)).collect());
+            PeerRow {
+                round: 0,
+                followers: r.followers,
+                vehicles: r.vehicles,
+                peer: r.peer.clone(),
+                step_p50_us: m(|x| x.step_p50_us),
+                step_p90_us: m(|x| x.step_p90_us),
+                step_mean_us: m(|x| x.step_mean_us),
+                sumo_step_p50_us: m(|x| x.sumo_step_p50_us),
+            }
+        })
+        .collect()
 }
 
 /// Our `sumo` step over each peer's, round by round.
 fn peer_ratios(steps: &[StepRow], peers: &[PeerRow]) -> Vec<PeerRatio> {
-    let mut out: Vec<PeerRatio> = Vec::new();
-    for p in peers {
-        if out
-            .iter()
-            .any(|o| o.peer == p.peer && o.followers == p.followers)
-        {
-            continue;
-        }
-        let rounds: Vec<f64> = peers
-            .iter()
-            .filter(|q| q.peer == p.peer && q.followers == p.followers)
-            .map(|q| {
-                steps
-                    .iter()
-                    .find(|r| r.mode == "sumo" && r.followers == q.followers && r.round == q.round)
-                    .map_or(f64::NAN, |r| r.step_p50_us / q.step_p50_us)
-            })
-            .collect();
-        out.push(PeerRatio {
-            followers: p.followers,
-            peer: p.peer.clone(),
-            median: median(rounds.clone()),
-            rounds,
-        });
-    }
-    out
+    groups(peers, |p| (p.peer.clone(), p.followers))
+        .into_iter()
+        .map(|same| {
+            let rounds: Vec<f64> = same
+                .iter()
+                .map(|q| {
+                    steps
+                        .iter()
+                        .find(|r| {
+                            r.mode == "sumo" && r.followers == q.followers && r.round == q.round
+                        })
+                        .map_or(f64::NAN, |r| r.step_p50_us / q.step_p50_us)
+                })
+                .collect();
+            PeerRatio {
+                followers: same[0].followers,
+                peer: same[0].peer.clone(),
+                median: median(rounds.clone()),
+                rounds,
+            }
+        })
+        .collect()
 }
 
 /// `bridge/bench_peers.py` on a SUMO case's plant.json: each peer's step, µs.
