@@ -38,3 +38,50 @@ pub fn ok(o: &Output) {
 pub fn json(path: &Path) -> serde_json::Value {
     serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
 }
+
+/// Pins a figure the docs publish to what a test computed: `doc` (a path from the repository
+/// root) must hold `template` with each `{}` replaced by the next of `values`, formatted to the
+/// digits the doc prints. A figure that drifts (the code computes another value, or someone
+/// edits the doc) fails here, quoting the doc's lines that hold the template's longest fixed
+/// part, so the doc or the code can be put right.
+pub fn published(doc: &str, template: &str, values: &[String]) {
+    let pieces: Vec<&str> = template.split("{}").collect();
+    assert_eq!(
+        pieces.len(),
+        values.len() + 1,
+        "{template:?} has {} placeholders for {} values",
+        pieces.len() - 1,
+        values.len()
+    );
+    let mut expected = pieces[0].to_string();
+    for (value, piece) in values.iter().zip(&pieces[1..]) {
+        expected += value;
+        expected += piece;
+    }
+    let text = std::fs::read_to_string(repo().join(doc))
+        .unwrap_or_else(|e| panic!("cannot read {doc}: {e}"));
+    // A Markdown paragraph may wrap anywhere: compare with runs of whitespace as one space.
+    let squash = |s: &str| s.split_whitespace().collect::<Vec<_>>().join(" ");
+    if squash(&text).contains(&squash(&expected)) {
+        return;
+    }
+    let anchor = pieces
+        .iter()
+        .map(|p| p.trim())
+        .max_by_key(|p| p.len())
+        .unwrap_or("");
+    let near: Vec<String> = text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| !anchor.is_empty() && l.contains(anchor))
+        .map(|(i, l)| format!("  {doc}:{}: {l}", i + 1))
+        .collect();
+    panic!(
+        "{doc} does not publish what the test computed:\n  expected: {expected}\n{}",
+        if near.is_empty() {
+            format!("  and no line holds {anchor:?}")
+        } else {
+            format!("  it says:\n{}", near.join("\n"))
+        }
+    );
+}
