@@ -9,7 +9,6 @@ use common::{json, ok, platoon, platoon_command, repo};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::sync::OnceLock;
-use std::time::{Duration, Instant};
 
 /// The bridge's Python (creating the venv on first use, as .ci/run does).
 fn python() -> String {
@@ -175,8 +174,8 @@ fn a_sliding_mode_law_on_the_python_sdk_runs_to_completion() {
 }
 
 /// A faulty controller (bridge/examples/radar_controller.py, on the raw protocol) stops a long
-/// run: returns the run's stderr, summary and how long the run took.
-fn faulty(fault: &str, step_timeout: &str) -> (String, serde_json::Value, Duration, PathBuf) {
+/// run: returns the run's stderr and summary.
+fn faulty(fault: &str, step_timeout: &str) -> (String, serde_json::Value, PathBuf) {
     let tmp = tempfile::tempdir().unwrap().keep();
     let base = std::fs::read_to_string(repo().join("configs/table1.toml")).unwrap();
     let config = tmp.join("long.toml");
@@ -186,7 +185,6 @@ fn faulty(fault: &str, step_timeout: &str) -> (String, serde_json::Value, Durati
     )
     .unwrap();
     let controller = py_example("radar_controller.py", fault);
-    let started = Instant::now();
     let o = platoon_command(&tmp)
         .args([
             "run",
@@ -201,7 +199,6 @@ fn faulty(fault: &str, step_timeout: &str) -> (String, serde_json::Value, Durati
         ])
         .output()
         .unwrap();
-    let took = started.elapsed();
     let stderr = String::from_utf8_lossy(&o.stderr).into_owned();
     assert!(!o.status.success(), "the run must fail: {stderr}");
     assert_eq!(o.status.code(), Some(1), "{stderr}");
@@ -216,12 +213,13 @@ fn faulty(fault: &str, step_timeout: &str) -> (String, serde_json::Value, Durati
         1 + 5 * s["steps"].as_u64().unwrap(),
         "{stderr}\n{s}"
     );
-    (stderr, s, took, tmp)
+    (stderr, s, tmp)
 }
 
 #[test]
 fn a_controller_that_crashes_is_named_at_once() {
-    let (stderr, s, took, dir) = faulty("--crash-at 5", "20");
+    // With a 20 s step timeout: a death noticed by the timeout would read "published nothing".
+    let (stderr, s, dir) = faulty("--crash-at 5", "20");
     let error = s["error"].as_str().unwrap();
     for text in [&stderr, error] {
         assert!(
@@ -229,22 +227,24 @@ fn a_controller_that_crashes_is_named_at_once() {
             "{text}"
         );
         assert!(
-            text.contains("| radar_controller: crashing at step 5"),
+            text.contains("the last lines of logs/controller.log")
+                && text.contains("| radar_controller: crashing at step 5"),
             "{text}"
         );
     }
     assert_eq!(s["steps"], 5);
-    // Its death is seen within 100 ms, whatever the step timeout (20 s here).
-    assert!(took < Duration::from_secs(15), "{took:?}");
     let _ = std::fs::remove_dir_all(dir);
 }
 
 #[test]
 fn a_controller_that_hangs_is_named_after_the_step_timeout() {
-    let (stderr, s, _, dir) = faulty("--hang-at 50", "1");
+    // 5 s: long enough that a busy machine does not stall a live step before 50.
+    let (stderr, s, dir) = faulty("--hang-at 50", "5");
     let error = s["error"].as_str().unwrap();
     assert!(
-        error.contains("the controller process published nothing for step 50 within 1 s"),
+        error.contains("the controller process published nothing for step 50 within 5 s")
+            && error.contains("logs/controller.log")
+            && error.contains("--step-timeout"),
         "{error}"
     );
     assert!(stderr.contains(error), "{stderr}");
@@ -254,7 +254,7 @@ fn a_controller_that_hangs_is_named_after_the_step_timeout() {
 
 #[test]
 fn a_controller_repeating_one_step_is_named_after_the_step_timeout() {
-    let (_, s, _, dir) = faulty("--spam-at 60", "1");
+    let (_, s, dir) = faulty("--spam-at 60", "5");
     let error = s["error"].as_str().unwrap();
     // commands[60] arrived (again and again): steps 0..=60 are recorded, 61 never comes.
     assert_eq!(s["steps"], 61);
@@ -272,7 +272,7 @@ fn malformed_commands_are_named_and_the_steps_before_them_kept() {
         ("--wrong-ids-at 70", 70, "command 0 is for vehicle 0"),
         ("--nan-at 80", 80, "with u = NaN"),
     ] {
-        let (stderr, s, took, dir) = faulty(fault, "20");
+        let (stderr, s, dir) = faulty(fault, "20");
         let error = s["error"].as_str().unwrap();
         assert!(
             error.starts_with(&format!("controller: step {step}: ")) && error.contains(needle),
@@ -280,7 +280,6 @@ fn malformed_commands_are_named_and_the_steps_before_them_kept() {
         );
         assert!(stderr.contains(error), "{stderr}");
         assert_eq!(s["steps"], step, "{error}");
-        assert!(took < Duration::from_secs(15), "{took:?}");
         let _ = std::fs::remove_dir_all(dir);
     }
 }
@@ -295,9 +294,13 @@ fn a_controller_that_refuses_the_config_and_an_inproc_controller_are_named() {
     assert!(!o.status.success());
     let s = json(&tmp.path().join("r/summary.json"));
     let error = s["error"].as_str().unwrap();
+    // It reports FAILED, then exits: its report is the run's error, never its exit, however
+    // late the orchestrator looks (issue 35: the exit won the race on a loaded machine).
     assert!(
         error.contains("the controller process failed at step 0")
-            && error.contains("paper_law does not implement this config's"),
+            && error.contains("paper_law does not implement this config's")
+            && error.contains("logs/controller.log")
+            && !error.contains("exited"),
         "{error}"
     );
     assert_eq!(s["steps"], 0);
@@ -421,11 +424,184 @@ fn a_python_detector_on_the_controller_sdk_is_measured_against_ground_truth() {
     );
 
     let o = run(&lying, "none", "");
-    assert!(!o.status.success());
+    // A config this run cannot measure is a bad config: exit 2.
+    assert_eq!(o.status.code(), Some(2));
     let e = String::from_utf8_lossy(&o.stderr);
     assert!(
         e.contains("detection.plugin") && e.contains("--controller"),
         "{e}"
     );
     assert!(!tmp.path().join("none").exists(), "nothing written");
+}
+
+/// A plug-in written into `dir` as `name` (on the Python SDK: the run puts the bridge on its
+/// PYTHONPATH), as `--controller` takes it.
+fn py_plugin(dir: &Path, name: &str, code: &str) -> String {
+    let path = dir.join(name);
+    std::fs::write(&path, code).unwrap();
+    format!("{} {}", python(), path.display())
+}
+
+/// `platoon run configs/table1.toml` with `--controller` and `extra` in `dir` (into `r`): the
+/// exit code, the summary's error and stderr.
+fn failing(dir: &Path, controller: &str, extra: &[&str]) -> (Option<i32>, String, String) {
+    let mut args = vec!["--controller", controller];
+    args.extend_from_slice(extra);
+    let o = run_in(dir, "table1.toml", "r", &args);
+    let stderr = String::from_utf8_lossy(&o.stderr).into_owned();
+    let s = json(&dir.join("r/summary.json"));
+    assert_eq!(s["complete"], false, "{stderr}");
+    let error = s["error"].as_str().unwrap().to_string();
+    assert!(stderr.contains(&error), "{stderr}");
+    for text in [&error, &stderr] {
+        assert!(
+            !text.contains(['\x1b', '\r', '\0']),
+            "raw control characters: {text:?}"
+        );
+    }
+    (o.status.code(), error, stderr)
+}
+
+/// Issue 35: an exception in a Python controller is the run's error, its message made
+/// printable (an escape sequence in it reaches neither the terminal nor summary.json), and the
+/// error names the log, which holds the whole traceback.
+#[test]
+fn an_exception_in_a_python_controller_is_named_with_its_traceback_in_the_log() {
+    let tmp = tempfile::tempdir().unwrap();
+    let boom = py_plugin(
+        tmp.path(),
+        "boom.py",
+        r#"import sys
+import platoon.controller as pc
+
+
+def explode(k):
+    raise ValueError(f"boom at {k} \x1b[31mred\x1b[0m")
+
+
+class Boom(pc.Controller):
+    def __init__(self, run):
+        self.n = run.vehicles_per_platoon - 1
+
+    def transmit(self, step, tx):
+        if step.k == 3:
+            explode(step.k)
+
+    def receive(self, step, commands):
+        commands.extend([0.0] * self.n)
+
+
+sys.exit(pc.run(lambda run, j: Boom(run)))
+"#,
+    );
+    let (code, error, _) = failing(tmp.path(), &boom, &[]);
+    assert_eq!(code, Some(1));
+    assert!(
+        error.starts_with(
+            "the controller process failed at step 3: ValueError: boom at 3 \\u{1b}[31mred"
+        ) && error.contains("its whole report is in logs/controller.log"),
+        "{error}"
+    );
+    assert_eq!(json(&tmp.path().join("r/summary.json"))["steps"], 3);
+    let log = std::fs::read_to_string(tmp.path().join("r/logs/controller.log")).unwrap();
+    assert!(
+        log.contains("Traceback (most recent call last)")
+            && log.contains("in transmit")
+            && log.contains("in explode")
+            && log.contains("ValueError: boom at 3"),
+        "{log}"
+    );
+}
+
+/// Issue 35: a plug-in that dies without a report is named by its exit, quoting its log's last
+/// lines made printable: invalid UTF-8 as U+FFFD, control characters as escapes.
+#[test]
+fn a_plugin_that_dies_is_quoted_printably() {
+    let tmp = tempfile::tempdir().unwrap();
+    let junk = py_plugin(
+        tmp.path(),
+        "junk.py",
+        r#"import os, sys
+sys.stderr.buffer.write(b"dying \xff\xfe with \x1b[2J junk\r\n")
+sys.stderr.flush()
+os._exit(3)
+"#,
+    );
+    let (code, error, _) = failing(tmp.path(), &junk, &[]);
+    assert_eq!(code, Some(1));
+    assert!(
+        error.contains("exited at step 0: exit status: 3")
+            && error.contains("the last lines of logs/controller.log")
+            && error.contains("| dying \u{fffd}\u{fffd} with \\u{1b}[2J junk"),
+        "{error}"
+    );
+}
+
+/// Issue 35: a plug-in that never reports READY is named after `--ready-timeout` (not a fixed
+/// minute), with its log, and stopped. 20 s: the built-in plant and injector are ready long
+/// before, even on a busy machine, so the controller is the one named.
+#[test]
+fn a_plugin_that_never_reports_ready_is_named_after_the_ready_timeout() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (code, error, _) = failing(tmp.path(), "sleep 600", &["--ready-timeout", "20"]);
+    assert_eq!(code, Some(1));
+    assert!(
+        error.starts_with(
+            "the controller process published nothing for step 0 within 20 s (it never \
+             reported READY)"
+        ) && error.contains("it wrote nothing to logs/controller.log")
+            && error.contains("--ready-timeout"),
+        "{error}"
+    );
+    let o = run_in(tmp.path(), "table1.toml", "z", &["--ready-timeout", "0"]);
+    assert!(
+        String::from_utf8_lossy(&o.stderr).contains("--ready-timeout must be a positive"),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(!tmp.path().join("z").exists());
+}
+
+/// Issue 35: the built-in detectors are Rust; a Python controller cannot run them. A run that
+/// turns them on with a Python controller is refused before step 0, naming them, instead of
+/// scoring them as having missed every packet.
+#[test]
+fn a_python_controller_refuses_the_builtin_detectors() {
+    let tmp = tempfile::tempdir().unwrap();
+    let table1 = std::fs::read_to_string(repo().join("configs/table1.toml")).unwrap();
+    let config = tmp.path().join("detect.toml");
+    std::fs::write(
+        &config,
+        format!("{table1}\n[detection]\n[detection.plausibility]\n[detection.residual]\n"),
+    )
+    .unwrap();
+    let law = py_example("sliding_mode.py", "");
+    let o = platoon(
+        &[
+            "run",
+            config.to_str().unwrap(),
+            "--no-plots",
+            "--out",
+            "r",
+            "--controller",
+            &law,
+        ],
+        tmp.path(),
+    );
+    assert_eq!(o.status.code(), Some(1));
+    let s = json(&tmp.path().join("r/summary.json"));
+    let error = s["error"].as_str().unwrap();
+    assert!(
+        error.starts_with(
+            "the controller process failed at step 0: the Python SDK cannot run built-in \
+             detectors: plausibility, residual"
+        ) && error.contains("logs/controller.log"),
+        "{error}"
+    );
+    assert!(s["detection"].is_null(), "nothing was measured: {s}");
+    let log = std::fs::read_to_string(tmp.path().join("r/logs/controller.log")).unwrap();
+    assert!(
+        log.contains("[detection.plausibility], [detection.residual]"),
+        "{log}"
+    );
 }

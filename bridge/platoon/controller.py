@@ -185,8 +185,23 @@ def run(make) -> int:
     k = 0
 
     def failed(e):
-        print(f"controller: step {k}: {type(e).__name__}: {e}", file=sys.stderr)
-        _plugin.send_failed(status, k, f"{type(e).__name__}: {e}", "controller")
+        return _plugin.report_failure(status, "controller", k, e)
+
+    # The built-in detectors are Rust (platoon-detect): a Python controller cannot run them, and
+    # a run that measured them anyway would score them as having missed every packet.
+    builtin = [n for n in BUILTIN_DETECTORS if n in (info.config.get("detection") or {})]
+    if builtin:
+        tables = ", ".join(f"[detection.{n}]" for n in builtin)
+        print(
+            f"controller: the config turns on the built-in detectors {tables}, which the Python "
+            "controller SDK cannot run (they are Rust, platoon-detect). Remove those tables and "
+            "name your own detectors in [detection] plugin = [...], or run the built-in "
+            "controllers (no --controller) or a Rust SDK controller (platoon-controller), which "
+            "run them.",
+            file=sys.stderr,
+        )
+        reason = f"the Python SDK cannot run built-in detectors: {', '.join(builtin)}"
+        _plugin.send_failed(status, 0, reason, "controller")
         return 1
 
     try:

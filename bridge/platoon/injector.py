@@ -19,7 +19,6 @@ with its `count` (even when empty), waking the controller, DONE, STOP/ABORT, and
 """
 
 import os
-import sys
 
 from . import plugin as _plugin
 from . import wire as w
@@ -96,7 +95,6 @@ def run(make) -> int:
     """Runs the injector `make(run)` returns until the run ends; returns the exit code."""
     w.check_contract_version()  # before anything that depends on the run's formats
     info = load_run()
-    injector = make(info)
     vehicles = info.vehicles_per_platoon * info.platoons
     node = w.Endpoint("injector", info.run_id)
     states_in = node.inlet("states", w.VehicleState)
@@ -110,6 +108,10 @@ def run(make) -> int:
     rx_out = node.outlet("rx", w.LinkPacket, 4 * vehicles)
     control = node.control_inlet()
     status = node.status_outlet()  # keep it: a dropped publisher takes its samples with it
+    try:
+        injector = make(info)
+    except Exception as e:  # noqa: BLE001: any failure of user code stops the run
+        return _plugin.report_failure(status, "injector", 0, e)
     w.send_status(status, w.ControlMsg.READY, "injector")
 
     # Only tx[k] wakes the injector; states[k] was published before it (the controller reads
@@ -128,16 +130,17 @@ def run(make) -> int:
         try:
             injector.step(step, rx)
         except Exception as e:  # noqa: BLE001: any failure of user code stops the run
-            print(f"injector: step {k}: {type(e).__name__}: {e}", file=sys.stderr)
-            send_failed(status, k, f"{type(e).__name__}: {e}")
-            return 1
+            return _plugin.report_failure(status, "injector", k, e)
         rx_out.send(k, step.t, rx)
         if step._states is None:
             states_in.take(k)  # drained after the hop, off its path
         if step._traffic is None and traffic_in is not None:
             traffic_in.take(k)
         if k == info.steps:
-            injector.finish()
+            try:
+                injector.finish()
+            except Exception as e:  # noqa: BLE001: any failure of user code stops the run
+                return _plugin.report_failure(status, "injector", k, e)
             w.send_status(status, w.ControlMsg.DONE, "injector", k)
             while not stop_received(control):
                 node.wait()

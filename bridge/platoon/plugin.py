@@ -4,6 +4,8 @@ messages every node sends (READY/DONE/FAILED) and the control messages it reads 
 """
 
 import os
+import sys
+import traceback
 from dataclasses import dataclass, field
 
 try:
@@ -130,6 +132,17 @@ def send_failed(outlet, step: int, reason: str, node: str = "injector") -> None:
     data = reason.encode()[: len(msg.reason)]
     msg.reason[: len(data)] = data
     _send(outlet, msg)
+
+
+def report_failure(outlet, node: str, step: int, error: BaseException) -> int:
+    """An exception of the user's code stops the run: its whole traceback goes to stderr (the
+    run's logs/<node>.log), its last line to the orchestrator as the FAILED reason, which names
+    the log. Returns the process's exit code, 1."""
+    print(f"{node}: step {step}: the run stops on this exception:", file=sys.stderr)
+    traceback.print_exception(type(error), error, error.__traceback__, file=sys.stderr)
+    sys.stderr.flush()
+    send_failed(outlet, step, f"{type(error).__name__}: {error}", node)
+    return 1
 
 
 def send_done(outlet, node: str, step: int, counts=()) -> None:

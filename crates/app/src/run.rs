@@ -54,6 +54,9 @@ pub struct RunOptions {
     pub controller: Option<String>,
     /// How long the run waits for one process's sample of a step (iceoryx2).
     pub step_timeout: Duration,
+    /// How long the run waits for its processes to report READY (iceoryx2): SUMO and a
+    /// Python plug-in take seconds to start on a busy machine.
+    pub ready_timeout: Duration,
     /// Read-only observers that may attach (iceoryx2).
     pub observers: usize,
     /// CPUs to pin the run's processes to (iceoryx2; empty: any).
@@ -75,6 +78,7 @@ impl Default for RunOptions {
             injector: None,
             controller: None,
             step_timeout: Duration::from_secs(1),
+            ready_timeout: Duration::from_secs(60),
             observers: 4,
             cpus: Vec::new(),
             plots: true,
@@ -200,12 +204,17 @@ pub fn run(
     }
     let plugin = &scenario.control.detection.plugin;
     if !plugin.is_empty() && opts.controller.is_none() {
-        anyhow::bail!(
-            "{}: detection.plugin names detectors a --controller plug-in runs ({}), but this run \
-             has none: give --controller (with --transport iceoryx2), or remove detection.plugin",
-            opts.config_file.display(),
-            plugin.join(", ")
-        );
+        // A config this run cannot measure: refused as every bad config is (exit 2).
+        return Err(platoon_config::ConfigError::new(
+            &opts.config_file,
+            "detection.plugin",
+            format!(
+                "names detectors a --controller plug-in runs ({}), but this run has none: give \
+                 --controller (with --transport iceoryx2), or remove detection.plugin",
+                plugin.join(", ")
+            ),
+        )
+        .into());
     }
     if let Some(plant) = opts.plant {
         config.simulation.plant = plant;
@@ -229,6 +238,9 @@ pub fn run(
     };
     if opts.step_timeout.is_zero() {
         anyhow::bail!("--step-timeout must be a positive number of seconds");
+    }
+    if opts.ready_timeout.is_zero() {
+        anyhow::bail!("--ready-timeout must be a positive number of seconds");
     }
     let dir = RunDir::create(out, force)?;
     dir.write("config.toml", platoon_config::to_toml(&config).as_bytes())?;
@@ -1010,7 +1022,7 @@ fn cosimulate(
         log_dir: Some(logs),
         python_path,
         step_timeout: opts.step_timeout,
-        ready_timeout: Duration::from_secs(60),
+        ready_timeout: opts.ready_timeout,
         stop: Some(stop.flag.clone()),
         observers: opts.observers,
         cpus: opts.cpus.clone(),

@@ -52,6 +52,16 @@ pub struct Args {
         env = "PLATOON_STEP_TIMEOUT"
     )]
     pub step_timeout: f64,
+    /// Seconds the run waits for its processes to start (report READY) before it stops and
+    /// names the one that did not (iceoryx2 only). SUMO and a Python plug-in take a few
+    /// seconds on a busy machine.
+    #[arg(
+        long,
+        default_value_t = 60.0,
+        value_name = "SECONDS",
+        env = "PLATOON_READY_TIMEOUT"
+    )]
+    pub ready_timeout: f64,
     /// What integrates the vehicles, overriding the config's `simulation.plant`: native (the
     /// model in Rust) or sumo (SUMO through the libsumo bridge in bridge/, whose Python
     /// environment is created on first use; writes fcd.xml and sumo.json too).
@@ -109,6 +119,9 @@ pub fn run(args: Args) -> Result<()> {
     if !(args.step_timeout.is_finite() && args.step_timeout > 0.0) {
         anyhow::bail!("--step-timeout must be a positive number of seconds");
     }
+    if !(args.ready_timeout.is_finite() && args.ready_timeout > 0.0) {
+        anyhow::bail!("--ready-timeout must be a positive number of seconds");
+    }
     let opts = RunOptions {
         transport: args.transport,
         plant: args.plant,
@@ -121,6 +134,7 @@ pub fn run(args: Args) -> Result<()> {
         }),
         controller: args.controller.clone(),
         step_timeout: std::time::Duration::from_secs_f64(args.step_timeout),
+        ready_timeout: std::time::Duration::from_secs_f64(args.ready_timeout),
         observers: args.observers,
         cpus: args.cpus.clone().map(|c| c.0).unwrap_or_default(),
         plots: !args.no_plots,

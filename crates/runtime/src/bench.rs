@@ -75,6 +75,7 @@ pub fn raw_hop(
                     waited_s: 30.0,
                     what: "it never answered",
                     duplicates: 0,
+                    detail: String::new(),
                 });
             }
         }

@@ -64,7 +64,7 @@ pub enum RunError {
     ContractVersion(String),
     /// A node did not publish what the run waited for.
     #[error(
-        "the {node} process published nothing for step {step} within {waited_s} s ({what}){}",
+        "the {node} process published nothing for step {step} within {waited_s} s ({what}){}{detail}",
         if *duplicates > 0 { format!("; meanwhile {duplicates} duplicate samples of steps already published arrived") } else { String::new() }
     )]
     Stalled {
@@ -78,6 +78,9 @@ pub enum RunError {
         what: &'static str,
         /// Samples that repeated a step (they do not count as progress).
         duplicates: u64,
+        /// Where its log is and its last lines, and how to wait longer (empty, or starting
+        /// with a line break).
+        detail: String,
     },
     /// The run was asked to stop (SIGINT or SIGTERM to `platoon run`).
     #[error("interrupted at step {step}")]
@@ -86,14 +89,16 @@ pub enum RunError {
         step: u64,
     },
     /// A node reported that it cannot go on.
-    #[error("the {node} process failed at step {step}: {reason}")]
+    #[error("the {node} process failed at step {step}: {reason}{detail}")]
     Failed {
         /// Which.
         node: &'static str,
         /// At which step.
         step: u64,
-        /// Its reason.
+        /// Its reason, made printable.
         reason: String,
+        /// Where its log is, with the whole report (empty, or starting with a line break).
+        detail: String,
     },
     /// A sample broke the contract (wrong length, unknown vehicle, NaN command).
     #[error("{node}: {message}")]

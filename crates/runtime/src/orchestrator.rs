@@ -143,14 +143,17 @@ struct Children {
 }
 
 impl Children {
-    /// A child that has exited, with its status.
-    fn exited(&mut self) -> Option<(&Proc, String)> {
-        for p in &mut self.procs {
-            if let Ok(Some(status)) = p.child.try_wait() {
-                return Some((&*p, status.to_string()));
-            }
-        }
-        None
+    /// A child that has exited (its index), with its status.
+    fn exited(&mut self) -> Option<(usize, String)> {
+        self.procs
+            .iter_mut()
+            .enumerate()
+            .find_map(|(i, p)| Some((i, p.child.try_wait().ok()??.to_string())))
+    }
+
+    /// The process that plays `node`.
+    fn of(&self, node: &str) -> Option<&Proc> {
+        self.procs.iter().find(|p| p.node.name() == node)
     }
 
     /// Each child's peak resident memory so far, in KiB.
@@ -268,9 +271,9 @@ pub fn orchestrate(
             if stopped() {
                 return Err(RunError::Interrupted { step: 0 });
             }
-            watch(&mut children, 0)?;
+            watch(&mut children, 0, &status)?;
             while let Some(m) = status.next()? {
-                check_failed(&m)?;
+                check_failed(&m, &children)?;
                 if m.kind == ControlMsg::READY {
                     if let Some(n) = Node::from_u32(m.node) {
                         ready[n as usize] = true;
@@ -291,6 +294,10 @@ pub fn orchestrate(
                     waited_s: opts.ready_timeout.as_secs_f64(),
                     what: "it never reported READY",
                     duplicates: 0,
+                    detail: children.of(late.name()).map_or_else(String::new, |p| {
+                        log_detail(p, true)
+                            + "\n  --ready-timeout sets how long the processes may take to start"
+                    }),
                 });
             }
             wait(&listener, Duration::from_millis(100))?;
@@ -370,7 +377,7 @@ pub fn orchestrate(
             progressed |= streams.record(scenario, &mut run, &mut clock, &observe, &mut on_step)?;
             while let Some(m) = status.next()? {
                 progressed = true;
-                if let Err(failed) = check_failed(&m) {
+                if let Err(failed) = check_failed(&m, &children) {
                     // What it failed on may be a malformed sample of another node (a plant
                     // refusing a controller's commands) that arrived with the steps complete
                     // before it: record those, and name the sender if its sample is the cause.
@@ -407,6 +414,22 @@ pub fn orchestrate(
             if run.step > scenario.steps && done.iter().all(|d| *d) {
                 break;
             }
+            if let Err(e) = watch(&mut children, run.step, &status) {
+                // A process that died may have published steps we have not read yet: record
+                // every step that is complete before saying so. Looked at before the step
+                // timeout: a process that died is why nothing came.
+                let mut streams = Streams {
+                    states: &mut states,
+                    traffic: traffic.as_mut().map(|t| (t, opts.traffic)),
+                    tx: &mut tx,
+                    rx: &mut rx,
+                    inspections: inspections.as_mut(),
+                    commands: &mut commands,
+                };
+                streams.drain_all();
+                let _ = streams.record(scenario, &mut run, &mut clock, &observe, &mut on_step);
+                return Err(e);
+            }
             if progressed {
                 run.last_progress = Instant::now();
             } else if run.last_progress.elapsed() > opts.step_timeout {
@@ -438,22 +461,11 @@ pub fn orchestrate(
                         + rx.duplicates()
                         + inspections.as_ref().map_or(0, Inlet::duplicates)
                         + commands.duplicates(),
+                    detail: children.of(node).map_or_else(String::new, |p| {
+                        log_detail(p, true)
+                            + "\n  --step-timeout sets how long a run waits for a step"
+                    }),
                 });
-            }
-            if let Err(e) = watch(&mut children, run.step) {
-                // A process that died may have published steps we have not read yet: record
-                // every step that is complete before saying so.
-                let mut streams = Streams {
-                    states: &mut states,
-                    traffic: traffic.as_mut().map(|t| (t, opts.traffic)),
-                    tx: &mut tx,
-                    rx: &mut rx,
-                    inspections: inspections.as_mut(),
-                    commands: &mut commands,
-                };
-                streams.drain_all();
-                let _ = streams.record(scenario, &mut run, &mut clock, &observe, &mut on_step);
-                return Err(e);
             }
             wait(&listener, Duration::from_millis(100))?;
         }
@@ -645,28 +657,40 @@ impl Observe {
     }
 }
 
-fn check_failed(m: &ControlMsg) -> Result<(), RunError> {
+/// A node's FAILED report as the run's error, naming the log that holds the whole of it.
+fn check_failed(m: &ControlMsg, children: &Children) -> Result<(), RunError> {
     if m.kind == ControlMsg::FAILED {
+        let node = Node::from_u32(m.node).map_or("unknown", |n| n.name());
         return Err(RunError::Failed {
-            node: Node::from_u32(m.node).map_or("unknown", |n| n.name()),
+            node,
             step: m.step,
-            reason: m.reason(),
+            reason: printable(&m.reason()),
+            detail: children
+                .of(node)
+                .map_or_else(String::new, |p| log_detail(p, false)),
         });
     }
     Ok(())
 }
 
-fn watch(children: &mut Children, step: u64) -> Result<(), RunError> {
-    match children.exited() {
-        Some((p, status)) => Err(RunError::Died {
-            node: p.node.name(),
-            pid: p.child.id(),
-            step,
-            status,
-            detail: died_detail(p, step),
-        }),
-        None => Ok(()),
+/// The error of a process that exited. A process that reported FAILED before it exited sent
+/// its report first, so the report is on `status` by the time its exit is seen, however late
+/// this looks: the run's error is then the report, never the exit, on any machine load.
+fn watch(children: &mut Children, step: u64, status: &ControlInlet) -> Result<(), RunError> {
+    let Some((i, exit)) = children.exited() else {
+        return Ok(());
+    };
+    while let Some(m) = status.next()? {
+        check_failed(&m, children)?;
     }
+    let p = &children.procs[i];
+    Err(RunError::Died {
+        node: p.node.name(),
+        pid: p.child.id(),
+        step,
+        status: exit,
+        detail: died_detail(p, step),
+    })
 }
 
 /// How many of a dead process's last log lines its error quotes.
@@ -677,24 +701,7 @@ const TAIL_LINES: usize = 10;
 /// past step 0 (starting, or at its first step: where a plug-in of another contract version
 /// fails) the contract version the run speaks.
 fn died_detail(p: &Proc, step: u64) -> String {
-    let mut s = String::new();
-    if let Some(log) = &p.log {
-        // The log directory is `logs/` in the run directory, which is renamed when the run
-        // ends: name it from there.
-        let shown = match log.parent().and_then(|d| d.file_name()) {
-            Some(dir) => format!("{}/{}", dir.to_string_lossy(), p.node.name()),
-            None => p.node.name().to_string(),
-        };
-        let tail = last_lines(log, TAIL_LINES);
-        if tail.is_empty() {
-            s += &format!("\n  it wrote nothing to {shown}.log (in the run directory)");
-        } else {
-            s += &format!("\n  the last lines of {shown}.log (in the run directory):");
-            for line in tail {
-                s += &format!("\n  | {line}");
-            }
-        }
-    }
+    let mut s = log_detail(p, true);
     if p.plugin && step == 0 {
         use platoon_wire::{CONTRACT_DOC, CONTRACT_VERSION, CONTRACT_VERSION_ENV};
         s += &format!(
@@ -708,8 +715,49 @@ fn died_detail(p: &Proc, step: u64) -> String {
     s
 }
 
+/// A line naming `p`'s log (`logs/<node>.log`, in the run directory) and, with `tail`, quoting
+/// its last lines; empty when its output is not logged.
+fn log_detail(p: &Proc, tail: bool) -> String {
+    let Some(log) = &p.log else {
+        return String::new();
+    };
+    // The log directory is `logs/` in the run directory, which is renamed when the run ends:
+    // name it from there.
+    let shown = match log.parent().and_then(|d| d.file_name()) {
+        Some(dir) => format!("{}/{}.log", dir.to_string_lossy(), p.node.name()),
+        None => format!("{}.log", p.node.name()),
+    };
+    if !tail {
+        return format!("\n  its whole report is in {shown} (in the run directory)");
+    }
+    let lines = last_lines(log, TAIL_LINES);
+    if lines.is_empty() {
+        return format!("\n  it wrote nothing to {shown} (in the run directory)");
+    }
+    let mut s = format!("\n  the last lines of {shown} (in the run directory):");
+    for line in lines {
+        s += &format!("\n  | {line}");
+    }
+    s
+}
+
+/// `text` safe for a terminal and a JSON file: control characters (an escape sequence, a
+/// carriage return, a NUL) are written as escapes (`\u{1b}`); invalid UTF-8 was already
+/// replaced when the bytes were read.
+fn printable(text: &str) -> String {
+    text.chars()
+        .map(|c| {
+            if c.is_control() {
+                c.escape_default().to_string()
+            } else {
+                c.to_string()
+            }
+        })
+        .collect()
+}
+
 /// The last `n` non-empty lines of a log file (of its last 64 KiB), each cut to 300
-/// characters; none if it cannot be read.
+/// characters and made [`printable`]; none if it cannot be read.
 fn last_lines(path: &std::path::Path, n: usize) -> Vec<String> {
     use std::io::{Read, Seek, SeekFrom};
     const WINDOW: u64 = 64 * 1024;
@@ -733,8 +781,8 @@ fn last_lines(path: &std::path::Path, n: usize) -> Vec<String> {
         .rev()
         .take(n)
         .map(|l| match l.char_indices().nth(300) {
-            Some((i, _)) => format!("{}...", &l[..i]),
-            None => l.to_string(),
+            Some((i, _)) => format!("{}...", printable(&l[..i])),
+            None => printable(l),
         })
         .collect();
     lines.reverse();
