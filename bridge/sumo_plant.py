@@ -25,6 +25,7 @@ import random
 import struct
 import statistics
 import sys
+import traceback
 import time
 
 import numpy as np
@@ -403,6 +404,8 @@ def run(spec) -> int:
         for n_ in wakers:
             n_.notify()
         print(f"sumo_plant: {message}", file=sys.stderr)
+        # Called while an exception is handled: its whole traceback goes to logs/plant.log.
+        traceback.print_exc(file=sys.stderr)
 
     try:
         sumo = start_sumo(spec)
