@@ -12,7 +12,9 @@ out-neighbour of its sender ([topology] of the config), sorting the rx sample in
 and jammed notices, one commands sample per step with its flags, DONE with the packets your
 controller refused, STOP/ABORT, and exiting when `platoon run` is gone. An exception in your
 code, a missing or non-finite command, or a broadcast from a vehicle the platoon does not have
-stops the run, which names the controller.
+stops the run, which names the controller and its log (logs/controller.log, which holds the
+whole traceback). The built-in detectors ([detection.plausibility] etc.) are Rust: a config
+that turns them on is refused before step 0.
 
     import platoon.controller as pc
 

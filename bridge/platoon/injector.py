@@ -4,7 +4,8 @@ Subclass `Injector` and pass a factory to `run`; everything else of docs/injecto
 is done here (the same shape as the Rust SDK, crates/injector): the ports of the run named by
 PLATOON_RUN_ID, READY, waiting on wake-ups (never busy polling), exactly one rx sample per step
 with its `count` (even when empty), waking the controller, DONE, STOP/ABORT, and exiting when
-`platoon run` is gone. An exception in `step` stops the run, which names the injector.
+`platoon run` is gone. An exception in your factory, `step` or `finish` stops the run, which
+names the injector and its log (logs/injector.log, which holds the whole traceback).
 
     import platoon.injector as pi
 
