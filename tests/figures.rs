@@ -3,3 +3,5 @@
 //! in the code or in the text, fails here. Each study has its own module; each test runs the
 //! study's own settings or a reduced grid of it that still gives the published digits.
 mod common;
+#[path = "figures/detection.rs"]
+mod detection;
