@@ -5,3 +5,5 @@
 mod common;
 #[path = "figures/detection.rs"]
 mod detection;
+#[path = "figures/search.rs"]
+mod search;
