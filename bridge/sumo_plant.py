@@ -32,6 +32,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
+import platoon.plugin as _plugin  # noqa: E402
 import platoon.wire as w  # noqa: E402
 import platoon_plant  # noqa: E402
 import sumo_native  # noqa: E402
@@ -392,20 +393,13 @@ def run(spec) -> int:
     sumo_ns, bridge_ns, sumo_cpu, bridge_cpu = [], [], [], []
 
     def fail(message):
-        publisher, wakers = status
-        msg = w.ControlMsg()
-        msg.kind = w.ControlMsg.FAILED
-        msg.node = w.NODES["plant"]
-        msg.step = k
-        data = message.encode()[:120]
-        for j, b in enumerate(data):
-            msg.reason[j] = b
-        publisher.send_copy(msg)
-        for n_ in wakers:
-            n_.notify()
         print(f"sumo_plant: {message}", file=sys.stderr)
         # Called while an exception is handled: its whole traceback goes to logs/plant.log.
         traceback.print_exc(file=sys.stderr)
+        sys.stderr.flush()
+        # FAILED, then the orchestrator's ABORT before exiting (the report lives in our status
+        # publisher).
+        _plugin.fail(node, control, status, "plant", k, message)
 
     try:
         sumo = start_sumo(spec)

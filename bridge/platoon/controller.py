@@ -187,7 +187,7 @@ def run(make) -> int:
     k = 0
 
     def failed(e):
-        return _plugin.report_failure(status, "controller", k, e)
+        return _plugin.report_failure(node, control, status, "controller", k, e)
 
     # The built-in detectors are Rust (platoon-detect): a Python controller cannot run them, and
     # a run that measured them anyway would score them as having missed every packet.
@@ -203,8 +203,7 @@ def run(make) -> int:
             file=sys.stderr,
         )
         reason = f"the Python SDK cannot run built-in detectors: {', '.join(builtin)}"
-        _plugin.send_failed(status, 0, reason, "controller")
-        return 1
+        return _plugin.fail(node, control, status, "controller", 0, reason)
 
     try:
         controllers = [make(info, j) for j in range(platoons)]

@@ -112,7 +112,7 @@ def run(make) -> int:
     try:
         injector = make(info)
     except Exception as e:  # noqa: BLE001: any failure of user code stops the run
-        return _plugin.report_failure(status, "injector", 0, e)
+        return _plugin.report_failure(node, control, status, "injector", 0, e)
     w.send_status(status, w.ControlMsg.READY, "injector")
 
     # Only tx[k] wakes the injector; states[k] was published before it (the controller reads
@@ -131,7 +131,7 @@ def run(make) -> int:
         try:
             injector.step(step, rx)
         except Exception as e:  # noqa: BLE001: any failure of user code stops the run
-            return _plugin.report_failure(status, "injector", k, e)
+            return _plugin.report_failure(node, control, status, "injector", k, e)
         rx_out.send(k, step.t, rx)
         if step._states is None:
             states_in.take(k)  # drained after the hop, off its path
@@ -141,7 +141,7 @@ def run(make) -> int:
             try:
                 injector.finish()
             except Exception as e:  # noqa: BLE001: any failure of user code stops the run
-                return _plugin.report_failure(status, "injector", k, e)
+                return _plugin.report_failure(node, control, status, "injector", k, e)
             w.send_status(status, w.ControlMsg.DONE, "injector", k)
             while not stop_received(control):
                 node.wait()

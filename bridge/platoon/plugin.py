@@ -5,6 +5,7 @@ messages every node sends (READY/DONE/FAILED) and the control messages it reads 
 
 import os
 import sys
+import time
 import traceback
 from dataclasses import dataclass, field
 
@@ -134,15 +135,35 @@ def send_failed(outlet, step: int, reason: str, node: str = "injector") -> None:
     _send(outlet, msg)
 
 
-def report_failure(outlet, node: str, step: int, error: BaseException) -> int:
+# How long a node that reported FAILED waits for the orchestrator's ABORT before it exits anyway.
+FAILED_WAIT_S = 10.0
+
+
+def fail(endpoint, control, outlet, node: str, step: int, reason: str) -> int:
+    """FAILED with `reason`, then wait for the orchestrator's ABORT (at most FAILED_WAIT_S, or
+    until it is gone) before exiting: the report lives in this process's status publisher, and
+    a process that exits at once may take it with it, leaving the run to name its exit instead.
+    Returns the process's exit code, 1."""
+    send_failed(outlet, step, reason, node)
+    deadline = time.monotonic() + FAILED_WAIT_S
+    try:
+        while time.monotonic() < deadline and not stop_received(control):
+            endpoint.wait()
+    except SystemExit:  # the orchestrator is gone: nobody is left to read the report
+        pass
+    return 1
+
+
+def report_failure(
+    endpoint, control, outlet, node: str, step: int, error: BaseException
+) -> int:
     """An exception of the user's code stops the run: its whole traceback goes to stderr (the
     run's logs/<node>.log), its last line to the orchestrator as the FAILED reason, which names
-    the log. Returns the process's exit code, 1."""
+    the log (`fail`). Returns the process's exit code, 1."""
     print(f"{node}: step {step}: the run stops on this exception:", file=sys.stderr)
     traceback.print_exception(type(error), error, error.__traceback__, file=sys.stderr)
     sys.stderr.flush()
-    send_failed(outlet, step, f"{type(error).__name__}: {error}", node)
-    return 1
+    return fail(endpoint, control, outlet, node, step, f"{type(error).__name__}: {error}")
 
 
 def send_done(outlet, node: str, step: int, counts=()) -> None:

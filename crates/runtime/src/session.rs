@@ -20,6 +20,9 @@ use std::time::Duration;
 /// How long a node sleeps between checks that its orchestrator is still there.
 const TICK: Duration = Duration::from_millis(200);
 
+/// How long a node that reported FAILED waits for the orchestrator's ABORT before it exits.
+const FAILED_WAIT: Duration = Duration::from_secs(10);
+
 /// What every node has: its endpoint, wake-up listener, the control channel and its status
 /// outlet, and the pid of the orchestrator that started it.
 pub(crate) struct Ctx {
@@ -93,11 +96,19 @@ impl Ctx {
         Ok(())
     }
 
-    /// Tells the orchestrator why this node stops.
-    fn report(&self, step: u64, e: &RunError) {
-        let _ = self
+    /// Tells the orchestrator why this node stops, then waits for its ABORT (at most
+    /// [`FAILED_WAIT`], or until it is gone): the report lives in this process's status
+    /// publisher, and a process that exits at once may take it with it, leaving the run to name
+    /// its exit instead of its report.
+    fn report(&mut self, step: u64, e: &RunError) {
+        let sent = self
             .status
             .send(ControlMsg::new(ControlMsg::FAILED, self.role, step).with_reason(&e.to_string()));
+        if sent.is_err() {
+            return;
+        }
+        let until = std::time::Instant::now() + FAILED_WAIT;
+        while std::time::Instant::now() < until && matches!(self.wait(), Ok(true)) {}
     }
 }
 
