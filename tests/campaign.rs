@@ -312,19 +312,17 @@ impl Cluster {
             .stderr(log("scheduler.log"))
             .spawn()
             .unwrap()];
-        let started = Instant::now();
-        let address = loop {
-            if let Ok(text) = std::fs::read_to_string(&file) {
-                if let Ok(v) = serde_json::from_str::<serde_json::Value>(&text) {
-                    break v["address"].as_str().unwrap().to_string();
+        let mut address = String::new();
+        wait_for("the Dask scheduler's address", || {
+            let text = std::fs::read_to_string(&file).unwrap_or_default();
+            match serde_json::from_str::<serde_json::Value>(&text) {
+                Ok(v) => {
+                    address = v["address"].as_str().unwrap().to_string();
+                    true
                 }
+                Err(_) => false,
             }
-            assert!(
-                started.elapsed() < Duration::from_secs(60),
-                "no Dask scheduler"
-            );
-            std::thread::sleep(Duration::from_millis(100));
-        };
+        });
         for i in 0..2 {
             procs.push(
                 Command::new(&dask)
@@ -339,19 +337,13 @@ impl Cluster {
             );
         }
         // Both workers registered (the scheduler logs each).
-        let started = Instant::now();
-        while std::fs::read_to_string(dir.join("scheduler.log"))
-            .unwrap_or_default()
-            .matches("Register worker")
-            .count()
-            < 2
-        {
-            assert!(
-                started.elapsed() < Duration::from_secs(60),
-                "Dask workers did not register"
-            );
-            std::thread::sleep(Duration::from_millis(100));
-        }
+        wait_for("both Dask workers to register", || {
+            std::fs::read_to_string(dir.join("scheduler.log"))
+                .unwrap_or_default()
+                .matches("Register worker")
+                .count()
+                >= 2
+        });
         Cluster { procs, address }
     }
 }
@@ -544,13 +536,59 @@ fn a_dask_cluster_on_localhost_gives_the_local_cells_csv_byte_for_byte() {
     assert!(tmp.path().join("none.partial").is_dir());
 }
 
+/// Polls `done` until it holds; the deadline only bounds a hang, and the failure says what was
+/// awaited.
+fn wait_for(what: &str, mut done: impl FnMut() -> bool) {
+    let deadline = Instant::now() + Duration::from_secs(120);
+    while !done() {
+        assert!(Instant::now() < deadline, "waited 120 s for {what}");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+/// `platoon campaign ARGS` in `dir`, started; its first line (the campaign's plan) is read.
+fn start_campaign(
+    dir: &Path,
+    args: &[&str],
+) -> (Child, BufReader<std::process::ChildStderr>, String) {
+    let mut child = platoon_command(dir)
+        .args(args)
+        .stderr(Stdio::piped())
+        .stdout(Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut err = BufReader::new(child.stderr.take().unwrap());
+    let mut line = String::new();
+    err.read_line(&mut line).unwrap();
+    (child, err, line)
+}
+
+/// SIGINT to a campaign: it exits 130, says how to resume, and leaves its `.partial`.
+fn interrupt(mut child: Child, mut err: BufReader<std::process::ChildStderr>) {
+    // SAFETY: signalling our own child.
+    unsafe { libc::kill(child.id() as libc::pid_t, libc::SIGINT) };
+    let status = child.wait().unwrap();
+    let mut rest = String::new();
+    std::io::Read::read_to_string(&mut err, &mut rest).unwrap();
+    assert_eq!(status.code(), Some(130), "{rest}");
+    assert!(
+        rest.contains("run the same command again to resume"),
+        "{rest}"
+    );
+}
+
+/// A campaign long on purpose (1000 cells of 300 simulated seconds: minutes of work in any
+/// build), interrupted once a cell is recorded, so that it cannot have finished whatever the
+/// machine's speed; the same command then keeps what was done and goes on, and is interrupted
+/// in turn once it has run a cell of its own. (That a resumed campaign completes, with the
+/// same bytes, is crates/app/tests/campaign.rs's stopped-campaign test.)
 #[test]
 fn ctrl_c_keeps_finished_cells_and_the_same_command_resumes() {
     let tmp = tempfile::tempdir().unwrap();
     let file = write(
         tmp.path(),
         "long.toml",
-        "name = \"long\"\nset = { \"simulation.duration_s\" = 5.0 }\n[monte_carlo]\nsamples = 1000\nloss = [0.0, 0.2]\n",
+        "name = \"long\"\nset = { \"simulation.duration_s\" = 300.0 }\n[monte_carlo]\nsamples = 1000\nloss = [0.0, 0.2]\n",
     );
     let out = tmp.path().join("out");
     let args = [
@@ -562,41 +600,17 @@ fn ctrl_c_keeps_finished_cells_and_the_same_command_resumes() {
         "--out",
         out.to_str().unwrap(),
     ];
-    let mut child = platoon_command(tmp.path())
-        .args(args)
-        .stderr(Stdio::piped())
-        .stdout(Stdio::null())
-        .spawn()
-        .unwrap();
-    let mut err = BufReader::new(child.stderr.take().unwrap());
-    let mut line = String::new();
-    err.read_line(&mut line).unwrap();
+    let partial = tmp.path().join("out.partial");
+    let recorded = |i: u64| partial.join(format!("cells/c{i:04}/cell.json")).exists();
+    let (child, err, line) = start_campaign(tmp.path(), &args);
     assert!(line.starts_with("campaign long: 1000 cells"), "{line}");
-    // Interrupt once the first cell is recorded (one job: cells finish in order).
-    let first = tmp.path().join("out.partial/cells/c0000/cell.json");
-    let started = Instant::now();
-    while !first.exists() {
-        assert!(
-            started.elapsed() < Duration::from_secs(60),
-            "no cell finished"
-        );
-        std::thread::sleep(Duration::from_millis(20));
-    }
-    // SAFETY: signalling our own child.
-    unsafe { libc::kill(child.id() as libc::pid_t, libc::SIGINT) };
-    let status = child.wait().unwrap();
-    let mut rest = String::new();
-    std::io::Read::read_to_string(&mut err, &mut rest).unwrap();
-    assert_eq!(status.code(), Some(130), "{rest}");
-    assert!(
-        rest.contains("run the same command again to resume"),
-        "{rest}"
-    );
+    // One job: cells finish in order.
+    wait_for("the first cell to be recorded", || recorded(0));
+    interrupt(child, err);
     assert!(
         !out.exists(),
         "an interrupted campaign never looks finished"
     );
-    let partial = tmp.path().join("out.partial");
     let summary = json(&partial.join("campaign.json"));
     assert_eq!(summary["complete"], false);
     assert_eq!(summary["interrupted_by"], "SIGINT");
@@ -608,23 +622,23 @@ fn ctrl_c_keeps_finished_cells_and_the_same_command_resumes() {
         1000 - done
     );
 
-    let o = platoon(&args, tmp.path());
-    ok(&o);
-    let stderr = String::from_utf8_lossy(&o.stderr);
+    let (child, err, line) = start_campaign(tmp.path(), &args);
     assert!(
-        stderr.contains(&format!("{done} finished before and kept")),
-        "{stderr}"
+        line.contains(&format!("{done} finished before and kept")),
+        "{line}"
     );
-    let after = cells(&out);
-    assert!(after.iter().all(|r| r["status"] == "ok"));
+    wait_for("the resumed campaign to record a cell of its own", || {
+        recorded(done)
+    });
+    interrupt(child, err);
+    let summary = json(&partial.join("campaign.json"));
+    assert_eq!(summary["reused_from_an_earlier_run"], done);
+    assert!(summary["ok"].as_u64().unwrap() > done, "{summary}");
+    let after = cells(&partial);
     for r in before.iter().filter(|r| r["status"] == "ok") {
         let i: usize = r["cell"].parse().unwrap();
         assert_eq!(&after[i], r, "a kept cell is unchanged");
     }
-    assert_eq!(
-        json(&out.join("campaign.json"))["reused_from_an_earlier_run"],
-        done
-    );
 }
 
 #[test]
