@@ -1,16 +1,35 @@
 //! The committed config reference is what the schema types generate: `docs/config.schema.json`
 //! (the JSON Schema editors read) and `docs/config-reference.md`. After changing a schema type,
-//! `PLATOON_BLESS=1 cargo test -p platoon-config --test reference` rewrites both.
+//! `PLATOON_BLESS=1 cargo test -p platoon-config --test reference` rewrites both (never where
+//! `CI=true`: CI checks the committed files, it does not make them).
 use std::path::{Path, PathBuf};
 
 fn docs() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../docs")
 }
 
+/// Whether `PLATOON_BLESS` asks for the committed files to be rewritten. With `CI=true` it is
+/// refused: a blessed file in CI would pass whatever the code generates.
+fn bless(bless: Option<&str>, ci: Option<&str>) -> Result<bool, String> {
+    match (bless, ci) {
+        (None, _) => Ok(false),
+        (Some(_), Some("true")) => Err(
+            "PLATOON_BLESS is set with CI=true: CI checks the committed docs/ files and never \
+             rewrites them; bless locally and commit the result"
+                .into(),
+        ),
+        (Some(_), _) => Ok(true),
+    }
+}
+
 fn check(name: &str, generated: &str) {
     let path = docs().join(name);
-    if std::env::var_os("PLATOON_BLESS").is_some() {
-        std::fs::write(&path, generated).unwrap();
+    let var = |k: &str| std::env::var_os(k).map(|v| v.to_string_lossy().into_owned());
+    if bless(var("PLATOON_BLESS").as_deref(), var("CI").as_deref())
+        .unwrap_or_else(|e| panic!("{e}"))
+    {
+        std::fs::write(&path, generated)
+            .unwrap_or_else(|e| panic!("writing {}: {e}", path.display()));
         return;
     }
     let committed = std::fs::read_to_string(&path).unwrap_or_default();
@@ -60,4 +79,14 @@ fn the_reference_names_every_key_of_every_table() {
     // Defaults come from the code, not from comments.
     assert!(page.contains("| `gap_m` | number | `200.0` |"), "{page}");
     assert!(page.contains("| `end_s` | number | `inf` |"), "{page}");
+}
+
+#[test]
+fn bless_is_refused_in_ci() {
+    assert_eq!(bless(None, Some("true")), Ok(false));
+    assert_eq!(bless(None, None), Ok(false));
+    assert_eq!(bless(Some("1"), None), Ok(true));
+    assert_eq!(bless(Some("1"), Some("false")), Ok(true));
+    let refused = bless(Some("1"), Some("true")).unwrap_err();
+    assert!(refused.contains("CI=true"), "{refused}");
 }
