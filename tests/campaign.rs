@@ -210,7 +210,25 @@ fn monte_carlo_compares_rules_on_the_same_schedules() {
         mean(&groups[0]),
         mean(&groups[1])
     );
-    assert!(groups[0]["severe_fraction"].as_f64().is_some());
+    // The share of severe cells is the one cells.csv shows (not merely a number).
+    for g in groups {
+        let rule = if g["group"].as_str().unwrap().contains("dynamic") {
+            "dynamic"
+        } else {
+            "static"
+        };
+        let of_rule: Vec<_> = rows.iter().filter(|r| r["trigger.rule"] == rule).collect();
+        let severe = of_rule
+            .iter()
+            .filter(|r| r["safety_class"] == "severe")
+            .count();
+        assert_eq!(of_rule.len(), 20);
+        assert_eq!(
+            g["severe_fraction"].as_f64(),
+            Some(severe as f64 / 20.0),
+            "{g}"
+        );
+    }
     assert!(out.join("plots/ecdf_max_spacing_error_m.png").is_file());
     // The same campaign file and seed give the same cells.csv.
     let again = tmp.path().join("again");

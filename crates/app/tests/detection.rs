@@ -203,13 +203,13 @@ fn the_experiment_writes_its_files_with_sane_numbers() {
         (r.attack.as_str(), r.intensity, r.detector.as_str()),
         ("feigned_braking", "strong", "residual")
     );
-    assert!(r.recall.unwrap() > 0.0, "{r:?}");
-    for x in [r.precision, r.recall, r.f1, r.false_alarm_rate]
-        .into_iter()
-        .flatten()
-    {
-        assert!((0.0..=1.0).contains(&x), "{r:?}");
-    }
+    assert!(r.tp > 0 && r.tn > 0, "{r:?}");
+    // The ratios are the counts' (not merely numbers in [0, 1]).
+    let ratio = |a: u64, b: u64| (b > 0).then(|| a as f64 / b as f64);
+    assert_eq!(r.precision, ratio(r.tp, r.tp + r.fp), "{r:?}");
+    assert_eq!(r.recall, ratio(r.tp, r.tp + r.fn_), "{r:?}");
+    assert_eq!(r.f1, ratio(2 * r.tp, 2 * r.tp + r.fp + r.fn_), "{r:?}");
+    assert_eq!(r.false_alarm_rate, ratio(r.fp, r.fp + r.tn), "{r:?}");
     assert!(!r.collided && r.min_gap_m > 0.0, "{r:?}");
     let csv = std::fs::read_to_string(path.join("detection.csv")).unwrap();
     assert_eq!(csv.lines().count(), 3, "{csv}");

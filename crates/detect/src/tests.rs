@@ -209,6 +209,7 @@ fn the_residual_catches_a_5_m_position_offset() {
         residual_noise(),
         Some(&|x| x + State::new(5.0, 0.0, 0.0)),
     );
+    assert!(n.forged > 5000, "{n:?}");
     assert_eq!(n.forged_flagged, n.forged, "{n:?}");
 }
 
@@ -248,7 +249,7 @@ fn the_radar_cross_check_catches_a_5_m_position_offset_on_every_packet() {
         WITH_RADAR,
         Some(&|x| x + State::new(5.0, 0.0, 0.0)),
     );
-    assert!(n.forged > 5000);
+    assert!(n.forged > 5000, "{n:?}");
     assert_eq!(n.forged_flagged, n.forged, "{n:?}");
 }
 
@@ -260,6 +261,7 @@ fn the_radar_cross_check_catches_a_1_mps_speed_offset_on_every_packet() {
         WITH_RADAR,
         Some(&|x| x + State::new(0.0, 1.0, 0.0)),
     );
+    assert!(n.forged > 5000, "{n:?}");
     assert_eq!(n.forged_flagged, n.forged, "{n:?}");
 }
 
@@ -293,6 +295,7 @@ fn the_plausibility_checks_are_silent_on_clean_traffic() {
         ..CLEAN
     };
     let n = run(&mut plausibility(), 0..10, noisy, None);
+    assert!(n.clean > 5000, "{n:?}");
     assert_eq!(n.clean_flagged, 0, "{n:?}");
 }
 
@@ -304,6 +307,7 @@ fn the_plausibility_checks_catch_a_claimed_120_mps() {
         CLEAN,
         Some(&|x| State::new(x[0], 120.0, x[2])),
     );
+    assert!(n.forged > 1500, "{n:?}");
     assert_eq!(n.forged_flagged, n.forged, "{n:?}");
 }
 
