@@ -45,10 +45,14 @@ const LENGTH: f64 = 4.0;
 const CC_SPEED: f64 = 30.0;
 /// The largest gap deviation accepted, m (the issue's bound).
 const TOLERANCE: f64 = 0.05;
-/// What SUMO's discretisation reproduced exactly gives (rounding only), m. The issue's bound
-/// alone would not tell the discretisations apart: our native plant (`plant_step`) stays within
-/// 0.032 m of SUMO here, another data timing does not (0.25 m).
-const EXACT: f64 = 1e-6;
+/// What SUMO's discretisation reproduced exactly gives through `platoon` itself (config,
+/// controller seam, plant), m: rounding only (the largest deviation is about 1.4e-11 m), the
+/// bound docs/controllers.md and the README publish. The issue's bound alone would not tell
+/// the discretisations apart: our default (`exact`) plant stays centimetres from SUMO here.
+const EXACT: f64 = 1e-10;
+/// What the law functions in a loop of SUMO's own step give, m: rounding only (0 for all but
+/// consensus), the bound docs/controllers.md publishes.
+const LOOP_EXACT: f64 = 1e-12;
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Law {
@@ -408,9 +412,9 @@ fn check(law: Law, limits: Limits) {
         &worst[1..]
     );
     assert!(
-        max <= EXACT,
+        max <= LOOP_EXACT,
         "{}: our gaps differ from SUMO's by up to {max} m: within the issue's {TOLERANCE} m, but \
-         more than rounding ({EXACT} m), so the loop no longer reproduces SUMO's step",
+         more than rounding ({LOOP_EXACT} m), so the loop no longer reproduces SUMO's step",
         law.name()
     );
 }
