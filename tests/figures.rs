@@ -3,7 +3,11 @@
 //! in the code or in the text, fails here. Each study has its own module; each test runs the
 //! study's own settings or a reduced grid of it that still gives the published digits.
 mod common;
+#[path = "figures/design.rs"]
+mod design;
 #[path = "figures/detection.rs"]
 mod detection;
 #[path = "figures/search.rs"]
 mod search;
+#[path = "figures/studies.rs"]
+mod studies;
