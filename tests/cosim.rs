@@ -505,19 +505,28 @@ fn killing_the_injector_stops_the_run_and_names_it() {
     kill_node("injector");
 }
 
+/// The step timeout of the stall tests: the suite's own (tests/common), so that only the stall
+/// can reach it; a second would also catch a process merely starved on a busy machine before
+/// the stall, and name the wrong step.
+const STALL_TIMEOUT: &str = "20";
+
 #[test]
 fn an_injector_that_stops_publishing_is_named_after_the_timeout() {
     let tmp = tempfile::tempdir().unwrap();
     let injector = drop_sender("--stall-at 300");
     let (child, run) = start_long_run(
         tmp.path(),
-        &["--injector", &injector, "--step-timeout", "1"],
+        &["--injector", &injector, "--step-timeout", STALL_TIMEOUT],
     );
     let needle = run.with_extension("partial").display().to_string();
     assert_stopped_naming(child, &run, "injector", &needle);
     let summary = summary(&run);
     assert_eq!(summary["steps"], 300);
-    assert!(summary["error"].as_str().unwrap().contains("step 300"));
+    let error = summary["error"].as_str().unwrap();
+    assert!(
+        error.contains("step 300") && error.contains(&format!("within {STALL_TIMEOUT} s")),
+        "{error}"
+    );
 }
 
 /// Issue 13: an injector that keeps re-publishing rx[k] once made the run wait forever, as any
@@ -528,7 +537,7 @@ fn an_injector_repeating_one_step_is_named_after_the_timeout() {
     let injector = drop_sender("--repeat-at 200");
     let (child, run) = start_long_run(
         tmp.path(),
-        &["--injector", &injector, "--step-timeout", "1"],
+        &["--injector", &injector, "--step-timeout", STALL_TIMEOUT],
     );
     let needle = run.with_extension("partial").display().to_string();
     assert_stopped_naming(child, &run, "injector", &needle);
