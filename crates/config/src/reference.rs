@@ -2,7 +2,8 @@
 //! (`docs/config.schema.json`: Taplo / Even Better TOML complete and check config files with it)
 //! and a page for readers (`docs/config-reference.md`). Both are committed and a test checks
 //! them against what this module generates (`PLATOON_BLESS=1 cargo test -p platoon-config
-//! --test reference` rewrites them), so the reference cannot drift from the code: the keys, their
+//! --test reference` rewrites them, locally: with `CI=true` it refuses), so the reference cannot
+//! drift from the code: the keys, their
 //! types, their defaults (taken from the code, not from comments) and their doc comments.
 
 use crate::tagged::{alternatives, raw_schema, resolve, selector_of};

@@ -148,11 +148,22 @@ mod tests {
         assert_eq!(enabled(), cpus > 1 && !off);
         // This thread, narrowed as a reader is (so the CPU it hands on stays the same).
         hand_to(&[0]);
-        let mut child = std::process::Command::new("sleep")
-            .arg("10")
-            .spawn()
-            .expect("sleep");
-        let pid = child.id() as libc::pid_t;
+        // A reader that sleeps until this test kills it (also when an assertion fails), however
+        // slowly the machine gets to the checks.
+        struct Reader(std::process::Child);
+        impl Drop for Reader {
+            fn drop(&mut self) {
+                let _ = self.0.kill();
+                let _ = self.0.wait();
+            }
+        }
+        let child = Reader(
+            std::process::Command::new("sleep")
+                .arg("100000")
+                .spawn()
+                .expect("sleep"),
+        );
+        let pid = child.0.id() as libc::pid_t;
         // The child inherited the narrowed set; give it the whole one back first.
         let home = HOME
             .lock()
@@ -180,8 +191,7 @@ mod tests {
         hand_to(&[0]);
         go_home();
         assert_eq!(cpus_of(0), cpus);
-        let _ = child.kill();
-        let _ = child.wait();
+        drop(child);
     }
 
     #[test]
