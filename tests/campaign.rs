@@ -2,7 +2,7 @@
 //! 127.0.0.1 against the local pool, resumption after Ctrl-C, failed cells, bad files.
 mod common;
 
-use common::{json, ok, platoon, platoon_command, repo};
+use common::{json, ok, platoon, platoon_command, repo, wait_for};
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
@@ -552,16 +552,6 @@ fn a_dask_cluster_on_localhost_gives_the_local_cells_csv_byte_for_byte() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("Dask") && err.contains("127.0.0.1:9"), "{err}");
     assert!(tmp.path().join("none.partial").is_dir());
-}
-
-/// Polls `done` until it holds; the deadline only bounds a hang, and the failure says what was
-/// awaited.
-fn wait_for(what: &str, mut done: impl FnMut() -> bool) {
-    let deadline = Instant::now() + Duration::from_secs(120);
-    while !done() {
-        assert!(Instant::now() < deadline, "waited 120 s for {what}");
-        std::thread::sleep(Duration::from_millis(20));
-    }
 }
 
 /// `platoon campaign ARGS` in `dir`, started; its first line (the campaign's plan) is read.

@@ -3,7 +3,7 @@
 //! with its name, keeps what was recorded, and leaves nothing running.
 mod common;
 
-use common::{json, ok, platoon, platoon_command, repo};
+use common::{json, ok, platoon, platoon_command, repo, wait_for, PATIENCE};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
@@ -333,19 +333,6 @@ fn pids_with(needle: &str) -> Vec<u32> {
         }
     }
     out
-}
-
-/// How long a poll waits at most: it only bounds a hang (a starved process on a busy machine
-/// gets there in the end), never a figure the test checks.
-const PATIENCE: Duration = Duration::from_secs(120);
-
-/// Polls `done` until it holds, failing after [`PATIENCE`] with what was awaited.
-fn wait_for(what: &str, mut done: impl FnMut() -> bool) {
-    let deadline = Instant::now() + PATIENCE;
-    while !done() {
-        assert!(Instant::now() < deadline, "waited {PATIENCE:?} for {what}");
-        std::thread::sleep(Duration::from_millis(20));
-    }
 }
 
 /// Waits (at most [`PATIENCE`]) until `child` exits, its stderr read meanwhile; one that does

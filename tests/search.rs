@@ -432,10 +432,10 @@ fn every_shipped_search_parses() {
         if name.starts_with("worst-dos") {
             let s = platoon_app::search::load(&path, None).unwrap_or_else(|e| panic!("{e}"));
             assert_eq!(s.name, name);
-            if name.starts_with("worst-dos-budget-") {
+            if let Some(total) = name.strip_prefix("worst-dos-budget-") {
                 // A total jammed time on top of Assumption 2: the hand-made 6.5 s jam is over
                 // it, so there is no reference.
-                let total: f64 = name["worst-dos-budget-".len()..].parse().unwrap();
+                let total: f64 = total.parse().unwrap();
                 assert_eq!(s.problems[0].budget.max_jammed_s, Some(total));
                 assert!(s.problems[0].budget.assumption2.is_some());
                 assert_eq!(s.spec.evaluations, 48, "{}", path.display());

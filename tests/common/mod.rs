@@ -20,6 +20,22 @@ pub fn platoon_command(cwd: &Path) -> Command {
     c
 }
 
+/// How long a test waits for something that only a hang would keep from happening (a poll's
+/// deadline, never a budget: what is awaited comes much sooner on any machine).
+pub const PATIENCE: std::time::Duration = std::time::Duration::from_secs(120);
+
+/// Polls `done` until it holds, failing after [`PATIENCE`] with what was awaited.
+pub fn wait_for(what: &str, mut done: impl FnMut() -> bool) {
+    let deadline = std::time::Instant::now() + PATIENCE;
+    while !done() {
+        assert!(
+            std::time::Instant::now() < deadline,
+            "waited {PATIENCE:?} for {what}"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+}
+
 /// Runs `platoon args` in `cwd` to completion.
 pub fn platoon(args: &[&str], cwd: &Path) -> Output {
     platoon_command(cwd).args(args).output().unwrap()
