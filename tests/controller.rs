@@ -217,8 +217,8 @@ fn faulty(fault: &str, step_timeout: &str) -> (String, serde_json::Value, PathBu
 }
 
 #[test]
-fn a_controller_that_crashes_is_named_at_once() {
-    // With a 20 s step timeout: a death noticed by the timeout would read "published nothing".
+fn a_controller_that_crashes_is_named_by_its_exit() {
+    // Its exit, quoting its log, not the step timeout's "published nothing" (20 s here).
     let (stderr, s, dir) = faulty("--crash-at 5", "20");
     let error = s["error"].as_str().unwrap();
     for text in [&stderr, error] {

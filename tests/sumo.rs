@@ -5,7 +5,6 @@ mod common;
 use common::{json, ok, platoon, platoon_command, repo};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
-use std::time::{Duration, Instant};
 
 fn trajectories(run: &Path) -> Vec<Vec<String>> {
     std::fs::read_to_string(run.join("trajectories.csv"))
@@ -585,14 +584,9 @@ fn killing_the_sumo_bridge_stops_the_run_and_names_the_plant() {
     let partial = tmp.path().join("r.partial");
     let csv = partial.join("trajectories.csv");
     // The deadline only bounds a hang (SUMO starting on a busy machine).
-    let until = Instant::now() + Duration::from_secs(120);
-    while std::fs::metadata(&csv).map(|m| m.len()).unwrap_or(0) < 50_000 {
-        assert!(
-            Instant::now() < until,
-            "waited 120 s for the run to record 50 kB of trajectories.csv"
-        );
-        std::thread::sleep(Duration::from_millis(20));
-    }
+    common::wait_for("the run to record 50 kB of trajectories.csv", || {
+        std::fs::metadata(&csv).map(|m| m.len()).unwrap_or(0) >= 50_000
+    });
     let spec = partial.join("plant.json").canonicalize().unwrap();
     let needle = spec.display().to_string();
     let bridge: Vec<u32> = std::fs::read_dir("/proc")
@@ -611,6 +605,10 @@ fn killing_the_sumo_bridge_stops_the_run_and_names_the_plant() {
         .args(["-9", &bridge[0].to_string()])
         .status()
         .unwrap();
+    let mut child = child;
+    common::wait_for("the run to stop after its plant was killed", || {
+        child.try_wait().unwrap().is_some()
+    });
     let o = child.wait_with_output().unwrap();
     assert!(!o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);

@@ -130,7 +130,8 @@ def send_failed(outlet, step: int, reason: str, node: str = "injector") -> None:
     msg.kind = w.ControlMsg.FAILED
     msg.node = w.NODES[node]
     msg.step = step
-    data = reason.encode()[: len(msg.reason)]
+    # Cut on a character boundary, as the Rust side does.
+    data = reason.encode()[: len(msg.reason)].decode("utf-8", "ignore").encode()
     msg.reason[: len(data)] = data
     _send(outlet, msg)
 

@@ -78,7 +78,29 @@ pub fn published(doc: &str, template: &str, values: &[String]) {
         .unwrap_or_else(|e| panic!("cannot read {doc}: {e}"));
     // A Markdown paragraph may wrap anywhere: compare with runs of whitespace as one space.
     let squash = |s: &str| s.split_whitespace().collect::<Vec<_>>().join(" ");
-    if squash(&text).contains(&squash(&expected)) {
+    let (text_s, expected_s) = (squash(&text), squash(&expected));
+    // A match must not be part of a longer number or word: "5 % fewer" is not in "15 % fewer",
+    // nor "0.86" in "0.864".
+    let bounded = |at: usize| {
+        let before = text_s[..at].chars().next_back();
+        let mut after = text_s[at + expected_s.len()..].chars();
+        let starts = expected_s
+            .chars()
+            .next()
+            .is_some_and(|c| c.is_alphanumeric());
+        let ends = expected_s
+            .chars()
+            .next_back()
+            .is_some_and(|c| c.is_alphanumeric());
+        let glued_before = before.is_some_and(|c| c.is_alphanumeric() || c == '.' || c == '-');
+        let glued_after = match after.next() {
+            Some(c) if c.is_alphanumeric() => true,
+            Some('.') => after.next().is_some_and(|c| c.is_ascii_digit()),
+            _ => false,
+        };
+        !((starts && glued_before) || (ends && glued_after))
+    };
+    if text_s.match_indices(&expected_s).any(|(at, _)| bounded(at)) {
         return;
     }
     let anchor = pieces

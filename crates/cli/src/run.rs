@@ -1,6 +1,6 @@
 //! `platoon run`: the arguments, the signals and what is printed; the run itself is
 //! [`platoon_app::run::run`].
-use anyhow::Result;
+use anyhow::{Context, Result};
 use platoon_app::run::{Injector, RunOptions, Stop};
 use platoon_config::Transport;
 use platoon_sim::Summary;
@@ -133,8 +133,10 @@ pub fn run(args: Args) -> Result<()> {
             },
         }),
         controller: args.controller.clone(),
-        step_timeout: std::time::Duration::from_secs_f64(args.step_timeout),
-        ready_timeout: std::time::Duration::from_secs_f64(args.ready_timeout),
+        step_timeout: std::time::Duration::try_from_secs_f64(args.step_timeout)
+            .context("--step-timeout is too long")?,
+        ready_timeout: std::time::Duration::try_from_secs_f64(args.ready_timeout)
+            .context("--ready-timeout is too long")?,
         observers: args.observers,
         cpus: args.cpus.clone().map(|c| c.0).unwrap_or_default(),
         plots: !args.no_plots,

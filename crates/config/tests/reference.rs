@@ -1,7 +1,7 @@
 //! The committed config reference is what the schema types generate: `docs/config.schema.json`
 //! (the JSON Schema editors read) and `docs/config-reference.md`. After changing a schema type,
 //! `PLATOON_BLESS=1 cargo test -p platoon-config --test reference` rewrites both (never where
-//! `CI=true`: CI checks the committed files, it does not make them).
+//! `CI` is set, `CI=true` say: CI checks the committed files, it does not make them).
 use std::path::{Path, PathBuf};
 
 fn docs() -> PathBuf {
@@ -13,11 +13,11 @@ fn docs() -> PathBuf {
 fn bless(bless: Option<&str>, ci: Option<&str>) -> Result<bool, String> {
     match (bless, ci) {
         (None, _) => Ok(false),
-        (Some(_), Some("true")) => Err(
-            "PLATOON_BLESS is set with CI=true: CI checks the committed docs/ files and never \
+        // CI is set by CI services as `true` (or `1`, `yes`): anything but empty, 0 or false.
+        (Some(_), Some(ci)) if !matches!(ci.trim(), "" | "0" | "false") => Err(format!(
+            "PLATOON_BLESS is set with CI={ci}: CI checks the committed docs/ files and never \
              rewrites them; bless locally and commit the result"
-                .into(),
-        ),
+        )),
         (Some(_), _) => Ok(true),
     }
 }
@@ -87,6 +87,8 @@ fn bless_is_refused_in_ci() {
     assert_eq!(bless(None, None), Ok(false));
     assert_eq!(bless(Some("1"), None), Ok(true));
     assert_eq!(bless(Some("1"), Some("false")), Ok(true));
+    assert_eq!(bless(Some("1"), Some("")), Ok(true));
     let refused = bless(Some("1"), Some("true")).unwrap_err();
     assert!(refused.contains("CI=true"), "{refused}");
+    assert!(bless(Some("1"), Some("1")).is_err());
 }

@@ -280,11 +280,14 @@ fn run(
             )))
         }
     };
-    if !(step_timeout_s.is_finite() && step_timeout_s > 0.0) {
-        return Err(PyValueError::new_err(format!(
-            "step_timeout_s={step_timeout_s}: a positive number of seconds"
-        )));
-    }
+    let step_timeout = match Duration::try_from_secs_f64(step_timeout_s) {
+        Ok(t) if !t.is_zero() => t,
+        _ => {
+            return Err(PyValueError::new_err(format!(
+                "step_timeout_s={step_timeout_s}: a positive number of seconds"
+            )))
+        }
+    };
     if out.is_none() && (plots || force) {
         return Err(PyValueError::new_err(
             "plots=True and force=True are about a run directory: give out= too",
@@ -325,7 +328,7 @@ fn run(
             },
         }),
         controller,
-        step_timeout: Duration::from_secs_f64(step_timeout_s),
+        step_timeout,
         plots,
         config_file: label,
         ..RunOptions::default()

@@ -284,9 +284,12 @@ pub fn orchestrate(
                 break;
             }
             if started.elapsed() > opts.ready_timeout {
+                // A plug-in first (the user's program, or the SUMO bridge): a built-in node is
+                // late only when the machine is, and then so is every other.
                 let late = Node::ALL
                     .iter()
-                    .find(|n| !ready[**n as usize])
+                    .filter(|n| !ready[**n as usize])
+                    .min_by_key(|n| !children.of(n.name()).is_some_and(|p| p.plugin))
                     .expect("one is not ready");
                 return Err(RunError::Stalled {
                     node: late.name(),
@@ -417,7 +420,8 @@ pub fn orchestrate(
             if let Err(e) = watch(&mut children, run.step, &status) {
                 // A process that died may have published steps we have not read yet: record
                 // every step that is complete before saying so. Looked at before the step
-                // timeout: a process that died is why nothing came.
+                // timeout: a process that died is why nothing came. A report read here is
+                // treated as one read above: a malformed sample it failed on names its sender.
                 let mut streams = Streams {
                     states: &mut states,
                     traffic: traffic.as_mut().map(|t| (t, opts.traffic)),
@@ -427,7 +431,11 @@ pub fn orchestrate(
                     commands: &mut commands,
                 };
                 streams.drain_all();
-                let _ = streams.record(scenario, &mut run, &mut clock, &observe, &mut on_step);
+                let recorded =
+                    streams.record(scenario, &mut run, &mut clock, &observe, &mut on_step);
+                if matches!(e, RunError::Failed { .. }) {
+                    recorded?;
+                }
                 return Err(e);
             }
             if progressed {
@@ -673,9 +681,10 @@ fn check_failed(m: &ControlMsg, children: &Children) -> Result<(), RunError> {
     Ok(())
 }
 
-/// The error of a process that exited. A process that reported FAILED before it exited sent
-/// its report first, so the report is on `status` by the time its exit is seen, however late
-/// this looks: the run's error is then the report, never the exit, on any machine load.
+/// The error of a process that exited, or the report it sent first: a node that reported
+/// FAILED and waits for ABORT (both SDKs, the built-in nodes and the SUMO plant do) keeps its
+/// report readable until it is read, so its report, never its exit, is the run's error on any
+/// machine load. A process that exits right after reporting may take its report with it.
 fn watch(children: &mut Children, step: u64, status: &ControlInlet) -> Result<(), RunError> {
     let Some((i, exit)) = children.exited() else {
         return Ok(());

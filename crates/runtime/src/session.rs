@@ -138,6 +138,9 @@ pub(crate) fn reporting(
     let r = body(&mut ctx, &mut step);
     if let Err(e) = &r {
         if !matches!(e, RunError::Orphaned | RunError::Aborted(_)) {
+            // The whole error into the log (stderr) first: the report's reason is cut to 120
+            // bytes, and the process may be killed soon after the orchestrator reads it.
+            eprintln!("{}: step {step}: {e}", role.name());
             ctx.report(step, e);
         }
     }
