@@ -346,6 +346,19 @@ pub fn orchestrate(
             done[n as usize] = false;
         }
         let mut radio = None;
+        // The inlets as one `Streams`, borrowed anew wherever the loop records.
+        macro_rules! streams {
+            () => {
+                Streams {
+                    states: &mut states,
+                    traffic: traffic.as_mut().map(|t| (t, opts.traffic)),
+                    tx: &mut tx,
+                    rx: &mut rx,
+                    inspections: inspections.as_mut(),
+                    commands: &mut commands,
+                }
+            };
+        }
         loop {
             if stopped() {
                 return Err(RunError::Interrupted { step: run.step });
@@ -369,14 +382,7 @@ pub fn orchestrate(
             .into_iter()
             .find(Result::is_err)
             .unwrap_or(Ok(0));
-            let mut streams = Streams {
-                states: &mut states,
-                traffic: traffic.as_mut().map(|t| (t, opts.traffic)),
-                tx: &mut tx,
-                rx: &mut rx,
-                inspections: inspections.as_mut(),
-                commands: &mut commands,
-            };
+            let mut streams = streams!();
             progressed |= streams.record(scenario, &mut run, &mut clock, &observe, &mut on_step)?;
             while let Some(m) = status.next()? {
                 progressed = true;
@@ -384,14 +390,7 @@ pub fn orchestrate(
                     // What it failed on may be a malformed sample of another node (a plant
                     // refusing a controller's commands) that arrived with the steps complete
                     // before it: record those, and name the sender if its sample is the cause.
-                    let mut streams = Streams {
-                        states: &mut states,
-                        traffic: traffic.as_mut().map(|t| (t, opts.traffic)),
-                        tx: &mut tx,
-                        rx: &mut rx,
-                        inspections: inspections.as_mut(),
-                        commands: &mut commands,
-                    };
+                    let mut streams = streams!();
                     streams.drain_all();
                     streams.record(scenario, &mut run, &mut clock, &observe, &mut on_step)?;
                     return Err(failed);
@@ -422,14 +421,7 @@ pub fn orchestrate(
                 // every step that is complete before saying so. Looked at before the step
                 // timeout: a process that died is why nothing came. A report read here is
                 // treated as one read above: a malformed sample it failed on names its sender.
-                let mut streams = Streams {
-                    states: &mut states,
-                    traffic: traffic.as_mut().map(|t| (t, opts.traffic)),
-                    tx: &mut tx,
-                    rx: &mut rx,
-                    inspections: inspections.as_mut(),
-                    commands: &mut commands,
-                };
+                let mut streams = streams!();
                 streams.drain_all();
                 let recorded =
                     streams.record(scenario, &mut run, &mut clock, &observe, &mut on_step);
