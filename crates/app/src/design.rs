@@ -169,7 +169,7 @@ pub struct CheckReport {
     /// Theorem 1 at c with one Lyapunov block per follower (certificate-block-diagonal.json);
     /// None where that is infeasible too.
     pub block_diagonal: Option<BlockReport>,
-    /// Whether spacing errors grow along the platoon (see platoon_synthesis::string).
+    /// Whether spacing errors grow along the platoon (see platoon_synthesis::string_stability).
     pub string_stability: Vec<StringStability>,
     /// The theorem checked.
     #[serde(skip)]

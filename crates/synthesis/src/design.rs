@@ -15,9 +15,8 @@
 //! admits no common P, on the leading followers likewise. Where the common P of the whole
 //! platoon is infeasible for the gain found, the certificate is the block-diagonal one
 //! ([`min_ratio_block_diagonal`]).
-use crate::lmi::{
-    min_ratio, min_ratio_block_diagonal, Certificate, Coupling, Feasibility, LmiError, Plant3,
-};
+use crate::certificate::Certificate;
+use crate::lmi::{min_ratio, min_ratio_block_diagonal, Coupling, Feasibility, LmiError, Plant3};
 use crate::sdp::{dm, solve, sym_basis3, Lmi};
 use nalgebra::{DMatrix, Matrix3};
 

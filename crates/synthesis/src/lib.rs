@@ -8,27 +8,32 @@
 //!   eigenvalues, independently of the solver.
 //! * [`closed_loop_spectrum`]: eigenvalues of `I_N kron A(tau) - H kron B(tau) K` over a tau range.
 //! * [`dos_bounds`]: the bounds (16) on T2 and D2 (readings R20, R21).
-//! * [`string_stability`]: whether spacing errors grow along a long platoon (see [`string`]).
+//! * [`string_stability`]: whether spacing errors grow along a long platoon (see [`string_stability`](mod@string_stability)).
 //!
 //! Readings of the paper (docs/paper-readings.md): `Tr(X)` is `He(X) = X + X^T` (R8);
 //! u = -K q (R1); K is 1x3 (R2).
 //! Pure: no I/O, clocks or threads.
 #![warn(missing_docs)]
 
+mod certificate;
+mod decay;
 mod design;
 mod lmi;
 mod sdp;
-pub mod string;
+mod spectrum;
+pub mod string_stability;
 
 pub use design::{design_theorem1, Design, DesignSpec};
 pub use sdp::SdpError;
-pub use string::{string_stability, StringStability, TauStringStability};
+pub use string_stability::{string_stability, StringStability, TauStringStability};
 
+pub use certificate::{Certificate, Verdict};
+pub use decay::{max_decay_within_ratio, theorem1_max_decay};
 pub use lmi::{
-    closed_loop_spectrum, growth_rate, max_decay_within_ratio, min_ratio, min_ratio_block_diagonal,
-    psi_general, psi_theorem1, theorem1_max_decay, theorem1_min_ratio, Certificate, Coupling,
-    Feasibility, LmiError, Plant3, Spectrum, Verdict, P_MAX,
+    min_ratio, min_ratio_block_diagonal, psi, psi_theorem1, theorem1_min_ratio, Coupling,
+    Feasibility, LmiError, Lyapunov, Plant3, P_MAX,
 };
+pub use spectrum::{closed_loop_spectrum, growth_rate, Spectrum};
 
 /// The bounds (16): the smallest T2 and D2 for which Assumption 2 guarantees stability, given
 /// the decay `varsigma1`, the growth `varsigma2` under attack, the chosen `varsigma_star` in

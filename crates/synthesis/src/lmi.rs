@@ -1,7 +1,8 @@
-//! LMI (13) of Theorem 1, its SDP on clarabel, and certificates.
+//! LMI (13) of Theorem 1 and its SDPs on clarabel (the certificates they issue are
+//! [`crate::certificate`]'s).
+use crate::certificate::Certificate;
 use crate::sdp::{dm, solve, sym_basis3, Lmi, SdpError};
 use nalgebra::{DMatrix, Matrix3, RowVector3, Vector3};
-use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
 /// Why a design request could not be answered.
@@ -57,11 +58,11 @@ impl Plant3 {
     }
 }
 
-fn kron(a: &DMatrix<f64>, b: &DMatrix<f64>) -> DMatrix<f64> {
+pub(crate) fn kron(a: &DMatrix<f64>, b: &DMatrix<f64>) -> DMatrix<f64> {
     a.kronecker(b)
 }
 
-fn he(x: &DMatrix<f64>) -> DMatrix<f64> {
+pub(crate) fn he(x: &DMatrix<f64>) -> DMatrix<f64> {
     x + x.transpose()
 }
 
@@ -141,31 +142,11 @@ pub fn psi_theorem1(
     g: &Coupling,
     plant: &Plant3,
 ) -> DMatrix<f64> {
-    psi_of(p, r, c, k, &g.matrix(), plant)
-}
-
-/// [`psi_theorem1`] with the coupling's matrix M given.
-fn psi_of(
-    p: &Matrix3<f64>,
-    r: f64,
-    c: f64,
-    k: &RowVector3<f64>,
-    mc: &DMatrix<f64>,
-    plant: &Plant3,
-) -> DMatrix<f64> {
-    let m = mc.nrows();
-    let n = m / 3;
-    let i_n = DMatrix::<f64>::identity(n, n);
-    let pd = DMatrix::from_iterator(3, 3, p.iter().copied());
-    let pa = DMatrix::from_iterator(3, 3, (p * plant.a).iter().copied());
-    let pbk = DMatrix::from_iterator(3, 3, (p * plant.b * k).iter().copied());
-    let pbkm = blockwise(&pbk, mc);
-    let x11 = he(&(kron(&i_n, &pa) - &pbkm)) + kron(&i_n, &pd) * c;
-    assemble(&x11, &-pbkm, r, mc)
+    psi(Lyapunov::Common(p), r, c, k, &g.matrix(), plant)
 }
 
 /// `(I_N kron B) M` for a 3x3 `b`: block row i is `b` times block row i of `M`.
-fn blockwise(b: &DMatrix<f64>, mc: &DMatrix<f64>) -> DMatrix<f64> {
+pub(crate) fn blockwise(b: &DMatrix<f64>, mc: &DMatrix<f64>) -> DMatrix<f64> {
     let m = mc.nrows();
     let mut out = DMatrix::<f64>::zeros(m, m);
     for i in 0..m / 3 {
@@ -175,197 +156,48 @@ fn blockwise(b: &DMatrix<f64>, mc: &DMatrix<f64>) -> DMatrix<f64> {
     out
 }
 
-/// Everything needed to re-check Theorem 1 for one design, as `certificate.json` holds it.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Certificate {
-    /// Which condition: "theorem1" (one tau) or "theorem2" ((13) at both ends of the 1/tau
-    /// range with one P: since (13) is affine in 1/tau, it then holds for every tau between,
-    /// even time-varying; our reading of Theorem 2, docs/paper-readings.md#R18).
-    pub condition: String,
-    /// The gain K (u = -K q).
-    pub k: [f64; 3],
-    /// The decay parameter c.
-    pub c: f64,
-    /// beta1 / beta2.
-    pub ratio: f64,
-    /// P (row-major 3x3), positive definite: the common Lyapunov matrix (`I_N kron P`), or
-    /// `P_1` of a block-diagonal certificate.
-    pub p: [[f64; 3]; 3],
-    /// A block-diagonal Lyapunov matrix `diag(P_1, ..., P_N)`, one 3x3 block per follower
-    /// (`V = sum_i e_i^T P_i e_i`), in place of `I_N kron P`; absent for a common P.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub p_blocks: Option<Vec<[[f64; 3]; 3]>>,
-    /// H = L + diag(pinning), row-major N x N.
-    pub h: Vec<Vec<f64>>,
-    /// The time headway of the spacing policy (s) the condition was imposed with; absent (0)
-    /// for constant spacing.
-    #[serde(default, skip_serializing_if = "is_zero")]
-    pub headway: f64,
-    /// The taus at which (13) is imposed (s): the nominal one, or the ends of the range.
-    pub taus: Vec<f64>,
-    /// The largest eigenvalue of (13) when issued (negative).
-    pub max_eigenvalue: f64,
-    /// The smallest eigenvalue of P when issued (positive).
-    pub p_min_eigenvalue: f64,
+/// The Lyapunov matrix of (13): `I_N kron P` with a common `P`, or a general `X` (3N x 3N,
+/// symmetric; the proof of Theorem 1 needs nothing of `X` but `X > 0`).
+#[derive(Debug, Clone, Copy)]
+pub enum Lyapunov<'a> {
+    /// `I_N kron P`.
+    Common(&'a Matrix3<f64>),
+    /// `X`.
+    Full(&'a DMatrix<f64>),
 }
 
-fn is_zero(x: &f64) -> bool {
-    *x == 0.0
-}
-
-/// P, K and the coupling of a certificate.
-type Parts = (Matrix3<f64>, RowVector3<f64>, Coupling);
-
-/// The result of re-checking a certificate.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct Verdict {
-    /// (13) is negative definite and P positive definite.
-    pub holds: bool,
-    /// Largest eigenvalue of (13): the margin is its negative.
-    pub max_eigenvalue: f64,
-    /// Smallest eigenvalue of P (of every block).
-    pub p_min_eigenvalue: f64,
-    /// `sqrt(lambda_max / lambda_min)` of the whole Lyapunov matrix: how much the tracking
-    /// error may grow before it decays (`|e(t)| <= growth e^(-c t / 2 ...) |e(0)|`), the price of
-    /// a certificate whose blocks differ.
-    pub transient_growth: f64,
-}
-
-impl Certificate {
-    fn parts(&self) -> Result<Parts, LmiError> {
-        let n = self.h.len();
-        if n == 0 || self.h.iter().any(|row| row.len() != n) {
-            return Err(LmiError::Bad("h must be a non-empty square matrix".into()));
-        }
-        let finite = self
-            .p
-            .iter()
-            .flatten()
-            .chain(&self.k)
-            .all(|x| x.is_finite())
-            && self.h.iter().flatten().all(|x| x.is_finite())
-            && self.ratio.is_finite()
-            && self.headway.is_finite()
-            && self.headway >= 0.0
-            && self.c.is_finite()
-            && !self.taus.is_empty()
-            && self.taus.iter().all(|t| t.is_finite() && *t > 0.0);
-        if !finite {
-            return Err(LmiError::Bad(
-                "every number of a certificate must be finite (at least one tau > 0, headway >= 0)"
-                    .into(),
-            ));
-        }
-        let p = Matrix3::from_fn(|i, j| self.p[i][j]);
-        let h = DMatrix::from_fn(n, n, |i, j| self.h[i][j]);
-        Ok((
-            p,
-            RowVector3::from(self.k),
-            Coupling::time_headway(h, self.headway),
-        ))
-    }
-
-    /// The Lyapunov blocks as issued: the common P alone, or one per follower (checked for
-    /// number and finiteness).
-    fn blocks(&self, p: Matrix3<f64>, n: usize) -> Result<Vec<Matrix3<f64>>, LmiError> {
-        match &self.p_blocks {
-            None => Ok(vec![p]),
-            Some(b) => {
-                if b.len() != n || b.iter().flatten().flatten().any(|x| !x.is_finite()) {
-                    return Err(LmiError::Bad(format!(
-                        "p_blocks must hold one finite 3x3 block per follower ({n})"
-                    )));
-                }
-                Ok(b.iter().map(|m| Matrix3::from_fn(|i, j| m[i][j])).collect())
-            }
-        }
-    }
-
-    /// [`Verdict::transient_growth`] alone, from the blocks' eigenvalues (no (13) to assemble).
-    pub fn transient_growth(&self) -> Result<f64, LmiError> {
-        let (p, _, g) = self.parts()?;
-        let (lo, hi) = eigen_range(&symmetrised(&self.blocks(p, g.followers())?));
-        Ok((hi / lo).sqrt())
-    }
-
-    /// Re-assembles (13) from the certificate's numbers and checks its eigenvalues.
-    pub fn verify(&self) -> Result<Verdict, LmiError> {
-        let (p, k, g) = self.parts()?;
-        let n = g.followers();
-        let mc = g.matrix();
-        let raw = self.blocks(p, n)?;
-        let symmetric = raw.iter().all(|b| (b - b.transpose()).amax() < 1e-9);
-        let blocks = symmetrised(&raw);
-        let x = (blocks.len() > 1).then(|| {
-            let mut x = DMatrix::zeros(3 * n, 3 * n);
-            for (i, b) in blocks.iter().enumerate() {
-                x.view_mut((3 * i, 3 * i), (3, 3)).copy_from(b);
-            }
-            x
-        });
-        let max_eigenvalue = self
-            .taus
-            .iter()
-            .map(|&tau| {
-                let plant = Plant3::new(tau);
-                match &x {
-                    None => psi_of(&blocks[0], self.ratio, self.c, &k, &mc, &plant),
-                    Some(x) => psi_general(x, self.ratio, self.c, &k, &mc, &plant),
-                }
-                .symmetric_eigenvalues()
-                .max()
-            })
-            .fold(f64::NEG_INFINITY, f64::max);
-        let (p_min_eigenvalue, p_max_eigenvalue) = eigen_range(&blocks);
-        Ok(Verdict {
-            holds: max_eigenvalue < 0.0 && p_min_eigenvalue > 0.0 && symmetric,
-            max_eigenvalue,
-            p_min_eigenvalue,
-            transient_growth: (p_max_eigenvalue / p_min_eigenvalue).sqrt(),
-        })
-    }
-}
-
-/// `(B + B^T) / 2` of each block.
-fn symmetrised(blocks: &[Matrix3<f64>]) -> Vec<Matrix3<f64>> {
-    blocks.iter().map(|b| (b + b.transpose()) * 0.5).collect()
-}
-
-/// The smallest and largest eigenvalue over symmetric blocks.
-fn eigen_range(blocks: &[Matrix3<f64>]) -> (f64, f64) {
-    blocks
-        .iter()
-        .flat_map(|b| {
-            b.symmetric_eigenvalues()
-                .iter()
-                .copied()
-                .collect::<Vec<_>>()
-        })
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), e| {
-            (lo.min(e), hi.max(e))
-        })
-}
-
-/// (13) with a general Lyapunov matrix `X` (3N x 3N, symmetric) in place of `I_N kron P`:
+/// (13) with the Lyapunov matrix `X` of `lyapunov`, ratio `r`, decay `c`, gain `k`, the
+/// coupling's matrix `M` (`mc`) and plant:
 /// `[[He(X (I kron A) - X (I kron B K) M) + c X, -X (I kron B K) M, M^T], [., -r I, M^T],
-/// [M, M, -I]]`. The proof of Theorem 1 needs nothing of `X` but `X > 0`.
-pub fn psi_general(
-    x: &DMatrix<f64>,
+/// [M, M, -I]]`.
+pub fn psi(
+    lyapunov: Lyapunov<'_>,
     r: f64,
     c: f64,
     k: &RowVector3<f64>,
     mc: &DMatrix<f64>,
     plant: &Plant3,
 ) -> DMatrix<f64> {
-    let m = mc.nrows();
-    let n = m / 3;
+    let n = mc.nrows() / 3;
     let i_n = DMatrix::<f64>::identity(n, n);
-    let ia = kron(&i_n, &dm(&plant.a));
-    let bk = dm(&(plant.b * k));
-    let xbkm = x * blockwise(&bk, mc);
-    let x11 = he(&(x * &ia - &xbkm)) + x * c;
-    let x12 = -xbkm;
-    assemble(&x11, &x12, r, mc)
+    match lyapunov {
+        Lyapunov::Common(p) => {
+            let pd = DMatrix::from_iterator(3, 3, p.iter().copied());
+            let pa = DMatrix::from_iterator(3, 3, (p * plant.a).iter().copied());
+            let pbk = DMatrix::from_iterator(3, 3, (p * plant.b * k).iter().copied());
+            let pbkm = blockwise(&pbk, mc);
+            let x11 = he(&(kron(&i_n, &pa) - &pbkm)) + kron(&i_n, &pd) * c;
+            assemble(&x11, &-pbkm, r, mc)
+        }
+        Lyapunov::Full(x) => {
+            let ia = kron(&i_n, &dm(&plant.a));
+            let bk = dm(&(plant.b * k));
+            let xbkm = x * blockwise(&bk, mc);
+            let x11 = he(&(x * &ia - &xbkm)) + x * c;
+            let x12 = -xbkm;
+            assemble(&x11, &x12, r, mc)
+        }
+    }
 }
 
 /// The 9N x 9N matrix of (13) from its (1,1) and (1,2) blocks.
@@ -429,7 +261,7 @@ pub fn min_ratio(
 /// [`min_ratio`] with at most `retries` stricter margins for an answer that fails the re-check
 /// (the bisections allow one: at the edge of feasibility they count a failure as infeasible
 /// anyway, and the retries cost most of a bisection's time).
-fn min_ratio_with(
+pub(crate) fn min_ratio_with(
     k: [f64; 3],
     c: f64,
     g: &Coupling,
@@ -448,12 +280,28 @@ fn min_ratio_with(
     let mut lmis = Vec::new();
     for &tau in taus {
         let plant = Plant3::new(tau);
-        let psi0 = psi_of(&Matrix3::zeros(), 0.0, c, &kr, &mc, &plant);
+        let psi0 = psi(
+            Lyapunov::Common(&Matrix3::zeros()),
+            0.0,
+            c,
+            &kr,
+            &mc,
+            &plant,
+        );
         let mut fi: Vec<DMatrix<f64>> = basis
             .iter()
-            .map(|e| psi_of(e, 0.0, c, &kr, &mc, &plant) - &psi0)
+            .map(|e| psi(Lyapunov::Common(e), 0.0, c, &kr, &mc, &plant) - &psi0)
             .collect();
-        fi.push(psi_of(&Matrix3::zeros(), 1.0, c, &kr, &mc, &plant) - &psi0);
+        fi.push(
+            psi(
+                Lyapunov::Common(&Matrix3::zeros()),
+                1.0,
+                c,
+                &kr,
+                &mc,
+                &plant,
+            ) - &psi0,
+        );
         lmis.push(Lmi::nsd(
             &(psi0 + DMatrix::<f64>::identity(size, size) * delta),
             &fi,
@@ -464,8 +312,8 @@ fn min_ratio_with(
     fp.push(DMatrix::zeros(3, 3));
     lmis.push(Lmi::nsd(&(DMatrix::<f64>::identity(3, 3) * delta), &fp));
     // P <= P_MAX I: without a bound the smallest ratio may only be approached as P grows
-    // without end, which leaves the interior-point method no optimum to converge to: PF with 3
-    // followers, PLF with 8, BPF with 2 ended in NumericalError (issue 14). Any P in the box is
+    // without end, which leaves the interior-point method no optimum to converge to (PF with 3
+    // followers, PLF with 8, BPF with 2 end in NumericalError without it). Any P in the box is
     // a valid certificate (re-checked below); the ratio is the smallest over the box.
     let mut fu: Vec<DMatrix<f64>> = basis.iter().map(dm).collect();
     fu.push(DMatrix::zeros(3, 3));
@@ -579,8 +427,14 @@ pub fn min_ratio_block_diagonal(
     for &tau in taus {
         let plant = Plant3::new(tau);
         let bk = plant.b * kr;
-        let psi0 = psi_general(&DMatrix::zeros(m, m), 0.0, c, &kr, &mc, &plant)
-            + DMatrix::<f64>::identity(3 * m, 3 * m) * delta;
+        let psi0 = psi(
+            Lyapunov::Full(&DMatrix::zeros(m, m)),
+            0.0,
+            c,
+            &kr,
+            &mc,
+            &plant,
+        ) + DMatrix::<f64>::identity(3 * m, 3 * m) * delta;
         let mut cols: Vec<Vec<(usize, usize, f64)>> = Vec::with_capacity(nvar);
         for i in 0..n {
             // Block row i of (I kron B K) M.
@@ -685,131 +539,11 @@ fn rows3(p: &Matrix3<f64>) -> [[f64; 3]; 3] {
 /// The largest margin [`min_ratio`] retries with when an answer fails the re-check.
 const MAX_MARGIN: f64 = 1e-3;
 
-/// The largest decay c (to `tol`) for which (13) is feasible with gain `k`, by bisection on
-/// `[0, c_max]`; `None` if it is infeasible already at c = 0.
-pub fn theorem1_max_decay(
-    k: [f64; 3],
-    g: &Coupling,
-    taus: &[f64],
-    c_max: f64,
-    tol: f64,
-) -> Result<Option<Certificate>, LmiError> {
-    let delta = 1e-6;
-    let Feasibility::Feasible(mut best) = min_ratio(k, 0.0, g, taus, delta)? else {
-        return Ok(None);
-    };
-    let (mut lo, mut hi) = (0.0, c_max);
-    while hi - lo > tol {
-        let mid = 0.5 * (lo + hi);
-        // At the edge of feasibility an answer that fails the re-check, or the solver's
-        // numerical trouble, counts as infeasible: the decay returned is certified either way,
-        // at worst smaller than the true largest.
-        match min_ratio_with(k, mid, g, taus, delta, 1) {
-            Ok(Feasibility::Feasible(c)) => {
-                lo = mid;
-                best = c;
-            }
-            Ok(Feasibility::Infeasible)
-            | Err(LmiError::NotCertified(_))
-            | Err(LmiError::Solver(_)) => hi = mid,
-            Err(e) => return Err(e),
-        }
-    }
-    Ok(Some(best))
-}
-
-/// Like [`theorem1_max_decay`], with beta1/beta2 kept at or below `ratio_cap` (a decay bought
-/// with an ever larger ratio is useless to the trigger), with a common Lyapunov matrix or one P
-/// per follower (`block_diagonal`). `None` if even c = 0 needs more.
-pub fn max_decay_within_ratio(
-    k: [f64; 3],
-    g: &Coupling,
-    taus: &[f64],
-    ratio_cap: f64,
-    (c_max, tol): (f64, f64),
-    block_diagonal: bool,
-) -> Result<Option<Certificate>, LmiError> {
-    let delta = 1e-6;
-    let within = |c: f64| -> Result<Option<Certificate>, LmiError> {
-        let answer = if block_diagonal {
-            min_ratio_block_diagonal(k, c, g, taus, delta)
-        } else {
-            min_ratio_with(k, c, g, taus, delta, if c == 0.0 { u32::MAX } else { 1 })
-        };
-        match answer {
-            Ok(Feasibility::Feasible(cert)) if cert.ratio <= ratio_cap => Ok(Some(cert)),
-            // At the edge of feasibility, a numerical failure counts as infeasible.
-            Ok(_) | Err(LmiError::NotCertified(_)) | Err(LmiError::Solver(_)) => Ok(None),
-            Err(e) => Err(e),
-        }
-    };
-    let Some(mut best) = within(0.0)? else {
-        return Ok(None);
-    };
-    let (mut lo, mut hi) = (0.0, c_max);
-    while hi - lo > tol {
-        let mid = 0.5 * (lo + hi);
-        match within(mid)? {
-            Some(c) => {
-                lo = mid;
-                best = c;
-            }
-            None => hi = mid,
-        }
-    }
-    Ok(Some(best))
-}
-
-/// The growth rate of `V = e^T (I kron P) e` with the controls off (during attacks):
-/// the smallest varsigma2 with `A^T P + P A <= varsigma2 P` (reading R20), i.e. the largest
-/// eigenvalue of `P^-1/2 (A^T P + P A) P^-1/2`.
-pub fn growth_rate(p: &Matrix3<f64>, tau: f64) -> f64 {
-    let a = Plant3::new(tau).a;
-    let eig = p.symmetric_eigen();
-    let inv_sqrt = eig.eigenvectors
-        * Matrix3::from_diagonal(&eig.eigenvalues.map(|x| 1.0 / x.sqrt()))
-        * eig.eigenvectors.transpose();
-    let m = inv_sqrt * (a.transpose() * p + p * a) * inv_sqrt;
-    m.symmetric_eigenvalues().max()
-}
-
-/// Eigenvalues of the closed loop `I_N kron A(tau) - (I_N kron B(tau) K) M` at each tau
-/// (`M = H kron I3` with constant spacing, see [`Coupling`]).
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct Spectrum {
-    /// tau (s).
-    pub tau: f64,
-    /// The largest real part of an eigenvalue (negative: stable).
-    pub max_real: f64,
-    /// The largest modulus (how fast the closed loop is; compare with 1 / dt).
-    pub max_modulus: f64,
-}
-
-/// The closed-loop spectrum of gain `k` with coupling `g` at each of `taus`.
-pub fn closed_loop_spectrum(k: [f64; 3], g: &Coupling, taus: &[f64]) -> Vec<Spectrum> {
-    let n = g.followers();
-    let kr = RowVector3::from(k);
-    let mc = g.matrix();
-    taus.iter()
-        .map(|&tau| {
-            let pl = Plant3::new(tau);
-            let a = DMatrix::from_iterator(3, 3, pl.a.iter().copied());
-            let bk = DMatrix::from_iterator(3, 3, (pl.b * kr).iter().copied());
-            let acl =
-                kron(&DMatrix::identity(n, n), &a) - kron(&DMatrix::identity(n, n), &bk) * &mc;
-            let eig = acl.complex_eigenvalues();
-            Spectrum {
-                tau,
-                max_real: eig.iter().map(|z| z.re).fold(f64::NEG_INFINITY, f64::max),
-                max_modulus: eig.iter().map(|z| z.norm()).fold(0.0, f64::max),
-            }
-        })
-        .collect()
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::decay::theorem1_max_decay;
+    use crate::spectrum::closed_loop_spectrum;
     use platoon_topology::{Preset, Topology};
 
     fn h(preset: Preset, n: usize) -> Coupling {
@@ -818,7 +552,7 @@ mod tests {
 
     const PAPER_K: [f64; 3] = [4.81, 9.12, 2.97];
 
-    /// Issue 14: PLF with 20 followers ended in `NumericalError` with clarabel's default
+    /// Issue 14: PLF with 20 followers ends in `NumericalError` with clarabel's default
     /// settings; the retries with more regularisation solve it, to a ratio between the ones
     /// N = 10 and N = 50 give (the ratio grows with N towards about 179.4 on PLF).
     ///
@@ -843,10 +577,9 @@ mod tests {
         }
     }
 
-    /// Issue 14: on a grid of presets and sizes no size ends in a raw solver status. Before P
-    /// was bounded, PF with 3 followers and BPF with 2 ended in NumericalError at c = 0, and
-    /// the largest-decay bisection of PLF, TPSF and BPF with 2 in one of its steps. Each
-    /// answer is either a certificate that passes the re-check or "infeasible".
+    /// Issue 14: on a grid of presets and sizes no size ends in a raw solver status (with P
+    /// unbounded, PF with 3 followers and BPF with 2 end in NumericalError at c = 0, and the
+    /// largest-decay bisection of PLF, TPSF and BPF with 2 in one of its steps). Each answer is either a certificate that passes the re-check or "infeasible".
     #[test]
     fn no_preset_and_size_of_the_grid_ends_in_a_solver_error() {
         for preset in [Preset::Pf, Preset::Plf, Preset::Tpsf, Preset::Bpf] {

@@ -160,7 +160,7 @@ pub(crate) fn solve(
     }
     let q = CscMatrix::zeros((nvar, nvar));
     // Numerical trouble is retried with settings that trade speed for robustness before it is
-    // reported (issue 14): more regularisation, no equilibration, then no chordal decomposition.
+    // reported: more regularisation, no equilibration, then no chordal decomposition.
     type Tune = fn(&mut DefaultSettingsBuilder<f64>);
     let attempts: [(&str, Tune); 4] = [
         ("default settings", |_| {}),
