@@ -186,14 +186,14 @@ impl Detector for Residual {
         NAME
     }
 
+    /// Nothing to test before a first accepted packet from the sender.
     fn inspect(&mut self, obs: &Observation) -> Verdict {
-        let Some(last) = obs.last else {
-            return Verdict::NOT_TESTED;
-        };
-        let t = obs.packet.step.saturating_sub(last.step) as f64 * obs.dt;
-        Verdict::above(
-            self.statistic(&last.state, &obs.packet.state, t),
-            self.threshold,
-        )
+        obs.last.map_or(Verdict::NOT_TESTED, |last| {
+            let t = obs.packet.step.saturating_sub(last.step) as f64 * obs.dt;
+            Verdict::above(
+                self.statistic(&last.state, &obs.packet.state, t),
+                self.threshold,
+            )
+        })
     }
 }
