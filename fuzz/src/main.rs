@@ -19,7 +19,7 @@
 //!   (no NaN or absurd state ever reaches an estimator), and no more refusals than deliveries.
 use anyhow::{bail, Context, Result};
 use clap::{Parser, Subcommand};
-use platoon_control::{Delivery, Packet, PlatoonController};
+use platoon_control::{Controller, Delivery, Packet, PlatoonController};
 use platoon_model::State;
 use platoon_runtime::session::{deliveries_from_wire, packet_to_wire, states_from_wire, Numbering};
 use platoon_wire::{LinkPacket, VehicleState};

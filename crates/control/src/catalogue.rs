@@ -240,11 +240,18 @@ struct Flatbed(FlatbedParams);
 
 impl Law for Flatbed {
     fn command(&mut self, view: &View<'_>) -> f64 {
-        let (gap, _) = radar(view);
-        let (v_pred, _, _) = heard(view, view.predecessor());
-        let (v_lead, _, _) = heard(view, view.leader());
-        let own = view.own;
-        flatbed(&self.0, own[1], own[2], gap, v_pred, v_lead)
+        // The flatbed law reads speeds only: its own, the predecessor's and the leader's.
+        let speed = |h| heard(view, h).0;
+        let (v, a) = (view.own[1], view.own[2]);
+        let gap = radar(view).0;
+        flatbed(
+            &self.0,
+            v,
+            a,
+            gap,
+            speed(view.predecessor()),
+            speed(view.leader()),
+        )
     }
 }
 

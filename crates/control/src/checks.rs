@@ -122,12 +122,23 @@ impl PacketChecks {
     /// These checks followed by the detectors of `detection` (nothing changes when none is
     /// on): see [`crate::screening`].
     pub fn with_detection(
-        mut self,
+        self,
         detection: &crate::DetectionParams,
     ) -> Result<Self, crate::screening::ParamError> {
-        if detection.is_on() {
+        self.with_detection_and(detection, Vec::new())
+    }
+
+    /// [`PacketChecks::with_detection`] with the caller's `extra` detectors after those of
+    /// `detection`, under its reaction (on when either has one).
+    pub fn with_detection_and(
+        mut self,
+        detection: &crate::DetectionParams,
+        extra: Vec<Box<dyn crate::screening::Detector>>,
+    ) -> Result<Self, crate::screening::ParamError> {
+        if detection.is_on() || !extra.is_empty() {
             self.screening = Some(crate::screening::Screening::new(
                 detection,
+                extra,
                 &self.neighbours,
                 self.dt,
             )?);
@@ -201,6 +212,11 @@ impl PacketChecks {
         self.screening.as_ref().map_or(&[], |s| s.log())
     }
 
+    /// Whether a detector may read the radar: a controller reads it every step then.
+    pub fn reads_radar(&self) -> bool {
+        self.screening.as_ref().is_some_and(|s| s.reads_radar())
+    }
+
     /// The detectors' names, in the order of every inspection's verdicts.
     pub fn detector_names(&self) -> &[&'static str] {
         self.screening.as_ref().map_or(&[], |s| s.names())
@@ -248,8 +264,8 @@ impl PacketChecks {
             return None;
         };
         // Freshness by the sampling step, not by the sequence number alone: a forged packet
-        // with a huge sequence number would otherwise lock the genuine sender out for good
-        // (issue 13). A forged packet that passes can hold off genuine ones of its own step
+        // with a huge sequence number would otherwise lock the genuine sender out for good.
+        // A forged packet that passes can hold off genuine ones of its own step
         // only, since steps ahead of the receiver's are refused above.
         let heard = self.heard[fi][s];
         if heard.step.is_some_and(|h| pk.step <= h) {

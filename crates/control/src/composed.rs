@@ -14,10 +14,10 @@
 //! law's over `blend` steps (the command's mismatch at the hand-over shrinks linearly to 0).
 //! The emergency-braking guard applies in every mode.
 
-use crate::checks::{Heard, PacketChecks, RejectCounts};
-use crate::fallback::{acc_command, opened_headway, GuardParams, Radar, RadarTruth, Truths};
-use crate::screening::{read_radars, sensed};
-use crate::{Controller, Delivery, FallbackMode, FallbackParams, FollowerStep, Mode, Packet};
+use crate::checks::{Heard, PacketChecks};
+use crate::fallback::{FallbackMachine, Radar, RadarTruth, Return, Situation, Truths};
+use crate::screening::{read_radars, sensed, Detector};
+use crate::{Controller, Delivery, FallbackParams, FollowerStep, Packet};
 use platoon_model::{State, VehicleId};
 use platoon_topology::Topology;
 
@@ -130,31 +130,13 @@ pub struct Composition {
     pub detection: crate::DetectionParams,
 }
 
-#[derive(Debug, Clone, Copy, PartialEq)]
-enum Phase {
-    Law,
-    /// In its fallback since `since`; unaffected for the last `calm` steps.
-    Fallback {
-        since: u64,
-        calm: u32,
-    },
-    /// Blending back since step `exit`, from a command mismatch of `mismatch`.
-    Back {
-        exit: u64,
-        mismatch: f64,
-    },
-}
-
 #[derive(Debug, Clone)]
 struct Follower {
     id: VehicleId,
     seq: u32,
     last_sent: Option<(u64, State)>,
-    last_u: f64,
-    held: f64,
     step: FollowerStep,
-    fallback: FallbackMode,
-    phase: Phase,
+    fallback: FallbackMachine,
     radar: Radar,
 }
 
@@ -165,9 +147,7 @@ pub struct ComposedController {
     laws: Vec<Box<dyn Law>>,
     followers: Vec<Follower>,
     checks: PacketChecks,
-    leader_seq: u32,
-    /// The leader's acceleration over the step before (what its packets carry as `u`).
-    leader_last_u: f64,
+    leader: crate::seam::LeaderBeacon,
     commands: Vec<f64>,
     truths: Truths,
     /// Each follower's radar reading of this step, read once for the detectors and the
@@ -183,6 +163,18 @@ impl ComposedController {
         parts: Composition,
         topology: &Topology,
         initial: &[State],
+    ) -> Result<Self, crate::ParamsError> {
+        Self::with_detectors(law, parts, topology, initial, Vec::new())
+    }
+
+    /// [`ComposedController::new`] with misbehaviour detectors of the caller's after those of
+    /// `parts.detection`, under its reaction ([`crate::screening`]).
+    pub fn with_detectors(
+        law: Box<dyn Law>,
+        parts: Composition,
+        topology: &Topology,
+        initial: &[State],
+        detectors: Vec<Box<dyn Detector>>,
     ) -> Result<Self, crate::ParamsError> {
         let n = topology.followers();
         let err = |field, message| crate::ParamsError { field, message };
@@ -214,22 +206,22 @@ impl ComposedController {
                 id: VehicleId::follower(i),
                 seq: 0,
                 last_sent: None,
-                last_u: 0.0,
-                held: 0.0,
                 step: FollowerStep::default(),
-                fallback: parts.fallback.of(i),
-                phase: Phase::Law,
+                fallback: FallbackMachine::new(parts.fallback.of(i), Return::CommandBlend),
                 radar: Radar::new(parts.fallback.radar.seed, i as u16),
             })
             .collect();
         Ok(Self {
             laws: (0..n).map(|_| law.clone()).collect(),
             followers,
-            checks: PacketChecks::new(topology, initial, parts.dt)
-                .with_detection(&parts.detection)
-                .map_err(|e| err("detection", e.to_string()))?,
-            leader_seq: 0,
-            leader_last_u: 0.0,
+            checks: crate::screening::checks(
+                &parts.detection,
+                detectors,
+                topology,
+                initial,
+                parts.dt,
+            )?,
+            leader: Default::default(),
             commands: vec![0.0; n],
             truths: Truths::default(),
             readings: Vec::with_capacity(n),
@@ -240,17 +232,8 @@ impl ComposedController {
 
 impl Controller for ComposedController {
     fn transmit(&mut self, k: u64, states: &[State], out: &mut Vec<Packet>) {
-        if k.is_multiple_of(u64::from(self.parts.leader_broadcast_steps)) {
-            self.leader_seq += 1;
-            out.push(Packet {
-                sender: VehicleId::LEADER,
-                seq: self.leader_seq,
-                step: k,
-                state: states[0],
-                u: self.leader_last_u,
-            });
-        }
-        self.leader_last_u = states[0][2];
+        self.leader
+            .transmit(k, self.parts.leader_broadcast_steps, states, out);
         for f in &mut self.followers {
             f.step = FollowerStep::default();
             let own = &states[f.id.index()];
@@ -264,7 +247,7 @@ impl Controller for ComposedController {
                     seq: f.seq,
                     step: k,
                     state: *own,
-                    u: f.last_u,
+                    u: f.fallback.last_u(),
                 });
             }
         }
@@ -274,25 +257,19 @@ impl Controller for ComposedController {
         self.truths.give(truth, self.followers.len() + 1);
     }
 
-    fn receive(
-        &mut self,
-        k: u64,
-        states: &[State],
-        deliveries: &[Delivery],
-        jammed: &[bool],
-    ) -> &[f64] {
+    fn receive(&mut self, k: u64, states: &[State], rx: &[Delivery], jammed: &[bool]) -> &[f64] {
         let fb = &self.parts.fallback;
         let truths = self.truths.take(states, fb.vehicle_length, true);
         let radar_on = fb.uses_radar();
         // The radars first: the detectors read them too.
-        let radar_any = radar_on || self.parts.detection.reads_radar();
+        let radar_any = radar_on || self.checks.reads_radar();
         let radars = self
             .followers
             .iter_mut()
             .map(|f| (&mut f.radar, truths.get(f.id.index()).copied().flatten()));
         read_radars(k, &fb.radar, radar_any, radars, &mut self.readings);
         self.checks.begin_step();
-        for d in deliveries {
+        for d in rx {
             let sensed = sensed(
                 k,
                 self.parts.dt,
@@ -303,7 +280,6 @@ impl Controller for ComposedController {
             );
             self.checks.admit_sensed(k, d, sensed);
         }
-        let blend_steps = u64::from(fb.blend_steps);
         let n1 = self.followers.len() + 1;
         for (((f, law), u_out), reading) in self
             .followers
@@ -320,64 +296,28 @@ impl Controller for ComposedController {
                 id: f.id,
                 vehicles: n1,
                 own,
-                last_u: f.last_u,
+                last_u: f.fallback.last_u(),
                 radar: truth,
                 neighbours: self.checks.neighbours(f.id),
                 heard: self.checks.heard(f.id),
             };
             let lawful = law.command(&view);
             let reading = reading.filter(|_| radar_on).map(|(r, _)| r);
-            let fallback_u = |since: u64, held: f64| match f.fallback {
-                FallbackMode::Zero => 0.0,
-                FallbackMode::Hold => held,
-                FallbackMode::Predict => lawful,
-                FallbackMode::Acc => {
-                    let h = opened_headway(&fb.acc, (k - since) as f64 * view.dt)
-                        .max(self.parts.headway);
-                    acc_command(
-                        &fb.acc,
-                        reading,
-                        h,
-                        own[1],
-                        self.parts.spacing,
-                        fb.vehicle_length,
-                    )
-                }
-            };
             let affected =
                 (jammed[f.id.index()] || self.checks.distrusts(f.id, k)) && law.uses_v2v();
-            f.phase = match (f.phase, affected) {
-                (Phase::Fallback { since, .. }, true) => Phase::Fallback { since, calm: 0 },
-                (_, true) => {
-                    f.held = f.last_u;
-                    Phase::Fallback { since: k, calm: 0 }
-                }
-                (Phase::Fallback { since, calm }, false) if calm < fb.dwell_steps => {
-                    Phase::Fallback {
-                        since,
-                        calm: calm + 1,
-                    }
-                }
-                (Phase::Fallback { since, .. }, false) if blend_steps > 0 => Phase::Back {
-                    exit: k,
-                    mismatch: fallback_u(since, f.held) - lawful,
-                },
-                (back @ Phase::Back { exit, .. }, false) if k - exit < blend_steps => back,
-                (_, false) => Phase::Law,
+            let situation = Situation {
+                k,
+                dt: self.parts.dt,
+                params: fb,
+                affected,
+                law: lawful,
+                q: State::zeros(),
+                reading,
+                speed: own[1],
+                spacing: self.parts.spacing,
+                headway: self.parts.headway,
             };
-            let (mode, u) = match f.phase {
-                Phase::Law => (Mode::Coop, lawful),
-                Phase::Fallback { since, .. } => (f.fallback.mode(), fallback_u(since, f.held)),
-                Phase::Back { exit, mismatch } => {
-                    let j = (k - exit) as f64;
-                    (
-                        Mode::Blend,
-                        lawful + mismatch * (1.0 - j / blend_steps as f64).max(0.0),
-                    )
-                }
-            };
-            let (u, guard) = GuardParams::apply(fb.guard.as_ref(), reading, u);
-            f.last_u = u;
+            let (mode, u, guard) = f.fallback.step(&situation, |_| lawful);
             f.step.u = u;
             f.step.affected = affected;
             f.step.mode = mode;
@@ -395,26 +335,15 @@ impl Controller for ComposedController {
         self.followers[i.index() - 1].step
     }
 
-    fn rejected(&self) -> RejectCounts {
-        self.checks.rejected()
-    }
-
-    fn inspections(&self) -> &[crate::Inspection] {
-        self.checks.inspections()
-    }
-
-    fn detector_names(&self) -> &[&'static str] {
-        self.checks.detector_names()
-    }
-
-    fn screened(&self) -> crate::screening::ScreenCounts {
-        self.checks.screened()
+    fn checks(&self) -> Option<&PacketChecks> {
+        Some(&self.checks)
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::{FallbackMode, Mode};
     use platoon_topology::Preset;
 
     /// A law that echoes the predecessor's speed in its last packet, so a test sees which
@@ -447,6 +376,15 @@ mod tests {
         ComposedController::new(Box::new(Echo), parts, &topology, &initial).unwrap()
     }
 
+    /// The platoon at step `k`, 10 m apart, accelerating at 1 m/s^2 from 15 m/s: every packet
+    /// is plausible.
+    fn accelerating(k: u64) -> Vec<State> {
+        let t = k as f64 * 0.01;
+        (0..=3)
+            .map(|i| State::new(-10.0 * i as f64 + 15.0 * t + 0.5 * t * t, 15.0 + t, 1.0))
+            .collect()
+    }
+
     fn deliver_all(packets: &[Packet]) -> Vec<Delivery> {
         packets
             .iter()
@@ -463,10 +401,7 @@ mod tests {
         let mut out = Vec::new();
         for k in 0..25u64 {
             // Accelerating at 1 m/s^2: every packet is plausible.
-            let t = k as f64 * 0.01;
-            let states: Vec<State> = (0..=3)
-                .map(|i| State::new(-10.0 * i as f64 + 15.0 * t + 0.5 * t * t, 15.0 + t, 1.0))
-                .collect();
+            let states = accelerating(k);
             out.clear();
             c.transmit(k, &states, &mut out);
             let followers = out.iter().filter(|p| !p.sender.is_leader()).count();
@@ -538,10 +473,7 @@ mod tests {
         let mut out = Vec::new();
         for k in 0..30u64 {
             // Accelerating at 1 m/s^2: 0.01 m/s per step, so a broadcast every 5 steps.
-            let t = k as f64 * 0.01;
-            let states: Vec<State> = (0..=3)
-                .map(|i| State::new(-10.0 * i as f64 + 15.0 * t + 0.5 * t * t, 15.0 + t, 1.0))
-                .collect();
+            let states = accelerating(k);
             out.clear();
             c.transmit(k, &states, &mut out);
             if out.iter().any(|p| p.sender == VehicleId(2)) {

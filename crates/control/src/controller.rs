@@ -1,7 +1,7 @@
-use crate::checks::{PacketChecks, RejectCounts};
-use crate::fallback::{acc_command, opened_headway, GuardParams, Radar, RadarTruth, Truths};
-use crate::screening::{read_radars, sensed};
-use crate::{ControllerParams, Delivery, FallbackMode, Mode, Packet, ParamsError, TriggerRule};
+use crate::checks::PacketChecks;
+use crate::fallback::{FallbackMachine, Radar, RadarTruth, Return, Situation, Truths};
+use crate::screening::{read_radars, sensed, Detector};
+use crate::{ControllerParams, Delivery, Mode, Packet, ParamsError, TriggerRule};
 use platoon_model::{FreeFlow, State, VehicleId};
 use platoon_topology::Topology;
 
@@ -20,26 +20,6 @@ pub struct FollowerStep {
     pub mode: Mode,
     /// The emergency-braking guard overrode the command.
     pub guard: bool,
-}
-
-/// Where a follower is on its way through a fallback and back.
-#[derive(Debug, Clone, Copy, PartialEq)]
-enum Phase {
-    Coop,
-    /// In its fallback since `since`; unaffected for the last `calm` steps.
-    Fallback {
-        since: u64,
-        calm: u32,
-    },
-    /// On the way back since step `exit`: the offset of q it started from (`-q` then, so the
-    /// law starts from rest), shrunk to 0 over `steps`, and the fallback's command then
-    /// (m/s^2), shrunk to 0 over the blend steps.
-    Back {
-        exit: u64,
-        delta0: State,
-        steps: u64,
-        mismatch: f64,
-    },
 }
 
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -61,12 +41,8 @@ struct Follower {
     seq: u32,
     /// The step and state of its last broadcast (for the CAM rule).
     last_sent: (u64, State),
-    last_u: f64,
-    /// What `hold` applies: the input of the step before it entered its fallback.
-    held: f64,
     step: FollowerStep,
-    fallback: FallbackMode,
-    phase: Phase,
+    fallback: FallbackMachine,
     radar: Radar,
 }
 
@@ -79,9 +55,7 @@ pub struct PlatoonController {
     theta_decay: f64,
     theta_gain: f64,
     followers: Vec<Follower>,
-    leader_seq: u32,
-    /// The leader's acceleration over the step before (what its packets carry as `u`).
-    leader_last_u: f64,
+    leader: crate::seam::LeaderBeacon,
     checks: PacketChecks,
     commands: Vec<f64>,
     /// What the radars see this step ([`PlatoonController::set_radar_truth`] or the states).
@@ -98,6 +72,17 @@ impl PlatoonController {
         params: ControllerParams,
         topology: &Topology,
         initial: &[State],
+    ) -> Result<Self, ParamsError> {
+        Self::with_detectors(params, topology, initial, Vec::new())
+    }
+
+    /// [`PlatoonController::new`] with misbehaviour detectors of the caller's after those of
+    /// `params.detection`, under its reaction ([`crate::screening`]).
+    pub fn with_detectors(
+        params: ControllerParams,
+        topology: &Topology,
+        initial: &[State],
+        detectors: Vec<Box<dyn Detector>>,
     ) -> Result<Self, ParamsError> {
         params.validate()?;
         let n = topology.followers();
@@ -133,11 +118,8 @@ impl PlatoonController {
                     sampling: Sampling::Event,
                     seq: 0,
                     last_sent: (0, initial[i]),
-                    last_u: 0.0,
-                    held: 0.0,
                     step: FollowerStep::default(),
-                    fallback: params.fallback.of(i),
-                    phase: Phase::Coop,
+                    fallback: FallbackMachine::new(params.fallback.of(i), Return::SpacingOffset),
                     radar: Radar::new(params.fallback.radar.seed, i as u16),
                 }
             })
@@ -160,14 +142,14 @@ impl PlatoonController {
             theta_decay,
             theta_gain,
             followers,
-            leader_seq: 0,
-            leader_last_u: 0.0,
-            checks: PacketChecks::new(topology, initial, params.dt)
-                .with_detection(&params.detection)
-                .map_err(|e| ParamsError {
-                    field: "detection",
-                    message: e.to_string(),
-                })?,
+            leader: Default::default(),
+            checks: crate::screening::checks(
+                &params.detection,
+                detectors,
+                topology,
+                initial,
+                params.dt,
+            )?,
             commands: vec![0.0; n],
             truths: Truths::default(),
             readings: Vec::with_capacity(n),
@@ -180,8 +162,32 @@ impl PlatoonController {
         &self.params
     }
 
+    fn accept(&mut self, k: u64, d: &Delivery, states: &[State]) {
+        let p = &self.params;
+        let sensed = sensed(
+            k,
+            p.dt,
+            d,
+            states,
+            &self.readings,
+            p.fallback.vehicle_length,
+        );
+        let Some((fi, s)) = self.checks.admit_sensed(k, d, sensed) else {
+            return;
+        };
+        // An old (delayed) sample is propagated open-loop to the current step.
+        let pk = &d.packet;
+        let mut x = pk.state;
+        for _ in pk.step..k {
+            x = self.flow.advance(&x);
+        }
+        self.followers[fi].estimates[s] = x;
+    }
+}
+
+impl crate::Controller for PlatoonController {
     /// The commands `u_i` of the last [`receive`](Self::receive), followers 1..=N at index i-1.
-    pub fn commands(&self) -> &[f64] {
+    fn commands(&self) -> &[f64] {
         &self.commands
     }
 
@@ -189,35 +195,21 @@ impl PlatoonController {
     /// first), as the plant measured it: with SUMO its leader on the lane, whoever that is.
     /// Without it the radar sees the platoon's predecessor in the states (the native plant,
     /// which gives the same numbers).
-    pub fn set_radar_truth(&mut self, truth: &[Option<RadarTruth>]) {
+    fn set_radar_truth(&mut self, truth: &[Option<RadarTruth>]) {
         self.truths.give(truth, self.followers.len() + 1);
     }
 
-    /// Packets refused so far.
-    pub fn rejected(&self) -> RejectCounts {
-        self.checks.rejected()
-    }
-
     /// What follower `i` (1-based) did in the last step.
-    pub fn follower_step(&self, i: VehicleId) -> FollowerStep {
+    fn follower_step(&self, i: VehicleId) -> FollowerStep {
         self.followers[i.index() - 1].step
     }
 
     /// Phase 1 of step `k`: `states[v]` is vehicle v's true state (leader at 0). Appends the
     /// packets broadcast at this step to `out` (the leader's first, then followers in order).
-    pub fn transmit(&mut self, k: u64, states: &[State], out: &mut Vec<Packet>) {
+    fn transmit(&mut self, k: u64, states: &[State], out: &mut Vec<Packet>) {
         let p = &self.params;
-        if k.is_multiple_of(u64::from(p.leader_broadcast_steps)) {
-            self.leader_seq += 1;
-            out.push(Packet {
-                sender: VehicleId::LEADER,
-                seq: self.leader_seq,
-                step: k,
-                state: states[0],
-                u: self.leader_last_u,
-            });
-        }
-        self.leader_last_u = states[0][2];
+        self.leader
+            .transmit(k, p.leader_broadcast_steps, states, out);
         let t = k as f64 * p.dt;
         for f in &mut self.followers {
             let x = states[f.id.index()];
@@ -237,8 +229,9 @@ impl PlatoonController {
                             // On the way back the law regulates q shifted by the spacing
                             // offset; so does the trigger (else a large unshifted q would
                             // let the estimation error grow until a jump in u).
-                            let q2 = (neighbourhood_error(f, p.spacing, p.headway) + f.offset(k))
-                                .norm_squared();
+                            let q2 = (neighbourhood_error(f, p.spacing, p.headway)
+                                + f.fallback.offset(k))
+                            .norm_squared();
                             p.beta1 * eps2 - p.beta2 * q2
                         };
                         match p.rule {
@@ -269,7 +262,7 @@ impl PlatoonController {
                     seq: f.seq,
                     step: k,
                     state: x,
-                    u: f.last_u,
+                    u: f.fallback.last_u(),
                 });
             }
         }
@@ -280,18 +273,12 @@ impl PlatoonController {
     /// `jammed[v]` tells whether vehicle v sensed its channel jammed during this step (the
     /// resilient mechanism needs to know whether its broadcast got through). Returns `u_i[k]` for
     /// followers 1..=N (index i-1). Every estimator then advances to step `k + 1`.
-    pub fn receive(
-        &mut self,
-        k: u64,
-        states: &[State],
-        deliveries: &[Delivery],
-        jammed: &[bool],
-    ) -> &[f64] {
+    fn receive(&mut self, k: u64, states: &[State], rx: &[Delivery], jammed: &[bool]) -> &[f64] {
         let radar_on = self.params.fallback.uses_radar();
         {
             // The radars first: the detectors read them too.
             let fb = &self.params.fallback;
-            let radar_any = radar_on || self.params.detection.reads_radar();
+            let radar_any = radar_on || self.checks.reads_radar();
             let truths = self.truths.take(states, fb.vehicle_length, radar_any);
             let radars = self
                 .followers
@@ -300,11 +287,10 @@ impl PlatoonController {
             read_radars(k, &fb.radar, radar_any, radars, &mut self.readings);
         }
         self.checks.begin_step();
-        for d in deliveries {
+        for d in rx {
             self.accept(k, d, states);
         }
         let p = &self.params;
-        let fb = &p.fallback;
         for ((f, u_out), reading) in self
             .followers
             .iter_mut()
@@ -327,75 +313,30 @@ impl PlatoonController {
             let q = neighbourhood_error(f, p.spacing, p.headway);
             let coop = -(p.gain * q)[0];
             let reading = reading.filter(|_| radar_on).map(|(r, _)| r);
-            // Into the fallback when affected; out of it after `dwell` calm steps, through
-            // `blend` steps of blending (none: at once, the paper).
             let own = states[f.id.index()];
-            // Never a shorter gap than the platoon's own time headway.
-            let acc = |h: f64| {
-                let h = h.max(p.headway);
-                acc_command(&fb.acc, reading, h, own[1], p.spacing, fb.vehicle_length)
+            let situation = Situation {
+                k,
+                dt: p.dt,
+                params: &p.fallback,
+                affected,
+                law: coop,
+                q,
+                reading,
+                speed: own[1],
+                spacing: p.spacing,
+                headway: p.headway,
             };
-            // The ACC headway grows from 0 to h over `opening_s` after the switch.
-            let opened = |since: u64| opened_headway(&fb.acc, (k - since) as f64 * p.dt);
-            let mode_of = f.fallback;
-            let fallback_u = |since: u64, held: f64| match mode_of {
-                FallbackMode::Zero => 0.0,
-                FallbackMode::Hold => held,
-                FallbackMode::Predict => coop,
-                FallbackMode::Acc => acc(opened(since)),
-            };
-            // Bumpless return (module docs): a spacing offset that makes the cooperative
-            // command equal the fallback's at the hand-over, shrunk to 0 over `blend` steps.
-            let blend_steps = u64::from(fb.blend_steps);
-            f.phase = match (f.phase, affected) {
-                (Phase::Fallback { since, .. }, true) => Phase::Fallback { since, calm: 0 },
-                (_, true) => {
-                    f.held = f.last_u;
-                    Phase::Fallback { since: k, calm: 0 }
-                }
-                (Phase::Fallback { since, calm }, false) if calm < fb.dwell_steps => {
-                    Phase::Fallback {
-                        since,
-                        calm: calm + 1,
-                    }
-                }
-                (Phase::Fallback { since, .. }, false) if blend_steps > 0 => {
-                    // The offset cancels q (the law starts from 0); the fallback's command is
-                    // blended out over `blend` steps while the offset shrinks, the spacing part
-                    // at most at `closing_mps`.
-                    let by_speed = (q[0].abs() / fb.closing_mps / p.dt).ceil();
-                    Phase::Back {
-                        exit: k,
-                        delta0: -q,
-                        steps: blend_steps.max(by_speed.min(1e12) as u64),
-                        mismatch: fallback_u(since, f.held),
-                    }
-                }
-                (back @ Phase::Back { exit, steps, .. }, false)
-                    if k - exit < steps.max(blend_steps) =>
-                {
-                    back
-                }
-                (_, false) => Phase::Coop,
-            };
-            let (mode, u) = match f.phase {
-                Phase::Coop => (Mode::Coop, coop),
-                Phase::Fallback { since, .. } => (f.fallback.mode(), fallback_u(since, f.held)),
-                Phase::Back { exit, mismatch, .. } => {
-                    let j = (k - exit) as f64;
-                    let rest = mismatch * (1.0 - j / blend_steps as f64).max(0.0);
-                    (Mode::Blend, -(p.gain * (q + f.offset(k)))[0] + rest)
-                }
-            };
-            let (u, guard) = GuardParams::apply(fb.guard.as_ref(), reading, u);
+            // On the way back the law regulates q shifted by the spacing offset.
+            let (mode, u, guard) = f
+                .fallback
+                .step(&situation, |offset| -(p.gain * (q + offset))[0]);
             if !affected {
                 if let TriggerRule::Dynamic { .. } = p.rule {
                     let eps2 = (f.own - own).norm_squared();
-                    let s = p.beta1 * eps2 - p.beta2 * (q + f.offset(k)).norm_squared();
+                    let s = p.beta1 * eps2 - p.beta2 * (q + f.fallback.offset(k)).norm_squared();
                     f.theta = (self.theta_decay * f.theta - self.theta_gain * s).max(0.0);
                 }
             }
-            f.last_u = u;
             f.step.u = u;
             f.step.affected = affected;
             f.step.mode = mode;
@@ -409,85 +350,8 @@ impl PlatoonController {
         &self.commands
     }
 
-    fn accept(&mut self, k: u64, d: &Delivery, states: &[State]) {
-        let p = &self.params;
-        let sensed = sensed(
-            k,
-            p.dt,
-            d,
-            states,
-            &self.readings,
-            p.fallback.vehicle_length,
-        );
-        let Some((fi, s)) = self.checks.admit_sensed(k, d, sensed) else {
-            return;
-        };
-        // An old (delayed) sample is propagated open-loop to the current step.
-        let pk = &d.packet;
-        let mut x = pk.state;
-        for _ in pk.step..k {
-            x = self.flow.advance(&x);
-        }
-        self.followers[fi].estimates[s] = x;
-    }
-}
-
-impl crate::Controller for PlatoonController {
-    fn transmit(&mut self, k: u64, states: &[State], out: &mut Vec<Packet>) {
-        PlatoonController::transmit(self, k, states, out);
-    }
-
-    fn set_radar_truth(&mut self, truth: &[Option<RadarTruth>]) {
-        PlatoonController::set_radar_truth(self, truth);
-    }
-
-    fn receive(
-        &mut self,
-        k: u64,
-        states: &[State],
-        deliveries: &[Delivery],
-        jammed: &[bool],
-    ) -> &[f64] {
-        PlatoonController::receive(self, k, states, deliveries, jammed)
-    }
-
-    fn commands(&self) -> &[f64] {
-        &self.commands
-    }
-
-    fn follower_step(&self, i: VehicleId) -> FollowerStep {
-        PlatoonController::follower_step(self, i)
-    }
-
-    fn rejected(&self) -> RejectCounts {
-        self.checks.rejected()
-    }
-
-    fn inspections(&self) -> &[crate::Inspection] {
-        self.checks.inspections()
-    }
-
-    fn detector_names(&self) -> &[&'static str] {
-        self.checks.detector_names()
-    }
-
-    fn screened(&self) -> crate::screening::ScreenCounts {
-        self.checks.screened()
-    }
-}
-
-impl Follower {
-    /// The offset of q during the bumpless return at step k (0 outside it).
-    fn offset(&self, k: u64) -> State {
-        match self.phase {
-            Phase::Back {
-                exit,
-                delta0,
-                steps,
-                ..
-            } => delta0 * (1.0 - (k.saturating_sub(exit)) as f64 / steps as f64).max(0.0),
-            _ => State::zeros(),
-        }
+    fn checks(&self) -> Option<&PacketChecks> {
+        Some(&self.checks)
     }
 }
 
@@ -508,6 +372,7 @@ fn neighbourhood_error(f: &Follower, spacing: f64, headway: f64) -> State {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::Controller;
     use nalgebra::RowVector3;
     use platoon_topology::Preset;
 
@@ -713,34 +578,22 @@ mod tests {
         let mut tx = Vec::new();
         c.transmit(0, &states, &mut tx);
         c.receive(0, &states, &everyone(&topo, &tx), &[false; 3]);
-        let pk = |sender, seq, step, p: f64| Packet {
-            sender: VehicleId(sender),
-            seq,
-            step,
-            state: State::new(p, 15.0, 0.0),
-            u: 0.0,
+        let to = |receiver, sender, seq, step, p: f64| Delivery {
+            receiver: VehicleId(receiver),
+            packet: Packet {
+                sender: VehicleId(sender),
+                seq,
+                step,
+                state: State::new(p, 15.0, 0.0),
+                u: 0.0,
+            },
         };
         let bad = [
-            Delivery {
-                receiver: VehicleId(2),
-                packet: pk(1, 5, 1, f64::NAN),
-            },
-            Delivery {
-                receiver: VehicleId(2),
-                packet: pk(0, 5, 1, 0.0),
-            }, // 2 does not hear the leader
-            Delivery {
-                receiver: VehicleId(9),
-                packet: pk(1, 5, 1, 0.0),
-            },
-            Delivery {
-                receiver: VehicleId(2),
-                packet: pk(1, 5, 7, 0.0),
-            },
-            Delivery {
-                receiver: VehicleId(2),
-                packet: pk(1, 1, 0, -10.0),
-            }, // replays the packet of step 0
+            to(2, 1, 5, 1, f64::NAN),
+            to(2, 0, 5, 1, 0.0), // 2 does not hear the leader
+            to(9, 1, 5, 1, 0.0),
+            to(2, 1, 5, 7, 0.0),
+            to(2, 1, 1, 0, -10.0), // replays the packet of step 0
         ];
         tx.clear();
         c.transmit(1, &states, &mut tx);
@@ -753,9 +606,9 @@ mod tests {
         assert_eq!(r.total(), 5);
     }
 
-    /// Issue 13: one forged packet with a near-maximum sequence number used to be accepted and
-    /// lock its sender out for the rest of the run. It is refused now, and a forged packet that
-    /// passes every check holds off genuine ones of its own step only.
+    /// Issue 13: one forged packet with a near-maximum sequence number is refused (it would
+    /// lock its sender out for the rest of the run), and a forged packet that passes every
+    /// check holds off genuine ones of its own step only.
     #[test]
     fn a_forged_packet_never_locks_a_sender_out() {
         let topo = Topology::preset(Preset::Pf, 2).unwrap();

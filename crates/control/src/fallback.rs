@@ -25,12 +25,19 @@
 //! of the cooperative law's own change, and the vehicle closes (or opens) the gap its fallback
 //! left at most at `closing_mps` instead of in one jump of `K_p delta0`.
 //!
+//! That is the return of the paper's controller ([`Return::SpacingOffset`]); a composed law
+//! ([`crate::composed`]) has no spacing reference to offset and blends commands instead
+//! ([`Return::CommandBlend`]: the mismatch at the hand-over shrinks linearly to 0 over `blend`
+//! steps). Either way one [`FallbackMachine`] per follower walks the way in and back.
+//!
 //! The guard is independent of the mode: when the radar's time to collision `d / c` (closing
 //! only) is below `ttc_s` it commands `min(u, -decel)`.
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};
+
+use platoon_model::State;
 
 /// What a follower applies while it is affected by an attack (`A*` of the paper).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -506,6 +513,200 @@ pub fn radar_truth(
             gap: w[0][0] - w[1][0] - vehicle_length,
             closing: w[1][1] - w[0][1],
         }));
+    }
+}
+
+/// How a follower comes back from its fallback to its law, once `dwell` calm steps have
+/// passed (the module docs).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Return {
+    /// The paper's controller: at the hand-over its spacing reference is offset so that `q`
+    /// reads 0 (the law starts from rest), and the offset shrinks to 0 over `blend` steps, or
+    /// more so that it shrinks by at most `closing_mps`; the fallback's command at the
+    /// hand-over is blended out over `blend` steps on top.
+    SpacingOffset,
+    /// A composed law: the command's mismatch at the hand-over (the fallback's minus the
+    /// law's) shrinks linearly to 0 over `blend` steps.
+    CommandBlend,
+}
+
+/// Where a follower is on its way through a fallback and back.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Phase {
+    Law,
+    /// In its fallback since `since`; unaffected for the last `calm` steps.
+    Fallback {
+        since: u64,
+        calm: u32,
+    },
+    /// On the way back since step `exit`: the spacing offset it started from (0 for
+    /// [`Return::CommandBlend`]), shrunk to 0 over `steps`, and the command's mismatch then
+    /// (m/s^2), shrunk to 0 over the blend steps.
+    Back {
+        exit: u64,
+        delta0: State,
+        steps: u64,
+        mismatch: f64,
+    },
+}
+
+/// What a follower's law and sensors say at step `k`, for its [`FallbackMachine`].
+#[derive(Debug, Clone, Copy)]
+pub struct Situation<'a> {
+    /// The step.
+    pub k: u64,
+    /// The step length (s).
+    pub dt: f64,
+    /// The platoon's degradation parameters.
+    pub params: &'a FallbackParams,
+    /// Whether the follower is affected at this step (jammed, or distrusting a neighbour).
+    pub affected: bool,
+    /// The law's command at this step (what `predict` applies).
+    pub law: f64,
+    /// The tracking error the law regulates ([`Return::SpacingOffset`] cancels it at the
+    /// hand-over; unused by [`Return::CommandBlend`]).
+    pub q: State,
+    /// The radar's reading, when something reads the radar.
+    pub reading: Option<Reading>,
+    /// The follower's own speed (m/s).
+    pub speed: f64,
+    /// The platoon's spacing `l` (m, front to front).
+    pub spacing: f64,
+    /// The platoon's time headway (s; the `acc` fallback never keeps a shorter one).
+    pub headway: f64,
+}
+
+/// One follower's way into its fallback while affected and back to its law: the one state
+/// machine of every built-in controller (the module docs), the return a [`Return`].
+#[derive(Debug, Clone)]
+pub struct FallbackMachine {
+    mode: FallbackMode,
+    back: Return,
+    phase: Phase,
+    /// What `hold` applies: the command of the step before the follower entered its fallback.
+    held: f64,
+    last_u: f64,
+}
+
+impl FallbackMachine {
+    /// A follower on its law, falling back to `mode` and returning by `back`.
+    pub fn new(mode: FallbackMode, back: Return) -> Self {
+        Self {
+            mode,
+            back,
+            phase: Phase::Law,
+            held: 0.0,
+            last_u: 0.0,
+        }
+    }
+
+    /// The command of the last [`FallbackMachine::step`] (0 before the first).
+    pub fn last_u(&self) -> f64 {
+        self.last_u
+    }
+
+    /// The offset of the spacing reference at step `k` on the way back
+    /// ([`Return::SpacingOffset`]; 0 outside it).
+    pub fn offset(&self, k: u64) -> State {
+        match self.phase {
+            Phase::Back {
+                exit,
+                delta0,
+                steps,
+                ..
+            } if self.back == Return::SpacingOffset => {
+                delta0 * (1.0 - (k.saturating_sub(exit)) as f64 / steps as f64).max(0.0)
+            }
+            _ => State::zeros(),
+        }
+    }
+
+    /// Step `k`: into the fallback when affected, out of it after `dwell` calm steps, back
+    /// through `blend` steps (none: at once, the paper). Returns the mode, the command with
+    /// the emergency-braking guard applied, and whether the guard overrode it. `law_at`
+    /// gives the law's command with the spacing reference offset by its argument (called on
+    /// the way back of a [`Return::SpacingOffset`] only).
+    pub fn step(
+        &mut self,
+        s: &Situation<'_>,
+        law_at: impl FnOnce(State) -> f64,
+    ) -> (Mode, f64, bool) {
+        let fb = s.params;
+        let blend_steps = u64::from(fb.blend_steps);
+        self.phase = match (self.phase, s.affected) {
+            (Phase::Fallback { since, .. }, true) => Phase::Fallback { since, calm: 0 },
+            (_, true) => {
+                self.held = self.last_u;
+                Phase::Fallback {
+                    since: s.k,
+                    calm: 0,
+                }
+            }
+            (Phase::Fallback { since, calm }, false) if calm < fb.dwell_steps => Phase::Fallback {
+                since,
+                calm: calm + 1,
+            },
+            (Phase::Fallback { since, .. }, false) if blend_steps > 0 => {
+                let fallback = self.fallback_u(s, since);
+                match self.back {
+                    Return::SpacingOffset => {
+                        // The offset cancels q (the law starts from 0); the spacing part
+                        // closes at most at `closing_mps`.
+                        let by_speed = (s.q[0].abs() / fb.closing_mps / s.dt).ceil();
+                        Phase::Back {
+                            exit: s.k,
+                            delta0: -s.q,
+                            steps: blend_steps.max(by_speed.min(1e12) as u64),
+                            mismatch: fallback,
+                        }
+                    }
+                    Return::CommandBlend => Phase::Back {
+                        exit: s.k,
+                        delta0: State::zeros(),
+                        steps: blend_steps,
+                        mismatch: fallback - s.law,
+                    },
+                }
+            }
+            (back @ Phase::Back { exit, steps, .. }, false)
+                if s.k - exit < steps.max(blend_steps) =>
+            {
+                back
+            }
+            (_, false) => Phase::Law,
+        };
+        let (mode, u) = match self.phase {
+            Phase::Law => (Mode::Coop, s.law),
+            Phase::Fallback { since, .. } => (self.mode.mode(), self.fallback_u(s, since)),
+            Phase::Back { exit, mismatch, .. } => {
+                let j = (s.k - exit) as f64;
+                let rest = mismatch * (1.0 - j / blend_steps as f64).max(0.0);
+                let law = match self.back {
+                    Return::SpacingOffset => law_at(self.offset(s.k)),
+                    Return::CommandBlend => s.law,
+                };
+                (Mode::Blend, law + rest)
+            }
+        };
+        let (u, guard) = GuardParams::apply(fb.guard.as_ref(), s.reading, u);
+        self.last_u = u;
+        (mode, u, guard)
+    }
+
+    /// The fallback's command at step `s.k`, in it since `since`.
+    fn fallback_u(&self, s: &Situation<'_>, since: u64) -> f64 {
+        let fb = s.params;
+        match self.mode {
+            FallbackMode::Zero => 0.0,
+            FallbackMode::Hold => self.held,
+            FallbackMode::Predict => s.law,
+            FallbackMode::Acc => {
+                // The ACC headway grows from 0 to h over `opening_s` after the switch, never
+                // below the platoon's own.
+                let h = opened_headway(&fb.acc, (s.k - since) as f64 * s.dt).max(s.headway);
+                acc_command(&fb.acc, s.reading, h, s.speed, s.spacing, fb.vehicle_length)
+            }
+        }
     }
 }
 

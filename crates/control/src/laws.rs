@@ -206,28 +206,10 @@ impl Default for PloegParams {
     }
 }
 
-/// The right-hand side `du/dt` of Ploeg's controller (m/s^3), from its own previous command
-/// `u_prev`, its speed and actual acceleration, the gap, the predecessor's speed and the
-/// predecessor's *command* `u_pred` (in Plexe: the previous step's).
-pub fn ploeg_rate(
-    p: &PloegParams,
-    u_prev: f64,
-    v: f64,
-    a: f64,
-    gap: f64,
-    v_pred: f64,
-    u_pred: f64,
-) -> f64 {
-    let h = p.headway_s;
-    1.0 / h
-        * (-u_prev
-            + p.kp_per_s2 * (gap - (p.standstill_m + h * v))
-            + p.kd_per_s * (v_pred - v - h * a)
-            + u_pred)
-}
-
-/// Ploeg's command for this step: `u = u_prev + dt du/dt` ([`ploeg_rate`]), with `u_prev` the
-/// command this vehicle applied at the previous step (0 before the first) and `dt` the step (s).
+/// Ploeg's command for this step: `u = u_prev + dt du/dt`, with `du/dt` the right-hand side of
+/// Ploeg's controller (m/s^3) from its own previous command `u_prev` (0 before the first), its
+/// speed and actual acceleration, the gap, the predecessor's speed and the predecessor's
+/// *command* `u_pred` (in Plexe: the previous step's); `dt` is the step (s).
 #[allow(clippy::too_many_arguments)]
 pub fn ploeg(
     p: &PloegParams,
@@ -239,7 +221,13 @@ pub fn ploeg(
     v_pred: f64,
     u_pred: f64,
 ) -> f64 {
-    u_prev + ploeg_rate(p, u_prev, v, a, gap, v_pred, u_pred) * dt
+    let h = p.headway_s;
+    let rate = 1.0 / h
+        * (-u_prev
+            + p.kp_per_s2 * (gap - (p.standstill_m + h * v))
+            + p.kd_per_s * (v_pred - v - h * a)
+            + u_pred);
+    u_prev + rate * dt
 }
 
 /// Plexe's default number of platoon slots of the consensus controller.
@@ -481,7 +469,6 @@ mod tests {
         // Ploeg: s0 + h v.
         let p = PloegParams::default();
         let gap = p.standstill_m + p.headway_s * v;
-        assert_eq!(ploeg_rate(&p, 0.0, v, 0.0, gap, v, 0.0), 0.0);
         assert_eq!(ploeg(&p, 0.01, 0.0, v, 0.0, gap, v, 0.0), 0.0);
         // Flatbed: d.
         let p = FlatbedParams::default();

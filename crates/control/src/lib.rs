@@ -39,7 +39,7 @@ pub use composed::{Beaconing, ComposedController, Composition, Law, Periodic, Vi
 pub use controller::{FollowerStep, PlatoonController};
 pub use fallback::{FallbackMode, FallbackParams, Mode};
 pub use screening::{DetectionParams, Inspection, Reaction};
-pub use seam::{build, check_topology, Controller};
+pub use seam::{build, build_with, check_topology, Controller};
 pub use spacing::SpacingPolicy;
 pub use trigger::{CamRule, ControllerParams, ParamsError, TriggerRule};
 

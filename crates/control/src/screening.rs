@@ -226,6 +226,30 @@ pub(crate) fn sensed(
     }
 }
 
+/// The packet checks of a built-in controller: `detection`'s detectors, then the caller's
+/// `extra` ones (at most [`MAX_DETECTORS`] in all).
+pub(crate) fn checks(
+    detection: &DetectionParams,
+    extra: Vec<Box<dyn Detector>>,
+    topology: &platoon_topology::Topology,
+    initial: &[State],
+    dt: f64,
+) -> Result<crate::PacketChecks, crate::ParamsError> {
+    let err = |message| crate::ParamsError {
+        field: "detection",
+        message,
+    };
+    let all = detection.specs.len() + extra.len();
+    if all > MAX_DETECTORS {
+        return Err(err(format!(
+            "{all} detectors: a platoon runs at most {MAX_DETECTORS}"
+        )));
+    }
+    crate::PacketChecks::new(topology, initial, dt)
+        .with_detection_and(detection, extra)
+        .map_err(|e| err(e.to_string()))
+}
+
 /// The detection state of one platoon's followers.
 #[derive(Debug, Clone)]
 pub(crate) struct Screening {
@@ -234,6 +258,9 @@ pub(crate) struct Screening {
     reaction: Reaction,
     quiet_steps: u64,
     dt: f64,
+    /// Whether a detector may read the radar (a built-in one that does, or any of the
+    /// caller's): the controller then reads it every step.
+    reads_radar: bool,
     /// Per follower and neighbour slot: distrusted up to (excluding) this step.
     distrust_until: Vec<Vec<u64>>,
     scratch: Vec<Verdict>,
@@ -242,19 +269,27 @@ pub(crate) struct Screening {
 }
 
 impl Screening {
+    /// The detectors `params` names, then the caller's `extra` ones, under its reaction.
     pub(crate) fn new(
         params: &DetectionParams,
+        extra: Vec<Box<dyn Detector>>,
         neighbours: &[Vec<VehicleId>],
         dt: f64,
     ) -> Result<Screening, ParamError> {
-        let detectors = Detectors::from_specs(&params.specs)?;
-        Ok(Self::with(
+        let mut detectors = Detectors::from_specs(&params.specs)?;
+        let reads_radar = params.reads_radar() || !extra.is_empty();
+        for d in extra {
+            detectors.push(d);
+        }
+        let mut screening = Self::with(
             detectors,
             params.reaction,
             params.quiet_steps,
             neighbours,
             dt,
-        ))
+        );
+        screening.reads_radar = reads_radar;
+        Ok(screening)
     }
 
     pub(crate) fn with(
@@ -270,6 +305,7 @@ impl Screening {
             reaction,
             quiet_steps: u64::from(quiet_steps),
             dt,
+            reads_radar: true,
             distrust_until: neighbours.iter().map(|n| vec![0; n.len()]).collect(),
             scratch: Vec::with_capacity(MAX_DETECTORS),
             log: Vec::new(),
@@ -337,6 +373,10 @@ impl Screening {
 
     pub(crate) fn log(&self) -> &[Inspection] {
         &self.log
+    }
+
+    pub(crate) fn reads_radar(&self) -> bool {
+        self.reads_radar
     }
 
     pub(crate) fn names(&self) -> &[&'static str] {

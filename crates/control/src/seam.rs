@@ -14,7 +14,10 @@
 //! names.
 
 use crate::fallback::RadarTruth;
-use crate::{ControllerParams, Delivery, FollowerStep, Packet, ParamsError, RejectCounts};
+use crate::screening::Detector;
+use crate::{
+    ControllerParams, Delivery, FollowerStep, Packet, PacketChecks, ParamsError, RejectCounts,
+};
 use platoon_model::{State, VehicleId};
 use platoon_topology::Topology;
 
@@ -35,13 +38,7 @@ pub trait Controller: std::fmt::Debug + Send + dyn_clone::DynClone {
     /// Phase 2 of step `k`: applies the packets the network delivered (`jammed[v]`: vehicle v
     /// sensed its channel jammed during this step) and returns `u_i[k]` for followers 1..=N
     /// (index i-1).
-    fn receive(
-        &mut self,
-        k: u64,
-        states: &[State],
-        deliveries: &[Delivery],
-        jammed: &[bool],
-    ) -> &[f64];
+    fn receive(&mut self, k: u64, states: &[State], rx: &[Delivery], jammed: &[bool]) -> &[f64];
 
     /// The commands of the last [`receive`](Self::receive), followers 1..=N at index i-1.
     fn commands(&self) -> &[f64];
@@ -49,27 +46,64 @@ pub trait Controller: std::fmt::Debug + Send + dyn_clone::DynClone {
     /// What follower `i` (1-based) did in the last step.
     fn follower_step(&self, i: VehicleId) -> FollowerStep;
 
+    /// The packet checks it runs, if it runs [`PacketChecks`]: what the methods below report
+    /// by default (nothing without them).
+    fn checks(&self) -> Option<&PacketChecks> {
+        None
+    }
+
     /// Packets refused so far, by reason.
-    fn rejected(&self) -> RejectCounts;
+    fn rejected(&self) -> RejectCounts {
+        self.checks()
+            .map(PacketChecks::rejected)
+            .unwrap_or_default()
+    }
 
     /// What the misbehaviour detectors said of each packet of the last
     /// [`receive`](Self::receive) (`[detection]`; empty without detectors).
     fn inspections(&self) -> &[crate::Inspection] {
-        &[]
+        self.checks().map_or(&[], PacketChecks::inspections)
     }
 
     /// The detectors' names, in the order of every inspection's verdicts.
     fn detector_names(&self) -> &[&'static str] {
-        &[]
+        self.checks().map_or(&[], PacketChecks::detector_names)
     }
 
     /// Packets the detectors saw, flagged and had refused so far.
     fn screened(&self) -> crate::screening::ScreenCounts {
-        Default::default()
+        self.checks()
+            .map(PacketChecks::screened)
+            .unwrap_or_default()
     }
 }
 
 dyn_clone::clone_trait_object!(Controller);
+
+/// The leader's beacons, which every built-in controller sends for it: its state every
+/// `every` steps, with its acceleration over the step before as its command.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct LeaderBeacon {
+    seq: u32,
+    last_u: f64,
+}
+
+impl LeaderBeacon {
+    /// Step `k` (`states[0]` is the leader's): appends its packet to `out` when it is due.
+    pub(crate) fn transmit(&mut self, k: u64, every: u32, states: &[State], out: &mut Vec<Packet>) {
+        if k.is_multiple_of(u64::from(every)) {
+            self.seq += 1;
+            out.push(Packet {
+                sender: VehicleId::LEADER,
+                seq: self.seq,
+                step: k,
+                state: states[0],
+                u: self.last_u,
+            });
+        }
+        self.last_u = states[0][2];
+    }
+}
 
 /// The controller `params` names, for the followers of `topology` starting from `initial`
 /// (leader first): the paper's [`crate::PlatoonController`], or one of the field's laws on a
@@ -80,12 +114,26 @@ pub fn build(
     topology: &Topology,
     initial: &[State],
 ) -> Result<Box<dyn Controller>, ParamsError> {
+    build_with(params, topology, initial, Vec::new())
+}
+
+/// [`build`] with misbehaviour detectors of the caller's (any [`Detector`]) after those of
+/// `params.detection`, under its reaction and quiet period (log, drop, fallback;
+/// [`crate::screening`]): how a Rust user adds a detector to a built-in controller, e.g. in a
+/// `platoon_sim::ControllerFactory`. The controller reads its radar every step for them.
+pub fn build_with(
+    params: &ControllerParams,
+    topology: &Topology,
+    initial: &[State],
+    detectors: Vec<Box<dyn Detector>>,
+) -> Result<Box<dyn Controller>, ParamsError> {
     params.validate()?;
     let Some(law) = params.law.law(params.fallback.vehicle_length) else {
-        return Ok(Box::new(crate::PlatoonController::new(
+        return Ok(Box::new(crate::PlatoonController::with_detectors(
             params.clone(),
             topology,
             initial,
+            detectors,
         )?));
     };
     check_topology(params, topology)?;
@@ -111,8 +159,8 @@ pub fn build(
         fallback: params.fallback.clone(),
         detection: params.detection.clone(),
     };
-    Ok(Box::new(crate::ComposedController::new(
-        law, parts, topology, initial,
+    Ok(Box::new(crate::ComposedController::with_detectors(
+        law, parts, topology, initial, detectors,
     )?))
 }
 
