@@ -263,11 +263,8 @@ impl Controller for ComposedController {
         let radar_on = fb.uses_radar();
         // The radars first: the detectors read them too.
         let radar_any = radar_on || self.checks.reads_radar();
-        let radars = self
-            .followers
-            .iter_mut()
-            .map(|f| (&mut f.radar, truths.get(f.id.index()).copied().flatten()));
-        read_radars(k, &fb.radar, radar_any, radars, &mut self.readings);
+        let radars = self.followers.iter_mut().map(|f| &mut f.radar);
+        read_radars(k, &fb.radar, radar_any, radars, truths, &mut self.readings);
         self.checks.begin_step();
         for d in rx {
             let sensed = sensed(

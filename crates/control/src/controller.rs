@@ -280,11 +280,8 @@ impl crate::Controller for PlatoonController {
             let fb = &self.params.fallback;
             let radar_any = radar_on || self.checks.reads_radar();
             let truths = self.truths.take(states, fb.vehicle_length, radar_any);
-            let radars = self
-                .followers
-                .iter_mut()
-                .map(|f| (&mut f.radar, truths.get(f.id.index()).copied().flatten()));
-            read_radars(k, &fb.radar, radar_any, radars, &mut self.readings);
+            let radars = self.followers.iter_mut().map(|f| &mut f.radar);
+            read_radars(k, &fb.radar, radar_any, radars, truths, &mut self.readings);
         }
         self.checks.begin_step();
         for d in rx {

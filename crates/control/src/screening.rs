@@ -177,23 +177,21 @@ pub struct Sensed {
 }
 
 /// Each follower's radar reading of step `k` with the step it was measured at, into `out`
-/// (followers in order): read once a step, for the detectors and the fallback alike, when
-/// `on`; on each radar's own stream, so who reads first does not move the draws.
+/// (followers in order, `truths` leader first): read once a step, for the detectors and the
+/// fallback alike, when `on`; on each radar's own stream, so who reads first does not move the
+/// draws.
 pub(crate) fn read_radars<'a>(
     k: u64,
     params: &crate::fallback::RadarParams,
     on: bool,
-    radars: impl Iterator<
-        Item = (
-            &'a mut crate::fallback::Radar,
-            Option<crate::fallback::RadarTruth>,
-        ),
-    >,
+    radars: impl Iterator<Item = &'a mut crate::fallback::Radar>,
+    truths: &[Option<crate::fallback::RadarTruth>],
     out: &mut Vec<Option<(crate::fallback::Reading, u64)>>,
 ) {
     out.clear();
-    out.extend(radars.map(|(radar, truth)| {
+    out.extend(radars.enumerate().map(|(fi, radar)| {
         if on {
+            let truth = truths.get(fi + 1).copied().flatten();
             radar.read(k, params, truth).map(|r| (r, radar.taken()))
         } else {
             None
