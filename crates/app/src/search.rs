@@ -1222,7 +1222,8 @@ fn run_problem(
         if !stop.flag.load(Ordering::SeqCst) {
             let harm = worst.harm;
             let schedule = worst.schedule.clone();
-            let again = rerun_worst(search, problem, &schedule, dir, sub, opts, stop)?;
+            let plugins = executor.plugins();
+            let again = rerun_worst(search, problem, &schedule, dir, sub, opts, stop, &plugins)?;
             outcome.reproduced = Some(again.map(|s| search.harm.value(&s)) == Some(harm));
             if outcome.reproduced == Some(false) {
                 bail!(
@@ -1245,7 +1246,10 @@ fn score_of(methods: &[MethodOutcome], method: &str, best: &Found) -> f64 {
         .map_or(f64::NEG_INFINITY, |e| e.score)
 }
 
-/// `worst.toml` re-run into `worst/` (files and figures), and its summary.
+/// `worst.toml` re-run into `worst/` (files and figures), and its summary. With parts of the
+/// caller's (`plugins`, the executor's) it re-runs in process with them, and `worst/` is not
+/// written (the files of a run are the built-in parts').
+#[allow(clippy::too_many_arguments)]
 fn rerun_worst(
     search: &Search,
     problem: &Problem,
@@ -1254,10 +1258,17 @@ fn rerun_worst(
     sub: &Path,
     opts: &SearchOptions,
     stop: &Stop,
+    plugins: &crate::campaign::CellPlugins,
 ) -> Result<Option<Summary>> {
     let mut config = problem.config_of(schedule);
     let text = platoon_config::to_toml(&config);
     let (_, scenario) = platoon_config::parse(&text, Path::new("worst.toml"))?;
+    if plugins.any() {
+        let summary = platoon_sim::run_until_plugins(&scenario, &plugins.plugins(), |_| {
+            std::ops::ControlFlow::Continue(())
+        })?;
+        return Ok(metrics::read(&serde_json::to_value(summary)?).ok());
+    }
     let out = dir.staging().join(sub).join("worst");
     let run_opts = crate::run::RunOptions {
         transport: search.spec.transport,

@@ -48,7 +48,7 @@ fn a_local_pool_gives_each_cell_the_pure_cores_summary_and_metrics() {
     let pool = LocalPool {
         jobs: 2,
         program: None,
-        controller: None,
+        plugins: Default::default(),
     };
     let done = campaign::run(&c, &out, &no_plots(), &pool, &Stop::default(), &()).unwrap();
     assert!(done.committed && !done.resumed);
@@ -146,7 +146,7 @@ fn any_executor_gives_the_same_bytes_and_a_stopped_campaign_resumes() {
     let pool = LocalPool {
         jobs: 1,
         program: None,
-        controller: None,
+        plugins: Default::default(),
     };
     campaign::run(&c, &pooled, &no_plots(), &pool, &Stop::default(), &()).unwrap();
 
@@ -344,7 +344,10 @@ fn a_callers_controller_runs_in_process_cells() {
     let pool = LocalPool {
         jobs: 2,
         program: None,
-        controller: Some(factory.clone()),
+        plugins: platoon_app::campaign::CellPlugins {
+            controller: Some(factory.clone()),
+            injector: None,
+        },
     };
     let done = campaign::run(
         &c,

@@ -55,6 +55,15 @@ pub struct Assumption2Report {
 }
 
 impl Assumption2 {
+    /// The bounds of the paper's design (Section IV: T1 = 2, T2 = 9.46 s, D1 = 6 s,
+    /// D2 = 11.33; reading the bounds (16) at its gains).
+    pub const PAPER: Assumption2 = Assumption2 {
+        T1: 2.0,
+        T2: 9.46,
+        D1: 6.0,
+        D2: 11.33,
+    };
+
     /// Checks the parameter ranges of the assumption (T1, T2, D1 > 0, D2 > 1).
     pub fn validate(&self) -> Result<(), ScheduleError> {
         let ok = |x: f64| x.is_finite() && x > 0.0;
@@ -134,12 +143,7 @@ mod tests {
     use proptest::prelude::*;
     use proptest::test_runner::TestCaseError;
 
-    const PAPER: Assumption2 = Assumption2 {
-        T1: 2.0,
-        T2: 9.46,
-        D1: 6.0,
-        D2: 11.33,
-    };
+    const PAPER: Assumption2 = Assumption2::PAPER;
 
     #[test]
     fn no_attack_holds() {

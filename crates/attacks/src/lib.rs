@@ -11,10 +11,14 @@
 //! * [`channel::Channel`]: the V2V channel under the DoS schedule and link-level attacks
 //!   (Bernoulli and Gilbert-Elliott loss, delay, range jamming, replay, false data injection),
 //!   and [`jammer::Jammers`], jammers as transmitters (placed, powered, with a behaviour).
+//! * [`inject::Injector`]: the seam an attack of the caller's fills (one platoon, one step: the
+//!   broadcasts in, what each receiver gets out); the built-in channel is one, and the same
+//!   injector runs in process and as a co-simulation's injector process.
 #![warn(missing_docs)]
 
 mod assumption2;
 pub mod channel;
+pub mod inject;
 pub mod jammer;
 mod medium;
 #[cfg(test)]

@@ -99,12 +99,7 @@ mod tests {
     use crate::oracle::{bounds_on_grid, run, Oracle};
     use proptest::prelude::*;
 
-    const PAPER: Assumption2 = Assumption2 {
-        T1: 2.0,
-        T2: 9.46,
-        D1: 6.0,
-        D2: 11.33,
-    };
+    const PAPER: Assumption2 = Assumption2::PAPER;
 
     #[test]
     fn same_seed_same_schedule() {

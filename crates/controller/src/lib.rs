@@ -1,4 +1,4 @@
-//! Write the controller service of `platoon run --controller` in Rust.
+//! The Rust SDK for controllers: write the controller service of `platoon run --controller`.
 //!
 //! Implement [`Controller`] for one platoon's followers (two methods per step, because the
 //! network sits between them: [`Controller::transmit`] gets what the vehicles measured and
@@ -65,31 +65,8 @@ pub use platoon_model::{FreeFlow, State, VehicleId};
 pub use platoon_sim::Scenario;
 pub use platoon_topology::Topology;
 
-use std::path::PathBuf;
-
 /// Why a controller service could not run.
-#[derive(thiserror::Error)]
-pub enum Error {
-    /// Not started by `platoon run --controller` (a variable of its environment is missing).
-    #[error(
-        "{0} is not set: run this program as `platoon run CONFIG --controller \"PROGRAM ARGS\"`"
-    )]
-    NotInARun(&'static str),
-    /// The run's config could not be read.
-    #[error("the run's config: {0}")]
-    Config(#[from] platoon_config::ConfigError),
-    /// The run failed or stopped this controller service.
-    #[error("{0}")]
-    Run(#[from] platoon_runtime::RunError),
-}
-
-/// As its message: `fn main() -> Result<(), Error>` prints an error with `Debug`, and the run
-/// quotes the controller's last lines of stderr.
-impl std::fmt::Debug for Error {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        std::fmt::Display::fmt(self, f)
-    }
-}
+pub use platoon_runtime::plugin::PluginError as Error;
 
 /// Runs the controllers `make` builds as the controller service of the run `PLATOON_RUN_ID`
 /// (its scenario read from `PLATOON_CONFIG`) until the run ends. `make` is called once per
@@ -104,18 +81,10 @@ impl std::fmt::Debug for Error {
 pub fn run<E: std::fmt::Display>(
     mut make: impl FnMut(&Scenario) -> Result<Box<dyn Controller>, E>,
 ) -> Result<(), Error> {
-    platoon_runtime::session::check_contract_version()?;
-    let run_id = std::env::var("PLATOON_RUN_ID").map_err(|_| Error::NotInARun("PLATOON_RUN_ID"))?;
-    let config: PathBuf = std::env::var_os("PLATOON_CONFIG")
-        .ok_or(Error::NotInARun("PLATOON_CONFIG"))?
-        .into();
-    let (_, scenario) = platoon_config::load(&config)?;
-    let built = platoon_runtime::controller::run(&run_id, &scenario, |platoon| {
-        make(platoon).map_err(|e| e.to_string())
-    });
-    match built {
-        // Stopped by the run (it failed elsewhere, or `platoon run` is gone): nothing to add.
-        Err(platoon_runtime::RunError::Aborted(_) | platoon_runtime::RunError::Orphaned) => Ok(()),
-        other => other.map_err(Error::from),
-    }
+    let (run_id, scenario) = platoon_runtime::plugin::the_run("controller")?;
+    platoon_runtime::plugin::ended(platoon_runtime::controller::run(
+        &run_id,
+        &scenario,
+        |platoon| make(platoon).map_err(|e| e.to_string()),
+    ))
 }

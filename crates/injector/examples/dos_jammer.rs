@@ -7,7 +7,8 @@
 //! cargo build --example dos_jammer
 //! platoon run configs/table1.toml --injector target/debug/examples/dos_jammer
 //! ```
-use platoon_injector::{jammed, run, Injector, LinkPacket, Numbering, Scenario, Step};
+use platoon_injector::{jammed, run_wire, InjectError, LinkPacket, Numbering, Scenario};
+use platoon_injector::{WireInjector, WireStep};
 
 struct DosJammer {
     dos: platoon_attacks_free::Schedule,
@@ -24,8 +25,8 @@ mod platoon_attacks_free {
     }
 }
 
-impl Injector for DosJammer {
-    fn step(&mut self, step: &Step<'_>, rx: &mut Vec<LinkPacket>) -> Result<(), String> {
+impl WireInjector for DosJammer {
+    fn step(&mut self, step: &WireStep<'_>, rx: &mut Vec<LinkPacket>) -> Result<(), InjectError> {
         if self.dos.active(step.t) {
             rx.extend(self.num.all().map(jammed));
         } else {
@@ -47,7 +48,7 @@ fn schedule(scenario: &Scenario) -> platoon_attacks_free::Schedule {
 }
 
 fn main() -> Result<(), platoon_injector::Error> {
-    run(|scenario| DosJammer {
+    run_wire(|scenario| DosJammer {
         dos: schedule(scenario),
         num: Numbering::of(scenario),
     })

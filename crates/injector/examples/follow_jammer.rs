@@ -6,7 +6,8 @@
 //! ```sh
 //! platoon run configs/table1.toml --injector "target/debug/examples/follow_jammer 2 10 20"
 //! ```
-use platoon_injector::{jammed, run, Injector, LinkPacket, Numbering, Step};
+use platoon_injector::{jammed, run_wire, InjectError, LinkPacket, Numbering};
+use platoon_injector::{WireInjector, WireStep};
 
 struct FollowJammer {
     vehicle: u32,
@@ -14,8 +15,8 @@ struct FollowJammer {
     num: Numbering,
 }
 
-impl Injector for FollowJammer {
-    fn step(&mut self, step: &Step<'_>, rx: &mut Vec<LinkPacket>) -> Result<(), String> {
+impl WireInjector for FollowJammer {
+    fn step(&mut self, step: &WireStep<'_>, rx: &mut Vec<LinkPacket>) -> Result<(), InjectError> {
         let active = step.t >= self.window.0 && step.t < self.window.1;
         if !active {
             rx.extend_from_slice(step.tx);
@@ -44,7 +45,7 @@ fn main() -> Result<(), platoon_injector::Error> {
     };
     let vehicle = parse(0, "VEHICLE") as u32;
     let window = (parse(1, "START_S"), parse(2, "END_S"));
-    run(|scenario| FollowJammer {
+    run_wire(|scenario| FollowJammer {
         vehicle,
         window,
         num: Numbering::of(scenario),

@@ -1,84 +1,92 @@
-//! Write an attack injector for `platoon run --injector` in Rust.
+//! The Rust SDK for attack injectors: write an attack once, run it in process and in
+//! `platoon run --injector`.
 //!
-//! Implement [`Injector`] (one method per step: the step's states and broadcasts in, what each
-//! receiver gets out) and hand it to [`run`] from `main`. Everything else of
-//! `docs/injector-contract.md` is done for you: the ports of the run named by `PLATOON_RUN_ID`,
-//! READY, waiting on wake-ups (never busy polling), one rx sample per step with its `count`,
-//! waking the controller, DONE, STOP/ABORT, and exiting when `platoon run` is gone.
+//! Implement [`Injector`] (the pure seam of `platoon-attacks`: one platoon, one step; its
+//! broadcasts and true states in, what each receiver gets out) and hand an
+//! [`InjectorFactory`] that makes it to [`run`] from `main`: one injector per platoon of the
+//! run, adapted to the wire for you. The same factory runs the attack in process, with no
+//! process at all: in a run ([`platoon_sim::run_until_plugins`]), in a campaign or in
+//! `platoon search` (`platoon_app`'s `LocalPool::injector`), with the same results.
 //!
 //! ```no_run
-//! use platoon_injector::{run, Injector, LinkPacket, Step};
+//! use platoon_injector::{run, InjectError, Injector, InjectorFactory, Reception, Step};
 //!
-//! /// Forwards everything except what vehicle 2 sends.
+//! /// Drops everything vehicle 2 sends.
+//! #[derive(Debug, Clone)]
 //! struct DropTwo;
 //!
 //! impl Injector for DropTwo {
-//!     fn step(&mut self, step: &Step<'_>, rx: &mut Vec<LinkPacket>) -> Result<(), String> {
-//!         rx.extend(step.tx.iter().filter(|it| it.packet.sender != 2));
+//!     fn step(&mut self, step: &Step<'_>, out: &mut Reception<'_>) -> Result<(), InjectError> {
+//!         for p in step.tx.iter().filter(|p| p.sender.0 != 2) {
+//!             for &receiver in step.topology.out_neighbours(p.sender) {
+//!                 out.deliveries.push(platoon_injector::Delivery { receiver, packet: *p });
+//!             }
+//!         }
 //!         Ok(())
 //!     }
 //! }
 //!
 //! fn main() -> Result<(), platoon_injector::Error> {
-//!     run(|_scenario| DropTwo)
+//!     run(InjectorFactory::new(|_scenario| Ok(Box::new(DropTwo))))
 //! }
 //! ```
 //!
-//! `examples/dos_jammer.rs` reproduces the built-in DoS channel byte for byte;
+//! An injector that works on the wire itself (the run's numbering, the jammed notices of the
+//! channel before it with `--injector-mode after`) implements [`WireInjector`] and goes to
+//! [`run_wire`]. Everything else of `docs/injector-contract.md` is done for you either way: the
+//! ports of the run named by `PLATOON_RUN_ID`, READY, waiting on wake-ups (never busy
+//! polling), one rx sample per step with its `count`, waking the controller, DONE, STOP/ABORT,
+//! and exiting when `platoon run` is gone.
+//!
+//! `examples/link_cut.rs` cuts one link for a window on the pure seam;
+//! `examples/dos_jammer.rs` reproduces the built-in DoS channel byte for byte on the wire;
 //! `examples/follow_jammer.rs` jams one vehicle wherever it drives (an attack the built-in
-//! channel does not have). Both run in the tests through `platoon run --injector`.
+//! channel does not have). They run in the tests through `platoon run --injector`.
 #![warn(missing_docs)]
 
-pub use platoon_runtime::injector::{Injector, Step};
-pub use platoon_sim::Scenario;
+pub use platoon_attacks::channel::{Action, Channel, ChannelEvent, RadioStats};
+pub use platoon_attacks::inject::{InjectError, Injector, Reception, Step};
+pub use platoon_model::{State, VehicleId};
+pub use platoon_runtime::injector::{WireInjector, WireStep};
+pub use platoon_sim::{InjectorFactory, Scenario};
+pub use platoon_topology::Topology;
+pub use platoon_v2v::{Delivery, Packet};
 pub use platoon_wire::{LinkPacket, V2vPacket, VehicleState};
 
-use std::path::PathBuf;
-
 /// Why an injector could not run.
-#[derive(thiserror::Error)]
-pub enum Error {
-    /// Not started by `platoon run --injector` (a variable of its environment is missing).
-    #[error(
-        "{0} is not set: run this program as `platoon run CONFIG --injector \"PROGRAM ARGS\"`"
-    )]
-    NotInARun(&'static str),
-    /// The run's config could not be read.
-    #[error("the run's config: {0}")]
-    Config(#[from] platoon_config::ConfigError),
-    /// The run failed or stopped this injector.
-    #[error("{0}")]
-    Run(#[from] platoon_runtime::RunError),
-}
+pub use platoon_runtime::plugin::PluginError as Error;
 
-/// As its message: `fn main() -> Result<(), Error>` prints an error with `Debug`, and the run
-/// quotes the injector's last lines of stderr.
-impl std::fmt::Debug for Error {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        std::fmt::Display::fmt(self, f)
-    }
-}
-
-/// Runs the injector `make` builds from the run's scenario (read from `PLATOON_CONFIG`) as the
-/// injector of the run `PLATOON_RUN_ID`, until the run ends. With `--injector-mode after`
-/// (`PLATOON_INJECTOR_INPUT=gated`) each [`Step::tx`] holds what survived the built-in channel:
-/// deliveries and jammed notices; forward the notices you want the receivers to see.
-/// A run of another contract version (`PLATOON_CONTRACT_VERSION`) is refused at once, naming
+/// Runs the injectors `factory` makes (one per platoon, from its replica of the scenario read
+/// from `PLATOON_CONFIG`) as the injector of the run `PLATOON_RUN_ID`, until the run ends. A
+/// run of another contract version (`PLATOON_CONTRACT_VERSION`) is refused at once, naming
 /// both versions.
-pub fn run<I: Injector>(make: impl FnOnce(&Scenario) -> I) -> Result<(), Error> {
-    platoon_runtime::session::check_contract_version()?;
-    let run_id = std::env::var("PLATOON_RUN_ID").map_err(|_| Error::NotInARun("PLATOON_RUN_ID"))?;
-    let config: PathBuf = std::env::var_os("PLATOON_CONFIG")
-        .ok_or(Error::NotInARun("PLATOON_CONFIG"))?
-        .into();
-    let (_, scenario) = platoon_config::load(&config)?;
+pub fn run(factory: InjectorFactory) -> Result<(), Error> {
+    let (run_id, scenario) = platoon_runtime::plugin::the_run("injector")?;
+    let ended = platoon_runtime::injector::Platoons::new(&scenario, &factory, None).and_then(
+        |mut platoons| {
+            let ports = platoon_runtime::injector::Ports::from_env();
+            platoon_runtime::injector::run_on(ports, &run_id, &scenario, &mut platoons)
+        },
+    );
+    platoon_runtime::plugin::ended(ended)
+}
+
+/// Runs the wire injector `make` builds from the run's scenario (read from `PLATOON_CONFIG`)
+/// as the injector of the run `PLATOON_RUN_ID`, until the run ends. With `--injector-mode
+/// after` (`PLATOON_INJECTOR_INPUT=gated`) each [`WireStep::tx`] holds what survived the
+/// built-in channel: deliveries and jammed notices; forward the notices you want the
+/// receivers to see. A run of another contract version (`PLATOON_CONTRACT_VERSION`) is refused
+/// at once, naming both versions.
+pub fn run_wire<I: WireInjector>(make: impl FnOnce(&Scenario) -> I) -> Result<(), Error> {
+    let (run_id, scenario) = platoon_runtime::plugin::the_run("injector")?;
     let mut injector = make(&scenario);
     let ports = platoon_runtime::injector::Ports::from_env();
-    match platoon_runtime::injector::run_on(ports, &run_id, &scenario, &mut injector) {
-        // Stopped by the run (it failed elsewhere, or `platoon run` is gone): nothing to add.
-        Err(platoon_runtime::RunError::Aborted(_) | platoon_runtime::RunError::Orphaned) => Ok(()),
-        other => other.map_err(Error::from),
-    }
+    platoon_runtime::plugin::ended(platoon_runtime::injector::run_on(
+        ports,
+        &run_id,
+        &scenario,
+        &mut injector,
+    ))
 }
 
 /// Vehicle numbering on the wire: vehicle `i` of platoon `j` is `j * (N + 1) + i`.

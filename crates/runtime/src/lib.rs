@@ -22,6 +22,7 @@ pub mod injector;
 pub mod ipc;
 pub mod nodes;
 pub mod orchestrator;
+pub mod plugin;
 pub mod session;
 pub mod timing;
 

@@ -938,7 +938,7 @@ struct Recorder<'a> {
     deliveries: Vec<Vec<platoon_control::Delivery>>,
     wire: Vec<WireCounts>,
     outside: WireCounts,
-    wire_counter: platoon_sim::wire::WireCounter,
+    wire_counter: platoon_sim::tally::WireCounter,
     /// The detectors measured against ground truth (`[detection]` runs).
     measure: Option<Measure>,
 }

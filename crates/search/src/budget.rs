@@ -361,12 +361,7 @@ mod tests {
     use super::*;
     use proptest::prelude::*;
 
-    const PAPER: Assumption2 = Assumption2 {
-        T1: 2.0,
-        T2: 9.46,
-        D1: 6.0,
-        D2: 11.33,
-    };
+    const PAPER: Assumption2 = Assumption2::PAPER;
 
     fn grid() -> Grid {
         Grid::new(0.01, 5500).unwrap()

@@ -8,17 +8,21 @@
 #![warn(missing_docs)]
 
 pub mod detection;
+mod factory;
 mod metrics;
 mod scenario;
+mod summary;
+pub mod tally;
 pub mod truth;
-pub mod wire;
 
-pub use metrics::{
-    ErrorStats, FleetMetrics, FleetOverview, LinkOutage, MetricsAccumulator, PlatoonBrief, Safety,
-    SafetyClass, SafetyThresholds, Summary, VehicleSummary, VehicleWire, WireSummary,
-};
+pub use factory::{ControllerFactory, InjectorFactory, MakeController, MakeInjector, Plugins};
+pub use metrics::{FleetMetrics, MetricsAccumulator};
 pub use scenario::{Fleet, Scenario, ScenarioError};
-pub use wire::WireCounts;
+pub use summary::{
+    ErrorStats, FleetOverview, LinkOutage, PlatoonBrief, Safety, SafetyClass, SafetyThresholds,
+    Summary, VehicleSummary, VehicleWire, WireSummary,
+};
+pub use tally::WireCounts;
 
 /// What happened on the wire in one step: per vehicle (platoon by platoon, leader first) and to
 /// receivers that are no vehicle of the run.
@@ -31,6 +35,7 @@ pub struct StepWire<'a> {
 }
 
 use platoon_attacks::channel::{Channel, ChannelEvent};
+use platoon_attacks::inject::{InjectError, Injector, Reception};
 use platoon_control::{Controller, Delivery, FollowerStep, Packet};
 use platoon_model::{leader_step, LeaderProfile, State, TauSchedule, VehicleId};
 use std::ops::ControlFlow;
@@ -229,63 +234,12 @@ pub fn step_rows(
     }
 }
 
-/// What makes a platoon's controller from its scenario (its replica, for a fleet), in process:
-/// [`ControllerFactory::builtin`] builds the one the config names (`platoon_control::build`);
-/// [`ControllerFactory::new`] takes the caller's, e.g. a `ComposedController` with a law of
-/// its own, for runs and campaigns without a process per cell.
-#[derive(Clone)]
-pub struct ControllerFactory(std::sync::Arc<MakeController>);
-
-/// The function behind a [`ControllerFactory`].
-pub type MakeController =
-    dyn Fn(&Scenario) -> Result<Box<dyn Controller>, platoon_control::ParamsError> + Send + Sync;
-
-impl ControllerFactory {
-    /// The caller's controllers.
-    pub fn new(
-        make: impl Fn(&Scenario) -> Result<Box<dyn Controller>, platoon_control::ParamsError>
-            + Send
-            + Sync
-            + 'static,
-    ) -> Self {
-        Self(std::sync::Arc::new(make))
-    }
-
-    /// The controller each scenario's config names.
-    pub fn builtin() -> Self {
-        Self::new(|s| platoon_control::build(&s.control, &s.topology, &s.initial))
-    }
-
-    /// The controller of `scenario`.
-    pub fn make(
-        &self,
-        scenario: &Scenario,
-    ) -> Result<Box<dyn Controller>, platoon_control::ParamsError> {
-        (self.0)(scenario)
-    }
-}
-
-impl std::fmt::Debug for ControllerFactory {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str("ControllerFactory")
-    }
-}
-
-/// The same factory (the same function object), not merely an equal one.
-impl PartialEq for ControllerFactory {
-    fn eq(&self, other: &Self) -> bool {
-        std::sync::Arc::ptr_eq(&self.0, &other.0)
-    }
-}
-
-impl Eq for ControllerFactory {}
-
 /// A scenario being run step by step.
 #[derive(Debug, Clone)]
 pub struct Simulation {
     scenario: Scenario,
     controller: Box<dyn Controller>,
-    channel: Channel,
+    injector: Box<dyn Injector>,
     plant: Plant,
     step: u64,
     tx: Vec<Packet>,
@@ -294,7 +248,7 @@ pub struct Simulation {
     log: Vec<ChannelEvent>,
     rows: Vec<StepRow>,
     wire: Vec<WireCounts>,
-    wire_counter: wire::WireCounter,
+    wire_counter: tally::WireCounter,
     /// The detectors measured against ground truth (`[detection]` only).
     detection: Option<detection::DetectionRecorder>,
 }
@@ -307,10 +261,22 @@ impl Simulation {
     }
 
     /// Prepares a run of `scenario` with the controller `factory` makes for it (a law or a
-    /// whole controller of the caller's, in process).
+    /// whole controller of the caller's, in process) and the built-in channel.
     pub fn with(scenario: Scenario, factory: &ControllerFactory) -> Result<Self, ScenarioError> {
+        Self::with_plugins(
+            scenario,
+            &Plugins {
+                controller: factory.clone(),
+                ..Plugins::default()
+            },
+        )
+    }
+
+    /// Prepares a run of `scenario` with the controller and the injector `plugins` make for it.
+    pub fn with_plugins(scenario: Scenario, plugins: &Plugins) -> Result<Self, ScenarioError> {
         scenario.validate()?;
-        let controller = factory.make(&scenario)?;
+        let controller = plugins.controller.make(&scenario)?;
+        let injector = plugins.injector.make(&scenario)?;
         let detection = (!controller.detector_names().is_empty()).then(|| {
             detection::DetectionRecorder::new(
                 scenario.platoon,
@@ -321,7 +287,7 @@ impl Simulation {
         });
         let n = scenario.topology.followers();
         Ok(Self {
-            channel: Channel::new(scenario.channel_spec(), n + 1),
+            injector,
             plant: Plant::new(&scenario),
             controller,
             step: 0,
@@ -331,7 +297,7 @@ impl Simulation {
             log: Vec::new(),
             rows: Vec::with_capacity(n + 1),
             wire: vec![WireCounts::default(); n + 1],
-            wire_counter: wire::WireCounter::default(),
+            wire_counter: tally::WireCounter::default(),
             detection,
             scenario,
         })
@@ -367,9 +333,15 @@ impl Simulation {
         &self.wire
     }
 
-    /// The channel (its radio's measured load, CBR and beacon rates).
-    pub fn channel(&self) -> &Channel {
-        &self.channel
+    /// The built-in channel (its radio's measured load, CBR and beacon rates); `None` with an
+    /// injector of the caller's.
+    pub fn channel(&self) -> Option<&Channel> {
+        self.injector.channel()
+    }
+
+    /// The injector.
+    pub fn injector(&self) -> &dyn Injector {
+        self.injector.as_ref()
     }
 
     /// The detectors measured against ground truth so far (`[detection]` only).
@@ -385,7 +357,18 @@ impl Simulation {
     }
 
     /// Runs step k and returns one row per vehicle (leader first) for it.
+    ///
+    /// # Panics
+    ///
+    /// If the injector fails (never the built-in channel): with an injector of the caller's,
+    /// use [`Simulation::try_step`].
     pub fn step(&mut self) -> &[StepRow] {
+        self.try_step().expect("the injector failed")
+    }
+
+    /// Runs step k and returns one row per vehicle (leader first) for it, or why the injector
+    /// failed (the simulation is then left in the middle of step k).
+    pub fn try_step(&mut self) -> Result<&[StepRow], InjectError> {
         let k = self.step;
         let sc = &self.scenario;
         let t = k as f64 * sc.dt();
@@ -395,22 +378,31 @@ impl Simulation {
         self.controller.transmit(k, states, &mut self.tx);
         self.deliveries.clear();
         self.log.clear();
-        self.channel.gate(
-            k,
-            t,
-            &sc.topology,
-            states,
-            &self.tx,
-            &mut self.deliveries,
-            &mut self.jammed,
-            &mut self.log,
-        );
+        self.jammed.fill(false);
+        self.injector.step(
+            &platoon_attacks::inject::Step {
+                k,
+                t,
+                topology: &sc.topology,
+                states,
+                tx: &self.tx,
+                background: &[],
+            },
+            &mut Reception {
+                deliveries: &mut self.deliveries,
+                jammed: &mut self.jammed,
+                log: &mut self.log,
+            },
+        )?;
+        if k == sc.steps {
+            self.injector.finish()?;
+        }
         self.controller
             .receive(k, states, &self.deliveries, &self.jammed);
         // In process nothing is ever delivered to a vehicle that does not exist.
         let mut outside = WireCounts::default();
         self.wire_counter.count(
-            wire::links(&sc.topology, &self.tx),
+            tally::links(&sc.topology, &self.tx),
             &self.deliveries,
             &self.jammed,
             &mut self.wire,
@@ -421,7 +413,7 @@ impl Simulation {
             d.record(
                 k,
                 states,
-                wire::links(&sc.topology, &self.tx),
+                tally::links(&sc.topology, &self.tx),
                 &self.deliveries,
                 self.controller.inspections(),
             );
@@ -441,7 +433,7 @@ impl Simulation {
         );
         self.plant.advance(k, self.controller.commands());
         self.step += 1;
-        &self.rows
+        Ok(&self.rows)
     }
 }
 
@@ -465,13 +457,25 @@ impl FleetSimulation {
     }
 
     /// Prepares every platoon of `scenario`'s fleet with the controllers `factory` makes (one
-    /// per platoon, from its replica).
+    /// per platoon, from its replica) and the built-in channel.
     pub fn with(scenario: &Scenario, factory: &ControllerFactory) -> Result<Self, ScenarioError> {
+        Self::with_plugins(
+            scenario,
+            &Plugins {
+                controller: factory.clone(),
+                ..Plugins::default()
+            },
+        )
+    }
+
+    /// Prepares every platoon of `scenario`'s fleet with the controllers and injectors
+    /// `plugins` make (one each per platoon, from its replica).
+    pub fn with_plugins(scenario: &Scenario, plugins: &Plugins) -> Result<Self, ScenarioError> {
         scenario.validate()?;
         let sims = scenario
             .replicas()
             .into_iter()
-            .map(|r| Simulation::with(r, factory))
+            .map(|r| Simulation::with_plugins(r, plugins))
             .collect::<Result<Vec<_>, _>>()?;
         Ok(Self {
             rows: Vec::with_capacity(scenario.vehicles()),
@@ -484,7 +488,7 @@ impl FleetSimulation {
 
     /// What the platoons' 802.11p radios measured so far, over the fleet (`None` without it).
     pub fn radio_stats(&self) -> Option<platoon_attacks::channel::RadioStats> {
-        let mut all = self.sims.iter().filter_map(|s| s.channel.radio_stats());
+        let mut all = self.sims.iter().filter_map(|s| s.injector.radio_stats());
         let mut sum = all.next()?;
         for s in all {
             sum.merge(&s);
@@ -503,25 +507,37 @@ impl FleetSimulation {
     }
 
     /// Runs one step of every platoon; returns their rows, platoon by platoon.
+    ///
+    /// # Panics
+    ///
+    /// If an injector fails (never the built-in channel): with an injector of the caller's,
+    /// use [`FleetSimulation::try_step`].
     pub fn step(&mut self) -> &[StepRow] {
+        self.try_step().expect("the injector failed")
+    }
+
+    /// Runs one step of every platoon; returns their rows, platoon by platoon, or why an
+    /// injector failed.
+    pub fn try_step(&mut self) -> Result<&[StepRow], InjectError> {
         self.rows.clear();
         self.log.clear();
         self.wire.clear();
         if self.sims.len() > 1 {
             let k = self.sims[0].step;
-            let mut platoons: Vec<(&mut Channel, &[State])> = self
-                .sims
-                .iter_mut()
-                .map(|s| (&mut s.channel, s.plant.states()))
-                .collect();
-            platoon_attacks::channel::hear_fleet(k, &mut platoons, &mut self.beacons);
+            let platoons = self.sims.iter_mut().map(|s| {
+                let Simulation {
+                    injector, plant, ..
+                } = s;
+                (injector.as_mut() as &mut dyn Injector, plant.states())
+            });
+            platoon_attacks::inject::hear_fleet(k, platoons, &mut self.beacons);
         }
         for s in &mut self.sims {
-            self.rows.extend_from_slice(s.step());
+            self.rows.extend_from_slice(s.try_step()?);
             self.log.extend_from_slice(s.channel_log());
             self.wire.extend_from_slice(s.wire());
         }
-        &self.rows
+        Ok(&self.rows)
     }
 
     /// The rows of the last step, platoon by platoon.
@@ -579,12 +595,27 @@ pub fn run_until(
 pub fn run_until_with(
     scenario: &Scenario,
     factory: &ControllerFactory,
+    each: impl FnMut(&FleetSimulation) -> ControlFlow<()>,
+) -> Result<Summary, ScenarioError> {
+    let plugins = Plugins {
+        controller: factory.clone(),
+        ..Plugins::default()
+    };
+    run_until_plugins(scenario, &plugins, each)
+}
+
+/// [`run_until`] with the controllers and the injectors `plugins` make (an attack of the
+/// caller's in process: runs, campaigns, searches). An injector that fails ends the run with
+/// its error.
+pub fn run_until_plugins(
+    scenario: &Scenario,
+    plugins: &Plugins,
     mut each: impl FnMut(&FleetSimulation) -> ControlFlow<()>,
 ) -> Result<Summary, ScenarioError> {
-    let mut sim = FleetSimulation::with(scenario, factory)?;
+    let mut sim = FleetSimulation::with_plugins(scenario, plugins)?;
     let mut metrics = FleetMetrics::new(scenario);
     while !sim.is_done() {
-        sim.step();
+        sim.try_step()?;
         metrics.push_wire(sim.wire());
         metrics.push_channel(sim.channel_log());
         metrics.push(sim.rows());

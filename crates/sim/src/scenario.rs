@@ -10,6 +10,9 @@ pub enum ScenarioError {
     /// Controller parameters out of range.
     #[error(transparent)]
     Params(#[from] ParamsError),
+    /// The injector could not be made, or failed during the run.
+    #[error("injector: {0}")]
+    Injector(#[from] platoon_attacks::inject::InjectError),
     /// The parts of the scenario disagree or a value is out of range.
     #[error("{key}: {message}")]
     Invalid {

@@ -6,7 +6,7 @@ use platoon_control::fallback::RadarTruth;
 use platoon_control::{Controller, Delivery, FollowerStep, Packet, RejectCounts};
 use platoon_model::{State, VehicleId};
 use platoon_sim::truth::{Fields, Label, LabelCounts, Labelled, TruthLabeler};
-use platoon_sim::{run_until_with, wire, ControllerFactory, Scenario};
+use platoon_sim::{run_until_with, tally, ControllerFactory, Scenario};
 use std::ops::ControlFlow;
 use std::path::Path;
 use std::sync::{Arc, Mutex};
@@ -126,7 +126,7 @@ fn run(attacks: &str, lie: Option<(VehicleId, f64)>) -> Run {
         labeler.label(
             s.k,
             &s.states,
-            wire::links(&topology, &s.tx),
+            tally::links(&topology, &s.tx),
             &s.deliveries,
             &mut out,
         );

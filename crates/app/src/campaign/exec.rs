@@ -6,7 +6,7 @@ use crate::run::Stop;
 use anyhow::{bail, Context, Result};
 use platoon_campaign::Transport;
 use platoon_output::rundir::RunDir;
-use platoon_sim::ControllerFactory;
+use platoon_sim::{ControllerFactory, InjectorFactory, Plugins};
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 use std::io::{BufRead, BufReader, Write};
@@ -61,6 +61,12 @@ pub trait Executor {
         stop: &Stop,
         record: &mut dyn FnMut(CellReply) -> Result<()>,
     ) -> Result<()>;
+
+    /// What its in-process cells plug in instead of the built-in parts (a search re-runs its
+    /// worst schedule with them); none unless it says so.
+    fn plugins(&self) -> CellPlugins {
+        CellPlugins::default()
+    }
 }
 
 /// The `platoon` binary that runs what needs a process: `program`, else this executable.
@@ -75,22 +81,43 @@ fn platoon_program(program: Option<&Path>) -> Result<PathBuf> {
 /// (`transport = "iceoryx2"`) as a `platoon run` child of `program` (None: this executable,
 /// the `platoon` binary). A cell that fails is a reply with an error.
 pub fn execute(job: &CellJob, program: Option<&Path>) -> CellReply {
-    execute_with(job, program, None)
+    execute_with(job, program, &CellPlugins::default())
 }
 
-/// [`execute`], in-process cells with the controllers `controller` makes (None: the ones
-/// their configs name).
-pub fn execute_with(
-    job: &CellJob,
-    program: Option<&Path>,
-    controller: Option<&ControllerFactory>,
-) -> CellReply {
+/// What in-process cells plug in instead of the built-in parts their configs name (None: the
+/// built-in one).
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct CellPlugins {
+    /// Makes each platoon's controller.
+    pub controller: Option<ControllerFactory>,
+    /// Makes each platoon's injector: an attack of the caller's.
+    pub injector: Option<InjectorFactory>,
+}
+
+impl CellPlugins {
+    /// Whether anything of the caller's is plugged in.
+    pub fn any(&self) -> bool {
+        self.controller.is_some() || self.injector.is_some()
+    }
+
+    /// The parts of a run: the caller's where given, else the built-in ones.
+    pub fn plugins(&self) -> Plugins {
+        let builtin = Plugins::default();
+        Plugins {
+            controller: self.controller.clone().unwrap_or(builtin.controller),
+            injector: self.injector.clone().unwrap_or(builtin.injector),
+        }
+    }
+}
+
+/// [`execute`], in-process cells with the controllers and injectors `plugins` make.
+pub fn execute_with(job: &CellJob, program: Option<&Path>, plugins: &CellPlugins) -> CellReply {
     let result = match job.transport {
-        Transport::Iceoryx2 if controller.is_some() => Err(anyhow::anyhow!(
-            "a controller of the caller's runs in process only: set transport = \"inproc\" \
-             (or run it as a process with platoon run --controller)"
+        Transport::Iceoryx2 if plugins.any() => Err(anyhow::anyhow!(
+            "a controller or an injector of the caller's runs in process only: set transport = \
+             \"inproc\" (or run it as a process with platoon run --controller or --injector)"
         )),
-        Transport::Inproc => in_process(job, controller),
+        Transport::Inproc => in_process(job, plugins),
         Transport::Iceoryx2 => co_simulation(job, program),
     };
     match result {
@@ -107,10 +134,10 @@ pub fn execute_with(
     }
 }
 
-fn in_process(job: &CellJob, controller: Option<&ControllerFactory>) -> Result<Value> {
+fn in_process(job: &CellJob, plugins: &CellPlugins) -> Result<Value> {
     let label = format!("cell {}", job.index);
     let (config, scenario) = platoon_config::parse(&job.config, Path::new(&label))?;
-    if controller.is_none() && !scenario.control.detection.plugin.is_empty() {
+    if plugins.controller.is_none() && !scenario.control.detection.plugin.is_empty() {
         anyhow::bail!(
             "{label}: detection.plugin names detectors a controller plug-in runs ({}), but the \
              cell runs the built-in controllers in process: set transport = \"iceoryx2\" with \
@@ -118,21 +145,19 @@ fn in_process(job: &CellJob, controller: Option<&ControllerFactory>) -> Result<V
             scenario.control.detection.plugin.join(", ")
         );
     }
-    let summary = match (&job.keep, controller) {
-        (_, Some(factory)) => {
+    let summary = match &job.keep {
+        _ if plugins.any() => {
             if job.keep.is_some() {
                 anyhow::bail!(
-                    "keeping the runs of cells is not supported with a controller of the \
-                     caller's: leave --keep-runs out"
+                    "keeping the runs of cells is not supported with a controller or an \
+                     injector of the caller's: leave --keep-runs out"
                 );
             }
-            platoon_sim::run_until_with(
-                &scenario,
-                factory,
-                |_| std::ops::ControlFlow::Continue(()),
-            )?
+            platoon_sim::run_until_plugins(&scenario, &plugins.plugins(), |_| {
+                std::ops::ControlFlow::Continue(())
+            })?
         }
-        (Some(out), None) => {
+        Some(out) => {
             let dir = RunDir::replace(out)?;
             dir.write("config.toml", job.config.as_bytes())?;
             let (rows, summary) =
@@ -150,10 +175,13 @@ fn in_process(job: &CellJob, controller: Option<&ControllerFactory>) -> Result<V
             dir.commit()?;
             summary
         }
-        (None, None) => platoon_sim::run(scenario, |_| {})?,
+        None => platoon_sim::run(scenario, |_| {})?,
     };
     let mut json = serde_json::to_value(summary)?;
-    json["injector"] = crate::run::builtin_injector_json();
+    json["injector"] = match plugins.injector {
+        Some(_) => serde_json::json!({ "program": "in process", "mode": "replace" }),
+        None => crate::run::builtin_injector_json(),
+    };
     Ok(json)
 }
 
@@ -211,9 +239,10 @@ pub struct LocalPool {
     pub jobs: usize,
     /// The `platoon` binary co-simulated cells run (None: this executable).
     pub program: Option<PathBuf>,
-    /// What makes in-process cells' controllers (None: the ones their configs name): a
-    /// controller of the caller's, in Rust, with no process per cell.
-    pub controller: Option<ControllerFactory>,
+    /// What in-process cells plug in (a controller or an attack of the caller's, in Rust,
+    /// with no process per cell; by default the built-in ones their configs name). A search
+    /// run by this pool runs its candidates with them.
+    pub plugins: CellPlugins,
 }
 
 impl LocalPool {
@@ -224,7 +253,7 @@ impl LocalPool {
                 .or_else(|| std::thread::available_parallelism().ok())
                 .map_or(1, |n| n.get()),
             program: None,
-            controller: None,
+            plugins: CellPlugins::default(),
         }
     }
 }
@@ -238,6 +267,10 @@ impl Default for LocalPool {
 impl Executor for LocalPool {
     fn name(&self) -> String {
         format!("local pool, {} jobs", self.jobs)
+    }
+
+    fn plugins(&self) -> CellPlugins {
+        self.plugins.clone()
     }
 
     fn execute(
@@ -262,10 +295,7 @@ impl Executor for LocalPool {
                     }
                     let i = next.fetch_add(1, Ordering::SeqCst);
                     let Some(job) = jobs.get(i) else { break };
-                    if tx
-                        .send(execute_with(job, program, self.controller.as_ref()))
-                        .is_err()
-                    {
+                    if tx.send(execute_with(job, program, &self.plugins)).is_err() {
                         break;
                     }
                 });

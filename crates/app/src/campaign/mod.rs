@@ -13,7 +13,9 @@
 mod exec;
 mod report;
 
-pub use exec::{execute, CellJob, CellReply, Dask, Executor, LocalCluster, LocalPool};
+pub use exec::{
+    execute, execute_with, CellJob, CellPlugins, CellReply, Dask, Executor, LocalCluster, LocalPool,
+};
 pub use platoon_campaign::metrics::Metric;
 pub use platoon_campaign::{Campaign, Cell};
 pub use report::{Axis, Failure, Group, Quantiles, Report};

@@ -1,4 +1,4 @@
-//! What happened on the V2V channel, measured where it happened: between the links the
+//! The tally of what the channel did, measured where it happened: between the links the
 //! controllers broadcast and what they received, whatever injector stood in between. Both
 //! runtimes feed the same function, so `summary.json` and `wire.csv` agree bit for bit.
 use platoon_control::{Delivery, Packet};
