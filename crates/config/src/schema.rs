@@ -76,16 +76,13 @@ pub struct Config {
 
 /// `[output]`: the per-step files (trajectories, events, channel log, wire log).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
-#[serde(deny_unknown_fields)]
+#[serde(default, deny_unknown_fields)]
 pub struct OutputConfig {
     /// The files' format.
-    #[serde(default)]
     pub format: OutputFormat,
     /// Write every n-th step to the trajectories (metrics and plots still use every step), >= 1.
-    #[serde(default = "one_step")]
     pub decimate: u64,
     /// Which files to write.
-    #[serde(default = "all_files")]
     pub files: Vec<OutputFile>,
 }
 
@@ -156,94 +153,69 @@ impl Default for OutputConfig {
     fn default() -> Self {
         Self {
             format: OutputFormat::default(),
-            decimate: one_step(),
-            files: all_files(),
+            decimate: 1,
+            files: OutputFile::ALL.to_vec(),
         }
     }
-}
-
-fn one_step() -> u64 {
-    1
-}
-fn all_files() -> Vec<OutputFile> {
-    OutputFile::ALL.to_vec()
 }
 
 /// `[fleet]`: platoon j drives on `lanes[j % len]`, `(j / len) * gap_m` behind platoon 0, with
 /// channel seed `channel.seed + j`; all share the DoS schedule.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
-#[serde(deny_unknown_fields)]
+#[serde(default, deny_unknown_fields)]
 pub struct FleetConfig {
     /// Number of platoons.
-    #[serde(default = "one_platoon")]
     pub platoons: usize,
     /// Lanes used in turn (SUMO plant); absent: the one lane `sumo.lane`.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub lanes: Option<Vec<u32>>,
     /// Distance between the leaders of consecutive platoons on one lane (m).
-    #[serde(default = "fleet_gap")]
     pub gap_m: f64,
 }
 
 impl Default for FleetConfig {
     fn default() -> Self {
         Self {
-            platoons: one_platoon(),
+            platoons: 1,
             lanes: None,
-            gap_m: fleet_gap(),
+            gap_m: 200.0,
         }
     }
 }
 
-fn one_platoon() -> usize {
-    1
-}
-fn fleet_gap() -> f64 {
-    200.0
-}
-
 /// `[sumo]`: where the platoon drives when SUMO is the plant.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
-#[serde(deny_unknown_fields)]
+#[serde(default, deny_unknown_fields)]
 pub struct Sumo {
     /// The network (`.net.xml`), relative to the config file; absent: the bundled
     /// `sumo/highway/highway.net.xml`, a straight 3-lane, 3 km highway.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub net: Option<String>,
     /// The edge the platoon drives on.
-    #[serde(default = "highway_edge")]
     pub edge: String,
     /// Its lane index (0 = rightmost).
-    #[serde(default = "one")]
     pub lane: u32,
     /// Lane position of the rearmost vehicle's front at t = 0 (m): the platoon's coordinates
     /// are shifted by this much onto the road.
-    #[serde(default = "fifty")]
     pub start_m: f64,
     /// SUMO's `--collision.action`.
-    #[serde(default)]
     pub collision_action: CollisionAction,
     /// What the controllers see.
-    #[serde(default)]
     pub states: SumoStates,
     /// Who writes fcd.xml, SUMO's FCD output for replay in sumo-gui.
-    #[serde(default)]
     pub fcd: FcdWriter,
     /// How often fcd.xml has a line per vehicle (s); 0 writes no FCD output; absent: every
     /// step the trajectories hold (every `output.decimate`-th; every step with `fcd = "sumo"`).
     /// With `fcd = "recorded"` a whole number of `output.decimate` steps.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub fcd_period_s: Option<f64>,
     /// Background traffic: vehicles of SUMO's own car-following model on the lanes no platoon
     /// uses, spread along the road with seeded speeds (0: none).
-    #[serde(default)]
     pub background_vehicles: usize,
     /// Seed of the background traffic's speeds and spacing.
-    #[serde(default)]
     pub background_seed: u64,
     /// How far SUMO may deviate from the vehicle model before the run stops (m and m/s; in
     /// `states = "sumo"` mode over one step, in `model` mode accumulated over the run).
-    #[serde(default = "tolerance")]
     pub tolerance_m: f64,
 }
 
@@ -290,72 +262,46 @@ pub enum SumoStates {
     Model,
 }
 
-fn tolerance() -> f64 {
-    1e-6
-}
-
 impl Default for Sumo {
     fn default() -> Self {
         Self {
             net: None,
-            edge: highway_edge(),
-            lane: one(),
-            start_m: fifty(),
+            edge: "highway".into(),
+            lane: 1,
+            start_m: 50.0,
             collision_action: CollisionAction::default(),
             states: SumoStates::default(),
             fcd: FcdWriter::default(),
             fcd_period_s: None,
             background_vehicles: 0,
             background_seed: 0,
-            tolerance_m: tolerance(),
+            tolerance_m: 1e-6,
         }
     }
 }
 
-fn highway_edge() -> String {
-    "highway".into()
-}
-fn one() -> u32 {
-    1
-}
-fn fifty() -> f64 {
-    50.0
-}
-
 /// `[safety]`: the largest deceleration any follower needed classes the run (m/s^2).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
-#[serde(deny_unknown_fields)]
+#[serde(default, deny_unknown_fields)]
 pub struct SafetyConfig {
     /// At most this: class `none` (by default the paper leader's own braking).
-    #[serde(default = "none_decel")]
     pub none_decel_mps2: f64,
     /// At most this: `negligible` (by default comfortable braking).
-    #[serde(default = "negligible_decel")]
     pub negligible_decel_mps2: f64,
     /// At most this: `benign` (by default emergency braking); beyond it, or any collision:
     /// `severe`.
-    #[serde(default = "benign_decel")]
     pub benign_decel_mps2: f64,
 }
 
 impl Default for SafetyConfig {
     fn default() -> Self {
+        let d = platoon_sim::SafetyThresholds::default();
         Self {
-            none_decel_mps2: none_decel(),
-            negligible_decel_mps2: negligible_decel(),
-            benign_decel_mps2: benign_decel(),
+            none_decel_mps2: d.none,
+            negligible_decel_mps2: d.negligible,
+            benign_decel_mps2: d.benign,
         }
     }
-}
-
-fn none_decel() -> f64 {
-    2.0
-}
-fn negligible_decel() -> f64 {
-    3.5
-}
-fn benign_decel() -> f64 {
-    6.0
 }
 
 /// `[simulation]`: the time grid and what integrates the vehicles.
@@ -557,13 +503,7 @@ impl TopologyConfig {
 
     /// Its `preset` name.
     pub fn name(&self) -> &'static str {
-        match self {
-            Self::Pf {} => "pf",
-            Self::Plf {} => "plf",
-            Self::Bpf {} => "bpf",
-            Self::Tpsf {} => "tpsf",
-            Self::Explicit { .. } => "explicit",
-        }
+        serde_util::tag_name(self, "preset")
     }
 }
 
@@ -673,11 +613,6 @@ impl Default for DosConfig {
 impl DosConfig {
     /// Its `kind`.
     pub fn name(&self) -> &'static str {
-        match self {
-            Self::None {} => "none",
-            Self::Intervals { .. } => "intervals",
-            Self::Periodic { .. } => "periodic",
-            Self::Random { .. } => "random",
-        }
+        serde_util::tag_name(self, "kind")
     }
 }

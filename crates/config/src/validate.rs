@@ -10,7 +10,7 @@ mod channel;
 mod control;
 
 use channel::{channel, jammers, radio};
-use control::{detection, fallback, law};
+use control::{detection, fallback};
 
 pub(crate) type Invalid = (String, String);
 
@@ -283,7 +283,7 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
     };
 
     // [control] and [trigger]
-    let k = &c.control;
+    let k = c.control.paper_law();
     for (i, g) in k.gain.iter().enumerate() {
         finite(&format!("control.gain[{i}]"), *g)?;
     }
@@ -343,14 +343,14 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
     // The resolved config says the mode under its current name.
     c.fallback.mode = Some(fallback.mode);
     c.control.attack_input = None;
-    let law = law(&mut c.control)?;
+    let law = c.control.law.params();
     if law != platoon_control::LawParams::Paper {
         // The outputs measure every law against the platoon's spacing policy: it must be the
         // one the law keeps.
         let name = law.name();
         let Some((l, h)) = law.spacing_policy(vehicle_length) else {
             return bad(
-                &format!("control.{name}.headways_s"),
+                "control.headways_s",
                 "the outputs need one time headway for every vehicle",
             );
         };
@@ -370,10 +370,10 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
                     "platoon.spacing_policy"
                 },
                 format!(
-                    "law = \"{name}\" keeps {l} m + {h} s x v front to front (its [control.{name}] \
-                     distances plus platoon.vehicle_length_m), the platoon says {spacing} m + \
+                    "law = \"{name}\" keeps {l} m + {h} s x v front to front (its distances in \
+                     [control] plus platoon.vehicle_length_m), the platoon says {spacing} m + \
                      {headway} s x v: set spacing_m = {l} and {policy} in [platoon], or change \
-                     [control.{name}]"
+                     the law's distances in [control]"
                 ),
             );
         }
@@ -415,8 +415,6 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
                 "trigger".to_string()
             } else if e.field == "preset" {
                 "topology".to_string()
-            } else if c.control.law != LawName::Paper && !matches!(e.field, "dt" | "headway") {
-                format!("control.{}", c.control.law.name())
             } else {
                 "control".to_string()
             };

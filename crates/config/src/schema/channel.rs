@@ -258,7 +258,7 @@ pub enum LinkKindConfig {
         #[serde(default)]
         loss_good: f64,
         /// Loss probability in the bad state.
-        #[serde(default = "certain")]
+        #[serde(default = "all_lost")]
         loss_bad: f64,
     },
     /// Every targeted packet arrives `delay_s` late (the receiver propagates it open-loop).
@@ -345,25 +345,15 @@ pub enum LinkKindConfig {
     },
 }
 
-fn certain() -> f64 {
+/// The bad state loses every packet.
+fn all_lost() -> f64 {
     1.0
 }
 
 impl LinkKindConfig {
     /// Its `kind`.
     pub fn name(&self) -> &'static str {
-        match self {
-            Self::Bernoulli { .. } => "bernoulli",
-            Self::GilbertElliott { .. } => "gilbert_elliott",
-            Self::Delay { .. } => "delay",
-            Self::RangeJamming { .. } => "range_jamming",
-            Self::Replay { .. } => "replay",
-            Self::FalseData { .. } => "false_data",
-            Self::RandomOffset { .. } => "random_offset",
-            Self::Drift { .. } => "drift",
-            Self::FeignedBraking { .. } => "feigned_braking",
-            Self::AccelScale { .. } => "accel_scale",
-        }
+        serde_util::tag_name(self, "kind")
     }
 
     /// Whether the attacker is an insider (false for the kinds that do not alter states).

@@ -1,48 +1,18 @@
 //! The `[control]`, `[trigger]`, `[fallback]`, `[radar]`, `[guard]` and `[detection]` tables:
 //! what the followers run.
-use crate::serde_util;
+use crate::serde_util::{self, DefaultTag};
 use platoon_control::fallback::AccParams;
 use platoon_control::FallbackMode;
 use schemars::JsonSchema;
 use serde::ser::SerializeMap;
 use serde::{Deserialize, Serialize, Serializer};
 
-/// `[control]`: which law the followers run; the paper's law's gain and the trigger
-/// conditions' weights; the parameters of one of the field's laws in its own table.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
-#[serde(deny_unknown_fields)]
+/// `[control]`: the law (`law`) and its keys (the keys of another law are errors).
+#[derive(Debug, Clone, PartialEq, Deserialize, JsonSchema)]
 pub struct Control {
-    /// The law (docs/controllers.md): the paper's (its keys: `gain`, `beta1`, `beta2`, and the
-    /// event triggers of `[trigger]`), or one of the field's, which beacon periodically or by
-    /// ETSI's CAM rules (`[trigger] rule = "periodic"` or `"cam"`) and take their parameters
-    /// from `[control.<law>]`
-    /// (every key optional, SUMO's Plexe defaults).
-    #[serde(default)]
-    pub law: LawName,
-    /// K in `u_i = -K q_i` (docs/paper-readings.md#R1); the paper's law only.
-    #[serde(default = "paper_gain")]
-    pub gain: [f64; 3],
-    /// Weight of |eps|^2 in the trigger conditions; the paper's law only.
-    #[serde(default = "paper_beta1")]
-    pub beta1: f64,
-    /// Weight of |q|^2 in the trigger conditions; the paper's law only.
-    #[serde(default = "paper_beta2")]
-    pub beta2: f64,
-    /// `law = "acc"`: Plexe's ACC (radar only).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub acc: Option<platoon_control::laws::PlexeAccParams>,
-    /// `law = "path_cacc"`: the PATH CACC (Rajamani).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub path_cacc: Option<platoon_control::laws::PathCaccParams>,
-    /// `law = "ploeg"`: Ploeg et al.'s CACC.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub ploeg: Option<platoon_control::laws::PloegParams>,
-    /// `law = "consensus"`: the consensus law (Santini et al.).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub consensus: Option<platoon_control::laws::ConsensusParams>,
-    /// `law = "flatbed"`: the flatbed controller (Ali, Garcia, Martinet; in Plexe by Segata).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub flatbed: Option<platoon_control::laws::FlatbedParams>,
+    /// The law and its parameters.
+    #[serde(flatten, deserialize_with = "serde_util::with_default_tag")]
+    pub law: LawConfig,
     /// The older name of `fallback.mode`; set one of them. The resolved config says
     /// `fallback.mode`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -50,22 +20,141 @@ pub struct Control {
     pub attack_input: Option<FallbackMode>,
 }
 
-/// `[control] law`: which law the followers run.
+/// The selector first, then the law's own keys (a config's order).
+impl Serialize for Control {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let mut m = s.serialize_map(None)?;
+        m.serialize_entry("law", self.law.kind().name())?;
+        serde_util::entries(&mut m, &self.law, "law")?;
+        if let Some(a) = &self.attack_input {
+            m.serialize_entry("attack_input", a)?;
+        }
+        m.end()
+    }
+}
+
+impl Control {
+    /// The paper's law's gain and weights: the config's with `law = "paper"`, else the paper's
+    /// own (the controller takes them whatever it runs).
+    pub fn paper_law(&self) -> PaperLaw {
+        match &self.law {
+            LawConfig::Paper(p) => *p,
+            _ => PaperLaw::default(),
+        }
+    }
+
+    /// The paper's law's keys, to change them; the law becomes the paper's if it was another.
+    pub fn paper_law_mut(&mut self) -> &mut PaperLaw {
+        if !matches!(self.law, LawConfig::Paper(_)) {
+            self.law = LawConfig::Paper(PaperLaw::default());
+        }
+        match &mut self.law {
+            LawConfig::Paper(p) => p,
+            _ => unreachable!("set just above"),
+        }
+    }
+}
+
+/// `[control] law` and its keys (docs/controllers.md): the paper's (`gain`, `beta1`, `beta2`,
+/// and the event triggers of `[trigger]`), or one of the field's, which beacon periodically or
+/// by ETSI's CAM rules (`[trigger] rule = "periodic"` or `"cam"`); every key of a field's law
+/// is optional, with SUMO's Plexe defaults.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(tag = "law", rename_all = "snake_case", deny_unknown_fields)]
+#[schemars(transform = serde_util::default_tag_schema::<LawConfig>)]
+pub enum LawConfig {
+    /// The paper's `u = -K q` on open-loop estimates, with its event triggers.
+    Paper(PaperLaw),
+    /// Plexe's ACC: cruise control and a constant time headway on the radar, no V2V.
+    Acc(platoon_control::laws::PlexeAccParams),
+    /// The PATH CACC (Rajamani et al.): constant spacing, predecessor and leader.
+    PathCacc(platoon_control::laws::PathCaccParams),
+    /// Ploeg et al.'s CACC: time headway, the predecessor's command fed forward.
+    Ploeg(platoon_control::laws::PloegParams),
+    /// The consensus law of Santini et al.
+    Consensus(platoon_control::laws::ConsensusParams),
+    /// The flatbed controller of Ali, Garcia and Martinet (2015), as Plexe has it.
+    Flatbed(platoon_control::laws::FlatbedParams),
+}
+
+impl DefaultTag for LawConfig {
+    const SELECTOR: &'static str = "law";
+    const DEFAULT: &'static str = "paper";
+}
+
+impl Default for LawConfig {
+    fn default() -> Self {
+        Self::Paper(PaperLaw::default())
+    }
+}
+
+impl LawConfig {
+    /// Which law it is.
+    pub fn kind(&self) -> LawName {
+        match self {
+            Self::Paper(_) => LawName::Paper,
+            Self::Acc(_) => LawName::Acc,
+            Self::PathCacc(_) => LawName::PathCacc,
+            Self::Ploeg(_) => LawName::Ploeg,
+            Self::Consensus(_) => LawName::Consensus,
+            Self::Flatbed(_) => LawName::Flatbed,
+        }
+    }
+
+    /// The controller's law and its parameters.
+    pub fn params(&self) -> platoon_control::LawParams {
+        use platoon_control::LawParams as P;
+        match self {
+            Self::Paper(_) => P::Paper,
+            Self::Acc(p) => P::Acc(*p),
+            Self::PathCacc(p) => P::PathCacc(*p),
+            Self::Ploeg(p) => P::Ploeg(*p),
+            Self::Consensus(p) => P::Consensus(p.clone()),
+            Self::Flatbed(p) => P::Flatbed(*p),
+        }
+    }
+}
+
+/// `law = "paper"`: the gain and the trigger conditions' weights.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(default, deny_unknown_fields)]
+pub struct PaperLaw {
+    /// K in `u_i = -K q_i` (docs/paper-readings.md#R1).
+    pub gain: [f64; 3],
+    /// Weight of |eps|^2 in the trigger conditions.
+    pub beta1: f64,
+    /// Weight of |q|^2 in the trigger conditions.
+    pub beta2: f64,
+}
+
+/// The paper's values (Section IV).
+impl Default for PaperLaw {
+    fn default() -> Self {
+        Self {
+            gain: [4.81, 9.12, 2.97],
+            beta1: 319.38,
+            beta2: 5.62,
+        }
+    }
+}
+
+/// Which law the followers run (`[control] law`; a list on the command line).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, JsonSchema)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "snake_case")]
 pub enum LawName {
-    /// The paper's `u = -K q` on open-loop estimates, with its event triggers.
+    /// The paper's.
     #[default]
     Paper,
-    /// Plexe's ACC: cruise control and a constant time headway on the radar, no V2V.
+    /// Plexe's ACC.
     Acc,
-    /// The PATH CACC (Rajamani et al.): constant spacing, predecessor and leader.
+    /// The PATH CACC.
     PathCacc,
-    /// Ploeg et al.'s CACC: time headway, the predecessor's command fed forward.
+    /// Ploeg et al.'s CACC.
     Ploeg,
-    /// The consensus law of Santini et al.
+    /// The consensus law.
     Consensus,
-    /// The flatbed controller of Ali, Garcia and Martinet (2015), as Plexe has it.
+    /// The flatbed controller.
     Flatbed,
 }
 
@@ -86,83 +175,57 @@ impl LawName {
     }
 
     /// The law with its default parameters (SUMO's Plexe defaults; the paper's own).
-    pub fn defaults(self) -> platoon_control::LawParams {
-        use platoon_control::LawParams as P;
+    pub fn defaults(self) -> LawConfig {
         match self {
-            Self::Paper => P::Paper,
-            Self::Acc => P::Acc(Default::default()),
-            Self::PathCacc => P::PathCacc(Default::default()),
-            Self::Ploeg => P::Ploeg(Default::default()),
-            Self::Consensus => P::Consensus(Default::default()),
-            Self::Flatbed => P::Flatbed(Default::default()),
+            Self::Paper => LawConfig::Paper(Default::default()),
+            Self::Acc => LawConfig::Acc(Default::default()),
+            Self::PathCacc => LawConfig::PathCacc(Default::default()),
+            Self::Ploeg => LawConfig::Ploeg(Default::default()),
+            Self::Consensus => LawConfig::Consensus(Default::default()),
+            Self::Flatbed => LawConfig::Flatbed(Default::default()),
         }
     }
 
-    /// Its config name.
+    /// Its config name (serde's, so the one list of names is the enum's).
     pub fn name(self) -> &'static str {
-        match self {
-            Self::Paper => "paper",
-            Self::Acc => "acc",
-            Self::PathCacc => "path_cacc",
-            Self::Ploeg => "ploeg",
-            Self::Consensus => "consensus",
-            Self::Flatbed => "flatbed",
-        }
+        serde_util::unit_name(&self)
     }
-}
-
-fn paper_gain() -> [f64; 3] {
-    [4.81, 9.12, 2.97]
-}
-
-fn paper_beta1() -> f64 {
-    319.38
-}
-
-fn paper_beta2() -> f64 {
-    5.62
 }
 
 /// `[fallback]`: what a follower does while affected by an attack, and how it comes back.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
-#[serde(deny_unknown_fields)]
+#[serde(default, deny_unknown_fields)]
 pub struct FallbackConfig {
     /// Every follower's fallback (`control.attack_input`, its older name, if given; else
     /// `zero`, the paper's).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub mode: Option<FallbackMode>,
     /// One mode per follower instead (follower 1 first).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub per_vehicle: Option<Vec<FallbackMode>>,
     /// Time a vehicle stays in its fallback once it is no longer affected (s).
-    #[serde(default)]
     pub dwell_s: f64,
     /// Time over which it then returns to the cooperative law, bumplessly (s; 0: at once).
-    #[serde(default)]
     pub blend_s: f64,
     /// ...or longer, so that the gap its fallback left closes at most this fast (m/s).
-    #[serde(default = "two")]
     pub closing_mps: f64,
     /// The ACC law.
-    #[serde(default)]
     pub acc: AccParams,
 }
 
+/// The controller's defaults: no dwell, no blend.
 impl Default for FallbackConfig {
     fn default() -> Self {
+        let d = platoon_control::FallbackParams::default();
         Self {
             mode: None,
             per_vehicle: None,
             dwell_s: 0.0,
             blend_s: 0.0,
-            closing_mps: two(),
-            acc: AccParams::default(),
+            closing_mps: d.closing_mps,
+            acc: d.acc,
         }
     }
-}
-
-fn two() -> f64 {
-    2.0
 }
 
 /// `[radar]`: every follower's on-board radar (read by the `acc` fallback and the guard).
@@ -185,13 +248,15 @@ pub struct RadarConfig {
 
 impl Default for RadarConfig {
     fn default() -> Self {
+        let d = platoon_control::fallback::RadarParams::default();
         Self {
-            range_m: 150.0,
+            range_m: d.range_m,
+            // The controller's period of 5 steps at the paper's step of 0.01 s.
             period_s: 0.05,
-            noise_m: 0.05,
-            noise_mps: 0.05,
-            dropout: 0.0,
-            seed: 1,
+            noise_m: d.noise_m,
+            noise_mps: d.noise_mps,
+            dropout: d.dropout,
+            seed: d.seed,
         }
     }
 }
@@ -231,7 +296,7 @@ pub struct Trigger {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub check_period_s: Option<f64>,
     /// Use the resilient mechanism (11) during attacks.
-    #[serde(default = "yes")]
+    #[serde(default = "resilient_by_default")]
     pub resilient: bool,
     /// Sampling period h of the resilient mechanism (s), a whole number of steps.
     pub h_s: f64,
@@ -252,7 +317,8 @@ impl Serialize for Trigger {
     }
 }
 
-fn yes() -> bool {
+/// The paper's mechanism (11) is on unless a config turns it off.
+fn resilient_by_default() -> bool {
     true
 }
 
@@ -326,13 +392,7 @@ fn cam_speed() -> f64 {
 impl RuleConfig {
     /// Its `rule`.
     pub fn name(&self) -> &'static str {
-        match self {
-            Self::Dynamic { .. } => "dynamic",
-            Self::Static {} => "static",
-            Self::Mixed { .. } => "mixed",
-            Self::Periodic { .. } => "periodic",
-            Self::Cam { .. } => "cam",
-        }
+        serde_util::tag_name(self, "rule")
     }
 }
 
@@ -356,7 +416,7 @@ pub struct DetectionConfig {
     #[serde(default)]
     pub reaction: platoon_control::Reaction,
     /// The quiet period after the last flag (s; default 1).
-    #[serde(default = "detection_quiet")]
+    #[serde(default = "quiet_period_s")]
     pub quiet_s: f64,
     /// The names of detectors a `--controller` plug-in runs itself and reports on the wire
     /// (docs/detection.md): measured against ground truth like the built-in ones, after them.
@@ -365,6 +425,6 @@ pub struct DetectionConfig {
     pub plugin: Vec<String>,
 }
 
-fn detection_quiet() -> f64 {
+fn quiet_period_s() -> f64 {
     1.0
 }

@@ -2,40 +2,6 @@
 use super::{bad, finite, steps_of, Invalid};
 use crate::schema::*;
 
-/// `[control] law` and its table: the params of the law it names (its table filled with the
-/// defaults, so the resolved config says them); a table of another law is an error.
-pub(super) fn law(k: &mut crate::Control) -> Result<platoon_control::LawParams, Invalid> {
-    use platoon_control::LawParams as P;
-    let chosen = k.law;
-    let tables = [
-        (LawName::Acc, k.acc.is_some()),
-        (LawName::PathCacc, k.path_cacc.is_some()),
-        (LawName::Ploeg, k.ploeg.is_some()),
-        (LawName::Consensus, k.consensus.is_some()),
-        (LawName::Flatbed, k.flatbed.is_some()),
-    ];
-    if let Some((other, _)) = tables.iter().find(|(n, given)| *given && *n != chosen) {
-        return bad(
-            &format!("control.{}", other.name()),
-            format!(
-                "is the table of law = \"{}\", but law = \"{}\": remove it or set law",
-                other.name(),
-                chosen.name()
-            ),
-        );
-    }
-    Ok(match chosen {
-        LawName::Paper => P::Paper,
-        LawName::Acc => P::Acc(*k.acc.get_or_insert_with(Default::default)),
-        LawName::PathCacc => P::PathCacc(*k.path_cacc.get_or_insert_with(Default::default)),
-        LawName::Ploeg => P::Ploeg(*k.ploeg.get_or_insert_with(Default::default)),
-        LawName::Consensus => {
-            P::Consensus(k.consensus.get_or_insert_with(Default::default).clone())
-        }
-        LawName::Flatbed => P::Flatbed(*k.flatbed.get_or_insert_with(Default::default)),
-    })
-}
-
 /// `[fallback]`, `[radar]` and `[guard]` (and the older `control.attack_input`).
 pub(super) fn fallback(
     c: &Config,
