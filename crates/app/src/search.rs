@@ -401,11 +401,6 @@ pub struct Search {
 /// A problem to resolve: its label, its config, and its law and topology in a study.
 type Case = (String, Config, Option<(LawName, Preset)>);
 
-fn line_of(text: &str, needle: &str) -> Option<usize> {
-    text.find(needle)
-        .map(|at| text[..at].lines().count().max(1))
-}
-
 /// Reads and resolves a search file; `evaluations` overrides its `evaluations` (a quick
 /// pilot). Errors name the file, the line and the key.
 pub fn load(path: &Path, evaluations: Option<usize>) -> Result<Search, ConfigError> {
@@ -417,10 +412,8 @@ pub fn load(path: &Path, evaluations: Option<usize>) -> Result<Search, ConfigErr
 /// Parses and resolves search text (`file` names it in errors and anchors `base`).
 pub fn parse(text: &str, file: &Path, evaluations: Option<usize>) -> Result<Search, ConfigError> {
     let mut spec: SearchFile = platoon_config::deserialize(text, file)?;
-    let err = |key: &str, message: String| {
-        let needle = key.rsplit('.').next().unwrap_or(key);
-        ConfigError::new(file, key, message).at_line(line_of(text, needle))
-    };
+    let lines = platoon_config::KeyLines::new(text);
+    let err = |key: &str, message: String| ConfigError::at_key(file, &lines, key, message);
     if let Some(n) = evaluations {
         spec.evaluations = n;
     }

@@ -12,6 +12,7 @@
 //! [`mod@reference`] module derives from the types.
 #![warn(missing_docs)]
 
+mod lines;
 pub mod reference;
 mod schema;
 mod serde_util;
@@ -19,6 +20,7 @@ mod tagged;
 mod transport;
 mod validate;
 
+pub use lines::KeyLines;
 pub use reference::{json_schema, reference_markdown, schema_json};
 pub use schema::*;
 pub use tagged::{tagged_tables, TaggedTable, TaggedVariant};
@@ -70,6 +72,18 @@ impl ConfigError {
             message: message.into(),
             line: None,
         }
+    }
+
+    /// What is wrong with `key` of `file`, placed at the line the key stands on in `lines`.
+    pub fn at_key(
+        file: impl Into<PathBuf>,
+        lines: &KeyLines,
+        key: impl Into<String>,
+        message: impl Into<String>,
+    ) -> Self {
+        let key = key.into();
+        let line = lines.line_of(&key);
+        Self::new(file, key, message).at_line(line)
     }
 
     /// The same error, placed at 1-based `line` when known.
