@@ -21,7 +21,9 @@ mod transport;
 mod validate;
 
 pub use lines::KeyLines;
-pub use reference::{json_schema, reference_markdown, schema_json};
+pub use reference::{
+    check_committed, file_reference, json_schema, reference_markdown, schema_json, schema_of,
+};
 pub use schema::*;
 pub use tagged::{tagged_tables, TaggedTable, TaggedVariant};
 pub use transport::Transport;
