@@ -16,3 +16,28 @@ fn a_search_files_error_names_the_keys_own_line() {
     let e = platoon_app::search::parse(text, Path::new("s.toml"), None).unwrap_err();
     assert_eq!((e.key.as_str(), e.line), ("harm", Some(3)), "{e}");
 }
+
+/// The committed search file reference is what the schema types generate: after changing them,
+/// `PLATOON_BLESS=1 cargo test -p platoon-app --test search_file` rewrites it (never where `CI`
+/// is set).
+#[test]
+fn the_search_reference_is_current() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../docs/search-reference.md");
+    let page = platoon_app::search::reference_markdown();
+    for key in [
+        "`[budget]`",
+        "`[search]`",
+        "`[random]`",
+        "`[grid]`",
+        "`[study]`",
+        "`harm`",
+    ] {
+        assert!(page.contains(key), "{key} in the reference:\n{page}");
+    }
+    platoon_config::check_committed(
+        &path,
+        &page,
+        "PLATOON_BLESS=1 cargo test -p platoon-app --test search_file",
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+}

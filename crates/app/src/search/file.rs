@@ -6,6 +6,7 @@ use platoon_campaign::{Transport, Values};
 use platoon_config::LawName;
 use platoon_search::{EvolutionSettings, RandomSettings};
 use platoon_topology::Preset;
+use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 /// Harms a search can maximise: every numeric campaign metric (the smallest ones, `min_*` and
@@ -22,7 +23,7 @@ pub fn harms() -> Vec<&'static str> {
 pub const BASELINES: [&str; 2] = ["random", "grid"];
 
 /// A search file. `campaigns/worst-dos.toml` documents every key.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct SearchFile {
     /// Free-form name \[the file's stem\].
@@ -82,7 +83,7 @@ fn in_process() -> Transport {
 }
 
 /// `[budget]`: what the attacker may do. Every bound given applies.
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct BudgetFile {
     /// Assumption 2's bounds [the base's `attack.assumption2`].
@@ -110,7 +111,7 @@ pub struct BudgetFile {
 }
 
 /// What a jam hits.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum JamKind {
     /// The whole channel.
@@ -122,7 +123,7 @@ pub enum JamKind {
 
 /// `[random]`: the random admissible baseline (the generator's settings default to the
 /// Monte Carlo campaign's).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct RandomFile {
     /// Its seed, as a Monte Carlo campaign's `seed` \[the search's\]: 2024 meets the schedules of
@@ -182,7 +183,7 @@ impl RandomFile {
 }
 
 /// `[grid]`: the one-jam grid baseline \[the DoS-timing campaign's\].
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct GridFile {
     /// Onsets (s).
@@ -211,7 +212,7 @@ impl Default for GridFile {
 
 /// `[study]`: the search on every law and topology, each law as `platoon experiment
 /// controllers` runs it (its beaconing and distances, in formation).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct StudyFile {
     /// The laws \[every law\].
@@ -233,4 +234,18 @@ fn pf_plf() -> Vec<Preset> {
 }
 fn beacon() -> f64 {
     0.1
+}
+
+/// `docs/search-reference.md`: every key of a search file, generated from [`SearchFile`].
+pub fn reference_markdown() -> String {
+    platoon_config::file_reference(
+        &platoon_config::schema_of::<SearchFile>(),
+        "Search file reference",
+        "platoon_app::search::reference_markdown() from the schema types in \
+         crates/app/src/search/file.rs",
+        "`PLATOON_BLESS=1 cargo test -p platoon-app --test search_file`",
+        "Every key of a search file (`platoon search FILE`), table by table. Unknown keys are \
+         errors; a key with a default may be left out. [search.md](search.md) shows them at \
+         work.",
+    )
 }
