@@ -22,15 +22,16 @@ fn the_papers_gain_checked() {
     let r = design::check_gain(&config, &scenario, &CheckOptions::default()).unwrap();
     let (_, ratio) = r.min_ratio_at_c.unwrap();
     assert!(r.stable_over_tau_range && !r.config_ratio_certified);
-    let (beta1, beta2) = (config.control.beta1, config.control.beta2);
+    let paper = config.control.paper_law();
+    let (beta1, beta2) = (paper.beta1, paper.beta2);
     published(
         DOC,
         "Tested: the paper's K = [{}, {}, {}] is stable for every tau in [{}, {}] s, but on the TPSF \
          graph (13) needs beta1/beta2 >= {}, {}x the paper's {}/{} = {}, which does not satisfy it",
         &[
-            format!("{}", config.control.gain[0]),
-            format!("{}", config.control.gain[1]),
-            format!("{}", config.control.gain[2]),
+            format!("{}", paper.gain[0]),
+            format!("{}", paper.gain[1]),
+            format!("{}", paper.gain[2]),
             format!("{}", scenario.tau_range().0),
             format!("{}", scenario.tau_range().1),
             format!("{ratio:.2}"),
@@ -150,8 +151,9 @@ fn the_designed_gains() {
 
     // The paper scenario with the designed K and beta1 = ratio x beta2, as `run --design`.
     let mut designed = config.clone();
-    designed.control.gain = d.k;
-    designed.control.beta1 = d.beta1_over_beta2 * designed.control.beta2;
+    let paper = designed.control.paper_law_mut();
+    paper.gain = d.k;
+    paper.beta1 = d.beta1_over_beta2 * paper.beta2;
     let (_, sc) = platoon_config::parse(
         &platoon_config::to_toml(&designed),
         Path::new("designed.toml"),

@@ -220,7 +220,7 @@ pub fn check_gain(
     opts: &CheckOptions,
 ) -> Result<CheckReport> {
     opts.validate()?;
-    let k = opts.gain.unwrap_or(config.control.gain);
+    let k = opts.gain.unwrap_or(config.control.paper_law().gain);
     let n = scenario.topology.followers();
     let g = coupling(scenario, opts.time_headway)?;
     let tau = scenario.control.tau_nominal;
@@ -239,7 +239,7 @@ pub fn check_gain(
     let started = std::time::Instant::now();
     let min = min_ratio(k, opts.c, &g, &taus_lmi, 1e-6)?;
     let sdp_seconds = started.elapsed().as_secs_f64();
-    let config_ratio = config.control.beta1 / config.control.beta2;
+    let config_ratio = config.control.paper_law().beta1 / config.control.paper_law().beta2;
     let (certificate, min_ratio, certified) = match min {
         Feasibility::Feasible(cert) => {
             let mut at_config = cert.clone();
@@ -588,8 +588,8 @@ pub fn synthesize(
         theorem: opts.theorem.number(),
         time_headway_s: g.headway,
         k: d.k,
-        beta1: d.certificate.ratio * config.control.beta2,
-        beta2: config.control.beta2,
+        beta1: d.certificate.ratio * config.control.paper_law().beta2,
+        beta2: config.control.paper_law().beta2,
         beta1_over_beta2: d.certificate.ratio,
         c,
         p: p_cert.p,

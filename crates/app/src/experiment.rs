@@ -1192,7 +1192,7 @@ pub fn scaling(
     taus.sort_by(f64::total_cmp);
     taus.dedup();
     let h_t = opts.time_headway;
-    let paper_k = base_config.control.gain;
+    let paper_k = base_config.control.paper_law().gain;
     let total = opts.presets.len() * opts.sizes.len() * 4;
     progress.start("simulating", total as u64);
     let mut rows = Vec::with_capacity(total);
@@ -1221,7 +1221,8 @@ pub fn scaling(
         };
         // The designed gain runs with the trigger ratio it was designed with (the paper's
         // co-design of K and beta1/beta2); the paper's gain with the base's.
-        let base_ratio = base_config.control.beta1 / base_config.control.beta2;
+        let base_ratio =
+            base_config.control.paper_law().beta1 / base_config.control.paper_law().beta2;
         let variants: Vec<(&'static str, [f64; 3], f64, f64)> =
             std::iter::once(("paper-constant", paper_k, 0.0, base_ratio))
                 .chain(designed_k.map(|(k, r)| ("designed-time-headway", k, h_t, r)))
@@ -1276,8 +1277,9 @@ pub fn scaling(
                     c.platoon.spacing =
                         platoon_control::SpacingPolicy::from_headway(headway).into();
                     c.topology = preset.into();
-                    c.control.gain = k;
-                    c.control.beta1 = ratio * c.control.beta2;
+                    let paper = c.control.paper_law_mut();
+                    paper.gain = k;
+                    paper.beta1 = ratio * paper.beta2;
                     c.fallback.per_vehicle = None;
                     if dos == "none" {
                         c.attack = platoon_config::Attack::default();

@@ -173,8 +173,15 @@ pub fn apply_design(
             scenario.headway()
         )
     });
-    config.control.gain = cert.k;
-    config.control.beta1 = cert.ratio * config.control.beta2;
+    let platoon_config::LawConfig::Paper(paper) = &mut config.control.law else {
+        anyhow::bail!(
+            "{}: a design is the paper's law's gain and ratio, but the config runs law = \"{}\"",
+            file.display(),
+            config.control.law.kind().name()
+        );
+    };
+    paper.gain = cert.k;
+    paper.beta1 = cert.ratio * paper.beta2;
     let label = format!("{} with the design {}", stem, file.display());
     *scenario = platoon_config::parse(&platoon_config::to_toml(config), Path::new(&label))?.1;
     Ok(warning)

@@ -14,7 +14,7 @@ fn json(path: &std::path::Path) -> serde_json::Value {
 fn check_gain_on_the_paper_scenario_gives_the_pinned_ratios_in_memory() {
     let (config, scenario) = Embedded::Paper.parse().unwrap();
     let report = design::check_gain(&config, &scenario, &CheckOptions::default()).unwrap();
-    assert_eq!(report.k, config.control.gain);
+    assert_eq!(report.k, config.control.paper_law().gain);
     assert_eq!(report.topology_followers, 4);
     assert_eq!(report.time_headway_s, 0.0);
     assert!(report.stable_over_tau_range);
@@ -122,7 +122,7 @@ fn synthesis_returns_a_certified_design_and_its_bounds() {
     assert_eq!(r.theorem, 1);
     assert_eq!(r.k, d.k);
     assert_eq!(r.beta1_over_beta2, d.certificate.ratio);
-    assert_eq!(r.beta2, config.control.beta2);
+    assert_eq!(r.beta2, config.control.paper_law().beta2);
     assert!(r.varsigma1 > 0.0 && r.varsigma1 <= s.trigger_cap + 1e-12);
     assert!(r.t2_bound.unwrap() > 0.0 && r.d2_bound.unwrap() > 1.0);
     assert!(r

@@ -99,13 +99,6 @@ fn error(file: &Path, line: Option<usize>, key: &str, message: impl Into<String>
     ConfigError::new(file, key, message).at_line(line)
 }
 
-/// The 1-based line of the first occurrence of `needle` in `text`.
-fn line_of(text: &str, needle: &str) -> Option<usize> {
-    text.find(needle)
-        .map(|at| text[..at].lines().count().max(1) + usize::from(text[..at].ends_with('\n')))
-        .map(|l| l.min(text.lines().count().max(1)))
-}
-
 /// Rounds away the last bits of `from + i step` (0.30000000000000004 -> 0.3).
 fn tidy(x: f64) -> f64 {
     if x == 0.0 || !x.is_finite() {
@@ -196,7 +189,8 @@ impl Campaign {
     /// Parses and expands campaign text (`file` names it in errors and anchors `base`).
     pub fn parse(text: &str, file: &Path, samples: Option<usize>) -> Result<Campaign, ConfigError> {
         let mut spec: CampaignFile = platoon_config::deserialize(text, file)?;
-        let at = |needle: &str| line_of(text, needle);
+        let lines = platoon_config::KeyLines::new(text);
+        let at = |key: &str| lines.line_of(key);
 
         // The base scenario, resolved.
         let dir = file.parent().unwrap_or(Path::new("."));
@@ -250,8 +244,7 @@ impl Campaign {
 
         // Every key the campaign sets must exist in the schema and take the values given:
         // checked on the base alone, so a typo is a campaign error, not a thousand failed cells.
-        let schema_check = |key: &str, value: &toml::Value, what: &str| {
-            let line = at(&format!("\"{key}\""));
+        let schema_check = |key: &str, value: &toml::Value, what: &str, line: Option<usize>| {
             let mut v = base.clone();
             set(&mut v, key, value.clone()).map_err(|m| error(file, line, what, m))?;
             drop_excluded(&mut v, &[key]);
@@ -267,7 +260,7 @@ impl Campaign {
                 })
         };
         for (key, value) in &spec.set {
-            schema_check(key, value, &format!("set.{key}"))?;
+            schema_check(key, value, &format!("set.{key}"), lines.line(&["set", key]))?;
         }
 
         // Axes -> columns and dimensions.
@@ -276,7 +269,7 @@ impl Campaign {
         let mut zip_dims: Vec<(String, usize)> = Vec::new();
         for (i, axis) in spec.axes.iter().enumerate() {
             let what = format!("axes[{i}]");
-            let line = at(&format!("\"{}\"", axis.key));
+            let line = at(&format!("{what}.key"));
             let values = match (&axis.values, &axis.range) {
                 (Some(v), None) => v.clone(),
                 (None, Some(r)) => {
@@ -316,7 +309,7 @@ impl Campaign {
                 ));
             }
             for v in &values {
-                schema_check(&axis.key, v, &what)?;
+                schema_check(&axis.key, v, &what, line)?;
             }
             let dim = match &axis.zip {
                 Some(group) => match zip_dims.iter().find(|(g, _)| g == group) {
@@ -355,7 +348,7 @@ impl Campaign {
         if let Some(w) = &spec.dos_window {
             for (name, v) in [("onset_s", &w.onset_s), ("duration_s", &w.duration_s)] {
                 let key = format!("dos_window.{name}");
-                let values = values_of(v).map_err(|m| error(file, at(name), &key, m))?;
+                let values = values_of(v).map_err(|m| error(file, at(&key), &key, m))?;
                 let bad = values.iter().any(|x| {
                     let x = as_f64(x).unwrap_or(f64::NAN);
                     !(x.is_finite() && (x > 0.0 || (name == "onset_s" && x == 0.0)))
@@ -363,7 +356,7 @@ impl Campaign {
                 if values.is_empty() || bad {
                     return Err(error(
                         file,
-                        at(name),
+                        at(&key),
                         &key,
                         "needs at least one value; onsets >= 0 and durations > 0 (s)",
                     ));
@@ -398,7 +391,7 @@ impl Campaign {
                 if mc.samples == 0 {
                     return Err(error(
                         file,
-                        at("samples"),
+                        at("monte_carlo.samples"),
                         "monte_carlo.samples",
                         "must be >= 1",
                     ));
@@ -410,7 +403,7 @@ impl Campaign {
                         if !ok {
                             return Err(error(
                                 file,
-                                at(key),
+                                at(&format!("monte_carlo.{key}")),
                                 &format!("monte_carlo.{key}"),
                                 "needs [min, max] with 0 <= min <= max (a loss rate at most 1, a tau above 0)",
                             ));
@@ -425,7 +418,7 @@ impl Campaign {
                     if !(x.is_finite() && x >= 0.0) {
                         return Err(error(
                             file,
-                            at(key),
+                            at(&format!("monte_carlo.{key}")),
                             &format!("monte_carlo.{key}"),
                             "must be a number >= 0",
                         ));

@@ -1,10 +1,11 @@
 //! The campaign file's schema (TOML, unknown keys are errors).
 pub use platoon_config::Transport;
+use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
 /// A campaign file. `campaigns/*.toml` document every key with a comment.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct CampaignFile {
     /// Free-form name [the file's stem].
@@ -23,6 +24,7 @@ pub struct CampaignFile {
     pub transport: Transport,
     /// Keys set in every cell, by dotted path (`"simulation.duration_s" = 20.0`).
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    #[schemars(with = "BTreeMap<String, serde_json::Value>")]
     pub set: BTreeMap<String, toml::Value>,
     /// The axes, crossed in file order (the first varies slowest), except those sharing a
     /// `zip` group, which advance together.
@@ -40,7 +42,7 @@ pub struct CampaignFile {
 }
 
 /// `[[axes]]`: one config key and its values (a list or a range).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct AxisSpec {
     /// Dotted path of a scenario key: `trigger.rule`, `platoon.followers`,
@@ -48,6 +50,7 @@ pub struct AxisSpec {
     pub key: String,
     /// The values, any TOML values of the key's type.
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(with = "Option<Vec<serde_json::Value>>")]
     pub values: Option<Vec<toml::Value>>,
     /// Or a numeric range.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -59,15 +62,18 @@ pub struct AxisSpec {
 
 /// A numeric range: `from`, `to` (inclusive) and either `step` or `count` (evenly spaced).
 /// Integers throughout (`from`, `to`, `step`) give integer values.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Range {
     /// First value.
+    #[schemars(with = "serde_json::Value")]
     pub from: toml::Value,
     /// Last value (included when the steps land on it).
+    #[schemars(with = "serde_json::Value")]
     pub to: toml::Value,
     /// Increment.
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(with = "Option<serde_json::Value>")]
     pub step: Option<toml::Value>,
     /// Number of evenly spaced values from `from` to `to`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -75,7 +81,7 @@ pub struct Range {
 }
 
 /// Values of a DoS-window axis: a list of seconds or a range.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(untagged)]
 pub enum Values {
     /// Explicit values.
@@ -86,7 +92,7 @@ pub enum Values {
 
 /// `[dos_window]`: replaces the base's DoS schedule by one interval per cell (keeping its
 /// `attack.assumption2` bounds, so every cell gets the Assumption-2 verdict).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct DosWindow {
     /// Start of the attack (s).
@@ -97,7 +103,7 @@ pub struct DosWindow {
 
 /// `[monte_carlo]`: `samples` draws per combination of the axes; draw `s` uses the same random
 /// numbers in every combination (common random numbers, so axes compare on equal draws).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct MonteCarlo {
     /// Number of samples.
@@ -125,7 +131,7 @@ fn is_zero(x: &f64) -> bool {
 }
 
 /// Assumption 2's bounds and the generator's proposal ranges (see `[attack] kind = "random"`).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 #[allow(non_snake_case)]
 pub struct RandomDosSpec {
@@ -150,4 +156,19 @@ pub struct RandomDosSpec {
 /// Cells run in the campaign's own workers unless the file says otherwise.
 fn in_process() -> Transport {
     Transport::Inproc
+}
+
+/// `docs/campaign-reference.md`: every key of a campaign file, generated from [`CampaignFile`].
+pub fn reference_markdown() -> String {
+    platoon_config::file_reference(
+        &platoon_config::schema_of::<CampaignFile>(),
+        "Campaign file reference",
+        "platoon_campaign::reference_markdown() from the schema types in \
+         crates/campaign/src/spec.rs",
+        "`PLATOON_BLESS=1 cargo test -p platoon-campaign --test reference`",
+        "Every key of a campaign file (`platoon campaign FILE`), table by table. Unknown keys are \
+         errors; a key with a default may be left out. The scenario keys a campaign sets or \
+         sweeps are those of the [config reference](config-reference.md). \
+         [campaigns.md](campaigns.md) shows them at work.",
+    )
 }

@@ -36,8 +36,8 @@ fn axes_cross_with_the_first_slowest_and_zipped_axes_advance_together() {
             let k = config(cell);
             (
                 k.trigger.rule.name().to_string(),
-                k.control.beta1,
-                k.control.beta2,
+                k.control.paper_law().beta1,
+                k.control.paper_law().beta2,
             )
         })
         .collect();

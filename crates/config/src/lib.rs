@@ -12,6 +12,7 @@
 //! [`mod@reference`] module derives from the types.
 #![warn(missing_docs)]
 
+mod lines;
 pub mod reference;
 mod schema;
 mod serde_util;
@@ -19,7 +20,10 @@ mod tagged;
 mod transport;
 mod validate;
 
-pub use reference::{json_schema, reference_markdown, schema_json};
+pub use lines::KeyLines;
+pub use reference::{
+    check_committed, file_reference, json_schema, reference_markdown, schema_json, schema_of,
+};
 pub use schema::*;
 pub use tagged::{tagged_tables, TaggedTable, TaggedVariant};
 pub use transport::Transport;
@@ -70,6 +74,18 @@ impl ConfigError {
             message: message.into(),
             line: None,
         }
+    }
+
+    /// What is wrong with `key` of `file`, placed at the line the key stands on in `lines`.
+    pub fn at_key(
+        file: impl Into<PathBuf>,
+        lines: &KeyLines,
+        key: impl Into<String>,
+        message: impl Into<String>,
+    ) -> Self {
+        let key = key.into();
+        let line = lines.line_of(&key);
+        Self::new(file, key, message).at_line(line)
     }
 
     /// The same error, placed at 1-based `line` when known.

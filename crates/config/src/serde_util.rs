@@ -5,6 +5,117 @@
 use serde::de::{DeserializeOwned, Deserializer};
 use serde::ser::{self, Impossible, Serialize, SerializeMap, SerializeStruct};
 
+/// The methods of a `Serializer` that refuses every value but a struct and a unit variant
+/// (each serializer here writes those two itself), failing with `$refuse()`.
+macro_rules! refuse_the_rest {
+    ($refuse:ident) => {
+        fn serialize_bool(self, _: bool) -> Result<Self::Ok, Self::Error> {
+            Err($refuse())
+        }
+        fn serialize_i8(self, _: i8) -> Result<Self::Ok, Self::Error> {
+            Err($refuse())
+        }
+        fn serialize_i16(self, _: i16) -> Result<Self::Ok, Self::Error> {
+            Err($refuse())
+        }
+        fn serialize_i32(self, _: i32) -> Result<Self::Ok, Self::Error> {
+            Err($refuse())
+        }
+        fn serialize_i64(self, _: i64) -> Result<Self::Ok, Self::Error> {
+            Err($refuse())
+        }
+        fn serialize_u8(self, _: u8) -> Result<Self::Ok, Self::Error> {
+            Err($refuse())
+        }
+        fn serialize_u16(self, _: u16) -> Result<Self::Ok, Self::Error> {
+            Err($refuse())
+        }
+        fn serialize_u32(self, _: u32) -> Result<Self::Ok, Self::Error> {
+            Err($refuse())
+        }
+        fn serialize_u64(self, _: u64) -> Result<Self::Ok, Self::Error> {
+            Err($refuse())
+        }
+        fn serialize_f32(self, _: f32) -> Result<Self::Ok, Self::Error> {
+            Err($refuse())
+        }
+        fn serialize_f64(self, _: f64) -> Result<Self::Ok, Self::Error> {
+            Err($refuse())
+        }
+        fn serialize_char(self, _: char) -> Result<Self::Ok, Self::Error> {
+            Err($refuse())
+        }
+        fn serialize_str(self, _: &str) -> Result<Self::Ok, Self::Error> {
+            Err($refuse())
+        }
+        fn serialize_bytes(self, _: &[u8]) -> Result<Self::Ok, Self::Error> {
+            Err($refuse())
+        }
+        fn serialize_none(self) -> Result<Self::Ok, Self::Error> {
+            Err($refuse())
+        }
+        fn serialize_some<T: Serialize + ?Sized>(self, _: &T) -> Result<Self::Ok, Self::Error> {
+            Err($refuse())
+        }
+        fn serialize_unit(self) -> Result<Self::Ok, Self::Error> {
+            Err($refuse())
+        }
+        fn serialize_unit_struct(self, _: &'static str) -> Result<Self::Ok, Self::Error> {
+            Err($refuse())
+        }
+        fn serialize_newtype_struct<T: Serialize + ?Sized>(
+            self,
+            _: &'static str,
+            _: &T,
+        ) -> Result<Self::Ok, Self::Error> {
+            Err($refuse())
+        }
+        fn serialize_newtype_variant<T: Serialize + ?Sized>(
+            self,
+            _: &'static str,
+            _: u32,
+            _: &'static str,
+            _: &T,
+        ) -> Result<Self::Ok, Self::Error> {
+            Err($refuse())
+        }
+        fn serialize_seq(self, _: Option<usize>) -> Result<Self::SerializeSeq, Self::Error> {
+            Err($refuse())
+        }
+        fn serialize_tuple(self, _: usize) -> Result<Self::SerializeTuple, Self::Error> {
+            Err($refuse())
+        }
+        fn serialize_tuple_struct(
+            self,
+            _: &'static str,
+            _: usize,
+        ) -> Result<Self::SerializeTupleStruct, Self::Error> {
+            Err($refuse())
+        }
+        fn serialize_tuple_variant(
+            self,
+            _: &'static str,
+            _: u32,
+            _: &'static str,
+            _: usize,
+        ) -> Result<Self::SerializeTupleVariant, Self::Error> {
+            Err($refuse())
+        }
+        fn serialize_map(self, _: Option<usize>) -> Result<Self::SerializeMap, Self::Error> {
+            Err($refuse())
+        }
+        fn serialize_struct_variant(
+            self,
+            _: &'static str,
+            _: u32,
+            _: &'static str,
+            _: usize,
+        ) -> Result<Self::SerializeStructVariant, Self::Error> {
+            Err($refuse())
+        }
+    };
+}
+
 /// An internally tagged enum whose tag may be left out: the table then means [`Self::DEFAULT`].
 pub(crate) trait DefaultTag {
     /// The selector key (`spacing_policy`).
@@ -114,60 +225,6 @@ impl<'a, M: SerializeMap> ser::Serializer for Entries<'a, M> {
         Ok(self)
     }
 
-    fn serialize_bool(self, _: bool) -> Result<(), M::Error> {
-        Err(not_a_struct())
-    }
-    fn serialize_i8(self, _: i8) -> Result<(), M::Error> {
-        Err(not_a_struct())
-    }
-    fn serialize_i16(self, _: i16) -> Result<(), M::Error> {
-        Err(not_a_struct())
-    }
-    fn serialize_i32(self, _: i32) -> Result<(), M::Error> {
-        Err(not_a_struct())
-    }
-    fn serialize_i64(self, _: i64) -> Result<(), M::Error> {
-        Err(not_a_struct())
-    }
-    fn serialize_u8(self, _: u8) -> Result<(), M::Error> {
-        Err(not_a_struct())
-    }
-    fn serialize_u16(self, _: u16) -> Result<(), M::Error> {
-        Err(not_a_struct())
-    }
-    fn serialize_u32(self, _: u32) -> Result<(), M::Error> {
-        Err(not_a_struct())
-    }
-    fn serialize_u64(self, _: u64) -> Result<(), M::Error> {
-        Err(not_a_struct())
-    }
-    fn serialize_f32(self, _: f32) -> Result<(), M::Error> {
-        Err(not_a_struct())
-    }
-    fn serialize_f64(self, _: f64) -> Result<(), M::Error> {
-        Err(not_a_struct())
-    }
-    fn serialize_char(self, _: char) -> Result<(), M::Error> {
-        Err(not_a_struct())
-    }
-    fn serialize_str(self, _: &str) -> Result<(), M::Error> {
-        Err(not_a_struct())
-    }
-    fn serialize_bytes(self, _: &[u8]) -> Result<(), M::Error> {
-        Err(not_a_struct())
-    }
-    fn serialize_none(self) -> Result<(), M::Error> {
-        Err(not_a_struct())
-    }
-    fn serialize_some<T: Serialize + ?Sized>(self, _: &T) -> Result<(), M::Error> {
-        Err(not_a_struct())
-    }
-    fn serialize_unit(self) -> Result<(), M::Error> {
-        Err(not_a_struct())
-    }
-    fn serialize_unit_struct(self, _: &'static str) -> Result<(), M::Error> {
-        Err(not_a_struct())
-    }
     fn serialize_unit_variant(
         self,
         _: &'static str,
@@ -176,54 +233,86 @@ impl<'a, M: SerializeMap> ser::Serializer for Entries<'a, M> {
     ) -> Result<(), M::Error> {
         Err(not_a_struct())
     }
-    fn serialize_newtype_struct<T: Serialize + ?Sized>(
-        self,
-        _: &'static str,
-        _: &T,
-    ) -> Result<(), M::Error> {
-        Err(not_a_struct())
+
+    refuse_the_rest!(not_a_struct);
+}
+
+/// The name serde gives a unit variant (`LawName::PathCacc` -> `path_cacc`): the enum's
+/// `rename_all` is the one list of its names.
+pub(crate) fn unit_name<T: Serialize>(value: &T) -> &'static str {
+    value
+        .serialize(UnitName)
+        .expect("a unit variant of a fieldless enum")
+}
+
+struct UnitName;
+
+#[derive(Debug)]
+struct NotAUnitVariant;
+
+impl std::fmt::Display for NotAUnitVariant {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("not a unit variant")
     }
-    fn serialize_newtype_variant<T: Serialize + ?Sized>(
+}
+
+impl std::error::Error for NotAUnitVariant {}
+
+impl ser::Error for NotAUnitVariant {
+    fn custom<T: std::fmt::Display>(_: T) -> Self {
+        Self
+    }
+}
+
+fn not_a_unit_variant() -> NotAUnitVariant {
+    NotAUnitVariant
+}
+
+impl ser::Serializer for UnitName {
+    type Ok = &'static str;
+    type Error = NotAUnitVariant;
+    type SerializeSeq = Impossible<&'static str, NotAUnitVariant>;
+    type SerializeTuple = Impossible<&'static str, NotAUnitVariant>;
+    type SerializeTupleStruct = Impossible<&'static str, NotAUnitVariant>;
+    type SerializeTupleVariant = Impossible<&'static str, NotAUnitVariant>;
+    type SerializeMap = Impossible<&'static str, NotAUnitVariant>;
+    type SerializeStruct = Impossible<&'static str, NotAUnitVariant>;
+    type SerializeStructVariant = Impossible<&'static str, NotAUnitVariant>;
+
+    fn serialize_unit_variant(
         self,
         _: &'static str,
         _: u32,
-        _: &'static str,
-        _: &T,
-    ) -> Result<(), M::Error> {
-        Err(not_a_struct())
+        variant: &'static str,
+    ) -> Result<&'static str, NotAUnitVariant> {
+        Ok(variant)
     }
-    fn serialize_seq(self, _: Option<usize>) -> Result<Self::SerializeSeq, M::Error> {
-        Err(not_a_struct())
-    }
-    fn serialize_tuple(self, _: usize) -> Result<Self::SerializeTuple, M::Error> {
-        Err(not_a_struct())
-    }
-    fn serialize_tuple_struct(
+
+    fn serialize_struct(
         self,
         _: &'static str,
         _: usize,
-    ) -> Result<Self::SerializeTupleStruct, M::Error> {
-        Err(not_a_struct())
+    ) -> Result<Self::SerializeStruct, NotAUnitVariant> {
+        Err(NotAUnitVariant)
     }
-    fn serialize_tuple_variant(
-        self,
-        _: &'static str,
-        _: u32,
-        _: &'static str,
-        _: usize,
-    ) -> Result<Self::SerializeTupleVariant, M::Error> {
-        Err(not_a_struct())
-    }
-    fn serialize_map(self, _: Option<usize>) -> Result<Self::SerializeMap, M::Error> {
-        Err(not_a_struct())
-    }
-    fn serialize_struct_variant(
-        self,
-        _: &'static str,
-        _: u32,
-        _: &'static str,
-        _: usize,
-    ) -> Result<Self::SerializeStructVariant, M::Error> {
-        Err(not_a_struct())
-    }
+
+    refuse_the_rest!(not_a_unit_variant);
+}
+
+/// The selector's value (`kind`, `rule`, ...) serde writes for a tagged table's enum: the enum's
+/// `rename_all` is the one list of its names. Served from [`crate::tagged_tables`], which holds
+/// every such name for the process's lifetime.
+pub(crate) fn tag_name<T: Serialize>(value: &T, selector: &str) -> &'static str {
+    let table = toml::Value::try_from(value).expect("a tagged table serialises");
+    let tag = table
+        .get(selector)
+        .and_then(toml::Value::as_str)
+        .expect("a tagged table writes its selector");
+    crate::tagged_tables()
+        .iter()
+        .filter(|t| t.selector == selector)
+        .flat_map(|t| &t.variants)
+        .map(|v| v.tag.as_str())
+        .find(|t| *t == tag)
+        .expect("every selector value is in the schema")
 }

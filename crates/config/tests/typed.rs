@@ -345,12 +345,12 @@ fn a_spacing_policy_converts_to_and_from_the_controls_type() {
 }
 
 /// The paper's scenario turned to one of the field's laws: periodic beacons on plf, the
-/// platoon's spacing the law's (`spacing`), plus `extra` keys after `[control]`'s.
+/// platoon's spacing the law's (`spacing`), plus `extra` keys in `[control]` after `law`.
 fn law_config(law: &str, spacing: &str, extra: &str) -> String {
     PAPER_TOML
         .replacen(
-            "beta2 = 5.62",
-            &format!("beta2 = 5.62\nlaw = \"{law}\"\n{extra}"),
+            "gain = [4.81, 9.12, 2.97]      # u_i = -K q_i (reading R1)\nbeta1 = 319.38\nbeta2 = 5.62",
+            &format!("law = \"{law}\"\n{extra}"),
             1,
         )
         .replacen("preset = \"tpsf\"", "preset = \"plf\"", 1)
@@ -371,40 +371,44 @@ fn law_config(law: &str, spacing: &str, extra: &str) -> String {
 }
 
 #[test]
-fn a_field_law_takes_its_own_table_and_is_checked_against_the_platoon() {
-    // Accepted, the law's table written out with its defaults.
+fn a_field_law_takes_its_own_keys_and_is_checked_against_the_platoon() {
+    // Accepted, the law's keys written out with their defaults.
     let text = law_config("path_cacc", "spacing_m = 5.0", "");
     let (config, scenario) = parse(&text, Path::new("law.toml")).unwrap();
     assert_eq!(scenario.control.law.name(), "path_cacc");
     let written = to_toml(&config);
-    assert!(written.contains("[control.path_cacc]"), "{written}");
+    assert!(
+        written.contains("[control]\nlaw = \"path_cacc\"\n"),
+        "{written}"
+    );
+    assert!(!written.contains("beta1"), "the paper's keys go: {written}");
     assert!(written.contains("omega_n_radps = 0.2"), "{written}");
     let (again, _) = parse(&written, Path::new("resolved.toml")).unwrap();
     assert_eq!(again, config);
 
     let bad = |t: String| parse(&t, Path::new("bad.toml")).expect_err("refused");
-    // An unknown key of the law's table, by key.
+    // An unknown key of the law, by key.
     let e = bad(law_config(
         "path_cacc",
         "spacing_m = 5.0",
-        "[control.path_cacc]\nxi = 1.0\nomega = 3.0\n",
+        "xi = 1.0\nomega = 3.0\n",
     ));
-    assert_eq!(e.key, "control.path_cacc.omega", "{e}");
-    // Another law's table.
+    assert_eq!(e.key, "control.omega", "{e}");
+    // Another law's key.
     let e = bad(law_config(
         "path_cacc",
         "spacing_m = 5.0",
-        "[control.ploeg]\nheadway_s = 0.6\n",
+        "headway_s = 0.6\n",
     ));
-    assert_eq!(e.key, "control.ploeg", "{e}");
+    assert_eq!(e.key, "control.headway_s", "{e}");
     assert!(e.to_string().contains("law = \"path_cacc\""), "{e}");
+    // The paper's keys with another law.
+    let e = bad(law_config("path_cacc", "spacing_m = 5.0", "beta1 = 1.0\n"));
+    assert_eq!(e.key, "control.beta1", "{e}");
+    assert!(e.to_string().contains("law = \"paper\""), "{e}");
     // A value out of range, by key.
-    let e = bad(law_config(
-        "path_cacc",
-        "spacing_m = 5.0",
-        "[control.path_cacc]\nxi = 0.5\n",
-    ));
-    assert_eq!(e.key, "control.path_cacc.xi", "{e}");
+    let e = bad(law_config("path_cacc", "spacing_m = 5.0", "xi = 0.5\n"));
+    assert_eq!(e.key, "control.xi", "{e}");
     // The paper's event triggers need the paper's law.
     let e = bad(law_config("path_cacc", "spacing_m = 5.0", "").replacen(
         "rule = \"periodic\"\nperiod_s = 0.1",
@@ -535,10 +539,10 @@ fn consensus_rows_and_cam_keys_are_refused_by_key() {
     adjacency[3][1] = 1.0;
     let rows: Vec<String> = adjacency.iter().map(|r| format!("{r:?}")).collect();
     let e = bad(consensus(
-        &format!("[control.consensus]\nadjacency = [{}]\n", rows.join(", ")),
+        &format!("adjacency = [{}]\n", rows.join(", ")),
         "preset = \"plf\"",
     ));
-    assert_eq!(e.key, "control.consensus.adjacency", "{e}");
+    assert_eq!(e.key, "control.adjacency", "{e}");
     assert!(e.to_string().contains("row 3 listens to vehicle 1"), "{e}");
     // SUMO's defaults serve 7 followers at most: 9 vehicles need more entries.
     let mut eight = String::new();
@@ -555,7 +559,7 @@ fn consensus_rows_and_cam_keys_are_refused_by_key() {
         }
     }
     let e = bad(eight);
-    assert_eq!(e.key, "control.consensus.gains", "{e}");
+    assert_eq!(e.key, "control.gains", "{e}");
     // A CAM key out of range, under [trigger].
     let cam = law_config("path_cacc", "spacing_m = 5.0", "").replacen(
         "rule = \"periodic\"\nperiod_s = 0.1",

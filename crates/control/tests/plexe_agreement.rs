@@ -302,10 +302,7 @@ fn max_gap_deviation(law: Law, reference: &Reference, limits: Limits) -> Vec<f64
 /// SUMO's initial states.
 fn config(law: Law, reference: &Reference) -> String {
     let (name, table) = match law {
-        Law::Acc => (
-            "acc",
-            format!("[control.acc]\ndesired_speed_mps = {CC_SPEED}\n"),
-        ),
+        Law::Acc => ("acc", format!("desired_speed_mps = {CC_SPEED}\n")),
         Law::Cacc => ("path_cacc", String::new()),
         Law::Ploeg => ("ploeg", String::new()),
         Law::Consensus => ("consensus", String::new()),

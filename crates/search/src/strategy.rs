@@ -273,6 +273,7 @@ impl Strategy for GridSampler {
 
 /// How [`Evolution`] searches.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schemars", derive(schemars::JsonSchema))]
 #[serde(deny_unknown_fields)]
 pub struct EvolutionSettings {
     /// Schedules per generation (a batch run in parallel) \[24\].

@@ -15,6 +15,7 @@ use serde::{Deserialize, Serialize};
 
 /// The named topologies of the literature.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schemars", derive(schemars::JsonSchema))]
 #[serde(rename_all = "lowercase")]
 pub enum Preset {
     /// Predecessor following: i hears i-1 (follower 1 hears the leader).

@@ -3,7 +3,7 @@ use super::Base;
 use crate::progress::Progress;
 use anyhow::{anyhow, bail, Result};
 use platoon_config::{
-    Attack, DosConfig, Formation, LawName, LinkAttackConfig, LinkKindConfig, RuleConfig,
+    Attack, DosConfig, Formation, LawConfig, LawName, LinkAttackConfig, LinkKindConfig, RuleConfig,
     SpacingConfig, TopologyConfig,
 };
 use platoon_output::plots;
@@ -206,22 +206,18 @@ pub(crate) fn configure(
     beacon_period_s: f64,
 ) -> platoon_config::Config {
     let mut c = base.clone();
-    c.control.law = law;
-    c.control.acc = None;
-    c.control.path_cacc = None;
-    c.control.ploeg = None;
-    c.control.consensus = None;
-    c.control.flatbed = None;
-    c.topology = TopologyConfig::from(preset);
-    if law == LawName::Acc {
+    c.control.law = match law {
+        LawName::Paper => LawConfig::Paper(base.control.paper_law()),
         // The cruise control's set speed above the profile's 25 m/s (SUMO's 14 m/s would
         // hold the followers below the leader's speed).
-        c.control.acc = Some(platoon_control::laws::PlexeAccParams {
+        LawName::Acc => LawConfig::Acc(platoon_control::laws::PlexeAccParams {
             desired_speed_mps: 30.0,
             ..Default::default()
-        });
-    }
-    let params = law.defaults();
+        }),
+        _ => law.defaults(),
+    };
+    c.topology = TopologyConfig::from(preset);
+    let params = law.defaults().params();
     if let Some((l, h)) = params.spacing_policy(c.platoon.vehicle_length_m) {
         c.platoon.spacing_m = l;
         c.platoon.spacing = if h == 0.0 {

@@ -1,0 +1,430 @@
+//! The `[control]`, `[trigger]`, `[fallback]`, `[radar]`, `[guard]` and `[detection]` tables:
+//! what the followers run.
+use crate::serde_util::{self, DefaultTag};
+use platoon_control::fallback::AccParams;
+use platoon_control::FallbackMode;
+use schemars::JsonSchema;
+use serde::ser::SerializeMap;
+use serde::{Deserialize, Serialize, Serializer};
+
+/// `[control]`: the law (`law`) and its keys (the keys of another law are errors).
+#[derive(Debug, Clone, PartialEq, Deserialize, JsonSchema)]
+pub struct Control {
+    /// The law and its parameters.
+    #[serde(flatten, deserialize_with = "serde_util::with_default_tag")]
+    pub law: LawConfig,
+    /// The older name of `fallback.mode`; set one of them. The resolved config says
+    /// `fallback.mode`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(extend("deprecated" = true))]
+    pub attack_input: Option<FallbackMode>,
+}
+
+/// The selector first, then the law's own keys (a config's order).
+impl Serialize for Control {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let mut m = s.serialize_map(None)?;
+        m.serialize_entry("law", self.law.kind().name())?;
+        serde_util::entries(&mut m, &self.law, "law")?;
+        if let Some(a) = &self.attack_input {
+            m.serialize_entry("attack_input", a)?;
+        }
+        m.end()
+    }
+}
+
+impl Control {
+    /// The paper's law's gain and weights: the config's with `law = "paper"`, else the paper's
+    /// own (the controller takes them whatever it runs).
+    pub fn paper_law(&self) -> PaperLaw {
+        match &self.law {
+            LawConfig::Paper(p) => *p,
+            _ => PaperLaw::default(),
+        }
+    }
+
+    /// The paper's law's keys, to change them; the law becomes the paper's if it was another.
+    pub fn paper_law_mut(&mut self) -> &mut PaperLaw {
+        if !matches!(self.law, LawConfig::Paper(_)) {
+            self.law = LawConfig::Paper(PaperLaw::default());
+        }
+        match &mut self.law {
+            LawConfig::Paper(p) => p,
+            _ => unreachable!("set just above"),
+        }
+    }
+}
+
+/// `[control] law` and its keys (docs/controllers.md): the paper's (`gain`, `beta1`, `beta2`,
+/// and the event triggers of `[trigger]`), or one of the field's, which beacon periodically or
+/// by ETSI's CAM rules (`[trigger] rule = "periodic"` or `"cam"`); every key of a field's law
+/// is optional, with SUMO's Plexe defaults.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(tag = "law", rename_all = "snake_case", deny_unknown_fields)]
+#[schemars(transform = serde_util::default_tag_schema::<LawConfig>)]
+pub enum LawConfig {
+    /// The paper's `u = -K q` on open-loop estimates, with its event triggers.
+    Paper(PaperLaw),
+    /// Plexe's ACC: cruise control and a constant time headway on the radar, no V2V.
+    Acc(platoon_control::laws::PlexeAccParams),
+    /// The PATH CACC (Rajamani et al.): constant spacing, predecessor and leader.
+    PathCacc(platoon_control::laws::PathCaccParams),
+    /// Ploeg et al.'s CACC: time headway, the predecessor's command fed forward.
+    Ploeg(platoon_control::laws::PloegParams),
+    /// The consensus law of Santini et al.
+    Consensus(platoon_control::laws::ConsensusParams),
+    /// The flatbed controller of Ali, Garcia and Martinet (2015), as Plexe has it.
+    Flatbed(platoon_control::laws::FlatbedParams),
+}
+
+impl DefaultTag for LawConfig {
+    const SELECTOR: &'static str = "law";
+    const DEFAULT: &'static str = "paper";
+}
+
+impl Default for LawConfig {
+    fn default() -> Self {
+        Self::Paper(PaperLaw::default())
+    }
+}
+
+impl LawConfig {
+    /// Which law it is.
+    pub fn kind(&self) -> LawName {
+        match self {
+            Self::Paper(_) => LawName::Paper,
+            Self::Acc(_) => LawName::Acc,
+            Self::PathCacc(_) => LawName::PathCacc,
+            Self::Ploeg(_) => LawName::Ploeg,
+            Self::Consensus(_) => LawName::Consensus,
+            Self::Flatbed(_) => LawName::Flatbed,
+        }
+    }
+
+    /// The controller's law and its parameters.
+    pub fn params(&self) -> platoon_control::LawParams {
+        use platoon_control::LawParams as P;
+        match self {
+            Self::Paper(_) => P::Paper,
+            Self::Acc(p) => P::Acc(*p),
+            Self::PathCacc(p) => P::PathCacc(*p),
+            Self::Ploeg(p) => P::Ploeg(*p),
+            Self::Consensus(p) => P::Consensus(p.clone()),
+            Self::Flatbed(p) => P::Flatbed(*p),
+        }
+    }
+}
+
+/// `law = "paper"`: the gain and the trigger conditions' weights.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(default, deny_unknown_fields)]
+pub struct PaperLaw {
+    /// K in `u_i = -K q_i` (docs/paper-readings.md#R1).
+    pub gain: [f64; 3],
+    /// Weight of |eps|^2 in the trigger conditions.
+    pub beta1: f64,
+    /// Weight of |q|^2 in the trigger conditions.
+    pub beta2: f64,
+}
+
+/// The paper's values (Section IV).
+impl Default for PaperLaw {
+    fn default() -> Self {
+        Self {
+            gain: [4.81, 9.12, 2.97],
+            beta1: 319.38,
+            beta2: 5.62,
+        }
+    }
+}
+
+/// Which law the followers run (`[control] law`; a list on the command line).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, JsonSchema)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+#[serde(rename_all = "snake_case")]
+pub enum LawName {
+    /// The paper's.
+    #[default]
+    Paper,
+    /// Plexe's ACC.
+    Acc,
+    /// The PATH CACC.
+    PathCacc,
+    /// Ploeg et al.'s CACC.
+    Ploeg,
+    /// The consensus law.
+    Consensus,
+    /// The flatbed controller.
+    Flatbed,
+}
+
+impl LawName {
+    /// Every law, the paper's first.
+    pub const ALL: [LawName; 6] = [
+        Self::Paper,
+        Self::Acc,
+        Self::PathCacc,
+        Self::Ploeg,
+        Self::Consensus,
+        Self::Flatbed,
+    ];
+
+    /// The law of a config name (`ploeg`).
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|l| l.name() == name)
+    }
+
+    /// The law with its default parameters (SUMO's Plexe defaults; the paper's own).
+    pub fn defaults(self) -> LawConfig {
+        match self {
+            Self::Paper => LawConfig::Paper(Default::default()),
+            Self::Acc => LawConfig::Acc(Default::default()),
+            Self::PathCacc => LawConfig::PathCacc(Default::default()),
+            Self::Ploeg => LawConfig::Ploeg(Default::default()),
+            Self::Consensus => LawConfig::Consensus(Default::default()),
+            Self::Flatbed => LawConfig::Flatbed(Default::default()),
+        }
+    }
+
+    /// Its config name (serde's, so the one list of names is the enum's).
+    pub fn name(self) -> &'static str {
+        serde_util::unit_name(&self)
+    }
+}
+
+/// `[fallback]`: what a follower does while affected by an attack, and how it comes back.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(default, deny_unknown_fields)]
+pub struct FallbackConfig {
+    /// Every follower's fallback (`control.attack_input`, its older name, if given; else
+    /// `zero`, the paper's).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mode: Option<FallbackMode>,
+    /// One mode per follower instead (follower 1 first).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub per_vehicle: Option<Vec<FallbackMode>>,
+    /// Time a vehicle stays in its fallback once it is no longer affected (s).
+    pub dwell_s: f64,
+    /// Time over which it then returns to the cooperative law, bumplessly (s; 0: at once).
+    pub blend_s: f64,
+    /// ...or longer, so that the gap its fallback left closes at most this fast (m/s).
+    pub closing_mps: f64,
+    /// The ACC law.
+    pub acc: AccParams,
+}
+
+/// The controller's defaults: no dwell, no blend.
+impl Default for FallbackConfig {
+    fn default() -> Self {
+        let d = platoon_control::FallbackParams::default();
+        Self {
+            mode: None,
+            per_vehicle: None,
+            dwell_s: 0.0,
+            blend_s: 0.0,
+            closing_mps: d.closing_mps,
+            acc: d.acc,
+        }
+    }
+}
+
+/// `[radar]`: every follower's on-board radar (read by the `acc` fallback and the guard).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(default, deny_unknown_fields)]
+pub struct RadarConfig {
+    /// Range (m).
+    pub range_m: f64,
+    /// Measurement period (s), a whole number of steps.
+    pub period_s: f64,
+    /// Standard deviation of the gap's noise (m).
+    pub noise_m: f64,
+    /// Standard deviation of the closing speed's noise (m/s).
+    pub noise_mps: f64,
+    /// Probability a measurement is lost.
+    pub dropout: f64,
+    /// Seed of noise and dropouts.
+    pub seed: u64,
+}
+
+impl Default for RadarConfig {
+    fn default() -> Self {
+        let d = platoon_control::fallback::RadarParams::default();
+        Self {
+            range_m: d.range_m,
+            // The controller's period of 5 steps at the paper's step of 0.01 s.
+            period_s: 0.05,
+            noise_m: d.noise_m,
+            noise_mps: d.noise_mps,
+            dropout: d.dropout,
+            seed: d.seed,
+        }
+    }
+}
+
+/// `[guard]`: emergency braking on the radar's time to collision, in every mode.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(default, deny_unknown_fields)]
+pub struct GuardConfig {
+    /// Whether it is on.
+    pub enabled: bool,
+    /// Time to collision below which it brakes (s; the paper's engine lag of up to 0.82 s
+    /// makes a trigger much later than the default too late).
+    pub ttc_s: f64,
+    /// Its deceleration (m/s^2).
+    pub decel_mps2: f64,
+}
+
+impl Default for GuardConfig {
+    fn default() -> Self {
+        Self {
+            enabled: false,
+            ttc_s: 4.0,
+            decel_mps2: 8.0,
+        }
+    }
+}
+
+/// `[trigger]`: the rule (`rule`) and its keys (the keys of another rule are errors), and how
+/// often and how resiliently it is checked.
+#[derive(Debug, Clone, PartialEq, Deserialize, JsonSchema)]
+pub struct Trigger {
+    /// The triggering rule and its parameters.
+    #[serde(flatten)]
+    pub rule: RuleConfig,
+    /// How often the event condition is checked (s), a whole number of steps; absent: every
+    /// step (docs/paper-readings.md#R10; the resolved config says the step).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub check_period_s: Option<f64>,
+    /// Use the resilient mechanism (11) during attacks.
+    #[serde(default = "resilient_by_default")]
+    pub resilient: bool,
+    /// Sampling period h of the resilient mechanism (s), a whole number of steps.
+    pub h_s: f64,
+}
+
+/// The selector first, the keys every rule has, then the rule's own (a config's order).
+impl Serialize for Trigger {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let mut m = s.serialize_map(None)?;
+        m.serialize_entry("rule", self.rule.name())?;
+        if let Some(p) = &self.check_period_s {
+            m.serialize_entry("check_period_s", p)?;
+        }
+        m.serialize_entry("resilient", &self.resilient)?;
+        m.serialize_entry("h_s", &self.h_s)?;
+        serde_util::entries(&mut m, &self.rule, "rule")?;
+        m.end()
+    }
+}
+
+/// The paper's mechanism (11) is on unless a config turns it off.
+fn resilient_by_default() -> bool {
+    true
+}
+
+/// `[trigger] rule` and its keys.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(tag = "rule", rename_all = "snake_case", deny_unknown_fields)]
+pub enum RuleConfig {
+    /// The paper's dynamic event-triggering mechanism (4)+(12).
+    Dynamic {
+        /// phi_i, the weight of the internal variable theta in the condition.
+        phi: f64,
+        /// rho_i, theta's decay rate.
+        rho: f64,
+        /// eta_i, the gain of the static condition in theta's dynamics.
+        eta: f64,
+        /// theta_i(0).
+        theta0: f64,
+    },
+    /// The static event-triggering mechanism (21).
+    Static {},
+    /// Table I's baseline: the static condition with an exponentially decaying offset
+    /// `beta1 mu exp(-alpha t)` (docs/paper-readings.md#R13).
+    Mixed {
+        /// The offset at t = 0.
+        #[serde(default)]
+        mu: f64,
+        /// The offset's decay rate (1/s).
+        #[serde(default)]
+        alpha: f64,
+    },
+    /// Time-triggered: a broadcast every `period_s`.
+    Periodic {
+        /// The period (s), a whole number of steps.
+        period_s: f64,
+    },
+    /// ETSI EN 302 637-2's CAM generation rules, usable with every law: a new message when the
+    /// vehicle moved more than `position_m` or its speed changed more than `speed_mps` since
+    /// its last one, never sooner than `min_interval_s` nor later than `max_interval_s`.
+    Cam {
+        /// The shortest interval (s), a whole number of steps.
+        #[serde(default = "cam_min")]
+        min_interval_s: f64,
+        /// The longest interval (s), a whole number of steps.
+        #[serde(default = "cam_max")]
+        max_interval_s: f64,
+        /// Displacement that triggers a message (m).
+        #[serde(default = "cam_position")]
+        position_m: f64,
+        /// Speed change that triggers a message (m/s).
+        #[serde(default = "cam_speed")]
+        speed_mps: f64,
+    },
+}
+
+fn cam_min() -> f64 {
+    0.1
+}
+
+fn cam_max() -> f64 {
+    1.0
+}
+
+fn cam_position() -> f64 {
+    4.0
+}
+
+fn cam_speed() -> f64 {
+    0.5
+}
+
+impl RuleConfig {
+    /// Its `rule`.
+    pub fn name(&self) -> &'static str {
+        serde_util::tag_name(self, "rule")
+    }
+}
+
+/// `[detection]`: the detectors every follower runs on the packets it accepts (each present
+/// table turns its detector on, an empty one with its defaults) and what a flag makes it do.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct DetectionConfig {
+    /// `[detection.plausibility]`: F2MD's legacy plausibility and consistency checks.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub plausibility: Option<platoon_detect::PlausibilityParams>,
+    /// `[detection.radar_cross]`: the predecessor's claim against the follower's radar.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub radar_cross: Option<platoon_detect::RadarCrossParams>,
+    /// `[detection.residual]`: a chi-square test of the claim against a prediction.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub residual: Option<platoon_detect::ResidualParams>,
+    /// What a follower does about a flagged sender: `log` (the default: nothing), `drop` (refuse
+    /// its packets until `quiet_s` pass without a flag) or `fallback` (refuse them and run the
+    /// fallback meanwhile).
+    #[serde(default)]
+    pub reaction: platoon_control::Reaction,
+    /// The quiet period after the last flag (s; default 1).
+    #[serde(default = "quiet_period_s")]
+    pub quiet_s: f64,
+    /// The names of detectors a `--controller` plug-in runs itself and reports on the wire
+    /// (docs/detection.md): measured against ground truth like the built-in ones, after them.
+    /// Only a run with a controller plug-in may name any.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub plugin: Vec<String>,
+}
+
+fn quiet_period_s() -> f64 {
+    1.0
+}
