@@ -1,7 +1,5 @@
-"""Old name of platoon.injector (kept for scripts written before the package): the same module."""
+"""Old name of platoon.injector: the same module, after a DeprecationWarning."""
 
-import sys
+from platoon._moved import alias
 
-import platoon.injector as _m
-
-sys.modules[__name__] = _m
+alias(__name__, module="platoon.injector")

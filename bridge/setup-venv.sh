@@ -2,7 +2,7 @@
 # Creates bridge/.venv with the pinned packages of bridge/requirements.txt, once; later calls
 # only check it. Used by .ci/run and by anyone running a Python injector or the SUMO bridge.
 # The SUMO plant's C++ loop is not built here: the plant compiles it on first use, into this
-# venv (sumo_native.py; needs g++, else the plant warns and steps SUMO from Python).
+# venv (platoon/sumo/native.py; needs g++, else the plant warns and steps SUMO from Python).
 set -eu
 here=$(cd "$(dirname "$0")" && pwd)
 venv="$here/.venv"

@@ -973,7 +973,7 @@ fn parquet_outputs_equal_the_csv_and_decimation_keeps_every_nth_step() {
             "{stem}"
         );
         let o = std::process::Command::new(&python)
-            .arg(repo().join("bridge/parquet_equals_csv.py"))
+            .arg(repo().join("bridge/tools/parquet_equals_csv.py"))
             .arg(tmp.path().join(format!("pq/{stem}.parquet")))
             .arg(tmp.path().join(format!("csv/{stem}.csv")))
             .output()

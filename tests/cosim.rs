@@ -874,7 +874,7 @@ fn a_rust_sdk_jammer_following_one_vehicle_affects_that_vehicle_only() {
     assert_eq!(affected(3), 0.0);
 }
 
-/// The Python SDK (bridge/platoon_injector.py): the same built-in DoS byte for byte, and a
+/// The Python SDK (platoon.injector): the same built-in DoS byte for byte, and a
 /// ghost of vehicle 1 (Sybil) that slips past the plausibility check and opens the gaps.
 #[test]
 fn python_sdk_injectors_reproduce_the_builtin_dos_and_run_a_stealthy_ghost() {
@@ -1026,7 +1026,7 @@ fn a_dying_plugin_is_quoted_from_its_log_and_told_the_runs_contract() {
 import os
 import sys
 
-import platoon_injector as pi
+import platoon.injector as pi
 
 print("PYTHONPATH=" + os.environ.get("PYTHONPATH", ""), file=sys.stderr)
 
@@ -1083,9 +1083,9 @@ fn a_plugin_of_another_contract_version_is_told_both_versions() {
     let (stderr, error) = run_own_injector(
         tmp.path(),
         &format!(
-            "import platoon_wire as w\n\
+            "import platoon.wire as w\n\
              w.CONTRACT_VERSION = {old}  # an SDK of another version\n\
-             import platoon_injector as pi\n\
+             import platoon.injector as pi\n\
              pi.run(lambda run: pi.Injector())\n"
         ),
     );

@@ -1,5 +1,6 @@
-//! SUMO as the plant, for real (libsumo through bridge/sumo_plant.py; the test sets the bridge's
-//! Python up if it is missing): agreement with the native plant, FCD output, collisions, faults.
+//! SUMO as the plant, for real (libsumo through the bridge's `platoon.sumo`; the test sets the
+//! bridge's Python up if it is missing): agreement with the native plant, FCD output,
+//! collisions, faults.
 mod common;
 
 use common::{json, ok, platoon, platoon_command, repo};
@@ -596,7 +597,7 @@ fn killing_the_sumo_bridge_stops_the_run_and_names_the_plant() {
         .filter(|pid| {
             let cmd = std::fs::read(format!("/proc/{pid}/cmdline")).unwrap_or_default();
             let env = std::fs::read(format!("/proc/{pid}/environ")).unwrap_or_default();
-            String::from_utf8_lossy(&cmd).contains("sumo_plant.py")
+            String::from_utf8_lossy(&cmd).contains("platoon.sumo")
                 && String::from_utf8_lossy(&env).contains(&needle)
         })
         .collect();
@@ -647,7 +648,7 @@ fn the_python_vehicle_model_is_the_rust_one_bit_for_bit() {
     let script = format!(
         r#"
 import sys; sys.path.insert(0, {bridge:?})
-import platoon_plant as m
+import platoon.sumo.model as m
 knots = {knots:?}
 times = [k * 0.01 - 0.5 for k in range(1200)]
 out = []
@@ -767,7 +768,7 @@ fn the_bridges_numpy_path_equals_its_loops_on_the_paper_platoon() {
     assert_eq!(dev("loops"), dev("numpy"));
 }
 
-/// The bridge's per-vehicle loop of a step in C++ (bridge/sumo_native.py, the default) and in
+/// The bridge's per-vehicle loop of a step in C++ (platoon.sumo.native, the default) and in
 /// Python (`PLATOON_SUMO_NATIVE=0`) make the same runs bit for bit: the paper platoon fed SUMO's
 /// own states (every position and speed SUMO gives is in the rows), the degradation scenario
 /// (every follower's radar read through SUMO's getLeader), and background traffic whose
@@ -790,7 +791,7 @@ fn the_bridges_cpp_loop_equals_its_python_loop() {
 import json
 import sys
 
-import platoon_injector as pi
+import platoon.injector as pi
 
 
 class Record(pi.Injector):
@@ -999,7 +1000,7 @@ fn the_channel_and_the_injector_see_sumos_background_traffic() {
 import json
 import sys
 
-import platoon_injector as pi
+import platoon.injector as pi
 
 
 class Record(pi.Injector):
@@ -1078,24 +1079,32 @@ pi.run(lambda run: Record())
     }
 }
 
-/// A copy of the checkout's bridge with `sumo_plant.py` edited by `patch`, beside the networks,
-/// whose `.venv/bin/python` is the checkout's (so nothing of the real bridge is touched).
+/// The SUMO plant's source in a bridge.
+const PLANT: &str = "platoon/sumo/plant.py";
+
+/// A copy of the checkout's bridge with its plant ([`PLANT`]) edited by `patch`, beside the
+/// networks, whose `.venv/bin/python` is the checkout's (so nothing of the real bridge is
+/// touched).
 fn patched_bridge(dir: &Path, patch: impl Fn(String) -> String) -> PathBuf {
     let bridge = dir.join("bridge");
     std::fs::create_dir_all(bridge.join(".venv/bin")).unwrap();
-    for entry in std::fs::read_dir(repo().join("bridge")).unwrap() {
-        let path = entry.unwrap().path();
-        let name = path.file_name().unwrap().to_str().unwrap().to_string();
-        if name.ends_with(".py") || name == "setup-venv.sh" || name == "requirements.txt" {
-            std::fs::copy(&path, bridge.join(&name)).unwrap();
+    for name in ["setup-venv.sh", "requirements.txt"] {
+        std::fs::copy(repo().join("bridge").join(name), bridge.join(name)).unwrap();
+    }
+    let mut stack = vec![PathBuf::from("platoon")];
+    while let Some(rel) = stack.pop() {
+        std::fs::create_dir_all(bridge.join(&rel)).unwrap();
+        for entry in std::fs::read_dir(repo().join("bridge").join(&rel)).unwrap() {
+            let path = entry.unwrap().path();
+            let rel = rel.join(path.file_name().unwrap());
+            if path.is_dir() && !rel.ends_with("__pycache__") {
+                stack.push(rel);
+            } else if path.extension().is_some_and(|e| e != "so" && e != "pyc") {
+                std::fs::copy(&path, bridge.join(&rel)).unwrap();
+            }
         }
     }
-    std::fs::create_dir_all(bridge.join("native")).unwrap();
-    for entry in std::fs::read_dir(repo().join("bridge/native")).unwrap() {
-        let path = entry.unwrap().path();
-        std::fs::copy(&path, bridge.join("native").join(path.file_name().unwrap())).unwrap();
-    }
-    let plant = bridge.join("sumo_plant.py");
+    let plant = bridge.join(PLANT);
     let text = std::fs::read_to_string(&plant).unwrap();
     let patched = patch(text.clone());
     assert_ne!(patched, text, "the patch changed nothing");
@@ -1152,7 +1161,7 @@ fn a_missing_or_malformed_traffic_sample_names_the_plant() {
             "plant: the traffic sample of step 0 has background vehicle 3 on the road at p = inf",
         ),
     ];
-    assert!(std::fs::read_to_string(repo().join("bridge/sumo_plant.py"))
+    assert!(std::fs::read_to_string(repo().join("bridge").join(PLANT))
         .unwrap()
         .contains(send));
     for (patch, needle) in cases {
@@ -1226,7 +1235,7 @@ fn a_binary_moved_out_of_the_checkout_runs_sumo_with_the_bridge_it_carries() {
     let bundle = &bundles[0];
     let mtime = |p: PathBuf| std::fs::metadata(&p).unwrap().modified().unwrap();
     let watched = [
-        bundle.join("bridge/sumo_plant.py"),
+        bundle.join("bridge").join(PLANT),
         bundle.join("sumo/highway/highway.net.xml"),
         bundle.join("bridge/.venv/.requirements"),
     ];

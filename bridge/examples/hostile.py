@@ -21,6 +21,7 @@ import time
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 
 import platoon.wire as w  # noqa: E402
+from platoon.plugin import stop_received  # noqa: E402
 
 
 def main() -> int:
@@ -37,11 +38,8 @@ def main() -> int:
 
     step, first, forged_once = 0, None, False
     while True:
-        msg = control.receive()
-        while msg is not None:
-            if msg.payload().contents.kind in (w.ControlMsg.STOP, w.ControlMsg.ABORT):
-                return 0
-            msg = control.receive()
+        if stop_received(control):
+            return 0
         items = tx.take(step)
         if items is None:
             node.wait()

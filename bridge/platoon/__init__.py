@@ -54,6 +54,11 @@ __all__ = [
 _TABLES = ("trajectories", "events", "wire", "channel", "detections")
 
 
+def _fspath(path):
+    """A path argument as the core takes it: a string, or None."""
+    return None if path is None else os.fspath(path)
+
+
 def _native():
     """The compiled core, or an ImportError that says how to get it."""
     try:
@@ -259,7 +264,7 @@ def run(
         transport=transport,
         **_config_arg(config),
         plant=plant,
-        out=None if out is None else os.fspath(out),
+        out=_fspath(out),
         force=force,
         plots=plots,
         injector=injector,
@@ -314,7 +319,7 @@ def campaign(
         address = dask if isinstance(dask, str) else dask.scheduler.address
     report, cells, directory = _native().campaign(
         os.fspath(spec),
-        out=None if out is None else os.fspath(out),
+        out=_fspath(out),
         jobs=jobs,
         dask=address,
         force=force,

@@ -53,7 +53,15 @@ def check_contract_version(run=None) -> None:
         )
 
 
-class StepHeader(ctypes.Structure):
+class Payload(ctypes.Structure):
+    """A type that crosses the wire: its iceoryx2 type name is its class name (`type_name`)."""
+
+    @classmethod
+    def type_name(cls) -> str:
+        return type_name(cls.__name__)
+
+
+class StepHeader(Payload):
     """User header of every step sample. `count` is the number of items: read that, never the
     slice length, which iceoryx2 0.10.0's Python bindings report in bytes (iceoryx2 #1533)."""
 
@@ -64,12 +72,8 @@ class StepHeader(ctypes.Structure):
         ("stamp_ns", ctypes.c_uint64),
     ]
 
-    @staticmethod
-    def type_name() -> str:
-        return type_name("StepHeader")
 
-
-class VehicleState(ctypes.Structure):
+class VehicleState(Payload):
     """A vehicle's true state at a step (plant -> controller, injector, orchestrator)."""
 
     _fields_ = [
@@ -85,12 +89,8 @@ class VehicleState(ctypes.Structure):
     COLLIDED = 1
     AHEAD = 2
 
-    @staticmethod
-    def type_name() -> str:
-        return type_name("VehicleState")
 
-
-class V2vPacket(ctypes.Structure):
+class V2vPacket(Payload):
     """A V2V broadcast: sender, sequence number, sampling step, send time stamp, state [p, v, a],
     and the sender's latest commanded acceleration u."""
 
@@ -103,12 +103,8 @@ class V2vPacket(ctypes.Structure):
         ("u", ctypes.c_double),
     ]
 
-    @staticmethod
-    def type_name() -> str:
-        return type_name("V2vPacket")
 
-
-class LinkPacket(ctypes.Structure):
+class LinkPacket(Payload):
     """A packet on one link (tx and rx batches); kind JAMMED tells the receiver it was jammed."""
 
     DELIVERY = 0
@@ -120,12 +116,8 @@ class LinkPacket(ctypes.Structure):
         ("packet", V2vPacket),
     ]
 
-    @staticmethod
-    def type_name() -> str:
-        return type_name("LinkPacket")
 
-
-class Command(ctypes.Structure):
+class Command(Payload):
     """A follower's command and what its controller did (controller -> plant, orchestrator)."""
 
     TRIGGERED = 1
@@ -141,12 +133,8 @@ class Command(ctypes.Structure):
         ("theta", ctypes.c_double),
     ]
 
-    @staticmethod
-    def type_name() -> str:
-        return type_name("Command")
 
-
-class TrafficVehicle(ctypes.Structure):
+class TrafficVehicle(Payload):
     """A vehicle of the plant's background traffic at a step (plant -> injector, orchestrator,
     service `traffic`, published before the states of the step): SUMO's `bg<index>`. `p` is
     its position along the road in the platoon's coordinates when `flags & ON_ROAD`, else NaN
@@ -160,12 +148,8 @@ class TrafficVehicle(ctypes.Structure):
         ("p", ctypes.c_double),
     ]
 
-    @staticmethod
-    def type_name() -> str:
-        return type_name("TrafficVehicle")
 
-
-class Inspection(ctypes.Structure):
+class Inspection(Payload):
     """What a follower's misbehaviour detectors said of one packet it received at a step, and
     what its reaction did (controller -> orchestrator, service `inspections`, published before
     the step's commands in runs that measure detectors): the receiver and the packet's sender
@@ -186,12 +170,8 @@ class Inspection(ctypes.Structure):
         ("scores", ctypes.c_double * 8),
     ]
 
-    @staticmethod
-    def type_name() -> str:
-        return type_name("Inspection")
 
-
-class ControlMsg(ctypes.Structure):
+class ControlMsg(Payload):
     """Control (orchestrator -> nodes) and status (nodes -> orchestrator) messages."""
 
     START, STOP, ABORT = 1, 2, 3
@@ -204,10 +184,6 @@ class ControlMsg(ctypes.Structure):
         ("counts", ctypes.c_uint64 * 6),
         ("reason", ctypes.c_uint8 * 120),
     ]
-
-    @staticmethod
-    def type_name() -> str:
-        return type_name("ControlMsg")
 
 
 ALL_TYPES = [

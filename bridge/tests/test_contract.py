@@ -89,11 +89,15 @@ def test_the_bridge_venv_imports_the_sdk_from_a_script_anywhere(tmp_path):
 
 OLD_NAMES_SCRIPT = """
 import platoon.controller, platoon.injector, platoon.plugin, platoon.wire
+import platoon.sumo.model, platoon.sumo.native, platoon.sumo.plant
 import platoon_controller, platoon_injector, platoon_plugin, platoon_wire
+import platoon_plant, sumo_native, sumo_plant
 from platoon_wire import LinkPacket
 from platoon_injector import Injector
 assert platoon_wire is platoon.wire and platoon_plugin is platoon.plugin
 assert platoon_injector is platoon.injector and platoon_controller is platoon.controller
+assert platoon_plant is platoon.sumo.model and sumo_native is platoon.sumo.native
+assert sumo_plant is platoon.sumo.plant
 assert LinkPacket is platoon.wire.LinkPacket and Injector is platoon.injector.Injector
 assert isinstance(platoon.wire.LinkPacket(), platoon_wire.LinkPacket)
 assert isinstance(platoon_injector.jammed(3), platoon.wire.LinkPacket)
@@ -102,19 +106,78 @@ assert platoon_injector.Run is platoon_controller.Run is platoon.plugin.Run
 print(platoon_wire.CONTRACT_VERSION, platoon_injector.jammed(3).kind)
 """
 
+# Each old name and the module it stands for.
+OLD_NAMES = {
+    "platoon_controller": "platoon.controller",
+    "platoon_injector": "platoon.injector",
+    "platoon_plugin": "platoon.plugin",
+    "platoon_wire": "platoon.wire",
+    "platoon_plant": "platoon.sumo.model",
+    "sumo_native": "platoon.sumo.native",
+    "sumo_plant": "platoon.sumo.plant",
+}
 
-def test_the_old_module_names_are_the_same_modules(tmp_path):
-    """Scripts written before the package (`import platoon_injector`, `from platoon_wire import
-    ...`) get the package's modules themselves, so their objects pass the package's checks."""
-    script = tmp_path / "old_injector.py"
-    script.write_text(OLD_NAMES_SCRIPT)
+
+def run_script(tmp_path, text, *args):
+    """`text` as a script of the user's, outside the bridge, with only the bridge on its path."""
+    script = tmp_path / "old_script.py"
+    script.write_text(text)
     clean = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
-    o = subprocess.run(
-        [sys.executable, str(script)],
+    return subprocess.run(
+        [sys.executable, str(script), *args],
         cwd=tmp_path,
         env={**clean, "PYTHONPATH": BRIDGE},
         capture_output=True,
         text=True,
     )
+
+
+def test_the_old_module_names_are_the_same_modules_and_warn(tmp_path):
+    """Scripts written before the package (`import platoon_injector`, `from platoon_wire import
+    ...`) get the package's modules themselves, so their objects pass the package's checks;
+    each old name warns once (DeprecationWarning, shown by default: it names the script's
+    line) with the name to import instead."""
+    o = run_script(tmp_path, OLD_NAMES_SCRIPT)
     assert o.returncode == 0, o.stderr
     assert o.stdout.split() == [str(w.CONTRACT_VERSION), "1"]
+    for old, module in OLD_NAMES.items():
+        line = f"DeprecationWarning: the module {old} is {module}: import that instead"
+        assert o.stderr.count(line) == 1, (old, o.stderr)
+    assert "old_script.py:" in o.stderr, o.stderr
+
+
+def test_the_old_names_warn_as_errors_where_deprecations_are_errors(tmp_path):
+    script = tmp_path / "strict.py"
+    script.write_text("import platoon_wire\n")
+    clean = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    o = subprocess.run(
+        [sys.executable, "-W", "error::DeprecationWarning", str(script)],
+        cwd=tmp_path,
+        env={**clean, "PYTHONPATH": BRIDGE},
+        capture_output=True,
+        text=True,
+    )
+    assert o.returncode != 0 and "platoon.wire" in o.stderr, o.stderr
+
+
+@pytest.mark.parametrize(
+    "old, program, args, code, says",
+    [
+        ("sumo_plant.py", "python -m platoon.sumo", [], 2, "PLATOON_PLANT_SPEC is not set"),
+        ("dask_cells.py", "python -m platoon.dask", [], 2, "usage: python -m platoon.dask"),
+        ("parquet_equals_csv.py", "bridge/tools/parquet_equals_csv.py", [], 2,
+         "bridge/.venv/bin/python bridge/tools/parquet_equals_csv.py"),
+    ],
+)
+def test_the_old_script_paths_run_their_programs_and_warn(tmp_path, old, program, args, code, says):
+    clean = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "PLATOON_PLANT_SPEC")}
+    o = subprocess.run(
+        [sys.executable, os.path.join(BRIDGE, old), *args],
+        cwd=tmp_path,
+        env=clean,
+        capture_output=True,
+        text=True,
+    )
+    assert o.returncode == code, o.stderr
+    assert f"DeprecationWarning: bridge/{old} is {program}" in o.stderr, o.stderr
+    assert says in o.stderr, o.stderr

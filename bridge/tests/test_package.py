@@ -301,6 +301,16 @@ def long_paper_run(duration_s=1e6):
     )
 
 
+def until_interrupted(*lines):
+    """Script lines run until a KeyboardInterrupt, which prints so and exits with 130."""
+    body = "".join(f"    {line}\n" for line in lines)
+    return f"try:\n{body}" + (
+        "except KeyboardInterrupt:\n"
+        "    print('KeyboardInterrupt', flush=True)\n"
+        "    sys.exit(130)\n"
+    )
+
+
 def test_the_gil_is_released_while_the_core_runs(tmp_path):
     # A thread of the script watches the run's trajectories.csv grow while the main thread is in
     # platoon.run (a held GIL would stop it dead), then interrupts the run.
@@ -318,12 +328,9 @@ def test_the_gil_is_released_while_the_core_runs(tmp_path):
         "    print('watched it grow', flush=True)\n"
         "    os.kill(os.getpid(), signal.SIGINT)\n"
         "threading.Thread(target=watch, daemon=True).start()\n"
-        "try:\n"
-        "    platoon.run(cfg, out=sys.argv[1], transport='inproc')\n"
-        "    print('returned', flush=True)\n"
-        "except KeyboardInterrupt:\n"
-        "    print('KeyboardInterrupt', flush=True)\n"
-        "    sys.exit(130)\n"
+        + until_interrupted(
+            "platoon.run(cfg, out=sys.argv[1], transport='inproc')", "print('returned', flush=True)"
+        )
     )
     p = subprocess.run(
         [sys.executable, str(script), str(tmp_path / "run")],
@@ -341,11 +348,7 @@ def test_ctrl_c_stops_a_long_run_cleanly_and_raises_keyboard_interrupt(tmp_path)
         "import platoon, sys\n"
         + long_paper_run()
         + "print('started', flush=True)\n"
-        "try:\n"
-        "    platoon.run(cfg, out=sys.argv[1], transport='inproc')\n"
-        "except KeyboardInterrupt:\n"
-        "    print('KeyboardInterrupt', flush=True)\n"
-        "    sys.exit(130)\n"
+        + until_interrupted("platoon.run(cfg, out=sys.argv[1], transport='inproc')")
     )
     p = subprocess.Popen(
         [sys.executable, str(script), str(tmp_path / "run")],
@@ -397,12 +400,10 @@ def test_ctrl_c_leaves_a_design_check_that_does_not_end(tmp_path):
     script.write_text(
         "import platoon, sys\n"
         "print('started', flush=True)\n"
-        "try:\n"
-        "    platoon.design.check_gain('paper', gain=(1e308, 1e308, 1e308))\n"
-        "    print('returned', flush=True)\n"
-        "except KeyboardInterrupt:\n"
-        "    print('KeyboardInterrupt', flush=True)\n"
-        "    sys.exit(130)\n"
+        + until_interrupted(
+            "platoon.design.check_gain('paper', gain=(1e308, 1e308, 1e308))",
+            "print('returned', flush=True)",
+        )
     )
     p = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE, text=True)
     assert p.stdout.readline().strip() == "started"
@@ -435,12 +436,10 @@ def test_ctrl_c_stops_a_campaign_which_then_resumes(tmp_path):
     script = tmp_path / "campaign.py"
     script.write_text(
         "import platoon, sys\n"
-        "try:\n"
-        f"    c = platoon.campaign({str(spec)!r}, out=sys.argv[1], jobs=1)\n"
-        "    print('done', c.report['ok'], flush=True)\n"
-        "except KeyboardInterrupt:\n"
-        "    print('KeyboardInterrupt', flush=True)\n"
-        "    sys.exit(130)\n"
+        + until_interrupted(
+            f"c = platoon.campaign({str(spec)!r}, out=sys.argv[1], jobs=1)",
+            "print('done', c.report['ok'], flush=True)",
+        )
     )
     out = tmp_path / "long"
     partial = tmp_path / "long.partial"

@@ -1,6 +1,7 @@
-"""The SUMO bridge's C++ loop (sumo_native.py): chosen by PLATOON_SUMO_NATIVE, a missing compiler
-said plainly (a warning and the Python loop by default, an error when it was asked for), and the
-radar read through it is the Python loop's to the bit (the whole runs: tests/sumo.rs)."""
+"""The SUMO bridge's C++ loop (platoon.sumo.native): chosen by PLATOON_SUMO_NATIVE, a missing
+compiler said plainly (a warning and the Python loop by default, an error when it was asked
+for), and the radar read through it is the Python loop's to the bit (the whole runs:
+tests/sumo.rs)."""
 
 import os
 import sys
@@ -13,9 +14,9 @@ sys.path.insert(0, os.path.join(HERE, ".."))
 
 import libsumo  # noqa: E402
 
-import sumo_native  # noqa: E402
-import sumo_plant  # noqa: E402
-from test_sumo_radar import NET  # noqa: E402
+import platoon.sumo.native as sumo_native  # noqa: E402
+import platoon.sumo.plant as sumo_plant  # noqa: E402
+from test_sumo_radar import sumo_with  # noqa: E402
 
 
 def no_compiler(monkeypatch, tmp):
@@ -51,20 +52,9 @@ def test_the_python_loop_and_unknown_choices(monkeypatch):
 def read_both(tmp, vector):
     """Step 0's states of the radar scenario (an intruder between follower 1 and the leader)
     through the Python loop and the C++ loop, with plain loops or numpy."""
-    routes = os.path.join(tmp, "r.rou.xml")
     cars = [("leader", 200.0, 20.0), ("follower1", 140.0, 22.0), ("intruder", 164.0, 15.0),
             ("follower2", 100.0, 21.0)]
-    with open(routes, "w") as f:
-        f.write('<routes><vType id="t" length="4" minGap="0" accel="100" decel="100" '
-                'sigma="0" tau="1"/><route id="road" edges="highway"/>\n')
-        for vid, pos, v in cars:
-            f.write(f'<vehicle id="{vid}" type="t" route="road" depart="0" departLane="0" '
-                    f'departPos="{pos}" departSpeed="{v}" insertionChecks="none"/>\n')
-        f.write("</routes>\n")
-    libsumo.start(["sumo", "-n", NET, "-r", routes, "--step-length", "0.01",
-                   "--no-step-log", "true", "--no-warnings", "true"])
-    try:
-        libsumo.simulationStep()
+    with sumo_with(tmp, cars):
         sumo_plant.NAMES["per_platoon"], sumo_plant.NAMES["platoons"] = 3, 1
         spec = {
             "dt": 0.01,
@@ -76,15 +66,16 @@ def read_both(tmp, vector):
         }
         os.environ["PLATOON_BRIDGE_VECTOR_MIN"] = "1" if vector else "1000000"
         got = []
-        for native in (None, sumo_native.Fleet(libsumo, ["leader", "follower1", "follower2"],
-                                               [1, 2], 150.0)):
-            kin = sumo_plant.Kinematics(spec, libsumo, "sumo", native)
-            out = kin.read(0, [0.0, 0.0, 0.0])
-            got.append([(s.flags, s.p.hex(), s.v.hex(), s.gap.hex(), s.closing.hex()) for s in out])
+        try:
+            for native in (None, sumo_native.Fleet(libsumo, ["leader", "follower1", "follower2"],
+                                                   [1, 2], 150.0)):
+                kin = sumo_plant.Kinematics(spec, libsumo, "sumo", native)
+                out = kin.read(0, [0.0, 0.0, 0.0])
+                got.append([(s.flags, s.p.hex(), s.v.hex(), s.gap.hex(), s.closing.hex())
+                            for s in out])
+        finally:
+            os.environ.pop("PLATOON_BRIDGE_VECTOR_MIN", None)
         return got
-    finally:
-        os.environ.pop("PLATOON_BRIDGE_VECTOR_MIN", None)
-        libsumo.close()
 
 
 @pytest.mark.parametrize("vector", [False, True])

@@ -2,6 +2,7 @@
 is. A car that is not part of the platoon, driving between follower 1 and the leader, is what
 follower 1's radar reports (the native plant's radar knows only the platoon's predecessor)."""
 
+import contextlib
 import os
 import sys
 import tempfile
@@ -9,18 +10,19 @@ import tempfile
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, ".."))
 
+import platoon.sumo.plant as sumo_plant  # noqa: E402
 import platoon.wire as w  # noqa: E402
-import sumo_plant  # noqa: E402
 
 NET = os.path.join(HERE, "..", "..", "sumo", "highway", "highway.net.xml")
 
 
-def run_with(tmp, intruder: bool):
-    """Leader at 200 m, follower 1 at 140 m (lane positions), and maybe a car at 164 m."""
+@contextlib.contextmanager
+def sumo_with(tmp, cars):
+    """libsumo on the committed highway with `cars` (id, lane position, speed) on lane 0, after
+    the step that inserts them; closed on leaving."""
+    import libsumo
+
     routes = os.path.join(tmp, "r.rou.xml")
-    cars = [("leader", 200.0, 20.0), ("follower1", 140.0, 22.0)]
-    if intruder:
-        cars.append(("intruder", 164.0, 15.0))
     with open(routes, "w") as f:
         f.write('<routes><vType id="t" length="4" minGap="0" accel="100" decel="100" '
                 'sigma="0" tau="1"/><route id="road" edges="highway"/>\n')
@@ -28,12 +30,21 @@ def run_with(tmp, intruder: bool):
             f.write(f'<vehicle id="{vid}" type="t" route="road" depart="0" departLane="0" '
                     f'departPos="{pos}" departSpeed="{v}" insertionChecks="none"/>\n')
         f.write("</routes>\n")
-    import libsumo
-
     libsumo.start(["sumo", "-n", NET, "-r", routes, "--step-length", "0.01",
                    "--no-step-log", "true", "--no-warnings", "true"])
     try:
         libsumo.simulationStep()
+        yield libsumo
+    finally:
+        libsumo.close()
+
+
+def run_with(tmp, intruder: bool):
+    """Leader at 200 m, follower 1 at 140 m (lane positions), and maybe a car at 164 m."""
+    cars = [("leader", 200.0, 20.0), ("follower1", 140.0, 22.0)]
+    if intruder:
+        cars.append(("intruder", 164.0, 15.0))
+    with sumo_with(tmp, cars) as libsumo:
         sumo_plant.NAMES["per_platoon"], sumo_plant.NAMES["platoons"] = 2, 1
         spec = {
             "dt": 0.01,
@@ -46,8 +57,6 @@ def run_with(tmp, intruder: bool):
         kin = sumo_plant.Kinematics(spec, libsumo, "sumo")
         out = kin.read(0, [0.0, 0.0])
         return [(s.flags, s.gap, s.closing) for s in out]
-    finally:
-        libsumo.close()
 
 
 def test_the_radar_sees_a_car_that_is_not_part_of_the_platoon():

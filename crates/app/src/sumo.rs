@@ -73,9 +73,23 @@ pub fn ensure_venv() -> Result<PathBuf> {
     Ok(bridge.join(".venv/bin/python"))
 }
 
+/// The bridge's Python running a module of the bridge's `platoon` package (`python -m
+/// <module>`, e.g. `platoon.dask`), the bridge first on its `PYTHONPATH` so that the bridge's
+/// own copy runs, not another one installed in the venv.
+pub fn bridge_module(module: &str) -> Result<Command> {
+    let python = ensure_venv()?;
+    let theirs = std::env::var_os("PYTHONPATH").unwrap_or_default();
+    let path = std::iter::once(bridge_dir()?)
+        .chain(std::env::split_paths(&theirs).filter(|p| !p.as_os_str().is_empty()));
+    let mut cmd = Command::new(python);
+    cmd.args(["-m", module])
+        .env("PYTHONPATH", std::env::join_paths(path)?);
+    Ok(cmd)
+}
+
 /// What the orchestrator needs to run the SUMO plant.
 pub struct SumoPlant {
-    /// The bridge process.
+    /// The bridge process (`python -m platoon.sumo`).
     pub program: Program,
     /// `PLATOON_PLANT_SPEC`.
     pub env: Vec<(String, String)>,
@@ -351,9 +365,11 @@ impl SumoPlan<'_> {
         )?;
         let python = ensure_venv()?;
         Ok(SumoPlant {
+            // The plant is `platoon.sumo`; the orchestrator puts the bridge first on the
+            // PYTHONPATH of every process that is not a built-in node.
             program: Program::Exec {
                 program: python,
-                args: vec![bridge_dir()?.join("sumo_plant.py").display().to_string()],
+                args: vec!["-m".into(), "platoon.sumo".into()],
             },
             env: vec![("PLATOON_PLANT_SPEC".into(), path("plant.json")?)],
             traffic: self.config.sumo.background_vehicles,

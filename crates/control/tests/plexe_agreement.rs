@@ -1,7 +1,7 @@
 //! Our implementations of the field's CACC laws (`platoon_control::laws`) equal Plexe's, the
 //! `CC` car-following model inside SUMO 1.28.
 //!
-//! Each test runs `bridge/plexe_reference.py` (libsumo) for one controller: a leader on the
+//! Each test runs `bridge/tools/plexe_reference.py` (libsumo) for one controller: a leader on the
 //! paper's velocity profile and 4 followers, 10 m front to front at 15 m/s, first-order-lag
 //! engine with tau = 0.5 s, dt = 0.01 s, ballistic update, 55 s, SUMO's default controller
 //! parameters. It then drives the same followers with our laws and a loop that reproduces
@@ -132,7 +132,7 @@ fn run_sumo(law: Law, limits: Limits) -> Reference {
     ));
     std::fs::create_dir_all(&dir).expect("temp dir");
     let out = dir.join("reference.csv");
-    let script = workspace_root().join("bridge/plexe_reference.py");
+    let script = workspace_root().join("bridge/tools/plexe_reference.py");
     let result = Command::new(python())
         .arg(&script)
         .args(["--law", law.name()])

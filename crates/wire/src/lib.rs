@@ -1,7 +1,7 @@
 //! The payloads that cross a process boundary in a platoon co-simulation, and the names of the
 //! services that carry them. This crate is the contract between the processes: the controller
 //! service, the plant (native or the SUMO bridge), the attack injector (ours or yours) and the
-//! orchestrator. `bridge/platoon_wire.py` mirrors every type with `ctypes`, and tests on both
+//! orchestrator. `bridge/platoon/wire.py` mirrors every type with `ctypes`, and tests on both
 //! sides check size, alignment and every field offset against `bridge/wire_layout.json`.
 //!
 //! Every publish-subscribe service carries a slice of one element type with a [`StepHeader`]
@@ -576,7 +576,7 @@ mod tests {
             committed,
             layouts_json(),
             "bridge/wire_layout.json is out of date: regenerate it with \
-             `cargo run -- wire-layout > bridge/wire_layout.json` and update bridge/platoon_wire.py"
+             `cargo run -- wire-layout > bridge/wire_layout.json` and update bridge/platoon/wire.py"
         );
     }
 

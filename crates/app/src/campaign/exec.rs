@@ -1,6 +1,6 @@
 //! Running cells: one cell where this process is ([`execute`]: in process, or as a
 //! `platoon run` co-simulation), and the executors that run many: the [`LocalPool`] of worker
-//! threads, a Dask cluster through `bridge/dask_cells.py` ([`Dask`]), or the caller's own
+//! threads, a Dask cluster through `platoon.dask` ([`Dask`]), or the caller's own
 //! ([`Executor`]).
 use crate::run::Stop;
 use anyhow::{bail, Context, Result};
@@ -315,7 +315,7 @@ impl Executor for LocalPool {
     }
 }
 
-/// Cells on a Dask cluster: `bridge/dask_cells.py` (in the bridge's venv, which pins
+/// Cells on a Dask cluster: the bridge's `python -m platoon.dask` (in its venv, which pins
 /// `distributed`) is fed the jobs as JSON lines and submits them to the scheduler in batches
 /// (about four per worker thread). A worker whose Python has the `platoon` package runs a
 /// batch in its own process (`platoon._core.execute_cells`); one without it, or every worker
@@ -376,20 +376,18 @@ fn dask(
     stop: &Stop,
     record: &mut dyn FnMut(CellReply) -> Result<()>,
 ) -> Result<()> {
-    let python = crate::sumo::ensure_venv()?;
-    let script = crate::sumo::bridge_dir()?.join("dask_cells.py");
+    let mut command = crate::sumo::bridge_module("platoon.dask")?;
     let log_file =
         std::fs::File::create(log).with_context(|| format!("creating {}", log.display()))?;
     let started = Instant::now();
-    let mut driver = Command::new(&python)
-        .arg(&script)
+    let mut driver = command
         .arg(address)
         .arg(exe)
         .stdin(Stdio::piped())
         .stdout(Stdio::piped())
         .stderr(log_file)
         .spawn()
-        .with_context(|| format!("starting {} {}", python.display(), script.display()))?;
+        .context("starting the Dask driver, python -m platoon.dask")?;
     let pid = driver.id();
     let mut stdin = driver.stdin.take().context("the Dask driver's stdin")?;
     let stdout = driver.stdout.take().context("the Dask driver's stdout")?;

@@ -1,7 +1,7 @@
 // The SUMO plant's per-vehicle work of a step, in one call for the whole fleet: set every
 // vehicle's acceleration, step SUMO, read every lane position and speed back (and what each
 // follower's radar sees, and where the background vehicles are). Loaded with ctypes by
-// bridge/sumo_native.py inside the bridge's own Python process, after `import libsumo`, so the
+// bridge/platoon/sumo/native.py inside the bridge's own Python process, after `import libsumo`, so the
 // libsumo it drives is the one the bridge started (linked against the wheel's _libsumo.so,
 // which the dynamic loader finds already loaded). It only moves values between libsumo and the
 // caller's arrays: every arithmetic operation of the plant stays in Python (numpy), so both
@@ -116,7 +116,7 @@ void platoon_fleet_free(void* f) { delete static_cast<Fleet*>(f); }
 const char* platoon_fleet_error(void* f) { return static_cast<Fleet*>(f)->error.c_str(); }
 
 // Reads through subscriptions instead of getters (how: 1 per vehicle, 2 all at once); only
-// for measuring them (bridge/bench_sumo.py), the plant reads with getters.
+// for measuring them (bridge/tools/bench_sumo.py), the plant reads with getters.
 int32_t platoon_fleet_subscribe(void* handle, int32_t how) {
     Fleet& f = *static_cast<Fleet*>(handle);
     try {

@@ -1,0 +1,137 @@
+"""The vehicle model of crates/model, in Python, for the SUMO plant (platoon.sumo.plant): the
+engine lag of each follower under its tau schedule, and the leader's reference acceleration.
+
+SUMO does the kinematics (ballistic update with the acceleration held over each step); this
+module gives the acceleration to hold. Every expression is written exactly as in Rust
+(`plant_step`, `TauSchedule::at`, `LeaderProfile::step_acceleration`) and with the same libm, so
+the values are bit-identical; tests/sumo.rs checks them against the values Rust computes.
+The schedules come from the plant spec that `platoon run` writes (plant.json), never from
+parsing the scenario config a second time.
+"""
+
+import bisect
+import math
+import os
+
+import numpy as np
+
+
+class TauSchedule:
+    """Piecewise tau(t) through knots, with step, linear or smooth interpolation."""
+
+    def __init__(self, knots, interpolation):
+        self.times = [float(t) for t, _ in knots]
+        self.values = [float(y) for _, y in knots]
+        self.interpolation = interpolation
+
+    def at(self, t: float) -> float:
+        i = bisect.bisect_right(self.times, t)  # Rust: partition_point(|tk| tk <= t)
+        if i == 0:
+            return self.values[0]
+        if i == len(self.times):
+            return self.values[i - 1]
+        t0, y0 = self.times[i - 1], self.values[i - 1]
+        t1, y1 = self.times[i], self.values[i]
+        s = (t - t0) / (t1 - t0)
+        if self.interpolation == "step":
+            return y0
+        if self.interpolation == "linear":
+            return y0 + (y1 - y0) * s
+        return y0 + (y1 - y0) * s * s * (3.0 - 2.0 * s)
+
+
+class LeaderProfile:
+    """Piecewise-linear leader velocity through waypoints; its slope is the reference."""
+
+    def __init__(self, waypoints):
+        self.times = [float(t) for t, _ in waypoints]
+        self.speeds = [float(v) for _, v in waypoints]
+
+    def acceleration_at(self, t: float) -> float:
+        i = bisect.bisect_right(self.times, t)
+        if 1 <= i < len(self.times):
+            t0, v0 = self.times[i - 1], self.speeds[i - 1]
+            t1, v1 = self.times[i], self.speeds[i]
+            return (v1 - v0) / (t1 - t0)
+        return 0.0
+
+    def step_acceleration(self, k: int, dt: float) -> float:
+        """The acceleration held over step k: the slope at the middle of the step."""
+        return self.acceleration_at((float(k) + 0.5) * dt)
+
+
+def lagged(a: float, u: float, tau: float, dt: float) -> float:
+    """a[k+1] from a[k] and u[k]: the exact zero-order-hold solution of tau a' + a = u."""
+    return u + (a - u) * math.exp(-dt / tau)
+
+
+class Dynamics:
+    """Every vehicle's acceleration state from a plant spec (plant.json)."""
+
+    def __init__(self, spec):
+        self.dt = float(spec["dt"])
+        self.leader = LeaderProfile(spec["leader"]["waypoints"])
+        # Followers share schedules (a fleet repeats its platoon's): evaluate each distinct
+        # schedule once per step. exp(-dt / tau) of the same tau is the same number, so this
+        # changes no bit of the result.
+        distinct, self.schedule_of = {}, []
+        for t in spec["taus"]:
+            key = repr((t["knots"], t["interpolation"]))
+            if key not in distinct:
+                distinct[key] = len(distinct)
+            self.schedule_of.append(distinct[key])
+        by_index = {i: k for k, i in distinct.items()}
+        self.schedules = []
+        for i in range(len(distinct)):
+            t = next(t for t in spec["taus"] if repr((t["knots"], t["interpolation"])) == by_index[i])
+            self.schedules.append(TauSchedule(t["knots"], t["interpolation"]))
+        self.per_platoon = int(spec["vehicles_per_platoon"])
+        n1 = self.per_platoon
+        accel = [float(x[2]) for x in spec["initial"]]
+        slots = [(g, (g // n1) * (n1 - 1) + g % n1 - 1) for g in range(len(accel)) if g % n1]
+        self.vector = vectorised(len(accel))
+        if self.vector:
+            # Arrays: a step is a few whole-array operations instead of a loop per vehicle.
+            # Element-wise, numpy evaluates `u + (a - u) * e` as Python does (no fused
+            # multiply-add), so the values are the same bits (tested against the loop).
+            self.accel = np.array(accel, dtype=np.float64)
+            self.follower_vehicles = np.array([g for g, _ in slots], dtype=np.intp)
+            self.follower_slots = np.array([f for _, f in slots], dtype=np.intp)
+            self.follower_schedule = np.array(self.schedule_of, dtype=np.intp)[self.follower_slots]
+            self.leaders = np.arange(0, len(accel), n1, dtype=np.intp)
+        else:
+            self.accel = accel
+            self.slots = slots
+            self.leaders = range(0, len(accel), n1)
+
+    def advance(self, k: int, u) -> None:
+        """From step k to k + 1 with the followers' commands u (platoon j's follower i at
+        j * N + i - 1; an array when `vector`)."""
+        t = k * self.dt
+        dt = self.dt
+        decay = [math.exp(-dt / s.at(t)) for s in self.schedules]
+        a_leader = self.leader.step_acceleration(k + 1, dt)
+        if self.vector:
+            g = self.follower_vehicles
+            uf = u[self.follower_slots]
+            self.accel[g] = uf + (self.accel[g] - uf) * np.array(decay)[self.follower_schedule]
+            self.accel[self.leaders] = a_leader
+            return
+        accel, which = self.accel, self.schedule_of
+        for g, f in self.slots:
+            uf = u[f]
+            accel[g] = uf + (accel[g] - uf) * decay[which[f]]
+        for g in self.leaders:
+            accel[g] = a_leader
+
+
+# Fleets of at least this many vehicles are stepped with numpy; smaller ones with plain loops,
+# which cost less than numpy's per-call overhead there (a 5-vehicle step: ~20 µs against ~45).
+VECTOR_MIN_VEHICLES = 64
+
+
+def vectorised(vehicles: int) -> bool:
+    """Whether a fleet of `vehicles` is stepped with numpy (PLATOON_BRIDGE_VECTOR_MIN
+    overrides the threshold: the tests run both ways and compare the bits)."""
+    threshold = os.environ.get("PLATOON_BRIDGE_VECTOR_MIN")
+    return vehicles >= (int(threshold) if threshold else VECTOR_MIN_VEHICLES)

@@ -1,0 +1,598 @@
+"""The SUMO plant: a platoon node that advances SUMO vehicles with the accelerations of the
+platoon model, speaking the same iceoryx2 contract as the native plant (`platoon node plant`).
+
+Started by `platoon run --plant sumo` as `python -m platoon.sumo`, with PLATOON_RUN_ID and
+PLATOON_PLANT_SPEC (plant.json: time grid, initial states, leader profile, tau schedules, and the
+SUMO options). Per step k: publish the background traffic's positions (`traffic`, with `[sumo]
+background_vehicles`) and the states read from SUMO, wait for commands[k], hold each vehicle's
+acceleration a[k] over the step (`setAcceleration`, ballistic update, speed mode 0), step SUMO,
+check collisions, and update a[k+1] with the engine lag (platoon.sumo.model). Writes sumo.json
+(SUMO version, per-step costs, collisions) and, with `[sumo] fcd = "sumo"` only, SUMO's FCD
+output into the run directory (by default platoon writes fcd.xml from the trajectories after
+the run).
+
+The per-vehicle libsumo calls of a step (set every acceleration, step, read every state back)
+run in one call to a small C++ helper (platoon.sumo.native; PLATOON_SUMO_NATIVE=0 keeps them in
+Python); the arithmetic stays here, so both give the same bits.
+
+`python -m platoon.sumo --tight-loop STEPS` (with PLATOON_PLANT_SPEC) times the same SUMO and
+model in a loop without the co-simulation around it, for `platoon bench step`.
+"""
+
+import json
+import os
+import random
+import statistics
+import sys
+import traceback
+import time
+
+import numpy as np
+
+from .. import plugin as _plugin
+from .. import wire as w
+from . import model, native as sumo_native
+
+
+class SumoError(Exception):
+    """SUMO refused something: the message names SUMO and the step."""
+
+
+NAMES = {"per_platoon": 0, "platoons": 1}
+
+
+def vehicle_id(g: int) -> str:
+    """SUMO's name of wire vehicle g: leader, follower1, ... (p3.leader, p3.follower1, ... in a
+    fleet)."""
+    j, i = divmod(g, NAMES["per_platoon"])
+    name = "leader" if i == 0 else f"follower{i}"
+    return name if NAMES["platoons"] == 1 else f"p{j}.{name}"
+
+
+def write_routes(path, spec):
+    s = spec["sumo"]
+    lines = [
+        '<?xml version="1.0" encoding="UTF-8"?>',
+        "<routes>",
+        f'    <vType id="platoon" length="{s["vehicle_length_m"]!r}" minGap="0" '
+        'accel="100" decel="100" emergencyDecel="100" apparentDecel="100" '
+        'maxSpeed="100" speedFactor="1" speedDev="0" sigma="0" tau="1"/>',
+        f'    <route id="road" edges="{s["edge"]}"/>',
+    ]
+    for g, (p, v, _) in enumerate(spec["initial"]):
+        lane = spec["lanes"][g // spec["vehicles_per_platoon"]]
+        lines.append(
+            f'    <vehicle id="{vehicle_id(g)}" type="platoon" route="road" depart="0" '
+            f'departLane="{lane}" departPos="{p + s["offset_m"]!r}" departSpeed="{v!r}" '
+            'insertionChecks="none"/>'
+        )
+    # Background traffic: SUMO's own model (Krauss) without lane changes, on the free lanes,
+    # spread evenly along the road with seeded jitter and speeds (Python's Mersenne Twister:
+    # the same seed gives the same traffic).
+    nb = int(s.get("background_vehicles", 0))
+    if nb:
+        rng = random.Random(int(s["background_seed"]))
+        free = s["background_lanes"]
+        lines.insert(
+            3,
+            '    <vType id="background" length="4.5" minGap="2.5" maxSpeed="36" '
+            'lcStrategic="0" lcCooperative="0" lcSpeedGain="0" lcKeepRight="0"/>',
+        )
+        per_lane = -(-nb // len(free))
+        for b in range(nb):
+            lane, length = free[b % len(free)]
+            slot = (length - 100.0) / per_lane
+            pos = 50.0 + (b // len(free)) * slot + rng.uniform(0.0, 0.3 * slot)
+            lines.append(
+                f'    <vehicle id="bg{b}" type="background" route="road" depart="0" '
+                f'departLane="{lane}" departPos="{pos!r}" departSpeed="{rng.uniform(20.0, 30.0)!r}"/>'
+            )
+    lines.append("</routes>")
+    with open(path, "w") as f:
+        f.write("\n".join(lines) + "\n")
+
+
+def open_native(spec, sumo):
+    """The C++ loop over this run's vehicles (platoon.sumo.native.Fleet), or None for the Python
+    loop."""
+    n = len(spec["initial"])
+    n1 = int(spec["vehicles_per_platoon"])
+    radar = spec.get("radar_range_m")
+    return sumo_native.open_fleet(
+        sumo,
+        [vehicle_id(i) for i in range(n)],
+        [i for i in range(n) if i % n1] if radar is not None else [],
+        radar,
+        [f"bg{b}" for b in range(int(spec["sumo"].get("background_vehicles", 0)))],
+        say=lambda m: print(f"platoon.sumo: {m}", file=sys.stderr, flush=True),
+    )
+
+
+def start_sumo(spec):
+    import libsumo  # imported here: it sets SUMO_HOME for its own data files
+
+    s = spec["sumo"]
+    write_routes(s["routes"], spec)
+    args = [
+        "sumo",
+        "--net-file", s["net"],
+        "--route-files", s["routes"],
+        "--step-length", repr(spec["dt"]),
+        "--step-method.ballistic", "true",
+        "--collision.action", s["collision_action"],
+        "--collision.mingap-factor", "0",
+        "--collision.check-junctions", "true",
+        "--time-to-teleport", "-1",
+        "--no-step-log", "true",
+        "--no-warnings", "true",
+        "--seed", "0",
+    ]
+    if s["fcd_period_s"] > 0:
+        args += [
+            "--fcd-output", s["fcd"],
+            "--fcd-output.acceleration", "true",
+            "--device.fcd.period", repr(s["fcd_period_s"]),
+        ]
+    libsumo.start(args)
+    libsumo.simulationStep()  # inserts the vehicles; their state is still the initial one
+    n = len(spec["initial"])
+    for i in range(n):
+        vid = vehicle_id(i)
+        libsumo.vehicle.setSpeedMode(vid, 0)
+        libsumo.vehicle.setLaneChangeMode(vid, 0)
+    return libsumo
+
+
+# The numpy views of the wire types (the same fields and offsets as the ctypes mirrors).
+COMMAND = np.ctypeslib.as_array((w.Command * 1)()).dtype
+
+
+class Kinematics:
+    """Every vehicle's position and speed, from SUMO and from the model (the Rust formulas of
+    `plant_step`; with numpy for large fleets, as whole-array operations that round as the
+    loop does), and how far apart they are."""
+
+    def __init__(self, spec, sumo, mode, native=None):
+        self.sumo = sumo
+        self.native = native  # native.Fleet: SUMO's states come from its arrays
+        self.mode = mode  # "sumo": the controllers see SUMO's states; "model": the model's
+        self.offset = float(spec["sumo"]["offset_m"])
+        self.dt = float(spec["dt"])
+        n = len(spec["initial"])
+        self.vector = model.vectorised(n)
+        self.p = [float(x[0]) for x in spec["initial"]]
+        self.v = [float(x[1]) for x in spec["initial"]]
+        if self.vector:
+            self.p, self.v = np.array(self.p), np.array(self.v)
+        self.max_dp = 0.0
+        self.max_dv = 0.0
+        self.worst = None
+        self.ids = [vehicle_id(i) for i in range(n)]
+        self.n1 = int(spec["vehicles_per_platoon"])
+        self.platoons = len(spec["lanes"])
+        # The radar's view (when a fallback or the guard reads it): SUMO's leader on the lane.
+        self.radar_range = spec.get("radar_range_m")
+        self.followers = [i for i in range(n) if i % self.n1]
+        # The states sample, filled in place (through a numpy view for large fleets).
+        self.out = (w.VehicleState * n)()
+        self.view = np.ctypeslib.as_array(self.out)
+        self.view["vehicle"] = np.arange(n, dtype=np.uint32)
+
+    def commands(self, cmds):
+        """The followers' commands u in slot order (platoon j's follower i at j * N + i - 1)."""
+        n1 = self.n1
+        if self.vector:
+            got = np.frombuffer(cmds, dtype=COMMAND)
+            j, i = np.divmod(got["vehicle"].astype(np.intp), n1)
+            bad = (i == 0) | (j >= self.platoons)
+            if bad.any():
+                raise SumoError(f"commands for vehicles that are not followers: {got['vehicle'][bad][:5].tolist()}")
+            u = np.zeros(len(cmds), dtype=np.float64)
+            u[j * (n1 - 1) + i - 1] = got["u"]
+            return u
+        u = [0.0] * len(cmds)
+        for c in cmds:
+            j, i = divmod(c.vehicle, n1)
+            if i == 0 or j >= self.platoons:
+                raise SumoError(f"a command for vehicle {c.vehicle}, which is not a follower")
+            u[j * (n1 - 1) + i - 1] = c.u
+        return u
+
+    def step(self, accel, k):
+        """The model's p, v after step k with the accelerations held over it."""
+        dt = self.dt
+        if self.vector:
+            self.p = self.p + self.v * dt + 0.5 * accel * dt * dt
+            self.v = self.v + accel * dt
+            return
+        for i, a in enumerate(accel):
+            p, v = self.p[i], self.v[i]
+            self.p[i] = p + v * dt + 0.5 * a * dt * dt
+            self.v[i] = v + a * dt
+
+    def read(self, k, accel):
+        """The states to publish at step k (a VehicleState array), after comparing SUMO with
+        the model. One libsumo call per vehicle and quantity (subscriptions cost more per
+        step here, from Python and from C++: BENCHMARKS.md), made by the C++ loop when there
+        is one, which leaves SUMO's values in its arrays."""
+        get_pos, get_speed = self.sumo.vehicle.getLanePosition, self.sumo.vehicle.getSpeed
+        ids = self.ids
+        if self.native is not None:
+            lane, speed = self.native.states()
+            if not self.vector:
+                # The loop below, reading those values by index instead of asking libsumo.
+                ids = range(len(self.ids))
+                get_pos, get_speed = lane.tolist().__getitem__, speed.tolist().__getitem__
+        if not self.vector:
+            out = self.out
+            for i, vid in enumerate(ids):
+                p = get_pos(vid) - self.offset
+                v = get_speed(vid)
+                self.compare(k, i, abs(p - self.p[i]), abs(v - self.v[i]))
+                if self.mode == "sumo":
+                    self.p[i], self.v[i] = p, v  # the next comparison is over one step
+                s = out[i]
+                s.p, s.v, s.a = self.p[i], self.v[i], accel[i]
+            self.sense()
+            return out
+        if self.native is not None:
+            p, v = lane - self.offset, speed.copy()
+        else:
+            p = np.array([get_pos(vid) for vid in self.ids]) - self.offset
+            v = np.array([get_speed(vid) for vid in self.ids])
+        dp, dv = np.abs(p - self.p), np.abs(v - self.v)
+        max_dp, max_dv = float(dp.max()), float(dv.max())
+        if max_dp > self.max_dp or max_dv > self.max_dv:
+            i = int(dp.argmax() if max_dp > self.max_dp else dv.argmax())
+            self.worst = {"step": k, "vehicle": i, "dp_m": float(dp[i]), "dv_mps": float(dv[i])}
+            self.max_dp, self.max_dv = max(self.max_dp, max_dp), max(self.max_dv, max_dv)
+        if self.mode == "sumo":
+            self.p, self.v = p, v
+        self.view["p"], self.view["v"], self.view["a"] = self.p, self.v, accel
+        self.sense()
+        return self.out
+
+    def sense(self):
+        """What each follower's radar sees, as SUMO has it: the nearest vehicle ahead on its
+        lane, whoever it is (a background vehicle included; the native plant's radar only
+        knows the platoon's predecessor): the bumper-to-bumper gap (`getLeader`; minGap is 0)
+        and the closing speed. The controllers keep only what is within the radar's range."""
+        if self.radar_range is None:
+            return
+        if self.native is not None:
+            self.sense_native()
+            return
+        get_leader, get_speed = self.sumo.vehicle.getLeader, self.sumo.vehicle.getSpeed
+        out = self.out
+        for i in self.followers:
+            vid = self.ids[i]
+            ahead = get_leader(vid, self.radar_range)
+            s = out[i]
+            if ahead:
+                s.flags |= w.VehicleState.AHEAD
+                s.gap = ahead[1]
+                s.closing = get_speed(vid) - get_speed(ahead[0])
+            else:
+                s.flags &= ~w.VehicleState.AHEAD
+                s.gap = s.closing = 0.0
+
+    def sense_native(self):
+        """`sense` from what the C++ loop read: the same values, the same subtraction."""
+        nat = self.native
+        if not self.vector:
+            out, speed = self.out, nat.speed.tolist()
+            gap, ahead_speed = nat.gap.tolist(), nat.ahead_speed.tolist()
+            for j, i in enumerate(self.followers):
+                s = out[i]
+                if nat.ahead[j]:
+                    s.flags |= w.VehicleState.AHEAD
+                    s.gap = gap[j]
+                    s.closing = speed[i] - ahead_speed[j]
+                else:
+                    s.flags &= ~w.VehicleState.AHEAD
+                    s.gap = s.closing = 0.0
+            return
+        f, ahead = nat.followers, nat.ahead.astype(bool)
+        view = self.view
+        flags = view["flags"][f]
+        view["flags"][f] = np.where(ahead, flags | w.VehicleState.AHEAD, flags & ~np.uint32(w.VehicleState.AHEAD))
+        view["gap"][f] = np.where(ahead, nat.gap, 0.0)
+        view["closing"][f] = np.where(ahead, nat.speed[f] - nat.ahead_speed, 0.0)
+
+    def compare(self, k, i, dp, dv):
+        if dp > self.max_dp or dv > self.max_dv:
+            self.worst = {"step": k, "vehicle": i, "dp_m": dp, "dv_mps": dv}
+            self.max_dp, self.max_dv = max(self.max_dp, dp), max(self.max_dv, dv)
+
+
+class Traffic:
+    """SUMO's background vehicles (`bg<b>`) as the `traffic` sample of a step: each one's lane
+    position minus the run's offset (the platoon's road coordinates, as the states), flagged
+    ON_ROAD, or NaN before it is inserted and after it leaves the road. Who is on the road is
+    kept from SUMO's departed and arrived lists (two calls per step), and each position is one
+    `getLanePosition` call: per-vehicle calls cost less than subscriptions in libsumo
+    (docs/performance.md, "What was tried")."""
+
+    def __init__(self, spec, sumo, native=None):
+        self.sumo = sumo
+        self.native = native  # native.Fleet: the positions come from the C++ loop
+        self.offset = float(spec["sumo"]["offset_m"])
+        n = int(spec["sumo"].get("background_vehicles", 0))
+        self.ids = [f"bg{b}" for b in range(n)]
+        self.index = {vid: b for b, vid in enumerate(self.ids)}
+        self.on_road = [False] * n
+        self.depart(sumo.vehicle.getIDList())
+        self.out = (w.TrafficVehicle * n)()
+        self.view = np.ctypeslib.as_array(self.out) if n else None
+        if n:
+            self.view["index"] = np.arange(n, dtype=np.uint32)
+        self.nan = float("nan")
+
+    def __len__(self):
+        return len(self.ids)
+
+    def depart(self, vids):
+        for vid in vids:
+            b = self.index.get(vid)
+            if b is not None:
+                self.on_road[b] = True
+
+    def read(self):
+        """The traffic sample of the current SUMO step."""
+        sim = self.sumo.simulation
+        self.depart(sim.getDepartedIDList())
+        for vid in sim.getArrivedIDList():
+            b = self.index.get(vid)
+            if b is not None:
+                self.on_road[b] = False
+        get_pos, offset, nan = self.sumo.vehicle.getLanePosition, self.offset, self.nan
+        if self.native is not None:
+            lane = self.native.traffic(self.on_road)  # clears on_road for the removed ones
+            p = np.where(self.on_road, lane - offset, nan)
+        else:
+            p = [nan] * len(self.ids)
+            for b, vid in enumerate(self.ids):
+                if self.on_road[b]:
+                    try:
+                        p[b] = get_pos(vid) - offset
+                    except self.sumo.TraCIException:  # removed some other way (a collision)
+                        self.on_road[b] = False
+        self.view["p"] = p
+        self.view["flags"] = self.on_road
+        return self.out
+
+
+def run(spec) -> int:
+    n = len(spec["initial"])
+    steps = int(spec["steps"])
+    dt = float(spec["dt"])
+    node = w.Endpoint("plant")
+    states_out = node.outlet("states", w.VehicleState, n, grow=False)
+    # The background traffic, published before the states of each step (the injector reads it
+    # once the tx batch that follows the states wakes it). The orchestrator creates the service
+    # exactly when there is background traffic.
+    nb = int(spec["sumo"].get("background_vehicles", 0))
+    traffic_out = node.outlet("traffic", w.TrafficVehicle, nb, grow=False) if nb else None
+    commands_in = node.inlet("commands", w.Command)
+    control = node.control_inlet()
+    status = node.status_outlet()
+
+    k = 0
+    report = {
+        "sumo_version": None,
+        "steps": 0,
+        "collisions": [],
+        # SUMO's FCD writer ([sumo] fcd = "sumo"); platoon's own (the default) fills this in
+        # after the run.
+        "fcd": {"file": "fcd.xml", "writer": "sumo", "period_s": spec["sumo"]["fcd_period_s"]}
+        if spec["sumo"]["fcd_period_s"] > 0 else None,
+    }
+    sumo_ns, bridge_ns, sumo_cpu, bridge_cpu = [], [], [], []
+
+    def fail(message):
+        print(f"platoon.sumo: {message}", file=sys.stderr)
+        # Called while an exception is handled: its whole traceback goes to logs/plant.log.
+        traceback.print_exc(file=sys.stderr)
+        sys.stderr.flush()
+        # FAILED, then the orchestrator's ABORT before exiting (the report lives in our status
+        # publisher).
+        _plugin.fail(node, control, status, "plant", k, message)
+
+    try:
+        sumo = start_sumo(spec)
+        report["sumo_version"] = sumo.getVersion()[1]
+        native = open_native(spec, sumo)
+        report["loop"] = "python" if native is None else "native"
+        dyn = model.Dynamics(spec)
+        kin = Kinematics(spec, sumo, spec["sumo"]["states"], native)
+        traffic = Traffic(spec, sumo, native)
+        tolerance = float(spec["sumo"]["tolerance_m"])
+    except Exception as e:  # libsumo raises its own exception types
+        fail(f"SUMO could not start: {e}")
+        return 1
+
+    w.send_status(status, w.ControlMsg.READY, "plant")
+    started = False
+    while not started:
+        node.wait()
+        msg = control.receive()
+        while msg is not None:
+            kind = msg.payload().contents.kind
+            if kind == w.ControlMsg.START:
+                started = True
+            elif kind in (w.ControlMsg.STOP, w.ControlMsg.ABORT):
+                sumo.close()
+                return 0
+            msg = control.receive()
+
+    try:
+        if traffic_out is not None:
+            traffic_out.send(0, 0.0, traffic.read())
+        states_out.send(0, 0.0, kin.read(0, dyn.accel))
+        while True:
+            if _plugin.stop_received(control):
+                sumo.close()
+                return 0
+            cmds = commands_in.take(k)
+            if cmds is None:
+                node.wait()
+                continue
+            t0 = time.perf_counter_ns()
+            c0 = time.thread_time_ns()
+            if len(cmds) != len(spec["taus"]):
+                raise SumoError(f"{len(cmds)} commands for {len(spec['taus'])} followers")
+            u = kin.commands(cmds)
+            if native is not None:
+                # Set, step and read in one call; SUMO's step timed inside it.
+                t1 = time.perf_counter_ns()
+                c1 = time.thread_time_ns()
+                step_ns, step_cpu = native.step(dyn.accel, dt)
+                t2 = time.perf_counter_ns()
+                c2 = time.thread_time_ns()
+                # SUMO's step is its own part of the call; the rest of it is the bridge's work.
+                t1, c1 = t2 - step_ns, c2 - step_cpu
+            else:
+                set_accel = sumo.vehicle.setAcceleration
+                accel = dyn.accel.tolist() if dyn.vector else dyn.accel
+                for vid, a in zip(kin.ids, accel):
+                    set_accel(vid, a, dt)
+                t1 = time.perf_counter_ns()
+                c1 = time.thread_time_ns()
+                sumo.simulationStep()
+                t2 = time.perf_counter_ns()
+                c2 = time.thread_time_ns()
+            for c in sumo.simulation.getCollisions():
+                report["collisions"].append(
+                    {
+                        "step": k + 1,
+                        "t": (k + 1) * dt,
+                        "collider": c.collider,
+                        "victim": c.victim,
+                        "type": c.type,
+                        "position_m": c.pos - kin.offset,
+                    }
+                )
+            kin.step(dyn.accel, k)
+            dyn.advance(k, u)
+            k += 1
+            if k > steps:
+                report["steps"] = k
+                break
+            states = kin.read(k, dyn.accel)
+            if max(kin.max_dp, kin.max_dv) > tolerance:
+                raise SumoError(
+                    f"SUMO deviates from the vehicle model by {kin.worst['dp_m']:.3g} m, "
+                    f"{kin.worst['dv_mps']:.3g} m/s (vehicle {kin.worst['vehicle']}; "
+                    f"tolerance sumo.tolerance_m = {tolerance:g})"
+                )
+            if traffic_out is not None:
+                traffic_out.send(k, k * dt, traffic.read())
+            states_out.send(k, k * dt, states)
+            t3 = time.perf_counter_ns()
+            c3 = time.thread_time_ns()
+            sumo_ns.append(t2 - t1)
+            bridge_ns.append((t1 - t0) + (t3 - t2))
+            # CPU time: wall time also counts being preempted by the process we just woke.
+            sumo_cpu.append(c2 - c1)
+            bridge_cpu.append((c1 - c0) + (c3 - c2))
+    except Exception as e:
+        fail(f"SUMO at step {k}: {e}")
+        return 1
+
+    def stats(ns):
+        if not ns:
+            return None
+        ns = sorted(ns)
+        return {
+            "p50_us": ns[len(ns) // 2] / 1e3,
+            "p99_us": ns[min(len(ns) - 1, int(len(ns) * 0.99))] / 1e3,
+            "mean_us": statistics.fmean(ns) / 1e3,
+        }
+
+    report["states"] = kin.mode
+    report["max_deviation_m"] = kin.max_dp
+    report["max_deviation_mps"] = kin.max_dv
+    report["worst_deviation"] = kin.worst
+    report["sumo_step"] = stats(sumo_ns)
+    report["bridge_step"] = stats(bridge_ns)
+    report["sumo_step_cpu"] = stats(sumo_cpu)
+    report["bridge_step_cpu"] = stats(bridge_cpu)
+    tmp = spec["sumo"]["report"] + ".partial"
+    with open(tmp, "w") as f:
+        json.dump(report, f, indent=2)
+        f.write("\n")
+    os.replace(tmp, spec["sumo"]["report"])
+    sumo.close()
+    w.send_status(status, w.ControlMsg.DONE, "plant", k - 1)
+    while not _plugin.stop_received(control):
+        node.wait()
+    return 0
+
+
+def tight_loop(spec, steps: int) -> dict:
+    """The bridge's per-step work without the co-simulation around it: the same SUMO (options,
+    network, routes), the same model, set-step-read in a loop with no process hops and no
+    waiting (the followers' commands held at 0). Medians in µs, for `platoon bench step`."""
+    import tempfile
+
+    # Its own routes file, and no FCD output: nothing of the run's directory is touched.
+    tmp = tempfile.TemporaryDirectory()
+    spec = dict(spec, sumo=dict(spec["sumo"], routes=os.path.join(tmp.name, "routes.rou.xml"),
+                                fcd_period_s=0))
+    sumo = start_sumo(spec)
+    native = open_native(spec, sumo)
+    dyn = model.Dynamics(spec)
+    kin = Kinematics(spec, sumo, spec["sumo"]["states"], native)
+    traffic = Traffic(spec, sumo, native)
+    u = np.zeros(len(spec["taus"])) if dyn.vector else [0.0] * len(spec["taus"])
+    dt = float(spec["dt"])
+    sumo_ns, bridge_ns = [], []
+    for k in range(steps):
+        t0 = time.perf_counter_ns()
+        if native is not None:
+            step_ns, _ = native.step(dyn.accel, dt)
+            t2 = time.perf_counter_ns()
+            t1 = t2 - step_ns
+        else:
+            accel = dyn.accel.tolist() if dyn.vector else dyn.accel
+            for vid, a in zip(kin.ids, accel):
+                sumo.vehicle.setAcceleration(vid, a, dt)
+            t1 = time.perf_counter_ns()
+            sumo.simulationStep()
+            t2 = time.perf_counter_ns()
+        kin.step(dyn.accel, k)
+        dyn.advance(k, u)
+        kin.read(k + 1, dyn.accel)
+        if len(traffic):
+            traffic.read()
+        t3 = time.perf_counter_ns()
+        sumo_ns.append(t2 - t1)
+        bridge_ns.append((t1 - t0) + (t3 - t2))
+    sumo.close()
+    tmp.cleanup()
+    return {
+        "steps": steps,
+        "loop": "python" if native is None else "native",
+        "sumo_step_p50_us": statistics.median(sumo_ns) / 1e3,
+        "bridge_step_p50_us": statistics.median(bridge_ns) / 1e3,
+    }
+
+
+def main() -> int:
+    path = os.environ.get("PLATOON_PLANT_SPEC")
+    if not path:
+        print("platoon.sumo: PLATOON_PLANT_SPEC is not set; start me with `platoon run --plant sumo`",
+              file=sys.stderr)
+        return 2
+    with open(path) as f:
+        spec = json.load(f)
+    NAMES["per_platoon"] = int(spec["vehicles_per_platoon"])
+    NAMES["platoons"] = len(spec["lanes"])
+    if len(sys.argv) == 3 and sys.argv[1] == "--tight-loop":
+        print(json.dumps(tight_loop(spec, int(sys.argv[2]))))
+        return 0
+    return run(spec)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
