@@ -51,6 +51,23 @@ pub struct Row {
     pub over_raw_p50: Option<f64>,
 }
 
+impl Row {
+    /// p50, p90, p99, p99.9 and max (µs), and the ratio to the raw hop's p50 ("" without one).
+    pub(crate) fn figures(&self) -> ([f64; 5], String) {
+        let over = self
+            .over_raw_p50
+            .map_or(String::new(), |x| format!("{x:.2}"));
+        let percentiles = [
+            self.p50_us,
+            self.p90_us,
+            self.p99_us,
+            self.p999_us,
+            self.max_us,
+        ];
+        (percentiles, over)
+    }
+}
+
 /// The row of `quantity`; no samples is an error (the benchmark measures every row or fails).
 fn row(quantity: &str, s: Option<Stats>) -> Result<Row> {
     let s = s.with_context(|| format!("{quantity}: no samples were recorded"))?;
@@ -366,16 +383,10 @@ pub fn latency(a: Latency) -> Result<LatencyReport> {
         "µs", "n", "p50", "p90", "p99", "p99.9", "max", "x raw"
     );
     for r in &report.rows {
+        let ([p50, p90, p99, p999, max], over) = r.figures();
         println!(
-            "{:<28} {:>7} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>9.2} {:>8}",
-            r.quantity,
-            r.n,
-            r.p50_us,
-            r.p90_us,
-            r.p99_us,
-            r.p999_us,
-            r.max_us,
-            r.over_raw_p50.map_or(String::new(), |x| format!("{x:.2}"))
+            "{:<28} {:>7} {p50:>8.2} {p90:>8.2} {p99:>8.2} {p999:>8.2} {max:>9.2} {over:>8}",
+            r.quantity, r.n
         );
     }
     println!(

@@ -104,16 +104,11 @@ pub fn all(a: All) -> Result<()> {
     );
     let _ = writeln!(md, "| quantity | p50 | p90 | p99 | p99.9 | max | x raw iceoryx2 (p50) |\n|---|---|---|---|---|---|---|");
     for r in &lat.rows {
+        let ([p50, p90, p99, p999, max], over) = r.figures();
         let _ = writeln!(
             md,
-            "| {} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {} |",
-            r.quantity,
-            r.p50_us,
-            r.p90_us,
-            r.p99_us,
-            r.p999_us,
-            r.max_us,
-            r.over_raw_p50.map_or(String::new(), |x| format!("{x:.2}"))
+            "| {} | {p50:.2} | {p90:.2} | {p99:.2} | {p999:.2} | {max:.2} | {over} |",
+            r.quantity
         );
     }
     let _ = writeln!(

@@ -93,10 +93,7 @@ impl Endpoint {
         safe_overflow: bool,
     ) -> Result<StepService<T>, RunError> {
         let name = self.name(s)?;
-        self.node
-            .service_builder(&name)
-            .publish_subscribe::<[T]>()
-            .user_header::<StepHeader>()
+        self.step_builder::<T>(&name)
             .max_publishers(publishers)
             .max_subscribers(subscribers)
             .max_nodes(nodes)
@@ -107,16 +104,24 @@ impl Endpoint {
             .map_err(|e| ipc_err(format!("creating service {name}"), e))
     }
 
+    /// The builder of a step stream's service: a slice of `T` per sample under a [`StepHeader`].
+    fn step_builder<T: Debug + ZeroCopySend + 'static>(
+        &self,
+        name: &ServiceName,
+    ) -> iceoryx2::service::builder::publish_subscribe::Builder<[T], StepHeader, Ipc> {
+        self.node
+            .service_builder(name)
+            .publish_subscribe::<[T]>()
+            .user_header::<StepHeader>()
+    }
+
     /// Opens a step service.
     pub fn open_step_service<T: Debug + ZeroCopySend + 'static>(
         &self,
         s: Service,
     ) -> Result<StepService<T>, RunError> {
         let name = self.name(s)?;
-        self.node
-            .service_builder(&name)
-            .publish_subscribe::<[T]>()
-            .user_header::<StepHeader>()
+        self.step_builder::<T>(&name)
             .open()
             .map_err(|e| ipc_err(format!("opening service {name}"), e))
     }
