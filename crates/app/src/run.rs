@@ -4,10 +4,8 @@
 //! summary alone, with no files at all.
 use crate::progress::Progress;
 use anyhow::{Context, Result};
-use arrow_array::RecordBatch;
-use arrow_schema::SchemaRef;
 use platoon_attacks::channel::ChannelEvent;
-use platoon_config::{Config, OutputFile, Transport};
+use platoon_config::{Config, Transport};
 use platoon_output::plots;
 use platoon_output::rundir::RunDir;
 use platoon_output::tables::{Format, Table};
@@ -20,6 +18,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 pub use platoon_config::PlantKind;
+pub use platoon_output::run_tables::{read_tables, Plotted, RunFiles, Tables};
 
 /// How a third-party injector composes with the built-in channel.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -428,55 +427,23 @@ pub fn record(
     Ok((summary, step_ns))
 }
 
-/// The files of a run directory's per-step data: trajectories (every `decimate`-th step),
-/// events (broadcasts and mode switches), wire (vehicles whose links were not all delivered as
-/// sent), the channel log (in process) and the detections, as CSV or Parquet; keeps platoon 0's
-/// rows for the plots (memory stays bounded for large fleets).
-pub struct RunFiles {
-    trajectories: Table<StepRow>,
-    events: Table<EventRow>,
-    wire: Table<WireRow>,
-    channel: Option<Table<ChannelEvent>>,
-    detections: Table<DetectionRow>,
-    decimate: u64,
-    last: Vec<Option<u64>>,
-    modes: Vec<platoon_control::Mode>,
-    per_platoon: usize,
-    dt: f64,
-    rows: Vec<StepRow>,
-    /// Keep platoon 0's rows for the plots (not when the tables are kept in memory).
-    keep_rows: bool,
-    /// The detection events of the step, written after its rows' own: (vehicle's index in the
-    /// fleet, event).
-    pending: Vec<(usize, Event)>,
-    /// The (vehicle, sender) pairs whose packets the reaction refuses (as last seen).
-    refusing: std::collections::BTreeSet<(usize, u16)>,
-    /// Platoon 0's detector flags (follower, t), for modes.png.
-    flags: Vec<(u16, f64)>,
-}
+impl StepSink for RunFiles {
+    fn step(&mut self, rows: &[StepRow], wire: StepWire<'_>) -> Result<()> {
+        RunFiles::step(self, rows, wire)
+    }
 
-/// Where [`RunFiles`] keeps its tables.
-enum Place<'a> {
-    Dir(&'a RunDir, Format),
-    Memory,
-}
+    fn channel(&mut self, event: &ChannelEvent) -> Result<()> {
+        RunFiles::channel(self, event)
+    }
 
-impl Place<'_> {
-    fn table<T: serde::Serialize + serde::de::DeserializeOwned>(
-        &self,
-        stem: &str,
-        enabled: bool,
-    ) -> Result<Table<T>> {
-        match self {
-            Place::Dir(dir, format) => Table::create(dir, stem, *format, enabled),
-            Place::Memory => Table::memory(stem, enabled),
-        }
+    fn detections(&mut self, names: &[&str], scored: &[Scored]) -> Result<()> {
+        RunFiles::detections(self, names, scored)
+    }
+
+    fn finish(&mut self) -> Result<()> {
+        RunFiles::finish(self)
     }
 }
-
-/// A run's per-step tables as Arrow record batches, each by name (`trajectories`, `events`,
-/// `wire`, `channel`, `detections`: the files' stems) with its schema, the Parquet files'.
-pub type Tables = Vec<(&'static str, SchemaRef, Vec<RecordBatch>)>;
 
 /// Runs `scenario` in process and keeps everything in memory: the per-step tables `output`
 /// asks for (its `files` and `decimate`; the format does not matter) and the summary, marked
@@ -506,33 +473,6 @@ fn mark_stopped(summary: &mut Summary, why: &str, scenario: &Scenario) {
     ));
 }
 
-/// The per-step tables of a finished run directory (CSV or Parquet, whichever it wrote), as
-/// [`simulate_in_memory`] returns them.
-pub fn read_tables(dir: &Path) -> Result<Tables> {
-    fn read<T: serde::Serialize + serde::de::DeserializeOwned>(
-        dir: &Path,
-        stem: &'static str,
-        tables: &mut Tables,
-    ) -> Result<()> {
-        for ext in ["csv", "parquet"] {
-            let path = dir.join(format!("{stem}.{ext}"));
-            if path.exists() {
-                let (schema, batches) = platoon_output::tables::read_batches::<T>(&path)?;
-                tables.push((stem, schema, batches));
-                break;
-            }
-        }
-        Ok(())
-    }
-    let mut tables = Tables::new();
-    read::<StepRow>(dir, "trajectories", &mut tables)?;
-    read::<EventRow>(dir, "events", &mut tables)?;
-    read::<WireRow>(dir, "wire", &mut tables)?;
-    read::<ChannelEvent>(dir, "channel", &mut tables)?;
-    read::<DetectionRow>(dir, "detections", &mut tables)?;
-    Ok(tables)
-}
-
 /// The JSON of `summary.json`: the summary with the `extra` keys (`injector`, ...) set.
 pub fn summary_json(
     summary: &Summary,
@@ -543,332 +483,6 @@ pub fn summary_json(
         json[*key] = value.clone();
     }
     Ok(json)
-}
-
-/// One row of wire.csv: a vehicle's link packets in a step where not everything sent to it was
-/// delivered as sent.
-#[derive(serde::Serialize, serde::Deserialize)]
-struct WireRow {
-    step: u64,
-    t: f64,
-    platoon: u16,
-    vehicle: u16,
-    sent: u64,
-    delivered_as_sent: u64,
-    altered: u64,
-    dropped: u64,
-    injected: u64,
-    jammed: u64,
-}
-
-/// One row of detections.csv: a packet a follower's detectors inspected, what it claimed, the
-/// truth, and each built-in detector's verdict (empty when that detector is off).
-#[derive(serde::Serialize, serde::Deserialize)]
-struct DetectionRow {
-    /// The step it was received (and inspected) at.
-    step: u64,
-    t: f64,
-    platoon: u16,
-    receiver: u16,
-    /// The claimed sender.
-    sender: u16,
-    seq: u32,
-    /// The step it claims to have been sampled at.
-    sampled_step: u64,
-    claimed_p: f64,
-    claimed_v: f64,
-    claimed_a: f64,
-    /// The claimed sender's true state at `sampled_step` (empty if unknown).
-    true_p: Option<f64>,
-    true_v: Option<f64>,
-    true_a: Option<f64>,
-    /// `platoon_sim::truth::Label`'s name: genuine, altered, lied, delayed, replayed, forged.
-    label: String,
-    /// Any detector flagged it.
-    flagged: bool,
-    /// The reaction refused it.
-    refused: bool,
-    plausibility_flagged: Option<bool>,
-    plausibility_score: Option<f64>,
-    radar_cross_flagged: Option<bool>,
-    radar_cross_score: Option<f64>,
-    residual_flagged: Option<bool>,
-    residual_score: Option<f64>,
-}
-
-/// One row per broadcast of a follower, one per change of its mode, and with `[detection]` one
-/// per packet its detectors flagged and one when its reaction begins or ends refusing a sender.
-#[derive(serde::Serialize, serde::Deserialize)]
-struct EventRow {
-    platoon: u16,
-    vehicle: u16,
-    step: u64,
-    t: f64,
-    /// `broadcast`, `switch` (the vehicle's mode changed at this step), `flagged`, `distrust` or
-    /// `trust`.
-    event: Event,
-    /// The mode it is in (after the switch).
-    mode: platoon_control::Mode,
-    /// Broadcasts: the time since its previous broadcast.
-    inter_event_s: Option<f64>,
-    under_attack: bool,
-}
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-#[serde(rename_all = "snake_case")]
-enum Event {
-    Broadcast,
-    Switch,
-    /// A detector flagged a packet the vehicle received (`[detection]`).
-    Flagged,
-    /// Its reaction began refusing a sender's packets (the first refused after an accepted
-    /// one).
-    Distrust,
-    /// It accepted a packet of a sender it had been refusing.
-    Trust,
-}
-
-impl From<Vec<StepRow>> for Plotted {
-    fn from(rows: Vec<StepRow>) -> Self {
-        Self {
-            rows,
-            flags: Vec::new(),
-        }
-    }
-}
-
-impl RunFiles {
-    /// Opens the tables `output` asks for in `dir`; `channel` (in process) also opens the
-    /// channel log (a co-simulation's injector writes its own). With `[detection]`, the
-    /// detections (the per-message dataset) too.
-    pub fn create(
-        scenario: &Scenario,
-        output: &platoon_config::OutputConfig,
-        dir: &RunDir,
-        channel: bool,
-    ) -> Result<Self> {
-        Self::open(
-            scenario,
-            output,
-            Place::Dir(dir, Format::of(output, scenario)),
-            channel,
-        )
-    }
-
-    /// The same tables kept in memory as Arrow record batches ([`RunFiles::into_tables`]),
-    /// the channel log included; no file is written.
-    pub fn in_memory(scenario: &Scenario, output: &platoon_config::OutputConfig) -> Result<Self> {
-        Self::open(scenario, output, Place::Memory, true)
-    }
-
-    fn open(
-        scenario: &Scenario,
-        output: &platoon_config::OutputConfig,
-        place: Place<'_>,
-        channel: bool,
-    ) -> Result<Self> {
-        let steps = scenario.steps + 1;
-        let on = |f: OutputFile| output.writes(f);
-        Ok(Self {
-            trajectories: place.table("trajectories", on(OutputFile::Trajectories))?,
-            events: place.table("events", on(OutputFile::Events))?,
-            wire: place.table("wire", on(OutputFile::Wire))?,
-            channel: channel
-                .then(|| place.table("channel", on(OutputFile::Channel)))
-                .transpose()?,
-            detections: place.table(
-                "detections",
-                scenario.control.detection.is_measured() && on(OutputFile::Detections),
-            )?,
-            decimate: output.decimate,
-            last: vec![None; scenario.vehicles()],
-            modes: vec![platoon_control::Mode::Coop; scenario.vehicles()],
-            per_platoon: scenario.vehicles_per_platoon(),
-            dt: scenario.dt(),
-            // Platoon 0's rows for the plots; grown as needed past a million steps.
-            rows: match place {
-                Place::Dir(..) => Vec::with_capacity(
-                    steps.min(1 << 20) as usize * scenario.vehicles_per_platoon(),
-                ),
-                Place::Memory => Vec::new(),
-            },
-            keep_rows: matches!(place, Place::Dir(..)),
-            pending: Vec::new(),
-            refusing: Default::default(),
-            flags: Vec::new(),
-        })
-    }
-
-    /// The tables of [`RunFiles::in_memory`] after the run (its sink's `finish`), by name; a
-    /// table `[output] files` leaves out is not there.
-    pub fn into_tables(mut self) -> Result<Tables> {
-        let mut tables = Tables::new();
-        let mut take = |name: &'static str, got: Option<(SchemaRef, Vec<RecordBatch>)>| {
-            if let Some((schema, batches)) = got {
-                tables.push((name, schema, batches));
-            }
-        };
-        take("trajectories", self.trajectories.take_batches()?);
-        take("events", self.events.take_batches()?);
-        take("wire", self.wire.take_batches()?);
-        if let Some(channel) = &mut self.channel {
-            take("channel", channel.take_batches()?);
-        }
-        take("detections", self.detections.take_batches()?);
-        Ok(tables)
-    }
-
-    /// Platoon 0's rows so far.
-    pub fn into_rows(self) -> Vec<StepRow> {
-        self.rows
-    }
-
-    /// Platoon 0's rows and detector flags (follower, t) so far, for the plots.
-    pub fn into_plotted(self) -> Plotted {
-        Plotted {
-            rows: self.rows,
-            flags: self.flags,
-        }
-    }
-}
-
-impl StepSink for RunFiles {
-    fn step(&mut self, step: &[StepRow], wire: StepWire<'_>) -> Result<()> {
-        if self.keep_rows {
-            self.rows.extend(step.iter().take_while(|r| r.platoon == 0));
-        }
-        let k = step[0].step;
-        for (i, counts) in wire.per_vehicle.iter().enumerate() {
-            if counts.is_eventful() {
-                self.wire.write(WireRow {
-                    step: k,
-                    t: step[0].t,
-                    platoon: (i / self.per_platoon) as u16,
-                    vehicle: (i % self.per_platoon) as u16,
-                    sent: counts.sent,
-                    delivered_as_sent: counts.delivered_as_sent,
-                    altered: counts.altered,
-                    dropped: counts.dropped,
-                    injected: counts.injected,
-                    jammed: counts.jammed,
-                })?;
-            }
-        }
-        let keep = k.is_multiple_of(self.decimate);
-        // Each vehicle's in the order they happened (a stable sort).
-        self.pending.sort_by_key(|(v, _)| *v);
-        let mut next = 0;
-        for r in step {
-            if keep {
-                self.trajectories.write(*r)?;
-            }
-            if r.vehicle == 0 {
-                continue;
-            }
-            let v = usize::from(r.platoon) * self.per_platoon + usize::from(r.vehicle);
-            let row = |event, inter_event_s| EventRow {
-                platoon: r.platoon,
-                vehicle: r.vehicle,
-                step: r.step,
-                t: r.t,
-                event,
-                mode: r.mode,
-                inter_event_s,
-                under_attack: r.under_attack,
-            };
-            if r.mode != self.modes[v] {
-                self.modes[v] = r.mode;
-                self.events.write(row(Event::Switch, None))?;
-            }
-            if r.triggered {
-                let prev = &mut self.last[v];
-                let inter = prev.map(|p| (r.step - p) as f64 * self.dt);
-                self.events.write(row(Event::Broadcast, inter))?;
-                *prev = Some(r.step);
-            }
-            // The step's detection events come sorted by vehicle (below), as the rows do.
-            while let Some(&(_, e)) = self.pending.get(next).filter(|(x, _)| *x == v) {
-                self.events.write(row(e, None))?;
-                next += 1;
-            }
-        }
-        self.pending.clear();
-        Ok(())
-    }
-
-    fn channel(&mut self, event: &ChannelEvent) -> Result<()> {
-        match &mut self.channel {
-            Some(t) => t.write(*event),
-            None => Ok(()),
-        }
-    }
-
-    fn detections(&mut self, names: &[&str], scored: &[Scored]) -> Result<()> {
-        for s in scored {
-            let i = &s.inspection;
-            // The events of a follower (a packet to the leader or to no vehicle has none).
-            if (1..self.per_platoon).contains(&usize::from(i.receiver.0)) {
-                let v = usize::from(s.platoon) * self.per_platoon + usize::from(i.receiver.0);
-                if i.flagged {
-                    self.pending.push((v, Event::Flagged));
-                    if s.platoon == 0 {
-                        self.flags.push((i.receiver.0, i.k as f64 * self.dt));
-                    }
-                }
-                let key = (v, i.sender.0);
-                if i.refused && self.refusing.insert(key) {
-                    self.pending.push((v, Event::Distrust));
-                } else if !i.refused && self.refusing.remove(&key) {
-                    self.pending.push((v, Event::Trust));
-                }
-            }
-            let verdict = |name: &str| {
-                names
-                    .iter()
-                    .position(|n| *n == name)
-                    .and_then(|d| i.verdicts().get(d))
-            };
-            let flagged = |name: &str| verdict(name).map(|v| v.flagged);
-            // NaN: the detector had nothing to test (no radar reading, no earlier packet).
-            let score = |name: &str| verdict(name).map(|v| v.score).filter(|x| !x.is_nan());
-            self.detections.write(DetectionRow {
-                step: i.k,
-                t: i.k as f64 * self.dt,
-                platoon: s.platoon,
-                receiver: i.receiver.0,
-                sender: i.sender.0,
-                seq: i.seq,
-                sampled_step: i.step,
-                claimed_p: s.packet.state[0],
-                claimed_v: s.packet.state[1],
-                claimed_a: s.packet.state[2],
-                true_p: s.truth.map(|x| x[0]),
-                true_v: s.truth.map(|x| x[1]),
-                true_a: s.truth.map(|x| x[2]),
-                label: s.label.name().to_string(),
-                flagged: i.flagged,
-                refused: i.refused,
-                plausibility_flagged: flagged("plausibility"),
-                plausibility_score: score("plausibility"),
-                radar_cross_flagged: flagged("radar_cross"),
-                radar_cross_score: score("radar_cross"),
-                residual_flagged: flagged("residual"),
-                residual_score: score("residual"),
-            })?;
-        }
-        Ok(())
-    }
-
-    fn finish(&mut self) -> Result<()> {
-        self.trajectories.finish()?;
-        self.events.finish()?;
-        self.wire.finish()?;
-        self.detections.finish()?;
-        if let Some(t) = &mut self.channel {
-            t.finish()?;
-        }
-        Ok(())
-    }
 }
 
 /// Runs the scenario in process into `dir` (the per-step tables and timing.json); returns
@@ -898,15 +512,6 @@ pub fn simulate_until(
 ) -> Result<(Vec<StepRow>, Summary)> {
     let (plotted, summary) = simulate_plotted(scenario, output, dir, progress, stop)?;
     Ok((plotted.rows, summary))
-}
-
-/// Platoon 0's rows and detector flags, as the plots draw them.
-#[derive(Debug, Clone, Default)]
-pub struct Plotted {
-    /// Platoon 0's rows.
-    pub rows: Vec<StepRow>,
-    /// Platoon 0's detector flags: (follower, t), one per flagged packet.
-    pub flags: Vec<(u16, f64)>,
 }
 
 /// [`simulate_until`] returning what the plots draw.

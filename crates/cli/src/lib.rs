@@ -5,6 +5,7 @@
 // The doc comments of the argument types are the `--help` text clap prints as written: `<DIR>`,
 // `runs/<name>` and `[fallback]` there are for a terminal, not rustdoc markup.
 #![allow(rustdoc::broken_intra_doc_links, rustdoc::invalid_html_tags)]
+mod bench;
 mod campaign;
 mod design;
 mod experiment;
@@ -130,7 +131,7 @@ enum Command {
     Fcd(fcd::Args),
     /// Measure what the co-simulation costs on this machine (`bench all` writes BENCHMARKS.md).
     #[command(subcommand)]
-    Bench(platoon_bench::Bench),
+    Bench(bench::Bench),
     /// One process of an iceoryx2 run (started by `platoon run`, not by hand).
     #[command(hide = true)]
     Node(node::Args),
@@ -169,7 +170,7 @@ where
         Command::Search(args) => search::run(args),
         Command::Experiment(e) => experiment::run(e),
         Command::Node(args) => node::run(args),
-        Command::Bench(b) => platoon_bench::run(b),
+        Command::Bench(b) => bench::run(b),
         Command::Design(d) => design::run(d),
         Command::Fcd(args) => fcd::run(args),
         Command::WireLayout => {

@@ -503,19 +503,24 @@ mod tests {
             e.to_string(),
             "net.xml has no lane road_7 (its lanes are road_0, road_1, road_2)"
         );
-        let layout = Layout {
-            edge: "road".into(),
-            lanes: vec![0, 9],
-            vehicles_per_platoon: 2,
-            offset_m: 0.0,
-            vehicle_length_m: 4.0,
-            dt: 0.01,
-            vtype: "platoon".into(),
-        };
+        let layout = layout(vec![0, 9], 0.0);
         let e = FcdWriter::new(&net, layout, 1, Vec::new(), "test")
             .err()
             .unwrap();
         assert!(e.to_string().contains("no lane road_9"), "{e}");
+    }
+
+    /// Two vehicles a platoon on edge `road`'s `lanes`, `offset_m` from its start.
+    fn layout(lanes: Vec<u32>, offset_m: f64) -> Layout {
+        Layout {
+            edge: "road".into(),
+            lanes,
+            vehicles_per_platoon: 2,
+            offset_m,
+            vehicle_length_m: 4.0,
+            dt: 0.01,
+            vtype: "platoon".into(),
+        }
     }
 
     fn row(step: u64, platoon: u16, vehicle: u16, p: f64) -> StepRow {
@@ -542,15 +547,7 @@ mod tests {
     #[test]
     fn rows_become_timesteps_at_the_period_with_sumos_ids() {
         let net = Network::parse(NET, "net.xml").unwrap();
-        let layout = Layout {
-            edge: "road".into(),
-            lanes: vec![0, 1],
-            vehicles_per_platoon: 2,
-            offset_m: 5.0,
-            vehicle_length_m: 4.0,
-            dt: 0.01,
-            vtype: "platoon".into(),
-        };
+        let layout = layout(vec![0, 1], 5.0);
         let mut w = FcdWriter::new(&net, layout, 2, Vec::new(), "from a test").unwrap();
         for k in 0..3 {
             for (j, i) in [(0, 0), (0, 1), (1, 0), (1, 1)] {
@@ -640,15 +637,7 @@ mod tests {
     #[test]
     fn a_repeated_row_is_one_vehicle() {
         let net = Network::parse(NET, "net.xml").unwrap();
-        let layout = Layout {
-            edge: "road".into(),
-            lanes: vec![0],
-            vehicles_per_platoon: 2,
-            offset_m: 0.0,
-            vehicle_length_m: 4.0,
-            dt: 0.01,
-            vtype: "platoon".into(),
-        };
+        let layout = layout(vec![0], 0.0);
         let mut w = FcdWriter::new(&net, layout, 1, Vec::new(), "").unwrap();
         for (step, vehicle) in [(0, 0), (0, 0), (0, 1), (1, 0), (1, 0)] {
             w.row(&row(step, 0, vehicle, 1.0)).unwrap();

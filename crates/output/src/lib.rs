@@ -4,6 +4,7 @@
 //! trajectories ([`fcd`]).
 pub mod fcd;
 pub mod plots;
+pub mod run_tables;
 pub mod rundir;
 pub mod tables;
 

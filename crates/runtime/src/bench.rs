@@ -207,28 +207,24 @@ pub fn socket_hop(
     let mut buf = vec![0u8; bytes.max(16) + 16];
     let mut hops = Vec::with_capacity(iterations);
     let result = (|| -> std::io::Result<()> {
-        let send_recv: Box<SendRecv> = match socket {
-            Socket::Udp => {
-                let s = std::net::UdpSocket::bind("127.0.0.1:0")?;
+        // Either socket: connected to the echo, with the same timeout and payload length.
+        macro_rules! connected {
+            ($s:expr) => {{
+                let s = $s;
                 s.connect(&address)?;
                 s.set_read_timeout(timeout)?;
                 let len = bytes.max(16);
                 Box::new(move |b: &mut [u8]| {
                     s.send(&b[..len])?;
                     s.recv(b)
-                })
-            }
-            Socket::Uds => {
-                let me = dir.join("ping.sock");
-                let s = std::os::unix::net::UnixDatagram::bind(&me)?;
-                s.connect(&address)?;
-                s.set_read_timeout(timeout)?;
-                let len = bytes.max(16);
-                Box::new(move |b: &mut [u8]| {
-                    s.send(&b[..len])?;
-                    s.recv(b)
-                })
-            }
+                }) as Box<SendRecv>
+            }};
+        }
+        let send_recv = match socket {
+            Socket::Udp => connected!(std::net::UdpSocket::bind("127.0.0.1:0")?),
+            Socket::Uds => connected!(std::os::unix::net::UnixDatagram::bind(
+                dir.join("ping.sock")
+            )?),
         };
         let mut send_recv = send_recv;
         if line.is_empty() {

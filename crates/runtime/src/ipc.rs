@@ -68,19 +68,7 @@ impl Endpoint {
         &self,
         s: Service,
     ) -> Result<StepService<T>, RunError> {
-        let name = self.name(s)?;
-        self.node
-            .service_builder(&name)
-            .publish_subscribe::<[T]>()
-            .user_header::<StepHeader>()
-            .max_publishers(2)
-            .max_subscribers(4)
-            .max_nodes(8)
-            .history_size(0)
-            .subscriber_max_buffer_size(BUFFER)
-            .enable_safe_overflow(false)
-            .create()
-            .map_err(|e| ipc_err(format!("creating service {name}"), e))
+        self.create_service(s, 2, 4, 8, false)
     }
 
     /// Creates the observer copy of a step stream: room for `observers` read-only subscribers,
@@ -91,19 +79,40 @@ impl Endpoint {
         o: platoon_wire::Observed,
         observers: usize,
     ) -> Result<StepService<T>, RunError> {
-        let name = self.name(Service::Observe(o))?;
-        self.node
-            .service_builder(&name)
-            .publish_subscribe::<[T]>()
-            .user_header::<StepHeader>()
-            .max_publishers(1)
-            .max_subscribers(observers.max(1))
-            .max_nodes(observers.max(1) + 2)
+        let observers = observers.max(1);
+        self.create_service(Service::Observe(o), 1, observers, observers + 2, true)
+    }
+
+    /// Creates a step stream's service with room for these publishers, subscribers and nodes.
+    fn create_service<T: Debug + ZeroCopySend + 'static>(
+        &self,
+        s: Service,
+        publishers: usize,
+        subscribers: usize,
+        nodes: usize,
+        safe_overflow: bool,
+    ) -> Result<StepService<T>, RunError> {
+        let name = self.name(s)?;
+        self.step_builder::<T>(&name)
+            .max_publishers(publishers)
+            .max_subscribers(subscribers)
+            .max_nodes(nodes)
             .history_size(0)
             .subscriber_max_buffer_size(BUFFER)
-            .enable_safe_overflow(true)
+            .enable_safe_overflow(safe_overflow)
             .create()
             .map_err(|e| ipc_err(format!("creating service {name}"), e))
+    }
+
+    /// The builder of a step stream's service: a slice of `T` per sample under a [`StepHeader`].
+    fn step_builder<T: Debug + ZeroCopySend + 'static>(
+        &self,
+        name: &ServiceName,
+    ) -> iceoryx2::service::builder::publish_subscribe::Builder<[T], StepHeader, Ipc> {
+        self.node
+            .service_builder(name)
+            .publish_subscribe::<[T]>()
+            .user_header::<StepHeader>()
     }
 
     /// Opens a step service.
@@ -112,10 +121,7 @@ impl Endpoint {
         s: Service,
     ) -> Result<StepService<T>, RunError> {
         let name = self.name(s)?;
-        self.node
-            .service_builder(&name)
-            .publish_subscribe::<[T]>()
-            .user_header::<StepHeader>()
+        self.step_builder::<T>(&name)
             .open()
             .map_err(|e| ipc_err(format!("opening service {name}"), e))
     }

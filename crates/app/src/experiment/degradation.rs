@@ -1,0 +1,255 @@
+//! Graceful degradation under jams ([`degradation`]).
+use super::*;
+
+/// How [`degradation`] runs; [`DegradationOptions::default`] is `platoon experiment
+/// degradation`'s default.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DegradationOptions {
+    /// Platoon sizes (followers; `--followers`); the base's initial states are replaced by a
+    /// formation when the size differs.
+    pub followers: Vec<usize>,
+}
+
+impl Default for DegradationOptions {
+    fn default() -> Self {
+        Self {
+            followers: vec![4, 10],
+        }
+    }
+}
+
+impl DegradationOptions {
+    /// Fails on sizes no platoon has, before anything runs or is written.
+    pub fn validate(&self) -> Result<()> {
+        if self.followers.is_empty() || self.followers.contains(&0) {
+            bail!("--followers needs platoon sizes of at least one follower, e.g. 4,10");
+        }
+        Ok(())
+    }
+}
+
+/// One run of [`degradation`] (a row of degradation.csv).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct DegradationRow {
+    /// The attack's name ([`DEGRADATION_ATTACKS`]).
+    pub attack: &'static str,
+    /// Followers.
+    pub followers: usize,
+    /// `zero`, `hold`, `predict` or `acc`.
+    pub fallback: &'static str,
+    /// Whether the emergency-braking guard was on.
+    pub guard: bool,
+    /// The largest |spacing error| (m).
+    pub max_spacing_error_m: f64,
+    /// The smallest gap (m; below 0: a collision).
+    pub min_gap_m: f64,
+    /// The smallest time to collision (s).
+    pub min_ttc_s: Option<f64>,
+    /// The largest deceleration (m/s^2).
+    pub max_deceleration_mps2: f64,
+    /// The safety class.
+    pub class: SafetyClass,
+    /// Whether two vehicles collided.
+    pub collided: bool,
+    /// Broadcasts.
+    pub messages: u64,
+    /// Times the guard took over.
+    pub guard_activations: u64,
+    /// Time followers spent out of the cooperative law (s, summed).
+    pub fallback_time_s: f64,
+}
+
+/// Graceful degradation ([`degradation`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Degradation {
+    /// Attack by attack, size by size, fallback by fallback, guard off then on.
+    pub rows: Vec<DegradationRow>,
+    /// degradation.md: the table (what `platoon experiment degradation` prints).
+    pub markdown: String,
+}
+
+/// The attacks of [`degradation`]: `[start, duration]` intervals.
+pub const DEGRADATION_ATTACKS: [(&str, &[[f64; 2]]); 5] = [
+    ("acceleration-ramp", &[[9.0, 8.0]]),
+    ("braking-ramp", &[[34.0, 8.0]]),
+    ("cruise", &[[20.0, 10.0]]),
+    (
+        "paper",
+        &[
+            [1.0, 1.5],
+            [5.0, 1.5],
+            [16.0, 1.5],
+            [22.0, 1.5],
+            [30.0, 1.5],
+            [42.0, 1.5],
+            [49.0, 1.0],
+        ],
+    ),
+    ("long-jam", &[[25.0, 20.0]]),
+];
+
+/// Graceful degradation: the same attacks ([`DEGRADATION_ATTACKS`]: an 8 s jam on the
+/// leader's acceleration ramp, one on its braking ramp, a 10 s jam during cruise, the paper's
+/// schedule, and a 20 s jam) on platoons of each size, for every fallback (zero, hold,
+/// predict, acc), each with and without the emergency-braking guard, in process; the base's
+/// `[fallback]`, `[radar]` and `[guard]` settings are kept. `progress` counts the runs. With
+/// `out`: config.toml, degradation.csv, degradation.md and degradation.png (smallest gap per
+/// attack and fallback, for the first size).
+pub fn degradation(
+    base: &Base,
+    opts: &DegradationOptions,
+    out: Option<&RunDir>,
+    progress: &dyn Progress,
+) -> Result<Degradation> {
+    use platoon_control::FallbackMode;
+    opts.validate()?;
+    let label = &base.label;
+    if let Some(dir) = out {
+        dir.write(
+            "config.toml",
+            platoon_config::to_toml(&base.config).as_bytes(),
+        )?;
+    }
+    let modes = [
+        ("zero", FallbackMode::Zero),
+        ("hold", FallbackMode::Hold),
+        ("predict", FallbackMode::Predict),
+        ("acc", FallbackMode::Acc),
+    ];
+    let total = DEGRADATION_ATTACKS.len() * opts.followers.len() * modes.len() * 2;
+    progress.start("simulating", total as u64);
+    let mut rows = Vec::with_capacity(total);
+    for (attack, intervals) in DEGRADATION_ATTACKS {
+        for &n in &opts.followers {
+            for (name, mode) in modes {
+                for guard in [false, true] {
+                    progress.detail(&format!(
+                        "{attack}, {n} followers, {name}{}",
+                        if guard { " + guard" } else { "" }
+                    ));
+                    let mut c = base.config.clone();
+                    if n != c.platoon.followers {
+                        c.platoon.followers = n;
+                        c.platoon.initial_states = None;
+                        c.platoon.formation = Some(platoon_config::Formation {
+                            leader_position_m: 0.0,
+                            position_jitter_m: 0.0,
+                            speed_jitter_mps: 0.0,
+                            seed: 0,
+                        });
+                        c.fallback.per_vehicle = None;
+                    }
+                    c.control.attack_input = None;
+                    c.fallback.mode = Some(mode);
+                    c.guard.enabled = guard;
+                    c.attack = platoon_config::Attack {
+                        kind: platoon_config::DosConfig::Intervals {
+                            intervals: intervals.to_vec(),
+                        },
+                        ..Default::default()
+                    };
+                    let scenario = platoon_config::to_scenario(&mut c).map_err(|(key, e)| {
+                        anyhow::anyhow!("{label}: key `{key}` with {n} followers: {e}")
+                    })?;
+                    let s = platoon_sim::run(scenario, |_| {})?;
+                    rows.push(DegradationRow {
+                        attack,
+                        followers: n,
+                        fallback: name,
+                        guard,
+                        max_spacing_error_m: s.max_spacing_error_m(),
+                        min_gap_m: s.safety.min_gap_m,
+                        min_ttc_s: s.safety.min_ttc_s,
+                        max_deceleration_mps2: s.safety.max_deceleration_mps2,
+                        class: s.safety.class,
+                        collided: s.safety.collided,
+                        messages: s.triggers_total,
+                        guard_activations: s.vehicles.iter().map(|v| v.guard_activations).sum(),
+                        fallback_time_s: s
+                            .vehicles
+                            .iter()
+                            .flat_map(|v| v.mode_time_s.iter())
+                            .filter(|(m, _)| m.as_str() != "coop")
+                            .map(|(_, t)| t)
+                            .sum(),
+                    });
+                    progress.at(rows.len() as u64);
+                }
+            }
+        }
+    }
+    progress.finish();
+    let mut md = String::from(
+        "| attack | followers | fallback | guard | max spacing error (m) | min gap (m) | min TTC (s) | max decel (m/s^2) | class | messages | guard activations |\n|---|---|---|---|---|---|---|---|---|---|---|\n",
+    );
+    for r in &rows {
+        let _ = writeln!(
+            md,
+            "| {} | {} | {} | {} | {:.2} | {:.2} | {} | {:.2} | {}{} | {} | {} |",
+            r.attack,
+            r.followers,
+            r.fallback,
+            if r.guard { "on" } else { "off" },
+            r.max_spacing_error_m,
+            r.min_gap_m,
+            r.min_ttc_s.map_or("-".into(), |t| format!("{t:.2}")),
+            r.max_deceleration_mps2,
+            r.class,
+            if r.collided { " (collision)" } else { "" },
+            r.messages,
+            r.guard_activations
+        );
+    }
+    let result = Degradation { rows, markdown: md };
+    if let Some(dir) = out {
+        result.write(opts.followers[0], &modes.map(|m| m.0), dir)?;
+    }
+    Ok(result)
+}
+
+impl Degradation {
+    fn write(&self, n0: usize, modes: &[&str], dir: &RunDir) -> Result<()> {
+        let rows = &self.rows;
+        let mut csv = csv::Writer::from_writer(dir.writer("degradation.csv")?);
+        for r in rows {
+            csv.serialize(r)?;
+        }
+        csv.flush()?;
+        dir.write("degradation.md", self.markdown.as_bytes())?;
+        // The smallest gap per attack (the first size, guard off and on) for each fallback.
+        let categories: Vec<String> = DEGRADATION_ATTACKS
+            .iter()
+            .map(|(a, _)| a.to_string())
+            .collect();
+        let groups: Vec<(String, Vec<f64>)> = modes
+            .iter()
+            .flat_map(|name| [(name, false), (name, true)])
+            .map(|(name, guard)| {
+                let values = DEGRADATION_ATTACKS
+                    .iter()
+                    .map(|(a, _)| {
+                        rows.iter()
+                            .find(|r| {
+                                r.attack == *a
+                                    && r.followers == n0
+                                    && r.fallback == *name
+                                    && r.guard == guard
+                            })
+                            .map_or(0.0, |r| r.min_gap_m.max(0.0))
+                    })
+                    .collect();
+                (
+                    format!("{name}{}", if guard { " + guard" } else { "" }),
+                    values,
+                )
+            })
+            .collect();
+        plots::grouped_bars(
+            &dir.path("degradation.png"),
+            &format!("Smallest gap by attack and fallback ({n0} followers; 0 = collision)"),
+            "smallest gap (m)",
+            &categories,
+            &groups,
+        )
+    }
+}

@@ -1,0 +1,135 @@
+//! The recorder: the four samples of a step turned into rows, as the in-process runner does.
+use super::*;
+
+/// Turns the four samples of a step into rows, the way the in-process runner does.
+pub(super) struct Recorder<'a> {
+    pub(super) scenario: &'a Scenario,
+    pub(super) replicas: Vec<Scenario>,
+    pub(super) num: Numbering,
+    pub(super) step: u64,
+    pub(super) last_progress: Instant,
+    pub(super) rows: Vec<StepRow>,
+    pub(super) jammed: Vec<bool>,
+    pub(super) leader_sent: Vec<bool>,
+    pub(super) deliveries: Vec<Vec<platoon_control::Delivery>>,
+    pub(super) wire: Vec<WireCounts>,
+    pub(super) outside: WireCounts,
+    pub(super) wire_counter: platoon_sim::tally::WireCounter,
+    /// The detectors measured against ground truth (`[detection]` runs).
+    pub(super) measure: Option<Measure>,
+}
+
+impl<'a> Recorder<'a> {
+    pub(super) fn new(scenario: &'a Scenario) -> Self {
+        let num = Numbering::of(scenario);
+        Self {
+            scenario,
+            replicas: scenario.replicas(),
+            num,
+            step: 0,
+            last_progress: Instant::now(),
+            rows: Vec::with_capacity(num.vehicles()),
+            jammed: vec![false; num.vehicles()],
+            leader_sent: vec![false; num.platoons],
+            deliveries: vec![Vec::new(); num.platoons],
+            wire: vec![WireCounts::default(); num.vehicles()],
+            outside: WireCounts::default(),
+            wire_counter: Default::default(),
+            measure: Measure::new(scenario),
+        }
+    }
+
+    /// Step `self.step`'s samples, and what the controller's detectors said of its packets
+    /// (empty: nothing, or the run measures none).
+    pub(super) fn record(
+        &mut self,
+        s: &[VehicleState],
+        t: &[LinkPacket],
+        r: &[LinkPacket],
+        c: &[Command],
+        inspections: &[Inspection],
+    ) -> Result<(), RunError> {
+        let num = self.num;
+        let n1 = num.per_platoon;
+        let states = states_from_wire(s, num.vehicles())?;
+        // The rx batch, sorted as the controllers sort it: deliveries per platoon and who was
+        // told its channel was jammed (for the rows and for the wire tally below).
+        deliveries_from_wire(r, num, &mut self.deliveries, &mut self.jammed);
+        if c.len() != num.followers() {
+            return Err(RunError::Contract {
+                node: "controller",
+                message: format!("{} commands for {} followers", c.len(), num.followers()),
+            });
+        }
+        // Follower i of platoon j at j * N + i - 1 with a finite command: anything else would be
+        // recorded against the wrong vehicle (a plug-in controller's mistake, named; the step
+        // is not recorded).
+        for (x, cmd) in c.iter().enumerate() {
+            let i = platoon_model::VehicleId((x % (n1 - 1) + 1) as u16);
+            let want = num.global(x / (n1 - 1), i);
+            if cmd.vehicle != want || !cmd.u.is_finite() {
+                return Err(RunError::Contract {
+                    node: "controller",
+                    message: format!(
+                        "step {}: command {x} is for vehicle {} with u = {}; a step's commands \
+                         list every follower in order (vehicle {want} here), each with a \
+                         finite u",
+                        self.step, cmd.vehicle, cmd.u
+                    ),
+                });
+            }
+        }
+        // Which leaders broadcast: one pass over the tx batch, not one per platoon.
+        self.leader_sent.fill(false);
+        for p in t {
+            if let Some((j, i)) = num.split(p.packet.sender) {
+                self.leader_sent[j] |= i.is_leader();
+            }
+        }
+        self.rows.clear();
+        for (j, replica) in self.replicas.iter().enumerate() {
+            let leader_triggered = self.leader_sent[j];
+            let cmds = &c[j * (n1 - 1)..(j + 1) * (n1 - 1)];
+            step_rows(
+                self.step,
+                replica,
+                &states[j * n1..(j + 1) * n1],
+                leader_triggered,
+                &self.jammed[j * n1..(j + 1) * n1],
+                |i| {
+                    let cmd = cmds[i - 1];
+                    FollowerStep {
+                        triggered: cmd.flags & Command::TRIGGERED != 0,
+                        affected: cmd.flags & Command::AFFECTED != 0,
+                        u: cmd.u,
+                        theta: cmd.theta,
+                        mode: platoon_control::Mode::from_code(cmd.mode_code()),
+                        guard: cmd.flags & Command::GUARD != 0,
+                    }
+                },
+                &mut self.rows,
+            );
+        }
+        // The wire, measured as the in-process runner measures it.
+        self.outside = WireCounts::default();
+        for j in 0..num.platoons {
+            let links = t.iter().filter_map(|it| {
+                link_from_wire(it, num)
+                    .filter(|l| l.0 == j)
+                    .map(|(_, receiver, p)| (receiver, p))
+            });
+            self.wire_counter.count(
+                links,
+                &self.deliveries[j],
+                &self.jammed[j * n1..(j + 1) * n1],
+                &mut self.wire[j * n1..(j + 1) * n1],
+                &mut self.outside,
+            );
+        }
+        if let Some(m) = &mut self.measure {
+            m.record(self.step, &states, t, &self.deliveries, inspections);
+        }
+        let _ = self.scenario;
+        Ok(())
+    }
+}
