@@ -60,13 +60,13 @@ pub struct StepRow {
     /// Peak resident memory of every process of the run (`platoon run` and its nodes), MiB.
     pub peak_rss_mib: Option<f64>,
     /// SUMO's step and the bridge's work for the same SUMO and model in a loop with no
-    /// co-simulation around it (`sumo_plant.py --tight-loop`).
+    /// co-simulation around it (`python -m platoon.sumo --tight-loop`).
     pub sumo_step_tight_p50_us: Option<f64>,
     pub bridge_tight_p50_us: Option<f64>,
 }
 
 /// One peer of a SUMO case: the same fleet for the same steps, driven by SUMO itself
-/// (`bridge/bench_peers.py`).
+/// (`bridge/tools/bench_peers.py`).
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct PeerRow {
     /// The round (1, 2, ...), or 0 for the median over the rounds.
@@ -209,18 +209,18 @@ fn peer_ratios(steps: &[StepRow], peers: &[PeerRow]) -> Vec<PeerRatio> {
         .collect()
 }
 
-/// `bridge/bench_peers.py` on a SUMO case's plant.json: each peer's step, µs.
+/// `bridge/tools/bench_peers.py` on a SUMO case's plant.json: each peer's step, µs.
 fn peers(plant_json: &std::path::Path, followers: usize, round: u32) -> Result<Vec<PeerRow>> {
     let python = platoon_app::sumo::ensure_venv()?;
     let o = Command::new(python)
-        .arg(platoon_app::sumo::bridge_dir()?.join("bench_peers.py"))
+        .arg(platoon_app::sumo::bridge_dir()?.join("tools/bench_peers.py"))
         .arg("--plant-json")
         .arg(plant_json)
         .output()
-        .context("starting bridge/bench_peers.py")?;
+        .context("starting bridge/tools/bench_peers.py")?;
     if !o.status.success() {
         bail!(
-            "bridge/bench_peers.py on {} ended with {}: {}",
+            "bridge/tools/bench_peers.py on {} ended with {}: {}",
             plant_json.display(),
             o.status,
             String::from_utf8_lossy(&o.stderr).trim()
@@ -279,12 +279,10 @@ fn fleet_config(followers: usize, seconds: f64, sumo: bool) -> Result<String> {
     Ok(toml::to_string(&root)?)
 }
 
-/// `bridge/sumo_plant.py --tight-loop`: the same SUMO and model as a run's plant.json, timed
+/// `python -m platoon.sumo --tight-loop`: the same SUMO and model as a run's plant.json, timed
 /// in a loop with no co-simulation around it.
 fn tight_loop(plant_json: &std::path::Path, steps: u32) -> Result<serde_json::Value> {
-    let python = platoon_app::sumo::ensure_venv()?;
-    let o = Command::new(python)
-        .arg(platoon_app::sumo::bridge_dir()?.join("sumo_plant.py"))
+    let o = platoon_app::sumo::bridge_module("platoon.sumo")?
         .args(["--tight-loop", &steps.to_string()])
         .env("PLATOON_PLANT_SPEC", plant_json)
         .output()?;
@@ -560,7 +558,7 @@ pub(crate) fn peers_section(md: &mut String, peers: &[PeerRow], ratios: &[PeerRa
     }
     let _ = writeln!(
         md,
-        "### The same fleets driven by SUMO itself (`bridge/bench_peers.py`, in the same run)\n\n\
+        "### The same fleets driven by SUMO itself (`bridge/tools/bench_peers.py`, in the same run)\n\n\
          After each `sumo` case, its plant.json (network, vehicles, lanes, initial states, steps) \
          runs again in one process through libsumo: `krauss`, SUMO's own model drives every \
          vehicle; `plexe_acc` and `plexe_cacc`, Plexe's ACC and PATH CACC in SUMO's CC model (the \

@@ -84,7 +84,7 @@ pub(crate) struct StepArgs {
     #[arg(long, default_value_t = Step::default().seconds)]
     pub seconds: f64,
     /// Skip the peers: after each `sumo` case, the same fleet driven by SUMO itself
-    /// (`bridge/bench_peers.py`: SUMO's Krauss model, Plexe's ACC and auto-fed CACC inside
+    /// (`bridge/tools/bench_peers.py`: SUMO's Krauss model, Plexe's ACC and auto-fed CACC inside
     /// SUMO's CC model, and the floor of any external driver from Python), so our step reads as
     /// a ratio to each.
     #[arg(long)]

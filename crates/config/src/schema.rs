@@ -325,7 +325,7 @@ pub enum PlantKind {
     /// The model in Rust (`platoon node plant`).
     #[default]
     Native,
-    /// SUMO through the libsumo bridge (bridge/sumo_plant.py).
+    /// SUMO through the libsumo bridge (`python -m platoon.sumo`, bridge/platoon/sumo/plant.py).
     Sumo,
 }
 
