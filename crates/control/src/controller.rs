@@ -186,12 +186,12 @@ impl PlatoonController {
 }
 
 impl crate::Controller for PlatoonController {
-    /// The commands `u_i` of the last [`receive`](Self::receive), followers 1..=N at index i-1.
+    /// The commands `u_i` of the last [`receive`](crate::Controller::receive), followers 1..=N at index i-1.
     fn commands(&self) -> &[f64] {
         &self.commands
     }
 
-    /// What each vehicle's radar would see in the coming [`receive`](Self::receive) (leader
+    /// What each vehicle's radar would see in the coming [`receive`](crate::Controller::receive) (leader
     /// first), as the plant measured it: with SUMO its leader on the lane, whoever that is.
     /// Without it the radar sees the platoon's predecessor in the states (the native plant,
     /// which gives the same numbers).

@@ -1,6 +1,6 @@
 //! Ground truth for every delivered packet, measured on the wire: what a receiver got, set
 //! against what was broadcast (the links the controllers published) and against the plant's true
-//! states. Pure, like [`crate::wire`]: the in-process runner and the iceoryx2 orchestrator both
+//! states. Pure, like [`crate::tally`]: the in-process runner and the iceoryx2 orchestrator both
 //! have the step's states, links and deliveries, so both can feed it and get the same labels.
 //!
 //! A delivery of step `k` is looked up by its (sender, sequence number) among the packets

@@ -8,7 +8,8 @@
 //!   eigenvalues, independently of the solver.
 //! * [`closed_loop_spectrum`]: eigenvalues of `I_N kron A(tau) - H kron B(tau) K` over a tau range.
 //! * [`dos_bounds`]: the bounds (16) on T2 and D2 (readings R20, R21).
-//! * [`string_stability`]: whether spacing errors grow along a long platoon (see [`string_stability`](mod@string_stability)).
+//! * [`string_stability()`](fn@string_stability): whether spacing errors grow along a long platoon
+//!   (see [`mod@string_stability`]).
 //!
 //! Readings of the paper (docs/paper-readings.md): `Tr(X)` is `He(X) = X + X^T` (R8);
 //! u = -K q (R1); K is 1x3 (R2).

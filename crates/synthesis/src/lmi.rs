@@ -406,7 +406,7 @@ fn issue(
 /// `I_N kron P` (one P per follower: 6N + 1 variables instead of 7): a richer certificate that
 /// holds where the common one is infeasible (a cascade such as PF needs P_i that shrink along
 /// the platoon), at the price of a transient growth `sqrt(lambda_max / lambda_min)` over all
-/// blocks (in [`Verdict`]). Each `P_i` is kept in `delta I <= P_i <= P_MAX I`. The constraint
+/// blocks (in [`Verdict`](crate::Verdict)). Each `P_i` is kept in `delta I <= P_i <= P_MAX I`. The constraint
 /// matrices are assembled sparse (each `P_i` touches the rows of follower i only), so N = 100
 /// fits in memory.
 pub fn min_ratio_block_diagonal(
