@@ -527,14 +527,7 @@ pub fn synthesize(
         );
     };
     // The decay it guarantees (ratio kept within twice the design's) and what DoS it tolerates.
-    let decay = platoon_synthesis::max_decay_within_ratio(
-        d.k,
-        &g,
-        &taus,
-        2.0 * d.certificate.ratio,
-        (5.0, 1e-3),
-        d.certificate.p_blocks.is_some(),
-    )?;
+    let decay = d.guaranteed_decay(&g, &taus)?;
     let seconds = started.elapsed().as_secs_f64();
     let c = decay.as_ref().map_or(d.certificate.c, |x| x.c);
     let trigger_cap = match scenario.control.rule {

@@ -123,15 +123,7 @@ pub fn topologies(
                 let Some(d) = platoon_synthesis::design_theorem1(&spec, &h)? else {
                     continue; // no design: the point is missing from the figure (and the CSV)
                 };
-                let Some(cert) = platoon_synthesis::max_decay_within_ratio(
-                    d.k,
-                    &h,
-                    &taus,
-                    2.0 * d.certificate.ratio,
-                    (5.0, 1e-3),
-                    d.certificate.p_blocks.is_some(),
-                )?
-                else {
+                let Some(cert) = d.guaranteed_decay(&h, &taus)? else {
                     continue;
                 };
                 let row = |condition, varsigma1, varsigma2| TopologyRow {
