@@ -37,7 +37,7 @@ fn py_example(name: &str, args: &str) -> String {
     )
 }
 
-/// An example of the Rust controller SDK (crates/controller/examples), built here once (a
+/// An example of the Rust controller SDK (crates/controller-sdk/examples), built here once (a
 /// no-op when it is fresh) so that the test never runs a stale one.
 fn sdk_example(name: &str) -> String {
     static BUILT: OnceLock<()> = OnceLock::new();

@@ -808,7 +808,7 @@ fn same_summary_but_the_injector(a: &Path, b: &Path) {
     assert_eq!(sa, sb);
 }
 
-/// An example injector of the Rust SDK (crates/injector/examples), built by
+/// An example injector of the Rust SDK (crates/injector-sdk/examples), built by
 /// `cargo test --workspace`.
 fn sdk_example(name: &str) -> String {
     let exe = Path::new(env!("CARGO_BIN_EXE_platoon"))

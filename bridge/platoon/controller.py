@@ -6,7 +6,7 @@ vehicles measured and appends the broadcasts of step k; `receive` gets what the 
 delivered and appends every follower's command. Subclass `Controller` (one object per platoon,
 with the platoon's own vehicle ids: 0 the leader, 1..N the followers) and pass a factory to
 `run`; everything else of docs/controller-contract.md is done here (the same shape as the Rust
-SDK, crates/controller): the ports of the run named by PLATOON_RUN_ID, READY, waiting on
+SDK, crates/controller-sdk): the ports of the run named by PLATOON_RUN_ID, READY, waiting on
 wake-ups (never busy polling), one tx sample per step with each broadcast sent to every
 out-neighbour of its sender ([topology] of the config), sorting the rx sample into deliveries
 and jammed notices, one commands sample per step with its flags, DONE with the packets your
@@ -198,7 +198,7 @@ def run(make) -> int:
             f"controller: the config turns on the built-in detectors {tables}, which the Python "
             "controller SDK cannot run (they are Rust, platoon-detect). Remove those tables and "
             "name your own detectors in [detection] plugin = [...], or run the built-in "
-            "controllers (no --controller) or a Rust SDK controller (platoon-controller), which "
+            "controllers (no --controller) or a Rust SDK controller (platoon-controller-sdk), which "
             "run them.",
             file=sys.stderr,
         )

@@ -1,7 +1,7 @@
 """Write an attack injector for `platoon run --injector` in Python: one method per step.
 
 Subclass `Injector` and pass a factory to `run`; everything else of docs/injector-contract.md
-is done here (the same shape as the Rust SDK, crates/injector): the ports of the run named by
+is done here (the same shape as the Rust SDK, crates/injector-sdk): the ports of the run named by
 PLATOON_RUN_ID, READY, waiting on wake-ups (never busy polling), exactly one rx sample per step
 with its `count` (even when empty), waking the controller, DONE, STOP/ABORT, and exiting when
 `platoon run` is gone. An exception in your factory, `step` or `finish` stops the run, which

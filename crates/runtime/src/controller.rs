@@ -17,7 +17,7 @@
 //! that is not finite) names the controller and the step in the run's summary.
 //!
 //! The built-in controller node ([`crate::nodes::controller`]) is [`run`] with
-//! [`platoon_control::build`]; the `platoon-controller` crate wraps it for users.
+//! [`platoon_control::build`]; the `platoon-controller-sdk` crate wraps it for users.
 use crate::ipc::{Inlet, Outlet};
 use crate::session::{
     contract, deliveries_from_wire, inspection_to_wire, packet_to_wire, reporting,

@@ -4,7 +4,7 @@
 //! step) runs here as [`Platoons`]: one injector per platoon, the wire's numbering and packets
 //! translated both ways. The built-in channel runs so ([`crate::nodes::injector`]), and any
 //! injector of the seam runs both in process and in a co-simulation. An injector that works on
-//! the wire itself implements [`WireInjector`]. [`run`] (the `platoon-injector` crate wraps it
+//! the wire itself implements [`WireInjector`]. [`run`] (the `platoon-injector-sdk` crate wraps it
 //! with the environment `platoon run --injector` gives) does the whole
 //! contract of `docs/injector-contract.md`: it opens the ports, reports READY, waits for START,
 //! blocks on its wake-up listener (no busy polling), hands you every step's states and tx batch

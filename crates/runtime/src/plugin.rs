@@ -1,4 +1,4 @@
-//! What the Rust SDKs for plug-ins (`platoon-injector`, `platoon-controller`) share: finding
+//! What the Rust SDKs for plug-ins (`platoon-injector-sdk`, `platoon-controller-sdk`) share: finding
 //! the run a program was started in, and their error.
 use crate::RunError;
 use platoon_sim::Scenario;

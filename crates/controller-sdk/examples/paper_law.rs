@@ -10,7 +10,7 @@
 //! cargo build --example paper_law
 //! platoon run configs/paper.toml --controller target/debug/examples/paper_law
 //! ```
-use platoon_controller::{
+use platoon_controller_sdk::{
     run, Controller, Delivery, FallbackMode, FollowerStep, FreeFlow, Mode, Packet, PacketChecks,
     RejectCounts, Scenario, State, TriggerRule, VehicleId,
 };
@@ -270,6 +270,6 @@ impl Controller for PaperLaw {
     }
 }
 
-fn main() -> Result<(), platoon_controller::Error> {
+fn main() -> Result<(), platoon_controller_sdk::Error> {
     run(|platoon| PaperLaw::new(platoon).map(|c| Box::new(c) as Box<dyn Controller>))
 }

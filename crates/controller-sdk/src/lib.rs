@@ -11,8 +11,8 @@
 //! packets your checks refused, STOP/ABORT, and exiting when `platoon run` is gone.
 //!
 //! ```no_run
-//! use platoon_controller::{run, Controller, Delivery, FollowerStep, Packet, RejectCounts};
-//! use platoon_controller::{State, VehicleId};
+//! use platoon_controller_sdk::{run, Controller, Delivery, FollowerStep, Packet, RejectCounts};
+//! use platoon_controller_sdk::{State, VehicleId};
 //!
 //! /// Every follower brakes gently, whatever it hears; nobody broadcasts but the leader.
 //! #[derive(Debug, Clone)]
@@ -40,7 +40,7 @@
 //!     }
 //! }
 //!
-//! fn main() -> Result<(), platoon_controller::Error> {
+//! fn main() -> Result<(), platoon_controller_sdk::Error> {
 //!     run(|platoon| {
 //!         let n = platoon.topology.followers();
 //!         Ok::<_, String>(Box::new(Brake { u: vec![0.0; n] }))

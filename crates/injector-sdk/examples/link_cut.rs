@@ -8,8 +8,8 @@
 //! cargo build --example link_cut
 //! platoon run configs/table1.toml --injector "target/debug/examples/link_cut 0 1 10 20"
 //! ```
-use platoon_injector::{run, Channel, InjectError, Injector, InjectorFactory, Reception, Step};
-use platoon_injector::{Scenario, VehicleId};
+use platoon_injector_sdk::{run, Channel, InjectError, Injector, InjectorFactory, Reception, Step};
+use platoon_injector_sdk::{Scenario, VehicleId};
 
 #[derive(Debug, Clone)]
 struct LinkCut {
@@ -28,12 +28,12 @@ impl Injector for LinkCut {
         Ok(())
     }
 
-    fn radio_stats(&self) -> Option<platoon_injector::RadioStats> {
+    fn radio_stats(&self) -> Option<platoon_injector_sdk::RadioStats> {
         self.channel.radio_stats()
     }
 }
 
-fn main() -> Result<(), platoon_injector::Error> {
+fn main() -> Result<(), platoon_injector_sdk::Error> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let parse = |i: usize, what: &str| -> f64 {
         args.get(i).and_then(|a| a.parse().ok()).unwrap_or_else(|| {

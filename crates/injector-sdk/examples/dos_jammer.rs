@@ -7,8 +7,8 @@
 //! cargo build --example dos_jammer
 //! platoon run configs/table1.toml --injector target/debug/examples/dos_jammer
 //! ```
-use platoon_injector::{jammed, run_wire, InjectError, LinkPacket, Numbering, Scenario};
-use platoon_injector::{WireInjector, WireStep};
+use platoon_injector_sdk::{jammed, run_wire, InjectError, LinkPacket, Numbering, Scenario};
+use platoon_injector_sdk::{WireInjector, WireStep};
 
 struct DosJammer {
     dos: platoon_attacks_free::Schedule,
@@ -47,7 +47,7 @@ fn schedule(scenario: &Scenario) -> platoon_attacks_free::Schedule {
     )
 }
 
-fn main() -> Result<(), platoon_injector::Error> {
+fn main() -> Result<(), platoon_injector_sdk::Error> {
     run_wire(|scenario| DosJammer {
         dos: schedule(scenario),
         num: Numbering::of(scenario),

@@ -6,8 +6,8 @@
 //! ```sh
 //! platoon run configs/table1.toml --injector "target/debug/examples/follow_jammer 2 10 20"
 //! ```
-use platoon_injector::{jammed, run_wire, InjectError, LinkPacket, Numbering};
-use platoon_injector::{WireInjector, WireStep};
+use platoon_injector_sdk::{jammed, run_wire, InjectError, LinkPacket, Numbering};
+use platoon_injector_sdk::{WireInjector, WireStep};
 
 struct FollowJammer {
     vehicle: u32,
@@ -33,7 +33,7 @@ impl WireInjector for FollowJammer {
     }
 }
 
-fn main() -> Result<(), platoon_injector::Error> {
+fn main() -> Result<(), platoon_injector_sdk::Error> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let parse = |i: usize, what: &str| -> f64 {
         args.get(i).and_then(|a| a.parse().ok()).unwrap_or_else(|| {

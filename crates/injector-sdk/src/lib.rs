@@ -9,7 +9,7 @@
 //! `platoon search` (`platoon_app`'s `LocalPool::injector`), with the same results.
 //!
 //! ```no_run
-//! use platoon_injector::{run, InjectError, Injector, InjectorFactory, Reception, Step};
+//! use platoon_injector_sdk::{run, InjectError, Injector, InjectorFactory, Reception, Step};
 //!
 //! /// Drops everything vehicle 2 sends.
 //! #[derive(Debug, Clone)]
@@ -19,14 +19,14 @@
 //!     fn step(&mut self, step: &Step<'_>, out: &mut Reception<'_>) -> Result<(), InjectError> {
 //!         for p in step.tx.iter().filter(|p| p.sender.0 != 2) {
 //!             for &receiver in step.topology.out_neighbours(p.sender) {
-//!                 out.deliveries.push(platoon_injector::Delivery { receiver, packet: *p });
+//!                 out.deliveries.push(platoon_injector_sdk::Delivery { receiver, packet: *p });
 //!             }
 //!         }
 //!         Ok(())
 //!     }
 //! }
 //!
-//! fn main() -> Result<(), platoon_injector::Error> {
+//! fn main() -> Result<(), platoon_injector_sdk::Error> {
 //!     run(InjectorFactory::new(|_scenario| Ok(Box::new(DropTwo))))
 //! }
 //! ```
