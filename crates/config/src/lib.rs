@@ -14,20 +14,20 @@
 
 mod lines;
 pub mod reference;
+mod resolve;
 mod schema;
 mod serde_util;
 mod tagged;
 mod transport;
-mod validate;
 
 pub use lines::KeyLines;
 pub use reference::{
     check_committed, file_reference, json_schema, reference_markdown, schema_json, schema_of,
 };
+pub use resolve::to_scenario;
 pub use schema::*;
 pub use tagged::{tagged_tables, TaggedTable, TaggedVariant};
 pub use transport::Transport;
-pub use validate::to_scenario;
 
 use platoon_sim::Scenario;
 use std::fmt;

@@ -1,3 +1,7 @@
+//! Resolving a parsed config into the pure core's [`Scenario`]: one pass that lowers each table
+//! and checks each value as it is lowered, so every error names the key whose value it read
+//! (`(key, message)`), and fills the defaults that depend on other keys. One module per table
+//! family (`channel`, `control`); the schema with its own defaults is `crate::schema`.
 use crate::schema::*;
 use nalgebra::RowVector3;
 use platoon_attacks::{DosSchedule, RandomDos};
