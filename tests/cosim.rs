@@ -1499,7 +1499,8 @@ fn iceoryx2_runs_of_the_fields_laws_are_bit_identical_to_inproc() {
         let body: Vec<&str> = text
             .lines()
             .filter(|l| {
-                !["phi", "rho", "eta", "theta0"]
+                // The paper's trigger weights and law keys: another law refuses them.
+                !["phi", "rho", "eta", "theta0", "gain", "beta1", "beta2"]
                     .iter()
                     .any(|k| l.starts_with(k))
             })
@@ -1508,7 +1509,7 @@ fn iceoryx2_runs_of_the_fields_laws_are_bit_identical_to_inproc() {
             .join("\n")
             .replacen("spacing_m = 10.0", spacing, 1)
             .replacen("preset = \"tpsf\"", "preset = \"plf\"", 1)
-            .replacen("beta2 = 5.62", &format!("beta2 = 5.62\nlaw = \"{law}\""), 1)
+            .replacen("[control]", &format!("[control]\nlaw = \"{law}\""), 1)
             .replacen("rule = \"dynamic\"", rule, 1);
         let path = tmp.path().join(name);
         std::fs::write(&path, config).unwrap();
