@@ -651,7 +651,7 @@ mod tests {
     use super::*;
     use anyhow::Context as _;
 
-    /// Issue 13: a full disk while drawing printed `BackendError(IOError(Os { .. }))`. The
+    /// A full disk while drawing printed `BackendError(IOError(Os { .. }))`. The
     /// error is now one line with the file and the reason.
     #[test]
     fn a_full_disk_is_reported_in_words_with_the_file() {
