@@ -890,8 +890,8 @@ fn bench_latency_measures_every_baseline() {
     assert!(tmp.path().join("b/latency.png").exists());
 }
 
-/// Bad destinations failed only after the whole simulation, with misleading errors.
-/// They are refused before anything runs now, and nothing of the user's is touched.
+/// Bad destinations are refused before anything runs (not after the whole simulation, with
+/// misleading errors), and nothing of the user's is touched.
 #[test]
 fn bad_destinations_are_refused_before_the_run() {
     let tmp = tempfile::tempdir().unwrap();

@@ -296,7 +296,7 @@ fn a_controller_that_refuses_the_config_and_an_inproc_controller_are_named() {
     let s = json(&tmp.path().join("r/summary.json"));
     let error = s["error"].as_str().unwrap();
     // It reports FAILED, then exits: its report is the run's error, never its exit, however
-    // late the orchestrator looks (the exit won the race on a loaded machine).
+    // late the orchestrator looks (on a loaded machine the exit can win the race).
     assert!(
         error.contains("the controller process failed at step 0")
             && error.contains("paper_law does not implement this config's")

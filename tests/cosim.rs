@@ -246,7 +246,7 @@ fn hostile_packets_are_refused_and_counted_and_change_nothing() {
     let tmp = tempfile::tempdir().unwrap();
     let table1 = repo().join("configs/table1.toml");
     // With a forged copy of a genuine packet of follower 1 whose sequence number is near the
-    // maximum (it was accepted and locked follower 1 out for the rest of the run).
+    // maximum (accepted, it would lock follower 1 out for the rest of the run).
     let hostile = py_example("hostile.py", "--forge-seq-at 1000");
     ok(&platoon(
         &[
@@ -516,8 +516,8 @@ fn an_injector_that_stops_publishing_is_named_after_the_timeout() {
     );
 }
 
-/// An injector that keeps re-publishing rx[k] once made the run wait forever, as any
-/// sample reset the timeout. Only a completed step counts as progress now.
+/// An injector that keeps re-publishing rx[k] is named after the step timeout: only a
+/// completed step counts as progress, so repeated samples cannot make the run wait forever.
 #[test]
 fn an_injector_repeating_one_step_is_named_after_the_timeout() {
     let tmp = tempfile::tempdir().unwrap();
@@ -536,8 +536,8 @@ fn an_injector_repeating_one_step_is_named_after_the_timeout() {
     assert!(error.contains("duplicate samples"), "{error}");
 }
 
-/// A malformed sample at step 100 stopped the recording at step 97. Every step that
-/// was complete before it is recorded now.
+/// A malformed sample at step 100 stops the run, and every step that was complete before it
+/// is recorded (none lost, as stopping at step 97 would).
 #[test]
 fn a_malformed_sample_stops_the_run_after_recording_every_complete_step() {
     let tmp = tempfile::tempdir().unwrap();
@@ -612,8 +612,8 @@ fn duplicate_samples_are_counted_and_change_nothing() {
     same_summary_but_the_injector(&dup, &plain);
 }
 
-/// Ctrl-C and SIGTERM left a `.partial` with a half-written CSV row and no summary.
-/// Now the run stops its processes, keeps whole rows, writes summary.json with
+/// Ctrl-C and SIGTERM leave no `.partial` with a half-written CSV row and no summary:
+/// the run stops its processes, keeps whole rows, writes summary.json with
 /// `complete: false` and the reason, moves the directory into place and exits 128 + signal.
 fn interrupted_run_is_kept_whole(signal: i32, transport: &str, code: i32, name: &str) {
     let tmp = tempfile::tempdir().unwrap();
@@ -663,8 +663,8 @@ fn rows_before(run: &Path, name: &str, steps: u64) -> Vec<String> {
         .collect()
 }
 
-/// Observers read the run's `observe/*` copies. Two observers used to kill a run
-/// (`ExceedsMaxSupportedSubscribers` in the plant and controller). Now: more observers than
+/// Observers read the run's `observe/*` copies, so two observers cannot kill a run
+/// (`ExceedsMaxSupportedSubscribers` in the plant and controller). More observers than
 /// there is room for are refused at attach time, a stalled, a crashed and a late one change
 /// nothing, and the run's outputs equal those of a run without observers. The run is long on
 /// purpose and interrupted once the late observer has seen a step, so every observer meets it
@@ -1014,8 +1014,8 @@ fn run_own_injector(dir: &Path, script: &str) -> (String, String) {
     (stderr, error)
 }
 
-/// A third-party injector that failed at step 0 said only "the injector process
-/// exited at step 0: exit status: 1". The error quotes its last lines of stderr, names its log,
+/// A third-party injector that fails at step 0 is more than "the injector process
+/// exited at step 0: exit status: 1": the error quotes its last lines of stderr, names its log,
 /// and says which contract version the run speaks.
 #[test]
 fn a_dying_plugin_is_quoted_from_its_log_and_told_the_runs_contract() {
@@ -1128,8 +1128,8 @@ fn a_plugin_of_another_contract_version_is_told_both_versions() {
     assert!(stderr.contains("docs/injector-contract.md"), "{stderr}");
 }
 
-/// A run without a DoS printed "-0.00 s jammed" (and summary.json
-/// `"attacked_time_s": -0.0`), and one with an injector "the config's 0 attacks were not
+/// A run without a DoS says so, never "-0.00 s jammed" (nor summary.json
+/// `"attacked_time_s": -0.0`), and one with an injector never "the config's 0 attacks were not
 /// applied".
 #[test]
 fn a_run_without_dos_says_none_and_never_minus_zero() {

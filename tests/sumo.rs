@@ -939,7 +939,7 @@ fn seeded_background_traffic_drives_beside_the_platoon_without_touching_it() {
             tmp.path(),
         ));
     }
-    // The built-in channel was told where they are, every step.
+    // The built-in channel is told where they are, every step.
     let log = std::fs::read_to_string(tmp.path().join("bg/logs/injector.log")).unwrap();
     assert!(
         log.contains("channel: background traffic: 30 vehicles over 1001 steps"),
