@@ -154,7 +154,7 @@ fn table1_experiment_writes_table_and_figures() {
     assert_eq!(rows, expected);
 }
 
-/// Issue 14: the time-headway policy in the design tools. The paper's K on a PF platoon of 6 is
+/// The time-headway policy in the design tools. The paper's K on a PF platoon of 6 is
 /// string unstable with constant spacing and string stable with a 1 s headway; (13) is imposed
 /// on the time-headway error dynamics and its certificate re-checks with the headway it carries.
 #[test]
@@ -246,7 +246,7 @@ fn design_checks_a_gain_on_the_time_headway_policy() {
     assert!(!tmp.path().join("x").exists());
 }
 
-/// Issue 14, item 6: `experiment scaling` measures what the analysis predicts. On PF the paper's
+/// `experiment scaling` measures what the analysis predicts. On PF the paper's
 /// gain with constant spacing amplifies gap errors along the platoon (predicted string
 /// unstable); the gain designed for a 1 s time headway damps them (predicted string stable).
 #[test]
@@ -315,7 +315,7 @@ fn the_scaling_experiment_shows_constant_spacing_amplify_and_time_headway_damp()
     }
 }
 
-/// Issue 14, items 2 and 3: `design synthesize` on a long time-headway platoon designs on the
+/// `design synthesize` on a long time-headway platoon designs on the
 /// leading followers and certifies the whole platoon with a string-stable gain; with constant
 /// spacing the same platoon gets only a block-diagonal certificate and a string-unstable gain;
 /// `run --design` says when a certificate is for another platoon.
@@ -385,7 +385,7 @@ fn synthesis_finds_a_certified_string_stable_gain_for_a_long_time_headway_platoo
     assert!(String::from_utf8_lossy(&o.stderr).contains("certifies nothing about this run"));
 }
 
-/// Issue 14, item 5: `bench design` times the checks of `check-gain` against N beside the
+/// `bench design` times the checks of `check-gain` against N beside the
 /// designs, with what each found.
 #[test]
 fn bench_design_times_the_checks_against_the_platoon_size() {
@@ -456,7 +456,7 @@ fn design_checks_the_papers_gain_and_its_certificate_re_checks() {
     assert!((block_ratio - 141.31).abs() < 0.005, "{block}");
     let growth = block["transient_growth"].as_f64().unwrap();
     assert!((growth - 13.18).abs() < 0.005, "{block}");
-    // Issue 14: string stability is part of the verdict. The paper's TPSF platoon of 4 does
+    // String stability is part of the verdict. The paper's TPSF platoon of 4 does
     // not amplify errors, the same graph with 100 followers does (it collides in
     // campaigns/scaling.toml).
     let strings = check["string_stability"].as_array().unwrap();
@@ -653,7 +653,7 @@ fn experiment_controllers_writes_its_table_and_refuses_unknown_laws() {
     assert!(String::from_utf8_lossy(&o.stderr).contains("unknown law \"pid\""));
 }
 
-/// Issue 23: `experiment detection` on a reduced grid prints its table, writes its files and
+/// `experiment detection` on a reduced grid prints its table, writes its files and
 /// refuses unknown names.
 #[test]
 fn experiment_detection_writes_its_table_and_refuses_unknown_attacks() {
@@ -890,8 +890,8 @@ fn bench_latency_measures_every_baseline() {
     assert!(tmp.path().join("b/latency.png").exists());
 }
 
-/// Issue 13: bad destinations failed only after the whole simulation, with misleading errors.
-/// They are refused before anything runs now, and nothing of the user's is touched.
+/// Bad destinations are refused before anything runs (not after the whole simulation, with
+/// misleading errors), and nothing of the user's is touched.
 #[test]
 fn bad_destinations_are_refused_before_the_run() {
     let tmp = tempfile::tempdir().unwrap();
@@ -941,7 +941,7 @@ fn bad_destinations_are_refused_before_the_run() {
     );
 }
 
-/// Issue 16: Parquet outputs (`[output] format = "parquet"`) hold exactly what the CSV holds,
+/// Parquet outputs (`[output] format = "parquet"`) hold exactly what the CSV holds,
 /// read back by pyarrow, for every per-step file, over iceoryx2 (where the node's channel log is
 /// converted) and with decimation.
 #[test]

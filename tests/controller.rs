@@ -1,4 +1,4 @@
-//! Controllers from outside (issue 22, section 3): `platoon run --controller` replaces the
+//! Controllers from outside: `platoon run --controller` replaces the
 //! controller service with the user's process. The paper's law re-implemented on the Rust and
 //! the Python SDK reproduces the built-in run byte for byte, a law the project does not have
 //! runs to completion, and a controller that crashes, hangs, repeats itself or sends malformed
@@ -296,7 +296,7 @@ fn a_controller_that_refuses_the_config_and_an_inproc_controller_are_named() {
     let s = json(&tmp.path().join("r/summary.json"));
     let error = s["error"].as_str().unwrap();
     // It reports FAILED, then exits: its report is the run's error, never its exit, however
-    // late the orchestrator looks (issue 35: the exit won the race on a loaded machine).
+    // late the orchestrator looks (on a loaded machine the exit can win the race).
     assert!(
         error.contains("the controller process failed at step 0")
             && error.contains("paper_law does not implement this config's")
@@ -320,7 +320,7 @@ fn a_controller_that_refuses_the_config_and_an_inproc_controller_are_named() {
     assert!(!tmp.path().join("x").exists());
 }
 
-/// Issue 23: a misbehaviour detector written in Python (bridge/examples/speed_check.py, a
+/// A misbehaviour detector written in Python (bridge/examples/speed_check.py, a
 /// position-speed consistency check on the paper's law) is measured against ground truth like
 /// the built-in ones: named in `[detection] plugin`, its verdicts travel on the `inspections`
 /// service and the orchestrator joins them with what happened on the wire. On clean traffic it
@@ -463,7 +463,7 @@ fn failing(dir: &Path, controller: &str, extra: &[&str]) -> (Option<i32>, String
     (o.status.code(), error, stderr)
 }
 
-/// Issue 35: an exception in a Python controller is the run's error, its message made
+/// An exception in a Python controller is the run's error, its message made
 /// printable (an escape sequence in it reaches neither the terminal nor summary.json), and the
 /// error names the log, which holds the whole traceback.
 #[test]
@@ -514,7 +514,7 @@ sys.exit(pc.run(lambda run, j: Boom(run)))
     );
 }
 
-/// Issue 35: a plug-in that dies without a report is named by its exit, quoting its log's last
+/// A plug-in that dies without a report is named by its exit, quoting its log's last
 /// lines made printable: invalid UTF-8 as U+FFFD, control characters as escapes.
 #[test]
 fn a_plugin_that_dies_is_quoted_printably() {
@@ -538,7 +538,7 @@ os._exit(3)
     );
 }
 
-/// Issue 35: a plug-in that never reports READY is named after `--ready-timeout` (not a fixed
+/// A plug-in that never reports READY is named after `--ready-timeout` (not a fixed
 /// minute), with its log, and stopped. 20 s: the built-in plant and injector are ready long
 /// before, even on a busy machine, so the controller is the one named.
 #[test]
@@ -563,7 +563,7 @@ fn a_plugin_that_never_reports_ready_is_named_after_the_ready_timeout() {
     assert!(!tmp.path().join("z").exists());
 }
 
-/// Issue 35: the built-in detectors are Rust; a Python controller cannot run them. A run that
+/// The built-in detectors are Rust; a Python controller cannot run them. A run that
 /// turns them on with a Python controller is refused before step 0, naming them, instead of
 /// scoring them as having missed every packet.
 #[test]

@@ -246,7 +246,7 @@ fn hostile_packets_are_refused_and_counted_and_change_nothing() {
     let tmp = tempfile::tempdir().unwrap();
     let table1 = repo().join("configs/table1.toml");
     // With a forged copy of a genuine packet of follower 1 whose sequence number is near the
-    // maximum (issue 13: it was accepted and locked follower 1 out for the rest of the run).
+    // maximum (accepted, it would lock follower 1 out for the rest of the run).
     let hostile = py_example("hostile.py", "--forge-seq-at 1000");
     ok(&platoon(
         &[
@@ -516,8 +516,8 @@ fn an_injector_that_stops_publishing_is_named_after_the_timeout() {
     );
 }
 
-/// Issue 13: an injector that keeps re-publishing rx[k] once made the run wait forever, as any
-/// sample reset the timeout. Only a completed step counts as progress now.
+/// An injector that keeps re-publishing rx[k] is named after the step timeout: only a
+/// completed step counts as progress, so repeated samples cannot make the run wait forever.
 #[test]
 fn an_injector_repeating_one_step_is_named_after_the_timeout() {
     let tmp = tempfile::tempdir().unwrap();
@@ -536,8 +536,8 @@ fn an_injector_repeating_one_step_is_named_after_the_timeout() {
     assert!(error.contains("duplicate samples"), "{error}");
 }
 
-/// Issue 13: a malformed sample at step 100 stopped the recording at step 97. Every step that
-/// was complete before it is recorded now.
+/// A malformed sample at step 100 stops the run, and every step that was complete before it
+/// is recorded (none lost, as stopping at step 97 would).
 #[test]
 fn a_malformed_sample_stops_the_run_after_recording_every_complete_step() {
     let tmp = tempfile::tempdir().unwrap();
@@ -612,8 +612,8 @@ fn duplicate_samples_are_counted_and_change_nothing() {
     same_summary_but_the_injector(&dup, &plain);
 }
 
-/// Issue 13: Ctrl-C and SIGTERM left a `.partial` with a half-written CSV row and no summary.
-/// Now the run stops its processes, keeps whole rows, writes summary.json with
+/// Ctrl-C and SIGTERM leave no `.partial` with a half-written CSV row and no summary:
+/// the run stops its processes, keeps whole rows, writes summary.json with
 /// `complete: false` and the reason, moves the directory into place and exits 128 + signal.
 fn interrupted_run_is_kept_whole(signal: i32, transport: &str, code: i32, name: &str) {
     let tmp = tempfile::tempdir().unwrap();
@@ -663,8 +663,8 @@ fn rows_before(run: &Path, name: &str, steps: u64) -> Vec<String> {
         .collect()
 }
 
-/// Issue 12: observers read the run's `observe/*` copies. Two observers used to kill a run
-/// (`ExceedsMaxSupportedSubscribers` in the plant and controller). Now: more observers than
+/// Observers read the run's `observe/*` copies, so two observers cannot kill a run
+/// (`ExceedsMaxSupportedSubscribers` in the plant and controller). More observers than
 /// there is room for are refused at attach time, a stalled, a crashed and a late one change
 /// nothing, and the run's outputs equal those of a run without observers. The run is long on
 /// purpose and interrupted once the late observer has seen a step, so every observer meets it
@@ -824,7 +824,7 @@ fn sdk_example(name: &str) -> String {
     exe.display().to_string()
 }
 
-/// Issue 12: an injector written on the Rust SDK reproduces the built-in DoS channel byte for
+/// An injector written on the Rust SDK reproduces the built-in DoS channel byte for
 /// byte (the paper scenario, its 7 attacks).
 #[test]
 fn a_rust_sdk_injector_reproduces_the_builtin_dos_byte_for_byte() {
@@ -1014,8 +1014,8 @@ fn run_own_injector(dir: &Path, script: &str) -> (String, String) {
     (stderr, error)
 }
 
-/// Issue 22: a third-party injector that failed at step 0 said only "the injector process
-/// exited at step 0: exit status: 1". The error quotes its last lines of stderr, names its log,
+/// A third-party injector that fails at step 0 is more than "the injector process
+/// exited at step 0: exit status: 1": the error quotes its last lines of stderr, names its log,
 /// and says which contract version the run speaks.
 #[test]
 fn a_dying_plugin_is_quoted_from_its_log_and_told_the_runs_contract() {
@@ -1128,8 +1128,8 @@ fn a_plugin_of_another_contract_version_is_told_both_versions() {
     assert!(stderr.contains("docs/injector-contract.md"), "{stderr}");
 }
 
-/// Issue 22: a run without a DoS printed "-0.00 s jammed" (and summary.json
-/// `"attacked_time_s": -0.0`), and one with an injector "the config's 0 attacks were not
+/// A run without a DoS says so, never "-0.00 s jammed" (nor summary.json
+/// `"attacked_time_s": -0.0`), and one with an injector never "the config's 0 attacks were not
 /// applied".
 #[test]
 fn a_run_without_dos_says_none_and_never_minus_zero() {
@@ -1308,7 +1308,7 @@ fn cpus_pins_every_node_and_changes_no_result() {
     }
 }
 
-/// Issue 14: the time-headway policy (a long PF platoon under the paper's DoS) gives the same
+/// The time-headway policy (a long PF platoon under the paper's DoS) gives the same
 /// bytes over iceoryx2 as in process.
 #[test]
 fn iceoryx2_run_with_a_time_headway_is_bit_identical_to_inproc() {
@@ -1341,7 +1341,7 @@ fn iceoryx2_run_on_the_80211p_radio_is_bit_identical_to_inproc() {
     assert!(resolved.contains("tx_power_dbm = 23.0"), "{resolved}");
 }
 
-/// Issue 23: the detectors measured against ground truth give the same `summary.json`
+/// The detectors measured against ground truth give the same `summary.json`
 /// `detection` and the same per-message dataset (`detections.csv`) over iceoryx2 (the controller
 /// node publishes its verdicts, the orchestrator joins them with the truth) as in process, with
 /// an insider's false data, the fallback reaction and the ACC fallback on the radar the radar
@@ -1397,7 +1397,7 @@ reaction = \"fallback\"
     assert!(count(",distrust,") > 0, "the reaction refused nobody");
 }
 
-/// Issue 23: the state-altering link attacks (random offsets per link and per packet, a drift,
+/// The state-altering link attacks (random offsets per link and per packet, a drift,
 /// feigned braking, a scaled acceleration) give the same bytes over iceoryx2 as in process. The
 /// insider's random offset covers every sender, also the last follower, whose broadcasts have no
 /// listener (not sent, so no draw, on either transport).
@@ -1582,7 +1582,7 @@ fn random_reactive_and_member_jammers_agree_across_transports_and_are_measured_p
     assert!(log.contains("restored"));
 }
 
-/// Issue 23: the state-falsification attacks as an injector of one's own
+/// The state-falsification attacks as an injector of one's own
 /// (bridge/examples/falsify.py, an outsider altering vehicle 2's copies): the orchestrator
 /// labels every delivered packet against what the controller sent, so a third-party injector's
 /// attacks are measured like the channel's. Every packet labelled `altered` claims what the
@@ -1678,7 +1678,7 @@ fn a_python_injectors_falsifications_are_labelled_against_the_truth() {
     }
 }
 
-/// Issue 23: the Sybil ghost (bridge/examples/ghost.py, a Python injector; the experiment runs
+/// The Sybil ghost (bridge/examples/ghost.py, a Python injector; the experiment runs
 /// in process and cannot hold it) faces the detectors over iceoryx2: its forged claims are
 /// consistent with each other, so only the radar of the follower right behind the impersonated
 /// vehicle flags them, on every packet to it (half of the ghost's packets), and neither the

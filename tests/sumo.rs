@@ -939,7 +939,7 @@ fn seeded_background_traffic_drives_beside_the_platoon_without_touching_it() {
             tmp.path(),
         ));
     }
-    // The built-in channel was told where they are, every step (issue 24).
+    // The built-in channel is told where they are, every step.
     let log = std::fs::read_to_string(tmp.path().join("bg/logs/injector.log")).unwrap();
     assert!(
         log.contains("channel: background traffic: 30 vehicles over 1001 steps"),
@@ -976,7 +976,7 @@ fn seeded_background_traffic_drives_beside_the_platoon_without_touching_it() {
     assert!(String::from_utf8_lossy(&o.stderr).contains("sumo.background_vehicles"));
 }
 
-/// Issue 24: SUMO's background vehicles reach the V2V channel. The bridge publishes their
+/// SUMO's background vehicles reach the V2V channel. The bridge publishes their
 /// positions on `traffic` before each step's states; the built-in channel (here in front of a
 /// Python injector, `--injector-mode after`) hands them to `Channel::set_background` and says
 /// in its log what it was told, and the Python SDK gives them to the injector as `step.traffic`:
@@ -1354,7 +1354,7 @@ fn graceful_degradation_runs_with_sumo_as_the_plant() {
     assert!(modes.iter().any(|m| m == "acc") && modes.iter().any(|m| m == "blend"));
 }
 
-/// Issue 14: a long platoon on the time-headway policy with SUMO as the plant keeps its gaps as
+/// A long platoon on the time-headway policy with SUMO as the plant keeps its gaps as
 /// the native model does (the gaps grow with the speed: 25 m at 15 m/s, 35 m at 25 m/s).
 #[test]
 fn a_time_headway_platoon_runs_with_sumo_as_the_plant() {

@@ -19,7 +19,7 @@ fn main() {
     println!("cargo:rustc-check-cfg=cfg(sdp_solver)");
     println!("cargo:rerun-if-env-changed=PLATOON_NO_OPENBLAS");
     // Watch only paths that exist: cargo reruns a build script on every build when a watched
-    // path is missing, which recompiled this crate and the CLI each time (issue 13).
+    // path is missing, which would recompile this crate and the CLI each time.
     let present: Vec<&str> = CANDIDATES
         .into_iter()
         .filter(|c| Path::new(c).exists())

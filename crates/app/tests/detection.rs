@@ -1,4 +1,4 @@
-//! Issue 23: the detectors measured against ground truth in closed loop, the per-message
+//! The detectors measured against ground truth in closed loop, the per-message
 //! dataset, and `platoon experiment detection` on a reduced grid.
 use platoon_app::experiment::{self, attack_kind, Base, DetectionOptions, Intensity};
 use platoon_config::{Config, DetectionConfig, Embedded, LinkAttackConfig, LinkKindConfig};

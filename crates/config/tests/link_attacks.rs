@@ -1,4 +1,4 @@
-//! Issue 23's link attacks in config files: the state-altering kinds, outsider or insider, their
+//! The link attacks in config files: the state-altering kinds, outsider or insider, their
 //! keys checked by name, and the resolved config saying `insider` only when it is one.
 use platoon_attacks::channel::LinkAttackKind;
 use platoon_config::{parse, to_toml, PAPER_TOML};

@@ -206,8 +206,8 @@ fn the_config_holds_enums_not_strings() {
     assert!(matches!(c.attack.kind, DosConfig::Intervals { .. }));
 }
 
-/// The defaults that used to be applied in validation only (`unwrap_or`) are in the schema now,
-/// so the resolved config says them.
+/// Every default is in the schema (not applied in validation only with `unwrap_or`), so the
+/// resolved config says them.
 #[test]
 fn the_resolved_config_writes_out_every_default() {
     let (c, _) = paper_plus(

@@ -603,7 +603,7 @@ mod tests {
         assert_eq!(r.total(), 5);
     }
 
-    /// Issue 13: one forged packet with a near-maximum sequence number is refused (it would
+    /// One forged packet with a near-maximum sequence number is refused (it would
     /// lock its sender out for the rest of the run), and a forged packet that passes every
     /// check holds off genuine ones of its own step only.
     #[test]

@@ -651,8 +651,8 @@ mod tests {
     use super::*;
     use anyhow::Context as _;
 
-    /// Issue 13: a full disk while drawing printed `BackendError(IOError(Os { .. }))`. The
-    /// error is now one line with the file and the reason.
+    /// A full disk while drawing is one line of error with the file and the reason (not the
+    /// plot backend's `BackendError(IOError(Os { .. }))` dump).
     #[test]
     fn a_full_disk_is_reported_in_words_with_the_file() {
         let tmp = tempfile::tempdir().unwrap();

@@ -274,7 +274,7 @@ fn non_resilient_and_periodic_variants_run() {
     assert_eq!(periodic.triggers_total, 4 * 551);
 }
 
-/// Issue 14: with constant spacing a long predecessor-following platoon is string unstable (gap
+/// With constant spacing a long predecessor-following platoon is string unstable (gap
 /// errors grow from the first follower to the last, up to a collision under the paper's DoS);
 /// with a time headway the same platoon, gain and attacks damp them, as the string-stability
 /// analysis of `platoon design check-gain` predicts. Measured in the plant.

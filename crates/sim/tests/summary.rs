@@ -1,4 +1,4 @@
-//! `summary.json` reads back into the `Summary` that wrote it (issue 21, item 5): campaigns and
+//! `summary.json` reads back into the `Summary` that wrote it: campaigns and
 //! library users read fields, not JSON paths.
 use platoon_sim::{SafetyClass, Summary};
 

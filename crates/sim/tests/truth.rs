@@ -1,4 +1,4 @@
-//! Issue 23: the ground-truth labels of every delivery match what the channel did, attack by
+//! The ground-truth labels of every delivery match what the channel did, attack by
 //! attack, in process (the paper's scenario, its two-predecessor graph and DoS, 20 s).
 use platoon_attacks::channel::{Action, ChannelEvent};
 use platoon_config::{parse, PAPER_TOML};

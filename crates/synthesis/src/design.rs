@@ -383,7 +383,7 @@ mod tests {
         Coupling::constant(Topology::preset(preset, n).unwrap().h_matrix())
     }
 
-    /// Issue 14: TPSF with 20 followers admits no common P for the procedure; the gain designed
+    /// TPSF with 20 followers admits no common P for the procedure; the gain designed
     /// on the first 4 is certified for all 20 with one P per follower.
     #[test]
     fn a_long_platoon_without_a_common_certificate_gets_a_block_diagonal_one() {

@@ -552,7 +552,7 @@ mod tests {
 
     const PAPER_K: [f64; 3] = [4.81, 9.12, 2.97];
 
-    /// Issue 14: PLF with 20 followers ends in `NumericalError` with clarabel's default
+    /// PLF with 20 followers ends in `NumericalError` with clarabel's default
     /// settings; the retries with more regularisation solve it, to a ratio between the ones
     /// N = 10 and N = 50 give (the ratio grows with N towards about 179.4 on PLF).
     ///
@@ -577,7 +577,7 @@ mod tests {
         }
     }
 
-    /// Issue 14: on a grid of presets and sizes no size ends in a raw solver status (with P
+    /// On a grid of presets and sizes no size ends in a raw solver status (with P
     /// unbounded, PF with 3 followers and BPF with 2 end in NumericalError at c = 0, and the
     /// largest-decay bisection of PLF, TPSF and BPF with 2 in one of its steps). Each answer is either a certificate that passes the re-check or "infeasible".
     #[test]
@@ -669,7 +669,7 @@ mod tests {
         assert!(!serde_json::to_string(&c0).unwrap().contains("headway"));
     }
 
-    /// Issue 14, item 3: where the common Lyapunov matrix fails (the paper's K on PF and TPSF
+    /// Where the common Lyapunov matrix fails (the paper's K on PF and TPSF
     /// with 10 followers), one P per follower certifies stability, with the transient growth it
     /// costs; where both hold, the block-diagonal ratio is no larger; the sparse assembly agrees
     /// with the dense re-check, and a tampered block fails it.
