@@ -40,23 +40,13 @@ pub struct Args {
 
 pub fn run(args: Args) -> Result<()> {
     let campaign = Campaign::load(&args.campaign, args.samples)?;
-    let executor: Box<dyn Executor> = match &args.dask {
-        Some(address) => Box::new(Dask::new(address.clone())),
-        None => Box::new(LocalPool::new(args.jobs)),
-    };
+    let executor = executor(args.dask.as_deref(), args.jobs);
     let out = args
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from("runs").join(&campaign.name));
-    let interrupt = std::sync::Arc::new(crate::signals::Interrupt::install(
-        "stopping: no new cells start; the cells in flight finish or are dropped",
-    )?);
-    let signalled = interrupt.clone();
-    let stop = Stop::new(interrupt.stop.clone(), move || {
-        signalled
-            .signal()
-            .map(|sig| crate::signals::name(sig).to_string())
-    });
+    let (interrupt, stop) =
+        stop_on_signal("stopping: no new cells start; the cells in flight finish or are dropped")?;
     let opts = CampaignOptions {
         force: args.force,
         keep_runs: args.keep_runs,
@@ -118,4 +108,30 @@ pub fn cell_command() -> Result<()> {
     let reply = platoon_app::campaign::execute(&job, None);
     println!("{}", serde_json::to_string(&reply)?);
     Ok(())
+}
+
+/// The executor of `--dask ADDRESS` (a Dask scheduler), or else a local pool of `--jobs` workers.
+pub(crate) fn executor(
+    dask: Option<&str>,
+    jobs: Option<std::num::NonZeroUsize>,
+) -> Box<dyn Executor> {
+    match dask {
+        Some(address) => Box::new(Dask::new(address.to_string())),
+        None => Box::new(LocalPool::new(jobs)),
+    }
+}
+
+/// The interrupt handler, installed with `message` (printed on the first signal), and the
+/// [`Stop`] it triggers, which names the signal.
+pub(crate) fn stop_on_signal(
+    message: &'static str,
+) -> Result<(std::sync::Arc<crate::signals::Interrupt>, Stop)> {
+    let interrupt = std::sync::Arc::new(crate::signals::Interrupt::install(message)?);
+    let signalled = interrupt.clone();
+    let stop = Stop::new(interrupt.stop.clone(), move || {
+        signalled
+            .signal()
+            .map(|sig| crate::signals::name(sig).to_string())
+    });
+    Ok((interrupt, stop))
 }

@@ -1,9 +1,7 @@
 //! `platoon search`: the arguments, the signals, what is printed and the exit codes; the search
 //! itself is [`platoon_app::search`].
 use anyhow::Result;
-use platoon_app::campaign::{Dask, Executor, LocalPool};
 use platoon_app::search::{SearchOptions, SearchOutcome};
-use platoon_app::Stop;
 use std::path::{Path, PathBuf};
 
 /// Arguments of `platoon search` (the help text is on the command in main.rs).
@@ -38,23 +36,13 @@ pub fn run(args: Args) -> Result<()> {
         Some(file) => platoon_app::search::load(file, args.evaluations)?,
         None => platoon_app::search::parse("", Path::new("search.toml"), args.evaluations)?,
     };
-    let executor: Box<dyn Executor> = match &args.dask {
-        Some(address) => Box::new(Dask::new(address.clone())),
-        None => Box::new(LocalPool::new(args.jobs)),
-    };
+    let executor = crate::campaign::executor(args.dask.as_deref(), args.jobs);
     let out = args
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from("runs").join(&search.name));
-    let interrupt = std::sync::Arc::new(crate::signals::Interrupt::install(
-        "stopping: no new batch starts; what is done is written",
-    )?);
-    let signalled = interrupt.clone();
-    let stop = Stop::new(interrupt.stop.clone(), move || {
-        signalled
-            .signal()
-            .map(|sig| crate::signals::name(sig).to_string())
-    });
+    let (interrupt, stop) =
+        crate::campaign::stop_on_signal("stopping: no new batch starts; what is done is written")?;
     let opts = SearchOptions {
         force: args.force,
         plots: !args.no_plots,
