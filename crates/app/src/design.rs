@@ -320,7 +320,7 @@ impl CheckReport {
                 dir.write(name, &pretty(cert)?)?;
             }
         }
-        dir.write("check.json", &pretty(self)?)
+        Ok(dir.write("check.json", &pretty(self)?)?)
     }
 }
 
@@ -622,7 +622,7 @@ impl Synthesis {
         if let Some(x) = &self.max_decay {
             dir.write("certificate-max-decay.json", &pretty(x)?)?;
         }
-        dir.write("design.json", &pretty(&self.report)?)
+        Ok(dir.write("design.json", &pretty(&self.report)?)?)
     }
 }
 

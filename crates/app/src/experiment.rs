@@ -150,12 +150,12 @@ fn error_figure(dir: &RunDir, name: &str, curves: &[(&str, &[(f64, f64)])]) -> R
             points: e.to_vec(),
         })
         .collect();
-    plots::lines(
+    Ok(plots::lines(
         &dir.path(&format!("{name}.png")),
         "Average tracking error (mean over followers of |p_i - p_0 + i l|)",
         "m",
         &series,
-    )
+    )?)
 }
 
 /// Three decimals, or three significant digits in scientific notation for the huge and tiny

@@ -429,19 +429,19 @@ pub fn record(
 
 impl StepSink for RunFiles {
     fn step(&mut self, rows: &[StepRow], wire: StepWire<'_>) -> Result<()> {
-        RunFiles::step(self, rows, wire)
+        Ok(RunFiles::step(self, rows, wire)?)
     }
 
     fn channel(&mut self, event: &ChannelEvent) -> Result<()> {
-        RunFiles::channel(self, event)
+        Ok(RunFiles::channel(self, event)?)
     }
 
     fn detections(&mut self, names: &[&str], scored: &[Scored]) -> Result<()> {
-        RunFiles::detections(self, names, scored)
+        Ok(RunFiles::detections(self, names, scored)?)
     }
 
     fn finish(&mut self) -> Result<()> {
-        RunFiles::finish(self)
+        Ok(RunFiles::finish(self)?)
     }
 }
 
@@ -655,7 +655,7 @@ fn cosimulate(
                 files.detections(&names, scored)
             };
             if let Err(e) = written.and_then(|()| files.step(rows, wire)) {
-                failure = Some(e);
+                failure = Some(e.into());
             }
         }
         metrics.push_wire(wire);
@@ -783,10 +783,10 @@ fn write_run_json(dir: &RunDir, run_id: &str, scenario: &Scenario, observers: us
         "dt_s": scenario.dt(),
         "steps": scenario.steps + 1,
     });
-    dir.write(
+    Ok(dir.write(
         "run.json",
         (serde_json::to_string_pretty(&json)? + "\n").as_bytes(),
-    )
+    )?)
 }
 
 /// Writes config.toml (if not yet there), the plots (of platoon 0's rows, `Plotted::from` them
@@ -808,7 +808,8 @@ pub fn write_outputs(
         for (name, draw) in [
             (
                 "fig6.png",
-                plots::fig6 as fn(&Path, &Scenario, &[StepRow]) -> Result<()>,
+                plots::fig6
+                    as fn(&Path, &Scenario, &[StepRow]) -> platoon_output::error::Result<()>,
             ),
             ("fig7.png", plots::fig7),
         ] {
@@ -847,7 +848,7 @@ pub fn write_outputs(
         }
     }
     let json = serde_json::to_string_pretty(&summary_json(summary, extra)?)? + "\n";
-    dir.write("summary.json", json.as_bytes())
+    Ok(dir.write("summary.json", json.as_bytes())?)
 }
 
 #[cfg(test)]

@@ -13,7 +13,14 @@
 //! id within a timestep, and values written to SUMO's default precision, as SUMO writes them: 2
 //! decimals, 3 when the step is not a whole number of 10 ms (SUMO's MSFrame raises its default
 //! `--precision` then, and the bridge passes none).
-use anyhow::{bail, Result};
+use crate::error::{OutputError, Result};
+
+/// Returns an [`OutputError::Fcd`] with the formatted message.
+macro_rules! bail {
+    ($($t:tt)*) => {
+        return Err(OutputError::Fcd(format!($($t)*)))
+    };
+}
 use platoon_sim::StepRow;
 use std::collections::HashMap;
 use std::fmt::Write as _;
@@ -69,7 +76,7 @@ impl Network {
             }
             let shape = n.attribute("shape").unwrap_or("");
             let points = parse_shape(shape).filter(|p| p.len() >= 2).ok_or_else(|| {
-                anyhow::anyhow!("{name}: lane {id} has no valid shape (`{shape}`)")
+                OutputError::Fcd(format!("{name}: lane {id} has no valid shape (`{shape}`)"))
             })?;
             lanes.insert(id.to_string(), Lane::new(length, points));
         }
@@ -379,7 +386,8 @@ impl<'a, W: Write> FcdWriter<'a, W> {
             pos + 0.0,
             at.slope + 0.0,
             held + 0.0,
-        )?;
+        )
+        .expect("formatting into a String does not fail");
         Ok(())
     }
 

@@ -1,6 +1,6 @@
 //! PNG figures in the manner of the paper's Fig. 6, 7 and 8 (plotters, bitmap backend, an
 //! embedded DejaVu font so no system fonts are needed).
-use anyhow::{anyhow, Result};
+use crate::error::{OutputError, Result};
 use platoon_attacks::Interval;
 use platoon_sim::{Scenario, StepRow};
 use plotters::coord::types::RangedCoordf64;
@@ -29,18 +29,16 @@ type BitmapError = <BitMapBackend<'static> as DrawingBackend>::ErrorType;
 
 /// A drawing error in words (a full disk reads "No space left on device", not the backend's
 /// nested debug form); the caller's context names the file.
-pub fn err(e: DrawingAreaErrorKind<BitmapError>) -> anyhow::Error {
-    match e {
+pub fn err(e: DrawingAreaErrorKind<BitmapError>) -> OutputError {
+    OutputError::Plot(match e {
         DrawingAreaErrorKind::BackendError(DrawingErrorKind::DrawingError(b)) => match b {
-            BitmapError::IOError(io) => anyhow!(io),
-            BitmapError::ImageError(image) => anyhow!("{image}"),
-            other => anyhow!("{other}"),
+            BitmapError::IOError(io) => io.to_string(),
+            BitmapError::ImageError(image) => image.to_string(),
+            other => other.to_string(),
         },
-        DrawingAreaErrorKind::BackendError(DrawingErrorKind::FontError(f)) => {
-            anyhow!("font: {f}")
-        }
-        other => anyhow!("{other}"),
-    }
+        DrawingAreaErrorKind::BackendError(DrawingErrorKind::FontError(f)) => format!("font: {f}"),
+        other => other.to_string(),
+    })
 }
 
 /// The series' legend, boxed, at `position`: every figure's legend looks the same.

@@ -1,9 +1,9 @@
 //! The per-step tables of a run ([`RunFiles`]): trajectories, events, wire, the channel log and
 //! the detections, written step by step into a run directory or kept in memory as Arrow record
 //! batches, and read back from a finished run directory ([`read_tables`]).
+use crate::error::Result;
 use crate::rundir::RunDir;
 use crate::tables::{Format, Table};
-use anyhow::Result;
 use arrow_array::RecordBatch;
 use arrow_schema::SchemaRef;
 use platoon_attacks::channel::ChannelEvent;

@@ -1,7 +1,7 @@
 //! Run directories written atomically: everything goes into `<DIR>.partial` and the directory is
 //! renamed to `<DIR>` only when every file is written, so a killed run never leaves a directory
 //! that looks complete.
-use anyhow::{bail, Context, Result};
+use crate::error::{OutputError, Result};
 use std::fs;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
@@ -42,14 +42,16 @@ impl RunDir {
                     staging.display()
                 );
             }
-            fs::remove_dir_all(&staging).with_context(|| {
-                format!(
+            fs::remove_dir_all(&staging).map_err(|e| {
+                let what = format!(
                     "removing the unfinished run directory {}",
                     staging.display()
-                )
+                );
+                OutputError::io(&staging, what, e)
             })?;
         }
-        fs::create_dir_all(&staging).with_context(|| format!("creating {}", staging.display()))?;
+        fs::create_dir_all(&staging)
+            .map_err(|e| OutputError::io(&staging, format!("creating {}", staging.display()), e))?;
         Ok(Self {
             final_path: out.to_path_buf(),
             staging,
@@ -69,8 +71,9 @@ impl RunDir {
                     "--force: removing the unfinished {} and starting over",
                     staging.display()
                 );
-                fs::remove_dir_all(&staging)
-                    .with_context(|| format!("removing {}", staging.display()))?;
+                fs::remove_dir_all(&staging).map_err(|e| {
+                    OutputError::io(&staging, format!("removing {}", staging.display()), e)
+                })?;
             }
             if out.exists() {
                 eprintln!(
@@ -80,7 +83,8 @@ impl RunDir {
             }
         }
         let resumed = staging.is_dir();
-        fs::create_dir_all(&staging).with_context(|| format!("creating {}", staging.display()))?;
+        fs::create_dir_all(&staging)
+            .map_err(|e| OutputError::io(&staging, format!("creating {}", staging.display()), e))?;
         Ok((
             Self {
                 final_path: out.to_path_buf(),
@@ -104,7 +108,8 @@ impl RunDir {
     /// A buffered writer for a new file in the directory.
     pub fn writer(&self, name: &str) -> Result<BufWriter<fs::File>> {
         let p = self.path(name);
-        let f = fs::File::create(&p).with_context(|| format!("creating {}", p.display()))?;
+        let f = fs::File::create(&p)
+            .map_err(|e| OutputError::io(&p, format!("creating {}", p.display()), e))?;
         Ok(BufWriter::new(f))
     }
 
@@ -113,7 +118,7 @@ impl RunDir {
         let mut w = self.writer(name)?;
         w.write_all(bytes)
             .and_then(|_| w.flush())
-            .with_context(|| format!("writing {name}"))
+            .map_err(|e| OutputError::io(&self.path(name), format!("writing {name}"), e))
     }
 
     /// Moves the finished directory into place (a previous one, with `force`, is moved aside
@@ -127,13 +132,12 @@ impl RunDir {
             debug_assert!(self.force);
             if let Err(e) = fs::rename(&self.final_path, &old) {
                 self.mark_incomplete(&format!("could not move the previous run aside: {e}"));
-                return Err(e).with_context(|| {
-                    format!(
-                        "moving the previous {} aside (this run stays in {})",
-                        self.final_path.display(),
-                        self.staging.display()
-                    )
-                });
+                let what = format!(
+                    "moving the previous {} aside (this run stays in {})",
+                    self.final_path.display(),
+                    self.staging.display()
+                );
+                return Err(OutputError::io(&self.final_path, what, e));
             }
         }
         if let Err(e) = fs::rename(&self.staging, &self.final_path) {
@@ -141,17 +145,17 @@ impl RunDir {
                 let _ = fs::rename(&old, &self.final_path);
             }
             self.mark_incomplete(&format!("could not move into place: {e}"));
-            return Err(e).with_context(|| {
-                format!(
-                    "renaming {} to {} (this run stays in {})",
-                    self.staging.display(),
-                    self.final_path.display(),
-                    self.staging.display()
-                )
-            });
+            let what = format!(
+                "renaming {} to {} (this run stays in {})",
+                self.staging.display(),
+                self.final_path.display(),
+                self.staging.display()
+            );
+            return Err(OutputError::io(&self.final_path, what, e));
         }
         if replacing {
-            fs::remove_dir_all(&old).with_context(|| format!("removing {}", old.display()))?;
+            fs::remove_dir_all(&old)
+                .map_err(|e| OutputError::io(&old, format!("removing {}", old.display()), e))?;
         }
         Ok(self.final_path)
     }
@@ -178,41 +182,49 @@ impl RunDir {
 /// stopped half-way is in the way.
 fn check_destination(out: &Path, force: bool) -> Result<()> {
     match fs::symlink_metadata(out) {
-        Ok(m) if !m.is_dir() => bail!(
+        Ok(m) if !m.is_dir() => return Err(refused(out, format!(
             "{} exists and is not a directory; --force replaces run directories only: remove it or choose another --out",
             out.display()
-        ),
-        Ok(_) if !force => bail!(
+        ))),
+        Ok(_) if !force => return Err(refused(out, format!(
             "output directory {} exists; choose another --out or pass --force to replace it",
             out.display()
-        ),
+        ))),
         Ok(m) => {
             use std::os::unix::fs::MetadataExt;
-            let abs = fs::canonicalize(out).with_context(|| format!("resolving {}", out.display()))?;
+            let abs = fs::canonicalize(out)
+                .map_err(|e| OutputError::io(out, format!("resolving {}", out.display()), e))?;
             let parent_dev = abs
                 .parent()
                 .and_then(|p| fs::metadata(p).ok())
                 .map(|p| p.dev());
             if parent_dev != Some(m.dev()) {
-                bail!(
+                return Err(refused(out, format!(
                     "{} is a mount point, which --force cannot replace (run directories are replaced by renaming): use a directory inside it, e.g. --out {}",
                     out.display(),
                     out.join("run").display()
-                );
+                )));
             }
         }
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
-        Err(e) => return Err(e).with_context(|| format!("inspecting {}", out.display())),
+        Err(e) => return Err(OutputError::io(out, format!("inspecting {}", out.display()), e)),
     }
     let old = sibling(out, ".old");
     if old.exists() {
-        bail!(
+        return Err(refused(out, format!(
             "{} is left by an earlier run whose replacement of {} stopped half-way and may hold that run's outputs: move it back or remove it, then run again",
             old.display(),
             out.display()
-        );
+        )));
     }
     Ok(())
+}
+
+fn refused(out: &Path, reason: String) -> OutputError {
+    OutputError::Refused {
+        path: out.to_path_buf(),
+        reason,
+    }
 }
 
 fn sibling(path: &Path, suffix: &str) -> PathBuf {
@@ -222,4 +234,47 @@ fn sibling(path: &Path, suffix: &str) -> PathBuf {
         .unwrap_or_else(|| "run".into());
     name.push(suffix);
     path.with_file_name(name)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_existing_directory_is_refused_by_path_with_the_message_the_cli_prints() {
+        let tmp = tempfile::tempdir().unwrap();
+        let out = tmp.path().join("run");
+        fs::create_dir(&out).unwrap();
+        let Err(e) = RunDir::create(&out, false) else {
+            panic!("an existing directory was accepted");
+        };
+        assert!(
+            matches!(&e, OutputError::Refused { path, .. } if path == &out),
+            "{e:?}"
+        );
+        assert_eq!(
+            e.to_string(),
+            format!(
+                "output directory {} exists; choose another --out or pass --force to replace it",
+                out.display()
+            )
+        );
+    }
+
+    #[test]
+    fn an_io_failure_names_the_path_and_keeps_the_cause() {
+        let tmp = tempfile::tempdir().unwrap();
+        let file = tmp.path().join("file");
+        fs::write(&file, "").unwrap();
+        let out = file.join("run");
+        let Err(e) = RunDir::create(&out, false) else {
+            panic!("a run directory inside a file was created");
+        };
+        assert!(
+            matches!(&e, OutputError::Io { path, .. } if path == &out),
+            "{e:?}"
+        );
+        assert_eq!(e.to_string(), format!("inspecting {}", out.display()));
+        assert!(std::error::Error::source(&e).is_some());
+    }
 }

@@ -3,8 +3,8 @@
 //! (zstd), so memory stays flat however long the run. The columns are the row type's fields in
 //! both formats. A table may also be kept in memory as Arrow record batches ([`Table::memory`]:
 //! what the Python package hands over), with the Parquet file's schema.
+use crate::error::{OutputError, Result};
 use crate::rundir::RunDir;
-use anyhow::{Context, Result};
 use arrow_array::RecordBatch;
 use arrow_schema::FieldRef;
 use parquet::arrow::ArrowWriter;
@@ -77,7 +77,8 @@ pub fn fields<T: Serialize + DeserializeOwned>() -> Result<Vec<FieldRef>> {
     let options = TracingOptions::default()
         .enums_without_data_as_strings(true)
         .allow_null_fields(true);
-    Vec::<FieldRef>::from_type::<T>(options).context("deriving the Parquet schema")
+    Vec::<FieldRef>::from_type::<T>(options)
+        .map_err(|e| OutputError::table("", "deriving the Parquet schema", e))
 }
 
 impl<T: Serialize + DeserializeOwned> Table<T> {
@@ -93,16 +94,18 @@ impl<T: Serialize + DeserializeOwned> Table<T> {
                 let fields = fields::<T>()?;
                 let schema = Arc::new(arrow_schema::Schema::new(fields.clone()));
                 let path = dir.path(&name);
-                let file =
-                    File::create(&path).with_context(|| format!("creating {}", path.display()))?;
+                let file = File::create(&path).map_err(|e| {
+                    OutputError::io(&path, format!("creating {}", path.display()), e)
+                })?;
                 let props = WriterProperties::builder()
                     .set_compression(Compression::ZSTD(ZstdLevel::default()))
                     // One row group per batch: the writer holds at most one batch encoded
                     // (its default, 1M rows, held ~60 MB for a 1000-vehicle run).
                     .set_max_row_group_row_count(Some(BATCH))
                     .build();
-                let writer = ArrowWriter::try_new(file, schema, Some(props))
-                    .with_context(|| format!("starting {}", path.display()))?;
+                let writer = ArrowWriter::try_new(file, schema, Some(props)).map_err(|e| {
+                    OutputError::table(&path, format!("starting {}", path.display()), e)
+                })?;
                 Sink::Batches {
                     fields,
                     rows: Vec::with_capacity(BATCH),
@@ -152,7 +155,7 @@ impl<T: Serialize + DeserializeOwned> Table<T> {
             Sink::Off => Ok(()),
             Sink::Csv(w) => w
                 .serialize(row)
-                .with_context(|| format!("writing {}", self.name)),
+                .map_err(|e| OutputError::table(&self.name, format!("writing {}", self.name), e)),
             Sink::Batches { rows, .. } => {
                 rows.push(row);
                 if rows.len() >= BATCH {
@@ -166,12 +169,13 @@ impl<T: Serialize + DeserializeOwned> Table<T> {
     fn flush_batch(&mut self) -> Result<()> {
         if let Sink::Batches { fields, rows, out } = &mut self.sink {
             if !rows.is_empty() {
-                let batch = serde_arrow::to_record_batch(fields, rows)
-                    .with_context(|| format!("converting rows for {}", self.name))?;
+                let batch = serde_arrow::to_record_batch(fields, rows).map_err(|e| {
+                    OutputError::table(&self.name, format!("converting rows for {}", self.name), e)
+                })?;
                 match out {
-                    BatchOut::Parquet(writer) => writer
-                        .write(&batch)
-                        .with_context(|| format!("writing {}", self.name))?,
+                    BatchOut::Parquet(writer) => writer.write(&batch).map_err(|e| {
+                        OutputError::table(&self.name, format!("writing {}", self.name), e)
+                    })?,
                     BatchOut::Memory(batches) => batches.push(batch),
                 }
                 rows.clear();
@@ -192,12 +196,13 @@ impl<T: Serialize + DeserializeOwned> Table<T> {
         }
         match std::mem::replace(&mut self.sink, Sink::Off) {
             Sink::Off => Ok(()),
-            Sink::Csv(mut w) => w.flush().with_context(|| format!("writing {}", self.name)),
+            Sink::Csv(mut w) => w
+                .flush()
+                .map_err(|e| OutputError::table(&self.name, format!("writing {}", self.name), e)),
             Sink::Batches { out, .. } => match out {
-                BatchOut::Parquet(writer) => writer
-                    .close()
-                    .map(|_| ())
-                    .with_context(|| format!("closing {}", self.name)),
+                BatchOut::Parquet(writer) => writer.close().map(|_| ()).map_err(|e| {
+                    OutputError::table(&self.name, format!("closing {}", self.name), e)
+                }),
                 BatchOut::Memory(_) => Ok(()),
             },
         }
@@ -208,7 +213,7 @@ impl<T: Serialize + DeserializeOwned> Table<T> {
 #[cfg(test)]
 pub fn read_parquet<T: Serialize + DeserializeOwned>(path: &std::path::Path) -> Result<Vec<T>> {
     let mut out = Vec::new();
-    read_rows(path, |r| {
+    read_rows::<_, OutputError>(path, |r| {
         out.push(r);
         Ok(())
     })?;
@@ -227,15 +232,13 @@ pub fn read_batches<T: Serialize + DeserializeOwned>(
     let mut rows: Vec<T> = Vec::new();
     let convert = |rows: &mut Vec<T>, batches: &mut Vec<RecordBatch>| -> Result<()> {
         if !rows.is_empty() {
-            batches.push(
-                serde_arrow::to_record_batch(&fields, rows)
-                    .with_context(|| format!("reading {}", path.display()))?,
-            );
+            batches
+                .push(serde_arrow::to_record_batch(&fields, rows).map_err(|e| reading(path, e))?);
             rows.clear();
         }
         Ok(())
     };
-    read_rows(path, |row: T| {
+    read_rows::<_, OutputError>(path, |row: T| {
         rows.push(row);
         if rows.len() >= BATCH {
             convert(&mut rows, &mut batches)?;
@@ -247,30 +250,42 @@ pub fn read_batches<T: Serialize + DeserializeOwned>(
 }
 
 /// Streams the rows of a table file written by [`Table`] (`.csv` or `.parquet`, by its
-/// extension) to `each`, in file order, a Parquet row group at a time.
-pub fn read_rows<T: DeserializeOwned>(
+/// extension) to `each`, in file order, a Parquet row group at a time. The first error,
+/// the file's ([`OutputError`], converted into `E`) or `each`'s, stops the reading.
+pub fn read_rows<T: DeserializeOwned, E: From<OutputError>>(
     path: &std::path::Path,
-    mut each: impl FnMut(T) -> Result<()>,
-) -> Result<()> {
-    let file = File::open(path).with_context(|| format!("opening {}", path.display()))?;
+    mut each: impl FnMut(T) -> Result<(), E>,
+) -> Result<(), E> {
+    let file = File::open(path)
+        .map_err(|e| OutputError::io(path, format!("opening {}", path.display()), e))?;
     if path.extension().is_some_and(|e| e == "parquet") {
         let reader = parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder::try_new(file)
-            .with_context(|| format!("reading {}", path.display()))?
-            .build()?;
+            .and_then(|b| b.build())
+            .map_err(|e| reading(path, e))?;
         for batch in reader {
-            let batch = batch.with_context(|| format!("reading {}", path.display()))?;
-            let rows = serde_arrow::from_record_batch::<Vec<T>>(&batch)
-                .with_context(|| format!("reading {}", path.display()))?;
+            let batch = batch.map_err(|e| reading(path, e))?;
+            let rows =
+                serde_arrow::from_record_batch::<Vec<T>>(&batch).map_err(|e| reading(path, e))?;
             rows.into_iter().try_for_each(&mut each)?;
         }
     } else {
         let mut csv = csv::Reader::from_reader(std::io::BufReader::new(file));
         for (line, row) in csv.deserialize().enumerate() {
-            let row = row.with_context(|| format!("{}: row {}", path.display(), line + 1))?;
+            let row = row.map_err(|e| {
+                OutputError::table(path, format!("{}: row {}", path.display(), line + 1), e)
+            })?;
             each(row)?;
         }
     }
     Ok(())
+}
+
+/// A malformed table file: `reading <path>` and why.
+fn reading(
+    path: &std::path::Path,
+    e: impl Into<Box<dyn std::error::Error + Send + Sync>>,
+) -> OutputError {
+    OutputError::table(path, format!("reading {}", path.display()), e)
 }
 
 #[cfg(test)]

@@ -244,12 +244,12 @@ impl Degradation {
                 )
             })
             .collect();
-        plots::grouped_bars(
+        Ok(plots::grouped_bars(
             &dir.path("degradation.png"),
             &format!("Smallest gap by attack and fallback ({n0} followers; 0 = collision)"),
             "smallest gap (m)",
             &categories,
             &groups,
-        )
+        )?)
     }
 }

@@ -164,6 +164,6 @@ impl Robust {
             .map(|r| (r.name, r.mean_abs_spacing_error.as_slice()))
             .collect();
         error_figure(dir, "fig9", &curves)?;
-        dir.write("fig9.md", self.markdown.as_bytes())
+        Ok(dir.write("fig9.md", self.markdown.as_bytes())?)
     }
 }

@@ -401,12 +401,12 @@ impl Scaling {
                 (preset.name().to_uppercase(), series)
             })
             .collect();
-        plots::log_log_panels(
+        Ok(plots::log_log_panels(
             &dir.path("scaling.png"),
             "Largest gap error against platoon size",
             "followers",
             "largest |gap error| (m)",
             &panels,
-        )
+        )?)
     }
 }

@@ -177,7 +177,7 @@ impl Table1 {
             &categories,
             &groups,
         )?;
-        dir.write("table1.md", self.markdown.as_bytes())
+        Ok(dir.write("table1.md", self.markdown.as_bytes())?)
     }
 }
 

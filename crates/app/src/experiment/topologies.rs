@@ -210,12 +210,12 @@ impl Topologies {
                 )
             })
             .collect();
-        plots::grouped_bars(
+        Ok(plots::grouped_bars(
             &dir.path("fig10.png"),
             "Fig. 10: varsigma1 (guaranteed decay rate) by topology and size",
             "varsigma1 (1/s)",
             &categories,
             &groups,
-        )
+        )?)
     }
 }
