@@ -89,7 +89,25 @@ fn transports_agree(config: &str) -> tempfile::TempDir {
 
 #[test]
 fn iceoryx2_run_of_the_paper_scenario_is_bit_identical_to_inproc() {
-    transports_agree("configs/paper.toml");
+    let tmp = transports_agree("configs/paper.toml");
+    // The run's facts, which the plug-ins read, stay in the run directory: the scenario's.
+    let facts = json(&tmp.path().join("ipc/facts.json"));
+    let run_json = json(&tmp.path().join("ipc/run.json"));
+    assert_eq!(facts["run_id"], run_json["run_id"]);
+    assert_eq!(facts["last_step"], 5500);
+    assert_eq!(facts["dt_s"], 0.01);
+    assert_eq!(
+        (facts["platoons"].as_u64(), facts["followers"].as_u64()),
+        (Some(1), Some(4))
+    );
+    assert_eq!(facts["plant"], "native");
+    let graph = &facts["topologies"][0];
+    assert_eq!(graph["pinning"], serde_json::json!([1.0, 1.0, 0.0, 0.0]));
+    assert_eq!(
+        graph["adjacency"][3],
+        serde_json::json!([0.0, 1.0, 1.0, 0.0])
+    );
+    assert!(!tmp.path().join("inproc/facts.json").exists());
 }
 
 #[test]

@@ -162,7 +162,8 @@ def detector_names(config: dict) -> list:
 
 
 def load_run() -> Run:
-    """The run that started this process, from PLATOON_RUN_ID and PLATOON_CONFIG (a path)."""
+    """The run that started this process, from PLATOON_RUN_ID, PLATOON_CONFIG and
+    PLATOON_RUN_FACTS (paths)."""
     return _plugin.load_run("--controller")
 
 
@@ -178,8 +179,7 @@ def run(make) -> int:
     rx_in = node.inlet("rx", w.LinkPacket)
     tx_out = node.outlet("tx", w.LinkPacket, sum(map(len, out)) * platoons, grow=False)
     cmd_out = node.outlet("commands", w.Command, (n1 - 1) * platoons, grow=False)
-    detectors = detector_names(info.config)
-    info.detectors = detectors
+    detectors = info.detectors
     links = sum(map(len, out)) * platoons
     insp_out = node.outlet("inspections", w.Inspection, links) if detectors else None
     control = node.control_inlet()

@@ -88,7 +88,8 @@ def jammed(receiver: int) -> w.LinkPacket:
 
 
 def load_run() -> Run:
-    """The run that started this process, from PLATOON_RUN_ID and PLATOON_CONFIG (a path)."""
+    """The run that started this process, from PLATOON_RUN_ID, PLATOON_CONFIG and
+    PLATOON_RUN_FACTS (paths)."""
     return _plugin.load_run("--injector")
 
 

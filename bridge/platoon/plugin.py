@@ -1,8 +1,10 @@
 """What the Python SDKs of plug-ins share (platoon.injector, platoon.controller): the run
-that started the process (PLATOON_RUN_ID, PLATOON_CONFIG), its V2V graph, and the status
+that started the process (PLATOON_RUN_ID, PLATOON_CONFIG, and its resolved facts from
+PLATOON_RUN_FACTS: steps, fleet, V2V graph, detectors), and the status
 messages every node sends (READY/DONE/FAILED) and the control messages it reads (STOP/ABORT).
 """
 
+import json
 import os
 import sys
 import time
@@ -28,8 +30,8 @@ class Run:
     vehicles_per_platoon: int
     platoons: int
     topology: "Topology | None" = field(default=None, repr=False)
-    # The detectors the run measures, in the order of every inspection's verdicts (set by the
-    # controller SDK: platoon.controller.detector_names).
+    # The detectors the run measures, in the order of every inspection's verdicts (the facts'
+    # `detectors`).
     detectors: list = field(default_factory=list)
 
     def vehicles(self):
@@ -46,16 +48,11 @@ class Run:
 
 
 class Topology:
-    """The V2V graph of one platoon (crates/topology), from the config's [topology]: whom each
+    """The V2V graph of one platoon as crates/topology computes it (the run's facts): whom each
     follower hears (`in_neighbours[i]`, leader first, then followers in order) and who hears
-    each vehicle (`out_neighbours[v]`, v = 0 the leader), in the Rust order."""
-
-    PRESETS = {
-        "pf": lambda i: [i - 1],
-        "plf": lambda i: [i - 1, -1],
-        "bpf": lambda i: [i - 1, i + 1],
-        "tpsf": lambda i: [i - 1, i - 2],
-    }
+    each vehicle (`out_neighbours[v]`, v = 0 the leader), in the Rust order. `adjacency[i][j]`
+    is 1 when follower i hears follower j (0-based), `pinning[i]` when follower i hears the
+    leader."""
 
     def __init__(self, adjacency, pinning):
         n = len(pinning)
@@ -72,29 +69,16 @@ class Topology:
                     self.in_neighbours[me].append(j + 1)
                     self.out_neighbours[j + 1].append(me)
 
-    @classmethod
-    def from_config(cls, config: dict) -> "Topology":
-        n = config["platoon"]["followers"]
-        t = config["topology"]
-        if t["preset"] == "explicit":
-            return cls(t["adjacency"], t["pinning"])
-        hears = cls.PRESETS[t["preset"]]
-        # Follower i (0-based) hears follower j (0-based) or, for -1, the leader.
-        adjacency = [[0.0] * n for _ in range(n)]
-        pinning = [0.0] * n
-        for i in range(n):
-            for j in hears(i):
-                if j == -1:
-                    pinning[i] = 1.0
-                elif 0 <= j < n:
-                    adjacency[i][j] = 1.0
-        return cls(adjacency, pinning)
+
+RUN_VARIABLES = ("PLATOON_RUN_ID", "PLATOON_CONFIG", "PLATOON_RUN_FACTS")
 
 
 def load_run(option: str = "--injector") -> Run:
-    """The run that started this process, from PLATOON_RUN_ID and PLATOON_CONFIG (a path);
-    `option` is the `platoon run` option that starts this kind of plug-in, for the error."""
-    missing = [v for v in ("PLATOON_RUN_ID", "PLATOON_CONFIG") if v not in os.environ]
+    """The run that started this process, from PLATOON_RUN_ID, PLATOON_CONFIG (a path) and
+    PLATOON_RUN_FACTS (the path of the run's facts.json, which the orchestrator resolved from
+    the config: steps, fleet, V2V graph, detectors); `option` is the `platoon run` option that
+    starts this kind of plug-in, for the error."""
+    missing = [v for v in RUN_VARIABLES if v not in os.environ]
     if missing:
         raise SystemExit(
             f"{missing[0]} is not set: run this program as "
@@ -102,15 +86,19 @@ def load_run(option: str = "--injector") -> Run:
         )
     with open(os.environ["PLATOON_CONFIG"], "rb") as f:
         config = tomllib.load(f)
-    dt = config["simulation"]["dt_s"]
+    with open(os.environ["PLATOON_RUN_FACTS"], encoding="utf-8") as f:
+        facts = json.load(f)
+    # Every platoon of a fleet is a replica of the scenario: one graph serves them all.
+    graph = facts["topologies"][0]
     return Run(
         run_id=os.environ["PLATOON_RUN_ID"],
         config=config,
-        dt=dt,
-        steps=round(config["simulation"]["duration_s"] / dt),
-        vehicles_per_platoon=config["platoon"]["followers"] + 1,
-        platoons=config.get("fleet", {}).get("platoons", 1),
-        topology=Topology.from_config(config),
+        dt=facts["dt_s"],
+        steps=facts["last_step"],
+        vehicles_per_platoon=facts["followers"] + 1,
+        platoons=facts["platoons"],
+        topology=Topology(graph["adjacency"], graph["pinning"]),
+        detectors=list(facts["detectors"]),
     )
 
 

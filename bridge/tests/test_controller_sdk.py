@@ -1,5 +1,5 @@
-"""The Python controller SDK's pieces that need no running co-simulation: the V2V graph read
-from a config (the Rust order of neighbours), the fan-out of broadcasts to links, the sorting
+"""The Python controller SDK's pieces that need no running co-simulation: the V2V graph of
+the run's facts (the Rust order of neighbours), the fan-out of broadcasts to links, the sorting
 of an rx batch, and the commands' checks and flags."""
 
 import math
@@ -15,24 +15,19 @@ import platoon.controller as pc  # noqa: E402
 import platoon.wire as w  # noqa: E402
 
 
-def config(preset, n=4, **topology):
-    return {"platoon": {"followers": n}, "topology": {"preset": preset, **topology}}
+# Two-predecessor following (tpsf) of 4 followers as crates/topology writes it in facts.json.
+TPSF4 = (
+    [[0.0, 0.0, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0], [1.0, 1.0, 0.0, 0.0], [0.0, 1.0, 1.0, 0.0]],
+    [1.0, 1.0, 0.0, 0.0],
+)
+TPSF2 = ([[0.0, 0.0], [1.0, 0.0]], [1.0, 1.0])
 
 
-def test_presets_give_the_rust_neighbour_lists():
-    t = pc.Topology.from_config(config("tpsf"))
+def test_a_graph_gives_the_rust_neighbour_lists():
+    t = pc.Topology(*TPSF4)
     assert t.in_neighbours == [[], [0], [0, 1], [1, 2], [2, 3]]
     assert t.out_neighbours == [[1, 2], [2, 3], [3, 4], [4], []]
-    t = pc.Topology.from_config(config("plf"))
-    assert t.in_neighbours == [[], [0], [0, 1], [0, 2], [0, 3]]
-    t = pc.Topology.from_config(config("bpf", 3))
-    assert t.in_neighbours == [[], [0, 2], [1, 3], [2]]
-    assert t.out_neighbours == [[1], [2], [1, 3], [2]]
-    t = pc.Topology.from_config(config("pf", 2))
-    assert t.out_neighbours == [[1], [2], []]
-    t = pc.Topology.from_config(
-        config("explicit", 2, adjacency=[[0.0, 1.0], [1.0, 0.0]], pinning=[0.0, 1.0])
-    )
+    t = pc.Topology([[0.0, 1.0], [1.0, 0.0]], [0.0, 1.0])
     assert t.in_neighbours == [[], [2], [0, 1]]
     assert t.out_neighbours == [[2], [2], [1]]
 
@@ -47,7 +42,7 @@ class Broadcasting(pc.Controller):
 
 
 def test_each_broadcast_goes_to_every_out_neighbour_numbered_by_platoon():
-    topo = pc.Topology.from_config(config("tpsf", 2))
+    topo = pc.Topology(*TPSF2)
     sent = [[False] * 3, [False] * 3]
     items = pc._transmit(
         [Broadcasting([0]), Broadcasting([1, 2])], 4, 0.04, [None] * 6, 3, topo.out_neighbours, sent

@@ -596,6 +596,10 @@ fn cosimulate(
         .injector
         .as_ref()
         .is_some_and(|i| i.mode == InjectorMode::After);
+    let plant_kind = match plant {
+        Some(_) => PlantKind::Sumo,
+        None => PlantKind::Native,
+    };
     let (plant, env, traffic) = match plant {
         Some(p) => (p.program, p.env, p.traffic),
         None => (platoon_runtime::Program::Builtin, Vec::new(), 0),
@@ -612,6 +616,11 @@ fn cosimulate(
         "run id {run_id}; observers: {} (docs/observer-contract.md)",
         dir.path("run.json").display()
     ));
+    let facts = platoon_runtime::plugin::RunFacts::of(&run_id, scenario, plant_kind);
+    dir.write(
+        platoon_runtime::plugin::RUN_FACTS_FILE,
+        &serde_json::to_vec_pretty(&facts)?,
+    )?;
     let exe = match &opts.node_program {
         Some(p) => p.clone(),
         None => crate::platoon_program()?,
@@ -621,6 +630,10 @@ fn cosimulate(
         exe,
         config: std::path::absolute(dir.path("config.toml"))
             .context("resolving the run directory")?,
+        facts: Some(
+            std::path::absolute(dir.path(platoon_runtime::plugin::RUN_FACTS_FILE))
+                .context("resolving the run directory")?,
+        ),
         // With jammers as transmitters the links' outages are read from it, wanted or not.
         channel_log: ((injector == platoon_runtime::Program::Builtin || after)
             && (output.writes(platoon_config::OutputFile::Channel)

@@ -235,6 +235,7 @@ pub fn latency(a: Latency) -> Result<LatencyReport> {
     let logs = dir.path("logs");
     std::fs::create_dir_all(&logs)?;
     let opts = platoon_runtime::Options {
+        facts: None,
         run_id: platoon_runtime::new_run_id(),
         exe: exe.clone(),
         config: std::path::absolute(dir.path("config.toml"))?,
@@ -264,6 +265,7 @@ pub fn latency(a: Latency) -> Result<LatencyReport> {
         .map_or_else(Vec::new, |&c| vec![c]);
     let cosim = |injector: platoon_runtime::Program, cpus: &[usize]| {
         let opts = platoon_runtime::Options {
+            facts: None,
             run_id: platoon_runtime::new_run_id(),
             injector,
             log_dir: None,

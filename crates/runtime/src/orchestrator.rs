@@ -53,6 +53,9 @@ pub struct Options {
     pub exe: PathBuf,
     /// The resolved scenario config every node loads.
     pub config: PathBuf,
+    /// The run's `facts.json` ([`crate::plugin::RunFacts`]), named to every process by
+    /// `PLATOON_RUN_FACTS`; `None`: the variable is not set.
+    pub facts: Option<PathBuf>,
     /// The injector.
     pub injector: Program,
     /// The controller service (`docs/controller-contract.md`): a plug-in is treated as a

@@ -1,8 +1,102 @@
-//! What the Rust SDKs for plug-ins (`platoon-injector-sdk`, `platoon-controller-sdk`) share: finding
-//! the run a program was started in, and their error.
+//! What the Rust SDKs for plug-ins (`platoon-injector-sdk`, `platoon-controller-sdk`) share:
+//! finding the run a program was started in, the run's resolved facts (`facts.json`,
+//! [`RunFacts`]), and their error.
 use crate::RunError;
+use platoon_config::PlantKind;
 use platoon_sim::Scenario;
-use std::path::PathBuf;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// The environment variable naming a run's `facts.json`.
+pub const RUN_FACTS_ENV: &str = "PLATOON_RUN_FACTS";
+
+/// The file of a run directory holding its [`RunFacts`].
+pub const RUN_FACTS_FILE: &str = "facts.json";
+
+/// What a run resolved from its scenario, written once by the orchestrator (`facts.json`,
+/// named by `PLATOON_RUN_FACTS`) so that plug-ins in any language read it instead of
+/// re-deriving it from the config.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RunFacts {
+    /// Names the run's services.
+    pub run_id: String,
+    /// The wire contract version ([`platoon_wire::CONTRACT_VERSION`]).
+    pub contract_version: u32,
+    /// The step in seconds.
+    pub dt_s: f64,
+    /// The last step: the run has steps `0..=last_step`.
+    pub last_step: u64,
+    /// Number of platoons.
+    pub platoons: usize,
+    /// Followers per platoon (N).
+    pub followers: usize,
+    /// All vehicles of the fleet, `platoons * (N + 1)`.
+    pub vehicles: usize,
+    /// How wire ids are numbered ([`crate::session::Numbering`]).
+    pub numbering: String,
+    /// Each platoon's V2V graph, in platoon order.
+    pub topologies: Vec<Graph>,
+    /// The detectors the run measures (`[detection]`), in the order of each inspection's
+    /// verdicts; empty without detection.
+    pub detectors: Vec<String>,
+    /// The plant.
+    pub plant: PlantKind,
+}
+
+/// One platoon's V2V graph as `platoon-topology` computes it: `adjacency[i][j]` = 1 when
+/// follower i hears follower j (0-based), `pinning[i]` = 1 when follower i hears the leader.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Graph {
+    /// The followers' adjacency, row by row.
+    pub adjacency: Vec<Vec<f64>>,
+    /// The followers' pinning to the leader.
+    pub pinning: Vec<f64>,
+}
+
+impl Graph {
+    /// The graph of `topology`.
+    pub fn of(topology: &platoon_topology::Topology) -> Self {
+        let a = topology.adjacency();
+        Self {
+            adjacency: a
+                .row_iter()
+                .map(|row| row.iter().copied().collect())
+                .collect(),
+            pinning: topology.pinning().iter().copied().collect(),
+        }
+    }
+}
+
+impl RunFacts {
+    /// The facts of the run `run_id` of `scenario` on `plant`.
+    pub fn of(run_id: &str, scenario: &Scenario, plant: PlantKind) -> Self {
+        let numbering = crate::session::Numbering::of(scenario);
+        Self {
+            run_id: run_id.to_string(),
+            contract_version: platoon_wire::CONTRACT_VERSION,
+            dt_s: scenario.dt(),
+            last_step: scenario.steps,
+            platoons: numbering.platoons,
+            followers: numbering.per_platoon - 1,
+            vehicles: numbering.vehicles(),
+            numbering: "vehicle i of platoon j is j * (N + 1) + i".to_string(),
+            topologies: scenario
+                .replicas()
+                .iter()
+                .map(|s| Graph::of(&s.topology))
+                .collect(),
+            detectors: scenario.control.detection.names(),
+            plant,
+        }
+    }
+
+    /// Reads the facts from `path` (a run's `facts.json`).
+    pub fn read(path: &Path) -> Result<Self, PluginError> {
+        let facts = |e: String| PluginError::Facts(format!("{}: {e}", path.display()));
+        let text = std::fs::read_to_string(path).map_err(|e| facts(e.to_string()))?;
+        serde_json::from_str(&text).map_err(|e| facts(e.to_string()))
+    }
+}
 
 /// Why a plug-in could not run.
 #[derive(thiserror::Error)]
@@ -20,6 +114,9 @@ pub enum PluginError {
     /// The run's config could not be read.
     #[error("the run's config: {0}")]
     Config(#[from] platoon_config::ConfigError),
+    /// The run's facts (`PLATOON_RUN_FACTS`) could not be read.
+    #[error("the run's facts: {0}")]
+    Facts(String),
     /// The run failed or stopped this plug-in.
     #[error("{0}")]
     Run(#[from] RunError),
@@ -47,11 +144,60 @@ pub fn the_run(role: &'static str) -> Result<(String, Scenario), PluginError> {
     Ok((run_id, scenario))
 }
 
+/// The facts of the run this program was started in as the plug-in `role`, read from
+/// `PLATOON_RUN_FACTS`.
+pub fn the_facts(role: &'static str) -> Result<RunFacts, PluginError> {
+    let path: PathBuf = std::env::var_os(RUN_FACTS_ENV)
+        .ok_or(PluginError::NotInARun {
+            variable: RUN_FACTS_ENV,
+            role,
+        })?
+        .into();
+    RunFacts::read(&path)
+}
+
 /// How a plug-in's loop ended, for its `main`: stopped by the run (it failed elsewhere, or
 /// `platoon run` is gone) is no error of its own.
 pub fn ended(result: Result<(), RunError>) -> Result<(), PluginError> {
     match result {
         Err(RunError::Aborted(_) | RunError::Orphaned) => Ok(()),
         other => other.map_err(PluginError::from),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use platoon_topology::{Preset, Topology};
+
+    /// A fleet's facts are its scenario's, the graphs `platoon-topology`'s, and they survive
+    /// `facts.json`.
+    #[test]
+    fn the_facts_of_a_fleet_match_its_scenario() {
+        let text = format!(
+            "{}\n[fleet]\nplatoons = 3\n",
+            platoon_config::Embedded::Paper.text()
+        );
+        let (_, scenario) =
+            platoon_config::parse(&text, Path::new("paper-fleet.toml")).expect("a valid config");
+        let facts = RunFacts::of("r1", &scenario, PlantKind::Native);
+        assert_eq!(facts.run_id, "r1");
+        assert_eq!(facts.contract_version, platoon_wire::CONTRACT_VERSION);
+        // 55 s at 10 ms: steps 0..=5500.
+        assert_eq!((facts.last_step, facts.dt_s), (5500, 0.01));
+        assert_eq!(facts.last_step, scenario.steps);
+        assert_eq!(
+            (facts.platoons, facts.followers, facts.vehicles),
+            (3, 4, 15)
+        );
+        let tpsf = Graph::of(&Topology::preset(Preset::Tpsf, 4).unwrap());
+        assert_eq!(tpsf.pinning, [1.0, 1.0, 0.0, 0.0]);
+        assert_eq!(tpsf.adjacency[3], [0.0, 1.0, 1.0, 0.0]);
+        assert_eq!(facts.topologies, vec![tpsf; 3]);
+        assert!(facts.detectors.is_empty());
+        let json = serde_json::to_string(&facts).unwrap();
+        assert!(json.contains("\"plant\":\"native\""), "{json}");
+        let back: RunFacts = serde_json::from_str(&json).unwrap();
+        assert_eq!(back, facts);
     }
 }

@@ -247,6 +247,9 @@ pub(super) fn spawn_all(opts: &Options, children: &mut Children) -> Result<(), R
             )
             .envs(opts.env.iter().map(|(k, v)| (k, v)))
             .stdin(Stdio::null());
+        if let Some(facts) = &opts.facts {
+            cmd.env(crate::plugin::RUN_FACTS_ENV, facts);
+        }
         // Our nodes compute one step at a time between wake-ups: a BLAS thread pool (this
         // binary's OpenBLAS, numpy's in the SUMO bridge) buys them nothing, and its threads
         // spin at start (some 50 ms of CPU each, beside SUMO starting). A user's command
