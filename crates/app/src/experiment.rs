@@ -33,7 +33,7 @@ pub use controllers::{
 pub use degradation::*;
 pub use detection::{
     attack_kind, detection, Detection, DetectionOptions, DetectionRow, Intensity,
-    ATTACKS as DETECTION_ATTACKS, DETECTORS,
+    ATTACKS as DETECTION_ATTACKS, DETECTORS, REACTIONS as DETECTION_REACTIONS,
 };
 pub use robust::*;
 pub use scaling::*;

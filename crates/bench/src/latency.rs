@@ -234,9 +234,27 @@ pub fn latency(a: Latency) -> Result<LatencyReport> {
     bar.set_message(format!("co-simulating {stem} over iceoryx2"));
     let logs = dir.path("logs");
     std::fs::create_dir_all(&logs)?;
+    // Every run names its facts (`PLATOON_RUN_FACTS`) as `platoon run` does: the Python SDK
+    // injector refuses to start without them. The runs go one after another, so each rewrites
+    // the one facts.json with its own run id.
+    let facts = |run_id: &str| -> Result<std::path::PathBuf> {
+        let f = platoon_runtime::plugin::RunFacts::of(
+            run_id,
+            &scenario,
+            platoon_config::PlantKind::Native,
+        );
+        dir.write(
+            platoon_runtime::plugin::RUN_FACTS_FILE,
+            &serde_json::to_vec_pretty(&f)?,
+        )?;
+        Ok(std::path::absolute(
+            dir.path(platoon_runtime::plugin::RUN_FACTS_FILE),
+        )?)
+    };
+    let run_id = platoon_runtime::new_run_id();
     let opts = platoon_runtime::Options {
-        facts: None,
-        run_id: platoon_runtime::new_run_id(),
+        facts: Some(facts(&run_id)?),
+        run_id,
         exe: exe.clone(),
         config: std::path::absolute(dir.path("config.toml"))?,
         injector: platoon_runtime::Program::Builtin,
@@ -264,9 +282,10 @@ pub fn latency(a: Latency) -> Result<LatencyReport> {
         .first()
         .map_or_else(Vec::new, |&c| vec![c]);
     let cosim = |injector: platoon_runtime::Program, cpus: &[usize]| {
+        let run_id = platoon_runtime::new_run_id();
         let opts = platoon_runtime::Options {
-            facts: None,
-            run_id: platoon_runtime::new_run_id(),
+            facts: Some(facts(&run_id)?),
+            run_id,
             injector,
             log_dir: None,
             cpus: cpus.to_vec(),

@@ -1,12 +1,16 @@
 //! `platoon experiment`: the arguments and what is printed; the experiments are
 //! [`platoon_app::experiment`]'s.
+use crate::names::one_of;
 use anyhow::Result;
+use clap::builder::PossibleValuesParser;
 use platoon_app::experiment::{
     self, Base, ControllersOptions, DegradationOptions, DetectionOptions, Intensity, RobustOptions,
-    ScalingOptions, TopologiesOptions,
+    ScalingOptions, TopologiesOptions, DETECTION_ATTACKS, DETECTION_REACTIONS, DETECTORS,
 };
-use platoon_config::Embedded;
+use platoon_config::{Embedded, LawName};
+use platoon_control::Reaction;
 use platoon_output::rundir::RunDir;
+use platoon_topology::Preset;
 use std::path::PathBuf;
 
 /// The experiments.
@@ -83,23 +87,35 @@ pub struct DetectionArgs {
     #[arg(
         long,
         value_delimiter = ',',
-        default_value = "false_data,random_offset,drift,feigned_braking,accel_scale,replay,delay"
+        value_parser = PossibleValuesParser::new(DETECTION_ATTACKS),
+        default_values = DETECTION_ATTACKS
     )]
     pub attacks: Vec<String>,
     /// The detectors.
     #[arg(
         long,
         value_delimiter = ',',
-        default_value = "plausibility,radar_cross,residual"
+        value_parser = PossibleValuesParser::new(DETECTORS),
+        default_values = DETECTORS
     )]
     pub detectors: Vec<String>,
     /// The intensities: stealthy (inside sensor noise or genuine dynamics), strong.
-    #[arg(long, value_delimiter = ',', default_value = "stealthy,strong")]
-    pub intensities: Vec<String>,
+    #[arg(
+        long,
+        value_delimiter = ',',
+        value_parser = one_of(&Intensity::ALL, Intensity::name),
+        default_values = Intensity::ALL.map(Intensity::name)
+    )]
+    pub intensities: Vec<Intensity>,
     /// The reactions: log (record only), fallback (refuse the sender and run ACC on the radar
     /// until a quiet second).
-    #[arg(long, value_delimiter = ',', default_value = "log,fallback")]
-    pub reactions: Vec<String>,
+    #[arg(
+        long,
+        value_delimiter = ',',
+        value_parser = one_of(&DETECTION_REACTIONS, |r| r.name()),
+        default_values = DETECTION_REACTIONS.map(|r: Reaction| r.name())
+    )]
+    pub reactions: Vec<Reaction>,
     /// Leave out the run without an attack (the false-alarm baseline).
     #[arg(long)]
     pub no_clean: bool,
@@ -134,16 +150,22 @@ pub struct ControllersArgs {
     /// beaconing, initial states and attacks are varied.
     #[arg(long)]
     pub config: Option<PathBuf>,
-    /// The laws: paper, acc, path_cacc, ploeg, consensus, flatbed.
+    /// The laws.
     #[arg(
         long,
         value_delimiter = ',',
-        default_value = "paper,acc,path_cacc,ploeg,consensus,flatbed"
+        value_parser = one_of(&LawName::ALL, LawName::name),
+        default_values = LawName::ALL.map(LawName::name)
     )]
-    pub laws: Vec<String>,
-    /// The topologies: pf, plf, bpf, tpsf.
-    #[arg(long, value_delimiter = ',', default_value = "pf,plf")]
-    pub topologies: Vec<String>,
+    pub laws: Vec<LawName>,
+    /// The topologies.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        value_parser = one_of(&Preset::ALL, Preset::name),
+        default_value = "pf,plf"
+    )]
+    pub topologies: Vec<Preset>,
     /// The field's laws' beacon period (s), a whole number of steps (0.1: 10 Hz, CAM-like).
     #[arg(long, default_value_t = 0.1)]
     pub beacon_period: f64,
@@ -166,9 +188,14 @@ pub struct ScalingArgs {
     /// Platoon sizes (followers).
     #[arg(long, value_delimiter = ',', default_value = "4,10,25,50,100")]
     pub sizes: Vec<usize>,
-    /// Topologies (pf, plf, tpsf, bpf).
-    #[arg(long, value_delimiter = ',', default_value = "pf,plf,tpsf,bpf")]
-    pub presets: Vec<String>,
+    /// Topologies.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        value_parser = one_of(&Preset::ALL, Preset::name),
+        default_value = "pf,plf,tpsf,bpf"
+    )]
+    pub presets: Vec<Preset>,
     /// The time headway h_t of the designed gains (s).
     #[arg(long, default_value_t = ScalingOptions::default().time_headway)]
     pub time_headway: f64,
@@ -348,29 +375,8 @@ fn degradation(args: DegradationArgs) -> Result<()> {
 
 fn controllers(args: ControllersArgs) -> Result<()> {
     let opts = ControllersOptions {
-        laws: args
-            .laws
-            .iter()
-            .map(|l| {
-                platoon_config::LawName::from_name(l).ok_or_else(|| {
-                    anyhow::anyhow!(
-                        "--laws: unknown law {l:?}; use paper, acc, path_cacc, ploeg, \
-                         consensus or flatbed"
-                    )
-                })
-            })
-            .collect::<Result<_>>()?,
-        topologies: args
-            .topologies
-            .iter()
-            .map(|p| {
-                platoon_topology::Preset::from_name(p).ok_or_else(|| {
-                    anyhow::anyhow!(
-                        "--topologies: unknown topology {p:?}; use pf, plf, tpsf or bpf"
-                    )
-                })
-            })
-            .collect::<Result<_>>()?,
+        laws: args.laws,
+        topologies: args.topologies,
         beacon_period_s: args.beacon_period,
     };
     opts.validate()?;
@@ -385,26 +391,8 @@ fn detection(args: DetectionArgs) -> Result<()> {
     let opts = DetectionOptions {
         attacks: args.attacks,
         detectors: args.detectors,
-        intensities: args
-            .intensities
-            .iter()
-            .map(|i| {
-                Intensity::from_name(i).ok_or_else(|| {
-                    anyhow::anyhow!("--intensities: unknown intensity {i:?}; use stealthy, strong")
-                })
-            })
-            .collect::<Result<_>>()?,
-        reactions: args
-            .reactions
-            .iter()
-            .map(|r| match r.as_str() {
-                "log" => Ok(platoon_control::Reaction::Log),
-                "fallback" => Ok(platoon_control::Reaction::Fallback),
-                _ => Err(anyhow::anyhow!(
-                    "--reactions: unknown reaction {r:?}; use log, fallback"
-                )),
-            })
-            .collect::<Result<_>>()?,
+        intensities: args.intensities,
+        reactions: args.reactions,
         clean: !args.no_clean,
         repeats: args.repeats,
         duration_s: args.duration,
@@ -421,24 +409,15 @@ fn detection(args: DetectionArgs) -> Result<()> {
 }
 
 fn scaling(args: ScalingArgs) -> Result<()> {
-    let mut opts = ScalingOptions {
+    let opts = ScalingOptions {
         sizes: args.sizes,
-        presets: Vec::new(),
+        presets: args.presets,
         time_headway: args.time_headway,
         design_followers: args.design_followers,
         k_max: args.k_max,
         certify_up_to: args.certify_up_to,
     };
     opts.validate()?;
-    opts.presets = args
-        .presets
-        .iter()
-        .map(|p| {
-            platoon_topology::Preset::from_name(p).ok_or_else(|| {
-                anyhow::anyhow!("--presets: unknown topology {p:?}; use pf, plf, tpsf or bpf")
-            })
-        })
-        .collect::<Result<_>>()?;
     let base = Base::load(args.config.as_deref(), Embedded::Paper)?;
     let dir = RunDir::create(&out_dir(args.out, "runs/scaling-experiment"), args.force)?;
     let bar = crate::progress::Bar::counting("runs");

@@ -10,6 +10,7 @@ mod campaign;
 mod design;
 mod experiment;
 mod fcd;
+mod names;
 mod node;
 mod progress;
 mod run;

@@ -3,13 +3,33 @@
 use anyhow::{Context, Result};
 use std::path::PathBuf;
 
+/// Which process `platoon node` runs: the nodes of a run ([`platoon_wire::Node`], by the same
+/// names) and the latency benchmark's echoes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Role {
+    /// Integrates the vehicles.
+    Plant,
+    /// Every vehicle's triggering rule, estimators and control law.
+    Controller,
+    /// Gates every link: the built-in attack injector.
+    Injector,
+    /// The built-in channel in front of a third-party injector.
+    Channel,
+    /// The latency baseline over iceoryx2.
+    Echo,
+    /// The latency baseline over a UDP socket.
+    EchoUdp,
+    /// The latency baseline over a Unix socket.
+    EchoUds,
+}
+
 /// Arguments of `platoon node`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// Which process: plant, controller, injector, channel (the built-in channel in front of a
     /// third-party injector), or echo (the latency baseline).
-    #[arg(value_parser = ["plant", "controller", "injector", "channel", "echo", "echo-udp", "echo-uds"])]
-    pub role: String,
+    #[arg(value_enum)]
+    pub role: Role,
     /// The run's id (names its iceoryx2 services).
     #[arg(long)]
     pub run_id: String,
@@ -25,32 +45,26 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> Result<()> {
-    match args.role.as_str() {
-        "echo" => {
-            return platoon_runtime::bench::echo(&args.run_id, args.busy).context("echo node")
+    use platoon_runtime::bench::{echo, socket_echo, Socket};
+    use platoon_wire::Node;
+    let node = match args.role {
+        Role::Echo => return echo(&args.run_id, args.busy).context("echo node"),
+        Role::EchoUdp => return socket_echo(Socket::Udp, &args.config).context("UDP echo node"),
+        Role::EchoUds => {
+            return socket_echo(Socket::Uds, &args.config).context("Unix-socket echo node")
         }
-        "echo-udp" => {
-            return platoon_runtime::bench::socket_echo(
-                platoon_runtime::bench::Socket::Udp,
-                &args.config,
-            )
-            .context("UDP echo node")
-        }
-        "echo-uds" => {
-            return platoon_runtime::bench::socket_echo(
-                platoon_runtime::bench::Socket::Uds,
-                &args.config,
-            )
-            .context("Unix-socket echo node")
-        }
-        _ => {}
-    }
-    let (_, scenario) = platoon_config::load(&args.config)?;
-    let r = match args.role.as_str() {
-        "plant" => platoon_runtime::nodes::plant(&args.run_id, &scenario),
-        "controller" => platoon_runtime::nodes::controller(&args.run_id, &scenario),
-        "channel" => platoon_runtime::nodes::channel(&args.run_id, &scenario, args.log.as_deref()),
-        _ => platoon_runtime::nodes::injector(&args.run_id, &scenario, args.log.as_deref()),
+        Role::Plant => Node::Plant,
+        Role::Controller => Node::Controller,
+        Role::Injector => Node::Injector,
+        Role::Channel => Node::Channel,
     };
-    r.with_context(|| format!("{} node of run {}", args.role, args.run_id))
+    let (_, scenario) = platoon_config::load(&args.config)?;
+    let (run_id, log) = (&args.run_id, args.log.as_deref());
+    let r = match node {
+        Node::Plant => platoon_runtime::nodes::plant(run_id, &scenario),
+        Node::Controller => platoon_runtime::nodes::controller(run_id, &scenario),
+        Node::Channel => platoon_runtime::nodes::channel(run_id, &scenario, log),
+        _ => platoon_runtime::nodes::injector(run_id, &scenario, log),
+    };
+    r.with_context(|| format!("{} node of run {}", node.name(), args.run_id))
 }

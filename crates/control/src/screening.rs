@@ -36,6 +36,9 @@ pub enum Reaction {
 }
 
 impl Reaction {
+    /// Every reaction.
+    pub const ALL: [Reaction; 3] = [Self::Log, Self::Drop, Self::Fallback];
+
     /// Its config name.
     pub fn name(&self) -> &'static str {
         match self {

@@ -30,15 +30,12 @@ pub enum Preset {
 }
 
 impl Preset {
+    /// Every preset.
+    pub const ALL: [Preset; 4] = [Preset::Pf, Preset::Plf, Preset::Bpf, Preset::Tpsf];
+
     /// The preset of a config's `topology.preset` name (`pf`, `plf`, `bpf`, `tpsf`).
     pub fn from_name(name: &str) -> Option<Preset> {
-        match name {
-            "pf" => Some(Preset::Pf),
-            "plf" => Some(Preset::Plf),
-            "bpf" => Some(Preset::Bpf),
-            "tpsf" => Some(Preset::Tpsf),
-            _ => None,
-        }
+        Self::ALL.into_iter().find(|p| p.name() == name)
     }
 
     /// Its name in a config's `topology.preset`.

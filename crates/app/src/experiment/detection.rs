@@ -15,7 +15,10 @@ use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::sync::Mutex;
 
 /// The built-in detectors, by config name.
-pub const DETECTORS: [&str; 3] = ["plausibility", "radar_cross", "residual"];
+pub const DETECTORS: [&str; 3] = platoon_control::screening::DetectorSpec::NAMES;
+
+/// The reactions [`detection`] compares (`drop` is `fallback` without the fallback law).
+pub const REACTIONS: [Reaction; 2] = [Reaction::Log, Reaction::Fallback];
 
 /// The attacks of [`detection`], by `[[channel.attacks]] kind`.
 pub const ATTACKS: [&str; 7] = [
@@ -39,6 +42,9 @@ pub enum Intensity {
 }
 
 impl Intensity {
+    /// Every intensity.
+    pub const ALL: [Intensity; 2] = [Self::Stealthy, Self::Strong];
+
     /// Its name in files.
     pub fn name(self) -> &'static str {
         match self {
@@ -49,9 +55,7 @@ impl Intensity {
 
     /// By name.
     pub fn from_name(name: &str) -> Option<Self> {
-        [Self::Stealthy, Self::Strong]
-            .into_iter()
-            .find(|i| i.name() == name)
+        Self::ALL.into_iter().find(|i| i.name() == name)
     }
 }
 
@@ -137,7 +141,7 @@ impl Default for DetectionOptions {
             attacks: ATTACKS.iter().map(|a| a.to_string()).collect(),
             detectors: DETECTORS.iter().map(|d| d.to_string()).collect(),
             intensities: vec![Intensity::Stealthy, Intensity::Strong],
-            reactions: vec![Reaction::Log, Reaction::Fallback],
+            reactions: REACTIONS.to_vec(),
             clean: true,
             repeats: 3,
             duration_s: 45.0,
