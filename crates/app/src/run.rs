@@ -148,10 +148,10 @@ pub enum RunError {
     /// A process of a co-simulated run failed: it could not start, died, stalled, reported a
     /// failure or broke the contract.
     #[error(transparent)]
-    Node(#[from] NodeFailure),
+    Node(Box<NodeFailure>),
     /// The co-simulation failed with no process to blame (iceoryx2, the contract version).
     #[error(transparent)]
-    Cosim(platoon_runtime::RunError),
+    Cosim(Box<platoon_runtime::RunError>),
     /// The run directory or one of its files.
     #[error(transparent)]
     Output(#[from] platoon_output::error::OutputError),
@@ -221,19 +221,19 @@ impl RunError {
             ),
             R::Failed { step, reason, .. } => (Some(*step), reason.clone()),
             R::Contract { message, .. } => (None, message.clone()),
-            _ => return Self::Cosim(error),
+            _ => return Self::Cosim(Box::new(error)),
         };
         let Some(node) = error.node() else {
-            return Self::Cosim(error);
+            return Self::Cosim(Box::new(error));
         };
         let log = logs.join(format!("{node}.log"));
-        Self::Node(NodeFailure {
+        Self::Node(Box::new(NodeFailure {
             node,
             step,
             log: log.is_file().then_some(log),
             message,
             error,
-        })
+        }))
     }
 }
 
