@@ -18,7 +18,9 @@ payloads). The SDKs need no compiled core: they also run from the bridge's venv 
 
 Errors: `platoon.ConfigError` (a ValueError) for an invalid config or campaign, with `file`,
 `line`, `key` and `message` attributes; `platoon.PlatoonError` (a RuntimeError) for anything
-else that failed, with the message the `platoon` command would print. Ctrl-C
+else that failed, with the message the `platoon` command would print; two of its subclasses
+say more: `platoon.NodeError`, a co-simulated run's process that failed (`node`, `step`, `log`,
+`message`, `run_dir`), and `platoon.OutputError`, a run's files (`path`). Ctrl-C
 (KeyboardInterrupt) stops a run or a campaign cleanly, as in the command, then is raised.
 """
 
@@ -41,6 +43,8 @@ __path__ = __import__("pkgutil").extend_path(__path__, __name__)
 __all__ = [
     "Campaign",
     "ConfigError",
+    "NodeError",
+    "OutputError",
     "PlatoonError",
     "Run",
     "Table",
@@ -94,7 +98,7 @@ def _program():
 
 def __getattr__(name):
     # The core's exception classes, loaded with the core (the SDKs import this package too).
-    if name in ("ConfigError", "PlatoonError"):
+    if name in ("ConfigError", "NodeError", "OutputError", "PlatoonError"):
         return getattr(_native(), name)
     raise AttributeError(f"module 'platoon' has no attribute {name!r}")
 
@@ -256,8 +260,10 @@ def run(
         config's attacks first, then the injector.
     step_timeout_s: how long the run waits for one process's sample of a step (iceoryx2).
 
-    Raises ConfigError for an invalid config (file, line, key), PlatoonError when the run
-    fails (e.g. a process died: the error names it), ValueError for options that do not go
+    Raises ConfigError for an invalid config (file, line, key), NodeError (a PlatoonError)
+    when a process of a co-simulated run fails (its node, step, log and message), OutputError
+    (a PlatoonError) when the run's files cannot be written (path), PlatoonError when the run
+    fails otherwise, ValueError for options that do not go
     together, KeyboardInterrupt after stopping it (a second one returns at once, leaving the
     run to stop at its next step)."""
     summary, tables, directory = _native().run(

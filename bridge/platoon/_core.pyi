@@ -19,6 +19,20 @@ class ConfigError(ValueError):
     key: str
     message: str
 
+class NodeError(PlatoonError):
+    """A process of a co-simulated run (plant, controller, injector, a plug-in) failed."""
+
+    node: str  # "plant", "controller", "injector" or "channel"
+    step: Optional[int]  # the step the run was at, None when unknown
+    log: Optional[str]  # its log (stdout and stderr), None when it wrote none
+    message: str  # what went wrong, in a line
+    run_dir: Optional[str]  # what the run recorded
+
+class OutputError(PlatoonError):
+    """A run's files could not be written or read."""
+
+    path: Optional[str]  # the file or directory, None when unknown
+
 def scenario_names() -> List[str]: ...
 def scenario(name: str) -> str: ...
 def run(

@@ -203,6 +203,34 @@ def test_a_run_that_fails_raises_platoon_error_naming_why():
         platoon.run("paper", injector="true")
 
 
+def test_a_plug_in_that_fails_raises_node_error_naming_it_and_its_log(tmp_path):
+    plugin = tmp_path / "broken_injector.py"
+    plugin.write_text("import sys\nprint('this injector gives up', file=sys.stderr)\nsys.exit(3)\n")
+    cfg = platoon.scenario("paper")
+    cfg["simulation"]["duration_s"] = 1.0
+    out = tmp_path / "run"
+    with pytest.raises(platoon.NodeError) as e:
+        platoon.run(cfg, transport="iceoryx2", injector=f"{sys.executable} {plugin}", out=out)
+    assert isinstance(e.value, platoon.PlatoonError)
+    assert e.value.node == "injector"
+    assert e.value.step == 0
+    assert e.value.log == str(out / "logs" / "injector.log")
+    assert "this injector gives up" in pathlib.Path(e.value.log).read_text()
+    assert e.value.message and e.value.run_dir == str(out)
+    # The message is the command's.
+    assert "the injector process" in str(e.value) and "this injector gives up" in str(e.value)
+
+
+def test_a_run_directory_that_is_there_raises_output_error_with_its_path(tmp_path):
+    out = tmp_path / "run"
+    out.mkdir()
+    (out / "mine.txt").write_text("not a run")
+    with pytest.raises(platoon.OutputError) as e:
+        platoon.run("paper", out=out)
+    assert isinstance(e.value, platoon.PlatoonError)
+    assert e.value.path == str(out)
+
+
 def campaign_file(tmp_path):
     spec = tmp_path / "small.toml"
     spec.write_text(

@@ -127,12 +127,142 @@ pub struct RunOutcome {
     pub rows: Vec<StepRow>,
     /// What `summary.json` holds (without the extra keys `injector`, `controller` and `sumo`).
     pub summary: Summary,
-    /// The process that failed, if one did (the run directory then says `complete: false`).
-    pub failure: Option<platoon_runtime::RunError>,
+    /// Why a co-simulation ended early, if a process failed ([`RunError::Node`], with its log
+    /// in `dir`) or the co-simulation did ([`RunError::Cosim`]); the run directory then says
+    /// `complete: false`.
+    pub failure: Option<RunError>,
     /// Why it was stopped early, if it was asked to (the summary says so too).
     pub stopped: Option<String>,
     /// Wall time of the steps.
     pub compute: Duration,
+}
+
+/// Why [`run`] failed, by kind: what a caller branches on (the Python package raises one
+/// exception class per kind). Each message is the one `platoon run` prints.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum RunError {
+    /// The config (or what the run's options make of it) is refused (`platoon run` exits 2).
+    #[error(transparent)]
+    Config(#[from] platoon_config::ConfigError),
+    /// A process of a co-simulated run failed: it could not start, died, stalled, reported a
+    /// failure or broke the contract.
+    #[error(transparent)]
+    Node(Box<NodeFailure>),
+    /// The co-simulation failed with no process to blame (iceoryx2, the contract version).
+    #[error(transparent)]
+    Cosim(Box<platoon_runtime::RunError>),
+    /// The run directory or one of its files.
+    #[error(transparent)]
+    Output(#[from] platoon_output::error::OutputError),
+    /// The SUMO plant could not be set up (the bridge, its venv, the network, `plant.json`).
+    #[error(transparent)]
+    Sumo(anyhow::Error),
+    /// Anything else (options that do not go together, a figure that could not be drawn).
+    #[error(transparent)]
+    Other(anyhow::Error),
+}
+
+impl From<anyhow::Error> for RunError {
+    /// Its kind when it is a config or output error as it was raised; with a context (words
+    /// that the message keeps) it stays [`RunError::Other`].
+    fn from(e: anyhow::Error) -> Self {
+        let bare = |e: &anyhow::Error| e.chain().count() == 1;
+        if bare(&e) && e.is::<platoon_config::ConfigError>() {
+            return Self::Config(e.downcast().expect("checked"));
+        }
+        if e.is::<platoon_output::error::OutputError>()
+            && e.chain()
+                .next()
+                .is_some_and(|c| c.is::<platoon_output::error::OutputError>())
+        {
+            return Self::Output(e.downcast().expect("checked"));
+        }
+        Self::Other(e)
+    }
+}
+
+impl RunError {
+    /// The config error this is, if it is one (`platoon run` exits 2 on it), also one that a
+    /// context wrapped.
+    pub fn config(&self) -> Option<&platoon_config::ConfigError> {
+        match self {
+            Self::Config(c) => Some(c),
+            Self::Other(e) | Self::Sumo(e) => e.downcast_ref(),
+            _ => None,
+        }
+    }
+
+    /// A SUMO set-up error: its kind when it is a config or output error, else [`RunError::Sumo`].
+    fn sumo(e: anyhow::Error) -> Self {
+        match Self::from(e) {
+            Self::Other(e) => Self::Sumo(e),
+            kind => kind,
+        }
+    }
+
+    /// A co-simulation's failure, typed: [`RunError::Node`] when a process is to blame (its
+    /// log in `logs`, the run directory's `logs/`), else [`RunError::Cosim`].
+    pub fn from_runtime(error: platoon_runtime::RunError, logs: &Path) -> Self {
+        use platoon_runtime::RunError as R;
+        let (step, message) = match &error {
+            R::Spawn {
+                command, source, ..
+            } => (None, format!("could not start ({command}): {source}")),
+            R::Died { step, status, .. } => (Some(*step), format!("exited: {status}")),
+            R::Stalled {
+                step,
+                waited_s,
+                what,
+                ..
+            } => (
+                Some(*step),
+                format!("published nothing for step {step} within {waited_s} s ({what})"),
+            ),
+            R::Failed { step, reason, .. } => (Some(*step), reason.clone()),
+            R::Contract { message, .. } => (None, message.clone()),
+            _ => return Self::Cosim(Box::new(error)),
+        };
+        let Some(node) = error.node() else {
+            return Self::Cosim(Box::new(error));
+        };
+        let log = logs.join(format!("{node}.log"));
+        Self::Node(Box::new(NodeFailure {
+            node,
+            step,
+            log: log.is_file().then_some(log),
+            message,
+            error,
+        }))
+    }
+}
+
+/// A process of a co-simulated run that failed: which, when, where its log is and what it
+/// said. Its message and causes are the run's (`error`'s), with the last lines of the log.
+#[derive(Debug)]
+pub struct NodeFailure {
+    /// The node: `plant`, `controller`, `injector` or `channel` (a plug-in runs as one).
+    pub node: &'static str,
+    /// The step the run was at, when known.
+    pub step: Option<u64>,
+    /// Its log (stdout and stderr) in the run directory, when it wrote one.
+    pub log: Option<PathBuf>,
+    /// What went wrong, in a line: its reason, its exit status, what it did not publish.
+    pub message: String,
+    /// The run's error, as the orchestrator reported it.
+    pub error: platoon_runtime::RunError,
+}
+
+impl std::fmt::Display for NodeFailure {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        self.error.fmt(f)
+    }
+}
+
+impl std::error::Error for NodeFailure {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        std::error::Error::source(&self.error)
+    }
 }
 
 /// Takes the gain and the ratio beta1/beta2 of a certificate (`platoon design synthesize` or
@@ -199,14 +329,16 @@ pub fn run(
     force: bool,
     stop: &Stop,
     progress: &dyn Progress,
-) -> Result<RunOutcome> {
+) -> Result<RunOutcome, RunError> {
     if opts.injector.is_some() && opts.transport == Transport::Inproc {
-        anyhow::bail!("--injector needs --transport iceoryx2: an external injector is a process");
+        return Err(RunError::Other(anyhow::anyhow!(
+            "--injector needs --transport iceoryx2: an external injector is a process"
+        )));
     }
     if opts.controller.is_some() && opts.transport == Transport::Inproc {
-        anyhow::bail!(
+        return Err(RunError::Other(anyhow::anyhow!(
             "--controller needs --transport iceoryx2: an external controller is a process"
-        );
+        )));
     }
     let plugin = &scenario.control.detection.plugin;
     if !plugin.is_empty() && opts.controller.is_none() {
@@ -227,26 +359,30 @@ pub fn run(
     }
     let sumo_plan = if config.simulation.plant == PlantKind::Sumo {
         if config.plant.discretisation != platoon_model::Discretisation::Exact {
-            anyhow::bail!(
+            return Err(RunError::Other(anyhow::anyhow!(
                 "--plant sumo: the SUMO plant moves vehicles its own way; plant.discretisation = \
                  \"plexe\" is for the native plant (leave --plant out, or set discretisation = \
                  \"exact\")"
-            );
+            )));
         }
         if opts.transport == Transport::Inproc {
-            anyhow::bail!(
+            return Err(RunError::Other(anyhow::anyhow!(
                 "the SUMO plant is a process: use --transport iceoryx2 (the default), or --plant native"
-            );
+            )));
         }
-        Some(crate::sumo::plan(&opts.config_file, &config, scenario)?)
+        Some(crate::sumo::plan(&opts.config_file, &config, scenario).map_err(RunError::sumo)?)
     } else {
         None
     };
     if opts.step_timeout.is_zero() {
-        anyhow::bail!("--step-timeout must be a positive number of seconds");
+        return Err(RunError::Other(anyhow::anyhow!(
+            "--step-timeout must be a positive number of seconds"
+        )));
     }
     if opts.ready_timeout.is_zero() {
-        anyhow::bail!("--ready-timeout must be a positive number of seconds");
+        return Err(RunError::Other(anyhow::anyhow!(
+            "--ready-timeout must be a positive number of seconds"
+        )));
     }
     let dir = RunDir::create(out, force)?;
     dir.write("config.toml", platoon_config::to_toml(&config).as_bytes())?;
@@ -257,7 +393,11 @@ pub fn run(
             (rows, summary, None)
         }
         Transport::Iceoryx2 => {
-            let plant = sumo_plan.as_ref().map(|p| p.launch(&dir)).transpose()?;
+            let plant = sumo_plan
+                .as_ref()
+                .map(|p| p.launch(&dir))
+                .transpose()
+                .map_err(RunError::sumo)?;
             cosimulate(scenario, &config.output, &dir, opts, plant, stop, progress)?
         }
     };
@@ -340,6 +480,7 @@ pub fn run(
     }
     write_outputs(&dir, &config, scenario, &rows, &summary, opts.plots, &extra)?;
     let dir = dir.commit()?;
+    let failure = failure.map(|e| RunError::from_runtime(e, &dir.join("logs")));
     Ok(RunOutcome {
         dir,
         rows: rows.rows,

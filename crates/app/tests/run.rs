@@ -112,3 +112,97 @@ fn options_a_run_cannot_honour_are_refused_before_anything_is_written() {
     );
     assert!(!out.exists() && !tmp.path().join("x.partial").exists());
 }
+
+#[test]
+fn a_run_that_fails_says_its_kind() {
+    // A config the run cannot measure: the config's kind, naming the key.
+    let (config, mut scenario) = short_paper("duration_s = 1.0");
+    scenario.control.detection.plugin = vec!["theirs".into()];
+    let tmp = tempfile::tempdir().unwrap();
+    let opts = RunOptions {
+        transport: Transport::Inproc,
+        plots: false,
+        ..RunOptions::default()
+    };
+    let out = tmp.path().join("x");
+    let e = run::run(config, &scenario, &opts, &out, false, &Stop::default(), &()).unwrap_err();
+    let run::RunError::Config(c) = &e else {
+        panic!("not a config error: {e:?}")
+    };
+    assert_eq!(c.key, "detection.plugin");
+    assert_eq!(e.config().map(|c| c.key.as_str()), Some("detection.plugin"));
+    assert!(!out.exists());
+
+    // A destination that is not to be replaced: the output's kind, with its path.
+    let (config, scenario) = short_paper("duration_s = 1.0");
+    std::fs::create_dir(&out).unwrap();
+    std::fs::write(out.join("mine.txt"), "not a run").unwrap();
+    let e = run::run(config, &scenario, &opts, &out, false, &Stop::default(), &()).unwrap_err();
+    let run::RunError::Output(o) = &e else {
+        panic!("not an output error: {e:?}")
+    };
+    assert_eq!(o.path(), Some(out.as_path()));
+    assert!(e.config().is_none());
+
+    // Options that do not go together: neither.
+    let (config, scenario) = short_paper("duration_s = 1.0");
+    let opts = RunOptions {
+        controller: Some("true".into()),
+        ..opts
+    };
+    let e = run::run(config, &scenario, &opts, &out, true, &Stop::default(), &()).unwrap_err();
+    assert!(matches!(e, run::RunError::Other(_)), "{e:?}");
+}
+
+#[test]
+fn a_failed_process_is_a_node_failure_with_its_log() {
+    let tmp = tempfile::tempdir().unwrap();
+    let logs = tmp.path().join("logs");
+    std::fs::create_dir(&logs).unwrap();
+    std::fs::write(logs.join("injector.log"), "Traceback: gave up\n").unwrap();
+    let died = platoon_runtime::RunError::Died {
+        node: "injector",
+        pid: 42,
+        step: 7,
+        status: "exit status: 3".into(),
+        detail: "\n  the last lines of logs/injector.log (in the run directory):".into(),
+    };
+    let shown = died.to_string();
+    let e = run::RunError::from_runtime(died, &logs);
+    // The message is the run's, unchanged.
+    assert_eq!(e.to_string(), shown);
+    let run::RunError::Node(n) = &e else {
+        panic!("not a node failure: {e:?}")
+    };
+    assert_eq!(
+        (n.node, n.step, n.log.as_deref()),
+        (
+            "injector",
+            Some(7),
+            Some(logs.join("injector.log").as_path())
+        )
+    );
+    assert_eq!(n.message, "exited: exit status: 3");
+
+    // A node that reported its failure and wrote no log.
+    let failed = platoon_runtime::RunError::Failed {
+        node: "controller",
+        step: 3,
+        reason: "no gain".into(),
+        detail: String::new(),
+    };
+    let run::RunError::Node(n) = run::RunError::from_runtime(failed, &logs) else {
+        panic!("not a node failure")
+    };
+    assert_eq!(
+        (n.node, n.step, n.log, n.message.as_str()),
+        ("controller", Some(3), None, "no gain")
+    );
+
+    // No process to blame: the co-simulation's own kind.
+    let ipc = platoon_runtime::RunError::Ipc("refused".into());
+    assert!(matches!(
+        run::RunError::from_runtime(ipc, &logs),
+        run::RunError::Cosim(_)
+    ));
+}

@@ -182,7 +182,7 @@ where
     match result {
         Ok(()) => 0,
         Err(e) => {
-            if let Some(config) = e.downcast_ref::<platoon_config::ConfigError>() {
+            if let Some(config) = config_error(&e) {
                 eprintln!("error: {config}");
                 return EXIT_BAD_INPUT;
             }
@@ -190,4 +190,13 @@ where
             1
         }
     }
+}
+
+/// The config error `e` is, raised as one or as an operation's [`platoon_app::run::RunError`]
+/// kind: the command then exits [`EXIT_BAD_INPUT`].
+fn config_error(e: &anyhow::Error) -> Option<&platoon_config::ConfigError> {
+    e.downcast_ref::<platoon_config::ConfigError>().or_else(|| {
+        e.downcast_ref::<platoon_app::run::RunError>()
+            .and_then(|r| r.config())
+    })
 }

@@ -13,7 +13,7 @@ use anyhow::{Context, Result};
 use arrow_array::RecordBatch;
 use arrow_pyarrow::IntoPyArrow;
 use platoon_app::campaign::{CampaignOptions, CellJob, CellReply, Dask, Executor, LocalPool};
-use platoon_app::run::{RunOptions, Tables};
+use platoon_app::run::{RunError, RunOptions, Tables};
 use platoon_app::Stop;
 use platoon_config::{ConfigError as ConfigFileError, Embedded, PlantKind, Transport};
 use pyo3::create_exception;
@@ -39,10 +39,77 @@ create_exception!(
      for the file as a whole) and `message` (what is wrong)."
 );
 
-/// The Python exception for `e`: [`ConfigError`] with its attributes for a config error,
-/// else [`PlatoonError`] with the whole chain of causes.
+create_exception!(
+    _core,
+    NodeError,
+    PlatoonError,
+    "A process of a co-simulated run (the plant, the controller, the injector, a plug-in) \
+     failed. Attributes: `node` (`plant`, `controller`, `injector` or `channel`), `step` (the \
+     step the run was at, None when unknown), `log` (the path of its log, None when it wrote \
+     none), `message` (what went wrong, in a line) and `run_dir` (what the run recorded)."
+);
+create_exception!(
+    _core,
+    OutputError,
+    PlatoonError,
+    "A run's files could not be written or read. Attribute: `path` (the file or directory, \
+     None when unknown)."
+);
+
+/// A co-simulation that failed, and where what it recorded is kept: its message says both.
+#[derive(Debug)]
+struct Recorded {
+    failure: RunError,
+    dir: PathBuf,
+}
+
+impl std::fmt::Display for Recorded {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{} (what the run recorded is in {})",
+            self.failure,
+            self.dir.display()
+        )
+    }
+}
+
+impl std::error::Error for Recorded {}
+
+/// The Python exception for `e`, by its kind: [`ConfigError`] with its attributes for a
+/// config error, [`NodeError`] for a run's failed process, [`OutputError`] for its files,
+/// else [`PlatoonError`]; the message is the whole chain of causes.
 fn py_err(py: Python<'_>, e: anyhow::Error) -> PyErr {
-    if let Some(c) = e.downcast_ref::<ConfigFileError>() {
+    let message = format!("{e:#}");
+    let (kind, dir) = match e.downcast_ref::<Recorded>() {
+        Some(r) => (Some(&r.failure), Some(&r.dir)),
+        None => (e.downcast_ref::<RunError>(), None),
+    };
+    let output = match kind {
+        Some(RunError::Output(o)) => Some(o),
+        _ => e.downcast_ref::<platoon_output::error::OutputError>(),
+    };
+    if let Some(RunError::Node(n)) = kind {
+        let err = NodeError::new_err(message);
+        let value = err.value(py);
+        let _ = value.setattr("node", n.node);
+        let _ = value.setattr("step", n.step);
+        let _ = value.setattr("log", n.log.as_ref().map(|p| p.display().to_string()));
+        let _ = value.setattr("message", n.message.as_str());
+        let _ = value.setattr("run_dir", dir.map(|d| d.display().to_string()));
+        return err;
+    }
+    if let Some(o) = output {
+        let err = OutputError::new_err(message);
+        let _ = err
+            .value(py)
+            .setattr("path", o.path().map(|p| p.display().to_string()));
+        return err;
+    }
+    let config = e
+        .downcast_ref::<ConfigFileError>()
+        .or_else(|| kind.and_then(RunError::config));
+    if let Some(c) = config {
         let err = ConfigError::new_err(c.to_string());
         let value = err.value(py);
         let _ = value.setattr("file", c.file.display().to_string());
@@ -51,7 +118,7 @@ fn py_err(py: Python<'_>, e: anyhow::Error) -> PyErr {
         let _ = value.setattr("line", c.line);
         return err;
     }
-    PlatoonError::new_err(format!("{e:#}"))
+    PlatoonError::new_err(message)
 }
 
 /// Runs `work` on a thread of its own without the GIL; the calling thread waits, checking for
@@ -354,13 +421,13 @@ fn run(
         Some(&flag),
         move || -> Result<(String, Tables, PathBuf)> {
             let outcome = platoon_app::run::run(config, &scenario, &opts, &dir, force, &stop, &())?;
-            if let Some(failure) = &outcome.failure {
+            if let Some(failure) = outcome.failure {
                 // What it recorded stays, in a temporary directory too (its logs say why).
-                let kept = match temp {
+                let dir = match temp {
                     Some(t) => t.keep().join("run"),
-                    None => outcome.dir.clone(),
+                    None => outcome.dir,
                 };
-                anyhow::bail!("{failure} (what the run recorded is in {})", kept.display());
+                return Err(Recorded { failure, dir }.into());
             }
             let summary = outcome.dir.join("summary.json");
             let json = std::fs::read_to_string(&summary)
@@ -593,6 +660,8 @@ fn core_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     }
     m.add("PlatoonError", m.py().get_type::<PlatoonError>())?;
     m.add("ConfigError", m.py().get_type::<ConfigError>())?;
+    m.add("NodeError", m.py().get_type::<NodeError>())?;
+    m.add("OutputError", m.py().get_type::<OutputError>())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     // Benchmarks through the package should say when they measured an unoptimised core.
     m.add(
