@@ -104,12 +104,7 @@ pub fn degradation(
     use platoon_control::FallbackMode;
     opts.validate()?;
     let label = &base.label;
-    if let Some(dir) = out {
-        dir.write(
-            "config.toml",
-            platoon_config::to_toml(&base.config).as_bytes(),
-        )?;
-    }
+    write_config(out, &base.config)?;
     let modes = [
         ("zero", FallbackMode::Zero),
         ("hold", FallbackMode::Hold),
@@ -129,15 +124,7 @@ pub fn degradation(
                     ));
                     let mut c = base.config.clone();
                     if n != c.platoon.followers {
-                        c.platoon.followers = n;
-                        c.platoon.initial_states = None;
-                        c.platoon.formation = Some(platoon_config::Formation {
-                            leader_position_m: 0.0,
-                            position_jitter_m: 0.0,
-                            speed_jitter_mps: 0.0,
-                            seed: 0,
-                        });
-                        c.fallback.per_vehicle = None;
+                        resize(&mut c, n);
                     }
                     c.control.attack_input = None;
                     c.fallback.mode = Some(mode);
