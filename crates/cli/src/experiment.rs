@@ -278,9 +278,40 @@ pub fn run(e: Experiment) -> Result<()> {
     }
 }
 
-/// The output directory, `--out` or the default.
-fn out_dir(out: Option<PathBuf>, default: &str) -> PathBuf {
-    out.unwrap_or_else(|| PathBuf::from(default))
+/// The output directory, `--out` or the default, created (replaced with `force`).
+fn create(out: Option<PathBuf>, default: &str, force: bool) -> Result<RunDir> {
+    Ok(RunDir::create(
+        &out.unwrap_or_else(|| PathBuf::from(default)),
+        force,
+    )?)
+}
+
+/// Each of `names` as `parse` reads it; one it does not know is an error naming the option
+/// `flag`, the `what` it is not, and the `choices`.
+fn each<T>(
+    flag: &str,
+    names: &[String],
+    what: &str,
+    choices: &str,
+    parse: impl Fn(&str) -> Option<T>,
+) -> Result<Vec<T>> {
+    names
+        .iter()
+        .map(|n| {
+            parse(n).ok_or_else(|| anyhow::anyhow!("{flag}: unknown {what} {n:?}; use {choices}"))
+        })
+        .collect()
+}
+
+/// The topologies of `flag`.
+fn presets(flag: &str, names: &[String]) -> Result<Vec<platoon_topology::Preset>> {
+    each(
+        flag,
+        names,
+        "topology",
+        "pf, plf, tpsf or bpf",
+        platoon_topology::Preset::from_name,
+    )
 }
 
 /// Commits the finished directory, then prints `text` and where the outputs are.
@@ -294,14 +325,14 @@ fn commit(dir: RunDir, text: &str) -> Result<()> {
 fn table1(args: Table1Args) -> Result<()> {
     let base = Base::load(args.config.as_deref(), Embedded::Table1)?;
     experiment::check_table1_base(&base)?;
-    let dir = RunDir::create(&out_dir(args.out, "runs/table1"), args.force)?;
+    let dir = create(args.out, "runs/table1", args.force)?;
     let t = experiment::table1(&base, Some(&dir), &crate::progress::Bar::default())?;
     commit(dir, &t.markdown)
 }
 
 fn robust(args: RobustArgs) -> Result<()> {
     let base = Base::load(args.config.as_deref(), Embedded::Paper)?;
-    let dir = RunDir::create(&out_dir(args.out, "runs/robust"), args.force)?;
+    let dir = create(args.out, "runs/robust", args.force)?;
     let opts = RobustOptions { k_max: args.k_max };
     let r = experiment::robust(&base, &opts, Some(&dir), &crate::progress::Bar::default())?;
     commit(dir, &r.markdown)
@@ -316,7 +347,7 @@ fn topologies(args: TopologiesArgs) -> Result<()> {
     opts.validate()?;
     let base = Base::load(args.config.as_deref(), Embedded::Paper)?;
     experiment::check_topologies_base(&base)?;
-    let dir = RunDir::create(&out_dir(args.out, "runs/topologies"), args.force)?;
+    let dir = create(args.out, "runs/topologies", args.force)?;
     let bar = crate::progress::Bar::counting("platoons");
     let t = experiment::topologies(&base, &opts, Some(&dir), &bar)?;
     let path = dir.commit()?;
@@ -340,7 +371,7 @@ fn degradation(args: DegradationArgs) -> Result<()> {
     };
     opts.validate()?;
     let base = Base::load(args.config.as_deref(), Embedded::Degradation)?;
-    let dir = RunDir::create(&out_dir(args.out, "runs/degradation"), args.force)?;
+    let dir = create(args.out, "runs/degradation", args.force)?;
     let bar = crate::progress::Bar::counting("runs");
     let d = experiment::degradation(&base, &opts, Some(&dir), &bar)?;
     commit(dir, &d.markdown)
@@ -348,34 +379,19 @@ fn degradation(args: DegradationArgs) -> Result<()> {
 
 fn controllers(args: ControllersArgs) -> Result<()> {
     let opts = ControllersOptions {
-        laws: args
-            .laws
-            .iter()
-            .map(|l| {
-                platoon_config::LawName::from_name(l).ok_or_else(|| {
-                    anyhow::anyhow!(
-                        "--laws: unknown law {l:?}; use paper, acc, path_cacc, ploeg, \
-                         consensus or flatbed"
-                    )
-                })
-            })
-            .collect::<Result<_>>()?,
-        topologies: args
-            .topologies
-            .iter()
-            .map(|p| {
-                platoon_topology::Preset::from_name(p).ok_or_else(|| {
-                    anyhow::anyhow!(
-                        "--topologies: unknown topology {p:?}; use pf, plf, tpsf or bpf"
-                    )
-                })
-            })
-            .collect::<Result<_>>()?,
+        laws: each(
+            "--laws",
+            &args.laws,
+            "law",
+            "paper, acc, path_cacc, ploeg, consensus or flatbed",
+            platoon_config::LawName::from_name,
+        )?,
+        topologies: presets("--topologies", &args.topologies)?,
         beacon_period_s: args.beacon_period,
     };
     opts.validate()?;
     let base = Base::load(args.config.as_deref(), Embedded::Paper)?;
-    let dir = RunDir::create(&out_dir(args.out, "runs/controllers"), args.force)?;
+    let dir = create(args.out, "runs/controllers", args.force)?;
     let bar = crate::progress::Bar::counting("runs");
     let c = experiment::controllers(&base, &opts, Some(&dir), &bar)?;
     commit(dir, &c.markdown)
@@ -385,26 +401,24 @@ fn detection(args: DetectionArgs) -> Result<()> {
     let opts = DetectionOptions {
         attacks: args.attacks,
         detectors: args.detectors,
-        intensities: args
-            .intensities
-            .iter()
-            .map(|i| {
-                Intensity::from_name(i).ok_or_else(|| {
-                    anyhow::anyhow!("--intensities: unknown intensity {i:?}; use stealthy, strong")
-                })
-            })
-            .collect::<Result<_>>()?,
-        reactions: args
-            .reactions
-            .iter()
-            .map(|r| match r.as_str() {
-                "log" => Ok(platoon_control::Reaction::Log),
-                "fallback" => Ok(platoon_control::Reaction::Fallback),
-                _ => Err(anyhow::anyhow!(
-                    "--reactions: unknown reaction {r:?}; use log, fallback"
-                )),
-            })
-            .collect::<Result<_>>()?,
+        intensities: each(
+            "--intensities",
+            &args.intensities,
+            "intensity",
+            "stealthy, strong",
+            Intensity::from_name,
+        )?,
+        reactions: each(
+            "--reactions",
+            &args.reactions,
+            "reaction",
+            "log, fallback",
+            |r| match r {
+                "log" => Some(platoon_control::Reaction::Log),
+                "fallback" => Some(platoon_control::Reaction::Fallback),
+                _ => None,
+            },
+        )?,
         clean: !args.no_clean,
         repeats: args.repeats,
         duration_s: args.duration,
@@ -414,7 +428,7 @@ fn detection(args: DetectionArgs) -> Result<()> {
     };
     opts.validate()?;
     let base = Base::load(args.config.as_deref(), Embedded::Paper)?;
-    let dir = RunDir::create(&out_dir(args.out, "runs/detection"), args.force)?;
+    let dir = create(args.out, "runs/detection", args.force)?;
     let bar = crate::progress::Bar::counting("runs");
     let d = experiment::detection(&base, &opts, Some(&dir), &bar)?;
     commit(dir, &d.markdown)
@@ -430,17 +444,9 @@ fn scaling(args: ScalingArgs) -> Result<()> {
         certify_up_to: args.certify_up_to,
     };
     opts.validate()?;
-    opts.presets = args
-        .presets
-        .iter()
-        .map(|p| {
-            platoon_topology::Preset::from_name(p).ok_or_else(|| {
-                anyhow::anyhow!("--presets: unknown topology {p:?}; use pf, plf, tpsf or bpf")
-            })
-        })
-        .collect::<Result<_>>()?;
+    opts.presets = presets("--presets", &args.presets)?;
     let base = Base::load(args.config.as_deref(), Embedded::Paper)?;
-    let dir = RunDir::create(&out_dir(args.out, "runs/scaling-experiment"), args.force)?;
+    let dir = create(args.out, "runs/scaling-experiment", args.force)?;
     let bar = crate::progress::Bar::counting("runs");
     let s = experiment::scaling(&base, &opts, Some(&dir), &bar)?;
     commit(dir, &s.markdown)
