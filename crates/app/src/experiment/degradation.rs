@@ -1,5 +1,6 @@
 //! Graceful degradation under jams ([`degradation`]).
 use super::*;
+use platoon_output::markdown;
 
 /// How [`degradation`] runs; [`DegradationOptions::default`] is `platoon experiment
 /// degradation`'s default.
@@ -166,25 +167,39 @@ pub fn degradation(
         }
     }
     progress.finish();
-    let mut md = String::from(
-        "| attack | followers | fallback | guard | max spacing error (m) | min gap (m) | min TTC (s) | max decel (m/s^2) | class | messages | guard activations |\n|---|---|---|---|---|---|---|---|---|---|---|\n",
-    );
+    let mut md = markdown::header(&[
+        "attack",
+        "followers",
+        "fallback",
+        "guard",
+        "max spacing error (m)",
+        "min gap (m)",
+        "min TTC (s)",
+        "max decel (m/s^2)",
+        "class",
+        "messages",
+        "guard activations",
+    ]);
     for r in &rows {
-        let _ = writeln!(
-            md,
-            "| {} | {} | {} | {} | {:.2} | {:.2} | {} | {:.2} | {}{} | {} | {} |",
-            r.attack,
-            r.followers,
-            r.fallback,
-            if r.guard { "on" } else { "off" },
-            r.max_spacing_error_m,
-            r.min_gap_m,
-            r.min_ttc_s.map_or("-".into(), |t| format!("{t:.2}")),
-            r.max_deceleration_mps2,
-            r.class,
-            if r.collided { " (collision)" } else { "" },
-            r.messages,
-            r.guard_activations
+        markdown::row(
+            &mut md,
+            &[
+                &r.attack,
+                &r.followers,
+                &r.fallback,
+                &if r.guard { "on" } else { "off" },
+                &format_args!("{:.2}", r.max_spacing_error_m),
+                &format_args!("{:.2}", r.min_gap_m),
+                &r.min_ttc_s.map_or("-".into(), |t| format!("{t:.2}")),
+                &format_args!("{:.2}", r.max_deceleration_mps2),
+                &format_args!(
+                    "{}{}",
+                    r.class,
+                    if r.collided { " (collision)" } else { "" }
+                ),
+                &r.messages,
+                &r.guard_activations,
+            ],
         );
     }
     let result = Degradation { rows, markdown: md };
