@@ -120,6 +120,33 @@ pub fn average_error(rows: &[StepRow]) -> Vec<(f64, f64)> {
         .collect()
 }
 
+/// Starts `config`'s platoon in formation (the leader at 0 m, no jitter) in place of its
+/// initial states.
+fn in_formation(config: &mut Config) {
+    config.platoon.initial_states = None;
+    config.platoon.formation = Some(platoon_config::Formation {
+        leader_position_m: 0.0,
+        position_jitter_m: 0.0,
+        speed_jitter_mps: 0.0,
+        seed: 0,
+    });
+}
+
+/// `config` with `followers` followers, in formation ([`in_formation`]), one fallback for all.
+fn resize(config: &mut Config, followers: usize) {
+    config.platoon.followers = followers;
+    in_formation(config);
+    config.fallback.per_vehicle = None;
+}
+
+/// With `out`, writes `config` as the experiment's config.toml.
+fn write_config(out: Option<&RunDir>, config: &Config) -> Result<()> {
+    if let Some(dir) = out {
+        dir.write("config.toml", platoon_config::to_toml(config).as_bytes())?;
+    }
+    Ok(())
+}
+
 /// A value as pretty JSON with a final newline, as every JSON file of platoon is written.
 fn pretty(value: &impl serde::Serialize) -> Result<Vec<u8>> {
     Ok((serde_json::to_string_pretty(value)? + "\n").into_bytes())

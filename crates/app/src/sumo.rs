@@ -154,27 +154,14 @@ pub fn plan<'a>(
         Some(net) => config_file.parent().unwrap_or(Path::new(".")).join(net),
         None => bridge_dir()?.join("../sumo/highway/highway.net.xml"),
     };
-    let net = net.canonicalize().map_err(|e| {
-        config_error(
-            config_file,
-            "sumo.net",
-            format!("cannot read {}: {e}", net.display()),
-        )
-    })?;
-    let text = std::fs::read_to_string(&net).map_err(|e| {
-        config_error(
-            config_file,
-            "sumo.net",
-            format!("cannot read {}: {e}", net.display()),
-        )
-    })?;
-    let doc = roxmltree::Document::parse(&text).map_err(|e| {
-        config_error(
-            config_file,
-            "sumo.net",
-            format!("{} is not a SUMO network: {e}", net.display()),
-        )
-    })?;
+    let net_error = |message: String| config_error(config_file, "sumo.net", message);
+    let net = net
+        .canonicalize()
+        .map_err(|e| net_error(format!("cannot read {}: {e}", net.display())))?;
+    let text = std::fs::read_to_string(&net)
+        .map_err(|e| net_error(format!("cannot read {}: {e}", net.display())))?;
+    let doc = roxmltree::Document::parse(&text)
+        .map_err(|e| net_error(format!("{} is not a SUMO network: {e}", net.display())))?;
     // Every lane of the edge: index -> length.
     let prefix = format!("{}_", s.edge);
     let lanes: Vec<(u32, f64)> = doc

@@ -1,7 +1,6 @@
 //! `platoon bench campaign`: campaign throughput on the local pool and through Dask.
 use crate::machine::*;
 use anyhow::{bail, Context, Result};
-use platoon_output::rundir::RunDir;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -52,10 +51,7 @@ pub fn campaign(a: Campaign) -> Result<Vec<CampaignRow>> {
     if a.cells == 0 || a.jobs.is_empty() || a.jobs.contains(&0) {
         bail!("--cells and every --jobs value must be at least 1");
     }
-    let out = a
-        .out
-        .unwrap_or_else(|| PathBuf::from("runs").join("bench-campaign"));
-    let dir = RunDir::create(&out, a.force)?;
+    let dir = crate::create_out(a.out, "bench-campaign", a.force)?;
     let exe = platoon_app::platoon_program()?;
     // A Monte Carlo campaign of `samples` cells on `base` (a file in the output directory; None:
     // the embedded paper scenario), written as `bench-<name>.toml`.

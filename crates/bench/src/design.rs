@@ -2,7 +2,6 @@
 //! against the number of followers.
 use crate::step::fit;
 use anyhow::{bail, Result};
-use platoon_output::rundir::RunDir;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -68,10 +67,7 @@ pub fn design(a: Design) -> Result<(Vec<DesignRow>, Vec<CheckRow>)> {
     if a.followers.is_empty() || a.followers.contains(&0) || a.check_followers.contains(&0) {
         bail!("--followers and --check-followers need positive platoon sizes, e.g. 4,10,20");
     }
-    let out = a
-        .out
-        .unwrap_or_else(|| PathBuf::from("runs").join("bench-design"));
-    let dir = RunDir::create(&out, a.force)?;
+    let dir = crate::create_out(a.out, "bench-design", a.force)?;
     let mut rows = Vec::new();
     for &n in &a.followers {
         eprintln!("designing for {n} followers (TPSF) ...");

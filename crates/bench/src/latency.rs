@@ -1,7 +1,6 @@
 //! `platoon bench latency`: one V2V hop through the injector against raw iceoryx2, UDP and
 //! Unix-socket hops measured side by side, and the step overhead over in-process.
 use anyhow::{bail, Context, Result};
-use platoon_output::rundir::RunDir;
 use platoon_runtime::timing::Stats;
 use platoon_sim::FleetSimulation;
 use std::path::PathBuf;
@@ -141,10 +140,7 @@ pub fn latency(a: Latency) -> Result<LatencyReport> {
         scenario,
         stem,
     } = platoon_config::load_or(a.config.as_deref(), platoon_config::Embedded::Paper)?;
-    let out = a
-        .out
-        .unwrap_or_else(|| PathBuf::from("runs").join("bench-latency"));
-    let dir = RunDir::create(&out, a.force)?;
+    let dir = crate::create_out(a.out, "bench-latency", a.force)?;
     dir.write("config.toml", platoon_config::to_toml(&config).as_bytes())?;
     let exe = platoon_app::platoon_program()?;
     let n = scenario.topology.followers();

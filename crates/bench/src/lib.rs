@@ -18,3 +18,12 @@ pub use latency::{latency, Latency};
 pub use report::{all, All};
 pub use search::{search, Search};
 pub use step::{step, Step};
+
+use platoon_output::rundir::RunDir;
+use std::path::PathBuf;
+
+/// A bench's output directory, `out` or `runs/<default>`, created (replaced with `force`).
+fn create_out(out: Option<PathBuf>, default: &str, force: bool) -> anyhow::Result<RunDir> {
+    let out = out.unwrap_or_else(|| PathBuf::from("runs").join(default));
+    Ok(RunDir::create(&out, force)?)
+}

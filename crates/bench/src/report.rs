@@ -6,6 +6,7 @@ use crate::step::{peers_section, StepReport};
 use crate::{campaign, design, latency, search, step};
 use crate::{Campaign, Design, Latency, Search, Step};
 use anyhow::{bail, Context, Result};
+use platoon_output::markdown;
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
@@ -102,13 +103,21 @@ pub fn all(a: All) -> Result<()> {
          each hop is publish to publish (CLOCK_MONOTONIC stamps in the payload). µs:\n",
         lat.batch_items, Latency::default().iterations
     );
-    let _ = writeln!(md, "| quantity | p50 | p90 | p99 | p99.9 | max | x raw iceoryx2 (p50) |\n|---|---|---|---|---|---|---|");
+    md.push_str(&markdown::header(&[
+        "quantity",
+        "p50",
+        "p90",
+        "p99",
+        "p99.9",
+        "max",
+        "x raw iceoryx2 (p50)",
+    ]));
     for r in &lat.rows {
-        let ([p50, p90, p99, p999, max], over) = r.figures();
-        let _ = writeln!(
-            md,
-            "| {} | {p50:.2} | {p90:.2} | {p99:.2} | {p999:.2} | {max:.2} | {over} |",
-            r.quantity
+        let (figures, over) = r.figures();
+        let [p50, p90, p99, p999, max] = figures.map(|x| format!("{x:.2}"));
+        markdown::row(
+            &mut md,
+            &[&r.quantity, &p50, &p90, &p99, &p999, &max, &over],
         );
     }
     let _ = writeln!(
@@ -158,25 +167,40 @@ pub fn all(a: All) -> Result<()> {
     );
     let _ = writeln!(md, "Platoons of 4 followers (PF, dynamic ETM, no DoS), 5 simulated seconds per case, dt = 0.01 s, every case run in 3 rounds (interleaved). p50 µs per step, each figure the median over the rounds:\n");
     let _ = writeln!(md, "Modes ending in -1cpu run the nodes on one core (`platoon run --cpus`). Peak RSS is the sum over every process of the run (`platoon run` and its nodes; `timing.json` has each), in MiB.\n");
-    let _ = writeln!(md, "| mode | followers | vehicles | step | x real time | plant | controller | injector | SUMO step | bridge | SUMO step, tight loop | bridge, tight loop | peak RSS |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    md.push_str(&markdown::header(&[
+        "mode",
+        "followers",
+        "vehicles",
+        "step",
+        "x real time",
+        "plant",
+        "controller",
+        "injector",
+        "SUMO step",
+        "bridge",
+        "SUMO step, tight loop",
+        "bridge, tight loop",
+        "peak RSS",
+    ]));
     let f = |x: Option<f64>| x.map_or("-".to_string(), |v| format!("{v:.1}"));
     for r in &steps {
-        let _ = writeln!(
-            md,
-            "| {} | {} | {} | {:.1} | {:.1} | {} | {} | {} | {} | {} | {} | {} | {} |",
-            r.mode,
-            r.followers,
-            r.vehicles,
-            r.step_p50_us,
-            r.real_time_factor,
-            f(r.plant_p50_us),
-            f(r.controller_p50_us),
-            f(r.injector_p50_us),
-            f(r.sumo_step_p50_us),
-            f(r.bridge_p50_us),
-            f(r.sumo_step_tight_p50_us),
-            f(r.bridge_tight_p50_us),
-            f(r.peak_rss_mib)
+        markdown::row(
+            &mut md,
+            &[
+                &r.mode,
+                &r.followers,
+                &r.vehicles,
+                &format_args!("{:.1}", r.step_p50_us),
+                &format_args!("{:.1}", r.real_time_factor),
+                &f(r.plant_p50_us),
+                &f(r.controller_p50_us),
+                &f(r.injector_p50_us),
+                &f(r.sumo_step_p50_us),
+                &f(r.bridge_p50_us),
+                &f(r.sumo_step_tight_p50_us),
+                &f(r.bridge_tight_p50_us),
+                &f(r.peak_rss_mib),
+            ],
         );
     }
     let find = |mode: &str, n: usize| steps.iter().find(|r| r.mode == mode && r.followers == n);
@@ -224,18 +248,31 @@ pub fn all(a: All) -> Result<()> {
     // replaced) is carried over: no run of `bench all` drops it.
     let previous = std::fs::read_to_string(&a.markdown).unwrap_or_default();
     md.push_str(&hand_sections(&previous));
-    let _ = writeln!(md, "## LMI design time (`platoon bench design`)\n\n{}\n| followers (TPSF) | seconds | SDPs | beta1/beta2 | certificate | designed on |\n|---|---|---|---|---|---|", measured("bench design"));
+    let _ = writeln!(
+        md,
+        "## LMI design time (`platoon bench design`)\n\n{}",
+        measured("bench design")
+    );
+    md.push_str(&markdown::header(&[
+        "followers (TPSF)",
+        "seconds",
+        "SDPs",
+        "beta1/beta2",
+        "certificate",
+        "designed on",
+    ]));
+    let ratio = |x: Option<f64>| x.map_or("infeasible".to_string(), |x| format!("{x:.1}"));
     for r in &designs {
-        let _ = writeln!(
-            md,
-            "| {} | {:.2} | {} | {} | {} | {} |",
-            r.followers,
-            r.seconds,
-            r.sdps,
-            r.beta1_over_beta2
-                .map_or("infeasible".into(), |x| format!("{x:.1}")),
-            r.certificate.as_deref().unwrap_or("-"),
-            r.designed_on.map_or("-".into(), |n| n.to_string())
+        markdown::row(
+            &mut md,
+            &[
+                &r.followers,
+                &format_args!("{:.2}", r.seconds),
+                &r.sdps,
+                &ratio(r.beta1_over_beta2),
+                &r.certificate.as_deref().unwrap_or("-"),
+                &r.designed_on.map_or("-".into(), |n| n.to_string()),
+            ],
         );
     }
     let _ = writeln!(md, "\nTargets: under 1 s for N = 4, under 30 s for N = 20.");
@@ -243,23 +280,42 @@ pub fn all(a: All) -> Result<()> {
         md,
         "\nThe checks of `design check-gain` for the paper's K on PLF (the LMIs at the nominal tau; \
          the closed-loop spectrum at 51 taus and string stability at the smallest, nominal and \
-         largest tau of the paper's range):\n\n\
-         | followers (PLF) | common P (s) | ratio | one P per follower (s) | ratio | largest decay (s) | spectrum (s) | string stability (s) | all (s) |\n|---|---|---|---|---|---|---|---|---|"
+         largest tau of the paper's range):\n"
     );
-    let ratio = |x: Option<f64>| x.map_or("infeasible".to_string(), |x| format!("{x:.1}"));
+    md.push_str(&markdown::header(&[
+        "followers (PLF)",
+        "common P (s)",
+        "ratio",
+        "one P per follower (s)",
+        "ratio",
+        "largest decay (s)",
+        "spectrum (s)",
+        "string stability (s)",
+        "all (s)",
+    ]));
     for r in &checks {
-        let _ = writeln!(
-            md,
-            "| {} | {:.2} | {} | {:.2} | {} | {:.2} | {:.2} | {:.2} | {:.2} |",
-            r.followers,
+        let [common, block_diagonal, decay, spectrum, string, all] = [
             r.common_s,
-            ratio(r.common_ratio),
             r.block_diagonal_s,
-            ratio(r.block_diagonal_ratio),
             r.max_decay_s,
             r.spectrum_s,
             r.string_stability_s,
-            r.total_s
+            r.total_s,
+        ]
+        .map(|x| format!("{x:.2}"));
+        markdown::row(
+            &mut md,
+            &[
+                &r.followers,
+                &common,
+                &ratio(r.common_ratio),
+                &block_diagonal,
+                &ratio(r.block_diagonal_ratio),
+                &decay,
+                &spectrum,
+                &string,
+                &all,
+            ],
         );
     }
     if let Some(e) = growth_exponent(&checks) {
@@ -282,12 +338,25 @@ pub fn all(a: All) -> Result<()> {
          on the platoon package's core, then (`PLATOON_DASK_IN_WORKER=0`) with a \
          `platoon campaign-cell` process per cell on its worker.\n"
     );
-    let _ = writeln!(md, "| executor | cells | wall (s) | CPU (s) | cells/s | ms per cell |\n|---|---|---|---|---|---|");
+    md.push_str(&markdown::header(&[
+        "executor",
+        "cells",
+        "wall (s)",
+        "CPU (s)",
+        "cells/s",
+        "ms per cell",
+    ]));
     for r in &campaigns {
-        let _ = writeln!(
-            md,
-            "| {} | {} | {:.2} | {:.2} | {:.0} | {:.2} |",
-            r.executor, r.cells, r.wall_s, r.cpu_s, r.cells_per_s, r.ms_per_cell
+        markdown::row(
+            &mut md,
+            &[
+                &r.executor,
+                &r.cells,
+                &format_args!("{:.2}", r.wall_s),
+                &format_args!("{:.2}", r.cpu_s),
+                &format_args!("{:.0}", r.cells_per_s),
+                &format_args!("{:.2}", r.ms_per_cell),
+            ],
         );
     }
     if let Some(r) = campaigns
@@ -365,15 +434,25 @@ pub fn all(a: All) -> Result<()> {
          Assumption 2, in process; wall time as search.json reports it (proposing, certifying, \
          running and measuring every candidate).\n"
     );
-    let _ = writeln!(
-        md,
-        "| jobs | evaluations | wall (s) | evaluations/s | ms per evaluation | largest spacing error found (m) |\n|---|---|---|---|---|---|"
-    );
+    md.push_str(&markdown::header(&[
+        "jobs",
+        "evaluations",
+        "wall (s)",
+        "evaluations/s",
+        "ms per evaluation",
+        "largest spacing error found (m)",
+    ]));
     for r in &searches {
-        let _ = writeln!(
-            md,
-            "| {} | {} | {:.2} | {:.0} | {:.2} | {:.2} |",
-            r.jobs, r.evaluations, r.wall_s, r.evaluations_per_s, r.ms_per_evaluation, r.harm
+        markdown::row(
+            &mut md,
+            &[
+                &r.jobs,
+                &r.evaluations,
+                &format_args!("{:.2}", r.wall_s),
+                &format_args!("{:.0}", r.evaluations_per_s),
+                &format_args!("{:.2}", r.ms_per_evaluation),
+                &format_args!("{:.2}", r.harm),
+            ],
         );
     }
     if let Some(r) = searches.iter().find(|r| r.jobs == 2) {

@@ -1,7 +1,6 @@
 //! `platoon bench search`: the worst-case DoS search's throughput against the pool size.
 use crate::machine::*;
 use anyhow::{bail, Context, Result};
-use platoon_output::rundir::RunDir;
 use std::path::PathBuf;
 
 /// What `platoon bench search` measures.
@@ -45,10 +44,7 @@ pub fn search(a: Search) -> Result<Vec<SearchRow>> {
     if a.evaluations == 0 || a.jobs.is_empty() || a.jobs.contains(&0) {
         bail!("--evaluations and every --jobs value must be at least 1");
     }
-    let out = a
-        .out
-        .unwrap_or_else(|| PathBuf::from("runs").join("bench-search"));
-    let dir = RunDir::create(&out, a.force)?;
+    let dir = crate::create_out(a.out, "bench-search", a.force)?;
     let file = dir.path("bench.toml");
     std::fs::write(&file, "name = \"bench\"\nseed = 1\ncompare = []\n")
         .with_context(|| format!("writing {}", file.display()))?;

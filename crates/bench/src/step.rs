@@ -1,7 +1,6 @@
 //! `platoon bench step`: the co-simulation's step cost against the number of followers, by
 //! transport and stage, with SUMO-driven peers.
 use anyhow::{bail, Context, Result};
-use platoon_output::rundir::RunDir;
 use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::process::Command;
@@ -312,10 +311,7 @@ pub fn step(a: Step) -> Result<StepReport> {
     if !(a.seconds.is_finite() && a.seconds >= 0.1) {
         bail!("--seconds must be at least 0.1");
     }
-    let out = a
-        .out
-        .unwrap_or_else(|| PathBuf::from("runs").join("bench-step"));
-    let dir = RunDir::create(&out, a.force)?;
+    let dir = crate::create_out(a.out, "bench-step", a.force)?;
     let exe = platoon_app::platoon_program()?;
     let one_cpu = platoon_runtime::available_cpus()
         .first()

@@ -41,10 +41,7 @@ pub struct Args {
 pub fn run(args: Args) -> Result<()> {
     let campaign = Campaign::load(&args.campaign, args.samples)?;
     let executor = executor(args.dask.as_deref(), args.jobs);
-    let out = args
-        .out
-        .clone()
-        .unwrap_or_else(|| PathBuf::from("runs").join(&campaign.name));
+    let out = out_dir(args.out.clone(), &campaign.name);
     let (interrupt, stop) =
         stop_on_signal("stopping: no new cells start; the cells in flight finish or are dropped")?;
     let opts = CampaignOptions {
@@ -63,12 +60,10 @@ pub fn run(args: Args) -> Result<()> {
     let cells = campaign.cells.len();
     let done = cells - outcome.count(CellStatus::NotRun);
     if outcome.stopped.is_some() {
-        let sig = interrupt.signal().unwrap_or(libc::SIGINT);
-        eprintln!(
+        interrupt.exit(&format!(
             "interrupted: {done} of {cells} cells are done and kept in {}; run the same command again to resume",
             outcome.dir.display()
-        );
-        std::process::exit(crate::signals::exit_code(sig));
+        ));
     }
     if let Some(e) = outcome.failure {
         eprintln!(
@@ -119,6 +114,11 @@ pub(crate) fn executor(
         Some(address) => Box::new(Dask::new(address.to_string())),
         None => Box::new(LocalPool::new(jobs)),
     }
+}
+
+/// The output directory, `--out` or `runs/<name>`.
+pub(crate) fn out_dir(out: Option<PathBuf>, name: &str) -> PathBuf {
+    out.unwrap_or_else(|| PathBuf::from("runs").join(name))
 }
 
 /// The interrupt handler, installed with `message` (printed on the first signal), and the

@@ -305,9 +305,12 @@ pub fn run(e: Experiment) -> Result<()> {
     }
 }
 
-/// The output directory, `--out` or the default.
-fn out_dir(out: Option<PathBuf>, default: &str) -> PathBuf {
-    out.unwrap_or_else(|| PathBuf::from(default))
+/// The output directory, `--out` or the default, created (replaced with `force`).
+fn create(out: Option<PathBuf>, default: &str, force: bool) -> Result<RunDir> {
+    Ok(RunDir::create(
+        &out.unwrap_or_else(|| PathBuf::from(default)),
+        force,
+    )?)
 }
 
 /// Commits the finished directory, then prints `text` and where the outputs are.
@@ -321,14 +324,14 @@ fn commit(dir: RunDir, text: &str) -> Result<()> {
 fn table1(args: Table1Args) -> Result<()> {
     let base = Base::load(args.config.as_deref(), Embedded::Table1)?;
     experiment::check_table1_base(&base)?;
-    let dir = RunDir::create(&out_dir(args.out, "runs/table1"), args.force)?;
+    let dir = create(args.out, "runs/table1", args.force)?;
     let t = experiment::table1(&base, Some(&dir), &crate::progress::Bar::default())?;
     commit(dir, &t.markdown)
 }
 
 fn robust(args: RobustArgs) -> Result<()> {
     let base = Base::load(args.config.as_deref(), Embedded::Paper)?;
-    let dir = RunDir::create(&out_dir(args.out, "runs/robust"), args.force)?;
+    let dir = create(args.out, "runs/robust", args.force)?;
     let opts = RobustOptions { k_max: args.k_max };
     let r = experiment::robust(&base, &opts, Some(&dir), &crate::progress::Bar::default())?;
     commit(dir, &r.markdown)
@@ -343,7 +346,7 @@ fn topologies(args: TopologiesArgs) -> Result<()> {
     opts.validate()?;
     let base = Base::load(args.config.as_deref(), Embedded::Paper)?;
     experiment::check_topologies_base(&base)?;
-    let dir = RunDir::create(&out_dir(args.out, "runs/topologies"), args.force)?;
+    let dir = create(args.out, "runs/topologies", args.force)?;
     let bar = crate::progress::Bar::counting("platoons");
     let t = experiment::topologies(&base, &opts, Some(&dir), &bar)?;
     let path = dir.commit()?;
@@ -367,7 +370,7 @@ fn degradation(args: DegradationArgs) -> Result<()> {
     };
     opts.validate()?;
     let base = Base::load(args.config.as_deref(), Embedded::Degradation)?;
-    let dir = RunDir::create(&out_dir(args.out, "runs/degradation"), args.force)?;
+    let dir = create(args.out, "runs/degradation", args.force)?;
     let bar = crate::progress::Bar::counting("runs");
     let d = experiment::degradation(&base, &opts, Some(&dir), &bar)?;
     commit(dir, &d.markdown)
@@ -381,7 +384,7 @@ fn controllers(args: ControllersArgs) -> Result<()> {
     };
     opts.validate()?;
     let base = Base::load(args.config.as_deref(), Embedded::Paper)?;
-    let dir = RunDir::create(&out_dir(args.out, "runs/controllers"), args.force)?;
+    let dir = create(args.out, "runs/controllers", args.force)?;
     let bar = crate::progress::Bar::counting("runs");
     let c = experiment::controllers(&base, &opts, Some(&dir), &bar)?;
     commit(dir, &c.markdown)
@@ -402,7 +405,7 @@ fn detection(args: DetectionArgs) -> Result<()> {
     };
     opts.validate()?;
     let base = Base::load(args.config.as_deref(), Embedded::Paper)?;
-    let dir = RunDir::create(&out_dir(args.out, "runs/detection"), args.force)?;
+    let dir = create(args.out, "runs/detection", args.force)?;
     let bar = crate::progress::Bar::counting("runs");
     let d = experiment::detection(&base, &opts, Some(&dir), &bar)?;
     commit(dir, &d.markdown)
@@ -419,7 +422,7 @@ fn scaling(args: ScalingArgs) -> Result<()> {
     };
     opts.validate()?;
     let base = Base::load(args.config.as_deref(), Embedded::Paper)?;
-    let dir = RunDir::create(&out_dir(args.out, "runs/scaling-experiment"), args.force)?;
+    let dir = create(args.out, "runs/scaling-experiment", args.force)?;
     let bar = crate::progress::Bar::counting("runs");
     let s = experiment::scaling(&base, &opts, Some(&dir), &bar)?;
     commit(dir, &s.markdown)

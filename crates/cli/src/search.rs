@@ -37,10 +37,7 @@ pub fn run(args: Args) -> Result<()> {
         None => platoon_app::search::parse("", Path::new("search.toml"), args.evaluations)?,
     };
     let executor = crate::campaign::executor(args.dask.as_deref(), args.jobs);
-    let out = args
-        .out
-        .clone()
-        .unwrap_or_else(|| PathBuf::from("runs").join(&search.name));
+    let out = crate::campaign::out_dir(args.out.clone(), &search.name);
     let (interrupt, stop) =
         crate::campaign::stop_on_signal("stopping: no new batch starts; what is done is written")?;
     let opts = SearchOptions {
@@ -57,9 +54,10 @@ pub fn run(args: Args) -> Result<()> {
     )?;
     print(&search, &outcome);
     if outcome.stopped.is_some() {
-        let sig = interrupt.signal().unwrap_or(libc::SIGINT);
-        eprintln!("interrupted: what was done is in {}", outcome.dir.display());
-        std::process::exit(crate::signals::exit_code(sig));
+        interrupt.exit(&format!(
+            "interrupted: what was done is in {}",
+            outcome.dir.display()
+        ));
     }
     Ok(())
 }

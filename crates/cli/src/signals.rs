@@ -41,6 +41,14 @@ impl Interrupt {
             s => Some(s),
         }
     }
+
+    /// Prints `message` and exits with the code of the signal received (SIGINT's when none
+    /// was: the work stopped for it all the same).
+    pub fn exit(&self, message: &str) -> ! {
+        let sig = self.signal().unwrap_or(libc::SIGINT);
+        eprintln!("{message}");
+        std::process::exit(exit_code(sig));
+    }
 }
 
 /// `SIGINT` or `SIGTERM`.

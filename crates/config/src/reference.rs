@@ -263,6 +263,22 @@ fn rows(
 }
 
 /// The anchor of a table's heading: `channel.attacks[]` -> `channel-attacks`.
+/// A table schema's keys (`properties`), if it lists any.
+fn properties(schema: &Value) -> Option<&Map<String, Value>> {
+    schema.get("properties").and_then(Value::as_object)
+}
+
+/// The keys a table schema requires (`required`).
+fn required(schema: &Value) -> Vec<&str> {
+    schema
+        .get("required")
+        .and_then(Value::as_array)
+        .into_iter()
+        .flatten()
+        .filter_map(Value::as_str)
+        .collect()
+}
+
 fn anchor(path: &str) -> String {
     path.chars()
         .filter_map(|c| match c {
@@ -294,17 +310,8 @@ fn section(root: &Value, path: &str, schema: &Value, out: &mut String, depth: us
     let mut nested = Vec::new();
     let selector = selector_of(root, schema);
     let empty = Map::new();
-    let props = schema
-        .get("properties")
-        .and_then(Value::as_object)
-        .unwrap_or(&empty);
-    let required: Vec<&str> = schema
-        .get("required")
-        .and_then(Value::as_array)
-        .into_iter()
-        .flatten()
-        .filter_map(Value::as_str)
-        .collect();
+    let props = properties(schema).unwrap_or(&empty);
+    let required_keys = required(schema);
     if let Some(sel) = &selector {
         let variants = schema["oneOf"].as_array().cloned().unwrap_or_default();
         let tags: Vec<String> = variants
@@ -331,7 +338,7 @@ fn section(root: &Value, path: &str, schema: &Value, out: &mut String, depth: us
         if selector.is_some() {
             out.push_str("Keys of every variant:\n\n");
         }
-        rows(root, props, &required, path, out, &mut nested);
+        rows(root, props, &required_keys, path, out, &mut nested);
         out.push('\n');
     }
     if let Some(sel) = &selector {
@@ -352,14 +359,7 @@ fn section(root: &Value, path: &str, schema: &Value, out: &mut String, depth: us
                 out.push_str("No other keys.\n\n");
                 continue;
             }
-            let req: Vec<&str> = v
-                .get("required")
-                .and_then(Value::as_array)
-                .into_iter()
-                .flatten()
-                .filter_map(Value::as_str)
-                .collect();
-            rows(root, &own, &req, path, out, &mut nested);
+            rows(root, &own, &required(v), path, out, &mut nested);
             out.push('\n');
         }
     }
@@ -405,21 +405,11 @@ pub fn file_reference(
         let _ = writeln!(out, "{}\n", d.trim());
     }
     let _ = write!(out, "{intro}\n\n");
-    let empty = Map::new();
-    let props = root
-        .get("properties")
-        .and_then(Value::as_object)
-        .unwrap_or(&empty);
-    let required: Vec<&str> = root
-        .get("required")
-        .and_then(Value::as_array)
-        .into_iter()
-        .flatten()
-        .filter_map(Value::as_str)
-        .collect();
     out.push_str("## Top level\n\n");
     let mut nested = Vec::new();
-    rows(root, props, &required, "", &mut out, &mut nested);
+    let empty = Map::new();
+    let props = properties(root).unwrap_or(&empty);
+    rows(root, props, &required(root), "", &mut out, &mut nested);
     out.push('\n');
     for (child, s) in nested {
         section(root, &child, &s, &mut out, 0);

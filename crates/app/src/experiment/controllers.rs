@@ -1,9 +1,9 @@
 //! Controllers side by side under the same attacks ([`controllers`]).
-use super::Base;
+use super::{in_formation, write_config, Base};
 use crate::progress::Progress;
 use anyhow::{anyhow, bail, Result};
 use platoon_config::{
-    Attack, DosConfig, Formation, LawConfig, LawName, LinkAttackConfig, LinkKindConfig, RuleConfig,
+    Attack, DosConfig, LawConfig, LawName, LinkAttackConfig, LinkKindConfig, RuleConfig,
     SpacingConfig, TopologyConfig,
 };
 use platoon_output::plots;
@@ -115,12 +115,7 @@ pub fn controllers(
     progress: &dyn Progress,
 ) -> Result<Controllers> {
     opts.validate()?;
-    if let Some(dir) = out {
-        dir.write(
-            "config.toml",
-            platoon_config::to_toml(&base.config).as_bytes(),
-        )?;
-    }
+    write_config(out, &base.config)?;
     let total = opts.laws.len() * ATTACKS.len() * opts.topologies.len();
     progress.start("simulating", total as u64);
     let mut rows = Vec::with_capacity(total);
@@ -230,13 +225,7 @@ pub(crate) fn configure(
         };
         c.trigger.check_period_s = None;
     }
-    c.platoon.initial_states = None;
-    c.platoon.formation = Some(Formation {
-        leader_position_m: 0.0,
-        position_jitter_m: 0.0,
-        speed_jitter_mps: 0.0,
-        seed: 0,
-    });
+    in_formation(&mut c);
     c
 }
 

@@ -1,5 +1,6 @@
 //! Graceful degradation under jams ([`degradation`]).
 use super::*;
+use platoon_output::markdown;
 
 /// How [`degradation`] runs; [`DegradationOptions::default`] is `platoon experiment
 /// degradation`'s default.
@@ -104,12 +105,7 @@ pub fn degradation(
     use platoon_control::FallbackMode;
     opts.validate()?;
     let label = &base.label;
-    if let Some(dir) = out {
-        dir.write(
-            "config.toml",
-            platoon_config::to_toml(&base.config).as_bytes(),
-        )?;
-    }
+    write_config(out, &base.config)?;
     let modes = [
         ("zero", FallbackMode::Zero),
         ("hold", FallbackMode::Hold),
@@ -129,15 +125,7 @@ pub fn degradation(
                     ));
                     let mut c = base.config.clone();
                     if n != c.platoon.followers {
-                        c.platoon.followers = n;
-                        c.platoon.initial_states = None;
-                        c.platoon.formation = Some(platoon_config::Formation {
-                            leader_position_m: 0.0,
-                            position_jitter_m: 0.0,
-                            speed_jitter_mps: 0.0,
-                            seed: 0,
-                        });
-                        c.fallback.per_vehicle = None;
+                        resize(&mut c, n);
                     }
                     c.control.attack_input = None;
                     c.fallback.mode = Some(mode);
@@ -179,25 +167,39 @@ pub fn degradation(
         }
     }
     progress.finish();
-    let mut md = String::from(
-        "| attack | followers | fallback | guard | max spacing error (m) | min gap (m) | min TTC (s) | max decel (m/s^2) | class | messages | guard activations |\n|---|---|---|---|---|---|---|---|---|---|---|\n",
-    );
+    let mut md = markdown::header(&[
+        "attack",
+        "followers",
+        "fallback",
+        "guard",
+        "max spacing error (m)",
+        "min gap (m)",
+        "min TTC (s)",
+        "max decel (m/s^2)",
+        "class",
+        "messages",
+        "guard activations",
+    ]);
     for r in &rows {
-        let _ = writeln!(
-            md,
-            "| {} | {} | {} | {} | {:.2} | {:.2} | {} | {:.2} | {}{} | {} | {} |",
-            r.attack,
-            r.followers,
-            r.fallback,
-            if r.guard { "on" } else { "off" },
-            r.max_spacing_error_m,
-            r.min_gap_m,
-            r.min_ttc_s.map_or("-".into(), |t| format!("{t:.2}")),
-            r.max_deceleration_mps2,
-            r.class,
-            if r.collided { " (collision)" } else { "" },
-            r.messages,
-            r.guard_activations
+        markdown::row(
+            &mut md,
+            &[
+                &r.attack,
+                &r.followers,
+                &r.fallback,
+                &if r.guard { "on" } else { "off" },
+                &format_args!("{:.2}", r.max_spacing_error_m),
+                &format_args!("{:.2}", r.min_gap_m),
+                &r.min_ttc_s.map_or("-".into(), |t| format!("{t:.2}")),
+                &format_args!("{:.2}", r.max_deceleration_mps2),
+                &format_args!(
+                    "{}{}",
+                    r.class,
+                    if r.collided { " (collision)" } else { "" }
+                ),
+                &r.messages,
+                &r.guard_activations,
+            ],
         );
     }
     let result = Degradation { rows, markdown: md };

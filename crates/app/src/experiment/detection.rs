@@ -1,6 +1,6 @@
 //! Every misbehaviour detector against every attack of an insider, measured against ground
 //! truth, with and without a reaction ([`detection`]).
-use super::Base;
+use super::{write_config, Base};
 use crate::progress::Progress;
 use anyhow::{anyhow, bail, Result};
 use platoon_config::{Attack, DetectionConfig, LinkAttackConfig, LinkKindConfig};
@@ -273,9 +273,7 @@ pub fn detection(
 ) -> Result<Detection> {
     opts.validate()?;
     let prepared = prepare(&base.config, opts);
-    if let Some(dir) = out {
-        dir.write("config.toml", platoon_config::to_toml(&prepared).as_bytes())?;
-    }
+    write_config(out, &prepared)?;
     let cells = cells(opts);
     let jobs = opts
         .jobs

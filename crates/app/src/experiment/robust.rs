@@ -63,9 +63,7 @@ pub fn robust(
     );
     let tau = scenario0.control.tau_nominal;
     let (lo, hi) = scenario0.tau_range();
-    if let Some(dir) = out {
-        dir.write("config.toml", platoon_config::to_toml(config).as_bytes())?;
-    }
+    write_config(out, config)?;
     let plan: [(&str, Vec<f64>); 3] = [
         ("theorem1-nominal", vec![tau]),
         ("theorem2-robust", vec![lo, hi]),

@@ -144,12 +144,7 @@ pub fn scaling(
     let label = &base.label;
     let scenario0 = &base.scenario;
     let base_config = &base.config;
-    if let Some(dir) = out {
-        dir.write(
-            "config.toml",
-            platoon_config::to_toml(base_config).as_bytes(),
-        )?;
-    }
+    write_config(out, base_config)?;
     let tau = scenario0.control.tau_nominal;
     let (lo, hi) = scenario0.tau_range();
     let mut taus = vec![lo, tau, hi];
@@ -230,21 +225,13 @@ pub fn scaling(
                 for dos in ["none", "base"] {
                     progress.detail(&format!("{name} {n} {gain} dos={dos}"));
                     let mut c = base_config.clone();
-                    c.platoon.followers = n;
-                    c.platoon.initial_states = None;
-                    c.platoon.formation = Some(platoon_config::Formation {
-                        leader_position_m: 0.0,
-                        position_jitter_m: 0.0,
-                        speed_jitter_mps: 0.0,
-                        seed: 0,
-                    });
+                    resize(&mut c, n);
                     c.platoon.spacing =
                         platoon_control::SpacingPolicy::from_headway(headway).into();
                     c.topology = preset.into();
                     let paper = c.control.paper_law_mut();
                     paper.gain = k;
                     paper.beta1 = ratio * paper.beta2;
-                    c.fallback.per_vehicle = None;
                     if dos == "none" {
                         c.attack = platoon_config::Attack::default();
                     }

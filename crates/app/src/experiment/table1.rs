@@ -78,12 +78,7 @@ pub fn check_table1_base(base: &Base) -> Result<()> {
 /// table1.md (the paper's numbers beside ours), table1.png, fig8.csv and fig8.png.
 pub fn table1(base: &Base, out: Option<&RunDir>, progress: &dyn Progress) -> Result<Table1> {
     check_table1_base(base)?;
-    if let Some(dir) = out {
-        dir.write(
-            "config.toml",
-            platoon_config::to_toml(&base.config).as_bytes(),
-        )?;
-    }
+    write_config(out, &base.config)?;
     let mut rules = Vec::new();
     for (name, rule) in table1_rules(&base.scenario) {
         let mut scenario = base.scenario.clone();

@@ -100,12 +100,7 @@ pub fn topologies(
     let tau = base_scenario.control.tau_nominal;
     let (lo, hi) = base_scenario.tau_range();
     let h_step = f64::from(base_scenario.control.h_steps) * base_scenario.dt();
-    if let Some(dir) = out {
-        dir.write(
-            "config.toml",
-            platoon_config::to_toml(&base.config).as_bytes(),
-        )?;
-    }
+    write_config(out, &base.config)?;
     progress.start("designing", (TOPOLOGIES.len() * opts.sizes.len()) as u64);
     let mut rows: Vec<TopologyRow> = Vec::new();
     let mut done = 0;

@@ -2,8 +2,8 @@
 //! study's tables.
 use super::{MethodOutcome, Problem, ProblemOutcome, Search, SearchOptions};
 use anyhow::Result;
-use platoon_output::plots;
 use platoon_output::rundir::RunDir;
+use platoon_output::{markdown, plots};
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -189,8 +189,18 @@ pub(super) fn study_tables(search: &Search, outcomes: &[ProblemOutcome]) -> (Str
     );
     let mut md = format!(
         "Harm: `{harm}`{} per strategy; duration margin: the Assumption-2 duration bound's margin on the worst schedule's tightest window.\n\n\
-         | law-topology | search | random | grid | reference | class | worst schedule | duration margin (s) |\n|---|---|---|---|---|---|---|---|\n",
-        if search.harm.minimised() { " (smallest found: most harmful)" } else { " (largest found: most harmful)" }
+         {}",
+        if search.harm.minimised() { " (smallest found: most harmful)" } else { " (largest found: most harmful)" },
+        markdown::header(&[
+            "law-topology",
+            "search",
+            "random",
+            "grid",
+            "reference",
+            "class",
+            "worst schedule",
+            "duration margin (s)",
+        ])
     );
     for o in outcomes {
         let best = |m: &str| {
@@ -234,20 +244,21 @@ pub(super) fn study_tables(search: &Search, outcomes: &[ProblemOutcome]) -> (Str
             );
             continue;
         }
-        let _ = writeln!(
-            md,
-            "| {} | {} | {} | {} | {} | {} | {} | {} |",
-            o.label,
-            fmt_harm(best("search")),
-            fmt_harm(best("random")),
-            fmt_harm(best("grid")),
-            fmt_harm(o.reference.as_ref().and_then(|r| r.harm)),
-            s.and_then(|s| s.class)
-                .map_or("-".into(), |c| c.to_string()),
-            worst.map_or("-".into(), |(_, w)| w.text.clone()),
-            margins
-                .and_then(|m| m.0)
-                .map_or("-".into(), |m| format!("{m:.3}")),
+        markdown::row(
+            &mut md,
+            &[
+                &o.label,
+                &fmt_harm(best("search")),
+                &fmt_harm(best("random")),
+                &fmt_harm(best("grid")),
+                &fmt_harm(o.reference.as_ref().and_then(|r| r.harm)),
+                &s.and_then(|s| s.class)
+                    .map_or("-".into(), |c| c.to_string()),
+                &worst.map_or("-".into(), |(_, w)| w.text.clone()),
+                &margins
+                    .and_then(|m| m.0)
+                    .map_or("-".into(), |m| format!("{m:.3}")),
+            ],
         );
     }
     (csv, md)
