@@ -1737,3 +1737,13 @@ fn only_the_radar_catches_the_sybil_ghost() {
         }
     }
 }
+
+/// A car cuts in between followers 2 and 3 (`configs/cut-in.toml`): the native plant process
+/// tells follower 3's controller (`VehicleState::INTRUDER`) what the in-process plant tells it,
+/// and both transports agree bit for bit through the cut-in, the ACC on it and the return.
+#[test]
+fn a_cut_in_runs_bit_identically_on_both_transports() {
+    let runs = transports_agree("configs/cut-in.toml");
+    let rows = std::fs::read_to_string(runs.path().join("ipc/trajectories.csv")).unwrap();
+    assert!(rows.contains(",cut_in,"), "no follower ran on the intruder");
+}

@@ -88,6 +88,7 @@ class VehicleState(Payload):
 
     COLLIDED = 1
     AHEAD = 2
+    INTRUDER = 4  # the vehicle ahead is not the platoon's predecessor
 
 
 class V2vPacket(Payload):

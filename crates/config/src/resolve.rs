@@ -566,6 +566,7 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
         radio,
         assumption2: a.assumption2,
         vehicle_length,
+        cut_ins: control::cut_ins(c, vehicle_length, duration)?,
         safety,
         fleet,
         platoon: 0,

@@ -307,6 +307,8 @@ impl Controller for ComposedController {
                 dt: self.parts.dt,
                 params: fb,
                 affected,
+                // A law on the radar alone follows whoever is ahead anyway.
+                cut_in: reading.is_some_and(|r| r.intruder) && law.uses_v2v(),
                 law: lawful,
                 q: State::zeros(),
                 reading,

@@ -316,6 +316,7 @@ impl crate::Controller for PlatoonController {
                 dt: p.dt,
                 params: &p.fallback,
                 affected,
+                cut_in: reading.is_some_and(|r| r.intruder),
                 law: coop,
                 q,
                 reading,

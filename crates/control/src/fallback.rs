@@ -30,6 +30,14 @@
 //! ([`Return::CommandBlend`]: the mismatch at the hand-over shrinks linearly to 0 over `blend`
 //! steps). Either way one [`FallbackMachine`] per follower walks the way in and back.
 //!
+//! A cut-in takes the same way: when the radar's target is not the platoon's predecessor (a
+//! vehicle from outside the platoon is between them, [`RadarTruth::intruder`]) and the
+//! follower has [`CutInParams`], it runs the ACC above on that vehicle (mode
+//! [`Mode::CutIn`]), whatever its law and its attack fallback, with the headway growing so the
+//! gap opens gently; once the radar sees its predecessor again it stays `dwell` steps, then
+//! returns over `blend` steps as from a fallback. An attack takes precedence: while affected the
+//! follower runs its attack fallback (with `acc` that is the same vehicle ahead).
+//!
 //! The guard is independent of the mode: when the radar's time to collision `d / c` (closing
 //! only) is below `ttc_s` it commands `min(u, -decel)`.
 use rand::{Rng, SeedableRng};
@@ -84,17 +92,20 @@ pub enum Mode {
     Acc,
     /// Blending from the fallback back to the cooperative law.
     Blend,
+    /// ACC on a vehicle that cut in ahead (not the platoon's predecessor).
+    CutIn,
 }
 
 impl Mode {
     /// Every mode, in code order.
-    pub const ALL: [Mode; 6] = [
+    pub const ALL: [Mode; 7] = [
         Mode::Coop,
         Mode::Zero,
         Mode::Hold,
         Mode::Predict,
         Mode::Acc,
         Mode::Blend,
+        Mode::CutIn,
     ];
 
     /// The mode's code on the wire (3 bits).
@@ -116,6 +127,7 @@ impl Mode {
             Mode::Predict => "predict",
             Mode::Acc => "acc",
             Mode::Blend => "blend",
+            Mode::CutIn => "cut_in",
         }
     }
 }
@@ -204,6 +216,15 @@ impl GuardParams {
     }
 }
 
+/// How a follower handles a vehicle that cut in ahead of it (the module docs).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct CutInParams {
+    /// Steps it stays on the intruder's ACC once the radar sees its predecessor again.
+    pub dwell_steps: u32,
+    /// Steps over which it then returns to its law (at least the fallback's `blend_steps`).
+    pub blend_steps: u32,
+}
+
 /// What the radar of every vehicle sees in a step (leader first): given by the plant, or else
 /// taken from the platoon's states (the vehicle ahead is the predecessor).
 #[derive(Debug, Clone, Default)]
@@ -256,6 +277,9 @@ pub struct FallbackParams {
     pub radar: RadarParams,
     /// The guard, if any.
     pub guard: Option<GuardParams>,
+    /// How a follower handles a cut-in; `None`: it does not tell an intruder from its
+    /// predecessor.
+    pub cut_in: Option<CutInParams>,
     /// Vehicle length L (m): the radar measures bumper to bumper, `d = p_ahead - p_i - L`.
     pub vehicle_length: f64,
 }
@@ -272,6 +296,7 @@ impl Default for FallbackParams {
             acc: AccParams::default(),
             radar: RadarParams::default(),
             guard: None,
+            cut_in: None,
             vehicle_length: 0.0,
         }
     }
@@ -283,9 +308,10 @@ impl FallbackParams {
         self.per_vehicle.get(i - 1).copied().unwrap_or(self.mode)
     }
 
-    /// Whether anything reads the radar (the ACC fallback or the guard).
+    /// Whether anything reads the radar (the ACC fallback, the guard or the cut-in handling).
     pub fn uses_radar(&self) -> bool {
         self.guard.is_some()
+            || self.cut_in.is_some()
             || self.mode == FallbackMode::Acc
             || self.per_vehicle.contains(&FallbackMode::Acc)
     }
@@ -372,6 +398,9 @@ pub struct RadarTruth {
     pub gap: f64,
     /// `v_i - v_ahead` (m/s): positive while closing in.
     pub closing: f64,
+    /// The vehicle ahead is not the platoon's predecessor (the plant's association of the
+    /// radar's object with the V2V sender ahead, taken as perfect).
+    pub intruder: bool,
 }
 
 /// One radar measurement.
@@ -381,6 +410,8 @@ pub struct Reading {
     pub gap: f64,
     /// Measured closing speed (m/s).
     pub closing: f64,
+    /// Of a vehicle that is not the platoon's predecessor ([`RadarTruth::intruder`]).
+    pub intruder: bool,
 }
 
 impl Reading {
@@ -436,6 +467,7 @@ impl Radar {
         self.last = truth.filter(|t| t.gap <= p.range_m).map(|t| Reading {
             gap: t.gap + n_gap,
             closing: t.closing + n_rate,
+            intruder: t.intruder,
         });
         self.taken = k;
         self.last
@@ -512,6 +544,7 @@ pub fn radar_truth(
         out.push(Some(RadarTruth {
             gap: w[0][0] - w[1][0] - vehicle_length,
             closing: w[1][1] - w[0][1],
+            intruder: false,
         }));
     }
 }
@@ -534,19 +567,22 @@ pub enum Return {
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Phase {
     Law,
-    /// In its fallback since `since`; unaffected for the last `calm` steps.
+    /// In its fallback since `since` (on a cut-in's ACC with `cut_in`); unaffected (or with
+    /// its predecessor back ahead) for the last `calm` steps.
     Fallback {
         since: u64,
         calm: u32,
+        cut_in: bool,
     },
     /// On the way back since step `exit`: the spacing offset it started from (0 for
     /// [`Return::CommandBlend`]), shrunk to 0 over `steps`, and the command's mismatch then
-    /// (m/s^2), shrunk to 0 over the blend steps.
+    /// (m/s^2), shrunk to 0 over `blend` steps.
     Back {
         exit: u64,
         delta0: State,
         steps: u64,
         mismatch: f64,
+        blend: u64,
     },
 }
 
@@ -561,6 +597,9 @@ pub struct Situation<'a> {
     pub params: &'a FallbackParams,
     /// Whether the follower is affected at this step (jammed, or distrusting a neighbour).
     pub affected: bool,
+    /// Whether its radar sees a vehicle that cut in ahead (handled with
+    /// [`FallbackParams::cut_in`] only).
+    pub cut_in: bool,
     /// The law's command at this step (what `predict` applies).
     pub law: f64,
     /// The tracking error the law regulates ([`Return::SpacingOffset`] cancels it at the
@@ -632,22 +671,62 @@ impl FallbackMachine {
         law_at: impl FnOnce(State) -> f64,
     ) -> (Mode, f64, bool) {
         let fb = s.params;
-        let blend_steps = u64::from(fb.blend_steps);
-        self.phase = match (self.phase, s.affected) {
-            (Phase::Fallback { since, .. }, true) => Phase::Fallback { since, calm: 0 },
-            (_, true) => {
+        // A cut-in's dwell and blend, or the attack fallback's.
+        let dwell = |cut_in: bool| match fb.cut_in {
+            Some(c) if cut_in => c.dwell_steps,
+            _ => fb.dwell_steps,
+        };
+        let blend = |cut_in: bool| match fb.cut_in {
+            Some(c) if cut_in => u64::from(c.blend_steps.max(fb.blend_steps)),
+            _ => u64::from(fb.blend_steps),
+        };
+        let cut = s.cut_in && fb.cut_in.is_some();
+        self.phase = match (self.phase, s.affected, cut) {
+            (Phase::Fallback { since, cut_in, .. }, true, _) => {
+                if cut_in {
+                    self.held = self.last_u;
+                }
+                Phase::Fallback {
+                    since,
+                    calm: 0,
+                    cut_in: false,
+                }
+            }
+            (_, true, _) => {
                 self.held = self.last_u;
                 Phase::Fallback {
                     since: s.k,
                     calm: 0,
+                    cut_in: false,
                 }
             }
-            (Phase::Fallback { since, calm }, false) if calm < fb.dwell_steps => Phase::Fallback {
+            // A cut-in keeps the headway ramp of a fallback it interrupts.
+            (Phase::Fallback { since, .. }, false, true) => Phase::Fallback {
+                since,
+                calm: 0,
+                cut_in: true,
+            },
+            (_, false, true) => Phase::Fallback {
+                since: s.k,
+                calm: 0,
+                cut_in: true,
+            },
+            (
+                Phase::Fallback {
+                    since,
+                    calm,
+                    cut_in,
+                },
+                false,
+                false,
+            ) if calm < dwell(cut_in) => Phase::Fallback {
                 since,
                 calm: calm + 1,
+                cut_in,
             },
-            (Phase::Fallback { since, .. }, false) if blend_steps > 0 => {
-                let fallback = self.fallback_u(s, since);
+            (Phase::Fallback { since, cut_in, .. }, false, false) if blend(cut_in) > 0 => {
+                let blend = blend(cut_in);
+                let fallback = self.fallback_u(s, since, cut_in);
                 match self.back {
                     Return::SpacingOffset => {
                         // The offset cancels q (the law starts from 0); the spacing part
@@ -656,31 +735,45 @@ impl FallbackMachine {
                         Phase::Back {
                             exit: s.k,
                             delta0: -s.q,
-                            steps: blend_steps.max(by_speed.min(1e12) as u64),
+                            steps: blend.max(by_speed.min(1e12) as u64),
                             mismatch: fallback,
+                            blend,
                         }
                     }
                     Return::CommandBlend => Phase::Back {
                         exit: s.k,
                         delta0: State::zeros(),
-                        steps: blend_steps,
+                        steps: blend,
                         mismatch: fallback - s.law,
+                        blend,
                     },
                 }
             }
-            (back @ Phase::Back { exit, steps, .. }, false)
-                if s.k - exit < steps.max(blend_steps) =>
-            {
-                back
-            }
-            (_, false) => Phase::Law,
+            (
+                back @ Phase::Back {
+                    exit, steps, blend, ..
+                },
+                false,
+                false,
+            ) if s.k - exit < steps.max(blend) => back,
+            (_, false, false) => Phase::Law,
         };
         let (mode, u) = match self.phase {
             Phase::Law => (Mode::Coop, s.law),
-            Phase::Fallback { since, .. } => (self.mode.mode(), self.fallback_u(s, since)),
-            Phase::Back { exit, mismatch, .. } => {
+            Phase::Fallback {
+                since,
+                cut_in: true,
+                ..
+            } => (Mode::CutIn, self.fallback_u(s, since, true)),
+            Phase::Fallback { since, .. } => (self.mode.mode(), self.fallback_u(s, since, false)),
+            Phase::Back {
+                exit,
+                mismatch,
+                blend,
+                ..
+            } => {
                 let j = (s.k - exit) as f64;
-                let rest = mismatch * (1.0 - j / blend_steps as f64).max(0.0);
+                let rest = mismatch * (1.0 - j / blend as f64).max(0.0);
                 let law = match self.back {
                     Return::SpacingOffset => law_at(self.offset(s.k)),
                     Return::CommandBlend => s.law,
@@ -693,10 +786,11 @@ impl FallbackMachine {
         (mode, u, guard)
     }
 
-    /// The fallback's command at step `s.k`, in it since `since`.
-    fn fallback_u(&self, s: &Situation<'_>, since: u64) -> f64 {
+    /// The fallback's command at step `s.k`, in it since `since` (a cut-in's: the ACC).
+    fn fallback_u(&self, s: &Situation<'_>, since: u64, cut_in: bool) -> f64 {
         let fb = s.params;
-        match self.mode {
+        let mode = if cut_in { FallbackMode::Acc } else { self.mode };
+        match mode {
             FallbackMode::Zero => 0.0,
             FallbackMode::Hold => self.held,
             FallbackMode::Predict => s.law,
@@ -738,7 +832,13 @@ mod tests {
             ..RadarParams::default()
         };
         let mut r = Radar::new(3, 1);
-        let t = |gap| Some(RadarTruth { gap, closing: 1.0 });
+        let t = |gap| {
+            Some(RadarTruth {
+                gap,
+                closing: 1.0,
+                intruder: false,
+            })
+        };
         assert_eq!(r.read(0, &p, t(20.0)).unwrap().gap, 20.0);
         assert_eq!(r.read(3, &p, t(10.0)).unwrap().gap, 20.0); // held
         assert_eq!(r.read(5, &p, t(10.0)).unwrap().gap, 10.0);
@@ -761,6 +861,7 @@ mod tests {
         let truth = Some(RadarTruth {
             gap: 30.0,
             closing: 0.0,
+            intruder: false,
         });
         let draw = |seed, v| {
             let mut r = Radar::new(seed, v);
@@ -782,19 +883,22 @@ mod tests {
         let close = Reading {
             gap: 5.0,
             closing: 3.0,
+            intruder: false,
         };
         let u = acc_command(&acc, Some(close), 2.0, 25.0, 10.0, 0.0);
         assert_eq!(u, -acc.max_decel_mps2);
         let far = Reading {
             gap: 100.0,
             closing: -1.0,
+            intruder: false,
         };
         assert!(acc_command(&acc, Some(far), 2.0, 25.0, 10.0, 0.0) > 0.0);
         assert_eq!(acc_command(&acc, None, 2.0, 25.0, 10.0, 0.0), 0.0);
         assert_eq!(
             Reading {
                 gap: 10.0,
-                closing: 2.0
+                closing: 2.0,
+                intruder: false,
             }
             .ttc(),
             5.0

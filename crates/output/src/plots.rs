@@ -273,6 +273,7 @@ fn mode_color(m: platoon_control::Mode) -> RGBColor {
         Mode::Predict => RGBColor(86, 180, 233),
         Mode::Acc => RGBColor(0, 158, 115),
         Mode::Blend => RGBColor(204, 121, 167),
+        Mode::CutIn => RGBColor(213, 94, 0),
     }
 }
 

@@ -118,6 +118,7 @@ pub fn run(
                         (x.flags & VehicleState::AHEAD != 0).then_some(RadarTruth {
                             gap: x.gap,
                             closing: x.closing,
+                            intruder: x.flags & VehicleState::INTRUDER != 0,
                         })
                     }));
                     let s = states_from_wire(&s, num.vehicles())?;

@@ -7,7 +7,7 @@ use crate::injector::Platoons;
 use crate::ipc::{Inlet, Outlet};
 use crate::session::{contract, reporting, Numbering};
 use crate::RunError;
-use platoon_control::fallback::{radar_truth, RadarTruth};
+use platoon_control::fallback::RadarTruth;
 use platoon_sim::{InjectorFactory, Plant, Scenario};
 use platoon_wire::{Command, ControlMsg, Node, Service, VehicleState};
 use std::path::Path;
@@ -37,11 +37,17 @@ pub fn plant(run_id: &str, scenario: &Scenario) -> Result<(), RunError> {
                        truth: &mut Vec<Option<RadarTruth>>| {
             buf.clear();
             for p in plants {
-                // What a radar sees natively: the platoon's predecessor.
-                radar_truth(p.states(), scenario.vehicle_length, truth);
+                // What a radar sees natively: the predecessor, or a vehicle that cut in.
+                p.radar_truth(truth);
                 buf.extend(p.states().iter().zip(truth.iter()).map(|(x, t)| {
-                    let (flags, gap, closing) =
-                        t.map_or((0, 0.0, 0.0), |t| (VehicleState::AHEAD, t.gap, t.closing));
+                    let (flags, gap, closing) = t.map_or((0, 0.0, 0.0), |t| {
+                        let intruder = if t.intruder {
+                            VehicleState::INTRUDER
+                        } else {
+                            0
+                        };
+                        (VehicleState::AHEAD | intruder, t.gap, t.closing)
+                    });
                     VehicleState {
                         vehicle: 0, // numbered below
                         flags,

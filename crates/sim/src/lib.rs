@@ -13,6 +13,7 @@ mod metrics;
 mod scenario;
 mod summary;
 pub mod tally;
+pub mod traffic;
 pub mod truth;
 
 pub use factory::{ControllerFactory, InjectorFactory, MakeController, MakeInjector, Plugins};
@@ -83,6 +84,8 @@ pub struct StepRow {
 #[derive(Debug, Clone)]
 pub struct Plant {
     states: Vec<State>,
+    traffic: traffic::Traffic,
+    vehicle_length: f64,
     taus: Vec<TauSchedule>,
     discretisation: platoon_model::Discretisation,
     leader: LeaderProfile,
@@ -94,8 +97,12 @@ impl Plant {
     pub fn new(scenario: &Scenario) -> Self {
         let mut states = scenario.initial.clone();
         states[0][2] = scenario.leader.step_acceleration(0, scenario.dt());
+        let mut traffic = traffic::Traffic::new(&scenario.cut_ins);
+        traffic.arrive(0.0, &states, scenario.vehicle_length);
         Self {
             states,
+            traffic,
+            vehicle_length: scenario.vehicle_length,
             taus: scenario.taus.clone(),
             discretisation: scenario.discretisation,
             leader: scenario.leader.clone(),
@@ -121,6 +128,22 @@ impl Plant {
             self.leader.step_acceleration(k as usize + 1, self.dt),
             self.dt,
         );
+        if !self.traffic.is_empty() {
+            self.traffic.advance(t, self.dt);
+            let next = (k + 1) as f64 * self.dt;
+            self.traffic.arrive(next, &self.states, self.vehicle_length);
+        }
+    }
+
+    /// The vehicles from outside the platoon (scripted cut-ins) and where they are.
+    pub fn traffic(&self) -> &traffic::Traffic {
+        &self.traffic
+    }
+
+    /// What every vehicle's radar sees now (leader first: `None`): the vehicle ahead on the
+    /// lane, the predecessor or a cut-in ([`traffic::radar_truth`]).
+    pub fn radar_truth(&self, out: &mut Vec<Option<platoon_control::fallback::RadarTruth>>) {
+        traffic::radar_truth(&self.states, self.vehicle_length, &self.traffic, out);
     }
 }
 
@@ -308,6 +331,11 @@ impl Simulation {
         &self.scenario
     }
 
+    /// The plant: the platoon's states and the traffic around it.
+    pub fn plant(&self) -> &Plant {
+        &self.plant
+    }
+
     /// The controllers (e.g. for their reject counts).
     pub fn controller(&self) -> &dyn Controller {
         self.controller.as_ref()
@@ -396,6 +424,12 @@ impl Simulation {
         )?;
         if k == sc.steps {
             self.injector.finish()?;
+        }
+        if !self.plant.traffic().is_empty() {
+            // The radars see the lane: a vehicle that cut in hides the predecessor.
+            let mut truth = Vec::with_capacity(states.len());
+            self.plant.radar_truth(&mut truth);
+            self.controller.set_radar_truth(&truth);
         }
         self.controller
             .receive(k, states, &self.deliveries, &self.jammed);

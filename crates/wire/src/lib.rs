@@ -89,7 +89,8 @@ pub struct VehicleState {
     /// Vehicle id (0 = leader).
     pub vehicle: u32,
     /// Bit 0: the vehicle collided in this step (SUMO plant); bit 1 ([`VehicleState::AHEAD`]):
-    /// the plant sees a vehicle ahead of it, and `gap`, `closing` are about that one.
+    /// the plant sees a vehicle ahead of it, and `gap`, `closing` are about that one; bit 2
+    /// ([`VehicleState::INTRUDER`]): that vehicle is not the platoon's predecessor.
     pub flags: u32,
     /// Position (m).
     pub p: f64,
@@ -108,6 +109,8 @@ pub struct VehicleState {
 impl VehicleState {
     /// `flags` bit: a vehicle ahead is seen (`gap`, `closing` are valid).
     pub const AHEAD: u32 = 2;
+    /// `flags` bit: the vehicle ahead is not the platoon's predecessor (a cut-in).
+    pub const INTRUDER: u32 = 4;
 }
 
 /// A V2V broadcast (controller -> injector, and inside [`LinkPacket`]).

@@ -32,8 +32,10 @@ pub(super) fn fallback(
     let r = &c.radar;
     let g = &c.guard;
     let acc = platoon_control::FallbackMode::Acc;
-    let uses_radar =
-        g.enabled || mode == acc || f.per_vehicle.as_ref().is_some_and(|p| p.contains(&acc));
+    let uses_radar = g.enabled
+        || f.cut_in.is_some()
+        || mode == acc
+        || f.per_vehicle.as_ref().is_some_and(|p| p.contains(&acc));
     let params = platoon_control::FallbackParams {
         mode,
         per_vehicle: f.per_vehicle.clone().unwrap_or_default(),
@@ -59,6 +61,13 @@ pub(super) fn fallback(
             ttc_s: g.ttc_s,
             decel_mps2: g.decel_mps2,
         }),
+        cut_in: match &f.cut_in {
+            Some(h) => Some(platoon_control::fallback::CutInParams {
+                dwell_steps: steps("fallback.cut_in.dwell_s", h.dwell_s)?,
+                blend_steps: steps("fallback.cut_in.blend_s", h.blend_s)?,
+            }),
+            None => None,
+        },
         vehicle_length,
     };
     params
@@ -72,6 +81,77 @@ pub(super) fn fallback(
             bad(&key, message)
         })?;
     Ok(params)
+}
+
+/// `[[cut_ins]]`: the scripted cut-ins, each checked against the platoon and the run.
+pub(super) fn cut_ins(
+    c: &Config,
+    vehicle_length: f64,
+    duration: f64,
+) -> Result<Vec<platoon_sim::traffic::CutIn>, Invalid> {
+    let n = c.platoon.followers;
+    if !c.cut_ins.is_empty() && c.simulation.plant == PlantKind::Sumo {
+        return bad(
+            "cut_ins",
+            "scripted cut-ins run on the native plant only (simulation.plant = \"native\"); \
+             on SUMO they are not built yet",
+        );
+    }
+    c.cut_ins
+        .iter()
+        .enumerate()
+        .map(|(i, x)| {
+            let key = |k: &str| format!("cut_ins[{i}].{k}");
+            let nonneg = |k: &str, v: f64| {
+                if v.is_finite() && v >= 0.0 {
+                    Ok(v)
+                } else {
+                    bad(&key(k), format!("must be a finite number >= 0, got {v}"))
+                }
+            };
+            let at_s = nonneg("at_s", x.at_s)?;
+            if at_s > duration {
+                return bad(
+                    &key("at_s"),
+                    format!("{at_s} s is after the run's end (simulation.duration_s = {duration})"),
+                );
+            }
+            if !(1..=n).contains(&x.ahead_of) {
+                return bad(
+                    &key("ahead_of"),
+                    format!("must name a follower, 1 to {n} (got {})", x.ahead_of),
+                );
+            }
+            let speed_diff_mps = finite(&key("speed_diff_mps"), x.speed_diff_mps)?;
+            let decel_mps2 = nonneg("decel_mps2", x.decel_mps2)?;
+            let brake_s = nonneg("brake_s", x.brake_s)?;
+            let leave_s = match x.leave_s {
+                Some(l) if !(l.is_finite() && l > at_s) => {
+                    return bad(
+                        &key("leave_s"),
+                        format!("must be after at_s = {at_s} (got {l})"),
+                    )
+                }
+                l => l,
+            };
+            let length_m = match x.length_m {
+                Some(l) if !(l.is_finite() && l > 0.0) => {
+                    return bad(&key("length_m"), format!("must be > 0 (got {l})"))
+                }
+                Some(l) => l,
+                None => vehicle_length,
+            };
+            Ok(platoon_sim::traffic::CutIn {
+                at_s,
+                ahead_of: x.ahead_of,
+                speed_diff_mps,
+                decel_mps2,
+                brake_s,
+                leave_s,
+                length_m,
+            })
+        })
+        .collect()
 }
 
 /// `[detection]`: the detectors in their tables' order and the reaction.

@@ -211,6 +211,58 @@ pub struct FallbackConfig {
     pub closing_mps: f64,
     /// The ACC law.
     pub acc: AccParams,
+    /// `[fallback.cut_in]`: a follower whose radar sees a vehicle that is not its
+    /// predecessor (a cut-in) runs the ACC law above on it, and returns as from a fallback;
+    /// absent: it does not tell a cut-in from its predecessor.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cut_in: Option<CutInHandling>,
+}
+
+/// `[fallback.cut_in]`: how a follower handles a vehicle that cut in ahead of it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(default, deny_unknown_fields)]
+pub struct CutInHandling {
+    /// Time it stays on the intruder's ACC once its radar sees its predecessor again (s).
+    pub dwell_s: f64,
+    /// Time over which it then returns to its law, bumplessly (s; at least `fallback.blend_s`).
+    pub blend_s: f64,
+}
+
+impl Default for CutInHandling {
+    /// A second's dwell, three seconds' return.
+    fn default() -> Self {
+        Self {
+            dwell_s: 1.0,
+            blend_s: 3.0,
+        }
+    }
+}
+
+/// `[[cut_ins]]`: one scripted vehicle that enters the platoon's lane in the middle of the gap
+/// ahead of a follower (equal gaps to the vehicle ahead and to the follower), of every platoon
+/// of a fleet.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct CutInConfig {
+    /// When it enters the lane (s).
+    pub at_s: f64,
+    /// The follower it cuts in front of (1..=N).
+    pub ahead_of: usize,
+    /// Its speed when it enters, minus the follower's (m/s).
+    #[serde(default)]
+    pub speed_diff_mps: f64,
+    /// How hard it brakes after it entered (m/s^2, >= 0)...
+    #[serde(default)]
+    pub decel_mps2: f64,
+    /// ...and for how long (s).
+    #[serde(default)]
+    pub brake_s: f64,
+    /// When it leaves the lane again (s); absent: it stays.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub leave_s: Option<f64>,
+    /// Its length (m); absent: `platoon.vehicle_length_m`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub length_m: Option<f64>,
 }
 
 /// The controller's defaults: no dwell, no blend.
@@ -224,6 +276,7 @@ impl Default for FallbackConfig {
             blend_s: 0.0,
             closing_mps: d.closing_mps,
             acc: d.acc,
+            cut_in: None,
         }
     }
 }

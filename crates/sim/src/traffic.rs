@@ -1,0 +1,215 @@
+//! Vehicles from outside the platoon that act on it: scripted cut-ins on the native plant.
+//!
+//! A cut-in is a vehicle that enters the platoon's lane at time `at_s` in the middle of the gap
+//! ahead of follower `ahead_of` (equal bumper-to-bumper gaps to the member ahead and to the
+//! follower), at the follower's speed plus `speed_diff_mps`, then brakes at `decel_mps2` for
+//! `brake_s` and keeps its speed after; at `leave_s` it leaves the lane. Its motion is exact
+//! for piecewise-constant acceleration (it stops rather than reverses). The radar of the
+//! vehicle behind it measures it ([`radar_truth`]), and [`RadarTruth::intruder`] says it is not
+//! the platoon's predecessor.
+use platoon_control::fallback::RadarTruth;
+use platoon_model::State;
+
+/// One scripted cut-in (`[[cut_ins]]` in a config).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CutIn {
+    /// When it enters the lane (s).
+    pub at_s: f64,
+    /// The follower (1..=N) it cuts in front of.
+    pub ahead_of: usize,
+    /// Its speed at entry minus the follower's (m/s).
+    pub speed_diff_mps: f64,
+    /// How hard it brakes after entering (m/s^2, >= 0)...
+    pub decel_mps2: f64,
+    /// ...and for how long (s).
+    pub brake_s: f64,
+    /// When it leaves the lane (s), if it does.
+    pub leave_s: Option<f64>,
+    /// Its length (m).
+    pub length_m: f64,
+}
+
+/// Where a cut-in vehicle is: front bumper `p` (m) and speed `v` (m/s), while on the lane.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Intruder {
+    /// Front bumper position (m).
+    pub p: f64,
+    /// Speed (m/s).
+    pub v: f64,
+    /// Length (m).
+    pub length_m: f64,
+}
+
+/// The scripted cut-ins of one platoon, moving with its plant.
+#[derive(Debug, Clone, Default)]
+pub struct Traffic {
+    cut_ins: Vec<CutIn>,
+    /// Each cut-in's vehicle while it is on the lane.
+    on_lane: Vec<Option<Intruder>>,
+    /// Whether it has entered (it never enters twice).
+    entered: Vec<bool>,
+}
+
+impl Traffic {
+    /// The cut-ins `cut_ins`, none on the lane yet.
+    pub fn new(cut_ins: &[CutIn]) -> Self {
+        Self {
+            cut_ins: cut_ins.to_vec(),
+            on_lane: vec![None; cut_ins.len()],
+            entered: vec![false; cut_ins.len()],
+        }
+    }
+
+    /// Whether there is any cut-in at all.
+    pub fn is_empty(&self) -> bool {
+        self.cut_ins.is_empty()
+    }
+
+    /// The vehicles on the lane now.
+    pub fn on_lane(&self) -> impl Iterator<Item = &Intruder> {
+        self.on_lane.iter().flatten()
+    }
+
+    /// The intruders at step `k` (time `t = k dt`), given the platoon's `states` at that step:
+    /// those due enter, those due leave. Called once per step, after the platoon moved there.
+    pub fn arrive(&mut self, t: f64, states: &[State], vehicle_length: f64) {
+        for ((c, slot), entered) in self
+            .cut_ins
+            .iter()
+            .zip(&mut self.on_lane)
+            .zip(&mut self.entered)
+        {
+            if c.leave_s.is_some_and(|l| t >= l) {
+                *slot = None;
+            } else if !*entered && t >= c.at_s {
+                *entered = true;
+                let (ahead, behind) = (states[c.ahead_of - 1], states[c.ahead_of]);
+                // Equal gaps: ahead[0] - L - p = p - length - behind[0].
+                let p = 0.5 * (ahead[0] - vehicle_length + behind[0] + c.length_m);
+                *slot = Some(Intruder {
+                    p,
+                    v: (behind[1] + c.speed_diff_mps).max(0.0),
+                    length_m: c.length_m,
+                });
+            }
+        }
+    }
+
+    /// Moves every intruder from time `t` to `t + dt`.
+    pub fn advance(&mut self, t: f64, dt: f64) {
+        for (c, slot) in self.cut_ins.iter().zip(&mut self.on_lane) {
+            if let Some(x) = slot {
+                let braking = t < c.at_s + c.brake_s;
+                let a = if braking { -c.decel_mps2 } else { 0.0 };
+                // It stops rather than reverses.
+                let a = if x.v + a * dt < 0.0 { -x.v / dt } else { a };
+                x.p += x.v * dt + 0.5 * a * dt * dt;
+                x.v += a * dt;
+            }
+        }
+    }
+}
+
+/// What every vehicle's radar sees (leader first, `None` for the leader): the nearest vehicle
+/// ahead on the lane, the platoon's predecessor or an intruder whose front is ahead of the
+/// follower's. Without intruders this is [`platoon_control::fallback::radar_truth`], value for
+/// value.
+pub fn radar_truth(
+    states: &[State],
+    vehicle_length: f64,
+    traffic: &Traffic,
+    out: &mut Vec<Option<RadarTruth>>,
+) {
+    platoon_control::fallback::radar_truth(states, vehicle_length, out);
+    for (x, t) in states.iter().zip(out.iter_mut()).skip(1) {
+        for c in traffic.on_lane() {
+            let gap = c.p - c.length_m - x[0];
+            let nearer = t.is_none_or(|t| gap < t.gap);
+            if c.p > x[0] && nearer {
+                *t = Some(RadarTruth {
+                    gap,
+                    closing: x[1] - c.v,
+                    intruder: true,
+                });
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn platoon() -> Vec<State> {
+        // Leader at 100 m, followers 10 m apart, all at 20 m/s; vehicles 4 m long.
+        (0..4)
+            .map(|i| State::new(100.0 - 10.0 * i as f64, 20.0, 0.0))
+            .collect()
+    }
+
+    fn cut_in() -> CutIn {
+        CutIn {
+            at_s: 1.0,
+            ahead_of: 2,
+            speed_diff_mps: -2.0,
+            decel_mps2: 1.0,
+            brake_s: 0.5,
+            leave_s: Some(3.0),
+            length_m: 4.0,
+        }
+    }
+
+    #[test]
+    fn a_cut_in_enters_mid_gap_is_seen_by_the_follower_behind_brakes_and_leaves() {
+        let states = platoon();
+        let mut t = Traffic::new(&[cut_in()]);
+        let mut truth = Vec::new();
+        t.arrive(0.99, &states, 4.0);
+        radar_truth(&states, 4.0, &t, &mut truth);
+        let mut plain = Vec::new();
+        platoon_control::fallback::radar_truth(&states, 4.0, &mut plain);
+        assert_eq!(truth, plain);
+        t.arrive(1.0, &states, 4.0);
+        let c = *t.on_lane().next().unwrap();
+        // Gap 6 m between followers 1 (at 90) and 2 (at 80): 1 m either side of a 4 m car.
+        assert_eq!((c.p, c.v), (85.0, 18.0));
+        radar_truth(&states, 4.0, &t, &mut truth);
+        assert_eq!(
+            truth[2],
+            Some(RadarTruth {
+                gap: 1.0,
+                closing: 2.0,
+                intruder: true
+            })
+        );
+        assert_eq!((truth[1], truth[3]), (plain[1], plain[3]));
+        // 0.5 s at -1 m/s^2, then constant speed.
+        for k in 0..100 {
+            t.advance(1.0 + k as f64 * 0.01, 0.01);
+        }
+        let c = *t.on_lane().next().unwrap();
+        assert!((c.v - 17.5).abs() < 1e-9, "{}", c.v);
+        assert!((c.p - (85.0 + 18.0 * 0.5 - 0.125 + 17.5 * 0.5)).abs() < 1e-9);
+        t.arrive(3.0, &states, 4.0);
+        assert_eq!(t.on_lane().count(), 0);
+        // It never comes back.
+        t.arrive(1.5, &states, 4.0);
+        assert_eq!(t.on_lane().count(), 0);
+    }
+
+    #[test]
+    fn an_intruder_stops_rather_than_reverses() {
+        let mut t = Traffic::new(&[CutIn {
+            decel_mps2: 50.0,
+            brake_s: 10.0,
+            ..cut_in()
+        }]);
+        t.arrive(1.0, &platoon(), 4.0);
+        for k in 0..200 {
+            t.advance(1.0 + k as f64 * 0.01, 0.01);
+        }
+        let c = *t.on_lane().next().unwrap();
+        assert_eq!(c.v, 0.0);
+        assert!(c.p > 85.0);
+    }
+}
