@@ -91,8 +91,10 @@ fn a_cut_in_between_followers_2_and_3_is_seen_handled_and_left_by_each_law() {
         let entry = (20.0 / dt).round() as u64;
         let (rows, summary, smallest) = run(s);
         assert!(!summary.safety.collided, "{law}: {:?}", summary.safety);
-        // The intruder was ahead of follower 3 the whole time, never touched.
+        // The intruder was ahead of follower 3 the whole time, never touched, and the summary
+        // counts the gap to it.
         assert!(smallest.is_finite() && smallest > 1.0, "{law}: {smallest}");
+        assert!(summary.safety.min_gap_m <= smallest + 1e-9, "{law}");
         let f3: Vec<&StepRow> = rows.iter().filter(|r| r.vehicle == 3).collect();
         let mode_at = |k: u64| f3[k as usize].mode;
         if law == "acc" {
@@ -136,8 +138,16 @@ fn a_cut_in_between_followers_2_and_3_is_seen_handled_and_left_by_each_law() {
 #[test]
 fn without_cut_in_handling_the_papers_law_drives_into_the_intruder() {
     let text = cut_in_config("paper").replace("cut_in = { dwell_s = 1.0, blend_s = 3.0 }", "");
-    let (rows, _, smallest) = run(scenario(&text));
+    let (rows, summary, smallest) = run(scenario(&text));
     assert!(smallest < 0.0, "{smallest}");
+    // The summary counts the gap to the intruder: a collision, after it cut in.
+    assert!(summary.safety.collided, "{:?}", summary.safety);
+    assert!(
+        summary.safety.first_collision_t_s.is_some_and(|t| t > 20.0),
+        "{:?}",
+        summary.safety
+    );
+    assert!(summary.safety.min_gap_m <= smallest, "{:?}", summary.safety);
     assert!(rows.iter().all(|r| r.mode != Mode::CutIn));
 }
 

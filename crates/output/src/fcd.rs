@@ -549,6 +549,7 @@ mod tests {
             affected: false,
             mode: platoon_control::Mode::Coop,
             guard: false,
+            intruder: None,
         }
     }
 

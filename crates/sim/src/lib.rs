@@ -77,6 +77,11 @@ pub struct StepRow {
     pub mode: platoon_control::Mode,
     /// The emergency-braking guard overrode the command.
     pub guard: bool,
+    /// What its radar saw of a vehicle from outside the platoon ahead of it (a cut-in), as
+    /// the plant has it; the summary's safety counts the gap to it. Not a column of
+    /// `trajectories.csv`.
+    #[serde(skip)]
+    pub intruder: Option<platoon_control::fallback::RadarTruth>,
 }
 
 /// The native plant: every follower under its own tau schedule (exact ZOH lag), the leader on
@@ -200,14 +205,18 @@ impl PlantSpec {
 }
 
 /// Assembles the rows of step `k` from what the stages produced: the plant's `states`, whether
-/// the leader broadcast, who sensed jamming, and each follower's step (`follower(i)`, i >= 1).
-/// Both runtimes build their rows here, so their trajectories agree bit for bit.
+/// the leader broadcast, who sensed jamming, and each follower's step (`follower(i)`, i >= 1);
+/// `ahead` is what the plant's radars saw (by vehicle, empty without traffic), of which the
+/// rows keep the intruders. Both runtimes build their rows here, so their trajectories agree
+/// bit for bit.
+#[allow(clippy::too_many_arguments)]
 pub fn step_rows(
     k: u64,
     scenario: &Scenario,
     states: &[State],
     leader_triggered: bool,
     jammed: &[bool],
+    ahead: &[Option<platoon_control::fallback::RadarTruth>],
     follower: impl Fn(usize) -> FollowerStep,
     out: &mut Vec<StepRow>,
 ) {
@@ -230,6 +239,7 @@ pub fn step_rows(
         affected: false,
         mode: platoon_control::Mode::Coop,
         guard: false,
+        intruder: None,
     });
     for (i, x) in states.iter().enumerate().skip(1) {
         let s = follower(i);
@@ -253,6 +263,7 @@ pub fn step_rows(
             affected: s.affected,
             mode: s.mode,
             guard: s.guard,
+            intruder: ahead.get(i).copied().flatten().filter(|t| t.intruder),
         });
     }
 }
@@ -270,6 +281,8 @@ pub struct Simulation {
     jammed: Vec<bool>,
     log: Vec<ChannelEvent>,
     rows: Vec<StepRow>,
+    /// What the radars saw at this step, with traffic on the lane (else empty).
+    radar: Vec<Option<platoon_control::fallback::RadarTruth>>,
     wire: Vec<WireCounts>,
     wire_counter: tally::WireCounter,
     /// The detectors measured against ground truth (`[detection]` only).
@@ -319,6 +332,7 @@ impl Simulation {
             jammed: vec![false; n + 1],
             log: Vec::new(),
             rows: Vec::with_capacity(n + 1),
+            radar: Vec::new(),
             wire: vec![WireCounts::default(); n + 1],
             wire_counter: tally::WireCounter::default(),
             detection,
@@ -425,11 +439,11 @@ impl Simulation {
         if k == sc.steps {
             self.injector.finish()?;
         }
+        self.radar.clear();
         if !self.plant.traffic().is_empty() {
             // The radars see the lane: a vehicle that cut in hides the predecessor.
-            let mut truth = Vec::with_capacity(states.len());
-            self.plant.radar_truth(&mut truth);
-            self.controller.set_radar_truth(&truth);
+            self.plant.radar_truth(&mut self.radar);
+            self.controller.set_radar_truth(&self.radar);
         }
         self.controller
             .receive(k, states, &self.deliveries, &self.jammed);
@@ -462,6 +476,7 @@ impl Simulation {
             states,
             leader_triggered,
             &self.jammed,
+            &self.radar,
             |i| controller.follower_step(VehicleId(i as u16)),
             &mut self.rows,
         );

@@ -187,8 +187,11 @@ impl MetricsAccumulator {
             acc.guard_activations += u64::from(r.guard && !acc.guard_on);
             acc.guard_on = r.guard;
             acc.guard_steps += u64::from(r.guard);
-            let gap = front.p - r.p - self.vehicle_length;
-            let closing = r.v - front.v;
+            // The nearest vehicle ahead: the predecessor, or one that cut in between.
+            let (gap, closing) = match r.intruder {
+                Some(t) if t.gap < front.p - r.p - self.vehicle_length => (t.gap, t.closing),
+                _ => (front.p - r.p - self.vehicle_length, r.v - front.v),
+            };
             if closing > 0.0 {
                 let ttc = gap.max(0.0) / closing;
                 if self.safety.min_ttc_s.is_none_or(|m| ttc < m) {

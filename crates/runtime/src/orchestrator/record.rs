@@ -10,6 +10,8 @@ pub(super) struct Recorder<'a> {
     pub(super) last_progress: Instant,
     pub(super) rows: Vec<StepRow>,
     pub(super) jammed: Vec<bool>,
+    /// What the plant's radars saw of intruders at this step (empty: none anywhere).
+    pub(super) ahead: Vec<Option<platoon_control::fallback::RadarTruth>>,
     pub(super) leader_sent: Vec<bool>,
     pub(super) deliveries: Vec<Vec<platoon_control::Delivery>>,
     pub(super) wire: Vec<WireCounts>,
@@ -30,6 +32,7 @@ impl<'a> Recorder<'a> {
             last_progress: Instant::now(),
             rows: Vec::with_capacity(num.vehicles()),
             jammed: vec![false; num.vehicles()],
+            ahead: Vec::new(),
             leader_sent: vec![false; num.platoons],
             deliveries: vec![Vec::new(); num.platoons],
             wire: vec![WireCounts::default(); num.vehicles()],
@@ -86,6 +89,19 @@ impl<'a> Recorder<'a> {
                 self.leader_sent[j] |= i.is_leader();
             }
         }
+        // The intruders the plant's radars saw (none without traffic on the lane).
+        self.ahead.clear();
+        if s.iter().any(|x| x.flags & VehicleState::INTRUDER != 0) {
+            self.ahead.extend(s.iter().map(|x| {
+                (x.flags & VehicleState::INTRUDER != 0).then_some(
+                    platoon_control::fallback::RadarTruth {
+                        gap: x.gap,
+                        closing: x.closing,
+                        intruder: true,
+                    },
+                )
+            }));
+        }
         self.rows.clear();
         for (j, replica) in self.replicas.iter().enumerate() {
             let leader_triggered = self.leader_sent[j];
@@ -96,6 +112,7 @@ impl<'a> Recorder<'a> {
                 &states[j * n1..(j + 1) * n1],
                 leader_triggered,
                 &self.jammed[j * n1..(j + 1) * n1],
+                self.ahead.get(j * n1..(j + 1) * n1).unwrap_or(&[]),
                 |i| {
                     let cmd = cmds[i - 1];
                     FollowerStep {
