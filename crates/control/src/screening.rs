@@ -218,6 +218,8 @@ pub(crate) fn sensed(
         radar: r
             .checked_sub(1)
             .and_then(|fi| readings.get(fi).copied().flatten())
+            // A vehicle that cut in is not the predecessor: the radar does not see the sender.
+            .filter(|(reading, _)| !reading.intruder)
             .map(|(reading, taken)| RadarReading {
                 gap_m: reading.gap,
                 closing_mps: reading.closing,
