@@ -1,7 +1,8 @@
 //! The paper's Section IV experiments, and ours, as library calls: Table I and Fig. 8
 //! ([`table1`]), Fig. 9 ([`robust`]), Fig. 10 ([`topologies`]), graceful degradation
 //! ([`degradation`]), long platoons ([`scaling`]), controllers side by side under attack
-//! ([`controllers`]) and misbehaviour detectors against ground truth ([`detection`]). Each runs
+//! ([`controllers`]), misbehaviour detectors against ground truth ([`detection`]) and cut-ins
+//! by law and attack ([`traffic`]). Each runs
 //! on a [`Base`] scenario and
 //! returns its results in memory; given a run directory it also writes the files of
 //! `platoon experiment` there (the caller creates and commits it). Progress goes to a
@@ -26,6 +27,7 @@ mod robust;
 mod scaling;
 mod table1;
 mod topologies;
+mod traffic;
 pub(crate) use controllers::configure as configure_law;
 pub use controllers::{
     controllers, Controllers, ControllersOptions, ControllersRow, ATTACKS as CONTROLLER_ATTACKS,
@@ -39,6 +41,7 @@ pub use robust::*;
 pub use scaling::*;
 pub use table1::*;
 pub use topologies::*;
+pub use traffic::{traffic, Traffic, TrafficOptions, TrafficRow, ATTACKS as TRAFFIC_ATTACKS};
 
 /// The scenario an experiment starts from: its config, what it runs, and how errors name it.
 #[derive(Debug, Clone)]

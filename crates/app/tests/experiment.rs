@@ -224,3 +224,45 @@ fn controllers_side_by_side_show_what_each_law_reads() {
         assert!(dir.path().join("c").join(png).metadata().unwrap().len() > 1000);
     }
 }
+
+/// `experiment traffic` on a reduced grid: a car 3 m ahead of follower 3, 4 m/s slower, for
+/// the paper's law (pf) and the PATH CACC (plf, it needs the leader), with no attack and with
+/// a false-data bias on follower 2's packets while the car is there.
+#[test]
+fn traffic_runs_each_law_on_a_topology_it_can_and_scores_the_forged_packets() {
+    use platoon_config::LawName;
+    let base = Base::load(None, Embedded::CutIn).unwrap();
+    let opts = experiment::TrafficOptions {
+        laws: vec![LawName::Paper, LawName::PathCacc],
+        gaps_m: vec![3.0],
+        speed_diffs_mps: vec![-4.0],
+        attacks: vec!["none".into(), "fdi-bias".into()],
+        repeats: 1,
+    };
+    let t = experiment::traffic(&base, &opts, None, &()).unwrap();
+    assert_eq!(t.rows.len(), 4);
+    for r in &t.rows {
+        assert_eq!(r.topology, if r.law == "paper" { "pf" } else { "plf" });
+        // The car stays 10 s; the follower is on its ACC at least that long.
+        assert!(r.cut_in_s >= 10.0, "{r:?}");
+        assert!(r.min_gap_m.is_finite(), "{r:?}");
+        let forged = r.detected + r.missed;
+        if r.attack == "none" {
+            assert_eq!(forged, 0, "{r:?}");
+            assert!(!r.collided, "{r:?}");
+        } else {
+            assert!(forged > 0, "{r:?}");
+        }
+    }
+    assert_eq!(t.markdown.lines().count(), 2 + 4, "{}", t.markdown);
+    // A base without a cut-in is refused, by name.
+    let paper = Base::load(None, Embedded::Paper).unwrap();
+    let e = experiment::traffic(&paper, &opts, None, &()).unwrap_err();
+    assert!(e.to_string().contains("[[cut_ins]]"), "{e}");
+    // Unknown attacks and empty grids are refused before anything runs.
+    let bad = experiment::TrafficOptions {
+        attacks: vec!["sybil".into()],
+        ..opts.clone()
+    };
+    assert!(bad.validate().unwrap_err().to_string().contains("sybil"));
+}

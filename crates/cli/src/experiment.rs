@@ -5,7 +5,8 @@ use anyhow::Result;
 use clap::builder::PossibleValuesParser;
 use platoon_app::experiment::{
     self, Base, ControllersOptions, DegradationOptions, DetectionOptions, Intensity, RobustOptions,
-    ScalingOptions, TopologiesOptions, DETECTION_ATTACKS, DETECTION_REACTIONS, DETECTORS,
+    ScalingOptions, TopologiesOptions, TrafficOptions, DETECTION_ATTACKS, DETECTION_REACTIONS,
+    DETECTORS, TRAFFIC_ATTACKS,
 };
 use platoon_config::{Embedded, LawName};
 use platoon_control::Reaction;
@@ -74,6 +75,65 @@ pub enum Experiment {
     /// repeats), f1.png (F1 per detector and attack, no reaction, a panel per intensity) and
     /// safety.png (smallest gap per attack with and without the reaction).
     Detection(DetectionArgs),
+    /// Traffic that touches the platoon: a car cuts in ahead of a follower (the base's first
+    /// [[cut_ins]], by default configs/cut-in.toml: between followers 2 and 3, braking, leaving
+    /// after 10 s) at each gap and speed difference, for every law (the paper's and the field's,
+    /// each on its own beaconing and on the platoon's standstill gap; pf, or plf for the laws
+    /// that need the leader; the guard on), under no attack, a periodic DoS, a false-data bias
+    /// and a feigned braking on the packets of the member ahead of the car while it is there,
+    /// with the three built-in detectors logging, in process, with seeded repeats. Writes
+    /// traffic.csv (one row per run: collision, smallest gap counting the car, time on the
+    /// car's ACC, time outside the law, false alarms, forged packets detected and missed),
+    /// traffic.md (worst case over the repeats) and one smallest-gap plot per gap
+    /// (traffic-gap<G>.png).
+    Traffic(TrafficArgs),
+}
+
+/// Arguments of `experiment traffic`.
+#[derive(Debug, clap::Args)]
+pub struct TrafficArgs {
+    /// Base scenario (TOML) with at least one [[cut_ins]] [default: the embedded
+    /// configs/cut-in.toml]: its profile, vehicle length, spacing, cut-in, [fallback.cut_in]
+    /// and radar are kept; law, topology, beaconing, the cut-in's gap and speed, the guard,
+    /// the detectors and the attacks are varied.
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// The laws.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        value_parser = one_of(&LawName::ALL, LawName::name),
+        default_values = LawName::ALL.map(LawName::name)
+    )]
+    pub laws: Vec<LawName>,
+    /// The gaps the car leaves to the follower as it cuts in (m, bumper to bumper).
+    #[arg(long, value_delimiter = ',', default_value = "3,6")]
+    pub gaps: Vec<f64>,
+    /// The car's speed minus the follower's as it cuts in (m/s).
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "-4,0",
+        allow_hyphen_values = true
+    )]
+    pub speed_diffs: Vec<f64>,
+    /// The attacks.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        value_parser = PossibleValuesParser::new(TRAFFIC_ATTACKS),
+        default_values = TRAFFIC_ATTACKS
+    )]
+    pub attacks: Vec<String>,
+    /// Seeded repeats of each cell (the radars' noise and the channel's losses).
+    #[arg(long, default_value_t = 1)]
+    pub repeats: u32,
+    /// Output directory [default: runs/traffic].
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Replace the output directory if it exists.
+    #[arg(long)]
+    pub force: bool,
 }
 
 /// Arguments of `experiment detection`.
@@ -302,6 +362,7 @@ pub fn run(e: Experiment) -> Result<()> {
         Experiment::Scaling(args) => scaling(args),
         Experiment::Controllers(args) => controllers(args),
         Experiment::Detection(args) => detection(args),
+        Experiment::Traffic(args) => traffic(args),
     }
 }
 
@@ -311,6 +372,22 @@ fn create(out: Option<PathBuf>, default: &str, force: bool) -> Result<RunDir> {
         &out.unwrap_or_else(|| PathBuf::from(default)),
         force,
     )?)
+}
+
+fn traffic(args: TrafficArgs) -> Result<()> {
+    let opts = TrafficOptions {
+        laws: args.laws,
+        gaps_m: args.gaps,
+        speed_diffs_mps: args.speed_diffs,
+        attacks: args.attacks,
+        repeats: args.repeats,
+    };
+    opts.validate()?;
+    let base = Base::load(args.config.as_deref(), Embedded::CutIn)?;
+    let dir = create(args.out, "runs/traffic", args.force)?;
+    let bar = crate::progress::Bar::counting("runs");
+    let t = experiment::traffic(&base, &opts, Some(&dir), &bar)?;
+    commit(dir, &t.markdown)
 }
 
 /// Commits the finished directory, then prints `text` and where the outputs are.

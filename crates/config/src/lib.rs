@@ -104,11 +104,13 @@ pub enum Embedded {
     Table1,
     /// `configs/degradation.toml`: graceful degradation ([`DEGRADATION_TOML`]).
     Degradation,
+    /// `configs/cut-in.toml`: a car cuts in between followers 2 and 3 ([`CUT_IN_TOML`]).
+    CutIn,
 }
 
 impl Embedded {
     /// Every embedded config.
-    pub const ALL: [Embedded; 3] = [Self::Paper, Self::Table1, Self::Degradation];
+    pub const ALL: [Embedded; 4] = [Self::Paper, Self::Table1, Self::Degradation, Self::CutIn];
 
     /// Its stem in `configs/` (the default name of its runs).
     pub fn name(self) -> &'static str {
@@ -116,6 +118,7 @@ impl Embedded {
             Self::Paper => "paper",
             Self::Table1 => "table1",
             Self::Degradation => "degradation",
+            Self::CutIn => "cut-in",
         }
     }
 
@@ -125,6 +128,7 @@ impl Embedded {
             Self::Paper => PAPER_TOML,
             Self::Table1 => TABLE1_TOML,
             Self::Degradation => DEGRADATION_TOML,
+            Self::CutIn => CUT_IN_TOML,
         }
     }
 
@@ -332,3 +336,7 @@ pub const TABLE1_TOML: &str = include_str!("../../../configs/table1.toml");
 /// The graceful-degradation scenario (ACC fallback, guard; an 8 s jam on the braking ramp),
 /// embedded for `platoon experiment degradation`.
 pub const DEGRADATION_TOML: &str = include_str!("../../../configs/degradation.toml");
+
+/// The cut-in scenario (a car cuts in between followers 2 and 3, no attack), embedded for
+/// `platoon experiment traffic`.
+pub const CUT_IN_TOML: &str = include_str!("../../../configs/cut-in.toml");

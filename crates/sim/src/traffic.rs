@@ -1,8 +1,8 @@
 //! Vehicles from outside the platoon that act on it: scripted cut-ins on the native plant.
 //!
-//! A cut-in is a vehicle that enters the platoon's lane at time `at_s` in the middle of the gap
-//! ahead of follower `ahead_of` (equal bumper-to-bumper gaps to the member ahead and to the
-//! follower), at the follower's speed plus `speed_diff_mps`, then brakes at `decel_mps2` for
+//! A cut-in is a vehicle that enters the platoon's lane at time `at_s` in the gap ahead of
+//! follower `ahead_of`, `gap_m` ahead of the follower (bumper to bumper; without it in the
+//! middle of the gap, equal gaps to the member ahead and to the follower), at the follower's speed plus `speed_diff_mps`, then brakes at `decel_mps2` for
 //! `brake_s` and keeps its speed after; at `leave_s` it leaves the lane. Its motion is exact
 //! for piecewise-constant acceleration (it stops rather than reverses). The radar of the
 //! vehicle behind it measures it ([`radar_truth`]), and [`RadarTruth::intruder`] says it is not
@@ -17,6 +17,8 @@ pub struct CutIn {
     pub at_s: f64,
     /// The follower (1..=N) it cuts in front of.
     pub ahead_of: usize,
+    /// The gap it leaves to that follower as it enters (m); `None`: the middle of the gap.
+    pub gap_m: Option<f64>,
     /// Its speed at entry minus the follower's (m/s).
     pub speed_diff_mps: f64,
     /// How hard it brakes after entering (m/s^2, >= 0)...
@@ -84,8 +86,11 @@ impl Traffic {
             } else if !*entered && t >= c.at_s {
                 *entered = true;
                 let (ahead, behind) = (states[c.ahead_of - 1], states[c.ahead_of]);
-                // Equal gaps: ahead[0] - L - p = p - length - behind[0].
-                let p = 0.5 * (ahead[0] - vehicle_length + behind[0] + c.length_m);
+                let p = match c.gap_m {
+                    Some(g) => behind[0] + g + c.length_m,
+                    // Equal gaps: ahead[0] - L - p = p - length - behind[0].
+                    None => 0.5 * (ahead[0] - vehicle_length + behind[0] + c.length_m),
+                };
                 *slot = Some(Intruder {
                     p,
                     v: (behind[1] + c.speed_diff_mps).max(0.0),
@@ -151,6 +156,7 @@ mod tests {
         CutIn {
             at_s: 1.0,
             ahead_of: 2,
+            gap_m: None,
             speed_diff_mps: -2.0,
             decel_mps2: 1.0,
             brake_s: 0.5,

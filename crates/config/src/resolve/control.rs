@@ -123,6 +123,7 @@ pub(super) fn cut_ins(
                 );
             }
             let speed_diff_mps = finite(&key("speed_diff_mps"), x.speed_diff_mps)?;
+            let gap_m = x.gap_m.map(|g| nonneg("gap_m", g)).transpose()?;
             let decel_mps2 = nonneg("decel_mps2", x.decel_mps2)?;
             let brake_s = nonneg("brake_s", x.brake_s)?;
             let leave_s = match x.leave_s {
@@ -144,6 +145,7 @@ pub(super) fn cut_ins(
             Ok(platoon_sim::traffic::CutIn {
                 at_s,
                 ahead_of: x.ahead_of,
+                gap_m,
                 speed_diff_mps,
                 decel_mps2,
                 brake_s,

@@ -238,9 +238,8 @@ impl Default for CutInHandling {
     }
 }
 
-/// `[[cut_ins]]`: one scripted vehicle that enters the platoon's lane in the middle of the gap
-/// ahead of a follower (equal gaps to the vehicle ahead and to the follower), of every platoon
-/// of a fleet.
+/// `[[cut_ins]]`: one scripted vehicle that enters the platoon's lane in the gap ahead of a
+/// follower, of every platoon of a fleet.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct CutInConfig {
@@ -248,6 +247,10 @@ pub struct CutInConfig {
     pub at_s: f64,
     /// The follower it cuts in front of (1..=N).
     pub ahead_of: usize,
+    /// The gap it leaves to that follower as it enters (m, bumper to bumper); absent: the
+    /// middle of the gap, equal gaps ahead of it and behind it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gap_m: Option<f64>,
     /// Its speed when it enters, minus the follower's (m/s).
     #[serde(default)]
     pub speed_diff_mps: f64,

@@ -1,0 +1,387 @@
+//! Cut-ins by law and attack ([`traffic`]).
+use super::{configure_law, in_formation, write_config, Base};
+use crate::progress::Progress;
+use anyhow::{anyhow, bail, Result};
+use platoon_config::{LawConfig, LawName, LinkAttackConfig, LinkKindConfig, SpacingConfig};
+use platoon_output::plots;
+use platoon_output::rundir::RunDir;
+use platoon_topology::Preset;
+use std::fmt::Write as _;
+
+/// The attacks of [`traffic`], by name: none, a periodic DoS, a false-data bias and a feigned
+/// braking, the last two on the packets of the member ahead of the cut-in while the car is
+/// between it and the follower (the follower's radar cannot check them then).
+pub const ATTACKS: [&str; 4] = ["none", "periodic-dos", "fdi-bias", "feigned-braking"];
+
+/// How [`traffic`] runs; [`TrafficOptions::default`] is `platoon experiment traffic`'s default.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TrafficOptions {
+    /// The laws (`--laws`).
+    pub laws: Vec<LawName>,
+    /// The gap the car leaves to the follower as it cuts in (m, `--gaps`).
+    pub gaps_m: Vec<f64>,
+    /// Its speed minus the follower's as it cuts in (m/s, `--speed-diffs`).
+    pub speed_diffs_mps: Vec<f64>,
+    /// The attacks (`--attacks`), names of [`ATTACKS`].
+    pub attacks: Vec<String>,
+    /// Seeded repeats of each cell (`--repeats`): the radars' noise and the channel's losses.
+    pub repeats: u32,
+}
+
+impl Default for TrafficOptions {
+    fn default() -> Self {
+        Self {
+            laws: LawName::ALL.to_vec(),
+            gaps_m: vec![3.0, 6.0],
+            speed_diffs_mps: vec![-4.0, 0.0],
+            attacks: ATTACKS.iter().map(|a| a.to_string()).collect(),
+            repeats: 1,
+        }
+    }
+}
+
+impl TrafficOptions {
+    /// Fails on empty lists, unknown attacks and values that are no gaps or speeds.
+    pub fn validate(&self) -> Result<()> {
+        if self.laws.is_empty() {
+            bail!("--laws needs at least one law, e.g. paper,ploeg");
+        }
+        if self.gaps_m.is_empty() || self.gaps_m.iter().any(|g| !(g.is_finite() && *g >= 0.0)) {
+            bail!("--gaps needs gaps >= 0 m, e.g. 3,6 (got {:?})", self.gaps_m);
+        }
+        if self.speed_diffs_mps.is_empty() || self.speed_diffs_mps.iter().any(|v| !v.is_finite()) {
+            bail!("--speed-diffs needs finite speeds in m/s, e.g. -4,0");
+        }
+        if self.attacks.is_empty() {
+            bail!("--attacks needs at least one of {}", ATTACKS.join(", "));
+        }
+        if let Some(a) = self.attacks.iter().find(|a| !ATTACKS.contains(&a.as_str())) {
+            bail!(
+                "--attacks: unknown attack {a:?}; use {}",
+                ATTACKS.join(", ")
+            );
+        }
+        if self.repeats == 0 {
+            bail!("--repeats must be at least 1");
+        }
+        Ok(())
+    }
+}
+
+/// One run of [`traffic`] (a row of traffic.csv).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct TrafficRow {
+    /// The law's config name.
+    pub law: &'static str,
+    /// The topology it ran on: `pf`, or `plf` for the laws that need the leader.
+    pub topology: &'static str,
+    /// The gap the car left to the follower as it cut in (m).
+    pub gap_m: f64,
+    /// Its speed minus the follower's (m/s).
+    pub speed_diff_mps: f64,
+    /// The attack ([`ATTACKS`]).
+    pub attack: String,
+    /// The repeat (its seeds).
+    pub repeat: u32,
+    /// A gap reached zero (to the car or within the platoon).
+    pub collided: bool,
+    /// The smallest gap of any follower to the vehicle ahead of it, the car included (m).
+    pub min_gap_m: f64,
+    /// The follower behind the car, on ACC on it (s).
+    pub cut_in_s: f64,
+    /// All followers outside their law: attack fallbacks, cut-ins and the way back (s, summed).
+    pub fallback_s: f64,
+    /// Packets the detectors flagged that were genuine.
+    pub false_alarms: u64,
+    /// Forged packets they flagged.
+    pub detected: u64,
+    /// Forged packets they let through.
+    pub missed: u64,
+}
+
+/// [`traffic`]'s result.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Traffic {
+    /// Law by law, gap by gap, speed by speed, attack by attack, repeat by repeat.
+    pub rows: Vec<TrafficRow>,
+    /// traffic.md: the table, worst case over the repeats.
+    pub markdown: String,
+}
+
+/// Every law of `opts` against a car cutting in ahead of the base's cut-in follower at each gap
+/// and speed difference, under each attack, in process: the base scenario (`configs/cut-in.toml`
+/// by default: its car, profile, `[fallback.cut_in]` and radar) with each law on its own
+/// beaconing and on the base's distances (each law's standstill gap set to the platoon's, so the
+/// car fits the same gap), on `pf`, or `plf` for the laws that need the leader, the guard on,
+/// and the three built-in detectors logging. With `out`: config.toml, traffic.csv, traffic.md and
+/// one smallest-gap plot per gap.
+pub fn traffic(
+    base: &Base,
+    opts: &TrafficOptions,
+    out: Option<&RunDir>,
+    progress: &dyn Progress,
+) -> Result<Traffic> {
+    opts.validate()?;
+    if base.config.cut_ins.is_empty() {
+        bail!(
+            "{}: has no [[cut_ins]]; the experiment varies the first one",
+            base.label
+        );
+    }
+    write_config(out, &base.config)?;
+    let total = opts.laws.len()
+        * opts.gaps_m.len()
+        * opts.speed_diffs_mps.len()
+        * opts.attacks.len()
+        * opts.repeats as usize;
+    progress.start("simulating", total as u64);
+    let mut rows = Vec::with_capacity(total);
+    for &law in &opts.laws {
+        for &gap in &opts.gaps_m {
+            for &dv in &opts.speed_diffs_mps {
+                for attack in &opts.attacks {
+                    for repeat in 0..opts.repeats {
+                        progress.detail(&format!(
+                            "{}, gap {gap} m, {dv:+} m/s, {attack}, repeat {repeat}",
+                            law.name()
+                        ));
+                        rows.push(cell(base, law, gap, dv, attack, repeat)?);
+                        progress.at(rows.len() as u64);
+                    }
+                }
+            }
+        }
+    }
+    progress.finish();
+    let markdown = markdown(&rows);
+    let result = Traffic { rows, markdown };
+    if let Some(dir) = out {
+        result.write(opts, dir)?;
+    }
+    Ok(result)
+}
+
+fn cell(
+    base: &Base,
+    law: LawName,
+    gap: f64,
+    dv: f64,
+    attack: &str,
+    repeat: u32,
+) -> Result<TrafficRow> {
+    let mut last = None;
+    for preset in [Preset::Pf, Preset::Plf] {
+        let mut c = configure(&base.config, law, preset);
+        let first = &mut c.cut_ins[0];
+        first.gap_m = Some(gap);
+        first.speed_diff_mps = dv;
+        let (at, ahead_of) = (first.at_s, first.ahead_of);
+        let until = first.leave_s.unwrap_or(c.simulation.duration_s);
+        apply_attack(&mut c, attack, ahead_of - 1, at, until);
+        c.radar.seed = c.radar.seed.wrapping_add(u64::from(repeat));
+        c.channel.seed = c.channel.seed.wrapping_add(u64::from(repeat));
+        let scenario = match platoon_config::to_scenario(&mut c) {
+            Ok(s) => s,
+            // The law needs the leader: the next topology gives it.
+            Err((key, e)) if key == "topology.preset" => {
+                last = Some(e);
+                continue;
+            }
+            Err((key, e)) => {
+                return Err(anyhow!(
+                    "{}: key `{key}` with law {} under {attack}: {e}",
+                    base.label,
+                    law.name()
+                ))
+            }
+        };
+        let s = platoon_sim::run(scenario, |_| {})?;
+        let time_in = |v: &platoon_sim::VehicleSummary, mode: Option<&str>| {
+            v.mode_time_s
+                .iter()
+                .filter(|(m, _)| mode.map_or(m.as_str() != "coop", |x| m.as_str() == x))
+                .map(|(_, t)| t)
+                .sum::<f64>()
+        };
+        let d = s.detection.as_ref();
+        let any =
+            |f: fn(&platoon_sim::detection::Confusion) -> u64| d.map_or(0, |d| f(&d.any.totals));
+        return Ok(TrafficRow {
+            law: law.name(),
+            topology: preset.name(),
+            gap_m: gap,
+            speed_diff_mps: dv,
+            attack: attack.to_string(),
+            repeat,
+            collided: s.safety.collided,
+            min_gap_m: s.safety.min_gap_m,
+            cut_in_s: time_in(&s.vehicles[ahead_of - 1], Some("cut_in")),
+            fallback_s: s.vehicles.iter().map(|v| time_in(v, None)).sum(),
+            false_alarms: any(|c| c.fp),
+            detected: any(|c| c.tp),
+            missed: any(|c| c.fn_),
+        });
+    }
+    Err(anyhow!(
+        "law {} runs on neither pf nor plf: {}",
+        law.name(),
+        last.unwrap_or_default()
+    ))
+}
+
+/// The base config with `law` on `preset` as [`traffic`] runs it: the law's own beaconing, its
+/// standstill gap the platoon's, the guard on, the built-in detectors logging.
+fn configure(
+    base: &platoon_config::Config,
+    law: LawName,
+    preset: Preset,
+) -> platoon_config::Config {
+    let mut c = configure_law(base, law, preset, 0.1);
+    let standstill = base.platoon.spacing_m - base.platoon.vehicle_length_m;
+    match &mut c.control.law {
+        LawConfig::Paper(_) => {}
+        LawConfig::Acc(p) => p.standstill_m = standstill,
+        LawConfig::PathCacc(p) => p.spacing_m = standstill,
+        LawConfig::Ploeg(p) => p.standstill_m = standstill,
+        LawConfig::Consensus(p) => p.standstill_m = standstill,
+        LawConfig::Flatbed(p) => p.spacing_m = standstill,
+    }
+    if let Some((l, h)) = c
+        .control
+        .law
+        .params()
+        .spacing_policy(c.platoon.vehicle_length_m)
+    {
+        c.platoon.spacing_m = l;
+        c.platoon.spacing = if h == 0.0 {
+            SpacingConfig::Constant {}
+        } else {
+            SpacingConfig::TimeHeadway { time_headway_s: h }
+        };
+    }
+    in_formation(&mut c);
+    c.guard.enabled = true;
+    let detection = c.detection.get_or_insert_with(Default::default);
+    detection.plausibility.get_or_insert_with(Default::default);
+    detection.radar_cross.get_or_insert_with(Default::default);
+    detection.residual.get_or_insert_with(Default::default);
+    c
+}
+
+/// The attack `name` of [`ATTACKS`] into the config (replacing its own): the link attacks on
+/// `sender`'s packets from `from_s` to `until_s`.
+fn apply_attack(
+    c: &mut platoon_config::Config,
+    name: &str,
+    sender: usize,
+    from_s: f64,
+    until_s: f64,
+) {
+    c.attack = Default::default();
+    c.channel.attacks.clear();
+    let forged = |offset| LinkAttackConfig {
+        kind: LinkKindConfig::FalseData {
+            offset,
+            insider: false,
+        },
+        start_s: from_s,
+        end_s: until_s,
+        senders: Some(vec![sender as u16]),
+        receivers: None,
+    };
+    match name {
+        // 1 s of jamming every 5 s.
+        "periodic-dos" => {
+            c.attack.kind = platoon_config::DosConfig::Periodic {
+                period_s: 5.0,
+                duration_s: 1.0,
+                offset_s: 2.0,
+            }
+        }
+        // 2 m further ahead and 1 m/s faster than it is: the follower behind would close in.
+        "fdi-bias" => c.channel.attacks.push(forged([2.0, 1.0, 0.0])),
+        // Braking at 4 m/s^2 more than it does: the followers behind would brake for nothing.
+        "feigned-braking" => c.channel.attacks.push(forged([0.0, 0.0, -4.0])),
+        _ => {}
+    }
+}
+
+fn markdown(rows: &[TrafficRow]) -> String {
+    let mut md = String::from(
+        "| law | topology | gap (m) | speed diff (m/s) | attack | collisions | min gap (m) | on the car (s) | outside the law (s) | false alarms | forged detected | forged missed |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+    );
+    let mut keys: Vec<(&str, f64, f64, &str)> = Vec::new();
+    for r in rows {
+        let k = (r.law, r.gap_m, r.speed_diff_mps, r.attack.as_str());
+        if !keys.contains(&k) {
+            keys.push(k);
+        }
+    }
+    for (law, gap, dv, attack) in keys {
+        let same: Vec<&TrafficRow> = rows
+            .iter()
+            .filter(|r| {
+                (r.law, r.gap_m, r.speed_diff_mps, r.attack.as_str()) == (law, gap, dv, attack)
+            })
+            .collect();
+        let worst = |f: fn(&TrafficRow) -> f64| same.iter().map(|r| f(r)).fold(f64::NAN, f64::max);
+        let _ = writeln!(
+            md,
+            "| {law} | {} | {gap} | {dv:+} | {attack} | {}/{} | {:.2} | {:.1} | {:.1} | {} | {} | {} |",
+            same[0].topology,
+            same.iter().filter(|r| r.collided).count(),
+            same.len(),
+            same.iter().map(|r| r.min_gap_m).fold(f64::INFINITY, f64::min),
+            worst(|r| r.cut_in_s),
+            worst(|r| r.fallback_s),
+            same.iter().map(|r| r.false_alarms).sum::<u64>(),
+            same.iter().map(|r| r.detected).sum::<u64>(),
+            same.iter().map(|r| r.missed).sum::<u64>(),
+        );
+    }
+    md
+}
+
+impl Traffic {
+    fn write(&self, opts: &TrafficOptions, dir: &RunDir) -> Result<()> {
+        let mut csv = csv::Writer::from_writer(dir.writer("traffic.csv")?);
+        for r in &self.rows {
+            csv.serialize(r)?;
+        }
+        csv.flush()?;
+        dir.write("traffic.md", self.markdown.as_bytes())?;
+        let categories: Vec<String> = opts.attacks.clone();
+        for &gap in &opts.gaps_m {
+            let groups: Vec<(String, Vec<f64>)> = opts
+                .laws
+                .iter()
+                .map(|law| {
+                    let values = opts
+                        .attacks
+                        .iter()
+                        .map(|a| {
+                            self.rows
+                                .iter()
+                                .filter(|r| r.law == law.name() && r.attack == *a && r.gap_m == gap)
+                                .map(|r| r.min_gap_m)
+                                .fold(f64::INFINITY, f64::min)
+                                .max(0.0)
+                        })
+                        .collect();
+                    (law.name().to_string(), values)
+                })
+                .collect();
+            plots::grouped_bars(
+                &dir.path(&format!("traffic-gap{gap}.png")),
+                &format!(
+                    "Smallest gap by attack and law, a car cutting in {gap} m ahead \
+                     (worst over speeds and repeats; 0 = collision)"
+                ),
+                "smallest gap (m)",
+                &categories,
+                &groups,
+            )?;
+        }
+        Ok(())
+    }
+}
