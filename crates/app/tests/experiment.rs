@@ -255,6 +255,18 @@ fn traffic_runs_each_law_on_a_topology_it_can_and_scores_the_forged_packets() {
         }
     }
     assert_eq!(t.markdown.lines().count(), 2 + 4, "{}", t.markdown);
+    // The rows docs/traffic.md quotes.
+    for row in [
+        "| paper | pf | 3 | -4 | none | 0/1 | 0.09 | 11.0 | 50.0 | 11 | 0 | 0 |",
+        "| paper | pf | 3 | -4 | fdi-bias | 0/1 | 0.09 | 11.0 | 50.0 | 12 | 9 | 14 |",
+        "| path_cacc | plf | 3 | -4 | none | 0/1 | 0.10 | 11.0 | 14.0 | 6 | 0 | 0 |",
+    ] {
+        assert!(
+            t.markdown.contains(row),
+            "{row} missing from\n{}",
+            t.markdown
+        );
+    }
     // A base without a cut-in is refused, by name.
     let paper = Base::load(None, Embedded::Paper).unwrap();
     let e = experiment::traffic(&paper, &opts, None, &()).unwrap_err();

@@ -200,8 +200,7 @@ fn cell(
             v.mode_time_s
                 .iter()
                 .filter(|(m, _)| mode.map_or(m.as_str() != "coop", |x| m.as_str() == x))
-                .map(|(_, t)| t)
-                .sum::<f64>()
+                .fold(0.0, |sum, (_, t)| sum + t)
         };
         let d = s.detection.as_ref();
         let any =
@@ -216,7 +215,7 @@ fn cell(
             collided: s.safety.collided,
             min_gap_m: s.safety.min_gap_m,
             cut_in_s: time_in(&s.vehicles[ahead_of - 1], Some("cut_in")),
-            fallback_s: s.vehicles.iter().map(|v| time_in(v, None)).sum(),
+            fallback_s: s.vehicles.iter().fold(0.0, |sum, v| sum + time_in(v, None)),
             false_alarms: any(|c| c.fp),
             detected: any(|c| c.tp),
             missed: any(|c| c.fn_),
@@ -374,8 +373,7 @@ impl Traffic {
             plots::grouped_bars(
                 &dir.path(&format!("traffic-gap{gap}.png")),
                 &format!(
-                    "Smallest gap by attack and law, a car cutting in {gap} m ahead \
-                     (worst over speeds and repeats; 0 = collision)"
+                    "Smallest gap, a car cutting in {gap} m ahead (worst case; 0 = collision)"
                 ),
                 "smallest gap (m)",
                 &categories,
