@@ -23,6 +23,7 @@ struct Row {
     p: f64,
     v: f64,
     triggered: bool,
+    mode: String,
 }
 
 /// trajectories.csv as rows (step by step, vehicle by vehicle), its columns found by their
@@ -32,12 +33,13 @@ fn rows(run: &Path) -> Vec<Row> {
     let mut lines = text.lines();
     let header: Vec<&str> = lines.next().unwrap().split(',').collect();
     let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
-    let (step, vehicle, p, v, triggered) = (
+    let (step, vehicle, p, v, triggered, mode) = (
         col("step"),
         col("vehicle"),
         col("p"),
         col("v"),
         col("triggered"),
+        col("mode"),
     );
     lines
         .map(|l| {
@@ -48,6 +50,7 @@ fn rows(run: &Path) -> Vec<Row> {
                 p: f[p].parse().unwrap(),
                 v: f[v].parse().unwrap(),
                 triggered: f[triggered] == "true",
+                mode: f[mode].to_string(),
             }
         })
         .collect()
@@ -683,6 +686,102 @@ print("\n".join(repr(x) for x in out))  # shortest repr: parses back exactly
     }
 }
 
+/// The bridge's cut-in kinematics (`platoon.sumo.model.CutIns`) are `sim::traffic::Traffic`'s
+/// bit for bit: cut-ins entering on and between steps, at a given gap or mid-gap, braking,
+/// stopping, leaving or staying,
+/// ahead of a platoon that moves, every intruder's position and speed at every step.
+#[test]
+fn the_python_cut_in_kinematics_are_the_rust_ones_bit_for_bit() {
+    use platoon_sim::traffic::{CutIn, Traffic};
+    // Some entering on a step and some between steps, some staying, one stopping at once.
+    let cut_ins: Vec<CutIn> = (0..24)
+        .map(|c| {
+            let x = c as f64;
+            CutIn {
+                at_s: 0.0371 * x * x,
+                ahead_of: 1 + c % 3,
+                // Every third a given gap, the others mid-gap.
+                gap_m: (c % 3 == 1).then_some(0.17 * x),
+                speed_diff_mps: if c == 5 { -30.0 } else { -3.1 + 0.29 * x },
+                decel_mps2: 0.37 * x,
+                brake_s: 0.41 * x,
+                leave_s: (c % 4 != 0).then_some(0.0371 * x * x + 1.1 + 0.07 * x),
+                length_m: 3.5 + 0.3 * x,
+            }
+        })
+        .collect();
+    let (dt, steps, length) = (0.01, 2200u64, 4.5);
+    // A platoon whose positions and speeds change every step (the same expressions in Python).
+    let states = |k: u64| -> Vec<platoon_model::State> {
+        (0..4)
+            .map(|i| {
+                let (i, k) = (i as f64, k as f64);
+                platoon_model::State::new(
+                    100.0 - 13.7 * i + 0.213 * k,
+                    21.0 - 0.1 * i + 0.003 * k,
+                    0.0,
+                )
+            })
+            .collect()
+    };
+    let mut traffic = Traffic::new(&cut_ins);
+    let mut expected = Vec::new();
+    traffic.arrive(0.0, &states(0), length);
+    for k in 0..=steps {
+        if k > 0 {
+            traffic.advance((k - 1) as f64 * dt, dt);
+            traffic.arrive(k as f64 * dt, &states(k), length);
+        }
+        for x in traffic.on_lane() {
+            expected.extend([x.p, x.v]);
+        }
+    }
+    let script = format!(
+        r#"
+import json, sys; sys.path.insert(0, {bridge:?})
+import platoon.sumo.model as m
+cut_ins = json.loads({spec:?})
+def states(k):
+    return ([100.0 - 13.7 * float(i) + 0.213 * float(k) for i in range(4)],
+            [21.0 - 0.1 * float(i) + 0.003 * float(k) for i in range(4)])
+dt, out = 0.01, []
+t = m.CutIns(cut_ins)
+t.arrive(0.0, *states(0), {length:?})
+for k in range({steps} + 1):
+    if k > 0:
+        t.advance((k - 1) * dt, dt)
+        t.arrive(k * dt, *states(k), {length:?})
+    for x in t.on_lane:
+        if x is not None:
+            out += x
+print("\n".join(repr(x) for x in out))
+"#,
+        bridge = repo().join("bridge").display().to_string(),
+        spec = serde_json::to_string(&cut_ins).unwrap(),
+    );
+    let setup = Command::new(repo().join("bridge/setup-venv.sh"))
+        .status()
+        .unwrap();
+    assert!(setup.success());
+    let o = Command::new(repo().join("bridge/.venv/bin/python"))
+        .args(["-c", &script])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let got: Vec<f64> = String::from_utf8(o.stdout)
+        .unwrap()
+        .lines()
+        .map(|r| r.parse::<f64>().unwrap())
+        .collect();
+    // Many were on the lane at once, some of them stopped.
+    assert!(expected.len() > 2 * 5000, "{}", expected.len());
+    assert!(expected.chunks(2).any(|x| x[1] == 0.0));
+    assert_eq!(got.len(), expected.len());
+    for (i, (g, e)) in got.iter().zip(&expected).enumerate() {
+        assert_eq!(g.to_bits(), e.to_bits(), "value {i}: python {g} rust {e}");
+    }
+}
+
 #[test]
 fn the_large_highway_runs_at_a_reduced_horizon() {
     let tmp = tempfile::tempdir().unwrap();
@@ -771,7 +870,8 @@ fn the_bridges_numpy_path_equals_its_loops_on_the_paper_platoon() {
 /// The bridge's per-vehicle loop of a step in C++ (platoon.sumo.native, the default) and in
 /// Python (`PLATOON_SUMO_NATIVE=0`) make the same runs bit for bit: the paper platoon fed SUMO's
 /// own states (every position and speed SUMO gives is in the rows), the degradation scenario
-/// (every follower's radar read through SUMO's getLeader), and background traffic whose
+/// (every follower's radar read through SUMO's getLeader), a cut-in (a SUMO vehicle the bridge
+/// adds and removes, which a radar sees as not its predecessor), and background traffic whose
 /// positions set the 802.11p channel's load and reach an injector, which records them.
 /// `PLATOON_SUMO_NATIVE=1` fails rather than fall back, so the C++ side really runs (sumo.json
 /// says which loop ran).
@@ -781,6 +881,10 @@ fn the_bridges_cpp_loop_equals_its_python_loop() {
     let paper = std::fs::read_to_string(repo().join("configs/sumo-paper.toml")).unwrap();
     assert!(paper.contains("states = \"sumo\""));
     let degradation = std::fs::read_to_string(repo().join("configs/degradation.toml")).unwrap();
+    let cut_in = std::fs::read_to_string(repo().join("configs/cut-in.toml")).unwrap();
+    assert!(cut_in.contains("duration_s = 70.0"));
+    // Until a second after the car left.
+    let cut_in = cut_in.replace("duration_s = 70.0", "duration_s = 31.0");
     let traffic = with_sumo_keys(&paper, "background_vehicles = 30\nbackground_seed = 3")
         .replace("duration_s = 55.0", "duration_s = 3.0")
         + "\n[channel]\nmodel = \"80211p\"\nradio = { density_veh_per_m = 0.0 }\n";
@@ -815,6 +919,7 @@ pi.run(lambda run: Record())
     for (name, text) in [
         ("paper", paper.clone()),
         ("degradation", degradation),
+        ("cut-in", cut_in),
         ("traffic", traffic),
     ] {
         let config = tmp.path().join(format!("{name}.toml"));
@@ -850,6 +955,10 @@ pi.run(lambda run: Record())
         let plant = json(&a.join("plant.json"));
         match name {
             "degradation" => assert!(plant["radar_range_m"].is_f64(), "no radar read"),
+            "cut-in" => {
+                let rows = std::fs::read_to_string(a.join("trajectories.csv")).unwrap();
+                assert!(rows.contains(",cut_in,"), "no follower ran on the intruder");
+            }
             "traffic" => {
                 assert_eq!(plant["sumo"]["background_vehicles"], 30);
                 let seen = |lp: &str| std::fs::read(tmp.path().join(format!("seen-{lp}.json")));
@@ -865,6 +974,7 @@ pi.run(lambda run: Record())
             "max_deviation_mps",
             "worst_deviation",
             "collisions",
+            "cut_ins",
         ] {
             assert_eq!(ra[key], rb[key], "{key}");
         }
@@ -1442,4 +1552,68 @@ fn sumos_background_traffic_loads_the_80211p_channel() {
         f(&busy, "mean_cbr") > f(&alone, "mean_cbr"),
         "{alone} {busy}"
     );
+}
+
+/// A car cuts in between followers 2 and 3 (`configs/cut-in.toml`) with SUMO as the plant: a
+/// SUMO vehicle put on the platoon's lane at the step the native plant's enters, which
+/// follower 3's radar (SUMO's getLeader) sees at that very step, flagged as not its
+/// predecessor, so it runs ACC on it from then (`cut_in`) and returns to its law after the car
+/// left, without a collision; and the run agrees with the native plant's: every gap within
+/// 0.05 m at every step, the modes within a step.
+#[test]
+fn a_cut_in_on_sumo_is_seen_at_its_step_and_agrees_with_the_native_plant() {
+    let (tmp, s, n) = sumo_and_native("configs/cut-in.toml");
+    let (sumo, native) = (tmp.path().join("sumo"), tmp.path().join("native"));
+    assert_eq!(s["safety"]["collided"], false, "{}", s["safety"]);
+    let report = json(&sumo.join("sumo.json"));
+    assert_eq!(report["collisions"], serde_json::json!([]));
+    // It entered at 20 s and left at 30 s, and SUMO moved it as the kinematics do.
+    let car = &report["cut_ins"]["vehicles"]["cutin0"];
+    assert_eq!(
+        (&car["entered_step"], &car["left_step"]),
+        (&2000.into(), &3000.into())
+    );
+    let dev = report["cut_ins"]["max_deviation_m"].as_f64().unwrap();
+    assert!(dev < 1e-9, "{dev}");
+    let (a, b) = (rows(&sumo), rows(&native));
+    let f3: Vec<&Row> = a.iter().filter(|r| r.vehicle == 3).collect();
+    assert_eq!(f3[1999].mode, "coop");
+    assert_eq!(f3[2000].mode, "cut_in");
+    assert_eq!(f3.last().unwrap().mode, "coop");
+    assert!(a.iter().all(|r| r.vehicle == 3 || r.mode != "cut_in"));
+    // The gaps of the two plants, step by step.
+    let gaps = |rows: &[Row]| -> Vec<f64> {
+        rows.windows(2)
+            .filter(|w| w[0].step == w[1].step)
+            .map(|w| w[0].p - w[1].p)
+            .collect()
+    };
+    let (ga, gb) = (gaps(&a), gaps(&b));
+    assert_eq!(ga.len(), gb.len());
+    assert_eq!(ga.len(), 7001 * 4);
+    let worst = ga
+        .iter()
+        .zip(&gb)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f64::max);
+    assert!(worst < 0.05, "the gaps differ by up to {worst} m");
+    for (x, y) in paired(&a, &b) {
+        if x.step == 2000 || x.step == 3100 {
+            assert_eq!(x.mode, y.mode, "step {} vehicle {}", x.step, x.vehicle);
+        }
+    }
+    for (x, y) in s["vehicles"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .zip(n["vehicles"].as_array().unwrap())
+    {
+        for (mode, t) in y["mode_time_s"].as_object().unwrap() {
+            let other = x["mode_time_s"][mode].as_f64().unwrap();
+            assert!(
+                (other - t.as_f64().unwrap()).abs() <= 0.01,
+                "{mode}: {x} vs {y}"
+            );
+        }
+    }
 }

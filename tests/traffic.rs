@@ -183,7 +183,6 @@ fn bad_cut_ins_name_their_key() {
             "decel_mps2 = -2.0",
             "cut_ins[0].decel_mps2",
         ),
-        ("[simulation]", "[simulation]\nplant = \"sumo\"", "cut_ins"),
         (
             "cut_in = { dwell_s = 1.0",
             "cut_in = { dwell_s = -1.0",

@@ -1,6 +1,6 @@
 """The SUMO plant's radar reads what SUMO sees: the nearest vehicle ahead on the lane, whoever it
 is. A car that is not part of the platoon, driving between follower 1 and the leader, is what
-follower 1's radar reports (the native plant's radar knows only the platoon's predecessor)."""
+follower 1's radar reports, flagged INTRUDER (it is not the platoon's predecessor)."""
 
 import contextlib
 import os
@@ -63,8 +63,8 @@ def test_the_radar_sees_a_car_that_is_not_part_of_the_platoon():
     with tempfile.TemporaryDirectory() as tmp:
         (lead_flags, _, _), (flags, gap, closing) = run_with(tmp, intruder=False)
         assert not lead_flags & w.VehicleState.AHEAD  # the leader has no radar
-        assert flags & w.VehicleState.AHEAD
+        assert flags & w.VehicleState.AHEAD and not flags & w.VehicleState.INTRUDER
         assert abs(gap - (60.0 - 4.0)) < 0.5 and abs(closing - 2.0) < 0.1  # the leader
         _, (flags, gap, closing) = run_with(tmp, intruder=True)
-        assert flags & w.VehicleState.AHEAD
+        assert flags & w.VehicleState.AHEAD and flags & w.VehicleState.INTRUDER  # not its predecessor
         assert abs(gap - (24.0 - 4.0)) < 0.5 and abs(closing - 7.0) < 0.1  # the car

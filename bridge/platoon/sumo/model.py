@@ -1,9 +1,11 @@
 """The vehicle model of crates/model, in Python, for the SUMO plant (platoon.sumo.plant): the
-engine lag of each follower under its tau schedule, and the leader's reference acceleration.
+engine lag of each follower under its tau schedule, the leader's reference acceleration, and
+the scripted cut-ins of crates/sim (`sim::traffic`).
 
 SUMO does the kinematics (ballistic update with the acceleration held over each step); this
 module gives the acceleration to hold. Every expression is written exactly as in Rust
-(`plant_step`, `TauSchedule::at`, `LeaderProfile::step_acceleration`) and with the same libm, so
+(`plant_step`, `TauSchedule::at`, `LeaderProfile::step_acceleration`, `Traffic::arrive` and
+`Traffic::advance`) and with the same libm, so
 the values are bit-identical; tests/sumo.rs checks them against the values Rust computes.
 The schedules come from the plant spec that `platoon run` writes (plant.json), never from
 parsing the scenario config a second time.
@@ -123,6 +125,59 @@ class Dynamics:
             accel[g] = uf + (accel[g] - uf) * decay[which[f]]
         for g in self.leaders:
             accel[g] = a_leader
+
+
+class CutIns:
+    """One platoon's scripted cut-ins (`sim::traffic::Traffic`, from plant.json's `cut_ins`):
+    each one's intruder `[p, v]` (front bumper, speed) while it is on the lane, else None."""
+
+    def __init__(self, cut_ins):
+        self.cut_ins = [dict(c) for c in cut_ins]
+        self.on_lane = [None] * len(self.cut_ins)
+        self.entered = [False] * len(self.cut_ins)
+
+    def arrive(self, t: float, p, v, vehicle_length: float):
+        """`Traffic::arrive` at time t, given the platoon's positions p and speeds v (leader
+        first) at that step: those due enter (`gap_m` ahead of their follower, or mid-gap), those due
+        leave. Returns the indices of the cut-ins that entered and of those that left."""
+        entered, left = [], []
+        for c, cut in enumerate(self.cut_ins):
+            leave = cut["leave_s"]
+            if leave is not None and t >= leave:
+                if self.on_lane[c] is not None:
+                    left.append(c)
+                self.on_lane[c] = None
+            elif not self.entered[c] and t >= cut["at_s"]:
+                self.entered[c] = True
+                i = cut["ahead_of"]
+                gap = cut.get("gap_m")
+                if gap is not None:
+                    x = float(p[i]) + gap + cut["length_m"]
+                else:
+                    # Equal gaps: ahead - L - x = x - length - behind.
+                    x = 0.5 * (float(p[i - 1]) - vehicle_length + float(p[i]) + cut["length_m"])
+                speed = float(v[i]) + cut["speed_diff_mps"]
+                self.on_lane[c] = [x, max(speed, 0.0)]
+                entered.append(c)
+        return entered, left
+
+    def advance(self, t: float, dt: float):
+        """`Traffic::advance`: moves every intruder from t to t + dt. Returns the acceleration
+        each one holds over the step (None while it is not on the lane)."""
+        held = []
+        for cut, x in zip(self.cut_ins, self.on_lane):
+            if x is None:
+                held.append(None)
+                continue
+            braking = t < cut["at_s"] + cut["brake_s"]
+            a = -cut["decel_mps2"] if braking else 0.0
+            # It stops rather than reverses.
+            if x[1] + a * dt < 0.0:
+                a = -x[1] / dt
+            x[0] += x[1] * dt + 0.5 * a * dt * dt
+            x[1] += a * dt
+            held.append(a)
+        return held
 
 
 # Fleets of at least this many vehicles are stepped with numpy; smaller ones with plain loops,

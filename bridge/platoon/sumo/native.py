@@ -141,7 +141,8 @@ class Fleet:
     """The platoon vehicles `ids` (wire order), the followers with a radar (`followers`, indices
     into ids, read when `radar_range` is not None) and the background vehicles, driven through
     the C++ loop. After `step` (or `states`) the arrays hold what SUMO has: `lane` and `speed` per
-    vehicle, `ahead`, `gap` and `ahead_speed` per radar follower."""
+    vehicle, `ahead` (0: nothing, 1: the predecessor, 2: another vehicle), `gap` and
+    `ahead_speed` per radar follower."""
 
     def __init__(self, libsumo, ids, followers=(), radar_range=None, background=()):
         self.lib = _load(build(libsumo))
@@ -210,6 +211,12 @@ class Fleet:
         if self.pending is not None:
             raise NativeError(self.pending)
         return self.lane, self.speed
+
+    def reread(self):
+        """Reads the current SUMO step again (after the bridge changed the lane: a cut-in
+        entered or left), for `states` and the radars."""
+        if self._read(self.handle):
+            raise NativeError(self._error())
 
     def traffic(self, on_road):
         """The background vehicles' lane positions (array; meaningful where on_road), and

@@ -6,10 +6,11 @@ PLATOON_PLANT_SPEC (plant.json: time grid, initial states, leader profile, tau s
 SUMO options). Per step k: publish the background traffic's positions (`traffic`, with `[sumo]
 background_vehicles`) and the states read from SUMO, wait for commands[k], hold each vehicle's
 acceleration a[k] over the step (`setAcceleration`, ballistic update, speed mode 0), step SUMO,
-check collisions, and update a[k+1] with the engine lag (platoon.sumo.model). Writes sumo.json
-(SUMO version, per-step costs, collisions) and, with `[sumo] fcd = "sumo"` only, SUMO's FCD
-output into the run directory (by default platoon writes fcd.xml from the trajectories after
-the run).
+check collisions, and update a[k+1] with the engine lag (platoon.sumo.model). Scripted cut-ins
+(plant.json's `cut_ins`) are SUMO vehicles on the platoon's lane while they are on it
+(`Intruders`). Writes sumo.json (SUMO version, per-step costs, collisions, the cut-ins) and, with
+`[sumo] fcd = "sumo"` only, SUMO's FCD output into the run directory (by default platoon writes
+fcd.xml from the trajectories after the run).
 
 The per-vehicle libsumo calls of a step (set every acceleration, step, read every state back)
 run in one call to a small C++ helper (platoon.sumo.native; PLATOON_SUMO_NATIVE=0 keeps them in
@@ -49,14 +50,28 @@ def vehicle_id(g: int) -> str:
     return name if NAMES["platoons"] == 1 else f"p{j}.{name}"
 
 
+def intruder_id(j: int, c: int) -> str:
+    """SUMO's name of cut-in c's vehicle in platoon j: cutin0, ... (p3.cutin0, ... in a fleet)."""
+    name = f"cutin{c}"
+    return name if NAMES["platoons"] == 1 else f"p{j}.{name}"
+
+
+def vtype(name, length):
+    """A vehicle type that does what it is told (the platoon's and the cut-ins')."""
+    return (
+        f'    <vType id="{name}" length="{length!r}" minGap="0" '
+        'accel="100" decel="100" emergencyDecel="100" apparentDecel="100" '
+        'maxSpeed="100" speedFactor="1" speedDev="0" sigma="0" tau="1"/>'
+    )
+
+
 def write_routes(path, spec):
     s = spec["sumo"]
     lines = [
         '<?xml version="1.0" encoding="UTF-8"?>',
         "<routes>",
-        f'    <vType id="platoon" length="{s["vehicle_length_m"]!r}" minGap="0" '
-        'accel="100" decel="100" emergencyDecel="100" apparentDecel="100" '
-        'maxSpeed="100" speedFactor="1" speedDev="0" sigma="0" tau="1"/>',
+        vtype("platoon", s["vehicle_length_m"]),
+        *(vtype(f"cutin{c}", float(cut["length_m"])) for c, cut in enumerate(spec.get("cut_ins", []))),
         f'    <route id="road" edges="{s["edge"]}"/>',
     ]
     for g, (p, v, _) in enumerate(spec["initial"]):
@@ -152,9 +167,10 @@ class Kinematics:
     `plant_step`; with numpy for large fleets, as whole-array operations that round as the
     loop does), and how far apart they are."""
 
-    def __init__(self, spec, sumo, mode, native=None):
+    def __init__(self, spec, sumo, mode, native=None, intruders=None):
         self.sumo = sumo
         self.native = native  # native.Fleet: SUMO's states come from its arrays
+        self.intruders = intruders  # Intruders: the cut-ins, which enter and leave in `read`
         self.mode = mode  # "sumo": the controllers see SUMO's states; "model": the model's
         self.offset = float(spec["sumo"]["offset_m"])
         self.dt = float(spec["dt"])
@@ -233,7 +249,7 @@ class Kinematics:
                     self.p[i], self.v[i] = p, v  # the next comparison is over one step
                 s = out[i]
                 s.p, s.v, s.a = self.p[i], self.v[i], accel[i]
-            self.sense()
+            self.arrive_and_sense(k)
             return out
         if self.native is not None:
             p, v = lane - self.offset, speed.copy()
@@ -249,53 +265,69 @@ class Kinematics:
         if self.mode == "sumo":
             self.p, self.v = p, v
         self.view["p"], self.view["v"], self.view["a"] = self.p, self.v, accel
-        self.sense()
+        self.arrive_and_sense(k)
         return self.out
+
+    def arrive_and_sense(self, k):
+        """The cut-ins of step k enter (mid-gap, from the states published) and leave, then
+        the radars read the lane."""
+        if self.intruders and self.intruders.arrive(k, self.p, self.v) and self.native is not None:
+            self.native.reread()
+        self.sense()
 
     def sense(self):
         """What each follower's radar sees, as SUMO has it: the nearest vehicle ahead on its
-        lane, whoever it is (a background vehicle included; the native plant's radar only
-        knows the platoon's predecessor): the bumper-to-bumper gap (`getLeader`; minGap is 0)
-        and the closing speed. The controllers keep only what is within the radar's range."""
+        lane, whoever it is (a background vehicle or a cut-in included): the bumper-to-bumper
+        gap (`getLeader`; minGap is 0), the closing speed, and whether it is not the platoon's
+        predecessor (INTRUDER). The controllers keep only what is within the radar's range."""
         if self.radar_range is None:
             return
         if self.native is not None:
             self.sense_native()
             return
         get_leader, get_speed = self.sumo.vehicle.getLeader, self.sumo.vehicle.getSpeed
-        out = self.out
+        out, ahead_flags = self.out, w.VehicleState.AHEAD | w.VehicleState.INTRUDER
         for i in self.followers:
             vid = self.ids[i]
             ahead = get_leader(vid, self.radar_range)
             s = out[i]
+            s.flags &= ~ahead_flags
             if ahead:
                 s.flags |= w.VehicleState.AHEAD
+                if ahead[0] != self.ids[i - 1]:
+                    s.flags |= w.VehicleState.INTRUDER
                 s.gap = ahead[1]
                 s.closing = get_speed(vid) - get_speed(ahead[0])
             else:
-                s.flags &= ~w.VehicleState.AHEAD
                 s.gap = s.closing = 0.0
 
     def sense_native(self):
-        """`sense` from what the C++ loop read: the same values, the same subtraction."""
+        """`sense` from what the C++ loop read (`ahead`: 0 none, 1 the predecessor, 2 another
+        vehicle): the same values, the same subtraction."""
         nat = self.native
+        ahead_flags = w.VehicleState.AHEAD | w.VehicleState.INTRUDER
         if not self.vector:
             out, speed = self.out, nat.speed.tolist()
             gap, ahead_speed = nat.gap.tolist(), nat.ahead_speed.tolist()
             for j, i in enumerate(self.followers):
                 s = out[i]
+                s.flags &= ~ahead_flags
                 if nat.ahead[j]:
                     s.flags |= w.VehicleState.AHEAD
+                    if nat.ahead[j] == 2:
+                        s.flags |= w.VehicleState.INTRUDER
                     s.gap = gap[j]
                     s.closing = speed[i] - ahead_speed[j]
                 else:
-                    s.flags &= ~w.VehicleState.AHEAD
                     s.gap = s.closing = 0.0
             return
-        f, ahead = nat.followers, nat.ahead.astype(bool)
+        f, seen = nat.followers, nat.ahead
+        ahead = seen.astype(bool)
         view = self.view
-        flags = view["flags"][f]
-        view["flags"][f] = np.where(ahead, flags | w.VehicleState.AHEAD, flags & ~np.uint32(w.VehicleState.AHEAD))
+        flags = view["flags"][f] & ~np.uint32(ahead_flags)
+        flags |= np.where(ahead, np.uint32(w.VehicleState.AHEAD), np.uint32(0))
+        flags |= np.where(seen == 2, np.uint32(w.VehicleState.INTRUDER), np.uint32(0))
+        view["flags"][f] = flags
         view["gap"][f] = np.where(ahead, nat.gap, 0.0)
         view["closing"][f] = np.where(ahead, nat.speed[f] - nat.ahead_speed, 0.0)
 
@@ -303,6 +335,95 @@ class Kinematics:
         if dp > self.max_dp or dv > self.max_dv:
             self.worst = {"step": k, "vehicle": i, "dp_m": dp, "dv_mps": dv}
             self.max_dp, self.max_dv = max(self.max_dp, dp), max(self.max_dv, dv)
+
+
+class Intruders:
+    """The scripted cut-ins (plant.json's `cut_ins`, into every platoon), each a SUMO vehicle
+    on its platoon's lane while it is on it (`cutin<c>`, of type `cutin<c>` with its length),
+    with the kinematics of `sim::traffic` (platoon.sumo.model.CutIns). At the step the native
+    plant's enters, it is put mid-gap as computed from the states published at that step:
+    `vehicle.add` then `moveTo` puts a vehicle that has not departed on the lane at once (at its
+    departSpeed), so the radars' `getLeader` of that same step sees it. Over each step it holds
+    its scripted acceleration (`setAcceleration`; speed mode 0, no lane changes); when it leaves
+    it is removed (`vehicle.remove`, also at once). Not a platoon vehicle: no state, no
+    command; its collisions are SUMO's like any other."""
+
+    def __init__(self, spec, sumo):
+        self.sumo = sumo
+        cut_ins = spec.get("cut_ins", [])
+        self.n1 = int(spec["vehicles_per_platoon"])
+        self.dt = float(spec["dt"])
+        self.length = float(spec["vehicle_length"])
+        self.offset = float(spec["sumo"]["offset_m"])
+        self.lanes = [(str(lane), f'{spec["sumo"]["edge"]}_{lane}') for lane in spec["lanes"]]
+        self.platoons = [model.CutIns(cut_ins) for _ in spec["lanes"]] if cut_ins else []
+        # What happened, for sumo.json: per vehicle, when and where it entered and left, and
+        # how far SUMO's position and speed got from the kinematics while it was on the lane.
+        self.log = {}
+        self.max_dp = self.max_dv = 0.0
+
+    def __bool__(self):
+        return bool(self.platoons)
+
+    def arrive(self, k, p, v) -> bool:
+        """Step k's entries and exits, given the states published at k (p, v: every platoon's,
+        wire order). Whether any vehicle entered or left."""
+        t = k * self.dt
+        n1, changed = self.n1, False
+        vehicle = self.sumo.vehicle
+        for j, cuts in enumerate(self.platoons):
+            lo = j * n1
+            entered, left = cuts.arrive(t, p[lo:lo + n1], v[lo:lo + n1], self.length)
+            for c in left:
+                vid = intruder_id(j, c)
+                vehicle.remove(vid)
+                self.log[vid]["left_step"] = k
+            for c in entered:
+                vid = intruder_id(j, c)
+                x, speed = cuts.on_lane[c]
+                lane, lane_id = self.lanes[j]
+                vehicle.add(vid, "road", typeID=f"cutin{c}", depart="now", departLane=lane,
+                            departPos="0", departSpeed=repr(speed))
+                vehicle.moveTo(vid, lane_id, x + self.offset)
+                vehicle.setSpeedMode(vid, 0)
+                vehicle.setLaneChangeMode(vid, 0)
+                self.log[vid] = {"entered_step": k, "p_m": x, "v_mps": speed, "left_step": None}
+            changed = changed or bool(entered or left)
+        if changed:
+            self.compare()
+        return changed
+
+    def hold(self, k):
+        """Before SUMO's step k -> k + 1: each intruder's acceleration over it, as the
+        kinematics move it (and SUMO then does)."""
+        if not any(x is not None for cuts in self.platoons for x in cuts.on_lane):
+            return
+        self.compare()
+        vehicle, dt = self.sumo.vehicle, self.dt
+        t = k * dt
+        for j, cuts in enumerate(self.platoons):
+            for c, a in enumerate(cuts.advance(t, dt)):
+                if a is not None:
+                    vehicle.setAcceleration(intruder_id(j, c), a, dt)
+
+    def compare(self):
+        """SUMO's intruders against the kinematics (their lane positions minus the offset)."""
+        vehicle = self.sumo.vehicle
+        for j, cuts in enumerate(self.platoons):
+            for c, x in enumerate(cuts.on_lane):
+                if x is not None:
+                    vid = intruder_id(j, c)
+                    dp = abs(vehicle.getLanePosition(vid) - self.offset - x[0])
+                    dv = abs(vehicle.getSpeed(vid) - x[1])
+                    self.max_dp, self.max_dv = max(self.max_dp, dp), max(self.max_dv, dv)
+
+    def report(self):
+        """sumo.json's `cut_ins`."""
+        return {
+            "vehicles": self.log,
+            "max_deviation_m": self.max_dp,
+            "max_deviation_mps": self.max_dv,
+        }
 
 
 class Traffic:
@@ -404,7 +525,8 @@ def run(spec) -> int:
         native = open_native(spec, sumo)
         report["loop"] = "python" if native is None else "native"
         dyn = model.Dynamics(spec)
-        kin = Kinematics(spec, sumo, spec["sumo"]["states"], native)
+        intruders = Intruders(spec, sumo)
+        kin = Kinematics(spec, sumo, spec["sumo"]["states"], native, intruders)
         traffic = Traffic(spec, sumo, native)
         tolerance = float(spec["sumo"]["tolerance_m"])
     except Exception as e:  # libsumo raises its own exception types
@@ -442,6 +564,8 @@ def run(spec) -> int:
             if len(cmds) != len(spec["taus"]):
                 raise SumoError(f"{len(cmds)} commands for {len(spec['taus'])} followers")
             u = kin.commands(cmds)
+            if intruders:
+                intruders.hold(k)
             if native is not None:
                 # Set, step and read in one call; SUMO's step timed inside it.
                 t1 = time.perf_counter_ns()
@@ -513,6 +637,8 @@ def run(spec) -> int:
     report["max_deviation_m"] = kin.max_dp
     report["max_deviation_mps"] = kin.max_dv
     report["worst_deviation"] = kin.worst
+    if intruders:
+        report["cut_ins"] = intruders.report()
     report["sumo_step"] = stats(sumo_ns)
     report["bridge_step"] = stats(bridge_ns)
     report["sumo_step_cpu"] = stats(sumo_cpu)
@@ -532,7 +658,7 @@ def run(spec) -> int:
 def tight_loop(spec, steps: int) -> dict:
     """The bridge's per-step work without the co-simulation around it: the same SUMO (options,
     network, routes), the same model, set-step-read in a loop with no process hops and no
-    waiting (the followers' commands held at 0). Medians in µs, for `platoon bench step`."""
+    waiting (the followers' commands held at 0; no cut-ins). Medians in µs, for `platoon bench step`."""
     import tempfile
 
     # Its own routes file, and no FCD output: nothing of the run's directory is touched.

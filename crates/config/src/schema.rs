@@ -51,7 +51,7 @@ pub struct Config {
     /// The emergency-braking guard.
     #[serde(default)]
     pub guard: GuardConfig,
-    /// `[[cut_ins]]`: scripted vehicles that cut into the platoon's lane (native plant).
+    /// `[[cut_ins]]`: scripted vehicles that cut into the platoon's lane (either plant).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub cut_ins: Vec<CutInConfig>,
     /// The DoS attack.

@@ -176,6 +176,9 @@ pub struct PlantSpec {
     /// The followers' radar range (m) when a fallback or the guard reads the radar: the plant
     /// then reports the vehicle ahead within it in every state.
     pub radar_range_m: Option<f64>,
+    /// The scripted cut-ins into every platoon (absent from plant.json when there are none).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub cut_ins: Vec<traffic::CutIn>,
 }
 
 impl PlantSpec {
@@ -200,6 +203,7 @@ impl PlantSpec {
             radar_range_m: (scenario.control.fallback.uses_radar()
                 || scenario.control.detection.reads_radar())
             .then_some(scenario.control.fallback.radar.range_m),
+            cut_ins: scenario.cut_ins.clone(),
         }
     }
 }

@@ -55,7 +55,8 @@ pub struct Scenario {
     pub assumption2: Option<Assumption2>,
     /// Vehicle length for gap computations (m); 0 treats vehicles as points.
     pub vehicle_length: f64,
-    /// Scripted cut-ins into every platoon of the fleet (the native plant's traffic).
+    /// Scripted cut-ins into every platoon of the fleet (the native plant's traffic; the SUMO
+    /// plant's through [`crate::PlantSpec`]).
     pub cut_ins: Vec<crate::traffic::CutIn>,
     /// How the run's safety is classed.
     pub safety: crate::SafetyThresholds,

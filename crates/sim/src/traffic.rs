@@ -1,4 +1,5 @@
-//! Vehicles from outside the platoon that act on it: scripted cut-ins on the native plant.
+//! Vehicles from outside the platoon that act on it: scripted cut-ins on the native plant (the
+//! SUMO bridge moves its cut-in vehicles with the same formulas, `platoon.sumo.model.CutIns`).
 //!
 //! A cut-in is a vehicle that enters the platoon's lane at time `at_s` in the gap ahead of
 //! follower `ahead_of`, `gap_m` ahead of the follower (bumper to bumper; without it in the
@@ -10,8 +11,9 @@
 use platoon_control::fallback::RadarTruth;
 use platoon_model::State;
 
-/// One scripted cut-in (`[[cut_ins]]` in a config).
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// One scripted cut-in (`[[cut_ins]]` in a config; in the SUMO bridge's plant spec, whose
+/// `platoon.sumo.model` moves it with the same formulas).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct CutIn {
     /// When it enters the lane (s).
     pub at_s: f64,

@@ -23,7 +23,7 @@ struct Out {
     const double* accel;
     double* lane;
     double* speed;
-    uint8_t* ahead;
+    uint8_t* ahead;  // 0: nothing ahead, 1: the predecessor, 2: another vehicle
     double* gap;
     double* ahead_speed;
     int64_t* ns;
@@ -76,11 +76,13 @@ void read_states(Fleet& f) {
     if (f.radar_range < 0.0) {
         return;
     }
-    // SUMO's leader on the lane, whoever it is (getLeader: no leader is an empty id).
+    // SUMO's leader on the lane, whoever it is (getLeader: no leader is an empty id): 1 the
+    // platoon's predecessor (the vehicle before the follower in ids), 2 another (a cut-in).
     for (size_t j = 0; j < f.followers.size(); ++j) {
+        const int32_t i = f.followers[j];
         const std::pair<std::string, double> ahead =
-            libsumo::Vehicle::getLeader(f.ids[f.followers[j]], f.radar_range);
-        o.ahead[j] = !ahead.first.empty();
+            libsumo::Vehicle::getLeader(f.ids[i], f.radar_range);
+        o.ahead[j] = ahead.first.empty() ? 0 : ahead.first == f.ids[i - 1] ? 1 : 2;
         o.gap[j] = ahead.second;
         o.ahead_speed[j] = ahead.first.empty() ? 0.0 : libsumo::Vehicle::getSpeed(ahead.first);
     }

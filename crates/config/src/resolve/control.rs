@@ -90,13 +90,6 @@ pub(super) fn cut_ins(
     duration: f64,
 ) -> Result<Vec<platoon_sim::traffic::CutIn>, Invalid> {
     let n = c.platoon.followers;
-    if !c.cut_ins.is_empty() && c.simulation.plant == PlantKind::Sumo {
-        return bad(
-            "cut_ins",
-            "scripted cut-ins run on the native plant only (simulation.plant = \"native\"); \
-             on SUMO they are not built yet",
-        );
-    }
     c.cut_ins
         .iter()
         .enumerate()

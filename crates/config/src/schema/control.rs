@@ -239,7 +239,10 @@ impl Default for CutInHandling {
 }
 
 /// `[[cut_ins]]`: one scripted vehicle that enters the platoon's lane in the gap ahead of a
-/// follower, of every platoon of a fleet.
+/// follower, of every platoon of a fleet. The same on either plant: on SUMO it is a SUMO
+/// vehicle on the platoon's lane, put there at the step it enters on the native plant, moved
+/// with the same kinematics and removed at `leave_s`; the radars see it through SUMO's
+/// `getLeader`, and its collisions are SUMO's (docs/sumo.md).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct CutInConfig {
