@@ -247,3 +247,38 @@ fn the_radar_cross_check_does_not_call_a_cut_in_an_attack() {
     assert_eq!(fp("radar_cross"), (6, 8735), "{radar:?}");
     assert_eq!(fp("plausibility").0, 1);
 }
+
+/// A campaign varies a cut-in like any other key (`cut_ins[0].gap_m`), in process: the closer
+/// the car cuts in, the smaller the smallest gap, which counts the gap to the car.
+#[test]
+fn a_campaign_sweeps_the_cut_in_gap() {
+    use common::{ok, platoon};
+    let tmp = tempfile::tempdir().unwrap();
+    let base = repo().join("configs/cut-in.toml");
+    std::fs::write(
+        tmp.path().join("gaps.toml"),
+        format!(
+            "base = {base:?}\nmetrics = [\"min_gap_m\", \"collided\"]\n\
+             set = {{ \"simulation.duration_s\" = 35.0 }}\n\
+             [[axes]]\nkey = \"cut_ins[0].gap_m\"\nvalues = [1.0, 4.0, 8.0]\n",
+            base = base.display().to_string()
+        ),
+    )
+    .unwrap();
+    ok(&platoon(
+        &["campaign", "gaps.toml", "--out", "c", "--no-plots"],
+        tmp.path(),
+    ));
+    let cells = std::fs::read_to_string(tmp.path().join("c/cells.csv")).unwrap();
+    let header: Vec<&str> = cells.lines().next().unwrap().split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let gaps: Vec<f64> = cells
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').nth(col("min_gap_m")).unwrap().parse().unwrap())
+        .collect();
+    assert_eq!(gaps.len(), 3, "{cells}");
+    assert!(gaps[0] < gaps[1] && gaps[1] < gaps[2], "{gaps:?}");
+    // 1 m ahead and 2 m/s slower: too close to stop behind it.
+    assert!(gaps[0] < 1.0, "{gaps:?}");
+}
