@@ -90,6 +90,8 @@ class PaperLaw(pc.Controller):
             refuse = "fallback.dwell_s and fallback.blend_s (only 0)"
         elif c.get("guard", {}).get("enabled", False):
             refuse = "guard.enabled (only false)"
+        elif fb.get("cut_in") is not None:
+            refuse = "fallback.cut_in (only absent)"
         elif c["trigger"]["rule"] not in ("dynamic", "static", "periodic"):
             refuse = 'trigger.rule (only "dynamic", "static" or "periodic")'
         if refuse:

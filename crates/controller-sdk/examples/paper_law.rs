@@ -68,6 +68,8 @@ impl PaperLaw {
             Some("fallback.dwell_s and fallback.blend_s (only 0)")
         } else if fb.guard.is_some() {
             Some("guard.enabled (only false)")
+        } else if fb.cut_in.is_some() {
+            Some("fallback.cut_in (only absent)")
         } else if matches!(p.rule, TriggerRule::Mixed { .. } | TriggerRule::Cam(_)) {
             Some("trigger.rule (not \"mixed\" nor \"cam\")")
         } else {
