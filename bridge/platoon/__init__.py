@@ -20,7 +20,9 @@ Errors: `platoon.ConfigError` (a ValueError) for an invalid config or campaign, 
 `line`, `key` and `message` attributes; `platoon.PlatoonError` (a RuntimeError) for anything
 else that failed, with the message the `platoon` command would print; two of its subclasses
 say more: `platoon.NodeError`, a co-simulated run's process that failed (`node`, `step`, `log`,
-`message`, `run_dir`), and `platoon.OutputError`, a run's files (`path`). Ctrl-C
+`message`, `run_dir`), and `platoon.OutputError`, the files of a run or a campaign (`path`).
+A design check raises ConfigError for its config and PlatoonError for options it cannot use
+or a solver that failed. Ctrl-C
 (KeyboardInterrupt) stops a run or a campaign cleanly, as in the command, then is raised.
 """
 
@@ -319,7 +321,13 @@ def campaign(
         jobs does not go with it. A KeyboardInterrupt stops it cleanly (the cells done are
         kept; call again to resume), then is raised.
     keep_runs: keep every cell's full outputs. samples: override monte_carlo.samples.
-    cells.csv is byte for byte the same whichever executor ran it."""
+    cells.csv is byte for byte the same whichever executor ran it. A cell that fails is a row
+    with its status and error, not an exception.
+
+    Raises ConfigError for an invalid campaign file or base (file, line, key), OutputError (a
+    PlatoonError) when the campaign directory or its records cannot be written (path), e.g.
+    `out` is a directory that is not a campaign's, PlatoonError when the executor fails (the
+    cells done are kept: call again to resume) or anything else does."""
     address = None
     if dask is not None:
         address = dask if isinstance(dask, str) else dask.scheduler.address

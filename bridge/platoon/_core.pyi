@@ -29,7 +29,7 @@ class NodeError(PlatoonError):
     run_dir: Optional[str]  # what the run recorded
 
 class OutputError(PlatoonError):
-    """A run's files could not be written or read."""
+    """The files of a run or a campaign could not be written or read."""
 
     path: Optional[str]  # the file or directory, None when unknown
 

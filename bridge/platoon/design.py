@@ -21,7 +21,11 @@ def check_gain(
     config: a dict, a TOML file's path or an embedded scenario's name. gain: (K1, K2, K3)
     (None: the config's control.gain). c: the decay parameter. theorem: 1 (the nominal tau)
     or 2 (both ends of the tau range). time_headway: overrides the spacing policy's (s).
-    A check cannot be stopped halfway: Ctrl-C returns at once and leaves it to finish."""
+    A check cannot be stopped halfway: Ctrl-C returns at once and leaves it to finish.
+
+    Raises ConfigError for an invalid config (file, line, key), PlatoonError for an option no
+    check can use (a negative time_headway, a gain that is not three finite numbers) or when
+    the SDP solver fails. A gain that (13) does not certify is no error: the report says so."""
     import json
 
     return json.loads(

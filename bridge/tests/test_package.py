@@ -275,6 +275,40 @@ def test_a_campaign_through_the_package_equals_the_commands_cells_csv(tmp_path):
     assert schema.field("error").type == pa.string()
 
 
+def test_a_bad_campaign_file_raises_config_error_naming_its_key(tmp_path):
+    spec = tmp_path / "bad.toml"
+    spec.write_text('name = "bad"\n[monte_carlo]\nsamples = 0\n')
+    with pytest.raises(platoon.ConfigError) as e:
+        platoon.campaign(spec, out=tmp_path / "out")
+    assert e.value.key == "monte_carlo.samples"
+    assert e.value.file == str(spec) and e.value.line == 3
+    assert "monte_carlo.samples" in str(e.value)
+    assert not (tmp_path / "out").exists() and not (tmp_path / "out.partial").exists()
+
+
+def test_a_campaign_directory_that_is_not_one_raises_output_error_with_its_path(tmp_path):
+    out = tmp_path / "mine"
+    out.mkdir()
+    (out / "notes.txt").write_text("not a campaign")
+    with pytest.raises(platoon.OutputError) as e:
+        platoon.campaign(campaign_file(tmp_path), out=out)
+    assert isinstance(e.value, platoon.PlatoonError)
+    assert e.value.path == str(out)
+    assert (out / "notes.txt").read_text() == "not a campaign"
+
+
+def test_a_design_check_of_an_invalid_config_or_option_raises_by_kind():
+    cfg = platoon.scenario("paper")
+    cfg["trigger"]["h_s"] = 0.001
+    with pytest.raises(platoon.ConfigError) as e:
+        platoon.design.check_gain(cfg)
+    assert e.value.key == "trigger.h_s"
+    # An option no check can use is the check's error, not the config's.
+    with pytest.raises(platoon.PlatoonError, match="--time-headway -1") as e:
+        platoon.design.check_gain("paper", time_headway=-1.0)
+    assert not isinstance(e.value, platoon.ConfigError)
+
+
 def test_a_design_check_is_the_commands(tmp_path):
     cli("design", "check-gain", "--out", "cli", cwd=tmp_path)
     report = platoon.design.check_gain("paper")

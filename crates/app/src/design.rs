@@ -3,15 +3,110 @@
 //! re-check ([`verify`]), and the DoS bounds (16) ([`bounds`]). Results come back in memory;
 //! [`CheckReport::write`] and [`Synthesis::write`] put the files of `platoon design` into a run
 //! directory the caller opened.
-use anyhow::{bail, Context, Result};
-use platoon_config::Config;
+use platoon_config::{Config, ConfigError};
+use platoon_output::error::OutputError;
 use platoon_output::rundir::RunDir;
 use platoon_sim::Scenario;
 use platoon_synthesis::{
     closed_loop_spectrum, dos_bounds, min_ratio, theorem1_max_decay, Certificate, Coupling, Design,
     Feasibility, Spectrum, StringStability, Verdict,
 };
-use std::path::Path;
+use std::path::{Path, PathBuf};
+
+/// The result of this module's operations.
+pub type Result<T, E = DesignError> = std::result::Result<T, E>;
+
+/// Why a design operation failed, by kind: what a caller branches on (the Python package
+/// raises one exception class per kind). Each message is the one `platoon design` prints. A
+/// gain that (13) does not certify is no error: [`check_gain`] reports it.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum DesignError {
+    /// The config is refused (for a caller that loads and designs with one error type;
+    /// `platoon design` exits 2).
+    #[error(transparent)]
+    Config(#[from] ConfigError),
+    /// Options no design or check can use (a negative time headway, a gain that is not three
+    /// finite numbers, a star fraction outside (0, 1)), refused before anything is computed.
+    #[error("{0}")]
+    Options(String),
+    /// [`synthesize`] found no gain within the bounds asked for.
+    #[error(
+        "infeasible: no gain with |K| <= {k_max} satisfies Theorem {theorem} on this topology ({followers} followers, {policy}) with beta1/beta2 <= {ratio_max} at c = {c} ({seconds:.2} s); raise --k-max or --ratio-max, or lower --c{}",
+        headway_hint(.time_headway_s)
+    )]
+    Infeasible {
+        /// 1 or 2.
+        theorem: u8,
+        /// The followers of the topology.
+        followers: usize,
+        /// The spacing policy, in words.
+        policy: String,
+        /// Its time headway (s; 0: constant spacing).
+        time_headway_s: f64,
+        /// The bound on |K|.
+        k_max: f64,
+        /// The largest beta1/beta2 tried.
+        ratio_max: f64,
+        /// The decay asked for.
+        c: f64,
+        /// How long the search took (s).
+        seconds: f64,
+    },
+    /// The SDP solver failed, or was given inputs out of its range, or this build has none.
+    #[error(transparent)]
+    Solver(#[from] platoon_synthesis::LmiError),
+    /// A certificate file could not be read.
+    #[error("reading {}", path.display())]
+    ReadCertificate {
+        /// The file.
+        path: PathBuf,
+        /// The operating system's error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// A file is not a certificate.
+    #[error("{} is not a certificate", path.display())]
+    NotACertificate {
+        /// The file.
+        path: PathBuf,
+        /// What JSON says of it.
+        #[source]
+        source: serde_json::Error,
+    },
+    /// A designed certificate's P has no inverse (Remark 1's M = P^-1).
+    #[error("the certificate's P is singular")]
+    Singular,
+    /// The output directory or one of its files.
+    #[error(transparent)]
+    Output(#[from] OutputError),
+    /// Anything else (a table that could not be written).
+    #[error(transparent)]
+    Other(anyhow::Error),
+}
+
+operation_error!(DesignError);
+
+impl DesignError {
+    /// The config error this is, if it is one (`platoon design` exits 2 on it), also one that a
+    /// context wrapped.
+    pub fn config(&self) -> Option<&ConfigError> {
+        match self {
+            Self::Config(c) => Some(c),
+            Self::Other(e) => e.downcast_ref(),
+            _ => None,
+        }
+    }
+}
+
+/// What an infeasible design with a time headway adds to its message.
+fn headway_hint(time_headway_s: &f64) -> &'static str {
+    if *time_headway_s > 0.0 {
+        "; with a time headway the gain is designed for constant spacing and then checked, so a smaller --time-headway may pass"
+    } else {
+        ""
+    }
+}
 
 /// Which of the paper's conditions (13) is imposed at.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -67,7 +162,9 @@ pub fn coupling(scenario: &Scenario, time_headway: Option<f64>) -> Result<Coupli
 
 fn check_headway(headway: f64) -> Result<()> {
     if !(headway.is_finite() && headway >= 0.0) {
-        bail!("--time-headway {headway}: must be a finite number of seconds >= 0 (0: constant spacing)");
+        return Err(DesignError::Options(format!(
+            "--time-headway {headway}: must be a finite number of seconds >= 0 (0: constant spacing)"
+        )));
     }
     Ok(())
 }
@@ -130,7 +227,9 @@ impl CheckOptions {
         }
         if let Some(k) = self.gain {
             if !k.iter().all(|x| x.is_finite()) {
-                bail!("gain {k:?}: expected three finite numbers");
+                return Err(DesignError::Options(format!(
+                    "gain {k:?}: expected three finite numbers"
+                )));
             }
         }
         Ok(())
@@ -326,9 +425,15 @@ impl CheckReport {
 
 /// Reads a certificate (`certificate*.json`).
 pub fn read_certificate(file: &Path) -> Result<Certificate> {
-    let text =
-        std::fs::read_to_string(file).with_context(|| format!("reading {}", file.display()))?;
-    serde_json::from_str(&text).with_context(|| format!("{} is not a certificate", file.display()))
+    let path = || file.to_path_buf();
+    let text = std::fs::read_to_string(file).map_err(|source| DesignError::ReadCertificate {
+        path: path(),
+        source,
+    })?;
+    serde_json::from_str(&text).map_err(|source| DesignError::NotACertificate {
+        path: path(),
+        source,
+    })
 }
 
 /// Re-checks a certificate independently of the solver: (13) assembled from its numbers, its
@@ -415,7 +520,9 @@ impl SynthesisOptions {
     /// non-finite time headway), before anything is computed.
     pub fn validate(&self) -> Result<()> {
         if !(self.star_fraction > 0.0 && self.star_fraction < 1.0) {
-            bail!("--star-fraction must be in (0, 1)");
+            return Err(DesignError::Options(
+                "--star-fraction must be in (0, 1)".into(),
+            ));
         }
         if let Some(h) = self.time_headway {
             check_headway(h)?;
@@ -520,11 +627,16 @@ pub fn synthesize(
     let started = std::time::Instant::now();
     let design = platoon_synthesis::design_theorem1(&spec, &g)?;
     let Some(d) = design else {
-        bail!(
-            "infeasible: no gain with |K| <= {} satisfies Theorem {} on this topology ({n} followers, {}) with beta1/beta2 <= {} at c = {} ({:.2} s); raise --k-max or --ratio-max, or lower --c{}",
-            opts.k_max, opts.theorem.number(), platoon_control::SpacingPolicy::from_headway(g.headway), opts.ratio_max, opts.c, started.elapsed().as_secs_f64(),
-            if g.headway > 0.0 { "; with a time headway the gain is designed for constant spacing and then checked, so a smaller --time-headway may pass" } else { "" }
-        );
+        return Err(DesignError::Infeasible {
+            theorem: opts.theorem.number(),
+            followers: n,
+            policy: platoon_control::SpacingPolicy::from_headway(g.headway).to_string(),
+            time_headway_s: g.headway,
+            k_max: opts.k_max,
+            ratio_max: opts.ratio_max,
+            c: opts.c,
+            seconds: started.elapsed().as_secs_f64(),
+        });
     };
     // The decay it guarantees (ratio kept within twice the design's) and what DoS it tolerates.
     let decay = d.guaranteed_decay(&g, &taus)?;
@@ -553,9 +665,7 @@ pub fn synthesize(
                 .map(move |b| platoon_synthesis::growth_rate(b, t))
         })
         .fold(0.0, f64::max);
-    let minv = p
-        .try_inverse()
-        .ok_or_else(|| anyhow::anyhow!("the certificate's P is singular"))?;
+    let minv = p.try_inverse().ok_or(DesignError::Singular)?;
     let varsigma_star = opts.star_fraction * varsigma1;
     let h_s = f64::from(scenario.control.h_steps) * scenario.dt();
     // One Lyapunov matrix in and out of attacks: Q = P, so phi = 1.

@@ -9,9 +9,9 @@
 //! [`Progress`].
 use crate::progress::Progress;
 use crate::run::{record, simulate, write_outputs, StepSink, Stop};
-use anyhow::{bail, Result};
 use platoon_config::{Config, ConfigError, Embedded};
 use platoon_control::TriggerRule;
+use platoon_output::error::OutputError;
 use platoon_output::plots::{self, Series};
 use platoon_output::rundir::RunDir;
 use platoon_sim::{SafetyClass, Scenario, StepRow, StepWire, Summary};
@@ -42,6 +42,80 @@ pub use scaling::*;
 pub use table1::*;
 pub use topologies::*;
 pub use traffic::{traffic, Traffic, TrafficOptions, TrafficRow, ATTACKS as TRAFFIC_ATTACKS};
+
+/// The result of the experiments.
+pub type Result<T, E = ExperimentError> = std::result::Result<T, E>;
+
+/// Why an experiment failed, by kind: what a caller branches on. Each message is the one
+/// `platoon experiment` prints.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum ExperimentError {
+    /// The base config is refused ([`Base::load`]'s error, for a caller that loads and runs
+    /// with one error type; `platoon experiment` exits 2).
+    #[error(transparent)]
+    Config(#[from] ConfigError),
+    /// Options no experiment can use (an empty list, a size of 0, an unknown name), refused
+    /// before anything runs.
+    #[error("{0}")]
+    Options(String),
+    /// The base config is valid but not one this experiment can start from (Table I needs the
+    /// dynamic trigger; Fig. 10 its parameters and Assumption 2's bounds).
+    #[error("{0}")]
+    Base(String),
+    /// A scenario the experiment makes of the base (a law, a topology, a size, an attack)
+    /// does not resolve; the message names it and the key.
+    #[error("{0}")]
+    Variant(String),
+    /// No gain within the bound was found for a design the experiment needs (Fig. 9).
+    #[error("infeasible: no design for {design} with |K| <= {k_max}")]
+    Infeasible {
+        /// The design (`tau = 0.5`, `robust`).
+        design: String,
+        /// The bound on |K|.
+        k_max: f64,
+    },
+    /// The SDP solver failed (or this build has none).
+    #[error(transparent)]
+    Solver(#[from] platoon_synthesis::LmiError),
+    /// A run of the experiment, in process, refused its scenario or failed.
+    #[error(transparent)]
+    Run(#[from] platoon_sim::ScenarioError),
+    /// The output directory or one of its files.
+    #[error(transparent)]
+    Output(#[from] OutputError),
+    /// Anything else (a table that could not be written, a run that measured nothing).
+    #[error(transparent)]
+    Other(anyhow::Error),
+}
+
+operation_error!(ExperimentError);
+
+impl From<platoon_topology::TopologyError> for ExperimentError {
+    fn from(e: platoon_topology::TopologyError) -> Self {
+        Self::Other(e.into())
+    }
+}
+
+impl ExperimentError {
+    /// The config error this is, if it is one (`platoon experiment` exits 2 on it), also one
+    /// that a context wrapped.
+    pub fn config(&self) -> Option<&ConfigError> {
+        match self {
+            Self::Config(c) => Some(c),
+            Self::Other(e) => e.downcast_ref(),
+            _ => None,
+        }
+    }
+}
+
+/// Returns an [`ExperimentError`] of `kind` with the message `format!` makes of the rest.
+macro_rules! refuse {
+    ($kind:ident, $($message:tt)+) => {
+        return Err(ExperimentError::$kind(format!($($message)+)))
+    };
+}
+pub(crate) use refuse;
 
 /// The scenario an experiment starts from: its config, what it runs, and how errors name it.
 #[derive(Debug, Clone)]
@@ -74,7 +148,7 @@ impl Base {
 struct Rows(Vec<StepRow>);
 
 impl StepSink for Rows {
-    fn step(&mut self, rows: &[StepRow], _wire: StepWire<'_>) -> Result<()> {
+    fn step(&mut self, rows: &[StepRow], _wire: StepWire<'_>) -> anyhow::Result<()> {
         self.0.extend(rows.iter().take_while(|r| r.platoon == 0));
         Ok(())
     }

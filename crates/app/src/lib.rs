@@ -12,6 +12,8 @@
 #![warn(missing_docs)]
 
 mod bundle;
+#[macro_use]
+mod error;
 pub mod campaign;
 pub mod design;
 pub mod experiment;
@@ -20,8 +22,12 @@ pub mod run;
 pub mod search;
 pub mod sumo;
 
+pub use campaign::CampaignError;
+pub use design::DesignError;
+pub use experiment::ExperimentError;
 pub use progress::Progress;
-pub use run::{RunOptions, RunOutcome, Stop};
+pub use run::{RunError, RunOptions, RunOutcome, Stop};
+pub use search::SearchError;
 
 /// The `platoon` program that runs what needs a process of its own (a co-simulation's nodes,
 /// co-simulated campaign cells, Dask workers' cells, a benchmark's runs): `$PLATOON_PROGRAM`

@@ -31,6 +31,62 @@ mod report;
 pub use driver::run;
 pub use file::*;
 
+/// Why [`run`] failed, by kind: what a caller branches on. Each message is the one
+/// `platoon search` prints. A candidate whose run fails is no error: it is an evaluation with
+/// its error. A search file that is refused is [`load`]'s and [`parse`]'s `ConfigError`.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum SearchError {
+    /// A config is refused: the search file (for a caller that loads and runs with one error
+    /// type; `platoon search` exits 2), or the worst schedule's.
+    #[error(transparent)]
+    Config(#[from] ConfigError),
+    /// The output directory or one of its files.
+    #[error(transparent)]
+    Output(#[from] platoon_output::error::OutputError),
+    /// A strategy cannot start on a problem (its budget or settings do not fit the problem's
+    /// grid).
+    #[error("{problem}")]
+    Strategy {
+        /// The problem's label.
+        problem: String,
+        /// The setting and what is wrong with it.
+        #[source]
+        source: platoon_search::SearchError,
+    },
+    /// The executor failed before a batch was in (the local pool's, Dask's, the caller's).
+    #[error(transparent)]
+    Executor(anyhow::Error),
+    /// The worst schedule's re-run into `worst/` failed.
+    #[error(transparent)]
+    Worst(#[from] crate::run::RunError),
+    /// The worst schedule re-run gave another harm than it did as a candidate: a bug.
+    #[error("{problem}: the worst schedule re-run did not reproduce its harm ({harm:?}): a bug, please report it")]
+    NotReproduced {
+        /// The problem's label.
+        problem: String,
+        /// Its harm as a candidate.
+        harm: Option<f64>,
+    },
+    /// Anything else (a figure that could not be drawn, a summary that could not be read).
+    #[error(transparent)]
+    Other(anyhow::Error),
+}
+
+operation_error!(SearchError);
+
+impl SearchError {
+    /// The config error this is, if it is one, also one that a context wrapped.
+    pub fn config(&self) -> Option<&ConfigError> {
+        match self {
+            Self::Config(c) => Some(c),
+            Self::Worst(r) => r.config(),
+            Self::Executor(e) | Self::Other(e) => e.downcast_ref(),
+            _ => None,
+        }
+    }
+}
+
 /// What the attacker maximises, read from a run's summary.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Harm {

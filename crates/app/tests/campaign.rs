@@ -2,7 +2,8 @@
 //! every cell equal the pure core's, the files go only into the campaign directory, any
 //! executor gives the same bytes, and a stopped campaign resumes.
 use platoon_app::campaign::{
-    self, Campaign, CampaignOptions, CellJob, CellReply, CellStatus, Executor, LocalPool,
+    self, Campaign, CampaignError, CampaignOptions, CellJob, CellReply, CellStatus, Executor,
+    LocalPool,
 };
 use platoon_app::Stop;
 use platoon_campaign::metrics;
@@ -382,4 +383,49 @@ fn a_callers_controller_runs_in_process_cells() {
             theirs.summary_json().unwrap()["triggers_total"]
         );
     }
+}
+
+/// An executor of the caller's that fails after the first cell.
+struct Failing;
+
+impl Executor for Failing {
+    fn name(&self) -> String {
+        "failing".into()
+    }
+
+    fn execute(
+        &self,
+        jobs: &[CellJob],
+        _dir: &Path,
+        _stop: &Stop,
+        record: &mut dyn FnMut(CellReply) -> anyhow::Result<()>,
+    ) -> anyhow::Result<()> {
+        record(campaign::execute(&jobs[0], None))?;
+        anyhow::bail!("the cluster went away")
+    }
+}
+
+#[test]
+fn a_campaigns_failures_come_back_by_kind() {
+    let tmp = tempfile::tempdir().unwrap();
+    let c = two(tmp.path());
+    let out = tmp.path().join("two");
+    // The executor's: the cells done are recorded, the directory stays unfinished.
+    let done = campaign::run(&c, &out, &no_plots(), &Failing, &Stop::default(), &()).unwrap();
+    let Some(CampaignError::Executor(e)) = &done.failure else {
+        panic!("{:?}", done.failure);
+    };
+    assert_eq!(e.to_string(), "the cluster went away");
+    assert!(!done.committed && done.count(CellStatus::Ok) == 1);
+
+    // A directory that is not a campaign's is refused: nothing runs.
+    let mine = tmp.path().join("mine");
+    std::fs::create_dir(&mine).unwrap();
+    std::fs::write(mine.join("notes.txt"), "mine").unwrap();
+    let e = campaign::run(&c, &mine, &no_plots(), &Failing, &Stop::default(), &()).unwrap_err();
+    let CampaignError::Output(o) = &e else {
+        panic!("{e:?}");
+    };
+    assert_eq!(o.path(), Some(mine.as_path()), "{e}");
+    assert!(e.config().is_none());
 }

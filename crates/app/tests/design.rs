@@ -1,6 +1,8 @@
 //! `platoon_app::design` as library calls: the figures `platoon design` prints, in memory, and
 //! the files only where the caller says.
-use platoon_app::design::{self, BoundsOptions, CheckOptions, SynthesisOptions, Theorem};
+use platoon_app::design::{
+    self, BoundsOptions, CheckOptions, DesignError, SynthesisOptions, Theorem,
+};
 use platoon_config::Embedded;
 use platoon_output::rundir::RunDir;
 
@@ -81,6 +83,7 @@ fn options_a_design_cannot_use_are_refused_before_anything_is_computed() {
         ..CheckOptions::default()
     };
     let e = design::check_gain(&config, &scenario, &bad).unwrap_err();
+    assert!(matches!(e, DesignError::Options(_)), "{e:?}");
     assert!(e.to_string().contains("-1"), "{e}");
     let nan = CheckOptions {
         gain: Some([1.0, f64::NAN, 2.0]),
@@ -93,6 +96,7 @@ fn options_a_design_cannot_use_are_refused_before_anything_is_computed() {
             ..SynthesisOptions::default()
         };
         let e = design::synthesize(&config, &scenario, &opts).unwrap_err();
+        assert!(matches!(e, DesignError::Options(_)), "{e:?}");
         assert!(e.to_string().contains("(0, 1)"), "{e}");
     }
     assert_eq!(Theorem::from_number(2), Some(Theorem::Robust));
@@ -148,4 +152,29 @@ fn synthesis_returns_a_certified_design_and_its_bounds() {
     };
     let e = design::synthesize(&config, &scenario, &none).unwrap_err();
     assert!(e.to_string().starts_with("infeasible"), "{e}");
+    let DesignError::Infeasible {
+        theorem,
+        followers,
+        k_max,
+        ..
+    } = e
+    else {
+        panic!("{e:?}");
+    };
+    assert_eq!((theorem, followers, k_max), (1, 4, 0.01));
+
+    // A certificate that is not there, or not one.
+    let missing = tmp.path().join("missing.json");
+    let e = design::read_certificate(&missing).unwrap_err();
+    assert!(
+        matches!(&e, DesignError::ReadCertificate { path, .. } if *path == missing),
+        "{e:?}"
+    );
+    assert_eq!(format!("{e}"), format!("reading {}", missing.display()));
+    let e = design::read_certificate(&out.join("design.json")).unwrap_err();
+    assert!(matches!(e, DesignError::NotACertificate { .. }), "{e:?}");
+    assert!(
+        e.to_string().ends_with("design.json is not a certificate"),
+        "{e}"
+    );
 }

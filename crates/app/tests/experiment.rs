@@ -1,6 +1,9 @@
 //! `platoon_app::experiment` as library calls: the counts and tables `platoon experiment`
 //! prints, in memory with no files, the same with a run directory, and progress heard.
-use platoon_app::experiment::{self, Base, DegradationOptions, ScalingOptions, TopologiesOptions};
+use platoon_app::experiment::{
+    self, Base, DegradationOptions, ExperimentError, RobustOptions, ScalingOptions,
+    TopologiesOptions,
+};
 use platoon_app::Progress;
 use platoon_config::Embedded;
 use platoon_output::rundir::RunDir;
@@ -80,6 +83,7 @@ fn unusable_bases_and_options_are_refused() {
     static_rule.scenario.control.rule = platoon_control::TriggerRule::Static;
     assert!(experiment::check_table1_base(&paper).is_ok());
     let e = experiment::table1(&static_rule, None, &()).unwrap_err();
+    assert!(matches!(e, ExperimentError::Base(_)), "{e:?}");
     assert!(e.to_string().contains("dynamic"), "{e}");
     assert!(experiment::check_topologies_base(&static_rule).is_err());
     let mut no_bounds = paper.clone();
@@ -92,7 +96,19 @@ fn unusable_bases_and_options_are_refused() {
     };
     assert!(experiment::topologies(&paper, &sizes, None, &()).is_err());
     let followers = DegradationOptions { followers: vec![] };
-    assert!(experiment::degradation(&paper, &followers, None, &()).is_err());
+    let e = experiment::degradation(&paper, &followers, None, &()).unwrap_err();
+    assert!(matches!(e, ExperimentError::Options(_)), "{e:?}");
+    // No gain within a bound that small: the design Fig. 9 needs is infeasible.
+    let tiny = RobustOptions { k_max: 0.01 };
+    let e = experiment::robust(&paper, &tiny, None, &()).unwrap_err();
+    assert!(
+        matches!(&e, ExperimentError::Infeasible { k_max, .. } if *k_max == 0.01),
+        "{e:?}"
+    );
+    assert!(
+        e.to_string().starts_with("infeasible: no design for"),
+        "{e}"
+    );
     for bad in [
         ScalingOptions {
             sizes: vec![4, 0],

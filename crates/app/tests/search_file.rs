@@ -1,4 +1,8 @@
-//! A search file's errors name the line its key stands on.
+//! A search file's errors name the line its key stands on; a search's failures come back by
+//! kind.
+use platoon_app::campaign::{CellJob, CellReply, Executor};
+use platoon_app::search::{SearchError, SearchOptions};
+use platoon_app::Stop;
 use std::path::Path;
 
 #[test]
@@ -40,4 +44,49 @@ fn the_search_reference_is_current() {
         "PLATOON_BLESS=1 cargo test -p platoon-app --test search_file",
     )
     .unwrap_or_else(|e| panic!("{e}"));
+}
+
+/// An executor of the caller's that fails at once.
+struct Failing;
+
+impl Executor for Failing {
+    fn name(&self) -> String {
+        "failing".into()
+    }
+
+    fn execute(
+        &self,
+        _jobs: &[CellJob],
+        _dir: &Path,
+        _stop: &Stop,
+        _record: &mut dyn FnMut(CellReply) -> anyhow::Result<()>,
+    ) -> anyhow::Result<()> {
+        anyhow::bail!("the cluster went away")
+    }
+}
+
+#[test]
+fn a_searchs_failures_come_back_by_kind() {
+    let tmp = tempfile::tempdir().unwrap();
+    let search = platoon_app::search::parse("", &tmp.path().join("s.toml"), Some(2)).unwrap();
+    let opts = SearchOptions {
+        force: false,
+        plots: false,
+    };
+    let out = tmp.path().join("s");
+    let e = platoon_app::search::run(&search, &out, &opts, &Failing, &Stop::default(), &())
+        .unwrap_err();
+    let SearchError::Executor(inner) = &e else {
+        panic!("{e:?}");
+    };
+    assert_eq!(inner.to_string(), "the cluster went away");
+    assert!(e.config().is_none());
+    assert!(!out.exists(), "an unfinished search is not committed");
+
+    // A directory that is there is refused before anything runs.
+    std::fs::create_dir(&out).unwrap();
+    let e = platoon_app::search::run(&search, &out, &opts, &Failing, &Stop::default(), &())
+        .unwrap_err();
+    assert!(matches!(e, SearchError::Output(_)), "{e:?}");
+    assert!(e.to_string().contains("--force"), "{e}");
 }

@@ -70,7 +70,7 @@ pub fn run(args: Args) -> Result<()> {
             "{done} of {cells} cells are done and kept in {}; run the same command again to resume",
             outcome.dir.display()
         );
-        return Err(e);
+        return Err(e.into());
     }
     let (failed, reused) = (outcome.report.failed, outcome.reused());
     println!(

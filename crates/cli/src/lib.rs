@@ -192,11 +192,27 @@ where
     }
 }
 
-/// The config error `e` is, raised as one or as an operation's [`platoon_app::run::RunError`]
-/// kind: the command then exits [`EXIT_BAD_INPUT`].
+/// The config error `e` is, raised as one or as an operation's kind ([`platoon_app::RunError`],
+/// [`platoon_app::CampaignError`], [`platoon_app::SearchError`], [`platoon_app::DesignError`],
+/// [`platoon_app::ExperimentError`]): the command then exits [`EXIT_BAD_INPUT`].
 fn config_error(e: &anyhow::Error) -> Option<&platoon_config::ConfigError> {
-    e.downcast_ref::<platoon_config::ConfigError>().or_else(|| {
-        e.downcast_ref::<platoon_app::run::RunError>()
-            .and_then(|r| r.config())
-    })
+    use platoon_app::{CampaignError, DesignError, ExperimentError, RunError, SearchError};
+    e.downcast_ref::<platoon_config::ConfigError>()
+        .or_else(|| e.downcast_ref::<RunError>().and_then(RunError::config))
+        .or_else(|| {
+            e.downcast_ref::<CampaignError>()
+                .and_then(CampaignError::config)
+        })
+        .or_else(|| {
+            e.downcast_ref::<SearchError>()
+                .and_then(SearchError::config)
+        })
+        .or_else(|| {
+            e.downcast_ref::<DesignError>()
+                .and_then(DesignError::config)
+        })
+        .or_else(|| {
+            e.downcast_ref::<ExperimentError>()
+                .and_then(ExperimentError::config)
+        })
 }

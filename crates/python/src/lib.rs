@@ -52,8 +52,8 @@ create_exception!(
     _core,
     OutputError,
     PlatoonError,
-    "A run's files could not be written or read. Attribute: `path` (the file or directory, \
-     None when unknown)."
+    "The files of a run or a campaign could not be written or read. Attribute: `path` (the \
+     file or directory, None when unknown)."
 );
 
 /// A co-simulation that failed, and where what it recorded is kept: its message says both.
@@ -77,17 +77,14 @@ impl std::fmt::Display for Recorded {
 impl std::error::Error for Recorded {}
 
 /// The Python exception for `e`, by its kind: [`ConfigError`] with its attributes for a
-/// config error, [`NodeError`] for a run's failed process, [`OutputError`] for its files,
-/// else [`PlatoonError`]; the message is the whole chain of causes.
+/// config error (a run's, a campaign's, a design's), [`NodeError`] for a run's failed process,
+/// [`OutputError`] for the files of a run or a campaign, else [`PlatoonError`]; the message is
+/// the whole chain of causes.
 fn py_err(py: Python<'_>, e: anyhow::Error) -> PyErr {
     let message = format!("{e:#}");
     let (kind, dir) = match e.downcast_ref::<Recorded>() {
         Some(r) => (Some(&r.failure), Some(&r.dir)),
         None => (e.downcast_ref::<RunError>(), None),
-    };
-    let output = match kind {
-        Some(RunError::Output(o)) => Some(o),
-        _ => e.downcast_ref::<platoon_output::error::OutputError>(),
     };
     if let Some(RunError::Node(n)) = kind {
         let err = NodeError::new_err(message);
@@ -99,17 +96,14 @@ fn py_err(py: Python<'_>, e: anyhow::Error) -> PyErr {
         let _ = value.setattr("run_dir", dir.map(|d| d.display().to_string()));
         return err;
     }
-    if let Some(o) = output {
+    if let Some(o) = output_error(&e, kind) {
         let err = OutputError::new_err(message);
         let _ = err
             .value(py)
             .setattr("path", o.path().map(|p| p.display().to_string()));
         return err;
     }
-    let config = e
-        .downcast_ref::<ConfigFileError>()
-        .or_else(|| kind.and_then(RunError::config));
-    if let Some(c) = config {
+    if let Some(c) = config_error(&e, kind) {
         let err = ConfigError::new_err(c.to_string());
         let value = err.value(py);
         let _ = value.setattr("file", c.file.display().to_string());
@@ -119,6 +113,45 @@ fn py_err(py: Python<'_>, e: anyhow::Error) -> PyErr {
         return err;
     }
     PlatoonError::new_err(message)
+}
+
+/// The output error `e` is: raised as one, or as an operation's kind (`kind`: a run's).
+fn output_error<'a>(
+    e: &'a anyhow::Error,
+    kind: Option<&'a RunError>,
+) -> Option<&'a platoon_output::error::OutputError> {
+    use platoon_app::{CampaignError as C, DesignError as D};
+    match kind {
+        Some(RunError::Output(o)) => Some(o),
+        _ => e
+            .downcast_ref::<platoon_output::error::OutputError>()
+            .or(match e.downcast_ref::<C>() {
+                Some(C::Output(o)) => Some(o),
+                _ => None,
+            })
+            .or(match e.downcast_ref::<D>() {
+                Some(D::Output(o)) => Some(o),
+                _ => None,
+            }),
+    }
+}
+
+/// The config error `e` is: raised as one, or as an operation's kind (`kind`: a run's).
+fn config_error<'a>(
+    e: &'a anyhow::Error,
+    kind: Option<&'a RunError>,
+) -> Option<&'a ConfigFileError> {
+    use platoon_app::{CampaignError, DesignError};
+    e.downcast_ref::<ConfigFileError>()
+        .or_else(|| kind.and_then(RunError::config))
+        .or_else(|| {
+            e.downcast_ref::<CampaignError>()
+                .and_then(CampaignError::config)
+        })
+        .or_else(|| {
+            e.downcast_ref::<DesignError>()
+                .and_then(DesignError::config)
+        })
 }
 
 /// Runs `work` on a thread of its own without the GIL; the calling thread waits, checking for
@@ -535,7 +568,7 @@ fn campaign(
     let done = interruptible(py, Some(&flag), move || -> Result<_> {
         let outcome = platoon_app::campaign::run(&campaign, &out, &opts, &*executor, &stop, &())?;
         if let Some(e) = outcome.failure {
-            return Err(e.context(format!(
+            return Err(anyhow::Error::from(e).context(format!(
                 "the cells done are kept in {}; call again to resume",
                 outcome.dir.display()
             )));

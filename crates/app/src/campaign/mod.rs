@@ -24,6 +24,8 @@ use crate::progress::Progress;
 use crate::run::Stop;
 use anyhow::{Context, Result};
 use platoon_campaign::metrics;
+use platoon_config::ConfigError;
+use platoon_output::error::OutputError;
 use platoon_output::rundir::RunDir;
 use platoon_sim::Summary;
 use report::Table;
@@ -178,8 +180,9 @@ pub struct CampaignOutcome {
     /// What `campaign.json` holds.
     pub report: Report,
     /// Why the executor stopped before every cell was in (the cells done are recorded and the
-    /// directory stays unfinished).
-    pub failure: Option<anyhow::Error>,
+    /// directory stays unfinished): [`CampaignError::Executor`], or [`CampaignError::Output`]
+    /// when a cell's record could not be written.
+    pub failure: Option<CampaignError>,
     /// Why the campaign was stopped, if [`Stop`] asked it to (its reason, e.g. "SIGINT").
     pub stopped: Option<String>,
 }
@@ -193,6 +196,57 @@ impl CampaignOutcome {
     /// How many cells were kept from an earlier, unfinished run.
     pub fn reused(&self) -> usize {
         self.cells.iter().filter(|c| c.reused).count()
+    }
+}
+
+/// Why a campaign failed, by kind: what a caller branches on (the Python package raises one
+/// exception class per kind). Each message is the one `platoon campaign` prints. A cell that
+/// fails is no error: it is recorded with its error ([`CellStatus::Failed`]).
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum CampaignError {
+    /// The campaign file is refused ([`Campaign::load`]'s error, for a caller that loads and
+    /// runs with one error type; `platoon campaign` exits 2).
+    #[error(transparent)]
+    Config(#[from] ConfigError),
+    /// The SUMO environment could not be set up for SUMO cells (the bridge, its venv).
+    #[error(transparent)]
+    Sumo(anyhow::Error),
+    /// The campaign directory or one of its records (`out` exists, a cell's record,
+    /// `cells.csv`, `campaign.json`).
+    #[error(transparent)]
+    Output(#[from] OutputError),
+    /// The executor stopped before every cell was in: a worker pool's, the Dask driver's or
+    /// scheduler's, or the caller's executor's failure ([`CampaignOutcome::failure`]).
+    #[error(transparent)]
+    Executor(anyhow::Error),
+    /// Anything else (a figure that could not be drawn, a directory that could not be pruned).
+    #[error(transparent)]
+    Other(anyhow::Error),
+}
+
+operation_error!(CampaignError);
+
+impl CampaignError {
+    /// The config error this is, if it is one (`platoon campaign` exits 2 on it), also one that
+    /// a context wrapped.
+    pub fn config(&self) -> Option<&ConfigError> {
+        match self {
+            Self::Config(c) => Some(c),
+            Self::Sumo(e) | Self::Executor(e) | Self::Other(e) => e.downcast_ref(),
+            Self::Output(_) => None,
+        }
+    }
+
+    /// An executor's failure: [`CampaignError::Output`] when it is a record that could not be
+    /// written (the record's error, as the executor passed it on), else
+    /// [`CampaignError::Executor`].
+    fn executor(e: anyhow::Error) -> Self {
+        match Self::from(e) {
+            Self::Output(o) => Self::Output(o),
+            Self::Config(c) => Self::Executor(c.into()),
+            Self::Other(e) | Self::Sumo(e) | Self::Executor(e) => Self::Executor(e),
+        }
     }
 }
 
@@ -365,8 +419,9 @@ pub fn evaluate(
 /// unfinished, in [`CampaignOutcome::failure`]. `progress` hears of the cells ("cells"), of
 /// failed ones as a detail, and gets the campaign's messages.
 ///
-/// Errors (nothing run): `out` cannot be opened, the SUMO environment cannot be set up for
-/// SUMO cells, a record cannot be written.
+/// Errors (nothing run): `out` cannot be opened ([`CampaignError::Output`]), the SUMO
+/// environment cannot be set up for SUMO cells ([`CampaignError::Sumo`]), a record cannot be
+/// written.
 pub fn run(
     campaign: &Campaign,
     out: &Path,
@@ -374,13 +429,13 @@ pub fn run(
     executor: &dyn Executor,
     stop: &Stop,
     progress: &dyn Progress,
-) -> Result<CampaignOutcome> {
+) -> Result<CampaignOutcome, CampaignError> {
     if campaign
         .cells
         .iter()
         .any(|c| c.plant == Some(platoon_config::PlantKind::Sumo))
     {
-        crate::sumo::ensure_venv()?;
+        crate::sumo::ensure_venv().map_err(CampaignError::Sumo)?;
     }
     let started = Instant::now();
     let cpu0 = cpu_seconds();
@@ -507,7 +562,7 @@ pub fn run(
         (serde_json::to_string_pretty(&json)? + "\n").as_bytes(),
     )?;
     let columns = table.columns;
-    let failure = executed.err();
+    let failure = executed.err().map(CampaignError::executor);
     let (dir, committed) = if stopped.is_none() && failure.is_none() {
         (dir.commit()?, true)
     } else {

@@ -1,7 +1,6 @@
 //! Controllers side by side under the same attacks ([`controllers`]).
-use super::{in_formation, write_config, Base};
+use super::{in_formation, refuse, write_config, Base, ExperimentError, Result};
 use crate::progress::Progress;
-use anyhow::{anyhow, bail, Result};
 use platoon_config::{
     Attack, DosConfig, LawConfig, LawName, LinkAttackConfig, LinkKindConfig, RuleConfig,
     SpacingConfig, TopologyConfig,
@@ -50,13 +49,17 @@ impl ControllersOptions {
     /// Fails on empty lists or a beacon period that is no period.
     pub fn validate(&self) -> Result<()> {
         if self.laws.is_empty() {
-            bail!("--laws needs at least one law, e.g. paper,ploeg");
+            refuse!(Options, "--laws needs at least one law, e.g. paper,ploeg");
         }
         if self.topologies.is_empty() {
-            bail!("--topologies needs at least one topology, e.g. pf,plf");
+            refuse!(
+                Options,
+                "--topologies needs at least one topology, e.g. pf,plf"
+            );
         }
         if !(self.beacon_period_s.is_finite() && self.beacon_period_s > 0.0) {
-            bail!(
+            refuse!(
+                Options,
                 "--beacon-period must be > 0 s (got {})",
                 self.beacon_period_s
             );
@@ -164,12 +167,13 @@ fn cell(
         // The topology does not give the law whom it reads: a finding, not a failure.
         Err((key, e)) if key == "topology.preset" => return Ok(row(e)),
         Err((key, e)) => {
-            return Err(anyhow!(
+            refuse!(
+                Variant,
                 "{}: key `{key}` with law {} on {} under {attack}: {e}",
                 base.label,
                 law.name(),
                 preset.name()
-            ))
+            )
         }
     };
     let s = platoon_sim::run(scenario, |_| {})?;

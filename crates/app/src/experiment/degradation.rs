@@ -23,7 +23,10 @@ impl DegradationOptions {
     /// Fails on sizes no platoon has, before anything runs or is written.
     pub fn validate(&self) -> Result<()> {
         if self.followers.is_empty() || self.followers.contains(&0) {
-            bail!("--followers needs platoon sizes of at least one follower, e.g. 4,10");
+            refuse!(
+                Options,
+                "--followers needs platoon sizes of at least one follower, e.g. 4,10"
+            );
         }
         Ok(())
     }
@@ -137,7 +140,9 @@ pub fn degradation(
                         ..Default::default()
                     };
                     let scenario = platoon_config::to_scenario(&mut c).map_err(|(key, e)| {
-                        anyhow::anyhow!("{label}: key `{key}` with {n} followers: {e}")
+                        ExperimentError::Variant(format!(
+                            "{label}: key `{key}` with {n} followers: {e}"
+                        ))
                     })?;
                     let s = platoon_sim::run(scenario, |_| {})?;
                     rows.push(DegradationRow {

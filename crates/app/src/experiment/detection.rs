@@ -1,8 +1,8 @@
 //! Every misbehaviour detector against every attack of an insider, measured against ground
 //! truth, with and without a reaction ([`detection`]).
-use super::{write_config, Base};
+use super::{refuse, write_config, Base, ExperimentError, Result};
 use crate::progress::Progress;
-use anyhow::{anyhow, bail, Result};
+use anyhow::anyhow;
 use platoon_config::{Attack, DetectionConfig, LinkAttackConfig, LinkKindConfig};
 use platoon_control::{FallbackMode, Reaction};
 use platoon_output::plots;
@@ -157,7 +157,8 @@ impl DetectionOptions {
     pub fn validate(&self) -> Result<()> {
         for a in &self.attacks {
             if !ATTACKS.contains(&a.as_str()) {
-                bail!(
+                refuse!(
+                    Options,
                     "--attacks: unknown attack {a:?}; use {}",
                     ATTACKS.join(", ")
                 );
@@ -165,32 +166,43 @@ impl DetectionOptions {
         }
         for d in &self.detectors {
             if !DETECTORS.contains(&d.as_str()) {
-                bail!(
+                refuse!(
+                    Options,
                     "--detectors: unknown detector {d:?}; use {}",
                     DETECTORS.join(", ")
                 );
             }
         }
         if self.detectors.is_empty() {
-            bail!("--detectors needs at least one detector, e.g. residual");
+            refuse!(
+                Options,
+                "--detectors needs at least one detector, e.g. residual"
+            );
         }
         if self.attacks.is_empty() && !self.clean {
-            bail!("nothing to run: no attack and no clean run");
+            refuse!(Options, "nothing to run: no attack and no clean run");
         }
         if !self.attacks.is_empty() && self.intensities.is_empty() {
-            bail!("--intensities needs at least one of stealthy, strong");
+            refuse!(
+                Options,
+                "--intensities needs at least one of stealthy, strong"
+            );
         }
         if self.reactions.is_empty() {
-            bail!("--reactions needs at least one of log, fallback");
+            refuse!(Options, "--reactions needs at least one of log, fallback");
         }
         if self.repeats == 0 {
-            bail!("--repeats must be at least 1");
+            refuse!(Options, "--repeats must be at least 1");
         }
         if !(self.duration_s.is_finite() && self.duration_s > 0.0) {
-            bail!("--duration must be > 0 s (got {})", self.duration_s);
+            refuse!(
+                Options,
+                "--duration must be > 0 s (got {})",
+                self.duration_s
+            );
         }
         if !(self.start_s.is_finite() && self.start_s >= 0.0) {
-            bail!("--start must be >= 0 s (got {})", self.start_s);
+            refuse!(Options, "--start must be >= 0 s (got {})", self.start_s);
         }
         Ok(())
     }
@@ -415,10 +427,10 @@ fn run_cell(
         )
     };
     let scenario = platoon_config::to_scenario(&mut c)
-        .map_err(|(key, e)| anyhow!("{}: key `{key}`: {e}", name()))?;
+        .map_err(|(key, e)| ExperimentError::Variant(format!("{}: key `{key}`: {e}", name())))?;
     let summary = platoon_sim::run(scenario, |_| {})?;
     let Some(d) = &summary.detection else {
-        bail!("{}: the run measured no detection", name());
+        return Err(anyhow!("{}: the run measured no detection", name()).into());
     };
     let mut scores: Vec<&DetectorScore> = d.detectors.iter().collect();
     if cell.detectors.len() > 1 {

@@ -81,10 +81,10 @@ pub fn robust(
             ..Default::default()
         };
         let d = platoon_synthesis::design_theorem1(&spec, &h)?.ok_or_else(|| {
-            anyhow::anyhow!(
-                "infeasible: no design for {name} with |K| <= {}",
-                opts.k_max
-            )
+            ExperimentError::Infeasible {
+                design: name.to_string(),
+                k_max: opts.k_max,
+            }
         })?;
         if let Some(dir) = out {
             dir.write(

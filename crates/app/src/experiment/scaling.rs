@@ -40,13 +40,16 @@ impl ScalingOptions {
     /// written.
     pub fn validate(&self) -> Result<()> {
         if self.sizes.is_empty() || self.sizes.contains(&0) {
-            bail!("--sizes needs platoon sizes of at least one follower, e.g. 4,10,25");
+            refuse!(
+                Options,
+                "--sizes needs platoon sizes of at least one follower, e.g. 4,10,25"
+            );
         }
         if !(self.time_headway.is_finite() && self.time_headway > 0.0) {
-            bail!("--time-headway must be a number of seconds > 0");
+            refuse!(Options, "--time-headway must be a number of seconds > 0");
         }
         if self.design_followers == 0 {
-            bail!("--design-followers must be at least 1");
+            refuse!(Options, "--design-followers must be at least 1");
         }
         Ok(())
     }
@@ -236,9 +239,9 @@ pub fn scaling(
                         c.attack = platoon_config::Attack::default();
                     }
                     let scenario = platoon_config::to_scenario(&mut c).map_err(|(key, e)| {
-                        anyhow::anyhow!(
+                        ExperimentError::Variant(format!(
                             "{label}: key `{key}` with {n} followers ({name}, {gain}): {e}"
-                        )
+                        ))
                     })?;
                     let s = platoon_sim::run(scenario, |_| {})?;
                     let worst = ss

@@ -66,7 +66,7 @@ impl Table1 {
 /// parameters define the DETM row), before anything runs or is written.
 pub fn check_table1_base(base: &Base) -> Result<()> {
     if !matches!(base.scenario.control.rule, TriggerRule::Dynamic { .. }) {
-        bail!("the base config must use trigger.rule = \"dynamic\" (its phi, rho, eta, theta0 define the DETM row)");
+        refuse!(Base, "the base config must use trigger.rule = \"dynamic\" (its phi, rho, eta, theta0 define the DETM row)");
     }
     Ok(())
 }

@@ -27,7 +27,10 @@ impl TopologiesOptions {
     /// Fails on sizes no platoon has, before anything runs or is written.
     pub fn validate(&self) -> Result<()> {
         if self.sizes.is_empty() || self.sizes.contains(&0) {
-            bail!("--sizes needs platoon sizes of at least one follower, e.g. 2,4,6");
+            refuse!(
+                Options,
+                "--sizes needs platoon sizes of at least one follower, e.g. 2,4,6"
+            );
         }
         Ok(())
     }
@@ -43,10 +46,13 @@ pub fn check_topologies_base(base: &Base) -> Result<()> {
 /// The dynamic rule's (phi, rho, eta) and the Assumption-2 bounds of `base`.
 fn dynamic_with_bounds(base: &Scenario) -> Result<((f64, f64, f64), platoon_attacks::Assumption2)> {
     let TriggerRule::Dynamic { phi, rho, eta, .. } = base.control.rule else {
-        bail!("the base config must use trigger.rule = \"dynamic\" (varsigma1 depends on its phi, rho, eta)");
+        refuse!(Base, "the base config must use trigger.rule = \"dynamic\" (varsigma1 depends on its phi, rho, eta)");
     };
     let Some(a2) = base.assumption2 else {
-        bail!("the base config needs [attack.assumption2] bounds (T2, D2) for the DoS condition");
+        refuse!(
+            Base,
+            "the base config needs [attack.assumption2] bounds (T2, D2) for the DoS condition"
+        );
     };
     Ok(((phi, rho, eta), a2))
 }

@@ -2,7 +2,8 @@
 //! cells, their harms read back, and the worst schedule re-run and checked.
 use super::report::{study_tables, write_problem};
 use super::{
-    Evaluation, Found, MethodOutcome, Problem, ProblemOutcome, Search, SearchOptions, SearchOutcome,
+    Evaluation, Found, MethodOutcome, Problem, ProblemOutcome, Search, SearchError, SearchOptions,
+    SearchOutcome,
 };
 use crate::campaign::{CellJob, CellReply, Executor};
 use crate::progress::Progress;
@@ -22,16 +23,18 @@ pub(super) fn execute(
     jobs: &[CellJob],
     dir: &Path,
     stop: &Stop,
-) -> Result<Vec<Option<CellReply>>> {
+) -> Result<Vec<Option<CellReply>>, SearchError> {
     let mut replies: Vec<Option<CellReply>> = vec![None; jobs.len()];
-    executor.execute(jobs, dir, stop, &mut |r: CellReply| {
-        let i = r.index;
-        match replies.get_mut(i) {
-            Some(slot) => *slot = Some(r),
-            None => bail!("a worker replied for job {i}, which this batch does not have"),
-        }
-        Ok(())
-    })?;
+    executor
+        .execute(jobs, dir, stop, &mut |r: CellReply| {
+            let i = r.index;
+            match replies.get_mut(i) {
+                Some(slot) => *slot = Some(r),
+                None => bail!("a worker replied for job {i}, which this batch does not have"),
+            }
+            Ok(())
+        })
+        .map_err(SearchError::Executor)?;
     Ok(replies)
 }
 
@@ -45,7 +48,7 @@ pub(super) fn evaluate(
     executor: &dyn Executor,
     dir: &Path,
     stop: &Stop,
-) -> Result<Vec<Evaluation>> {
+) -> Result<Vec<Evaluation>, SearchError> {
     let jobs: Vec<CellJob> = schedules
         .iter()
         .enumerate()
@@ -111,7 +114,7 @@ pub(super) fn drive(
     stop: &Stop,
     progress: &dyn Progress,
     done: &mut u64,
-) -> Result<MethodOutcome> {
+) -> Result<MethodOutcome, SearchError> {
     let started = Instant::now();
     let total = search.spec.evaluations;
     let mut history: Vec<Evaluation> = Vec::with_capacity(total);
@@ -199,7 +202,7 @@ pub fn run(
     executor: &dyn Executor,
     stop: &Stop,
     progress: &dyn Progress,
-) -> Result<SearchOutcome> {
+) -> Result<SearchOutcome, SearchError> {
     let started = Instant::now();
     let dir = RunDir::create(out, opts.force)?;
     let staging = dir.staging().to_path_buf();
@@ -316,7 +319,7 @@ pub(super) fn run_problem(
     stop: &Stop,
     progress: &dyn Progress,
     done: &mut u64,
-) -> Result<ProblemOutcome> {
+) -> Result<ProblemOutcome, SearchError> {
     let spec = &search.spec;
     let staging = dir.staging().to_path_buf();
     let mut methods = Vec::new();
@@ -328,7 +331,7 @@ pub(super) fn run_problem(
         spec.evaluations,
         spec.seed,
     )
-    .map_err(|e| anyhow::anyhow!("{}: {e}", problem.label))?;
+    .map_err(strategy(problem))?;
     let population = spec.search.population;
     methods.push(drive(
         search,
@@ -353,7 +356,7 @@ pub(super) fn run_problem(
                     spec.random.settings(),
                     spec.random.seed.unwrap_or(spec.seed),
                 )
-                .map_err(|e| anyhow::anyhow!("{}: {e}", problem.label))?,
+                .map_err(strategy(problem))?,
             ),
             _ => Box::new(
                 GridSampler::new(
@@ -363,7 +366,7 @@ pub(super) fn run_problem(
                     &search.grid_values.1,
                     spec.evaluations,
                 )
-                .map_err(|e| anyhow::anyhow!("{}: {e}", problem.label))?,
+                .map_err(strategy(problem))?,
             ),
         };
         let before = *done;
@@ -427,15 +430,22 @@ pub(super) fn run_problem(
             let again = rerun_worst(search, problem, &schedule, dir, sub, opts, stop, &plugins)?;
             outcome.reproduced = Some(again.map(|s| search.harm.value(&s)) == Some(harm));
             if outcome.reproduced == Some(false) {
-                bail!(
-                    "{}: the worst schedule re-run did not reproduce its harm ({:?}): a bug, please report it",
-                    problem.label,
-                    harm
-                );
+                return Err(SearchError::NotReproduced {
+                    problem: problem.label.clone(),
+                    harm,
+                });
             }
         }
     }
     Ok(outcome)
+}
+
+/// A strategy's refusal of `problem`, as [`SearchError::Strategy`].
+fn strategy(problem: &Problem) -> impl Fn(platoon_search::SearchError) -> SearchError + '_ {
+    |source| SearchError::Strategy {
+        problem: problem.label.clone(),
+        source,
+    }
 }
 
 /// The score of `method`'s best (as the run measured it).
@@ -460,14 +470,15 @@ pub(super) fn rerun_worst(
     opts: &SearchOptions,
     stop: &Stop,
     plugins: &crate::campaign::CellPlugins,
-) -> Result<Option<Summary>> {
+) -> Result<Option<Summary>, SearchError> {
     let mut config = problem.config_of(schedule);
     let text = platoon_config::to_toml(&config);
     let (_, scenario) = platoon_config::parse(&text, Path::new("worst.toml"))?;
     if plugins.any() {
         let summary = platoon_sim::run_until_plugins(&scenario, &plugins.plugins(), |_| {
             std::ops::ControlFlow::Continue(())
-        })?;
+        })
+        .map_err(anyhow::Error::from)?;
         return Ok(metrics::read(&serde_json::to_value(summary)?).ok());
     }
     let out = dir.staging().join(sub).join("worst");
