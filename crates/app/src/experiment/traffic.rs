@@ -1,7 +1,6 @@
 //! Cut-ins by law and attack ([`traffic`]).
-use super::{configure_law, in_formation, write_config, Base};
+use super::{configure_law, in_formation, refuse, write_config, Base, ExperimentError, Result};
 use crate::progress::Progress;
-use anyhow::{anyhow, bail, Result};
 use platoon_config::{LawConfig, LawName, LinkAttackConfig, LinkKindConfig, SpacingConfig};
 use platoon_output::plots;
 use platoon_output::rundir::RunDir;
@@ -44,25 +43,37 @@ impl TrafficOptions {
     /// Fails on empty lists, unknown attacks and values that are no gaps or speeds.
     pub fn validate(&self) -> Result<()> {
         if self.laws.is_empty() {
-            bail!("--laws needs at least one law, e.g. paper,ploeg");
+            refuse!(Options, "--laws needs at least one law, e.g. paper,ploeg");
         }
         if self.gaps_m.is_empty() || self.gaps_m.iter().any(|g| !(g.is_finite() && *g >= 0.0)) {
-            bail!("--gaps needs gaps >= 0 m, e.g. 3,6 (got {:?})", self.gaps_m);
+            refuse!(
+                Options,
+                "--gaps needs gaps >= 0 m, e.g. 3,6 (got {:?})",
+                self.gaps_m
+            );
         }
         if self.speed_diffs_mps.is_empty() || self.speed_diffs_mps.iter().any(|v| !v.is_finite()) {
-            bail!("--speed-diffs needs finite speeds in m/s, e.g. -4,0");
+            refuse!(
+                Options,
+                "--speed-diffs needs finite speeds in m/s, e.g. -4,0"
+            );
         }
         if self.attacks.is_empty() {
-            bail!("--attacks needs at least one of {}", ATTACKS.join(", "));
+            refuse!(
+                Options,
+                "--attacks needs at least one of {}",
+                ATTACKS.join(", ")
+            );
         }
         if let Some(a) = self.attacks.iter().find(|a| !ATTACKS.contains(&a.as_str())) {
-            bail!(
+            refuse!(
+                Options,
                 "--attacks: unknown attack {a:?}; use {}",
                 ATTACKS.join(", ")
             );
         }
         if self.repeats == 0 {
-            bail!("--repeats must be at least 1");
+            refuse!(Options, "--repeats must be at least 1");
         }
         Ok(())
     }
@@ -123,7 +134,8 @@ pub fn traffic(
 ) -> Result<Traffic> {
     opts.validate()?;
     if base.config.cut_ins.is_empty() {
-        bail!(
+        refuse!(
+            Base,
             "{}: has no [[cut_ins]]; the experiment varies the first one",
             base.label
         );
@@ -187,13 +199,12 @@ fn cell(
                 last = Some(e);
                 continue;
             }
-            Err((key, e)) => {
-                return Err(anyhow!(
-                    "{}: key `{key}` with law {} under {attack}: {e}",
-                    base.label,
-                    law.name()
-                ))
-            }
+            Err((key, e)) => refuse!(
+                Variant,
+                "{}: key `{key}` with law {} under {attack}: {e}",
+                base.label,
+                law.name()
+            ),
         };
         let s = platoon_sim::run(scenario, |_| {})?;
         let time_in = |v: &platoon_sim::VehicleSummary, mode: Option<&str>| {
@@ -221,11 +232,11 @@ fn cell(
             missed: any(|c| c.fn_),
         });
     }
-    Err(anyhow!(
+    Err(ExperimentError::Variant(format!(
         "law {} runs on neither pf nor plf: {}",
         law.name(),
         last.unwrap_or_default()
-    ))
+    )))
 }
 
 /// The base config with `law` on `preset` as [`traffic`] runs it: the law's own beaconing, its
