@@ -28,6 +28,7 @@ pub mod composed;
 mod controller;
 pub mod fallback;
 pub mod laws;
+mod radar;
 pub mod screening;
 pub mod seam;
 mod spacing;
