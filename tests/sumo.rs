@@ -1068,6 +1068,23 @@ fn seeded_background_traffic_drives_beside_the_platoon_without_touching_it() {
     bg.sort_unstable();
     bg.dedup();
     assert_eq!(bg.len(), 30);
+    // Without the lane-change keys plant.json and the routes are what they were: no new keys,
+    // background vehicles that keep their lanes, no lane-change output.
+    let spec = json(&tmp.path().join("bg/plant.json"));
+    for key in [
+        "background_lane_changes",
+        "background_on_platoon_lanes",
+        "background_truck_share",
+        "lanechanges",
+    ] {
+        assert!(spec["sumo"].get(key).is_none(), "{key}");
+    }
+    let routes = std::fs::read_to_string(tmp.path().join("bg/routes.rou.xml")).unwrap();
+    assert!(routes.contains(
+        "<vType id=\"background\" length=\"4.5\" minGap=\"2.5\" maxSpeed=\"36\" \
+         lcStrategic=\"0\" lcCooperative=\"0\" lcSpeedGain=\"0\" lcKeepRight=\"0\"/>"
+    ));
+    assert!(!tmp.path().join("bg/lanechanges.xml").exists());
     // The platoon (speed mode 0, its own lane) is not affected at all.
     assert!(
         std::fs::read(tmp.path().join("bg/trajectories.csv")).unwrap()
@@ -1616,4 +1633,118 @@ fn a_cut_in_on_sumo_is_seen_at_its_step_and_agrees_with_the_native_plant() {
             );
         }
     }
+}
+
+/// Background traffic that changes lanes (SUMO's LC2013) and shares the platoon's lane, around
+/// the platoon of `configs/cut-in.toml` without its scripted car, its spacing doubled to 40 m,
+/// with `[fallback.cut_in]` and the guard on: 200 vehicles, a fifth of them trucks, eager to
+/// gain speed and accepting a tenth of the usual gaps, over 120 s on the default 3-lane
+/// highway. The run completes with no teleport and no collision, the vehicles start clear of
+/// the platoon, change lanes into the platoon's lane, and some cut into the platoon: the
+/// follower behind runs ACC on the car and returns to its law once it has gone.
+#[test]
+fn lane_changing_background_traffic_shares_the_platoons_lane() {
+    let tmp = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(repo().join("configs/cut-in.toml")).unwrap();
+    let base = &text[..text.find("[[cut_ins]]").unwrap()];
+    let config = tmp.path().join("lanes.toml");
+    std::fs::write(
+        &config,
+        base.replace("duration_s = 70.0", "duration_s = 120.0")
+            .replace("spacing_m = 20.0", "spacing_m = 40.0")
+            + "\n[guard]\nenabled = true\n\n[sumo]\nstart_m = 400.0\n\
+               background_vehicles = 200\nbackground_seed = 11\n\
+               background_on_platoon_lanes = true\nbackground_truck_share = 0.2\n\
+               background_lane_changes = { assertive = 10.0, speed_gain = 5.0 }\n",
+    )
+    .unwrap();
+    ok(&platoon(
+        &[
+            "run",
+            config.to_str().unwrap(),
+            "--plant",
+            "sumo",
+            "--out",
+            "r",
+            "--no-plots",
+        ],
+        tmp.path(),
+    ));
+    let run = tmp.path().join("r");
+    let report = json(&run.join("sumo.json"));
+    assert_eq!(report["teleports"], serde_json::json!([]));
+    assert_eq!(report["collisions"], serde_json::json!([]));
+    assert_eq!(json(&run.join("summary.json"))["safety"]["collided"], false);
+    // Every background vehicle starts on the road, at least 50 m clear of the platoon on its
+    // lane: ahead of the leader's front or behind the last follower's rear.
+    let spec = json(&run.join("plant.json"));
+    let offset = spec["sumo"]["offset_m"].as_f64().unwrap();
+    let platoon_lane = spec["lanes"][0].as_u64().unwrap().to_string();
+    let p: Vec<f64> = spec["initial"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x[0].as_f64().unwrap() + offset)
+        .collect();
+    let (rear, front) = (p[p.len() - 1] - 4.5, p[0]);
+    let routes = std::fs::read_to_string(run.join("routes.rou.xml")).unwrap();
+    let doc = roxmltree::Document::parse(&routes).unwrap();
+    let bg: Vec<_> = doc
+        .descendants()
+        .filter(|n| n.attribute("id").is_some_and(|id| id.starts_with("bg")))
+        .collect();
+    assert_eq!(bg.len(), 200);
+    let on_lane: Vec<f64> = bg
+        .iter()
+        .filter(|n| n.attribute("departLane") == Some(&platoon_lane))
+        .map(|n| n.attribute("departPos").unwrap().parse().unwrap())
+        .collect();
+    assert!(on_lane.iter().any(|&x| x < rear) && on_lane.iter().any(|&x| x > front));
+    assert!(on_lane
+        .iter()
+        .all(|&x| x <= rear - 50.0 || x >= front + 50.0));
+    assert!(bg
+        .iter()
+        .any(|n| n.attribute("type") == Some("background_truck")));
+    // SUMO's lane-change output: background vehicles changed lanes, into the platoon's too;
+    // the platoon's vehicles never did.
+    let changes = std::fs::read_to_string(run.join("lanechanges.xml")).unwrap();
+    let doc = roxmltree::Document::parse(&changes).unwrap();
+    let changes: Vec<_> = doc
+        .descendants()
+        .filter(|n| n.has_tag_name("change"))
+        .collect();
+    let to_lane = format!("highway_{platoon_lane}");
+    assert!(changes
+        .iter()
+        .all(|n| n.attribute("id").unwrap().starts_with("bg")));
+    let into = changes
+        .iter()
+        .filter(|n| n.attribute("to") == Some(&to_lane))
+        .count();
+    eprintln!(
+        "{} lane changes, {into} into the platoon's lane; collisions {}",
+        changes.len(),
+        report["collisions"]
+    );
+    assert!(into > 0, "{} lane changes", changes.len());
+    // Background cars cut into the platoon (there is no scripted one): a follower's radar saw
+    // an intruder and it ran ACC on it, then went back to its law.
+    let rows = rows(&run);
+    let mut back = false;
+    for f in 1..=4 {
+        let modes: Vec<&str> = rows
+            .iter()
+            .filter(|r| r.vehicle == f)
+            .map(|r| r.mode.as_str())
+            .collect();
+        if let Some(first) = modes.iter().position(|m| *m == "cut_in") {
+            back |= modes[first..].contains(&"coop");
+        }
+    }
+    let cut_in = rows.iter().filter(|r| r.mode == "cut_in").count();
+    assert!(
+        cut_in > 0 && back,
+        "{cut_in} rows in mode cut_in, back: {back}"
+    );
 }

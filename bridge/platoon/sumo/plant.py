@@ -8,9 +8,10 @@ background_vehicles`) and the states read from SUMO, wait for commands[k], hold 
 acceleration a[k] over the step (`setAcceleration`, ballistic update, speed mode 0), step SUMO,
 check collisions, and update a[k+1] with the engine lag (platoon.sumo.model). Scripted cut-ins
 (plant.json's `cut_ins`) are SUMO vehicles on the platoon's lane while they are on it
-(`Intruders`). Writes sumo.json (SUMO version, per-step costs, collisions, the cut-ins) and, with
-`[sumo] fcd = "sumo"` only, SUMO's FCD output into the run directory (by default platoon writes
-fcd.xml from the trajectories after the run).
+(`Intruders`). Writes sumo.json (SUMO version, per-step costs, collisions, teleports, the
+cut-ins), with `[sumo] background_lane_changes` SUMO's lane-change output (lanechanges.xml) and,
+with `[sumo] fcd = "sumo"` only, SUMO's FCD output into the run directory (by default platoon
+writes fcd.xml from the trajectories after the run).
 
 The per-vehicle libsumo calls of a step (set every acceleration, step, read every state back)
 run in one call to a small C++ helper (platoon.sumo.native; PLATOON_SUMO_NATIVE=0 keeps them in
@@ -81,30 +82,104 @@ def write_routes(path, spec):
             f'departLane="{lane}" departPos="{p + s["offset_m"]!r}" departSpeed="{v!r}" '
             'insertionChecks="none"/>'
         )
-    # Background traffic: SUMO's own model (Krauss) without lane changes, on the free lanes,
-    # spread evenly along the road with seeded jitter and speeds (Python's Mersenne Twister:
-    # the same seed gives the same traffic).
+    # Background traffic: SUMO's own model (Krauss), on the free lanes, spread evenly along the
+    # road with seeded jitter and speeds (Python's Mersenne Twister: the same seed gives the same
+    # traffic). Without `background_lane_changes` it keeps its lane (every lc* weight 0).
     nb = int(s.get("background_vehicles", 0))
     if nb:
         rng = random.Random(int(s["background_seed"]))
         free = s["background_lanes"]
-        lines.insert(
-            3,
-            '    <vType id="background" length="4.5" minGap="2.5" maxSpeed="36" '
-            'lcStrategic="0" lcCooperative="0" lcSpeedGain="0" lcKeepRight="0"/>',
-        )
-        per_lane = -(-nb // len(free))
-        for b in range(nb):
-            lane, length = free[b % len(free)]
-            slot = (length - 100.0) / per_lane
-            pos = 50.0 + (b // len(free)) * slot + rng.uniform(0.0, 0.3 * slot)
-            lines.append(
-                f'    <vehicle id="bg{b}" type="background" route="road" depart="0" '
-                f'departLane="{lane}" departPos="{pos!r}" departSpeed="{rng.uniform(20.0, 30.0)!r}"/>'
-            )
+        lc = s.get("background_lane_changes")
+        trucks = float(s.get("background_truck_share", 0.0))
+        lines[3:3] = background_vtypes(lc, trucks)
+        if not s.get("background_on_platoon_lanes"):
+            per_lane = -(-nb // len(free))
+            for b in range(nb):
+                lane, length = free[b % len(free)]
+                slot = (length - 100.0) / per_lane
+                pos = 50.0 + (b // len(free)) * slot + rng.uniform(0.0, 0.3 * slot)
+                lines.append(background_vehicle(b, lane, pos, rng, trucks))
+        else:
+            segments = background_segments(spec)
+            free = [(lane, length) for lane, length in free if segments[lane]]
+            if not free:
+                raise SumoError("no room for background traffic beside the platoons on the road")
+            per_lane = -(-nb // len(free))
+            for b in range(nb):
+                lane, _ = free[b % len(free)]
+                on_lane = segments[lane]
+                slot = sum(hi - lo for lo, hi in on_lane) / per_lane
+                x = (b // len(free)) * slot + rng.uniform(0.0, 0.3 * slot)
+                for lo, hi in on_lane:
+                    if x <= hi - lo:
+                        break
+                    x -= hi - lo
+                lines.append(background_vehicle(b, lane, lo + x, rng, trucks))
     lines.append("</routes>")
     with open(path, "w") as f:
         f.write("\n".join(lines) + "\n")
+
+
+# How far a background vehicle starts from a platoon on its lane, ahead of its leader and
+# behind its last vehicle (m).
+PLATOON_CLEARANCE_M = 50.0
+
+
+def background_vtypes(lc, trucks):
+    """The background vehicles' types: cars (`background`) and, with a truck share, trucks
+    (`background_truck`, 12 m, at most 25 m/s). Without lane changes (`lc` None) every LC2013
+    weight is 0; with them, LC2013 with the config's weights (`background_lane_changes`)."""
+    if lc is None:
+        changes = 'lcStrategic="0" lcCooperative="0" lcSpeedGain="0" lcKeepRight="0"'
+    else:
+        changes = (
+            f'lcCooperative="{float(lc["cooperative"])!r}" lcSpeedGain="{float(lc["speed_gain"])!r}" '
+            f'lcKeepRight="{float(lc["keep_right"])!r}" lcAssertive="{float(lc["assertive"])!r}"'
+        )
+    types = [f'    <vType id="background" length="4.5" minGap="2.5" maxSpeed="36" {changes}/>']
+    if trucks > 0.0:
+        types.append(
+            '    <vType id="background_truck" length="12" minGap="2.5" maxSpeed="25" '
+            f'accel="1" decel="4" guiShape="truck" {changes}/>'
+        )
+    return types
+
+
+def background_vehicle(b, lane, pos, rng, trucks):
+    """Background vehicle b's route line: a truck with probability `trucks` (drawn only when
+    there are trucks, so a run without keeps its draws), entering at 18-24 m/s, else a car at
+    20-30 m/s."""
+    truck = trucks > 0.0 and rng.random() < trucks
+    speed = rng.uniform(18.0, 24.0) if truck else rng.uniform(20.0, 30.0)
+    return (
+        f'    <vehicle id="bg{b}" type="{"background_truck" if truck else "background"}" '
+        f'route="road" depart="0" departLane="{lane}" departPos="{pos!r}" departSpeed="{speed!r}"/>'
+    )
+
+
+def background_segments(spec):
+    """Per lane of `background_lanes`, the stretches (lo, hi) of lane position where background
+    vehicles may start: 50 m from either end of the lane, and on a platoon's lane not within
+    PLATOON_CLEARANCE_M of the platoon (from its last vehicle's rear to its leader's front)."""
+    s = spec["sumo"]
+    n1, length, offset = int(spec["vehicles_per_platoon"]), float(s["vehicle_length_m"]), float(s["offset_m"])
+    busy = {}
+    for j, lane in enumerate(spec["lanes"]):
+        p = [float(x[0]) + offset for x in spec["initial"][j * n1:(j + 1) * n1]]
+        busy.setdefault(int(lane), []).append(
+            (min(p) - length - PLATOON_CLEARANCE_M, max(p) + PLATOON_CLEARANCE_M)
+        )
+    segments = {}
+    for lane, lane_length in s["background_lanes"]:
+        lo, end, stretch = 50.0, float(lane_length) - 50.0, []
+        for a, b in sorted(busy.get(int(lane), [])):
+            if a > lo:
+                stretch.append((lo, min(a, end)))
+            lo = max(lo, b)
+        if end > lo:
+            stretch.append((lo, end))
+        segments[lane] = [(a, b) for a, b in stretch if b > a]
+    return segments
 
 
 def open_native(spec, sumo):
@@ -142,6 +217,8 @@ def start_sumo(spec):
         "--no-warnings", "true",
         "--seed", "0",
     ]
+    if s.get("lanechanges"):
+        args += ["--lanechange-output", s["lanechanges"]]
     if s["fcd_period_s"] > 0:
         args += [
             "--fcd-output", s["fcd"],
@@ -503,6 +580,8 @@ def run(spec) -> int:
         "sumo_version": None,
         "steps": 0,
         "collisions": [],
+        # Vehicles SUMO teleported (none should: --time-to-teleport -1 turns jam teleports off).
+        "teleports": [],
         # SUMO's FCD writer ([sumo] fcd = "sumo"); platoon's own (the default) fills this in
         # after the run.
         "fcd": {"file": "fcd.xml", "writer": "sumo", "period_s": spec["sumo"]["fcd_period_s"]}
@@ -596,6 +675,8 @@ def run(spec) -> int:
                         "position_m": c.pos - kin.offset,
                     }
                 )
+            for vid in sumo.simulation.getStartingTeleportIDList():
+                report["teleports"].append({"step": k + 1, "t": (k + 1) * dt, "vehicle": vid})
             kin.step(dyn.accel, k)
             dyn.advance(k, u)
             k += 1
@@ -664,7 +745,7 @@ def tight_loop(spec, steps: int) -> dict:
     # Its own routes file, and no FCD output: nothing of the run's directory is touched.
     tmp = tempfile.TemporaryDirectory()
     spec = dict(spec, sumo=dict(spec["sumo"], routes=os.path.join(tmp.name, "routes.rou.xml"),
-                                fcd_period_s=0))
+                                fcd_period_s=0, lanechanges=None))
     sumo = start_sumo(spec)
     native = open_native(spec, sumo)
     dyn = model.Dynamics(spec)

@@ -121,9 +121,25 @@ struct SumoSpec<'a> {
     background_vehicles: usize,
     background_seed: u64,
     background_lanes: Vec<(u32, f64)>,
+    /// LC2013's parameters for the background vehicles; absent: they keep their lanes.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    background_lane_changes: Option<&'a platoon_config::LaneChanges>,
+    /// `background_lanes` holds the platoons' lanes too; the bridge keeps the background
+    /// vehicles out of each platoon's extent.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    background_on_platoon_lanes: bool,
+    #[serde(skip_serializing_if = "is_zero")]
+    background_truck_share: f64,
+    /// SUMO's lane-change output (with `background_lane_changes`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    lanechanges: Option<String>,
     routes: String,
     fcd: String,
     report: String,
+}
+
+fn is_zero(x: &f64) -> bool {
+    *x == 0.0
 }
 
 fn config_error(file: &Path, key: &str, message: String) -> anyhow::Error {
@@ -198,14 +214,15 @@ pub fn plan<'a>(
     let free_lanes: Vec<(u32, f64)> = lanes
         .iter()
         .copied()
-        .filter(|(i, _)| !scenario.fleet.lanes.contains(i))
+        .filter(|(i, _)| s.background_on_platoon_lanes || !scenario.fleet.lanes.contains(i))
         .collect();
     if s.background_vehicles > 0 && free_lanes.is_empty() {
         return Err(config_error(
             config_file,
             "sumo.background_vehicles",
             format!(
-                "background traffic drives on the lanes no platoon uses, and edge {} has none free",
+                "background traffic drives on the lanes no platoon uses, and edge {} has none free \
+                 (sumo.background_on_platoon_lanes = true puts it on the platoons' lanes too)",
                 s.edge
             ),
         ));
@@ -341,6 +358,13 @@ impl SumoPlan<'_> {
                 background_vehicles: s.background_vehicles,
                 background_seed: s.background_seed,
                 background_lanes: self.free_lanes.clone(),
+                background_lane_changes: s.background_lane_changes.as_ref(),
+                background_on_platoon_lanes: s.background_on_platoon_lanes,
+                background_truck_share: s.background_truck_share,
+                lanechanges: match s.background_lane_changes {
+                    Some(_) if s.background_vehicles > 0 => Some(path("lanechanges.xml")?),
+                    _ => None,
+                },
                 routes: path("routes.rou.xml")?,
                 fcd: path("fcd.xml")?,
                 report: path("sumo.json")?,

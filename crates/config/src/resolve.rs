@@ -475,6 +475,28 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
     let radio = radio(&mut c.channel, dt)?;
     finite("sumo.start_m", c.sumo.start_m)?;
     positive("sumo.tolerance_m", c.sumo.tolerance_m)?;
+    let share = finite("sumo.background_truck_share", c.sumo.background_truck_share)?;
+    if !(0.0..=1.0).contains(&share) {
+        return bad(
+            "sumo.background_truck_share",
+            format!("must be in [0, 1], got {share}"),
+        );
+    }
+    if let Some(lc) = &c.sumo.background_lane_changes {
+        let key = |k: &str| format!("sumo.background_lane_changes.{k}");
+        if !(0.0..=1.0).contains(&finite(&key("cooperative"), lc.cooperative)?) {
+            return bad(
+                &key("cooperative"),
+                format!("must be in [0, 1], got {}", lc.cooperative),
+            );
+        }
+        for (k, x) in [("speed_gain", lc.speed_gain), ("keep_right", lc.keep_right)] {
+            if finite(&key(k), x)? < 0.0 {
+                return bad(&key(k), format!("must be >= 0, got {x}"));
+            }
+        }
+        positive(&key("assertive"), lc.assertive)?;
+    }
     if let Some(p) = c.sumo.fcd_period_s {
         if finite("sumo.fcd_period_s", p)? != 0.0 {
             steps_of("sumo.fcd_period_s", p, dt)?;

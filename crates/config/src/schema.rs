@@ -213,13 +213,62 @@ pub struct Sumo {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub fcd_period_s: Option<f64>,
     /// Background traffic: vehicles of SUMO's own car-following model on the lanes no platoon
-    /// uses, spread along the road with seeded speeds (0: none).
+    /// uses (every lane with `background_on_platoon_lanes`), spread along the road with seeded
+    /// speeds (0: none).
     pub background_vehicles: usize,
-    /// Seed of the background traffic's speeds and spacing.
+    /// Seed of the background traffic's speeds, spacing and vehicle classes.
     pub background_seed: u64,
+    /// Present: the background traffic changes lanes as SUMO's LC2013 model decides, with
+    /// these parameters (`{}`: SUMO's defaults); absent: it keeps its lane. The platoons'
+    /// vehicles never change lanes.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub background_lane_changes: Option<LaneChanges>,
+    /// Background vehicles also on the platoons' lanes, ahead of each platoon's leader and
+    /// behind its last vehicle (never inside a platoon's extent).
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    #[schemars(extend("default" = false))]
+    pub background_on_platoon_lanes: bool,
+    /// The share of the background vehicles that are trucks (0..=1): 12 m long, slower
+    /// (at most 25 m/s, entering at 18-24 m/s) than the cars (4.5 m, at most 36 m/s,
+    /// entering at 20-30 m/s).
+    #[serde(skip_serializing_if = "is_zero")]
+    #[schemars(extend("default" = 0.0))]
+    pub background_truck_share: f64,
     /// How far SUMO may deviate from the vehicle model before the run stops (m and m/s; in
     /// `states = "sumo"` mode over one step, in `model` mode accumulated over the run).
     pub tolerance_m: f64,
+}
+
+fn is_zero(x: &f64) -> bool {
+    *x == 0.0
+}
+
+/// `[sumo] background_lane_changes`: the parameters of SUMO's LC2013 lane-change model for the
+/// background vehicles (the vType attributes `lcCooperative`, `lcSpeedGain`, `lcKeepRight`,
+/// `lcAssertive`; every default is SUMO's).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(default, deny_unknown_fields)]
+pub struct LaneChanges {
+    /// Willingness to change lanes to let others in (`lcCooperative`, 0..=1).
+    pub cooperative: f64,
+    /// Eagerness to change lanes for a faster one (`lcSpeedGain`, >= 0).
+    pub speed_gain: f64,
+    /// Eagerness to return to the rightmost lane (`lcKeepRight`, >= 0).
+    pub keep_right: f64,
+    /// Gap acceptance: the gaps a change needs on the target lane, ahead and behind, are
+    /// divided by this (`lcAssertive`, > 0; above 1 accepts smaller gaps).
+    pub assertive: f64,
+}
+
+impl Default for LaneChanges {
+    fn default() -> Self {
+        Self {
+            cooperative: 1.0,
+            speed_gain: 1.0,
+            keep_right: 1.0,
+            assertive: 1.0,
+        }
+    }
 }
 
 /// Who writes fcd.xml (`[sumo] fcd`).
@@ -278,6 +327,9 @@ impl Default for Sumo {
             fcd_period_s: None,
             background_vehicles: 0,
             background_seed: 0,
+            background_lane_changes: None,
+            background_on_platoon_lanes: false,
+            background_truck_share: 0.0,
             tolerance_m: 1e-6,
         }
     }

@@ -769,3 +769,53 @@ fn a_jammers_times_and_power_are_bounded_so_a_run_cannot_stall_on_them() {
     // One step is enough.
     paper_plus("[[channel.jammers]]\nposition_m = 0.0\non_s = 0.01\noff_s = 0.01\n").unwrap();
 }
+
+/// `[sumo]`'s background-traffic keys: absent, a config writes back without them (so the
+/// runs of older configs write what they did); present, their ranges are checked.
+#[test]
+fn sumo_background_lane_changes_and_trucks() {
+    let (c, _) = paper_plus("").unwrap();
+    assert_eq!(c.sumo.background_lane_changes, None);
+    let text = to_toml(&c);
+    assert!(!text.contains("background_lane_changes"), "{text}");
+    assert!(!text.contains("background_on_platoon_lanes"), "{text}");
+    assert!(!text.contains("background_truck_share"), "{text}");
+    let (c, _) = paper_plus(
+        "[sumo]\nbackground_on_platoon_lanes = true\nbackground_truck_share = 0.25\n\
+         background_lane_changes = { assertive = 3.0 }\n",
+    )
+    .unwrap();
+    let lc = c.sumo.background_lane_changes.as_ref().unwrap();
+    assert_eq!(
+        (lc.assertive, lc.cooperative, lc.speed_gain),
+        (3.0, 1.0, 1.0)
+    );
+    assert!(c.sumo.background_on_platoon_lanes);
+    assert_eq!(c.sumo.background_truck_share, 0.25);
+    for (extra, key, words) in [
+        (
+            "background_truck_share = 1.5",
+            "sumo.background_truck_share",
+            "must be in [0, 1]",
+        ),
+        (
+            "background_lane_changes = { cooperative = 2.0 }",
+            "sumo.background_lane_changes.cooperative",
+            "must be in [0, 1]",
+        ),
+        (
+            "background_lane_changes = { assertive = 0.0 }",
+            "sumo.background_lane_changes.assertive",
+            "must be > 0",
+        ),
+        (
+            "background_lane_changes = { speed_gain = -1.0 }",
+            "sumo.background_lane_changes.speed_gain",
+            "must be >= 0",
+        ),
+    ] {
+        let e = paper_plus(&format!("[sumo]\n{extra}\n")).expect_err(extra);
+        assert_eq!(e.key, key, "{e}");
+        assert!(e.to_string().contains(words), "{e}");
+    }
+}
