@@ -15,7 +15,9 @@ mod summary;
 pub mod tally;
 pub mod truth;
 
-pub use factory::{ControllerFactory, InjectorFactory, MakeController, MakeInjector, Plugins};
+pub use factory::{
+    ControllerFactory, Factory, InjectorFactory, Make, MakeController, MakeInjector, Plugins,
+};
 pub use metrics::{FleetMetrics, MetricsAccumulator};
 pub use scenario::{Fleet, Scenario, ScenarioError};
 pub use summary::{
