@@ -216,6 +216,18 @@ fn resize(config: &mut Config, followers: usize) {
     config.fallback.per_vehicle = None;
 }
 
+/// Fails unless `sizes` (the option `flag`) are platoon sizes of at least one follower; the
+/// message shows `example`.
+fn check_sizes(sizes: &[usize], flag: &str, example: &str) -> Result<()> {
+    if sizes.is_empty() || sizes.contains(&0) {
+        refuse!(
+            Options,
+            "{flag} needs platoon sizes of at least one follower, e.g. {example}"
+        );
+    }
+    Ok(())
+}
+
 /// With `out`, writes `config` as the experiment's config.toml.
 fn write_config(out: Option<&RunDir>, config: &Config) -> Result<()> {
     if let Some(dir) = out {

@@ -38,15 +38,12 @@ impl Default for Latency {
     }
 }
 
+/// One measured quantity (a row of latency.csv and of latency.json's `rows`).
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct Row {
     pub quantity: String,
-    pub n: usize,
-    pub p50_us: f64,
-    pub p90_us: f64,
-    pub p99_us: f64,
-    pub p999_us: f64,
-    pub max_us: f64,
+    #[serde(flatten)]
+    pub stats: Stats,
     pub over_raw_p50: Option<f64>,
 }
 
@@ -56,28 +53,39 @@ impl Row {
         let over = self
             .over_raw_p50
             .map_or(String::new(), |x| format!("{x:.2}"));
-        let percentiles = [
-            self.p50_us,
-            self.p90_us,
-            self.p99_us,
-            self.p999_us,
-            self.max_us,
-        ];
-        (percentiles, over)
+        let s = &self.stats;
+        ([s.p50_us, s.p90_us, s.p99_us, s.p999_us, s.max_us], over)
+    }
+
+    /// Writes it as a record of `csv`, the header (its fields, flat) before the first: the csv
+    /// crate writes a tuple of structs flat where it refuses a flattened field.
+    fn write_csv<W: std::io::Write>(&self, csv: &mut csv::Writer<W>) -> csv::Result<()> {
+        #[derive(serde::Serialize)]
+        struct Quantity<'a> {
+            quantity: &'a str,
+        }
+        #[derive(serde::Serialize)]
+        struct Over {
+            over_raw_p50: Option<f64>,
+        }
+        csv.serialize((
+            Quantity {
+                quantity: &self.quantity,
+            },
+            self.stats,
+            Over {
+                over_raw_p50: self.over_raw_p50,
+            },
+        ))
     }
 }
 
 /// The row of `quantity`; no samples is an error (the benchmark measures every row or fails).
 fn row(quantity: &str, s: Option<Stats>) -> Result<Row> {
-    let s = s.with_context(|| format!("{quantity}: no samples were recorded"))?;
+    let stats = s.with_context(|| format!("{quantity}: no samples were recorded"))?;
     Ok(Row {
         quantity: quantity.into(),
-        n: s.n,
-        p50_us: s.p50_us,
-        p90_us: s.p90_us,
-        p99_us: s.p99_us,
-        p999_us: s.p999_us,
-        max_us: s.max_us,
+        stats,
         over_raw_p50: None,
     })
 }
@@ -349,16 +357,16 @@ pub fn latency(a: Latency) -> Result<LatencyReport> {
         .into_iter()
         .collect::<Result<Vec<_>>>()?,
     );
-    let raw_p50 = rows[0].p50_us;
+    let raw_p50 = rows[0].stats.p50_us;
     for r in &mut rows {
         if r.quantity.ends_with("hop") || r.quantity.contains("hop_") {
-            r.over_raw_p50 = Some(r.p50_us / raw_p50);
+            r.over_raw_p50 = Some(r.stats.p50_us / raw_p50);
         }
     }
     let p50 = |q: &str| {
         rows.iter()
             .find(|r| r.quantity == q)
-            .map(|r| r.p50_us)
+            .map(|r| r.stats.p50_us)
             .expect("every row is measured")
     };
     let report = LatencyReport {
@@ -377,7 +385,7 @@ pub fn latency(a: Latency) -> Result<LatencyReport> {
     };
     let mut csv = csv::Writer::from_writer(dir.writer("latency.csv")?);
     for r in &report.rows {
-        csv.serialize(r)?;
+        r.write_csv(&mut csv)?;
     }
     csv.flush()?;
     let mut raw_csv = csv::Writer::from_writer(dir.writer("latency-samples.csv")?);
@@ -403,7 +411,7 @@ pub fn latency(a: Latency) -> Result<LatencyReport> {
         let ([p50, p90, p99, p999, max], over) = r.figures();
         println!(
             "{:<28} {:>7} {p50:>8.2} {p90:>8.2} {p99:>8.2} {p999:>8.2} {max:>9.2} {over:>8}",
-            r.quantity, r.n
+            r.quantity, r.stats.n
         );
     }
     println!(
@@ -426,4 +434,32 @@ pub fn latency(a: Latency) -> Result<LatencyReport> {
     );
     println!("outputs: {}", path.display());
     Ok(report)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// latency.csv and latency.json hold a row's fields flat, in the same order.
+    #[test]
+    fn a_row_is_flat_in_csv_and_json() {
+        let mut ns = [1_000, 2_000, 4_000];
+        let mut r = row("raw_iceoryx2_hop", Stats::of(&mut ns)).unwrap();
+        r.over_raw_p50 = Some(1.0);
+        let mut csv = csv::Writer::from_writer(Vec::new());
+        r.write_csv(&mut csv).unwrap();
+        r.over_raw_p50 = None;
+        r.write_csv(&mut csv).unwrap();
+        let text = String::from_utf8(csv.into_inner().unwrap()).unwrap();
+        assert_eq!(
+            text,
+            "quantity,n,p50_us,p90_us,p99_us,p999_us,max_us,over_raw_p50\n\
+             raw_iceoryx2_hop,3,2.0,4.0,4.0,4.0,4.0,1.0\n\
+             raw_iceoryx2_hop,3,2.0,4.0,4.0,4.0,4.0,\n"
+        );
+        assert_eq!(
+            serde_json::to_string(&r).unwrap(),
+            r#"{"quantity":"raw_iceoryx2_hop","n":3,"p50_us":2.0,"p90_us":4.0,"p99_us":4.0,"p999_us":4.0,"max_us":4.0,"over_raw_p50":null}"#
+        );
+    }
 }

@@ -134,7 +134,7 @@ pub fn all(a: All) -> Result<()> {
         lat.rows
             .iter()
             .find(|r| r.quantity == q)
-            .map_or(f64::NAN, |r| r.p50_us)
+            .map_or(f64::NAN, |r| r.stats.p50_us)
     };
     let step_ratio = lat.step_overhead_p50_us / lat.step_overhead_p50_us_one_core;
     let hop_ratio = p50("injector_hop") / p50("unix_socket_hop");

@@ -1,6 +1,7 @@
 //! `platoon experiment`: the arguments and what is printed; the experiments are
 //! [`platoon_app::experiment`]'s.
 use crate::names::one_of;
+use crate::progress::Bar;
 use anyhow::Result;
 use clap::builder::PossibleValuesParser;
 use platoon_app::experiment::{
@@ -12,6 +13,7 @@ use platoon_config::{Embedded, LawName};
 use platoon_control::Reaction;
 use platoon_output::rundir::RunDir;
 use platoon_topology::Preset;
+use std::fmt::Write as _;
 use std::path::PathBuf;
 
 /// The experiments.
@@ -366,12 +368,28 @@ pub fn run(e: Experiment) -> Result<()> {
     }
 }
 
-/// The output directory, `--out` or the default, created (replaced with `force`).
-fn create(out: Option<PathBuf>, default: &str, force: bool) -> Result<RunDir> {
-    Ok(RunDir::create(
-        &out.unwrap_or_else(|| PathBuf::from(default)),
-        force,
-    )?)
+/// Creates the output directory (`--out`, else `default`; replaced with `force`), runs `write`
+/// into it and commits it, then prints the text `write` returns and where the outputs are.
+fn in_dir(
+    out: Option<PathBuf>,
+    default: &str,
+    force: bool,
+    write: impl FnOnce(&RunDir) -> Result<String>,
+) -> Result<()> {
+    let dir = RunDir::create(&out.unwrap_or_else(|| PathBuf::from(default)), force)?;
+    let text = write(&dir)?;
+    let path = dir.commit()?;
+    print!("{text}");
+    println!("outputs: {}", path.display());
+    Ok(())
+}
+
+fn table1(args: Table1Args) -> Result<()> {
+    let base = Base::load(args.config.as_deref(), Embedded::Table1)?;
+    experiment::check_table1_base(&base)?;
+    in_dir(args.out, "runs/table1", args.force, |dir| {
+        Ok(experiment::table1(&base, Some(dir), &Bar::default())?.markdown)
+    })
 }
 
 fn traffic(args: TrafficArgs) -> Result<()> {
@@ -384,34 +402,18 @@ fn traffic(args: TrafficArgs) -> Result<()> {
     };
     opts.validate()?;
     let base = Base::load(args.config.as_deref(), Embedded::CutIn)?;
-    let dir = create(args.out, "runs/traffic", args.force)?;
-    let bar = crate::progress::Bar::counting("runs");
-    let t = experiment::traffic(&base, &opts, Some(&dir), &bar)?;
-    commit(dir, &t.markdown)
-}
-
-/// Commits the finished directory, then prints `text` and where the outputs are.
-fn commit(dir: RunDir, text: &str) -> Result<()> {
-    let path = dir.commit()?;
-    print!("{text}");
-    println!("outputs: {}", path.display());
-    Ok(())
-}
-
-fn table1(args: Table1Args) -> Result<()> {
-    let base = Base::load(args.config.as_deref(), Embedded::Table1)?;
-    experiment::check_table1_base(&base)?;
-    let dir = create(args.out, "runs/table1", args.force)?;
-    let t = experiment::table1(&base, Some(&dir), &crate::progress::Bar::default())?;
-    commit(dir, &t.markdown)
+    in_dir(args.out, "runs/traffic", args.force, |dir| {
+        let bar = Bar::counting("runs");
+        Ok(experiment::traffic(&base, &opts, Some(dir), &bar)?.markdown)
+    })
 }
 
 fn robust(args: RobustArgs) -> Result<()> {
     let base = Base::load(args.config.as_deref(), Embedded::Paper)?;
-    let dir = create(args.out, "runs/robust", args.force)?;
     let opts = RobustOptions { k_max: args.k_max };
-    let r = experiment::robust(&base, &opts, Some(&dir), &crate::progress::Bar::default())?;
-    commit(dir, &r.markdown)
+    in_dir(args.out, "runs/robust", args.force, |dir| {
+        Ok(experiment::robust(&base, &opts, Some(dir), &Bar::default())?.markdown)
+    })
 }
 
 fn topologies(args: TopologiesArgs) -> Result<()> {
@@ -423,22 +425,21 @@ fn topologies(args: TopologiesArgs) -> Result<()> {
     opts.validate()?;
     let base = Base::load(args.config.as_deref(), Embedded::Paper)?;
     experiment::check_topologies_base(&base)?;
-    let dir = create(args.out, "runs/topologies", args.force)?;
-    let bar = crate::progress::Bar::counting("platoons");
-    let t = experiment::topologies(&base, &opts, Some(&dir), &bar)?;
-    let path = dir.commit()?;
-    println!(
-        "{:<6} {:>3} {:>13} {:>10} {:>8} {:>12}",
-        "graph", "N", "condition", "varsigma1", "c", "b1/b2"
-    );
-    for r in &t.rows {
-        println!(
-            "{:<6} {:>3} {:>13} {:>10.4} {:>8.4} {:>12.1}",
-            r.topology, r.followers, r.condition, r.varsigma1, r.c, r.beta1_over_beta2
+    in_dir(args.out, "runs/topologies", args.force, |dir| {
+        let t = experiment::topologies(&base, &opts, Some(dir), &Bar::counting("platoons"))?;
+        let mut text = format!(
+            "{:<6} {:>3} {:>13} {:>10} {:>8} {:>12}\n",
+            "graph", "N", "condition", "varsigma1", "c", "b1/b2"
         );
-    }
-    println!("outputs: {}", path.display());
-    Ok(())
+        for r in &t.rows {
+            writeln!(
+                text,
+                "{:<6} {:>3} {:>13} {:>10.4} {:>8.4} {:>12.1}",
+                r.topology, r.followers, r.condition, r.varsigma1, r.c, r.beta1_over_beta2
+            )?;
+        }
+        Ok(text)
+    })
 }
 
 fn degradation(args: DegradationArgs) -> Result<()> {
@@ -447,10 +448,9 @@ fn degradation(args: DegradationArgs) -> Result<()> {
     };
     opts.validate()?;
     let base = Base::load(args.config.as_deref(), Embedded::Degradation)?;
-    let dir = create(args.out, "runs/degradation", args.force)?;
-    let bar = crate::progress::Bar::counting("runs");
-    let d = experiment::degradation(&base, &opts, Some(&dir), &bar)?;
-    commit(dir, &d.markdown)
+    in_dir(args.out, "runs/degradation", args.force, |dir| {
+        Ok(experiment::degradation(&base, &opts, Some(dir), &Bar::counting("runs"))?.markdown)
+    })
 }
 
 fn controllers(args: ControllersArgs) -> Result<()> {
@@ -461,10 +461,9 @@ fn controllers(args: ControllersArgs) -> Result<()> {
     };
     opts.validate()?;
     let base = Base::load(args.config.as_deref(), Embedded::Paper)?;
-    let dir = create(args.out, "runs/controllers", args.force)?;
-    let bar = crate::progress::Bar::counting("runs");
-    let c = experiment::controllers(&base, &opts, Some(&dir), &bar)?;
-    commit(dir, &c.markdown)
+    in_dir(args.out, "runs/controllers", args.force, |dir| {
+        Ok(experiment::controllers(&base, &opts, Some(dir), &Bar::counting("runs"))?.markdown)
+    })
 }
 
 fn detection(args: DetectionArgs) -> Result<()> {
@@ -482,10 +481,9 @@ fn detection(args: DetectionArgs) -> Result<()> {
     };
     opts.validate()?;
     let base = Base::load(args.config.as_deref(), Embedded::Paper)?;
-    let dir = create(args.out, "runs/detection", args.force)?;
-    let bar = crate::progress::Bar::counting("runs");
-    let d = experiment::detection(&base, &opts, Some(&dir), &bar)?;
-    commit(dir, &d.markdown)
+    in_dir(args.out, "runs/detection", args.force, |dir| {
+        Ok(experiment::detection(&base, &opts, Some(dir), &Bar::counting("runs"))?.markdown)
+    })
 }
 
 fn scaling(args: ScalingArgs) -> Result<()> {
@@ -499,8 +497,7 @@ fn scaling(args: ScalingArgs) -> Result<()> {
     };
     opts.validate()?;
     let base = Base::load(args.config.as_deref(), Embedded::Paper)?;
-    let dir = create(args.out, "runs/scaling-experiment", args.force)?;
-    let bar = crate::progress::Bar::counting("runs");
-    let s = experiment::scaling(&base, &opts, Some(&dir), &bar)?;
-    commit(dir, &s.markdown)
+    in_dir(args.out, "runs/scaling-experiment", args.force, |dir| {
+        Ok(experiment::scaling(&base, &opts, Some(dir), &Bar::counting("runs"))?.markdown)
+    })
 }

@@ -5,75 +5,52 @@ use platoon_attacks::channel::Channel;
 use platoon_attacks::inject::{InjectError, Injector};
 use platoon_control::Controller;
 
+/// What makes one part `P` of a platoon (its controller or its injector) from its scenario (its
+/// replica, for a fleet), in process: a function shared by every clone. [`ControllerFactory`]
+/// and [`InjectorFactory`] name the two.
+pub struct Factory<P: ?Sized, E>(std::sync::Arc<Make<P, E>>);
+
+/// The function behind a [`Factory`].
+pub type Make<P, E> = dyn Fn(&Scenario) -> Result<Box<P>, E> + Send + Sync;
+
 /// What makes a platoon's controller from its scenario (its replica, for a fleet), in process:
 /// [`ControllerFactory::builtin`] builds the one the config names (`platoon_control::build`);
 /// [`ControllerFactory::new`] takes the caller's, e.g. a `ComposedController` with a law of
 /// its own, for runs and campaigns without a process per cell.
-#[derive(Clone)]
-pub struct ControllerFactory(std::sync::Arc<MakeController>);
+pub type ControllerFactory = Factory<dyn Controller, platoon_control::ParamsError>;
 
 /// The function behind a [`ControllerFactory`].
-pub type MakeController =
-    dyn Fn(&Scenario) -> Result<Box<dyn Controller>, platoon_control::ParamsError> + Send + Sync;
-
-impl ControllerFactory {
-    /// The caller's controllers.
-    pub fn new(
-        make: impl Fn(&Scenario) -> Result<Box<dyn Controller>, platoon_control::ParamsError>
-            + Send
-            + Sync
-            + 'static,
-    ) -> Self {
-        Self(std::sync::Arc::new(make))
-    }
-
-    /// The controller each scenario's config names.
-    pub fn builtin() -> Self {
-        Self::new(|s| platoon_control::build(&s.control, &s.topology, &s.initial))
-    }
-
-    /// The controller of `scenario`.
-    pub fn make(
-        &self,
-        scenario: &Scenario,
-    ) -> Result<Box<dyn Controller>, platoon_control::ParamsError> {
-        (self.0)(scenario)
-    }
-}
-
-impl std::fmt::Debug for ControllerFactory {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str("ControllerFactory")
-    }
-}
-
-/// The same factory (the same function object), not merely an equal one.
-impl PartialEq for ControllerFactory {
-    fn eq(&self, other: &Self) -> bool {
-        std::sync::Arc::ptr_eq(&self.0, &other.0)
-    }
-}
-
-impl Eq for ControllerFactory {}
+pub type MakeController = Make<dyn Controller, platoon_control::ParamsError>;
 
 /// What makes a platoon's injector from its scenario (its replica, for a fleet), in process:
 /// [`InjectorFactory::builtin`] builds the config's channel (DoS schedule, link attacks,
 /// radio, jammers); [`InjectorFactory::new`] takes the caller's attack, for runs, campaigns and
 /// searches without a process per cell.
-#[derive(Clone)]
-pub struct InjectorFactory(std::sync::Arc<MakeInjector>);
+pub type InjectorFactory = Factory<dyn Injector, InjectError>;
 
 /// The function behind an [`InjectorFactory`].
-pub type MakeInjector = dyn Fn(&Scenario) -> Result<Box<dyn Injector>, InjectError> + Send + Sync;
+pub type MakeInjector = Make<dyn Injector, InjectError>;
 
-impl InjectorFactory {
-    /// The caller's injectors.
-    pub fn new(
-        make: impl Fn(&Scenario) -> Result<Box<dyn Injector>, InjectError> + Send + Sync + 'static,
-    ) -> Self {
+impl<P: ?Sized, E> Factory<P, E> {
+    /// The caller's function.
+    pub fn new(make: impl Fn(&Scenario) -> Result<Box<P>, E> + Send + Sync + 'static) -> Self {
         Self(std::sync::Arc::new(make))
     }
 
+    /// The part of `scenario`.
+    pub fn make(&self, scenario: &Scenario) -> Result<Box<P>, E> {
+        (self.0)(scenario)
+    }
+}
+
+impl ControllerFactory {
+    /// The controller each scenario's config names.
+    pub fn builtin() -> Self {
+        Self::new(|s| platoon_control::build(&s.control, &s.topology, &s.initial))
+    }
+}
+
+impl InjectorFactory {
     /// The channel each scenario's config describes.
     pub fn builtin() -> Self {
         Self::new(|s| {
@@ -83,27 +60,28 @@ impl InjectorFactory {
             )))
         })
     }
+}
 
-    /// The injector of `scenario`.
-    pub fn make(&self, scenario: &Scenario) -> Result<Box<dyn Injector>, InjectError> {
-        (self.0)(scenario)
+impl<P: ?Sized, E> Clone for Factory<P, E> {
+    fn clone(&self) -> Self {
+        Self(self.0.clone())
     }
 }
 
-impl std::fmt::Debug for InjectorFactory {
+impl<P: ?Sized, E> std::fmt::Debug for Factory<P, E> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str("InjectorFactory")
+        f.write_str("Factory")
     }
 }
 
 /// The same factory (the same function object), not merely an equal one.
-impl PartialEq for InjectorFactory {
+impl<P: ?Sized, E> PartialEq for Factory<P, E> {
     fn eq(&self, other: &Self) -> bool {
         std::sync::Arc::ptr_eq(&self.0, &other.0)
     }
 }
 
-impl Eq for InjectorFactory {}
+impl<P: ?Sized, E> Eq for Factory<P, E> {}
 
 /// What an in-process run plugs in: its controllers and its injectors (by default the
 /// built-in ones the config names).

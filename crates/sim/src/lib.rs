@@ -16,7 +16,9 @@ pub mod tally;
 pub mod traffic;
 pub mod truth;
 
-pub use factory::{ControllerFactory, InjectorFactory, MakeController, MakeInjector, Plugins};
+pub use factory::{
+    ControllerFactory, Factory, InjectorFactory, Make, MakeController, MakeInjector, Plugins,
+};
 pub use metrics::{FleetMetrics, MetricsAccumulator};
 pub use scenario::{Fleet, Scenario, ScenarioError};
 pub use summary::{

@@ -22,13 +22,7 @@ impl Default for DegradationOptions {
 impl DegradationOptions {
     /// Fails on sizes no platoon has, before anything runs or is written.
     pub fn validate(&self) -> Result<()> {
-        if self.followers.is_empty() || self.followers.contains(&0) {
-            refuse!(
-                Options,
-                "--followers needs platoon sizes of at least one follower, e.g. 4,10"
-            );
-        }
-        Ok(())
+        check_sizes(&self.followers, "--followers", "4,10")
     }
 }
 

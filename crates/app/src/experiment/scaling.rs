@@ -39,12 +39,7 @@ impl ScalingOptions {
     /// a positive number of seconds, no followers to design on), before anything runs or is
     /// written.
     pub fn validate(&self) -> Result<()> {
-        if self.sizes.is_empty() || self.sizes.contains(&0) {
-            refuse!(
-                Options,
-                "--sizes needs platoon sizes of at least one follower, e.g. 4,10,25"
-            );
-        }
+        check_sizes(&self.sizes, "--sizes", "4,10,25")?;
         if !(self.time_headway.is_finite() && self.time_headway > 0.0) {
             refuse!(Options, "--time-headway must be a number of seconds > 0");
         }

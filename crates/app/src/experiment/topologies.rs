@@ -26,13 +26,7 @@ impl Default for TopologiesOptions {
 impl TopologiesOptions {
     /// Fails on sizes no platoon has, before anything runs or is written.
     pub fn validate(&self) -> Result<()> {
-        if self.sizes.is_empty() || self.sizes.contains(&0) {
-            refuse!(
-                Options,
-                "--sizes needs platoon sizes of at least one follower, e.g. 2,4,6"
-            );
-        }
-        Ok(())
+        check_sizes(&self.sizes, "--sizes", "2,4,6")
     }
 }
 
