@@ -666,24 +666,30 @@ print("\n".join(repr(x) for x in out))  # shortest repr: parses back exactly
         bridge = repo().join("bridge").display().to_string(),
         knots = knots.iter().map(|&(a, b)| [a, b]).collect::<Vec<_>>(),
     );
+    let got = python_floats(&script);
+    assert_eq!(got.len(), expected.len());
+    for (i, (g, e)) in got.iter().zip(&expected).enumerate() {
+        assert_eq!(g.to_bits(), e.to_bits(), "value {i}: python {g} rust {e}");
+    }
+}
+
+/// The numbers `script` prints, one per line, run by the bridge's Python (its venv set up
+/// first).
+fn python_floats(script: &str) -> Vec<f64> {
     let setup = Command::new(repo().join("bridge/setup-venv.sh"))
         .status()
         .unwrap();
     assert!(setup.success());
     let o = Command::new(repo().join("bridge/.venv/bin/python"))
-        .args(["-c", &script])
+        .args(["-c", script])
         .output()
         .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let got: Vec<f64> = String::from_utf8(o.stdout)
+    String::from_utf8(o.stdout)
         .unwrap()
         .lines()
         .map(|r| r.parse::<f64>().unwrap())
-        .collect();
-    assert_eq!(got.len(), expected.len());
-    for (i, (g, e)) in got.iter().zip(&expected).enumerate() {
-        assert_eq!(g.to_bits(), e.to_bits(), "value {i}: python {g} rust {e}");
-    }
+        .collect()
 }
 
 /// The bridge's cut-in kinematics (`platoon.sumo.model.CutIns`) are `sim::traffic::Traffic`'s
@@ -759,20 +765,7 @@ print("\n".join(repr(x) for x in out))
         bridge = repo().join("bridge").display().to_string(),
         spec = serde_json::to_string(&cut_ins).unwrap(),
     );
-    let setup = Command::new(repo().join("bridge/setup-venv.sh"))
-        .status()
-        .unwrap();
-    assert!(setup.success());
-    let o = Command::new(repo().join("bridge/.venv/bin/python"))
-        .args(["-c", &script])
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let got: Vec<f64> = String::from_utf8(o.stdout)
-        .unwrap()
-        .lines()
-        .map(|r| r.parse::<f64>().unwrap())
-        .collect();
+    let got = python_floats(&script);
     // Many were on the lane at once, some of them stopped.
     assert!(expected.len() > 2 * 5000, "{}", expected.len());
     assert!(expected.chunks(2).any(|x| x[1] == 0.0));

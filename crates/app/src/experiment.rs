@@ -28,7 +28,7 @@ mod scaling;
 mod table1;
 mod topologies;
 mod traffic;
-pub(crate) use controllers::configure as configure_law;
+pub(crate) use controllers::{configure as configure_law, keep_law_spacing};
 pub use controllers::{
     controllers, Controllers, ControllersOptions, ControllersRow, ATTACKS as CONTROLLER_ATTACKS,
 };

@@ -91,6 +91,19 @@ pub enum Experiment {
     Traffic(TrafficArgs),
 }
 
+/// `--laws`, of the experiments that compare laws.
+#[derive(Debug, clap::Args)]
+pub struct Laws {
+    /// The laws.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        value_parser = one_of(&LawName::ALL, LawName::name),
+        default_values = LawName::ALL.map(LawName::name)
+    )]
+    pub laws: Vec<LawName>,
+}
+
 /// Arguments of `experiment traffic`.
 #[derive(Debug, clap::Args)]
 pub struct TrafficArgs {
@@ -100,14 +113,8 @@ pub struct TrafficArgs {
     /// the detectors and the attacks are varied.
     #[arg(long)]
     pub config: Option<PathBuf>,
-    /// The laws.
-    #[arg(
-        long,
-        value_delimiter = ',',
-        value_parser = one_of(&LawName::ALL, LawName::name),
-        default_values = LawName::ALL.map(LawName::name)
-    )]
-    pub laws: Vec<LawName>,
+    #[command(flatten)]
+    pub laws: Laws,
     /// The gaps the car leaves to the follower as it cuts in (m, bumper to bumper).
     #[arg(long, value_delimiter = ',', default_value = "3,6")]
     pub gaps: Vec<f64>,
@@ -212,14 +219,8 @@ pub struct ControllersArgs {
     /// beaconing, initial states and attacks are varied.
     #[arg(long)]
     pub config: Option<PathBuf>,
-    /// The laws.
-    #[arg(
-        long,
-        value_delimiter = ',',
-        value_parser = one_of(&LawName::ALL, LawName::name),
-        default_values = LawName::ALL.map(LawName::name)
-    )]
-    pub laws: Vec<LawName>,
+    #[command(flatten)]
+    pub laws: Laws,
     /// The topologies.
     #[arg(
         long,
@@ -394,7 +395,7 @@ fn table1(args: Table1Args) -> Result<()> {
 
 fn traffic(args: TrafficArgs) -> Result<()> {
     let opts = TrafficOptions {
-        laws: args.laws,
+        laws: args.laws.laws,
         gaps_m: args.gaps,
         speed_diffs_mps: args.speed_diffs,
         attacks: args.attacks,
@@ -455,7 +456,7 @@ fn degradation(args: DegradationArgs) -> Result<()> {
 
 fn controllers(args: ControllersArgs) -> Result<()> {
     let opts = ControllersOptions {
-        laws: args.laws,
+        laws: args.laws.laws,
         topologies: args.topologies,
         beacon_period_s: args.beacon_period,
     };

@@ -188,9 +188,10 @@ impl MetricsAccumulator {
             acc.guard_on = r.guard;
             acc.guard_steps += u64::from(r.guard);
             // The nearest vehicle ahead: the predecessor, or one that cut in between.
+            let behind = front.p - r.p - self.vehicle_length;
             let (gap, closing) = match r.intruder {
-                Some(t) if t.gap < front.p - r.p - self.vehicle_length => (t.gap, t.closing),
-                _ => (front.p - r.p - self.vehicle_length, r.v - front.v),
+                Some(t) if t.gap < behind => (t.gap, t.closing),
+                _ => (behind, r.v - front.v),
             };
             if closing > 0.0 {
                 let ttc = gap.max(0.0) / closing;

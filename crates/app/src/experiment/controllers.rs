@@ -216,14 +216,7 @@ pub(crate) fn configure(
         _ => law.defaults(),
     };
     c.topology = TopologyConfig::from(preset);
-    let params = law.defaults().params();
-    if let Some((l, h)) = params.spacing_policy(c.platoon.vehicle_length_m) {
-        c.platoon.spacing_m = l;
-        c.platoon.spacing = if h == 0.0 {
-            SpacingConfig::Constant {}
-        } else {
-            SpacingConfig::TimeHeadway { time_headway_s: h }
-        };
+    if keep_law_spacing(&mut c) {
         c.trigger.rule = RuleConfig::Periodic {
             period_s: beacon_period_s,
         };
@@ -231,6 +224,26 @@ pub(crate) fn configure(
     }
     in_formation(&mut c);
     c
+}
+
+/// Sets the platoon's spacing policy to the one `c`'s law keeps (its distances plus the
+/// vehicle length); false, leaving it, for the paper's law, whose spacing is the platoon's.
+pub(crate) fn keep_law_spacing(c: &mut platoon_config::Config) -> bool {
+    let Some((l, h)) = c
+        .control
+        .law
+        .params()
+        .spacing_policy(c.platoon.vehicle_length_m)
+    else {
+        return false;
+    };
+    c.platoon.spacing_m = l;
+    c.platoon.spacing = if h == 0.0 {
+        SpacingConfig::Constant {}
+    } else {
+        SpacingConfig::TimeHeadway { time_headway_s: h }
+    };
+    true
 }
 
 /// The attack `name` of [`ATTACKS`] into the config (replacing its own).

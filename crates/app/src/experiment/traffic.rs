@@ -1,7 +1,10 @@
 //! Cut-ins by law and attack ([`traffic`]).
-use super::{configure_law, in_formation, refuse, write_config, Base, ExperimentError, Result};
+use super::{
+    configure_law, in_formation, keep_law_spacing, refuse, write_config, Base, ExperimentError,
+    Result,
+};
 use crate::progress::Progress;
-use platoon_config::{LawConfig, LawName, LinkAttackConfig, LinkKindConfig, SpacingConfig};
+use platoon_config::{LawConfig, LawName, LinkAttackConfig, LinkKindConfig};
 use platoon_output::plots;
 use platoon_output::rundir::RunDir;
 use platoon_topology::Preset;
@@ -256,19 +259,7 @@ fn configure(
         LawConfig::Consensus(p) => p.standstill_m = standstill,
         LawConfig::Flatbed(p) => p.spacing_m = standstill,
     }
-    if let Some((l, h)) = c
-        .control
-        .law
-        .params()
-        .spacing_policy(c.platoon.vehicle_length_m)
-    {
-        c.platoon.spacing_m = l;
-        c.platoon.spacing = if h == 0.0 {
-            SpacingConfig::Constant {}
-        } else {
-            SpacingConfig::TimeHeadway { time_headway_s: h }
-        };
-    }
+    keep_law_spacing(&mut c);
     in_formation(&mut c);
     c.guard.enabled = true;
     let detection = c.detection.get_or_insert_with(Default::default);
