@@ -3,7 +3,7 @@
 //! with its name, keeps what was recorded, and leaves nothing running.
 mod common;
 
-use common::{json, ok, platoon, platoon_command, repo, wait_for, PATIENCE};
+use common::{json, ok, platoon, platoon_command, published, repo, wait_for, PATIENCE};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
@@ -1740,10 +1740,48 @@ fn only_the_radar_catches_the_sybil_ghost() {
 
 /// A car cuts in between followers 2 and 3 (`configs/cut-in.toml`): the native plant process
 /// tells follower 3's controller (`VehicleState::INTRUDER`) what the in-process plant tells it,
-/// and both transports agree bit for bit through the cut-in, the ACC on it and the return.
+/// and both transports agree bit for bit through the cut-in, the ACC on it and the return; the
+/// events tell its course.
 #[test]
 fn a_cut_in_runs_bit_identically_on_both_transports() {
     let runs = transports_agree("configs/cut-in.toml");
     let rows = std::fs::read_to_string(runs.path().join("ipc/trajectories.csv")).unwrap();
     assert!(rows.contains(",cut_in,"), "no follower ran on the intruder");
+    // Follower 3's course through it, in order: the car enters at 20 s and the follower
+    // switches at once, opens the gap it had to follower 2, the car leaves at 30 s, the
+    // follower dwells 1 s, blends back and rejoins. Nobody else sees the car.
+    let events = std::fs::read_to_string(runs.path().join("ipc/events.csv")).unwrap();
+    let course: Vec<(u64, &str, &str)> = events
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect::<Vec<_>>())
+        .filter(|f| f[4] != "broadcast")
+        .map(|f| {
+            assert_eq!(f[1], "3", "{f:?}");
+            (f[2].parse().unwrap(), f[4], f[5])
+        })
+        .collect();
+    let names: Vec<(&str, &str)> = course.iter().map(|&(_, e, m)| (e, m)).collect();
+    assert_eq!(
+        names,
+        [
+            ("intruder_in", "cut_in"),
+            ("switch", "cut_in"),
+            ("gap_opened", "cut_in"),
+            ("intruder_out", "cut_in"),
+            ("switch", "blend"),
+            ("switch", "coop"),
+            ("rejoined", "coop"),
+        ]
+    );
+    assert_eq!(
+        (course[0].0, course[1].0, course[3].0, course[4].0),
+        (2000, 2000, 3000, 3100)
+    );
+    assert!((2000..3000).contains(&course[2].0), "{course:?}");
+    published(
+        "docs/traffic.md",
+        "opens the gap {} s after the car entered",
+        &[format!("{:.2}", (course[2].0 - course[0].0) as f64 * 0.01)],
+    );
 }

@@ -37,6 +37,23 @@ pub struct RunFiles {
     refusing: std::collections::BTreeSet<(usize, u16)>,
     /// Platoon 0's detector flags (follower, t), for modes.png.
     flags: Vec<(u16, f64)>,
+    /// Per vehicle: the intrusion its radar sees, if any.
+    intrusions: Vec<Option<Intrusion>>,
+    /// Per vehicle: an intrusion began since it last ran its law (for `rejoined`).
+    intruded: Vec<bool>,
+    /// Per vehicle: its gap to the vehicle ahead in the platoon at the step before (m).
+    gaps: Vec<f64>,
+    /// The vehicles' length (m).
+    vehicle_length: f64,
+}
+
+/// A vehicle in front of a follower that is not its predecessor, as the plant's radar sees it.
+#[derive(Debug, Clone, Copy)]
+struct Intrusion {
+    /// The follower's gap to its predecessor at the step before it appeared (m).
+    before: f64,
+    /// The gap to it has been at least `before` since.
+    opened: bool,
 }
 
 /// Where [`RunFiles`] keeps its tables.
@@ -140,16 +157,17 @@ struct DetectionRow {
     residual_score: Option<f64>,
 }
 
-/// One row per broadcast of a follower, one per change of its mode, and with `[detection]` one
-/// per packet its detectors flagged and one when its reaction begins or ends refusing a sender.
+/// One row per broadcast of a follower, one per change of its mode, with traffic one per step
+/// of an intrusion's course, and with `[detection]` one per packet its detectors flagged and one
+/// when its reaction begins or ends refusing a sender.
 #[derive(serde::Serialize, serde::Deserialize)]
 struct EventRow {
     platoon: u16,
     vehicle: u16,
     step: u64,
     t: f64,
-    /// `broadcast`, `switch` (the vehicle's mode changed at this step), `flagged`, `distrust` or
-    /// `trust`.
+    /// `broadcast`, `switch` (the vehicle's mode changed at this step), `intruder_in`,
+    /// `gap_opened`, `intruder_out`, `rejoined`, `flagged`, `distrust` or `trust`.
     event: Event,
     /// The mode it is in (after the switch).
     mode: platoon_control::Mode,
@@ -163,6 +181,16 @@ struct EventRow {
 enum Event {
     Broadcast,
     Switch,
+    /// The radar's nearest vehicle ahead became one that is not the predecessor (a cut-in), as
+    /// the plant sees it.
+    IntruderIn,
+    /// The gap to that vehicle reached the gap the follower had to its predecessor at the step
+    /// before it appeared.
+    GapOpened,
+    /// The radar's nearest vehicle ahead is the predecessor again.
+    IntruderOut,
+    /// Back on its law (mode `coop`) after an intrusion.
+    Rejoined,
     /// A detector flagged a packet the vehicle received (`[detection]`).
     Flagged,
     /// Its reaction began refusing a sender's packets (the first refused after an accepted
@@ -240,6 +268,10 @@ impl RunFiles {
             pending: Vec::new(),
             refusing: Default::default(),
             flags: Vec::new(),
+            intrusions: vec![None; scenario.vehicles()],
+            intruded: vec![false; scenario.vehicles()],
+            gaps: vec![f64::NAN; scenario.vehicles()],
+            vehicle_length: scenario.vehicle_length,
         })
     }
 
@@ -304,10 +336,12 @@ impl RunFiles {
         // Each vehicle's in the order they happened (a stable sort).
         self.pending.sort_by_key(|(v, _)| *v);
         let mut next = 0;
+        let mut ahead_p = f64::NAN;
         for r in step {
             if keep {
                 self.trajectories.write(*r)?;
             }
+            let p_ahead = std::mem::replace(&mut ahead_p, r.p);
             if r.vehicle == 0 {
                 continue;
             }
@@ -322,9 +356,19 @@ impl RunFiles {
                 inter_event_s,
                 under_attack: r.under_attack,
             };
+            let intrusion = self.intrusion(v, r, p_ahead);
+            if intrusion == Some(Event::IntruderIn) {
+                self.events.write(row(Event::IntruderIn, None))?;
+            }
             if r.mode != self.modes[v] {
                 self.modes[v] = r.mode;
                 self.events.write(row(Event::Switch, None))?;
+                if r.mode == platoon_control::Mode::Coop && std::mem::take(&mut self.intruded[v]) {
+                    self.events.write(row(Event::Rejoined, None))?;
+                }
+            }
+            if let Some(e @ (Event::GapOpened | Event::IntruderOut)) = intrusion {
+                self.events.write(row(e, None))?;
             }
             if r.triggered {
                 let prev = &mut self.last[v];
@@ -340,6 +384,32 @@ impl RunFiles {
         }
         self.pending.clear();
         Ok(())
+    }
+
+    /// Follows vehicle `v`'s intrusion through its row `r` (`p_ahead`: the position of the
+    /// platoon member ahead of it): the event of this step, if any.
+    fn intrusion(&mut self, v: usize, r: &StepRow, p_ahead: f64) -> Option<Event> {
+        let gap = p_ahead - r.p - self.vehicle_length;
+        let before = std::mem::replace(&mut self.gaps[v], gap);
+        match (&mut self.intrusions[v], r.intruder) {
+            (None, Some(_)) => {
+                self.intrusions[v] = Some(Intrusion {
+                    before,
+                    opened: false,
+                });
+                self.intruded[v] = true;
+                Some(Event::IntruderIn)
+            }
+            (Some(i), Some(t)) if !i.opened && t.gap >= i.before => {
+                i.opened = true;
+                Some(Event::GapOpened)
+            }
+            (Some(_), None) => {
+                self.intrusions[v] = None;
+                Some(Event::IntruderOut)
+            }
+            _ => None,
+        }
     }
 
     /// What the built-in channel did not deliver as sent, as it happened.
