@@ -238,6 +238,20 @@ pub fn all(a: All) -> Result<()> {
             );
         }
     }
+    if let (Some(busy), Some(calm)) = (find("sumo-traffic", 1000), find("sumo", 1000)) {
+        let _ = writeln!(
+            md,
+            "\nN = 1000 with SUMO and traffic that touches every platoon (`sumo-traffic`: the platoons of `configs/cut-in.toml`, 20 m front to front, a car cutting in mid-gap ahead of each platoon's follower 3 from 30 % to 70 % of the run, handled by `[fallback.cut_in]`, and {} SUMO background vehicles on the platoons' lanes changing lanes by LC2013, a fifth of them trucks; the vehicles column counts the platoons' alone): {:.1}x real time (target >= 3: {}), its step {:.2}x the `sumo` case's without traffic ({:.1} against {:.1} µs; SUMO's own step {} against {} µs).",
+            1000usize.div_ceil(5),
+            busy.real_time_factor,
+            met(busy.real_time_factor >= 3.0),
+            busy.step_p50_us / calm.step_p50_us,
+            busy.step_p50_us,
+            calm.step_p50_us,
+            f(busy.sumo_step_p50_us),
+            f(calm.sumo_step_p50_us),
+        );
+    }
     let _ = writeln!(md);
     let _ = writeln!(
         md,

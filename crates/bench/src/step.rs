@@ -10,7 +10,7 @@ use std::process::Command;
 pub struct Step {
     /// Numbers of followers (multiples of 4: platoons of 4 followers).
     pub followers: Vec<usize>,
-    /// Transports and plants: inproc, native, sumo, native-1cpu, sumo-1cpu.
+    /// Transports and plants: inproc, native, sumo, native-1cpu, sumo-1cpu, sumo-traffic.
     pub modes: Vec<String>,
     /// Simulated seconds per case.
     pub seconds: f64,
@@ -28,9 +28,16 @@ impl Default for Step {
     fn default() -> Self {
         Self {
             followers: vec![4, 100, 1000],
-            modes: ["inproc", "native", "sumo", "native-1cpu", "sumo-1cpu"]
-                .map(String::from)
-                .to_vec(),
+            modes: [
+                "inproc",
+                "native",
+                "sumo",
+                "native-1cpu",
+                "sumo-1cpu",
+                "sumo-traffic",
+            ]
+            .map(String::from)
+            .to_vec(),
             seconds: 5.0,
             no_peers: false,
             rounds: 3,
@@ -252,24 +259,59 @@ fn peers(plant_json: &std::path::Path, followers: usize, round: u32) -> Result<V
 }
 
 /// A platoon-of-4 fleet config with `followers` followers in all, `seconds` long: Table I's
-/// scenario, resolved, with its keys set by dotted path as a campaign sets them.
-fn fleet_config(followers: usize, seconds: f64, sumo: bool) -> Result<String> {
+/// scenario, resolved, with its keys set by dotted path as a campaign sets them. With
+/// `traffic` (on SUMO) the traffic touches every platoon: the platoons are
+/// `configs/cut-in.toml`'s (the paper's law on PF, 20 m front to front, `[fallback.cut_in]`)
+/// with the guard on, their car cutting in mid-gap ahead of each platoon's follower 3 at 30 %
+/// of the run and leaving at 70 %, and one SUMO background vehicle per 5 followers drives on the
+/// platoons' lanes, changing lanes by LC2013, a fifth of them trucks.
+fn fleet_config(followers: usize, seconds: f64, sumo: bool, traffic: bool) -> Result<String> {
     let net = platoon_app::sumo::bridge_dir()?.join("../sumo/highway-long/highway-long.net.xml");
-    let (config, _) = platoon_config::Embedded::Table1.parse()?;
-    let mut root = toml::Value::try_from(&config).context("the resolved Table I config")?;
+    let base = if traffic {
+        platoon_config::Embedded::CutIn
+    } else {
+        platoon_config::Embedded::Table1
+    };
+    let (config, _) = base.parse()?;
+    let mut root = toml::Value::try_from(&config).context("the resolved base config")?;
     let lanes: Vec<toml::Value> = (0..4).map(toml::Value::Integer).collect();
     let mut keys: Vec<(&str, toml::Value)> = vec![
         ("simulation.duration_s", seconds.into()),
         ("topology.preset", "pf".into()),
-        ("platoon.vehicle_length_m", 4.0.into()),
         ("fleet.platoons", (followers as i64 / 4).into()),
         ("fleet.lanes", lanes.into()),
-        ("fleet.gap_m", 60.0.into()),
+        // Leader to leader: Table I's platoons are 44 m long, the cut-in config's 84.5 m.
+        ("fleet.gap_m", if traffic { 200.0 } else { 60.0 }.into()),
         ("sumo.net", net.display().to_string().into()),
         ("sumo.fcd_period_s", 0.0.into()),
     ];
     if sumo {
         keys.push(("simulation.plant", "sumo".into()));
+    }
+    if traffic {
+        keys.extend([
+            ("cut_ins[0].at_s", (0.3 * seconds).into()),
+            ("cut_ins[0].leave_s", (0.7 * seconds).into()),
+            ("guard.enabled", true.into()),
+            (
+                "sumo.background_vehicles",
+                (followers.div_ceil(5) as i64).into(),
+            ),
+            ("sumo.background_seed", 11.into()),
+            ("sumo.background_on_platoon_lanes", true.into()),
+            ("sumo.background_truck_share", 0.2.into()),
+            (
+                "sumo.background_lane_changes",
+                toml::Value::Table(
+                    [("assertive", 10.0), ("speed_gain", 5.0)]
+                        .into_iter()
+                        .map(|(k, v)| (k.to_string(), v.into()))
+                        .collect(),
+                ),
+            ),
+        ]);
+    } else {
+        keys.push(("platoon.vehicle_length_m", 4.0.into()));
     }
     for (key, value) in keys {
         platoon_campaign::overrides::set(&mut root, key, value)
@@ -301,10 +343,11 @@ pub fn step(a: Step) -> Result<StepReport> {
     for m in &a.modes {
         if !matches!(
             m.as_str(),
-            "inproc" | "native" | "sumo" | "native-1cpu" | "sumo-1cpu"
+            "inproc" | "native" | "sumo" | "native-1cpu" | "sumo-1cpu" | "sumo-traffic"
         ) {
             bail!(
-                "unknown mode {m:?} in --modes: use inproc, native, sumo, native-1cpu or sumo-1cpu"
+                "unknown mode {m:?} in --modes: use inproc, native, sumo, native-1cpu, sumo-1cpu \
+                 or sumo-traffic"
             );
         }
     }
@@ -332,7 +375,8 @@ pub fn step(a: Step) -> Result<StepReport> {
                 bar.set_message(format!("round {round}/{}: {mode}, {n} followers", a.rounds));
                 let config = dir.path(&format!("{mode}-{n}.toml"));
                 let sumo = mode.starts_with("sumo");
-                std::fs::write(&config, fleet_config(n, a.seconds, sumo)?)?;
+                let traffic = mode == "sumo-traffic";
+                std::fs::write(&config, fleet_config(n, a.seconds, sumo, traffic)?)?;
                 let case = dir.path(&format!("{mode}-{n}"));
                 let transport = if mode == "inproc" {
                     "inproc"

@@ -77,7 +77,10 @@ pub(crate) struct StepArgs {
     #[arg(long, value_delimiter = ',', default_values_t = Step::default().followers)]
     pub followers: Vec<usize>,
     /// Transports and plants to measure: inproc, native (iceoryx2), sumo (iceoryx2 + SUMO), and
-    /// native-1cpu, sumo-1cpu: the same with the nodes on one core (`platoon run --cpus`).
+    /// native-1cpu, sumo-1cpu: the same with the nodes on one core (`platoon run --cpus`);
+    /// sumo-traffic: sumo with traffic that touches every platoon (a car cutting in ahead of
+    /// each platoon's follower 3, handled by [fallback.cut_in], and one SUMO background vehicle
+    /// per 5 followers changing lanes among the platoons).
     #[arg(long, value_delimiter = ',', default_values_t = Step::default().modes)]
     pub modes: Vec<String>,
     /// Simulated seconds per case.
