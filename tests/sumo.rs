@@ -3,7 +3,7 @@
 //! collisions, faults.
 mod common;
 
-use common::{json, ok, platoon, platoon_command, repo};
+use common::{cut_in_config, json, ok, platoon, platoon_command, repo};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 
@@ -1625,6 +1625,104 @@ fn a_cut_in_on_sumo_is_seen_at_its_step_and_agrees_with_the_native_plant() {
                 "{mode}: {x} vs {y}"
             );
         }
+    }
+}
+
+/// The cut-in of `configs/cut-in.toml` on SUMO for every law of the controller seam (each on
+/// the platoon's 15.5 m standstill gap, the laws that need the leader on `plf` with the guard,
+/// as `tests/traffic.rs` runs them in process): follower 3's radar (SUMO's getLeader) sees the
+/// car at the step it enters, the follower switches to ACC on it at that step (a law on the
+/// radar alone, Plexe's ACC, follows whoever is ahead and has nothing to switch), opens the gap
+/// it had, returns to its law after the car left, and nobody collides (but for the flatbed
+/// controller's follower 4: below).
+#[test]
+fn every_law_handles_a_cut_in_on_sumo() {
+    let tmp = tempfile::tempdir().unwrap();
+    for law in ["paper", "ploeg", "acc", "path_cacc", "consensus", "flatbed"] {
+        let config = tmp.path().join(format!("{law}.toml"));
+        std::fs::write(&config, cut_in_config(law)).unwrap();
+        ok(&platoon(
+            &[
+                "run",
+                config.to_str().unwrap(),
+                "--plant",
+                "sumo",
+                "--out",
+                law,
+                "--no-plots",
+            ],
+            tmp.path(),
+        ));
+        let run = tmp.path().join(law);
+        let summary = json(&run.join("summary.json"));
+        let report = json(&run.join("sumo.json"));
+        if law == "flatbed" {
+            // Follower 3 handles the car, but follower 4, which keeps its place relative to
+            // the leader, closes in on follower 3 as it falls back behind the car (its gap
+            // target shrinks by its headway times its speed deficit to the leader) and hits
+            // it: the followers behind a cut-in need the platoon split there (issue 38). Every
+            // collision is follower 4's into follower 3, none with the car.
+            let collisions = report["collisions"].as_array().unwrap();
+            assert!(
+                collisions
+                    .iter()
+                    .all(|c| c["collider"] == "follower4" && c["victim"] == "follower3"),
+                "{collisions:?}"
+            );
+            assert_eq!(
+                summary["safety"]["min_gap_vehicle"], 4,
+                "{}",
+                summary["safety"]
+            );
+        } else {
+            assert_eq!(
+                summary["safety"]["collided"], false,
+                "{law}: {}",
+                summary["safety"]
+            );
+            assert_eq!(report["collisions"], serde_json::json!([]), "{law}");
+        }
+        let car = &report["cut_ins"]["vehicles"]["cutin0"];
+        assert_eq!(car["entered_step"], 2000, "{law}");
+        let events = std::fs::read_to_string(run.join("events.csv")).unwrap();
+        let course: Vec<String> = events
+            .lines()
+            .filter(|l| !l.contains(",broadcast,"))
+            .skip(1)
+            .map(|l| {
+                let f: Vec<&str> = l.split(',').collect();
+                format!("{} {} {} {}", f[1], f[2], f[4], f[5])
+            })
+            .collect();
+        // The radar saw it at its step, in front of follower 3 alone, and saw it go.
+        assert!(
+            course.iter().all(|e| e.starts_with("3 ")),
+            "{law}: {course:?}"
+        );
+        assert!(
+            course[0].starts_with("3 2000 intruder_in "),
+            "{law}: {course:?}"
+        );
+        assert!(
+            course.iter().any(|e| e.contains(" intruder_out ")),
+            "{law}: {course:?}"
+        );
+        let f3: Vec<Row> = rows(&run).into_iter().filter(|r| r.vehicle == 3).collect();
+        if law == "acc" {
+            assert!(f3.iter().all(|r| r.mode == "coop"), "{law}");
+            continue;
+        }
+        assert_eq!(course[0], "3 2000 intruder_in cut_in", "{law}: {course:?}");
+        assert!(
+            course.iter().any(|e| e.ends_with("gap_opened cut_in")),
+            "{law}: {course:?}"
+        );
+        assert_eq!(course[1], "3 2000 switch cut_in", "{law}: {course:?}");
+        assert!(
+            course.last().unwrap().ends_with("rejoined coop"),
+            "{law}: {course:?}"
+        );
+        assert_eq!(f3.last().unwrap().mode, "coop", "{law}");
     }
 }
 

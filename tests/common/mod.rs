@@ -123,3 +123,56 @@ pub fn published(doc: &str, template: &str, values: &[String]) {
         }
     );
 }
+
+/// `configs/cut-in.toml` with `law` (and the keys it needs) in place of the paper's law.
+pub fn cut_in_config(law: &str) -> String {
+    let text = std::fs::read_to_string(repo().join("configs/cut-in.toml")).unwrap();
+    if law == "paper" {
+        return text;
+    }
+    // The paper's law keys and trigger weights: another law refuses them.
+    let body: Vec<&str> = text
+        .lines()
+        .filter(|l| {
+            !["phi", "rho", "eta", "theta0", "gain", "beta1", "beta2"]
+                .iter()
+                .any(|k| l.starts_with(k))
+        })
+        .collect();
+    // Each law keeps the platoon's 20 m front to front (15.5 m between 4.5 m cars) at
+    // standstill, plus its own time headway; laws that need the leader get it (plf), and the
+    // guard, since the followers behind the cut-in still track the leader.
+    let (keys, headway, leader) = match law {
+        "acc" => ("standstill_m = 15.5", Some(1.5), false),
+        "ploeg" => ("standstill_m = 15.5", Some(0.5), false),
+        "path_cacc" => ("spacing_m = 15.5", None, true),
+        "consensus" => ("standstill_m = 15.5", Some(0.8), true),
+        "flatbed" => ("spacing_m = 15.5", None, true),
+        other => panic!("no cut-in config for {other}"),
+    };
+    let mut c = body
+        .join("\n")
+        .replacen(
+            "[control]",
+            &format!("[control]\nlaw = \"{law}\"\n{keys}"),
+            1,
+        )
+        .replacen(
+            "rule = \"dynamic\"",
+            "rule = \"periodic\"\nperiod_s = 0.1",
+            1,
+        );
+    if let Some(h) = headway {
+        c = c.replacen(
+            "vehicle_length_m = 4.5",
+            &format!(
+                "vehicle_length_m = 4.5\nspacing_policy = \"time_headway\"\ntime_headway_s = {h}"
+            ),
+            1,
+        );
+    }
+    if leader {
+        c = c.replacen("preset = \"pf\"", "preset = \"plf\"", 1) + "\n[guard]\nenabled = true\n";
+    }
+    c
+}
