@@ -3,7 +3,9 @@
 //! with its name, keeps what was recorded, and leaves nothing running.
 mod common;
 
-use common::{json, ok, platoon, platoon_command, published, repo, wait_for, PATIENCE};
+use common::{
+    json, ok, platoon, platoon_command, published, repo, wait_for, without_paper_law_keys, PATIENCE,
+};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
@@ -1514,17 +1516,7 @@ fn iceoryx2_runs_of_the_fields_laws_are_bit_identical_to_inproc() {
             "rule = \"periodic\"\nperiod_s = 0.1",
         ),
     ] {
-        let body: Vec<&str> = text
-            .lines()
-            .filter(|l| {
-                // The paper's trigger weights and law keys: another law refuses them.
-                !["phi", "rho", "eta", "theta0", "gain", "beta1", "beta2"]
-                    .iter()
-                    .any(|k| l.starts_with(k))
-            })
-            .collect();
-        let config = body
-            .join("\n")
+        let config = without_paper_law_keys(&text)
             .replacen("spacing_m = 10.0", spacing, 1)
             .replacen("preset = \"tpsf\"", "preset = \"plf\"", 1)
             .replacen("[control]", &format!("[control]\nlaw = \"{law}\""), 1)

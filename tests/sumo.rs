@@ -1628,6 +1628,16 @@ fn a_cut_in_on_sumo_is_seen_at_its_step_and_agrees_with_the_native_plant() {
     }
 }
 
+/// Runs `config` on SUMO into `cwd/out`, without plots: the run directory.
+fn run_on_sumo(config: &Path, out: &str, cwd: &Path) -> PathBuf {
+    let c = config.to_str().unwrap();
+    ok(&platoon(
+        &["run", c, "--plant", "sumo", "--out", out, "--no-plots"],
+        cwd,
+    ));
+    cwd.join(out)
+}
+
 /// The cut-in of `configs/cut-in.toml` on SUMO for every law of the controller seam (each on
 /// the platoon's 15.5 m standstill gap, the laws that need the leader on `plf` with the guard,
 /// as `tests/traffic.rs` runs them in process): follower 3's radar (SUMO's getLeader) sees the
@@ -1641,19 +1651,7 @@ fn every_law_handles_a_cut_in_on_sumo() {
     for law in ["paper", "ploeg", "acc", "path_cacc", "consensus", "flatbed"] {
         let config = tmp.path().join(format!("{law}.toml"));
         std::fs::write(&config, cut_in_config(law)).unwrap();
-        ok(&platoon(
-            &[
-                "run",
-                config.to_str().unwrap(),
-                "--plant",
-                "sumo",
-                "--out",
-                law,
-                "--no-plots",
-            ],
-            tmp.path(),
-        ));
-        let run = tmp.path().join(law);
+        let run = run_on_sumo(&config, law, tmp.path());
         let summary = json(&run.join("summary.json"));
         let report = json(&run.join("sumo.json"));
         if law == "flatbed" {
@@ -1749,19 +1747,7 @@ fn lane_changing_background_traffic_shares_the_platoons_lane() {
                background_lane_changes = { assertive = 10.0, speed_gain = 5.0 }\n",
     )
     .unwrap();
-    ok(&platoon(
-        &[
-            "run",
-            config.to_str().unwrap(),
-            "--plant",
-            "sumo",
-            "--out",
-            "r",
-            "--no-plots",
-        ],
-        tmp.path(),
-    ));
-    let run = tmp.path().join("r");
+    let run = run_on_sumo(&config, "r", tmp.path());
     let report = json(&run.join("sumo.json"));
     assert_eq!(report["teleports"], serde_json::json!([]));
     assert_eq!(report["collisions"], serde_json::json!([]));

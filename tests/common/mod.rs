@@ -130,15 +130,7 @@ pub fn cut_in_config(law: &str) -> String {
     if law == "paper" {
         return text;
     }
-    // The paper's law keys and trigger weights: another law refuses them.
-    let body: Vec<&str> = text
-        .lines()
-        .filter(|l| {
-            !["phi", "rho", "eta", "theta0", "gain", "beta1", "beta2"]
-                .iter()
-                .any(|k| l.starts_with(k))
-        })
-        .collect();
+    let body = without_paper_law_keys(&text);
     // Each law keeps the platoon's 20 m front to front (15.5 m between 4.5 m cars) at
     // standstill, plus its own time headway; laws that need the leader get it (plf), and the
     // guard, since the followers behind the cut-in still track the leader.
@@ -151,7 +143,6 @@ pub fn cut_in_config(law: &str) -> String {
         other => panic!("no cut-in config for {other}"),
     };
     let mut c = body
-        .join("\n")
         .replacen(
             "[control]",
             &format!("[control]\nlaw = \"{law}\"\n{keys}"),
@@ -175,4 +166,16 @@ pub fn cut_in_config(law: &str) -> String {
         c = c.replacen("preset = \"pf\"", "preset = \"plf\"", 1) + "\n[guard]\nenabled = true\n";
     }
     c
+}
+
+/// A config's text without the paper's law keys and trigger weights, which another law refuses.
+pub fn without_paper_law_keys(text: &str) -> String {
+    text.lines()
+        .filter(|l| {
+            !["phi", "rho", "eta", "theta0", "gain", "beta1", "beta2"]
+                .iter()
+                .any(|k| l.starts_with(k))
+        })
+        .collect::<Vec<_>>()
+        .join("\n")
 }
