@@ -446,6 +446,8 @@ class Intruders:
         """Step k's entries and exits, given the states published at k (p, v: every platoon's,
         wire order). Whether any vehicle entered or left."""
         t = k * self.dt
+        if not self.due(t):
+            return False
         n1, changed = self.n1, False
         vehicle = self.sumo.vehicle
         for j, cuts in enumerate(self.platoons):
@@ -470,10 +472,24 @@ class Intruders:
             self.compare()
         return changed
 
+    def due(self, t) -> bool:
+        """Whether any cut-in enters or leaves at time t. Every platoon has the same cut-ins,
+        which enter and leave by the time alone, so the first platoon's tell for all (and a
+        fleet's step does not loop over its platoons for nothing)."""
+        first = self.platoons[0]
+        for c, cut in enumerate(first.cut_ins):
+            leave = cut["leave_s"]
+            if leave is not None and t >= leave:
+                if first.on_lane[c] is not None:
+                    return True
+            elif not first.entered[c] and t >= cut["at_s"]:
+                return True
+        return False
+
     def hold(self, k):
         """Before SUMO's step k -> k + 1: each intruder's acceleration over it, as the
         kinematics move it (and SUMO then does)."""
-        if not any(x is not None for cuts in self.platoons for x in cuts.on_lane):
+        if all(x is None for x in self.platoons[0].on_lane):  # the same in every platoon
             return
         self.compare()
         vehicle, dt = self.sumo.vehicle, self.dt
