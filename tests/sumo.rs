@@ -1612,6 +1612,26 @@ fn a_cut_in_on_sumo_is_seen_at_its_step_and_agrees_with_the_native_plant() {
             assert_eq!(x.mode, y.mode, "step {} vehicle {}", x.step, x.vehicle);
         }
     }
+    // What the radars saw, in the trajectories: the same vehicle at every step on both plants
+    // (SUMO's getLeader id carried over the wire as the cut-in's number), the same gap within
+    // 0.05 m; follower 3 sees the car from the step it enters to the step it leaves.
+    let (ra, rb) = (radar(&sumo), radar(&native));
+    assert_eq!(ra.len(), a.len());
+    for ((x, y), r) in ra.iter().zip(&rb).zip(&a) {
+        assert_eq!(x.0, y.0, "step {} vehicle {}", r.step, r.vehicle);
+        assert!(
+            (x.1 - y.1).abs() < 0.05 || (x.1.is_nan() && y.1.is_nan()),
+            "step {} vehicle {}: {x:?} vs {y:?}",
+            r.step,
+            r.vehicle
+        );
+        let want = match (r.vehicle, r.step) {
+            (0, _) => String::new(),
+            (3, 2000..=2999) => "cut_in:0".into(),
+            (v, _) => (v - 1).to_string(),
+        };
+        assert_eq!(x.0, want, "step {} vehicle {}", r.step, r.vehicle);
+    }
     for (x, y) in s["vehicles"]
         .as_array()
         .unwrap()
@@ -1740,4 +1760,48 @@ fn lane_changing_background_traffic_shares_the_platoons_lane() {
         cut_in > 0 && back,
         "{cut_in} rows in mode cut_in, back: {back}"
     );
+    // What the radars saw is in the trajectories (traffic shares the platoon's lane): a
+    // background car (SUMO's id) ahead of the followers that ran ACC on a car.
+    let seen = radar(&run);
+    assert_eq!(seen.len(), rows.len());
+    let on_cars: Vec<_> = rows
+        .iter()
+        .zip(&seen)
+        .filter(|(r, _)| r.mode == "cut_in")
+        .map(|(_, s)| s)
+        .collect();
+    assert!(
+        on_cars.iter().any(|s| s.0.starts_with("bg")),
+        "{:?}",
+        &on_cars[..on_cars.len().min(5)]
+    );
+    assert!(on_cars.iter().all(|s| s.1.is_finite()));
+}
+
+/// The radar's columns of a run's trajectories.csv (runs with traffic that can touch the
+/// platoon): (target, gap, closing speed) per row.
+fn radar(run: &Path) -> Vec<(String, f64, f64)> {
+    let mut r = csv::Reader::from_path(run.join("trajectories.csv")).unwrap();
+    let header: Vec<String> = r.headers().unwrap().iter().map(String::from).collect();
+    let col = |name: &str| {
+        header
+            .iter()
+            .position(|h| h == name)
+            .unwrap_or_else(|| panic!("no {name} in {header:?}"))
+    };
+    let (who, gap, closing) = (
+        col("radar_target"),
+        col("radar_gap_m"),
+        col("radar_closing_mps"),
+    );
+    r.records()
+        .map(|x| {
+            let x = x.unwrap();
+            (
+                x[who].to_string(),
+                x[gap].parse().unwrap(),
+                x[closing].parse().unwrap(),
+            )
+        })
+        .collect()
 }
