@@ -1805,3 +1805,94 @@ fn radar(run: &Path) -> Vec<(String, f64, f64)> {
         })
         .collect()
 }
+
+/// `experiment traffic --plant sumo` on a tiny grid (a car 3 m ahead of follower 3 and 4 m/s
+/// slower; the paper's law and the PATH CACC; no attack and the periodic DoS; until 2 s after
+/// the car left): every cell is a run with SUMO as the plant (its sumo.json says the car
+/// entered and left), and the table agrees with the in-process study's: the same cells, the
+/// same collisions (the PATH CACC under the DoS touches the car on both plants), every
+/// smallest gap within 0.05 m, the time on the car and outside the law within 0.1 s.
+#[test]
+fn the_traffic_study_on_sumo_agrees_with_the_in_process_one() {
+    let tmp = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(repo().join("configs/cut-in.toml")).unwrap();
+    assert!(text.contains("duration_s = 70.0"));
+    std::fs::write(
+        tmp.path().join("short.toml"),
+        text.replace("duration_s = 70.0", "duration_s = 32.0"),
+    )
+    .unwrap();
+    let table = |plant: &str| -> Vec<csv::StringRecord> {
+        ok(&platoon(
+            &[
+                "experiment",
+                "traffic",
+                "--config",
+                "short.toml",
+                "--plant",
+                plant,
+                "--laws",
+                "paper,path_cacc",
+                "--gaps",
+                "3",
+                "--speed-diffs",
+                "-4",
+                "--attacks",
+                "none,periodic-dos",
+                "--out",
+                plant,
+            ],
+            tmp.path(),
+        ));
+        let mut r = csv::Reader::from_path(tmp.path().join(plant).join("traffic.csv")).unwrap();
+        let header: Vec<String> = r.headers().unwrap().iter().map(String::from).collect();
+        assert_eq!(
+            header,
+            [
+                "law",
+                "topology",
+                "gap_m",
+                "speed_diff_mps",
+                "attack",
+                "repeat",
+                "collided",
+                "min_gap_m",
+                "cut_in_s",
+                "fallback_s",
+                "false_alarms",
+                "detected",
+                "missed"
+            ]
+        );
+        r.records().map(Result::unwrap).collect()
+    };
+    let (sumo, native) = (table("sumo"), table("native"));
+    assert_eq!(sumo.len(), 4);
+    assert_eq!(native.len(), 4);
+    let f = |r: &csv::StringRecord, i: usize| r[i].parse::<f64>().unwrap();
+    for (s, n) in sumo.iter().zip(&native) {
+        // law, topology, gap, speed, attack, repeat: the same cell; collided: the same outcome.
+        assert_eq!(
+            s.iter().take(7).collect::<Vec<_>>(),
+            n.iter().take(7).collect::<Vec<_>>()
+        );
+        assert!((f(s, 7) - f(n, 7)).abs() < 0.05, "min gap: {s:?} vs {n:?}");
+        for i in [8, 9] {
+            assert!(
+                (f(s, i) - f(n, i)).abs() <= 0.1,
+                "column {i}: {s:?} vs {n:?}"
+            );
+        }
+        let name = format!("{}-gap3-dv-4-{}-r0", &s[0], &s[4]);
+        let report = json(&tmp.path().join("sumo/runs").join(&name).join("sumo.json"));
+        let car = &report["cut_ins"]["vehicles"]["cutin0"];
+        assert_eq!(
+            (&car["entered_step"], &car["left_step"]),
+            (&2000.into(), &3000.into()),
+            "{name}"
+        );
+    }
+    let collided: Vec<&str> = sumo.iter().map(|r| &r[6]).collect();
+    assert_eq!(collided, ["false", "false", "false", "true"]);
+    assert!(!tmp.path().join("native/runs").exists());
+}
