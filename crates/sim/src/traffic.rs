@@ -294,6 +294,30 @@ mod tests {
     }
 
     #[test]
+    fn the_radar_view_names_the_predecessor_or_the_cut_in() {
+        let states = platoon();
+        let mut t = Traffic::new(&[cut_in()]);
+        let (mut truth, mut who) = (Vec::new(), Vec::new());
+        radar_view(&states, 4.0, &t, &mut truth, &mut who);
+        use RadarTarget::*;
+        assert_eq!(who, [Nothing, Member(0), Member(1), Member(2)]);
+        t.arrive(1.0, &states, 4.0);
+        radar_view(&states, 4.0, &t, &mut truth, &mut who);
+        assert_eq!(who, [Nothing, Member(0), CutIn(0), Member(2)]);
+        let mut plain = Vec::new();
+        radar_truth(&states, 4.0, &t, &mut plain);
+        assert_eq!(truth, plain);
+        // As the outputs write them, and back.
+        for w in [Nothing, Member(2), CutIn(0), Background(17), Unknown] {
+            let text = w.to_string();
+            assert_eq!(text.parse::<RadarTarget>(), Ok(w), "{text}");
+        }
+        assert_eq!(CutIn(1).to_string(), "cut_in:1");
+        assert_eq!(Background(17).to_string(), "bg17");
+        assert!("cut_in:x".parse::<RadarTarget>().is_err());
+    }
+
+    #[test]
     fn an_intruder_stops_rather_than_reverses() {
         let mut t = Traffic::new(&[CutIn {
             decel_mps2: 50.0,
