@@ -1734,6 +1734,11 @@ fn only_the_radar_catches_the_sybil_ghost() {
 /// tells follower 3's controller (`VehicleState::INTRUDER`) what the in-process plant tells it,
 /// and both transports agree bit for bit through the cut-in, the ACC on it and the return; the
 /// events tell its course.
+///
+/// What the radars saw goes to the trajectories and, with `[detection]`, to the per-message
+/// dataset (`radar_target`, `radar_gap_m`, `radar_closing_mps`): the same bytes on both
+/// transports, follower 3's target the car (`cut_in:0`) from the step it enters to the step it
+/// leaves, its predecessor (`2`) before and after.
 #[test]
 fn a_cut_in_runs_bit_identically_on_both_transports() {
     let runs = transports_agree("configs/cut-in.toml");
@@ -1776,4 +1781,81 @@ fn a_cut_in_runs_bit_identically_on_both_transports() {
         "opens the gap {} s after the car entered",
         &[format!("{:.2}", (course[2].0 - course[0].0) as f64 * 0.01)],
     );
+    let tmp = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(repo().join("configs/cut-in.toml")).unwrap();
+    let c = tmp.path().join("cut-in-detection.toml");
+    std::fs::write(
+        &c,
+        format!("{text}\n[detection]\nradar_cross = {{}}\nplausibility = {{}}\n"),
+    )
+    .unwrap();
+    let runs = transports_agree(c.to_str().unwrap());
+    let ipc = runs.path().join("ipc");
+    same_outputs(&ipc, &runs.path().join("inproc"), &["detections.csv"]);
+    let table = |file: &str| {
+        let mut r = csv::Reader::from_path(ipc.join(file)).unwrap();
+        let header: Vec<String> = r.headers().unwrap().iter().map(String::from).collect();
+        let col = |name: &str| header.iter().position(|h| h == name).unwrap();
+        let (step, who, gap) = (col("step"), col("radar_target"), col("radar_gap_m"));
+        let vehicle = header
+            .iter()
+            .position(|h| h == "vehicle" || h == "receiver")
+            .unwrap();
+        let rows: Vec<(u64, u16, String, f64)> = r
+            .records()
+            .map(|x| {
+                let x = x.unwrap();
+                (
+                    x[step].parse().unwrap(),
+                    x[vehicle].parse().unwrap(),
+                    x[who].to_string(),
+                    x[gap].parse().unwrap(),
+                )
+            })
+            .collect();
+        assert_eq!(
+            header[header.len() - 3..],
+            ["radar_target", "radar_gap_m", "radar_closing_mps"],
+            "{file}: the radar's columns last"
+        );
+        rows
+    };
+    // Follower 3: its predecessor until the car enters at 20 s, the car until it leaves at
+    // 30 s (the gap it was given as it entered: mid-gap), its predecessor again after.
+    let seen = table("trajectories.csv");
+    let of3: Vec<&(u64, u16, String, f64)> = seen.iter().filter(|r| r.1 == 3).collect();
+    for (k, _, who, gap) in &of3 {
+        let want = if (2000..3000).contains(k) {
+            "cut_in:0"
+        } else {
+            "2"
+        };
+        assert_eq!(who, want, "step {k}");
+        assert!(gap.is_finite() && *gap > 0.0, "step {k}: {gap}");
+    }
+    let entry = of3.iter().find(|r| r.0 == 2000).unwrap();
+    let before = of3.iter().find(|r| r.0 == 1999).unwrap();
+    assert!(
+        (entry.3 - (before.3 - 4.5) / 2.0).abs() < 0.1,
+        "mid-gap: {entry:?} after {before:?}"
+    );
+    // The leader sees nothing; every other follower its predecessor.
+    for (k, v, who, gap) in &seen {
+        match v {
+            0 => assert!(who.is_empty() && gap.is_nan(), "step {k}"),
+            3 => {}
+            v => assert_eq!(*who, (v - 1).to_string(), "step {k}"),
+        }
+    }
+    // The per-message dataset: the receiver's target at the step it got the packet.
+    let messages = table("detections.csv");
+    let behind: Vec<_> = messages
+        .iter()
+        .filter(|r| r.1 == 3 && (2000..3000).contains(&r.0))
+        .collect();
+    assert!(!behind.is_empty());
+    for (k, v, who, gap) in messages {
+        let row = seen.iter().find(|r| (r.0, r.1) == (k, v)).unwrap();
+        assert_eq!((&who, gap.to_bits()), (&row.2, row.3.to_bits()), "{k} {v}");
+    }
 }

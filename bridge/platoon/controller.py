@@ -107,7 +107,7 @@ class Step:
     fleet), `states` (this platoon's vehicles as the plant measured them, leader first:
     `.p .v .a`, and the radar's view of the vehicle ahead `.gap .closing`, valid when
     `.flags & AHEAD`, of a vehicle that is not the platoon's predecessor when
-    `.flags & INTRUDER`: a cut-in, docs/traffic.md); in `receive` also `deliveries` (a list of Delivery) and `jammed`
+    `.flags & INTRUDER`: a cut-in, named by `.flags >> VehicleState.TARGET_SHIFT`, docs/traffic.md); in `receive` also `deliveries` (a list of Delivery) and `jammed`
     (jammed[v]: vehicle v was told its channel was jammed in this step) and `inspections`, a
     list to which your detectors append an `Inspection` per delivery they looked at (runs with
     `[detection]`)."""

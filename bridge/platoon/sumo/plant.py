@@ -235,6 +235,9 @@ def start_sumo(spec):
     return libsumo
 
 
+# The flags of a state about the vehicle ahead: AHEAD, INTRUDER and who it is.
+AHEAD_FLAGS = w.VehicleState.AHEAD | w.VehicleState.INTRUDER | (0xFFFFFF << w.VehicleState.TARGET_SHIFT)
+
 # The numpy views of the wire types (the same fields and offsets as the ctypes mirrors).
 COMMAND = np.ctypeslib.as_array((w.Command * 1)()).dtype
 
@@ -266,6 +269,12 @@ class Kinematics:
         # The radar's view (when a fallback or the guard reads it): SUMO's leader on the lane.
         self.radar_range = spec.get("radar_range_m")
         self.followers = [i for i in range(n) if i % self.n1]
+        # Who an intruder is, in the state's flags (VehicleState.TARGET_SHIFT): the cut-ins,
+        # then the background vehicles.
+        cut_ins = len(spec.get("cut_ins", []))
+        self.codes = {intruder_id(j, c): 1 + c for j in range(self.platoons) for c in range(cut_ins)}
+        for b in range(int(spec["sumo"].get("background_vehicles", 0))):
+            self.codes[f"bg{b}"] = 1 + cut_ins + b
         # The states sample, filled in place (through a numpy view for large fleets).
         self.out = (w.VehicleState * n)()
         self.view = np.ctypeslib.as_array(self.out)
@@ -363,7 +372,7 @@ class Kinematics:
             self.sense_native()
             return
         get_leader, get_speed = self.sumo.vehicle.getLeader, self.sumo.vehicle.getSpeed
-        out, ahead_flags = self.out, w.VehicleState.AHEAD | w.VehicleState.INTRUDER
+        out, ahead_flags = self.out, AHEAD_FLAGS
         for i in self.followers:
             vid = self.ids[i]
             ahead = get_leader(vid, self.radar_range)
@@ -372,7 +381,7 @@ class Kinematics:
             if ahead:
                 s.flags |= w.VehicleState.AHEAD
                 if ahead[0] != self.ids[i - 1]:
-                    s.flags |= w.VehicleState.INTRUDER
+                    s.flags |= w.VehicleState.INTRUDER | self.target(ahead[0])
                 s.gap = ahead[1]
                 s.closing = get_speed(vid) - get_speed(ahead[0])
             else:
@@ -382,7 +391,7 @@ class Kinematics:
         """`sense` from what the C++ loop read (`ahead`: 0 none, 1 the predecessor, 2 another
         vehicle): the same values, the same subtraction."""
         nat = self.native
-        ahead_flags = w.VehicleState.AHEAD | w.VehicleState.INTRUDER
+        ahead_flags = AHEAD_FLAGS
         if not self.vector:
             out, speed = self.out, nat.speed.tolist()
             gap, ahead_speed = nat.gap.tolist(), nat.ahead_speed.tolist()
@@ -392,7 +401,7 @@ class Kinematics:
                 if nat.ahead[j]:
                     s.flags |= w.VehicleState.AHEAD
                     if nat.ahead[j] == 2:
-                        s.flags |= w.VehicleState.INTRUDER
+                        s.flags |= w.VehicleState.INTRUDER | self.leader_target(i)
                     s.gap = gap[j]
                     s.closing = speed[i] - ahead_speed[j]
                 else:
@@ -404,9 +413,20 @@ class Kinematics:
         flags = view["flags"][f] & ~np.uint32(ahead_flags)
         flags |= np.where(ahead, np.uint32(w.VehicleState.AHEAD), np.uint32(0))
         flags |= np.where(seen == 2, np.uint32(w.VehicleState.INTRUDER), np.uint32(0))
+        for j in np.flatnonzero(seen == 2):  # few: the followers with a vehicle cut in ahead
+            flags[j] |= np.uint32(self.leader_target(int(f[j])))
         view["flags"][f] = flags
         view["gap"][f] = np.where(ahead, nat.gap, 0.0)
         view["closing"][f] = np.where(ahead, nat.speed[f] - nat.ahead_speed, 0.0)
+
+    def target(self, vid):
+        """The flags naming vehicle `vid` ahead (VehicleState.TARGET_SHIFT; 0: not named)."""
+        return self.codes.get(vid, 0) << w.VehicleState.TARGET_SHIFT
+
+    def leader_target(self, i):
+        """`target` of follower i's leader on the lane: the C++ loop says only that it is not
+        the predecessor, so its id is asked of SUMO (the same call, on the same state)."""
+        return self.target(self.sumo.vehicle.getLeader(self.ids[i], self.radar_range)[0])
 
     def compare(self, k, i, dp, dv):
         if dp > self.max_dp or dv > self.max_dv:

@@ -540,7 +540,7 @@ fn simulate_plotted(
     progress: &dyn Progress,
     stop: &Stop,
 ) -> Result<(Plotted, Summary)> {
-    let mut files = RunFiles::create(scenario, output, dir, true)?;
+    let mut files = RunFiles::create(scenario, output, dir, true, !scenario.cut_ins.is_empty())?;
     let (summary, mut step_ns) = record(scenario, &mut files, stop, progress)?;
     // In process a step has no stages: only its compute time.
     let timing = platoon_runtime::timing::Timing {

@@ -95,6 +95,9 @@ pub struct SumoPlant {
     pub env: Vec<(String, String)>,
     /// Its background vehicles, whose positions it publishes every step (`traffic`).
     pub traffic: usize,
+    /// Its background vehicles may reach the platoons' lanes (they start there, or change
+    /// lanes): the run records what the radars saw.
+    pub near_platoon: bool,
 }
 
 /// `plant.json`: the plant spec plus the SUMO options.
@@ -384,6 +387,9 @@ impl SumoPlan<'_> {
             },
             env: vec![("PLATOON_PLANT_SPEC".into(), path("plant.json")?)],
             traffic: self.config.sumo.background_vehicles,
+            near_platoon: self.config.sumo.background_vehicles > 0
+                && (self.config.sumo.background_on_platoon_lanes
+                    || self.config.sumo.background_lane_changes.is_some()),
         })
     }
 }

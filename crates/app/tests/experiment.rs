@@ -254,6 +254,7 @@ fn traffic_runs_each_law_on_a_topology_it_can_and_scores_the_forged_packets() {
         speed_diffs_mps: vec![-4.0],
         attacks: vec!["none".into(), "fdi-bias".into()],
         repeats: 1,
+        plant: platoon_config::PlantKind::Native,
     };
     let t = experiment::traffic(&base, &opts, None, &()).unwrap();
     assert_eq!(t.rows.len(), 4);

@@ -83,7 +83,8 @@ pub enum Experiment {
     /// each on its own beaconing and on the platoon's standstill gap; pf, or plf for the laws
     /// that need the leader; the guard on), under no attack, a periodic DoS, a false-data bias
     /// and a feigned braking on the packets of the member ahead of the car while it is there,
-    /// with the three built-in detectors logging, in process, with seeded repeats. Writes
+    /// with the three built-in detectors logging, in process or on SUMO (--plant sumo), with
+    /// seeded repeats. Writes
     /// traffic.csv (one row per run: collision, smallest gap counting the car, time on the
     /// car's ACC, time outside the law, false alarms, forged packets detected and missed),
     /// traffic.md (worst case over the repeats) and one smallest-gap plot per gap
@@ -137,6 +138,10 @@ pub struct TrafficArgs {
     /// Seeded repeats of each cell (the radars' noise and the channel's losses).
     #[arg(long, default_value_t = 1)]
     pub repeats: u32,
+    /// What integrates the vehicles: native (in process) or sumo (each run `platoon run
+    /// --plant sumo`, the car a SUMO vehicle; the runs' directories under runs/).
+    #[arg(long, value_enum, default_value = "native")]
+    pub plant: platoon_config::PlantKind,
     /// Output directory [default: runs/traffic].
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -400,6 +405,7 @@ fn traffic(args: TrafficArgs) -> Result<()> {
         speed_diffs_mps: args.speed_diffs,
         attacks: args.attacks,
         repeats: args.repeats,
+        plant: args.plant,
     };
     opts.validate()?;
     let base = Base::load(args.config.as_deref(), Embedded::CutIn)?;

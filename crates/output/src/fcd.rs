@@ -550,6 +550,9 @@ mod tests {
             mode: platoon_control::Mode::Coop,
             guard: false,
             intruder: None,
+            radar_target: None,
+            radar_gap_m: None,
+            radar_closing_mps: None,
         }
     }
 

@@ -45,6 +45,12 @@ pub struct RunFiles {
     gaps: Vec<f64>,
     /// The vehicles' length (m).
     vehicle_length: f64,
+    /// The run has traffic that can touch the platoon: the trajectories and the detections
+    /// have the radar's columns ([`StepRow::RADAR_COLUMNS`]).
+    radar: bool,
+    /// With `radar`, the step's detections, written once its rows say what each receiver's
+    /// radar saw.
+    waiting: Vec<DetectionRow>,
 }
 
 /// A vehicle in front of a follower that is not its predecessor, as the plant's radar sees it.
@@ -68,9 +74,19 @@ impl Place<'_> {
         stem: &str,
         enabled: bool,
     ) -> Result<Table<T>> {
+        self.table_without(stem, enabled, &[])
+    }
+
+    /// A table without the columns `absent` (see [`Table::create_without`]).
+    fn table_without<T: serde::Serialize + serde::de::DeserializeOwned>(
+        &self,
+        stem: &str,
+        enabled: bool,
+        absent: &[&str],
+    ) -> Result<Table<T>> {
         match self {
-            Place::Dir(dir, format) => Table::create(dir, stem, *format, enabled),
-            Place::Memory => Table::memory(stem, enabled),
+            Place::Dir(dir, format) => Table::create_without(dir, stem, *format, enabled, absent),
+            Place::Memory => Table::memory_without(stem, enabled, absent),
         }
     }
 }
@@ -90,7 +106,9 @@ pub fn read_tables(dir: &Path) -> Result<Tables> {
         for ext in ["csv", "parquet"] {
             let path = dir.join(format!("{stem}.{ext}"));
             if path.exists() {
-                let (schema, batches) = crate::tables::read_batches::<T>(&path)?;
+                // The radar's columns are there in runs with traffic only.
+                let (schema, batches) =
+                    crate::tables::read_batches::<T>(&path, &StepRow::RADAR_COLUMNS)?;
                 tables.push((stem, schema, batches));
                 break;
             }
@@ -155,6 +173,16 @@ struct DetectionRow {
     radar_cross_score: Option<f64>,
     residual_flagged: Option<bool>,
     residual_score: Option<f64>,
+    /// Runs with traffic that can touch the platoon: who the receiver's radar had in front of
+    /// it at the step (as in the trajectories, [`StepRow::radar_target`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    radar_target: Option<platoon_sim::traffic::RadarTarget>,
+    /// The gap to it (m; NaN: nothing seen).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    radar_gap_m: Option<f64>,
+    /// Its relative speed `v - v_ahead` (m/s; NaN: nothing seen).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    radar_closing_mps: Option<f64>,
 }
 
 /// One row per broadcast of a follower, one per change of its mode, with traffic one per step
@@ -212,25 +240,37 @@ impl From<Vec<StepRow>> for Plotted {
 impl RunFiles {
     /// Opens the tables `output` asks for in `dir`; `channel` (in process) also opens the
     /// channel log (a co-simulation's injector writes its own). With `[detection]`, the
-    /// detections (the per-message dataset) too.
+    /// detections (the per-message dataset) too. `radar`: the run has traffic that can touch
+    /// the platoon (scripted cut-ins, SUMO's background traffic on its lanes), and the
+    /// trajectories and the detections say what each radar saw (three columns more,
+    /// [`StepRow::RADAR_COLUMNS`]); without, the tables are as they were before those columns.
     pub fn create(
         scenario: &Scenario,
         output: &platoon_config::OutputConfig,
         dir: &RunDir,
         channel: bool,
+        radar: bool,
     ) -> Result<Self> {
         Self::open(
             scenario,
             output,
             Place::Dir(dir, Format::of(output, scenario)),
             channel,
+            radar,
         )
     }
 
     /// The same tables kept in memory as Arrow record batches ([`RunFiles::into_tables`]),
-    /// the channel log included; no file is written.
+    /// the channel log included; no file is written. In process the traffic is the scripted
+    /// cut-ins: with any, the radar's columns are there.
     pub fn in_memory(scenario: &Scenario, output: &platoon_config::OutputConfig) -> Result<Self> {
-        Self::open(scenario, output, Place::Memory, true)
+        Self::open(
+            scenario,
+            output,
+            Place::Memory,
+            true,
+            !scenario.cut_ins.is_empty(),
+        )
     }
 
     fn open(
@@ -238,19 +278,26 @@ impl RunFiles {
         output: &platoon_config::OutputConfig,
         place: Place<'_>,
         channel: bool,
+        radar: bool,
     ) -> Result<Self> {
         let steps = scenario.steps + 1;
         let on = |f: OutputFile| output.writes(f);
+        let absent: &[&str] = if radar { &[] } else { &StepRow::RADAR_COLUMNS };
         Ok(Self {
-            trajectories: place.table("trajectories", on(OutputFile::Trajectories))?,
+            trajectories: place.table_without(
+                "trajectories",
+                on(OutputFile::Trajectories),
+                absent,
+            )?,
             events: place.table("events", on(OutputFile::Events))?,
             wire: place.table("wire", on(OutputFile::Wire))?,
             channel: channel
                 .then(|| place.table("channel", on(OutputFile::Channel)))
                 .transpose()?,
-            detections: place.table(
+            detections: place.table_without(
                 "detections",
                 scenario.control.detection.is_measured() && on(OutputFile::Detections),
+                absent,
             )?,
             decimate: output.decimate,
             last: vec![None; scenario.vehicles()],
@@ -272,6 +319,8 @@ impl RunFiles {
             intruded: vec![false; scenario.vehicles()],
             gaps: vec![f64::NAN; scenario.vehicles()],
             vehicle_length: scenario.vehicle_length,
+            radar,
+            waiting: Vec::new(),
         })
     }
 
@@ -332,6 +381,17 @@ impl RunFiles {
                 })?;
             }
         }
+        // The step's detections, with what each receiver's radar saw.
+        for mut d in self.waiting.drain(..) {
+            let seen = step
+                .get(usize::from(d.platoon) * self.per_platoon + usize::from(d.receiver))
+                .filter(|r| (r.platoon, r.vehicle) == (d.platoon, d.receiver) && r.step == d.step)
+                .map(|r| r.with_radar_columns(true));
+            d.radar_target = Some(seen.and_then(|r| r.radar_target).unwrap_or_default());
+            d.radar_gap_m = Some(seen.and_then(|r| r.radar_gap_m).unwrap_or(f64::NAN));
+            d.radar_closing_mps = Some(seen.and_then(|r| r.radar_closing_mps).unwrap_or(f64::NAN));
+            self.detections.write(d)?;
+        }
         let keep = k.is_multiple_of(self.decimate);
         // Each vehicle's in the order they happened (a stable sort).
         self.pending.sort_by_key(|(v, _)| *v);
@@ -339,7 +399,7 @@ impl RunFiles {
         let mut ahead_p = f64::NAN;
         for r in step {
             if keep {
-                self.trajectories.write(*r)?;
+                self.trajectories.write(r.with_radar_columns(self.radar))?;
             }
             let p_ahead = std::mem::replace(&mut ahead_p, r.p);
             if r.vehicle == 0 {
@@ -450,7 +510,7 @@ impl RunFiles {
             let flagged = |name: &str| verdict(name).map(|v| v.flagged);
             // NaN: the detector had nothing to test (no radar reading, no earlier packet).
             let score = |name: &str| verdict(name).map(|v| v.score).filter(|x| !x.is_nan());
-            self.detections.write(DetectionRow {
+            let row = DetectionRow {
                 step: i.k,
                 t: i.k as f64 * self.dt,
                 platoon: s.platoon,
@@ -473,13 +533,29 @@ impl RunFiles {
                 radar_cross_score: score("radar_cross"),
                 residual_flagged: flagged("residual"),
                 residual_score: score("residual"),
-            })?;
+                radar_target: None,
+                radar_gap_m: None,
+                radar_closing_mps: None,
+            };
+            if self.radar {
+                // Written with the step's rows, which say what the radars saw.
+                self.waiting.push(row);
+            } else {
+                self.detections.write(row)?;
+            }
         }
         Ok(())
     }
 
     /// After the last step.
     pub fn finish(&mut self) -> Result<()> {
+        // Detections of a step whose rows never came (a run that ended in between).
+        for mut d in self.waiting.drain(..) {
+            d.radar_target = Some(Default::default());
+            d.radar_gap_m = Some(f64::NAN);
+            d.radar_closing_mps = Some(f64::NAN);
+            self.detections.write(d)?;
+        }
         self.trajectories.finish()?;
         self.events.finish()?;
         self.wire.finish()?;

@@ -81,9 +81,28 @@ pub fn fields<T: Serialize + DeserializeOwned>() -> Result<Vec<FieldRef>> {
         .map_err(|e| OutputError::table("", "deriving the Parquet schema", e))
 }
 
+/// [`fields`] without the columns `absent`.
+fn fields_without<T: Serialize + DeserializeOwned>(absent: &[&str]) -> Result<Vec<FieldRef>> {
+    let mut fields = fields::<T>()?;
+    fields.retain(|f| !absent.contains(&f.name().as_str()));
+    Ok(fields)
+}
+
 impl<T: Serialize + DeserializeOwned> Table<T> {
     /// Starts `<stem>.csv` or `<stem>.parquet` in `dir`; `enabled = false` writes nothing.
     pub fn create(dir: &RunDir, stem: &str, format: Format, enabled: bool) -> Result<Self> {
+        Self::create_without(dir, stem, format, enabled, &[])
+    }
+
+    /// [`Table::create`] without the columns `absent`: fields of `T` its rows never serialize
+    /// (`skip_serializing_if`), left out of the Parquet schema as the CSV leaves them out.
+    pub fn create_without(
+        dir: &RunDir,
+        stem: &str,
+        format: Format,
+        enabled: bool,
+        absent: &[&str],
+    ) -> Result<Self> {
         let name = format!("{stem}.{}", format.extension());
         let sink = match (enabled, format) {
             (false, _) => Sink::Off,
@@ -91,7 +110,7 @@ impl<T: Serialize + DeserializeOwned> Table<T> {
                 Sink::Csv(Box::new(csv::Writer::from_writer(dir.writer(&name)?)))
             }
             (true, Format::Parquet) => {
-                let fields = fields::<T>()?;
+                let fields = fields_without::<T>(absent)?;
                 let schema = Arc::new(arrow_schema::Schema::new(fields.clone()));
                 let path = dir.path(&name);
                 let file = File::create(&path).map_err(|e| {
@@ -119,10 +138,15 @@ impl<T: Serialize + DeserializeOwned> Table<T> {
     /// A table kept in memory as record batches of at most [`BATCH`] rows ([`Table::take_batches`]);
     /// `enabled = false` keeps nothing. `stem` names it in errors.
     pub fn memory(stem: &str, enabled: bool) -> Result<Self> {
+        Self::memory_without(stem, enabled, &[])
+    }
+
+    /// [`Table::memory`] without the columns `absent` (as [`Table::create_without`]).
+    pub fn memory_without(stem: &str, enabled: bool, absent: &[&str]) -> Result<Self> {
         let sink = match enabled {
             false => Sink::Off,
             true => Sink::Batches {
-                fields: fields::<T>()?,
+                fields: fields_without::<T>(absent)?,
                 rows: Vec::new(),
                 out: BatchOut::Memory(Vec::new()),
             },
@@ -223,10 +247,19 @@ pub fn read_parquet<T: Serialize + DeserializeOwned>(path: &std::path::Path) -> 
 /// A table file written by [`Table`] (CSV or Parquet) as record batches of at most [`BATCH`]
 /// rows with the schema of [`fields`]: its rows are read and converted, so both formats give
 /// the same batches.
+/// Of the columns `optional` (see [`Table::create_without`]), only those the file has are in
+/// the schema.
 pub fn read_batches<T: Serialize + DeserializeOwned>(
     path: &std::path::Path,
+    optional: &[&str],
 ) -> Result<(arrow_schema::SchemaRef, Vec<RecordBatch>)> {
-    let fields = fields::<T>()?;
+    let mut fields = fields::<T>()?;
+    if !optional.is_empty() {
+        let columns = columns(path)?;
+        fields.retain(|f| {
+            !optional.contains(&f.name().as_str()) || columns.iter().any(|c| c == f.name())
+        });
+    }
     let schema = Arc::new(arrow_schema::Schema::new(fields.clone()));
     let mut batches = Vec::new();
     let mut rows: Vec<T> = Vec::new();
@@ -280,6 +313,26 @@ pub fn read_rows<T: DeserializeOwned, E: From<OutputError>>(
     Ok(())
 }
 
+/// The column names of a table file written by [`Table`] (`.csv` or `.parquet`).
+fn columns(path: &std::path::Path) -> Result<Vec<String>> {
+    let file = File::open(path)
+        .map_err(|e| OutputError::io(path, format!("opening {}", path.display()), e))?;
+    if path.extension().is_some_and(|e| e == "parquet") {
+        let builder = parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder::try_new(file)
+            .map_err(|e| reading(path, e))?;
+        Ok(builder
+            .schema()
+            .fields()
+            .iter()
+            .map(|f| f.name().clone())
+            .collect())
+    } else {
+        let mut csv = csv::Reader::from_reader(std::io::BufReader::new(file));
+        let headers = csv.headers().map_err(|e| reading(path, e))?;
+        Ok(headers.iter().map(str::to_string).collect())
+    }
+}
+
 /// A malformed table file: `reading <path>` and why.
 fn reading(
     path: &std::path::Path,
@@ -295,8 +348,6 @@ mod tests {
 
     #[test]
     fn parquet_holds_the_rows_and_the_columns_of_the_csv() {
-        let tmp = tempfile::tempdir().unwrap();
-        let dir = RunDir::create(&tmp.path().join("r"), false).unwrap();
         let (_, scenario) = platoon_config::parse(
             &platoon_config::PAPER_TOML.replace("duration_s = 55.0", "duration_s = 700.0"),
             std::path::Path::new("paper.toml"),
@@ -305,28 +356,51 @@ mod tests {
         let mut rows = Vec::new();
         platoon_sim::run(scenario, |r| rows.extend_from_slice(r)).unwrap();
         assert!(rows.len() > BATCH, "several row groups");
+        // Without the radar's columns (a run without traffic), and with them.
+        for radar in [false, true] {
+            let rows: Vec<StepRow> = rows.iter().map(|r| r.with_radar_columns(radar)).collect();
+            the_same_in_both_formats(&rows, radar);
+        }
+    }
+
+    fn the_same_in_both_formats(rows: &[StepRow], radar: bool) {
+        let absent: &[&str] = if radar { &[] } else { &StepRow::RADAR_COLUMNS };
+        let tmp = tempfile::tempdir().unwrap();
+        let dir = RunDir::create(&tmp.path().join("r"), false).unwrap();
         for format in [Format::Csv, Format::Parquet] {
-            let mut t = Table::<StepRow>::create(&dir, "trajectories", format, true).unwrap();
-            for r in &rows {
+            let mut t =
+                Table::<StepRow>::create_without(&dir, "trajectories", format, true, absent)
+                    .unwrap();
+            for r in rows {
                 t.write(*r).unwrap();
             }
             t.finish().unwrap();
         }
         let back: Vec<StepRow> = read_parquet(&dir.path("trajectories.parquet")).unwrap();
         // NaN (the leader's theta) compares unequal: compare through JSON, where it is null.
-        let json = |r: &[StepRow]| serde_json::to_string(r).unwrap();
-        assert_eq!(json(&back), json(&rows));
+        // A radar that saw nothing is no value in the file, read back as no target.
+        let json = |r: &[StepRow]| {
+            let r: Vec<StepRow> = r.iter().map(|r| r.with_radar_columns(radar)).collect();
+            serde_json::to_string(&r).unwrap()
+        };
+        assert_eq!(json(&back), json(rows));
         let mut csv = csv::Reader::from_path(dir.path("trajectories.csv")).unwrap();
         let header: Vec<String> = csv.headers().unwrap().iter().map(String::from).collect();
         let columns: Vec<String> = fields::<StepRow>()
             .unwrap()
             .iter()
             .map(|f| f.name().clone())
+            .filter(|f| !absent.contains(&f.as_str()))
             .collect();
         assert_eq!(header, columns);
+        assert_eq!(
+            header.iter().any(|h| h == "radar_target"),
+            radar,
+            "{header:?}"
+        );
         // In memory: the same rows, in batches of BATCH, and read back from either file alike.
-        let mut t = Table::<StepRow>::memory("trajectories", true).unwrap();
-        for r in &rows {
+        let mut t = Table::<StepRow>::memory_without("trajectories", true, absent).unwrap();
+        for r in rows {
             t.write(*r).unwrap();
         }
         t.finish().unwrap();
@@ -337,9 +411,9 @@ mod tests {
         for b in &batches {
             kept.extend(serde_arrow::from_record_batch::<Vec<StepRow>>(b).unwrap());
         }
-        assert_eq!(json(&kept), json(&rows));
+        assert_eq!(json(&kept), json(rows));
         for file in ["trajectories.csv", "trajectories.parquet"] {
-            let (s, b) = read_batches::<StepRow>(&dir.path(file)).unwrap();
+            let (s, b) = read_batches::<StepRow>(&dir.path(file), &StepRow::RADAR_COLUMNS).unwrap();
             assert_eq!((s, b), (schema.clone(), batches.clone()), "{file}");
         }
         assert!(Table::<StepRow>::memory("off", false)

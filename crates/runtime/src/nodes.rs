@@ -8,6 +8,7 @@ use crate::ipc::{Inlet, Outlet};
 use crate::session::{contract, reporting, Numbering};
 use crate::RunError;
 use platoon_control::fallback::RadarTruth;
+use platoon_sim::traffic::RadarTarget;
 use platoon_sim::{InjectorFactory, Plant, Scenario};
 use platoon_wire::{Command, ControlMsg, Node, Service, VehicleState};
 use std::path::Path;
@@ -31,20 +32,26 @@ pub fn plant(run_id: &str, scenario: &Scenario) -> Result<(), RunError> {
             return Ok(());
         }
         let mut truth = Vec::new();
+        let mut targets = Vec::new();
         let publish = |k: u64,
                        plants: &[Plant],
                        buf: &mut Vec<VehicleState>,
-                       truth: &mut Vec<Option<RadarTruth>>| {
+                       truth: &mut Vec<Option<RadarTruth>>,
+                       targets: &mut Vec<RadarTarget>| {
             buf.clear();
             for p in plants {
                 // What a radar sees natively: the predecessor, or a vehicle that cut in.
-                p.radar_truth(truth);
-                buf.extend(p.states().iter().zip(truth.iter()).map(|(x, t)| {
+                p.radar_view(truth, targets);
+                let view = p.states().iter().zip(truth.iter()).zip(targets.iter());
+                buf.extend(view.map(|((x, t), who)| {
                     let (flags, gap, closing) = t.map_or((0, 0.0, 0.0), |t| {
-                        let intruder = if t.intruder {
-                            VehicleState::INTRUDER
-                        } else {
-                            0
+                        let intruder = match (t.intruder, who) {
+                            (false, _) => 0,
+                            (true, RadarTarget::CutIn(c)) => {
+                                VehicleState::INTRUDER
+                                    | VehicleState::target_flags(1 + u32::from(*c))
+                            }
+                            (true, _) => VehicleState::INTRUDER,
                         };
                         (VehicleState::AHEAD | intruder, t.gap, t.closing)
                     });
@@ -64,7 +71,7 @@ pub fn plant(run_id: &str, scenario: &Scenario) -> Result<(), RunError> {
             }
             states_out.send(k, scenario.dt(), buf)
         };
-        publish(0, &plants, &mut buf, &mut truth)?;
+        publish(0, &plants, &mut buf, &mut truth, &mut targets)?;
         let n = num.per_platoon - 1;
         loop {
             let got = commands.take(*k)?;
@@ -82,7 +89,7 @@ pub fn plant(run_id: &str, scenario: &Scenario) -> Result<(), RunError> {
                 return ctx.done(ControlMsg::new(ControlMsg::DONE, Node::Plant, *k));
             }
             *k += 1;
-            publish(*k, &plants, &mut buf, &mut truth)?;
+            publish(*k, &plants, &mut buf, &mut truth, &mut targets)?;
         }
     })
 }

@@ -208,7 +208,7 @@ pub fn orchestrate(
     let mut children = Children { procs: Vec::new() };
     let result = (|| {
         spawn_all(opts, &mut children)?;
-        let mut run = Recorder::new(scenario);
+        let mut run = Recorder::new(scenario, opts.traffic);
         // Startup: wait until every node is READY.
         let mut ready = [false; Node::ALL.len()];
         ready[Node::Orchestrator as usize] = true;

@@ -84,6 +84,39 @@ pub struct StepRow {
     /// `trajectories.csv`.
     #[serde(skip)]
     pub intruder: Option<platoon_control::fallback::RadarTruth>,
+    /// Who its radar had in front of it ([`traffic::RadarTarget`], within the radar's range,
+    /// as the plant has it: the truth the radar measures, not its noisy reading). Only in runs
+    /// with traffic that can touch the platoon; elsewhere `None`, and the column is not
+    /// written.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub radar_target: Option<traffic::RadarTarget>,
+    /// The gap to it (m; NaN: nothing seen). As `radar_target`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub radar_gap_m: Option<f64>,
+    /// Its relative speed, `v - v_ahead` (m/s; positive while closing in; NaN: nothing seen).
+    /// As `radar_target`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub radar_closing_mps: Option<f64>,
+}
+
+impl StepRow {
+    /// The names of the radar's columns, written only in runs with traffic that can touch the
+    /// platoon ([`StepRow::radar_target`]).
+    pub const RADAR_COLUMNS: [&'static str; 3] =
+        ["radar_target", "radar_gap_m", "radar_closing_mps"];
+
+    /// This row with the radar's columns (`on`: nothing seen where it has none) or without.
+    pub fn with_radar_columns(mut self, on: bool) -> Self {
+        if on {
+            self.radar_target
+                .get_or_insert(traffic::RadarTarget::Nothing);
+            self.radar_gap_m.get_or_insert(f64::NAN);
+            self.radar_closing_mps.get_or_insert(f64::NAN);
+        } else {
+            (self.radar_target, self.radar_gap_m, self.radar_closing_mps) = (None, None, None);
+        }
+        self
+    }
 }
 
 /// The native plant: every follower under its own tau schedule (exact ZOH lag), the leader on
@@ -152,6 +185,21 @@ impl Plant {
     pub fn radar_truth(&self, out: &mut Vec<Option<platoon_control::fallback::RadarTruth>>) {
         traffic::radar_truth(&self.states, self.vehicle_length, &self.traffic, out);
     }
+
+    /// [`Plant::radar_truth`], and who each radar sees ([`traffic::radar_view`]).
+    pub fn radar_view(
+        &self,
+        out: &mut Vec<Option<platoon_control::fallback::RadarTruth>>,
+        targets: &mut Vec<traffic::RadarTarget>,
+    ) {
+        traffic::radar_view(
+            &self.states,
+            self.vehicle_length,
+            &self.traffic,
+            out,
+            targets,
+        );
+    }
 }
 
 /// What a plant process outside Rust (the SUMO bridge) needs to reproduce [`Plant`]: the time
@@ -213,8 +261,9 @@ impl PlantSpec {
 /// Assembles the rows of step `k` from what the stages produced: the plant's `states`, whether
 /// the leader broadcast, who sensed jamming, and each follower's step (`follower(i)`, i >= 1);
 /// `ahead` is what the plant's radars saw (by vehicle, empty without traffic), of which the
-/// rows keep the intruders. Both runtimes build their rows here, so their trajectories agree
-/// bit for bit.
+/// rows keep the intruders, and `targets` who they saw (by vehicle, empty: the rows say
+/// nothing of the radar), kept within the radar's range. Both runtimes build their rows here,
+/// so their trajectories agree bit for bit.
 #[allow(clippy::too_many_arguments)]
 pub fn step_rows(
     k: u64,
@@ -223,9 +272,23 @@ pub fn step_rows(
     leader_triggered: bool,
     jammed: &[bool],
     ahead: &[Option<platoon_control::fallback::RadarTruth>],
+    targets: &[traffic::RadarTarget],
     follower: impl Fn(usize) -> FollowerStep,
     out: &mut Vec<StepRow>,
 ) {
+    let range = scenario.control.fallback.radar.range_m;
+    let radar = |i: usize| {
+        let who = *targets.get(i)?;
+        let seen = ahead
+            .get(i)
+            .copied()
+            .flatten()
+            .filter(|t| who != traffic::RadarTarget::Nothing && t.gap <= range);
+        Some(match seen {
+            Some(t) => (who, t.gap, t.closing),
+            None => (traffic::RadarTarget::Nothing, f64::NAN, f64::NAN),
+        })
+    };
     let t = k as f64 * scenario.dt();
     let x0 = states[0];
     out.push(StepRow {
@@ -246,6 +309,9 @@ pub fn step_rows(
         mode: platoon_control::Mode::Coop,
         guard: false,
         intruder: None,
+        radar_target: radar(0).map(|r| r.0),
+        radar_gap_m: radar(0).map(|r| r.1),
+        radar_closing_mps: radar(0).map(|r| r.2),
     });
     for (i, x) in states.iter().enumerate().skip(1) {
         let s = follower(i);
@@ -270,6 +336,9 @@ pub fn step_rows(
             mode: s.mode,
             guard: s.guard,
             intruder: ahead.get(i).copied().flatten().filter(|t| t.intruder),
+            radar_target: radar(i).map(|r| r.0),
+            radar_gap_m: radar(i).map(|r| r.1),
+            radar_closing_mps: radar(i).map(|r| r.2),
         });
     }
 }
@@ -289,6 +358,8 @@ pub struct Simulation {
     rows: Vec<StepRow>,
     /// What the radars saw at this step, with traffic on the lane (else empty).
     radar: Vec<Option<platoon_control::fallback::RadarTruth>>,
+    /// Who they saw (as `radar`).
+    targets: Vec<traffic::RadarTarget>,
     wire: Vec<WireCounts>,
     wire_counter: tally::WireCounter,
     /// The detectors measured against ground truth (`[detection]` only).
@@ -339,6 +410,7 @@ impl Simulation {
             log: Vec::new(),
             rows: Vec::with_capacity(n + 1),
             radar: Vec::new(),
+            targets: Vec::new(),
             wire: vec![WireCounts::default(); n + 1],
             wire_counter: tally::WireCounter::default(),
             detection,
@@ -446,9 +518,10 @@ impl Simulation {
             self.injector.finish()?;
         }
         self.radar.clear();
+        self.targets.clear();
         if !self.plant.traffic().is_empty() {
             // The radars see the lane: a vehicle that cut in hides the predecessor.
-            self.plant.radar_truth(&mut self.radar);
+            self.plant.radar_view(&mut self.radar, &mut self.targets);
             self.controller.set_radar_truth(&self.radar);
         }
         self.controller
@@ -483,6 +556,7 @@ impl Simulation {
             leader_triggered,
             &self.jammed,
             &self.radar,
+            &self.targets,
             |i| controller.follower_step(VehicleId(i as u16)),
             &mut self.rows,
         );

@@ -127,9 +127,30 @@ pub fn radar_truth(
     traffic: &Traffic,
     out: &mut Vec<Option<RadarTruth>>,
 ) {
+    radar_view(states, vehicle_length, traffic, out, &mut Vec::new());
+}
+
+/// [`radar_truth`], and who each radar sees (`targets`, leader first): the predecessor
+/// ([`RadarTarget::Member`]) or the cut-in ([`RadarTarget::CutIn`]).
+pub fn radar_view(
+    states: &[State],
+    vehicle_length: f64,
+    traffic: &Traffic,
+    out: &mut Vec<Option<RadarTruth>>,
+    targets: &mut Vec<RadarTarget>,
+) {
     platoon_control::fallback::radar_truth(states, vehicle_length, out);
-    for (x, t) in states.iter().zip(out.iter_mut()).skip(1) {
-        for c in traffic.on_lane() {
+    targets.clear();
+    targets.push(RadarTarget::Nothing);
+    targets.extend((1..states.len()).map(|i| RadarTarget::Member(i as u16 - 1)));
+    for ((x, t), who) in states
+        .iter()
+        .zip(out.iter_mut())
+        .zip(targets.iter_mut())
+        .skip(1)
+    {
+        for (n, c) in traffic.on_lane.iter().enumerate() {
+            let Some(c) = c else { continue };
             let gap = c.p - c.length_m - x[0];
             let nearer = t.is_none_or(|t| gap < t.gap);
             if c.p > x[0] && nearer {
@@ -138,8 +159,75 @@ pub fn radar_truth(
                     closing: x[1] - c.v,
                     intruder: true,
                 });
+                *who = RadarTarget::CutIn(n as u16);
             }
         }
+    }
+}
+
+/// Who a vehicle's radar has in front of it: in `trajectories` and the per-message dataset of
+/// runs with traffic that can touch the platoon, as `radar_target`, written as a string: the
+/// member's vehicle number (`"2"`), `cut_in:<c>` for the platoon's scripted cut-in c (`[[cut_ins]]`
+/// entry c), SUMO's id of a background vehicle (`bg<b>`), `unknown` for a vehicle from outside
+/// the platoon the plant did not name, and nothing (an empty field) for nothing.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum RadarTarget {
+    /// Nothing (the leader, or nothing within the radar's range).
+    #[default]
+    Nothing,
+    /// A member of the platoon, by its number (the predecessor).
+    Member(u16),
+    /// The platoon's scripted cut-in c.
+    CutIn(u16),
+    /// SUMO's background vehicle `bg<b>`.
+    Background(u32),
+    /// A vehicle from outside the platoon that the plant did not name.
+    Unknown,
+}
+
+impl std::fmt::Display for RadarTarget {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            RadarTarget::Nothing => Ok(()),
+            RadarTarget::Member(i) => write!(f, "{i}"),
+            RadarTarget::CutIn(c) => write!(f, "cut_in:{c}"),
+            RadarTarget::Background(b) => write!(f, "bg{b}"),
+            RadarTarget::Unknown => f.write_str("unknown"),
+        }
+    }
+}
+
+impl std::str::FromStr for RadarTarget {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, String> {
+        let bad = || format!("not a radar target: {s:?}");
+        Ok(match s {
+            "" => RadarTarget::Nothing,
+            "unknown" => RadarTarget::Unknown,
+            _ => match (s.strip_prefix("cut_in:"), s.strip_prefix("bg")) {
+                (Some(c), _) => RadarTarget::CutIn(c.parse().map_err(|_| bad())?),
+                (_, Some(b)) => RadarTarget::Background(b.parse().map_err(|_| bad())?),
+                _ => RadarTarget::Member(s.parse().map_err(|_| bad())?),
+            },
+        })
+    }
+}
+
+/// As its string; nothing as no value at all (an empty CSV field, a Parquet null).
+impl serde::Serialize for RadarTarget {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        match self {
+            RadarTarget::Nothing => s.serialize_none(),
+            _ => s.collect_str(self),
+        }
+    }
+}
+
+impl<'de> serde::Deserialize<'de> for RadarTarget {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let s = String::deserialize(d)?;
+        s.parse().map_err(serde::de::Error::custom)
     }
 }
 
@@ -203,6 +291,30 @@ mod tests {
         // It never comes back.
         t.arrive(1.5, &states, 4.0);
         assert_eq!(t.on_lane().count(), 0);
+    }
+
+    #[test]
+    fn the_radar_view_names_the_predecessor_or_the_cut_in() {
+        let states = platoon();
+        let mut t = Traffic::new(&[cut_in()]);
+        let (mut truth, mut who) = (Vec::new(), Vec::new());
+        radar_view(&states, 4.0, &t, &mut truth, &mut who);
+        use RadarTarget::*;
+        assert_eq!(who, [Nothing, Member(0), Member(1), Member(2)]);
+        t.arrive(1.0, &states, 4.0);
+        radar_view(&states, 4.0, &t, &mut truth, &mut who);
+        assert_eq!(who, [Nothing, Member(0), CutIn(0), Member(2)]);
+        let mut plain = Vec::new();
+        radar_truth(&states, 4.0, &t, &mut plain);
+        assert_eq!(truth, plain);
+        // As the outputs write them, and back.
+        for w in [Nothing, Member(2), CutIn(0), Background(17), Unknown] {
+            let text = w.to_string();
+            assert_eq!(text.parse::<RadarTarget>(), Ok(w), "{text}");
+        }
+        assert_eq!(CutIn(1).to_string(), "cut_in:1");
+        assert_eq!(Background(17).to_string(), "bg17");
+        assert!("cut_in:x".parse::<RadarTarget>().is_err());
     }
 
     #[test]

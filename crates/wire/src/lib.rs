@@ -22,6 +22,8 @@ use iceoryx2::prelude::ZeroCopySend;
 ///   v2: the optional [`Service::Traffic`] of [`TrafficVehicle`]s (a new service; no payload
 ///   of v2 changed, and a plug-in that does not open it is unaffected). Later, still v2: the
 ///   optional [`Service::Inspections`] of [`Inspection`]s (the same way: a new service).
+///   Later, still v2: [`VehicleState::flags`] bits 8-31 name an intruder
+///   ([`VehicleState::TARGET_SHIFT`]; bits that were 0, and every reader tests bits).
 pub const CONTRACT_VERSION: u32 = 2;
 
 /// The environment variable in which `platoon run` gives every process it starts the contract
@@ -90,7 +92,8 @@ pub struct VehicleState {
     pub vehicle: u32,
     /// Bit 0: the vehicle collided in this step (SUMO plant); bit 1 ([`VehicleState::AHEAD`]):
     /// the plant sees a vehicle ahead of it, and `gap`, `closing` are about that one; bit 2
-    /// ([`VehicleState::INTRUDER`]): that vehicle is not the platoon's predecessor.
+    /// ([`VehicleState::INTRUDER`]): that vehicle is not the platoon's predecessor; bits 8-31
+    /// ([`VehicleState::TARGET_SHIFT`]), with `INTRUDER`: which vehicle it is.
     pub flags: u32,
     /// Position (m).
     pub p: f64,
@@ -111,6 +114,21 @@ impl VehicleState {
     pub const AHEAD: u32 = 2;
     /// `flags` bit: the vehicle ahead is not the platoon's predecessor (a cut-in).
     pub const INTRUDER: u32 = 4;
+    /// With [`VehicleState::INTRUDER`], `flags >> TARGET_SHIFT` names the vehicle ahead in the
+    /// run's traffic: `1 + c` for the platoon's scripted cut-in c (plant.json's `cut_ins`
+    /// entry c), `1 + C + b` for SUMO's background vehicle `bg<b>` (C: the number of cut-ins),
+    /// 0 for a vehicle the plant does not name.
+    pub const TARGET_SHIFT: u32 = 8;
+
+    /// The `flags` bits naming intruder `code` (see [`VehicleState::TARGET_SHIFT`]).
+    pub fn target_flags(code: u32) -> u32 {
+        code << Self::TARGET_SHIFT
+    }
+
+    /// The intruder's code in `flags` (see [`VehicleState::TARGET_SHIFT`]).
+    pub fn target_code(&self) -> u32 {
+        self.flags >> Self::TARGET_SHIFT
+    }
 }
 
 /// A V2V broadcast (controller -> injector, and inside [`LinkPacket`]).

@@ -4,7 +4,7 @@ use super::{
     Result,
 };
 use crate::progress::Progress;
-use platoon_config::{LawConfig, LawName, LinkAttackConfig, LinkKindConfig};
+use platoon_config::{LawConfig, LawName, LinkAttackConfig, LinkKindConfig, PlantKind};
 use platoon_output::plots;
 use platoon_output::rundir::RunDir;
 use platoon_topology::Preset;
@@ -28,6 +28,9 @@ pub struct TrafficOptions {
     pub attacks: Vec<String>,
     /// Seeded repeats of each cell (`--repeats`): the radars' noise and the channel's losses.
     pub repeats: u32,
+    /// The plant (`--plant`): native, in process; or SUMO, each run a co-simulation with SUMO
+    /// as the plant (`platoon run --plant sumo`), its run directory under `runs/`.
+    pub plant: PlantKind,
 }
 
 impl Default for TrafficOptions {
@@ -38,6 +41,7 @@ impl Default for TrafficOptions {
             speed_diffs_mps: vec![-4.0, 0.0],
             attacks: ATTACKS.iter().map(|a| a.to_string()).collect(),
             repeats: 1,
+            plant: PlantKind::Native,
         }
     }
 }
@@ -128,7 +132,10 @@ pub struct Traffic {
 /// beaconing and on the base's distances (each law's standstill gap set to the platoon's, so the
 /// car fits the same gap), on `pf`, or `plf` for the laws that need the leader, the guard on,
 /// and the three built-in detectors logging. With `out`: config.toml, traffic.csv, traffic.md and
-/// one smallest-gap plot per gap.
+/// one smallest-gap plot per gap. On SUMO (`opts.plant`) every run is `platoon run --plant sumo`
+/// of the same scenario (the cut-in a SUMO vehicle), its run directory (summary.json,
+/// sumo.json, the logs; no per-step tables) in `runs/<law>-gap<G>-dv<V>-<attack>-r<R>` of `out`
+/// (without `out`, of a temporary directory); SUMO's collisions count as collisions.
 pub fn traffic(
     base: &Base,
     opts: &TrafficOptions,
@@ -144,6 +151,18 @@ pub fn traffic(
         );
     }
     write_config(out, &base.config)?;
+    // Where the SUMO runs go.
+    let tmp;
+    let runs = match (opts.plant, out) {
+        (PlantKind::Native, _) => None,
+        (PlantKind::Sumo, Some(dir)) => Some(dir.path("runs")),
+        (PlantKind::Sumo, None) => {
+            tmp = tempfile::tempdir().map_err(|e| {
+                ExperimentError::Other(anyhow::Error::new(e).context("a directory for the runs"))
+            })?;
+            Some(tmp.path().to_path_buf())
+        }
+    };
     let total = opts.laws.len()
         * opts.gaps_m.len()
         * opts.speed_diffs_mps.len()
@@ -160,7 +179,11 @@ pub fn traffic(
                             "{}, gap {gap} m, {dv:+} m/s, {attack}, repeat {repeat}",
                             law.name()
                         ));
-                        rows.push(cell(base, law, gap, dv, attack, repeat)?);
+                        let on = Plant {
+                            runs: runs.as_deref(),
+                            label: &base.label,
+                        };
+                        rows.push(cell(base, law, gap, dv, attack, repeat, on)?);
                         progress.at(rows.len() as u64);
                     }
                 }
@@ -176,6 +199,59 @@ pub fn traffic(
     Ok(result)
 }
 
+/// Where a cell runs: in process, or on SUMO with its run directory in `runs`.
+#[derive(Clone, Copy)]
+struct Plant<'a> {
+    runs: Option<&'a std::path::Path>,
+    label: &'a str,
+}
+
+impl Plant<'_> {
+    /// The summary of `config`'s run (its scenario `scenario`), named `name` on SUMO.
+    fn run(
+        self,
+        mut config: platoon_config::Config,
+        scenario: platoon_sim::Scenario,
+        name: &str,
+    ) -> Result<platoon_sim::Summary> {
+        let Some(runs) = self.runs else {
+            return Ok(platoon_sim::run(scenario, |_| {})?);
+        };
+        // The summary is what the row needs: no per-step tables, no replay file.
+        config.output.files.clear();
+        config.sumo.fcd_period_s = Some(0.0);
+        let opts = crate::run::RunOptions {
+            plant: Some(PlantKind::Sumo),
+            plots: false,
+            // A stall, not a deadline: the machine may be busy with other runs.
+            step_timeout: std::time::Duration::from_secs(30),
+            config_file: std::path::PathBuf::from(self.label),
+            ..Default::default()
+        };
+        let failed =
+            |e: anyhow::Error| ExperimentError::Other(e.context(format!("the run {name} on SUMO")));
+        let dir = runs.join(name);
+        let outcome = crate::run::run(
+            config,
+            &scenario,
+            &opts,
+            &dir,
+            true,
+            &Default::default(),
+            &(),
+        )
+        .map_err(|e| failed(e.into()))?;
+        match outcome.failure {
+            Some(e) => Err(failed(
+                anyhow::Error::new(e)
+                    .context(format!("see {}", outcome.dir.join("logs").display())),
+            )),
+            None => Ok(outcome.summary),
+        }
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
 fn cell(
     base: &Base,
     law: LawName,
@@ -183,6 +259,7 @@ fn cell(
     dv: f64,
     attack: &str,
     repeat: u32,
+    plant: Plant<'_>,
 ) -> Result<TrafficRow> {
     let mut last = None;
     for preset in [Preset::Pf, Preset::Plf] {
@@ -209,7 +286,8 @@ fn cell(
                 law.name()
             ),
         };
-        let s = platoon_sim::run(scenario, |_| {})?;
+        let name = format!("{}-gap{gap}-dv{dv}-{attack}-r{repeat}", law.name());
+        let s = plant.run(c, scenario, &name)?;
         let time_in = |v: &platoon_sim::VehicleSummary, mode: Option<&str>| {
             v.mode_time_s
                 .iter()

@@ -61,6 +61,8 @@ pub(super) fn cosimulate(
         Some(_) => PlantKind::Sumo,
         None => PlantKind::Native,
     };
+    // Traffic that can touch the platoon: the trajectories say what the radars saw.
+    let radar = !scenario.cut_ins.is_empty() || plant.as_ref().is_some_and(|p| p.near_platoon);
     let (plant, env, traffic) = match plant {
         Some(p) => (p.program, p.env, p.traffic),
         None => (platoon_runtime::Program::Builtin, Vec::new(), 0),
@@ -116,7 +118,7 @@ pub(super) fn cosimulate(
     };
     let steps = scenario.steps + 1;
     progress.start("co-simulating", steps);
-    let mut files = RunFiles::create(scenario, output, dir, false)?;
+    let mut files = RunFiles::create(scenario, output, dir, false, radar)?;
     let mut metrics = platoon_sim::FleetMetrics::new(scenario);
     let mut failure: Option<anyhow::Error> = None;
     let names = scenario.control.detection.names();

@@ -1,5 +1,6 @@
 //! The recorder: the four samples of a step turned into rows, as the in-process runner does.
 use super::*;
+use platoon_sim::traffic::RadarTarget;
 
 /// Turns the four samples of a step into rows, the way the in-process runner does.
 pub(super) struct Recorder<'a> {
@@ -10,8 +11,14 @@ pub(super) struct Recorder<'a> {
     pub(super) last_progress: Instant,
     pub(super) rows: Vec<StepRow>,
     pub(super) jammed: Vec<bool>,
-    /// What the plant's radars saw of intruders at this step (empty: none anywhere).
+    /// What the plant's radars saw of intruders at this step (empty: none anywhere); with
+    /// `targets_on`, what they saw at all.
     pub(super) ahead: Vec<Option<platoon_control::fallback::RadarTruth>>,
+    /// Who they saw (with `targets_on`, else empty).
+    pub(super) targets: Vec<RadarTarget>,
+    /// The run has traffic that may come between its vehicles (scripted cut-ins or the plant's
+    /// background traffic): the rows say what the radars saw, as the in-process runner's do.
+    pub(super) targets_on: bool,
     pub(super) leader_sent: Vec<bool>,
     pub(super) deliveries: Vec<Vec<platoon_control::Delivery>>,
     pub(super) wire: Vec<WireCounts>,
@@ -22,7 +29,8 @@ pub(super) struct Recorder<'a> {
 }
 
 impl<'a> Recorder<'a> {
-    pub(super) fn new(scenario: &'a Scenario) -> Self {
+    /// `traffic`: the plant's background vehicles (0: none).
+    pub(super) fn new(scenario: &'a Scenario, traffic: usize) -> Self {
         let num = Numbering::of(scenario);
         Self {
             scenario,
@@ -33,6 +41,8 @@ impl<'a> Recorder<'a> {
             rows: Vec::with_capacity(num.vehicles()),
             jammed: vec![false; num.vehicles()],
             ahead: Vec::new(),
+            targets: Vec::new(),
+            targets_on: !scenario.cut_ins.is_empty() || traffic > 0,
             leader_sent: vec![false; num.platoons],
             deliveries: vec![Vec::new(); num.platoons],
             wire: vec![WireCounts::default(); num.vehicles()],
@@ -89,9 +99,34 @@ impl<'a> Recorder<'a> {
                 self.leader_sent[j] |= i.is_leader();
             }
         }
-        // The intruders the plant's radars saw (none without traffic on the lane).
+        // The intruders the plant's radars saw (none without traffic on the lane); in runs
+        // with traffic, whatever they saw, and who.
         self.ahead.clear();
-        if s.iter().any(|x| x.flags & VehicleState::INTRUDER != 0) {
+        self.targets.clear();
+        if self.targets_on {
+            let cut_ins = self.scenario.cut_ins.len() as u32;
+            self.ahead.extend(s.iter().map(|x| {
+                (x.flags & VehicleState::AHEAD != 0).then_some(
+                    platoon_control::fallback::RadarTruth {
+                        gap: x.gap,
+                        closing: x.closing,
+                        intruder: x.flags & VehicleState::INTRUDER != 0,
+                    },
+                )
+            }));
+            self.targets.extend(s.iter().map(|x| {
+                let i = num.split(x.vehicle).map_or(0, |(_, i)| i.index());
+                match (x.flags & VehicleState::AHEAD != 0, x.target_code()) {
+                    (false, _) => RadarTarget::Nothing,
+                    _ if x.flags & VehicleState::INTRUDER == 0 => {
+                        RadarTarget::Member(i.saturating_sub(1) as u16)
+                    }
+                    (true, 0) => RadarTarget::Unknown,
+                    (true, c) if c <= cut_ins => RadarTarget::CutIn((c - 1) as u16),
+                    (true, c) => RadarTarget::Background(c - 1 - cut_ins),
+                }
+            }));
+        } else if s.iter().any(|x| x.flags & VehicleState::INTRUDER != 0) {
             self.ahead.extend(s.iter().map(|x| {
                 (x.flags & VehicleState::INTRUDER != 0).then_some(
                     platoon_control::fallback::RadarTruth {
@@ -113,6 +148,7 @@ impl<'a> Recorder<'a> {
                 leader_triggered,
                 &self.jammed[j * n1..(j + 1) * n1],
                 self.ahead.get(j * n1..(j + 1) * n1).unwrap_or(&[]),
+                self.targets.get(j * n1..(j + 1) * n1).unwrap_or(&[]),
                 |i| {
                     let cmd = cmds[i - 1];
                     FollowerStep {
