@@ -618,8 +618,8 @@ fn traffic_around(c: &Config) -> Result<(), Invalid> {
             return bad(
                 "leader.drive",
                 "kind = \"sumo\" has SUMO's car-following model drive the leader, which needs \
-                 SUMO as the plant (simulation.plant = \"sumo\", or --plant sumo); the native \
-                 plant's leader follows leader.profile",
+                 SUMO as the plant: set simulation.plant = \"sumo\" (the native plant's leader \
+                 follows leader.profile)",
             );
         }
         if c.sumo.states == crate::schema::SumoStates::Model {
