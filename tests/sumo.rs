@@ -1814,7 +1814,7 @@ fn a_leader_in_traffic_slows_behind_a_truck_and_the_platoon_follows() {
     assert!((end - 18.0).abs() < 0.05, "the leader ends at {end} m/s");
     let hardest = a.iter().cloned().fold(f64::INFINITY, f64::min);
     assert!(
-        hardest < -0.5 && hardest >= -4.5 - 1e-9,
+        (-4.5 - 1e-9..-0.5).contains(&hardest),
         "hardest braking {hardest}"
     );
     // Its state is SUMO's: the acceleration reported at k + 1 is what moved it over step k.
@@ -1987,4 +1987,37 @@ fn ramp_traffic_merges_into_the_platoons_lane_and_is_handled_as_a_cut_in() {
         ],
     );
     assert_eq!((radar, plaus), ((5, 9939), (0, 9939)));
+}
+
+/// A `[sumo] route` whose edges the platoon's lane does not connect is a config error naming
+/// `sumo.route` before SUMO starts (exit 2).
+#[test]
+fn a_route_the_platoons_lane_does_not_follow_is_a_config_error() {
+    let tmp = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(repo().join("configs/onramp.toml")).unwrap();
+    let net = repo().join("sumo/onramp/onramp.net.xml");
+    let config = tmp.path().join("onramp.toml");
+    std::fs::write(
+        &config,
+        text.replace(
+            "net = \"../sumo/onramp/onramp.net.xml\"",
+            &format!("net = {:?}", net.display().to_string()),
+        )
+        .replace(
+            "route = [\"in\", \"merge\", \"out\"]",
+            "route = [\"in\", \"out\"]",
+        ),
+    )
+    .unwrap();
+    let o = platoon(
+        &["run", config.to_str().unwrap(), "--out", "r", "--no-plots"],
+        tmp.path(),
+    );
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("sumo.route") && err.contains("in_0") && err.contains("\"out\""),
+        "{err}"
+    );
+    assert!(!tmp.path().join("r").exists());
 }
