@@ -735,7 +735,11 @@ class Traffic:
                     except self.sumo.TraCIException:  # removed some other way (a collision)
                         self.on_road[b] = False
         self.view["p"] = p
-        self.view["flags"] = self.on_road
+        if self.road is None:
+            self.view["flags"] = self.on_road
+        else:
+            # Off the route's lanes (on a ramp): not on the platoons' road, NaN as the contract says.
+            self.view["flags"] = np.logical_and(self.on_road, np.isfinite(p))
         return self.out
 
 
