@@ -51,6 +51,13 @@ def vehicle_id(g: int) -> str:
     return name if NAMES["platoons"] == 1 else f"p{j}.{name}"
 
 
+def ahead_id(j: int, a: int) -> str:
+    """SUMO's name of `[[sumo.ahead]]` vehicle a of platoon j: ahead0, ... (p3.ahead0 in a
+    fleet)."""
+    name = f"ahead{a}"
+    return name if NAMES["platoons"] == 1 else f"p{j}.{name}"
+
+
 def intruder_id(j: int, c: int) -> str:
     """SUMO's name of cut-in c's vehicle in platoon j: cutin0, ... (p3.cutin0, ... in a fleet)."""
     name = f"cutin{c}"
@@ -66,22 +73,57 @@ def vtype(name, length):
     )
 
 
+def leader_vtype(drive, length):
+    """The leaders' vehicle type when SUMO's car-following model drives them (`leader.drive`):
+    its model, desired speed, limits and headway, no dawdling (`sigma = 0`), no lane changes."""
+    model = {"krauss": "Krauss", "idm": "IDM"}[drive["car_follow_model"]]
+    return (
+        f'    <vType id="leader" length="{length!r}" minGap="{float(drive["min_gap_m"])!r}" '
+        f'carFollowModel="{model}" accel="{float(drive["accel_mps2"])!r}" '
+        f'decel="{float(drive["decel_mps2"])!r}" emergencyDecel="9" '
+        f'maxSpeed="{float(drive["speed_mps"])!r}" speedFactor="1" speedDev="0" sigma="0" '
+        f'tau="{float(drive["headway_s"])!r}" lcStrategic="0" lcCooperative="0" lcSpeedGain="0" '
+        'lcKeepRight="0"/>'
+    )
+
+
 def write_routes(path, spec):
     s = spec["sumo"]
+    drive = s.get("leader")
     lines = [
         '<?xml version="1.0" encoding="UTF-8"?>',
         "<routes>",
         vtype("platoon", s["vehicle_length_m"]),
         *(vtype(f"cutin{c}", float(cut["length_m"])) for c, cut in enumerate(spec.get("cut_ins", []))),
-        f'    <route id="road" edges="{s["edge"]}"/>',
+        *([leader_vtype(drive, s["vehicle_length_m"])] if drive else []),
+        *(
+            f'    <vType id="ahead{a}" length="{float(x["length_m"])!r}" minGap="2.5" accel="1" '
+            f'decel="4" maxSpeed="{max(float(x["speed_mps"]), 0.1)!r}" speedFactor="1" '
+            'speedDev="0" sigma="0" guiShape="truck" lcStrategic="0" lcCooperative="0" '
+            'lcSpeedGain="0" lcKeepRight="0"/>'
+            for a, x in enumerate(s.get("ahead", []))
+        ),
+        f'    <route id="road" edges="{" ".join(s.get("route") or [s["edge"]])}"/>',
     ]
     for g, (p, v, _) in enumerate(spec["initial"]):
         lane = spec["lanes"][g // spec["vehicles_per_platoon"]]
+        kind = "leader" if drive and g % spec["vehicles_per_platoon"] == 0 else "platoon"
         lines.append(
-            f'    <vehicle id="{vehicle_id(g)}" type="platoon" route="road" depart="0" '
+            f'    <vehicle id="{vehicle_id(g)}" type="{kind}" route="road" depart="0" '
             f'departLane="{lane}" departPos="{p + s["offset_m"]!r}" departSpeed="{v!r}" '
             'insertionChecks="none"/>'
         )
+    # The vehicles ahead of each platoon's leader, at their gaps and speeds.
+    n1 = int(spec["vehicles_per_platoon"])
+    for j, lane in enumerate(spec["lanes"]):
+        front = float(spec["initial"][j * n1][0]) + float(s["offset_m"])
+        for a, x in enumerate(s.get("ahead", [])):
+            pos = front + float(x["gap_m"]) + float(x["length_m"])
+            lines.append(
+                f'    <vehicle id="{ahead_id(j, a)}" type="ahead{a}" route="road" depart="0" '
+                f'departLane="{lane}" departPos="{pos!r}" departSpeed="{float(x["speed_mps"])!r}" '
+                'insertionChecks="none"/>'
+            )
     # Background traffic: SUMO's own model (Krauss), on the free lanes, spread evenly along the
     # road with seeded jitter and speeds (Python's Mersenne Twister: the same seed gives the same
     # traffic). Without `background_lane_changes` it keeps its lane (every lc* weight 0).
@@ -115,9 +157,46 @@ def write_routes(path, spec):
                         break
                     x -= hi - lo
                 lines.append(background_vehicle(b, lane, lo + x, rng, trucks))
+    lines += flow_lines(s)
     lines.append("</routes>")
     with open(path, "w") as f:
         f.write("\n".join(lines) + "\n")
+
+
+def flow_lines(s):
+    """`[[sumo.flows]]`: vehicles of SUMO's Krauss and LC2013 models (`flow<i>.<n>`) entering on
+    their `from` edge at an even rate, routed by SUMO to their `to` edge; cars, or trucks with
+    `truck_share` (a vTypeDistribution drawn from SUMO's seed). LC2013's weights are
+    `background_lane_changes`' when given, else SUMO's."""
+    flows = s.get("flows") or []
+    if not flows:
+        return []
+    lc = s.get("background_lane_changes")
+    changes = "" if lc is None else (
+        f' lcCooperative="{float(lc["cooperative"])!r}" lcSpeedGain="{float(lc["speed_gain"])!r}" '
+        f'lcKeepRight="{float(lc["keep_right"])!r}" lcAssertive="{float(lc["assertive"])!r}"'
+    )
+    car = f'id="flow_car" length="4.5" minGap="2.5" maxSpeed="36"{changes}'
+    truck = f'id="flow_truck" length="12" minGap="2.5" maxSpeed="25" accel="1" decel="4" guiShape="truck"{changes}'
+    lines = [f"    <vType {car}/>", f"    <vType {truck}/>"]
+    for i, f in enumerate(flows):
+        share = float(f.get("truck_share", 0.0))
+        kind = "flow_car" if share == 0.0 else "flow_truck" if share == 1.0 else f"flow{i}_mix"
+        if kind == f"flow{i}_mix":
+            lines.append(
+                f'    <vTypeDistribution id="{kind}" vTypes="flow_car flow_truck" '
+                f'probabilities="{1.0 - share!r} {share!r}"/>'
+            )
+        end = f.get("end_s")
+        end = float(s["duration_s"]) if end is None else float(end)
+        speed = f.get("speed_mps")
+        lines.append(
+            f'    <flow id="flow{i}" type="{kind}" from="{f["from"]}" to="{f["to"]}" '
+            f'begin="{float(f.get("begin_s", 0.0))!r}" end="{end!r}" '
+            f'vehsPerHour="{float(f["vehicles_per_hour"])!r}" departLane="best" '
+            f'departSpeed="{"max" if speed is None else repr(float(speed))}"/>'
+        )
+    return lines
 
 
 # How far a background vehicle starts from a platoon on its lane, ahead of its leader and
@@ -188,6 +267,13 @@ def open_native(spec, sumo):
     n = len(spec["initial"])
     n1 = int(spec["vehicles_per_platoon"])
     radar = spec.get("radar_range_m")
+    s = spec["sumo"]
+    if s.get("road") or s.get("leader"):
+        # The C++ loop reads lane positions and sets every vehicle's acceleration; a route of
+        # several edges (road positions from lane ids) and a leader SUMO drives are stepped here.
+        print("platoon.sumo: the Python loop (sumo.route of several edges, or leader.drive = sumo)",
+              file=sys.stderr, flush=True)
+        return None
     return sumo_native.open_fleet(
         sumo,
         [vehicle_id(i) for i in range(n)],
@@ -228,10 +314,16 @@ def start_sumo(spec):
     libsumo.start(args)
     libsumo.simulationStep()  # inserts the vehicles; their state is still the initial one
     n = len(spec["initial"])
+    n1 = int(spec["vehicles_per_platoon"])
+    driven = bool(s.get("leader"))
     for i in range(n):
         vid = vehicle_id(i)
-        libsumo.vehicle.setSpeedMode(vid, 0)
+        if not (driven and i % n1 == 0):  # a leader SUMO drives keeps SUMO's safe speeds
+            libsumo.vehicle.setSpeedMode(vid, 0)
         libsumo.vehicle.setLaneChangeMode(vid, 0)
+    for j in range(len(spec["lanes"])):
+        for a in range(len(s.get("ahead", []))):
+            libsumo.vehicle.setLaneChangeMode(ahead_id(j, a), 0)
     return libsumo
 
 
@@ -240,6 +332,78 @@ AHEAD_FLAGS = w.VehicleState.AHEAD | w.VehicleState.INTRUDER | (0xFFFFFF << w.Ve
 
 # The numpy views of the wire types (the same fields and offsets as the ctypes mirrors).
 COMMAND = np.ctypeslib.as_array((w.Command * 1)()).dtype
+
+
+class Road:
+    """Positions along a route of several edges (`[sumo] route`): a vehicle's lane position
+    plus where its lane starts along the platoons' lane (plant.json's `road`, from the
+    network's lengths and connections). Remembers the lanes the platoons drove on."""
+
+    def __init__(self, spec, sumo):
+        self.start = {str(lane): float(x) for lane, x in spec["sumo"]["road"]}
+        self.sumo = sumo
+        self.platoon_lanes = set()
+
+    def position(self, vid):
+        """Platoon vehicle vid's road position (lane coordinates: before the offset)."""
+        lane = self.sumo.vehicle.getLaneID(vid)
+        start = self.start.get(lane)
+        if start is None:
+            raise SumoError(f"{vid} is on lane {lane!r}, off the platoon's route (sumo.route)")
+        self.platoon_lanes.add(lane)
+        return start + self.sumo.vehicle.getLanePosition(vid)
+
+    def traffic_position(self, vid):
+        """Another vehicle's road position, NaN off the route's lanes (on a ramp, say)."""
+        start = self.start.get(self.sumo.vehicle.getLaneID(vid))
+        return float("nan") if start is None else start + self.sumo.vehicle.getLanePosition(vid)
+
+
+class Flows:
+    """`[[sumo.flows]]`' vehicles (`flow<i>.<n>`) for sumo.json: when each entered the network,
+    every lane it drove on (and from which step), when it left; whether it ever drove on a lane
+    of the platoons' (merged into their lane) is decided at the end."""
+
+    def __init__(self, spec, sumo):
+        self.sumo = sumo
+        self.enabled = bool(spec["sumo"].get("flows"))
+        self.alive = set()
+        self.log = {}
+        # Those inserted by the step that inserted the platoon (start_sumo's).
+        self.observe(0, sumo.vehicle.getIDList())
+
+    def observe(self, k, departed=None):
+        if not self.enabled:
+            return
+        sim, vehicle = self.sumo.simulation, self.sumo.vehicle
+        for vid in sim.getDepartedIDList() if departed is None else departed:
+            if vid.startswith("flow"):
+                self.alive.add(vid)
+                self.log[vid] = {"depart_step": k, "lanes": {}, "arrive_step": None}
+        for vid in sim.getArrivedIDList():
+            if vid in self.alive:
+                self.alive.discard(vid)
+                self.log[vid]["arrive_step"] = k
+        for vid in self.alive:
+            lanes = self.log[vid]["lanes"]
+            lane = vehicle.getLaneID(vid)
+            if lane not in lanes:
+                lanes[lane] = k
+
+    def report(self, platoon_lanes):
+        merged = {}
+        for vid, x in self.log.items():
+            steps = [k for lane, k in x["lanes"].items() if lane in platoon_lanes]
+            x["on_platoon_lane_step"] = min(steps) if steps else None
+            if steps:
+                merged[vid] = min(steps)
+        return {
+            "departed": len(self.log),
+            "arrived": sum(x["arrive_step"] is not None for x in self.log.values()),
+            "on_platoon_lane": len(merged),
+            "platoon_lanes": sorted(platoon_lanes),
+            "vehicles": self.log,
+        }
 
 
 class Kinematics:
@@ -265,6 +429,11 @@ class Kinematics:
         self.worst = None
         self.ids = [vehicle_id(i) for i in range(n)]
         self.n1 = int(spec["vehicles_per_platoon"])
+        # Positions along a route of several edges; the leaders SUMO's car-following model
+        # drives (their states are SUMO's, whatever the model says).
+        self.road = Road(spec, sumo) if spec["sumo"].get("road") else None
+        self.driven = list(range(0, n, self.n1)) if spec["sumo"].get("leader") else []
+        self.pushed = [i for i in range(n) if i not in set(self.driven)]
         self.platoons = len(spec["lanes"])
         # The radar's view (when a fallback or the guard reads it): SUMO's leader on the lane.
         self.radar_range = spec.get("radar_range_m")
@@ -318,7 +487,10 @@ class Kinematics:
         step here, from Python and from C++: BENCHMARKS.md), made by the C++ loop when there
         is one, which leaves SUMO's values in its arrays."""
         get_pos, get_speed = self.sumo.vehicle.getLanePosition, self.sumo.vehicle.getSpeed
+        if self.road is not None:
+            get_pos = self.road.position
         ids = self.ids
+        driven = self.driven
         if self.native is not None:
             lane, speed = self.native.states()
             if not self.vector:
@@ -330,6 +502,8 @@ class Kinematics:
             for i, vid in enumerate(ids):
                 p = get_pos(vid) - self.offset
                 v = get_speed(vid)
+                if driven and i % self.n1 == 0:
+                    self.p[i], self.v[i] = p, v  # SUMO's model moves it: nothing to compare
                 self.compare(k, i, abs(p - self.p[i]), abs(v - self.v[i]))
                 if self.mode == "sumo":
                     self.p[i], self.v[i] = p, v  # the next comparison is over one step
@@ -342,6 +516,8 @@ class Kinematics:
         else:
             p = np.array([get_pos(vid) for vid in self.ids]) - self.offset
             v = np.array([get_speed(vid) for vid in self.ids])
+        if driven:
+            self.p[driven], self.v[driven] = p[driven], v[driven]
         dp, dv = np.abs(p - self.p), np.abs(v - self.v)
         max_dp, max_dv = float(dp.max()), float(dv.max())
         if max_dp > self.max_dp or max_dv > self.max_dv:
@@ -547,9 +723,10 @@ class Traffic:
     `getLanePosition` call: per-vehicle calls cost less than subscriptions in libsumo
     (docs/performance.md, "What was tried")."""
 
-    def __init__(self, spec, sumo, native=None):
+    def __init__(self, spec, sumo, native=None, road=None):
         self.sumo = sumo
         self.native = native  # native.Fleet: the positions come from the C++ loop
+        self.road = road  # Road: positions along a route of several edges
         self.offset = float(spec["sumo"]["offset_m"])
         n = int(spec["sumo"].get("background_vehicles", 0))
         self.ids = [f"bg{b}" for b in range(n)]
@@ -580,6 +757,8 @@ class Traffic:
             if b is not None:
                 self.on_road[b] = False
         get_pos, offset, nan = self.sumo.vehicle.getLanePosition, self.offset, self.nan
+        if self.road is not None:
+            get_pos = self.road.traffic_position
         if self.native is not None:
             lane = self.native.traffic(self.on_road)  # clears on_road for the removed ones
             p = np.where(self.on_road, lane - offset, nan)
@@ -592,7 +771,11 @@ class Traffic:
                     except self.sumo.TraCIException:  # removed some other way (a collision)
                         self.on_road[b] = False
         self.view["p"] = p
-        self.view["flags"] = self.on_road
+        if self.road is None:
+            self.view["flags"] = self.on_road
+        else:
+            # Off the route's lanes (on a ramp): not on the platoons' road, NaN as the contract says.
+            self.view["flags"] = np.logical_and(self.on_road, np.isfinite(p))
         return self.out
 
 
@@ -642,7 +825,8 @@ def run(spec) -> int:
         dyn = model.Dynamics(spec)
         intruders = Intruders(spec, sumo)
         kin = Kinematics(spec, sumo, spec["sumo"]["states"], native, intruders)
-        traffic = Traffic(spec, sumo, native)
+        traffic = Traffic(spec, sumo, native, kin.road)
+        flows = Flows(spec, sumo)
         tolerance = float(spec["sumo"]["tolerance_m"])
     except Exception as e:  # libsumo raises its own exception types
         fail(f"SUMO could not start: {e}")
@@ -693,13 +877,18 @@ def run(spec) -> int:
             else:
                 set_accel = sumo.vehicle.setAcceleration
                 accel = dyn.accel.tolist() if dyn.vector else dyn.accel
-                for vid, a in zip(kin.ids, accel):
-                    set_accel(vid, a, dt)
+                if kin.driven:
+                    for i in kin.pushed:
+                        set_accel(kin.ids[i], accel[i], dt)
+                else:
+                    for vid, a in zip(kin.ids, accel):
+                        set_accel(vid, a, dt)
                 t1 = time.perf_counter_ns()
                 c1 = time.thread_time_ns()
                 sumo.simulationStep()
                 t2 = time.perf_counter_ns()
                 c2 = time.thread_time_ns()
+            flows.observe(k + 1)
             for c in sumo.simulation.getCollisions():
                 report["collisions"].append(
                     {
@@ -708,13 +897,19 @@ def run(spec) -> int:
                         "collider": c.collider,
                         "victim": c.victim,
                         "type": c.type,
-                        "position_m": c.pos - kin.offset,
+                        # Along the route when it has several edges (SUMO gives the lane's).
+                        "position_m": (c.pos if kin.road is None
+                                       else kin.road.start.get(c.lane, float("nan")) + c.pos)
+                        - kin.offset,
                     }
                 )
             for vid in sumo.simulation.getStartingTeleportIDList():
                 report["teleports"].append({"step": k + 1, "t": (k + 1) * dt, "vehicle": vid})
             kin.step(dyn.accel, k)
             dyn.advance(k, u)
+            for g in kin.driven:
+                # What SUMO's model held over the step (ballistic: the speed's change / dt).
+                dyn.accel[g] = sumo.vehicle.getAcceleration(kin.ids[g])
             k += 1
             if k > steps:
                 report["steps"] = k
@@ -756,6 +951,11 @@ def run(spec) -> int:
     report["worst_deviation"] = kin.worst
     if intruders:
         report["cut_ins"] = intruders.report()
+    if flows.enabled:
+        report["flows"] = flows.report(kin.road.platoon_lanes if kin.road else
+                                       {f'{spec["sumo"]["edge"]}_{lane}' for lane in spec["lanes"]})
+    if kin.driven:
+        report["leader"] = spec["sumo"]["leader"]
     report["sumo_step"] = stats(sumo_ns)
     report["bridge_step"] = stats(bridge_ns)
     report["sumo_step_cpu"] = stats(sumo_cpu)

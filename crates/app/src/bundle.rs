@@ -78,6 +78,9 @@ pub const FILES: &[(&str, &[u8])] = files!(
     "sumo/highway/highway.edg.xml",
     "sumo/highway/highway.net.xml",
     "sumo/highway/highway.nod.xml",
+    "sumo/onramp/onramp.edg.xml",
+    "sumo/onramp/onramp.net.xml",
+    "sumo/onramp/onramp.nod.xml",
 );
 
 /// Where the bundle goes: `$XDG_DATA_HOME/platoon` or `~/.local/share/platoon`.

@@ -234,6 +234,16 @@ pub fn run(
     if let Some(plant) = opts.plant {
         config.simulation.plant = plant;
     }
+    if !config.leader.drive.is_profile() && config.simulation.plant != PlantKind::Sumo {
+        return Err(platoon_config::ConfigError::new(
+            &opts.config_file,
+            "leader.drive",
+            "kind = \"sumo\" has SUMO's car-following model drive the leader, which needs SUMO as \
+             the plant: leave --plant native out (the native plant's leader follows leader.profile)"
+                .to_string(),
+        )
+        .into());
+    }
     let sumo_plan = if config.simulation.plant == PlantKind::Sumo {
         if config.plant.discretisation != platoon_model::Discretisation::Exact {
             return Err(RunError::Other(anyhow::anyhow!(

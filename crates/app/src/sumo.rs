@@ -95,8 +95,8 @@ pub struct SumoPlant {
     pub env: Vec<(String, String)>,
     /// Its background vehicles, whose positions it publishes every step (`traffic`).
     pub traffic: usize,
-    /// Its background vehicles may reach the platoons' lanes (they start there, or change
-    /// lanes): the run records what the radars saw.
+    /// Other vehicles may reach the platoons' lanes (background vehicles that start there or
+    /// change lanes, flows that merge): the run records what the radars saw.
     pub near_platoon: bool,
 }
 
@@ -133,9 +133,25 @@ struct SumoSpec<'a> {
     background_on_platoon_lanes: bool,
     #[serde(skip_serializing_if = "is_zero")]
     background_truck_share: f64,
-    /// SUMO's lane-change output (with `background_lane_changes`).
+    /// SUMO's lane-change output (with `background_lane_changes`, or flows).
     #[serde(skip_serializing_if = "Option::is_none")]
     lanechanges: Option<String>,
+    /// `[sumo] route`, when it has several edges.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    route: Vec<String>,
+    /// Where each lane of the route starts along the platoons' lane (with `route`).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    road: Vec<(String, f64)>,
+    /// SUMO's car-following model drives the leaders (`leader.drive`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    leader: Option<&'a platoon_config::LeaderDrive>,
+    #[serde(skip_serializing_if = "<[_]>::is_empty")]
+    ahead: &'a [platoon_config::AheadVehicle],
+    #[serde(skip_serializing_if = "<[_]>::is_empty")]
+    flows: &'a [platoon_config::SumoFlow],
+    /// The run's duration (s), where a flow's end is absent (with `flows`).
+    #[serde(skip_serializing_if = "is_zero")]
+    duration_s: f64,
     routes: String,
     fcd: String,
     report: String,
@@ -159,6 +175,8 @@ pub struct SumoPlan<'a> {
     free_lanes: Vec<(u32, f64)>,
     /// fcd.xml's period (s; 0: none).
     fcd_period_s: f64,
+    /// The road along `[sumo] route`, when it has several edges.
+    road: Option<Road>,
 }
 
 /// Checks the network, lane and that the platoon stays on the road for the whole run (from the
@@ -214,6 +232,26 @@ pub fn plan<'a>(
             (lane_length, lane_id) = (length, format!("{prefix}{lane}"));
         }
     }
+    // A route of several edges: where each lane of it starts along the platoons' lane.
+    let road = route_road(config_file, s, &doc, &net, &scenario.fleet.lanes)?;
+    if let Some(road) = &road {
+        lane_length = road.length;
+        lane_id = format!("{lane_id} along sumo.route {:?}", s.route);
+    }
+    for (i, f) in s.flows.iter().enumerate() {
+        for (key, edge) in [("from", &f.from), ("to", &f.to)] {
+            if !doc
+                .descendants()
+                .any(|n| n.has_tag_name("edge") && n.attribute("id") == Some(edge.as_str()))
+            {
+                return Err(config_error(
+                    config_file,
+                    &format!("sumo.flows[{i}].{key}"),
+                    format!("{} has no edge {edge:?}", net.display()),
+                ));
+            }
+        }
+    }
     let free_lanes: Vec<(u32, f64)> = lanes
         .iter()
         .copied()
@@ -262,6 +300,15 @@ pub fn plan<'a>(
             }
         }
     })?;
+    if let platoon_config::LeaderDrive::Sumo { speed_mps, .. } = &config.leader.drive {
+        // SUMO drives the leader at most at its desired speed (or its initial one).
+        let (p0, v0) = (scenario.initial[0][0], scenario.initial[0][1]);
+        let t = scenario.steps as f64 * scenario.dt();
+        let far = p0 + v0.max(*speed_mps) * t;
+        if far > hi.0 {
+            hi = (far, t);
+        }
+    }
     if lo.0 + offset < length {
         return Err(config_error(
             config_file,
@@ -295,7 +342,104 @@ pub fn plan<'a>(
         length,
         free_lanes,
         fcd_period_s,
+        road,
     })
+}
+
+/// The platoons' road along a route of several edges (`[sumo] route`): where each lane of the
+/// route's edges, and of the junctions between them, starts along the platoons' lane, which
+/// goes on from lane to lane by the network's connections.
+pub struct Road {
+    /// Lane id -> the road coordinate (m) of its start.
+    pub lanes: Vec<(String, f64)>,
+    /// From the start of the route's first edge to the end of the platoons' lane on its last.
+    pub length: f64,
+}
+
+fn route_road(
+    config_file: &Path,
+    s: &platoon_config::Sumo,
+    doc: &roxmltree::Document,
+    net: &Path,
+    platoon_lanes: &[u32],
+) -> Result<Option<Road>> {
+    if s.route.len() < 2 {
+        return Ok(None);
+    }
+    let err = |message: String| config_error(config_file, "sumo.route", message);
+    let lane_length = |id: &str| -> Option<f64> {
+        doc.descendants()
+            .find(|n| n.has_tag_name("lane") && n.attribute("id") == Some(id))
+            .and_then(|n| n.attribute("length")?.parse().ok())
+    };
+    let edge_lanes = |edge: &str| -> Vec<String> {
+        doc.descendants()
+            .filter(|n| n.has_tag_name("edge") && n.attribute("id") == Some(edge))
+            .flat_map(|n| n.children().filter(|c| c.has_tag_name("lane")))
+            .filter_map(|l| l.attribute("id").map(String::from))
+            .collect()
+    };
+    let mut road: Option<Road> = None;
+    for &lane0 in platoon_lanes {
+        let mut lanes = Vec::new();
+        let (mut lane, mut start) = (lane0.to_string(), 0.0);
+        for (i, edge) in s.route.iter().enumerate() {
+            let ids = edge_lanes(edge);
+            if ids.is_empty() {
+                return Err(err(format!("{} has no edge {edge:?}", net.display())));
+            }
+            for id in &ids {
+                lanes.push((id.clone(), start));
+            }
+            let here = format!("{edge}_{lane}");
+            let length = lane_length(&here)
+                .ok_or_else(|| err(format!("{} has no lane {here}", net.display())))?;
+            let Some(next) = s.route.get(i + 1) else {
+                start += length;
+                break;
+            };
+            let connection = doc.descendants().find(|n| {
+                n.has_tag_name("connection")
+                    && n.attribute("from") == Some(edge.as_str())
+                    && n.attribute("to") == Some(next.as_str())
+                    && n.attribute("fromLane") == Some(lane.as_str())
+            });
+            let Some(c) = connection else {
+                return Err(err(format!(
+                    "lane {here} of {} does not lead on to edge {next:?}: the platoon keeps its lane",
+                    net.display()
+                )));
+            };
+            start += length;
+            if let Some(via) = c.attribute("via") {
+                let l = lane_length(via)
+                    .ok_or_else(|| err(format!("{} has no lane {via}", net.display())))?;
+                // Every junction lane between the two edges ends where the next edge starts.
+                for other in doc.descendants().filter(|n| {
+                    n.has_tag_name("connection")
+                        && n.attribute("from") == Some(edge.as_str())
+                        && n.attribute("to") == Some(next.as_str())
+                }) {
+                    if let Some(v) = other.attribute("via") {
+                        let lv = lane_length(v).unwrap_or(l);
+                        lanes.push((v.to_string(), start + l - lv));
+                    }
+                }
+                start += l;
+            }
+            lane = c.attribute("toLane").unwrap_or("0").to_string();
+        }
+        // The platoons share the road coordinates of the first one's lane.
+        if road.is_none() {
+            road = Some(Road {
+                lanes,
+                length: start,
+            });
+        } else if let Some(r) = &mut road {
+            r.length = r.length.min(start);
+        }
+    }
+    Ok(road)
 }
 
 /// fcd.xml's period: `[sumo] fcd_period_s`, else every step (SUMO's writer) or every step the
@@ -366,7 +510,24 @@ impl SumoPlan<'_> {
                 background_truck_share: s.background_truck_share,
                 lanechanges: match s.background_lane_changes {
                     Some(_) if s.background_vehicles > 0 => Some(path("lanechanges.xml")?),
+                    _ if !s.flows.is_empty() => Some(path("lanechanges.xml")?),
                     _ => None,
+                },
+                route: match &self.road {
+                    Some(_) => s.route.clone(),
+                    None => Vec::new(),
+                },
+                road: self
+                    .road
+                    .as_ref()
+                    .map(|r| r.lanes.clone())
+                    .unwrap_or_default(),
+                leader: Some(&self.config.leader.drive).filter(|d| !d.is_profile()),
+                ahead: &s.ahead,
+                flows: &s.flows,
+                duration_s: match s.flows.is_empty() {
+                    true => 0.0,
+                    false => self.scenario.steps as f64 * self.scenario.dt(),
                 },
                 routes: path("routes.rou.xml")?,
                 fcd: path("fcd.xml")?,
@@ -387,9 +548,10 @@ impl SumoPlan<'_> {
             },
             env: vec![("PLATOON_PLANT_SPEC".into(), path("plant.json")?)],
             traffic: self.config.sumo.background_vehicles,
-            near_platoon: self.config.sumo.background_vehicles > 0
-                && (self.config.sumo.background_on_platoon_lanes
-                    || self.config.sumo.background_lane_changes.is_some()),
+            near_platoon: !self.config.sumo.flows.is_empty()
+                || self.config.sumo.background_vehicles > 0
+                    && (self.config.sumo.background_on_platoon_lanes
+                        || self.config.sumo.background_lane_changes.is_some()),
         })
     }
 }

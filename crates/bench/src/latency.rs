@@ -265,6 +265,7 @@ pub fn latency(a: Latency) -> Result<LatencyReport> {
         controller: platoon_runtime::Program::Builtin,
         plant: platoon_runtime::Program::Builtin,
         traffic: 0,
+        radar: false,
         env: Vec::new(),
         channel_log: None,
         log_dir: Some(logs),

@@ -237,6 +237,65 @@ pub struct Sumo {
     /// How far SUMO may deviate from the vehicle model before the run stops (m and m/s; in
     /// `states = "sumo"` mode over one step, in `model` mode accumulated over the run).
     pub tolerance_m: f64,
+    /// The edges the platoon drives along, in order, the first being `edge` (absent: `edge`
+    /// alone). Positions are then measured along the platoon's lane through them (and the
+    /// junctions between), e.g. `["in", "merge", "out"]` of `sumo/onramp`.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    #[schemars(extend("default" = []))]
+    pub route: Vec<String>,
+    /// `[[sumo.ahead]]`: SUMO vehicles on each platoon's lane ahead of its leader at t = 0, at
+    /// a constant desired speed (SUMO's Krauss model, no lane changes): a slow truck the leader
+    /// meets when `leader.drive` is SUMO's.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    #[schemars(extend("default" = []))]
+    pub ahead: Vec<AheadVehicle>,
+    /// `[[sumo.flows]]`: SUMO vehicles entering the network at a steady rate from one edge to
+    /// another (an on-ramp's traffic), driven by SUMO's Krauss and LC2013 models
+    /// (`background_lane_changes` sets LC2013's weights).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    #[schemars(extend("default" = []))]
+    pub flows: Vec<SumoFlow>,
+}
+
+/// `[[sumo.ahead]]`: a vehicle ahead of the leader on its lane.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct AheadVehicle {
+    /// Its gap to the leader at t = 0 (m, bumper to bumper).
+    pub gap_m: f64,
+    /// Its initial and desired speed (m/s).
+    pub speed_mps: f64,
+    /// Its length (m): a truck's by default.
+    #[serde(default = "default_truck_length")]
+    pub length_m: f64,
+}
+
+fn default_truck_length() -> f64 {
+    12.0
+}
+
+/// `[[sumo.flows]]`: vehicles from one edge to another at a steady rate.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct SumoFlow {
+    /// The edge they enter on (`ramp` of `sumo/onramp`).
+    pub from: String,
+    /// The edge they drive to (SUMO routes them).
+    pub to: String,
+    /// How many enter per hour, evenly spaced.
+    pub vehicles_per_hour: f64,
+    /// When the first may enter (s).
+    #[serde(default)]
+    pub begin_s: f64,
+    /// When the last may enter (s); absent: the run's end.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub end_s: Option<f64>,
+    /// Their speed as they enter (m/s); absent: the lane's limit.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub speed_mps: Option<f64>,
+    /// The share of them that are trucks (12 m, at most 25 m/s), 0..=1.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub truck_share: f64,
 }
 
 fn is_zero(x: &f64) -> bool {
@@ -331,6 +390,9 @@ impl Default for Sumo {
             background_on_platoon_lanes: false,
             background_truck_share: 0.0,
             tolerance_m: 1e-6,
+            route: Vec::new(),
+            ahead: Vec::new(),
+            flows: Vec::new(),
         }
     }
 }
@@ -496,6 +558,79 @@ pub struct Leader {
     /// Broadcast period of the leader (s); absent: every step (docs/paper-readings.md#R5).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub broadcast_period_s: Option<f64>,
+    /// Who drives the leader: its `profile` (the default), or SUMO's car-following model in
+    /// traffic (`kind = "sumo"`, SUMO plant only).
+    #[serde(default, skip_serializing_if = "LeaderDrive::is_profile")]
+    pub drive: LeaderDrive,
+}
+
+/// `leader.drive`: who drives the leader, `kind` and that kind's keys.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum LeaderDrive {
+    /// `leader.profile`, on either plant.
+    Profile {},
+    /// SUMO's car-following model (`simulation.plant = "sumo"` only): the leader is a SUMO
+    /// vehicle that drives at `speed_mps` behind whatever is ahead of it on its lane (a slow
+    /// truck of `[[sumo.ahead]]`, a merging car), and its state as SUMO moved it is what the
+    /// followers' controllers and V2V see. `leader.profile` only has to start at the leader's
+    /// initial speed.
+    Sumo {
+        /// SUMO's car-following model (the vType's `carFollowModel`).
+        #[serde(default)]
+        car_follow_model: CarFollowModel,
+        /// Its desired speed (m/s; the vType's `maxSpeed`).
+        speed_mps: f64,
+        /// Its largest acceleration (m/s^2; `accel`).
+        #[serde(default = "default_leader_accel")]
+        accel_mps2: f64,
+        /// Its comfortable deceleration (m/s^2; `decel`).
+        #[serde(default = "default_leader_decel")]
+        decel_mps2: f64,
+        /// Its desired time headway (s; `tau`).
+        #[serde(default = "default_leader_headway")]
+        headway_s: f64,
+        /// The gap it keeps when stopped (m; `minGap`).
+        #[serde(default = "default_leader_min_gap")]
+        min_gap_m: f64,
+    },
+}
+
+fn default_leader_accel() -> f64 {
+    2.6
+}
+fn default_leader_decel() -> f64 {
+    4.5
+}
+fn default_leader_headway() -> f64 {
+    1.0
+}
+fn default_leader_min_gap() -> f64 {
+    2.5
+}
+
+impl Default for LeaderDrive {
+    fn default() -> Self {
+        Self::Profile {}
+    }
+}
+
+impl LeaderDrive {
+    /// Whether the profile drives the leader (the default).
+    pub fn is_profile(&self) -> bool {
+        matches!(self, Self::Profile {})
+    }
+}
+
+/// A SUMO car-following model (`leader.drive.car_follow_model`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum CarFollowModel {
+    /// SUMO's default, Krauss (with no dawdling: `sigma = 0`).
+    #[default]
+    Krauss,
+    /// The Intelligent Driver Model.
+    Idm,
 }
 
 /// `leader.profile`: the leader's velocity over time, `kind` and that kind's keys.

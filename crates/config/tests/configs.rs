@@ -9,13 +9,14 @@ fn configs_dir() -> std::path::PathBuf {
 /// The shipped configs, each run by a line of the README's quick start. A config added to or
 /// removed from `configs/` must be named here too: the test checks that the directory holds
 /// exactly these, so one that stops being found (or a stray file) fails it.
-const SHIPPED: [&str; 10] = [
+const SHIPPED: [&str; 11] = [
     "cut-in.toml",
     "degradation.toml",
     "density.toml",
     "highway-large.toml",
     "jammer.toml",
     "link-attacks.toml",
+    "onramp.toml",
     "paper.toml",
     "sumo-paper.toml",
     "table1.toml",
@@ -336,4 +337,51 @@ fn the_spacing_policy_and_its_headway_are_checked_by_key() {
     let (config, scenario) = parse(&text, Path::new("th.toml")).unwrap();
     assert_eq!(scenario.headway(), 0.5);
     assert!(platoon_config::to_toml(&config).contains("time_headway_s = 0.5"));
+}
+
+/// The leader in SUMO's traffic, the vehicles ahead of it, the flows and a route of several
+/// edges: bad values name their key.
+#[test]
+fn bad_traffic_around_the_leader_names_its_key() {
+    let drive = "profile = { kind = \"paper\" }";
+    let sumo_leader =
+        "profile = { kind = \"paper\" }\ndrive = { kind = \"sumo\", speed_mps = 25.0 }";
+    assert_error(
+        paper_with(drive, sumo_leader),
+        "leader.drive",
+        "simulation.plant",
+    );
+    let on_sumo = |extra: &str| {
+        let text = platoon_config::PAPER_TOML
+            .replacen("[simulation]", "[simulation]\nplant = \"sumo\"", 1)
+            .replacen(drive, sumo_leader, 1)
+            + extra;
+        parse(&text, Path::new("bad.toml")).map(|_| ())
+    };
+    assert!(on_sumo("").is_ok());
+    assert_error(
+        on_sumo("\n[sumo]\nstates = \"model\"\n"),
+        "leader.drive",
+        "sumo.states",
+    );
+    assert_error(
+        on_sumo("\n[[sumo.ahead]]\ngap_m = -1.0\nspeed_mps = 18.0\n"),
+        "sumo.ahead[0].gap_m",
+        "> 0",
+    );
+    assert_error(
+        on_sumo("\n[[sumo.flows]]\nfrom = \"ramp\"\nto = \"out\"\nvehicles_per_hour = 0.0\n"),
+        "sumo.flows[0].vehicles_per_hour",
+        "> 0",
+    );
+    assert_error(
+        on_sumo("\n[sumo]\nedge = \"in\"\nroute = [\"merge\", \"out\"]\nfcd = \"sumo\"\n"),
+        "sumo.route",
+        "sumo.edge",
+    );
+    assert_error(
+        on_sumo("\n[sumo]\nedge = \"in\"\nroute = [\"in\", \"out\"]\n"),
+        "sumo.fcd",
+        "fcd = \"sumo\"",
+    );
 }

@@ -66,6 +66,9 @@ pub struct Options {
     /// The background vehicles the plant publishes every step on `traffic` (SUMO's
     /// `[sumo] background_vehicles`); 0: the run has no `traffic` service.
     pub traffic: usize,
+    /// The run has traffic that can touch the platoons (scripted cut-ins, SUMO vehicles that
+    /// reach their lanes): its rows say what each radar saw, as the in-process runner's do.
+    pub radar: bool,
     /// More environment for every process (e.g. `PLATOON_PLANT_SPEC`).
     pub env: Vec<(String, String)>,
     /// Where the built-in injector writes its channel log (CSV).
@@ -208,7 +211,7 @@ pub fn orchestrate(
     let mut children = Children { procs: Vec::new() };
     let result = (|| {
         spawn_all(opts, &mut children)?;
-        let mut run = Recorder::new(scenario, opts.traffic);
+        let mut run = Recorder::new(scenario, opts.radar);
         // Startup: wait until every node is READY.
         let mut ready = [false; Node::ALL.len()];
         ready[Node::Orchestrator as usize] = true;

@@ -106,6 +106,7 @@ pub(super) fn cosimulate(
         controller,
         plant,
         traffic,
+        radar,
         env,
         log_dir: Some(logs),
         python_path,

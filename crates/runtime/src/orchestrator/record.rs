@@ -29,8 +29,8 @@ pub(super) struct Recorder<'a> {
 }
 
 impl<'a> Recorder<'a> {
-    /// `traffic`: the plant's background vehicles (0: none).
-    pub(super) fn new(scenario: &'a Scenario, traffic: usize) -> Self {
+    /// `radar`: the run has traffic that can touch the platoons ([`super::Options::radar`]).
+    pub(super) fn new(scenario: &'a Scenario, radar: bool) -> Self {
         let num = Numbering::of(scenario);
         Self {
             scenario,
@@ -42,7 +42,7 @@ impl<'a> Recorder<'a> {
             jammed: vec![false; num.vehicles()],
             ahead: Vec::new(),
             targets: Vec::new(),
-            targets_on: !scenario.cut_ins.is_empty() || traffic > 0,
+            targets_on: radar,
             leader_sent: vec![false; num.platoons],
             deliveries: vec![Vec::new(); num.platoons],
             wire: vec![WireCounts::default(); num.vehicles()],
