@@ -323,11 +323,15 @@ impl Scenario {
         for v in &self.vehicles {
             let positive = |x: Option<f64>| x.is_none_or(|x| x.is_finite() && x > 0.0);
             let (lo, hi) = v.tau_range_s;
-            if !(v.length_m.is_finite() && v.length_m >= 0.0)
-                || !positive(v.accel_max_mps2)
-                || !positive(v.decel_max_mps2)
-                || !(lo.is_finite() && lo > 0.0 && hi.is_finite() && hi >= lo)
-            {
+            let fine = v.length_m.is_finite()
+                && v.length_m >= 0.0
+                && positive(v.accel_max_mps2)
+                && positive(v.decel_max_mps2)
+                && lo.is_finite()
+                && lo > 0.0
+                && hi.is_finite()
+                && hi >= lo;
+            if !fine {
                 return invalid(
                     "vehicle_classes",
                     format!(

@@ -62,7 +62,7 @@ pub fn mixed_max_real(k: [f64; 3], g: &Coupling, taus: &[f64]) -> f64 {
         let plant = Plant3::new(tau);
         acl.view_mut((3 * i, 3 * i), (3, 3)).copy_from(&plant.a);
         let bk = DMatrix::from_iterator(3, 3, (plant.b * kr).iter().copied());
-        let rows = &acl.view((3 * i, 0), (3, m)) - bk * mc.view((3 * i, 0), (3, m));
+        let rows = acl.view((3 * i, 0), (3, m)) - bk * mc.view((3 * i, 0), (3, m));
         acl.view_mut((3 * i, 0), (3, m)).copy_from(&rows);
     }
     acl.complex_eigenvalues()
