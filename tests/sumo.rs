@@ -732,11 +732,11 @@ fn the_python_cut_in_kinematics_are_the_rust_ones_bit_for_bit() {
     };
     let mut traffic = Traffic::new(&cut_ins);
     let mut expected = Vec::new();
-    traffic.arrive(0.0, &states(0), length);
+    traffic.arrive(0.0, &states(0), &[length; 4]);
     for k in 0..=steps {
         if k > 0 {
             traffic.advance((k - 1) as f64 * dt, dt);
-            traffic.arrive(k as f64 * dt, &states(k), length);
+            traffic.arrive(k as f64 * dt, &states(k), &[length; 4]);
         }
         for x in traffic.on_lane() {
             expected.extend([x.p, x.v]);
@@ -752,11 +752,11 @@ def states(k):
             [21.0 - 0.1 * float(i) + 0.003 * float(k) for i in range(4)])
 dt, out = 0.01, []
 t = m.CutIns(cut_ins)
-t.arrive(0.0, *states(0), {length:?})
+t.arrive(0.0, *states(0), [{length:?}] * 4)
 for k in range({steps} + 1):
     if k > 0:
         t.advance((k - 1) * dt, dt)
-        t.arrive(k * dt, *states(k), {length:?})
+        t.arrive(k * dt, *states(k), [{length:?}] * 4)
     for x in t.on_lane:
         if x is not None:
             out += x
@@ -2259,4 +2259,120 @@ fn a_route_the_platoons_lane_does_not_follow_is_a_config_error() {
         "{err}"
     );
     assert!(!tmp.path().join("r").exists());
+}
+
+/// Mixed vehicles on SUMO (`configs/truck-car.toml`): every member is a SUMO vehicle of its
+/// class's type and length, the truck's input is held within its limits by the bridge's model
+/// as by the native plant, and the two plants agree (every gap within 0.05 m, no collision).
+#[test]
+fn a_truck_car_platoon_on_sumo_agrees_with_the_native_plant() {
+    let (tmp, s, n) = sumo_and_native("configs/truck-car.toml");
+    let (sumo, native) = (tmp.path().join("sumo"), tmp.path().join("native"));
+    assert_eq!(s["safety"]["collided"], false, "{}", s["safety"]);
+    let report = json(&sumo.join("sumo.json"));
+    assert_eq!(report["collisions"], serde_json::json!([]));
+    assert_eq!(report["teleports"], serde_json::json!([]));
+    // SUMO's types: the truck 12 m long, the cars 4.5 m.
+    let routes = std::fs::read_to_string(sumo.join("routes.rou.xml")).unwrap();
+    assert!(
+        routes.contains(r#"<vType id="platoon.truck" length="12.0""#),
+        "{routes}"
+    );
+    assert!(
+        routes.contains(r#"<vType id="platoon.car" length="4.5""#),
+        "{routes}"
+    );
+    assert!(routes.contains(r#"<vehicle id="follower2" type="platoon.truck""#));
+    assert!(routes.contains(r#"<vehicle id="leader" type="platoon.car""#));
+    // The gaps of the two plants (front to front; the lengths are the same on both), step by
+    // step, and the smallest bumper-to-bumper gap behind the truck.
+    let (a, b) = (rows(&sumo), rows(&native));
+    let gaps = |rows: &[Row]| -> Vec<f64> {
+        rows.windows(2)
+            .filter(|w| w[0].step == w[1].step)
+            .map(|w| w[0].p - w[1].p)
+            .collect()
+    };
+    let (ga, gb) = (gaps(&a), gaps(&b));
+    assert_eq!(ga.len(), 6001 * 4);
+    let worst = ga
+        .iter()
+        .zip(&gb)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f64::max);
+    assert!(worst < 0.05, "the gaps differ by up to {worst} m");
+    let (ms, mn) = (
+        s["safety"]["min_gap_m"].as_f64().unwrap(),
+        n["safety"]["min_gap_m"].as_f64().unwrap(),
+    );
+    assert_eq!(s["safety"]["min_gap_vehicle"], 3);
+    assert!((ms - mn).abs() < 0.05 && ms < 13.0, "{ms} vs {mn}");
+    // The truck's recorded acceleration keeps within its limits on SUMO too.
+    let t = trajectories(&sumo);
+    let head: Vec<String> = std::fs::read_to_string(sumo.join("trajectories.csv"))
+        .unwrap()
+        .lines()
+        .next()
+        .unwrap()
+        .split(',')
+        .map(String::from)
+        .collect();
+    let col = |name: &str| head.iter().position(|h| h == name).unwrap();
+    let (vehicle, accel) = (col("vehicle"), col("a"));
+    let truck: Vec<f64> = t
+        .iter()
+        .filter(|r| r[vehicle] == "2")
+        .map(|r| r[accel].parse().unwrap())
+        .collect();
+    assert_eq!(truck.len(), 6001);
+    assert!(truck.iter().all(|&x| (-4.0..=1.5).contains(&x)));
+    assert!(truck.iter().any(|&x| x > 1.45));
+}
+
+/// The bridge's input limits (`platoon.sumo.model.Dynamics` with plant.json's `vehicles`) are
+/// the native plant's bit for bit, in its loop and in its numpy path: the truck-car platoon
+/// driven by commands that cross every limit, every vehicle's acceleration at every step.
+#[test]
+fn the_python_input_limits_are_the_rust_ones_bit_for_bit() {
+    let (_, scenario) = platoon_config::load(&repo().join("configs/truck-car.toml")).unwrap();
+    let spec = serde_json::to_string(&platoon_sim::PlantSpec::new(&scenario)).unwrap();
+    let steps = 3000u64;
+    let command = |k: u64, f: usize| -> f64 { 9.0 * ((k as f64) * 0.013 + f as f64).sin() };
+    let mut plant = platoon_sim::Plant::new(&scenario);
+    let mut expected = Vec::new();
+    for k in 0..steps {
+        let u: Vec<f64> = (0..4).map(|f| command(k, f)).collect();
+        plant.advance(k, &u);
+        expected.extend(plant.states().iter().map(|x| x[2]));
+    }
+    // The limits bind both ways.
+    assert!(expected.iter().any(|&a| a > 1.5) && expected.iter().any(|&a| a < -4.0));
+    for vector in ["1000", "1"] {
+        let script = format!(
+            r#"
+import json, math, os, sys; sys.path.insert(0, {bridge:?})
+os.environ["PLATOON_BRIDGE_VECTOR_MIN"] = {vector:?}
+import numpy as np
+import platoon.sumo.model as m
+spec = json.loads({spec:?})
+d = m.Dynamics(spec)
+out = []
+for k in range({steps}):
+    u = [9.0 * math.sin(float(k) * 0.013 + float(f)) for f in range(4)]
+    d.advance(k, np.array(u) if d.vector else u)
+    out += [float(a) for a in d.accel]
+print("\n".join(repr(x) for x in out))
+"#,
+            bridge = repo().join("bridge").display().to_string(),
+        );
+        let got = python_floats(&script);
+        assert_eq!(got.len(), expected.len());
+        for (i, (g, e)) in got.iter().zip(&expected).enumerate() {
+            assert_eq!(
+                g.to_bits(),
+                e.to_bits(),
+                "{vector}: value {i}: python {g} rust {e}"
+            );
+        }
+    }
 }

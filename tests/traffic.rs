@@ -110,7 +110,7 @@ fn runs_without_cut_ins_see_the_predecessor_as_before() {
         sim.plant().radar_truth(&mut lane);
         platoon_control::fallback::radar_truth(
             sim.plant().states(),
-            sim.scenario().vehicle_length,
+            |j| sim.scenario().length(j),
             &mut platoon,
         );
         assert_eq!(lane, platoon);

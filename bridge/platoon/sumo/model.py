@@ -67,6 +67,22 @@ def lagged(a: float, u: float, tau: float, dt: float) -> float:
     return u + (a - u) * math.exp(-dt / tau)
 
 
+def limits_of(member):
+    """A member's `(accel_max, decel_max)` from plant.json (each None when absent)."""
+    a, d = member.get("accel_max_mps2"), member.get("decel_max_mps2")
+    return (None if a is None else float(a), None if d is None else float(d))
+
+
+def limit(u: float, limits) -> float:
+    """`Vehicle::limit`: u held below accel_max, then above -decel_max."""
+    a, d = limits
+    if a is not None and a < u:
+        u = a
+    if d is not None and -d > u:
+        u = -d
+    return u
+
+
 class Dynamics:
     """Every vehicle's acceleration state from a plant spec (plant.json)."""
 
@@ -91,6 +107,13 @@ class Dynamics:
         n1 = self.per_platoon
         accel = [float(x[2]) for x in spec["initial"]]
         slots = [(g, (g // n1) * (n1 - 1) + g % n1 - 1) for g in range(len(accel)) if g % n1]
+        # With vehicle classes (plant.json's `vehicles`, platoon 0's members, leader first):
+        # each follower's input held within its class's limits, `Vehicle::limit` in Rust
+        # (first the acceleration, then the deceleration); None: no class, no limit.
+        members = spec.get("vehicles") or []
+        self.limits = None
+        if members:
+            self.limits = [limits_of(members[g % n1]) for g, _ in slots]
         self.vector = vectorised(len(accel))
         if self.vector:
             # Arrays: a step is a few whole-array operations instead of a loop per vehicle.
@@ -101,6 +124,13 @@ class Dynamics:
             self.follower_slots = np.array([f for _, f in slots], dtype=np.intp)
             self.follower_schedule = np.array(self.schedule_of, dtype=np.intp)[self.follower_slots]
             self.leaders = np.arange(0, len(accel), n1, dtype=np.intp)
+            if self.limits is not None:
+                # By slot; an absent limit is infinite, which np.minimum/np.maximum pass through.
+                by_slot = [None] * len(slots)
+                for (_, f), lim in zip(slots, self.limits):
+                    by_slot[f] = lim
+                self.accel_max = np.array([math.inf if a is None else a for a, _ in by_slot])
+                self.decel_min = np.array([-math.inf if d is None else -d for _, d in by_slot])
         else:
             self.accel = accel
             self.slots = slots
@@ -115,14 +145,21 @@ class Dynamics:
         a_leader = self.leader.step_acceleration(k + 1, dt)
         if self.vector:
             g = self.follower_vehicles
+            if self.limits is not None:
+                u = np.maximum(np.minimum(u, self.accel_max), self.decel_min)
             uf = u[self.follower_slots]
             self.accel[g] = uf + (self.accel[g] - uf) * np.array(decay)[self.follower_schedule]
             self.accel[self.leaders] = a_leader
             return
         accel, which = self.accel, self.schedule_of
-        for g, f in self.slots:
-            uf = u[f]
-            accel[g] = uf + (accel[g] - uf) * decay[which[f]]
+        if self.limits is not None:
+            for (g, f), lim in zip(self.slots, self.limits):
+                uf = limit(u[f], lim)
+                accel[g] = uf + (accel[g] - uf) * decay[which[f]]
+        else:
+            for g, f in self.slots:
+                uf = u[f]
+                accel[g] = uf + (accel[g] - uf) * decay[which[f]]
         for g in self.leaders:
             accel[g] = a_leader
 
@@ -136,9 +173,9 @@ class CutIns:
         self.on_lane = [None] * len(self.cut_ins)
         self.entered = [False] * len(self.cut_ins)
 
-    def arrive(self, t: float, p, v, vehicle_length: float):
-        """`Traffic::arrive` at time t, given the platoon's positions p and speeds v (leader
-        first) at that step: those due enter (`gap_m` ahead of their follower, or mid-gap), those due
+    def arrive(self, t: float, p, v, lengths):
+        """`Traffic::arrive` at time t, given the platoon's positions p, speeds v and lengths
+        (leader first) at that step: those due enter (`gap_m` ahead of their follower, or mid-gap), those due
         leave. Returns the indices of the cut-ins that entered and of those that left."""
         entered, left = [], []
         for c, cut in enumerate(self.cut_ins):
@@ -155,7 +192,7 @@ class CutIns:
                     x = float(p[i]) + gap + cut["length_m"]
                 else:
                     # Equal gaps: ahead - L - x = x - length - behind.
-                    x = 0.5 * (float(p[i - 1]) - vehicle_length + float(p[i]) + cut["length_m"])
+                    x = 0.5 * (float(p[i - 1]) - lengths[i - 1] + float(p[i]) + cut["length_m"])
                 speed = float(v[i]) + cut["speed_diff_mps"]
                 self.on_lane[c] = [x, max(speed, 0.0)]
                 entered.append(c)

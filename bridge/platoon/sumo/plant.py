@@ -87,6 +87,30 @@ def leader_vtype(drive, length):
     )
 
 
+def member_vtypes(spec):
+    """With vehicle classes (plant.json's `vehicles`): a type per class, `platoon.<class>`,
+    of its length (SUMO's radar gaps and collisions then count it). Its accel and decel stay
+    SUMO's no-limit 100: the model (`platoon.sumo.model.Dynamics`) holds the input within the
+    class's limits as the native plant does, and SUMO moves the vehicle by the acceleration
+    it is set."""
+    seen = {}
+    for m in spec.get("vehicles") or []:
+        seen.setdefault(m["class"], max(float(m["length_m"]), 0.01))
+    return [vtype(f"platoon.{name}", length) for name, length in seen.items()]
+
+
+def leader_length(spec):
+    """The leaders' length: their class's, or the platoon's."""
+    members = spec.get("vehicles")
+    return float(members[0]["length_m"]) if members else spec["sumo"]["vehicle_length_m"]
+
+
+def member_vtype(spec, g):
+    """The SUMO type of wire vehicle g: its class's, or `platoon`."""
+    members = spec.get("vehicles")
+    return f'platoon.{members[g % spec["vehicles_per_platoon"]]["class"]}' if members else "platoon"
+
+
 def write_routes(path, spec):
     s = spec["sumo"]
     drive = s.get("leader")
@@ -95,7 +119,8 @@ def write_routes(path, spec):
         "<routes>",
         vtype("platoon", s["vehicle_length_m"]),
         *(vtype(f"cutin{c}", float(cut["length_m"])) for c, cut in enumerate(spec.get("cut_ins", []))),
-        *([leader_vtype(drive, s["vehicle_length_m"])] if drive else []),
+        *member_vtypes(spec),
+        *([leader_vtype(drive, leader_length(spec))] if drive else []),
         *(
             f'    <vType id="ahead{a}" length="{float(x["length_m"])!r}" minGap="2.5" accel="1" '
             f'decel="4" maxSpeed="{max(float(x["speed_mps"]), 0.1)!r}" speedFactor="1" '
@@ -107,7 +132,7 @@ def write_routes(path, spec):
     ]
     for g, (p, v, _) in enumerate(spec["initial"]):
         lane = spec["lanes"][g // spec["vehicles_per_platoon"]]
-        kind = "leader" if drive and g % spec["vehicles_per_platoon"] == 0 else "platoon"
+        kind = "leader" if drive and g % spec["vehicles_per_platoon"] == 0 else member_vtype(spec, g)
         lines.append(
             f'    <vehicle id="{vehicle_id(g)}" type="{kind}" route="road" depart="0" '
             f'departLane="{lane}" departPos="{p + s["offset_m"]!r}" departSpeed="{v!r}" '
@@ -626,7 +651,10 @@ class Intruders:
         cut_ins = spec.get("cut_ins", [])
         self.n1 = int(spec["vehicles_per_platoon"])
         self.dt = float(spec["dt"])
-        self.length = float(spec["vehicle_length"])
+        # Every member's length, leader first (its class's with vehicle classes).
+        members = spec.get("vehicles") or []
+        self.lengths = ([float(m["length_m"]) for m in members]
+                        or [float(spec["vehicle_length"])] * self.n1)
         self.offset = float(spec["sumo"]["offset_m"])
         self.lanes = [(str(lane), f'{spec["sumo"]["edge"]}_{lane}') for lane in spec["lanes"]]
         self.platoons = [model.CutIns(cut_ins) for _ in spec["lanes"]] if cut_ins else []
@@ -648,7 +676,7 @@ class Intruders:
         vehicle = self.sumo.vehicle
         for j, cuts in enumerate(self.platoons):
             lo = j * n1
-            entered, left = cuts.arrive(t, p[lo:lo + n1], v[lo:lo + n1], self.length)
+            entered, left = cuts.arrive(t, p[lo:lo + n1], v[lo:lo + n1], self.lengths)
             for c in left:
                 vid = intruder_id(j, c)
                 vehicle.remove(vid)

@@ -270,6 +270,12 @@ pub struct CheckReport {
     pub block_diagonal: Option<BlockReport>,
     /// Whether spacing errors grow along the platoon (see platoon_synthesis::string_stability).
     pub string_stability: Vec<StringStability>,
+    /// With vehicle classes: the heterogeneous closed loop (each follower its own lag range)
+    /// at every vertex of the followers' lag box, and (13) there with the common-P certificate
+    /// (docs/design.md#mixed-vehicles); absent without classes or beyond
+    /// `platoon_synthesis::MIXED_MAX_FREE` followers with a lag range.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub heterogeneous: Option<platoon_synthesis::MixedCheck>,
     /// The theorem checked.
     #[serde(skip)]
     pub theorem: Theorem,
@@ -366,6 +372,17 @@ pub fn check_gain(
             Feasibility::Infeasible => (None, None),
         };
     let best = theorem1_max_decay(k, &g, &taus_lmi, 10.0, 1e-3)?;
+    let heterogeneous = if scenario.vehicles.is_empty() {
+        None
+    } else {
+        platoon_synthesis::check_mixed(
+            k,
+            opts.c,
+            &g,
+            &scenario.member_tau_ranges(),
+            certificate.as_ref(),
+        )?
+    };
     Ok(CheckReport {
         k,
         topology_followers: n,
@@ -381,6 +398,7 @@ pub fn check_gain(
         max_decay_c: best.as_ref().map(|c| c.c),
         block_diagonal: block,
         string_stability: string_report(k, config, scenario, &g),
+        heterogeneous,
         theorem: opts.theorem,
         c: opts.c,
         lmi_taus: taus_lmi,

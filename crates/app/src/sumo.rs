@@ -278,11 +278,13 @@ pub fn plan<'a>(
         - scenario.fleet.offset(scenario.fleet.platoons - 1);
     let offset = s.start_m - rear0;
     let length = scenario.vehicle_length.max(0.01);
-    if s.start_m < length {
+    // The longest member (vehicle classes) must fit on the road too.
+    let longest = scenario.lengths().into_iter().fold(length, f64::max);
+    if s.start_m < longest {
         return Err(config_error(
             config_file,
             "sumo.start_m",
-            format!("must be at least the vehicle length ({length} m) so every vehicle starts on the road"),
+            format!("must be at least the vehicle length ({longest} m) so every vehicle starts on the road"),
         ));
     }
     // Platoon 0 runs; the others are the same shifted back (to well under a millimetre).

@@ -236,6 +236,33 @@ fn print_check(report: &CheckReport) {
             report.c
         ),
     }
+    if let Some(m) = &report.heterogeneous {
+        println!(
+            "  mixed vehicles, each follower its own lag range {:?} s: at the {} vertices the closed loop is {} (largest real part {:.4}); (13) with the common P {}",
+            m.tau_ranges,
+            m.vertices,
+            if m.worst_max_real < 0.0 { "stable" } else { "UNSTABLE" },
+            m.worst_max_real,
+            match m.max_eigenvalue {
+                Some(e) if m.certified => format!("holds at every vertex (largest eigenvalue {e:.3e}): certified for every lag in the box"),
+                Some(e) => format!("FAILS at a vertex (largest eigenvalue {e:.3e}): NOT certified"),
+                None => "was not found: NOT certified".to_string(),
+            }
+        );
+        println!(
+            "  mixed vehicles, the direct SDP over the {} vertices (one P per follower): {}",
+            m.vertices,
+            match (m.direct_min_ratio, m.direct_max_eigenvalue) {
+                (Some(r), Some(e)) if e < 0.0 => format!(
+                    "smallest beta1/beta2 = {r:.2} (re-checked, largest eigenvalue {e:.3e}, the error may grow {:.1}x before it decays); the config's {config_ratio:.2} is {}",
+                    m.direct_transient_growth.unwrap_or(f64::NAN),
+                    if config_ratio >= r { "certified" } else { "NOT certified" }
+                ),
+                (Some(r), _) => format!("beta1/beta2 = {r:.2} fails the re-check: NOT certified"),
+                _ => "INFEASIBLE for this K".to_string(),
+            }
+        );
+    }
     match &report.block_diagonal {
         Some(b) => println!(
             "  with one P per follower (block-diagonal): smallest beta1/beta2 = {:.2}, the error may grow {:.1}x before it decays; the config's {config_ratio:.2} is {}",

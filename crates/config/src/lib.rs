@@ -313,8 +313,8 @@ pub fn from_value(value: toml::Value) -> Result<Config, (String, String)> {
 /// Parses TOML text (from `file`, used in errors) into a resolved config and its scenario.
 pub fn parse(text: &str, file: &Path) -> Result<(Config, Scenario), ConfigError> {
     let mut config: Config = deserialize_config(text, file)?;
-    let scenario =
-        to_scenario(&mut config).map_err(|(key, message)| ConfigError::new(file, key, message))?;
+    let scenario = to_scenario(&mut config)
+        .map_err(|(key, message)| ConfigError::at_key(file, &KeyLines::new(text), key, message))?;
     Ok((config, scenario))
 }
 

@@ -223,6 +223,18 @@ fn rows(
             } else {
                 format!("table, see [`[{child}]`](#{})", anchor(&child))
             }
+        } else if let Some(entry) = s
+            .get("additionalProperties")
+            .filter(|a| a.is_object() && is_table(root, a))
+        {
+            // A table of tables by name (`[vehicle_classes.<name>]`).
+            let child = if path.is_empty() {
+                format!("{key}.<name>")
+            } else {
+                format!("{path}.{key}.<name>")
+            };
+            nested.push((child.clone(), entry.clone()));
+            format!("tables by name, see [`[{child}]`](#{})", anchor(&child))
         } else {
             let array_of_tables = alternatives(root, s)
                 .first()

@@ -12,6 +12,7 @@ use platoon_topology::Topology;
 
 mod channel;
 mod control;
+mod vehicles;
 
 use channel::{channel, jammers, radio};
 use control::{detection, fallback};
@@ -187,6 +188,17 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
     if vehicle_length < 0.0 {
         return bad("platoon.vehicle_length_m", "must be >= 0");
     }
+    let members = vehicles::members(c, n)?;
+    // The longest vehicle: what the checks on whole-platoon room count.
+    let longest = members.iter().map(|m| m.length()).fold(
+        if members.is_empty() {
+            vehicle_length
+        } else {
+            0.0
+        },
+        f64::max,
+    );
+    let p = &c.platoon;
     let leader = leader_profile(&c.leader.profile)?;
     let initial: Vec<State> = match (&p.initial_states, &p.formation) {
         (Some(_), Some(_)) => {
@@ -226,7 +238,7 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
         }
         (None, Some(f)) => {
             let v0 = leader.velocity_at(0.0);
-            formation(f, n, spacing + headway * v0, vehicle_length, v0)?
+            formation(f, n, spacing + headway * v0, longest, v0)?
         }
     };
 
@@ -267,7 +279,7 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
 
     // [plant]
     let tau_nominal = positive("plant.tau_nominal_s", c.plant.tau_nominal_s)?;
-    let taus = match &c.plant.tau_per_vehicle {
+    let mut taus: Vec<TauSchedule> = match &c.plant.tau_per_vehicle {
         None => {
             let s = tau_schedule("plant.tau", &c.plant.tau)?;
             vec![s; n]
@@ -285,6 +297,10 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
                 .collect::<Result<_, _>>()?
         }
     };
+
+    // [vehicle_classes]
+    let vehicles = vehicles::vehicles(c, &members, &mut taus, tau_nominal, &leader, &initial)?;
+    drop(members);
 
     // [control] and [trigger]
     let k = c.control.paper_law();
@@ -343,11 +359,23 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
     };
     let resilient = tr.resilient;
     let gain = RowVector3::new(k.gain[0], k.gain[1], k.gain[2]);
-    let fallback = fallback(c, dt, vehicle_length)?;
+    let mut fallback = fallback(c, dt, vehicle_length)?;
+    fallback.lengths = vehicles.iter().map(|v| v.length_m).collect();
     // The resolved config says the mode under its current name.
     c.fallback.mode = Some(fallback.mode);
     c.control.attack_input = None;
     let law = c.control.law.params();
+    if law != platoon_control::LawParams::Paper
+        && vehicles.iter().any(|v| v.length_m != vehicle_length)
+    {
+        return bad(
+            "platoon.members",
+            format!(
+                "law = \"{}\" keeps one vehicle length (platoon.vehicle_length_m =                  {vehicle_length} m), but the members' classes give others: use law = \"paper\"                  with vehicle classes of other lengths",
+                law.name()
+            ),
+        );
+    }
     if law != platoon_control::LawParams::Paper {
         // The outputs measure every law against the platoon's spacing policy: it must be the
         // one the law keeps.
@@ -543,7 +571,7 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
             .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| {
                 (lo.min(x[0]), hi.max(x[0]))
             });
-        let length = hi - lo + vehicle_length;
+        let length = hi - lo + longest;
         if finite("fleet.gap_m", f.gap_m)? <= length {
             return bad(
                 "fleet.gap_m",
@@ -589,6 +617,7 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
         radio,
         assumption2: a.assumption2,
         vehicle_length,
+        vehicles,
         cut_ins: control::cut_ins(c, vehicle_length, duration)?,
         safety,
         fleet,

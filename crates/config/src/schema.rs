@@ -51,6 +51,12 @@ pub struct Config {
     /// The emergency-braking guard.
     #[serde(default)]
     pub guard: GuardConfig,
+    /// `[vehicle_classes.<name>]`: named vehicle classes (length, engine lag and its range,
+    /// acceleration limits) that `platoon.members` assigns to the vehicles
+    /// (docs/traffic.md#mixed-vehicles); absent: every vehicle `platoon.vehicle_length_m` long,
+    /// without limits.
+    #[serde(default, skip_serializing_if = "std::collections::BTreeMap::is_empty")]
+    pub vehicle_classes: std::collections::BTreeMap<String, VehicleClass>,
     /// `[[cut_ins]]`: scripted vehicles that cut into the platoon's lane (either plant).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub cut_ins: Vec<CutInConfig>,
@@ -467,9 +473,14 @@ pub struct Platoon {
     /// The spacing policy (`spacing_policy`) and its keys.
     #[serde(flatten, deserialize_with = "serde_util::with_default_tag")]
     pub spacing: SpacingConfig,
-    /// Vehicle length for gap and safety figures (m); 0 treats vehicles as points.
+    /// Vehicle length for gap and safety figures (m); 0 treats vehicles as points. With
+    /// `members` each member's class gives its own (this stays the cut-ins' default).
     #[serde(default)]
     pub vehicle_length_m: f64,
+    /// Each vehicle's class in `[vehicle_classes]`, the leader first (N + 1 names); absent:
+    /// no classes.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub members: Option<Vec<String>>,
     /// `[p, v, a]` of the leader then of each follower (N + 1 rows); or give `formation`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub initial_states: Option<Vec<[f64; 3]>>,
@@ -477,6 +488,34 @@ pub struct Platoon {
     /// leader's initial speed, with seeded jitter (so `followers` alone sets the platoon's size).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub formation: Option<Formation>,
+}
+
+/// `[vehicle_classes.<name>]`: one kind of vehicle (a car, a truck). The plant moves each
+/// member with its class's length, lag and limits; the design covers every member's lag range.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct VehicleClass {
+    /// Length (m), >= 0: the gap behind a vehicle is measured from its rear.
+    pub length_m: f64,
+    /// Its true engine lag, constant (s); or give `tau`; absent both: the follower's
+    /// `[plant] tau` (or `tau_per_vehicle` entry).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tau_s: Option<f64>,
+    /// Its true engine lag as a schedule (like `[plant] tau`), instead of `tau_s`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tau: Option<TauConfig>,
+    /// `[lo, hi]`: the lags (s) the design must cover for the class's followers; it must
+    /// contain each one's true lag. Absent: the true lag's own range.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tau_range_s: Option<[f64; 2]>,
+    /// The largest acceleration the plant applies (m/s^2, > 0): a follower's command is held
+    /// below it. Absent: unlimited.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub accel_max_mps2: Option<f64>,
+    /// The largest deceleration the plant applies (m/s^2, > 0): a follower's command is held
+    /// above its negative. Absent: unlimited.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub decel_max_mps2: Option<f64>,
 }
 
 /// `[platoon] spacing_policy` and its keys: which distance the law keeps

@@ -9,7 +9,7 @@ fn configs_dir() -> std::path::PathBuf {
 /// The shipped configs, each run by a line of the README's quick start. A config added to or
 /// removed from `configs/` must be named here too: the test checks that the directory holds
 /// exactly these, so one that stops being found (or a stray file) fails it.
-const SHIPPED: [&str; 11] = [
+const SHIPPED: [&str; 12] = [
     "cut-in.toml",
     "degradation.toml",
     "density.toml",
@@ -21,6 +21,7 @@ const SHIPPED: [&str; 11] = [
     "sumo-paper.toml",
     "table1.toml",
     "time-headway.toml",
+    "truck-car.toml",
 ];
 
 #[test]
@@ -383,5 +384,84 @@ fn bad_traffic_around_the_leader_names_its_key() {
         on_sumo("\n[sumo]\nedge = \"in\"\nroute = [\"in\", \"out\"]\n"),
         "sumo.fcd",
         "fcd = \"sumo\"",
+    );
+}
+
+/// configs/truck-car.toml with `from` replaced by `to`, parsed as bad.toml.
+fn truck_car_with(from: &str, to: &str) -> Result<(), ConfigError> {
+    let text = std::fs::read_to_string(configs_dir().join("truck-car.toml")).unwrap();
+    assert!(
+        text.contains(from),
+        "truck-car.toml no longer contains {from:?}"
+    );
+    parse(&text.replacen(from, to, 1), Path::new("bad.toml")).map(|_| ())
+}
+
+#[test]
+fn vehicle_classes_are_checked_with_the_key_and_line_named() {
+    let members = r#"members = ["car", "car", "truck", "car", "car"]"#;
+    assert_error(
+        truck_car_with(members, r#"members = ["car", "car", "bus", "car", "car"]"#),
+        "platoon.members[2]",
+        "unknown vehicle class \"bus\"",
+    );
+    assert_error(
+        truck_car_with(members, r#"members = ["car", "truck", "car", "car"]"#),
+        "platoon.members",
+        "lists 4 vehicles but platoon.followers = 4 needs 5",
+    );
+    assert_error(
+        truck_car_with("tau_range_s = [0.6, 1.0]", "tau_range_s = [0.9, 1.0]"),
+        "vehicle_classes.truck.tau_range_s",
+        "does not contain the lag of follower 2",
+    );
+    assert_error(
+        truck_car_with("accel_max_mps2 = 3.0", "accel_max_mps2 = 1.0"),
+        "leader.profile",
+        "more than its class \"car\" allows",
+    );
+    assert_error(
+        truck_car_with("length_m = 12.0", "length_m = -12.0"),
+        "vehicle_classes.truck.length_m",
+        ">= 0",
+    );
+    assert_error(
+        truck_car_with(members, "# no members"),
+        "vehicle_classes.car",
+        "platoon.members assigns none",
+    );
+    assert_error(
+        truck_car_with("tau_s = 0.8", "tau_s = 0.8\ntau = { kind = \"paper\" }"),
+        "vehicle_classes.truck.tau",
+        "not both",
+    );
+    assert_error(
+        truck_car_with(
+            "tau = { kind = \"paper\" }       # unused",
+            "tau_per_vehicle = [{ kind = \"paper\" }, { kind = \"paper\" }, { kind = \"paper\" }, { kind = \"paper\" }]\ntau = { kind = \"paper\" } #",
+        ),
+        "plant.tau_per_vehicle",
+        "give it in one place",
+    );
+    // The error names the line of the key.
+    let e = truck_car_with("tau_range_s = [0.6, 1.0]", "tau_range_s = [0.9, 1.0]").unwrap_err();
+    let text = std::fs::read_to_string(configs_dir().join("truck-car.toml")).unwrap();
+    let line = text
+        .lines()
+        .position(|l| l.starts_with("tau_range_s = [0.6, 1.0]"))
+        .unwrap()
+        + 1;
+    assert!(
+        e.to_string().starts_with(&format!("bad.toml:{line}:")),
+        "{e}"
+    );
+    // A field law keeps one vehicle length.
+    assert_error(
+        truck_car_with(
+            "gain = [1.5751, 5.4977, 4.2091]\nbeta1 = 5790.26\nbeta2 = 5.62",
+            "law = \"ploeg\"",
+        ),
+        "platoon.members",
+        "keeps one vehicle length",
     );
 }

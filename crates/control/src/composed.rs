@@ -259,7 +259,7 @@ impl Controller for ComposedController {
 
     fn receive(&mut self, k: u64, states: &[State], rx: &[Delivery], jammed: &[bool]) -> &[f64] {
         let fb = &self.parts.fallback;
-        let truths = self.truths.take(states, fb.vehicle_length, true);
+        let truths = self.truths.take(states, |j| fb.length(j), true);
         let radar_on = fb.uses_radar();
         // The radars first: the detectors read them too.
         let radar_any = radar_on || self.checks.reads_radar();
@@ -267,14 +267,9 @@ impl Controller for ComposedController {
         read_radars(k, &fb.radar, radar_any, radars, truths, &mut self.readings);
         self.checks.begin_step();
         for d in rx {
-            let sensed = sensed(
-                k,
-                self.parts.dt,
-                d,
-                states,
-                &self.readings,
-                fb.vehicle_length,
-            );
+            let sensed = sensed(k, self.parts.dt, d, states, &self.readings, |j| {
+                fb.length(j)
+            });
             self.checks.admit_sensed(k, d, sensed);
         }
         let n1 = self.followers.len() + 1;
@@ -315,6 +310,7 @@ impl Controller for ComposedController {
                 speed: own[1],
                 spacing: self.parts.spacing,
                 headway: self.parts.headway,
+                length_ahead: fb.length(f.id.index() - 1),
             };
             let (mode, u, guard) = f.fallback.step(&situation, |_| lawful);
             f.step.u = u;

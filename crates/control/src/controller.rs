@@ -164,14 +164,7 @@ impl PlatoonController {
 
     fn accept(&mut self, k: u64, d: &Delivery, states: &[State]) {
         let p = &self.params;
-        let sensed = sensed(
-            k,
-            p.dt,
-            d,
-            states,
-            &self.readings,
-            p.fallback.vehicle_length,
-        );
+        let sensed = sensed(k, p.dt, d, states, &self.readings, |j| p.fallback.length(j));
         let Some((fi, s)) = self.checks.admit_sensed(k, d, sensed) else {
             return;
         };
@@ -279,7 +272,7 @@ impl crate::Controller for PlatoonController {
             // The radars first: the detectors read them too.
             let fb = &self.params.fallback;
             let radar_any = radar_on || self.checks.reads_radar();
-            let truths = self.truths.take(states, fb.vehicle_length, radar_any);
+            let truths = self.truths.take(states, |j| fb.length(j), radar_any);
             let radars = self.followers.iter_mut().map(|f| &mut f.radar);
             read_radars(k, &fb.radar, radar_any, radars, truths, &mut self.readings);
         }
@@ -323,6 +316,7 @@ impl crate::Controller for PlatoonController {
                 speed: own[1],
                 spacing: p.spacing,
                 headway: p.headway,
+                length_ahead: p.fallback.length(f.id.index() - 1),
             };
             // On the way back the law regulates q shifted by the spacing offset.
             let (mode, u, guard) = f

@@ -218,6 +218,9 @@ pub struct FallbackParams {
     pub cut_in: Option<CutInParams>,
     /// Vehicle length L (m): the radar measures bumper to bumper, `d = p_ahead - p_i - L`.
     pub vehicle_length: f64,
+    /// Each vehicle's own length (m), leader first, with vehicle classes (`[vehicle_classes]`);
+    /// empty: every vehicle is `vehicle_length` long.
+    pub lengths: Vec<f64>,
 }
 
 impl Default for FallbackParams {
@@ -234,6 +237,7 @@ impl Default for FallbackParams {
             guard: None,
             cut_in: None,
             vehicle_length: 0.0,
+            lengths: Vec::new(),
         }
     }
 }
@@ -242,6 +246,11 @@ impl FallbackParams {
     /// Follower i's (1-based) fallback.
     pub fn of(&self, i: usize) -> FallbackMode {
         self.per_vehicle.get(i - 1).copied().unwrap_or(self.mode)
+    }
+
+    /// The length of vehicle `j` of the platoon (0: the leader), m.
+    pub fn length(&self, j: usize) -> f64 {
+        self.lengths.get(j).copied().unwrap_or(self.vehicle_length)
     }
 
     /// Whether anything reads the radar (the ACC fallback, the guard or the cut-in handling).
@@ -322,6 +331,9 @@ impl FallbackParams {
         }
         if !self.vehicle_length.is_finite() || self.vehicle_length < 0.0 {
             return Err(("vehicle_length", "must be finite and >= 0".into()));
+        }
+        if self.lengths.iter().any(|l| !l.is_finite() || *l < 0.0) {
+            return Err(("lengths", "every length must be finite and >= 0".into()));
         }
         Ok(())
     }
@@ -443,6 +455,9 @@ pub struct Situation<'a> {
     pub spacing: f64,
     /// The platoon's time headway (s; the `acc` fallback never keeps a shorter one).
     pub headway: f64,
+    /// The length of the platoon's vehicle ahead (m): the radar's gap plus it is the distance
+    /// front to front.
+    pub length_ahead: f64,
 }
 
 /// One follower's way into its fallback while affected and back to its law: the one state
@@ -628,7 +643,7 @@ impl FallbackMachine {
                 // The ACC headway grows from 0 to h over `opening_s` after the switch, never
                 // below the platoon's own.
                 let h = opened_headway(&fb.acc, (s.k - since) as f64 * s.dt).max(s.headway);
-                acc_command(&fb.acc, s.reading, h, s.speed, s.spacing, fb.vehicle_length)
+                acc_command(&fb.acc, s.reading, h, s.speed, s.spacing, s.length_ahead)
             }
         }
     }

@@ -57,11 +57,11 @@ impl Truths {
     pub(crate) fn take(
         &mut self,
         states: &[platoon_model::State],
-        vehicle_length: f64,
+        length: impl Fn(usize) -> f64,
         needed: bool,
     ) -> &[Option<RadarTruth>] {
         if needed && !self.given {
-            radar_truth(states, vehicle_length, &mut self.truth);
+            radar_truth(states, length, &mut self.truth);
         }
         self.given = false;
         &self.truth
@@ -157,17 +157,17 @@ fn gaussian(rng: &mut ChaCha8Rng, std: f64) -> f64 {
 }
 
 /// The true gap and closing speed to the vehicle ahead in the platoon, for every follower
-/// (`states[0]` is the leader; `None` for the leader).
+/// (`states[0]` is the leader; `None` for the leader); `length(j)` is vehicle j's length.
 pub fn radar_truth(
     states: &[platoon_model::State],
-    vehicle_length: f64,
+    length: impl Fn(usize) -> f64,
     out: &mut Vec<Option<RadarTruth>>,
 ) {
     out.clear();
     out.push(None);
-    for w in states.windows(2) {
+    for (j, w) in states.windows(2).enumerate() {
         out.push(Some(RadarTruth {
-            gap: w[0][0] - w[1][0] - vehicle_length,
+            gap: w[0][0] - w[1][0] - length(j),
             closing: w[1][1] - w[0][1],
             intruder: false,
         }));

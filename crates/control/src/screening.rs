@@ -210,7 +210,7 @@ pub(crate) fn sensed(
     d: &crate::Delivery,
     states: &[State],
     readings: &[Option<(crate::fallback::Reading, u64)>],
-    vehicle_length: f64,
+    length: impl Fn(usize) -> f64,
 ) -> Sensed {
     let r = d.receiver.index();
     Sensed {
@@ -223,7 +223,8 @@ pub(crate) fn sensed(
             .map(|(reading, taken)| RadarReading {
                 gap_m: reading.gap,
                 closing_mps: reading.closing,
-                vehicle_length_m: vehicle_length,
+                // The sender ahead is the predecessor, vehicle r - 1.
+                vehicle_length_m: length(r - 1),
                 age_s: k.saturating_sub(taken) as f64 * dt,
             }),
     }

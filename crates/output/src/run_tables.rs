@@ -43,8 +43,8 @@ pub struct RunFiles {
     intruded: Vec<bool>,
     /// Per vehicle: its gap to the vehicle ahead in the platoon at the step before (m).
     gaps: Vec<f64>,
-    /// The vehicles' length (m).
-    vehicle_length: f64,
+    /// Each vehicle's length (m), leader first.
+    lengths: Vec<f64>,
     /// The run has traffic that can touch the platoon: the trajectories and the detections
     /// have the radar's columns ([`StepRow::RADAR_COLUMNS`]).
     radar: bool,
@@ -318,7 +318,7 @@ impl RunFiles {
             intrusions: vec![None; scenario.vehicles()],
             intruded: vec![false; scenario.vehicles()],
             gaps: vec![f64::NAN; scenario.vehicles()],
-            vehicle_length: scenario.vehicle_length,
+            lengths: scenario.lengths(),
             radar,
             waiting: Vec::new(),
         })
@@ -447,9 +447,9 @@ impl RunFiles {
     }
 
     /// Follows vehicle `v`'s intrusion through its row `r` (`p_ahead`: the position of the
-    /// platoon member ahead of it): the event of this step, if any.
+    /// platoon member ahead of it, whose length its gap counts): the event of this step, if any.
     fn intrusion(&mut self, v: usize, r: &StepRow, p_ahead: f64) -> Option<Event> {
-        let gap = p_ahead - r.p - self.vehicle_length;
+        let gap = p_ahead - r.p - self.lengths[usize::from(r.vehicle) - 1];
         let before = std::mem::replace(&mut self.gaps[v], gap);
         match (&mut self.intrusions[v], r.intruder) {
             (None, Some(_)) => {

@@ -20,7 +20,7 @@ pub use factory::{
     ControllerFactory, Factory, InjectorFactory, Make, MakeController, MakeInjector, Plugins,
 };
 pub use metrics::{FleetMetrics, MetricsAccumulator};
-pub use scenario::{Fleet, Scenario, ScenarioError};
+pub use scenario::{Fleet, Scenario, ScenarioError, Vehicle};
 pub use summary::{
     ErrorStats, FleetOverview, LinkOutage, PlatoonBrief, Safety, SafetyClass, SafetyThresholds,
     Summary, VehicleSummary, VehicleWire, WireSummary,
@@ -60,7 +60,9 @@ pub struct StepRow {
     pub v: f64,
     /// Acceleration (m/s^2).
     pub a: f64,
-    /// Command over the step (the leader: its reference acceleration).
+    /// Command over the step as the plant applied it (the leader: its reference
+    /// acceleration): with vehicle classes, the controller's command held within the
+    /// member's acceleration limits.
     pub u: f64,
     /// Internal variable theta_i (NaN for the leader).
     pub theta: f64,
@@ -125,7 +127,10 @@ impl StepRow {
 pub struct Plant {
     states: Vec<State>,
     traffic: traffic::Traffic,
-    vehicle_length: f64,
+    /// Every vehicle's length, leader first.
+    lengths: Vec<f64>,
+    /// The members' classes (empty: no limits).
+    vehicles: Vec<scenario::Vehicle>,
     taus: Vec<TauSchedule>,
     discretisation: platoon_model::Discretisation,
     leader: LeaderProfile,
@@ -138,11 +143,13 @@ impl Plant {
         let mut states = scenario.initial.clone();
         states[0][2] = scenario.leader.step_acceleration(0, scenario.dt());
         let mut traffic = traffic::Traffic::new(&scenario.cut_ins);
-        traffic.arrive(0.0, &states, scenario.vehicle_length);
+        let lengths = scenario.lengths();
+        traffic.arrive(0.0, &states, &lengths);
         Self {
             states,
             traffic,
-            vehicle_length: scenario.vehicle_length,
+            lengths,
+            vehicles: scenario.vehicles.clone(),
             taus: scenario.taus.clone(),
             discretisation: scenario.discretisation,
             leader: scenario.leader.clone(),
@@ -155,13 +162,15 @@ impl Plant {
         &self.states
     }
 
-    /// Advances from step `k` to `k + 1` with the followers' commands `u` (index i - 1).
+    /// Advances from step `k` to `k + 1` with the followers' commands `u` (index i - 1), each
+    /// held within its member's limits (with vehicle classes).
     pub fn advance(&mut self, k: u64, u: &[f64]) {
         let t = k as f64 * self.dt;
         for (i, x) in self.states.iter_mut().enumerate().skip(1) {
+            let ui = self.vehicles.get(i).map_or(u[i - 1], |v| v.limit(u[i - 1]));
             *x = self
                 .discretisation
-                .step(x, u[i - 1], self.taus[i - 1].at(t), self.dt);
+                .step(x, ui, self.taus[i - 1].at(t), self.dt);
         }
         self.states[0] = leader_step(
             &self.states[0],
@@ -171,7 +180,7 @@ impl Plant {
         if !self.traffic.is_empty() {
             self.traffic.advance(t, self.dt);
             let next = (k + 1) as f64 * self.dt;
-            self.traffic.arrive(next, &self.states, self.vehicle_length);
+            self.traffic.arrive(next, &self.states, &self.lengths);
         }
     }
 
@@ -183,7 +192,7 @@ impl Plant {
     /// What every vehicle's radar sees now (leader first: `None`): the vehicle ahead on the
     /// lane, the predecessor or a cut-in ([`traffic::radar_truth`]).
     pub fn radar_truth(&self, out: &mut Vec<Option<platoon_control::fallback::RadarTruth>>) {
-        traffic::radar_truth(&self.states, self.vehicle_length, &self.traffic, out);
+        traffic::radar_truth(&self.states, &self.lengths, &self.traffic, out);
     }
 
     /// [`Plant::radar_truth`], and who each radar sees ([`traffic::radar_view`]).
@@ -192,13 +201,7 @@ impl Plant {
         out: &mut Vec<Option<platoon_control::fallback::RadarTruth>>,
         targets: &mut Vec<traffic::RadarTarget>,
     ) {
-        traffic::radar_view(
-            &self.states,
-            self.vehicle_length,
-            &self.traffic,
-            out,
-            targets,
-        );
+        traffic::radar_view(&self.states, &self.lengths, &self.traffic, out, targets);
     }
 }
 
@@ -219,6 +222,10 @@ pub struct PlantSpec {
     pub taus: Vec<TauSchedule>,
     /// Vehicle length (m).
     pub vehicle_length: f64,
+    /// Each member's class, platoon 0's leader first (absent from plant.json without
+    /// `[vehicle_classes]`): its length and the limits the plant holds its input within.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub vehicles: Vec<scenario::Vehicle>,
     /// N + 1.
     pub vehicles_per_platoon: usize,
     /// Each platoon's lane (SUMO).
@@ -246,6 +253,7 @@ impl PlantSpec {
             leader: scenario.leader.clone(),
             taus: replicas.iter().flat_map(|r| r.taus.clone()).collect(),
             vehicle_length: scenario.vehicle_length,
+            vehicles: scenario.vehicles.clone(),
             vehicles_per_platoon: scenario.vehicles_per_platoon(),
             lanes: (0..scenario.fleet.platoons)
                 .map(|j| scenario.fleet.lane(j))
@@ -323,7 +331,7 @@ pub fn step_rows(
             p: x[0],
             v: x[1],
             a: x[2],
-            u: s.u,
+            u: scenario.applied(i, s.u),
             theta: s.theta,
             // Against the policy's desired distance to the leader, i (l + h_t v_i), measured
             // in the plant (h_t = 0 adds exactly nothing).

@@ -66,7 +66,8 @@ pub struct MetricsAccumulator {
     spacing_policy: &'static str,
     spacing: f64,
     headway: f64,
-    vehicle_length: f64,
+    /// Every vehicle's length, leader first.
+    lengths: Vec<f64>,
     dos: DosSchedule,
     assumption2: Option<Assumption2>,
     vehicles: Vec<VehicleAcc>,
@@ -97,7 +98,7 @@ impl MetricsAccumulator {
             spacing_policy: scenario.spacing_policy().name(),
             spacing: scenario.spacing(),
             headway: scenario.headway(),
-            vehicle_length: scenario.vehicle_length,
+            lengths: scenario.lengths(),
             dos: scenario.dos.clone(),
             assumption2: scenario.assumption2,
             vehicles: vec![
@@ -188,7 +189,7 @@ impl MetricsAccumulator {
             acc.guard_on = r.guard;
             acc.guard_steps += u64::from(r.guard);
             // The nearest vehicle ahead: the predecessor, or one that cut in between.
-            let behind = front.p - r.p - self.vehicle_length;
+            let behind = front.p - r.p - self.lengths[usize::from(front.vehicle)];
             let (gap, closing) = match r.intruder {
                 Some(t) if t.gap < behind => (t.gap, t.closing),
                 _ => (behind, r.v - front.v),

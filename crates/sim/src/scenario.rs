@@ -53,8 +53,13 @@ pub struct Scenario {
     pub radio: Option<platoon_attacks::channel::RadioSpec>,
     /// Bounds to check the DoS schedule against, if given.
     pub assumption2: Option<Assumption2>,
-    /// Vehicle length for gap computations (m); 0 treats vehicles as points.
+    /// Vehicle length for gap computations (m); 0 treats vehicles as points. With
+    /// [`Scenario::vehicles`] the members' own lengths replace it (cut-ins keep it as their
+    /// default).
     pub vehicle_length: f64,
+    /// Each member's vehicle class, leader first (`[vehicle_classes]`, N + 1 entries); empty:
+    /// every vehicle `vehicle_length` long, without limits, its lag range the scenario's.
+    pub vehicles: Vec<Vehicle>,
     /// Scripted cut-ins into every platoon of the fleet (the native plant's traffic; the SUMO
     /// plant's through [`crate::PlantSpec`]).
     pub cut_ins: Vec<crate::traffic::CutIn>,
@@ -65,6 +70,40 @@ pub struct Scenario {
     /// This platoon's index in its fleet (0 for a single platoon): its rows carry it and its
     /// vehicles' global ids start at `platoon * (N + 1)`.
     pub platoon: u16,
+}
+
+/// One member's vehicle class, as the plant and the design use it (`[vehicle_classes]`,
+/// docs/traffic.md#mixed-vehicles). Its true lag is the member's schedule in
+/// [`Scenario::taus`].
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Vehicle {
+    /// The class's name.
+    pub class: String,
+    /// Length (m), >= 0.
+    pub length_m: f64,
+    /// The largest acceleration the plant applies (m/s^2, > 0); `None`: unlimited.
+    pub accel_max_mps2: Option<f64>,
+    /// The largest deceleration the plant applies (m/s^2, > 0); `None`: unlimited.
+    pub decel_max_mps2: Option<f64>,
+    /// The engine lags the design must cover for this member, `(lo, hi)` (s): they contain
+    /// its true schedule. Unused for the leader, which drives its profile.
+    pub tau_range_s: (f64, f64),
+}
+
+impl Vehicle {
+    /// The input the plant applies for command `u`: `u` held within the class's limits
+    /// (first the acceleration, then the deceleration; the SUMO bridge's model does the same).
+    #[inline]
+    pub fn limit(&self, u: f64) -> f64 {
+        let mut u = u;
+        if let Some(a) = self.accel_max_mps2 {
+            u = u.min(a);
+        }
+        if let Some(d) = self.decel_max_mps2 {
+            u = u.max(-d);
+        }
+        u
+    }
 }
 
 /// Identical, independent platoons on one road: platoon j drives on `lanes[j % lanes.len()]`,
@@ -140,13 +179,53 @@ impl Scenario {
     }
 
     /// The smallest and largest engine lag of any follower over the run, and the nominal one
-    /// (s): the range a robust design must cover.
+    /// (s): the range a robust design must cover. With vehicle classes, every follower's
+    /// class range too (their union's hull).
     pub fn tau_range(&self) -> (f64, f64) {
         let tau = self.control.tau_nominal;
         self.taus
             .iter()
             .map(|t| t.range())
+            .chain(self.vehicles.iter().skip(1).map(|v| v.tau_range_s))
             .fold((tau, tau), |(a, b), (x, y)| (a.min(x), b.max(y)))
+    }
+
+    /// Each follower's own lag range (s, follower 1 first): its class's `tau_range_s` with
+    /// vehicle classes, else the hull of its schedule and the nominal lag.
+    pub fn member_tau_ranges(&self) -> Vec<(f64, f64)> {
+        let tau = self.control.tau_nominal;
+        self.taus
+            .iter()
+            .enumerate()
+            .map(|(f, t)| match self.vehicles.get(f + 1) {
+                Some(v) => v.tau_range_s,
+                None => {
+                    let (x, y) = t.range();
+                    (tau.min(x), tau.max(y))
+                }
+            })
+            .collect()
+    }
+
+    /// The length of vehicle `j` (0: the leader), m.
+    pub fn length(&self, j: usize) -> f64 {
+        self.vehicles
+            .get(j)
+            .map_or(self.vehicle_length, |v| v.length_m)
+    }
+
+    /// Every vehicle's length (m), leader first.
+    pub fn lengths(&self) -> Vec<f64> {
+        (0..self.vehicles_per_platoon())
+            .map(|j| self.length(j))
+            .collect()
+    }
+
+    /// The input the plant applies to follower `i` (>= 1) for command `u`: `u` itself
+    /// without vehicle classes, else held within its class's limits ([`Vehicle::limit`]).
+    #[inline]
+    pub fn applied(&self, i: usize, u: f64) -> f64 {
+        self.vehicles.get(i).map_or(u, |v| v.limit(u))
     }
 
     /// Vehicles per platoon, N + 1.
@@ -230,6 +309,37 @@ impl Scenario {
         }
         if !(self.vehicle_length.is_finite() && self.vehicle_length >= 0.0) {
             return invalid("platoon.vehicle_length_m", "must be finite and >= 0".into());
+        }
+        if !self.vehicles.is_empty() && self.vehicles.len() != n + 1 {
+            return invalid(
+                "platoon.members",
+                format!(
+                    "{} members for {} vehicles (the leader first)",
+                    self.vehicles.len(),
+                    n + 1
+                ),
+            );
+        }
+        for v in &self.vehicles {
+            let positive = |x: Option<f64>| x.is_none_or(|x| x.is_finite() && x > 0.0);
+            let (lo, hi) = v.tau_range_s;
+            let fine = v.length_m.is_finite()
+                && v.length_m >= 0.0
+                && positive(v.accel_max_mps2)
+                && positive(v.decel_max_mps2)
+                && lo.is_finite()
+                && lo > 0.0
+                && hi.is_finite()
+                && hi >= lo;
+            if !fine {
+                return invalid(
+                    "vehicle_classes",
+                    format!(
+                        "class {:?}: a length >= 0, limits > 0, 0 < lo <= hi",
+                        v.class
+                    ),
+                );
+            }
         }
         Ok(())
     }

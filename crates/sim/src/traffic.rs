@@ -76,7 +76,8 @@ impl Traffic {
 
     /// The intruders at step `k` (time `t = k dt`), given the platoon's `states` at that step:
     /// those due enter, those due leave. Called once per step, after the platoon moved there.
-    pub fn arrive(&mut self, t: f64, states: &[State], vehicle_length: f64) {
+    /// `lengths` holds every vehicle's length, leader first.
+    pub fn arrive(&mut self, t: f64, states: &[State], lengths: &[f64]) {
         for ((c, slot), entered) in self
             .cut_ins
             .iter()
@@ -91,7 +92,7 @@ impl Traffic {
                 let p = match c.gap_m {
                     Some(g) => behind[0] + g + c.length_m,
                     // Equal gaps: ahead[0] - L - p = p - length - behind[0].
-                    None => 0.5 * (ahead[0] - vehicle_length + behind[0] + c.length_m),
+                    None => 0.5 * (ahead[0] - lengths[c.ahead_of - 1] + behind[0] + c.length_m),
                 };
                 *slot = Some(Intruder {
                     p,
@@ -123,23 +124,23 @@ impl Traffic {
 /// value.
 pub fn radar_truth(
     states: &[State],
-    vehicle_length: f64,
+    lengths: &[f64],
     traffic: &Traffic,
     out: &mut Vec<Option<RadarTruth>>,
 ) {
-    radar_view(states, vehicle_length, traffic, out, &mut Vec::new());
+    radar_view(states, lengths, traffic, out, &mut Vec::new());
 }
 
 /// [`radar_truth`], and who each radar sees (`targets`, leader first): the predecessor
 /// ([`RadarTarget::Member`]) or the cut-in ([`RadarTarget::CutIn`]).
 pub fn radar_view(
     states: &[State],
-    vehicle_length: f64,
+    lengths: &[f64],
     traffic: &Traffic,
     out: &mut Vec<Option<RadarTruth>>,
     targets: &mut Vec<RadarTarget>,
 ) {
-    platoon_control::fallback::radar_truth(states, vehicle_length, out);
+    platoon_control::fallback::radar_truth(states, |j| lengths[j], out);
     targets.clear();
     targets.push(RadarTarget::Nothing);
     targets.extend((1..states.len()).map(|i| RadarTarget::Member(i as u16 - 1)));
@@ -260,16 +261,17 @@ mod tests {
         let states = platoon();
         let mut t = Traffic::new(&[cut_in()]);
         let mut truth = Vec::new();
-        t.arrive(0.99, &states, 4.0);
-        radar_truth(&states, 4.0, &t, &mut truth);
+        let l4 = [4.0; 4];
+        t.arrive(0.99, &states, &l4);
+        radar_truth(&states, &l4, &t, &mut truth);
         let mut plain = Vec::new();
-        platoon_control::fallback::radar_truth(&states, 4.0, &mut plain);
+        platoon_control::fallback::radar_truth(&states, |_| 4.0, &mut plain);
         assert_eq!(truth, plain);
-        t.arrive(1.0, &states, 4.0);
+        t.arrive(1.0, &states, &l4);
         let c = *t.on_lane().next().unwrap();
         // Gap 6 m between followers 1 (at 90) and 2 (at 80): 1 m either side of a 4 m car.
         assert_eq!((c.p, c.v), (85.0, 18.0));
-        radar_truth(&states, 4.0, &t, &mut truth);
+        radar_truth(&states, &l4, &t, &mut truth);
         assert_eq!(
             truth[2],
             Some(RadarTruth {
@@ -286,10 +288,10 @@ mod tests {
         let c = *t.on_lane().next().unwrap();
         assert!((c.v - 17.5).abs() < 1e-9, "{}", c.v);
         assert!((c.p - (85.0 + 18.0 * 0.5 - 0.125 + 17.5 * 0.5)).abs() < 1e-9);
-        t.arrive(3.0, &states, 4.0);
+        t.arrive(3.0, &states, &l4);
         assert_eq!(t.on_lane().count(), 0);
         // It never comes back.
-        t.arrive(1.5, &states, 4.0);
+        t.arrive(1.5, &states, &l4);
         assert_eq!(t.on_lane().count(), 0);
     }
 
@@ -298,14 +300,15 @@ mod tests {
         let states = platoon();
         let mut t = Traffic::new(&[cut_in()]);
         let (mut truth, mut who) = (Vec::new(), Vec::new());
-        radar_view(&states, 4.0, &t, &mut truth, &mut who);
+        let l4 = [4.0; 4];
+        radar_view(&states, &l4, &t, &mut truth, &mut who);
         use RadarTarget::*;
         assert_eq!(who, [Nothing, Member(0), Member(1), Member(2)]);
-        t.arrive(1.0, &states, 4.0);
-        radar_view(&states, 4.0, &t, &mut truth, &mut who);
+        t.arrive(1.0, &states, &l4);
+        radar_view(&states, &l4, &t, &mut truth, &mut who);
         assert_eq!(who, [Nothing, Member(0), CutIn(0), Member(2)]);
         let mut plain = Vec::new();
-        radar_truth(&states, 4.0, &t, &mut plain);
+        radar_truth(&states, &l4, &t, &mut plain);
         assert_eq!(truth, plain);
         // As the outputs write them, and back.
         for w in [Nothing, Member(2), CutIn(0), Background(17), Unknown] {
@@ -324,7 +327,7 @@ mod tests {
             brake_s: 10.0,
             ..cut_in()
         }]);
-        t.arrive(1.0, &platoon(), 4.0);
+        t.arrive(1.0, &platoon(), &[4.0; 4]);
         for k in 0..200 {
             t.advance(1.0 + k as f64 * 0.01, 0.01);
         }

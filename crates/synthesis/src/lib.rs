@@ -20,6 +20,7 @@ mod certificate;
 mod decay;
 mod design;
 mod lmi;
+mod mixed;
 mod sdp;
 mod spectrum;
 pub mod string_stability;
@@ -33,6 +34,9 @@ pub use decay::{max_decay_within_ratio, theorem1_max_decay};
 pub use lmi::{
     min_ratio, min_ratio_block_diagonal, psi, psi_theorem1, theorem1_min_ratio, Coupling,
     Feasibility, LmiError, Lyapunov, Plant3, P_MAX,
+};
+pub use mixed::{
+    check_mixed, mixed_max_real, psi_mixed, psi_mixed_full, MixedCheck, MIXED_MAX_FREE,
 };
 pub use spectrum::{closed_loop_spectrum, growth_rate, Spectrum};
 

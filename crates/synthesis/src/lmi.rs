@@ -201,7 +201,12 @@ pub fn psi(
 }
 
 /// The 9N x 9N matrix of (13) from its (1,1) and (1,2) blocks.
-fn assemble(x11: &DMatrix<f64>, x12: &DMatrix<f64>, r: f64, mc: &DMatrix<f64>) -> DMatrix<f64> {
+pub(crate) fn assemble(
+    x11: &DMatrix<f64>,
+    x12: &DMatrix<f64>,
+    r: f64,
+    mc: &DMatrix<f64>,
+) -> DMatrix<f64> {
     let m = mc.nrows();
     let ht_i = mc.transpose();
     let mut psi = DMatrix::<f64>::zeros(3 * m, 3 * m);

@@ -69,6 +69,7 @@ pub(super) fn fallback(
             None => None,
         },
         vehicle_length,
+        lengths: Vec::new(),
     };
     params
         .validate(c.platoon.followers)
