@@ -3,7 +3,7 @@
 //! class's limits on the input the plant applies, and both transports agree bit for bit.
 mod common;
 
-use common::{json, ok, platoon, repo};
+use common::{json, repo, run_config};
 use platoon_app::design::{check_gain, CheckOptions, Theorem};
 use platoon_sim::StepRow;
 
@@ -118,23 +118,8 @@ fn the_truck_car_platoon_runs_with_each_members_length_and_limits() {
 fn the_truck_car_platoon_agrees_over_both_transports() {
     let tmp = tempfile::tempdir().unwrap();
     let c = repo().join("configs/truck-car.toml");
-    let c = c.to_str().unwrap();
-    ok(&platoon(
-        &["run", c, "--out", "ipc", "--no-plots"],
-        tmp.path(),
-    ));
-    ok(&platoon(
-        &[
-            "run",
-            c,
-            "--transport",
-            "inproc",
-            "--out",
-            "inproc",
-            "--no-plots",
-        ],
-        tmp.path(),
-    ));
+    run_config(&c, "ipc", &[], tmp.path());
+    run_config(&c, "inproc", &["--transport", "inproc"], tmp.path());
     for file in ["trajectories.csv", "events.csv"] {
         let a = std::fs::read(tmp.path().join("ipc").join(file)).unwrap();
         let b = std::fs::read(tmp.path().join("inproc").join(file)).unwrap();

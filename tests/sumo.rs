@@ -3,7 +3,7 @@
 //! collisions, faults.
 mod common;
 
-use common::{cut_in_config, json, ok, platoon, platoon_command, published, repo};
+use common::{cut_in_config, json, ok, platoon, platoon_command, published, repo, run_config};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 
@@ -54,6 +54,23 @@ fn rows(run: &Path) -> Vec<Row> {
             }
         })
         .collect()
+}
+
+/// The largest difference between two runs' front-to-front gaps of the same platoon, over
+/// every step and pair (`pairs` of them in each, checked).
+fn worst_gap_difference(a: &[Row], b: &[Row], pairs: usize) -> f64 {
+    let gaps = |rows: &[Row]| -> Vec<f64> {
+        rows.windows(2)
+            .filter(|w| w[0].step == w[1].step)
+            .map(|w| w[0].p - w[1].p)
+            .collect()
+    };
+    let (ga, gb) = (gaps(a), gaps(b));
+    assert_eq!((ga.len(), gb.len()), (pairs, pairs));
+    ga.iter()
+        .zip(&gb)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f64::max)
 }
 
 /// The rows of two runs of the same platoon, paired (same step and vehicle, checked).
@@ -1412,23 +1429,8 @@ fn a_binary_moved_out_of_the_checkout_runs_sumo_with_the_bridge_it_carries() {
 fn sumo_and_native(config: &str) -> (tempfile::TempDir, serde_json::Value, serde_json::Value) {
     let tmp = tempfile::tempdir().unwrap();
     let c = repo().join(config);
-    let c = c.to_str().unwrap();
-    ok(&platoon(
-        &["run", c, "--plant", "sumo", "--out", "sumo", "--no-plots"],
-        tmp.path(),
-    ));
-    ok(&platoon(
-        &[
-            "run",
-            c,
-            "--transport",
-            "inproc",
-            "--out",
-            "native",
-            "--no-plots",
-        ],
-        tmp.path(),
-    ));
+    run_config(&c, "sumo", &["--plant", "sumo"], tmp.path());
+    run_config(&c, "native", &["--transport", "inproc"], tmp.path());
     let s = json(&tmp.path().join("sumo/summary.json"));
     let n = json(&tmp.path().join("native/summary.json"));
     (tmp, s, n)
@@ -1575,8 +1577,7 @@ fn a_cut_in_on_sumo_is_seen_at_its_step_and_agrees_with_the_native_plant() {
     let (tmp, s, n) = sumo_and_native("configs/cut-in.toml");
     let (sumo, native) = (tmp.path().join("sumo"), tmp.path().join("native"));
     assert_eq!(s["safety"]["collided"], false, "{}", s["safety"]);
-    let report = json(&sumo.join("sumo.json"));
-    assert_eq!(report["collisions"], serde_json::json!([]));
+    let report = sumo_report_clean(&sumo);
     // It entered at 20 s and left at 30 s, and SUMO moved it as the kinematics do.
     let car = &report["cut_ins"]["vehicles"]["cutin0"];
     assert_eq!(
@@ -1592,20 +1593,7 @@ fn a_cut_in_on_sumo_is_seen_at_its_step_and_agrees_with_the_native_plant() {
     assert_eq!(f3.last().unwrap().mode, "coop");
     assert!(a.iter().all(|r| r.vehicle == 3 || r.mode != "cut_in"));
     // The gaps of the two plants, step by step.
-    let gaps = |rows: &[Row]| -> Vec<f64> {
-        rows.windows(2)
-            .filter(|w| w[0].step == w[1].step)
-            .map(|w| w[0].p - w[1].p)
-            .collect()
-    };
-    let (ga, gb) = (gaps(&a), gaps(&b));
-    assert_eq!(ga.len(), gb.len());
-    assert_eq!(ga.len(), 7001 * 4);
-    let worst = ga
-        .iter()
-        .zip(&gb)
-        .map(|(x, y)| (x - y).abs())
-        .fold(0.0, f64::max);
+    let worst = worst_gap_difference(&a, &b, 7001 * 4);
     assert!(worst < 0.05, "the gaps differ by up to {worst} m");
     for (x, y) in paired(&a, &b) {
         if x.step == 2000 || x.step == 3100 {
@@ -1648,14 +1636,12 @@ fn a_cut_in_on_sumo_is_seen_at_its_step_and_agrees_with_the_native_plant() {
     }
 }
 
-/// Runs `config` on SUMO into `cwd/out`, without plots: the run directory.
-fn run_on_sumo(config: &Path, out: &str, cwd: &Path) -> PathBuf {
-    let c = config.to_str().unwrap();
-    ok(&platoon(
-        &["run", c, "--plant", "sumo", "--out", out, "--no-plots"],
-        cwd,
-    ));
-    cwd.join(out)
+/// A SUMO run's `sumo.json`, which must report no teleport and no collision.
+fn sumo_report_clean(run: &Path) -> serde_json::Value {
+    let report = json(&run.join("sumo.json"));
+    assert_eq!(report["teleports"], serde_json::json!([]));
+    assert_eq!(report["collisions"], serde_json::json!([]));
+    report
 }
 
 /// The cut-in of `configs/cut-in.toml` on SUMO for every law of the controller seam (each on
@@ -1671,7 +1657,7 @@ fn every_law_handles_a_cut_in_on_sumo() {
     for law in ["paper", "ploeg", "acc", "path_cacc", "consensus", "flatbed"] {
         let config = tmp.path().join(format!("{law}.toml"));
         std::fs::write(&config, cut_in_config(law)).unwrap();
-        let run = run_on_sumo(&config, law, tmp.path());
+        let run = run_config(&config, law, &["--plant", "sumo"], tmp.path());
         let summary = json(&run.join("summary.json"));
         let report = json(&run.join("sumo.json"));
         if law == "flatbed" {
@@ -1767,10 +1753,8 @@ fn lane_changing_background_traffic_shares_the_platoons_lane() {
                background_lane_changes = { assertive = 10.0, speed_gain = 5.0 }\n",
     )
     .unwrap();
-    let run = run_on_sumo(&config, "r", tmp.path());
-    let report = json(&run.join("sumo.json"));
-    assert_eq!(report["teleports"], serde_json::json!([]));
-    assert_eq!(report["collisions"], serde_json::json!([]));
+    let run = run_config(&config, "r", &["--plant", "sumo"], tmp.path());
+    let report = sumo_report_clean(&run);
     assert_eq!(json(&run.join("summary.json"))["safety"]["collided"], false);
     // Every background vehicle starts on the road, at least 50 m clear of the platoon on its
     // lane: ahead of the leader's front or behind the last follower's rear.
@@ -2029,14 +2013,8 @@ fn column(run: &Path, vehicle: usize, name: &str) -> Vec<f64> {
 fn a_leader_in_traffic_slows_behind_a_truck_and_the_platoon_follows() {
     let tmp = tempfile::tempdir().unwrap();
     let config = leader_in_traffic(tmp.path(), "");
-    ok(&platoon(
-        &["run", config.to_str().unwrap(), "--out", "r", "--no-plots"],
-        tmp.path(),
-    ));
-    let run = tmp.path().join("r");
-    let report = json(&run.join("sumo.json"));
-    assert_eq!(report["teleports"], serde_json::json!([]));
-    assert_eq!(report["collisions"], serde_json::json!([]));
+    let run = run_config(&config, "r", &[], tmp.path());
+    let report = sumo_report_clean(&run);
     assert_eq!(report["leader"]["kind"], "sumo");
     assert_eq!(json(&run.join("summary.json"))["safety"]["collided"], false);
     let routes = std::fs::read_to_string(run.join("routes.rou.xml")).unwrap();
@@ -2122,6 +2100,16 @@ fn a_leader_in_traffic_on_the_native_plant_is_a_config_error() {
     );
 }
 
+/// `configs/onramp.toml` with its network's path made absolute (the test writes its copy
+/// elsewhere).
+fn onramp_config() -> String {
+    let text = std::fs::read_to_string(repo().join("configs/onramp.toml")).unwrap();
+    let net = repo().join("sumo/onramp/onramp.net.xml");
+    let relative = "net = \"../sumo/onramp/onramp.net.xml\"";
+    assert!(text.contains(relative));
+    text.replace(relative, &format!("net = {:?}", net.display().to_string()))
+}
+
 /// configs/onramp.toml (sumo/onramp: the platoon on the right lane past an on-ramp with an
 /// acceleration lane; ramp cars at 1200 per hour, merging by LC2013; the leader driven by
 /// SUMO's Krauss model), run with `[detection]` on and no attacker. The ramp's cars enter the
@@ -2133,26 +2121,14 @@ fn a_leader_in_traffic_on_the_native_plant_is_a_config_error() {
 #[test]
 fn ramp_traffic_merges_into_the_platoons_lane_and_is_handled_as_a_cut_in() {
     let tmp = tempfile::tempdir().unwrap();
-    let text = std::fs::read_to_string(repo().join("configs/onramp.toml")).unwrap();
-    let net = repo().join("sumo/onramp/onramp.net.xml");
-    assert!(text.contains("net = \"../sumo/onramp/onramp.net.xml\""));
     let config = tmp.path().join("onramp.toml");
     std::fs::write(
         &config,
-        text.replace(
-            "net = \"../sumo/onramp/onramp.net.xml\"",
-            &format!("net = {:?}", net.display().to_string()),
-        ) + "\n[detection]\nradar_cross = {}\nplausibility = {}\n",
+        onramp_config() + "\n[detection]\nradar_cross = {}\nplausibility = {}\n",
     )
     .unwrap();
-    ok(&platoon(
-        &["run", config.to_str().unwrap(), "--out", "r", "--no-plots"],
-        tmp.path(),
-    ));
-    let run = tmp.path().join("r");
-    let report = json(&run.join("sumo.json"));
-    assert_eq!(report["teleports"], serde_json::json!([]));
-    assert_eq!(report["collisions"], serde_json::json!([]));
+    let run = run_config(&config, "r", &[], tmp.path());
+    let report = sumo_report_clean(&run);
     let summary = json(&run.join("summary.json"));
     assert_eq!(summary["safety"]["collided"], false);
     // The platoon drove along its lane through the three edges (positions along the route).
@@ -2233,16 +2209,10 @@ fn ramp_traffic_merges_into_the_platoons_lane_and_is_handled_as_a_cut_in() {
 #[test]
 fn a_route_the_platoons_lane_does_not_follow_is_a_config_error() {
     let tmp = tempfile::tempdir().unwrap();
-    let text = std::fs::read_to_string(repo().join("configs/onramp.toml")).unwrap();
-    let net = repo().join("sumo/onramp/onramp.net.xml");
     let config = tmp.path().join("onramp.toml");
     std::fs::write(
         &config,
-        text.replace(
-            "net = \"../sumo/onramp/onramp.net.xml\"",
-            &format!("net = {:?}", net.display().to_string()),
-        )
-        .replace(
+        onramp_config().replace(
             "route = [\"in\", \"merge\", \"out\"]",
             "route = [\"in\", \"out\"]",
         ),
@@ -2269,9 +2239,7 @@ fn a_truck_car_platoon_on_sumo_agrees_with_the_native_plant() {
     let (tmp, s, n) = sumo_and_native("configs/truck-car.toml");
     let (sumo, native) = (tmp.path().join("sumo"), tmp.path().join("native"));
     assert_eq!(s["safety"]["collided"], false, "{}", s["safety"]);
-    let report = json(&sumo.join("sumo.json"));
-    assert_eq!(report["collisions"], serde_json::json!([]));
-    assert_eq!(report["teleports"], serde_json::json!([]));
+    sumo_report_clean(&sumo);
     // SUMO's types: the truck 12 m long, the cars 4.5 m.
     let routes = std::fs::read_to_string(sumo.join("routes.rou.xml")).unwrap();
     assert!(
@@ -2287,19 +2255,7 @@ fn a_truck_car_platoon_on_sumo_agrees_with_the_native_plant() {
     // The gaps of the two plants (front to front; the lengths are the same on both), step by
     // step, and the smallest bumper-to-bumper gap behind the truck.
     let (a, b) = (rows(&sumo), rows(&native));
-    let gaps = |rows: &[Row]| -> Vec<f64> {
-        rows.windows(2)
-            .filter(|w| w[0].step == w[1].step)
-            .map(|w| w[0].p - w[1].p)
-            .collect()
-    };
-    let (ga, gb) = (gaps(&a), gaps(&b));
-    assert_eq!(ga.len(), 6001 * 4);
-    let worst = ga
-        .iter()
-        .zip(&gb)
-        .map(|(x, y)| (x - y).abs())
-        .fold(0.0, f64::max);
+    let worst = worst_gap_difference(&a, &b, 6001 * 4);
     assert!(worst < 0.05, "the gaps differ by up to {worst} m");
     let (ms, mn) = (
         s["safety"]["min_gap_m"].as_f64().unwrap(),

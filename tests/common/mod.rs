@@ -41,6 +41,16 @@ pub fn platoon(args: &[&str], cwd: &Path) -> Output {
     platoon_command(cwd).args(args).output().unwrap()
 }
 
+/// Runs `platoon run CONFIG --out OUT --no-plots EXTRA...` in `cwd` to completion, failing the
+/// test with its stderr if it fails: the run directory.
+pub fn run_config(config: &Path, out: &str, extra: &[&str], cwd: &Path) -> PathBuf {
+    let c = config.to_str().unwrap();
+    let mut args = vec!["run", c, "--out", out, "--no-plots"];
+    args.extend_from_slice(extra);
+    ok(&platoon(&args, cwd));
+    cwd.join(out)
+}
+
 /// Fails the test with platoon's stderr if it did not succeed.
 pub fn ok(o: &Output) {
     assert!(
