@@ -2005,14 +2005,31 @@ fn column(run: &Path, vehicle: usize, name: &str) -> Vec<f64> {
         .collect()
 }
 
-/// `[leader] drive = { kind = "sumo" }`: SUMO's car-following model drives the leader behind a
-/// slower truck on its lane. It brakes to the truck's speed, the bridge reports its state as
+/// `[leader] drive = { kind = "sumo" }`: SUMO's car-following model (Krauss, then IDM) drives
+/// the leader behind a slower truck on its lane. It brakes to the truck's speed, the bridge reports its state as
 /// SUMO moved it (p, v and the acceleration SUMO held), and the followers, on V2V and their
 /// radars, slow down with it: no collision, no teleport.
 #[test]
 fn a_leader_in_traffic_slows_behind_a_truck_and_the_platoon_follows() {
+    for model in ["krauss", "idm"] {
+        leader_behind_a_truck(model);
+    }
+}
+
+/// [`a_leader_in_traffic_slows_behind_a_truck_and_the_platoon_follows`] with SUMO's
+/// car-following `model` driving the leader.
+fn leader_behind_a_truck(model: &str) {
     let tmp = tempfile::tempdir().unwrap();
     let config = leader_in_traffic(tmp.path(), "");
+    let text = std::fs::read_to_string(&config).unwrap();
+    std::fs::write(
+        &config,
+        text.replace(
+            "car_follow_model = \"krauss\"",
+            &format!("car_follow_model = \"{model}\""),
+        ),
+    )
+    .unwrap();
     let run = run_config(&config, "r", &[], tmp.path());
     let report = sumo_report_clean(&run);
     assert_eq!(report["leader"]["kind"], "sumo");
@@ -2028,11 +2045,14 @@ fn a_leader_in_traffic_slows_behind_a_truck_and_the_platoon_follows() {
     // It starts at its desired 25 m/s, brakes for the truck and ends at the truck's 18 m/s.
     assert!((v[0] - 25.0).abs() < 1e-9, "{}", v[0]);
     let end = *v.last().unwrap();
-    assert!((end - 18.0).abs() < 0.05, "the leader ends at {end} m/s");
+    assert!(
+        (end - 18.0).abs() < 0.05,
+        "{model}: the leader ends at {end} m/s"
+    );
     let hardest = a.iter().cloned().fold(f64::INFINITY, f64::min);
     assert!(
         (-4.5 - 1e-9..-0.5).contains(&hardest),
-        "hardest braking {hardest}"
+        "{model}: hardest braking {hardest}"
     );
     // Its state is SUMO's: the acceleration reported at k + 1 is what moved it over step k.
     for k in 0..v.len() - 1 {
@@ -2057,10 +2077,13 @@ fn a_leader_in_traffic_slows_behind_a_truck_and_the_platoon_follows() {
         );
         let ve = *vf.last().unwrap();
         let spacing = pa.last().unwrap() - pf.last().unwrap();
-        assert!((ve - 18.0).abs() < 0.1, "follower {f} ends at {ve} m/s");
+        assert!(
+            (ve - 18.0).abs() < 0.1,
+            "{model}: follower {f} ends at {ve} m/s"
+        );
         assert!(
             (spacing - 20.0).abs() < 0.5,
-            "follower {f} ends {spacing} m behind"
+            "{model}: follower {f} ends {spacing} m behind"
         );
         assert!(vf.iter().all(|&x| x < 25.5), "follower {f}");
     }
