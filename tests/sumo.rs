@@ -1736,7 +1736,8 @@ fn every_law_handles_a_cut_in_on_sumo() {
 /// gain speed and accepting a tenth of the usual gaps, over 120 s on the default 3-lane
 /// highway. The run completes with no teleport and no collision, the vehicles start clear of
 /// the platoon, change lanes into the platoon's lane, and some cut into the platoon: the
-/// follower behind runs ACC on the car and returns to its law once it has gone.
+/// follower behind runs ACC on the car and returns to its law once it has gone. With the
+/// detectors logging, their false alarms are what docs/traffic.md publishes.
 #[test]
 fn lane_changing_background_traffic_shares_the_platoons_lane() {
     let tmp = tempfile::tempdir().unwrap();
@@ -1750,7 +1751,8 @@ fn lane_changing_background_traffic_shares_the_platoons_lane() {
             + "\n[guard]\nenabled = true\n\n[sumo]\nstart_m = 400.0\n\
                background_vehicles = 200\nbackground_seed = 11\n\
                background_on_platoon_lanes = true\nbackground_truck_share = 0.2\n\
-               background_lane_changes = { assertive = 10.0, speed_gain = 5.0 }\n",
+               background_lane_changes = { assertive = 10.0, speed_gain = 5.0 }\n\
+               \n[detection]\nradar_cross = {}\nplausibility = {}\n",
     )
     .unwrap();
     let run = run_config(&config, "r", &["--plant", "sumo"], tmp.path());
@@ -1844,6 +1846,21 @@ fn lane_changing_background_traffic_shares_the_platoons_lane() {
         &on_cars[..on_cars.len().min(5)]
     );
     assert!(on_cars.iter().all(|s| s.1.is_finite()));
+    // Detection among the lane changes, no attacker: the false alarms, pinned.
+    let summary = json(&run.join("summary.json"));
+    let (radar, plaus) = (
+        false_alarms(&summary, "radar_cross"),
+        false_alarms(&summary, "plausibility"),
+    );
+    published(
+        "docs/traffic.md",
+        "lane changes and cut-ins: of {} inspected packets `radar_cross` flags {} and `plausibility` {}",
+        &[
+            radar.1.to_string(),
+            radar.0.to_string(),
+            plaus.0.to_string(),
+        ],
+    );
 }
 
 /// The radar's columns of a run's trajectories.csv (runs with traffic that can touch the
@@ -2123,6 +2140,20 @@ fn a_leader_in_traffic_on_the_native_plant_is_a_config_error() {
     );
 }
 
+/// A run without an attacker: what detector `name` flagged, and of how many packets (its
+/// summary's false positives and inspected packets; every packet genuine, checked).
+fn false_alarms(summary: &serde_json::Value, name: &str) -> (u64, u64) {
+    let x = &summary["detection"]["detectors"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|x| x["name"] == name)
+        .unwrap()["totals"];
+    let n = |k: &str| x[k].as_u64().unwrap();
+    assert_eq!(n("tp") + n("fn"), 0, "{name}: {x}");
+    (n("fp"), n("fp") + n("tn"))
+}
+
 /// `configs/onramp.toml` with its network's path made absolute (the test writes its copy
 /// elsewhere).
 fn onramp_config() -> String {
@@ -2202,19 +2233,10 @@ fn ramp_traffic_merges_into_the_platoons_lane_and_is_handled_as_a_cut_in() {
         }
     }
     // Detection under merges, no attacker: every packet genuine, the false alarms pinned.
-    let d = &summary["detection"]["detectors"];
-    let totals = |name: &str| {
-        let x = &d
-            .as_array()
-            .unwrap()
-            .iter()
-            .find(|x| x["name"] == name)
-            .unwrap()["totals"];
-        let n = |k: &str| x[k].as_u64().unwrap();
-        assert_eq!(n("tp") + n("fn"), 0, "{name}: {x}");
-        (n("fp"), n("fp") + n("tn"))
-    };
-    let (radar, plaus) = (totals("radar_cross"), totals("plausibility"));
+    let (radar, plaus) = (
+        false_alarms(&summary, "radar_cross"),
+        false_alarms(&summary, "plausibility"),
+    );
     published(
         "docs/traffic.md",
         "of {} inspected packets `radar_cross` flags {} and `plausibility` {}",
