@@ -1644,6 +1644,52 @@ fn sumo_report_clean(run: &Path) -> serde_json::Value {
     report
 }
 
+/// With a cut-in but nothing in the controllers that reads the radar (no ACC fallback, no cut-in
+/// handling, no guard, no detector), SUMO's radars still read the road for the outputs: the
+/// trajectories name the car ahead of follower 3 from the step it enters, as the native plant's
+/// do, and events.csv has its `intruder_in`.
+#[test]
+fn sumo_records_what_the_radars_saw_when_no_controller_reads_them() {
+    let tmp = tempfile::tempdir().unwrap();
+    let text = cut_in_config("paper");
+    for key in [
+        "mode = \"acc\"",
+        "cut_in = { dwell_s = 1.0, blend_s = 3.0 }",
+        "duration_s = 70.0",
+    ] {
+        assert!(text.contains(key), "{key}");
+    }
+    let config = tmp.path().join("blind.toml");
+    std::fs::write(
+        &config,
+        text.replace("mode = \"acc\"", "mode = \"zero\"")
+            .replace("cut_in = { dwell_s = 1.0, blend_s = 3.0 }", "")
+            .replace("duration_s = 70.0", "duration_s = 21.0"),
+    )
+    .unwrap();
+    let sumo = run_config(&config, "sumo", &["--plant", "sumo"], tmp.path());
+    let native = run_config(&config, "native", &["--transport", "inproc"], tmp.path());
+    let spec = json(&sumo.join("plant.json"));
+    assert_eq!(spec["radar_range_m"], 150.0);
+    let (a, b) = (radar(&sumo), radar(&native));
+    assert_eq!(a.len(), b.len());
+    for (k, (x, y)) in a.iter().zip(&b).enumerate() {
+        assert_eq!(x.0, y.0, "row {k}");
+        assert!(
+            (x.1 - y.1).abs() < 0.05 || (x.1.is_nan() && y.1.is_nan()),
+            "row {k}"
+        );
+    }
+    // Row of follower 3 at step 2000 (five rows a step).
+    assert_eq!(a[2000 * 5 + 3].0, "cut_in:0");
+    assert_eq!(a[1999 * 5 + 3].0, "2");
+    let events = std::fs::read_to_string(sumo.join("events.csv")).unwrap();
+    assert!(
+        events.contains(",3,2000,20.0,intruder_in,coop,"),
+        "{events}"
+    );
+}
+
 /// The cut-in of `configs/cut-in.toml` on SUMO for every law of the controller seam (each on
 /// the platoon's 15.5 m standstill gap, the laws that need the leader on `plf` with the guard,
 /// as `tests/traffic.rs` runs them in process): follower 3's radar (SUMO's getLeader) sees the

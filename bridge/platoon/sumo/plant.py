@@ -483,6 +483,9 @@ class Kinematics:
             bad = (i == 0) | (j >= self.platoons)
             if bad.any():
                 raise SumoError(f"commands for vehicles that are not followers: {got['vehicle'][bad][:5].tolist()}")
+            odd = ~np.isfinite(got["u"])
+            if odd.any():
+                raise SumoError(f"non-finite commands for vehicles {got['vehicle'][odd][:5].tolist()}")
             u = np.zeros(len(cmds), dtype=np.float64)
             u[j * (n1 - 1) + i - 1] = got["u"]
             return u
@@ -491,6 +494,8 @@ class Kinematics:
             j, i = divmod(c.vehicle, n1)
             if i == 0 or j >= self.platoons:
                 raise SumoError(f"a command for vehicle {c.vehicle}, which is not a follower")
+            if not np.isfinite(c.u):
+                raise SumoError(f"a non-finite command ({c.u}) for vehicle {c.vehicle}")
             u[j * (n1 - 1) + i - 1] = c.u
         return u
 

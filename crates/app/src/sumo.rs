@@ -311,14 +311,14 @@ pub fn plan<'a>(
             hi = (far, t);
         }
     }
-    if lo.0 + offset < length {
+    if lo.0 + offset < longest {
         return Err(config_error(
             config_file,
             "sumo.start_m",
             format!(
                 "a vehicle would back off the start of the road at t = {:.2} s ({:.1} m before it); increase sumo.start_m",
                 lo.1,
-                length - (lo.0 + offset)
+                longest - (lo.0 + offset)
             ),
         ));
     }
@@ -486,8 +486,19 @@ impl SumoPlan<'_> {
         let path = |name: &str| -> Result<String> {
             Ok(std::path::absolute(dir.path(name))?.display().to_string())
         };
+        let near_platoon = !s.flows.is_empty()
+            || s.background_vehicles > 0
+                && (s.background_on_platoon_lanes || s.background_lane_changes.is_some());
+        let mut plant = PlantSpec::new(self.scenario);
+        // Traffic that can reach the platoon: the radars read SUMO's road whether or not a
+        // controller uses them, so the outputs say what they saw as the native plant's do.
+        if near_platoon {
+            plant
+                .radar_range_m
+                .get_or_insert(self.scenario.control.fallback.radar.range_m);
+        }
         let spec = Spec {
-            plant: PlantSpec::new(self.scenario),
+            plant,
             sumo: SumoSpec {
                 net: self.net.display().to_string(),
                 edge: &s.edge,
@@ -550,10 +561,7 @@ impl SumoPlan<'_> {
             },
             env: vec![("PLATOON_PLANT_SPEC".into(), path("plant.json")?)],
             traffic: self.config.sumo.background_vehicles,
-            near_platoon: !self.config.sumo.flows.is_empty()
-                || self.config.sumo.background_vehicles > 0
-                    && (self.config.sumo.background_on_platoon_lanes
-                        || self.config.sumo.background_lane_changes.is_some()),
+            near_platoon,
         })
     }
 }

@@ -110,7 +110,7 @@ fn formation(
             "platoon.formation.position_jitter_m",
             format!(
                 "{jp} m could make two vehicles touch: keep it below half the gap \
-                 (the spacing in formation less platoon.vehicle_length_m = {} m)",
+                 (the spacing in formation less the longest vehicle, {} m)",
                 spacing - length
             ),
         );
@@ -371,7 +371,9 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
         return bad(
             "platoon.members",
             format!(
-                "law = \"{}\" keeps one vehicle length (platoon.vehicle_length_m =                  {vehicle_length} m), but the members' classes give others: use law = \"paper\"                  with vehicle classes of other lengths",
+                "law = \"{}\" keeps one vehicle length (platoon.vehicle_length_m = \
+                 {vehicle_length} m), but the members' classes give others: use law = \"paper\" \
+                 with vehicle classes of other lengths",
                 law.name()
             ),
         );
@@ -690,6 +692,16 @@ fn traffic_around(c: &Config) -> Result<(), Invalid> {
         positive(&key("vehicles_per_hour"), f.vehicles_per_hour)?;
         if finite(&key("begin_s"), f.begin_s)? < 0.0 {
             return bad(&key("begin_s"), format!("must be >= 0, got {}", f.begin_s));
+        }
+        if f.end_s.is_none() && f.begin_s >= c.simulation.duration_s {
+            return bad(
+                &key("begin_s"),
+                format!(
+                    "{} s is not before the run's end (simulation.duration_s = {} s): no vehicle \
+                     would enter",
+                    f.begin_s, c.simulation.duration_s
+                ),
+            );
         }
         if let Some(end) = f.end_s {
             if finite(&key("end_s"), end)? <= f.begin_s {

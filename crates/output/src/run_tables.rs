@@ -450,7 +450,11 @@ impl RunFiles {
     /// platoon member ahead of it, whose length its gap counts): the event of this step, if any.
     fn intrusion(&mut self, v: usize, r: &StepRow, p_ahead: f64) -> Option<Event> {
         let gap = p_ahead - r.p - self.lengths[usize::from(r.vehicle) - 1];
-        let before = std::mem::replace(&mut self.gaps[v], gap);
+        // A car there from the first step: the gap to the predecessor at that step.
+        let before = match std::mem::replace(&mut self.gaps[v], gap) {
+            b if b.is_nan() => gap,
+            b => b,
+        };
         match (&mut self.intrusions[v], r.intruder) {
             (None, Some(_)) => {
                 self.intrusions[v] = Some(Intrusion {
@@ -466,6 +470,10 @@ impl RunFiles {
             }
             (Some(_), None) => {
                 self.intrusions[v] = None;
+                // It rejoins only if it left its law for the car (or an attack meanwhile).
+                if r.mode == platoon_control::Mode::Coop && self.modes[v] == r.mode {
+                    self.intruded[v] = false;
+                }
                 Some(Event::IntruderOut)
             }
             _ => None,

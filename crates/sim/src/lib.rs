@@ -258,8 +258,11 @@ impl PlantSpec {
             lanes: (0..scenario.fleet.platoons)
                 .map(|j| scenario.fleet.lane(j))
                 .collect(),
+            // Read when anything uses the radar, and with cut-ins (the outputs say what the
+            // radars saw of them, as the native plant's do).
             radar_range_m: (scenario.control.fallback.uses_radar()
-                || scenario.control.detection.reads_radar())
+                || scenario.control.detection.reads_radar()
+                || !scenario.cut_ins.is_empty())
             .then_some(scenario.control.fallback.radar.range_m),
             cut_ins: scenario.cut_ins.clone(),
         }
