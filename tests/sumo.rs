@@ -1436,6 +1436,25 @@ fn sumo_and_native(config: &str) -> (tempfile::TempDir, serde_json::Value, serde
     (tmp, s, n)
 }
 
+/// Every vehicle of summary `s` spent the time summary `n`'s did in each of `n`'s modes, within
+/// `tolerance` seconds.
+fn mode_times_agree(s: &serde_json::Value, n: &serde_json::Value, tolerance: f64) {
+    for (a, b) in s["vehicles"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .zip(n["vehicles"].as_array().unwrap())
+    {
+        for (mode, t) in b["mode_time_s"].as_object().unwrap() {
+            let other = a["mode_time_s"][mode].as_f64().unwrap();
+            assert!(
+                (other - t.as_f64().unwrap()).abs() <= tolerance,
+                "{mode}: {a} vs {b}"
+            );
+        }
+    }
+}
+
 /// The fallbacks with SUMO as the plant: configs/degradation.toml (ACC on the radar, the guard,
 /// the bumpless return) does with SUMO what it does in process, mode for mode.
 #[test]
@@ -1451,21 +1470,15 @@ fn graceful_degradation_runs_with_sumo_as_the_plant() {
         gap(&s),
         gap(&n)
     );
+    // SUMO agrees with the model to ~1e-9 m, so a threshold (the radar's time to collision,
+    // the end of the return) may be crossed a step apart.
+    mode_times_agree(&s, &n, 0.05);
     for (a, b) in s["vehicles"]
         .as_array()
         .unwrap()
         .iter()
         .zip(n["vehicles"].as_array().unwrap())
     {
-        // SUMO agrees with the model to ~1e-9 m, so a threshold (the radar's time to
-        // collision, the end of the return) may be crossed a step apart.
-        for (mode, t) in b["mode_time_s"].as_object().unwrap() {
-            let other = a["mode_time_s"][mode].as_f64().unwrap();
-            assert!(
-                (other - t.as_f64().unwrap()).abs() <= 0.05,
-                "{mode}: {a} vs {b}"
-            );
-        }
         let g = |v: &serde_json::Value| v["guard_activations"].as_i64().unwrap();
         assert!((g(a) - g(b)).abs() <= 1, "{a} vs {b}");
     }
@@ -1620,20 +1633,7 @@ fn a_cut_in_on_sumo_is_seen_at_its_step_and_agrees_with_the_native_plant() {
         };
         assert_eq!(x.0, want, "step {} vehicle {}", r.step, r.vehicle);
     }
-    for (x, y) in s["vehicles"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .zip(n["vehicles"].as_array().unwrap())
-    {
-        for (mode, t) in y["mode_time_s"].as_object().unwrap() {
-            let other = x["mode_time_s"][mode].as_f64().unwrap();
-            assert!(
-                (other - t.as_f64().unwrap()).abs() <= 0.01,
-                "{mode}: {x} vs {y}"
-            );
-        }
-    }
+    mode_times_agree(&s, &n, 0.01);
 }
 
 /// A SUMO run's `sumo.json`, which must report no teleport and no collision.
@@ -1894,19 +1894,7 @@ fn lane_changing_background_traffic_shares_the_platoons_lane() {
     assert!(on_cars.iter().all(|s| s.1.is_finite()));
     // Detection among the lane changes, no attacker: the false alarms, pinned.
     let summary = json(&run.join("summary.json"));
-    let (radar, plaus) = (
-        false_alarms(&summary, "radar_cross"),
-        false_alarms(&summary, "plausibility"),
-    );
-    published(
-        "docs/traffic.md",
-        "lane changes and cut-ins: of {} inspected packets `radar_cross` flags {} and `plausibility` {}",
-        &[
-            radar.1.to_string(),
-            radar.0.to_string(),
-            plaus.0.to_string(),
-        ],
-    );
+    published_false_alarms(&summary, "lane changes and cut-ins: ");
 }
 
 /// The radar's columns of a run's trajectories.csv (runs with traffic that can touch the
@@ -2200,6 +2188,28 @@ fn false_alarms(summary: &serde_json::Value, name: &str) -> (u64, u64) {
     (n("fp"), n("fp") + n("tn"))
 }
 
+/// The radar cross-check's and the plausibility check's [`false_alarms`] in a run without an
+/// attacker, as docs/traffic.md publishes them after `lead` ("... of N inspected packets
+/// `radar_cross` flags F and `plausibility` G").
+fn published_false_alarms(summary: &serde_json::Value, lead: &str) -> ((u64, u64), (u64, u64)) {
+    let (radar, plaus) = (
+        false_alarms(summary, "radar_cross"),
+        false_alarms(summary, "plausibility"),
+    );
+    published(
+        "docs/traffic.md",
+        &format!(
+            "{lead}of {{}} inspected packets `radar_cross` flags {{}} and `plausibility` {{}}"
+        ),
+        &[
+            radar.1.to_string(),
+            radar.0.to_string(),
+            plaus.0.to_string(),
+        ],
+    );
+    (radar, plaus)
+}
+
 /// `configs/onramp.toml` with its network's path made absolute (the test writes its copy
 /// elsewhere).
 fn onramp_config() -> String {
@@ -2279,19 +2289,7 @@ fn ramp_traffic_merges_into_the_platoons_lane_and_is_handled_as_a_cut_in() {
         }
     }
     // Detection under merges, no attacker: every packet genuine, the false alarms pinned.
-    let (radar, plaus) = (
-        false_alarms(&summary, "radar_cross"),
-        false_alarms(&summary, "plausibility"),
-    );
-    published(
-        "docs/traffic.md",
-        "of {} inspected packets `radar_cross` flags {} and `plausibility` {}",
-        &[
-            radar.1.to_string(),
-            radar.0.to_string(),
-            plaus.0.to_string(),
-        ],
-    );
+    let (radar, plaus) = published_false_alarms(&summary, "");
     assert_eq!((radar, plaus), ((5, 9939), (0, 9939)));
 }
 

@@ -198,6 +198,17 @@ class CutIns:
                 entered.append(c)
         return entered, left
 
+    def due(self, t: float) -> bool:
+        """Whether `arrive` at time t would have any cut-in enter or leave."""
+        for c, cut in enumerate(self.cut_ins):
+            leave = cut["leave_s"]
+            if leave is not None and t >= leave:
+                if self.on_lane[c] is not None:
+                    return True
+            elif not self.entered[c] and t >= cut["at_s"]:
+                return True
+        return False
+
     def advance(self, t: float, dt: float):
         """`Traffic::advance`: moves every intruder from t to t + dt. Returns the acceleration
         each one holds over the step (None while it is not on the lane)."""

@@ -705,15 +705,7 @@ class Intruders:
         """Whether any cut-in enters or leaves at time t. Every platoon has the same cut-ins,
         which enter and leave by the time alone, so the first platoon's tell for all (and a
         fleet's step does not loop over its platoons for nothing)."""
-        first = self.platoons[0]
-        for c, cut in enumerate(first.cut_ins):
-            leave = cut["leave_s"]
-            if leave is not None and t >= leave:
-                if first.on_lane[c] is not None:
-                    return True
-            elif not first.entered[c] and t >= cut["at_s"]:
-                return True
-        return False
+        return self.platoons[0].due(t)
 
     def hold(self, k):
         """Before SUMO's step k -> k + 1: each intruder's acceleration over it, as the

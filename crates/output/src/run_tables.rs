@@ -416,7 +416,12 @@ impl RunFiles {
                 inter_event_s,
                 under_attack: r.under_attack,
             };
-            let intrusion = self.intrusion(v, r, p_ahead);
+            // Only traffic that can touch the platoon brings intruders.
+            let intrusion = if self.radar {
+                self.intrusion(v, r, p_ahead)
+            } else {
+                None
+            };
             if intrusion == Some(Event::IntruderIn) {
                 self.events.write(row(Event::IntruderIn, None))?;
             }
