@@ -1859,3 +1859,47 @@ fn a_cut_in_runs_bit_identically_on_both_transports() {
         assert_eq!((&who, gap.to_bits()), (&row.2, row.3.to_bits()), "{k} {v}");
     }
 }
+
+/// A platoon that splits behind the car (`configs/cut-in-split.toml`, the flatbed controller):
+/// the head's announcement travels on the wire (`V2vPacket::head`), follower 4 hears follower 3
+/// over a link its `plf` graph does not have (the run's facts give the channel's links apart
+/// from the graph), and both transports agree bit for bit, the `head` column and the `split`
+/// and `merged` events included.
+#[test]
+fn a_split_runs_bit_identically_on_both_transports() {
+    let runs = transports_agree("configs/cut-in-split.toml");
+    let ipc = runs.path().join("ipc");
+    let facts = json(&ipc.join("facts.json"));
+    let links = |key: &str| -> f64 {
+        let g = &facts[key][0];
+        let count = |v: &serde_json::Value| -> f64 {
+            v.as_array()
+                .unwrap()
+                .iter()
+                .map(|x| x.as_f64().unwrap())
+                .sum()
+        };
+        count(&g["pinning"])
+            + g["adjacency"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(count)
+                .sum::<f64>()
+    };
+    assert_eq!((links("topologies"), links("hearing")), (7.0, 10.0));
+    let events = std::fs::read_to_string(ipc.join("events.csv")).unwrap();
+    let formation: Vec<String> = events
+        .lines()
+        .map(|l| l.split(',').collect::<Vec<_>>())
+        .filter(|f| f[4] == "split" || f[4] == "merged")
+        .map(|f| format!("{} {} {}", f[1], f[2], f[4]))
+        .collect();
+    assert_eq!(formation, ["4 2001 split", "4 3110 merged"]);
+    let rows = std::fs::read_to_string(ipc.join("trajectories.csv")).unwrap();
+    assert!(
+        rows.lines().next().unwrap().ends_with(",head"),
+        "the head column"
+    );
+    assert_eq!(json(&ipc.join("summary.json"))["safety"]["collided"], false);
+}

@@ -1690,13 +1690,39 @@ fn sumo_records_what_the_radars_saw_when_no_controller_reads_them() {
     );
 }
 
+/// A platoon split behind the car on SUMO (`configs/cut-in-split.toml`, the flatbed
+/// controller): SUMO's radar sees the car, follower 3 heads follower 4 while it runs ACC on
+/// it, nobody collides or teleports, and the run agrees with the native plant's: every gap
+/// within 0.05 m at every step, the split and the merge at the same steps.
+#[test]
+fn a_split_behind_a_cut_in_on_sumo_agrees_with_the_native_plant() {
+    let (tmp, s, n) = sumo_and_native("configs/cut-in-split.toml");
+    let (sumo, native) = (tmp.path().join("sumo"), tmp.path().join("native"));
+    assert_eq!(s["safety"]["collided"], false, "{}", s["safety"]);
+    sumo_report_clean(&sumo);
+    let worst = worst_gap_difference(&rows(&sumo), &rows(&native), 7001 * 4);
+    assert!(worst < 0.05, "the gaps differ by up to {worst} m");
+    let formation = |run: &Path| -> Vec<String> {
+        std::fs::read_to_string(run.join("events.csv"))
+            .unwrap()
+            .lines()
+            .map(|l| l.split(',').collect::<Vec<_>>())
+            .filter(|f| f[4] == "split" || f[4] == "merged")
+            .map(|f| format!("{} {} {}", f[1], f[2], f[4]))
+            .collect()
+    };
+    assert_eq!(formation(&sumo), ["4 2001 split", "4 3110 merged"]);
+    assert_eq!(formation(&sumo), formation(&native));
+    mode_times_agree(&s, &n, 0.05);
+}
+
 /// The cut-in of `configs/cut-in.toml` on SUMO for every law of the controller seam (each on
 /// the platoon's 15.5 m standstill gap, the laws that need the leader on `plf` with the guard,
-/// as `tests/traffic.rs` runs them in process): follower 3's radar (SUMO's getLeader) sees the
+/// those that read the leader's packets splitting the platoon behind the car, as
+/// `tests/traffic.rs` runs them in process): follower 3's radar (SUMO's getLeader) sees the
 /// car at the step it enters, the follower switches to ACC on it at that step (a law on the
 /// radar alone, Plexe's ACC, follows whoever is ahead and has nothing to switch), opens the gap
-/// it had, returns to its law after the car left, and nobody collides (but for the flatbed
-/// controller's follower 4: below).
+/// it had, returns to its law after the car left, and nobody collides.
 #[test]
 fn every_law_handles_a_cut_in_on_sumo() {
     let tmp = tempfile::tempdir().unwrap();
@@ -1706,36 +1732,16 @@ fn every_law_handles_a_cut_in_on_sumo() {
         let run = run_config(&config, law, &["--plant", "sumo"], tmp.path());
         let summary = json(&run.join("summary.json"));
         let report = json(&run.join("sumo.json"));
-        if law == "flatbed" {
-            // Follower 3 handles the car, but follower 4, which keeps its place relative to
-            // the leader, closes in on follower 3 as it falls back behind the car (its gap
-            // target shrinks by its headway times its speed deficit to the leader) and hits
-            // it: the followers behind a cut-in need the platoon split there (issue 38). Every
-            // collision is follower 4's into follower 3, none with the car.
-            let collisions = report["collisions"].as_array().unwrap();
-            assert!(
-                collisions
-                    .iter()
-                    .all(|c| c["collider"] == "follower4" && c["victim"] == "follower3"),
-                "{collisions:?}"
-            );
-            assert_eq!(
-                summary["safety"]["min_gap_vehicle"], 4,
-                "{}",
-                summary["safety"]
-            );
-        } else {
-            assert_eq!(
-                summary["safety"]["collided"], false,
-                "{law}: {}",
-                summary["safety"]
-            );
-            assert_eq!(report["collisions"], serde_json::json!([]), "{law}");
-        }
+        assert_eq!(
+            summary["safety"]["collided"], false,
+            "{law}: {}",
+            summary["safety"]
+        );
+        assert_eq!(report["collisions"], serde_json::json!([]), "{law}");
         let car = &report["cut_ins"]["vehicles"]["cutin0"];
         assert_eq!(car["entered_step"], 2000, "{law}");
         let events = std::fs::read_to_string(run.join("events.csv")).unwrap();
-        let course: Vec<String> = events
+        let all: Vec<String> = events
             .lines()
             .filter(|l| !l.contains(",broadcast,"))
             .skip(1)
@@ -1744,11 +1750,23 @@ fn every_law_handles_a_cut_in_on_sumo() {
                 format!("{} {} {} {}", f[1], f[2], f[4], f[5])
             })
             .collect();
-        // The radar saw it at its step, in front of follower 3 alone, and saw it go.
-        assert!(
-            course.iter().all(|e| e.starts_with("3 ")),
-            "{law}: {course:?}"
-        );
+        // Behind the car only the split moves anyone else: follower 4 takes follower 3 as its
+        // leader and back, blending each time.
+        let (course, behind): (Vec<String>, Vec<String>) =
+            all.into_iter().partition(|e| e.starts_with("3 "));
+        let formation: Vec<&str> = behind
+            .iter()
+            .filter_map(|e| e.split(' ').nth(2).filter(|e| *e != "switch"))
+            .collect();
+        if law == "path_cacc" || law == "flatbed" {
+            assert_eq!(formation, ["split", "merged"], "{law}: {behind:?}");
+            assert!(
+                behind.iter().all(|e| e.starts_with("4 ")),
+                "{law}: {behind:?}"
+            );
+        } else {
+            assert_eq!(behind, Vec::<String>::new(), "{law}");
+        }
         assert!(
             course[0].starts_with("3 2000 intruder_in "),
             "{law}: {course:?}"

@@ -4,7 +4,7 @@
 //! bad `[[cut_ins]]` gets.
 mod common;
 
-use common::{cut_in_config, repo};
+use common::{cut_in_config, published, repo};
 use platoon_config::parse;
 use platoon_control::Mode;
 use platoon_sim::{Scenario, Simulation, StepRow};
@@ -97,6 +97,94 @@ fn without_cut_in_handling_the_papers_law_drives_into_the_intruder() {
     );
     assert!(summary.safety.min_gap_m <= smallest, "{:?}", summary.safety);
     assert!(rows.iter().all(|r| r.mode != Mode::CutIn));
+}
+
+/// The flatbed controller tracks the leader's speed (`configs/cut-in-split.toml`): without a
+/// split its follower 4 closes in on follower 3 as that one drops back behind the car, and hits
+/// it. With the split, follower 3 heads follower 4 from the step after the car entered (its
+/// first packet as a head) until it returns to its law, nobody collides, and each hand-over is
+/// bumpless: the command moves no more at the switch than over the steps around it.
+#[test]
+fn a_split_behind_the_car_keeps_the_flatbed_followers_apart() {
+    let text = std::fs::read_to_string(repo().join("configs/cut-in-split.toml")).unwrap();
+    let (rows, summary, _) = run(scenario(&text.replace(", split = true", "")));
+    assert!(summary.safety.collided, "{:?}", summary.safety);
+    assert_eq!(summary.safety.min_gap_vehicle, 4, "{:?}", summary.safety);
+    assert!(
+        rows.iter().all(|r| r.head.is_none()),
+        "no head column without a split"
+    );
+    published(
+        "docs/traffic.md",
+        "without the split its follower 4 hits follower 3 (smallest gap {} m, at {} s)",
+        &[
+            format!("{:.2}", summary.safety.min_gap_m),
+            format!("{:.2}", summary.safety.min_gap_t_s),
+        ],
+    );
+
+    let (rows, summary, smallest) = run(scenario(&text));
+    assert!(!summary.safety.collided, "{:?}", summary.safety);
+    assert!(summary.safety.min_gap_m > 4.0, "{:?}", summary.safety);
+    assert!(smallest > 4.0, "{smallest}");
+    let of = |i: u16| -> Vec<&StepRow> { rows.iter().filter(|r| r.vehicle == i).collect() };
+    // Followers 1 to 3 keep the platoon's leader; follower 4 takes follower 3 from step 2001
+    // (the car entered at 2000) until follower 3's first packet after it left the car's ACC
+    // (it blends back from step 3100; its beacons come every 10 steps again).
+    for i in 0..=3 {
+        assert!(of(i).iter().all(|r| r.head == Some(0)), "vehicle {i}");
+    }
+    let f4 = of(4);
+    let took: Vec<u64> = f4
+        .iter()
+        .filter(|r| r.head == Some(3))
+        .map(|r| r.step)
+        .collect();
+    assert_eq!(
+        (took.first(), took.last(), took.len()),
+        (Some(&2001), Some(&3109), 1109)
+    );
+    assert_eq!(of(3)[3100].mode, Mode::Blend);
+    // Into the split and out of it, follower 4 blends from its last command to the new law.
+    let step = |k: usize| (f4[k].u - f4[k - 1].u).abs();
+    let around = |k: usize| {
+        (k - 20..k + 20)
+            .filter(|&j| j != k)
+            .map(step)
+            .fold(0.0, f64::max)
+    };
+    for k in [2001, 3110] {
+        assert_eq!(f4[k].mode, Mode::Blend, "step {k}");
+        assert!(
+            step(k) <= around(k),
+            "step {k}: {} > {}",
+            step(k),
+            around(k)
+        );
+    }
+    let largest = (1..f4.len()).map(step).fold(0.0, f64::max);
+    published(
+        "docs/traffic.md",
+        "follower 4 takes follower 3 as its leader from {} s (the car entered at 20 s) to {} s, \
+         nobody collides (smallest gap {} m, follower 3's to the car), and follower 4's command \
+         moves by at most {} m/s^2 in a step",
+        &[
+            format!("{:.2}", f4[took[0] as usize].t),
+            format!("{:.2}", f4[*took.last().unwrap() as usize].t),
+            format!("{:.2}", summary.safety.min_gap_m),
+            format!("{largest:.2}"),
+        ],
+    );
+    assert_eq!(summary.safety.min_gap_vehicle, 3, "{:?}", summary.safety);
+    // The PATH CACC of the cut-in tests, with and without the split: the smallest gap.
+    let path = cut_in_config("path_cacc");
+    let gap = |text: &str| run(scenario(text)).1.safety.min_gap_m;
+    let (with, without) = (gap(&path), gap(&path.replace(", split = true", "")));
+    published(
+        "docs/traffic.md",
+        "The PATH CACC of the cut-in tests keeps {} m with the split, against {} m",
+        &[format!("{with:.2}"), format!("{without:.2}")],
+    );
 }
 
 #[test]

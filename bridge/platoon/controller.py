@@ -61,13 +61,16 @@ UNKNOWN = 0xFFFF
 
 class Packet(NamedTuple):
     """A V2V broadcast: the sender (0 = the leader), its sequence number, the step its state was
-    sampled at, that state (p, v, a) and the sender's latest command u."""
+    sampled at, that state (p, v, a), the sender's latest command u, and the head of the
+    platoon the sender drives in (0 = the leader; the sender itself when it heads the part of
+    a platoon split behind a car that cut in, docs/traffic.md)."""
 
     sender: int
     seq: int
     step: int
     state: tuple
     u: float = 0.0
+    head: int = 0
 
 
 class Delivery(NamedTuple):
@@ -92,14 +95,18 @@ class Inspection(NamedTuple):
 class Command:
     """A follower's command u and what its controller did, for the outputs: theta (the trigger's
     internal variable, 0 if none), affected (by an attack), mode (COOP, ZERO, ...), guard
-    (emergency braking) and triggered (it broadcast in this step; None: whether it is the sender
-    of a packet of this step's transmit)."""
+    (emergency braking), triggered (it broadcast in this step; None: whether it is the sender
+    of a packet of this step's transmit) and head (whom it took as its leader: 0, the platoon's
+    leader, or a member ahead heading a platoon split behind a cut-in; docs/traffic.md)."""
 
-    __slots__ = ("u", "theta", "affected", "mode", "guard", "triggered")
+    __slots__ = ("u", "theta", "affected", "mode", "guard", "triggered", "head")
 
-    def __init__(self, u, theta=0.0, affected=False, mode=COOP, guard=False, triggered=None):
+    def __init__(
+        self, u, theta=0.0, affected=False, mode=COOP, guard=False, triggered=None, head=0
+    ):
         self.u, self.theta, self.affected = u, theta, affected
         self.mode, self.guard, self.triggered = mode, guard, triggered
+        self.head = head
 
 
 class Step:
@@ -175,7 +182,7 @@ def run(make) -> int:
     w.check_contract_version()  # before anything that depends on the run's formats
     info = load_run()
     n1, platoons = info.vehicles_per_platoon, info.platoons
-    out = info.topology.out_neighbours
+    out = info.hearing.out_neighbours
     node = w.Endpoint("controller", info.run_id)
     states_in = node.inlet("states", w.VehicleState)
     rx_in = node.inlet("rx", w.LinkPacket)
@@ -268,7 +275,9 @@ def _transmit(controllers, k, t, states, n1, out, sent):
                     f"platoon {j}: vehicle {s} broadcast twice in step {k} (at most once per step)"
                 )
             flags[s] = True
-            packet = w.V2vPacket(sender=base + s, seq=p.seq, step=p.step, stamp_ns=stamp, u=p.u)
+            packet = w.V2vPacket(
+                sender=base + s, seq=p.seq, step=p.step, stamp_ns=stamp, u=p.u, head=base + p.head
+            )
             packet.state[0], packet.state[1], packet.state[2] = p.state
             for r in out[s]:
                 items.append(
@@ -277,8 +286,14 @@ def _transmit(controllers, k, t, states, n1, out, sent):
     return items
 
 
-def _packet(p, sender) -> Packet:
-    return Packet(sender, p.seq, p.step, (p.state[0], p.state[1], p.state[2]), p.u)
+def _local(g, j, n1):
+    """Wire id `g` in platoon `j`'s ids, or UNKNOWN when it is of no vehicle of that platoon."""
+    return g - j * n1 if j * n1 <= g < (j + 1) * n1 else UNKNOWN
+
+
+def _packet(p, j, n1) -> Packet:
+    state = (p.state[0], p.state[1], p.state[2])
+    return Packet(_local(p.sender, j, n1), p.seq, p.step, state, p.u, _local(p.head, j, n1))
 
 
 def sort_rx(rx, n1, platoons):
@@ -293,17 +308,13 @@ def sort_rx(rx, n1, platoons):
         g = it.receiver
         if g >= total:
             if it.kind != w.LinkPacket.JAMMED:
-                s = it.packet.sender
-                sender = s if s < UNKNOWN else UNKNOWN
-                deliveries[0].append(Delivery(UNKNOWN, _packet(it.packet, sender)))
+                deliveries[0].append(Delivery(UNKNOWN, _packet(it.packet, 0, n1)))
             continue
         j, r = divmod(g, n1)
         if it.kind == w.LinkPacket.JAMMED:
             jammed[j][r] = True
             continue
-        s = it.packet.sender
-        sender = s - j * n1 if j * n1 <= s < (j + 1) * n1 else UNKNOWN
-        deliveries[j].append(Delivery(r, _packet(it.packet, sender)))
+        deliveries[j].append(Delivery(r, _packet(it.packet, j, n1)))
     return deliveries, jammed
 
 
@@ -330,6 +341,7 @@ def _receive(controllers, k, t, states, rx, n1, sent):
                 | (w.Command.AFFECTED if cmd.affected else 0)
                 | (w.Command.GUARD if cmd.guard else 0)
                 | ((cmd.mode & w.Command.MODE_MASK) << w.Command.MODE_SHIFT)
+                | ((cmd.head & w.Command.HEAD_MASK) << w.Command.HEAD_SHIFT)
             )
             commands.append(w.Command(vehicle=base + i, flags=flags, u=cmd.u, theta=cmd.theta))
     return commands, inspections

@@ -30,6 +30,10 @@ class Run:
     vehicles_per_platoon: int
     platoons: int
     topology: "Topology | None" = field(default=None, repr=False)
+    # The links the channel carries (the facts' `hearing`): the topology's, plus every member
+    # ahead when the platoon splits behind a car that cut in. Controllers publish one item per
+    # link of this graph.
+    hearing: "Topology | None" = field(default=None, repr=False)
     # The detectors the run measures, in the order of every inspection's verdicts (the facts'
     # `detectors`).
     detectors: list = field(default_factory=list)
@@ -90,6 +94,7 @@ def load_run(option: str = "--injector") -> Run:
         facts = json.load(f)
     # Every platoon of a fleet is a replica of the scenario: one graph serves them all.
     graph = facts["topologies"][0]
+    hearing = facts["hearing"][0]
     return Run(
         run_id=os.environ["PLATOON_RUN_ID"],
         config=config,
@@ -98,6 +103,7 @@ def load_run(option: str = "--injector") -> Run:
         vehicles_per_platoon=facts["followers"] + 1,
         platoons=facts["platoons"],
         topology=Topology(graph["adjacency"], graph["pinning"]),
+        hearing=Topology(hearing["adjacency"], hearing["pinning"]),
         detectors=list(facts["detectors"]),
     )
 

@@ -18,8 +18,10 @@ import iceoryx2 as iox
 # version in PLATOON_CONTRACT_VERSION, and `Endpoint` compares it with this one first.
 # v1: the first published contract; v2: V2vPacket gained `u` (the sender's latest command);
 # later, still v2: the optional `traffic` service (TrafficVehicle; no v2 payload changed), then
-# the optional `inspections` service (Inspection; the same way).
-CONTRACT_VERSION = 2
+# the optional `inspections` service (Inspection; the same way); v3: V2vPacket gained `head`
+# (the head of the platoon the sender drives in, for a platoon split behind a cut-in) and
+# `reserved` (always 0).
+CONTRACT_VERSION = 3
 CONTRACT_VERSION_ENV = "PLATOON_CONTRACT_VERSION"
 CONTRACT_DOC = "docs/injector-contract.md"
 
@@ -96,7 +98,8 @@ class VehicleState(Payload):
 
 class V2vPacket(Payload):
     """A V2V broadcast: sender, sequence number, sampling step, send time stamp, state [p, v, a],
-    and the sender's latest commanded acceleration u."""
+    the sender's latest commanded acceleration u, and the head of the platoon the sender drives
+    in (a wire id like sender: the leader, or the sender when it heads a split platoon)."""
 
     _fields_ = [
         ("sender", ctypes.c_uint32),
@@ -105,6 +108,8 @@ class V2vPacket(Payload):
         ("stamp_ns", ctypes.c_uint64),
         ("state", ctypes.c_double * 3),
         ("u", ctypes.c_double),
+        ("head", ctypes.c_uint32),
+        ("reserved", ctypes.c_uint32),
     ]
 
 
@@ -128,7 +133,11 @@ class Command(Payload):
     AFFECTED = 2
     GUARD = 4
     MODE_SHIFT = 4  # (flags >> MODE_SHIFT) & MODE_MASK: 0 coop, 1 zero, 2 hold, 3 predict,
-    MODE_MASK = 0b111  # 4 acc, 5 blend
+    MODE_MASK = 0b111  # 4 acc, 5 blend, 6 cut_in
+    # (flags >> HEAD_SHIFT) & HEAD_MASK: whom it took as its leader (0: the platoon's leader;
+    # a member ahead heading a platoon split behind a cut-in).
+    HEAD_SHIFT = 8
+    HEAD_MASK = 0xFFFF
 
     _fields_ = [
         ("vehicle", ctypes.c_uint32),

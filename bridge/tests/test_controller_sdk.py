@@ -38,7 +38,7 @@ class Broadcasting(pc.Controller):
 
     def transmit(self, step, tx):
         for s in self.senders:
-            tx.append(pc.Packet(s, 7, step.k, (1.0, 2.0, 3.0), 0.5))
+            tx.append(pc.Packet(s, 7, step.k, (1.0, 2.0, 3.0), 0.5, head=s if s == 2 else 0))
 
 
 def test_each_broadcast_goes_to_every_out_neighbour_numbered_by_platoon():
@@ -51,14 +51,17 @@ def test_each_broadcast_goes_to_every_out_neighbour_numbered_by_platoon():
     assert [(it.receiver, it.packet.sender) for it in items] == [(1, 0), (2, 0), (5, 4)]
     assert all(it.kind == w.LinkPacket.DELIVERY and it.packet.step == 4 for it in items)
     assert list(items[0].packet.state) == [1.0, 2.0, 3.0] and items[0].packet.u == 0.5
+    # The head as a wire id too: platoon 1's leader (3), and follower 2 heading itself (5).
+    assert [it.packet.head for it in items] == [0, 0, 3]
     assert sent == [[True, False, False], [False, True, True]]
     with pytest.raises(pc.ContractError, match="vehicle 3"):
         pc._transmit([Broadcasting([3])], 0, 0.0, [None] * 3, 3, topo.out_neighbours, sent)
 
 
-def link(receiver, sender, kind=w.LinkPacket.DELIVERY):
+def link(receiver, sender, kind=w.LinkPacket.DELIVERY, head=None):
     it = w.LinkPacket(receiver=receiver, kind=kind)
     it.packet.sender = sender
+    it.packet.head = sender - sender % 3 if head is None else head  # its platoon's leader
     it.packet.step = 1
     return it
 
@@ -67,14 +70,27 @@ def test_an_rx_batch_is_sorted_as_the_rust_sdk_sorts_it():
     rx = [
         link(1, 0),
         link(4, 3),
+        link(5, 4, head=4),  # follower 1 of platoon 1 heads a split
+        link(2, 1, head=5),  # a head of another platoon: UNKNOWN
         link(5, 1),  # a sender of another platoon
         link(9, 2),  # a receiver no vehicle has: platoon 0, UNKNOWN
         link(2, 0, w.LinkPacket.JAMMED),
         link(9, 0, w.LinkPacket.JAMMED),  # ignored
     ]
     deliveries, jammed = pc.sort_rx(rx, 3, 2)
-    assert [(d.receiver, d.packet.sender) for d in deliveries[0]] == [(1, 0), (pc.UNKNOWN, 2)]
-    assert [(d.receiver, d.packet.sender) for d in deliveries[1]] == [(1, 0), (2, pc.UNKNOWN)]
+    assert [(d.receiver, d.packet.sender) for d in deliveries[0]] == [
+        (1, 0),
+        (2, 1),
+        (pc.UNKNOWN, 2),
+    ]
+    assert [(d.receiver, d.packet.sender) for d in deliveries[1]] == [
+        (1, 0),
+        (2, 1),
+        (2, pc.UNKNOWN),
+    ]
+    # Heads in the platoon's own ids, as the senders.
+    assert [d.packet.head for d in deliveries[0]] == [0, pc.UNKNOWN, 0]
+    assert [d.packet.head for d in deliveries[1]] == [0, 1, pc.UNKNOWN]
     assert jammed == [[False, False, True], [False, False, False]]
 
 
@@ -101,6 +117,9 @@ def test_commands_carry_their_flags_and_bad_ones_are_refused():
     assert inspections == []  # it inspected nothing
     assert out[0].flags == w.Command.TRIGGERED  # it broadcast in this step's transmit
     assert out[1].flags == w.Command.AFFECTED | w.Command.GUARD | (pc.ZERO << 4)
+    heading = Commanding([0.0, pc.Command(0.0, head=1)])
+    out, _ = pc._receive([heading], 2, 0.02, [None] * 3, [], 3, sent)
+    assert out[1].flags >> w.Command.HEAD_SHIFT == 1  # whom it took as its leader
     with pytest.raises(pc.ContractError, match="1 commands for 2 followers"):
         pc._receive([Commanding([0.0])], 0, 0.0, [None] * 3, [], 3, sent)
     with pytest.raises(pc.ContractError, match="follower 2 of platoon 0 is nan"):

@@ -27,7 +27,7 @@ preset = "pf"
 
 FACTS = {
     "run_id": "r1",
-    "contract_version": 2,
+    "contract_version": 3,
     "dt_s": 0.04,
     "last_step": 123,
     "platoons": 2,
@@ -35,6 +35,10 @@ FACTS = {
     "vehicles": 6,
     "numbering": "vehicle i of platoon j is j * (N + 1) + i",
     "topologies": [
+        {"adjacency": [[0.0, 0.0], [1.0, 0.0]], "pinning": [1.0, 1.0]},
+        {"adjacency": [[0.0, 0.0], [1.0, 0.0]], "pinning": [1.0, 1.0]},
+    ],
+    "hearing": [
         {"adjacency": [[0.0, 0.0], [1.0, 0.0]], "pinning": [1.0, 1.0]},
         {"adjacency": [[0.0, 0.0], [1.0, 0.0]], "pinning": [1.0, 1.0]},
     ],

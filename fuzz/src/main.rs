@@ -395,8 +395,7 @@ fn seed_corpus() -> Result<()> {
             let mut tx = Vec::new();
             c.transmit(k, &states[j * n1..(j + 1) * n1], &mut tx);
             for p in &tx {
-                let mut packet = packet_to_wire(p, 0);
-                packet.sender = bench.num.global(j, p.sender);
+                let packet = packet_to_wire(p, 0, j, bench.num);
                 for &rcv in r.topology.out_neighbours(p.sender) {
                     batch.push(LinkPacket {
                         receiver: bench.num.global(j, rcv),

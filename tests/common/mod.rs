@@ -143,13 +143,14 @@ pub fn cut_in_config(law: &str) -> String {
     let body = without_paper_law_keys(&text);
     // Each law keeps the platoon's 20 m front to front (15.5 m between 4.5 m cars) at
     // standstill, plus its own time headway; laws that need the leader get it (plf), and the
-    // guard, since the followers behind the cut-in still track the leader.
-    let (keys, headway, leader) = match law {
-        "acc" => ("standstill_m = 15.5", Some(1.5), false),
-        "ploeg" => ("standstill_m = 15.5", Some(0.5), false),
-        "path_cacc" => ("spacing_m = 15.5", None, true),
-        "consensus" => ("standstill_m = 15.5", Some(0.8), true),
-        "flatbed" => ("spacing_m = 15.5", None, true),
+    // guard, since the followers behind the cut-in still track the leader; those that read
+    // the leader's packets split the platoon behind the car (docs/traffic.md).
+    let (keys, headway, leader, split) = match law {
+        "acc" => ("standstill_m = 15.5", Some(1.5), false, false),
+        "ploeg" => ("standstill_m = 15.5", Some(0.5), false, false),
+        "path_cacc" => ("spacing_m = 15.5", None, true, true),
+        "consensus" => ("standstill_m = 15.5", Some(0.8), true, false),
+        "flatbed" => ("spacing_m = 15.5", None, true, true),
         other => panic!("no cut-in config for {other}"),
     };
     let mut c = body
@@ -174,6 +175,13 @@ pub fn cut_in_config(law: &str) -> String {
     }
     if leader {
         c = c.replacen("preset = \"pf\"", "preset = \"plf\"", 1) + "\n[guard]\nenabled = true\n";
+    }
+    if split {
+        c = c.replacen(
+            "cut_in = { dwell_s = 1.0, blend_s = 3.0 }",
+            "cut_in = { dwell_s = 1.0, blend_s = 3.0, split = true }",
+            1,
+        );
     }
     c
 }

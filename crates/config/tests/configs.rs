@@ -9,7 +9,8 @@ fn configs_dir() -> std::path::PathBuf {
 /// The shipped configs, each run by a line of the README's quick start. A config added to or
 /// removed from `configs/` must be named here too: the test checks that the directory holds
 /// exactly these, so one that stops being found (or a stray file) fails it.
-const SHIPPED: [&str; 12] = [
+const SHIPPED: [&str; 13] = [
+    "cut-in-split.toml",
     "cut-in.toml",
     "degradation.toml",
     "density.toml",
@@ -43,6 +44,27 @@ fn every_file_in_configs_parses_and_validates() {
     // Every shipped config, by name, was found and checked, and nothing else is there.
     seen.sort();
     assert_eq!(seen, SHIPPED, "the .toml files of configs/");
+}
+
+/// A split behind a cut-in re-points the followers' leader: the paper's law, coupled through the
+/// topology's Laplacian, has none, and says so; the flatbed controller of the shipped config
+/// splits, and its followers hear every member ahead.
+#[test]
+fn a_split_needs_a_law_that_reads_the_leader() {
+    let text = platoon_config::CUT_IN_TOML.replacen(
+        "cut_in = { dwell_s = 1.0, blend_s = 3.0 }",
+        "cut_in = { dwell_s = 1.0, blend_s = 3.0, split = true }",
+        1,
+    );
+    assert_error(
+        parse(&text, Path::new("bad.toml")).map(|_| ()),
+        "fallback.cut_in.split",
+        "path_cacc",
+    );
+    let (_, scenario) = platoon_config::load(&configs_dir().join("cut-in-split.toml")).unwrap();
+    assert!(scenario.splits());
+    assert_eq!(scenario.topology.links().count(), 4 + 3);
+    assert_eq!(scenario.hearing().links().count(), 4 + 6);
 }
 
 fn paper_with(from: &str, to: &str) -> Result<(), ConfigError> {

@@ -76,13 +76,26 @@ pub struct Heard {
     pub state: State,
     /// The sender's command it carried ([`Packet::u`]; 0 for the initial state).
     pub u: f64,
+    /// The head it announced ([`Packet::head`]; the leader for the initial state).
+    pub head: VehicleId,
+}
+
+impl Heard {
+    /// Whether its sender announced that it heads a split platoon ([`Packet::heads`]).
+    pub fn heads(&self, sender: VehicleId) -> bool {
+        self.head == sender && !sender.is_leader()
+    }
 }
 
 /// The packet checks of one platoon's followers: who each may hear from, the last packet
 /// accepted from each of them, and the refusals so far.
 #[derive(Debug, Clone)]
 pub struct PacketChecks {
+    /// Per follower: its graph's in-neighbours, then the members ahead it hears besides them
+    /// ([`PacketChecks::hearing_all_ahead`]).
     neighbours: Vec<Vec<VehicleId>>,
+    /// Per follower: how many of `neighbours` are its graph's.
+    graph: Vec<usize>,
     heard: Vec<Vec<Heard>>,
     rejected: RejectCounts,
     dt: f64,
@@ -106,17 +119,43 @@ impl PacketChecks {
                         seq: 0,
                         state: initial[j.index()],
                         u: 0.0,
+                        head: VehicleId::LEADER,
                     })
                     .collect()
             })
             .collect();
         Self {
+            graph: neighbours.iter().map(Vec::len).collect(),
             neighbours,
             heard,
             rejected: RejectCounts::default(),
             dt,
             screening: None,
         }
+    }
+
+    /// These checks with every follower also hearing every member ahead of it that is not its
+    /// graph's neighbour (`initial` as at [`PacketChecks::new`]): a platoon that may split
+    /// behind a car that cut in ([`platoon_topology::Topology::hearing_all_ahead`]). Their
+    /// packets pass the same checks; [`PacketChecks::neighbours`] and [`PacketChecks::heard`]
+    /// still list the graph's neighbours only, [`PacketChecks::heard_from`] reaches them all.
+    /// Call it before the detectors are added.
+    pub fn hearing_all_ahead(mut self, initial: &[State]) -> Self {
+        for (fi, (ns, heard)) in self.neighbours.iter_mut().zip(&mut self.heard).enumerate() {
+            for j in (1..=fi).map(VehicleId::follower) {
+                if !ns.contains(&j) {
+                    ns.push(j);
+                    heard.push(Heard {
+                        step: None,
+                        seq: 0,
+                        state: initial[j.index()],
+                        u: 0.0,
+                        head: VehicleId::LEADER,
+                    });
+                }
+            }
+        }
+        self
     }
 
     /// These checks followed by the detectors of `detection` (nothing changes when none is
@@ -284,14 +323,23 @@ impl PacketChecks {
         Some((fi, s))
     }
 
-    /// Who follower `i` (1-based) hears from, in the order of [`PacketChecks::heard`].
+    /// Whom follower `i` (1-based) hears from in its graph, in the order of
+    /// [`PacketChecks::heard`].
     pub fn neighbours(&self, i: VehicleId) -> &[VehicleId] {
-        &self.neighbours[i.index() - 1]
+        &self.neighbours[i.index() - 1][..self.graph[i.index() - 1]]
     }
 
-    /// The last packet accepted by follower `i` (1-based) from each of its neighbours.
+    /// The last packet accepted by follower `i` (1-based) from each of its graph's neighbours.
     pub fn heard(&self, i: VehicleId) -> &[Heard] {
-        &self.heard[i.index() - 1]
+        &self.heard[i.index() - 1][..self.graph[i.index() - 1]]
+    }
+
+    /// The last packet accepted by follower `i` from vehicle `j`, a neighbour in its graph or,
+    /// with [`PacketChecks::hearing_all_ahead`], any member ahead.
+    pub fn heard_from(&self, i: VehicleId, j: VehicleId) -> Option<&Heard> {
+        let fi = i.index() - 1;
+        let s = self.neighbours[fi].iter().position(|&n| n == j)?;
+        Some(&self.heard[fi][s])
     }
 
     /// Packets refused so far.
@@ -308,6 +356,7 @@ impl From<&Packet> for Heard {
             seq: p.seq,
             state: p.state,
             u: p.u,
+            head: p.head,
         }
     }
 }

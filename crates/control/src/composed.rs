@@ -43,6 +43,9 @@ pub struct View<'a> {
     pub neighbours: &'a [VehicleId],
     /// The last packet accepted from each neighbour (at first the initial state).
     pub heard: &'a [Heard],
+    /// The member that heads its part of a split platoon (`[fallback.cut_in] split`), with
+    /// the last packet accepted from it; `None` while the platoon's leader heads it.
+    pub head: Option<(VehicleId, &'a Heard)>,
 }
 
 impl View<'_> {
@@ -59,9 +62,13 @@ impl View<'_> {
         self.from(VehicleId(self.id.0 - 1))
     }
 
-    /// The last packet accepted from the leader, if it is a neighbour.
+    /// The last packet accepted from its leader: the member that heads its part of a split
+    /// platoon ([`View::head`]), else the platoon's leader if it is a neighbour.
     pub fn leader(&self) -> Option<&Heard> {
-        self.from(VehicleId::LEADER)
+        match self.head {
+            Some((_, h)) => Some(h),
+            None => self.from(VehicleId::LEADER),
+        }
     }
 }
 
@@ -138,6 +145,11 @@ struct Follower {
     step: FollowerStep,
     fallback: FallbackMachine,
     radar: Radar,
+    /// Whom it takes as its leader: the platoon's, or the member heading its part of a split
+    /// platoon.
+    head: VehicleId,
+    /// Whether it heads the followers behind it (on a cut-in's ACC, with a split).
+    leading: bool,
 }
 
 /// One platoon's followers, each running the same [`Law`] on its own copy (module docs).
@@ -209,6 +221,8 @@ impl ComposedController {
                 step: FollowerStep::default(),
                 fallback: FallbackMachine::new(parts.fallback.of(i), Return::CommandBlend),
                 radar: Radar::new(parts.fallback.radar.seed, i as u16),
+                head: VehicleId::LEADER,
+                leading: false,
             })
             .collect();
         Ok(Self {
@@ -220,6 +234,7 @@ impl ComposedController {
                 topology,
                 initial,
                 parts.dt,
+                parts.fallback.cut_in.is_some_and(|c| c.split),
             )?,
             leader: Default::default(),
             commands: vec![0.0; n],
@@ -238,7 +253,10 @@ impl Controller for ComposedController {
             f.step = FollowerStep::default();
             let own = &states[f.id.index()];
             let last = f.last_sent.as_ref().map(|(step, x)| (*step, x));
-            if self.parts.beaconing.fires(k, f.id, own, last) {
+            // A head beacons at the leader's rate as well: the followers behind it take its
+            // packets as their leader's.
+            let heads = f.leading && k.is_multiple_of(u64::from(self.parts.leader_broadcast_steps));
+            if self.parts.beaconing.fires(k, f.id, own, last) | heads {
                 f.seq += 1;
                 f.step.triggered = true;
                 f.last_sent = Some((k, *own));
@@ -248,6 +266,7 @@ impl Controller for ComposedController {
                     step: k,
                     state: *own,
                     u: f.fallback.last_u(),
+                    head: if f.leading { f.id } else { f.head },
                 });
             }
         }
@@ -273,6 +292,7 @@ impl Controller for ComposedController {
             self.checks.admit_sensed(k, d, sensed);
         }
         let n1 = self.followers.len() + 1;
+        let split = fb.cut_in.is_some_and(|c| c.split);
         for (((f, law), u_out), reading) in self
             .followers
             .iter_mut()
@@ -282,6 +302,17 @@ impl Controller for ComposedController {
         {
             let own = states[f.id.index()];
             let truth = truths[f.id.index()];
+            // The nearest member ahead that announced itself as a head leads it.
+            let head = (1..f.id.index())
+                .rev()
+                .map(VehicleId::follower)
+                .filter(|_| split)
+                .find_map(|j| {
+                    let h = self.checks.heard_from(f.id, j)?;
+                    h.heads(j).then_some((j, h))
+                });
+            let rebased = head.map_or(VehicleId::LEADER, |(j, _)| j) != f.head;
+            f.head = head.map_or(VehicleId::LEADER, |(j, _)| j);
             let view = View {
                 k,
                 dt: self.parts.dt,
@@ -292,6 +323,7 @@ impl Controller for ComposedController {
                 radar: truth,
                 neighbours: self.checks.neighbours(f.id),
                 heard: self.checks.heard(f.id),
+                head,
             };
             let lawful = law.command(&view);
             let reading = reading.filter(|_| radar_on).map(|(r, _)| r);
@@ -311,12 +343,15 @@ impl Controller for ComposedController {
                 spacing: self.parts.spacing,
                 headway: self.parts.headway,
                 length_ahead: fb.length(f.id.index() - 1),
+                rebased,
             };
             let (mode, u, guard) = f.fallback.step(&situation, |_| lawful);
             f.step.u = u;
             f.step.affected = affected;
             f.step.mode = mode;
             f.step.guard = guard;
+            f.step.head = f.head;
+            f.leading = split && mode == crate::Mode::CutIn;
             *u_out = u;
         }
         &self.commands
@@ -441,6 +476,120 @@ mod tests {
         assert_eq!(seen[7].1, 0.0);
         assert_eq!(seen[9].1, 7.5);
         assert_eq!(seen[11].1, 15.0);
+    }
+
+    /// A law that echoes its leader's speed in its last packet.
+    #[derive(Debug, Clone)]
+    struct EchoLeader;
+
+    impl Law for EchoLeader {
+        fn command(&mut self, view: &View<'_>) -> f64 {
+            view.leader().map_or(f64::NAN, |h| h.state[1])
+        }
+    }
+
+    /// Follower 1 runs ACC on a car that cut in ahead of it on steps 5 to 14 and, with a split,
+    /// heads followers 2 and 3 meanwhile: they hear it (though `plf` gives them only their
+    /// predecessor and the leader), take its packets as their leader's from the step after
+    /// it announced itself, blend to the new reference from their last command, and take the
+    /// leader again once it no longer announces itself. Each vehicle drives at its own speed,
+    /// 15 + i m/s, so the echoed speed names whom a follower took as its leader.
+    #[test]
+    fn a_follower_on_a_cut_in_heads_the_followers_behind_it() {
+        let topology = Topology::preset(Preset::Plf, 3).unwrap();
+        let hearing = topology.hearing_all_ahead();
+        let states = |k: u64| -> Vec<State> {
+            let t = k as f64 * 0.01;
+            (0..=3)
+                .map(|i| {
+                    let v = 15.0 + i as f64;
+                    State::new(-10.0 * i as f64 + v * t, v, 0.0)
+                })
+                .collect()
+        };
+        let fallback = FallbackParams {
+            mode: FallbackMode::Zero,
+            radar: crate::radar::RadarParams {
+                range_m: 1000.0,
+                period_steps: 1,
+                noise_m: 0.0,
+                noise_mps: 0.0,
+                dropout: 0.0,
+                seed: 1,
+            },
+            cut_in: Some(crate::fallback::CutInParams {
+                dwell_steps: 0,
+                blend_steps: 4,
+                split: true,
+            }),
+            ..FallbackParams::default()
+        };
+        let parts = Composition {
+            dt: 0.01,
+            beaconing: Box::new(Periodic { steps: 1 }),
+            leader_broadcast_steps: 1,
+            spacing: 10.0,
+            headway: 0.0,
+            fallback,
+            detection: Default::default(),
+        };
+        let mut c =
+            ComposedController::new(Box::new(EchoLeader), parts, &topology, &states(0)).unwrap();
+        let (mut out, mut heads, mut u) = (Vec::new(), Vec::new(), Vec::new());
+        for k in 0..26u64 {
+            let x = states(k);
+            out.clear();
+            c.transmit(k, &x, &mut out);
+            let deliveries: Vec<Delivery> = out
+                .iter()
+                .flat_map(|&packet| {
+                    hearing
+                        .out_neighbours(packet.sender)
+                        .iter()
+                        .map(move |&receiver| Delivery { receiver, packet })
+                })
+                .collect();
+            let ahead = |gap: f64, intruder: bool| {
+                Some(RadarTruth {
+                    gap,
+                    closing: 0.0,
+                    intruder,
+                })
+            };
+            c.set_radar_truth(&[
+                None,
+                ahead(5.0, (5..15).contains(&k)),
+                ahead(9.0, false),
+                ahead(9.0, false),
+            ]);
+            let cmd = c.receive(k, &x, &deliveries, &[false; 4]).to_vec();
+            heads.push([1, 2, 3].map(|i| c.follower_step(VehicleId(i)).head.0));
+            u.push(cmd);
+            // Follower 1 announces itself while on the car's ACC, the others their head.
+            let announced = |i: u16| out.iter().find(|p| p.sender == VehicleId(i)).unwrap().head;
+            if k > 0 {
+                let leading = (6..16).contains(&k);
+                assert_eq!(announced(1).0, if leading { 1 } else { 0 }, "step {k}");
+                assert_eq!(
+                    announced(3),
+                    VehicleId(heads[k as usize - 1][2]),
+                    "step {k}"
+                );
+            }
+        }
+        // Follower 1 keeps the platoon's leader; 2 and 3 take follower 1 from step 6 (its
+        // first packet as a head) to step 15 (its last), then the leader again.
+        for (k, h) in heads.iter().enumerate() {
+            let behind = if (6..16).contains(&k) { 1 } else { 0 };
+            assert_eq!(*h, [0, behind, behind], "step {k}");
+        }
+        // Bumpless both ways: from the leader's 15 m/s to follower 1's 16 over 4 steps, and
+        // back; follower 1 itself is on the car's ACC meanwhile.
+        let f3: Vec<f64> = u.iter().map(|u| u[2]).collect();
+        assert_eq!(f3[5], 15.0);
+        assert_eq!(&f3[6..11], [15.0, 15.25, 15.5, 15.75, 16.0]);
+        assert_eq!(&f3[16..21], [16.0, 15.75, 15.5, 15.25, 15.0]);
+        assert_eq!(c.follower_step(VehicleId(3)).mode, Mode::Coop);
     }
 
     /// A triggering scheme of the user's: broadcast when the speed moved 0.045 m/s from the last

@@ -20,6 +20,9 @@ pub struct FollowerStep {
     pub mode: Mode,
     /// The emergency-braking guard overrode the command.
     pub guard: bool,
+    /// Whom it took as its leader: the platoon's (the default), or the member heading its part
+    /// of a platoon split behind a car that cut in (`[fallback.cut_in] split`).
+    pub head: VehicleId,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -149,6 +152,7 @@ impl PlatoonController {
                 topology,
                 initial,
                 params.dt,
+                false,
             )?,
             commands: vec![0.0; n],
             truths: Truths::default(),
@@ -256,6 +260,8 @@ impl crate::Controller for PlatoonController {
                     step: k,
                     state: x,
                     u: f.fallback.last_u(),
+                    // The paper's law has no leader to re-point: it never splits.
+                    head: VehicleId::LEADER,
                 });
             }
         }
@@ -317,6 +323,7 @@ impl crate::Controller for PlatoonController {
                 spacing: p.spacing,
                 headway: p.headway,
                 length_ahead: p.fallback.length(f.id.index() - 1),
+                rebased: false,
             };
             // On the way back the law regulates q shifted by the spacing offset.
             let (mode, u, guard) = f
@@ -578,6 +585,7 @@ mod tests {
                 step,
                 state: State::new(p, 15.0, 0.0),
                 u: 0.0,
+                head: VehicleId::LEADER,
             },
         };
         let bad = [
@@ -627,6 +635,7 @@ mod tests {
                         step: k,
                         state: states[1],
                         u: 0.0,
+                        head: VehicleId::LEADER,
                     });
                 forged.seq = u32::MAX - 1;
                 forged.step = k;
@@ -644,6 +653,7 @@ mod tests {
                         step: k,
                         state: states[1],
                         u: 0.0,
+                        head: VehicleId::LEADER,
                     }),
                 );
             }
@@ -658,6 +668,7 @@ mod tests {
                         step: k,
                         state: teleported,
                         u: 0.0,
+                        head: VehicleId::LEADER,
                     }),
                 );
             }
@@ -692,6 +703,7 @@ mod tests {
             step: 3,
             state: State::new(1.0, 16.0, 1.0),
             u: 0.0,
+            head: VehicleId::LEADER,
         };
         let flow = FreeFlow::new(0.5, 0.01);
         let now = Packet {

@@ -192,6 +192,9 @@ pub struct CutInParams {
     pub dwell_steps: u32,
     /// Steps over which it then returns to its law (at least the fallback's `blend_steps`).
     pub blend_steps: u32,
+    /// Whether the platoon splits behind the car (`[fallback.cut_in] split`): the follower
+    /// heads the followers behind it while it runs its ACC on the car.
+    pub split: bool,
 }
 
 /// Everything about degradation, for every follower of a platoon.
@@ -458,6 +461,10 @@ pub struct Situation<'a> {
     /// The length of the platoon's vehicle ahead (m): the radar's gap plus it is the distance
     /// front to front.
     pub length_ahead: f64,
+    /// Whether the law's reference changed at this step (a new leader after a split or its
+    /// end): on its law the follower then blends from its last command to the law's over the
+    /// cut-in's `blend` steps, as on the way back from a fallback ([`Return::CommandBlend`]).
+    pub rebased: bool,
 }
 
 /// One follower's way into its fallback while affected and back to its law: the one state
@@ -592,6 +599,16 @@ impl FallbackMachine {
                         mismatch: fallback - s.law,
                         blend,
                     },
+                }
+            }
+            // A new reference on the law: from the last command to the new law's, blended.
+            (Phase::Law | Phase::Back { .. }, false, false) if s.rebased && blend(true) > 0 => {
+                Phase::Back {
+                    exit: s.k,
+                    delta0: State::zeros(),
+                    steps: blend(true),
+                    mismatch: self.last_u - s.law,
+                    blend: blend(true),
                 }
             }
             (

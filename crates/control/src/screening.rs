@@ -238,6 +238,7 @@ pub(crate) fn checks(
     topology: &platoon_topology::Topology,
     initial: &[State],
     dt: f64,
+    hear_ahead: bool,
 ) -> Result<crate::PacketChecks, crate::ParamsError> {
     let err = |message| crate::ParamsError {
         field: "detection",
@@ -249,7 +250,13 @@ pub(crate) fn checks(
             "{all} detectors: a platoon runs at most {MAX_DETECTORS}"
         )));
     }
-    crate::PacketChecks::new(topology, initial, dt)
+    let checks = crate::PacketChecks::new(topology, initial, dt);
+    let checks = if hear_ahead {
+        checks.hearing_all_ahead(initial)
+    } else {
+        checks
+    };
+    checks
         .with_detection_and(detection, extra)
         .map_err(|e| err(e.to_string()))
 }

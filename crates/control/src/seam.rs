@@ -99,6 +99,7 @@ impl LeaderBeacon {
                 step: k,
                 state: states[0],
                 u: self.last_u,
+                head: VehicleId::LEADER,
             });
         }
         self.last_u = states[0][2];

@@ -158,6 +158,7 @@ impl Controller for PaperLaw {
                 step: k,
                 state: states[0],
                 u: self.leader_last_u,
+                head: VehicleId::LEADER,
             });
         }
         // Packets carry the sender's command of the step before (for the leader, the
@@ -197,6 +198,7 @@ impl Controller for PaperLaw {
                     step: k,
                     state: x,
                     u: f.last_u,
+                    head: VehicleId::LEADER,
                 });
             }
         }

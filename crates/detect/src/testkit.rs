@@ -101,6 +101,7 @@ pub fn packet(sender: u16, seq: u32, step: usize, state: State) -> Packet {
         step: step as u64,
         state,
         u: state[2],
+        head: platoon_model::VehicleId::LEADER,
     }
 }
 

@@ -533,6 +533,7 @@ proptest! {
             step,
             state: claim,
             u: 0.0,
+            head: platoon_model::VehicleId::LEADER,
         };
         let obs = Observation {
             k,

@@ -553,6 +553,7 @@ mod tests {
             radar_target: None,
             radar_gap_m: None,
             radar_closing_mps: None,
+            head: None,
         }
     }
 

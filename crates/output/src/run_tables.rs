@@ -43,6 +43,8 @@ pub struct RunFiles {
     intruded: Vec<bool>,
     /// Per vehicle: its gap to the vehicle ahead in the platoon at the step before (m).
     gaps: Vec<f64>,
+    /// Per vehicle: whom it took as its leader at the step before (runs that split).
+    heads: Vec<u16>,
     /// Each vehicle's length (m), leader first.
     lengths: Vec<f64>,
     /// The run has traffic that can touch the platoon: the trajectories and the detections
@@ -106,9 +108,10 @@ pub fn read_tables(dir: &Path) -> Result<Tables> {
         for ext in ["csv", "parquet"] {
             let path = dir.join(format!("{stem}.{ext}"));
             if path.exists() {
-                // The radar's columns are there in runs with traffic only.
+                // The radar's columns are there in runs with traffic only, the head's in runs
+                // that split.
                 let (schema, batches) =
-                    crate::tables::read_batches::<T>(&path, &StepRow::RADAR_COLUMNS)?;
+                    crate::tables::read_batches::<T>(&path, &StepRow::OPTIONAL_COLUMNS)?;
                 tables.push((stem, schema, batches));
                 break;
             }
@@ -195,7 +198,7 @@ struct EventRow {
     step: u64,
     t: f64,
     /// `broadcast`, `switch` (the vehicle's mode changed at this step), `intruder_in`,
-    /// `gap_opened`, `intruder_out`, `rejoined`, `flagged`, `distrust` or `trust`.
+    /// `gap_opened`, `intruder_out`, `rejoined`, `split`, `merged`, `flagged`, `distrust` or `trust`.
     event: Event,
     /// The mode it is in (after the switch).
     mode: platoon_control::Mode,
@@ -219,6 +222,11 @@ enum Event {
     IntruderOut,
     /// Back on its law (mode `coop`) after an intrusion.
     Rejoined,
+    /// It took a member ahead as its leader: the platoon split ahead of it, behind a car that
+    /// cut in (the trajectories' `head` says which member).
+    Split,
+    /// It took the platoon's leader as its leader again.
+    Merged,
     /// A detector flagged a packet the vehicle received (`[detection]`).
     Flagged,
     /// Its reaction began refusing a sender's packets (the first refused after an accepted
@@ -283,11 +291,16 @@ impl RunFiles {
         let steps = scenario.steps + 1;
         let on = |f: OutputFile| output.writes(f);
         let absent: &[&str] = if radar { &[] } else { &StepRow::RADAR_COLUMNS };
+        // Whom each vehicle took as its leader: in runs that split only.
+        let mut absent_rows = absent.to_vec();
+        if !scenario.splits() {
+            absent_rows.push(StepRow::HEAD_COLUMN);
+        }
         Ok(Self {
             trajectories: place.table_without(
                 "trajectories",
                 on(OutputFile::Trajectories),
-                absent,
+                &absent_rows,
             )?,
             events: place.table("events", on(OutputFile::Events))?,
             wire: place.table("wire", on(OutputFile::Wire))?,
@@ -317,6 +330,7 @@ impl RunFiles {
             flags: Vec::new(),
             intrusions: vec![None; scenario.vehicles()],
             intruded: vec![false; scenario.vehicles()],
+            heads: vec![0; scenario.vehicles()],
             gaps: vec![f64::NAN; scenario.vehicles()],
             lengths: scenario.lengths(),
             radar,
@@ -430,6 +444,16 @@ impl RunFiles {
                 self.events.write(row(Event::Switch, None))?;
                 if r.mode == platoon_control::Mode::Coop && std::mem::take(&mut self.intruded[v]) {
                     self.events.write(row(Event::Rejoined, None))?;
+                }
+            }
+            if let Some(head) = r.head {
+                if std::mem::replace(&mut self.heads[v], head) != head {
+                    let e = if head == 0 {
+                        Event::Merged
+                    } else {
+                        Event::Split
+                    };
+                    self.events.write(row(e, None))?;
                 }
             }
             if let Some(e @ (Event::GapOpened | Event::IntruderOut)) = intrusion {

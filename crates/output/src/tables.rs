@@ -364,7 +364,12 @@ mod tests {
     }
 
     fn the_same_in_both_formats(rows: &[StepRow], radar: bool) {
-        let absent: &[&str] = if radar { &[] } else { &StepRow::RADAR_COLUMNS };
+        // The paper's scenario never splits: no head column either way.
+        let mut absent = vec![StepRow::HEAD_COLUMN];
+        if !radar {
+            absent.extend(StepRow::RADAR_COLUMNS);
+        }
+        let absent = &absent[..];
         let tmp = tempfile::tempdir().unwrap();
         let dir = RunDir::create(&tmp.path().join("r"), false).unwrap();
         for format in [Format::Csv, Format::Parquet] {
@@ -413,7 +418,8 @@ mod tests {
         }
         assert_eq!(json(&kept), json(rows));
         for file in ["trajectories.csv", "trajectories.parquet"] {
-            let (s, b) = read_batches::<StepRow>(&dir.path(file), &StepRow::RADAR_COLUMNS).unwrap();
+            let (s, b) =
+                read_batches::<StepRow>(&dir.path(file), &StepRow::OPTIONAL_COLUMNS).unwrap();
             assert_eq!((s, b), (schema.clone(), batches.clone()), "{file}");
         }
         assert!(Table::<StepRow>::memory("off", false)

@@ -46,8 +46,9 @@ pub fn run(
             Inlet::new(&e.open_step_service(Service::States)?, Node::Plant)?;
         let mut rx_in: Inlet<LinkPacket> =
             Inlet::new(&e.open_step_service(Service::Rx)?, Node::Injector)?;
+        let hearing = scenario.hearing();
         let links: usize = (0..n1)
-            .map(|v| scenario.topology.out_neighbours(VehicleId(v as u16)).len())
+            .map(|v| hearing.out_neighbours(VehicleId(v as u16)).len())
             .sum();
         let tx_out: Outlet<LinkPacket> = e.fixed_outlet(
             &e.open_step_service(Service::Tx)?,
@@ -130,8 +131,8 @@ pub fn run(
                         sent.clear();
                         sent.resize(n1, false);
                         for p in tx.iter() {
-                            let Some(to) = (p.sender.index() < n1)
-                                .then(|| scenario.topology.out_neighbours(p.sender))
+                            let Some(to) =
+                                (p.sender.index() < n1).then(|| hearing.out_neighbours(p.sender))
                             else {
                                 return Err(fail(format!(
                                     "step {k}: platoon {j} broadcast as vehicle {}, which it \
@@ -148,8 +149,7 @@ pub fn run(
                                     p.sender.0
                                 )));
                             }
-                            let mut packet = packet_to_wire(p, stamp);
-                            packet.sender = num.global(j, p.sender);
+                            let packet = packet_to_wire(p, stamp, j, num);
                             wire_tx.extend(to.iter().map(|&r| LinkPacket {
                                 receiver: num.global(j, r),
                                 kind: LinkPacket::DELIVERY,
@@ -202,6 +202,7 @@ pub fn run(
                                     f.affected,
                                     f.guard,
                                     f.mode.code(),
+                                    f.head.0,
                                 ),
                                 u,
                                 theta: f.theta,

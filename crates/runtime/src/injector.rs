@@ -297,7 +297,7 @@ impl Platoons {
         };
         Ok(Self {
             num,
-            topology: scenario.topology.clone(),
+            topology: scenario.hearing(),
             dt: scenario.dt(),
             injectors: scenario
                 .replicas()
@@ -342,11 +342,10 @@ impl WireInjector for Platoons {
             p.clear();
         }
         for it in step.tx {
-            let Some((j, sender)) = num.split(it.packet.sender) else {
+            let Some((j, _)) = num.split(it.packet.sender) else {
                 continue;
             };
-            let mut p = packet_from_wire(&it.packet);
-            p.sender = sender;
+            let p = packet_from_wire(&it.packet, j, num);
             let list = &mut self.packets[j];
             if list
                 .last()
@@ -390,8 +389,7 @@ impl WireInjector for Platoons {
                 },
             )?;
             items.extend(self.deliveries.iter().map(|d| {
-                let mut packet = packet_to_wire(&d.packet, monotonic_ns());
-                packet.sender = num.global(j, d.packet.sender);
+                let packet = packet_to_wire(&d.packet, monotonic_ns(), j, num);
                 LinkPacket {
                     receiver: num.global(j, d.receiver),
                     kind: LinkPacket::DELIVERY,

@@ -34,8 +34,12 @@ pub struct RunFacts {
     pub vehicles: usize,
     /// How wire ids are numbered ([`crate::session::Numbering`]).
     pub numbering: String,
-    /// Each platoon's V2V graph, in platoon order.
+    /// Each platoon's V2V graph (whose packets its controllers' laws use), in platoon order.
     pub topologies: Vec<Graph>,
+    /// Each platoon's links on the channel (`Scenario::hearing`), in platoon order: its graph,
+    /// plus every member ahead when it splits behind a car that cut in. Controllers publish
+    /// one item per link of this graph and injectors deliver along it.
+    pub hearing: Vec<Graph>,
     /// The detectors the run measures (`[detection]`), in the order of each inspection's
     /// verdicts; empty without detection.
     pub detectors: Vec<String>,
@@ -84,6 +88,11 @@ impl RunFacts {
                 .replicas()
                 .iter()
                 .map(|s| Graph::of(&s.topology))
+                .collect(),
+            hearing: scenario
+                .replicas()
+                .iter()
+                .map(|s| Graph::of(&s.hearing()))
                 .collect(),
             detectors: scenario.control.detection.names(),
             plant,

@@ -269,7 +269,7 @@ pub fn deliveries_from_wire(
             if it.kind != LinkPacket::JAMMED {
                 deliveries[0].push(Delivery {
                     receiver: VehicleId(u16::MAX),
-                    packet: packet_from_wire(&it.packet),
+                    packet: packet_from_wire(&it.packet, 0, num),
                 });
             }
             continue;
@@ -277,11 +277,7 @@ pub fn deliveries_from_wire(
         match it.kind {
             LinkPacket::JAMMED => jammed[it.receiver as usize] = true,
             _ => {
-                let mut packet = packet_from_wire(&it.packet);
-                packet.sender = match num.split(it.packet.sender) {
-                    Some((js, i)) if js == j => i,
-                    _ => VehicleId(u16::MAX),
-                };
+                let packet = packet_from_wire(&it.packet, j, num);
                 deliveries[j].push(Delivery { receiver, packet });
             }
         }
@@ -370,35 +366,39 @@ pub fn inspections_from_wire(
 /// links nobody).
 pub fn link_from_wire(it: &LinkPacket, num: Numbering) -> Option<(usize, VehicleId, Packet)> {
     let (j, receiver) = num.split(it.receiver)?;
-    let (js, sender) = num.split(it.packet.sender)?;
-    (j == js).then(|| {
-        let mut packet = packet_from_wire(&it.packet);
-        packet.sender = sender;
-        (j, receiver, packet)
-    })
+    let (js, _) = num.split(it.packet.sender)?;
+    (j == js).then(|| (j, receiver, packet_from_wire(&it.packet, j, num)))
 }
 
-/// A packet onto the wire.
-pub fn packet_to_wire(p: &Packet, stamp_ns: u64) -> V2vPacket {
+/// A packet of platoon `j` onto the wire: sender and head as wire ids.
+pub fn packet_to_wire(p: &Packet, stamp_ns: u64, j: usize, num: Numbering) -> V2vPacket {
     V2vPacket {
-        sender: u32::from(p.sender.0),
+        sender: num.global(j, p.sender),
         seq: p.seq,
         step: p.step,
         stamp_ns,
         state: [p.state[0], p.state[1], p.state[2]],
         u: p.u,
+        head: num.global(j, p.head),
+        reserved: 0,
     }
 }
 
-/// A packet off the wire. A sender id that does not fit a `VehicleId` becomes one no vehicle
-/// has, so the controller refuses it as an unknown sender.
-pub fn packet_from_wire(p: &V2vPacket) -> Packet {
+/// A packet off the wire with the ids of platoon `j`: a sender or head of another platoon or of
+/// no vehicle becomes one no vehicle has (`u16::MAX`), so the controller refuses the packet as
+/// from an unknown sender and never takes such a head.
+pub fn packet_from_wire(p: &V2vPacket, j: usize, num: Numbering) -> Packet {
+    let local = |g: u32| match num.split(g) {
+        Some((jg, i)) if jg == j => i,
+        _ => VehicleId(u16::MAX),
+    };
     Packet {
-        sender: VehicleId(u16::try_from(p.sender).unwrap_or(u16::MAX)),
+        sender: local(p.sender),
         seq: p.seq,
         step: p.step,
         state: State::from(p.state),
         u: p.u,
+        head: local(p.head),
     }
 }
 

@@ -99,6 +99,12 @@ pub struct StepRow {
     /// As `radar_target`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub radar_closing_mps: Option<f64>,
+    /// Whom the vehicle took as its leader at this step, a vehicle of its platoon: 0, the
+    /// platoon's leader (the leader's own row), or the member heading its part of a platoon
+    /// split behind a car that cut in, as its controller reported it. Only in runs that split
+    /// (`[fallback.cut_in] split`); elsewhere `None`, and the column is not written.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub head: Option<u16>,
 }
 
 impl StepRow {
@@ -106,6 +112,18 @@ impl StepRow {
     /// platoon ([`StepRow::radar_target`]).
     pub const RADAR_COLUMNS: [&'static str; 3] =
         ["radar_target", "radar_gap_m", "radar_closing_mps"];
+
+    /// The column of whom each vehicle took as its leader, written only in runs that split a
+    /// platoon behind a cut-in ([`StepRow::head`]).
+    pub const HEAD_COLUMN: &'static str = "head";
+
+    /// Every column a run may leave out: the radar's and the head's.
+    pub const OPTIONAL_COLUMNS: [&'static str; 4] = [
+        Self::RADAR_COLUMNS[0],
+        Self::RADAR_COLUMNS[1],
+        Self::RADAR_COLUMNS[2],
+        Self::HEAD_COLUMN,
+    ];
 
     /// This row with the radar's columns (`on`: nothing seen where it has none) or without.
     pub fn with_radar_columns(mut self, on: bool) -> Self {
@@ -302,6 +320,7 @@ pub fn step_rows(
     };
     let t = k as f64 * scenario.dt();
     let x0 = states[0];
+    let split = scenario.splits();
     out.push(StepRow {
         step: k,
         t,
@@ -323,6 +342,7 @@ pub fn step_rows(
         radar_target: radar(0).map(|r| r.0),
         radar_gap_m: radar(0).map(|r| r.1),
         radar_closing_mps: radar(0).map(|r| r.2),
+        head: split.then_some(0),
     });
     for (i, x) in states.iter().enumerate().skip(1) {
         let s = follower(i);
@@ -350,6 +370,7 @@ pub fn step_rows(
             radar_target: radar(i).map(|r| r.0),
             radar_gap_m: radar(i).map(|r| r.1),
             radar_closing_mps: radar(i).map(|r| r.2),
+            head: split.then_some(s.head.0),
         });
     }
 }
@@ -373,6 +394,8 @@ pub struct Simulation {
     targets: Vec<traffic::RadarTarget>,
     wire: Vec<WireCounts>,
     wire_counter: tally::WireCounter,
+    /// Who hears whom ([`Scenario::hearing`]): the links the channel carries.
+    hearing: platoon_topology::Topology,
     /// The detectors measured against ground truth (`[detection]` only).
     detection: Option<detection::DetectionRecorder>,
 }
@@ -425,6 +448,7 @@ impl Simulation {
             wire: vec![WireCounts::default(); n + 1],
             wire_counter: tally::WireCounter::default(),
             detection,
+            hearing: scenario.hearing(),
             scenario,
         })
     }
@@ -514,7 +538,7 @@ impl Simulation {
             &platoon_attacks::inject::Step {
                 k,
                 t,
-                topology: &sc.topology,
+                topology: &self.hearing,
                 states,
                 tx: &self.tx,
                 background: &[],
@@ -540,7 +564,7 @@ impl Simulation {
         // In process nothing is ever delivered to a vehicle that does not exist.
         let mut outside = WireCounts::default();
         self.wire_counter.count(
-            tally::links(&sc.topology, &self.tx),
+            tally::links(&self.hearing, &self.tx),
             &self.deliveries,
             &self.jammed,
             &mut self.wire,
@@ -551,7 +575,7 @@ impl Simulation {
             d.record(
                 k,
                 states,
-                tally::links(&sc.topology, &self.tx),
+                tally::links(&self.hearing, &self.tx),
                 &self.deliveries,
                 self.controller.inspections(),
             );

@@ -238,6 +238,24 @@ impl Scenario {
         self.fleet.platoons * self.vehicles_per_platoon()
     }
 
+    /// Whether a follower that runs its ACC on a car that cut in heads the followers behind it
+    /// (`[fallback.cut_in] split`).
+    pub fn splits(&self) -> bool {
+        self.control.fallback.cut_in.is_some_and(|c| c.split)
+    }
+
+    /// Who hears whom on the V2V channel: the topology's links and, when the platoon splits
+    /// behind a car that cut in (`[fallback.cut_in] split`), every follower also hears every
+    /// member ahead of it ([`Topology::hearing_all_ahead`]). The channel carries these links;
+    /// the controllers' laws keep [`Scenario::topology`].
+    pub fn hearing(&self) -> Topology {
+        if self.splits() {
+            self.topology.hearing_all_ahead()
+        } else {
+            self.topology.clone()
+        }
+    }
+
     /// Platoon `j` of the fleet: this scenario shifted `fleet.offset(j)` back, with its own
     /// channel seed and index. Platoon 0 of a fleet is the scenario itself.
     pub fn replica(&self, j: usize) -> Scenario {

@@ -131,6 +131,7 @@ mod tests {
             step: 3,
             state: State::new(p, 1.0, 0.0),
             u: 0.0,
+            head: VehicleId::LEADER,
         }
     }
 

@@ -355,6 +355,7 @@ mod tests {
             step,
             state: State::new(p, 15.0, 0.0),
             u: 0.0,
+            head: VehicleId::LEADER,
         }
     }
 

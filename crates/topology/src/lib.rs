@@ -270,6 +270,23 @@ impl Topology {
         &self.out_neighbours[v.index()]
     }
 
+    /// This graph with every follower also hearing every follower ahead of it: who can hear
+    /// whom on the road when a platoon may split behind a car that cut in (the followers behind
+    /// then take the member that heads them as their leader, so they must hear it). The control
+    /// laws keep their own graph; this one only carries packets.
+    pub fn hearing_all_ahead(&self) -> Self {
+        let n = self.followers();
+        let adjacency = (0..n)
+            .map(|i| {
+                (0..n)
+                    .map(|j| if j < i { 1.0 } else { self.adjacency[(i, j)] })
+                    .collect()
+            })
+            .collect();
+        Self::explicit(adjacency, self.pinning.iter().copied().collect())
+            .expect("more links than a valid graph keep it valid")
+    }
+
     /// Every directed link `(sender, receiver)`, leader links first, in a fixed order.
     pub fn links(&self) -> impl Iterator<Item = (VehicleId, VehicleId)> + '_ {
         self.out_neighbours
@@ -285,6 +302,27 @@ mod tests {
 
     fn m(rows: &[&[f64]]) -> DMatrix<f64> {
         DMatrix::from_fn(rows.len(), rows[0].len(), |i, j| rows[i][j])
+    }
+
+    #[test]
+    fn hearing_all_ahead_adds_the_links_from_every_member_ahead() {
+        let t = Topology::preset(Preset::Plf, 4).unwrap();
+        let r = t.hearing_all_ahead();
+        assert_eq!(r.pinning(), t.pinning());
+        assert_eq!(
+            r.in_neighbours(VehicleId(4)),
+            [VehicleId(0), VehicleId(1), VehicleId(2), VehicleId(3)]
+        );
+        assert_eq!(
+            r.out_neighbours(VehicleId(1)),
+            [VehicleId(2), VehicleId(3), VehicleId(4)]
+        );
+        // Backward links stay as they were.
+        let b = Topology::preset(Preset::Bpf, 3)
+            .unwrap()
+            .hearing_all_ahead();
+        assert_eq!(b.in_neighbours(VehicleId(1)), [VehicleId(0), VehicleId(2)]);
+        assert_eq!(r.links().count(), 4 + 6);
     }
 
     #[test]

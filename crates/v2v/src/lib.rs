@@ -24,6 +24,18 @@ pub struct Packet {
     /// step 0), as Plexe sends it. For laws with a feed-forward of the predecessor's or the
     /// leader's input (PATH CACC, Ploeg et al.); the paper's law does not read it.
     pub u: f64,
+    /// The head of the platoon the sender drives in: the leader (`VehicleId::LEADER`), or the
+    /// sender itself when it heads the part of a split platoon behind a vehicle that cut in
+    /// (`[fallback.cut_in] split`); a follower behind such a head announces that head. Receivers
+    /// behind a member that announces itself take it as their leader.
+    pub head: VehicleId,
+}
+
+impl Packet {
+    /// Whether the sender heads a split platoon (it announces itself as its head).
+    pub fn heads(&self) -> bool {
+        self.head == self.sender && !self.sender.is_leader()
+    }
 }
 
 /// A packet as it reached one receiver.

@@ -11,7 +11,7 @@
 use iceoryx2::prelude::ZeroCopySend;
 
 /// The version of this contract (payload layouts and their meaning). Every payload's type name
-/// carries it (`platoon::v2::LinkPacket`), so iceoryx2 refuses to connect a process built for
+/// carries it (`platoon::v3::LinkPacket`), so iceoryx2 refuses to connect a process built for
 /// another version, and `platoon run` tells every process it starts which version the run
 /// speaks ([`CONTRACT_VERSION_ENV`]); the SDKs compare it with their own before opening anything
 /// ([`check_contract_version`]). Raise it with any change of a payload's layout or meaning, and
@@ -24,7 +24,9 @@ use iceoryx2::prelude::ZeroCopySend;
 ///   optional [`Service::Inspections`] of [`Inspection`]s (the same way: a new service).
 ///   Later, still v2: [`VehicleState::flags`] bits 8-31 name an intruder
 ///   ([`VehicleState::TARGET_SHIFT`]; bits that were 0, and every reader tests bits).
-pub const CONTRACT_VERSION: u32 = 2;
+/// - v3: [`V2vPacket`] gained `head`, the head of the platoon the sender drives in (a platoon
+///   split behind a car that cut in), and `reserved` (64 bytes, was 56).
+pub const CONTRACT_VERSION: u32 = 3;
 
 /// The environment variable in which `platoon run` gives every process it starts the contract
 /// version of the run ([`CONTRACT_VERSION`]).
@@ -54,7 +56,7 @@ pub fn check_contract_version(run: Option<&str>) -> Result<(), String> {
 
 /// The user header of every step sample: which step it belongs to, and how many items it holds.
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
-#[type_name("platoon::v2::StepHeader")]
+#[type_name("platoon::v3::StepHeader")]
 #[repr(C)]
 pub struct StepHeader {
     /// Step index k.
@@ -85,7 +87,7 @@ impl StepHeader {
 
 /// A vehicle's true state at a step (plant -> controller, injector, orchestrator).
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
-#[type_name("platoon::v2::VehicleState")]
+#[type_name("platoon::v3::VehicleState")]
 #[repr(C)]
 pub struct VehicleState {
     /// Vehicle id (0 = leader).
@@ -133,7 +135,7 @@ impl VehicleState {
 
 /// A V2V broadcast (controller -> injector, and inside [`LinkPacket`]).
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
-#[type_name("platoon::v2::V2vPacket")]
+#[type_name("platoon::v3::V2vPacket")]
 #[repr(C)]
 pub struct V2vPacket {
     /// Sender id (0 = leader).
@@ -148,13 +150,19 @@ pub struct V2vPacket {
     pub state: [f64; 3],
     /// The sender's latest commanded acceleration (m/s^2; `platoon_v2v::Packet::u`).
     pub u: f64,
+    /// The head of the platoon the sender drives in, a wire id like `sender`: the leader, or
+    /// the sender itself when it heads the part of a split platoon behind a car that cut in
+    /// (`platoon_v2v::Packet::head`).
+    pub head: u32,
+    /// Always 0 (the layout has no padding).
+    pub reserved: u32,
 }
 
 /// A packet on one link (sender -> receiver): the items of the tx batch (controller ->
 /// injector: one per out-neighbour of each broadcast) and of the rx batch (injector ->
 /// controller: what each receiver gets, plus `JAMMED` notices).
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
-#[type_name("platoon::v2::LinkPacket")]
+#[type_name("platoon::v3::LinkPacket")]
 #[repr(C)]
 pub struct LinkPacket {
     /// The receiving vehicle (for `JAMMED`: the vehicle that sensed jamming).
@@ -174,14 +182,15 @@ impl LinkPacket {
 
 /// A follower's command and what its controller did (controller -> plant, orchestrator).
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
-#[type_name("platoon::v2::Command")]
+#[type_name("platoon::v3::Command")]
 #[repr(C)]
 pub struct Command {
     /// Follower id (>= 1).
     pub vehicle: u32,
     /// Bit 0: it broadcast in this step; bit 1: it was affected by an attack; bit 2: the
     /// emergency-braking guard overrode the command; bits 4-6: its mode (0 coop, 1 zero,
-    /// 2 hold, 3 predict, 4 acc, 5 blend).
+    /// 2 hold, 3 predict, 4 acc, 5 blend, 6 cut_in); bits 8-23: whom it took as its leader, a
+    /// vehicle of its platoon (0: the platoon's leader; a member ahead heading a split).
     pub flags: u32,
     /// Commanded acceleration `u_i[k]` (m/s^2).
     pub u: f64,
@@ -200,13 +209,30 @@ impl Command {
     pub const MODE_SHIFT: u32 = 4;
     /// See [`Command::MODE_SHIFT`].
     pub const MODE_MASK: u32 = 0b111;
+    /// `flags` bits of whom it took as its leader (platoon-local id):
+    /// `(flags >> HEAD_SHIFT) & HEAD_MASK`.
+    pub const HEAD_SHIFT: u32 = 8;
+    /// See [`Command::HEAD_SHIFT`].
+    pub const HEAD_MASK: u32 = 0xFFFF;
+
+    /// Whom it took as its leader ([`Command::HEAD_SHIFT`]).
+    pub fn head(&self) -> u16 {
+        ((self.flags >> Self::HEAD_SHIFT) & Self::HEAD_MASK) as u16
+    }
 
     /// The flags of a follower's step.
-    pub fn flags_of(triggered: bool, affected: bool, guard: bool, mode_code: u32) -> u32 {
+    pub fn flags_of(
+        triggered: bool,
+        affected: bool,
+        guard: bool,
+        mode_code: u32,
+        head: u16,
+    ) -> u32 {
         u32::from(triggered) * Self::TRIGGERED
             + u32::from(affected) * Self::AFFECTED
             + u32::from(guard) * Self::GUARD
             + ((mode_code & Self::MODE_MASK) << Self::MODE_SHIFT)
+            + (u32::from(head) << Self::HEAD_SHIFT)
     }
 
     /// The mode code in `flags`.
@@ -219,7 +245,7 @@ impl Command {
 /// [`Service::Traffic`]): SUMO's `bg<index>`, which drives on the lanes no platoon uses and
 /// loads the V2V channel. Only the SUMO plant with `[sumo] background_vehicles` publishes it.
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
-#[type_name("platoon::v2::TrafficVehicle")]
+#[type_name("platoon::v3::TrafficVehicle")]
 #[repr(C)]
 pub struct TrafficVehicle {
     /// Its index b (SUMO's `bg<b>`): item b of every traffic sample.
@@ -252,7 +278,7 @@ impl TrafficVehicle {
 /// in runs that measure detectors (`[detection]`), one item per inspected packet, in the order
 /// the receivers got them (the rx batch's order).
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
-#[type_name("platoon::v2::Inspection")]
+#[type_name("platoon::v3::Inspection")]
 #[repr(C)]
 pub struct Inspection {
     /// The receiving follower (wire id).
@@ -291,7 +317,7 @@ impl Inspection {
 
 /// Control and status messages (orchestrator <-> every node), one per sample.
 #[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
-#[type_name("platoon::v2::ControlMsg")]
+#[type_name("platoon::v3::ControlMsg")]
 #[repr(C)]
 pub struct ControlMsg {
     /// One of the `ControlMsg::*` kinds.
@@ -551,7 +577,10 @@ pub fn layouts() -> Vec<Layout> {
     vec![
         layout!(StepHeader, [step, time_s, count, stamp_ns]),
         layout!(VehicleState, [vehicle, flags, p, v, a, gap, closing]),
-        layout!(V2vPacket, [sender, seq, step, stamp_ns, state, u]),
+        layout!(
+            V2vPacket,
+            [sender, seq, step, stamp_ns, state, u, head, reserved]
+        ),
         layout!(LinkPacket, [receiver, kind, packet]),
         layout!(Command, [vehicle, flags, u, theta]),
         layout!(TrafficVehicle, [index, flags, p]),

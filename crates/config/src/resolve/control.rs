@@ -65,6 +65,7 @@ pub(super) fn fallback(
             Some(h) => Some(platoon_control::fallback::CutInParams {
                 dwell_steps: steps("fallback.cut_in.dwell_s", h.dwell_s)?,
                 blend_steps: steps("fallback.cut_in.blend_s", h.blend_s)?,
+                split: h.split,
             }),
             None => None,
         },

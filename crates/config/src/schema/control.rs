@@ -226,14 +226,22 @@ pub struct CutInHandling {
     pub dwell_s: f64,
     /// Time over which it then returns to its law, bumplessly (s; at least `fallback.blend_s`).
     pub blend_s: f64,
+    /// Split the platoon behind the car: while a follower runs its ACC on a car that cut in, it
+    /// announces in its beacons that it heads the followers behind it, and they take it as
+    /// their leader (the laws that read the leader's packets: `path_cacc`, `flatbed`) until it
+    /// returns; each switch of leader is blended over `blend_s`. Every follower then also hears
+    /// the members ahead of it beyond its `[topology]` (the channel carries those links too).
+    /// Not for the paper's law (its coupling is the topology's; no leader to re-point).
+    pub split: bool,
 }
 
 impl Default for CutInHandling {
-    /// A second's dwell, three seconds' return.
+    /// A second's dwell, three seconds' return, no split.
     fn default() -> Self {
         Self {
             dwell_s: 1.0,
             blend_s: 3.0,
+            split: false,
         }
     }
 }

@@ -158,6 +158,7 @@ impl<'a> Recorder<'a> {
                         theta: cmd.theta,
                         mode: platoon_control::Mode::from_code(cmd.mode_code()),
                         guard: cmd.flags & Command::GUARD != 0,
+                        head: platoon_model::VehicleId(cmd.head()),
                     }
                 },
                 &mut self.rows,
