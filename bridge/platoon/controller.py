@@ -270,6 +270,11 @@ def _transmit(controllers, k, t, states, n1, out, sent):
             s = p.sender
             if not 0 <= s < n1:
                 raise ContractError(f"platoon {j} broadcast as vehicle {s}, which it does not have")
+            if not 0 <= p.head < n1:
+                raise ContractError(
+                    f"platoon {j}: vehicle {s} names vehicle {p.head} as its head, which the "
+                    "platoon does not have"
+                )
             if flags[s]:
                 raise ContractError(
                     f"platoon {j}: vehicle {s} broadcast twice in step {k} (at most once per step)"

@@ -57,6 +57,13 @@ def test_each_broadcast_goes_to_every_out_neighbour_numbered_by_platoon():
     with pytest.raises(pc.ContractError, match="vehicle 3"):
         pc._transmit([Broadcasting([3])], 0, 0.0, [None] * 3, 3, topo.out_neighbours, sent)
 
+    class Lying(pc.Controller):
+        def transmit(self, step, tx):
+            tx.append(pc.Packet(1, 1, step.k, (0.0, 0.0, 0.0), 0.0, head=7))
+
+    with pytest.raises(pc.ContractError, match="vehicle 7 as its head"):
+        pc._transmit([Lying()], 0, 0.0, [None] * 3, 3, topo.out_neighbours, sent)
+
 
 def link(receiver, sender, kind=w.LinkPacket.DELIVERY, head=None):
     it = w.LinkPacket(receiver=receiver, kind=kind)

@@ -381,8 +381,11 @@ pub fn parse(text: &str, file: &Path, evaluations: Option<usize>) -> Result<Sear
                 vec![Target::Channel]
             }
             JamKind::Links => {
-                let all: Vec<(u16, u16)> =
-                    scenario.topology.links().map(|(s, r)| (s.0, r.0)).collect();
+                let all: Vec<(u16, u16)> = scenario
+                    .hearing()
+                    .links()
+                    .map(|(s, r)| (s.0, r.0))
+                    .collect();
                 match &b.links {
                     None => all
                         .iter()

@@ -242,14 +242,15 @@ fn controllers_side_by_side_show_what_each_law_reads() {
 }
 
 /// `experiment traffic` on a reduced grid: a car 3 m ahead of follower 3, 4 m/s slower, for
-/// the paper's law (pf) and the PATH CACC (plf, it needs the leader), with no attack and with
-/// a false-data bias on follower 2's packets while the car is there.
+/// the paper's law (pf), the PATH CACC and the flatbed controller (plf, they need the leader;
+/// both split the platoon behind the car), with no attack and with a false-data bias on
+/// follower 2's packets while the car is there.
 #[test]
 fn traffic_runs_each_law_on_a_topology_it_can_and_scores_the_forged_packets() {
     use platoon_config::LawName;
     let base = Base::load(None, Embedded::CutIn).unwrap();
     let opts = experiment::TrafficOptions {
-        laws: vec![LawName::Paper, LawName::PathCacc],
+        laws: vec![LawName::Paper, LawName::PathCacc, LawName::Flatbed],
         gaps_m: vec![3.0],
         speed_diffs_mps: vec![-4.0],
         attacks: vec!["none".into(), "fdi-bias".into()],
@@ -257,7 +258,7 @@ fn traffic_runs_each_law_on_a_topology_it_can_and_scores_the_forged_packets() {
         plant: platoon_config::PlantKind::Native,
     };
     let t = experiment::traffic(&base, &opts, None, &()).unwrap();
-    assert_eq!(t.rows.len(), 4);
+    assert_eq!(t.rows.len(), 6);
     for r in &t.rows {
         assert_eq!(r.topology, if r.law == "paper" { "pf" } else { "plf" });
         // The car stays 10 s; the follower is on its ACC at least that long.
@@ -271,12 +272,13 @@ fn traffic_runs_each_law_on_a_topology_it_can_and_scores_the_forged_packets() {
             assert!(forged > 0, "{r:?}");
         }
     }
-    assert_eq!(t.markdown.lines().count(), 2 + 4, "{}", t.markdown);
+    assert_eq!(t.markdown.lines().count(), 2 + 6, "{}", t.markdown);
     // The rows docs/traffic.md quotes.
     for row in [
         "| paper | pf | 3 | -4 | none | 0/1 | 0.09 | 11.0 | 50.0 | 11 | 0 | 0 |",
         "| paper | pf | 3 | -4 | fdi-bias | 0/1 | 0.09 | 11.0 | 50.0 | 12 | 9 | 14 |",
-        "| path_cacc | plf | 3 | -4 | none | 0/1 | 0.10 | 11.0 | 14.0 | 6 | 0 | 0 |",
+        "| path_cacc | plf | 3 | -4 | none | 0/1 | 0.10 | 11.0 | 20.0 | 6 | 0 | 0 |",
+        "| flatbed | plf | 3 | -4 | none | 0/1 | 0.08 | 11.0 | 20.0 | 38 | 0 | 0 |",
     ] {
         assert!(
             t.markdown.contains(row),

@@ -152,10 +152,10 @@ pub fn latency(a: Latency) -> Result<LatencyReport> {
     dir.write("config.toml", platoon_config::to_toml(&config).as_bytes())?;
     let exe = platoon_app::platoon_program()?;
     let n = scenario.topology.followers();
+    let hearing = scenario.hearing();
     let items: usize = (0..=n)
         .map(|v| {
-            scenario
-                .topology
+            hearing
                 .out_neighbours(platoon_model::VehicleId(v as u16))
                 .len()
         })

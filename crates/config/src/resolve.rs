@@ -365,12 +365,16 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
     c.fallback.mode = Some(fallback.mode);
     c.control.attack_input = None;
     let law = c.control.law.params();
-    if law == platoon_control::LawParams::Paper && fallback.cut_in.is_some_and(|h| h.split) {
+    if !law.follows_head() && fallback.cut_in.is_some_and(|h| h.split) {
         return bad(
             "fallback.cut_in.split",
-            "the paper's law couples every follower through the topology's Laplacian and has no \
-             leader to re-point: split behind a cut-in works with the field's laws that read the \
-             leader's packets (control.law = \"path_cacc\" or \"flatbed\")",
+            format!(
+                "law = \"{}\" has no leader to re-point (the paper's law couples the followers \
+                 through the topology, the others read their predecessor or every member by \
+                 place): split behind a cut-in works with the laws that read the leader's \
+                 packets, control.law = \"path_cacc\" or \"flatbed\"",
+                law.name()
+            ),
         );
     }
     if law != platoon_control::LawParams::Paper

@@ -158,6 +158,13 @@ impl LawParams {
         }
     }
 
+    /// Whether a follower reads its leader's packets through [`View::leader`], so that a
+    /// platoon split behind a cut-in re-points it to the member heading its part
+    /// (`[fallback.cut_in] split`): the PATH CACC and the flatbed controller.
+    pub fn follows_head(&self) -> bool {
+        matches!(self, Self::PathCacc(_) | Self::Flatbed(_))
+    }
+
     /// Which vehicles a follower of this law must hear from (besides nobody for the ACC):
     /// `(predecessor, leader)`.
     pub fn needs(&self) -> (bool, bool) {

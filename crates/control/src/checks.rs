@@ -92,7 +92,7 @@ impl Heard {
 #[derive(Debug, Clone)]
 pub struct PacketChecks {
     /// Per follower: its graph's in-neighbours, then the members ahead it hears besides them
-    /// ([`PacketChecks::hearing_all_ahead`]).
+    /// when the platoon may split (`PacketChecks::hearing_all_ahead`).
     neighbours: Vec<Vec<VehicleId>>,
     /// Per follower: how many of `neighbours` are its graph's.
     graph: Vec<usize>,
@@ -139,8 +139,8 @@ impl PacketChecks {
     /// behind a car that cut in ([`platoon_topology::Topology::hearing_all_ahead`]). Their
     /// packets pass the same checks; [`PacketChecks::neighbours`] and [`PacketChecks::heard`]
     /// still list the graph's neighbours only, [`PacketChecks::heard_from`] reaches them all.
-    /// Call it before the detectors are added.
-    pub fn hearing_all_ahead(mut self, initial: &[State]) -> Self {
+    /// Before the detectors are added (their state is kept per neighbour).
+    pub(crate) fn hearing_all_ahead(mut self, initial: &[State]) -> Self {
         for (fi, (ns, heard)) in self.neighbours.iter_mut().zip(&mut self.heard).enumerate() {
             for j in (1..=fi).map(VehicleId::follower) {
                 if !ns.contains(&j) {
@@ -335,7 +335,7 @@ impl PacketChecks {
     }
 
     /// The last packet accepted by follower `i` from vehicle `j`, a neighbour in its graph or,
-    /// with [`PacketChecks::hearing_all_ahead`], any member ahead.
+    /// when the platoon may split behind a cut-in (`[fallback.cut_in] split`), any member ahead.
     pub fn heard_from(&self, i: VehicleId, j: VehicleId) -> Option<&Heard> {
         let fi = i.index() - 1;
         let s = self.neighbours[fi].iter().position(|&n| n == j)?;

@@ -351,7 +351,9 @@ impl Controller for ComposedController {
             f.step.mode = mode;
             f.step.guard = guard;
             f.step.head = f.head;
-            f.leading = split && mode == crate::Mode::CutIn;
+            // It heads while on the car's ACC, and while an attack's fallback interrupts that
+            // with the car still ahead.
+            f.leading = split && (mode == crate::Mode::CutIn || situation.cut_in);
             *u_out = u;
         }
         &self.commands
@@ -488,8 +490,8 @@ mod tests {
         }
     }
 
-    /// Follower 1 runs ACC on a car that cut in ahead of it on steps 5 to 14 and, with a split,
-    /// heads followers 2 and 3 meanwhile: they hear it (though `plf` gives them only their
+    /// Follower 1 runs ACC on a car that cut in ahead of it on steps 5 to 14 (but for two steps
+    /// of an attack's fallback) and, with a split, heads followers 2 and 3 meanwhile: they hear it (though `plf` gives them only their
     /// predecessor and the leader), take its packets as their leader's from the step after
     /// it announced itself, blend to the new reference from their last command, and take the
     /// leader again once it no longer announces itself. Each vehicle drives at its own speed,
@@ -562,7 +564,13 @@ mod tests {
                 ahead(9.0, false),
                 ahead(9.0, false),
             ]);
-            let cmd = c.receive(k, &x, &deliveries, &[false; 4]).to_vec();
+            // An attack drives follower 1 into its fallback on steps 9 and 10, the car still
+            // ahead: it keeps heading.
+            let jammed = [false, (9..11).contains(&k), false, false];
+            let cmd = c.receive(k, &x, &deliveries, &jammed).to_vec();
+            if (9..11).contains(&k) {
+                assert_eq!(c.follower_step(VehicleId(1)).mode, Mode::Zero, "step {k}");
+            }
             heads.push([1, 2, 3].map(|i| c.follower_step(VehicleId(i)).head.0));
             u.push(cmd);
             // Follower 1 announces itself while on the car's ACC, the others their head.

@@ -463,7 +463,8 @@ pub struct Situation<'a> {
     pub length_ahead: f64,
     /// Whether the law's reference changed at this step (a new leader after a split or its
     /// end): on its law the follower then blends from its last command to the law's over the
-    /// cut-in's `blend` steps, as on the way back from a fallback ([`Return::CommandBlend`]).
+    /// cut-in's `blend` steps, as on the way back from a fallback. For a machine that returns
+    /// by [`Return::CommandBlend`] only (a spacing offset has no reference to hand over).
     pub rebased: bool,
 }
 
@@ -602,7 +603,9 @@ impl FallbackMachine {
                 }
             }
             // A new reference on the law: from the last command to the new law's, blended.
-            (Phase::Law | Phase::Back { .. }, false, false) if s.rebased && blend(true) > 0 => {
+            (Phase::Law | Phase::Back { .. }, false, false)
+                if s.rebased && self.back == Return::CommandBlend && blend(true) > 0 =>
+            {
                 Phase::Back {
                     exit: s.k,
                     delta0: State::zeros(),

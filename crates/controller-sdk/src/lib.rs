@@ -23,7 +23,8 @@
 //! impl Controller for Brake {
 //!     fn transmit(&mut self, k: u64, states: &[State], out: &mut Vec<Packet>) {
 //!         let seq = k as u32 + 1;
-//!         out.push(Packet { sender: VehicleId(0), seq, step: k, state: states[0], u: 0.0 });
+//!         let (sender, head) = (VehicleId::LEADER, VehicleId::LEADER);
+//!         out.push(Packet { sender, seq, step: k, state: states[0], u: 0.0, head });
 //!     }
 //!     fn receive(&mut self, _k: u64, _s: &[State], _d: &[Delivery], _j: &[bool]) -> &[f64] {
 //!         self.u.fill(-0.5);

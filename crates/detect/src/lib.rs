@@ -77,6 +77,7 @@
 //!     step: 110,
 //!     state: State::new(102.0, 20.0, -8.0),
 //!     u: 0.0,
+//!     head: VehicleId::LEADER,
 //! };
 //! let obs = Observation {
 //!     k: 110,

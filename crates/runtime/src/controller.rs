@@ -140,6 +140,13 @@ pub fn run(
                                     p.sender.0
                                 )));
                             };
+                            if p.head.index() >= n1 {
+                                return Err(fail(format!(
+                                    "step {k}: platoon {j}: vehicle {} names vehicle {} as its \
+                                     head, which the platoon does not have",
+                                    p.sender.0, p.head.0
+                                )));
+                            }
                             // At most one broadcast per vehicle and step: the tx outlet holds
                             // one item per link.
                             if std::mem::replace(&mut sent[p.sender.index()], true) {

@@ -379,7 +379,12 @@ pub fn packet_to_wire(p: &Packet, stamp_ns: u64, j: usize, num: Numbering) -> V2
         stamp_ns,
         state: [p.state[0], p.state[1], p.state[2]],
         u: p.u,
-        head: num.global(j, p.head),
+        // A head no vehicle has (one a receiver could not place) stays one.
+        head: if p.head.0 == u16::MAX {
+            u32::MAX
+        } else {
+            num.global(j, p.head)
+        },
         reserved: 0,
     }
 }

@@ -25,7 +25,8 @@ use iceoryx2::prelude::ZeroCopySend;
 ///   Later, still v2: [`VehicleState::flags`] bits 8-31 name an intruder
 ///   ([`VehicleState::TARGET_SHIFT`]; bits that were 0, and every reader tests bits).
 /// - v3: [`V2vPacket`] gained `head`, the head of the platoon the sender drives in (a platoon
-///   split behind a car that cut in), and `reserved` (64 bytes, was 56).
+///   split behind a car that cut in), and `reserved` (64 bytes, was 56); [`Command::flags`]
+///   bits 8-23 say whom the follower took as its leader.
 pub const CONTRACT_VERSION: u32 = 3;
 
 /// The environment variable in which `platoon run` gives every process it starts the contract

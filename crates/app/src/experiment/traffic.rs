@@ -131,7 +131,8 @@ pub struct Traffic {
 /// by default: its car, profile, `[fallback.cut_in]` and radar) with each law on its own
 /// beaconing and on the base's distances (each law's standstill gap set to the platoon's, so the
 /// car fits the same gap), on `pf`, or `plf` for the laws that need the leader, the guard on,
-/// and the three built-in detectors logging. With `out`: config.toml, traffic.csv, traffic.md and
+/// the PATH CACC and the flatbed controller splitting the platoon behind the car, and the three
+/// built-in detectors logging. With `out`: config.toml, traffic.csv, traffic.md and
 /// one smallest-gap plot per gap. On SUMO (`opts.plant`) every run is `platoon run --plant sumo`
 /// of the same scenario (the cut-in a SUMO vehicle), its run directory (summary.json,
 /// sumo.json, the logs; no per-step tables) in `runs/<law>-gap<G>-dv<V>-<attack>-r<R>` of `out`
@@ -340,6 +341,13 @@ fn configure(
     keep_law_spacing(&mut c);
     in_formation(&mut c);
     c.guard.enabled = true;
+    // The laws that read the leader's packets split the platoon behind the car, so the
+    // followers behind it keep their distance to the member that drops back (docs/traffic.md).
+    if matches!(law, LawName::PathCacc | LawName::Flatbed) {
+        if let Some(h) = &mut c.fallback.cut_in {
+            h.split = true;
+        }
+    }
     let detection = c.detection.get_or_insert_with(Default::default);
     detection.plausibility.get_or_insert_with(Default::default);
     detection.radar_cross.get_or_insert_with(Default::default);

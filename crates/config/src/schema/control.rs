@@ -231,7 +231,8 @@ pub struct CutInHandling {
     /// their leader (the laws that read the leader's packets: `path_cacc`, `flatbed`) until it
     /// returns; each switch of leader is blended over `blend_s`. Every follower then also hears
     /// the members ahead of it beyond its `[topology]` (the channel carries those links too).
-    /// Not for the paper's law (its coupling is the topology's; no leader to re-point).
+    /// Only for those two laws (the others have no leader to re-point).
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
     pub split: bool,
 }
 
