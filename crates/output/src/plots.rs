@@ -277,11 +277,15 @@ fn mode_color(m: platoon_control::Mode) -> RGBColor {
     }
 }
 
+/// The band of a follower led by a member ahead heading a split platoon.
+const SPLIT: RGBColor = RGBColor(90, 40, 140);
+
 /// The mode of every follower over time, one band each (white: cooperative; a colour per
 /// fallback and for the blend back), the guard's braking as red ticks above the band, the
 /// packets its misbehaviour detectors flagged (`flags`: follower, t) as black ticks below it,
 /// and the observed jams shaded: drawn when some follower left the cooperative law or a
-/// detector flagged something.
+/// detector flagged something; in runs that split behind a cut-in, a thin band along the row
+/// while a member ahead heading the split leads the follower.
 pub fn modes(
     path: &Path,
     scenario: &Scenario,
@@ -330,6 +334,16 @@ pub fn modes(
                     .map(|r| Rectangle::new([(r.t, y + 0.32), (r.t + dt, y + 0.45)], RED.filled())),
             )
             .map_err(err)?;
+        // Led by a member ahead heading a split platoon: a thin band along the row.
+        chart
+            .draw_series(
+                mine.iter()
+                    .filter(|r| r.head.is_some_and(|h| h != 0))
+                    .map(|r| {
+                        Rectangle::new([(r.t, y - 0.05), (r.t + dt, y + 0.05)], SPLIT.filled())
+                    }),
+            )
+            .map_err(err)?;
         chart
             .draw_series(
                 flags
@@ -354,6 +368,13 @@ pub fn modes(
         .map_err(err)?
         .label("guard braking")
         .legend(|(x, y)| Rectangle::new([(x, y - 5), (x + 12, y + 5)], RED.filled()));
+    if scenario.splits() {
+        chart
+            .draw_series(std::iter::empty::<Rectangle<(f64, f64)>>())
+            .map_err(err)?
+            .label("led by a split's head")
+            .legend(|(x, y)| Rectangle::new([(x, y - 2), (x + 12, y + 2)], SPLIT.filled()));
+    }
     if !flags.is_empty() {
         chart
             .draw_series(std::iter::empty::<Rectangle<(f64, f64)>>())
