@@ -8,7 +8,8 @@ with the platoon's own vehicle ids: 0 the leader, 1..N the followers) and pass a
 `run`; everything else of docs/controller-contract.md is done here (the same shape as the Rust
 SDK, crates/controller-sdk): the ports of the run named by PLATOON_RUN_ID, READY, waiting on
 wake-ups (never busy polling), one tx sample per step with each broadcast sent to every
-out-neighbour of its sender ([topology] of the config), sorting the rx sample into deliveries
+out-neighbour of its sender (the run's `hearing` graph: [topology] of the config, plus every
+member ahead when the platoon splits behind a cut-in), sorting the rx sample into deliveries
 and jammed notices, one commands sample per step with its flags, DONE with the packets your
 controller refused, STOP/ABORT, and exiting when `platoon run` is gone. An exception in your
 code, a missing or non-finite command, or a broadcast from a vehicle the platoon does not have

@@ -15,8 +15,9 @@ pub struct Step<'a> {
     pub k: u64,
     /// Its time (s).
     pub t: f64,
-    /// The platoon's communication graph: each broadcast is meant for its sender's
-    /// out-neighbours.
+    /// Who hears whom on the platoon's channel: each broadcast is meant for its sender's
+    /// out-neighbours (the scenario's topology, plus every member ahead when the platoon splits
+    /// behind a cut-in: `platoon_sim::Scenario::hearing`).
     pub topology: &'a Topology,
     /// Every vehicle's true state at step k, leader first.
     pub states: &'a [State],
