@@ -1902,4 +1902,22 @@ fn a_split_runs_bit_identically_on_both_transports() {
         "the head column"
     );
     assert_eq!(json(&ipc.join("summary.json"))["safety"]["collided"], false);
+    // A forged split (follower 2 announcing itself as a head from 40 s to 45 s) crosses the
+    // wire too: the same rows, events and ground-truth labels on both transports.
+    let tmp = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(repo().join("configs/cut-in-split.toml")).unwrap();
+    let c = tmp.path().join("forged-split.toml");
+    std::fs::write(
+        &c,
+        format!(
+            "{text}\n[detection]\nplausibility = {{}}\n\n[[channel.attacks]]\n\
+             kind = \"forged_head\"\nsenders = [2]\nstart_s = 40.0\nend_s = 45.0\n"
+        ),
+    )
+    .unwrap();
+    let runs = transports_agree(c.to_str().unwrap());
+    let ipc = runs.path().join("ipc");
+    same_outputs(&ipc, &runs.path().join("inproc"), &["detections.csv"]);
+    let labels = &json(&ipc.join("summary.json"))["detection"]["labels"];
+    assert_eq!(labels["altered"], 100, "{labels}");
 }

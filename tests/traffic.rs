@@ -187,6 +187,51 @@ fn a_split_behind_the_car_keeps_the_flatbed_followers_apart() {
     );
 }
 
+/// A forged formation update (`forged_head`): an insider, follower 2, announces in every packet
+/// from 40 s to 45 s (after the split behind the car has merged) that it heads a split. The
+/// followers behind it take it as their leader for exactly that window and the leader again
+/// after it, nobody collides, and the ground truth labels every copy of its forged packets
+/// `altered` (the head differs from the one broadcast), every other packet `genuine`.
+#[test]
+fn a_forged_split_is_labelled_and_the_platoon_merges_again() {
+    let text = std::fs::read_to_string(repo().join("configs/cut-in-split.toml")).unwrap();
+    let text = format!(
+        "{text}\n[detection]\nplausibility = {{}}\n\n[[channel.attacks]]\nkind = \"forged_head\"\n\
+         senders = [2]\nstart_s = 40.0\nend_s = 45.0\ninsider = true\n"
+    );
+    let (rows, summary, _) = run(scenario(&text));
+    assert!(!summary.safety.collided, "{:?}", summary.safety);
+    let led = |i: u16| -> Vec<u64> {
+        rows.iter()
+            .filter(|r| r.vehicle == i && r.head == Some(2))
+            .map(|r| r.step)
+            .collect()
+    };
+    // Follower 2 beacons every 10 steps: its first forged packet is that of step 4000, its
+    // first true one again that of step 4500.
+    for i in [3, 4] {
+        let steps = led(i);
+        assert_eq!(
+            (steps.first(), steps.last(), steps.len()),
+            (Some(&4000), Some(&4499), 500),
+            "follower {i}"
+        );
+    }
+    assert!(rows
+        .iter()
+        .filter(|r| r.step == 7000)
+        .all(|r| r.head == Some(0)));
+    // Its packets of the window reach followers 3 and 4 (they hear every member ahead).
+    let detection = summary.detection.as_ref().unwrap();
+    let labels = &detection.labels;
+    assert_eq!(labels.get("altered"), Some(&(2 * 50)), "{labels:?}");
+    assert_eq!(labels.len(), 2, "{labels:?}");
+    // The plausibility checks test what a packet says of its sender's motion, which is true:
+    // the forged formation passes them all.
+    let altered = detection.detectors[0].by_label["altered"];
+    assert_eq!((altered.tp, altered.fn_), (0, 100), "{altered:?}");
+}
+
 #[test]
 fn runs_without_cut_ins_see_the_predecessor_as_before() {
     // The plant's view of the lane without traffic is the predecessor, value for value.

@@ -86,6 +86,10 @@ pub enum LinkAttackKind {
         /// The factor.
         factor: f64,
     },
+    /// A forged formation update: the targeted senders' packets announce that the sender heads
+    /// a platoon split behind a cut-in (`Packet::head` = the sender), so the followers behind it
+    /// that split (`[fallback.cut_in] split`) take it as their leader; the state stays true.
+    ForgedHead,
 }
 
 impl LinkAttackKind {
@@ -102,10 +106,12 @@ impl LinkAttackKind {
             Self::Drift { .. } => "drift",
             Self::FeignedBraking { .. } => "feigned_braking",
             Self::AccelScale { .. } => "accel_scale",
+            Self::ForgedHead => "forged_head",
         }
     }
 
-    /// Whether the model alters a packet's state (the kinds an insider can be given).
+    /// Whether the model alters what a packet says (its state, or the formation it announces):
+    /// the kinds an insider can be given.
     pub fn alters_state(&self) -> bool {
         matches!(
             self,
@@ -114,12 +120,14 @@ impl LinkAttackKind {
                 | Self::Drift { .. }
                 | Self::FeignedBraking { .. }
                 | Self::AccelScale { .. }
+                | Self::ForgedHead
         )
     }
 
-    /// Alters `state` as the model says at `since_s` after the attack's start (drawing from
-    /// `rng` for the random offset); false for the kinds that do not alter states.
-    fn alter(&self, since_s: f64, state: &mut State, rng: &mut ChaCha8Rng) -> bool {
+    /// Alters `packet` as the model says at `since_s` after the attack's start (drawing from
+    /// `rng` for the random offset); false for the kinds that do not alter what it says.
+    fn alter(&self, since_s: f64, packet: &mut Packet, rng: &mut ChaCha8Rng) -> bool {
+        let state = &mut packet.state;
         match *self {
             Self::FalseData { offset } => *state += State::from(offset),
             Self::RandomOffset { std } => {
@@ -131,6 +139,7 @@ impl LinkAttackKind {
             }
             Self::FeignedBraking { accel } => state[2] = accel,
             Self::AccelScale { factor } => state[2] *= factor,
+            Self::ForgedHead => packet.head = packet.sender,
             Self::Bernoulli { .. }
             | Self::GilbertElliott { .. }
             | Self::Delay { .. }
@@ -514,9 +523,7 @@ impl Channel {
                 && a.active(t)
                 && (a.senders.is_empty() || a.senders.contains(&packet.sender))
             {
-                lied |= a
-                    .kind
-                    .alter(t - a.start_s, &mut packet.state, &mut self.noise_rng);
+                lied |= a.kind.alter(t - a.start_s, packet, &mut self.noise_rng);
             }
         }
         lied
@@ -599,9 +606,10 @@ impl Channel {
                 | LinkAttackKind::RandomOffset { .. }
                 | LinkAttackKind::Drift { .. }
                 | LinkAttackKind::FeignedBraking { .. }
-                | LinkAttackKind::AccelScale { .. } => {
+                | LinkAttackKind::AccelScale { .. }
+                | LinkAttackKind::ForgedHead => {
                     a.kind
-                        .alter(t - a.start_s, &mut packet.state, &mut self.noise_rng);
+                        .alter(t - a.start_s, &mut packet, &mut self.noise_rng);
                     log.push(event(at, &packet, receiver, Action::Altered, None));
                 }
             }

@@ -488,7 +488,8 @@ mod tests {
                 "random_offset",
                 "drift",
                 "feigned_braking",
-                "accel_scale"
+                "accel_scale",
+                "forged_head"
             ]
         );
         assert!(link.matches("channel.attacks[12]"));

@@ -24,6 +24,10 @@ accel_mps2 = -6.0
 kind = "accel_scale"
 factor = 2.5
 insider = false
+
+[[channel.attacks]]
+kind = "forged_head"
+senders = [1]
 "#;
 
 fn paper_plus(extra: &str) -> Result<(platoon_config::Config, platoon_sim::Scenario), String> {
@@ -56,6 +60,7 @@ fn the_state_altering_kinds_load_as_outsiders_or_insiders() {
             ),
             (LinkAttackKind::FeignedBraking { accel: -6.0 }, false),
             (LinkAttackKind::AccelScale { factor: 2.5 }, false),
+            (LinkAttackKind::ForgedHead, false),
         ]
     );
     assert!(got.iter().all(|(k, _)| k.alters_state()));

@@ -239,6 +239,7 @@ pub(super) fn channel(
             LinkKindConfig::AccelScale { factor, .. } => LinkAttackKind::AccelScale {
                 factor: finite(&key("factor"), factor)?,
             },
+            LinkKindConfig::ForgedHead { .. } => LinkAttackKind::ForgedHead,
         };
         let insider = a.kind.insider();
         if insider && a.receivers.is_some() {

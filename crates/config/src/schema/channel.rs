@@ -343,6 +343,17 @@ pub enum LinkKindConfig {
         #[schemars(extend("default" = false))]
         insider: bool,
     },
+    /// A forged formation update: the senders' packets announce that the sender heads a platoon
+    /// split behind a cut-in, so the followers behind it that split (`[fallback.cut_in] split`)
+    /// take it as their leader; the state stays true.
+    ForgedHead {
+        /// An insider (a platoon member lying about itself): the packet is altered once as it
+        /// is sent, so every receiver gets the same lie; not with `receivers`. Otherwise an
+        /// outsider alters each link's copy on its own.
+        #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+        #[schemars(extend("default" = false))]
+        insider: bool,
+    },
 }
 
 /// The bad state loses every packet.
@@ -363,7 +374,8 @@ impl LinkKindConfig {
             | Self::RandomOffset { insider, .. }
             | Self::Drift { insider, .. }
             | Self::FeignedBraking { insider, .. }
-            | Self::AccelScale { insider, .. } => insider,
+            | Self::AccelScale { insider, .. }
+            | Self::ForgedHead { insider } => insider,
             Self::Bernoulli { .. }
             | Self::GilbertElliott { .. }
             | Self::Delay { .. }
