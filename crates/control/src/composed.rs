@@ -302,15 +302,13 @@ impl Controller for ComposedController {
         {
             let own = states[f.id.index()];
             let truth = truths[f.id.index()];
-            // The nearest member ahead that announced itself as a head leads it.
-            let head = (1..f.id.index())
-                .rev()
-                .map(VehicleId::follower)
-                .filter(|_| split)
-                .find_map(|j| {
-                    let h = self.checks.heard_from(f.id, j)?;
-                    h.heads(j).then_some((j, h))
-                });
+            // The nearest member ahead that announced itself as a head leads it (no search
+            // in a platoon that never splits).
+            let ahead = if split { 1..f.id.index() } else { 1..1 };
+            let head = ahead.rev().map(VehicleId::follower).find_map(|j| {
+                let h = self.checks.heard_from(f.id, j)?;
+                h.heads(j).then_some((j, h))
+            });
             let rebased = head.map_or(VehicleId::LEADER, |(j, _)| j) != f.head;
             f.head = head.map_or(VehicleId::LEADER, |(j, _)| j);
             let view = View {
