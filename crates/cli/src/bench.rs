@@ -1,5 +1,6 @@
 //! `platoon bench`: the arguments of each benchmark (the harness and its defaults are
 //! `platoon_bench`'s).
+use crate::outdir::OutDir;
 use anyhow::Result;
 use platoon_bench::{All, Campaign, Design, Latency, Search, Step};
 use std::path::PathBuf;
@@ -49,6 +50,7 @@ pub(crate) enum Bench {
 
 /// Arguments of `platoon bench latency`.
 #[derive(Debug, clap::Args)]
+#[command(mut_arg("out", |a| a.help("Output directory [default: runs/bench-latency]")))]
 pub(crate) struct LatencyArgs {
     /// Scenario config (TOML) [default: the embedded configs/paper.toml].
     pub config: Option<PathBuf>,
@@ -62,16 +64,13 @@ pub(crate) struct LatencyArgs {
     /// processes it collapses).
     #[arg(long)]
     pub busy_poll: bool,
-    /// Output directory [default: runs/bench-latency].
-    #[arg(long)]
-    pub out: Option<PathBuf>,
-    /// Replace the output directory if it exists.
-    #[arg(long)]
-    pub force: bool,
+    #[command(flatten)]
+    pub output: OutDir,
 }
 
 /// Arguments of `platoon bench step`.
 #[derive(Debug, clap::Args)]
+#[command(mut_arg("out", |a| a.help("Output directory [default: runs/bench-step]")))]
 pub(crate) struct StepArgs {
     /// Numbers of followers (multiples of 4: platoons of 4 followers).
     #[arg(long, value_delimiter = ',', default_values_t = Step::default().followers)]
@@ -100,16 +99,13 @@ pub(crate) struct StepArgs {
     /// directories are the last round's.
     #[arg(long, default_value_t = Step::default().rounds, value_parser = clap::value_parser!(u32).range(1..))]
     pub rounds: u32,
-    /// Output directory [default: runs/bench-step].
-    #[arg(long)]
-    pub out: Option<PathBuf>,
-    /// Replace the output directory if it exists.
-    #[arg(long)]
-    pub force: bool,
+    #[command(flatten)]
+    pub output: OutDir,
 }
 
 /// Arguments of `platoon bench design`.
 #[derive(Debug, clap::Args)]
+#[command(mut_arg("out", |a| a.help("Output directory [default: runs/bench-design]")))]
 pub(crate) struct DesignArgs {
     /// Numbers of followers of the designs.
     #[arg(long, value_delimiter = ',', default_values_t = Design::default().followers)]
@@ -117,16 +113,13 @@ pub(crate) struct DesignArgs {
     /// Numbers of followers of the checks (PLF, the paper's K).
     #[arg(long, value_delimiter = ',', default_values_t = Design::default().check_followers)]
     pub check_followers: Vec<usize>,
-    /// Output directory [default: runs/bench-design].
-    #[arg(long)]
-    pub out: Option<PathBuf>,
-    /// Replace the output directory if it exists.
-    #[arg(long)]
-    pub force: bool,
+    #[command(flatten)]
+    pub output: OutDir,
 }
 
 /// Arguments of `platoon bench campaign`.
 #[derive(Debug, clap::Args)]
+#[command(mut_arg("out", |a| a.help("Output directory [default: runs/bench-campaign]")))]
 pub(crate) struct CampaignArgs {
     /// Cells of the local runs.
     #[arg(long, default_value_t = Campaign::default().cells)]
@@ -138,16 +131,13 @@ pub(crate) struct CampaignArgs {
     /// start the Python driver and its client, so fewer cells measure mostly that.
     #[arg(long, default_value_t = Campaign::default().dask_cells)]
     pub dask_cells: usize,
-    /// Output directory [default: runs/bench-campaign].
-    #[arg(long)]
-    pub out: Option<PathBuf>,
-    /// Replace the output directory if it exists.
-    #[arg(long)]
-    pub force: bool,
+    #[command(flatten)]
+    pub output: OutDir,
 }
 
 /// Arguments of `platoon bench search`.
 #[derive(Debug, clap::Args)]
+#[command(mut_arg("out", |a| a.help("Output directory [default: runs/bench-search]")))]
 pub(crate) struct SearchArgs {
     /// Evaluations of the search.
     #[arg(long, default_value_t = Search::default().evaluations)]
@@ -155,23 +145,16 @@ pub(crate) struct SearchArgs {
     /// Local pool sizes to measure.
     #[arg(long, value_delimiter = ',', default_values_t = Search::default().jobs)]
     pub jobs: Vec<usize>,
-    /// Output directory [default: runs/bench-search].
-    #[arg(long)]
-    pub out: Option<PathBuf>,
-    /// Replace the output directory if it exists.
-    #[arg(long)]
-    pub force: bool,
+    #[command(flatten)]
+    pub output: OutDir,
 }
 
 /// Arguments of `platoon bench all`.
 #[derive(Debug, clap::Args)]
+#[command(mut_arg("out", |a| a.help("Output directory [default: runs/bench]")))]
 pub(crate) struct AllArgs {
-    /// Output directory [default: runs/bench].
-    #[arg(long)]
-    pub out: Option<PathBuf>,
-    /// Replace the output directory if it exists.
-    #[arg(long)]
-    pub force: bool,
+    #[command(flatten)]
+    pub output: OutDir,
     /// Where to write the report.
     #[arg(long, default_value_os_t = All::default().markdown)]
     pub markdown: PathBuf,
@@ -196,8 +179,8 @@ impl From<LatencyArgs> for Latency {
             iterations: a.iterations,
             warmup: a.warmup,
             busy_poll: a.busy_poll,
-            out: a.out,
-            force: a.force,
+            out: a.output.out,
+            force: a.output.force,
         }
     }
 }
@@ -210,8 +193,8 @@ impl From<StepArgs> for Step {
             seconds: a.seconds,
             no_peers: a.no_peers,
             rounds: a.rounds,
-            out: a.out,
-            force: a.force,
+            out: a.output.out,
+            force: a.output.force,
         }
     }
 }
@@ -221,8 +204,8 @@ impl From<DesignArgs> for Design {
         Self {
             followers: a.followers,
             check_followers: a.check_followers,
-            out: a.out,
-            force: a.force,
+            out: a.output.out,
+            force: a.output.force,
         }
     }
 }
@@ -233,8 +216,8 @@ impl From<CampaignArgs> for Campaign {
             cells: a.cells,
             jobs: a.jobs,
             dask_cells: a.dask_cells,
-            out: a.out,
-            force: a.force,
+            out: a.output.out,
+            force: a.output.force,
         }
     }
 }
@@ -244,8 +227,8 @@ impl From<SearchArgs> for Search {
         Self {
             evaluations: a.evaluations,
             jobs: a.jobs,
-            out: a.out,
-            force: a.force,
+            out: a.output.out,
+            force: a.output.force,
         }
     }
 }
@@ -253,8 +236,8 @@ impl From<SearchArgs> for Search {
 impl From<AllArgs> for All {
     fn from(a: AllArgs) -> Self {
         Self {
-            out: a.out,
-            force: a.force,
+            out: a.output.out,
+            force: a.output.force,
             markdown: a.markdown,
         }
     }

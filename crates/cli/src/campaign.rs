@@ -19,13 +19,8 @@ pub struct Args {
     /// this run completes.
     #[arg(long)]
     pub force: bool,
-    /// Cells run at once by the local pool [default: the number of cores].
-    #[arg(long, short = 'j')]
-    pub jobs: Option<std::num::NonZeroUsize>,
-    /// Send the cells to a running Dask scheduler (e.g. tcp://10.0.0.5:8786) instead of the
-    /// local pool; the workers run this same platoon binary (see docs/campaigns.md).
-    #[arg(long, value_name = "ADDRESS")]
-    pub dask: Option<String>,
+    #[command(flatten)]
+    pub executor: Executors,
     /// Keep every cell's full run outputs (trajectories.csv, events.csv, ...) under runs/;
     /// without it each cell keeps its config.toml and summary.json only.
     #[arg(long)]
@@ -40,7 +35,7 @@ pub struct Args {
 
 pub fn run(args: Args) -> Result<()> {
     let campaign = Campaign::load(&args.campaign, args.samples)?;
-    let executor = executor(args.dask.as_deref(), args.jobs);
+    let executor = args.executor.build();
     let out = out_dir(args.out.clone(), &campaign.name);
     let (interrupt, stop) =
         stop_on_signal("stopping: no new cells start; the cells in flight finish or are dropped")?;
@@ -49,14 +44,8 @@ pub fn run(args: Args) -> Result<()> {
         keep_runs: args.keep_runs,
         plots: !args.no_plots,
     };
-    let outcome = platoon_app::campaign::run(
-        &campaign,
-        &out,
-        &opts,
-        &*executor,
-        &stop,
-        &crate::progress::Bar::cells(),
-    )?;
+    let bar = crate::progress::Bar::cells();
+    let outcome = platoon_app::campaign::run(&campaign, &out, &opts, &*executor, &stop, &bar)?;
     let cells = campaign.cells.len();
     let done = cells - outcome.count(CellStatus::NotRun);
     if outcome.stopped.is_some() {
@@ -105,14 +94,28 @@ pub fn cell_command() -> Result<()> {
     Ok(())
 }
 
-/// The executor of `--dask ADDRESS` (a Dask scheduler), or else a local pool of `--jobs` workers.
-pub(crate) fn executor(
-    dask: Option<&str>,
-    jobs: Option<std::num::NonZeroUsize>,
-) -> Box<dyn Executor> {
-    match dask {
-        Some(address) => Box::new(Dask::new(address.to_string())),
-        None => Box::new(LocalPool::new(jobs)),
+/// `--jobs` and `--dask`: what runs the cells of a campaign or the candidates of a search.
+#[derive(Debug, clap::Args)]
+pub struct Executors {
+    /// Runs at once in the local pool (a campaign's cells, a search's candidates) [default: the
+    /// number of cores].
+    #[arg(long, short = 'j')]
+    pub jobs: Option<std::num::NonZeroUsize>,
+    /// Send the runs to a running Dask scheduler (e.g. tcp://10.0.0.5:8786) instead of the
+    /// local pool, a batch at a time (a search's generation); the workers run this same
+    /// platoon binary (see docs/campaigns.md).
+    #[arg(long, value_name = "ADDRESS")]
+    pub dask: Option<String>,
+}
+
+impl Executors {
+    /// The executor of `--dask ADDRESS` (a Dask scheduler), or else a local pool of `--jobs`
+    /// workers.
+    pub fn build(&self) -> Box<dyn Executor> {
+        match &self.dask {
+            Some(address) => Box::new(Dask::new(address.clone())),
+            None => Box::new(LocalPool::new(self.jobs)),
+        }
     }
 }
 

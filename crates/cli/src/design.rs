@@ -1,5 +1,6 @@
 //! `platoon design`: the arguments and what is printed; the checks, designs and certificates are
 //! [`platoon_app::design`]'s.
+use crate::outdir::OutDir;
 use anyhow::{bail, Context, Result};
 use platoon_app::design::{
     self, BoundsOptions, CheckOptions, CheckReport, Synthesis, SynthesisOptions, Theorem,
@@ -38,6 +39,7 @@ pub enum Design {
 
 /// Arguments of `platoon design synthesize`.
 #[derive(Debug, clap::Args)]
+#[command(mut_arg("out", |a| a.help("Output directory [default: runs/design]")))]
 pub struct SynthesizeArgs {
     /// Scenario config (its topology and nominal tau) [default: the embedded paper config].
     pub config: Option<PathBuf>,
@@ -62,16 +64,13 @@ pub struct SynthesizeArgs {
     /// the duration bound D2 of (16).
     #[arg(long, default_value_t = SynthesisOptions::default().star_fraction)]
     pub star_fraction: f64,
-    /// Output directory [default: runs/design].
-    #[arg(long)]
-    pub out: Option<PathBuf>,
-    /// Replace the output directory if it exists.
-    #[arg(long)]
-    pub force: bool,
+    #[command(flatten)]
+    pub output: OutDir,
 }
 
 /// Arguments of `platoon design check-gain`.
 #[derive(Debug, clap::Args)]
+#[command(mut_arg("out", |a| a.help("Output directory [default: runs/design-check]")))]
 pub struct CheckGainArgs {
     /// Scenario config (its topology, tau range and gain) [default: the embedded paper config].
     pub config: Option<PathBuf>,
@@ -90,12 +89,8 @@ pub struct CheckGainArgs {
     /// time-headway error dynamics (docs/long-platoons.md, "Error dynamics and Theorem 1").
     #[arg(long, value_name = "SECONDS")]
     pub time_headway: Option<f64>,
-    /// Output directory [default: runs/design-check].
-    #[arg(long)]
-    pub out: Option<PathBuf>,
-    /// Replace the output directory if it exists.
-    #[arg(long)]
-    pub force: bool,
+    #[command(flatten)]
+    pub output: OutDir,
 }
 
 /// Arguments of `platoon design bounds`.
@@ -188,10 +183,7 @@ fn check_gain(a: CheckGainArgs) -> Result<()> {
         time_headway: a.time_headway,
     };
     opts.validate()?;
-    let out = a
-        .out
-        .unwrap_or_else(|| PathBuf::from("runs").join("design-check"));
-    let dir = RunDir::create(&out, a.force)?;
+    let dir = RunDir::create(&a.output.path_or("runs/design-check"), a.output.force)?;
     let report = design::check_gain(&config, &scenario, &opts)?;
     report.write(&dir)?;
     let path = dir.commit()?;
@@ -316,10 +308,8 @@ fn synthesize(a: SynthesizeArgs) -> Result<()> {
     let platoon_config::Loaded {
         config, scenario, ..
     } = platoon_config::load_or(a.config.as_deref(), platoon_config::Embedded::Paper)?;
-    let out = a
-        .out
-        .unwrap_or_else(|| PathBuf::from("runs").join("design"));
-    if out.exists() && !a.force {
+    let out = a.output.path_or("runs/design");
+    if out.exists() && !a.output.force {
         bail!(
             "output directory {} exists; choose another --out or pass --force to replace it",
             out.display()
@@ -327,7 +317,7 @@ fn synthesize(a: SynthesizeArgs) -> Result<()> {
     }
     // Nothing is written for an infeasible request: the directory is opened once it succeeded.
     let s = design::synthesize(&config, &scenario, &opts)?;
-    let dir = RunDir::create(&out, a.force)?;
+    let dir = RunDir::create(&out, a.output.force)?;
     s.write(&dir)?;
     let path = dir.commit()?;
     print_synthesis(&s, &opts, scenario.topology.followers())?;

@@ -1,6 +1,7 @@
 //! `platoon experiment`: the arguments and what is printed; the experiments are
 //! [`platoon_app::experiment`]'s.
 use crate::names::one_of;
+use crate::outdir::OutDir;
 use crate::progress::Bar;
 use anyhow::Result;
 use clap::builder::PossibleValuesParser;
@@ -11,7 +12,6 @@ use platoon_app::experiment::{
 };
 use platoon_config::{Embedded, LawName};
 use platoon_control::Reaction;
-use platoon_output::rundir::RunDir;
 use platoon_topology::Preset;
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -107,6 +107,7 @@ pub struct Laws {
 
 /// Arguments of `experiment traffic`.
 #[derive(Debug, clap::Args)]
+#[command(mut_arg("out", |a| a.help("Output directory [default: runs/traffic]")))]
 pub struct TrafficArgs {
     /// Base scenario (TOML) with at least one [[cut_ins]] [default: the embedded
     /// configs/cut-in.toml]: its profile, vehicle length, spacing, cut-in, [fallback.cut_in]
@@ -142,16 +143,13 @@ pub struct TrafficArgs {
     /// --plant sumo`, the car a SUMO vehicle; the runs' directories under runs/).
     #[arg(long, value_enum, default_value = "native")]
     pub plant: platoon_config::PlantKind,
-    /// Output directory [default: runs/traffic].
-    #[arg(long)]
-    pub out: Option<PathBuf>,
-    /// Replace the output directory if it exists.
-    #[arg(long)]
-    pub force: bool,
+    #[command(flatten)]
+    pub output: OutDir,
 }
 
 /// Arguments of `experiment detection`.
 #[derive(Debug, clap::Args)]
+#[command(mut_arg("out", |a| a.help("Output directory [default: runs/detection]")))]
 pub struct DetectionArgs {
     /// Base scenario (TOML) [default: the embedded configs/paper.toml]: its DoS, link attacks
     /// and [detection] are replaced, its fallback set to acc, its duration to --duration.
@@ -208,16 +206,13 @@ pub struct DetectionArgs {
     /// Runs at once [default: the machine's cores].
     #[arg(long)]
     pub jobs: Option<usize>,
-    /// Output directory [default: runs/detection].
-    #[arg(long)]
-    pub out: Option<PathBuf>,
-    /// Replace the output directory if it exists.
-    #[arg(long)]
-    pub force: bool,
+    #[command(flatten)]
+    pub output: OutDir,
 }
 
 /// Arguments of `experiment controllers`.
 #[derive(Debug, clap::Args)]
+#[command(mut_arg("out", |a| a.help("Output directory [default: runs/controllers]")))]
 pub struct ControllersArgs {
     /// Base scenario (TOML) [default: the embedded configs/paper.toml]: its leader profile,
     /// tau, vehicle length, fallback, radar and guard are kept; law, topology, spacing,
@@ -237,16 +232,13 @@ pub struct ControllersArgs {
     /// The field's laws' beacon period (s), a whole number of steps (0.1: 10 Hz, CAM-like).
     #[arg(long, default_value_t = 0.1)]
     pub beacon_period: f64,
-    /// Output directory [default: runs/controllers].
-    #[arg(long)]
-    pub out: Option<PathBuf>,
-    /// Replace the output directory if it exists.
-    #[arg(long)]
-    pub force: bool,
+    #[command(flatten)]
+    pub output: OutDir,
 }
 
 /// Arguments of `experiment scaling`.
 #[derive(Debug, clap::Args)]
+#[command(mut_arg("out", |a| a.help("Output directory [default: runs/scaling-experiment]")))]
 pub struct ScalingArgs {
     /// Base scenario (TOML) [default: the embedded configs/paper.toml]: its leader profile, tau,
     /// trigger, DoS schedule and vehicle length are kept; size, topology, gain and spacing
@@ -278,16 +270,13 @@ pub struct ScalingArgs {
     /// each, about a second at N = 100; larger sizes get empty certificate columns).
     #[arg(long, default_value_t = ScalingOptions::default().certify_up_to)]
     pub certify_up_to: usize,
-    /// Output directory [default: runs/scaling-experiment].
-    #[arg(long)]
-    pub out: Option<PathBuf>,
-    /// Replace the output directory if it exists.
-    #[arg(long)]
-    pub force: bool,
+    #[command(flatten)]
+    pub output: OutDir,
 }
 
 /// Arguments of `experiment degradation`.
 #[derive(Debug, clap::Args)]
+#[command(mut_arg("out", |a| a.help("Output directory [default: runs/degradation]")))]
 pub struct DegradationArgs {
     /// Base scenario (TOML) [default: the embedded configs/degradation.toml]: its [fallback],
     /// [radar] and [guard] settings are kept, its mode, guard switch, attacks and size varied.
@@ -297,16 +286,13 @@ pub struct DegradationArgs {
     /// the size differs.
     #[arg(long, value_delimiter = ',', default_value = "4,10")]
     pub followers: Vec<usize>,
-    /// Output directory [default: runs/degradation].
-    #[arg(long)]
-    pub out: Option<PathBuf>,
-    /// Replace the output directory if it exists.
-    #[arg(long)]
-    pub force: bool,
+    #[command(flatten)]
+    pub output: OutDir,
 }
 
 /// Arguments of `experiment topologies`.
 #[derive(Debug, clap::Args)]
+#[command(mut_arg("out", |a| a.help("Output directory [default: runs/topologies]")))]
 pub struct TopologiesArgs {
     /// Base scenario (TOML) [default: the embedded configs/paper.toml]: tau range, trigger
     /// parameters and Assumption-2 bounds come from it.
@@ -321,16 +307,13 @@ pub struct TopologiesArgs {
     /// Bound on |K| for the designs.
     #[arg(long, default_value_t = TopologiesOptions::default().k_max)]
     pub k_max: f64,
-    /// Output directory [default: runs/topologies].
-    #[arg(long)]
-    pub out: Option<PathBuf>,
-    /// Replace the output directory if it exists.
-    #[arg(long)]
-    pub force: bool,
+    #[command(flatten)]
+    pub output: OutDir,
 }
 
 /// Arguments of `experiment robust`.
 #[derive(Debug, clap::Args)]
+#[command(mut_arg("out", |a| a.help("Output directory [default: runs/robust]")))]
 pub struct RobustArgs {
     /// Base scenario (TOML) [default: the embedded configs/paper.toml]; its attacks are removed.
     #[arg(long)]
@@ -338,27 +321,20 @@ pub struct RobustArgs {
     /// Bound on |K| for the designs.
     #[arg(long, default_value_t = RobustOptions::default().k_max)]
     pub k_max: f64,
-    /// Output directory [default: runs/robust].
-    #[arg(long)]
-    pub out: Option<PathBuf>,
-    /// Replace the output directory if it exists.
-    #[arg(long)]
-    pub force: bool,
+    #[command(flatten)]
+    pub output: OutDir,
 }
 
 /// Arguments of `experiment table1`.
 #[derive(Debug, clap::Args)]
+#[command(mut_arg("out", |a| a.help("Output directory [default: runs/table1]")))]
 pub struct Table1Args {
     /// Base scenario (TOML); its trigger rule is replaced by each rule in turn. Without it, the
     /// embedded configs/table1.toml is used.
     #[arg(long)]
     pub config: Option<PathBuf>,
-    /// Output directory [default: runs/table1].
-    #[arg(long)]
-    pub out: Option<PathBuf>,
-    /// Replace the output directory if it exists.
-    #[arg(long)]
-    pub force: bool,
+    #[command(flatten)]
+    pub output: OutDir,
 }
 
 pub fn run(e: Experiment) -> Result<()> {
@@ -374,26 +350,10 @@ pub fn run(e: Experiment) -> Result<()> {
     }
 }
 
-/// Creates the output directory (`--out`, else `default`; replaced with `force`), runs `write`
-/// into it and commits it, then prints the text `write` returns and where the outputs are.
-fn in_dir(
-    out: Option<PathBuf>,
-    default: &str,
-    force: bool,
-    write: impl FnOnce(&RunDir) -> Result<String>,
-) -> Result<()> {
-    let dir = RunDir::create(&out.unwrap_or_else(|| PathBuf::from(default)), force)?;
-    let text = write(&dir)?;
-    let path = dir.commit()?;
-    print!("{text}");
-    println!("outputs: {}", path.display());
-    Ok(())
-}
-
 fn table1(args: Table1Args) -> Result<()> {
     let base = Base::load(args.config.as_deref(), Embedded::Table1)?;
     experiment::check_table1_base(&base)?;
-    in_dir(args.out, "runs/table1", args.force, |dir| {
+    args.output.write("runs/table1", |dir| {
         Ok(experiment::table1(&base, Some(dir), &Bar::default())?.markdown)
     })
 }
@@ -409,7 +369,7 @@ fn traffic(args: TrafficArgs) -> Result<()> {
     };
     opts.validate()?;
     let base = Base::load(args.config.as_deref(), Embedded::CutIn)?;
-    in_dir(args.out, "runs/traffic", args.force, |dir| {
+    args.output.write("runs/traffic", |dir| {
         let bar = Bar::counting("runs");
         Ok(experiment::traffic(&base, &opts, Some(dir), &bar)?.markdown)
     })
@@ -418,7 +378,7 @@ fn traffic(args: TrafficArgs) -> Result<()> {
 fn robust(args: RobustArgs) -> Result<()> {
     let base = Base::load(args.config.as_deref(), Embedded::Paper)?;
     let opts = RobustOptions { k_max: args.k_max };
-    in_dir(args.out, "runs/robust", args.force, |dir| {
+    args.output.write("runs/robust", |dir| {
         Ok(experiment::robust(&base, &opts, Some(dir), &Bar::default())?.markdown)
     })
 }
@@ -432,7 +392,7 @@ fn topologies(args: TopologiesArgs) -> Result<()> {
     opts.validate()?;
     let base = Base::load(args.config.as_deref(), Embedded::Paper)?;
     experiment::check_topologies_base(&base)?;
-    in_dir(args.out, "runs/topologies", args.force, |dir| {
+    args.output.write("runs/topologies", |dir| {
         let t = experiment::topologies(&base, &opts, Some(dir), &Bar::counting("platoons"))?;
         let mut text = format!(
             "{:<6} {:>3} {:>13} {:>10} {:>8} {:>12}\n",
@@ -455,7 +415,7 @@ fn degradation(args: DegradationArgs) -> Result<()> {
     };
     opts.validate()?;
     let base = Base::load(args.config.as_deref(), Embedded::Degradation)?;
-    in_dir(args.out, "runs/degradation", args.force, |dir| {
+    args.output.write("runs/degradation", |dir| {
         Ok(experiment::degradation(&base, &opts, Some(dir), &Bar::counting("runs"))?.markdown)
     })
 }
@@ -468,7 +428,7 @@ fn controllers(args: ControllersArgs) -> Result<()> {
     };
     opts.validate()?;
     let base = Base::load(args.config.as_deref(), Embedded::Paper)?;
-    in_dir(args.out, "runs/controllers", args.force, |dir| {
+    args.output.write("runs/controllers", |dir| {
         Ok(experiment::controllers(&base, &opts, Some(dir), &Bar::counting("runs"))?.markdown)
     })
 }
@@ -488,7 +448,7 @@ fn detection(args: DetectionArgs) -> Result<()> {
     };
     opts.validate()?;
     let base = Base::load(args.config.as_deref(), Embedded::Paper)?;
-    in_dir(args.out, "runs/detection", args.force, |dir| {
+    args.output.write("runs/detection", |dir| {
         Ok(experiment::detection(&base, &opts, Some(dir), &Bar::counting("runs"))?.markdown)
     })
 }
@@ -504,7 +464,7 @@ fn scaling(args: ScalingArgs) -> Result<()> {
     };
     opts.validate()?;
     let base = Base::load(args.config.as_deref(), Embedded::Paper)?;
-    in_dir(args.out, "runs/scaling-experiment", args.force, |dir| {
+    args.output.write("runs/scaling-experiment", |dir| {
         Ok(experiment::scaling(&base, &opts, Some(dir), &Bar::counting("runs"))?.markdown)
     })
 }

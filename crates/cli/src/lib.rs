@@ -12,6 +12,7 @@ mod experiment;
 mod fcd;
 mod names;
 mod node;
+mod outdir;
 mod progress;
 mod run;
 mod search;

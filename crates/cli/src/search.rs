@@ -1,28 +1,21 @@
 //! `platoon search`: the arguments, the signals, what is printed and the exit codes; the search
 //! itself is [`platoon_app::search`].
+use crate::outdir::OutDir;
 use anyhow::Result;
 use platoon_app::search::{SearchOptions, SearchOutcome};
 use std::path::{Path, PathBuf};
 
 /// Arguments of `platoon search` (the help text is on the command in main.rs).
 #[derive(Debug, clap::Args)]
+#[command(mut_arg("out", |a| a.help("Output directory [default: runs/<search name>]")))]
 pub struct Args {
     /// The search file (TOML; campaigns/worst-dos.toml is a commented example) [default: the
     /// paper scenario under its Assumption 2, 1000 evaluations of max_spacing_error_m].
     pub search: Option<PathBuf>,
-    /// Output directory [default: runs/<search name>].
-    #[arg(long)]
-    pub out: Option<PathBuf>,
-    /// Replace the output directory if it exists.
-    #[arg(long)]
-    pub force: bool,
-    /// Runs at once in the local pool [default: the number of cores].
-    #[arg(long, short = 'j')]
-    pub jobs: Option<std::num::NonZeroUsize>,
-    /// Send the runs to a Dask scheduler (e.g. tcp://10.0.0.5:8786) instead of the local pool,
-    /// a generation per batch; the workers run this same platoon binary (docs/campaigns.md).
-    #[arg(long, value_name = "ADDRESS")]
-    pub dask: Option<String>,
+    #[command(flatten)]
+    pub output: OutDir,
+    #[command(flatten)]
+    pub executor: crate::campaign::Executors,
     /// Override `evaluations` (runs per strategy; a quick pilot).
     #[arg(long)]
     pub evaluations: Option<usize>,
@@ -36,22 +29,16 @@ pub fn run(args: Args) -> Result<()> {
         Some(file) => platoon_app::search::load(file, args.evaluations)?,
         None => platoon_app::search::parse("", Path::new("search.toml"), args.evaluations)?,
     };
-    let executor = crate::campaign::executor(args.dask.as_deref(), args.jobs);
-    let out = crate::campaign::out_dir(args.out.clone(), &search.name);
+    let executor = args.executor.build();
+    let out = crate::campaign::out_dir(args.output.out.clone(), &search.name);
     let (interrupt, stop) =
         crate::campaign::stop_on_signal("stopping: no new batch starts; what is done is written")?;
     let opts = SearchOptions {
-        force: args.force,
+        force: args.output.force,
         plots: !args.no_plots,
     };
-    let outcome = platoon_app::search::run(
-        &search,
-        &out,
-        &opts,
-        &*executor,
-        &stop,
-        &crate::progress::Bar::cells(),
-    )?;
+    let bar = crate::progress::Bar::cells();
+    let outcome = platoon_app::search::run(&search, &out, &opts, &*executor, &stop, &bar)?;
     print(&search, &outcome);
     if outcome.stopped.is_some() {
         interrupt.exit(&format!(
