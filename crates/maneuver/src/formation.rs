@@ -1,0 +1,192 @@
+//! A platoon's formation: its members in road order, and the graph a topology preset gives it.
+use crate::Change;
+use platoon_model::VehicleId;
+use platoon_topology::{Preset, Topology, TopologyError};
+
+/// Why a formation or a change of it is refused.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum FormationError {
+    /// A formation has a head.
+    #[error("a formation needs at least its head")]
+    Empty,
+    /// A vehicle stands twice.
+    #[error("vehicle {0} stands twice in the formation")]
+    Duplicate(u16),
+    /// The vehicle is not a member.
+    #[error("vehicle {0} is not a member of the formation")]
+    NotMember(u16),
+    /// The vehicle is a member already.
+    #[error("vehicle {0} is a member of the formation already")]
+    Member(u16),
+    /// The head cannot leave its own formation (it dissolves it).
+    #[error("the head, vehicle {0}, cannot leave its formation")]
+    HeadLeaves(u16),
+}
+
+/// The members of one platoon in road order, the head first.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Formation {
+    members: Vec<VehicleId>,
+}
+
+impl Formation {
+    /// A formation of `members`, the head first.
+    pub fn new(members: Vec<VehicleId>) -> Result<Self, FormationError> {
+        if members.is_empty() {
+            return Err(FormationError::Empty);
+        }
+        for (i, m) in members.iter().enumerate() {
+            if members[..i].contains(m) {
+                return Err(FormationError::Duplicate(m.0));
+            }
+        }
+        Ok(Self { members })
+    }
+
+    /// The leader and followers `1..=followers` in order: a platoon as a scenario starts.
+    pub fn in_order(followers: usize) -> Self {
+        Self {
+            members: (0..=followers).map(|i| VehicleId(i as u16)).collect(),
+        }
+    }
+
+    /// The members, the head first.
+    pub fn members(&self) -> &[VehicleId] {
+        &self.members
+    }
+
+    /// The head (the platoon's leader).
+    pub fn head(&self) -> VehicleId {
+        self.members[0]
+    }
+
+    /// The last member.
+    pub fn tail(&self) -> VehicleId {
+        self.members[self.members.len() - 1]
+    }
+
+    /// The number of followers (members behind the head).
+    pub fn followers(&self) -> usize {
+        self.members.len() - 1
+    }
+
+    /// Where `v` stands: 0 for the head.
+    pub fn position(&self, v: VehicleId) -> Option<usize> {
+        self.members.iter().position(|&m| m == v)
+    }
+
+    /// Whether `v` is a member.
+    pub fn contains(&self, v: VehicleId) -> bool {
+        self.position(v).is_some()
+    }
+
+    /// The member directly ahead of `v` (none for the head or a stranger).
+    pub fn predecessor(&self, v: VehicleId) -> Option<VehicleId> {
+        self.position(v)
+            .filter(|&i| i > 0)
+            .map(|i| self.members[i - 1])
+    }
+
+    /// The member directly behind `v` (none for the tail or a stranger).
+    pub fn successor(&self, v: VehicleId) -> Option<VehicleId> {
+        self.position(v)
+            .and_then(|i| self.members.get(i + 1).copied())
+    }
+
+    /// This formation with `joiner` standing directly behind `behind`.
+    pub fn joined(&self, joiner: VehicleId, behind: VehicleId) -> Result<Self, FormationError> {
+        if self.contains(joiner) {
+            return Err(FormationError::Member(joiner.0));
+        }
+        let at = self
+            .position(behind)
+            .ok_or(FormationError::NotMember(behind.0))?;
+        let mut members = self.members.clone();
+        members.insert(at + 1, joiner);
+        Ok(Self { members })
+    }
+
+    /// This formation without `v`; the member behind it closes up to the one ahead.
+    pub fn left(&self, v: VehicleId) -> Result<Self, FormationError> {
+        match self.position(v) {
+            None => Err(FormationError::NotMember(v.0)),
+            Some(0) => Err(FormationError::HeadLeaves(v.0)),
+            Some(i) => {
+                let mut members = self.members.clone();
+                members.remove(i);
+                Ok(Self { members })
+            }
+        }
+    }
+
+    /// This formation after `change`.
+    pub fn apply(&self, change: Change) -> Result<Self, FormationError> {
+        match change {
+            Change::Joined { vehicle, behind } => self.joined(vehicle, behind),
+            Change::Left { vehicle } => self.left(vehicle),
+        }
+    }
+
+    /// The graph `preset` gives this formation, by position, as in the paper: follower `i` of
+    /// the graph is the member at position `i`. [`Formation::vehicle`] maps a graph id back.
+    pub fn topology(&self, preset: Preset) -> Result<Topology, TopologyError> {
+        Topology::preset(preset, self.followers())
+    }
+
+    /// The member at graph id `id` (position: 0 is the head).
+    pub fn vehicle(&self, id: VehicleId) -> Option<VehicleId> {
+        self.members.get(id.index()).copied()
+    }
+
+    /// Every directed link `(sender, receiver)` of `preset` on this formation, in vehicle ids.
+    pub fn links(&self, preset: Preset) -> Result<Vec<(VehicleId, VehicleId)>, TopologyError> {
+        let graph = self.topology(preset)?;
+        Ok(graph
+            .links()
+            .map(|(s, r)| (self.members[s.index()], self.members[r.index()]))
+            .collect())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn v(i: u16) -> VehicleId {
+        VehicleId(i)
+    }
+
+    #[test]
+    fn a_join_in_the_middle_puts_the_joiner_between_its_neighbours() {
+        let f = Formation::in_order(3).joined(v(9), v(1)).unwrap();
+        assert_eq!(f.members(), &[v(0), v(1), v(9), v(2), v(3)]);
+        assert_eq!(f.predecessor(v(2)), Some(v(9)));
+        assert_eq!(f.successor(v(1)), Some(v(9)));
+        assert_eq!(f.tail(), v(3));
+        let back = f.left(v(9)).unwrap();
+        assert_eq!(back, Formation::in_order(3));
+    }
+
+    #[test]
+    fn the_links_follow_the_members_not_their_ids() {
+        let f = Formation::in_order(2).joined(v(7), v(0)).unwrap();
+        let links = f.links(Preset::Pf).unwrap();
+        assert_eq!(links, vec![(v(0), v(7)), (v(7), v(1)), (v(1), v(2))]);
+        let plf = f.links(Preset::Plf).unwrap();
+        assert!(plf.contains(&(v(0), v(2))) && plf.contains(&(v(1), v(2))));
+    }
+
+    #[test]
+    fn impossible_changes_are_refused() {
+        let f = Formation::in_order(2);
+        assert_eq!(f.joined(v(1), v(0)), Err(FormationError::Member(1)));
+        assert_eq!(f.joined(v(5), v(4)), Err(FormationError::NotMember(4)));
+        assert_eq!(f.left(v(0)), Err(FormationError::HeadLeaves(0)));
+        assert_eq!(f.left(v(3)), Err(FormationError::NotMember(3)));
+        assert_eq!(
+            Formation::new(vec![v(0), v(1), v(0)]),
+            Err(FormationError::Duplicate(0))
+        );
+        assert_eq!(Formation::new(vec![]), Err(FormationError::Empty));
+    }
+}

@@ -1,0 +1,281 @@
+//! The leader's side: it owns the formation, admits one join at a time and announces every
+//! change.
+use crate::message::Outbox;
+use crate::{Body, Change, Formation, Message, Refusal, SeqFilter, Timing, EVERYONE};
+use platoon_model::VehicleId;
+
+/// What the leader is doing.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LeaderState {
+    /// No maneuver under way.
+    Idle,
+    /// A join is under way.
+    Joining {
+        /// Who joins.
+        joiner: VehicleId,
+        /// The member it will follow.
+        behind: VehicleId,
+        /// The member behind the slot, which opens the gap (none at the tail).
+        opener: Option<VehicleId>,
+        /// Whether the opener said its gap is open.
+        gap_ready: bool,
+        /// The step at which the leader calls the join off.
+        deadline: u64,
+        /// When it asks again for the step the join waits on (the gap, the move in), and
+        /// how many times it has asked.
+        ask_at: u64,
+        /// Requests for that step sent so far.
+        asks: u32,
+    },
+}
+
+/// The leader's state machine (the platoon manager of Plexe's and VENTOS's maneuvers).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Leader {
+    formation: Formation,
+    generation: u16,
+    max_members: usize,
+    timing: Timing,
+    state: LeaderState,
+    filter: SeqFilter,
+    outbox: Outbox,
+    /// The last update, and the steps at which it is sent again.
+    last_update: Option<(Change, u16)>,
+    repeats_left: u32,
+    next_repeat: u64,
+}
+
+impl Leader {
+    /// The leader of `formation`, admitting members up to `max_members` (the head counted).
+    pub fn new(formation: Formation, max_members: usize, timing: Timing) -> Self {
+        Self {
+            formation,
+            generation: 0,
+            max_members,
+            timing,
+            state: LeaderState::Idle,
+            filter: SeqFilter::default(),
+            outbox: Outbox::default(),
+            last_update: None,
+            repeats_left: 0,
+            next_repeat: 0,
+        }
+    }
+
+    /// The formation as the leader knows it: the platoon's own.
+    pub fn formation(&self) -> &Formation {
+        &self.formation
+    }
+
+    /// How many changes the formation has had.
+    pub fn generation(&self) -> u16 {
+        self.generation
+    }
+
+    /// What it is doing.
+    pub fn state(&self) -> LeaderState {
+        self.state
+    }
+
+    fn me(&self) -> VehicleId {
+        self.formation.head()
+    }
+
+    fn send(&mut self, out: &mut Vec<Message>, to: VehicleId, body: Body) {
+        let me = self.me();
+        self.outbox.send(out, me, to, body);
+    }
+
+    /// Commits `change` and announces it (now and `timing.tries - 1` times more).
+    fn commit(&mut self, step: u64, change: Change, out: &mut Vec<Message>) {
+        // A change the formation refuses is never announced: the members' copies stay valid.
+        let Ok(next) = self.formation.apply(change) else {
+            return;
+        };
+        self.formation = next;
+        self.generation = self.generation.wrapping_add(1);
+        self.last_update = Some((change, self.generation));
+        self.repeats_left = self.timing.tries.saturating_sub(1);
+        self.next_repeat = step + self.timing.reply_steps;
+        let generation = self.generation;
+        self.send(out, EVERYONE, Body::Update { generation, change });
+    }
+
+    /// Sends the last update again (a member that missed it, or asks again).
+    fn repeat(&mut self, out: &mut Vec<Message>) {
+        if let Some((change, generation)) = self.last_update {
+            self.send(out, EVERYONE, Body::Update { generation, change });
+        }
+    }
+
+    /// One step: acts on what reached the leader (`inbox`: everything received, in order) and
+    /// appends what it sends to `out`.
+    pub fn step(&mut self, step: u64, inbox: &[Message], out: &mut Vec<Message>) {
+        let me = self.me();
+        for m in inbox {
+            if m.is_for(me) && self.filter.fresh(m) {
+                self.handle(step, m, out);
+            }
+        }
+        if let LeaderState::Joining {
+            joiner,
+            behind,
+            opener: Some(opener),
+            gap_ready,
+            deadline,
+            ask_at,
+            asks,
+        } = self.state
+        {
+            if step < deadline && step >= ask_at && asks < self.timing.tries {
+                // A middle join waits on the opener, then on the joiner: ask again.
+                self.state = LeaderState::Joining {
+                    joiner,
+                    behind,
+                    opener: Some(opener),
+                    gap_ready,
+                    deadline,
+                    ask_at: step + self.timing.reply_steps,
+                    asks: asks + 1,
+                };
+                match gap_ready {
+                    false => self.send(out, opener, Body::OpenGap { joiner }),
+                    true => self.send(out, joiner, Body::MoveIn),
+                }
+            }
+        }
+        if let LeaderState::Joining {
+            joiner, deadline, ..
+        } = self.state
+        {
+            if step >= deadline {
+                self.state = LeaderState::Idle;
+                self.send(out, EVERYONE, Body::Abort { joiner });
+            }
+        }
+        if self.repeats_left > 0 && step >= self.next_repeat {
+            self.repeats_left -= 1;
+            self.next_repeat = step + self.timing.reply_steps;
+            self.repeat(out);
+        }
+    }
+
+    fn handle(&mut self, step: u64, m: &Message, out: &mut Vec<Message>) {
+        let from = m.sender;
+        match (m.body, self.state) {
+            (Body::JoinRequest { behind }, LeaderState::Joining { joiner, opener, .. })
+                if joiner == from =>
+            {
+                // The accept was lost: say it again.
+                let middle = opener.is_some();
+                self.send(out, from, Body::JoinAccept { behind, middle });
+            }
+            (Body::JoinRequest { .. }, LeaderState::Joining { .. }) => {
+                self.refuse(from, Refusal::Busy, out);
+            }
+            (Body::JoinRequest { behind }, LeaderState::Idle) => {
+                if self.formation.contains(from) {
+                    self.refuse(from, Refusal::Member, out);
+                } else if self.formation.members().len() >= self.max_members {
+                    self.refuse(from, Refusal::Full, out);
+                } else if !self.formation.contains(behind) {
+                    self.refuse(from, Refusal::NoSlot, out);
+                } else {
+                    let opener = self.formation.successor(behind);
+                    self.state = LeaderState::Joining {
+                        joiner: from,
+                        behind,
+                        opener,
+                        gap_ready: false,
+                        deadline: step + self.timing.maneuver_steps,
+                        ask_at: step + self.timing.reply_steps,
+                        asks: 1,
+                    };
+                    let middle = opener.is_some();
+                    self.send(out, from, Body::JoinAccept { behind, middle });
+                    if let Some(opener) = opener {
+                        self.send(out, opener, Body::OpenGap { joiner: from });
+                    }
+                }
+            }
+            (
+                Body::GapReady { joiner: j },
+                LeaderState::Joining {
+                    joiner,
+                    opener,
+                    behind,
+                    deadline,
+                    gap_ready: false,
+                    ..
+                },
+            ) if j == joiner && opener == Some(from) => {
+                self.state = LeaderState::Joining {
+                    joiner,
+                    behind,
+                    opener,
+                    gap_ready: true,
+                    deadline,
+                    ask_at: step + self.timing.reply_steps,
+                    asks: 1,
+                };
+                self.send(out, joiner, Body::MoveIn);
+            }
+            (
+                Body::InPosition,
+                LeaderState::Joining {
+                    joiner,
+                    behind,
+                    opener,
+                    gap_ready,
+                    ..
+                },
+            ) if joiner == from && (opener.is_none() || gap_ready) => {
+                self.state = LeaderState::Idle;
+                self.commit(
+                    step,
+                    Change::Joined {
+                        vehicle: from,
+                        behind,
+                    },
+                    out,
+                );
+            }
+            (Body::InPosition, _) if self.formation.contains(from) => {
+                // It joined and missed the update.
+                self.repeat(out);
+            }
+            (Body::InPosition, _) => {
+                // A join the leader no longer runs (it timed out): the sender stays out.
+                self.send(out, EVERYONE, Body::Abort { joiner: from });
+            }
+            (Body::LeaveNotice, state) if self.formation.contains(from) => {
+                if let LeaderState::Joining {
+                    joiner,
+                    behind,
+                    opener,
+                    ..
+                } = state
+                {
+                    if from == behind || Some(from) == opener {
+                        // The slot goes with the member leaving: the join is called off first.
+                        self.state = LeaderState::Idle;
+                        self.send(out, EVERYONE, Body::Abort { joiner });
+                    }
+                }
+                self.commit(step, Change::Left { vehicle: from }, out);
+            }
+            (Body::LeaveNotice, LeaderState::Joining { joiner, .. }) if joiner == from => {
+                // The joiner gave up.
+                self.state = LeaderState::Idle;
+                self.send(out, EVERYONE, Body::Abort { joiner });
+            }
+            // Messages for others, late ones and implausible ones (a gap the leader did not
+            // ask for, a leave from a stranger) change nothing.
+            _ => {}
+        }
+    }
+
+    fn refuse(&mut self, to: VehicleId, reason: Refusal, out: &mut Vec<Message>) {
+        self.send(out, to, Body::JoinRefuse { reason });
+    }
+}

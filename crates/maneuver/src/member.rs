@@ -1,0 +1,174 @@
+//! A member's side: it keeps its copy of the formation from the leader's updates, opens a gap
+//! when asked and leaves when it wants to.
+use crate::message::Outbox;
+use crate::{Body, Change, Formation, Message, SeqFilter, Timing};
+use platoon_model::VehicleId;
+
+/// What a member is doing besides following.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MemberState {
+    /// Following under the platoon's law.
+    Following,
+    /// Opening a gap ahead of it for `joiner`.
+    Opening {
+        /// Whom the gap is for.
+        joiner: VehicleId,
+        /// When it closes the gap again if nothing happened.
+        deadline: u64,
+        /// Whether it told the leader the gap is open.
+        reported: bool,
+    },
+    /// Asked to leave; waiting for the leader's update.
+    Leaving,
+    /// No longer a member (its leave was announced).
+    Left,
+}
+
+/// A member's state machine.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Member {
+    me: VehicleId,
+    formation: Formation,
+    generation: u16,
+    timing: Timing,
+    state: MemberState,
+    filter: SeqFilter,
+    outbox: Outbox,
+}
+
+impl Member {
+    /// Member `me` of `formation` (generation 0, as the run starts).
+    pub fn new(me: VehicleId, formation: Formation, timing: Timing) -> Self {
+        Self::joined(me, formation, 0, timing)
+    }
+
+    /// Member `me` of `formation` as of the leader's update `generation` (a joiner once
+    /// admitted).
+    pub fn joined(me: VehicleId, formation: Formation, generation: u16, timing: Timing) -> Self {
+        Self {
+            me,
+            formation,
+            generation,
+            timing,
+            state: MemberState::Following,
+            filter: SeqFilter::default(),
+            outbox: Outbox::default(),
+        }
+    }
+
+    /// Its copy of the formation.
+    pub fn formation(&self) -> &Formation {
+        &self.formation
+    }
+
+    /// The generation of its copy.
+    pub fn generation(&self) -> u16 {
+        self.generation
+    }
+
+    /// What it is doing.
+    pub fn state(&self) -> MemberState {
+        self.state
+    }
+
+    /// Whom it opens a gap for, if it does (its controller adds a vehicle's room to its
+    /// spacing).
+    pub fn opening_for(&self) -> Option<VehicleId> {
+        match self.state {
+            MemberState::Opening { joiner, .. } => Some(joiner),
+            _ => None,
+        }
+    }
+
+    /// Asks the leader to leave.
+    pub fn leave(&mut self, out: &mut Vec<Message>) {
+        if self.state != MemberState::Left {
+            self.send(out, Body::LeaveNotice);
+            self.state = MemberState::Leaving;
+        }
+    }
+
+    fn send(&mut self, out: &mut Vec<Message>, body: Body) {
+        let leader = self.formation.head();
+        self.outbox.send(out, self.me, leader, body);
+    }
+
+    /// One step: acts on `inbox` (everything received, in order); `gap_open` is its
+    /// controller's judgement that the gap it opens is wide enough. Appends what it sends.
+    pub fn step(&mut self, step: u64, inbox: &[Message], gap_open: bool, out: &mut Vec<Message>) {
+        let leader = self.formation.head();
+        for m in inbox {
+            if m.sender == leader && m.is_for(self.me) && self.filter.fresh(m) {
+                self.handle(step, m);
+            }
+        }
+        if let MemberState::Opening {
+            joiner,
+            deadline,
+            reported,
+        } = self.state
+        {
+            if step >= deadline {
+                self.state = MemberState::Following;
+            } else if gap_open && !reported {
+                self.send(out, Body::GapReady { joiner });
+                self.state = MemberState::Opening {
+                    joiner,
+                    deadline,
+                    reported: true,
+                };
+            }
+        }
+    }
+
+    fn handle(&mut self, step: u64, m: &Message) {
+        match m.body {
+            Body::OpenGap { joiner } if self.opening_for() == Some(joiner) => {
+                // Asked again: the leader missed its report.
+                if let MemberState::Opening {
+                    joiner, deadline, ..
+                } = self.state
+                {
+                    self.state = MemberState::Opening {
+                        joiner,
+                        deadline,
+                        reported: false,
+                    };
+                }
+            }
+            Body::OpenGap { joiner } if self.state == MemberState::Following => {
+                self.state = MemberState::Opening {
+                    joiner,
+                    deadline: step + self.timing.maneuver_steps,
+                    reported: false,
+                };
+            }
+            Body::Update { generation, change } => self.update(generation, change),
+            Body::Abort { joiner } if self.opening_for() == Some(joiner) => {
+                self.state = MemberState::Following;
+            }
+            _ => {}
+        }
+    }
+
+    /// Applies the leader's update if it is the next one: so the copy is always a formation the
+    /// leader had. An older one is in already; a later one means one was missed, and the copy
+    /// stays as it is ([`Member::generation`] behind the leader's, which its beacons carry).
+    fn update(&mut self, generation: u16, change: Change) {
+        if generation != self.generation.wrapping_add(1) {
+            return;
+        }
+        let Ok(next) = self.formation.apply(change) else {
+            return;
+        };
+        self.formation = next;
+        self.generation = generation;
+        match change {
+            Change::Joined { vehicle, .. } if self.opening_for() == Some(vehicle) => {
+                self.state = MemberState::Following;
+            }
+            Change::Left { vehicle } if vehicle == self.me => self.state = MemberState::Left,
+            _ => {}
+        }
+    }
+}

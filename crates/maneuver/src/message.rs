@@ -1,0 +1,198 @@
+//! The maneuver messages and the sequence-number filter every receiver applies.
+use platoon_model::VehicleId;
+use std::collections::BTreeMap;
+
+/// The addressee of a message for every member (a formation update, an abort).
+pub const EVERYONE: VehicleId = VehicleId(u16::MAX);
+
+/// A maneuver message. Sent on the V2V channel beside the beacons: everyone in range hears it,
+/// only its addressee acts on it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Message {
+    /// Who sent it.
+    pub sender: VehicleId,
+    /// Whom it is for ([`EVERYONE`]: every member).
+    pub to: VehicleId,
+    /// The sender's maneuver sequence number, +1 per message (the first is 1). A receiver acts
+    /// on each sender's messages in order, once: an older or repeated number is dropped.
+    pub seq: u16,
+    /// What it says.
+    pub body: Body,
+}
+
+impl Message {
+    /// Whether `me` is to act on it.
+    pub fn is_for(&self, me: VehicleId) -> bool {
+        self.to == me || (self.to == EVERYONE && self.sender != me)
+    }
+}
+
+/// What a maneuver message says.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Body {
+    /// A vehicle outside the platoon asks its leader to join directly behind `behind` (the
+    /// tail: a join at the back).
+    JoinRequest {
+        /// The member the joiner would follow.
+        behind: VehicleId,
+    },
+    /// The leader accepts the addressee's join behind `behind`. At the tail the joiner
+    /// approaches at once; in the middle it waits for [`Body::MoveIn`].
+    JoinAccept {
+        /// The member the joiner will follow.
+        behind: VehicleId,
+        /// Whether a member behind the slot opens a gap first (a join in the middle).
+        middle: bool,
+    },
+    /// The leader refuses the addressee's join.
+    JoinRefuse {
+        /// Why.
+        reason: Refusal,
+    },
+    /// The leader asks the addressee, the member behind the slot, to open a gap for `joiner`.
+    OpenGap {
+        /// Who will move into the gap.
+        joiner: VehicleId,
+    },
+    /// The gap for `joiner` is open (the opener to the leader).
+    GapReady {
+        /// Whom the gap is for.
+        joiner: VehicleId,
+    },
+    /// The gap is open: the addressee moves into it (the leader to the joiner).
+    MoveIn,
+    /// The sender is in its slot (the joiner to the leader).
+    InPosition,
+    /// The leader's formation changed: its `generation`th change is `change`. To
+    /// [`EVERYONE`]; repeated a few times, as members may miss it.
+    Update {
+        /// How many changes the formation has had (the first change is 1).
+        generation: u16,
+        /// The change.
+        change: Change,
+    },
+    /// The leader called the join of `joiner` off (it timed out): the opener closes its gap,
+    /// the joiner stays out. To [`EVERYONE`].
+    Abort {
+        /// Whose join.
+        joiner: VehicleId,
+    },
+    /// The sender leaves the platoon (a member to the leader).
+    LeaveNotice,
+}
+
+/// A change of a formation.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Change {
+    /// `vehicle` joined directly behind `behind`.
+    Joined {
+        /// The new member.
+        vehicle: VehicleId,
+        /// The member it follows.
+        behind: VehicleId,
+    },
+    /// `vehicle` left; the member behind it follows the one ahead.
+    Left {
+        /// The member that left.
+        vehicle: VehicleId,
+    },
+}
+
+/// Why a leader refuses a join.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Refusal {
+    /// Another maneuver is under way.
+    Busy,
+    /// The platoon has as many members as it may.
+    Full,
+    /// The slot asked for is behind a vehicle that is not a member.
+    NoSlot,
+    /// The vehicle is a member already.
+    Member,
+}
+
+/// What a receiver drops: for each sender, every sequence number at or below the last it
+/// acted on (a replay, a duplicate, a message overtaken by a newer one).
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct SeqFilter {
+    last: BTreeMap<VehicleId, u16>,
+}
+
+impl SeqFilter {
+    /// Whether `m` is new: if so, it is remembered.
+    pub fn fresh(&mut self, m: &Message) -> bool {
+        let last = self.last.entry(m.sender).or_insert(0);
+        if m.seq > *last {
+            *last = m.seq;
+            true
+        } else {
+            false
+        }
+    }
+}
+
+/// A sender's sequence numbers.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub(crate) struct Outbox {
+    seq: u16,
+}
+
+impl Outbox {
+    /// Appends a message from `sender` to `to` with the next sequence number.
+    pub(crate) fn send(
+        &mut self,
+        out: &mut Vec<Message>,
+        sender: VehicleId,
+        to: VehicleId,
+        body: Body,
+    ) {
+        self.seq = self.seq.saturating_add(1);
+        out.push(Message {
+            sender,
+            to,
+            seq: self.seq,
+            body,
+        });
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_replayed_or_older_message_is_dropped() {
+        let m = |seq| Message {
+            sender: VehicleId(3),
+            to: VehicleId(0),
+            seq,
+            body: Body::InPosition,
+        };
+        let mut f = SeqFilter::default();
+        assert!(f.fresh(&m(1)));
+        assert!(!f.fresh(&m(1)), "a duplicate");
+        assert!(f.fresh(&m(4)));
+        assert!(!f.fresh(&m(2)), "an old one after a newer");
+        let other = Message {
+            sender: VehicleId(4),
+            ..m(1)
+        };
+        assert!(f.fresh(&other), "sequence numbers are per sender");
+    }
+
+    #[test]
+    fn a_message_to_everyone_is_for_every_other_vehicle() {
+        let m = Message {
+            sender: VehicleId(0),
+            to: EVERYONE,
+            seq: 1,
+            body: Body::MoveIn,
+        };
+        assert!(m.is_for(VehicleId(2)) && !m.is_for(VehicleId(0)));
+        let unicast = Message {
+            to: VehicleId(2),
+            ..m
+        };
+        assert!(unicast.is_for(VehicleId(2)) && !unicast.is_for(VehicleId(3)));
+    }
+}
