@@ -134,6 +134,72 @@ pub fn published(doc: &str, template: &str, values: &[String]) {
     );
 }
 
+/// Splits `line` into its text with every number as `#`, and the numbers.
+fn skeleton(line: &str) -> (String, Vec<f64>) {
+    let (mut text, mut numbers, mut number) = (String::new(), Vec::new(), String::new());
+    for c in line.trim().chars().chain(std::iter::once(' ')) {
+        if c.is_ascii_digit() || (c == '.' && !number.is_empty()) {
+            number.push(c);
+            continue;
+        }
+        if !number.is_empty() {
+            let trailing_dot = number.ends_with('.');
+            numbers.push(number.trim_end_matches('.').parse().unwrap());
+            text.push('#');
+            if trailing_dot {
+                text.push('.');
+            }
+            number.clear();
+        }
+        text.push(c);
+    }
+    (text.trim_end().to_string(), numbers)
+}
+
+/// [`published`] for lines of figures that are solver results, whose last digits move with
+/// the machine (the SDP's with the BLAS build): each line of `expected` must stand in `doc`
+/// with the same words and every number within `rel` of the computed one, or, from 100 up,
+/// one unit of the last digit printed (a rounding boundary crossed).
+pub fn published_close(doc: &str, expected: &str, rel: f64) {
+    let text = std::fs::read_to_string(repo().join(doc))
+        .unwrap_or_else(|e| panic!("cannot read {doc}: {e}"));
+    let lines: Vec<(String, Vec<f64>)> = text.lines().map(skeleton).collect();
+    for want in expected.lines().filter(|l| !l.trim().is_empty()) {
+        let (shape, numbers) = skeleton(want);
+        let close = |got: &[f64]| {
+            got.len() == numbers.len()
+                && got.iter().zip(&numbers).all(|(a, b)| {
+                    let x = a.abs().max(b.abs());
+                    // A unit of the last digit for the large figures only: labels (N = 4)
+                    // and small counts stay exact.
+                    (a - b).abs()
+                        <= if x >= 100.0 {
+                            (rel * x).max(1.0)
+                        } else {
+                            rel * x
+                        }
+                })
+        };
+        let same_shape: Vec<usize> = (0..lines.len()).filter(|&i| lines[i].0 == shape).collect();
+        if same_shape.iter().any(|&i| close(&lines[i].1)) {
+            continue;
+        }
+        let near: Vec<String> = same_shape
+            .iter()
+            .map(|&i| format!("  {doc}:{}: {}", i + 1, text.lines().nth(i).unwrap()))
+            .collect();
+        panic!(
+            "{doc} does not publish what the test computed (within {rel} or a unit of the last \
+             digit):\n  expected: {want}\n{}",
+            if near.is_empty() {
+                "  and no line has its words".to_string()
+            } else {
+                format!("  it says:\n{}", near.join("\n"))
+            }
+        );
+    }
+}
+
 /// `configs/cut-in.toml` with `law` (and the keys it needs) in place of the paper's law.
 pub fn cut_in_config(law: &str) -> String {
     let text = std::fs::read_to_string(repo().join("configs/cut-in.toml")).unwrap();
