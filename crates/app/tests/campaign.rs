@@ -332,6 +332,7 @@ fn a_callers_controller_runs_in_process_cells() {
             headway: s.control.headway,
             fallback: s.control.fallback.clone(),
             detection: Default::default(),
+            maneuvers: None,
         };
         Ok(Box::new(ComposedController::new(
             Box::new(Radar),

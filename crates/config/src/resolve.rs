@@ -15,7 +15,7 @@ mod control;
 mod vehicles;
 
 use channel::{channel, jammers, radio};
-use control::{detection, fallback};
+use control::{detection, fallback, maneuvers};
 
 pub(crate) type Invalid = (String, String);
 
@@ -440,6 +440,7 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
         headway,
         leader_broadcast_steps,
         detection: detection(c.detection.as_ref(), dt)?,
+        maneuvers: maneuvers(c.maneuvers.as_ref(), n, dt)?,
     };
     control
         .validate()
@@ -461,6 +462,8 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
                 "trigger".to_string()
             } else if e.field == "preset" {
                 "topology".to_string()
+            } else if e.field == "maneuvers" {
+                return bad("maneuvers", e.message);
             } else {
                 "control".to_string()
             };

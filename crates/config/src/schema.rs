@@ -60,6 +60,10 @@ pub struct Config {
     /// `[[cut_ins]]`: scripted vehicles that cut into the platoon's lane (either plant).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub cut_ins: Vec<CutInConfig>,
+    /// `[maneuvers]`: membership changes negotiated over V2V (docs/maneuvers.md): joins at the
+    /// tail, with the field's laws, on the native plant, in process.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub maneuvers: Option<ManeuversConfig>,
     /// The DoS attack.
     #[serde(default)]
     pub attack: Attack,

@@ -140,9 +140,29 @@ impl PacketChecks {
     /// packets pass the same checks; [`PacketChecks::neighbours`] and [`PacketChecks::heard`]
     /// still list the graph's neighbours only, [`PacketChecks::heard_from`] reaches them all.
     /// Before the detectors are added (their state is kept per neighbour).
-    pub(crate) fn hearing_all_ahead(mut self, initial: &[State]) -> Self {
+    pub(crate) fn hearing_all_ahead(self, initial: &[State]) -> Self {
+        self.hearing_also(initial, |fi| (1..=fi).map(VehicleId::follower).collect())
+    }
+
+    /// These checks with every follower also hearing every other vehicle, the leader and the
+    /// members behind it included: a platoon that negotiates maneuvers
+    /// ([`platoon_topology::Topology::hearing_everyone`]); as [`PacketChecks::hearing_all_ahead`]
+    /// otherwise.
+    pub(crate) fn hearing_everyone(self, initial: &[State]) -> Self {
+        let n = self.neighbours.len();
+        self.hearing_also(initial, |fi| {
+            (0..=n)
+                .filter(|&j| j != fi + 1)
+                .map(|j| VehicleId(j as u16))
+                .collect()
+        })
+    }
+
+    /// These checks with follower `fi + 1` also hearing `also(fi)` (those not its graph's
+    /// neighbours already), with the initial states as what was last heard.
+    fn hearing_also(mut self, initial: &[State], also: impl Fn(usize) -> Vec<VehicleId>) -> Self {
         for (fi, (ns, heard)) in self.neighbours.iter_mut().zip(&mut self.heard).enumerate() {
-            for j in (1..=fi).map(VehicleId::follower) {
+            for j in also(fi) {
                 if !ns.contains(&j) {
                     ns.push(j);
                     heard.push(Heard {

@@ -15,9 +15,10 @@
 //! The emergency-braking guard applies in every mode.
 
 use crate::checks::{Heard, PacketChecks};
-use crate::fallback::{FallbackMachine, Radar, RadarTruth, Return, Situation, Truths};
+use crate::fallback::{acc_command, FallbackMachine, Radar, RadarTruth, Return, Situation, Truths};
 use crate::screening::{read_radars, sensed, Detector};
 use crate::{Controller, Delivery, FallbackParams, FollowerStep, Packet};
+use platoon_maneuver::JoinerPhase;
 use platoon_model::{State, VehicleId};
 use platoon_topology::Topology;
 
@@ -135,6 +136,8 @@ pub struct Composition {
     pub fallback: FallbackParams,
     /// Misbehaviour detection in the receive path (off by default).
     pub detection: crate::DetectionParams,
+    /// The platoon's maneuvers (`[maneuvers]`: joins at the tail; none by default).
+    pub maneuvers: Option<crate::ManeuverParams>,
 }
 
 #[derive(Debug, Clone)]
@@ -150,6 +153,10 @@ struct Follower {
     head: VehicleId,
     /// Whether it heads the followers behind it (on a cut-in's ACC, with a split).
     leading: bool,
+    /// Whether it was a member of the formation at the step before (`[maneuvers]`).
+    member: bool,
+    /// A joiner: the step it began approaching its slot.
+    approaching_since: Option<u64>,
 }
 
 /// One platoon's followers, each running the same [`Law`] on its own copy (module docs).
@@ -165,6 +172,10 @@ pub struct ComposedController {
     /// Each follower's radar reading of this step, read once for the detectors and the
     /// fallback.
     readings: Vec<Option<(crate::fallback::Reading, u64)>>,
+    /// The maneuver protocol's machines (`[maneuvers]`).
+    maneuvers: Option<crate::maneuvers::Maneuvers>,
+    /// Each follower's judgement of its slot this step (joiners only).
+    in_position: Vec<bool>,
 }
 
 impl ComposedController {
@@ -213,6 +224,10 @@ impl ComposedController {
             .fallback
             .validate(n)
             .map_err(|(field, message)| err(field, message))?;
+        if let Some(m) = &parts.maneuvers {
+            m.validate(n)
+                .map_err(|(field, message)| err(field, message))?;
+        }
         let followers = (1..=n)
             .map(|i| Follower {
                 id: VehicleId::follower(i),
@@ -223,6 +238,8 @@ impl ComposedController {
                 radar: Radar::new(parts.fallback.radar.seed, i as u16),
                 head: VehicleId::LEADER,
                 leading: false,
+                member: true,
+                approaching_since: None,
             })
             .collect();
         Ok(Self {
@@ -234,12 +251,20 @@ impl ComposedController {
                 topology,
                 initial,
                 parts.dt,
-                parts.fallback.cut_in.is_some_and(|c| c.split),
+                crate::screening::Hearing::of(
+                    parts.fallback.cut_in.is_some_and(|c| c.split),
+                    parts.maneuvers.is_some(),
+                ),
             )?,
             leader: Default::default(),
             commands: vec![0.0; n],
             truths: Truths::default(),
             readings: Vec::with_capacity(n),
+            maneuvers: parts
+                .maneuvers
+                .as_ref()
+                .map(|m| crate::maneuvers::Maneuvers::new(m, n)),
+            in_position: vec![false; n],
             parts,
         })
     }
@@ -247,8 +272,12 @@ impl ComposedController {
 
 impl Controller for ComposedController {
     fn transmit(&mut self, k: u64, states: &[State], out: &mut Vec<Packet>) {
+        let mut maneuvers = self.maneuvers.as_mut();
+        let mut message = |v| maneuvers.as_mut().and_then(|m| m.next_message(v));
+        let every = self.parts.leader_broadcast_steps;
+        let leader_message = message(VehicleId::LEADER);
         self.leader
-            .transmit(k, self.parts.leader_broadcast_steps, states, out);
+            .transmit_with(k, every, states, leader_message, out);
         for f in &mut self.followers {
             f.step = FollowerStep::default();
             let own = &states[f.id.index()];
@@ -256,7 +285,8 @@ impl Controller for ComposedController {
             // A head beacons at the leader's rate as well: the followers behind it take its
             // packets as their leader's.
             let heads = f.leading && k.is_multiple_of(u64::from(self.parts.leader_broadcast_steps));
-            if self.parts.beaconing.fires(k, f.id, own, last) | heads {
+            let maneuver = message(f.id);
+            if self.parts.beaconing.fires(k, f.id, own, last) | heads | maneuver.is_some() {
                 f.seq += 1;
                 f.step.triggered = true;
                 f.last_sent = Some((k, *own));
@@ -267,6 +297,7 @@ impl Controller for ComposedController {
                     state: *own,
                     u: f.fallback.last_u(),
                     head: if f.leading { f.id } else { f.head },
+                    maneuver,
                 });
             }
         }
@@ -281,15 +312,45 @@ impl Controller for ComposedController {
         let truths = self.truths.take(states, |j| fb.length(j), true);
         let radar_on = fb.uses_radar();
         // The radars first: the detectors read them too.
-        let radar_any = radar_on || self.checks.reads_radar();
+        let radar_any = radar_on || self.checks.reads_radar() || self.maneuvers.is_some();
         let radars = self.followers.iter_mut().map(|f| &mut f.radar);
         read_radars(k, &fb.radar, radar_any, radars, truths, &mut self.readings);
         self.checks.begin_step();
         for d in rx {
+            if d.receiver.is_leader() {
+                // Only maneuvers reach the leader: its machine reads their messages.
+                if let (Some(m), Some(man)) = (d.packet.maneuver, self.maneuvers.as_mut()) {
+                    man.heard(d.receiver, m);
+                }
+                continue;
+            }
             let sensed = sensed(k, self.parts.dt, d, states, &self.readings, |j| {
                 fb.length(j)
             });
-            self.checks.admit_sensed(k, d, sensed);
+            let admitted = self.checks.admit_sensed(k, d, sensed).is_some();
+            if let (true, Some(m), Some(man)) =
+                (admitted, d.packet.maneuver, self.maneuvers.as_mut())
+            {
+                man.heard(d.receiver, m);
+            }
+        }
+        if let Some(man) = self.maneuvers.as_mut() {
+            for ((f, ready), reading) in self
+                .followers
+                .iter()
+                .zip(&mut self.in_position)
+                .zip(&self.readings)
+            {
+                let own = states[f.id.index()];
+                *ready = man.in_position(
+                    reading.map(|(r, _)| r),
+                    own[1],
+                    self.parts.spacing,
+                    self.parts.headway,
+                    fb.length(f.id.index() - 1),
+                );
+            }
+            man.step(k, &self.in_position);
         }
         let n1 = self.followers.len() + 1;
         let split = fb.cut_in.is_some_and(|c| c.split);
@@ -324,26 +385,58 @@ impl Controller for ComposedController {
                 head,
             };
             let lawful = law.command(&view);
-            let reading = reading.filter(|_| radar_on).map(|(r, _)| r);
-            let affected =
-                (jammed[f.id.index()] || self.checks.distrusts(f.id, k)) && law.uses_v2v();
+            let phase = self
+                .maneuvers
+                .as_ref()
+                .map_or(JoinerPhase::Member, |m| m.phase(f.id));
+            let member = phase == JoinerPhase::Member;
+            // A joiner drives on its radar (maneuvers module docs); the members read it as
+            // their fallback does.
+            let reading = reading.filter(|_| radar_on || !member).map(|(r, _)| r);
+            let length_ahead = fb.length(f.id.index() - 1);
+            let (lawful, joined) = match phase {
+                JoinerPhase::Member => (lawful, !f.member),
+                JoinerPhase::Outside | JoinerPhase::Approaching => {
+                    let since = match phase {
+                        JoinerPhase::Approaching => Some(*f.approaching_since.get_or_insert(k)),
+                        _ => None,
+                    };
+                    let elapsed_s = since.map(|since| (k - since) as f64 * self.parts.dt);
+                    let headway =
+                        crate::maneuvers::joiner_headway(&fb.acc, self.parts.headway, elapsed_s);
+                    let acc = acc_command(
+                        &fb.acc,
+                        reading,
+                        headway,
+                        own[1],
+                        self.parts.spacing,
+                        length_ahead,
+                    );
+                    (acc, false)
+                }
+            };
+            f.member = member;
+            let affected = (jammed[f.id.index()] || self.checks.distrusts(f.id, k))
+                && law.uses_v2v()
+                && member;
             let situation = Situation {
                 k,
                 dt: self.parts.dt,
                 params: fb,
                 affected,
                 // A law on the radar alone follows whoever is ahead anyway.
-                cut_in: reading.is_some_and(|r| r.intruder) && law.uses_v2v(),
+                cut_in: reading.is_some_and(|r| r.intruder) && law.uses_v2v() && member,
                 law: lawful,
                 q: State::zeros(),
                 reading,
                 speed: own[1],
                 spacing: self.parts.spacing,
                 headway: self.parts.headway,
-                length_ahead: fb.length(f.id.index() - 1),
-                rebased,
+                length_ahead,
+                rebased: rebased || joined,
             };
             let (mode, u, guard) = f.fallback.step(&situation, |_| lawful);
+            let mode = if member { mode } else { crate::Mode::Outside };
             f.step.u = u;
             f.step.affected = affected;
             f.step.mode = mode;
@@ -402,6 +495,7 @@ mod tests {
             headway: 0.0,
             fallback,
             detection: Default::default(),
+            maneuvers: None,
         };
         ComposedController::new(Box::new(Echo), parts, &topology, &initial).unwrap()
     }
@@ -532,6 +626,7 @@ mod tests {
             headway: 0.0,
             fallback,
             detection: Default::default(),
+            maneuvers: None,
         };
         let mut c =
             ComposedController::new(Box::new(EchoLeader), parts, &topology, &states(0)).unwrap();

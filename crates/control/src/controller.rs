@@ -152,7 +152,7 @@ impl PlatoonController {
                 topology,
                 initial,
                 params.dt,
-                false,
+                crate::screening::Hearing::Graph,
             )?,
             commands: vec![0.0; n],
             truths: Truths::default(),
@@ -262,6 +262,7 @@ impl crate::Controller for PlatoonController {
                     u: f.fallback.last_u(),
                     // The paper's law has no leader to re-point: it never splits.
                     head: VehicleId::LEADER,
+                    maneuver: None,
                 });
             }
         }
@@ -392,6 +393,7 @@ mod tests {
             headway: 0.0,
             leader_broadcast_steps: 1,
             detection: Default::default(),
+            maneuvers: None,
         }
     }
 
@@ -586,6 +588,7 @@ mod tests {
                 state: State::new(p, 15.0, 0.0),
                 u: 0.0,
                 head: VehicleId::LEADER,
+                maneuver: None,
             },
         };
         let bad = [
@@ -636,6 +639,7 @@ mod tests {
                         state: states[1],
                         u: 0.0,
                         head: VehicleId::LEADER,
+                        maneuver: None,
                     });
                 forged.seq = u32::MAX - 1;
                 forged.step = k;
@@ -654,6 +658,7 @@ mod tests {
                         state: states[1],
                         u: 0.0,
                         head: VehicleId::LEADER,
+                        maneuver: None,
                     }),
                 );
             }
@@ -669,6 +674,7 @@ mod tests {
                         state: teleported,
                         u: 0.0,
                         head: VehicleId::LEADER,
+                        maneuver: None,
                     }),
                 );
             }
@@ -704,6 +710,7 @@ mod tests {
             state: State::new(1.0, 16.0, 1.0),
             u: 0.0,
             head: VehicleId::LEADER,
+            maneuver: None,
         };
         let flow = FreeFlow::new(0.5, 0.01);
         let now = Packet {

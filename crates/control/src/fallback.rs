@@ -94,11 +94,14 @@ pub enum Mode {
     Blend,
     /// ACC on a vehicle that cut in ahead (not the platoon's predecessor).
     CutIn,
+    /// Outside the platoon: a joiner on its ACC behind the vehicle it will follow, until the
+    /// leader admits it (`[maneuvers]`).
+    Outside,
 }
 
 impl Mode {
     /// Every mode, in code order.
-    pub const ALL: [Mode; 7] = [
+    pub const ALL: [Mode; 8] = [
         Mode::Coop,
         Mode::Zero,
         Mode::Hold,
@@ -106,6 +109,7 @@ impl Mode {
         Mode::Acc,
         Mode::Blend,
         Mode::CutIn,
+        Mode::Outside,
     ];
 
     /// The mode's code on the wire (3 bits).
@@ -128,6 +132,7 @@ impl Mode {
             Mode::Acc => "acc",
             Mode::Blend => "blend",
             Mode::CutIn => "cut_in",
+            Mode::Outside => "outside",
         }
     }
 }

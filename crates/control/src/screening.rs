@@ -232,13 +232,35 @@ pub(crate) fn sensed(
 
 /// The packet checks of a built-in controller: `detection`'s detectors, then the caller's
 /// `extra` ones (at most [`MAX_DETECTORS`] in all).
+/// Whom a follower's checks accept packets from besides its graph's neighbours.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Hearing {
+    /// Nobody.
+    Graph,
+    /// Every member ahead (a platoon that may split).
+    AllAhead,
+    /// Every vehicle (a platoon that negotiates maneuvers).
+    Everyone,
+}
+
+impl Hearing {
+    /// The hearing of a platoon that may split (`split`) and negotiates maneuvers.
+    pub(crate) fn of(split: bool, maneuvers: bool) -> Self {
+        match (split, maneuvers) {
+            (_, true) => Hearing::Everyone,
+            (true, false) => Hearing::AllAhead,
+            (false, false) => Hearing::Graph,
+        }
+    }
+}
+
 pub(crate) fn checks(
     detection: &DetectionParams,
     extra: Vec<Box<dyn Detector>>,
     topology: &platoon_topology::Topology,
     initial: &[State],
     dt: f64,
-    hear_ahead: bool,
+    hearing: Hearing,
 ) -> Result<crate::PacketChecks, crate::ParamsError> {
     let err = |message| crate::ParamsError {
         field: "detection",
@@ -251,10 +273,10 @@ pub(crate) fn checks(
         )));
     }
     let checks = crate::PacketChecks::new(topology, initial, dt);
-    let checks = if hear_ahead {
-        checks.hearing_all_ahead(initial)
-    } else {
-        checks
+    let checks = match hearing {
+        Hearing::Graph => checks,
+        Hearing::AllAhead => checks.hearing_all_ahead(initial),
+        Hearing::Everyone => checks.hearing_everyone(initial),
     };
     checks
         .with_detection_and(detection, extra)

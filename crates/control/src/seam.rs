@@ -91,7 +91,19 @@ pub(crate) struct LeaderBeacon {
 impl LeaderBeacon {
     /// Step `k` (`states[0]` is the leader's): appends its packet to `out` when it is due.
     pub(crate) fn transmit(&mut self, k: u64, every: u32, states: &[State], out: &mut Vec<Packet>) {
-        if k.is_multiple_of(u64::from(every)) {
+        self.transmit_with(k, every, states, None, out);
+    }
+
+    /// [`LeaderBeacon::transmit`], also when not due if it carries a maneuver message.
+    pub(crate) fn transmit_with(
+        &mut self,
+        k: u64,
+        every: u32,
+        states: &[State],
+        maneuver: Option<crate::maneuvers::Message>,
+        out: &mut Vec<Packet>,
+    ) {
+        if k.is_multiple_of(u64::from(every)) || maneuver.is_some() {
             self.seq += 1;
             out.push(Packet {
                 sender: VehicleId::LEADER,
@@ -100,6 +112,7 @@ impl LeaderBeacon {
                 state: states[0],
                 u: self.last_u,
                 head: VehicleId::LEADER,
+                maneuver,
             });
         }
         self.last_u = states[0][2];
@@ -159,6 +172,7 @@ pub fn build_with(
         headway: params.headway,
         fallback: params.fallback.clone(),
         detection: params.detection.clone(),
+        maneuvers: params.maneuvers.clone(),
     };
     Ok(Box::new(crate::ComposedController::with_detectors(
         law, parts, topology, initial, detectors,

@@ -36,6 +36,7 @@ fn leader(k: u64, offset_m: f64) -> Delivery {
             state: State::new(20.0 * k as f64 * DT + offset_m, 20.0, 0.0),
             u: 0.0,
             head: VehicleId::LEADER,
+            maneuver: None,
         },
     }
 }

@@ -159,6 +159,7 @@ impl Controller for PaperLaw {
                 state: states[0],
                 u: self.leader_last_u,
                 head: VehicleId::LEADER,
+                maneuver: None,
             });
         }
         // Packets carry the sender's command of the step before (for the leader, the
@@ -199,6 +200,7 @@ impl Controller for PaperLaw {
                     state: x,
                     u: f.last_u,
                     head: VehicleId::LEADER,
+                    maneuver: None,
                 });
             }
         }

@@ -102,6 +102,7 @@ pub fn packet(sender: u16, seq: u32, step: usize, state: State) -> Packet {
         state,
         u: state[2],
         head: platoon_model::VehicleId::LEADER,
+        maneuver: None,
     }
 }
 

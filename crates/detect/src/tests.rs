@@ -534,6 +534,7 @@ proptest! {
             state: claim,
             u: 0.0,
             head: platoon_model::VehicleId::LEADER,
+            maneuver: None,
         };
         let obs = Observation {
             k,

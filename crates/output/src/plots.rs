@@ -274,6 +274,7 @@ fn mode_color(m: platoon_control::Mode) -> RGBColor {
         Mode::Acc => RGBColor(0, 158, 115),
         Mode::Blend => RGBColor(204, 121, 167),
         Mode::CutIn => RGBColor(213, 94, 0),
+        Mode::Outside => RGBColor(240, 228, 66),
     }
 }
 
@@ -355,7 +356,12 @@ pub fn modes(
             )
             .map_err(err)?;
     }
-    for m in Mode::ALL.into_iter().filter(|m| *m != Mode::Coop) {
+    // `outside` only where a vehicle joins: other runs keep their figure.
+    let joins = scenario.control.maneuvers.is_some();
+    for m in Mode::ALL
+        .into_iter()
+        .filter(|m| *m != Mode::Coop && (joins || *m != Mode::Outside))
+    {
         let c = mode_color(m);
         chart
             .draw_series(std::iter::empty::<Rectangle<(f64, f64)>>())

@@ -198,7 +198,8 @@ struct EventRow {
     step: u64,
     t: f64,
     /// `broadcast`, `switch` (the vehicle's mode changed at this step), `intruder_in`,
-    /// `gap_opened`, `intruder_out`, `rejoined`, `split`, `merged`, `flagged`, `distrust` or `trust`.
+    /// `gap_opened`, `intruder_out`, `rejoined`, `split`, `merged`, `flagged`, `distrust`,
+    /// `trust` or `joined`.
     event: Event,
     /// The mode it is in (after the switch).
     mode: platoon_control::Mode,
@@ -234,6 +235,9 @@ enum Event {
     Distrust,
     /// It accepted a packet of a sender it had been refusing.
     Trust,
+    /// A joiner took the platoon's law: the leader admitted it (`[maneuvers]`; its mode left
+    /// `outside`).
+    Joined,
 }
 
 impl From<Vec<StepRow>> for Plotted {
@@ -440,8 +444,11 @@ impl RunFiles {
                 self.events.write(row(Event::IntruderIn, None))?;
             }
             if r.mode != self.modes[v] {
-                self.modes[v] = r.mode;
+                let was = std::mem::replace(&mut self.modes[v], r.mode);
                 self.events.write(row(Event::Switch, None))?;
+                if was == platoon_control::Mode::Outside {
+                    self.events.write(row(Event::Joined, None))?;
+                }
                 if r.mode == platoon_control::Mode::Coop && std::mem::take(&mut self.intruded[v]) {
                     self.events.write(row(Event::Rejoined, None))?;
                 }

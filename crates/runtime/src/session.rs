@@ -404,6 +404,7 @@ pub fn packet_from_wire(p: &V2vPacket, j: usize, num: Numbering) -> Packet {
         state: State::from(p.state),
         u: p.u,
         head: local(p.head),
+        maneuver: None,
     }
 }
 

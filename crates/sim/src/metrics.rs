@@ -176,10 +176,13 @@ impl MetricsAccumulator {
                 }
                 acc.last_trigger = Some(r.step);
             }
-            acc.spacing.push(r.spacing_error);
-            acc.gap
-                .push(front.p - r.p - (self.spacing + self.headway * r.v));
-            acc.velocity.push(r.velocity_error);
+            // A joiner's errors count from the step it is admitted: outside, it has no slot.
+            if r.mode != platoon_control::Mode::Outside {
+                acc.spacing.push(r.spacing_error);
+                acc.gap
+                    .push(front.p - r.p - (self.spacing + self.headway * r.v));
+                acc.velocity.push(r.velocity_error);
+            }
             acc.affected_steps += u64::from(r.affected);
             acc.min_accel = acc.min_accel.min(r.a);
             acc.mode_steps[r.mode.code() as usize] += 1;

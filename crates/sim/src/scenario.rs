@@ -246,10 +246,14 @@ impl Scenario {
 
     /// Who hears whom on the V2V channel: the topology's links and, when the platoon splits
     /// behind a car that cut in (`[fallback.cut_in] split`), every follower also hears every
-    /// member ahead of it ([`Topology::hearing_all_ahead`]). The channel carries these links;
+    /// member ahead of it ([`Topology::hearing_all_ahead`]); with `[maneuvers]` every vehicle
+    /// hears every other ([`Topology::hearing_everyone`]). The channel carries these links;
     /// the controllers' laws keep [`Scenario::topology`].
     pub fn hearing(&self) -> Topology {
-        if self.splits() {
+        if self.control.maneuvers.is_some() {
+            // Maneuvers: a joiner asks the leader, the leader answers and announces.
+            self.topology.hearing_everyone()
+        } else if self.splits() {
             self.topology.hearing_all_ahead()
         } else {
             self.topology.clone()

@@ -132,6 +132,7 @@ mod tests {
             state: State::new(p, 1.0, 0.0),
             u: 0.0,
             head: VehicleId::LEADER,
+            maneuver: None,
         }
     }
 

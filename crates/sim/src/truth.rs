@@ -361,6 +361,7 @@ mod tests {
             state: State::new(p, 15.0, 0.0),
             u: 0.0,
             head: VehicleId::LEADER,
+            maneuver: None,
         }
     }
 

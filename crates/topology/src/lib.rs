@@ -102,6 +102,9 @@ pub struct Topology {
     in_neighbours: Vec<Vec<VehicleId>>,
     /// out_neighbours[v] for vehicle v (leader at 0): who receives v's broadcasts.
     out_neighbours: Vec<Vec<VehicleId>>,
+    /// Whom the leader receives from: nobody in a control graph; every follower in
+    /// [`Topology::hearing_everyone`].
+    leader_in: Vec<VehicleId>,
 }
 
 impl Topology {
@@ -231,6 +234,7 @@ impl Topology {
             pinning,
             in_neighbours,
             out_neighbours,
+            leader_in: Vec::new(),
         })
     }
 
@@ -260,9 +264,13 @@ impl Topology {
         self.laplacian() + DMatrix::from_diagonal(&self.pinning)
     }
 
-    /// Whom follower `i` receives from (the leader first if pinned). Panics for the leader.
+    /// Whom vehicle `i` receives from (the leader first if pinned); for the leader, whom it
+    /// hears (nobody in a control graph).
     pub fn in_neighbours(&self, i: VehicleId) -> &[VehicleId] {
-        &self.in_neighbours[i.index() - 1]
+        match i.index() {
+            0 => &self.leader_in,
+            i => &self.in_neighbours[i - 1],
+        }
     }
 
     /// Who receives vehicle `v`'s broadcasts (the leader included).
@@ -287,6 +295,24 @@ impl Topology {
             .expect("more links than a valid graph keep it valid")
     }
 
+    /// Every vehicle hearing every other, the leader included (it hears every follower): who
+    /// hears whom when the platoon negotiates maneuvers (`[[maneuvers]]`: a joiner asks the
+    /// leader, the leader announces to everyone). Like [`Topology::hearing_all_ahead`], a graph
+    /// that only carries packets; its adjacency and pinning are all ones.
+    pub fn hearing_everyone(&self) -> Self {
+        let n = self.followers();
+        let adjacency = (0..n)
+            .map(|i| (0..n).map(|j| if i == j { 0.0 } else { 1.0 }).collect())
+            .collect();
+        let mut all =
+            Self::explicit(adjacency, vec![1.0; n]).expect("a complete graph is a valid graph");
+        for f in 1..=n {
+            all.out_neighbours[f].push(VehicleId::LEADER);
+        }
+        all.leader_in = (1..=n).map(VehicleId::follower).collect();
+        all
+    }
+
     /// Every directed link `(sender, receiver)`, leader links first, in a fixed order.
     pub fn links(&self) -> impl Iterator<Item = (VehicleId, VehicleId)> + '_ {
         self.out_neighbours
@@ -298,6 +324,19 @@ impl Topology {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn hearing_everyone_links_every_pair_the_leader_included() {
+        let t = Topology::preset(Preset::Pf, 3).unwrap().hearing_everyone();
+        let links: Vec<_> = t.links().collect();
+        assert_eq!(links.len(), 4 * 3, "every ordered pair of 4 vehicles");
+        assert_eq!(t.in_neighbours(VehicleId::LEADER).len(), 3);
+        assert!(t.out_neighbours(VehicleId(2)).contains(&VehicleId::LEADER));
+        assert!(Topology::preset(Preset::Pf, 3)
+            .unwrap()
+            .in_neighbours(VehicleId::LEADER)
+            .is_empty());
+    }
+
     use super::*;
 
     fn m(rows: &[&[f64]]) -> DMatrix<f64> {

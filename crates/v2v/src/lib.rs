@@ -6,6 +6,7 @@
 //! for these two types. Their wire form is `platoon_wire::V2vPacket`.
 #![warn(missing_docs)]
 
+pub use platoon_maneuver::Message;
 use platoon_model::{State, VehicleId};
 
 /// A V2V broadcast: the sender's sampled state at a step.
@@ -29,6 +30,10 @@ pub struct Packet {
     /// (`[fallback.cut_in] split`); a follower behind such a head announces that head. Receivers
     /// behind a member that announces itself take it as their leader.
     pub head: VehicleId,
+    /// A maneuver message riding on this broadcast (`[[maneuvers]]`): a vehicle with one to
+    /// send broadcasts at that step, one message a packet, so the channel, its losses and
+    /// every attack act on maneuvers as on beacons.
+    pub maneuver: Option<Message>,
 }
 
 impl Packet {

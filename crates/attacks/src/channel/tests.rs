@@ -14,6 +14,7 @@ fn packet(sender: u16, seq: u32, step: u64) -> Packet {
         state: State::new(f64::from(sender), 1.0, 0.0),
         u: 0.0,
         head: VehicleId::LEADER,
+        maneuver: None,
     }
 }
 

@@ -226,3 +226,50 @@ pub(super) fn detection(
         plugin: d.plugin.clone(),
     })
 }
+
+/// `[maneuvers]` for a platoon of `followers` followers at a step of `dt` s.
+pub(super) fn maneuvers(
+    m: Option<&ManeuversConfig>,
+    followers: usize,
+    dt: f64,
+) -> Result<Option<platoon_control::ManeuverParams>, Invalid> {
+    let Some(m) = m else {
+        return Ok(None);
+    };
+    let step_of = |key: &str, t: f64| -> Result<u64, Invalid> {
+        let t = finite(key, t)?;
+        if t < 0.0 {
+            return bad(key, format!("must be >= 0, got {t}"));
+        }
+        Ok((t / dt).round() as u64)
+    };
+    let mut joins = Vec::with_capacity(m.joins.len());
+    for (i, j) in m.joins.iter().enumerate() {
+        let key = format!("maneuvers.joins[{i}]");
+        if j.vehicle == 0 || j.vehicle > followers {
+            return bad(
+                &format!("{key}.vehicle"),
+                format!("must be a follower, 1 to {followers} (got {})", j.vehicle),
+            );
+        }
+        joins.push(platoon_control::JoinSpec {
+            vehicle: platoon_model::VehicleId(j.vehicle as u16),
+            at_step: step_of(&format!("{key}.at_s"), j.at_s)?,
+        });
+    }
+    let params = platoon_control::ManeuverParams {
+        timing: platoon_maneuver::Timing {
+            reply_steps: u64::from(steps_of("maneuvers.reply_s", m.reply_s, dt)?),
+            tries: m.tries,
+            maneuver_steps: step_of("maneuvers.timeout_s", m.timeout_s)?,
+        },
+        joins,
+        in_position_m: m.in_position_m,
+        in_position_mps: m.in_position_mps,
+        max_members: m.max_members.unwrap_or(followers + 1),
+    };
+    params
+        .validate(followers)
+        .or_else(|(field, message)| bad(&format!("maneuvers.{field}"), message))?;
+    Ok(Some(params))
+}

@@ -280,6 +280,55 @@ pub struct CutInConfig {
     pub length_m: Option<f64>,
 }
 
+/// `[maneuvers]`: the platoon's maneuvers and the protocol's timing.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(default, deny_unknown_fields)]
+pub struct ManeuversConfig {
+    /// `[[maneuvers.joins]]`: vehicles that start outside the platoon, behind it, and join at
+    /// its tail. The joiners are the platoon's last vehicles (their initial states are theirs).
+    pub joins: Vec<JoinConfig>,
+    /// How long a vehicle waits for an answer before it asks again, and the spacing of the
+    /// leader's repeats of a formation update (s).
+    pub reply_s: f64,
+    /// How many times a message that wants an answer is sent, at most.
+    pub tries: u32,
+    /// How long a join may take from the leader's accept (s): then it is called off.
+    pub timeout_s: f64,
+    /// A joiner is in position when its gap is within this of the platoon's (m)...
+    pub in_position_m: f64,
+    /// ...and it closes on the vehicle ahead at most this fast (m/s).
+    pub in_position_mps: f64,
+    /// Members the platoon admits, the leader counted; absent: every vehicle of the scenario.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub max_members: Option<usize>,
+}
+
+/// A join at the tail.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct JoinConfig {
+    /// The joiner (a follower id; the joiners are the last vehicles).
+    pub vehicle: usize,
+    /// When it asks the leader to join (s).
+    pub at_s: f64,
+}
+
+/// Plexe-like timing: answers within 0.5 s, 3 tries, a join within 30 s; in position within
+/// 1 m of the platoon's gap, closing slower than 0.5 m/s.
+impl Default for ManeuversConfig {
+    fn default() -> Self {
+        Self {
+            joins: Vec::new(),
+            reply_s: 0.5,
+            tries: 3,
+            timeout_s: 30.0,
+            in_position_m: 1.0,
+            in_position_mps: 0.5,
+            max_members: None,
+        }
+    }
+}
+
 /// The controller's defaults: no dwell, no blend.
 impl Default for FallbackConfig {
     fn default() -> Self {

@@ -1,0 +1,248 @@
+//! Maneuvers in the controllers (`[maneuvers]`): the protocol of `platoon-maneuver` run for
+//! one platoon's vehicles, its messages on their packets (one a packet: a vehicle with a
+//! message to send broadcasts at that step), and how a joiner drives until it is admitted.
+//!
+//! A join is at the tail: the joiner is a follower of the scenario that starts outside the
+//! formation, behind the vehicle ahead of it. Until the leader accepts it, it keeps the ACC's
+//! headway on its radar; once accepted, the ACC closes to the platoon's spacing (its headway
+//! shrinking to the platoon's over the ACC's `opening_s`); in position
+//! (its gap within `in_position_m` of the platoon's, closing slower than `in_position_mps`) it
+//! says so, and on the leader's update it takes the law, blended from its ACC command as on the
+//! way back from a fallback. Members keep their copies of the formation from the leader's
+//! updates.
+use platoon_maneuver::{Formation, Joiner, JoinerPhase, Leader, Member};
+pub use platoon_maneuver::{Message, Timing};
+use platoon_model::VehicleId;
+use std::collections::VecDeque;
+
+/// A join at the tail: follower `vehicle` asks at step `at_step` for the slot behind the
+/// vehicle ahead of it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct JoinSpec {
+    /// The joiner.
+    pub vehicle: VehicleId,
+    /// When it asks.
+    pub at_step: u64,
+}
+
+/// A platoon's maneuvers and how its vehicles judge them.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ManeuverParams {
+    /// The protocol's timing.
+    pub timing: Timing,
+    /// The joins, each at the tail.
+    pub joins: Vec<JoinSpec>,
+    /// A joiner is in position when its gap is within this of the platoon's (m)...
+    pub in_position_m: f64,
+    /// ...and it closes on the vehicle ahead at most this fast (m/s).
+    pub in_position_mps: f64,
+    /// Members a platoon may have, the leader counted.
+    pub max_members: usize,
+}
+
+impl ManeuverParams {
+    /// Checks the joins against a platoon of `followers` followers; the key and the reason
+    /// when wrong.
+    pub fn validate(&self, followers: usize) -> Result<(), (&'static str, String)> {
+        let mut joiners: Vec<u16> = self.joins.iter().map(|j| j.vehicle.0).collect();
+        joiners.sort_unstable();
+        if let Some(w) = joiners.windows(2).find(|w| w[0] == w[1]) {
+            return Err(("joins", format!("vehicle {} joins twice", w[0])));
+        }
+        // The joiners are the last vehicles: a join is at the tail.
+        let first = followers + 1 - joiners.len();
+        for (i, &v) in joiners.iter().enumerate() {
+            if usize::from(v) != first + i {
+                return Err((
+                    "joins",
+                    format!(
+                        "vehicle {v} cannot join: joins are at the tail, so the joiners are \
+                         the platoon's last vehicles ({first} to {followers} for {} joins)",
+                        joiners.len()
+                    ),
+                ));
+            }
+        }
+        if first < 2 {
+            return Err((
+                "joins",
+                "the platoon needs a follower besides the joiners".into(),
+            ));
+        }
+        let positive = |x: f64| x.is_finite() && x > 0.0;
+        if !positive(self.in_position_m) {
+            return Err((
+                "in_position_m",
+                format!("must be > 0 (got {})", self.in_position_m),
+            ));
+        }
+        if !positive(self.in_position_mps) {
+            return Err((
+                "in_position_mps",
+                format!("must be > 0 (got {})", self.in_position_mps),
+            ));
+        }
+        if self.timing.tries == 0 || self.timing.reply_steps == 0 {
+            return Err(("reply_s", "a reply needs a step and a try at least".into()));
+        }
+        Ok(())
+    }
+
+    /// The formation as the run starts: every follower but the joiners, in order.
+    pub fn initial_formation(&self, followers: usize) -> Formation {
+        Formation::in_order(followers - self.joins.len())
+    }
+}
+
+/// The headway a joiner keeps on its ACC: the ACC's (never below the platoon's) while
+/// outside; once accepted (`approaching_s` ago), shrinking to the platoon's over the ACC's
+/// `opening_s`, so that its command has no step.
+pub(crate) fn joiner_headway(
+    acc: &crate::fallback::AccParams,
+    platoon: f64,
+    approaching_s: Option<f64>,
+) -> f64 {
+    let outside = acc.headway_s.max(platoon);
+    match approaching_s {
+        None => outside,
+        Some(t) => {
+            let closed = if acc.opening_s > 0.0 {
+                (t / acc.opening_s).min(1.0)
+            } else {
+                1.0
+            };
+            outside - (outside - platoon) * closed
+        }
+    }
+}
+
+/// One follower's part.
+#[derive(Debug, Clone)]
+enum Machine {
+    Member(Member),
+    Joiner { joiner: Joiner, at_step: u64 },
+}
+
+#[derive(Debug, Clone)]
+struct Role {
+    machine: Machine,
+    inbox: Vec<Message>,
+    outbox: VecDeque<Message>,
+}
+
+/// The protocol for one platoon: the leader's machine and every follower's.
+#[derive(Debug, Clone)]
+pub(crate) struct Maneuvers {
+    params: ManeuverParams,
+    leader: Leader,
+    leader_in: Vec<Message>,
+    leader_out: VecDeque<Message>,
+    roles: Vec<Role>,
+    scratch: Vec<Message>,
+}
+
+impl Maneuvers {
+    /// The machines of a platoon of `followers` followers.
+    pub(crate) fn new(params: &ManeuverParams, followers: usize) -> Self {
+        let formation = params.initial_formation(followers);
+        let roles = (1..=followers)
+            .map(|i| {
+                let id = VehicleId::follower(i);
+                let machine = match params.joins.iter().find(|j| j.vehicle == id) {
+                    Some(j) => Machine::Joiner {
+                        joiner: Joiner::new(
+                            id,
+                            VehicleId::LEADER,
+                            VehicleId(id.0 - 1),
+                            params.timing,
+                        ),
+                        at_step: j.at_step,
+                    },
+                    None => Machine::Member(Member::new(id, formation.clone(), params.timing)),
+                };
+                Role {
+                    machine,
+                    inbox: Vec::new(),
+                    outbox: VecDeque::new(),
+                }
+            })
+            .collect();
+        Self {
+            leader: Leader::new(formation, params.max_members, params.timing),
+            params: params.clone(),
+            leader_in: Vec::new(),
+            leader_out: VecDeque::new(),
+            roles,
+            scratch: Vec::new(),
+        }
+    }
+
+    /// The message vehicle `v`'s packet carries at this step, if it has one to send.
+    pub(crate) fn next_message(&mut self, v: VehicleId) -> Option<Message> {
+        match v.index() {
+            0 => self.leader_out.pop_front(),
+            i => self.roles[i - 1].outbox.pop_front(),
+        }
+    }
+
+    /// Vehicle `receiver` got `m` (on a packet its checks accepted; the leader's are not
+    /// checked).
+    pub(crate) fn heard(&mut self, receiver: VehicleId, m: Message) {
+        match receiver.index() {
+            0 => self.leader_in.push(m),
+            i => {
+                if let Some(r) = self.roles.get_mut(i - 1) {
+                    r.inbox.push(m);
+                }
+            }
+        }
+    }
+
+    /// Step `k`: every machine acts on what its vehicle received; `in_position(i)` is joiner
+    /// `i`'s judgement of its slot (index `i - 1`).
+    pub(crate) fn step(&mut self, k: u64, in_position: &[bool]) {
+        let out = &mut self.scratch;
+        out.clear();
+        self.leader.step(k, &self.leader_in, out);
+        self.leader_out.extend(out.drain(..));
+        self.leader_in.clear();
+        for (role, &ready) in self.roles.iter_mut().zip(in_position) {
+            match &mut role.machine {
+                Machine::Member(m) => m.step(k, &role.inbox, false, out),
+                Machine::Joiner { joiner, at_step } => {
+                    if k >= *at_step {
+                        joiner.request(k, out);
+                    }
+                    joiner.step(k, &role.inbox, ready, out);
+                }
+            }
+            role.inbox.clear();
+            role.outbox.extend(out.drain(..));
+        }
+    }
+
+    /// Where follower `i` stands: a member (always, for the members the run starts with), or
+    /// a joiner outside or approaching.
+    pub(crate) fn phase(&self, i: VehicleId) -> JoinerPhase {
+        match &self.roles[i.index() - 1].machine {
+            Machine::Member(_) => JoinerPhase::Member,
+            Machine::Joiner { joiner, .. } => joiner.phase(),
+        }
+    }
+
+    /// Whether follower `i` is in position, from its radar's `reading` at speed `v` (the
+    /// platoon's `spacing`, `headway` and the length of the vehicle ahead).
+    pub(crate) fn in_position(
+        &self,
+        reading: Option<crate::fallback::Reading>,
+        v: f64,
+        spacing: f64,
+        headway: f64,
+        length_ahead: f64,
+    ) -> bool {
+        reading.is_some_and(|r| {
+            let e = r.gap + length_ahead - spacing - headway * v;
+            e.abs() <= self.params.in_position_m && r.closing.abs() <= self.params.in_position_mps
+        })
+    }
+}
