@@ -1860,6 +1860,25 @@ fn a_cut_in_runs_bit_identically_on_both_transports() {
     }
 }
 
+/// A join at the tail negotiated over V2V (`configs/join.toml`): the maneuver messages cross
+/// the wire on the packets (contract v4), and both transports agree bit for bit, the joiner's
+/// `outside` mode and its `joined` event included; the facts say the leader hears everyone.
+#[test]
+fn a_join_runs_bit_identically_on_both_transports() {
+    let runs = transports_agree("configs/join.toml");
+    let ipc = runs.path().join("ipc");
+    let facts = json(&ipc.join("facts.json"));
+    assert_eq!(
+        facts["hearing"][0]["leader_hears"],
+        serde_json::json!([1, 2, 3, 4])
+    );
+    assert!(facts["topologies"][0].get("leader_hears").is_none());
+    let events = std::fs::read_to_string(ipc.join("events.csv")).unwrap();
+    let joined: Vec<&str> = events.lines().filter(|l| l.contains(",joined,")).collect();
+    assert_eq!(joined, ["0,4,2692,26.92,joined,blend,,false"]);
+    assert_eq!(json(&ipc.join("summary.json"))["safety"]["collided"], false);
+}
+
 /// A platoon that splits behind the car (`configs/cut-in-split.toml`, the flatbed controller):
 /// the head's announcement travels on the wire (`V2vPacket::head`), follower 4 hears follower 3
 /// over a link its `plf` graph does not have (the run's facts give the channel's links apart

@@ -1,7 +1,8 @@
 //! Maneuvers negotiated over V2V, in process: the join at the tail of `configs/join.toml`
 //! (vehicle 4 starts 60 m behind the platoon, asks at 5 s), its messages as the injector sees
 //! them on the packets, the joiner's command at the hand-over to the law, a join whose
-//! messages the channel loses, and the errors a bad `[maneuvers]` gets.
+//! messages the channel loses, and the errors a bad `[maneuvers]` gets. Both transports
+//! agree on it bit for bit: tests/cosim.rs.
 mod common;
 
 use common::repo;
@@ -217,22 +218,4 @@ fn a_bad_maneuvers_table_names_its_key() {
     assert!(e.contains("maneuvers") && e.contains("paper's law"), "{e}");
     let e = err("tries = 3", "tries = 3\nin_position_km = 1.0");
     assert!(e.contains("in_position_km"), "{e}");
-}
-
-#[test]
-fn the_co_simulation_refuses_maneuvers_until_the_wire_carries_them() {
-    let dir = tempfile::tempdir().unwrap();
-    let o = common::platoon(
-        &[
-            "run",
-            repo().join("configs/join.toml").to_str().unwrap(),
-            "--out",
-            "r",
-        ],
-        dir.path(),
-    );
-    assert!(!o.status.success());
-    let e = String::from_utf8_lossy(&o.stderr);
-    assert!(e.contains("--transport inproc"), "{e}");
-    assert!(!dir.path().join("r").exists());
 }

@@ -1716,6 +1716,31 @@ fn a_split_behind_a_cut_in_on_sumo_agrees_with_the_native_plant() {
     mode_times_agree(&s, &n, 0.05);
 }
 
+/// A join at the tail negotiated over V2V (`configs/join.toml`) with SUMO as the plant: the
+/// joiner's radar (SUMO's getLeader) sees the tail as it approaches, nobody collides or
+/// teleports, and the run agrees with the native plant's: every gap within 0.05 m, the joiner
+/// admitted at the same step.
+#[test]
+fn a_join_at_the_tail_on_sumo_agrees_with_the_native_plant() {
+    let (tmp, s, n) = sumo_and_native("configs/join.toml");
+    let (sumo, native) = (tmp.path().join("sumo"), tmp.path().join("native"));
+    assert_eq!(s["safety"]["collided"], false, "{}", s["safety"]);
+    sumo_report_clean(&sumo);
+    let worst = worst_gap_difference(&rows(&sumo), &rows(&native), 7001 * 4);
+    assert!(worst < 0.05, "the gaps differ by up to {worst} m");
+    let joined = |run: &Path| -> Vec<String> {
+        std::fs::read_to_string(run.join("events.csv"))
+            .unwrap()
+            .lines()
+            .filter(|l| l.contains(",joined,"))
+            .map(str::to_string)
+            .collect()
+    };
+    assert_eq!(joined(&sumo).len(), 1);
+    assert_eq!(joined(&sumo), joined(&native));
+    mode_times_agree(&s, &n, 0.05);
+}
+
 /// The cut-in of `configs/cut-in.toml` on SUMO for every law of the controller seam (each on
 /// the platoon's 15.5 m standstill gap, the laws that need the leader on `plf` with the guard,
 /// those that read the leader's packets splitting the platoon behind the car, as

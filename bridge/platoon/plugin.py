@@ -56,9 +56,10 @@ class Topology:
     follower hears (`in_neighbours[i]`, leader first, then followers in order) and who hears
     each vehicle (`out_neighbours[v]`, v = 0 the leader), in the Rust order. `adjacency[i][j]`
     is 1 when follower i hears follower j (0-based), `pinning[i]` when follower i hears the
-    leader."""
+    leader, and `leader_hears` lists the followers the leader hears (1-based; every follower on
+    the channel of a platoon that negotiates maneuvers)."""
 
-    def __init__(self, adjacency, pinning):
+    def __init__(self, adjacency, pinning, leader_hears=()):
         n = len(pinning)
         self.followers = n
         self.in_neighbours = [[] for _ in range(n + 1)]  # index 0 (the leader) stays empty
@@ -72,6 +73,9 @@ class Topology:
                 if adjacency[i][j] == 1.0:
                     self.in_neighbours[me].append(j + 1)
                     self.out_neighbours[j + 1].append(me)
+        for f in leader_hears:
+            self.in_neighbours[0].append(f)
+            self.out_neighbours[f].append(0)
 
 
 RUN_VARIABLES = ("PLATOON_RUN_ID", "PLATOON_CONFIG", "PLATOON_RUN_FACTS")
@@ -103,7 +107,9 @@ def load_run(option: str = "--injector") -> Run:
         vehicles_per_platoon=facts["followers"] + 1,
         platoons=facts["platoons"],
         topology=Topology(graph["adjacency"], graph["pinning"]),
-        hearing=Topology(hearing["adjacency"], hearing["pinning"]),
+        hearing=Topology(
+            hearing["adjacency"], hearing["pinning"], hearing.get("leader_hears", ())
+        ),
         detectors=list(facts["detectors"]),
     )
 

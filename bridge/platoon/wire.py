@@ -20,8 +20,9 @@ import iceoryx2 as iox
 # later, still v2: the optional `traffic` service (TrafficVehicle; no v2 payload changed), then
 # the optional `inspections` service (Inspection; the same way); v3: V2vPacket gained `head`
 # (the head of the platoon the sender drives in, for a platoon split behind a cut-in) and
-# `reserved` (always 0).
-CONTRACT_VERSION = 3
+# `reserved` (always 0); v4: V2vPacket carries a maneuver message (`maneuver` and its fields in
+# place of `reserved`; 80 bytes).
+CONTRACT_VERSION = 4
 CONTRACT_VERSION_ENV = "PLATOON_CONTRACT_VERSION"
 CONTRACT_DOC = "docs/injector-contract.md"
 
@@ -98,8 +99,12 @@ class VehicleState(Payload):
 
 class V2vPacket(Payload):
     """A V2V broadcast: sender, sequence number, sampling step, send time stamp, state [p, v, a],
-    the sender's latest commanded acceleration u, and the head of the platoon the sender drives
-    in (a wire id like sender: the leader, or the sender when it heads a split platoon)."""
+    the sender's latest commanded acceleration u, the head of the platoon the sender drives in
+    (a wire id like sender: the leader, or the sender when it heads a split platoon), and the
+    maneuver message it may carry (`maneuver`: NO_MANEUVER or a kind below; its addressee,
+    sequence number, the vehicle it names and, for an update that a vehicle joined, whom it
+    follows, as wire ids; `maneuver_arg`: the middle flag, the refusal reason or the update's
+    generation). An injector passes these through, or forges them (docs/maneuvers.md)."""
 
     _fields_ = [
         ("sender", ctypes.c_uint32),
@@ -109,8 +114,35 @@ class V2vPacket(Payload):
         ("state", ctypes.c_double * 3),
         ("u", ctypes.c_double),
         ("head", ctypes.c_uint32),
-        ("reserved", ctypes.c_uint32),
+        ("maneuver", ctypes.c_uint16),
+        ("maneuver_arg", ctypes.c_uint16),
+        ("maneuver_to", ctypes.c_uint32),
+        ("maneuver_seq", ctypes.c_uint32),
+        ("maneuver_vehicle", ctypes.c_uint32),
+        ("maneuver_behind", ctypes.c_uint32),
     ]
+
+    # `maneuver` (crates/wire V2vPacket's constants).
+    NO_MANEUVER = 0
+    JOIN_REQUEST = 1
+    JOIN_ACCEPT = 2
+    JOIN_REFUSE = 3
+    OPEN_GAP = 4
+    GAP_READY = 5
+    MOVE_IN = 6
+    IN_POSITION = 7
+    UPDATE_JOINED = 8
+    UPDATE_LEFT = 9
+    ABORT = 10
+    LEAVE_NOTICE = 11
+    # `maneuver_arg` of a refusal.
+    REFUSED_BUSY = 0
+    REFUSED_FULL = 1
+    REFUSED_NO_SLOT = 2
+    REFUSED_MEMBER = 3
+    # `maneuver_to`: every member; `maneuver_vehicle`, `maneuver_behind`: no vehicle.
+    EVERYONE = 0xFFFFFFFF
+    NOBODY = 0xFFFFFFFF
 
 
 class LinkPacket(Payload):

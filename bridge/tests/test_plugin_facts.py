@@ -27,7 +27,7 @@ preset = "pf"
 
 FACTS = {
     "run_id": "r1",
-    "contract_version": 3,
+    "contract_version": 4,
     "dt_s": 0.04,
     "last_step": 123,
     "platoons": 2,

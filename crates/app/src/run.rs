@@ -217,12 +217,6 @@ pub fn run(
             "--controller needs --transport iceoryx2: an external controller is a process"
         )));
     }
-    if scenario.control.maneuvers.is_some() && opts.transport == Transport::Iceoryx2 {
-        return Err(RunError::Other(anyhow::anyhow!(
-            "[maneuvers] run in process only for now (the wire does not carry maneuver \
-             messages yet, docs/maneuvers.md): use --transport inproc"
-        )));
-    }
     let plugin = &scenario.control.detection.plugin;
     if !plugin.is_empty() && opts.controller.is_none() {
         // A config this run cannot measure: refused as every bad config is (exit 2).

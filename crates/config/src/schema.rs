@@ -61,7 +61,7 @@ pub struct Config {
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub cut_ins: Vec<CutInConfig>,
     /// `[maneuvers]`: membership changes negotiated over V2V (docs/maneuvers.md): joins at the
-    /// tail, with the field's laws, on the native plant, in process.
+    /// tail, with the field's laws, on either plant and transport.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub maneuvers: Option<ManeuversConfig>,
     /// The DoS attack.

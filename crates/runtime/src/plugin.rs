@@ -37,7 +37,8 @@ pub struct RunFacts {
     /// Each platoon's V2V graph (whose packets its controllers' laws use), in platoon order.
     pub topologies: Vec<Graph>,
     /// Each platoon's links on the channel (`Scenario::hearing`), in platoon order: its graph,
-    /// plus every member ahead when it splits behind a car that cut in. Controllers publish
+    /// plus every member ahead when it splits behind a car that cut in, or every link, the
+    /// leader hearing the followers, when it negotiates maneuvers. Controllers publish
     /// one item per link of this graph and injectors deliver along it.
     pub hearing: Vec<Graph>,
     /// The detectors the run measures (`[detection]`), in the order of each inspection's
@@ -55,6 +56,10 @@ pub struct Graph {
     pub adjacency: Vec<Vec<f64>>,
     /// The followers' pinning to the leader.
     pub pinning: Vec<f64>,
+    /// The followers the leader hears (1-based; on the channel of a platoon that negotiates
+    /// maneuvers, `[maneuvers]`: every follower). Absent: none.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub leader_hears: Vec<u16>,
 }
 
 impl Graph {
@@ -67,6 +72,11 @@ impl Graph {
                 .map(|row| row.iter().copied().collect())
                 .collect(),
             pinning: topology.pinning().iter().copied().collect(),
+            leader_hears: topology
+                .in_neighbours(platoon_model::VehicleId::LEADER)
+                .iter()
+                .map(|v| v.0)
+                .collect(),
         }
     }
 }

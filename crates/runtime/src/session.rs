@@ -10,6 +10,7 @@ use crate::RunError;
 use iceoryx2::port::listener::Listener;
 use iceoryx2::prelude::ipc;
 use platoon_control::{Delivery, Packet};
+use platoon_maneuver::{Body, Change, Message, Refusal, EVERYONE};
 use platoon_model::{State, VehicleId};
 use platoon_sim::Scenario;
 use platoon_wire::{
@@ -385,8 +386,142 @@ pub fn packet_to_wire(p: &Packet, stamp_ns: u64, j: usize, num: Numbering) -> V2
         } else {
             num.global(j, p.head)
         },
-        reserved: 0,
+        ..maneuver_to_wire(p.maneuver.as_ref(), j, num)
     }
+}
+
+/// A maneuver message of platoon `j` as the maneuver fields of a [`V2vPacket`] (the others 0);
+/// without one, every maneuver field 0 ([`V2vPacket::NO_MANEUVER`]).
+fn maneuver_to_wire(m: Option<&Message>, j: usize, num: Numbering) -> V2vPacket {
+    let id = |v: VehicleId| {
+        if v.0 == u16::MAX {
+            V2vPacket::NOBODY
+        } else {
+            num.global(j, v)
+        }
+    };
+    let Some(m) = m else {
+        return V2vPacket::default();
+    };
+    let (kind, arg, vehicle, behind) = match m.body {
+        Body::JoinRequest { behind } => (V2vPacket::JOIN_REQUEST, 0, Some(behind), None),
+        Body::JoinAccept { behind, middle } => (
+            V2vPacket::JOIN_ACCEPT,
+            u16::from(middle),
+            Some(behind),
+            None,
+        ),
+        Body::JoinRefuse { reason } => (V2vPacket::JOIN_REFUSE, refusal_code(reason), None, None),
+        Body::OpenGap { joiner } => (V2vPacket::OPEN_GAP, 0, Some(joiner), None),
+        Body::GapReady { joiner } => (V2vPacket::GAP_READY, 0, Some(joiner), None),
+        Body::MoveIn => (V2vPacket::MOVE_IN, 0, None, None),
+        Body::InPosition => (V2vPacket::IN_POSITION, 0, None, None),
+        Body::Update {
+            generation,
+            change: Change::Joined { vehicle, behind },
+        } => (
+            V2vPacket::UPDATE_JOINED,
+            generation,
+            Some(vehicle),
+            Some(behind),
+        ),
+        Body::Update {
+            generation,
+            change: Change::Left { vehicle },
+        } => (V2vPacket::UPDATE_LEFT, generation, Some(vehicle), None),
+        Body::Abort { joiner } => (V2vPacket::ABORT, 0, Some(joiner), None),
+        Body::LeaveNotice => (V2vPacket::LEAVE_NOTICE, 0, None, None),
+    };
+    V2vPacket {
+        maneuver: kind,
+        maneuver_arg: arg,
+        maneuver_to: if m.to == EVERYONE {
+            V2vPacket::EVERYONE
+        } else {
+            id(m.to)
+        },
+        maneuver_seq: u32::from(m.seq),
+        maneuver_vehicle: vehicle.map_or(V2vPacket::NOBODY, id),
+        maneuver_behind: behind.map_or(V2vPacket::NOBODY, id),
+        ..V2vPacket::default()
+    }
+}
+
+fn refusal_code(r: Refusal) -> u16 {
+    match r {
+        Refusal::Busy => V2vPacket::REFUSED_BUSY,
+        Refusal::Full => V2vPacket::REFUSED_FULL,
+        Refusal::NoSlot => V2vPacket::REFUSED_NO_SLOT,
+        Refusal::Member => V2vPacket::REFUSED_MEMBER,
+    }
+}
+
+/// The maneuver message a [`V2vPacket`] carries, with the ids of platoon `j`; `None` without
+/// one, and for one no receiver could act on (an unknown kind or reason, a sequence number
+/// beyond 16 bits, a vehicle it needs that is of another platoon or of none): such a message is
+/// dropped, the packet's beacon stays.
+fn maneuver_from_wire(
+    p: &V2vPacket,
+    sender: VehicleId,
+    j: usize,
+    num: Numbering,
+) -> Option<Message> {
+    let id = |g: u32| match num.split(g) {
+        Some((jg, i)) if jg == j => Some(i),
+        _ => None,
+    };
+    let vehicle = || id(p.maneuver_vehicle);
+    let body = match p.maneuver {
+        V2vPacket::NO_MANEUVER => return None,
+        V2vPacket::JOIN_REQUEST => Body::JoinRequest { behind: vehicle()? },
+        V2vPacket::JOIN_ACCEPT => Body::JoinAccept {
+            behind: vehicle()?,
+            middle: match p.maneuver_arg {
+                0 => false,
+                1 => true,
+                _ => return None,
+            },
+        },
+        V2vPacket::JOIN_REFUSE => Body::JoinRefuse {
+            reason: match p.maneuver_arg {
+                V2vPacket::REFUSED_BUSY => Refusal::Busy,
+                V2vPacket::REFUSED_FULL => Refusal::Full,
+                V2vPacket::REFUSED_NO_SLOT => Refusal::NoSlot,
+                V2vPacket::REFUSED_MEMBER => Refusal::Member,
+                _ => return None,
+            },
+        },
+        V2vPacket::OPEN_GAP => Body::OpenGap { joiner: vehicle()? },
+        V2vPacket::GAP_READY => Body::GapReady { joiner: vehicle()? },
+        V2vPacket::MOVE_IN => Body::MoveIn,
+        V2vPacket::IN_POSITION => Body::InPosition,
+        V2vPacket::UPDATE_JOINED => Body::Update {
+            generation: p.maneuver_arg,
+            change: Change::Joined {
+                vehicle: vehicle()?,
+                behind: id(p.maneuver_behind)?,
+            },
+        },
+        V2vPacket::UPDATE_LEFT => Body::Update {
+            generation: p.maneuver_arg,
+            change: Change::Left {
+                vehicle: vehicle()?,
+            },
+        },
+        V2vPacket::ABORT => Body::Abort { joiner: vehicle()? },
+        V2vPacket::LEAVE_NOTICE => Body::LeaveNotice,
+        _ => return None,
+    };
+    Some(Message {
+        sender,
+        to: if p.maneuver_to == V2vPacket::EVERYONE {
+            EVERYONE
+        } else {
+            id(p.maneuver_to)?
+        },
+        seq: u16::try_from(p.maneuver_seq).ok()?,
+        body,
+    })
 }
 
 /// A packet off the wire with the ids of platoon `j`: a sender or head of another platoon or of
@@ -397,20 +532,98 @@ pub fn packet_from_wire(p: &V2vPacket, j: usize, num: Numbering) -> Packet {
         Some((jg, i)) if jg == j => i,
         _ => VehicleId(u16::MAX),
     };
+    let sender = local(p.sender);
     Packet {
-        sender: local(p.sender),
+        sender,
         seq: p.seq,
         step: p.step,
         state: State::from(p.state),
         u: p.u,
         head: local(p.head),
-        maneuver: None,
+        maneuver: maneuver_from_wire(p, sender, j, num),
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Every maneuver message crosses the wire as it was, in any platoon of a fleet; one a
+    /// receiver could not act on is dropped and the beacon kept.
+    #[test]
+    fn maneuver_messages_cross_the_wire_unchanged() {
+        let num = Numbering {
+            per_platoon: 5,
+            platoons: 3,
+        };
+        let v = VehicleId;
+        let bodies = [
+            Body::JoinRequest { behind: v(3) },
+            Body::JoinAccept {
+                behind: v(1),
+                middle: true,
+            },
+            Body::JoinRefuse {
+                reason: Refusal::NoSlot,
+            },
+            Body::OpenGap { joiner: v(4) },
+            Body::GapReady { joiner: v(4) },
+            Body::MoveIn,
+            Body::InPosition,
+            Body::Update {
+                generation: 7,
+                change: Change::Joined {
+                    vehicle: v(4),
+                    behind: v(2),
+                },
+            },
+            Body::Update {
+                generation: 8,
+                change: Change::Left { vehicle: v(2) },
+            },
+            Body::Abort { joiner: v(4) },
+            Body::LeaveNotice,
+        ];
+        for j in 0..3 {
+            for (i, body) in bodies.into_iter().enumerate() {
+                let m = Message {
+                    sender: v(4),
+                    to: if i % 2 == 0 { EVERYONE } else { v(0) },
+                    seq: 40000 + i as u16,
+                    body,
+                };
+                let packet = Packet {
+                    sender: v(4),
+                    seq: 9,
+                    step: 12,
+                    state: State::new(1.0, 2.0, 3.0),
+                    u: 0.5,
+                    head: v(0),
+                    maneuver: Some(m),
+                };
+                let wire = packet_to_wire(&packet, 0, j, num);
+                assert_eq!(packet_from_wire(&wire, j, num), packet, "{body:?}");
+                // A vehicle of another platoon, or an unknown kind: the message goes.
+                let mut bad = wire;
+                bad.maneuver = 99;
+                assert_eq!(packet_from_wire(&bad, j, num).maneuver, None);
+                if wire.maneuver_vehicle != V2vPacket::NOBODY {
+                    bad = wire;
+                    bad.maneuver_vehicle = num.global((j + 1) % 3, v(1));
+                    let got = packet_from_wire(&bad, j, num);
+                    assert_eq!((got.maneuver, got.state), (None, packet.state));
+                }
+            }
+        }
+        let plain = Packet {
+            maneuver: None,
+            ..packet_from_wire(&V2vPacket::default(), 0, num)
+        };
+        assert_eq!(
+            packet_to_wire(&plain, 0, 0, num).maneuver,
+            V2vPacket::NO_MANEUVER
+        );
+    }
 
     fn t(index: u32, flags: u32, p: f64) -> TrafficVehicle {
         TrafficVehicle { index, flags, p }

@@ -11,7 +11,7 @@
 use iceoryx2::prelude::ZeroCopySend;
 
 /// The version of this contract (payload layouts and their meaning). Every payload's type name
-/// carries it (`platoon::v3::LinkPacket`), so iceoryx2 refuses to connect a process built for
+/// carries it (`platoon::v4::LinkPacket`), so iceoryx2 refuses to connect a process built for
 /// another version, and `platoon run` tells every process it starts which version the run
 /// speaks ([`CONTRACT_VERSION_ENV`]); the SDKs compare it with their own before opening anything
 /// ([`check_contract_version`]). Raise it with any change of a payload's layout or meaning, and
@@ -27,7 +27,9 @@ use iceoryx2::prelude::ZeroCopySend;
 /// - v3: [`V2vPacket`] gained `head`, the head of the platoon the sender drives in (a platoon
 ///   split behind a car that cut in), and `reserved` (64 bytes, was 56); [`Command::flags`]
 ///   bits 8-23 say whom the follower took as its leader.
-pub const CONTRACT_VERSION: u32 = 3;
+/// - v4: [`V2vPacket`] carries a maneuver message (`maneuver` and its fields in place of
+///   `reserved`; 80 bytes, was 64): join and leave negotiated over V2V (`[maneuvers]`).
+pub const CONTRACT_VERSION: u32 = 4;
 
 /// The environment variable in which `platoon run` gives every process it starts the contract
 /// version of the run ([`CONTRACT_VERSION`]).
@@ -57,7 +59,7 @@ pub fn check_contract_version(run: Option<&str>) -> Result<(), String> {
 
 /// The user header of every step sample: which step it belongs to, and how many items it holds.
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
-#[type_name("platoon::v3::StepHeader")]
+#[type_name("platoon::v4::StepHeader")]
 #[repr(C)]
 pub struct StepHeader {
     /// Step index k.
@@ -88,7 +90,7 @@ impl StepHeader {
 
 /// A vehicle's true state at a step (plant -> controller, injector, orchestrator).
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
-#[type_name("platoon::v3::VehicleState")]
+#[type_name("platoon::v4::VehicleState")]
 #[repr(C)]
 pub struct VehicleState {
     /// Vehicle id (0 = leader).
@@ -136,7 +138,7 @@ impl VehicleState {
 
 /// A V2V broadcast (controller -> injector, and inside [`LinkPacket`]).
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
-#[type_name("platoon::v3::V2vPacket")]
+#[type_name("platoon::v4::V2vPacket")]
 #[repr(C)]
 pub struct V2vPacket {
     /// Sender id (0 = leader).
@@ -155,15 +157,70 @@ pub struct V2vPacket {
     /// the sender itself when it heads the part of a split platoon behind a car that cut in
     /// (`platoon_v2v::Packet::head`).
     pub head: u32,
-    /// Always 0 (the layout has no padding).
-    pub reserved: u32,
+    /// The maneuver message this broadcast carries ([`V2vPacket::NO_MANEUVER`]: none, and every
+    /// maneuver field below 0; else one of the `V2vPacket::JOIN_REQUEST` ...
+    /// `V2vPacket::LEAVE_NOTICE` codes).
+    pub maneuver: u16,
+    /// Its small argument: for an accept, 1 for a join in the middle; for a refusal, the
+    /// reason (`V2vPacket::REFUSED_BUSY` ...); for an update, its generation; else 0.
+    pub maneuver_arg: u16,
+    /// Its addressee, a wire id like `sender` ([`V2vPacket::EVERYONE`]: every member).
+    pub maneuver_to: u32,
+    /// The sender's maneuver sequence number, +1 per message (the first is 1).
+    pub maneuver_seq: u32,
+    /// The vehicle it names, a wire id ([`V2vPacket::NOBODY`]: none): the member whose slot a
+    /// request or an accept is behind, the joiner of an open gap, a gap ready or an abort, the
+    /// vehicle an update says joined or left.
+    pub maneuver_vehicle: u32,
+    /// An update that says a vehicle joined: the member it follows ([`V2vPacket::NOBODY`]
+    /// otherwise).
+    pub maneuver_behind: u32,
+}
+
+impl V2vPacket {
+    /// `maneuver`: the packet carries none.
+    pub const NO_MANEUVER: u16 = 0;
+    /// A vehicle outside the platoon asks the leader to join behind `maneuver_vehicle`.
+    pub const JOIN_REQUEST: u16 = 1;
+    /// The leader accepts the addressee's join behind `maneuver_vehicle`.
+    pub const JOIN_ACCEPT: u16 = 2;
+    /// The leader refuses the addressee's join (`maneuver_arg`: why).
+    pub const JOIN_REFUSE: u16 = 3;
+    /// The leader asks the addressee to open a gap for `maneuver_vehicle`.
+    pub const OPEN_GAP: u16 = 4;
+    /// The gap for `maneuver_vehicle` is open (to the leader).
+    pub const GAP_READY: u16 = 5;
+    /// The addressee moves into the gap (the leader to the joiner).
+    pub const MOVE_IN: u16 = 6;
+    /// The sender is in its slot (to the leader).
+    pub const IN_POSITION: u16 = 7;
+    /// The leader's update `maneuver_arg`: `maneuver_vehicle` joined behind `maneuver_behind`.
+    pub const UPDATE_JOINED: u16 = 8;
+    /// The leader's update `maneuver_arg`: `maneuver_vehicle` left.
+    pub const UPDATE_LEFT: u16 = 9;
+    /// The leader called the join of `maneuver_vehicle` off.
+    pub const ABORT: u16 = 10;
+    /// The sender leaves the platoon (to the leader).
+    pub const LEAVE_NOTICE: u16 = 11;
+    /// A refusal's reason: another maneuver is under way.
+    pub const REFUSED_BUSY: u16 = 0;
+    /// ... the platoon is full.
+    pub const REFUSED_FULL: u16 = 1;
+    /// ... the slot is behind a vehicle that is not a member.
+    pub const REFUSED_NO_SLOT: u16 = 2;
+    /// ... the vehicle is a member already.
+    pub const REFUSED_MEMBER: u16 = 3;
+    /// `maneuver_to`: every member.
+    pub const EVERYONE: u32 = u32::MAX;
+    /// `maneuver_vehicle`, `maneuver_behind`: no vehicle.
+    pub const NOBODY: u32 = u32::MAX;
 }
 
 /// A packet on one link (sender -> receiver): the items of the tx batch (controller ->
 /// injector: one per out-neighbour of each broadcast) and of the rx batch (injector ->
 /// controller: what each receiver gets, plus `JAMMED` notices).
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
-#[type_name("platoon::v3::LinkPacket")]
+#[type_name("platoon::v4::LinkPacket")]
 #[repr(C)]
 pub struct LinkPacket {
     /// The receiving vehicle (for `JAMMED`: the vehicle that sensed jamming).
@@ -183,7 +240,7 @@ impl LinkPacket {
 
 /// A follower's command and what its controller did (controller -> plant, orchestrator).
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
-#[type_name("platoon::v3::Command")]
+#[type_name("platoon::v4::Command")]
 #[repr(C)]
 pub struct Command {
     /// Follower id (>= 1).
@@ -246,7 +303,7 @@ impl Command {
 /// [`Service::Traffic`]): SUMO's `bg<index>`, which drives on the lanes no platoon uses and
 /// loads the V2V channel. Only the SUMO plant with `[sumo] background_vehicles` publishes it.
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
-#[type_name("platoon::v3::TrafficVehicle")]
+#[type_name("platoon::v4::TrafficVehicle")]
 #[repr(C)]
 pub struct TrafficVehicle {
     /// Its index b (SUMO's `bg<b>`): item b of every traffic sample.
@@ -279,7 +336,7 @@ impl TrafficVehicle {
 /// in runs that measure detectors (`[detection]`), one item per inspected packet, in the order
 /// the receivers got them (the rx batch's order).
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
-#[type_name("platoon::v3::Inspection")]
+#[type_name("platoon::v4::Inspection")]
 #[repr(C)]
 pub struct Inspection {
     /// The receiving follower (wire id).
@@ -318,7 +375,7 @@ impl Inspection {
 
 /// Control and status messages (orchestrator <-> every node), one per sample.
 #[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
-#[type_name("platoon::v3::ControlMsg")]
+#[type_name("platoon::v4::ControlMsg")]
 #[repr(C)]
 pub struct ControlMsg {
     /// One of the `ControlMsg::*` kinds.
@@ -580,7 +637,21 @@ pub fn layouts() -> Vec<Layout> {
         layout!(VehicleState, [vehicle, flags, p, v, a, gap, closing]),
         layout!(
             V2vPacket,
-            [sender, seq, step, stamp_ns, state, u, head, reserved]
+            [
+                sender,
+                seq,
+                step,
+                stamp_ns,
+                state,
+                u,
+                head,
+                maneuver,
+                maneuver_arg,
+                maneuver_to,
+                maneuver_seq,
+                maneuver_vehicle,
+                maneuver_behind
+            ]
         ),
         layout!(LinkPacket, [receiver, kind, packet]),
         layout!(Command, [vehicle, flags, u, theta]),
