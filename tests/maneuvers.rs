@@ -7,9 +7,10 @@ mod common;
 
 use common::repo;
 use platoon_attacks::inject::{InjectError, Injector, Reception, Step};
-use platoon_control::Mode;
-use platoon_maneuver::{Body, Change, Message};
+use platoon_control::{Delivery, Mode, Packet};
+use platoon_maneuver::{Body, Change, Message, Refusal};
 use platoon_model::VehicleId;
+use platoon_sim::truth::{Label, TruthLabeler};
 use platoon_sim::{InjectorFactory, Plugins, Scenario, Simulation, StepRow};
 use std::sync::{Arc, Mutex};
 
@@ -23,41 +24,75 @@ fn scenario(text: &str) -> Scenario {
         .1
 }
 
-/// The built-in channel, recording every maneuver message broadcast (step, message) and
-/// dropping every delivery of the messages `drop` picks.
+/// The built-in channel, recording every maneuver message broadcast (step, message), dropping
+/// every delivery of the messages `drop` picks, letting `forge` invent or alter deliveries, and
+/// labelling
+/// every delivery that carries a message against what was broadcast (the ground truth).
 #[derive(Debug, Clone)]
 struct Recording {
     inner: Box<dyn Injector>,
-    sent: Arc<Mutex<Vec<(u64, Message)>>>,
+    log: Arc<Mutex<Log>>,
     drop: fn(u64, &Message) -> bool,
+    forge: fn(&Step<'_>, &mut Vec<Delivery>),
+    truth: TruthLabeler,
+}
+
+/// What a [`Recording`] saw.
+#[derive(Debug, Default)]
+struct Log {
+    sent: Vec<(u64, Message)>,
+    labelled: Vec<(Message, Label)>,
 }
 
 impl Injector for Recording {
     fn step(&mut self, step: &Step<'_>, out: &mut Reception<'_>) -> Result<(), InjectError> {
         self.inner.step(step, out)?;
-        let mut sent = self.sent.lock().unwrap();
-        sent.extend(
+        let drop = self.drop;
+        out.deliveries
+            .retain(|d| !d.packet.maneuver.is_some_and(|m| drop(step.k, &m)));
+        (self.forge)(step, out.deliveries);
+        let links = step.tx.iter().flat_map(|p| {
+            step.topology
+                .out_neighbours(p.sender)
+                .iter()
+                .map(move |&r| (r, *p))
+        });
+        let mut labelled = Vec::new();
+        self.truth
+            .label(step.k, step.states, links, out.deliveries, &mut labelled);
+        let mut log = self.log.lock().unwrap();
+        log.sent.extend(
             step.tx
                 .iter()
                 .filter_map(|p| p.maneuver.map(|m| (step.k, m))),
         );
-        let drop = self.drop;
-        out.deliveries
-            .retain(|d| !d.packet.maneuver.is_some_and(|m| drop(step.k, &m)));
+        log.labelled.extend(
+            labelled
+                .iter()
+                .filter_map(|l| l.delivery.packet.maneuver.map(|m| (m, l.label))),
+        );
         Ok(())
     }
 }
 
-/// Runs `s` in process through [`Recording`]: every row and every message sent.
-fn run(s: Scenario, drop: fn(u64, &Message) -> bool) -> (Vec<StepRow>, Vec<(u64, Message)>) {
-    let sent = Arc::new(Mutex::new(Vec::new()));
-    let log = sent.clone();
+fn nothing(_: &Step<'_>, _: &mut Vec<Delivery>) {}
+
+/// Runs `s` in process through [`Recording`]: every row, and what it saw.
+fn run_with(
+    s: Scenario,
+    drop: fn(u64, &Message) -> bool,
+    forge: fn(&Step<'_>, &mut Vec<Delivery>),
+) -> (Vec<StepRow>, Log) {
+    let log = Arc::new(Mutex::new(Log::default()));
+    let shared = log.clone();
     let plugins = Plugins {
         injector: InjectorFactory::new(move |s| {
             Ok(Box::new(Recording {
                 inner: InjectorFactory::builtin().make(s)?,
-                sent: log.clone(),
+                log: shared.clone(),
                 drop,
+                forge,
+                truth: TruthLabeler::new(1000),
             }))
         }),
         ..Plugins::default()
@@ -67,8 +102,18 @@ fn run(s: Scenario, drop: fn(u64, &Message) -> bool) -> (Vec<StepRow>, Vec<(u64,
     while !sim.is_done() {
         rows.extend_from_slice(sim.step());
     }
-    let sent = sent.lock().unwrap().clone();
-    (rows, sent)
+    let log = std::mem::take(&mut *log.lock().unwrap());
+    (rows, log)
+}
+
+/// [`run_with`] forging nothing: every row and every message sent.
+fn run(s: Scenario, drop: fn(u64, &Message) -> bool) -> (Vec<StepRow>, Vec<(u64, Message)>) {
+    let (rows, log) = run_with(s, drop, nothing);
+    assert!(
+        log.labelled.iter().all(|(_, l)| *l == Label::Genuine),
+        "nothing altered or forged"
+    );
+    (rows, log.sent)
 }
 
 fn of(rows: &[StepRow], v: u16) -> Vec<&StepRow> {
@@ -218,4 +263,142 @@ fn a_bad_maneuvers_table_names_its_key() {
     assert!(e.contains("maneuvers") && e.contains("paper's law"), "{e}");
     let e = err("tries = 3", "tries = 3\nin_position_km = 1.0");
     assert!(e.contains("in_position_km"), "{e}");
+}
+
+/// An outsider forges a join request from a vehicle that is not there (id 7) at 3 s: the
+/// leader accepts it and is busy with it, so it refuses the real joiner at 5 s, which stays
+/// outside on its ACC, safely; the leader calls the ghost's join off at its deadline. The
+/// ground truth labels the forged message `forged` and every genuine one `genuine`.
+#[test]
+fn a_forged_join_request_keeps_the_real_joiner_out_and_is_labelled_forged() {
+    fn ghost(step: &Step<'_>, out: &mut Vec<Delivery>) {
+        if step.k != 300 {
+            return;
+        }
+        let m = Message {
+            sender: VehicleId(7),
+            to: VehicleId::LEADER,
+            seq: 1,
+            body: Body::JoinRequest {
+                behind: VehicleId(3),
+            },
+        };
+        out.push(Delivery {
+            receiver: VehicleId::LEADER,
+            packet: Packet {
+                sender: VehicleId(7),
+                seq: 1,
+                step: step.k,
+                state: step.states[4],
+                u: 0.0,
+                head: VehicleId::LEADER,
+                maneuver: Some(m),
+            },
+        });
+    }
+    let s = scenario(&join_config());
+    let deadline = 300 + (40.0 / s.dt()).round() as u64;
+    let (rows, log) = run_with(s, |_, _| false, ghost);
+    assert!(of(&rows, 4).iter().all(|r| r.mode == Mode::Outside));
+    let refused = log.sent.iter().any(|(_, m)| {
+        m.to == VehicleId(4)
+            && m.body
+                == Body::JoinRefuse {
+                    reason: Refusal::Busy,
+                }
+    });
+    assert!(
+        refused,
+        "the real joiner is refused: the leader is busy with the ghost"
+    );
+    let abort = log
+        .sent
+        .iter()
+        .find(|(_, m)| {
+            m.body
+                == Body::Abort {
+                    joiner: VehicleId(7),
+                }
+        })
+        .map(|(k, _)| *k);
+    assert_eq!(abort, Some(deadline + 1), "called off at its deadline");
+    let forged: Vec<_> = log
+        .labelled
+        .iter()
+        .filter(|(_, l)| *l == Label::Forged)
+        .map(|(m, _)| m.sender)
+        .collect();
+    assert_eq!(forged, [VehicleId(7)]);
+    assert!(log
+        .labelled
+        .iter()
+        .all(|(m, l)| m.sender == VehicleId(7) || *l == Label::Genuine));
+    assert!(smallest_gap(&rows, 4.5) > 10.0);
+}
+
+/// A jam over the join's request (every maneuver message lost from 4.9 s to 6.6 s): the
+/// joiner asks three times, gives up, and stays outside on its ACC; nobody comes close.
+#[test]
+fn a_jammed_request_ends_the_join_safely() {
+    let (rows, sent) = run(scenario(&join_config()), |k, _| (490..660).contains(&k));
+    let requests = sent
+        .iter()
+        .filter(|(_, m)| matches!(m.body, Body::JoinRequest { .. }))
+        .count();
+    assert_eq!(requests, 3);
+    assert!(
+        sent.iter().all(|(_, m)| m.sender == VehicleId(4)),
+        "the leader heard nothing"
+    );
+    assert!(of(&rows, 4).iter().all(|r| r.mode == Mode::Outside));
+    assert!(smallest_gap(&rows, 4.5) > 10.0);
+}
+
+/// A man in the middle rewrites the joiner's requests to the leader into requests for the slot
+/// behind follower 2 (a join in the middle): the leader accepts that slot, which the joiner did
+/// not ask for, so it ignores the accepts, asks again (rewritten too) and gives up; the
+/// leader's join is called off at its deadline, and the joiner stays outside, safely. Every
+/// rewritten request is labelled `altered`, its maneuver field named.
+#[test]
+fn a_rewritten_join_request_is_labelled_altered_and_the_joiner_stays_out() {
+    #[allow(clippy::ptr_arg)] // the forge hook's type: others push
+    fn rewrite(_: &Step<'_>, out: &mut Vec<Delivery>) {
+        for d in out.iter_mut().filter(|d| d.receiver.is_leader()) {
+            if let Some(m) = d.packet.maneuver.as_mut() {
+                if let Body::JoinRequest { behind } = &mut m.body {
+                    *behind = VehicleId(2);
+                }
+            }
+        }
+    }
+    let (rows, log) = run_with(scenario(&join_config()), |_, _| false, rewrite);
+    assert!(of(&rows, 4).iter().all(|r| r.mode == Mode::Outside));
+    let altered: Vec<_> = log
+        .labelled
+        .iter()
+        .filter(|(_, l)| !matches!(l, Label::Genuine))
+        .collect();
+    assert_eq!(altered.len(), 3, "the three requests: {altered:?}");
+    for (m, l) in altered {
+        assert_eq!(
+            m.body,
+            Body::JoinRequest {
+                behind: VehicleId(2)
+            }
+        );
+        assert_eq!(
+            *l,
+            Label::Altered {
+                fields: platoon_sim::truth::Fields::MANEUVER
+            }
+        );
+    }
+    let opened = log.sent.iter().any(|(_, m)| {
+        m.body
+            == Body::OpenGap {
+                joiner: VehicleId(4),
+            }
+    });
+    assert!(opened, "the leader asked follower 3 to open a gap");
+    assert!(smallest_gap(&rows, 4.5) > 10.0);
 }

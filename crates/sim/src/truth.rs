@@ -9,7 +9,7 @@
 //! | label | rule |
 //! |---|---|
 //! | [`Label::Forged`] | no packet with that (sender, seq) was broadcast (within the horizon) |
-//! | [`Label::Altered`] | its state (or `u`, or sampling step, or the head it announces) differs from the broadcast one, bit for bit |
+//! | [`Label::Altered`] | its state (or `u`, or sampling step, or the head it announces, or the maneuver message it carries) differs from the broadcast one, bit for bit |
 //! | [`Label::Replayed`] | this receiver already got that (sender, seq) |
 //! | [`Label::Delayed`] | broadcast at an earlier step (its first delivery to this receiver) |
 //! | [`Label::Lied`] | as broadcast, but the broadcast state is not the sender's true state at its sampling step |
@@ -53,6 +53,8 @@ impl Fields {
     pub const STEP: Fields = Fields(16);
     /// The head of the platoon the sender announces ([`Packet::head`]).
     pub const HEAD: Fields = Fields(32);
+    /// The maneuver message it carries ([`Packet::maneuver`]: `[maneuvers]`).
+    pub const MANEUVER: Fields = Fields(64);
 
     /// The components of `[p, v, a]` that differ bit for bit.
     pub fn of_states(a: &State, b: &State) -> Fields {
@@ -65,7 +67,8 @@ impl Fields {
         Fields(f)
     }
 
-    /// What differs between two packets: state components, `u`, sampling step, head.
+    /// What differs between two packets: state components, `u`, sampling step, head, maneuver
+    /// message.
     pub fn of_packets(a: &Packet, b: &Packet) -> Fields {
         let mut f = Self::of_states(&a.state, &b.state);
         if a.u.to_bits() != b.u.to_bits() {
@@ -76,6 +79,9 @@ impl Fields {
         }
         if a.head != b.head {
             f.0 |= Self::HEAD.0;
+        }
+        if a.maneuver != b.maneuver {
+            f.0 |= Self::MANEUVER.0;
         }
         f
     }
