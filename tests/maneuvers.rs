@@ -5,7 +5,7 @@
 //! agree on it bit for bit: tests/cosim.rs.
 mod common;
 
-use common::repo;
+use common::{cut_in_config, repo};
 use platoon_attacks::inject::{InjectError, Injector, Reception, Step};
 use platoon_control::{Delivery, Mode, Packet};
 use platoon_maneuver::{Body, Change, Message, Refusal};
@@ -401,4 +401,60 @@ fn a_rewritten_join_request_is_labelled_altered_and_the_joiner_stays_out() {
     });
     assert!(opened, "the leader asked follower 3 to open a gap");
     assert!(smallest_gap(&rows, 4.5) > 10.0);
+}
+
+/// `configs/cut-in.toml`'s platoon for `law` (its distances, topology and guard, as
+/// tests/traffic.rs runs the cut-in) without the car, follower 4 starting 60 m behind
+/// follower 3 and joining as in `configs/join.toml`.
+fn join_config_for(law: &str) -> String {
+    let text = cut_in_config(law);
+    let text = &text[..text.find("[[cut_ins]]").unwrap()];
+    let headway = text
+        .lines()
+        .find_map(|l| l.strip_prefix("time_headway_s = "))
+        .map_or(0.0, |h| h.trim().parse::<f64>().unwrap());
+    let l = 20.0 + headway * 15.0;
+    let states: Vec<String> = (0..4)
+        .map(|i| format!("[{}, 15.0, 0.0]", -l * i as f64))
+        .chain([format!("[{}, 15.0, 0.0]", -3.0 * l - 4.5 - 60.0)])
+        .collect();
+    let join = join_config();
+    text.replace(
+        "formation = { leader_position_m = 0.0 }",
+        &format!("initial_states = [{}]", states.join(", ")),
+    ) + &join[join.find("[maneuvers]").unwrap()..]
+}
+
+/// Every law of the controller seam takes the joiner: it is admitted, nobody collides, and
+/// neither the accept nor the hand-over to the law steps its command more than its ACC does
+/// between two radar readings while it waits outside (the radar's 20 Hz updates and noise).
+#[test]
+fn every_law_takes_a_joiner_at_the_tail() {
+    for law in ["acc", "ploeg", "path_cacc", "consensus", "flatbed"] {
+        let (rows, sent) = run(scenario(&join_config_for(law)), |_, _| false);
+        let joiner = of(&rows, 4);
+        let admitted = joiner.iter().position(|r| r.mode != Mode::Outside);
+        let Some(admitted) = admitted else {
+            panic!("{law}: never admitted; sent {sent:?}");
+        };
+        assert!(joiner[admitted..].iter().all(|r| r.mode != Mode::Outside));
+        let gap = smallest_gap(&rows, 4.5);
+        assert!(gap > 5.0, "{law}: smallest gap {gap} m");
+        let accepted = sent
+            .iter()
+            .find(|(_, m)| matches!(m.body, Body::JoinAccept { .. }))
+            .unwrap()
+            .0 as usize;
+        let step = |i: usize| (joiner[i].u - joiner[i - 1].u).abs();
+        let waiting = (1..accepted).map(step).fold(0.0, f64::max);
+        for (what, at) in [("accept", accepted), ("hand-over", admitted)] {
+            for i in at..at + 2 {
+                assert!(
+                    step(i) <= waiting,
+                    "{law}: the {what} steps the command by {} (outside: {waiting})",
+                    step(i)
+                );
+            }
+        }
+    }
 }
