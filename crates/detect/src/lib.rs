@@ -78,6 +78,7 @@
 //!     state: State::new(102.0, 20.0, -8.0),
 //!     u: 0.0,
 //!     head: VehicleId::LEADER,
+//!     maneuver: None,
 //! };
 //! let obs = Observation {
 //!     k: 110,
