@@ -357,6 +357,12 @@ pub fn opened_headway(acc: &AccParams, elapsed_s: f64) -> f64 {
     }
 }
 
+/// How far the radar's gap `r` is beyond the one the ACC keeps at `headway` (s) and speed `v`
+/// (m; `spacing` front to front, `vehicle_length` the length of the vehicle ahead).
+pub fn gap_error(r: Reading, headway: f64, v: f64, spacing: f64, vehicle_length: f64) -> f64 {
+    r.gap + vehicle_length - spacing - headway * v
+}
+
 /// The ACC law's command with the gap opened to `headway` (s); `v` is the own speed and
 /// `spacing` the platoon's desired distance `l` between consecutive vehicles' positions.
 pub fn acc_command(
@@ -370,7 +376,7 @@ pub fn acc_command(
     let Some(r) = reading else {
         return 0.0; // no target in range: keep the speed
     };
-    let e = r.gap + vehicle_length - spacing - headway * v;
+    let e = gap_error(r, headway, v, spacing, vehicle_length);
     let u = (acc.lambda * e - r.closing) / acc.headway_s;
     u.clamp(-acc.max_decel_mps2, acc.max_accel_mps2)
 }

@@ -241,7 +241,7 @@ impl Maneuvers {
         length_ahead: f64,
     ) -> bool {
         reading.is_some_and(|r| {
-            let e = r.gap + length_ahead - spacing - headway * v;
+            let e = crate::fallback::gap_error(r, headway, v, spacing, length_ahead);
             e.abs() <= self.params.in_position_m && r.closing.abs() <= self.params.in_position_mps
         })
     }
