@@ -264,6 +264,14 @@ impl Leader {
                 }
                 self.commit(step, Change::Left { vehicle: from }, out);
             }
+            (Body::LeaveNotice, _)
+                if self
+                    .last_update
+                    .is_some_and(|(c, _)| c == Change::Left { vehicle: from }) =>
+            {
+                // It left and missed the update: say it again.
+                self.repeat(out);
+            }
             (Body::LeaveNotice, LeaderState::Joining { joiner, .. }) if joiner == from => {
                 // The joiner gave up.
                 self.state = LeaderState::Idle;

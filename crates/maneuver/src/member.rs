@@ -19,7 +19,12 @@ pub enum MemberState {
         reported: bool,
     },
     /// Asked to leave; waiting for the leader's update.
-    Leaving,
+    Leaving {
+        /// When it asks again if no update came.
+        ask_at: u64,
+        /// Leave notices sent so far.
+        asks: u32,
+    },
     /// No longer a member (its leave was announced).
     Left,
 }
@@ -80,12 +85,25 @@ impl Member {
         }
     }
 
-    /// Asks the leader to leave.
-    pub fn leave(&mut self, out: &mut Vec<Message>) {
-        if self.state != MemberState::Left {
+    /// Asks the leader to leave at `step`. It asks again every reply time while no update
+    /// names it, up to the tries; then it stays (a leave the leader never heard of must not
+    /// take a member out of the formation the others follow).
+    pub fn leave(&mut self, step: u64, out: &mut Vec<Message>) {
+        if matches!(
+            self.state,
+            MemberState::Following | MemberState::Opening { .. }
+        ) {
             self.send(out, Body::LeaveNotice);
-            self.state = MemberState::Leaving;
+            self.state = MemberState::Leaving {
+                ask_at: step + self.timing.reply_steps,
+                asks: 1,
+            };
         }
+    }
+
+    /// Whether its leave is announced: it is out of the formation.
+    pub fn has_left(&self) -> bool {
+        self.state == MemberState::Left
     }
 
     fn send(&mut self, out: &mut Vec<Message>, body: Body) {
@@ -116,6 +134,20 @@ impl Member {
                     joiner,
                     deadline,
                     reported: true,
+                };
+            }
+        }
+        if let MemberState::Leaving { ask_at, asks } = self.state {
+            if step >= ask_at {
+                self.state = if asks < self.timing.tries {
+                    self.send(out, Body::LeaveNotice);
+                    MemberState::Leaving {
+                        ask_at: step + self.timing.reply_steps,
+                        asks: asks + 1,
+                    }
+                } else {
+                    // No update: the leader may never have heard it; it stays a member.
+                    MemberState::Following
                 };
             }
         }

@@ -281,7 +281,7 @@ fn a_member_leaves_and_the_one_behind_closes_up() {
         .map(|i| Member::new(v(i), formation.clone(), TIMING))
         .collect();
     let mut in_flight = Vec::new();
-    members[1].leave(&mut in_flight);
+    members[1].leave(0, &mut in_flight);
     for step in 1..=30 {
         let mut out = Vec::new();
         leader.step(step, &in_flight, &mut out);
@@ -293,6 +293,50 @@ fn a_member_leaves_and_the_one_behind_closes_up() {
     assert_eq!(leader.formation().members(), &[v(0), v(1), v(3)]);
     assert_eq!(members[1].state(), MemberState::Left);
     assert_eq!(members[2].formation().predecessor(v(3)), Some(v(1)));
+}
+
+#[test]
+fn a_lost_leave_notice_is_sent_again_and_an_unanswered_leave_is_given_up() {
+    let formation = Formation::in_order(3);
+    let run = |lose_first: usize, lose_all: bool| {
+        let mut leader = Leader::new(formation.clone(), 8, TIMING);
+        let mut members: Vec<Member> = (1..=3)
+            .map(|i| Member::new(v(i), formation.clone(), TIMING))
+            .collect();
+        let mut in_flight = Vec::new();
+        members[1].leave(0, &mut in_flight);
+        let mut notices = 0;
+        for step in 1..=60 {
+            notices += in_flight
+                .iter()
+                .filter(|m| m.body == Body::LeaveNotice)
+                .count();
+            // The channel loses the leaver's first `lose_first` notices, or everything.
+            let heard: Vec<Message> = in_flight
+                .iter()
+                .filter(|m| !(lose_all || m.body == Body::LeaveNotice && notices <= lose_first))
+                .copied()
+                .collect();
+            let mut out = Vec::new();
+            leader.step(step, &heard, &mut out);
+            for m in &mut members {
+                m.step(step, &heard, false, &mut out);
+            }
+            in_flight = out;
+        }
+        (leader.formation().clone(), members[1].state(), notices)
+    };
+    let (f, state, notices) = run(2, false);
+    assert_eq!(
+        f.members(),
+        &[v(0), v(1), v(3)],
+        "the third notice got through"
+    );
+    assert_eq!((state, notices), (MemberState::Left, 3));
+    let (f, state, notices) = run(0, true);
+    assert_eq!(f, formation, "the leader never heard it");
+    assert_eq!(state, MemberState::Following, "it stays after its tries");
+    assert_eq!(notices, TIMING.tries as usize);
 }
 
 proptest! {
