@@ -1879,6 +1879,28 @@ fn a_join_runs_bit_identically_on_both_transports() {
     assert_eq!(json(&ipc.join("summary.json"))["safety"]["collided"], false);
 }
 
+/// Members leave (`configs/leave.toml`: follower 2 from the middle, follower 5 at the tail):
+/// the plant takes each off the lane on its command's mode `left` (on the wire, mode 8), the
+/// radars then see the member ahead of it, and both transports agree bit for bit.
+#[test]
+fn leaves_run_bit_identically_on_both_transports() {
+    let runs = transports_agree("configs/leave.toml");
+    let ipc = runs.path().join("ipc");
+    let events = std::fs::read_to_string(ipc.join("events.csv")).unwrap();
+    let left: Vec<&str> = events
+        .lines()
+        .filter(|l| l.contains(",left,left,"))
+        .collect();
+    assert_eq!(
+        left,
+        [
+            "0,2,2002,20.02,left,left,,false",
+            "0,5,4502,45.02,left,left,,false"
+        ]
+    );
+    assert_eq!(json(&ipc.join("summary.json"))["safety"]["collided"], false);
+}
+
 /// A platoon that splits behind the car (`configs/cut-in-split.toml`, the flatbed controller):
 /// the head's announcement travels on the wire (`V2vPacket::head`), follower 4 hears follower 3
 /// over a link its `plf` graph does not have (the run's facts give the channel's links apart

@@ -1741,6 +1741,64 @@ fn a_join_at_the_tail_on_sumo_agrees_with_the_native_plant() {
     mode_times_agree(&s, &n, 0.05);
 }
 
+/// Members leave on SUMO (`configs/leave.toml`): each leaver changes to the lane beside the
+/// platoon's (lane 2 of the highway) at the step its mode becomes `left`, the radar of the
+/// follower behind it (SUMO's getLeader) then sees the member ahead, the same as the native
+/// plant's lane, so the two runs agree: every gap within 0.05 m, the leaves at the same steps,
+/// fcd.xml placing each leaver on its new lane; nobody collides.
+#[test]
+fn leaves_on_sumo_change_lanes_and_agree_with_the_native_plant() {
+    let (tmp, s, n) = sumo_and_native("configs/leave.toml");
+    let (sumo, native) = (tmp.path().join("sumo"), tmp.path().join("native"));
+    assert_eq!(s["safety"]["collided"], false, "{}", s["safety"]);
+    sumo_report_clean(&sumo);
+    let report = json(&sumo.join("sumo.json"));
+    let leaves: Vec<(u64, String, u64)> = report["leaves"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|l| {
+            (
+                l["step"].as_u64().unwrap(),
+                l["vehicle"].as_str().unwrap().to_string(),
+                l["lane"].as_u64().unwrap(),
+            )
+        })
+        .collect();
+    assert_eq!(
+        leaves,
+        [
+            (2002, "follower2".to_string(), 2),
+            (4502, "follower5".to_string(), 2)
+        ]
+    );
+    let worst = worst_gap_difference(&rows(&sumo), &rows(&native), 7001 * 5);
+    assert!(worst < 0.05, "the gaps differ by up to {worst} m");
+    let left = |run: &Path| -> Vec<String> {
+        std::fs::read_to_string(run.join("events.csv"))
+            .unwrap()
+            .lines()
+            .filter(|l| l.contains(",left,left,"))
+            .map(str::to_string)
+            .collect()
+    };
+    assert_eq!(left(&sumo).len(), 2);
+    assert_eq!(left(&sumo), left(&native));
+    mode_times_agree(&s, &n, 0.05);
+    let fcd = std::fs::read_to_string(sumo.join("fcd.xml")).unwrap();
+    let lane_at = |t: &str| -> String {
+        let step = &fcd[fcd.find(&format!("<timestep time=\"{t}\"")).unwrap()..];
+        let line = step
+            .lines()
+            .find(|l| l.contains("id=\"follower2\""))
+            .unwrap();
+        let lane = &line[line.find("lane=\"").unwrap() + 6..];
+        lane[..lane.find('"').unwrap()].to_string()
+    };
+    assert_eq!(lane_at("19.00"), "highway_1");
+    assert_eq!(lane_at("21.00"), "highway_2");
+}
+
 /// The cut-in of `configs/cut-in.toml` on SUMO for every law of the controller seam (each on
 /// the platoon's 15.5 m standstill gap, the laws that need the leader on `plf` with the guard,
 /// those that read the leader's packets splitting the platoon behind the car, as

@@ -1,6 +1,8 @@
 //! What the end-to-end test files share: the repository, the `platoon` binary, and readers.
 #![allow(dead_code)] // each test file uses its own subset
 use std::path::{Path, PathBuf};
+
+pub mod maneuvers;
 use std::process::{Command, Output};
 
 /// The repository root.

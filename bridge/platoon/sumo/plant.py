@@ -357,6 +357,8 @@ AHEAD_FLAGS = w.VehicleState.AHEAD | w.VehicleState.INTRUDER | (0xFFFFFF << w.Ve
 
 # The numpy views of the wire types (the same fields and offsets as the ctypes mirrors).
 COMMAND = np.ctypeslib.as_array((w.Command * 1)()).dtype
+# A command's mode `left` (Command.flags, MODE_SHIFT): the member left the platoon's lane.
+MODE_LEFT = 8
 
 
 class Road:
@@ -469,6 +471,12 @@ class Kinematics:
         self.codes = {intruder_id(j, c): 1 + c for j in range(self.platoons) for c in range(cut_ins)}
         for b in range(int(spec["sumo"].get("background_vehicles", 0))):
             self.codes[f"bg{b}"] = 1 + cut_ins + b
+        # Each platoon vehicle's platoon: a member ahead on the lane is no intruder, whether
+        # it is the predecessor or, after members between left, one further up.
+        self.platoon_of = {vid: g // self.n1 for g, vid in enumerate(self.ids)}
+        # Leaves ([[maneuvers.leaves]]): the lane each platoon's leavers change to, and who did.
+        self.leave_lanes = [int(x) for x in spec["sumo"].get("leave_lanes", [])]
+        self.left = set()
         # The states sample, filled in place (through a numpy view for large fleets).
         self.out = (w.VehicleState * n)()
         self.view = np.ctypeslib.as_array(self.out)
@@ -498,6 +506,23 @@ class Kinematics:
                 raise SumoError(f"a non-finite command ({c.u}) for vehicle {c.vehicle}")
             u[j * (n1 - 1) + i - 1] = c.u
         return u
+
+    def leave(self, cmds, k, report):
+        """Members whose command says they left (mode 8, `left`) change to the lane beside the
+        platoon's for good (lane-change mode 0: at once, in the coming step), as the native
+        plant takes them off the lane; each leave goes into the report."""
+        if not self.leave_lanes:
+            return
+        got = np.frombuffer(cmds, dtype=COMMAND)
+        modes = (got["flags"] >> w.Command.MODE_SHIFT) & w.Command.MODE_MASK
+        for g in got["vehicle"][modes == MODE_LEFT].tolist():
+            if g in self.left:
+                continue
+            self.left.add(g)
+            lane = self.leave_lanes[g // self.n1]
+            # Held in that lane until the run ends.
+            self.sumo.vehicle.changeLane(self.ids[g], lane, 1e9)
+            report.append({"step": k, "t": k * self.dt, "vehicle": self.ids[g], "lane": lane})
 
     def step(self, accel, k):
         """The model's p, v after step k with the accelerations held over it."""
@@ -586,7 +611,7 @@ class Kinematics:
             s.flags &= ~ahead_flags
             if ahead:
                 s.flags |= w.VehicleState.AHEAD
-                if ahead[0] != self.ids[i - 1]:
+                if not self.member_ahead(ahead[0], i):
                     s.flags |= w.VehicleState.INTRUDER | self.target(ahead[0])
                 s.gap = ahead[1]
                 s.closing = get_speed(vid) - get_speed(ahead[0])
@@ -607,7 +632,7 @@ class Kinematics:
                 if nat.ahead[j]:
                     s.flags |= w.VehicleState.AHEAD
                     if nat.ahead[j] == 2:
-                        s.flags |= w.VehicleState.INTRUDER | self.leader_target(i)
+                        s.flags |= self.intruder_flags(i)
                     s.gap = gap[j]
                     s.closing = speed[i] - ahead_speed[j]
                 else:
@@ -618,9 +643,8 @@ class Kinematics:
         view = self.view
         flags = view["flags"][f] & ~np.uint32(ahead_flags)
         flags |= np.where(ahead, np.uint32(w.VehicleState.AHEAD), np.uint32(0))
-        flags |= np.where(seen == 2, np.uint32(w.VehicleState.INTRUDER), np.uint32(0))
         for j in np.flatnonzero(seen == 2):  # few: the followers with a vehicle cut in ahead
-            flags[j] |= np.uint32(self.leader_target(int(f[j])))
+            flags[j] |= np.uint32(self.intruder_flags(int(f[j])))
         view["flags"][f] = flags
         view["gap"][f] = np.where(ahead, nat.gap, 0.0)
         view["closing"][f] = np.where(ahead, nat.speed[f] - nat.ahead_speed, 0.0)
@@ -629,10 +653,19 @@ class Kinematics:
         """The flags naming vehicle `vid` ahead (VehicleState.TARGET_SHIFT; 0: not named)."""
         return self.codes.get(vid, 0) << w.VehicleState.TARGET_SHIFT
 
-    def leader_target(self, i):
-        """`target` of follower i's leader on the lane: the C++ loop says only that it is not
-        the predecessor, so its id is asked of SUMO (the same call, on the same state)."""
-        return self.target(self.sumo.vehicle.getLeader(self.ids[i], self.radar_range)[0])
+    def member_ahead(self, vid, i):
+        """Whether vehicle `vid`, ahead of follower i on its lane, is a member of its platoon."""
+        return self.platoon_of.get(vid) == i // self.n1
+
+    def intruder_flags(self, i):
+        """INTRUDER and `target` of follower i's leader on the lane when it is not of its
+        platoon (0 when it is: a member further up, after those between left): the C++ loop
+        says only that it is not the predecessor, so its id is asked of SUMO (the same call,
+        on the same state)."""
+        ahead = self.sumo.vehicle.getLeader(self.ids[i], self.radar_range)[0]
+        if self.member_ahead(ahead, i):
+            return 0
+        return w.VehicleState.INTRUDER | self.target(ahead)
 
     def compare(self, k, i, dp, dv):
         if dp > self.max_dp or dv > self.max_dv:
@@ -888,6 +921,7 @@ def run(spec) -> int:
             if len(cmds) != len(spec["taus"]):
                 raise SumoError(f"{len(cmds)} commands for {len(spec['taus'])} followers")
             u = kin.commands(cmds)
+            kin.leave(cmds, k, report.setdefault("leaves", []) if kin.leave_lanes else None)
             if intruders:
                 intruders.hold(k)
             if native is not None:

@@ -136,6 +136,9 @@ struct SumoSpec<'a> {
     /// SUMO's lane-change output (with `background_lane_changes`, or flows).
     #[serde(skip_serializing_if = "Option::is_none")]
     lanechanges: Option<String>,
+    /// The lane each platoon's leavers change to (`[[maneuvers.leaves]]`; empty: none leave).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    leave_lanes: Vec<u32>,
     /// `[sumo] route`, when it has several edges.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     route: Vec<String>,
@@ -177,6 +180,8 @@ pub struct SumoPlan<'a> {
     fcd_period_s: f64,
     /// The road along `[sumo] route`, when it has several edges.
     road: Option<Road>,
+    /// The lane each platoon's leavers change to.
+    leave_lanes: Vec<u32>,
 }
 
 /// Checks the network, lane and that the platoon stays on the road for the whole run (from the
@@ -336,6 +341,31 @@ pub fn plan<'a>(
             ),
         ));
     }
+    // A leaver changes to the lane beside its platoon's: the next one to the left, else to the
+    // right.
+    let mut leave_lanes = Vec::new();
+    if scenario.has_leaves() {
+        let leaves_error = |message: String| config_error(config_file, "maneuvers.leaves", message);
+        if road.is_some() {
+            return Err(leaves_error(
+                "on SUMO a leaver changes lanes on one edge; sumo.route has several".into(),
+            ));
+        }
+        for &lane in &scenario.fleet.lanes {
+            let beside = [lane + 1, lane.wrapping_sub(1)]
+                .into_iter()
+                .find(|l| lanes.iter().any(|(i, _)| i == l));
+            let Some(beside) = beside else {
+                return Err(leaves_error(format!(
+                    "on SUMO a leaver changes to the lane beside its platoon's, and edge {} has \
+                     only lane {lane} (sumo.net: a network with two lanes or more, such as the \
+                     default)",
+                    s.edge
+                )));
+            };
+            leave_lanes.push(beside);
+        }
+    }
     Ok(SumoPlan {
         config,
         scenario,
@@ -345,6 +375,7 @@ pub fn plan<'a>(
         free_lanes,
         fcd_period_s,
         road,
+        leave_lanes,
     })
 }
 
@@ -526,6 +557,7 @@ impl SumoPlan<'_> {
                     _ if !s.flows.is_empty() => Some(path("lanechanges.xml")?),
                     _ => None,
                 },
+                leave_lanes: self.leave_lanes.clone(),
                 route: match &self.road {
                     Some(_) => s.route.clone(),
                     None => Vec::new(),
@@ -627,6 +659,9 @@ struct RunSumo {
     /// SUMO's FCD writer's period (0: it wrote none).
     #[serde(default)]
     fcd_period_s: f64,
+    /// The lane each platoon's leavers changed to (empty: none left).
+    #[serde(default)]
+    leave_lanes: Vec<u32>,
 }
 
 /// The run's `output.decimate` (every how many steps the trajectories hold a row), from the
@@ -718,6 +753,7 @@ pub fn write_fcd(run: &Path, opts: &FcdOptions) -> Result<FcdWritten> {
     let layout = platoon_output::fcd::Layout {
         edge: spec.sumo.edge,
         lanes: spec.lanes,
+        leave_lanes: spec.sumo.leave_lanes,
         vehicles_per_platoon: spec.vehicles_per_platoon,
         offset_m: spec.sumo.offset_m,
         vehicle_length_m: spec.sumo.vehicle_length_m,

@@ -38,8 +38,15 @@ pub struct View<'a> {
     /// Its own command of the step before (m/s^2).
     pub last_u: f64,
     /// What an ideal radar sees of the vehicle ahead (bumper-to-bumper gap, closing speed), as
-    /// the plant measured it (`None`: nothing ahead).
+    /// the plant measured it (`None`: nothing ahead). After a member ahead left, the gap less
+    /// the room still to close (`[maneuvers]`): the law closes it gradually.
     pub radar: Option<RadarTruth>,
+    /// The member it follows: the vehicle ahead of it (`id - 1`), or, after members ahead of
+    /// it left, the member ahead of it in the formation.
+    pub ahead: VehicleId,
+    /// The last packet accepted from `ahead` (in a platoon that negotiates maneuvers, from
+    /// whichever member it is, a neighbour in the graph or not).
+    pub ahead_heard: Option<&'a Heard>,
     /// Who it hears from, in the order of `heard`.
     pub neighbours: &'a [VehicleId],
     /// The last packet accepted from each neighbour (at first the initial state).
@@ -58,9 +65,9 @@ impl View<'_> {
             .map(|s| &self.heard[s])
     }
 
-    /// The last packet accepted from the vehicle directly ahead, if it is a neighbour.
+    /// The last packet accepted from the member it follows ([`View::ahead`]), if it hears it.
     pub fn predecessor(&self) -> Option<&Heard> {
-        self.from(VehicleId(self.id.0 - 1))
+        self.ahead_heard
     }
 
     /// The last packet accepted from its leader: the member that heads its part of a split
@@ -157,6 +164,39 @@ struct Follower {
     member: bool,
     /// A joiner: the step it began approaching its slot.
     approaching_since: Option<u64>,
+    /// The member it follows ([`View::ahead`]).
+    ahead: VehicleId,
+    /// The room left by members that left ahead of it that it has still to close (m), and how
+    /// it closes.
+    to_close: f64,
+    closing: Option<Closing>,
+    /// Whether it left the platoon (`[maneuvers]`).
+    left: bool,
+}
+
+/// How a follower closes the room a member that left ahead of it left: smoothly (a
+/// smoothstep from the room to nothing, so the gap its law keeps starts and ends moving with
+/// no step in its speed), at most at `closing_mps`.
+#[derive(Debug, Clone, Copy)]
+struct Closing {
+    room: f64,
+    from: u64,
+    steps: f64,
+}
+
+impl Closing {
+    /// Closing `room` (m) from step `from`; none for no room.
+    fn new(room: f64, from: u64, closing_mps: f64, dt: f64) -> Option<Self> {
+        // The smoothstep's fastest rate is 1.5 times its mean.
+        let steps = (1.5 * room / closing_mps / dt).ceil();
+        (room > 0.0 && steps >= 1.0).then_some(Self { room, from, steps })
+    }
+
+    /// The room still to close at step `k`.
+    fn left(&self, k: u64) -> f64 {
+        let t = ((k - self.from) as f64 / self.steps).min(1.0);
+        self.room * (1.0 - t * t * (3.0 - 2.0 * t))
+    }
 }
 
 /// One platoon's followers, each running the same [`Law`] on its own copy (module docs).
@@ -240,6 +280,10 @@ impl ComposedController {
                 leading: false,
                 member: true,
                 approaching_since: None,
+                ahead: VehicleId(i as u16 - 1),
+                to_close: 0.0,
+                closing: None,
+                left: false,
             })
             .collect();
         Ok(Self {
@@ -372,6 +416,55 @@ impl Controller for ComposedController {
             });
             let rebased = head.map_or(VehicleId::LEADER, |(j, _)| j) != f.head;
             f.head = head.map_or(VehicleId::LEADER, |(j, _)| j);
+            let phase = self
+                .maneuvers
+                .as_ref()
+                .map_or(JoinerPhase::Member, |m| m.phase(f.id));
+            let left = self.maneuvers.as_ref().is_some_and(|m| m.has_left(f.id));
+            let member = phase == JoinerPhase::Member && !left;
+            // A member whose predecessor left follows the member ahead of that one once its
+            // radar (the one its law reads) sees it, the leaver out of the lane: the room it
+            // left is closed gradually.
+            let formed = self.maneuvers.as_ref().and_then(|m| m.predecessor(f.id));
+            let mut switched = false;
+            if let (true, Some(next), Some(r)) = (member, formed, truth) {
+                if next != f.ahead {
+                    let gap_to = |j: VehicleId| {
+                        self.checks.heard_from(f.id, j).map(|h| {
+                            let age = (k - h.step.unwrap_or(0)) as f64 * self.parts.dt;
+                            h.state[0] + h.state[1] * age - own[0] - fb.length(j.index())
+                        })
+                    };
+                    if let (Some(to_next), Some(to_old)) = (gap_to(next), gap_to(f.ahead)) {
+                        if (r.gap - to_next).abs() < (r.gap - to_old).abs() {
+                            f.ahead = next;
+                            switched = true;
+                            let seen = crate::fallback::Reading {
+                                gap: r.gap,
+                                closing: r.closing,
+                                intruder: r.intruder,
+                            };
+                            let room = crate::fallback::gap_error(
+                                seen,
+                                self.parts.headway,
+                                own[1],
+                                self.parts.spacing,
+                                fb.length(next.index()),
+                            )
+                            .max(0.0);
+                            f.closing = Closing::new(room, k, fb.closing_mps, self.parts.dt);
+                            f.to_close = room;
+                        }
+                    }
+                }
+            }
+            let radar = match truth {
+                Some(t) if f.to_close > 0.0 => Some(RadarTruth {
+                    gap: t.gap - f.to_close,
+                    ..t
+                }),
+                t => t,
+            };
             let view = View {
                 k,
                 dt: self.parts.dt,
@@ -379,22 +472,21 @@ impl Controller for ComposedController {
                 vehicles: n1,
                 own,
                 last_u: f.fallback.last_u(),
-                radar: truth,
+                radar,
+                ahead: f.ahead,
+                ahead_heard: self.checks.heard_from(f.id, f.ahead),
                 neighbours: self.checks.neighbours(f.id),
                 heard: self.checks.heard(f.id),
                 head,
             };
             let lawful = law.command(&view);
-            let phase = self
-                .maneuvers
-                .as_ref()
-                .map_or(JoinerPhase::Member, |m| m.phase(f.id));
-            let member = phase == JoinerPhase::Member;
             // A joiner drives on its radar (maneuvers module docs); the members read it as
             // their fallback does.
             let reading = reading.filter(|_| radar_on || !member).map(|(r, _)| r);
-            let length_ahead = fb.length(f.id.index() - 1);
+            let length_ahead = fb.length(f.ahead.index());
             let (lawful, joined) = match phase {
+                // A leaver drives on at its speed in the next lane.
+                _ if left => (0.0, false),
                 JoinerPhase::Member => (lawful, !f.member),
                 JoinerPhase::Outside | JoinerPhase::Approaching => {
                     let since = match phase {
@@ -415,6 +507,8 @@ impl Controller for ComposedController {
                     (acc, false)
                 }
             };
+            let just_left = left && !f.left;
+            f.left = left;
             f.member = member;
             let affected = (jammed[f.id.index()] || self.checks.distrusts(f.id, k))
                 && law.uses_v2v()
@@ -433,10 +527,20 @@ impl Controller for ComposedController {
                 spacing: self.parts.spacing,
                 headway: self.parts.headway,
                 length_ahead,
-                rebased: rebased || joined,
+                rebased: rebased || joined || switched || just_left,
             };
             let (mode, u, guard) = f.fallback.step(&situation, |_| lawful);
-            let mode = if member { mode } else { crate::Mode::Outside };
+            let mode = match (member, left) {
+                (true, _) => mode,
+                (false, true) => crate::Mode::Left,
+                (false, false) => crate::Mode::Outside,
+            };
+            if let Some(c) = f.closing {
+                f.to_close = c.left(k + 1);
+                if f.to_close == 0.0 {
+                    f.closing = None;
+                }
+            }
             f.step.u = u;
             f.step.affected = affected;
             f.step.mode = mode;

@@ -97,11 +97,14 @@ pub enum Mode {
     /// Outside the platoon: a joiner on its ACC behind the vehicle it will follow, until the
     /// leader admits it (`[maneuvers]`).
     Outside,
+    /// Left the platoon and its lane (`[maneuvers]`): it drives on in the next lane at its
+    /// speed, and the radars of the lane no longer see it.
+    Left,
 }
 
 impl Mode {
     /// Every mode, in code order.
-    pub const ALL: [Mode; 8] = [
+    pub const ALL: [Mode; 9] = [
         Mode::Coop,
         Mode::Zero,
         Mode::Hold,
@@ -110,9 +113,10 @@ impl Mode {
         Mode::Blend,
         Mode::CutIn,
         Mode::Outside,
+        Mode::Left,
     ];
 
-    /// The mode's code on the wire (3 bits).
+    /// The mode's code on the wire (4 bits).
     pub fn code(self) -> u32 {
         self as u32
     }
@@ -133,6 +137,7 @@ impl Mode {
             Mode::Blend => "blend",
             Mode::CutIn => "cut_in",
             Mode::Outside => "outside",
+            Mode::Left => "left",
         }
     }
 }

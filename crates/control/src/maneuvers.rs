@@ -25,6 +25,16 @@ pub struct JoinSpec {
     pub at_step: u64,
 }
 
+/// A leave: member `vehicle` tells the leader at step `at_step` that it leaves; on the
+/// leader's update it leaves the lane, and the member behind it closes up to the one ahead.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LeaveSpec {
+    /// The leaver.
+    pub vehicle: VehicleId,
+    /// When it tells the leader.
+    pub at_step: u64,
+}
+
 /// A platoon's maneuvers and how its vehicles judge them.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ManeuverParams {
@@ -32,6 +42,8 @@ pub struct ManeuverParams {
     pub timing: Timing,
     /// The joins, each at the tail.
     pub joins: Vec<JoinSpec>,
+    /// The leaves, of members the run starts with.
+    pub leaves: Vec<LeaveSpec>,
     /// A joiner is in position when its gap is within this of the platoon's (m)...
     pub in_position_m: f64,
     /// ...and it closes on the vehicle ahead at most this fast (m/s).
@@ -67,6 +79,38 @@ impl ManeuverParams {
             return Err((
                 "joins",
                 "the platoon needs a follower besides the joiners".into(),
+            ));
+        }
+        let mut leavers: Vec<u16> = self.leaves.iter().map(|l| l.vehicle.0).collect();
+        leavers.sort_unstable();
+        if let Some(w) = leavers.windows(2).find(|w| w[0] == w[1]) {
+            return Err(("leaves", format!("vehicle {} leaves twice", w[0])));
+        }
+        for &v in &leavers {
+            if v == 0 || usize::from(v) >= first {
+                return Err((
+                    "leaves",
+                    format!(
+                        "vehicle {v} cannot leave: the leavers are followers the run starts \
+                         with (1 to {}; the leader heads the platoon to the end)",
+                        first - 1
+                    ),
+                ));
+            }
+        }
+        if !joiners.is_empty() && leavers.contains(&(first as u16 - 1)) {
+            return Err((
+                "leaves",
+                format!(
+                    "vehicle {} cannot leave: the first joiner asks for the slot behind it",
+                    first - 1
+                ),
+            ));
+        }
+        if leavers.len() + 1 >= first {
+            return Err((
+                "leaves",
+                "the platoon needs a follower that stays besides the joiners".into(),
             ));
         }
         let positive = |x: f64| x.is_finite() && x > 0.0;
@@ -119,8 +163,15 @@ pub(crate) fn joiner_headway(
 /// One follower's part.
 #[derive(Debug, Clone)]
 enum Machine {
-    Member(Member),
-    Joiner { joiner: Joiner, at_step: u64 },
+    /// A member, and the step it asks to leave at (until it asks).
+    Member {
+        member: Member,
+        leave_at: Option<u64>,
+    },
+    Joiner {
+        joiner: Joiner,
+        at_step: u64,
+    },
 }
 
 #[derive(Debug, Clone)]
@@ -158,7 +209,14 @@ impl Maneuvers {
                         ),
                         at_step: j.at_step,
                     },
-                    None => Machine::Member(Member::new(id, formation.clone(), params.timing)),
+                    None => Machine::Member {
+                        member: Member::new(id, formation.clone(), params.timing),
+                        leave_at: params
+                            .leaves
+                            .iter()
+                            .find(|l| l.vehicle == id)
+                            .map(|l| l.at_step),
+                    },
                 };
                 Role {
                     machine,
@@ -208,7 +266,13 @@ impl Maneuvers {
         self.leader_in.clear();
         for (role, &ready) in self.roles.iter_mut().zip(in_position) {
             match &mut role.machine {
-                Machine::Member(m) => m.step(k, &role.inbox, false, out),
+                Machine::Member { member, leave_at } => {
+                    if leave_at.is_some_and(|at| k >= at) {
+                        *leave_at = None;
+                        member.leave(k, out);
+                    }
+                    member.step(k, &role.inbox, false, out);
+                }
                 Machine::Joiner { joiner, at_step } => {
                     if k >= *at_step {
                         joiner.request(k, out);
@@ -225,8 +289,25 @@ impl Maneuvers {
     /// a joiner outside or approaching.
     pub(crate) fn phase(&self, i: VehicleId) -> JoinerPhase {
         match &self.roles[i.index() - 1].machine {
-            Machine::Member(_) => JoinerPhase::Member,
+            Machine::Member { .. } => JoinerPhase::Member,
             Machine::Joiner { joiner, .. } => joiner.phase(),
+        }
+    }
+
+    /// Whether follower `i` left the platoon (its leave announced, as its copy says).
+    pub(crate) fn has_left(&self, i: VehicleId) -> bool {
+        match &self.roles[i.index() - 1].machine {
+            Machine::Member { member, .. } => member.has_left(),
+            Machine::Joiner { .. } => false,
+        }
+    }
+
+    /// The vehicle follower `i` follows by its copy of the formation: the member ahead of it
+    /// (a joiner's, the vehicle ahead of its slot; none for a vehicle that left).
+    pub(crate) fn predecessor(&self, i: VehicleId) -> Option<VehicleId> {
+        match &self.roles[i.index() - 1].machine {
+            Machine::Member { member, .. } => member.formation().predecessor(i),
+            Machine::Joiner { .. } => Some(VehicleId(i.0 - 1)),
         }
     }
 

@@ -130,6 +130,20 @@ impl ControllerParams {
                     .into(),
             );
         }
+        if matches!(self.law, crate::LawParams::Consensus(_))
+            && self
+                .maneuvers
+                .as_ref()
+                .is_some_and(|m| !m.leaves.is_empty())
+        {
+            return err(
+                "maneuvers",
+                "the consensus law weighs its neighbours by vehicle for the whole run; a \
+                 leave needs a law on the predecessor and the leader (law = \"path_cacc\", \
+                 \"ploeg\", \"flatbed\" or \"acc\")"
+                    .into(),
+            );
+        }
         if self.law == crate::LawParams::Paper && (!pos(self.beta1) || !pos(self.beta2)) {
             return err(
                 "beta",

@@ -213,6 +213,9 @@ pub struct Layout {
     pub edge: String,
     /// Platoon j's lane index.
     pub lanes: Vec<u32>,
+    /// The lane index platoon j's leavers changed to, the step after their mode became `left`
+    /// (empty: nobody left).
+    pub leave_lanes: Vec<u32>,
     pub vehicles_per_platoon: usize,
     /// Lane position = p + offset_m.
     pub offset_m: f64,
@@ -231,6 +234,10 @@ pub struct FcdWriter<'a, W: Write> {
     layout: Layout,
     /// Per platoon: the lane's id and the lane.
     lanes: Vec<(String, &'a Lane)>,
+    /// Per platoon: its leavers' lane (empty: nobody left).
+    leave_lanes: Vec<(String, &'a Lane)>,
+    /// Each vehicle's first step in mode `left`.
+    left_at: Vec<Option<u64>>,
     ids: Vec<Vec<String>>,
     /// Each vehicle's (platoon * N + vehicle) line of the open timestep (a repeated row
     /// replaces it), and the order the lines are written in (by id).
@@ -284,15 +291,18 @@ impl<'a, W: Write> FcdWriter<'a, W> {
         mut out: W,
         comment: &str,
     ) -> Result<Self> {
-        let lanes = layout
-            .lanes
-            .iter()
-            .map(|l| {
-                let id = format!("{}_{l}", layout.edge);
-                let lane = net.lane(&id)?;
-                Ok((escape(&id), lane))
-            })
-            .collect::<Result<Vec<_>>>()?;
+        let lanes_of = |indices: &[u32]| {
+            indices
+                .iter()
+                .map(|l| {
+                    let id = format!("{}_{l}", layout.edge);
+                    let lane = net.lane(&id)?;
+                    Ok((escape(&id), lane))
+                })
+                .collect::<Result<Vec<_>>>()
+        };
+        let lanes = lanes_of(&layout.lanes)?;
+        let leave_lanes = lanes_of(&layout.leave_lanes)?;
         let platoons = layout.lanes.len();
         let ids: Vec<Vec<String>> = (0..platoons)
             .map(|j| {
@@ -318,6 +328,8 @@ impl<'a, W: Write> FcdWriter<'a, W> {
             out,
             layout,
             lanes,
+            leave_lanes,
+            left_at: vec![None; order.len()],
             lines: vec![String::new(); order.len()],
             last: vec![None; order.len()],
             order,
@@ -349,6 +361,9 @@ impl<'a, W: Write> FcdWriter<'a, W> {
             _ => r.a,
         };
         self.last[v] = Some((r.step, r.a));
+        if r.mode == platoon_control::Mode::Left && self.left_at[v].is_none() {
+            self.left_at[v] = Some(r.step);
+        }
         if !r.step.is_multiple_of(self.period_steps) {
             return Ok(());
         }
@@ -367,7 +382,11 @@ impl<'a, W: Write> FcdWriter<'a, W> {
             self.current = Some(r.step);
             self.timesteps += 1;
         }
-        let (lane_id, lane) = &self.lanes[j];
+        // A leaver changed lanes in the step its mode became `left`.
+        let (lane_id, lane) = match (self.left_at[v], self.leave_lanes.get(j)) {
+            (Some(at), Some(leave)) if r.step > at => leave,
+            _ => &self.lanes[j],
+        };
         let id = &self.ids[j][i];
         let pos = r.p + self.layout.offset_m;
         let at = lane.place(pos, self.layout.vehicle_length_m);
@@ -523,6 +542,7 @@ mod tests {
         Layout {
             edge: "road".into(),
             lanes,
+            leave_lanes: Vec::new(),
             vehicles_per_platoon: 2,
             offset_m,
             vehicle_length_m: 4.0,
@@ -592,6 +612,7 @@ mod tests {
             Layout {
                 edge: "road".into(),
                 lanes: vec![0],
+                leave_lanes: Vec::new(),
                 vehicles_per_platoon: 1,
                 offset_m: 0.0,
                 vehicle_length_m: 4.0,
@@ -624,6 +645,7 @@ mod tests {
         let layout = |dt: f64| Layout {
             edge: "road".into(),
             lanes: vec![0],
+            leave_lanes: Vec::new(),
             vehicles_per_platoon: 1,
             offset_m: 5.0,
             vehicle_length_m: 4.0,

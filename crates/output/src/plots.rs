@@ -275,6 +275,7 @@ fn mode_color(m: platoon_control::Mode) -> RGBColor {
         Mode::Blend => RGBColor(204, 121, 167),
         Mode::CutIn => RGBColor(213, 94, 0),
         Mode::Outside => RGBColor(240, 228, 66),
+        Mode::Left => RGBColor(0, 114, 178),
     }
 }
 
@@ -356,11 +357,11 @@ pub fn modes(
             )
             .map_err(err)?;
     }
-    // `outside` only where a vehicle joins: other runs keep their figure.
-    let joins = scenario.control.maneuvers.is_some();
+    // `outside` and `left` only with maneuvers: other runs keep their figure.
+    let maneuvers = scenario.control.maneuvers.is_some();
     for m in Mode::ALL
         .into_iter()
-        .filter(|m| *m != Mode::Coop && (joins || *m != Mode::Outside))
+        .filter(|m| *m != Mode::Coop && (maneuvers || !matches!(m, Mode::Outside | Mode::Left)))
     {
         let c = mode_color(m);
         chart

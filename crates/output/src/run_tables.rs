@@ -199,7 +199,7 @@ struct EventRow {
     t: f64,
     /// `broadcast`, `switch` (the vehicle's mode changed at this step), `intruder_in`,
     /// `gap_opened`, `intruder_out`, `rejoined`, `split`, `merged`, `flagged`, `distrust`,
-    /// `trust` or `joined`.
+    /// `trust`, `joined` or `left`.
     event: Event,
     /// The mode it is in (after the switch).
     mode: platoon_control::Mode,
@@ -238,6 +238,8 @@ enum Event {
     /// A joiner took the platoon's law: the leader admitted it (`[maneuvers]`; its mode left
     /// `outside`).
     Joined,
+    /// A member left the platoon and its lane (`[maneuvers]`; mode `left`).
+    Left,
 }
 
 impl From<Vec<StepRow>> for Plotted {
@@ -448,6 +450,9 @@ impl RunFiles {
                 self.events.write(row(Event::Switch, None))?;
                 if was == platoon_control::Mode::Outside {
                     self.events.write(row(Event::Joined, None))?;
+                }
+                if r.mode == platoon_control::Mode::Left {
+                    self.events.write(row(Event::Left, None))?;
                 }
                 if r.mode == platoon_control::Mode::Coop && std::mem::take(&mut self.intruded[v]) {
                     self.events.write(row(Event::Rejoined, None))?;

@@ -97,8 +97,9 @@ pub fn run(
         let mut states: Option<Vec<State>> = None;
         // The radar reads the plant's view of the vehicle ahead (SUMO: its lane leader), for
         // the fallback, the guard or a detector.
-        let radar_from_plant =
-            scenario.control.fallback.uses_radar() || scenario.control.detection.reads_radar();
+        let radar_from_plant = scenario.control.fallback.uses_radar()
+            || scenario.control.detection.reads_radar()
+            || scenario.has_leaves();
         let mut truths: Vec<Option<RadarTruth>> = Vec::with_capacity(num.vehicles());
         let mut tx: Vec<Packet> = Vec::new();
         let mut sent: Vec<bool> = Vec::new();

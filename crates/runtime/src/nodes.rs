@@ -82,6 +82,16 @@ pub fn plant(run_id: &str, scenario: &Scenario) -> Result<(), RunError> {
                 continue;
             };
             commands_into(&cmds, num, &mut u)?;
+            if scenario.has_leaves() {
+                // A member that left goes off the lane (mode `left`, as the in-process run).
+                for c in cmds.iter() {
+                    if let Some((j, i)) = num.split(c.vehicle) {
+                        if c.mode_code() == platoon_control::Mode::Left.code() {
+                            plants[j].leave_lane(i.index());
+                        }
+                    }
+                }
+            }
             for (plant, u) in plants.iter_mut().zip(u.chunks(n)) {
                 plant.advance(*k, u);
             }

@@ -153,6 +153,8 @@ pub struct Plant {
     discretisation: platoon_model::Discretisation,
     leader: LeaderProfile,
     dt: f64,
+    /// Members that left the lane (`[maneuvers]`), leader first; empty while nobody has.
+    off_lane: Vec<bool>,
 }
 
 impl Plant {
@@ -172,6 +174,26 @@ impl Plant {
             discretisation: scenario.discretisation,
             leader: scenario.leader.clone(),
             dt: scenario.dt(),
+            off_lane: Vec::new(),
+        }
+    }
+
+    /// Takes follower `i` off the platoon's lane for good (a member that left, mode
+    /// [`platoon_control::Mode::Left`]): it drives on in the next lane, where no radar of the
+    /// lane sees it.
+    pub fn leave_lane(&mut self, i: usize) {
+        if self.off_lane.is_empty() {
+            self.off_lane = vec![false; self.states.len()];
+        }
+        self.off_lane[i] = true;
+    }
+
+    /// Takes off the lane every follower whose step says it left (`mode(i)`, i >= 1).
+    pub fn follow_modes(&mut self, mode: impl Fn(usize) -> platoon_control::Mode) {
+        for i in 1..self.states.len() {
+            if mode(i) == platoon_control::Mode::Left {
+                self.leave_lane(i);
+            }
         }
     }
 
@@ -210,7 +232,13 @@ impl Plant {
     /// What every vehicle's radar sees now (leader first: `None`): the vehicle ahead on the
     /// lane, the predecessor or a cut-in ([`traffic::radar_truth`]).
     pub fn radar_truth(&self, out: &mut Vec<Option<platoon_control::fallback::RadarTruth>>) {
-        traffic::radar_truth(&self.states, &self.lengths, &self.traffic, out);
+        traffic::radar_truth(
+            &self.states,
+            &self.lengths,
+            &self.traffic,
+            &self.off_lane,
+            out,
+        );
     }
 
     /// [`Plant::radar_truth`], and who each radar sees ([`traffic::radar_view`]).
@@ -219,7 +247,14 @@ impl Plant {
         out: &mut Vec<Option<platoon_control::fallback::RadarTruth>>,
         targets: &mut Vec<traffic::RadarTarget>,
     ) {
-        traffic::radar_view(&self.states, &self.lengths, &self.traffic, out, targets);
+        traffic::radar_view(
+            &self.states,
+            &self.lengths,
+            &self.traffic,
+            &self.off_lane,
+            out,
+            targets,
+        );
     }
 }
 
@@ -276,11 +311,13 @@ impl PlantSpec {
             lanes: (0..scenario.fleet.platoons)
                 .map(|j| scenario.fleet.lane(j))
                 .collect(),
-            // Read when anything uses the radar, and with cut-ins (the outputs say what the
-            // radars saw of them, as the native plant's do).
+            // Read when anything uses the radar, with cut-ins (the outputs say what the radars
+            // saw of them, as the native plant's do) and with leaves (the lane decides who
+            // follows whom).
             radar_range_m: (scenario.control.fallback.uses_radar()
                 || scenario.control.detection.reads_radar()
-                || !scenario.cut_ins.is_empty())
+                || !scenario.cut_ins.is_empty()
+                || scenario.has_leaves())
             .then_some(scenario.control.fallback.radar.range_m),
             cut_ins: scenario.cut_ins.clone(),
         }
@@ -344,8 +381,12 @@ pub fn step_rows(
         radar_closing_mps: radar(0).map(|r| r.2),
         head: split.then_some(0),
     });
+    // Members that left (mode `left`) give up their slots: those behind move up.
+    let mut gone = 0;
     for (i, x) in states.iter().enumerate().skip(1) {
         let s = follower(i);
+        let slot = (i - gone) as f64;
+        gone += usize::from(s.mode == platoon_control::Mode::Left);
         out.push(StepRow {
             step: k,
             t,
@@ -356,10 +397,9 @@ pub fn step_rows(
             a: x[2],
             u: scenario.applied(i, s.u),
             theta: s.theta,
-            // Against the policy's desired distance to the leader, i (l + h_t v_i), measured
+            // Against the policy's desired distance to the leader, slot (l + h_t v_i), measured
             // in the plant (h_t = 0 adds exactly nothing).
-            spacing_error: x[0] - x0[0]
-                + i as f64 * (scenario.spacing() + scenario.headway() * x[1]),
+            spacing_error: x[0] - x0[0] + slot * (scenario.spacing() + scenario.headway() * x[1]),
             velocity_error: x[1] - x0[1],
             triggered: s.triggered,
             under_attack: jammed[i],
@@ -554,8 +594,9 @@ impl Simulation {
         }
         self.radar.clear();
         self.targets.clear();
-        if !self.plant.traffic().is_empty() {
-            // The radars see the lane: a vehicle that cut in hides the predecessor.
+        if !self.plant.traffic().is_empty() || sc.has_leaves() {
+            // The radars see the lane: a vehicle that cut in hides the predecessor, one that
+            // left uncovers the member ahead of it.
             self.plant.radar_view(&mut self.radar, &mut self.targets);
             self.controller.set_radar_truth(&self.radar);
         }
@@ -584,17 +625,28 @@ impl Simulation {
         let leader_triggered = self.tx.first().is_some_and(|p| p.sender.is_leader());
         let controller = self.controller.as_ref();
         self.rows.clear();
+        // The rows name the radars' targets in runs with traffic (what the iceoryx2 run's
+        // plant reports on the wire).
+        let seen = if self.plant.traffic().is_empty() {
+            0
+        } else {
+            self.radar.len()
+        };
         step_rows(
             k,
             sc,
             states,
             leader_triggered,
             &self.jammed,
-            &self.radar,
-            &self.targets,
+            &self.radar[..seen],
+            &self.targets[..seen.min(self.targets.len())],
             |i| controller.follower_step(VehicleId(i as u16)),
             &mut self.rows,
         );
+        if sc.has_leaves() {
+            self.plant
+                .follow_modes(|i| controller.follower_step(VehicleId(i as u16)).mode);
+        }
         self.plant.advance(k, self.controller.commands());
         self.step += 1;
         Ok(&self.rows)

@@ -162,8 +162,9 @@ impl MetricsAccumulator {
                 _ => self.observed.push((leader.step, 1)),
             }
         }
-        for w in rows.windows(2) {
-            let (front, r) = (&w[0], &w[1]);
+        // The vehicle ahead on the lane: members that left it are passed over.
+        let mut front = leader;
+        for r in &rows[1..] {
             let acc = &mut self.vehicles[r.vehicle as usize - 1];
             if r.triggered {
                 acc.triggers += 1;
@@ -176,8 +177,10 @@ impl MetricsAccumulator {
                 }
                 acc.last_trigger = Some(r.step);
             }
-            // A joiner's errors count from the step it is admitted: outside, it has no slot.
-            if r.mode != platoon_control::Mode::Outside {
+            // A joiner's errors count from the step it is admitted: outside, it has no slot;
+            // a leaver's end with its leave.
+            let left = r.mode == platoon_control::Mode::Left;
+            if r.mode != platoon_control::Mode::Outside && !left {
                 acc.spacing.push(r.spacing_error);
                 acc.gap
                     .push(front.p - r.p - (self.spacing + self.headway * r.v));
@@ -191,6 +194,9 @@ impl MetricsAccumulator {
             acc.guard_activations += u64::from(r.guard && !acc.guard_on);
             acc.guard_on = r.guard;
             acc.guard_steps += u64::from(r.guard);
+            if left {
+                continue;
+            }
             // The nearest vehicle ahead: the predecessor, or one that cut in between.
             let behind = front.p - r.p - self.lengths[usize::from(front.vehicle)];
             let (gap, closing) = match r.intruder {
@@ -211,6 +217,7 @@ impl MetricsAccumulator {
                 self.safety.min_gap_vehicle = r.vehicle;
                 self.safety.min_gap_t_s = r.t;
             }
+            front = r;
         }
     }
 

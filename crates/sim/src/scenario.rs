@@ -244,6 +244,15 @@ impl Scenario {
         self.control.fallback.cut_in.is_some_and(|c| c.split)
     }
 
+    /// Whether members leave during the run (`[[maneuvers.leaves]]`): the plant then takes
+    /// them off the lane and the radars see the lane, not the platoon's order.
+    pub fn has_leaves(&self) -> bool {
+        self.control
+            .maneuvers
+            .as_ref()
+            .is_some_and(|m| !m.leaves.is_empty())
+    }
+
     /// Who hears whom on the V2V channel: the topology's links and, when the platoon splits
     /// behind a car that cut in (`[fallback.cut_in] split`), every follower also hears every
     /// member ahead of it ([`Topology::hearing_all_ahead`]); with `[maneuvers]` every vehicle

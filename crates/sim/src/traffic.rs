@@ -121,22 +121,26 @@ impl Traffic {
 /// What every vehicle's radar sees (leader first, `None` for the leader): the nearest vehicle
 /// ahead on the lane, the platoon's predecessor or an intruder whose front is ahead of the
 /// follower's. Without intruders this is [`platoon_control::fallback::radar_truth`], value for
-/// value.
+/// value. `off_lane[i]`: member i left the lane (`[maneuvers]`; empty: nobody did).
 pub fn radar_truth(
     states: &[State],
     lengths: &[f64],
     traffic: &Traffic,
+    off_lane: &[bool],
     out: &mut Vec<Option<RadarTruth>>,
 ) {
-    radar_view(states, lengths, traffic, out, &mut Vec::new());
+    radar_view(states, lengths, traffic, off_lane, out, &mut Vec::new());
 }
 
-/// [`radar_truth`], and who each radar sees (`targets`, leader first): the predecessor
-/// ([`RadarTarget::Member`]) or the cut-in ([`RadarTarget::CutIn`]).
+/// [`radar_truth`], and who each radar sees (`targets`, leader first): the member ahead on the
+/// lane ([`RadarTarget::Member`], the predecessor unless members between left the lane) or the
+/// cut-in ([`RadarTarget::CutIn`]). A member off the lane sees nothing (the next lane is
+/// empty) and is seen by nobody.
 pub fn radar_view(
     states: &[State],
     lengths: &[f64],
     traffic: &Traffic,
+    off_lane: &[bool],
     out: &mut Vec<Option<RadarTruth>>,
     targets: &mut Vec<RadarTarget>,
 ) {
@@ -144,12 +148,33 @@ pub fn radar_view(
     targets.clear();
     targets.push(RadarTarget::Nothing);
     targets.extend((1..states.len()).map(|i| RadarTarget::Member(i as u16 - 1)));
-    for ((x, t), who) in states
+    let off = |i: usize| off_lane.get(i).copied().unwrap_or(false);
+    if off_lane.iter().any(|&o| o) {
+        for i in 1..states.len() {
+            let ahead = (0..i).rev().find(|&j| !off(j));
+            (out[i], targets[i]) = match ahead {
+                Some(j) if !off(i) => (
+                    Some(RadarTruth {
+                        gap: states[j][0] - states[i][0] - lengths[j],
+                        closing: states[i][1] - states[j][1],
+                        intruder: false,
+                    }),
+                    RadarTarget::Member(j as u16),
+                ),
+                _ => (None, RadarTarget::Nothing),
+            };
+        }
+    }
+    for (i, ((x, t), who)) in states
         .iter()
         .zip(out.iter_mut())
         .zip(targets.iter_mut())
+        .enumerate()
         .skip(1)
     {
+        if off(i) {
+            continue;
+        }
         for (n, c) in traffic.on_lane.iter().enumerate() {
             let Some(c) = c else { continue };
             let gap = c.p - c.length_m - x[0];
@@ -263,7 +288,7 @@ mod tests {
         let mut truth = Vec::new();
         let l4 = [4.0; 4];
         t.arrive(0.99, &states, &l4);
-        radar_truth(&states, &l4, &t, &mut truth);
+        radar_truth(&states, &l4, &t, &[], &mut truth);
         let mut plain = Vec::new();
         platoon_control::fallback::radar_truth(&states, |_| 4.0, &mut plain);
         assert_eq!(truth, plain);
@@ -271,7 +296,7 @@ mod tests {
         let c = *t.on_lane().next().unwrap();
         // Gap 6 m between followers 1 (at 90) and 2 (at 80): 1 m either side of a 4 m car.
         assert_eq!((c.p, c.v), (85.0, 18.0));
-        radar_truth(&states, &l4, &t, &mut truth);
+        radar_truth(&states, &l4, &t, &[], &mut truth);
         assert_eq!(
             truth[2],
             Some(RadarTruth {
@@ -301,14 +326,14 @@ mod tests {
         let mut t = Traffic::new(&[cut_in()]);
         let (mut truth, mut who) = (Vec::new(), Vec::new());
         let l4 = [4.0; 4];
-        radar_view(&states, &l4, &t, &mut truth, &mut who);
+        radar_view(&states, &l4, &t, &[], &mut truth, &mut who);
         use RadarTarget::*;
         assert_eq!(who, [Nothing, Member(0), Member(1), Member(2)]);
         t.arrive(1.0, &states, &l4);
-        radar_view(&states, &l4, &t, &mut truth, &mut who);
+        radar_view(&states, &l4, &t, &[], &mut truth, &mut who);
         assert_eq!(who, [Nothing, Member(0), CutIn(0), Member(2)]);
         let mut plain = Vec::new();
-        radar_truth(&states, &l4, &t, &mut plain);
+        radar_truth(&states, &l4, &t, &[], &mut plain);
         assert_eq!(truth, plain);
         // As the outputs write them, and back.
         for w in [Nothing, Member(2), CutIn(0), Background(17), Unknown] {

@@ -246,8 +246,9 @@ pub struct Command {
     /// Follower id (>= 1).
     pub vehicle: u32,
     /// Bit 0: it broadcast in this step; bit 1: it was affected by an attack; bit 2: the
-    /// emergency-braking guard overrode the command; bits 4-6: its mode (0 coop, 1 zero,
-    /// 2 hold, 3 predict, 4 acc, 5 blend, 6 cut_in); bits 8-23: whom it took as its leader, a
+    /// emergency-braking guard overrode the command; bits 4-7: its mode (0 coop, 1 zero,
+    /// 2 hold, 3 predict, 4 acc, 5 blend, 6 cut_in, 7 outside, 8 left: off the platoon's lane,
+    /// which the plant takes it out of); bits 8-23: whom it took as its leader, a
     /// vehicle of its platoon (0: the platoon's leader; a member ahead heading a split).
     pub flags: u32,
     /// Commanded acceleration `u_i[k]` (m/s^2).
@@ -266,7 +267,7 @@ impl Command {
     /// `flags` bits of the mode code: `(flags >> MODE_SHIFT) & MODE_MASK`.
     pub const MODE_SHIFT: u32 = 4;
     /// See [`Command::MODE_SHIFT`].
-    pub const MODE_MASK: u32 = 0b111;
+    pub const MODE_MASK: u32 = 0b1111;
     /// `flags` bits of whom it took as its leader (platoon-local id):
     /// `(flags >> HEAD_SHIFT) & HEAD_MASK`.
     pub const HEAD_SHIFT: u32 = 8;

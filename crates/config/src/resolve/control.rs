@@ -1,6 +1,7 @@
 //! `[control]`, `[fallback]`, `[radar]`, `[guard]` and `[detection]`: what the followers run.
 use super::{bad, finite, steps_of, Invalid};
 use crate::schema::*;
+use platoon_model::VehicleId;
 
 /// `[fallback]`, `[radar]` and `[guard]` (and the older `control.attack_input`).
 pub(super) fn fallback(
@@ -243,20 +244,29 @@ pub(super) fn maneuvers(
         }
         Ok((t / dt).round() as u64)
     };
-    let mut joins = Vec::with_capacity(m.joins.len());
-    for (i, j) in m.joins.iter().enumerate() {
-        let key = format!("maneuvers.joins[{i}]");
-        if j.vehicle == 0 || j.vehicle > followers {
-            return bad(
-                &format!("{key}.vehicle"),
-                format!("must be a follower, 1 to {followers} (got {})", j.vehicle),
-            );
+    let at = |what: &str, list: &[ManeuverAt]| -> Result<Vec<(VehicleId, u64)>, Invalid> {
+        let mut out = Vec::with_capacity(list.len());
+        for (i, j) in list.iter().enumerate() {
+            let key = format!("maneuvers.{what}[{i}]");
+            if j.vehicle == 0 || j.vehicle > followers {
+                return bad(
+                    &format!("{key}.vehicle"),
+                    format!("must be a follower, 1 to {followers} (got {})", j.vehicle),
+                );
+            }
+            let step = step_of(&format!("{key}.at_s"), j.at_s)?;
+            out.push((VehicleId(j.vehicle as u16), step));
         }
-        joins.push(platoon_control::JoinSpec {
-            vehicle: platoon_model::VehicleId(j.vehicle as u16),
-            at_step: step_of(&format!("{key}.at_s"), j.at_s)?,
-        });
-    }
+        Ok(out)
+    };
+    let joins = at("joins", &m.joins)?
+        .into_iter()
+        .map(|(vehicle, at_step)| platoon_control::JoinSpec { vehicle, at_step })
+        .collect();
+    let leaves = at("leaves", &m.leaves)?
+        .into_iter()
+        .map(|(vehicle, at_step)| platoon_control::LeaveSpec { vehicle, at_step })
+        .collect();
     let params = platoon_control::ManeuverParams {
         timing: platoon_maneuver::Timing {
             reply_steps: u64::from(steps_of("maneuvers.reply_s", m.reply_s, dt)?),
@@ -264,6 +274,7 @@ pub(super) fn maneuvers(
             maneuver_steps: step_of("maneuvers.timeout_s", m.timeout_s)?,
         },
         joins,
+        leaves,
         in_position_m: m.in_position_m,
         in_position_mps: m.in_position_mps,
         max_members: m.max_members.unwrap_or(followers + 1),

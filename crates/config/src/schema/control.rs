@@ -286,7 +286,11 @@ pub struct CutInConfig {
 pub struct ManeuversConfig {
     /// `[[maneuvers.joins]]`: vehicles that start outside the platoon, behind it, and join at
     /// its tail. The joiners are the platoon's last vehicles (their initial states are theirs).
-    pub joins: Vec<JoinConfig>,
+    pub joins: Vec<ManeuverAt>,
+    /// `[[maneuvers.leaves]]`: members that leave: on the leader's update a leaver moves out
+    /// of the lane (to the next lane on SUMO) and drives on at its speed, and the member behind
+    /// it closes up to the one ahead, its gap shrinking at `fallback.closing_mps`.
+    pub leaves: Vec<ManeuverAt>,
     /// How long a vehicle waits for an answer before it asks again, and the spacing of the
     /// leader's repeats of a formation update (s).
     pub reply_s: f64,
@@ -303,13 +307,14 @@ pub struct ManeuversConfig {
     pub max_members: Option<usize>,
 }
 
-/// A join at the tail.
+/// One vehicle's maneuver: a join at the tail or a leave.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
-pub struct JoinConfig {
-    /// The joiner (a follower id; the joiners are the last vehicles).
+pub struct ManeuverAt {
+    /// The vehicle (a follower id; the joiners are the last vehicles, the leavers members the
+    /// run starts with).
     pub vehicle: usize,
-    /// When it asks the leader to join (s).
+    /// When it asks the leader (s).
     pub at_s: f64,
 }
 
@@ -319,6 +324,7 @@ impl Default for ManeuversConfig {
     fn default() -> Self {
         Self {
             joins: Vec::new(),
+            leaves: Vec::new(),
             reply_s: 0.5,
             tries: 3,
             timeout_s: 30.0,

@@ -1,0 +1,104 @@
+//! Maneuver runs in process through an injector that records what it saw: the messages as
+//! they crossed the channel, each delivery's ground-truth label.
+use platoon_attacks::inject::{InjectError, Injector, Reception, Step};
+use platoon_control::Delivery;
+use platoon_maneuver::Message;
+use platoon_sim::truth::{Label, TruthLabeler};
+use platoon_sim::{InjectorFactory, Plugins, Scenario, Simulation, StepRow};
+use std::sync::{Arc, Mutex};
+
+/// The built-in channel, recording every maneuver message broadcast (step, message), dropping
+/// every delivery of the messages `drop` picks, letting `forge` invent or alter deliveries, and
+/// labelling every delivery that carries a message against what was broadcast (the ground
+/// truth).
+#[derive(Debug, Clone)]
+pub struct Recording {
+    inner: Box<dyn Injector>,
+    log: Arc<Mutex<Log>>,
+    drop: fn(u64, &Message) -> bool,
+    forge: fn(&Step<'_>, &mut Vec<Delivery>),
+    truth: TruthLabeler,
+}
+
+/// What a [`Recording`] saw.
+#[derive(Debug, Default)]
+pub struct Log {
+    pub sent: Vec<(u64, Message)>,
+    pub labelled: Vec<(Message, Label)>,
+}
+
+impl Injector for Recording {
+    fn step(&mut self, step: &Step<'_>, out: &mut Reception<'_>) -> Result<(), InjectError> {
+        self.inner.step(step, out)?;
+        let drop = self.drop;
+        out.deliveries
+            .retain(|d| !d.packet.maneuver.is_some_and(|m| drop(step.k, &m)));
+        (self.forge)(step, out.deliveries);
+        let links = step.tx.iter().flat_map(|p| {
+            step.topology
+                .out_neighbours(p.sender)
+                .iter()
+                .map(move |&r| (r, *p))
+        });
+        let mut labelled = Vec::new();
+        self.truth
+            .label(step.k, step.states, links, out.deliveries, &mut labelled);
+        let mut log = self.log.lock().unwrap();
+        log.sent.extend(
+            step.tx
+                .iter()
+                .filter_map(|p| p.maneuver.map(|m| (step.k, m))),
+        );
+        log.labelled.extend(
+            labelled
+                .iter()
+                .filter_map(|l| l.delivery.packet.maneuver.map(|m| (m, l.label))),
+        );
+        Ok(())
+    }
+}
+
+pub fn nothing(_: &Step<'_>, _: &mut Vec<Delivery>) {}
+
+/// Runs `s` in process through [`Recording`]: every row, and what it saw.
+pub fn run_with(
+    s: Scenario,
+    drop: fn(u64, &Message) -> bool,
+    forge: fn(&Step<'_>, &mut Vec<Delivery>),
+) -> (Vec<StepRow>, Log) {
+    let log = Arc::new(Mutex::new(Log::default()));
+    let shared = log.clone();
+    let plugins = Plugins {
+        injector: InjectorFactory::new(move |s| {
+            Ok(Box::new(Recording {
+                inner: InjectorFactory::builtin().make(s)?,
+                log: shared.clone(),
+                drop,
+                forge,
+                truth: TruthLabeler::new(1000),
+            }))
+        }),
+        ..Plugins::default()
+    };
+    let mut sim = Simulation::with_plugins(s, &plugins).unwrap();
+    let mut rows = Vec::new();
+    while !sim.is_done() {
+        rows.extend_from_slice(sim.step());
+    }
+    let log = std::mem::take(&mut *log.lock().unwrap());
+    (rows, log)
+}
+
+/// [`run_with`] forging nothing: every row and every message sent.
+pub fn run(s: Scenario, drop: fn(u64, &Message) -> bool) -> (Vec<StepRow>, Vec<(u64, Message)>) {
+    let (rows, log) = run_with(s, drop, nothing);
+    assert!(
+        log.labelled.iter().all(|(_, l)| *l == Label::Genuine),
+        "nothing altered or forged"
+    );
+    (rows, log.sent)
+}
+
+pub fn of(rows: &[StepRow], v: u16) -> Vec<&StepRow> {
+    rows.iter().filter(|r| r.vehicle == v).collect()
+}
