@@ -1879,6 +1879,19 @@ fn a_join_runs_bit_identically_on_both_transports() {
     assert_eq!(json(&ipc.join("summary.json"))["safety"]["collided"], false);
 }
 
+/// A join in the middle (`configs/join-middle.toml`): the joiner starts in the lane beside
+/// (mode 9 `beside` on the wire), changes into the gap follower 2 opened, and both transports
+/// agree bit for bit.
+#[test]
+fn a_join_in_the_middle_runs_bit_identically_on_both_transports() {
+    let runs = transports_agree("configs/join-middle.toml");
+    let ipc = runs.path().join("ipc");
+    let events = std::fs::read_to_string(ipc.join("events.csv")).unwrap();
+    let joined: Vec<&str> = events.lines().filter(|l| l.contains(",joined,")).collect();
+    assert_eq!(joined, ["0,4,2760,27.6,joined,blend,,false"]);
+    assert_eq!(json(&ipc.join("summary.json"))["safety"]["collided"], false);
+}
+
 /// Members leave (`configs/leave.toml`: follower 2 from the middle, follower 5 at the tail):
 /// the plant takes each off the lane on its command's mode `left` (on the wire, mode 8), the
 /// radars then see the member ahead of it, and both transports agree bit for bit.

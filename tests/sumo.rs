@@ -1741,6 +1741,42 @@ fn a_join_at_the_tail_on_sumo_agrees_with_the_native_plant() {
     mode_times_agree(&s, &n, 0.05);
 }
 
+/// A join in the middle on SUMO (`configs/join-middle.toml`): the joiner departs in the lane
+/// beside the platoon's (lane 2), changes into the gap follower 2 opened at the step it says it
+/// is in position, and the run agrees with the native plant's: every gap within 0.05 m, the
+/// joiner admitted at the same step; nobody collides.
+#[test]
+fn a_join_in_the_middle_on_sumo_changes_lanes_and_agrees_with_the_native_plant() {
+    let (tmp, s, n) = sumo_and_native("configs/join-middle.toml");
+    let (sumo, native) = (tmp.path().join("sumo"), tmp.path().join("native"));
+    assert_eq!(s["safety"]["collided"], false, "{}", s["safety"]);
+    sumo_report_clean(&sumo);
+    let report = json(&sumo.join("sumo.json"));
+    assert_eq!(
+        report["lane_changes"],
+        serde_json::json!([{"step": 2758, "t": 27.580000000000002, "vehicle": "follower4", "lane": 1}])
+    );
+    let routes = std::fs::read_to_string(sumo.join("routes.rou.xml")).unwrap();
+    let joiner = routes
+        .lines()
+        .find(|l| l.contains("id=\"follower4\""))
+        .unwrap();
+    assert!(joiner.contains("departLane=\"2\""), "{joiner}");
+    let worst = worst_gap_difference(&rows(&sumo), &rows(&native), 7001 * 4);
+    assert!(worst < 0.05, "the gaps differ by up to {worst} m");
+    let joined = |run: &Path| -> Vec<String> {
+        std::fs::read_to_string(run.join("events.csv"))
+            .unwrap()
+            .lines()
+            .filter(|l| l.contains(",joined,"))
+            .map(str::to_string)
+            .collect()
+    };
+    assert_eq!(joined(&sumo).len(), 1);
+    assert_eq!(joined(&sumo), joined(&native));
+    mode_times_agree(&s, &n, 0.05);
+}
+
 /// Members leave on SUMO (`configs/leave.toml`): each leaver changes to the lane beside the
 /// platoon's (lane 2 of the highway) at the step its mode becomes `left`, the radar of the
 /// follower behind it (SUMO's getLeader) then sees the member ahead, the same as the native
@@ -1753,7 +1789,7 @@ fn leaves_on_sumo_change_lanes_and_agree_with_the_native_plant() {
     assert_eq!(s["safety"]["collided"], false, "{}", s["safety"]);
     sumo_report_clean(&sumo);
     let report = json(&sumo.join("sumo.json"));
-    let leaves: Vec<(u64, String, u64)> = report["leaves"]
+    let leaves: Vec<(u64, String, u64)> = report["lane_changes"]
         .as_array()
         .unwrap()
         .iter()

@@ -130,8 +130,12 @@ def write_routes(path, spec):
         ),
         f'    <route id="road" edges="{" ".join(s.get("route") or [s["edge"]])}"/>',
     ]
+    n1 = int(spec["vehicles_per_platoon"])
+    beside = set(s.get("beside", []))
     for g, (p, v, _) in enumerate(spec["initial"]):
-        lane = spec["lanes"][g // spec["vehicles_per_platoon"]]
+        lane = spec["lanes"][g // n1]
+        if g % n1 in beside:  # a joiner from beside starts in the lane beside the platoon's
+            lane = s["side_lanes"][g // n1]
         kind = "leader" if drive and g % spec["vehicles_per_platoon"] == 0 else member_vtype(spec, g)
         lines.append(
             f'    <vehicle id="{vehicle_id(g)}" type="{kind}" route="road" depart="0" '
@@ -357,8 +361,9 @@ AHEAD_FLAGS = w.VehicleState.AHEAD | w.VehicleState.INTRUDER | (0xFFFFFF << w.Ve
 
 # The numpy views of the wire types (the same fields and offsets as the ctypes mirrors).
 COMMAND = np.ctypeslib.as_array((w.Command * 1)()).dtype
-# A command's mode `left` (Command.flags, MODE_SHIFT): the member left the platoon's lane.
-MODE_LEFT = 8
+# A command's modes `left` (8: a member that left) and `beside` (9: a joiner waiting beside)
+# (Command.flags, MODE_SHIFT): the vehicle drives in the lane beside the platoon's.
+SIDE_MODES = (8, 9)
 
 
 class Road:
@@ -474,9 +479,12 @@ class Kinematics:
         # Each platoon vehicle's platoon: a member ahead on the lane is no intruder, whether
         # it is the predecessor or, after members between left, one further up.
         self.platoon_of = {vid: g // self.n1 for g, vid in enumerate(self.ids)}
-        # Leaves ([[maneuvers.leaves]]): the lane each platoon's leavers change to, and who did.
-        self.leave_lanes = [int(x) for x in spec["sumo"].get("leave_lanes", [])]
-        self.left = set()
+        # Lane changes (leaves, joins from beside): the lane beside each platoon's, and who is
+        # in it (the joiners from beside at first).
+        self.side_lanes = [int(x) for x in spec["sumo"].get("side_lanes", [])]
+        starts_beside = set(spec["sumo"].get("beside", []))
+        self.beside = {g for g in range(n) if g % self.n1 in starts_beside}
+        self.platoon_lanes = [int(x) for x in spec["lanes"]]
         # The states sample, filled in place (through a numpy view for large fleets).
         self.out = (w.VehicleState * n)()
         self.view = np.ctypeslib.as_array(self.out)
@@ -507,20 +515,23 @@ class Kinematics:
             u[j * (n1 - 1) + i - 1] = c.u
         return u
 
-    def leave(self, cmds, k, report):
-        """Members whose command says they left (mode 8, `left`) change to the lane beside the
-        platoon's for good (lane-change mode 0: at once, in the coming step), as the native
-        plant takes them off the lane; each leave goes into the report."""
-        if not self.leave_lanes:
+    def change_lanes(self, cmds, k, report):
+        """Each follower to the lane its command's mode says (Command.flags, MODE_SHIFT): the
+        lane beside the platoon's for `left` (8) and `beside` (9), else the platoon's, as the
+        native plant keeps them. SUMO changes lanes in the coming step (lane-change mode 0: at
+        once); each change goes into the report."""
+        if not self.side_lanes:
             return
         got = np.frombuffer(cmds, dtype=COMMAND)
         modes = (got["flags"] >> w.Command.MODE_SHIFT) & w.Command.MODE_MASK
-        for g in got["vehicle"][modes == MODE_LEFT].tolist():
-            if g in self.left:
+        side = np.isin(modes, SIDE_MODES)
+        for g, beside in zip(got["vehicle"].tolist(), side.tolist()):
+            if beside == (g in self.beside):
                 continue
-            self.left.add(g)
-            lane = self.leave_lanes[g // self.n1]
-            # Held in that lane until the run ends.
+            j = g // self.n1
+            lane = self.side_lanes[j] if beside else self.platoon_lanes[j]
+            (self.beside.add if beside else self.beside.discard)(g)
+            # Held in that lane until told otherwise.
             self.sumo.vehicle.changeLane(self.ids[g], lane, 1e9)
             report.append({"step": k, "t": k * self.dt, "vehicle": self.ids[g], "lane": lane})
 
@@ -921,7 +932,7 @@ def run(spec) -> int:
             if len(cmds) != len(spec["taus"]):
                 raise SumoError(f"{len(cmds)} commands for {len(spec['taus'])} followers")
             u = kin.commands(cmds)
-            kin.leave(cmds, k, report.setdefault("leaves", []) if kin.leave_lanes else None)
+            kin.change_lanes(cmds, k, report.setdefault("lane_changes", []) if kin.side_lanes else None)
             if intruders:
                 intruders.hold(k)
             if native is not None:

@@ -136,9 +136,13 @@ struct SumoSpec<'a> {
     /// SUMO's lane-change output (with `background_lane_changes`, or flows).
     #[serde(skip_serializing_if = "Option::is_none")]
     lanechanges: Option<String>,
-    /// The lane each platoon's leavers change to (`[[maneuvers.leaves]]`; empty: none leave).
+    /// The lane beside each platoon's, where its leavers go and its joiners from beside start
+    /// (empty: nobody changes lanes).
     #[serde(skip_serializing_if = "Vec::is_empty")]
-    leave_lanes: Vec<u32>,
+    side_lanes: Vec<u32>,
+    /// The followers (by their number in the platoon) that start in the lane beside.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    beside: Vec<usize>,
     /// `[sumo] route`, when it has several edges.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     route: Vec<String>,
@@ -180,8 +184,8 @@ pub struct SumoPlan<'a> {
     fcd_period_s: f64,
     /// The road along `[sumo] route`, when it has several edges.
     road: Option<Road>,
-    /// The lane each platoon's leavers change to.
-    leave_lanes: Vec<u32>,
+    /// The lane beside each platoon's (leaves, joins from beside).
+    side_lanes: Vec<u32>,
 }
 
 /// Checks the network, lane and that the platoon stays on the road for the whole run (from the
@@ -341,14 +345,16 @@ pub fn plan<'a>(
             ),
         ));
     }
-    // A leaver changes to the lane beside its platoon's: the next one to the left, else to the
-    // right.
-    let mut leave_lanes = Vec::new();
-    if scenario.has_leaves() {
-        let leaves_error = |message: String| config_error(config_file, "maneuvers.leaves", message);
+    // A leaver changes to the lane beside its platoon's, and a joiner from beside starts
+    // there: the next lane to the left, else to the right.
+    let mut side_lanes = Vec::new();
+    if scenario.changes_lanes() {
+        let lanes_error = |message: String| config_error(config_file, "maneuvers", message);
         if road.is_some() {
-            return Err(leaves_error(
-                "on SUMO a leaver changes lanes on one edge; sumo.route has several".into(),
+            return Err(lanes_error(
+                "on SUMO a leaver or a joiner from beside changes lanes on one edge; sumo.route \
+                 has several"
+                    .into(),
             ));
         }
         for &lane in &scenario.fleet.lanes {
@@ -356,14 +362,14 @@ pub fn plan<'a>(
                 .into_iter()
                 .find(|l| lanes.iter().any(|(i, _)| i == l));
             let Some(beside) = beside else {
-                return Err(leaves_error(format!(
-                    "on SUMO a leaver changes to the lane beside its platoon's, and edge {} has \
-                     only lane {lane} (sumo.net: a network with two lanes or more, such as the \
-                     default)",
+                return Err(lanes_error(format!(
+                    "on SUMO a leaver or a joiner from beside uses the lane beside the \
+                     platoon's, and edge {} has only lane {lane} (sumo.net: a network with two \
+                     lanes or more, such as the default)",
                     s.edge
                 )));
             };
-            leave_lanes.push(beside);
+            side_lanes.push(beside);
         }
     }
     Ok(SumoPlan {
@@ -375,7 +381,7 @@ pub fn plan<'a>(
         free_lanes,
         fcd_period_s,
         road,
-        leave_lanes,
+        side_lanes,
     })
 }
 
@@ -557,7 +563,10 @@ impl SumoPlan<'_> {
                     _ if !s.flows.is_empty() => Some(path("lanechanges.xml")?),
                     _ => None,
                 },
-                leave_lanes: self.leave_lanes.clone(),
+                side_lanes: self.side_lanes.clone(),
+                beside: (1..self.scenario.vehicles_per_platoon())
+                    .filter(|&i| self.scenario.starts_beside(i))
+                    .collect(),
                 route: match &self.road {
                     Some(_) => s.route.clone(),
                     None => Vec::new(),
@@ -659,9 +668,9 @@ struct RunSumo {
     /// SUMO's FCD writer's period (0: it wrote none).
     #[serde(default)]
     fcd_period_s: f64,
-    /// The lane each platoon's leavers changed to (empty: none left).
+    /// The lane beside each platoon's (empty: nobody changed lanes).
     #[serde(default)]
-    leave_lanes: Vec<u32>,
+    side_lanes: Vec<u32>,
 }
 
 /// The run's `output.decimate` (every how many steps the trajectories hold a row), from the
@@ -753,7 +762,7 @@ pub fn write_fcd(run: &Path, opts: &FcdOptions) -> Result<FcdWritten> {
     let layout = platoon_output::fcd::Layout {
         edge: spec.sumo.edge,
         lanes: spec.lanes,
-        leave_lanes: spec.sumo.leave_lanes,
+        side_lanes: spec.sumo.side_lanes,
         vehicles_per_platoon: spec.vehicles_per_platoon,
         offset_m: spec.sumo.offset_m,
         vehicle_length_m: spec.sumo.vehicle_length_m,

@@ -9,13 +9,14 @@ fn configs_dir() -> std::path::PathBuf {
 /// The shipped configs, each run by a line of the README's quick start. A config added to or
 /// removed from `configs/` must be named here too: the test checks that the directory holds
 /// exactly these, so one that stops being found (or a stray file) fails it.
-const SHIPPED: [&str; 15] = [
+const SHIPPED: [&str; 16] = [
     "cut-in-split.toml",
     "cut-in.toml",
     "degradation.toml",
     "density.toml",
     "highway-large.toml",
     "jammer.toml",
+    "join-middle.toml",
     "join.toml",
     "leave.toml",
     "link-attacks.toml",

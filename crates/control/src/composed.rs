@@ -166,37 +166,96 @@ struct Follower {
     approaching_since: Option<u64>,
     /// The member it follows ([`View::ahead`]).
     ahead: VehicleId,
-    /// The room left by members that left ahead of it that it has still to close (m), and how
-    /// it closes.
-    to_close: f64,
-    closing: Option<Closing>,
+    /// How much more room than its law's it keeps to the vehicle ahead (m): a gap it opens for
+    /// a joiner, or room a member that left (or a joiner that moved in) ahead of it left it to
+    /// close (negative: room it has to give). Its law sees the radar's gap less this.
+    offset_m: f64,
+    /// How the offset moves.
+    offset: Option<Ramp>,
+    /// The joiner it opened a gap for at the step before (`[maneuvers]`).
+    opening: Option<VehicleId>,
     /// Whether it left the platoon (`[maneuvers]`).
     left: bool,
 }
 
-/// How a follower closes the room a member that left ahead of it left: smoothly (a
-/// smoothstep from the room to nothing, so the gap its law keeps starts and ends moving with
-/// no step in its speed), at most at `closing_mps`.
+/// The largest acceleration of the virtual vehicle a law follows while a room offset moves
+/// (m/s^2): a comfortable one, so that a small offset is not taken up in a jerk.
+const OFFSET_ACCEL_MPS2: f64 = 0.5;
+
+/// How a follower's room offset moves from one value to another: smoothly (a quintic
+/// smootherstep, so the vehicle its law follows starts and ends moving with no step in its
+/// speed or its acceleration), at most at `fallback.closing_mps` and [`OFFSET_ACCEL_MPS2`].
 #[derive(Debug, Clone, Copy)]
-struct Closing {
-    room: f64,
-    from: u64,
-    steps: f64,
+struct Ramp {
+    from: f64,
+    to: f64,
+    start: u64,
+    steps: u64,
 }
 
-impl Closing {
-    /// Closing `room` (m) from step `from`; none for no room.
-    fn new(room: f64, from: u64, closing_mps: f64, dt: f64) -> Option<Self> {
-        // The smoothstep's fastest rate is 1.5 times its mean.
-        let steps = (1.5 * room / closing_mps / dt).ceil();
-        (room > 0.0 && steps >= 1.0).then_some(Self { room, from, steps })
+impl Ramp {
+    /// From `from` to `to` (m), beginning at step `start`.
+    fn new(from: f64, to: f64, start: u64, closing_mps: f64, dt: f64) -> Self {
+        // The smootherstep's fastest rate is 15/8 of its mean, its largest acceleration
+        // 10/sqrt(3) times the distance over the duration squared.
+        let d = (to - from).abs();
+        let peak_accel = 10.0 / 3f64.sqrt();
+        let span = (1.875 * d / closing_mps).max((peak_accel * d / OFFSET_ACCEL_MPS2).sqrt());
+        let steps = (span / dt).ceil().max(1.0) as u64;
+        Self {
+            from,
+            to,
+            start,
+            steps,
+        }
     }
 
-    /// The room still to close at step `k`.
-    fn left(&self, k: u64) -> f64 {
-        let t = ((k - self.from) as f64 / self.steps).min(1.0);
-        self.room * (1.0 - t * t * (3.0 - 2.0 * t))
+    /// The offset at step `k`.
+    fn at(&self, k: u64) -> f64 {
+        let t = ((k - self.start) as f64 / self.steps as f64).min(1.0);
+        self.from + (self.to - self.from) * t * t * t * (10.0 - 15.0 * t + 6.0 * t * t)
     }
+
+    /// How fast the offset grows at step `k` (m/s) and how fast that changes (m/s^2): the
+    /// virtual vehicle the law follows moves that much slower, and brakes that much harder,
+    /// than the one ahead.
+    fn motion(&self, k: u64, dt: f64) -> (f64, f64) {
+        let t = (k - self.start) as f64 / self.steps as f64;
+        if t >= 1.0 {
+            return (0.0, 0.0);
+        }
+        let span = self.steps as f64 * dt;
+        let d = self.to - self.from;
+        let (u, w) = (t * (1.0 - t), 1.0 - 2.0 * t);
+        (d * 30.0 * u * u / span, d * 60.0 * u * w / (span * span))
+    }
+
+    /// Whether it has arrived at step `k`.
+    fn done(&self, k: u64) -> bool {
+        k >= self.start + self.steps
+    }
+}
+
+/// What follower `i`'s radar would read of vehicle `j` (in the lane beside, or beyond the
+/// radar), from the last packet it accepted from `j` brought forward to step `k`: the gap
+/// (m, `j`'s length `length`) and the closing speed.
+fn v2v_reading(
+    checks: &PacketChecks,
+    i: VehicleId,
+    j: VehicleId,
+    k: u64,
+    dt: f64,
+    own: &State,
+    length: f64,
+) -> Option<crate::fallback::Reading> {
+    checks.heard_from(i, j).map(|h| {
+        let age = (k - h.step.unwrap_or(0)) as f64 * dt;
+        crate::fallback::Reading {
+            gap: h.state[0] + h.state[1] * age - own[0] - length,
+            closing: own[1] - h.state[1],
+            intruder: false,
+        }
+    })
 }
 
 /// One platoon's followers, each running the same [`Law`] on its own copy (module docs).
@@ -281,11 +340,23 @@ impl ComposedController {
                 member: true,
                 approaching_since: None,
                 ahead: VehicleId(i as u16 - 1),
-                to_close: 0.0,
-                closing: None,
+                offset_m: 0.0,
+                offset: None,
+                opening: None,
                 left: false,
             })
-            .collect();
+            .collect::<Vec<_>>();
+        let maneuvers = parts
+            .maneuvers
+            .as_ref()
+            .map(|m| crate::maneuvers::Maneuvers::new(m, n));
+        let mut followers = followers;
+        if let Some(m) = &maneuvers {
+            // A joiner follows the member of its slot.
+            for f in &mut followers {
+                f.ahead = m.predecessor(f.id).unwrap_or(f.ahead);
+            }
+        }
         Ok(Self {
             laws: (0..n).map(|_| law.clone()).collect(),
             followers,
@@ -304,10 +375,7 @@ impl ComposedController {
             commands: vec![0.0; n],
             truths: Truths::default(),
             readings: Vec::with_capacity(n),
-            maneuvers: parts
-                .maneuvers
-                .as_ref()
-                .map(|m| crate::maneuvers::Maneuvers::new(m, n)),
+            maneuvers,
             in_position: vec![false; n],
             parts,
         })
@@ -379,6 +447,7 @@ impl Controller for ComposedController {
             }
         }
         if let Some(man) = self.maneuvers.as_mut() {
+            let (dt, spacing, headway) = (self.parts.dt, self.parts.spacing, self.parts.headway);
             for ((f, ready), reading) in self
                 .followers
                 .iter()
@@ -386,13 +455,34 @@ impl Controller for ComposedController {
                 .zip(&self.readings)
             {
                 let own = states[f.id.index()];
-                *ready = man.in_position(
-                    reading.map(|(r, _)| r),
-                    own[1],
-                    self.parts.spacing,
-                    self.parts.headway,
-                    fb.length(f.id.index() - 1),
-                );
+                let reading = reading.map(|(r, _)| r);
+                let behind = man.predecessor(f.id).unwrap_or(f.ahead);
+                let length = fb.length(behind.index());
+                *ready = if man.opening_for(f.id).is_some() {
+                    // The gap it opens is open: its offset arrived at the room it opens, and its
+                    // radar's gap has caught up with it.
+                    f.offset.is_some_and(|o| o.done(k) && o.to > 0.0)
+                        && man.in_position(
+                            reading.map(|r| crate::fallback::Reading {
+                                gap: r.gap - f.offset_m,
+                                ..r
+                            }),
+                            own[1],
+                            spacing,
+                            headway,
+                            fb.length(f.ahead.index()),
+                        )
+                } else if man.phase(f.id) == JoinerPhase::Member {
+                    // Not asked to open a gap (yet): nothing is open.
+                    false
+                } else {
+                    // A joiner beside the platoon judges its slot from V2V.
+                    let seen = match man.beside(f.id) {
+                        true => v2v_reading(&self.checks, f.id, behind, k, dt, &own, length),
+                        false => reading,
+                    };
+                    man.in_position(seen, own[1], spacing, headway, length)
+                };
             }
             man.step(k, &self.in_position);
         }
@@ -416,24 +506,24 @@ impl Controller for ComposedController {
             });
             let rebased = head.map_or(VehicleId::LEADER, |(j, _)| j) != f.head;
             f.head = head.map_or(VehicleId::LEADER, |(j, _)| j);
-            let phase = self
-                .maneuvers
-                .as_ref()
-                .map_or(JoinerPhase::Member, |m| m.phase(f.id));
-            let left = self.maneuvers.as_ref().is_some_and(|m| m.has_left(f.id));
+            let man = self.maneuvers.as_ref();
+            let phase = man.map_or(JoinerPhase::Member, |m| m.phase(f.id));
+            let left = man.is_some_and(|m| m.has_left(f.id));
+            let beside = man.is_some_and(|m| m.beside(f.id));
             let member = phase == JoinerPhase::Member && !left;
-            // A member whose predecessor left follows the member ahead of that one once its
-            // radar (the one its law reads) sees it, the leaver out of the lane: the room it
-            // left is closed gradually.
-            let formed = self.maneuvers.as_ref().and_then(|m| m.predecessor(f.id));
+            let opening_for = man.and_then(|m| m.opening_for(f.id));
+            let (dt, spacing, headway) = (self.parts.dt, self.parts.spacing, self.parts.headway);
+            // A member follows whom its copy of the formation puts ahead of it, from the step its
+            // radar (the one its law reads) sees that vehicle: after a member ahead left (out of
+            // the lane), or once the joiner it opened a gap for moved in. The room between is
+            // taken up gradually (`offset`).
+            let next = opening_for.or(man.and_then(|m| m.predecessor(f.id)));
             let mut switched = false;
-            if let (true, Some(next), Some(r)) = (member, formed, truth) {
+            if let (true, Some(next), Some(r)) = (member, next, truth) {
                 if next != f.ahead {
                     let gap_to = |j: VehicleId| {
-                        self.checks.heard_from(f.id, j).map(|h| {
-                            let age = (k - h.step.unwrap_or(0)) as f64 * self.parts.dt;
-                            h.state[0] + h.state[1] * age - own[0] - fb.length(j.index())
-                        })
+                        v2v_reading(&self.checks, f.id, j, k, dt, &own, fb.length(j.index()))
+                            .map(|v| v.gap)
                     };
                     if let (Some(to_next), Some(to_old)) = (gap_to(next), gap_to(f.ahead)) {
                         if (r.gap - to_next).abs() < (r.gap - to_old).abs() {
@@ -444,66 +534,86 @@ impl Controller for ComposedController {
                                 closing: r.closing,
                                 intruder: r.intruder,
                             };
-                            let room = crate::fallback::gap_error(
-                                seen,
-                                self.parts.headway,
-                                own[1],
-                                self.parts.spacing,
-                                fb.length(next.index()),
-                            )
-                            .max(0.0);
-                            f.closing = Closing::new(room, k, fb.closing_mps, self.parts.dt);
-                            f.to_close = room;
+                            let length = fb.length(next.index());
+                            let room =
+                                crate::fallback::gap_error(seen, headway, own[1], spacing, length);
+                            f.offset = Some(Ramp::new(room, 0.0, k, fb.closing_mps, dt));
+                            f.offset_m = room;
                         }
                     }
                 }
             }
+            // A member asked to open a gap for a joiner makes room for one more vehicle; if the
+            // joiner never comes, it closes it again.
+            if !switched && opening_for != f.opening {
+                let target = match opening_for {
+                    Some(_) => spacing + headway * own[1],
+                    None => 0.0,
+                };
+                if f.opening.is_none_or(|j| j != f.ahead) {
+                    f.offset = Some(Ramp::new(f.offset_m, target, k, fb.closing_mps, dt));
+                }
+            }
+            f.opening = opening_for;
+            // The law follows a virtual vehicle `offset` behind the one ahead, moving with the
+            // offset: its gap, closing speed and packet are the ahead vehicle's, shifted.
+            let (rate, accel) = f.offset.map_or((0.0, 0.0), |o| o.motion(k, dt));
             let radar = match truth {
-                Some(t) if f.to_close > 0.0 => Some(RadarTruth {
-                    gap: t.gap - f.to_close,
+                Some(t) if f.offset_m != 0.0 => Some(RadarTruth {
+                    gap: t.gap - f.offset_m,
+                    closing: t.closing + rate,
                     ..t
                 }),
                 t => t,
             };
+            let heard = self.checks.heard_from(f.id, f.ahead);
+            let shifted = heard.filter(|_| f.offset_m != 0.0).map(|h| Heard {
+                state: State::new(
+                    h.state[0] - f.offset_m,
+                    h.state[1] - rate,
+                    h.state[2] - accel,
+                ),
+                u: h.u - accel,
+                ..*h
+            });
             let view = View {
                 k,
-                dt: self.parts.dt,
+                dt,
                 id: f.id,
                 vehicles: n1,
                 own,
                 last_u: f.fallback.last_u(),
                 radar,
                 ahead: f.ahead,
-                ahead_heard: self.checks.heard_from(f.id, f.ahead),
+                ahead_heard: shifted.as_ref().or(heard),
                 neighbours: self.checks.neighbours(f.id),
                 heard: self.checks.heard(f.id),
                 head,
             };
             let lawful = law.command(&view);
-            // A joiner drives on its radar (maneuvers module docs); the members read it as
-            // their fallback does.
-            let reading = reading.filter(|_| radar_on || !member).map(|(r, _)| r);
+            // A joiner drives on its radar (maneuvers module docs), or beside the platoon on
+            // what it hears of the member of its slot; the members read the radar as their
+            // fallback does.
             let length_ahead = fb.length(f.ahead.index());
+            let heard_ahead =
+                || v2v_reading(&self.checks, f.id, f.ahead, k, dt, &own, length_ahead);
+            let from_beside = man.is_some_and(|m| m.joins_from_beside(f.id));
+            let reading = match beside {
+                true => heard_ahead(),
+                // Just moved in, its radar not read yet on the lane: what it heard until now.
+                false if from_beside && !member => reading.map(|(r, _)| r).or_else(heard_ahead),
+                false => reading.filter(|_| radar_on || !member).map(|(r, _)| r),
+            };
             let (lawful, joined) = match phase {
                 // A leaver drives on at its speed in the next lane.
                 _ if left => (0.0, false),
                 JoinerPhase::Member => (lawful, !f.member),
                 JoinerPhase::Outside | JoinerPhase::Approaching => {
-                    let since = match phase {
-                        JoinerPhase::Approaching => Some(*f.approaching_since.get_or_insert(k)),
-                        _ => None,
-                    };
-                    let elapsed_s = since.map(|since| (k - since) as f64 * self.parts.dt);
-                    let headway =
-                        crate::maneuvers::joiner_headway(&fb.acc, self.parts.headway, elapsed_s);
-                    let acc = acc_command(
-                        &fb.acc,
-                        reading,
-                        headway,
-                        own[1],
-                        self.parts.spacing,
-                        length_ahead,
-                    );
+                    let approaching = man.is_some_and(|m| m.approaching(f.id));
+                    let since = approaching.then(|| *f.approaching_since.get_or_insert(k));
+                    let elapsed_s = since.map(|since| (k - since) as f64 * dt);
+                    let headway = crate::maneuvers::joiner_headway(&fb.acc, headway, elapsed_s);
+                    let acc = acc_command(&fb.acc, reading, headway, own[1], spacing, length_ahead);
                     (acc, false)
                 }
             };
@@ -515,30 +625,31 @@ impl Controller for ComposedController {
                 && member;
             let situation = Situation {
                 k,
-                dt: self.parts.dt,
+                dt,
                 params: fb,
                 affected,
                 // A law on the radar alone follows whoever is ahead anyway.
                 cut_in: reading.is_some_and(|r| r.intruder) && law.uses_v2v() && member,
                 law: lawful,
                 q: State::zeros(),
-                reading,
+                reading: reading.filter(|_| !beside),
                 speed: own[1],
-                spacing: self.parts.spacing,
+                spacing,
                 headway: self.parts.headway,
                 length_ahead,
                 rebased: rebased || joined || switched || just_left,
             };
             let (mode, u, guard) = f.fallback.step(&situation, |_| lawful);
-            let mode = match (member, left) {
-                (true, _) => mode,
-                (false, true) => crate::Mode::Left,
-                (false, false) => crate::Mode::Outside,
+            let mode = match (member, left, beside) {
+                (true, _, _) => mode,
+                (false, true, _) => crate::Mode::Left,
+                (false, false, true) => crate::Mode::Beside,
+                (false, false, false) => crate::Mode::Outside,
             };
-            if let Some(c) = f.closing {
-                f.to_close = c.left(k + 1);
-                if f.to_close == 0.0 {
-                    f.closing = None;
+            if let Some(o) = f.offset {
+                f.offset_m = o.at(k + 1);
+                if o.done(k + 1) && o.to == 0.0 {
+                    f.offset = None;
                 }
             }
             f.step.u = u;

@@ -100,11 +100,15 @@ pub enum Mode {
     /// Left the platoon and its lane (`[maneuvers]`): it drives on in the next lane at its
     /// speed, and the radars of the lane no longer see it.
     Left,
+    /// Outside the platoon in the lane beside it: a joiner waiting for the gap in the middle
+    /// opening, then moving up beside it on what it hears (`[maneuvers]`); it changes lanes
+    /// into the gap when it is in position.
+    Beside,
 }
 
 impl Mode {
     /// Every mode, in code order.
-    pub const ALL: [Mode; 9] = [
+    pub const ALL: [Mode; 10] = [
         Mode::Coop,
         Mode::Zero,
         Mode::Hold,
@@ -114,6 +118,7 @@ impl Mode {
         Mode::CutIn,
         Mode::Outside,
         Mode::Left,
+        Mode::Beside,
     ];
 
     /// The mode's code on the wire (4 bits).
@@ -124,6 +129,12 @@ impl Mode {
     /// The mode of a wire code (unknown codes read as `Coop`).
     pub fn from_code(code: u32) -> Mode {
         Mode::ALL.get(code as usize).copied().unwrap_or(Mode::Coop)
+    }
+
+    /// Whether a vehicle in this mode drives in the lane beside the platoon's: `left` and
+    /// `beside`.
+    pub fn is_beside_the_lane(self) -> bool {
+        matches!(self, Mode::Left | Mode::Beside)
     }
 
     /// Its name in outputs.
@@ -138,6 +149,7 @@ impl Mode {
             Mode::CutIn => "cut_in",
             Mode::Outside => "outside",
             Mode::Left => "left",
+            Mode::Beside => "beside",
         }
     }
 }

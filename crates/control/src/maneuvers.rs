@@ -10,19 +10,23 @@
 //! says so, and on the leader's update it takes the law, blended from its ACC command as on the
 //! way back from a fallback. Members keep their copies of the formation from the leader's
 //! updates.
-use platoon_maneuver::{Formation, Joiner, JoinerPhase, Leader, Member};
+use platoon_maneuver::{Formation, Joiner, JoinerPhase, JoinerState, Leader, Member};
 pub use platoon_maneuver::{Message, Timing};
 use platoon_model::VehicleId;
 use std::collections::VecDeque;
 
-/// A join at the tail: follower `vehicle` asks at step `at_step` for the slot behind the
-/// vehicle ahead of it.
+/// A join: follower `vehicle` asks at step `at_step` for the slot behind the vehicle ahead of
+/// it (at the tail, from the lane behind the platoon), or behind member `behind` (from the
+/// lane beside the platoon's: in the middle, or at the tail).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct JoinSpec {
     /// The joiner.
     pub vehicle: VehicleId,
     /// When it asks.
     pub at_step: u64,
+    /// The member whose slot behind it joins, from the lane beside; `None`: at the tail,
+    /// from behind the platoon in its lane.
+    pub behind: Option<VehicleId>,
 }
 
 /// A leave: member `vehicle` tells the leader at step `at_step` that it leaves; on the
@@ -98,6 +102,23 @@ impl ManeuverParams {
                 ));
             }
         }
+        for j in &self.joins {
+            if let Some(b) = j.behind {
+                if usize::from(b.0) >= first || leavers.contains(&b.0) {
+                    return Err((
+                        "joins",
+                        format!(
+                            "vehicle {} cannot join behind vehicle {}: the slot is behind a \
+                             member that stays (the leader or followers 1 to {}, none that \
+                             leaves)",
+                            j.vehicle.0,
+                            b.0,
+                            first - 1
+                        ),
+                    ));
+                }
+            }
+        }
         if !joiners.is_empty() && leavers.contains(&(first as u16 - 1)) {
             return Err((
                 "leaves",
@@ -171,6 +192,8 @@ enum Machine {
     Joiner {
         joiner: Joiner,
         at_step: u64,
+        /// It joins from the lane beside the platoon's.
+        beside: bool,
     },
 }
 
@@ -204,9 +227,10 @@ impl Maneuvers {
                         joiner: Joiner::new(
                             id,
                             VehicleId::LEADER,
-                            VehicleId(id.0 - 1),
+                            j.behind.unwrap_or(VehicleId(id.0 - 1)),
                             params.timing,
                         ),
+                        beside: j.behind.is_some(),
                         at_step: j.at_step,
                     },
                     None => Machine::Member {
@@ -256,24 +280,27 @@ impl Maneuvers {
         }
     }
 
-    /// Step `k`: every machine acts on what its vehicle received; `in_position(i)` is joiner
-    /// `i`'s judgement of its slot (index `i - 1`).
-    pub(crate) fn step(&mut self, k: u64, in_position: &[bool]) {
+    /// Step `k`: every machine acts on what its vehicle received; `ready[i - 1]` is follower
+    /// `i`'s controller's judgement: a joiner's that it is in its slot, a member's that the gap
+    /// it opens is open.
+    pub(crate) fn step(&mut self, k: u64, ready: &[bool]) {
         let out = &mut self.scratch;
         out.clear();
         self.leader.step(k, &self.leader_in, out);
         self.leader_out.extend(out.drain(..));
         self.leader_in.clear();
-        for (role, &ready) in self.roles.iter_mut().zip(in_position) {
+        for (role, &ready) in self.roles.iter_mut().zip(ready) {
             match &mut role.machine {
                 Machine::Member { member, leave_at } => {
                     if leave_at.is_some_and(|at| k >= at) {
                         *leave_at = None;
                         member.leave(k, out);
                     }
-                    member.step(k, &role.inbox, false, out);
+                    member.step(k, &role.inbox, ready, out);
                 }
-                Machine::Joiner { joiner, at_step } => {
+                Machine::Joiner {
+                    joiner, at_step, ..
+                } => {
                     if k >= *at_step {
                         joiner.request(k, out);
                     }
@@ -294,6 +321,53 @@ impl Maneuvers {
         }
     }
 
+    /// The joiner follower `i` opens a gap ahead of it for (a member asked to), if any.
+    pub(crate) fn opening_for(&self, i: VehicleId) -> Option<VehicleId> {
+        match &self.roles[i.index() - 1].machine {
+            Machine::Member { member, .. } => member.opening_for(),
+            Machine::Joiner { .. } => None,
+        }
+    }
+
+    /// Whether follower `i` is a joiner in the lane beside the platoon's: one that joins
+    /// behind a member, until it reports in position (it then moves into its slot) and again
+    /// once its join has failed.
+    pub(crate) fn beside(&self, i: VehicleId) -> bool {
+        match &self.roles[i.index() - 1].machine {
+            Machine::Joiner {
+                joiner,
+                beside: true,
+                ..
+            } => !matches!(
+                joiner.state(),
+                JoinerState::InPosition { .. } | JoinerState::Joined { .. }
+            ),
+            _ => false,
+        }
+    }
+
+    /// Whether follower `i` is a joiner from the lane beside (`behind` given).
+    pub(crate) fn joins_from_beside(&self, i: VehicleId) -> bool {
+        matches!(
+            self.roles[i.index() - 1].machine,
+            Machine::Joiner { beside: true, .. }
+        )
+    }
+
+    /// Whether joiner `i` makes for its slot: at the tail once accepted, from the lane beside
+    /// once accepted too (it moves up beside the slot while the gap opens, then into it).
+    pub(crate) fn approaching(&self, i: VehicleId) -> bool {
+        match &self.roles[i.index() - 1].machine {
+            Machine::Joiner { joiner, .. } => matches!(
+                joiner.state(),
+                JoinerState::WaitingForGap { .. }
+                    | JoinerState::Approaching { .. }
+                    | JoinerState::InPosition { .. }
+            ),
+            Machine::Member { .. } => false,
+        }
+    }
+
     /// Whether follower `i` left the platoon (its leave announced, as its copy says).
     pub(crate) fn has_left(&self, i: VehicleId) -> bool {
         match &self.roles[i.index() - 1].machine {
@@ -303,11 +377,11 @@ impl Maneuvers {
     }
 
     /// The vehicle follower `i` follows by its copy of the formation: the member ahead of it
-    /// (a joiner's, the vehicle ahead of its slot; none for a vehicle that left).
+    /// (a joiner's, the member ahead of its slot; none for a vehicle that left).
     pub(crate) fn predecessor(&self, i: VehicleId) -> Option<VehicleId> {
         match &self.roles[i.index() - 1].machine {
             Machine::Member { member, .. } => member.formation().predecessor(i),
-            Machine::Joiner { .. } => Some(VehicleId(i.0 - 1)),
+            Machine::Joiner { joiner, .. } => Some(joiner.behind()),
         }
     }
 

@@ -213,9 +213,10 @@ pub struct Layout {
     pub edge: String,
     /// Platoon j's lane index.
     pub lanes: Vec<u32>,
-    /// The lane index platoon j's leavers changed to, the step after their mode became `left`
-    /// (empty: nobody left).
-    pub leave_lanes: Vec<u32>,
+    /// The lane beside platoon j's (empty: nobody changes lanes): a vehicle is on it from the
+    /// step after its mode was `left` or `beside` (the lane change takes that step), or from
+    /// its first row if that is `beside`.
+    pub side_lanes: Vec<u32>,
     pub vehicles_per_platoon: usize,
     /// Lane position = p + offset_m.
     pub offset_m: f64,
@@ -234,10 +235,11 @@ pub struct FcdWriter<'a, W: Write> {
     layout: Layout,
     /// Per platoon: the lane's id and the lane.
     lanes: Vec<(String, &'a Lane)>,
-    /// Per platoon: its leavers' lane (empty: nobody left).
-    leave_lanes: Vec<(String, &'a Lane)>,
-    /// Each vehicle's first step in mode `left`.
-    left_at: Vec<Option<u64>>,
+    /// Per platoon: the lane beside (empty: nobody changes lanes).
+    side_lanes: Vec<(String, &'a Lane)>,
+    /// Each vehicle's lane for its next row: beside the platoon's (its last row's mode was
+    /// `left` or `beside`); `None` before its first row.
+    beside: Vec<Option<bool>>,
     ids: Vec<Vec<String>>,
     /// Each vehicle's (platoon * N + vehicle) line of the open timestep (a repeated row
     /// replaces it), and the order the lines are written in (by id).
@@ -302,7 +304,7 @@ impl<'a, W: Write> FcdWriter<'a, W> {
                 .collect::<Result<Vec<_>>>()
         };
         let lanes = lanes_of(&layout.lanes)?;
-        let leave_lanes = lanes_of(&layout.leave_lanes)?;
+        let side_lanes = lanes_of(&layout.side_lanes)?;
         let platoons = layout.lanes.len();
         let ids: Vec<Vec<String>> = (0..platoons)
             .map(|j| {
@@ -328,8 +330,8 @@ impl<'a, W: Write> FcdWriter<'a, W> {
             out,
             layout,
             lanes,
-            leave_lanes,
-            left_at: vec![None; order.len()],
+            side_lanes,
+            beside: vec![None; order.len()],
             lines: vec![String::new(); order.len()],
             last: vec![None; order.len()],
             order,
@@ -361,9 +363,10 @@ impl<'a, W: Write> FcdWriter<'a, W> {
             _ => r.a,
         };
         self.last[v] = Some((r.step, r.a));
-        if r.mode == platoon_control::Mode::Left && self.left_at[v].is_none() {
-            self.left_at[v] = Some(r.step);
-        }
+        // Where it is at this row: where its last row's mode sent it (a lane change takes the
+        // step), at its first row where its mode says.
+        let beside = self.beside[v].unwrap_or(r.mode == platoon_control::Mode::Beside);
+        self.beside[v] = Some(r.mode.is_beside_the_lane());
         if !r.step.is_multiple_of(self.period_steps) {
             return Ok(());
         }
@@ -382,9 +385,8 @@ impl<'a, W: Write> FcdWriter<'a, W> {
             self.current = Some(r.step);
             self.timesteps += 1;
         }
-        // A leaver changed lanes in the step its mode became `left`.
-        let (lane_id, lane) = match (self.left_at[v], self.leave_lanes.get(j)) {
-            (Some(at), Some(leave)) if r.step > at => leave,
+        let (lane_id, lane) = match self.side_lanes.get(j) {
+            Some(side) if beside => side,
             _ => &self.lanes[j],
         };
         let id = &self.ids[j][i];
@@ -542,7 +544,7 @@ mod tests {
         Layout {
             edge: "road".into(),
             lanes,
-            leave_lanes: Vec::new(),
+            side_lanes: Vec::new(),
             vehicles_per_platoon: 2,
             offset_m,
             vehicle_length_m: 4.0,
@@ -612,7 +614,7 @@ mod tests {
             Layout {
                 edge: "road".into(),
                 lanes: vec![0],
-                leave_lanes: Vec::new(),
+                side_lanes: Vec::new(),
                 vehicles_per_platoon: 1,
                 offset_m: 0.0,
                 vehicle_length_m: 4.0,
@@ -645,7 +647,7 @@ mod tests {
         let layout = |dt: f64| Layout {
             edge: "road".into(),
             lanes: vec![0],
-            leave_lanes: Vec::new(),
+            side_lanes: Vec::new(),
             vehicles_per_platoon: 1,
             offset_m: 5.0,
             vehicle_length_m: 4.0,

@@ -276,6 +276,7 @@ fn mode_color(m: platoon_control::Mode) -> RGBColor {
         Mode::CutIn => RGBColor(213, 94, 0),
         Mode::Outside => RGBColor(240, 228, 66),
         Mode::Left => RGBColor(0, 114, 178),
+        Mode::Beside => RGBColor(170, 170, 40),
     }
 }
 
@@ -357,12 +358,11 @@ pub fn modes(
             )
             .map_err(err)?;
     }
-    // `outside` and `left` only with maneuvers: other runs keep their figure.
+    // `outside`, `left` and `beside` only with maneuvers: other runs keep their figure.
     let maneuvers = scenario.control.maneuvers.is_some();
-    for m in Mode::ALL
-        .into_iter()
-        .filter(|m| *m != Mode::Coop && (maneuvers || !matches!(m, Mode::Outside | Mode::Left)))
-    {
+    for m in Mode::ALL.into_iter().filter(|m| {
+        *m != Mode::Coop && (maneuvers || !matches!(m, Mode::Outside | Mode::Left | Mode::Beside))
+    }) {
         let c = mode_color(m);
         chart
             .draw_series(std::iter::empty::<Rectangle<(f64, f64)>>())

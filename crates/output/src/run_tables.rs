@@ -448,7 +448,11 @@ impl RunFiles {
             if r.mode != self.modes[v] {
                 let was = std::mem::replace(&mut self.modes[v], r.mode);
                 self.events.write(row(Event::Switch, None))?;
-                if was == platoon_control::Mode::Outside {
+                let outside = [
+                    platoon_control::Mode::Outside,
+                    platoon_control::Mode::Beside,
+                ];
+                if outside.contains(&was) && !outside.contains(&r.mode) {
                     self.events.write(row(Event::Joined, None))?;
                 }
                 if r.mode == platoon_control::Mode::Left {

@@ -99,7 +99,7 @@ pub fn run(
         // the fallback, the guard or a detector.
         let radar_from_plant = scenario.control.fallback.uses_radar()
             || scenario.control.detection.reads_radar()
-            || scenario.has_leaves();
+            || scenario.changes_lanes();
         let mut truths: Vec<Option<RadarTruth>> = Vec::with_capacity(num.vehicles());
         let mut tx: Vec<Packet> = Vec::new();
         let mut sent: Vec<bool> = Vec::new();

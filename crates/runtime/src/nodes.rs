@@ -82,13 +82,13 @@ pub fn plant(run_id: &str, scenario: &Scenario) -> Result<(), RunError> {
                 continue;
             };
             commands_into(&cmds, num, &mut u)?;
-            if scenario.has_leaves() {
-                // A member that left goes off the lane (mode `left`, as the in-process run).
+            if scenario.changes_lanes() {
+                // Each vehicle on the lane its mode says (`left`, `beside`: the one beside), as
+                // the in-process run.
                 for c in cmds.iter() {
                     if let Some((j, i)) = num.split(c.vehicle) {
-                        if c.mode_code() == platoon_control::Mode::Left.code() {
-                            plants[j].leave_lane(i.index());
-                        }
+                        let mode = platoon_control::Mode::from_code(c.mode_code());
+                        plants[j].set_lane(i.index(), mode.is_beside_the_lane());
                     }
                 }
             }

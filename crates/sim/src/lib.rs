@@ -174,26 +174,32 @@ impl Plant {
             discretisation: scenario.discretisation,
             leader: scenario.leader.clone(),
             dt: scenario.dt(),
-            off_lane: Vec::new(),
+            // A joiner from beside starts off the lane.
+            off_lane: match scenario.changes_lanes() {
+                true => (0..scenario.initial.len())
+                    .map(|i| scenario.starts_beside(i))
+                    .collect(),
+                false => Vec::new(),
+            },
         }
     }
 
-    /// Takes follower `i` off the platoon's lane for good (a member that left, mode
-    /// [`platoon_control::Mode::Left`]): it drives on in the next lane, where no radar of the
-    /// lane sees it.
-    pub fn leave_lane(&mut self, i: usize) {
+    /// Puts follower `i` on the lane beside the platoon's (`beside`: a member that left, mode
+    /// [`platoon_control::Mode::Left`], or a joiner waiting there, mode
+    /// [`platoon_control::Mode::Beside`]), where no radar of the platoon's lane sees it and it
+    /// sees nothing, or on the platoon's lane.
+    pub fn set_lane(&mut self, i: usize, beside: bool) {
         if self.off_lane.is_empty() {
             self.off_lane = vec![false; self.states.len()];
         }
-        self.off_lane[i] = true;
+        self.off_lane[i] = beside;
     }
 
-    /// Takes off the lane every follower whose step says it left (`mode(i)`, i >= 1).
+    /// Puts every follower on the lane its step's mode says (`mode(i)`, i >= 1): beside the
+    /// platoon's for `left` and `beside`, else the platoon's.
     pub fn follow_modes(&mut self, mode: impl Fn(usize) -> platoon_control::Mode) {
         for i in 1..self.states.len() {
-            if mode(i) == platoon_control::Mode::Left {
-                self.leave_lane(i);
-            }
+            self.set_lane(i, mode(i).is_beside_the_lane());
         }
     }
 
@@ -317,7 +323,7 @@ impl PlantSpec {
             radar_range_m: (scenario.control.fallback.uses_radar()
                 || scenario.control.detection.reads_radar()
                 || !scenario.cut_ins.is_empty()
-                || scenario.has_leaves())
+                || scenario.changes_lanes())
             .then_some(scenario.control.fallback.radar.range_m),
             cut_ins: scenario.cut_ins.clone(),
         }
@@ -381,12 +387,25 @@ pub fn step_rows(
         radar_closing_mps: radar(0).map(|r| r.2),
         head: split.then_some(0),
     });
-    // Members that left (mode `left`) give up their slots: those behind move up.
-    let mut gone = 0;
+    // Where vehicles change lanes, a follower's slot is counted on the road: 1 + the members
+    // ahead of it (a member that left gives up its slot, a joiner takes one once admitted).
+    let slots: Vec<f64> = if scenario.changes_lanes() {
+        let member = |m: platoon_control::Mode| {
+            !m.is_beside_the_lane() && m != platoon_control::Mode::Outside
+        };
+        let members: Vec<(f64, bool)> = (1..states.len())
+            .map(|i| (states[i][0], member(follower(i).mode)))
+            .collect();
+        members
+            .iter()
+            .map(|&(p, _)| 1.0 + members.iter().filter(|&&(q, m)| m && q > p).count() as f64)
+            .collect()
+    } else {
+        Vec::new()
+    };
     for (i, x) in states.iter().enumerate().skip(1) {
         let s = follower(i);
-        let slot = (i - gone) as f64;
-        gone += usize::from(s.mode == platoon_control::Mode::Left);
+        let slot = slots.get(i - 1).copied().unwrap_or(i as f64);
         out.push(StepRow {
             step: k,
             t,
@@ -594,7 +613,7 @@ impl Simulation {
         }
         self.radar.clear();
         self.targets.clear();
-        if !self.plant.traffic().is_empty() || sc.has_leaves() {
+        if !self.plant.traffic().is_empty() || sc.changes_lanes() {
             // The radars see the lane: a vehicle that cut in hides the predecessor, one that
             // left uncovers the member ahead of it.
             self.plant.radar_view(&mut self.radar, &mut self.targets);
@@ -643,7 +662,7 @@ impl Simulation {
             |i| controller.follower_step(VehicleId(i as u16)),
             &mut self.rows,
         );
-        if sc.has_leaves() {
+        if sc.changes_lanes() {
             self.plant
                 .follow_modes(|i| controller.follower_step(VehicleId(i as u16)).mode);
         }

@@ -77,6 +77,11 @@ pub struct MetricsAccumulator {
     /// Whether to measure the observed jamming (range jammers present), and its runs of
     /// jammed steps `(first, steps)`.
     observe: bool,
+    /// Vehicles change lanes ([`Scenario::changes_lanes`]): the vehicle ahead on the lane is
+    /// found by position.
+    lanes: bool,
+    /// Scratch: with `lanes`, each row's vehicle ahead on the lane (index into the rows).
+    fronts: Vec<usize>,
     observed: Vec<(u64, u64)>,
     /// With jammers as transmitters: per link (sender, receiver), the step its outage began if
     /// it is out, and its outages `(first step, steps)`.
@@ -132,6 +137,8 @@ impl MetricsAccumulator {
                     )
                 }),
             observed: Vec::new(),
+            lanes: scenario.changes_lanes(),
+            fronts: Vec::new(),
             links: (!scenario.jammers.is_empty()).then(BTreeMap::new),
             last_step: 0,
             last_t: 0.0,
@@ -162,9 +169,24 @@ impl MetricsAccumulator {
                 _ => self.observed.push((leader.step, 1)),
             }
         }
-        // The vehicle ahead on the lane: members that left it are passed over.
+        // The vehicle ahead on the lane: those beside it are passed over and, where vehicles
+        // change lanes, the order is the road's (a joiner moves in between members).
+        self.fronts.clear();
+        if self.lanes {
+            let mut on: Vec<usize> = (0..rows.len())
+                .filter(|&i| !rows[i].mode.is_beside_the_lane())
+                .collect();
+            on.sort_by(|&a, &b| rows[b].p.total_cmp(&rows[a].p));
+            self.fronts.resize(rows.len(), 0);
+            for w in on.windows(2) {
+                self.fronts[w[1]] = w[0];
+            }
+        }
         let mut front = leader;
-        for r in &rows[1..] {
+        for (i, r) in rows.iter().enumerate().skip(1) {
+            if self.lanes {
+                front = &rows[self.fronts[i]];
+            }
             let acc = &mut self.vehicles[r.vehicle as usize - 1];
             if r.triggered {
                 acc.triggers += 1;
@@ -179,7 +201,7 @@ impl MetricsAccumulator {
             }
             // A joiner's errors count from the step it is admitted: outside, it has no slot;
             // a leaver's end with its leave.
-            let left = r.mode == platoon_control::Mode::Left;
+            let left = r.mode.is_beside_the_lane();
             if r.mode != platoon_control::Mode::Outside && !left {
                 acc.spacing.push(r.spacing_error);
                 acc.gap

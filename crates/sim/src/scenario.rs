@@ -244,13 +244,23 @@ impl Scenario {
         self.control.fallback.cut_in.is_some_and(|c| c.split)
     }
 
-    /// Whether members leave during the run (`[[maneuvers.leaves]]`): the plant then takes
-    /// them off the lane and the radars see the lane, not the platoon's order.
-    pub fn has_leaves(&self) -> bool {
+    /// Whether vehicles change lanes during the run: members leave (`[[maneuvers.leaves]]`)
+    /// or a joiner comes from the lane beside (`[[maneuvers.joins]] behind`). The plant then
+    /// keeps who is on the platoon's lane and the radars see the lane, not the platoon's order.
+    pub fn changes_lanes(&self) -> bool {
         self.control
             .maneuvers
             .as_ref()
-            .is_some_and(|m| !m.leaves.is_empty())
+            .is_some_and(|m| !m.leaves.is_empty() || m.joins.iter().any(|j| j.behind.is_some()))
+    }
+
+    /// Whether follower `i` starts in the lane beside the platoon's (a joiner with `behind`).
+    pub fn starts_beside(&self, i: usize) -> bool {
+        self.control.maneuvers.as_ref().is_some_and(|m| {
+            m.joins
+                .iter()
+                .any(|j| usize::from(j.vehicle.0) == i && j.behind.is_some())
+        })
     }
 
     /// Who hears whom on the V2V channel: the topology's links and, when the platoon splits

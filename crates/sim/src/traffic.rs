@@ -121,7 +121,8 @@ impl Traffic {
 /// What every vehicle's radar sees (leader first, `None` for the leader): the nearest vehicle
 /// ahead on the lane, the platoon's predecessor or an intruder whose front is ahead of the
 /// follower's. Without intruders this is [`platoon_control::fallback::radar_truth`], value for
-/// value. `off_lane[i]`: member i left the lane (`[maneuvers]`; empty: nobody did).
+/// value. `off_lane[i]`: vehicle i is in the lane beside (`[maneuvers]`; empty: nobody changes
+/// lanes in this run).
 pub fn radar_truth(
     states: &[State],
     lengths: &[f64],
@@ -133,9 +134,9 @@ pub fn radar_truth(
 }
 
 /// [`radar_truth`], and who each radar sees (`targets`, leader first): the member ahead on the
-/// lane ([`RadarTarget::Member`], the predecessor unless members between left the lane) or the
-/// cut-in ([`RadarTarget::CutIn`]). A member off the lane sees nothing (the next lane is
-/// empty) and is seen by nobody.
+/// lane ([`RadarTarget::Member`]: the predecessor, unless vehicles change lanes, then the
+/// nearest by position) or the cut-in ([`RadarTarget::CutIn`]). A vehicle off the lane sees
+/// nothing (the lane beside is empty) and is seen by nobody.
 pub fn radar_view(
     states: &[State],
     lengths: &[f64],
@@ -149,9 +150,13 @@ pub fn radar_view(
     targets.push(RadarTarget::Nothing);
     targets.extend((1..states.len()).map(|i| RadarTarget::Member(i as u16 - 1)));
     let off = |i: usize| off_lane.get(i).copied().unwrap_or(false);
-    if off_lane.iter().any(|&o| o) {
+    if !off_lane.is_empty() {
+        // Vehicles change lanes: the nearest member ahead on the lane, by position (a joiner
+        // that moved in stands between members).
         for i in 1..states.len() {
-            let ahead = (0..i).rev().find(|&j| !off(j));
+            let ahead = (0..states.len())
+                .filter(|&j| j != i && !off(j) && states[j][0] > states[i][0])
+                .min_by(|&a, &b| states[a][0].total_cmp(&states[b][0]));
             (out[i], targets[i]) = match ahead {
                 Some(j) if !off(i) => (
                     Some(RadarTruth {

@@ -247,8 +247,8 @@ pub struct Command {
     pub vehicle: u32,
     /// Bit 0: it broadcast in this step; bit 1: it was affected by an attack; bit 2: the
     /// emergency-braking guard overrode the command; bits 4-7: its mode (0 coop, 1 zero,
-    /// 2 hold, 3 predict, 4 acc, 5 blend, 6 cut_in, 7 outside, 8 left: off the platoon's lane,
-    /// which the plant takes it out of); bits 8-23: whom it took as its leader, a
+    /// 2 hold, 3 predict, 4 acc, 5 blend, 6 cut_in, 7 outside, 8 left and 9 beside: in the lane
+    /// beside the platoon's, where the plant puts it); bits 8-23: whom it took as its leader, a
     /// vehicle of its platoon (0: the platoon's leader; a member ahead heading a split).
     pub flags: u32,
     /// Commanded acceleration `u_i[k]` (m/s^2).

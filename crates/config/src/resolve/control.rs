@@ -244,26 +244,41 @@ pub(super) fn maneuvers(
         }
         Ok((t / dt).round() as u64)
     };
-    let at = |what: &str, list: &[ManeuverAt]| -> Result<Vec<(VehicleId, u64)>, Invalid> {
-        let mut out = Vec::with_capacity(list.len());
-        for (i, j) in list.iter().enumerate() {
+    // (vehicle, step) of each entry of `[[maneuvers.<what>]]`, given as (vehicle, at_s).
+    let at = |what: &str, list: &mut dyn Iterator<Item = (usize, f64)>| {
+        let mut out = Vec::new();
+        for (i, (vehicle, at_s)) in list.enumerate() {
             let key = format!("maneuvers.{what}[{i}]");
-            if j.vehicle == 0 || j.vehicle > followers {
+            if vehicle == 0 || vehicle > followers {
                 return bad(
                     &format!("{key}.vehicle"),
-                    format!("must be a follower, 1 to {followers} (got {})", j.vehicle),
+                    format!("must be a follower, 1 to {followers} (got {vehicle})"),
                 );
             }
-            let step = step_of(&format!("{key}.at_s"), j.at_s)?;
-            out.push((VehicleId(j.vehicle as u16), step));
+            let step = step_of(&format!("{key}.at_s"), at_s)?;
+            out.push((VehicleId(vehicle as u16), step));
         }
         Ok(out)
     };
-    let joins = at("joins", &m.joins)?
-        .into_iter()
-        .map(|(vehicle, at_step)| platoon_control::JoinSpec { vehicle, at_step })
-        .collect();
-    let leaves = at("leaves", &m.leaves)?
+    let mut joins = Vec::with_capacity(m.joins.len());
+    let spec = at("joins", &mut m.joins.iter().map(|j| (j.vehicle, j.at_s)))?;
+    for (i, ((vehicle, at_step), j)) in spec.into_iter().zip(&m.joins).enumerate() {
+        let behind = match j.behind {
+            Some(b) if b > followers => {
+                return bad(
+                    &format!("maneuvers.joins[{i}].behind"),
+                    format!("must be a member, 0 to {followers} (got {b})"),
+                )
+            }
+            b => b.map(|b| VehicleId(b as u16)),
+        };
+        joins.push(platoon_control::JoinSpec {
+            vehicle,
+            at_step,
+            behind,
+        });
+    }
+    let leaves = at("leaves", &mut m.leaves.iter().map(|l| (l.vehicle, l.at_s)))?
         .into_iter()
         .map(|(vehicle, at_step)| platoon_control::LeaveSpec { vehicle, at_step })
         .collect();

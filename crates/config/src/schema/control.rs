@@ -286,11 +286,11 @@ pub struct CutInConfig {
 pub struct ManeuversConfig {
     /// `[[maneuvers.joins]]`: vehicles that start outside the platoon, behind it, and join at
     /// its tail. The joiners are the platoon's last vehicles (their initial states are theirs).
-    pub joins: Vec<ManeuverAt>,
+    pub joins: Vec<JoinAt>,
     /// `[[maneuvers.leaves]]`: members that leave: on the leader's update a leaver moves out
     /// of the lane (to the next lane on SUMO) and drives on at its speed, and the member behind
     /// it closes up to the one ahead, its gap shrinking at `fallback.closing_mps`.
-    pub leaves: Vec<ManeuverAt>,
+    pub leaves: Vec<LeaveAt>,
     /// How long a vehicle waits for an answer before it asks again, and the spacing of the
     /// leader's repeats of a formation update (s).
     pub reply_s: f64,
@@ -307,14 +307,30 @@ pub struct ManeuversConfig {
     pub max_members: Option<usize>,
 }
 
-/// One vehicle's maneuver: a join at the tail or a leave.
+/// A join: at the tail from behind the platoon, or from the lane beside it into the slot
+/// behind a member.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
-pub struct ManeuverAt {
-    /// The vehicle (a follower id; the joiners are the last vehicles, the leavers members the
-    /// run starts with).
+pub struct JoinAt {
+    /// The joiner (a follower id; the joiners are the last vehicles).
     pub vehicle: usize,
     /// When it asks the leader (s).
+    pub at_s: f64,
+    /// The member whose slot behind it the joiner asks for (0 the leader): the joiner starts
+    /// in the lane beside the platoon's (its initial state alongside), the member behind the
+    /// slot opens a gap, and the joiner changes lanes into it. Absent: at the tail, the joiner
+    /// starting behind the platoon in its lane.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub behind: Option<usize>,
+}
+
+/// A leave.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct LeaveAt {
+    /// The leaver (a follower the run starts with).
+    pub vehicle: usize,
+    /// When it tells the leader (s).
     pub at_s: f64,
 }
 
