@@ -6,11 +6,14 @@
 //! with the native plant (tests/sumo.rs).
 mod common;
 
-use common::maneuvers::{of, run};
+use common::maneuvers::{of, run, run_with};
 use common::repo;
+use platoon_attacks::inject::Step;
 use platoon_control::Mode;
+use platoon_control::{Delivery, Packet};
 use platoon_maneuver::{Body, Change, Message};
 use platoon_model::VehicleId;
+use platoon_sim::truth::Label;
 use platoon_sim::{Scenario, StepRow};
 
 const LENGTH: f64 = 4.5;
@@ -157,6 +160,67 @@ fn a_join_jammed_half_way_is_called_off_and_the_gap_closes() {
     assert!((g - GAP).abs() < 1.0, "the gap closes again: {g}");
     let gap = smallest_gap_on_the_lane(&rows);
     assert!(gap > 10.0, "{gap}");
+}
+
+/// A joiner that lies about its position: an in-position report in its name reaches the
+/// leader at 27.5 s, after the gap is ready and before the joiner is in its slot (it is still
+/// moving up beside). The leader admits it and announces it; the joiner, which never said so,
+/// ignores an update while it is not in position, and the opener keeps following the member
+/// its radar sees, so nobody steers into a gap that is not there. The joiner moves in when it
+/// is in position and the leader's repeated update admits it then. The report is labelled
+/// `forged`, everything else `genuine`.
+#[test]
+fn a_false_in_position_report_admits_nobody_into_a_slot_it_is_not_in() {
+    fn early(step: &Step<'_>, out: &mut Vec<Delivery>) {
+        if step.k != 2750 {
+            return;
+        }
+        let m = Message {
+            sender: VehicleId(4),
+            to: VehicleId::LEADER,
+            seq: 100,
+            body: Body::InPosition,
+        };
+        out.push(Delivery {
+            receiver: VehicleId::LEADER,
+            packet: Packet {
+                sender: VehicleId(4),
+                seq: u32::MAX,
+                step: step.k,
+                state: step.states[4],
+                u: 0.0,
+                head: VehicleId::LEADER,
+                maneuver: Some(m),
+            },
+        });
+    }
+    let (rows, log) = run_with(scenario(), |_, _| false, early);
+    let update = log
+        .sent
+        .iter()
+        .find(|(_, m)| matches!(m.body, Body::Update { .. }))
+        .unwrap()
+        .0;
+    assert_eq!(update, 2751, "admitted on the false report");
+    let joiner = of(&rows, 4);
+    let moved_in = joiner.iter().position(|r| r.mode != Mode::Beside).unwrap();
+    assert!(moved_in > 2752, "it moves in when in position: {moved_in}");
+    assert!(joiner[2751..moved_in]
+        .iter()
+        .all(|r| r.mode == Mode::Beside));
+    assert!(
+        joiner.last().unwrap().mode == Mode::Coop,
+        "a member in the end"
+    );
+    let labels: Vec<_> = log
+        .labelled
+        .iter()
+        .filter(|(_, l)| *l != Label::Genuine)
+        .map(|(m, l)| (m.sender, m.body, *l))
+        .collect();
+    assert_eq!(labels, [(VehicleId(4), Body::InPosition, Label::Forged)]);
+    let gap = smallest_gap_on_the_lane(&rows);
+    assert!(gap > 8.0, "{gap}");
 }
 
 #[test]
