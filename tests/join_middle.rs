@@ -223,6 +223,34 @@ fn a_false_in_position_report_admits_nobody_into_a_slot_it_is_not_in() {
     assert!(gap > 8.0, "{gap}");
 }
 
+/// The same jam from the attack catalogue (`kind = "jam_maneuvers"`, `messages =
+/// ["move_in"]`): a reactive jammer that loses every packet carrying a move-in.
+#[test]
+fn the_catalogues_maneuver_jammer_calls_the_join_off_safely() {
+    let text = std::fs::read_to_string(repo().join("configs/join-middle.toml")).unwrap()
+        + "\n[[channel.attacks]]\nkind = \"jam_maneuvers\"\nmessages = [\"move_in\"]\n";
+    let scenario = platoon_config::parse(&text, std::path::Path::new("join-middle.toml"))
+        .unwrap()
+        .1;
+    let (rows, sent) = run(scenario, |_, _| false);
+    assert!(sent.iter().any(|(_, m)| m.body
+        == Body::Abort {
+            joiner: VehicleId(4)
+        }));
+    assert!(of(&rows, 4).iter().all(|r| r.mode == Mode::Beside));
+    let g = last_gap(&rows, 1, 2);
+    assert!((g - GAP).abs() < 1.0, "the gap closes again: {g}");
+    assert!(smallest_gap_on_the_lane(&rows) > 10.0);
+    let bad = text.replace("[\"move_in\"]", "[\"move_out\"]");
+    let e = platoon_config::parse(&bad, std::path::Path::new("join-middle.toml"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("channel.attacks[0].messages") && e.contains("move_out"),
+        "{e}"
+    );
+}
+
 #[test]
 fn a_bad_slot_names_its_key() {
     let text = std::fs::read_to_string(repo().join("configs/join-middle.toml")).unwrap();

@@ -257,6 +257,44 @@ fn every_law_but_consensus_lets_a_member_leave() {
     }
 }
 
+/// The same forged leave from the attack catalogue (`kind = "forge_maneuver"`): an outsider
+/// rewrites follower 2's packets to the leader at 10 s into leave notices. The leader ejects
+/// follower 2 as above; the ground truth labels the rewritten packets altered in their
+/// maneuver field.
+#[test]
+fn the_catalogues_forged_leave_ejects_the_member_and_is_labelled_altered() {
+    let mut text = leave_config();
+    let cut = text.find("[[maneuvers.leaves]]").unwrap();
+    text.truncate(cut);
+    text.push_str(
+        "[[maneuvers.leaves]]\nvehicle = 5\nat_s = 45.0\n\n[[channel.attacks]]\n\
+         kind = \"forge_maneuver\"\nmessage = \"leave_notice\"\nsenders = [2]\n\
+         receivers = [0]\nstart_s = 10.0\nend_s = 10.2\n",
+    );
+    let (rows, log) = run_with(scenario(&text), |_, _| false, |_, _| {});
+    let left = first_left(&rows, 2).unwrap();
+    assert!((1001..1030).contains(&left), "{left}");
+    let altered: Vec<_> = log
+        .labelled
+        .iter()
+        .filter(|(_, l)| *l != Label::Genuine)
+        .map(|(m, l)| (m.sender, m.body, *l))
+        .collect();
+    assert!(!altered.is_empty());
+    assert!(altered.iter().all(|(s, b, l)| *s == VehicleId(2)
+        && *b == Body::LeaveNotice
+        && matches!(l, Label::Altered { fields } if fields.contains(platoon_sim::truth::Fields::MANEUVER))));
+    assert!(smallest_gap_on_the_lane(&rows) > 10.0);
+    let bad = text.replace("\"leave_notice\"", "\"move_in\"");
+    let e = platoon_config::parse(&bad, std::path::Path::new("leave.toml"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("channel.attacks[0].message") && e.contains("cannot be forged"),
+        "{e}"
+    );
+}
+
 #[test]
 fn a_bad_leave_names_its_key() {
     let text = leave_config();

@@ -9,6 +9,7 @@ use crate::medium::{Gated, Medium};
 use crate::DosSchedule;
 use events::event;
 pub use events::{Action, ChannelEvent};
+use platoon_maneuver::{Body, Message, MessageKind};
 use platoon_model::{State, VehicleId};
 use platoon_topology::Topology;
 use platoon_v2v::{Delivery, Packet};
@@ -90,6 +91,21 @@ pub enum LinkAttackKind {
     /// a platoon split behind a cut-in (`Packet::head` = the sender), so the followers behind it
     /// that split (`[fallback.cut_in] split`) take it as their leader; the state stays true.
     ForgedHead,
+    /// A jammer that reacts to maneuver messages: every targeted packet that carries one of the
+    /// kinds in `kinds` (a set of [`MessageKind::bit`]s) is lost (a maneuver jammed half way:
+    /// the move-in, say).
+    JamManeuvers {
+        /// The kinds jammed.
+        kinds: u16,
+    },
+    /// A forged maneuver message: the targeted senders' packets carry `message` from the
+    /// sender to its leader (a leave notice nobody sent, an in-position report of a joiner
+    /// that is not in its slot), with the highest sequence number (so the receiver takes it,
+    /// and drops that sender's later messages as old); the state stays true.
+    ForgeManeuver {
+        /// What it says: [`MessageKind::LeaveNotice`] or [`MessageKind::InPosition`].
+        message: MessageKind,
+    },
 }
 
 impl LinkAttackKind {
@@ -107,6 +123,8 @@ impl LinkAttackKind {
             Self::FeignedBraking { .. } => "feigned_braking",
             Self::AccelScale { .. } => "accel_scale",
             Self::ForgedHead => "forged_head",
+            Self::JamManeuvers { .. } => "jam_maneuvers",
+            Self::ForgeManeuver { .. } => "forge_maneuver",
         }
     }
 
@@ -121,6 +139,7 @@ impl LinkAttackKind {
                 | Self::FeignedBraking { .. }
                 | Self::AccelScale { .. }
                 | Self::ForgedHead
+                | Self::ForgeManeuver { .. }
         )
     }
 
@@ -140,7 +159,20 @@ impl LinkAttackKind {
             Self::FeignedBraking { accel } => state[2] = accel,
             Self::AccelScale { factor } => state[2] *= factor,
             Self::ForgedHead => packet.head = packet.sender,
-            Self::Bernoulli { .. }
+            Self::ForgeManeuver { message } => {
+                let body = match message {
+                    MessageKind::InPosition => Body::InPosition,
+                    _ => Body::LeaveNotice,
+                };
+                packet.maneuver = Some(Message {
+                    sender: packet.sender,
+                    to: VehicleId::LEADER,
+                    seq: u16::MAX,
+                    body,
+                });
+            }
+            Self::JamManeuvers { .. }
+            | Self::Bernoulli { .. }
             | Self::GilbertElliott { .. }
             | Self::Delay { .. }
             | Self::RangeJamming { .. }
@@ -585,6 +617,15 @@ impl Channel {
                     return;
                 }
                 LinkAttackKind::RangeJamming { .. } => {} // applied per vehicle in `gate`
+                LinkAttackKind::JamManeuvers { kinds } => {
+                    if packet
+                        .maneuver
+                        .is_some_and(|m| m.body.kind().bit() & kinds != 0)
+                    {
+                        log.push(event(at, &packet, receiver, Action::DroppedJammed, None));
+                        return;
+                    }
+                }
                 LinkAttackKind::Replay { lag_steps } => {
                     let wanted = k.saturating_sub(lag_steps);
                     if let Some(old) = self.history[packet.sender.index()]
@@ -607,7 +648,8 @@ impl Channel {
                 | LinkAttackKind::Drift { .. }
                 | LinkAttackKind::FeignedBraking { .. }
                 | LinkAttackKind::AccelScale { .. }
-                | LinkAttackKind::ForgedHead => {
+                | LinkAttackKind::ForgedHead
+                | LinkAttackKind::ForgeManeuver { .. } => {
                     a.kind
                         .alter(t - a.start_s, &mut packet, &mut self.noise_rng);
                     log.push(event(at, &packet, receiver, Action::Altered, None));

@@ -24,7 +24,7 @@ pub use formation::{Formation, FormationError};
 pub use joiner::{JoinFailure, Joiner, JoinerPhase, JoinerState};
 pub use leader::{Leader, LeaderState};
 pub use member::{Member, MemberState};
-pub use message::{Body, Change, Message, Refusal, SeqFilter, EVERYONE};
+pub use message::{Body, Change, Message, MessageKind, Refusal, SeqFilter, EVERYONE};
 
 /// The protocol's timing, in steps.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -81,6 +81,91 @@ pub enum Body {
     LeaveNotice,
 }
 
+/// The kinds of [`Body`], by which an attack picks the messages it acts on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum MessageKind {
+    /// [`Body::JoinRequest`].
+    JoinRequest,
+    /// [`Body::JoinAccept`].
+    JoinAccept,
+    /// [`Body::JoinRefuse`].
+    JoinRefuse,
+    /// [`Body::OpenGap`].
+    OpenGap,
+    /// [`Body::GapReady`].
+    GapReady,
+    /// [`Body::MoveIn`].
+    MoveIn,
+    /// [`Body::InPosition`].
+    InPosition,
+    /// [`Body::Update`].
+    Update,
+    /// [`Body::Abort`].
+    Abort,
+    /// [`Body::LeaveNotice`].
+    LeaveNotice,
+}
+
+impl MessageKind {
+    /// Every kind, in the order of their bits in [`MessageKind::bit`].
+    pub const ALL: [MessageKind; 10] = [
+        Self::JoinRequest,
+        Self::JoinAccept,
+        Self::JoinRefuse,
+        Self::OpenGap,
+        Self::GapReady,
+        Self::MoveIn,
+        Self::InPosition,
+        Self::Update,
+        Self::Abort,
+        Self::LeaveNotice,
+    ];
+
+    /// Its name in configs.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::JoinRequest => "join_request",
+            Self::JoinAccept => "join_accept",
+            Self::JoinRefuse => "join_refuse",
+            Self::OpenGap => "open_gap",
+            Self::GapReady => "gap_ready",
+            Self::MoveIn => "move_in",
+            Self::InPosition => "in_position",
+            Self::Update => "update",
+            Self::Abort => "abort",
+            Self::LeaveNotice => "leave_notice",
+        }
+    }
+
+    /// The kind named `name`.
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|k| k.name() == name)
+    }
+
+    /// Its bit in a set of kinds (`u16`).
+    pub fn bit(self) -> u16 {
+        1 << (self as u16)
+    }
+}
+
+impl Body {
+    /// Its kind.
+    pub fn kind(&self) -> MessageKind {
+        match self {
+            Body::JoinRequest { .. } => MessageKind::JoinRequest,
+            Body::JoinAccept { .. } => MessageKind::JoinAccept,
+            Body::JoinRefuse { .. } => MessageKind::JoinRefuse,
+            Body::OpenGap { .. } => MessageKind::OpenGap,
+            Body::GapReady { .. } => MessageKind::GapReady,
+            Body::MoveIn => MessageKind::MoveIn,
+            Body::InPosition => MessageKind::InPosition,
+            Body::Update { .. } => MessageKind::Update,
+            Body::Abort { .. } => MessageKind::Abort,
+            Body::LeaveNotice => MessageKind::LeaveNotice,
+        }
+    }
+}
+
 /// A change of a formation.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Change {

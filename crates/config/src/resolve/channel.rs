@@ -4,6 +4,7 @@ use crate::schema::*;
 use platoon_attacks::channel::{
     BackgroundBeacons, Dcc, LinkAttack, LinkAttackKind, LoadSource, RadioSpec,
 };
+use platoon_maneuver::MessageKind;
 use platoon_model::VehicleId;
 
 /// `[channel] model` and `[channel.radio]`: the 802.11p model (its table filled with the
@@ -189,6 +190,18 @@ pub(super) fn channel(
             }
             Ok(v.into_iter().map(VehicleId).collect())
         };
+        let message_kind = |k: &str, name: &str| -> Result<MessageKind, Invalid> {
+            match MessageKind::from_name(name) {
+                Some(m) => Ok(m),
+                None => bad(
+                    k,
+                    format!(
+                        "unknown maneuver message {name:?}; use {}",
+                        MessageKind::ALL.map(MessageKind::name).join(", ")
+                    ),
+                ),
+            }
+        };
         let kind = match a.kind {
             LinkKindConfig::Bernoulli { loss } => LinkAttackKind::Bernoulli {
                 loss: probability("loss", finite(&key("loss"), loss)?)?,
@@ -240,6 +253,28 @@ pub(super) fn channel(
                 factor: finite(&key("factor"), factor)?,
             },
             LinkKindConfig::ForgedHead { .. } => LinkAttackKind::ForgedHead,
+            LinkKindConfig::JamManeuvers { ref messages } => {
+                let mut kinds = 0;
+                for m in messages {
+                    kinds |= message_kind(&key("messages"), m)?.bit();
+                }
+                LinkAttackKind::JamManeuvers {
+                    kinds: if messages.is_empty() { u16::MAX } else { kinds },
+                }
+            }
+            LinkKindConfig::ForgeManeuver { ref message, .. } => {
+                let message = message_kind(&key("message"), message)?;
+                if !matches!(message, MessageKind::LeaveNotice | MessageKind::InPosition) {
+                    return bad(
+                        &key("message"),
+                        format!(
+                            "{:?} cannot be forged; use \"leave_notice\" or \"in_position\"",
+                            message.name()
+                        ),
+                    );
+                }
+                LinkAttackKind::ForgeManeuver { message }
+            }
         };
         let insider = a.kind.insider();
         if insider && a.receivers.is_some() {

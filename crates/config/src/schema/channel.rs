@@ -354,6 +354,30 @@ pub enum LinkKindConfig {
         #[schemars(extend("default" = false))]
         insider: bool,
     },
+    /// A jammer that reacts to maneuver messages (`[maneuvers]`): every packet on the targeted
+    /// links that carries one of `messages` is lost, the beacon with it (a maneuver jammed
+    /// half way: `messages = ["move_in"]`).
+    JamManeuvers {
+        /// The messages jammed, by name: `join_request`, `join_accept`, `join_refuse`,
+        /// `open_gap`, `gap_ready`, `move_in`, `in_position`, `update`, `abort`,
+        /// `leave_notice` \[every one\].
+        #[serde(default, skip_serializing_if = "Vec::is_empty")]
+        messages: Vec<String>,
+    },
+    /// A forged maneuver message (`[maneuvers]`): the senders' packets carry `message` from
+    /// the sender to the leader, with the highest sequence number (the leader takes the first
+    /// and drops that sender's later messages as old); the state stays true.
+    ForgeManeuver {
+        /// `leave_notice` (a leave nobody asked for: the leader ejects the member) or
+        /// `in_position` (a joiner that is not in its slot says it is).
+        message: String,
+        /// An insider (the sender itself lies): the packet is altered once as it is sent, so
+        /// every receiver gets the same message; not with `receivers`. Otherwise an outsider
+        /// alters each link's copy on its own.
+        #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+        #[schemars(extend("default" = false))]
+        insider: bool,
+    },
 }
 
 /// The bad state loses every packet.
@@ -375,8 +399,10 @@ impl LinkKindConfig {
             | Self::Drift { insider, .. }
             | Self::FeignedBraking { insider, .. }
             | Self::AccelScale { insider, .. }
-            | Self::ForgedHead { insider } => insider,
-            Self::Bernoulli { .. }
+            | Self::ForgedHead { insider }
+            | Self::ForgeManeuver { insider, .. } => insider,
+            Self::JamManeuvers { .. }
+            | Self::Bernoulli { .. }
             | Self::GilbertElliott { .. }
             | Self::Delay { .. }
             | Self::RangeJamming { .. }
