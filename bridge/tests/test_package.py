@@ -72,7 +72,9 @@ def test_the_package_has_its_installed_core():
     core = importlib.import_module("platoon._core")
     assert "site-packages" in core.__file__, core.__file__
     assert core.__version__ == platoon.__version__
-    assert platoon.scenarios() == ["paper", "table1", "degradation", "cut-in"]
+    assert platoon.scenarios() == [
+        "paper", "table1", "degradation", "cut-in", "join", "join-middle", "leave"
+    ]
 
 
 def test_a_run_of_the_paper_scenario_equals_the_commands_files(tmp_path):

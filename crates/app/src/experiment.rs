@@ -23,6 +23,7 @@ use std::path::Path;
 mod controllers;
 mod degradation;
 mod detection;
+mod maneuvers;
 mod robust;
 mod scaling;
 mod table1;
@@ -36,6 +37,9 @@ pub use degradation::*;
 pub use detection::{
     attack_kind, detection, Detection, DetectionOptions, DetectionRow, Intensity,
     ATTACKS as DETECTION_ATTACKS, DETECTORS, REACTIONS as DETECTION_REACTIONS,
+};
+pub use maneuvers::{
+    maneuvers, Maneuvers, ManeuversOptions, ManeuversRow, ATTACKS as MANEUVER_ATTACKS, MANEUVERS,
 };
 pub use robust::*;
 pub use scaling::*;

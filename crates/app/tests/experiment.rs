@@ -297,3 +297,65 @@ fn traffic_runs_each_law_on_a_topology_it_can_and_scores_the_forged_packets() {
     };
     assert!(bad.validate().unwrap_err().to_string().contains("sybil"));
 }
+
+/// `experiment maneuvers` on a reduced grid: a leave from the middle under PATH CACC with no
+/// attack (completed, the leaver out of the lane), a forged leave notice in follower 1's name
+/// (both out: the platoon ejected a member) and a jammer on the leader's updates (the leaver
+/// never hears its update, gives up and stays); the consensus law refuses leaves. With a run
+/// directory: the table, the CSV and a plot per maneuver.
+#[test]
+fn maneuvers_score_each_outcome_and_the_consensus_law_refuses_leaves() {
+    use platoon_config::LawName;
+    let opts = experiment::ManeuversOptions {
+        maneuvers: vec!["leave".into()],
+        laws: vec![LawName::PathCacc, LawName::Consensus],
+        attacks: vec!["none".into(), "forge".into(), "jam".into()],
+        repeats: 1,
+    };
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = RunDir::create(&tmp.path().join("m"), false).unwrap();
+    let m = experiment::maneuvers(&opts, Some(&dir), &()).unwrap();
+    dir.commit().unwrap();
+    let outcome = |law: &str, attack: &str| {
+        let r = m
+            .rows
+            .iter()
+            .find(|r| r.law == law && r.attack == attack)
+            .unwrap();
+        (r.outcome, r.left_lane)
+    };
+    assert_eq!(outcome("path_cacc", "none"), ("completed", 1));
+    assert_eq!(outcome("path_cacc", "forge"), ("completed", 2));
+    assert_eq!(outcome("path_cacc", "jam"), ("failed", 0));
+    assert_eq!(outcome("consensus", "none"), ("refused", 0));
+    for r in m.rows.iter().filter(|r| r.law == "path_cacc") {
+        assert!(r.min_gap_m > 10.0, "{r:?}");
+        assert!(r.messages > 0, "{r:?}");
+    }
+    let none = m
+        .rows
+        .iter()
+        .find(|r| r.law == "path_cacc" && r.attack == "none")
+        .unwrap();
+    assert!(none.completion_s.is_some_and(|t| t < 0.1), "{none:?}");
+    assert!(m
+        .markdown
+        .contains("| leave | consensus | none | refused by the law |"));
+    for f in ["maneuvers.csv", "maneuvers.md", "maneuvers-leave.png"] {
+        assert!(
+            tmp.path().join("m").join(f).metadata().unwrap().len() > 100,
+            "{f}"
+        );
+    }
+    let csv = std::fs::read_to_string(tmp.path().join("m/maneuvers.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 1 + 6);
+    let bad = experiment::ManeuversOptions {
+        laws: vec![LawName::Paper],
+        ..opts.clone()
+    };
+    assert!(bad
+        .validate()
+        .unwrap_err()
+        .to_string()
+        .contains("paper's law"));
+}

@@ -6,9 +6,10 @@ use crate::progress::Bar;
 use anyhow::Result;
 use clap::builder::PossibleValuesParser;
 use platoon_app::experiment::{
-    self, Base, ControllersOptions, DegradationOptions, DetectionOptions, Intensity, RobustOptions,
-    ScalingOptions, TopologiesOptions, TrafficOptions, DETECTION_ATTACKS, DETECTION_REACTIONS,
-    DETECTORS, TRAFFIC_ATTACKS,
+    self, Base, ControllersOptions, DegradationOptions, DetectionOptions, Intensity,
+    ManeuversOptions, RobustOptions, ScalingOptions, TopologiesOptions, TrafficOptions,
+    DETECTION_ATTACKS, DETECTION_REACTIONS, DETECTORS, MANEUVERS, MANEUVER_ATTACKS,
+    TRAFFIC_ATTACKS,
 };
 use platoon_config::{Embedded, LawName};
 use platoon_control::Reaction;
@@ -90,6 +91,18 @@ pub enum Experiment {
     /// traffic.md (worst case over the repeats) and one smallest-gap plot per gap
     /// (traffic-gap<G>.png).
     Traffic(TrafficArgs),
+    /// Maneuvers negotiated over V2V under attack: a join at the tail (configs/join.toml), one
+    /// in the middle (configs/join-middle.toml) and a leave from the middle (configs/leave.toml),
+    /// for every field law (each on the platoon's standstill gap, the positions scaled to its
+    /// spacing, the guard on), under no attack, 2 s of DoS from the request, 30 % loss on every
+    /// link, a reactive jammer on one of the maneuver's messages (the tail join's updates, the
+    /// middle join's move-in, the leave's update) and a forged message (an in-position report
+    /// in the joiner's name, a leave notice in follower 1's name), with seeded repeats, in
+    /// process. Writes maneuvers.csv (one row per run: completed, failed safely or collided,
+    /// the time to complete, the largest spacing error, the smallest gap, who left the lane,
+    /// the messages sent), maneuvers.md (outcomes, worst case over the repeats) and one
+    /// completion-time plot per maneuver (maneuvers-<maneuver>.png).
+    Maneuvers(ManeuversArgs),
 }
 
 /// `--laws`, of the experiments that compare laws.
@@ -143,6 +156,42 @@ pub struct TrafficArgs {
     /// --plant sumo`, the car a SUMO vehicle; the runs' directories under runs/).
     #[arg(long, value_enum, default_value = "native")]
     pub plant: platoon_config::PlantKind,
+    #[command(flatten)]
+    pub output: OutDir,
+}
+
+/// Arguments of `experiment maneuvers`.
+#[derive(Debug, clap::Args)]
+#[command(mut_arg("out", |a| a.help("Output directory [default: runs/maneuvers]")))]
+pub struct ManeuversArgs {
+    /// The maneuvers.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        value_parser = PossibleValuesParser::new(MANEUVERS),
+        default_values = MANEUVERS
+    )]
+    pub maneuvers: Vec<String>,
+    /// The laws (the field's: the paper's law runs on one graph and refuses maneuvers; the
+    /// consensus law refuses leaves).
+    #[arg(
+        long,
+        value_delimiter = ',',
+        value_parser = one_of(&LawName::ALL, LawName::name),
+        default_values = ["acc", "ploeg", "path_cacc", "consensus", "flatbed"]
+    )]
+    pub laws: Vec<LawName>,
+    /// The attacks.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        value_parser = PossibleValuesParser::new(MANEUVER_ATTACKS),
+        default_values = MANEUVER_ATTACKS
+    )]
+    pub attacks: Vec<String>,
+    /// Seeded repeats of each cell (the radars' noise and the channel's losses).
+    #[arg(long, default_value_t = 3)]
+    pub repeats: u32,
     #[command(flatten)]
     pub output: OutDir,
 }
@@ -347,6 +396,7 @@ pub fn run(e: Experiment) -> Result<()> {
         Experiment::Controllers(args) => controllers(args),
         Experiment::Detection(args) => detection(args),
         Experiment::Traffic(args) => traffic(args),
+        Experiment::Maneuvers(args) => maneuvers(args),
     }
 }
 
@@ -372,6 +422,20 @@ fn traffic(args: TrafficArgs) -> Result<()> {
     args.output.write("runs/traffic", |dir| {
         let bar = Bar::counting("runs");
         Ok(experiment::traffic(&base, &opts, Some(dir), &bar)?.markdown)
+    })
+}
+
+fn maneuvers(args: ManeuversArgs) -> Result<()> {
+    let opts = ManeuversOptions {
+        maneuvers: args.maneuvers,
+        laws: args.laws,
+        attacks: args.attacks,
+        repeats: args.repeats,
+    };
+    opts.validate()?;
+    args.output.write("runs/maneuvers", |dir| {
+        let bar = Bar::counting("runs");
+        Ok(experiment::maneuvers(&opts, Some(dir), &bar)?.markdown)
     })
 }
 

@@ -106,11 +106,25 @@ pub enum Embedded {
     Degradation,
     /// `configs/cut-in.toml`: a car cuts in between followers 2 and 3 ([`CUT_IN_TOML`]).
     CutIn,
+    /// `configs/join.toml`: a join at the tail ([`JOIN_TOML`]).
+    Join,
+    /// `configs/join-middle.toml`: a join in the middle ([`JOIN_MIDDLE_TOML`]).
+    JoinMiddle,
+    /// `configs/leave.toml`: leaves in the middle and at the tail ([`LEAVE_TOML`]).
+    Leave,
 }
 
 impl Embedded {
     /// Every embedded config.
-    pub const ALL: [Embedded; 4] = [Self::Paper, Self::Table1, Self::Degradation, Self::CutIn];
+    pub const ALL: [Embedded; 7] = [
+        Self::Paper,
+        Self::Table1,
+        Self::Degradation,
+        Self::CutIn,
+        Self::Join,
+        Self::JoinMiddle,
+        Self::Leave,
+    ];
 
     /// Its stem in `configs/` (the default name of its runs).
     pub fn name(self) -> &'static str {
@@ -119,6 +133,9 @@ impl Embedded {
             Self::Table1 => "table1",
             Self::Degradation => "degradation",
             Self::CutIn => "cut-in",
+            Self::Join => "join",
+            Self::JoinMiddle => "join-middle",
+            Self::Leave => "leave",
         }
     }
 
@@ -129,6 +146,9 @@ impl Embedded {
             Self::Table1 => TABLE1_TOML,
             Self::Degradation => DEGRADATION_TOML,
             Self::CutIn => CUT_IN_TOML,
+            Self::Join => JOIN_TOML,
+            Self::JoinMiddle => JOIN_MIDDLE_TOML,
+            Self::Leave => LEAVE_TOML,
         }
     }
 
@@ -340,3 +360,12 @@ pub const DEGRADATION_TOML: &str = include_str!("../../../configs/degradation.to
 /// The cut-in scenario (a car cuts in between followers 2 and 3, no attack), embedded for
 /// `platoon experiment traffic`.
 pub const CUT_IN_TOML: &str = include_str!("../../../configs/cut-in.toml");
+
+/// The maneuver scenarios, embedded for `platoon experiment maneuvers`: a join at the tail...
+pub const JOIN_TOML: &str = include_str!("../../../configs/join.toml");
+
+/// ...a join in the middle...
+pub const JOIN_MIDDLE_TOML: &str = include_str!("../../../configs/join-middle.toml");
+
+/// ...and leaves.
+pub const LEAVE_TOML: &str = include_str!("../../../configs/leave.toml");

@@ -1,0 +1,478 @@
+//! Maneuvers by law and attack ([`maneuvers`]).
+use super::{keep_law_spacing, refuse, ExperimentError, Result};
+use crate::progress::Progress;
+use platoon_attacks::inject::{InjectError, Injector, Reception, Step};
+use platoon_config::{
+    Config, DosConfig, Embedded, LawConfig, LawName, LinkAttackConfig, LinkKindConfig,
+};
+use platoon_control::Mode;
+use platoon_output::plots;
+use platoon_output::rundir::RunDir;
+use platoon_sim::{InjectorFactory, Plugins, StepRow};
+use std::fmt::Write as _;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
+
+/// The maneuvers of [`maneuvers`], by name: a join at the tail (`configs/join.toml`), one in
+/// the middle (`configs/join-middle.toml`) and a leave from the middle (`configs/leave.toml`'s
+/// first).
+pub const MANEUVERS: [&str; 3] = ["join-tail", "join-middle", "leave"];
+
+/// The attacks of [`maneuvers`], by name, each from the maneuver's request on: none, the
+/// channel jammed for 2 s (DoS), 30 % of the packets lost on every link, a reactive jammer on
+/// one of its messages (the tail join's updates, the middle join's move-in, the leave's
+/// update) and a forged message (an in-position report in the joiner's name; for the leave,
+/// a leave notice in follower 1's name).
+pub const ATTACKS: [&str; 5] = ["none", "dos", "loss", "jam", "forge"];
+
+/// How [`maneuvers`] runs; [`ManeuversOptions::default`] is `platoon experiment maneuvers`'s
+/// default.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ManeuversOptions {
+    /// The maneuvers (`--maneuvers`), names of [`MANEUVERS`].
+    pub maneuvers: Vec<String>,
+    /// The laws (`--laws`), the field's (the paper's runs on one graph and refuses maneuvers).
+    pub laws: Vec<LawName>,
+    /// The attacks (`--attacks`), names of [`ATTACKS`].
+    pub attacks: Vec<String>,
+    /// Seeded repeats of each cell (`--repeats`): the radars' noise and the channel's losses.
+    pub repeats: u32,
+}
+
+impl Default for ManeuversOptions {
+    fn default() -> Self {
+        Self {
+            maneuvers: MANEUVERS.iter().map(|m| m.to_string()).collect(),
+            laws: LawName::ALL
+                .into_iter()
+                .filter(|l| *l != LawName::Paper)
+                .collect(),
+            attacks: ATTACKS.iter().map(|a| a.to_string()).collect(),
+            repeats: 3,
+        }
+    }
+}
+
+impl ManeuversOptions {
+    /// Fails on empty lists, unknown names, the paper's law and no repeats.
+    pub fn validate(&self) -> Result<()> {
+        let known = |flag: &str, given: &[String], all: &[&str]| -> Result<()> {
+            if given.is_empty() {
+                refuse!(Options, "{flag} needs at least one of {}", all.join(", "));
+            }
+            if let Some(x) = given.iter().find(|x| !all.contains(&x.as_str())) {
+                refuse!(Options, "{flag}: unknown {x:?}; use {}", all.join(", "));
+            }
+            Ok(())
+        };
+        known("--maneuvers", &self.maneuvers, &MANEUVERS)?;
+        known("--attacks", &self.attacks, &ATTACKS)?;
+        if self.laws.is_empty() {
+            refuse!(
+                Options,
+                "--laws needs at least one law, e.g. path_cacc,ploeg"
+            );
+        }
+        if self.laws.contains(&LawName::Paper) {
+            refuse!(
+                Options,
+                "--laws: the paper's law runs on one graph for the whole run and refuses \
+                 maneuvers; use the field's laws (acc, ploeg, path_cacc, consensus, flatbed)"
+            );
+        }
+        if self.repeats == 0 {
+            refuse!(Options, "--repeats must be at least 1");
+        }
+        Ok(())
+    }
+}
+
+/// One run of [`maneuvers`] (a row of maneuvers.csv).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct ManeuversRow {
+    /// The maneuver ([`MANEUVERS`]).
+    pub maneuver: String,
+    /// The law's config name.
+    pub law: &'static str,
+    /// The attack ([`ATTACKS`]).
+    pub attack: String,
+    /// The repeat (its seeds).
+    pub repeat: u32,
+    /// `completed` (the joiner admitted, the leaver out of the lane), `failed` (it was not, and
+    /// nobody collided: the protocol ended it safely), `collided` or `refused` (the law refuses
+    /// the maneuver: the consensus law and a leave).
+    pub outcome: &'static str,
+    /// From the request to the joiner's admission or the leaver's leaving the lane (s).
+    pub completion_s: Option<f64>,
+    /// The largest |spacing error| of any member from the request on (m; a leave starts it at
+    /// one slot for the members behind the leaver, counted in the formation from then on).
+    pub max_spacing_error_m: f64,
+    /// The smallest gap to the vehicle ahead on the lane over the run (m).
+    pub min_gap_m: f64,
+    /// Followers that left the lane by the end (the leaver, and any member a forged notice
+    /// ejected).
+    pub left_lane: usize,
+    /// Maneuver messages the vehicles sent.
+    pub messages: u64,
+}
+
+/// [`maneuvers`]'s result.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Maneuvers {
+    /// Maneuver by maneuver, law by law, attack by attack, repeat by repeat.
+    pub rows: Vec<ManeuversRow>,
+    /// maneuvers.md: the outcomes and the worst case over the repeats.
+    pub markdown: String,
+}
+
+/// Every maneuver of `opts` under every law and attack, in process, each on its embedded
+/// scenario (`configs/join.toml`, `configs/join-middle.toml`, `configs/leave.toml` with its
+/// first leave only): each law on its own distances (the platoon's standstill gap, the
+/// positions scaled to its spacing at the scenario's speed, so a joiner starts as far back or
+/// beside as in the scenario), PATH CACC's leader-following topology, the guard on. With
+/// `out`: maneuvers.csv, maneuvers.md and one completion-time plot per maneuver.
+pub fn maneuvers(
+    opts: &ManeuversOptions,
+    out: Option<&RunDir>,
+    progress: &dyn Progress,
+) -> Result<Maneuvers> {
+    opts.validate()?;
+    let total = opts.maneuvers.len() * opts.laws.len() * opts.attacks.len() * opts.repeats as usize;
+    progress.start("simulating", total as u64);
+    let mut rows = Vec::with_capacity(total);
+    for maneuver in &opts.maneuvers {
+        let base = base(maneuver)?;
+        for &law in &opts.laws {
+            for attack in &opts.attacks {
+                for repeat in 0..opts.repeats {
+                    progress.detail(&format!(
+                        "{maneuver}, {}, {attack}, repeat {repeat}",
+                        law.name()
+                    ));
+                    rows.push(cell(&base, maneuver, law, attack, repeat)?);
+                    progress.at(rows.len() as u64);
+                }
+            }
+        }
+    }
+    progress.finish();
+    let markdown = markdown(&rows);
+    let result = Maneuvers { rows, markdown };
+    if let Some(dir) = out {
+        result.write(opts, dir)?;
+    }
+    Ok(result)
+}
+
+/// The embedded scenario of `maneuver` (a leave: the first of `configs/leave.toml`'s).
+fn base(maneuver: &str) -> Result<Config> {
+    let embedded = match maneuver {
+        "join-tail" => Embedded::Join,
+        "join-middle" => Embedded::JoinMiddle,
+        _ => Embedded::Leave,
+    };
+    let (mut config, _) = embedded.parse()?;
+    if let Some(m) = &mut config.maneuvers {
+        m.leaves.truncate(1);
+    }
+    Ok(config)
+}
+
+/// Counts the maneuver messages the vehicles broadcast, in front of the built-in channel.
+#[derive(Debug, Clone)]
+struct Counting {
+    inner: Box<dyn Injector>,
+    messages: Arc<AtomicU64>,
+}
+
+impl Injector for Counting {
+    fn step(&mut self, step: &Step<'_>, out: &mut Reception<'_>) -> Result<(), InjectError> {
+        let sent = step.tx.iter().filter(|p| p.maneuver.is_some()).count();
+        self.messages.fetch_add(sent as u64, Ordering::Relaxed);
+        self.inner.step(step, out)
+    }
+
+    fn finish(&mut self) -> Result<(), InjectError> {
+        self.inner.finish()
+    }
+
+    fn radio_stats(&self) -> Option<platoon_attacks::channel::RadioStats> {
+        self.inner.radio_stats()
+    }
+
+    fn channel(&self) -> Option<&platoon_attacks::channel::Channel> {
+        self.inner.channel()
+    }
+
+    fn channel_mut(&mut self) -> Option<&mut platoon_attacks::channel::Channel> {
+        self.inner.channel_mut()
+    }
+}
+
+fn cell(
+    base: &Config,
+    maneuver: &str,
+    law: LawName,
+    attack: &str,
+    repeat: u32,
+) -> Result<ManeuversRow> {
+    let mut c = configure(base, law);
+    let m = c.maneuvers.as_ref().expect("a maneuver scenario");
+    let (vehicle, at_s) = match m.joins.first() {
+        Some(j) => (j.vehicle, j.at_s),
+        None => (m.leaves[0].vehicle, m.leaves[0].at_s),
+    };
+    apply_attack(&mut c, maneuver, attack, vehicle, at_s);
+    c.radar.seed = c.radar.seed.wrapping_add(u64::from(repeat));
+    c.channel.seed = c.channel.seed.wrapping_add(u64::from(repeat));
+    let row = |outcome| ManeuversRow {
+        maneuver: maneuver.to_string(),
+        law: law.name(),
+        attack: attack.to_string(),
+        repeat,
+        outcome,
+        completion_s: None,
+        max_spacing_error_m: f64::NAN,
+        min_gap_m: f64::NAN,
+        left_lane: 0,
+        messages: 0,
+    };
+    let scenario = match platoon_config::to_scenario(&mut c) {
+        Ok(s) => s,
+        Err((key, _)) if key == "maneuvers" && law == LawName::Consensus => {
+            return Ok(row("refused"))
+        }
+        Err((key, e)) => refuse!(
+            Variant,
+            "{maneuver}: key `{key}` with law {} under {attack}: {e}",
+            law.name()
+        ),
+    };
+    let messages = Arc::new(AtomicU64::new(0));
+    let counter = messages.clone();
+    let plugins = Plugins {
+        injector: InjectorFactory::new(move |s| {
+            Ok(Box::new(Counting {
+                inner: InjectorFactory::builtin().make(s)?,
+                messages: counter.clone(),
+            }))
+        }),
+        ..Plugins::default()
+    };
+    let ask = (at_s / scenario.dt()).round() as u64;
+    let joins = maneuver != "leave";
+    let (mut done, mut worst) = (None, 0.0f64);
+    let mut last: Vec<StepRow> = Vec::new();
+    let summary = platoon_sim::run_until_plugins(&scenario, &plugins, |sim| {
+        let rows = sim.rows();
+        let subject = &rows[vehicle];
+        let finished = match joins {
+            true => !matches!(subject.mode, Mode::Outside | Mode::Beside),
+            false => subject.mode == Mode::Left,
+        };
+        if finished && done.is_none() {
+            done = Some(subject.step);
+        }
+        if subject.step >= ask {
+            for r in rows
+                .iter()
+                .skip(1)
+                .filter(|r| !r.mode.is_beside_the_lane() && r.mode != Mode::Outside)
+            {
+                worst = worst.max(r.spacing_error.abs());
+            }
+        }
+        last.clear();
+        last.extend_from_slice(rows);
+        std::ops::ControlFlow::Continue(())
+    })?;
+    let outcome = match (summary.safety.collided, done) {
+        (true, _) => "collided",
+        (false, Some(_)) => "completed",
+        (false, None) => "failed",
+    };
+    Ok(ManeuversRow {
+        completion_s: done.map(|k| (k.saturating_sub(ask)) as f64 * scenario.dt()),
+        max_spacing_error_m: worst,
+        min_gap_m: summary.safety.min_gap_m,
+        left_lane: last.iter().filter(|r| r.mode == Mode::Left).count(),
+        messages: messages.load(Ordering::Relaxed),
+        ..row(outcome)
+    })
+}
+
+/// `base` with `law` as [`maneuvers`] runs it: the law's defaults on the platoon's standstill
+/// gap (Plexe's ACC set above the profile's top speed), the platoon's spacing policy the law's,
+/// every initial position scaled from the scenario's spacing to the law's at the scenario's
+/// speed, the guard on.
+fn configure(base: &Config, law: LawName) -> Config {
+    let mut c = base.clone();
+    let standstill = base.platoon.spacing_m - base.platoon.vehicle_length_m;
+    c.control.law = law.defaults();
+    match &mut c.control.law {
+        LawConfig::Paper(_) => {}
+        LawConfig::Acc(p) => {
+            p.standstill_m = standstill;
+            p.desired_speed_mps = 30.0;
+        }
+        LawConfig::PathCacc(p) => p.spacing_m = standstill,
+        LawConfig::Ploeg(p) => p.standstill_m = standstill,
+        LawConfig::Consensus(p) => p.standstill_m = standstill,
+        LawConfig::Flatbed(p) => p.spacing_m = standstill,
+    }
+    let before = base.platoon.spacing_m;
+    keep_law_spacing(&mut c);
+    let speed = base
+        .platoon
+        .initial_states
+        .as_ref()
+        .and_then(|s| s.first())
+        .map_or(0.0, |x| x[1]);
+    let after = c.platoon.spacing_m
+        + match c.platoon.spacing {
+            platoon_config::SpacingConfig::TimeHeadway { time_headway_s } => time_headway_s * speed,
+            _ => 0.0,
+        };
+    if let Some(states) = &mut c.platoon.initial_states {
+        for x in states.iter_mut() {
+            x[0] *= after / before;
+        }
+    }
+    // Consensus weighs the leader: it hears it, as PATH CACC and flatbed do.
+    c.guard.enabled = true;
+    c
+}
+
+/// The attack `name` of [`ATTACKS`] on `maneuver` into the config, from the request of
+/// `vehicle` at `at_s` on.
+fn apply_attack(c: &mut Config, maneuver: &str, name: &str, vehicle: usize, at_s: f64) {
+    let link = |kind| LinkAttackConfig {
+        kind,
+        start_s: at_s,
+        end_s: f64::INFINITY,
+        senders: None,
+        receivers: None,
+    };
+    match name {
+        "dos" => {
+            c.attack.kind = DosConfig::Intervals {
+                intervals: vec![[at_s, at_s + 2.0]],
+            }
+        }
+        "loss" => c
+            .channel
+            .attacks
+            .push(link(LinkKindConfig::Bernoulli { loss: 0.3 })),
+        "jam" => {
+            let message = match maneuver {
+                "join-middle" => "move_in",
+                _ => "update",
+            };
+            c.channel.attacks.push(link(LinkKindConfig::JamManeuvers {
+                messages: vec![message.into()],
+            }));
+        }
+        "forge" => {
+            let (sender, message) = match maneuver {
+                "leave" => (1, "leave_notice"),
+                _ => (vehicle, "in_position"),
+            };
+            c.channel.attacks.push(LinkAttackConfig {
+                senders: Some(vec![sender as u16]),
+                start_s: at_s + 1.0,
+                ..link(LinkKindConfig::ForgeManeuver {
+                    message: message.into(),
+                    insider: false,
+                })
+            });
+        }
+        _ => {}
+    }
+}
+
+fn markdown(rows: &[ManeuversRow]) -> String {
+    let mut md = String::from(
+        "| maneuver | law | attack | completed | failed safely | collided | completion (s) | max spacing error (m) | min gap (m) | left the lane | messages |\n|---|---|---|---|---|---|---|---|---|---|---|\n",
+    );
+    let mut keys: Vec<(&str, &str, &str)> = Vec::new();
+    for r in rows {
+        let k = (r.maneuver.as_str(), r.law, r.attack.as_str());
+        if !keys.contains(&k) {
+            keys.push(k);
+        }
+    }
+    for (maneuver, law, attack) in keys {
+        let same: Vec<&ManeuversRow> = rows
+            .iter()
+            .filter(|r| (r.maneuver.as_str(), r.law, r.attack.as_str()) == (maneuver, law, attack))
+            .collect();
+        if same.iter().all(|r| r.outcome == "refused") {
+            let _ = writeln!(
+                md,
+                "| {maneuver} | {law} | {attack} | refused by the law | | | | | | | |"
+            );
+            continue;
+        }
+        let count = |o: &str| same.iter().filter(|r| r.outcome == o).count();
+        let times: Vec<f64> = same.iter().filter_map(|r| r.completion_s).collect();
+        let completion = match times.is_empty() {
+            true => "-".to_string(),
+            false => format!("{:.2}", times.iter().copied().fold(0.0, f64::max)),
+        };
+        let _ = writeln!(
+            md,
+            "| {maneuver} | {law} | {attack} | {}/{n} | {}/{n} | {}/{n} | {completion} | {:.2} | {:.2} | {} | {} |",
+            count("completed"),
+            count("failed"),
+            count("collided"),
+            same.iter().map(|r| r.max_spacing_error_m).fold(0.0, f64::max),
+            same.iter().map(|r| r.min_gap_m).fold(f64::INFINITY, f64::min),
+            same.iter().map(|r| r.left_lane).max().unwrap_or(0),
+            same.iter().map(|r| r.messages).max().unwrap_or(0),
+            n = same.len(),
+        );
+    }
+    md
+}
+
+impl Maneuvers {
+    fn write(&self, opts: &ManeuversOptions, dir: &RunDir) -> Result<()> {
+        let mut csv = csv::Writer::from_writer(dir.writer("maneuvers.csv")?);
+        for r in &self.rows {
+            csv.serialize(r)?;
+        }
+        csv.flush()?;
+        dir.write("maneuvers.md", self.markdown.as_bytes())?;
+        for maneuver in &opts.maneuvers {
+            let groups: Vec<(String, Vec<f64>)> = opts
+                .laws
+                .iter()
+                .map(|law| {
+                    let values = opts
+                        .attacks
+                        .iter()
+                        .map(|a| {
+                            // The slowest completion over the repeats; 0: none completed.
+                            self.rows
+                                .iter()
+                                .filter(|r| {
+                                    r.maneuver == *maneuver && r.law == law.name() && r.attack == *a
+                                })
+                                .filter_map(|r| r.completion_s)
+                                .fold(0.0, f64::max)
+                        })
+                        .collect();
+                    (law.name().to_string(), values)
+                })
+                .collect();
+            plots::grouped_bars(
+                &dir.path(&format!("maneuvers-{maneuver}.png")),
+                &format!("{maneuver}: time to complete (slowest repeat; 0 = never completed)"),
+                "time from the request (s)",
+                &opts.attacks,
+                &groups,
+            )?;
+        }
+        Ok(())
+    }
+}
