@@ -32,8 +32,8 @@ pub use string_stability::{string_stability, StringStability, TauStringStability
 pub use certificate::{Certificate, Verdict};
 pub use decay::{max_decay_within_ratio, theorem1_max_decay};
 pub use lmi::{
-    min_ratio, min_ratio_block_diagonal, psi, psi_theorem1, theorem1_min_ratio, Coupling,
-    Feasibility, LmiError, Lyapunov, Plant3, P_MAX,
+    min_ratio, psi, psi_theorem1, theorem1_min_ratio, Coupling, Feasibility, LmiError, Lyapunov,
+    LyapunovForm, Plant3, P_MAX,
 };
 pub use mixed::{check_mixed, mixed_max_real, psi_mixed, MixedCheck, MIXED_MAX_FREE};
 pub use spectrum::{closed_loop_spectrum, growth_rate, Spectrum};
