@@ -142,7 +142,14 @@ pub fn psi_theorem1(
     g: &Coupling,
     plant: &Plant3,
 ) -> DMatrix<f64> {
-    psi(Lyapunov::Common(p), r, c, k, &g.matrix(), plant)
+    psi(
+        Lyapunov::Common(p),
+        r,
+        c,
+        k,
+        &g.matrix(),
+        Plants::Same(plant),
+    )
 }
 
 /// `(I_N kron B) M` for a 3x3 `b`: block row i is `b` times block row i of `M`.
@@ -166,38 +173,61 @@ pub enum Lyapunov<'a> {
     Full(&'a DMatrix<f64>),
 }
 
+/// The followers' plants in (13).
+#[derive(Debug, Clone, Copy)]
+pub enum Plants<'a> {
+    /// Every follower with this plant: `I_N kron A` and `I_N kron B K`.
+    Same(&'a Plant3),
+    /// Follower i with lag `taus[i]` (one each): `diag(A_i)` and `diag(B_i K)`.
+    PerFollower(&'a [f64]),
+}
+
 /// (13) with the Lyapunov matrix `X` of `lyapunov`, ratio `r`, decay `c`, gain `k`, the
-/// coupling's matrix `M` (`mc`) and plant:
-/// `[[He(X (I kron A) - X (I kron B K) M) + c X, -X (I kron B K) M, M^T], [., -r I, M^T],
-/// [M, M, -I]]`.
+/// coupling's matrix `M` (`mc`) and the followers' `plants`:
+/// `[[He(X diag(A_i) - X diag(B_i K) M) + c X, -X diag(B_i K) M, M^T], [., -r I, M^T],
+/// [M, M, -I]]`, with the Kronecker forms `I_N kron A` and `I_N kron B K` for one plant.
 pub fn psi(
     lyapunov: Lyapunov<'_>,
     r: f64,
     c: f64,
     k: &RowVector3<f64>,
     mc: &DMatrix<f64>,
-    plant: &Plant3,
+    plants: Plants<'_>,
 ) -> DMatrix<f64> {
     let n = mc.nrows() / 3;
     let i_n = DMatrix::<f64>::identity(n, n);
-    match lyapunov {
-        Lyapunov::Common(p) => {
-            let pd = DMatrix::from_iterator(3, 3, p.iter().copied());
-            let pa = DMatrix::from_iterator(3, 3, (p * plant.a).iter().copied());
-            let pbk = DMatrix::from_iterator(3, 3, (p * plant.b * k).iter().copied());
-            let pbkm = blockwise(&pbk, mc);
-            let x11 = he(&(kron(&i_n, &pa) - &pbkm)) + kron(&i_n, &pd) * c;
-            assemble(&x11, &-pbkm, r, mc)
-        }
-        Lyapunov::Full(x) => {
-            let ia = kron(&i_n, &dm(&plant.a));
-            let bk = dm(&(plant.b * k));
-            let xbkm = x * blockwise(&bk, mc);
-            let x11 = he(&(x * &ia - &xbkm)) + x * c;
-            let x12 = -xbkm;
-            assemble(&x11, &x12, r, mc)
-        }
+    if let (Lyapunov::Common(p), Plants::Same(plant)) = (lyapunov, plants) {
+        let pd = DMatrix::from_iterator(3, 3, p.iter().copied());
+        let pa = DMatrix::from_iterator(3, 3, (p * plant.a).iter().copied());
+        let pbk = DMatrix::from_iterator(3, 3, (p * plant.b * k).iter().copied());
+        let pbkm = blockwise(&pbk, mc);
+        let x11 = he(&(kron(&i_n, &pa) - &pbkm)) + kron(&i_n, &pd) * c;
+        return assemble(&x11, &-pbkm, r, mc);
     }
+    let common;
+    let x = match lyapunov {
+        Lyapunov::Common(p) => {
+            common = kron(&i_n, &dm(p));
+            &common
+        }
+        Lyapunov::Full(x) => x,
+    };
+    let m = mc.nrows();
+    let mut a = DMatrix::<f64>::zeros(m, m);
+    let mut bkm = DMatrix::<f64>::zeros(m, m);
+    for i in 0..n {
+        let plant = match plants {
+            Plants::Same(plant) => *plant,
+            Plants::PerFollower(taus) => Plant3::new(taus[i]),
+        };
+        a.view_mut((3 * i, 3 * i), (3, 3)).copy_from(&plant.a);
+        let bk = dm(&(plant.b * k));
+        bkm.view_mut((3 * i, 0), (3, m))
+            .copy_from(&(bk * mc.view((3 * i, 0), (3, m))));
+    }
+    let xbkm = x * bkm;
+    let x11 = he(&(x * a - &xbkm)) + x * c;
+    assemble(&x11, &-xbkm, r, mc)
 }
 
 /// The 9N x 9N matrix of (13) from its (1,1) and (1,2) blocks.
@@ -377,11 +407,20 @@ fn common_lmis(query: &Query<'_>) -> Vec<Lmi> {
             query.c,
             &kr,
             &mc,
-            &plant,
+            Plants::Same(&plant),
         );
         let mut fi: Vec<DMatrix<f64>> = basis
             .iter()
-            .map(|e| psi(Lyapunov::Common(e), 0.0, query.c, &kr, &mc, &plant) - &psi0)
+            .map(|e| {
+                psi(
+                    Lyapunov::Common(e),
+                    0.0,
+                    query.c,
+                    &kr,
+                    &mc,
+                    Plants::Same(&plant),
+                ) - &psi0
+            })
             .collect();
         fi.push(
             psi(
@@ -390,7 +429,7 @@ fn common_lmis(query: &Query<'_>) -> Vec<Lmi> {
                 query.c,
                 &kr,
                 &mc,
-                &plant,
+                Plants::Same(&plant),
             ) - &psi0,
         );
         lmis.push(Lmi::nsd(
@@ -490,7 +529,7 @@ fn block_diagonal_lmis(query: &Query<'_>) -> Vec<Lmi> {
             query.c,
             &kr,
             &mc,
-            &plant,
+            Plants::Same(&plant),
         ) + DMatrix::<f64>::identity(3 * m, 3 * m) * query.delta;
         let mut cols: Vec<Vec<(usize, usize, f64)>> = Vec::with_capacity(nvar);
         for i in 0..n {
