@@ -190,13 +190,8 @@ fn a_forged_join_request_keeps_the_real_joiner_out_and_is_labelled_forged() {
         out.push(Delivery {
             receiver: VehicleId::LEADER,
             packet: Packet {
-                sender: VehicleId(7),
-                seq: 1,
-                step: step.k,
-                state: step.states[4],
-                u: 0.0,
-                head: VehicleId::LEADER,
                 maneuver: Some(m),
+                ..Packet::beacon(VehicleId(7), 1, step.k, step.states[4])
             },
         });
     }

@@ -9,7 +9,7 @@ use platoon_output::rundir::RunDir;
 use platoon_sim::Scenario;
 use platoon_synthesis::{
     closed_loop_spectrum, dos_bounds, min_ratio, theorem1_max_decay, Certificate, Coupling, Design,
-    Feasibility, Spectrum, StringStability, Verdict,
+    Feasibility, LyapunovForm, Spectrum, StringStability, Verdict,
 };
 use std::path::{Path, PathBuf};
 
@@ -342,7 +342,7 @@ pub fn check_gain(
     let fastest = spectrum.iter().map(|s| s.max_modulus).fold(0.0, f64::max);
 
     let started = std::time::Instant::now();
-    let min = min_ratio(k, opts.c, &g, &taus_lmi, 1e-6)?;
+    let min = min_ratio(k, opts.c, &g, &taus_lmi, 1e-6, LyapunovForm::Common)?;
     let sdp_seconds = started.elapsed().as_secs_f64();
     let config_ratio = config.control.paper_law().beta1 / config.control.paper_law().beta2;
     let (certificate, min_ratio, certified) = match min {
@@ -357,20 +357,26 @@ pub fn check_gain(
     };
     // The richer certificate: one P per follower (it holds where I_N kron P does not, e.g. PF
     // and TPSF beyond a few followers, at the price of a transient growth).
-    let (block_certificate, block) =
-        match platoon_synthesis::min_ratio_block_diagonal(k, opts.c, &g, &taus_lmi, 1e-6)? {
-            Feasibility::Feasible(cert) => {
-                let mut at_config = cert.clone();
-                at_config.ratio = config_ratio;
-                let report = BlockReport {
-                    min_ratio: cert.ratio,
-                    transient_growth: cert.transient_growth()?,
-                    config_ratio_certified: config_ratio >= cert.ratio && at_config.verify()?.holds,
-                };
-                (Some(cert), Some(report))
-            }
-            Feasibility::Infeasible => (None, None),
-        };
+    let (block_certificate, block) = match platoon_synthesis::min_ratio(
+        k,
+        opts.c,
+        &g,
+        &taus_lmi,
+        1e-6,
+        LyapunovForm::BlockDiagonal,
+    )? {
+        Feasibility::Feasible(cert) => {
+            let mut at_config = cert.clone();
+            at_config.ratio = config_ratio;
+            let report = BlockReport {
+                min_ratio: cert.ratio,
+                transient_growth: cert.transient_growth()?,
+                config_ratio_certified: config_ratio >= cert.ratio && at_config.verify()?.holds,
+            };
+            (Some(cert), Some(report))
+        }
+        Feasibility::Infeasible => (None, None),
+    };
     let best = theorem1_max_decay(k, &g, &taus_lmi, 10.0, 1e-3)?;
     let heterogeneous = if scenario.vehicles.is_empty() {
         None

@@ -2,8 +2,7 @@
 //! every cell equal the pure core's, the files go only into the campaign directory, any
 //! executor gives the same bytes, and a stopped campaign resumes.
 use platoon_app::campaign::{
-    self, Campaign, CampaignError, CampaignOptions, CellJob, CellReply, CellStatus, Executor,
-    LocalPool,
+    self, Campaign, CampaignError, CampaignOptions, CellStatus, Execution, Executor, LocalPool,
 };
 use platoon_app::Stop;
 use platoon_campaign::metrics;
@@ -122,17 +121,11 @@ impl Executor for Sequential {
         "sequential".into()
     }
 
-    fn execute(
-        &self,
-        jobs: &[CellJob],
-        _dir: &Path,
-        _stop: &Stop,
-        record: &mut dyn FnMut(CellReply) -> anyhow::Result<()>,
-    ) -> anyhow::Result<()> {
-        for job in jobs.iter().take(self.limit) {
-            record(campaign::execute(job, None))?;
+    fn execute(&self, run: Execution<'_>) -> anyhow::Result<()> {
+        for job in run.jobs.iter().take(self.limit) {
+            (run.record)(campaign::execute(job, None))?;
         }
-        if jobs.len() > self.limit {
+        if run.jobs.len() > self.limit {
             self.stop.store(true, Ordering::SeqCst);
         }
         Ok(())
@@ -394,14 +387,8 @@ impl Executor for Failing {
         "failing".into()
     }
 
-    fn execute(
-        &self,
-        jobs: &[CellJob],
-        _dir: &Path,
-        _stop: &Stop,
-        record: &mut dyn FnMut(CellReply) -> anyhow::Result<()>,
-    ) -> anyhow::Result<()> {
-        record(campaign::execute(&jobs[0], None))?;
+    fn execute(&self, run: Execution<'_>) -> anyhow::Result<()> {
+        (run.record)(campaign::execute(&run.jobs[0], None))?;
         anyhow::bail!("the cluster went away")
     }
 }

@@ -1,6 +1,6 @@
 //! A search file's errors name the line its key stands on; a search's failures come back by
 //! kind.
-use platoon_app::campaign::{CellJob, CellReply, Executor};
+use platoon_app::campaign::{Execution, Executor};
 use platoon_app::search::{SearchError, SearchOptions};
 use platoon_app::Stop;
 use std::path::Path;
@@ -54,13 +54,7 @@ impl Executor for Failing {
         "failing".into()
     }
 
-    fn execute(
-        &self,
-        _jobs: &[CellJob],
-        _dir: &Path,
-        _stop: &Stop,
-        _record: &mut dyn FnMut(CellReply) -> anyhow::Result<()>,
-    ) -> anyhow::Result<()> {
+    fn execute(&self, _run: Execution<'_>) -> anyhow::Result<()> {
         anyhow::bail!("the cluster went away")
     }
 }

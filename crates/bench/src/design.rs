@@ -106,15 +106,23 @@ pub fn design(a: Design) -> Result<(Vec<DesignRow>, Vec<CheckRow>)> {
             platoon_synthesis::Feasibility::Infeasible => None,
         };
         let started = Instant::now();
-        let common = ratio(platoon_synthesis::min_ratio(k, 0.0, &g, &[0.5], 1e-6)?);
-        let common_s = started.elapsed().as_secs_f64();
-        let t1 = Instant::now();
-        let block = ratio(platoon_synthesis::min_ratio_block_diagonal(
+        let common = ratio(platoon_synthesis::min_ratio(
             k,
             0.0,
             &g,
             &[0.5],
             1e-6,
+            platoon_synthesis::LyapunovForm::Common,
+        )?);
+        let common_s = started.elapsed().as_secs_f64();
+        let t1 = Instant::now();
+        let block = ratio(platoon_synthesis::min_ratio(
+            k,
+            0.0,
+            &g,
+            &[0.5],
+            1e-6,
+            platoon_synthesis::LyapunovForm::BlockDiagonal,
         )?);
         let block_s = t1.elapsed().as_secs_f64();
         let t2 = Instant::now();

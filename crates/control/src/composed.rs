@@ -695,12 +695,11 @@ mod tests {
         }
     }
 
-    fn controller(beacon_steps: u32, fallback: FallbackParams) -> ComposedController {
-        let topology = Topology::preset(Preset::Pf, 3).unwrap();
-        let initial: Vec<State> = (0..=3)
-            .map(|i| State::new(-10.0 * i as f64, 15.0, 0.0))
-            .collect();
-        let parts = Composition {
+    /// The parts of the tests' platoons: a step of 0.01 s, a beacon every `beacon_steps`
+    /// steps, the leader's every step, 10 m constant spacing, `fallback`, default detection
+    /// and no maneuvers.
+    fn parts(beacon_steps: u32, fallback: FallbackParams) -> Composition {
+        Composition {
             dt: 0.01,
             beaconing: Box::new(Periodic {
                 steps: beacon_steps,
@@ -711,7 +710,15 @@ mod tests {
             fallback,
             detection: Default::default(),
             maneuvers: None,
-        };
+        }
+    }
+
+    fn controller(beacon_steps: u32, fallback: FallbackParams) -> ComposedController {
+        let topology = Topology::preset(Preset::Pf, 3).unwrap();
+        let initial: Vec<State> = (0..=3)
+            .map(|i| State::new(-10.0 * i as f64, 15.0, 0.0))
+            .collect();
+        let parts = parts(beacon_steps, fallback);
         ComposedController::new(Box::new(Echo), parts, &topology, &initial).unwrap()
     }
 
@@ -833,18 +840,13 @@ mod tests {
             }),
             ..FallbackParams::default()
         };
-        let parts = Composition {
-            dt: 0.01,
-            beaconing: Box::new(Periodic { steps: 1 }),
-            leader_broadcast_steps: 1,
-            spacing: 10.0,
-            headway: 0.0,
-            fallback,
-            detection: Default::default(),
-            maneuvers: None,
-        };
-        let mut c =
-            ComposedController::new(Box::new(EchoLeader), parts, &topology, &states(0)).unwrap();
+        let mut c = ComposedController::new(
+            Box::new(EchoLeader),
+            parts(1, fallback),
+            &topology,
+            &states(0),
+        )
+        .unwrap();
         let (mut out, mut heads, mut u) = (Vec::new(), Vec::new(), Vec::new());
         for k in 0..26u64 {
             let x = states(k);

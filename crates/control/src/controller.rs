@@ -581,15 +581,7 @@ mod tests {
         c.receive(0, &states, &everyone(&topo, &tx), &[false; 3]);
         let to = |receiver, sender, seq, step, p: f64| Delivery {
             receiver: VehicleId(receiver),
-            packet: Packet {
-                sender: VehicleId(sender),
-                seq,
-                step,
-                state: State::new(p, 15.0, 0.0),
-                u: 0.0,
-                head: VehicleId::LEADER,
-                maneuver: None,
-            },
+            packet: Packet::beacon(VehicleId(sender), seq, step, State::new(p, 15.0, 0.0)),
         };
         let bad = [
             to(2, 1, 5, 1, f64::NAN),
@@ -632,15 +624,7 @@ mod tests {
                 let mut forged = *tx
                     .iter()
                     .find(|p| p.sender == VehicleId(1))
-                    .unwrap_or(&Packet {
-                        sender: VehicleId(1),
-                        seq: 1,
-                        step: k,
-                        state: states[1],
-                        u: 0.0,
-                        head: VehicleId::LEADER,
-                        maneuver: None,
-                    });
+                    .unwrap_or(&Packet::beacon(VehicleId(1), 1, k, states[1]));
                 forged.seq = u32::MAX - 1;
                 forged.step = k;
                 forged.state = states[1];
@@ -649,34 +633,12 @@ mod tests {
             if k == 10 {
                 // Plausible in every way (the sender's true state, the next sequence number):
                 // accepted, and it can only shadow step 10.
-                rx.insert(
-                    0,
-                    to_2(Packet {
-                        sender: VehicleId(1),
-                        seq: 11,
-                        step: k,
-                        state: states[1],
-                        u: 0.0,
-                        head: VehicleId::LEADER,
-                        maneuver: None,
-                    }),
-                );
+                rx.insert(0, to_2(Packet::beacon(VehicleId(1), 11, k, states[1])));
             }
             if k == 20 {
                 let mut teleported = states[1];
                 teleported[0] += 30.0;
-                rx.insert(
-                    0,
-                    to_2(Packet {
-                        sender: VehicleId(1),
-                        seq: 21,
-                        step: k,
-                        state: teleported,
-                        u: 0.0,
-                        head: VehicleId::LEADER,
-                        maneuver: None,
-                    }),
-                );
+                rx.insert(0, to_2(Packet::beacon(VehicleId(1), 21, k, teleported)));
             }
             let before = c.rejected();
             c.receive(k, &states, &rx, &[false; 3]);
@@ -703,15 +665,7 @@ mod tests {
         let states = formation(1, 15.0);
         let mut a = PlatoonController::new(params(TriggerRule::Static), &topo, &states).unwrap();
         let mut b = a.clone();
-        let leader = Packet {
-            sender: VehicleId(0),
-            seq: 9,
-            step: 3,
-            state: State::new(1.0, 16.0, 1.0),
-            u: 0.0,
-            head: VehicleId::LEADER,
-            maneuver: None,
-        };
+        let leader = Packet::beacon(VehicleId(0), 9, 3, State::new(1.0, 16.0, 1.0));
         let flow = FreeFlow::new(0.5, 0.01);
         let now = Packet {
             step: 5,

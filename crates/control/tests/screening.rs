@@ -29,15 +29,12 @@ fn checks(reaction: Reaction, quiet_steps: u32) -> (PacketChecks, Vec<State>) {
 fn leader(k: u64, offset_m: f64) -> Delivery {
     Delivery {
         receiver: VehicleId(1),
-        packet: Packet {
-            sender: VehicleId::LEADER,
-            seq: k as u32 + 1,
-            step: k,
-            state: State::new(20.0 * k as f64 * DT + offset_m, 20.0, 0.0),
-            u: 0.0,
-            head: VehicleId::LEADER,
-            maneuver: None,
-        },
+        packet: Packet::beacon(
+            VehicleId::LEADER,
+            k as u32 + 1,
+            k,
+            State::new(20.0 * k as f64 * DT + offset_m, 20.0, 0.0),
+        ),
     }
 }
 

@@ -22,9 +22,7 @@
 //!
 //! impl Controller for Brake {
 //!     fn transmit(&mut self, k: u64, states: &[State], out: &mut Vec<Packet>) {
-//!         let seq = k as u32 + 1;
-//!         let (sender, head) = (VehicleId::LEADER, VehicleId::LEADER);
-//!         out.push(Packet { sender, seq, step: k, state: states[0], u: 0.0, head, maneuver: None });
+//!         out.push(Packet::beacon(VehicleId::LEADER, k as u32 + 1, k, states[0]));
 //!     }
 //!     fn receive(&mut self, _k: u64, _s: &[State], _d: &[Delivery], _j: &[bool]) -> &[f64] {
 //!         self.u.fill(-0.5);

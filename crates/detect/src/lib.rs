@@ -71,15 +71,7 @@
 //! let mut residual = build(&DetectorSpec::Residual(ResidualParams::default()))?;
 //! let last = Last { step: 100, state: State::new(100.0, 20.0, 0.0) };
 //! // 10 steps later, the sender claims to brake at 8 m/s^2 out of the blue.
-//! let packet = Packet {
-//!     sender: VehicleId(0),
-//!     seq: 7,
-//!     step: 110,
-//!     state: State::new(102.0, 20.0, -8.0),
-//!     u: 0.0,
-//!     head: VehicleId::LEADER,
-//!     maneuver: None,
-//! };
+//! let packet = Packet::beacon(VehicleId(0), 7, 110, State::new(102.0, 20.0, -8.0));
 //! let obs = Observation {
 //!     k: 110,
 //!     dt: 0.01,

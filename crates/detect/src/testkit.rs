@@ -96,13 +96,8 @@ pub fn rng(seed: u64) -> ChaCha8Rng {
 /// The packet of `sender` sampled at `step` claiming `state`.
 pub fn packet(sender: u16, seq: u32, step: usize, state: State) -> Packet {
     Packet {
-        sender: VehicleId(sender),
-        seq,
-        step: step as u64,
-        state,
         u: state[2],
-        head: platoon_model::VehicleId::LEADER,
-        maneuver: None,
+        ..Packet::beacon(VehicleId(sender), seq, step as u64, state)
     }
 }
 

@@ -527,15 +527,7 @@ proptest! {
             residual: Some(ResidualParams::default()),
         };
         let mut sut = Detectors::try_from(&all).unwrap();
-        let packet = platoon_v2v::Packet {
-            sender: VehicleId(sender),
-            seq: 1,
-            step,
-            state: claim,
-            u: 0.0,
-            head: platoon_model::VehicleId::LEADER,
-            maneuver: None,
-        };
+        let packet = platoon_v2v::Packet::beacon(VehicleId(sender), 1, step, claim);
         let obs = Observation {
             k,
             dt,

@@ -125,15 +125,7 @@ mod tests {
     use platoon_model::State;
 
     fn pk(sender: u16, seq: u32, p: f64) -> Packet {
-        Packet {
-            sender: VehicleId(sender),
-            seq,
-            step: 3,
-            state: State::new(p, 1.0, 0.0),
-            u: 0.0,
-            head: VehicleId::LEADER,
-            maneuver: None,
-        }
+        Packet::beacon(VehicleId(sender), seq, 3, State::new(p, 1.0, 0.0))
     }
 
     #[test]

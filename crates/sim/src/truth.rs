@@ -360,15 +360,7 @@ mod tests {
     use super::*;
 
     fn pk(sender: u16, seq: u32, step: u64, p: f64) -> Packet {
-        Packet {
-            sender: VehicleId(sender),
-            seq,
-            step,
-            state: State::new(p, 15.0, 0.0),
-            u: 0.0,
-            head: VehicleId::LEADER,
-            maneuver: None,
-        }
+        Packet::beacon(VehicleId(sender), seq, step, State::new(p, 15.0, 0.0))
     }
 
     fn to(receiver: u16, packet: Packet) -> Delivery {

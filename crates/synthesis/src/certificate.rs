@@ -1,6 +1,6 @@
 //! Theorem 1's certificates as `certificate.json` holds them, and their re-check independent
 //! of the solver.
-use crate::lmi::{psi, Coupling, LmiError, Lyapunov, Plant3};
+use crate::lmi::{psi, Coupling, LmiError, Lyapunov, Plant3, Plants};
 use nalgebra::{DMatrix, Matrix3, RowVector3};
 use serde::{Deserialize, Serialize};
 
@@ -144,9 +144,16 @@ impl Certificate {
                         self.c,
                         &k,
                         &mc,
-                        &plant,
+                        Plants::Same(&plant),
                     ),
-                    Some(x) => psi(Lyapunov::Full(x), self.ratio, self.c, &k, &mc, &plant),
+                    Some(x) => psi(
+                        Lyapunov::Full(x),
+                        self.ratio,
+                        self.c,
+                        &k,
+                        &mc,
+                        Plants::Same(&plant),
+                    ),
                 }
                 .symmetric_eigenvalues()
                 .max()

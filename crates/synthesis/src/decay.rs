@@ -1,9 +1,7 @@
 //! The largest decay `c` Theorem 1 certifies for a gain: bisections over `c` of the SDPs of
 //! [`crate::lmi`].
 use crate::certificate::Certificate;
-use crate::lmi::{
-    min_ratio, min_ratio_block_diagonal, min_ratio_with, Coupling, Feasibility, LmiError,
-};
+use crate::lmi::{min_ratio, min_ratio_with, Coupling, Feasibility, LmiError, LyapunovForm, Query};
 
 /// The largest decay c (to `tol`) for which (13) is feasible with gain `k`, by bisection on
 /// `[0, c_max]`; `None` if it is infeasible already at c = 0.
@@ -15,14 +13,22 @@ pub fn theorem1_max_decay(
     tol: f64,
 ) -> Result<Option<Certificate>, LmiError> {
     let delta = 1e-6;
-    let Feasibility::Feasible(best) = min_ratio(k, 0.0, g, taus, delta)? else {
+    let Feasibility::Feasible(best) = min_ratio(k, 0.0, g, taus, delta, LyapunovForm::Common)?
+    else {
         return Ok(None);
     };
     bisect(best, (c_max, tol), |mid| {
         // At the edge of feasibility an answer that fails the re-check, or the solver's
         // numerical trouble, counts as infeasible: the decay returned is certified either way,
         // at worst smaller than the true largest.
-        match min_ratio_with(k, mid, g, taus, delta, 1) {
+        let query = Query {
+            k,
+            c: mid,
+            g,
+            taus,
+            delta,
+        };
+        match min_ratio_with(&query, LyapunovForm::Common, 1) {
             Ok(Feasibility::Feasible(c)) => Ok(Some(c)),
             Ok(Feasibility::Infeasible)
             | Err(LmiError::NotCertified(_))
@@ -33,24 +39,30 @@ pub fn theorem1_max_decay(
 }
 
 /// Like [`theorem1_max_decay`], with beta1/beta2 kept at or below `ratio_cap` (a decay bought
-/// with an ever larger ratio is useless to the trigger), with a common Lyapunov matrix or one P
-/// per follower (`block_diagonal`). `None` if even c = 0 needs more.
+/// with an ever larger ratio is useless to the trigger), with the Lyapunov matrix of the
+/// `form` given. `None` if even c = 0 needs more.
 pub fn max_decay_within_ratio(
     k: [f64; 3],
     g: &Coupling,
     taus: &[f64],
     ratio_cap: f64,
     (c_max, tol): (f64, f64),
-    block_diagonal: bool,
+    form: LyapunovForm,
 ) -> Result<Option<Certificate>, LmiError> {
     let delta = 1e-6;
     let within = |c: f64| -> Result<Option<Certificate>, LmiError> {
-        let answer = if block_diagonal {
-            min_ratio_block_diagonal(k, c, g, taus, delta)
-        } else {
-            min_ratio_with(k, c, g, taus, delta, if c == 0.0 { u32::MAX } else { 1 })
+        let retries = match form {
+            LyapunovForm::Common if c != 0.0 => 1,
+            _ => u32::MAX,
         };
-        match answer {
+        let query = Query {
+            k,
+            c,
+            g,
+            taus,
+            delta,
+        };
+        match min_ratio_with(&query, form, retries) {
             Ok(Feasibility::Feasible(cert)) if cert.ratio <= ratio_cap => Ok(Some(cert)),
             // At the edge of feasibility, a numerical failure counts as infeasible.
             Ok(_) | Err(LmiError::NotCertified(_)) | Err(LmiError::Solver(_)) => Ok(None),

@@ -14,9 +14,9 @@
 //! heuristic for it. With constant spacing the procedure runs on the whole graph, and where that
 //! admits no common P, on the leading followers likewise. Where the common P of the whole
 //! platoon is infeasible for the gain found, the certificate is the block-diagonal one
-//! ([`min_ratio_block_diagonal`]).
+//! ([`LyapunovForm::BlockDiagonal`]).
 use crate::certificate::Certificate;
-use crate::lmi::{min_ratio, min_ratio_block_diagonal, Coupling, Feasibility, LmiError, Plant3};
+use crate::lmi::{min_ratio, Coupling, Feasibility, LmiError, LyapunovForm, Plant3};
 use crate::sdp::{dm, solve, sym_basis3, Lmi};
 use nalgebra::{DMatrix, Matrix3};
 
@@ -68,7 +68,11 @@ impl Design {
             taus,
             2.0 * self.certificate.ratio,
             (5.0, 1e-3),
-            self.certificate.p_blocks.is_some(),
+            if self.certificate.p_blocks.is_some() {
+                LyapunovForm::BlockDiagonal
+            } else {
+                LyapunovForm::Common
+            },
         )
     }
 }
@@ -351,7 +355,7 @@ fn certify(
     mut sdps: usize,
 ) -> Result<Design, LmiError> {
     sdps += 1;
-    let certificate = match min_ratio(k, spec.c, g, &spec.taus, 1e-6)? {
+    let certificate = match min_ratio(k, spec.c, g, &spec.taus, 1e-6, LyapunovForm::Common)? {
         Feasibility::Feasible(c) => c,
         Feasibility::Infeasible if g.headway == 0.0 && designed_on == g.followers() => {
             return Err(LmiError::Solver(
@@ -360,7 +364,7 @@ fn certify(
         }
         Feasibility::Infeasible => {
             sdps += 1;
-            match min_ratio_block_diagonal(k, spec.c, g, &spec.taus, 1e-6)? {
+            match min_ratio(k, spec.c, g, &spec.taus, 1e-6, LyapunovForm::BlockDiagonal)? {
                 Feasibility::Feasible(c) => c,
                 Feasibility::Infeasible => return Err(LmiError::NotCertified(f64::NAN)),
             }

@@ -32,12 +32,10 @@ pub use string_stability::{string_stability, StringStability, TauStringStability
 pub use certificate::{Certificate, Verdict};
 pub use decay::{max_decay_within_ratio, theorem1_max_decay};
 pub use lmi::{
-    min_ratio, min_ratio_block_diagonal, psi, psi_theorem1, theorem1_min_ratio, Coupling,
-    Feasibility, LmiError, Lyapunov, Plant3, P_MAX,
+    min_ratio, psi, psi_theorem1, theorem1_min_ratio, Coupling, Feasibility, LmiError, Lyapunov,
+    LyapunovForm, Plant3, Plants, P_MAX,
 };
-pub use mixed::{
-    check_mixed, mixed_max_real, psi_mixed, psi_mixed_full, MixedCheck, MIXED_MAX_FREE,
-};
+pub use mixed::{check_mixed, mixed_max_real, MixedCheck, MIXED_MAX_FREE};
 pub use spectrum::{closed_loop_spectrum, growth_rate, Spectrum};
 
 /// The bounds (16): the smallest T2 and D2 for which Assumption 2 guarantees stability, given

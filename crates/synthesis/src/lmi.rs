@@ -142,7 +142,14 @@ pub fn psi_theorem1(
     g: &Coupling,
     plant: &Plant3,
 ) -> DMatrix<f64> {
-    psi(Lyapunov::Common(p), r, c, k, &g.matrix(), plant)
+    psi(
+        Lyapunov::Common(p),
+        r,
+        c,
+        k,
+        &g.matrix(),
+        Plants::Same(plant),
+    )
 }
 
 /// `(I_N kron B) M` for a 3x3 `b`: block row i is `b` times block row i of `M`.
@@ -166,38 +173,61 @@ pub enum Lyapunov<'a> {
     Full(&'a DMatrix<f64>),
 }
 
+/// The followers' plants in (13).
+#[derive(Debug, Clone, Copy)]
+pub enum Plants<'a> {
+    /// Every follower with this plant: `I_N kron A` and `I_N kron B K`.
+    Same(&'a Plant3),
+    /// Follower i with lag `taus[i]` (one each): `diag(A_i)` and `diag(B_i K)`.
+    PerFollower(&'a [f64]),
+}
+
 /// (13) with the Lyapunov matrix `X` of `lyapunov`, ratio `r`, decay `c`, gain `k`, the
-/// coupling's matrix `M` (`mc`) and plant:
-/// `[[He(X (I kron A) - X (I kron B K) M) + c X, -X (I kron B K) M, M^T], [., -r I, M^T],
-/// [M, M, -I]]`.
+/// coupling's matrix `M` (`mc`) and the followers' `plants`:
+/// `[[He(X diag(A_i) - X diag(B_i K) M) + c X, -X diag(B_i K) M, M^T], [., -r I, M^T],
+/// [M, M, -I]]`, with the Kronecker forms `I_N kron A` and `I_N kron B K` for one plant.
 pub fn psi(
     lyapunov: Lyapunov<'_>,
     r: f64,
     c: f64,
     k: &RowVector3<f64>,
     mc: &DMatrix<f64>,
-    plant: &Plant3,
+    plants: Plants<'_>,
 ) -> DMatrix<f64> {
     let n = mc.nrows() / 3;
     let i_n = DMatrix::<f64>::identity(n, n);
-    match lyapunov {
-        Lyapunov::Common(p) => {
-            let pd = DMatrix::from_iterator(3, 3, p.iter().copied());
-            let pa = DMatrix::from_iterator(3, 3, (p * plant.a).iter().copied());
-            let pbk = DMatrix::from_iterator(3, 3, (p * plant.b * k).iter().copied());
-            let pbkm = blockwise(&pbk, mc);
-            let x11 = he(&(kron(&i_n, &pa) - &pbkm)) + kron(&i_n, &pd) * c;
-            assemble(&x11, &-pbkm, r, mc)
-        }
-        Lyapunov::Full(x) => {
-            let ia = kron(&i_n, &dm(&plant.a));
-            let bk = dm(&(plant.b * k));
-            let xbkm = x * blockwise(&bk, mc);
-            let x11 = he(&(x * &ia - &xbkm)) + x * c;
-            let x12 = -xbkm;
-            assemble(&x11, &x12, r, mc)
-        }
+    if let (Lyapunov::Common(p), Plants::Same(plant)) = (lyapunov, plants) {
+        let pd = DMatrix::from_iterator(3, 3, p.iter().copied());
+        let pa = DMatrix::from_iterator(3, 3, (p * plant.a).iter().copied());
+        let pbk = DMatrix::from_iterator(3, 3, (p * plant.b * k).iter().copied());
+        let pbkm = blockwise(&pbk, mc);
+        let x11 = he(&(kron(&i_n, &pa) - &pbkm)) + kron(&i_n, &pd) * c;
+        return assemble(&x11, &-pbkm, r, mc);
     }
+    let common;
+    let x = match lyapunov {
+        Lyapunov::Common(p) => {
+            common = kron(&i_n, &dm(p));
+            &common
+        }
+        Lyapunov::Full(x) => x,
+    };
+    let m = mc.nrows();
+    let mut a = DMatrix::<f64>::zeros(m, m);
+    let mut bkm = DMatrix::<f64>::zeros(m, m);
+    for i in 0..n {
+        let plant = match plants {
+            Plants::Same(plant) => *plant,
+            Plants::PerFollower(taus) => Plant3::new(taus[i]),
+        };
+        a.view_mut((3 * i, 3 * i), (3, 3)).copy_from(&plant.a);
+        let bk = dm(&(plant.b * k));
+        bkm.view_mut((3 * i, 0), (3, m))
+            .copy_from(&(bk * mc.view((3 * i, 0), (3, m))));
+    }
+    let xbkm = x * bkm;
+    let x11 = he(&(x * a - &xbkm)) + x * c;
+    assemble(&x11, &-xbkm, r, mc)
 }
 
 /// The 9N x 9N matrix of (13) from its (1,1) and (1,2) blocks.
@@ -248,107 +278,180 @@ pub fn theorem1_min_ratio(
     tau: f64,
     delta: f64,
 ) -> Result<Feasibility, LmiError> {
-    min_ratio(k, c, g, &[tau], delta)
+    min_ratio(k, c, g, &[tau], delta, LyapunovForm::Common)
 }
 
-/// Like [`theorem1_min_ratio`], with (13) imposed at every tau of `taus` with one P: for the
-/// two ends of a tau range this is our reading of Theorem 2 (robust to any tau between).
+/// Like [`theorem1_min_ratio`], with (13) imposed at every tau of `taus` (for the two ends of
+/// a tau range this is our reading of Theorem 2: robust to any tau between) and the Lyapunov
+/// matrix of the `form` given. [`LyapunovForm::BlockDiagonal`] holds where the common one is
+/// infeasible (a cascade such as PF needs P_i that shrink along the platoon), at the price of a
+/// transient growth `sqrt(lambda_max / lambda_min)` over all blocks (in
+/// [`Verdict`](crate::Verdict)).
 pub fn min_ratio(
     k: [f64; 3],
     c: f64,
     g: &Coupling,
     taus: &[f64],
     delta: f64,
+    form: LyapunovForm,
 ) -> Result<Feasibility, LmiError> {
-    min_ratio_with(k, c, g, taus, delta, u32::MAX)
+    min_ratio_with(
+        &Query {
+            k,
+            c,
+            g,
+            taus,
+            delta,
+        },
+        form,
+        u32::MAX,
+    )
+}
+
+/// The Lyapunov matrix a [`min_ratio`] SDP searches for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LyapunovForm {
+    /// `I_N kron P`, one P for every follower: 7 variables.
+    Common,
+    /// `diag(P_1, ..., P_N)`, one P per follower: 6N + 1 variables, each `P_i` kept in
+    /// `delta I <= P_i <= P_MAX I`. The constraint matrices are assembled sparse (each `P_i`
+    /// touches the rows of follower i only), so N = 100 fits in memory.
+    BlockDiagonal,
+}
+
+/// What a [`min_ratio`] SDP is asked: the smallest `beta1 / beta2` for which (13) holds with
+/// gain `k` and decay `c` on coupling `g` at every tau of `taus`, with margin `delta`
+/// (Psi <= -delta I, P >= delta I).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Query<'a> {
+    pub(crate) k: [f64; 3],
+    pub(crate) c: f64,
+    pub(crate) g: &'a Coupling,
+    pub(crate) taus: &'a [f64],
+    pub(crate) delta: f64,
 }
 
 /// [`min_ratio`] with at most `retries` stricter margins for an answer that fails the re-check
 /// (the bisections allow one: at the edge of feasibility they count a failure as infeasible
 /// anyway, and the retries cost most of a bisection's time).
 pub(crate) fn min_ratio_with(
-    k: [f64; 3],
-    c: f64,
-    g: &Coupling,
-    taus: &[f64],
-    delta: f64,
+    query: &Query<'_>,
+    form: LyapunovForm,
     retries: u32,
 ) -> Result<Feasibility, LmiError> {
-    check_inputs(c, taus, delta)?;
-    let kr = RowVector3::from(k);
-    let h = &g.h;
-    let n = h.nrows();
+    check_inputs(query.c, query.taus, query.delta)?;
+    let (lmis, blocks) = match form {
+        LyapunovForm::Common => (common_lmis(query), 1),
+        LyapunovForm::BlockDiagonal => (block_diagonal_lmis(query), query.g.followers()),
+    };
+    // Variables x = (each P's 6 entries, r).
+    let nvar = 6 * blocks + 1;
+    let mut cost = vec![0.0; nvar];
+    cost[nvar - 1] = 1.0; // minimise r
+    let Some(x) = solve(&lmis, &[], &cost)? else {
+        return Ok(Feasibility::Infeasible);
+    };
+    let basis = sym_basis3();
+    let ps: Vec<[[f64; 3]; 3]> = (0..blocks)
+        .map(|i| {
+            let mut p = Matrix3::zeros();
+            for (e, &v) in basis.iter().zip(&x[6 * i..6 * i + 6]) {
+                p += e * v;
+            }
+            rows3(&p)
+        })
+        .collect();
+    let (suffix, p_blocks) = match form {
+        LyapunovForm::Common => ("", None),
+        LyapunovForm::BlockDiagonal => ("-block-diagonal", Some(ps.clone())),
+    };
+    let cert = Certificate {
+        condition: condition(query.taus, suffix),
+        k: query.k,
+        c: query.c,
+        ratio: x[nvar - 1],
+        p: ps[0],
+        p_blocks,
+        h: rows(&query.g.h),
+        headway: query.g.headway,
+        taus: query.taus.to_vec(),
+        max_eigenvalue: 0.0,
+        p_min_eigenvalue: 0.0,
+    };
+    issue(cert, query.delta, retries, |stricter| {
+        min_ratio_with(
+            &Query {
+                delta: stricter,
+                ..*query
+            },
+            form,
+            retries - 1,
+        )
+    })
+}
+
+/// The LMIs of [`LyapunovForm::Common`]: per tau, Psi(x) + delta I <= 0, and
+/// delta I <= P <= P_MAX I.
+fn common_lmis(query: &Query<'_>) -> Vec<Lmi> {
+    let kr = RowVector3::from(query.k);
+    let n = query.g.followers();
     let size = 9 * n;
     let basis = sym_basis3();
-    let mc = g.matrix();
-    // Variables x = (P's 6 entries, r). Per tau: Psi(x) + delta I <= 0.
+    let mc = query.g.matrix();
     let mut lmis = Vec::new();
-    for &tau in taus {
+    for &tau in query.taus {
         let plant = Plant3::new(tau);
         let psi0 = psi(
             Lyapunov::Common(&Matrix3::zeros()),
             0.0,
-            c,
+            query.c,
             &kr,
             &mc,
-            &plant,
+            Plants::Same(&plant),
         );
         let mut fi: Vec<DMatrix<f64>> = basis
             .iter()
-            .map(|e| psi(Lyapunov::Common(e), 0.0, c, &kr, &mc, &plant) - &psi0)
+            .map(|e| {
+                psi(
+                    Lyapunov::Common(e),
+                    0.0,
+                    query.c,
+                    &kr,
+                    &mc,
+                    Plants::Same(&plant),
+                ) - &psi0
+            })
             .collect();
         fi.push(
             psi(
                 Lyapunov::Common(&Matrix3::zeros()),
                 1.0,
-                c,
+                query.c,
                 &kr,
                 &mc,
-                &plant,
+                Plants::Same(&plant),
             ) - &psi0,
         );
         lmis.push(Lmi::nsd(
-            &(psi0 + DMatrix::<f64>::identity(size, size) * delta),
+            &(psi0 + DMatrix::<f64>::identity(size, size) * query.delta),
             &fi,
         ));
     }
     // P >= delta I:  delta I - P <= 0.
     let mut fp: Vec<DMatrix<f64>> = basis.iter().map(|e| -dm(e)).collect();
     fp.push(DMatrix::zeros(3, 3));
-    lmis.push(Lmi::nsd(&(DMatrix::<f64>::identity(3, 3) * delta), &fp));
+    lmis.push(Lmi::nsd(
+        &(DMatrix::<f64>::identity(3, 3) * query.delta),
+        &fp,
+    ));
     // P <= P_MAX I: without a bound the smallest ratio may only be approached as P grows
     // without end, which leaves the interior-point method no optimum to converge to (PF with 3
     // followers, PLF with 8, BPF with 2 end in NumericalError without it). Any P in the box is
-    // a valid certificate (re-checked below); the ratio is the smallest over the box.
+    // a valid certificate (re-checked before it is issued); the ratio is the smallest over the box.
     let mut fu: Vec<DMatrix<f64>> = basis.iter().map(dm).collect();
     fu.push(DMatrix::zeros(3, 3));
     lmis.push(Lmi::nsd(&(DMatrix::<f64>::identity(3, 3) * -P_MAX), &fu));
-    let nvar = basis.len() + 1;
-    let mut cost = vec![0.0; nvar];
-    cost[nvar - 1] = 1.0; // minimise r
-    let Some(x) = solve(&lmis, &[], &cost)? else {
-        return Ok(Feasibility::Infeasible);
-    };
-    let mut p = Matrix3::zeros();
-    for (e, &v) in basis.iter().zip(&x) {
-        p += e * v;
-    }
-    let cert = Certificate {
-        condition: condition(taus, ""),
-        k,
-        c,
-        ratio: x[nvar - 1],
-        p: rows3(&p),
-        p_blocks: None,
-        h: rows(h),
-        headway: g.headway,
-        taus: taus.to_vec(),
-        max_eigenvalue: 0.0,
-        p_min_eigenvalue: 0.0,
-    };
-    issue(cert, delta, retries, |stricter| {
-        min_ratio_with(k, c, g, taus, stricter, retries - 1)
-    })
+    lmis
 }
 
 fn check_inputs(c: f64, taus: &[f64], delta: f64) -> Result<(), LmiError> {
@@ -407,39 +510,27 @@ fn issue(
     Err(LmiError::NotCertified(v.max_eigenvalue))
 }
 
-/// Like [`min_ratio`] with a block-diagonal Lyapunov matrix `diag(P_1, ..., P_N)` in place of
-/// `I_N kron P` (one P per follower: 6N + 1 variables instead of 7): a richer certificate that
-/// holds where the common one is infeasible (a cascade such as PF needs P_i that shrink along
-/// the platoon), at the price of a transient growth `sqrt(lambda_max / lambda_min)` over all
-/// blocks (in [`Verdict`](crate::Verdict)). Each `P_i` is kept in `delta I <= P_i <= P_MAX I`. The constraint
-/// matrices are assembled sparse (each `P_i` touches the rows of follower i only), so N = 100
-/// fits in memory.
-pub fn min_ratio_block_diagonal(
-    k: [f64; 3],
-    c: f64,
-    g: &Coupling,
-    taus: &[f64],
-    delta: f64,
-) -> Result<Feasibility, LmiError> {
-    check_inputs(c, taus, delta)?;
-    let kr = RowVector3::from(k);
-    let n = g.followers();
+/// The LMIs of [`LyapunovForm::BlockDiagonal`], assembled sparse: per tau,
+/// Psi(x) + delta I <= 0, and delta I <= P_i <= P_MAX I.
+fn block_diagonal_lmis(query: &Query<'_>) -> Vec<Lmi> {
+    let kr = RowVector3::from(query.k);
+    let n = query.g.followers();
     let m = 3 * n;
     let basis = sym_basis3();
-    let mc = g.matrix();
+    let mc = query.g.matrix();
     let nvar = 6 * n + 1;
     let mut lmis = Vec::new();
-    for &tau in taus {
+    for &tau in query.taus {
         let plant = Plant3::new(tau);
         let bk = plant.b * kr;
         let psi0 = psi(
             Lyapunov::Full(&DMatrix::zeros(m, m)),
             0.0,
-            c,
+            query.c,
             &kr,
             &mc,
-            &plant,
-        ) + DMatrix::<f64>::identity(3 * m, 3 * m) * delta;
+            Plants::Same(&plant),
+        ) + DMatrix::<f64>::identity(3 * m, 3 * m) * query.delta;
         let mut cols: Vec<Vec<(usize, usize, f64)>> = Vec::with_capacity(nvar);
         for i in 0..n {
             // Block row i of (I kron B K) M.
@@ -450,7 +541,7 @@ pub fn min_ratio_block_diagonal(
                 // kron E; (1,1) is its He, (1,2) the second term alone.
                 let coupled = &ed * &bkm;
                 let mut strip = -&coupled;
-                let own = dm(&(e * plant.a)) + &ed * (c / 2.0);
+                let own = dm(&(e * plant.a)) + &ed * (query.c / 2.0);
                 let mut view = strip.view_mut((0, 3 * i), (3, 3));
                 view += own;
                 let mut acc: BTreeMap<(usize, usize), f64> = BTreeMap::new();
@@ -493,7 +584,7 @@ pub fn min_ratio_block_diagonal(
                 .collect()
         };
         lmis.push(Lmi::nsd_sparse(
-            &(DMatrix::<f64>::identity(3, 3) * delta),
+            &(DMatrix::<f64>::identity(3, 3) * query.delta),
             block(-1.0),
         ));
         lmis.push(Lmi::nsd_sparse(
@@ -501,36 +592,7 @@ pub fn min_ratio_block_diagonal(
             block(1.0),
         ));
     }
-    let mut cost = vec![0.0; nvar];
-    cost[nvar - 1] = 1.0;
-    let Some(x) = solve(&lmis, &[], &cost)? else {
-        return Ok(Feasibility::Infeasible);
-    };
-    let blocks: Vec<[[f64; 3]; 3]> = (0..n)
-        .map(|i| {
-            let mut p = Matrix3::zeros();
-            for (e, &v) in basis.iter().zip(&x[6 * i..6 * i + 6]) {
-                p += e * v;
-            }
-            rows3(&p)
-        })
-        .collect();
-    let cert = Certificate {
-        condition: condition(taus, "-block-diagonal"),
-        k,
-        c,
-        ratio: x[nvar - 1],
-        p: blocks[0],
-        p_blocks: Some(blocks),
-        h: rows(&g.h),
-        headway: g.headway,
-        taus: taus.to_vec(),
-        max_eigenvalue: 0.0,
-        p_min_eigenvalue: 0.0,
-    };
-    issue(cert, delta, u32::MAX, |stricter| {
-        min_ratio_block_diagonal(k, c, g, taus, stricter)
-    })
+    lmis
 }
 
 fn rows3(p: &Matrix3<f64>) -> [[f64; 3]; 3] {
@@ -601,7 +663,14 @@ mod tests {
                 // Both kinds of certificate, constant spacing and a 1 s headway, both ends of
                 // the tau range.
                 for g in [hm.clone(), Coupling::time_headway(hm.h.clone(), 1.0)] {
-                    match min_ratio_block_diagonal(PAPER_K, 0.0, &g, &[0.34, 0.82], 1e-6) {
+                    match min_ratio(
+                        PAPER_K,
+                        0.0,
+                        &g,
+                        &[0.34, 0.82],
+                        1e-6,
+                        LyapunovForm::BlockDiagonal,
+                    ) {
                         Ok(Feasibility::Feasible(cert)) => assert!(cert.verify().unwrap().holds),
                         Ok(Feasibility::Infeasible) => {}
                         Err(e) => panic!("{preset:?} with {n} followers, block-diagonal: {e}"),
@@ -649,9 +718,15 @@ mod tests {
         // PLF with the paper's K: (13) holds robustly with h_t = 0.3 s but not with 1 s (the
         // leader term adds (1 + i) h_t k1 of speed feedback to follower i).
         let plf = |ht| Coupling::time_headway(h(Preset::Plf, 10).h, ht);
-        let Feasibility::Feasible(cert) =
-            min_ratio(PAPER_K, 0.0, &plf(0.3), &[0.34, 0.82], 1e-6).unwrap()
-        else {
+        let Feasibility::Feasible(cert) = min_ratio(
+            PAPER_K,
+            0.0,
+            &plf(0.3),
+            &[0.34, 0.82],
+            1e-6,
+            LyapunovForm::Common,
+        )
+        .unwrap() else {
             panic!("feasible at 0.3 s");
         };
         assert_eq!(cert.headway, 0.3);
@@ -663,11 +738,20 @@ mod tests {
         other.headway = 1.0;
         assert!(!other.verify().unwrap().holds);
         assert_eq!(
-            min_ratio(PAPER_K, 0.0, &plf(1.0), &[0.34, 0.82], 1e-6).unwrap(),
+            min_ratio(
+                PAPER_K,
+                0.0,
+                &plf(1.0),
+                &[0.34, 0.82],
+                1e-6,
+                LyapunovForm::Common
+            )
+            .unwrap(),
             Feasibility::Infeasible
         );
         // A constant-spacing certificate says nothing of the headway: the key is absent.
-        let Feasibility::Feasible(c0) = min_ratio(PAPER_K, 0.0, &plf(0.0), &[0.5], 1e-6).unwrap()
+        let Feasibility::Feasible(c0) =
+            min_ratio(PAPER_K, 0.0, &plf(0.0), &[0.5], 1e-6, LyapunovForm::Common).unwrap()
         else {
             panic!("feasible");
         };
@@ -687,7 +771,7 @@ mod tests {
                 Feasibility::Infeasible
             );
             let Feasibility::Feasible(cert) =
-                min_ratio_block_diagonal(PAPER_K, 0.0, &g, &[0.5], 1e-6).unwrap()
+                min_ratio(PAPER_K, 0.0, &g, &[0.5], 1e-6, LyapunovForm::BlockDiagonal).unwrap()
             else {
                 panic!("{preset:?}: block-diagonal should be feasible");
             };
@@ -710,13 +794,20 @@ mod tests {
             Feasibility::Infeasible => f64::INFINITY,
         };
         let common = ratio(theorem1_min_ratio(PAPER_K, 0.0, &g, 0.5, 1e-6).unwrap());
-        let blocks = ratio(min_ratio_block_diagonal(PAPER_K, 0.0, &g, &[0.5], 1e-6).unwrap());
+        let blocks =
+            ratio(min_ratio(PAPER_K, 0.0, &g, &[0.5], 1e-6, LyapunovForm::BlockDiagonal).unwrap());
         assert!(blocks <= common * (1.0 + 1e-6), "{blocks} vs {common}");
         // With a time headway and two taus (Theorem 2) the same code path holds.
         let th = Coupling::time_headway(h(Preset::Pf, 6).h, 1.0);
-        let Feasibility::Feasible(c) =
-            min_ratio_block_diagonal(PAPER_K, 0.0, &th, &[0.34, 0.82], 1e-6).unwrap()
-        else {
+        let Feasibility::Feasible(c) = min_ratio(
+            PAPER_K,
+            0.0,
+            &th,
+            &[0.34, 0.82],
+            1e-6,
+            LyapunovForm::BlockDiagonal,
+        )
+        .unwrap() else {
             panic!("PF 6 with a 1 s headway");
         };
         assert_eq!(c.condition, "theorem2-block-diagonal");
@@ -768,10 +859,13 @@ mod tests {
     #[test]
     fn the_robust_condition_needs_more_than_the_nominal_one_and_checks_both_ends() {
         let g = h(Preset::Tpsf, 4);
-        let ratio = |taus: &[f64]| match min_ratio(PAPER_K, 0.0, &g, taus, 1e-6).unwrap() {
-            Feasibility::Feasible(c) => c,
-            Feasibility::Infeasible => panic!("feasible for {taus:?}"),
-        };
+        let ratio =
+            |taus: &[f64]| match min_ratio(PAPER_K, 0.0, &g, taus, 1e-6, LyapunovForm::Common)
+                .unwrap()
+            {
+                Feasibility::Feasible(c) => c,
+                Feasibility::Infeasible => panic!("feasible for {taus:?}"),
+            };
         let nominal = ratio(&[0.5]);
         let robust = ratio(&[0.34, 0.82]);
         assert!(robust.ratio >= nominal.ratio * (1.0 - 1e-6));

@@ -5,52 +5,13 @@
 //! for every combination of lags in the box `prod_i [lo_i, hi_i]` (time-varying too) exactly
 //! when it holds at the box's `2^N` vertices, which [`check_mixed`] evaluates.
 use crate::certificate::Certificate;
-use crate::lmi::{assemble, he, kron, Coupling, LmiError, Plant3, P_MAX};
+use crate::lmi::{psi, Coupling, LmiError, Lyapunov, Plant3, Plants, P_MAX};
 use crate::sdp::{dm, solve, sym_basis3, Lmi};
 use nalgebra::{DMatrix, Matrix3, RowVector3};
 use serde::Serialize;
 
 /// Followers whose lag ranges are more than a point, at most: `2^MIXED_MAX_FREE` vertices.
 pub const MIXED_MAX_FREE: usize = 12;
-
-/// (13) with the common Lyapunov matrix `I_N kron P` for followers of lags `taus` (one each).
-pub fn psi_mixed(
-    p: &Matrix3<f64>,
-    r: f64,
-    c: f64,
-    k: &RowVector3<f64>,
-    mc: &DMatrix<f64>,
-    taus: &[f64],
-) -> DMatrix<f64> {
-    let n = mc.nrows() / 3;
-    psi_mixed_full(&kron(&DMatrix::identity(n, n), &dm(p)), r, c, k, mc, taus)
-}
-
-/// (13) with a general Lyapunov matrix `X` (3N x 3N, symmetric) for followers of lags `taus`:
-/// `He(X diag(A_i) - X diag(B_i K) M) + c X` and `-X diag(B_i K) M` in place of the
-/// Kronecker forms.
-pub fn psi_mixed_full(
-    x: &DMatrix<f64>,
-    r: f64,
-    c: f64,
-    k: &RowVector3<f64>,
-    mc: &DMatrix<f64>,
-    taus: &[f64],
-) -> DMatrix<f64> {
-    let m = mc.nrows();
-    let mut a = DMatrix::<f64>::zeros(m, m);
-    let mut bkm = DMatrix::<f64>::zeros(m, m);
-    for (i, &tau) in taus.iter().enumerate() {
-        let plant = Plant3::new(tau);
-        a.view_mut((3 * i, 3 * i), (3, 3)).copy_from(&plant.a);
-        let bk = dm(&(plant.b * k));
-        bkm.view_mut((3 * i, 0), (3, m))
-            .copy_from(&(bk * mc.view((3 * i, 0), (3, m))));
-    }
-    let xbkm = x * bkm;
-    let x11 = he(&(x * a - &xbkm)) + x * c;
-    assemble(&x11, &-xbkm, r, mc)
-}
 
 /// The largest real part of an eigenvalue of the closed loop with followers of lags `taus`.
 pub fn mixed_max_real(k: [f64; 3], g: &Coupling, taus: &[f64]) -> f64 {
@@ -130,7 +91,7 @@ fn worst_psi(
     vertices
         .iter()
         .map(|taus| {
-            let psi = psi_mixed(p, r, c, k, mc, taus);
+            let psi = psi(Lyapunov::Common(p), r, c, k, mc, Plants::PerFollower(taus));
             ((&psi + psi.transpose()) * 0.5)
                 .symmetric_eigenvalues()
                 .max()
@@ -161,14 +122,39 @@ fn min_ratio_vertices(
     };
     let mut lmis = Vec::new();
     for taus in vertices {
-        let psi0 = psi_mixed_full(&zero, 0.0, c, k, mc, taus);
+        let psi0 = psi(
+            Lyapunov::Full(&zero),
+            0.0,
+            c,
+            k,
+            mc,
+            Plants::PerFollower(taus),
+        );
         let mut fi: Vec<DMatrix<f64>> = Vec::with_capacity(6 * n + 1);
         for i in 0..n {
             for e in &basis {
-                fi.push(psi_mixed_full(&unit(i, e), 0.0, c, k, mc, taus) - &psi0);
+                fi.push(
+                    psi(
+                        Lyapunov::Full(&unit(i, e)),
+                        0.0,
+                        c,
+                        k,
+                        mc,
+                        Plants::PerFollower(taus),
+                    ) - &psi0,
+                );
             }
         }
-        fi.push(psi_mixed_full(&zero, 1.0, c, k, mc, taus) - &psi0);
+        fi.push(
+            psi(
+                Lyapunov::Full(&zero),
+                1.0,
+                c,
+                k,
+                mc,
+                Plants::PerFollower(taus),
+            ) - &psi0,
+        );
         lmis.push(Lmi::nsd(
             &(psi0 + DMatrix::<f64>::identity(size, size) * delta),
             &fi,
@@ -256,7 +242,14 @@ pub fn check_mixed(
                 let top = all
                     .iter()
                     .map(|taus| {
-                        let psi = psi_mixed_full(&x, r, c, &kr, &mc, taus);
+                        let psi = psi(
+                            Lyapunov::Full(&x),
+                            r,
+                            c,
+                            &kr,
+                            &mc,
+                            Plants::PerFollower(taus),
+                        );
                         ((&psi + psi.transpose()) * 0.5)
                             .symmetric_eigenvalues()
                             .max()
@@ -284,7 +277,6 @@ pub fn check_mixed(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::lmi::{psi, Lyapunov};
 
     fn pf(n: usize) -> Coupling {
         let mut h = DMatrix::zeros(n, n);
@@ -308,9 +300,16 @@ mod tests {
             0.1,
             &k,
             &g.matrix(),
-            &Plant3::new(0.5),
+            Plants::Same(&Plant3::new(0.5)),
         );
-        let mixed = psi_mixed(&p, 2.0, 0.1, &k, &g.matrix(), &[0.5; 4]);
+        let mixed = psi(
+            Lyapunov::Common(&p),
+            2.0,
+            0.1,
+            &k,
+            &g.matrix(),
+            Plants::PerFollower(&[0.5; 4]),
+        );
         assert!((homogeneous - mixed).amax() < 1e-12);
         let spectrum = crate::closed_loop_spectrum([1.0, 2.0, 0.5], &g, &[0.5]);
         let m = mixed_max_real([1.0, 2.0, 0.5], &g, &[0.5; 4]);

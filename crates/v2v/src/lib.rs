@@ -37,6 +37,20 @@ pub struct Packet {
 }
 
 impl Packet {
+    /// A plain beacon: `sender`'s state sampled at `step`, its `seq`-th broadcast, with no
+    /// commanded acceleration (`u` 0), the leader as head and no maneuver message.
+    pub fn beacon(sender: VehicleId, seq: u32, step: u64, state: State) -> Self {
+        Self {
+            sender,
+            seq,
+            step,
+            state,
+            u: 0.0,
+            head: VehicleId::LEADER,
+            maneuver: None,
+        }
+    }
+
     /// Whether the sender heads a split platoon (it announces itself as its head).
     pub fn heads(&self) -> bool {
         self.head == self.sender && !self.sender.is_leader()

@@ -42,25 +42,28 @@ pub struct CellReply {
     pub error: Option<String>,
 }
 
+/// One call of [`Executor::execute`]: the cells to run and where their replies go.
+pub struct Execution<'a> {
+    /// The cells to run.
+    pub jobs: &'a [CellJob],
+    /// The campaign directory being written, for the executor's own logs (e.g. `dask.log`).
+    pub dir: &'a Path,
+    /// Once its flag is set, no new job starts.
+    pub stop: &'a Stop,
+    /// Takes each reply on the calling thread as it comes, in any order. Its error ends the
+    /// execution with that error (later replies are not recorded).
+    pub record: &'a mut dyn FnMut(CellReply) -> Result<()>,
+}
+
 /// Runs a campaign's cells (see [`super::run`]): whatever runs a cell hands back its
 /// [`CellReply`], and the campaign records it.
 pub trait Executor {
     /// How `campaign.json` names it ("local pool, 4 jobs", "dask tcp://10.0.0.5:8786").
     fn name(&self) -> String;
 
-    /// Runs `jobs`, handing each reply to `record` on the calling thread as it comes, in any
-    /// order. Starts no new job once `stop`'s flag is set. An error of `record` ends the
-    /// execution with that error (later replies are not recorded). `dir` is the campaign
-    /// directory being written, for the executor's own logs (e.g. `dask.log`). An error is the
-    /// executor's failure: the replies recorded so far are kept and the campaign stays
-    /// resumable.
-    fn execute(
-        &self,
-        jobs: &[CellJob],
-        dir: &Path,
-        stop: &Stop,
-        record: &mut dyn FnMut(CellReply) -> Result<()>,
-    ) -> Result<()>;
+    /// Runs `run`'s jobs, as [`Execution`] says. An error is the executor's failure: the
+    /// replies recorded so far are kept and the campaign stays resumable.
+    fn execute(&self, run: Execution<'_>) -> Result<()>;
 
     /// What its in-process cells plug in instead of the built-in parts (a search re-runs its
     /// worst schedule with them); none unless it says so.
@@ -273,13 +276,10 @@ impl Executor for LocalPool {
         self.plugins.clone()
     }
 
-    fn execute(
-        &self,
-        jobs: &[CellJob],
-        _dir: &Path,
-        stop: &Stop,
-        record: &mut dyn FnMut(CellReply) -> Result<()>,
-    ) -> Result<()> {
+    fn execute(&self, run: Execution<'_>) -> Result<()> {
+        let Execution {
+            jobs, stop, record, ..
+        } = run;
         let next = AtomicUsize::new(0);
         // Set by the caller's stop, or here when recording failed.
         let failed = AtomicBool::new(false);
@@ -347,35 +347,27 @@ impl Executor for Dask {
         format!("dask {}", self.address)
     }
 
-    fn execute(
-        &self,
-        jobs: &[CellJob],
-        dir: &Path,
-        stop: &Stop,
-        record: &mut dyn FnMut(CellReply) -> Result<()>,
-    ) -> Result<()> {
+    fn execute(&self, run: Execution<'_>) -> Result<()> {
         dask(
             &self.address,
             &platoon_program(self.program.as_deref())?,
-            jobs,
-            &dir.join("dask.log"),
-            stop,
-            record,
+            run,
         )
     }
 }
 
-/// Sends `jobs` to the Dask scheduler at `address` through the driver, whose workers run the
-/// cells in their process or as `exe campaign-cell` (see [`Dask`]). Replies are handed to `record` as they complete; once `stop` is set
-/// the driver gets SIGTERM. The driver's log goes to `log`.
-fn dask(
-    address: &str,
-    exe: &Path,
-    jobs: &[CellJob],
-    log: &Path,
-    stop: &Stop,
-    record: &mut dyn FnMut(CellReply) -> Result<()>,
-) -> Result<()> {
+/// Sends `run`'s jobs to the Dask scheduler at `address` through the driver, whose workers run
+/// the cells in their process or as `exe campaign-cell` (see [`Dask`]). Replies are handed to
+/// `run.record` as they complete; once `run.stop` is set the driver gets SIGTERM. The driver's
+/// log goes to `dask.log` in `run.dir`.
+fn dask(address: &str, exe: &Path, run: Execution<'_>) -> Result<()> {
+    let Execution {
+        jobs,
+        dir,
+        stop,
+        record,
+    } = run;
+    let log = &dir.join("dask.log");
     let mut command = crate::sumo::bridge_module("platoon.dask")?;
     let log_file =
         std::fs::File::create(log).with_context(|| format!("creating {}", log.display()))?;

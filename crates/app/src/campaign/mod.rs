@@ -14,7 +14,8 @@ mod exec;
 mod report;
 
 pub use exec::{
-    execute, execute_with, CellJob, CellPlugins, CellReply, Dask, Executor, LocalCluster, LocalPool,
+    execute, execute_with, CellJob, CellPlugins, CellReply, Dask, Execution, Executor,
+    LocalCluster, LocalPool,
 };
 pub use platoon_campaign::metrics::Metric;
 pub use platoon_campaign::{Campaign, Cell};
@@ -527,7 +528,12 @@ pub fn run(
         progress.at(done);
         Ok(())
     };
-    let executed = executor.execute(&pending, &staging, stop, &mut record);
+    let executed = executor.execute(Execution {
+        jobs: &pending,
+        dir: &staging,
+        stop,
+        record: &mut record,
+    });
     progress.finish();
 
     // Reports, then the directory goes into place (unless stopped: it stays .partial).

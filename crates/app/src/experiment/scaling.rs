@@ -209,12 +209,13 @@ pub fn scaling(
                     let common = ratio(platoon_synthesis::theorem1_min_ratio(
                         k, 0.0, &coupling, tau, 1e-6,
                     ))?;
-                    let block = ratio(platoon_synthesis::min_ratio_block_diagonal(
+                    let block = ratio(platoon_synthesis::min_ratio(
                         k,
                         0.0,
                         &coupling,
                         &[tau],
                         1e-6,
+                        platoon_synthesis::LyapunovForm::BlockDiagonal,
                     ))?;
                     (Some(common.0), Some(block))
                 } else {

@@ -5,7 +5,7 @@ use super::{
     Evaluation, Found, MethodOutcome, Problem, ProblemOutcome, Search, SearchError, SearchOptions,
     SearchOutcome,
 };
-use crate::campaign::{CellJob, CellReply, Executor};
+use crate::campaign::{CellJob, CellReply, Execution, Executor};
 use crate::progress::Progress;
 use crate::run::Stop;
 use anyhow::{bail, Context, Result};
@@ -25,14 +25,20 @@ pub(super) fn execute(
     stop: &Stop,
 ) -> Result<Vec<Option<CellReply>>, SearchError> {
     let mut replies: Vec<Option<CellReply>> = vec![None; jobs.len()];
+    let mut record = |r: CellReply| {
+        let i = r.index;
+        match replies.get_mut(i) {
+            Some(slot) => *slot = Some(r),
+            None => bail!("a worker replied for job {i}, which this batch does not have"),
+        }
+        Ok(())
+    };
     executor
-        .execute(jobs, dir, stop, &mut |r: CellReply| {
-            let i = r.index;
-            match replies.get_mut(i) {
-                Some(slot) => *slot = Some(r),
-                None => bail!("a worker replied for job {i}, which this batch does not have"),
-            }
-            Ok(())
+        .execute(Execution {
+            jobs,
+            dir,
+            stop,
+            record: &mut record,
         })
         .map_err(SearchError::Executor)?;
     Ok(replies)

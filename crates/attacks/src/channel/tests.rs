@@ -7,15 +7,12 @@ fn pf(n: usize) -> Topology {
 }
 
 fn packet(sender: u16, seq: u32, step: u64) -> Packet {
-    Packet {
-        sender: VehicleId(sender),
+    Packet::beacon(
+        VehicleId(sender),
         seq,
         step,
-        state: State::new(f64::from(sender), 1.0, 0.0),
-        u: 0.0,
-        head: VehicleId::LEADER,
-        maneuver: None,
-    }
+        State::new(f64::from(sender), 1.0, 0.0),
+    )
 }
 
 struct Out {
