@@ -1716,29 +1716,43 @@ fn a_split_behind_a_cut_in_on_sumo_agrees_with_the_native_plant() {
     mode_times_agree(&s, &n, 0.05);
 }
 
+/// Runs the maneuver config `config` (`followers` followers) on SUMO and natively and checks
+/// that they agree: nobody collides, SUMO's report is clean, every gap within 0.05 m of the
+/// native run's, events.csv's `event` rows the same (`count` of them), each vehicle's time in
+/// each mode within 0.05 s. Returns the temporary directory and the SUMO run's.
+fn maneuver_on_sumo_agrees(
+    config: &str,
+    followers: usize,
+    event: &str,
+    count: usize,
+) -> (tempfile::TempDir, PathBuf) {
+    let (tmp, s, n) = sumo_and_native(config);
+    let (sumo, native) = (tmp.path().join("sumo"), tmp.path().join("native"));
+    assert_eq!(s["safety"]["collided"], false, "{}", s["safety"]);
+    sumo_report_clean(&sumo);
+    let worst = worst_gap_difference(&rows(&sumo), &rows(&native), 7001 * followers);
+    assert!(worst < 0.05, "the gaps differ by up to {worst} m");
+    let events = |run: &Path| -> Vec<String> {
+        std::fs::read_to_string(run.join("events.csv"))
+            .unwrap()
+            .lines()
+            .filter(|l| l.contains(event))
+            .map(str::to_string)
+            .collect()
+    };
+    assert_eq!(events(&sumo).len(), count);
+    assert_eq!(events(&sumo), events(&native));
+    mode_times_agree(&s, &n, 0.05);
+    (tmp, sumo)
+}
+
 /// A join at the tail negotiated over V2V (`configs/join.toml`) with SUMO as the plant: the
 /// joiner's radar (SUMO's getLeader) sees the tail as it approaches, nobody collides or
 /// teleports, and the run agrees with the native plant's: every gap within 0.05 m, the joiner
 /// admitted at the same step.
 #[test]
 fn a_join_at_the_tail_on_sumo_agrees_with_the_native_plant() {
-    let (tmp, s, n) = sumo_and_native("configs/join.toml");
-    let (sumo, native) = (tmp.path().join("sumo"), tmp.path().join("native"));
-    assert_eq!(s["safety"]["collided"], false, "{}", s["safety"]);
-    sumo_report_clean(&sumo);
-    let worst = worst_gap_difference(&rows(&sumo), &rows(&native), 7001 * 4);
-    assert!(worst < 0.05, "the gaps differ by up to {worst} m");
-    let joined = |run: &Path| -> Vec<String> {
-        std::fs::read_to_string(run.join("events.csv"))
-            .unwrap()
-            .lines()
-            .filter(|l| l.contains(",joined,"))
-            .map(str::to_string)
-            .collect()
-    };
-    assert_eq!(joined(&sumo).len(), 1);
-    assert_eq!(joined(&sumo), joined(&native));
-    mode_times_agree(&s, &n, 0.05);
+    maneuver_on_sumo_agrees("configs/join.toml", 4, ",joined,", 1);
 }
 
 /// A join in the middle on SUMO (`configs/join-middle.toml`): the joiner departs in the lane
@@ -1747,10 +1761,7 @@ fn a_join_at_the_tail_on_sumo_agrees_with_the_native_plant() {
 /// joiner admitted at the same step; nobody collides.
 #[test]
 fn a_join_in_the_middle_on_sumo_changes_lanes_and_agrees_with_the_native_plant() {
-    let (tmp, s, n) = sumo_and_native("configs/join-middle.toml");
-    let (sumo, native) = (tmp.path().join("sumo"), tmp.path().join("native"));
-    assert_eq!(s["safety"]["collided"], false, "{}", s["safety"]);
-    sumo_report_clean(&sumo);
+    let (_tmp, sumo) = maneuver_on_sumo_agrees("configs/join-middle.toml", 4, ",joined,", 1);
     let report = json(&sumo.join("sumo.json"));
     assert_eq!(
         report["lane_changes"],
@@ -1762,19 +1773,6 @@ fn a_join_in_the_middle_on_sumo_changes_lanes_and_agrees_with_the_native_plant()
         .find(|l| l.contains("id=\"follower4\""))
         .unwrap();
     assert!(joiner.contains("departLane=\"2\""), "{joiner}");
-    let worst = worst_gap_difference(&rows(&sumo), &rows(&native), 7001 * 4);
-    assert!(worst < 0.05, "the gaps differ by up to {worst} m");
-    let joined = |run: &Path| -> Vec<String> {
-        std::fs::read_to_string(run.join("events.csv"))
-            .unwrap()
-            .lines()
-            .filter(|l| l.contains(",joined,"))
-            .map(str::to_string)
-            .collect()
-    };
-    assert_eq!(joined(&sumo).len(), 1);
-    assert_eq!(joined(&sumo), joined(&native));
-    mode_times_agree(&s, &n, 0.05);
 }
 
 /// Members leave on SUMO (`configs/leave.toml`): each leaver changes to the lane beside the
@@ -1784,10 +1782,7 @@ fn a_join_in_the_middle_on_sumo_changes_lanes_and_agrees_with_the_native_plant()
 /// fcd.xml placing each leaver on its new lane; nobody collides.
 #[test]
 fn leaves_on_sumo_change_lanes_and_agree_with_the_native_plant() {
-    let (tmp, s, n) = sumo_and_native("configs/leave.toml");
-    let (sumo, native) = (tmp.path().join("sumo"), tmp.path().join("native"));
-    assert_eq!(s["safety"]["collided"], false, "{}", s["safety"]);
-    sumo_report_clean(&sumo);
+    let (_tmp, sumo) = maneuver_on_sumo_agrees("configs/leave.toml", 5, ",left,left,", 2);
     let report = json(&sumo.join("sumo.json"));
     let leaves: Vec<(u64, String, u64)> = report["lane_changes"]
         .as_array()
@@ -1808,19 +1803,6 @@ fn leaves_on_sumo_change_lanes_and_agree_with_the_native_plant() {
             (4502, "follower5".to_string(), 2)
         ]
     );
-    let worst = worst_gap_difference(&rows(&sumo), &rows(&native), 7001 * 5);
-    assert!(worst < 0.05, "the gaps differ by up to {worst} m");
-    let left = |run: &Path| -> Vec<String> {
-        std::fs::read_to_string(run.join("events.csv"))
-            .unwrap()
-            .lines()
-            .filter(|l| l.contains(",left,left,"))
-            .map(str::to_string)
-            .collect()
-    };
-    assert_eq!(left(&sumo).len(), 2);
-    assert_eq!(left(&sumo), left(&native));
-    mode_times_agree(&s, &n, 0.05);
     let fcd = std::fs::read_to_string(sumo.join("fcd.xml")).unwrap();
     let lane_at = |t: &str| -> String {
         let step = &fcd[fcd.find(&format!("<timestep time=\"{t}\"")).unwrap()..];
