@@ -46,25 +46,48 @@ the `detections` dataset); `bridge/examples/speed_check.py` is one.
 import math
 import sys
 import time
-from typing import NamedTuple
+from typing import NamedTuple, Optional
 
 from . import plugin as _plugin
 from . import wire as w
 from .plugin import Run, Topology  # noqa: F401 (part of this SDK's API)
 
 # Modes a command may report (Command.mode), as the outputs name them.
-COOP, ZERO, HOLD, PREDICT, ACC, BLEND = range(6)
+COOP, ZERO, HOLD, PREDICT, ACC, BLEND, CUT_IN, OUTSIDE, LEFT, BESIDE = range(10)
 
 # A vehicle id that no vehicle has (Rust: u16::MAX): what a delivery's receiver or sender becomes
 # when the rx batch names a vehicle that is not in this platoon.
 UNKNOWN = 0xFFFF
 
 
+# A maneuver message's addressee when it is for every member, and a vehicle field it leaves
+# empty, in a platoon's ids (the Rust SDK's VehicleId(u16::MAX)).
+EVERYONE = NOBODY = UNKNOWN
+
+
+class Maneuver(NamedTuple):
+    """A maneuver message riding on a packet (`[maneuvers]`, docs/maneuvers.md), as the Rust
+    SDK's `Packet::maneuver` carries it: its `kind` (wire.V2vPacket.JOIN_REQUEST ...
+    LEAVE_NOTICE), its addressee `to` (EVERYONE: every member), the sender's maneuver sequence
+    number `seq`, `arg` (an accept's middle flag, a refusal's reason, an update's generation),
+    the vehicle it names and, for an update that a vehicle joined, whom it follows (`vehicle`,
+    `behind`; NOBODY: none), in the platoon's ids. A controller of a platoon that negotiates
+    maneuvers reads them in the deliveries and may send its own on its packets."""
+
+    kind: int
+    to: int
+    seq: int
+    arg: int = 0
+    vehicle: int = NOBODY
+    behind: int = NOBODY
+
+
 class Packet(NamedTuple):
     """A V2V broadcast: the sender (0 = the leader), its sequence number, the step its state was
     sampled at, that state (p, v, a), the sender's latest command u, and the head of the
     platoon the sender drives in (0 = the leader; the sender itself when it heads the part of
-    a platoon split behind a car that cut in, docs/traffic.md)."""
+    a platoon split behind a car that cut in, docs/traffic.md), and the maneuver message it
+    carries, if any (`Maneuver`)."""
 
     sender: int
     seq: int
@@ -72,6 +95,7 @@ class Packet(NamedTuple):
     state: tuple
     u: float = 0.0
     head: int = 0
+    maneuver: Optional[Maneuver] = None
 
 
 class Delivery(NamedTuple):
@@ -285,6 +309,8 @@ def _transmit(controllers, k, t, states, n1, out, sent):
                 sender=base + s, seq=p.seq, step=p.step, stamp_ns=stamp, u=p.u, head=base + p.head
             )
             packet.state[0], packet.state[1], packet.state[2] = p.state
+            if p.maneuver is not None:
+                _maneuver_to_wire(p.maneuver, packet, base)
             for r in out[s]:
                 items.append(
                     w.LinkPacket(receiver=base + r, kind=w.LinkPacket.DELIVERY, packet=packet)
@@ -297,9 +323,46 @@ def _local(g, j, n1):
     return g - j * n1 if j * n1 <= g < (j + 1) * n1 else UNKNOWN
 
 
+def _maneuver_to_wire(m, packet, base):
+    """Maneuver `m` (platoon ids from `base`) into the wire packet's maneuver fields."""
+
+    def wire_id(v, none):
+        return none if v == NOBODY else base + v
+
+    packet.maneuver = m.kind
+    packet.maneuver_arg = m.arg
+    packet.maneuver_to = wire_id(m.to, w.V2vPacket.EVERYONE)
+    packet.maneuver_seq = m.seq
+    packet.maneuver_vehicle = wire_id(m.vehicle, w.V2vPacket.NOBODY)
+    packet.maneuver_behind = wire_id(m.behind, w.V2vPacket.NOBODY)
+
+
+def _maneuver(p, j, n1):
+    """The maneuver message of wire packet `p` in platoon `j`'s ids, or None: without one, and,
+    as the Rust SDK drops it, for one that names a vehicle of another platoon or of none."""
+    if p.maneuver == w.V2vPacket.NO_MANEUVER:
+        return None
+    ids = []
+    for g in (p.maneuver_to, p.maneuver_vehicle, p.maneuver_behind):
+        v = NOBODY if g == w.V2vPacket.NOBODY else _local(g, j, n1)
+        if v == UNKNOWN and g != w.V2vPacket.NOBODY:
+            return None
+        ids.append(v)
+    to, vehicle, behind = ids
+    return Maneuver(p.maneuver, to, p.maneuver_seq, p.maneuver_arg, vehicle, behind)
+
+
 def _packet(p, j, n1) -> Packet:
     state = (p.state[0], p.state[1], p.state[2])
-    return Packet(_local(p.sender, j, n1), p.seq, p.step, state, p.u, _local(p.head, j, n1))
+    return Packet(
+        _local(p.sender, j, n1),
+        p.seq,
+        p.step,
+        state,
+        p.u,
+        _local(p.head, j, n1),
+        _maneuver(p, j, n1),
+    )
 
 
 def sort_rx(rx, n1, platoons):

@@ -101,6 +101,42 @@ def test_an_rx_batch_is_sorted_as_the_rust_sdk_sorts_it():
     assert jammed == [[False, False, True], [False, False, False]]
 
 
+def test_maneuver_messages_cross_the_wire_in_the_platoons_ids():
+    """A Python controller sends and reads maneuver messages as the Rust SDK does: wire ids
+    from the platoon's base, EVERYONE and NOBODY as the wire's sentinels, a message naming a
+    vehicle of another platoon dropped (the beacon kept)."""
+    update = pc.Maneuver(w.V2vPacket.UPDATE_JOINED, pc.EVERYONE, 4, 1, vehicle=2, behind=1)
+
+    class Announcing(pc.Controller):
+        def transmit(self, step, tx):
+            tx.append(pc.Packet(0, 9, step.k, (1.0, 2.0, 3.0), maneuver=update))
+
+    topo = pc.Topology(*TPSF2)
+    sent = [[False] * 3, [False] * 3]
+    items = pc._transmit(
+        [Broadcasting([]), Announcing()], 2, 0.02, [None] * 6, 3, topo.out_neighbours, sent
+    )
+    p = items[0].packet
+    assert (p.maneuver, p.maneuver_arg, p.maneuver_seq) == (w.V2vPacket.UPDATE_JOINED, 1, 4)
+    assert (p.maneuver_to, p.maneuver_vehicle, p.maneuver_behind) == (w.V2vPacket.EVERYONE, 5, 4)
+    back = pc._packet(p, 1, 3)
+    assert back.maneuver == update and back.state == (1.0, 2.0, 3.0)
+    # A packet without one, and one naming a vehicle of platoon 0 read by platoon 1.
+    assert pc._packet(w.V2vPacket(sender=3), 1, 3).maneuver is None
+    p.maneuver_vehicle = 2
+    assert pc._packet(p, 1, 3).maneuver is None
+    # A request to the leader: NOBODY stays NOBODY.
+    request = pc.Maneuver(w.V2vPacket.JOIN_REQUEST, 0, 1, vehicle=1)
+    wire = w.V2vPacket(sender=5)
+    pc._maneuver_to_wire(request, wire, 3)
+    assert (wire.maneuver_to, wire.maneuver_vehicle, wire.maneuver_behind) == (
+        3,
+        4,
+        w.V2vPacket.NOBODY,
+    )
+    assert pc._packet(wire, 1, 3).maneuver == request
+
+
 class Commanding(pc.Controller):
     def __init__(self, commands):
         self.commands = commands
