@@ -149,11 +149,14 @@ fn the_designed_gains() {
         &[d.sdps.to_string()],
     );
 
-    // The paper scenario with the designed K and beta1 = ratio x beta2, as `run --design`.
+    // The paper scenario with the designed K and beta1 = ratio x beta2 as published (to the
+    // digits printed: the solver's last digits follow the machine's BLAS, and the broadcasts
+    // follow them).
+    let printed = |x: f64| (x * 100.0).round() / 100.0;
     let mut designed = config.clone();
     let paper = designed.control.paper_law_mut();
-    paper.gain = d.k;
-    paper.beta1 = d.beta1_over_beta2 * paper.beta2;
+    paper.gain = d.k.map(printed);
+    paper.beta1 = printed(d.beta1_over_beta2) * paper.beta2;
     let (_, sc) = platoon_config::parse(
         &platoon_config::to_toml(&designed),
         Path::new("designed.toml"),
