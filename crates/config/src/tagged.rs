@@ -489,7 +489,9 @@ mod tests {
                 "drift",
                 "feigned_braking",
                 "accel_scale",
-                "forged_head"
+                "forged_head",
+                "jam_maneuvers",
+                "forge_maneuver"
             ]
         );
         assert!(link.matches("channel.attacks[12]"));
