@@ -6,11 +6,11 @@
 //! with the native plant (tests/sumo.rs).
 mod common;
 
-use common::maneuvers::{of, run, run_with};
+use common::maneuvers::{forged_to_leader, of, run, run_with};
 use common::repo;
 use platoon_attacks::inject::Step;
+use platoon_control::Delivery;
 use platoon_control::Mode;
-use platoon_control::{Delivery, Packet};
 use platoon_maneuver::{Body, Change, Message};
 use platoon_model::VehicleId;
 use platoon_sim::truth::Label;
@@ -172,27 +172,16 @@ fn a_join_jammed_half_way_is_called_off_and_the_gap_closes() {
 #[test]
 fn a_false_in_position_report_admits_nobody_into_a_slot_it_is_not_in() {
     fn early(step: &Step<'_>, out: &mut Vec<Delivery>) {
-        if step.k != 2750 {
-            return;
+        if step.k == 2750 {
+            let state = step.states[4];
+            out.push(forged_to_leader(
+                step.k,
+                4,
+                state,
+                (u32::MAX, 100),
+                Body::InPosition,
+            ));
         }
-        let m = Message {
-            sender: VehicleId(4),
-            to: VehicleId::LEADER,
-            seq: 100,
-            body: Body::InPosition,
-        };
-        out.push(Delivery {
-            receiver: VehicleId::LEADER,
-            packet: Packet {
-                sender: VehicleId(4),
-                seq: u32::MAX,
-                step: step.k,
-                state: step.states[4],
-                u: 0.0,
-                head: VehicleId::LEADER,
-                maneuver: Some(m),
-            },
-        });
     }
     let (rows, log) = run_with(scenario(), |_, _| false, early);
     let update = log

@@ -5,11 +5,11 @@
 //! (tests/sumo.rs).
 mod common;
 
-use common::maneuvers::{of, run, run_with};
+use common::maneuvers::{forged_to_leader, of, run, run_with};
 use common::repo;
 use platoon_attacks::inject::Step;
-use platoon_control::{Delivery, Mode, Packet};
-use platoon_maneuver::{Body, Change, Message};
+use platoon_control::{Delivery, Mode};
+use platoon_maneuver::{Body, Change};
 use platoon_model::VehicleId;
 use platoon_sim::truth::Label;
 use platoon_sim::{Scenario, StepRow};
@@ -163,27 +163,16 @@ fn a_leave_whose_notices_are_lost_is_asked_again_or_given_up_safely() {
 #[test]
 fn a_forged_leave_notice_ejects_the_member_safely_and_is_labelled_forged() {
     fn forged_leave(step: &Step<'_>, out: &mut Vec<Delivery>) {
-        if step.k != 1000 {
-            return;
+        if step.k == 1000 {
+            let state = step.states[2];
+            out.push(forged_to_leader(
+                step.k,
+                2,
+                state,
+                (u32::MAX, 1),
+                Body::LeaveNotice,
+            ));
         }
-        let m = Message {
-            sender: VehicleId(2),
-            to: VehicleId::LEADER,
-            seq: 1,
-            body: Body::LeaveNotice,
-        };
-        out.push(Delivery {
-            receiver: VehicleId::LEADER,
-            packet: Packet {
-                sender: VehicleId(2),
-                seq: u32::MAX,
-                step: step.k,
-                state: step.states[2],
-                u: 0.0,
-                head: VehicleId::LEADER,
-                maneuver: Some(m),
-            },
-        });
     }
     let mut text = leave_config();
     let cut = text.find("[[maneuvers.leaves]]").unwrap();

@@ -5,11 +5,11 @@
 //! agree on it bit for bit: tests/cosim.rs.
 mod common;
 
-use common::maneuvers::{of, run, run_with};
+use common::maneuvers::{forged_to_leader, of, run, run_with};
 use common::{cut_in_config, repo};
 use platoon_attacks::inject::Step;
-use platoon_control::{Delivery, Mode, Packet};
-use platoon_maneuver::{Body, Change, Message, Refusal};
+use platoon_control::{Delivery, Mode};
+use platoon_maneuver::{Body, Change, Refusal};
 use platoon_model::VehicleId;
 use platoon_sim::truth::Label;
 use platoon_sim::{Scenario, StepRow};
@@ -176,24 +176,18 @@ fn a_bad_maneuvers_table_names_its_key() {
 #[test]
 fn a_forged_join_request_keeps_the_real_joiner_out_and_is_labelled_forged() {
     fn ghost(step: &Step<'_>, out: &mut Vec<Delivery>) {
-        if step.k != 300 {
-            return;
+        if step.k == 300 {
+            let state = step.states[4];
+            out.push(forged_to_leader(
+                step.k,
+                7,
+                state,
+                (1, 1),
+                Body::JoinRequest {
+                    behind: VehicleId(3),
+                },
+            ));
         }
-        let m = Message {
-            sender: VehicleId(7),
-            to: VehicleId::LEADER,
-            seq: 1,
-            body: Body::JoinRequest {
-                behind: VehicleId(3),
-            },
-        };
-        out.push(Delivery {
-            receiver: VehicleId::LEADER,
-            packet: Packet {
-                maneuver: Some(m),
-                ..Packet::beacon(VehicleId(7), 1, step.k, step.states[4])
-            },
-        });
     }
     let s = scenario(&join_config());
     let deadline = 300 + (40.0 / s.dt()).round() as u64;

@@ -1,8 +1,9 @@
 //! Maneuver runs in process through an injector that records what it saw: the messages as
 //! they crossed the channel, each delivery's ground-truth label.
 use platoon_attacks::inject::{InjectError, Injector, Reception, Step};
-use platoon_control::Delivery;
-use platoon_maneuver::Message;
+use platoon_control::{Delivery, Packet};
+use platoon_maneuver::{Body, Message};
+use platoon_model::{State, VehicleId};
 use platoon_sim::truth::{Label, TruthLabeler};
 use platoon_sim::{InjectorFactory, Plugins, Scenario, Simulation, StepRow};
 use std::sync::{Arc, Mutex};
@@ -101,4 +102,28 @@ pub fn run(s: Scenario, drop: fn(u64, &Message) -> bool) -> (Vec<StepRow>, Vec<(
 
 pub fn of(rows: &[StepRow], v: u16) -> Vec<&StepRow> {
     rows.iter().filter(|r| r.vehicle == v).collect()
+}
+
+/// A delivery to the leader at step `k` of a message `body` in `sender`'s name that it never
+/// sent (message sequence number `seq`), on a packet numbered `packet_seq` carrying `state`.
+pub fn forged_to_leader(
+    k: u64,
+    sender: u16,
+    state: State,
+    (packet_seq, seq): (u32, u16),
+    body: Body,
+) -> Delivery {
+    let sender = VehicleId(sender);
+    Delivery {
+        receiver: VehicleId::LEADER,
+        packet: Packet {
+            maneuver: Some(Message {
+                sender,
+                to: VehicleId::LEADER,
+                seq,
+                body,
+            }),
+            ..Packet::beacon(sender, packet_seq, k, state)
+        },
+    }
 }
