@@ -29,7 +29,9 @@ mod scaling;
 mod table1;
 mod topologies;
 mod traffic;
-pub(crate) use controllers::{configure as configure_law, keep_law_spacing};
+pub(crate) use controllers::{
+    configure as configure_law, keep_law_spacing, law_config, on_standstill,
+};
 pub use controllers::{
     controllers, Controllers, ControllersOptions, ControllersRow, ATTACKS as CONTROLLER_ATTACKS,
 };

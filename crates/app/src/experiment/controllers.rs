@@ -205,16 +205,7 @@ pub(crate) fn configure(
     beacon_period_s: f64,
 ) -> platoon_config::Config {
     let mut c = base.clone();
-    c.control.law = match law {
-        LawName::Paper => LawConfig::Paper(base.control.paper_law()),
-        // The cruise control's set speed above the profile's 25 m/s (SUMO's 14 m/s would
-        // hold the followers below the leader's speed).
-        LawName::Acc => LawConfig::Acc(platoon_control::laws::PlexeAccParams {
-            desired_speed_mps: 30.0,
-            ..Default::default()
-        }),
-        _ => law.defaults(),
-    };
+    c.control.law = law_config(base, law);
     c.topology = TopologyConfig::from(preset);
     if keep_law_spacing(&mut c) {
         c.trigger.rule = RuleConfig::Periodic {
@@ -224,6 +215,32 @@ pub(crate) fn configure(
     }
     in_formation(&mut c);
     c
+}
+
+/// `law` with its defaults as the experiments run it: the paper's with `base`'s gains, Plexe's
+/// ACC with its cruise control set above the profile's 25 m/s (SUMO's 14 m/s would hold the
+/// followers below the leader's speed).
+pub(crate) fn law_config(base: &platoon_config::Config, law: LawName) -> LawConfig {
+    match law {
+        LawName::Paper => LawConfig::Paper(base.control.paper_law()),
+        LawName::Acc => LawConfig::Acc(platoon_control::laws::PlexeAccParams {
+            desired_speed_mps: 30.0,
+            ..Default::default()
+        }),
+        _ => law.defaults(),
+    }
+}
+
+/// Sets the standstill gap (m, bumper to bumper) of a field's law to `standstill`.
+pub(crate) fn on_standstill(law: &mut LawConfig, standstill: f64) {
+    match law {
+        LawConfig::Paper(_) => {}
+        LawConfig::Acc(p) => p.standstill_m = standstill,
+        LawConfig::PathCacc(p) => p.spacing_m = standstill,
+        LawConfig::Ploeg(p) => p.standstill_m = standstill,
+        LawConfig::Consensus(p) => p.standstill_m = standstill,
+        LawConfig::Flatbed(p) => p.spacing_m = standstill,
+    }
 }
 
 /// Sets the platoon's spacing policy to the one `c`'s law keeps (its distances plus the

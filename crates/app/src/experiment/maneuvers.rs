@@ -1,14 +1,12 @@
 //! Maneuvers by law and attack ([`maneuvers`]).
-use super::{keep_law_spacing, refuse, ExperimentError, Result};
+use super::{keep_law_spacing, law_config, on_standstill, refuse, ExperimentError, Result};
 use crate::progress::Progress;
 use platoon_attacks::inject::{InjectError, Injector, Reception, Step};
-use platoon_config::{
-    Config, DosConfig, Embedded, LawConfig, LawName, LinkAttackConfig, LinkKindConfig,
-};
+use platoon_config::{Config, DosConfig, Embedded, LawName, LinkAttackConfig, LinkKindConfig};
 use platoon_control::Mode;
 use platoon_output::plots;
 use platoon_output::rundir::RunDir;
-use platoon_sim::{InjectorFactory, Plugins, StepRow};
+use platoon_sim::{InjectorFactory, Plugins};
 use std::fmt::Write as _;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
@@ -262,7 +260,7 @@ fn cell(
     let ask = (at_s / scenario.dt()).round() as u64;
     let joins = maneuver != "leave";
     let (mut done, mut worst) = (None, 0.0f64);
-    let mut last: Vec<StepRow> = Vec::new();
+    let mut left_lane = 0;
     let summary = platoon_sim::run_until_plugins(&scenario, &plugins, |sim| {
         let rows = sim.rows();
         let subject = &rows[vehicle];
@@ -282,8 +280,8 @@ fn cell(
                 worst = worst.max(r.spacing_error.abs());
             }
         }
-        last.clear();
-        last.extend_from_slice(rows);
+        // Leaving is for good: the last step's count is everyone who left.
+        left_lane = rows.iter().filter(|r| r.mode == Mode::Left).count();
         std::ops::ControlFlow::Continue(())
     })?;
     let outcome = match (summary.safety.collided, done) {
@@ -295,7 +293,7 @@ fn cell(
         completion_s: done.map(|k| (k.saturating_sub(ask)) as f64 * scenario.dt()),
         max_spacing_error_m: worst,
         min_gap_m: summary.safety.min_gap_m,
-        left_lane: last.iter().filter(|r| r.mode == Mode::Left).count(),
+        left_lane,
         messages: messages.load(Ordering::Relaxed),
         ..row(outcome)
     })
@@ -307,19 +305,11 @@ fn cell(
 /// speed, the guard on.
 fn configure(base: &Config, law: LawName) -> Config {
     let mut c = base.clone();
-    let standstill = base.platoon.spacing_m - base.platoon.vehicle_length_m;
-    c.control.law = law.defaults();
-    match &mut c.control.law {
-        LawConfig::Paper(_) => {}
-        LawConfig::Acc(p) => {
-            p.standstill_m = standstill;
-            p.desired_speed_mps = 30.0;
-        }
-        LawConfig::PathCacc(p) => p.spacing_m = standstill,
-        LawConfig::Ploeg(p) => p.standstill_m = standstill,
-        LawConfig::Consensus(p) => p.standstill_m = standstill,
-        LawConfig::Flatbed(p) => p.spacing_m = standstill,
-    }
+    c.control.law = law_config(base, law);
+    on_standstill(
+        &mut c.control.law,
+        base.platoon.spacing_m - base.platoon.vehicle_length_m,
+    );
     let before = base.platoon.spacing_m;
     keep_law_spacing(&mut c);
     let speed = base

@@ -1,10 +1,10 @@
 //! Cut-ins by law and attack ([`traffic`]).
 use super::{
-    configure_law, in_formation, keep_law_spacing, refuse, write_config, Base, ExperimentError,
-    Result,
+    configure_law, in_formation, keep_law_spacing, on_standstill, refuse, write_config, Base,
+    ExperimentError, Result,
 };
 use crate::progress::Progress;
-use platoon_config::{LawConfig, LawName, LinkAttackConfig, LinkKindConfig, PlantKind};
+use platoon_config::{LawName, LinkAttackConfig, LinkKindConfig, PlantKind};
 use platoon_output::plots;
 use platoon_output::rundir::RunDir;
 use platoon_topology::Preset;
@@ -329,15 +329,10 @@ fn configure(
     preset: Preset,
 ) -> platoon_config::Config {
     let mut c = configure_law(base, law, preset, 0.1);
-    let standstill = base.platoon.spacing_m - base.platoon.vehicle_length_m;
-    match &mut c.control.law {
-        LawConfig::Paper(_) => {}
-        LawConfig::Acc(p) => p.standstill_m = standstill,
-        LawConfig::PathCacc(p) => p.spacing_m = standstill,
-        LawConfig::Ploeg(p) => p.standstill_m = standstill,
-        LawConfig::Consensus(p) => p.standstill_m = standstill,
-        LawConfig::Flatbed(p) => p.spacing_m = standstill,
-    }
+    on_standstill(
+        &mut c.control.law,
+        base.platoon.spacing_m - base.platoon.vehicle_length_m,
+    );
     keep_law_spacing(&mut c);
     in_formation(&mut c);
     c.guard.enabled = true;
