@@ -30,6 +30,7 @@ pub mod fallback;
 pub mod laws;
 pub mod maneuvers;
 mod radar;
+mod room;
 pub mod screening;
 pub mod seam;
 mod spacing;
