@@ -1914,6 +1914,30 @@ fn leaves_run_bit_identically_on_both_transports() {
     assert_eq!(json(&ipc.join("summary.json"))["safety"]["collided"], false);
 }
 
+/// Two platoons merge (`configs/merge.toml`): the rear head's request and the leader's update
+/// travel on the wire (`V2vPacket::MERGE_REQUEST`, `UPDATE_MERGED`), the rear followers take
+/// the leader as theirs from their head's relay of the update, a step later (the `head`
+/// column, `split` and `merged` events), and both transports agree bit for bit.
+#[test]
+fn a_merge_runs_bit_identically_on_both_transports() {
+    let runs = transports_agree("configs/merge.toml");
+    let ipc = runs.path().join("ipc");
+    let events = std::fs::read_to_string(ipc.join("events.csv")).unwrap();
+    let merged: Vec<&str> = events
+        .lines()
+        .filter(|l| l.contains(",joined,") || l.contains(",merged,"))
+        .collect();
+    assert_eq!(
+        merged,
+        [
+            "0,3,2717,27.17,joined,blend,,false",
+            "0,4,2718,27.18,merged,blend,,false",
+            "0,5,2718,27.18,merged,blend,,false"
+        ]
+    );
+    assert_eq!(json(&ipc.join("summary.json"))["safety"]["collided"], false);
+}
+
 /// A platoon that splits behind the car (`configs/cut-in-split.toml`, the flatbed controller):
 /// the head's announcement travels on the wire (`V2vPacket::head`), follower 4 hears follower 3
 /// over a link its `plf` graph does not have (the run's facts give the channel's links apart

@@ -1775,6 +1775,23 @@ fn a_join_in_the_middle_on_sumo_changes_lanes_and_agrees_with_the_native_plant()
     assert!(joiner.contains("departLane=\"2\""), "{joiner}");
 }
 
+/// Two platoons merge on SUMO (`configs/merge.toml`): the rear head's radar (SUMO's
+/// getLeader) sees the front platoon's tail as it closes up, on the one lane, and the run agrees
+/// with the native plant's: every gap within 0.05 m, the merge announced at the same step;
+/// nobody collides, nobody changes lanes.
+#[test]
+fn a_merge_on_sumo_agrees_with_the_native_plant() {
+    let (_tmp, sumo) = maneuver_on_sumo_agrees("configs/merge.toml", 5, ",merged,", 2);
+    let report = json(&sumo.join("sumo.json"));
+    assert!(
+        report["lane_changes"]
+            .as_array()
+            .is_none_or(|l| l.is_empty()),
+        "{}",
+        report["lane_changes"]
+    );
+}
+
 /// Members leave on SUMO (`configs/leave.toml`): each leaver changes to the lane beside the
 /// platoon's (lane 2 of the highway) at the step its mode becomes `left`, the radar of the
 /// follower behind it (SUMO's getLeader) then sees the member ahead, the same as the native

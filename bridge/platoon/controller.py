@@ -68,10 +68,11 @@ EVERYONE = NOBODY = UNKNOWN
 class Maneuver(NamedTuple):
     """A maneuver message riding on a packet (`[maneuvers]`, docs/maneuvers.md), as the Rust
     SDK's `Packet::maneuver` carries it: its `kind` (wire.V2vPacket.JOIN_REQUEST ...
-    LEAVE_NOTICE), its addressee `to` (EVERYONE: every member), the sender's maneuver sequence
+    UPDATE_MERGED), its addressee `to` (EVERYONE: every member), the sender's maneuver sequence
     number `seq`, `arg` (an accept's middle flag, a refusal's reason, an update's generation),
-    the vehicle it names and, for an update that a vehicle joined, whom it follows (`vehicle`,
-    `behind`; NOBODY: none), in the platoon's ids. A controller of a platoon that negotiates
+    the vehicle it names and, for an update that a vehicle joined, whom it follows (for a merge
+    request or update: the rear platoon's head or the tail it asks for, and its last vehicle;
+    `vehicle`, `behind`; NOBODY: none), in the platoon's ids. A controller of a platoon that negotiates
     maneuvers reads them in the deliveries and may send its own on its packets."""
 
     kind: int

@@ -135,6 +135,8 @@ class V2vPacket(Payload):
     UPDATE_LEFT = 9
     ABORT = 10
     LEAVE_NOTICE = 11
+    MERGE_REQUEST = 12
+    UPDATE_MERGED = 13
     # `maneuver_arg` of a refusal.
     REFUSED_BUSY = 0
     REFUSED_FULL = 1

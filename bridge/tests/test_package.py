@@ -73,7 +73,8 @@ def test_the_package_has_its_installed_core():
     assert "site-packages" in core.__file__, core.__file__
     assert core.__version__ == platoon.__version__
     assert platoon.scenarios() == [
-        "paper", "table1", "degradation", "cut-in", "join", "join-middle", "leave"
+        "paper", "table1", "degradation", "cut-in", "join", "join-middle", "leave",
+        "merge",
     ]
 
 

@@ -112,11 +112,13 @@ pub enum Embedded {
     JoinMiddle,
     /// `configs/leave.toml`: leaves in the middle and at the tail ([`LEAVE_TOML`]).
     Leave,
+    /// `configs/merge.toml`: two platoons merge ([`MERGE_TOML`]).
+    Merge,
 }
 
 impl Embedded {
     /// Every embedded config.
-    pub const ALL: [Embedded; 7] = [
+    pub const ALL: [Embedded; 8] = [
         Self::Paper,
         Self::Table1,
         Self::Degradation,
@@ -124,6 +126,7 @@ impl Embedded {
         Self::Join,
         Self::JoinMiddle,
         Self::Leave,
+        Self::Merge,
     ];
 
     /// Its stem in `configs/` (the default name of its runs).
@@ -136,6 +139,7 @@ impl Embedded {
             Self::Join => "join",
             Self::JoinMiddle => "join-middle",
             Self::Leave => "leave",
+            Self::Merge => "merge",
         }
     }
 
@@ -149,6 +153,7 @@ impl Embedded {
             Self::Join => JOIN_TOML,
             Self::JoinMiddle => JOIN_MIDDLE_TOML,
             Self::Leave => LEAVE_TOML,
+            Self::Merge => MERGE_TOML,
         }
     }
 
@@ -367,5 +372,8 @@ pub const JOIN_TOML: &str = include_str!("../../../configs/join.toml");
 /// ...a join in the middle...
 pub const JOIN_MIDDLE_TOML: &str = include_str!("../../../configs/join-middle.toml");
 
-/// ...and leaves.
+/// ...leaves...
 pub const LEAVE_TOML: &str = include_str!("../../../configs/leave.toml");
+
+/// ...and a merge of two platoons.
+pub const MERGE_TOML: &str = include_str!("../../../configs/merge.toml");

@@ -9,7 +9,7 @@ fn configs_dir() -> std::path::PathBuf {
 /// The shipped configs, each run by a line of the README's quick start. A config added to or
 /// removed from `configs/` must be named here too: the test checks that the directory holds
 /// exactly these, so one that stops being found (or a stray file) fails it.
-const SHIPPED: [&str; 16] = [
+const SHIPPED: [&str; 17] = [
     "cut-in-split.toml",
     "cut-in.toml",
     "degradation.toml",
@@ -20,6 +20,7 @@ const SHIPPED: [&str; 16] = [
     "join.toml",
     "leave.toml",
     "link-attacks.toml",
+    "merge.toml",
     "onramp.toml",
     "paper.toml",
     "sumo-paper.toml",

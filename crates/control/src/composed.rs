@@ -273,9 +273,11 @@ impl ComposedController {
             .map(|m| crate::maneuvers::Maneuvers::new(m, n));
         let mut followers = followers;
         if let Some(m) = &maneuvers {
-            // A joiner follows the member of its slot.
+            // A joiner follows the member of its slot; the rear platoon of a merge, its head.
             for f in &mut followers {
                 f.ahead = m.predecessor(f.id).unwrap_or(f.ahead);
+                f.head = m.head_of(f.id);
+                f.leading = m.heads(f.id);
             }
         }
         Ok(Self {
@@ -419,12 +421,19 @@ impl Controller for ComposedController {
             let own = states[f.id.index()];
             let truth = truths[f.id.index()];
             // The nearest member ahead that announced itself as a head leads it (no search
-            // in a platoon that never splits).
+            // in a platoon that never splits); with a merge, the head of its copy of the
+            // formation.
             let ahead = if split { 1..f.id.index() } else { 1..1 };
             let head = ahead.rev().map(VehicleId::follower).find_map(|j| {
                 let h = self.checks.heard_from(f.id, j)?;
                 h.heads(j).then_some((j, h))
             });
+            let head = match self.maneuvers.as_ref().filter(|m| m.has_heads()) {
+                Some(m) => Some(m.head_of(f.id))
+                    .filter(|&j| j != VehicleId::LEADER)
+                    .and_then(|j| Some((j, self.checks.heard_from(f.id, j)?))),
+                None => head,
+            };
             let rebased = head.map_or(VehicleId::LEADER, |(j, _)| j) != f.head;
             f.head = head.map_or(VehicleId::LEADER, |(j, _)| j);
             let man = self.maneuvers.as_ref();
@@ -580,7 +589,8 @@ impl Controller for ComposedController {
             f.step.head = f.head;
             // It heads while on the car's ACC, and while an attack's fallback interrupts that
             // with the car still ahead.
-            f.leading = split && (mode == crate::Mode::CutIn || situation.cut_in);
+            f.leading = split && (mode == crate::Mode::CutIn || situation.cut_in)
+                || man.is_some_and(|m| m.heads(f.id));
             *u_out = u;
         }
         &self.commands

@@ -39,6 +39,17 @@ pub struct LeaveSpec {
     pub at_step: u64,
 }
 
+/// A merge: the vehicles from follower `head` on start as a platoon of their own, headed by
+/// `head` on its ACC behind the platoon's tail; at step `at_step` the head asks the leader to
+/// merge its platoon behind the tail, and on the leader's update both are one platoon.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MergeSpec {
+    /// The rear platoon's head; its tail is the run's last vehicle.
+    pub head: VehicleId,
+    /// When it asks.
+    pub at_step: u64,
+}
+
 /// A platoon's maneuvers and how its vehicles judge them.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ManeuverParams {
@@ -48,6 +59,8 @@ pub struct ManeuverParams {
     pub joins: Vec<JoinSpec>,
     /// The leaves, of members the run starts with.
     pub leaves: Vec<LeaveSpec>,
+    /// A merge of a second platoon behind this one (at most one, with no joins or leaves).
+    pub merge: Option<MergeSpec>,
     /// A joiner is in position when its gap is within this of the platoon's (m)...
     pub in_position_m: f64,
     /// ...and it closes on the vehicle ahead at most this fast (m/s).
@@ -134,6 +147,27 @@ impl ManeuverParams {
                 "the platoon needs a follower that stays besides the joiners".into(),
             ));
         }
+        if let Some(m) = self.merge {
+            if !self.joins.is_empty() || !self.leaves.is_empty() {
+                return Err((
+                    "merge",
+                    "a run with a merge has no joins or leaves (the platoons that merge are \
+                     numbered consecutively)"
+                        .into(),
+                ));
+            }
+            let head = usize::from(m.head.0);
+            if head < 2 || head >= followers {
+                return Err((
+                    "merge",
+                    format!(
+                        "vehicle {head} cannot head the rear platoon: each platoon needs a \
+                         follower, so the head is one of vehicles 2 to {}",
+                        followers.saturating_sub(1)
+                    ),
+                ));
+            }
+        }
         let positive = |x: f64| x.is_finite() && x > 0.0;
         if !positive(self.in_position_m) {
             return Err((
@@ -153,9 +187,13 @@ impl ManeuverParams {
         Ok(())
     }
 
-    /// The formation as the run starts: every follower but the joiners, in order.
+    /// The leader's formation as the run starts: every follower but the joiners (and the
+    /// rear platoon of a merge), in order.
     pub fn initial_formation(&self, followers: usize) -> Formation {
-        Formation::in_order(followers - self.joins.len())
+        match self.merge {
+            Some(m) => Formation::in_order(m.head.index() - 1),
+            None => Formation::in_order(followers - self.joins.len()),
+        }
     }
 }
 
@@ -219,10 +257,35 @@ impl Maneuvers {
     /// The machines of a platoon of `followers` followers.
     pub(crate) fn new(params: &ManeuverParams, followers: usize) -> Self {
         let formation = params.initial_formation(followers);
+        // The rear platoon of a merge, from its head to the last vehicle.
+        let rear = Formation::new(
+            params
+                .merge
+                .map_or(0..0, |m| m.head.0..followers as u16 + 1)
+                .map(VehicleId)
+                .collect(),
+        )
+        .unwrap_or_else(|_| formation.clone());
         let roles = (1..=followers)
             .map(|i| {
                 let id = VehicleId::follower(i);
+                let merge = params.merge.filter(|m| i >= m.head.index());
                 let machine = match params.joins.iter().find(|j| j.vehicle == id) {
+                    _ if merge.is_some_and(|m| m.head == id) => Machine::Joiner {
+                        joiner: Joiner::merging(
+                            id,
+                            VehicleId::LEADER,
+                            VehicleId(id.0 - 1),
+                            VehicleId::follower(followers),
+                            params.timing,
+                        ),
+                        beside: false,
+                        at_step: merge.map_or(0, |m| m.at_step),
+                    },
+                    _ if merge.is_some() => Machine::Member {
+                        member: Member::new(id, rear.clone(), params.timing),
+                        leave_at: None,
+                    },
                     Some(j) => Machine::Joiner {
                         joiner: Joiner::new(
                             id,
@@ -366,6 +429,31 @@ impl Maneuvers {
             ),
             Machine::Member { .. } => false,
         }
+    }
+
+    /// Whether follower `i` heads a platoon of its own: the rear platoon's head until its
+    /// merge is announced.
+    pub(crate) fn heads(&self, i: VehicleId) -> bool {
+        match &self.roles[i.index() - 1].machine {
+            Machine::Joiner { joiner, .. } => {
+                joiner.tail().is_some() && joiner.phase() != JoinerPhase::Member
+            }
+            Machine::Member { .. } => false,
+        }
+    }
+
+    /// The vehicle follower `i` takes as its leader: the head of its copy of the formation (a
+    /// joiner's: the platoon's leader).
+    pub(crate) fn head_of(&self, i: VehicleId) -> VehicleId {
+        match &self.roles[i.index() - 1].machine {
+            Machine::Member { member, .. } => member.formation().head(),
+            Machine::Joiner { .. } => VehicleId::LEADER,
+        }
+    }
+
+    /// Whether a platoon may head part of the vehicles (a merge).
+    pub(crate) fn has_heads(&self) -> bool {
+        self.params.merge.is_some()
     }
 
     /// Whether follower `i` left the platoon (its leave announced, as its copy says).

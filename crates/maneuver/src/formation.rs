@@ -21,6 +21,16 @@ pub enum FormationError {
     /// The head cannot leave its own formation (it dissolves it).
     #[error("the head, vehicle {0}, cannot leave its formation")]
     HeadLeaves(u16),
+    /// A merge names platoons that are not numbered on from each other.
+    #[error(
+        "a merge of the platoon from vehicle {head} to {tail} is not at this formation's ends"
+    )]
+    NotConsecutive {
+        /// The rear platoon's head.
+        head: u16,
+        /// The rear platoon's tail.
+        tail: u16,
+    },
 }
 
 /// The members of one platoon in road order, the head first.
@@ -119,11 +129,40 @@ impl Formation {
         }
     }
 
+    /// The formation of the merge of the platoon from `head` to `tail` behind the one from
+    /// the run's leader to `head - 1` ([`Change::Merged`]), from either's copy: the front's
+    /// (its tail is `head - 1`) or the rear's (headed by `head`, its tail `tail`).
+    pub fn merged(&self, head: VehicleId, tail: VehicleId) -> Result<Self, FormationError> {
+        let wrong = FormationError::NotConsecutive {
+            head: head.0,
+            tail: tail.0,
+        };
+        let run = |from: u16, to: u16| (from..=to).map(VehicleId);
+        if head.0 == 0 || tail.0 < head.0 {
+            return Err(wrong);
+        }
+        let members: Vec<VehicleId> = if self.tail().0 + 1 == head.0 {
+            self.members
+                .iter()
+                .copied()
+                .chain(run(head.0, tail.0))
+                .collect()
+        } else if self.head() == head && self.tail() == tail {
+            run(0, head.0 - 1)
+                .chain(self.members.iter().copied())
+                .collect()
+        } else {
+            return Err(wrong);
+        };
+        Self::new(members)
+    }
+
     /// This formation after `change`.
     pub fn apply(&self, change: Change) -> Result<Self, FormationError> {
         match change {
             Change::Joined { vehicle, behind } => self.joined(vehicle, behind),
             Change::Left { vehicle } => self.left(vehicle),
+            Change::Merged { head, tail } => self.merged(head, tail),
         }
     }
 
@@ -174,6 +213,18 @@ mod tests {
         assert_eq!(links, vec![(v(0), v(7)), (v(7), v(1)), (v(1), v(2))]);
         let plf = f.links(Preset::Plf).unwrap();
         assert!(plf.contains(&(v(0), v(2))) && plf.contains(&(v(1), v(2))));
+    }
+
+    #[test]
+    fn a_merge_makes_either_copy_the_whole_formation() {
+        let front = Formation::in_order(2);
+        let rear = Formation::new(vec![v(3), v(4), v(5)]).unwrap();
+        let whole = Formation::in_order(5);
+        assert_eq!(front.merged(v(3), v(5)), Ok(whole.clone()));
+        assert_eq!(rear.merged(v(3), v(5)), Ok(whole));
+        let wrong = Err(FormationError::NotConsecutive { head: 4, tail: 5 });
+        assert_eq!(front.merged(v(4), v(5)), wrong, "a gap in the numbers");
+        assert_eq!(rear.merged(v(4), v(5)), wrong, "not this platoon's head");
     }
 
     #[test]

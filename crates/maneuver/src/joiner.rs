@@ -82,6 +82,10 @@ pub struct Joiner {
     me: VehicleId,
     leader: VehicleId,
     behind: VehicleId,
+    /// A head merging its platoon: that platoon's last vehicle.
+    tail: Option<VehicleId>,
+    /// A merge update heard, for the followers of its platoon (it passes each on).
+    relay: Option<Body>,
     timing: Timing,
     state: JoinerState,
     filter: SeqFilter,
@@ -95,11 +99,34 @@ impl Joiner {
             me,
             leader,
             behind,
+            tail: None,
+            relay: None,
             timing,
             state: JoinerState::Idle,
             filter: SeqFilter::default(),
             outbox: Outbox::default(),
         }
+    }
+
+    /// The head `me` of a platoon that ends at `tail`, merging it behind `behind` (the tail of
+    /// `leader`'s platoon): it asks with [`Body::MergeRequest`] and is admitted by
+    /// [`crate::Change::Merged`]; otherwise a join at the tail.
+    pub fn merging(
+        me: VehicleId,
+        leader: VehicleId,
+        behind: VehicleId,
+        tail: VehicleId,
+        timing: Timing,
+    ) -> Self {
+        Self {
+            tail: Some(tail),
+            ..Self::new(me, leader, behind, timing)
+        }
+    }
+
+    /// The last vehicle of the platoon it heads, when it merges one.
+    pub fn tail(&self) -> Option<VehicleId> {
+        self.tail
     }
 
     /// What it is doing.
@@ -136,7 +163,11 @@ impl Joiner {
 
     fn ask(&mut self, step: u64, tries: u32, out: &mut Vec<Message>) {
         let behind = self.behind;
-        self.send(out, Body::JoinRequest { behind });
+        let body = match self.tail {
+            Some(tail) => Body::MergeRequest { behind, tail },
+            None => Body::JoinRequest { behind },
+        };
+        self.send(out, body);
         self.state = JoinerState::Requested {
             tries: tries + 1,
             retry_at: step + self.timing.reply_steps,
@@ -170,6 +201,10 @@ impl Joiner {
             if m.sender == self.leader && m.is_for(self.me) && self.filter.fresh(m) {
                 self.handle(step, m);
             }
+        }
+        if let Some(update) = self.relay.take() {
+            // The head of a merged platoon tells its followers, which hear only their head.
+            self.outbox.send(out, self.me, crate::EVERYONE, update);
         }
         match self.state {
             JoinerState::Requested { tries, retry_at } if step >= retry_at => {
@@ -252,6 +287,18 @@ impl Joiner {
                 JoinerState::InPosition { .. },
             ) if vehicle == self.me => {
                 self.state = JoinerState::Joined { generation };
+            }
+            (
+                Body::Update {
+                    generation,
+                    change: Change::Merged { head, .. },
+                },
+                JoinerState::InPosition { .. } | JoinerState::Joined { .. },
+            ) if head == self.me => {
+                // Only once in its slot: an update that comes earlier (a forged report, say) is
+                // not passed on, so its platoon keeps following it.
+                self.state = JoinerState::Joined { generation };
+                self.relay = Some(m.body);
             }
             _ => {}
         }

@@ -26,6 +26,8 @@ pub enum LeaderState {
         ask_at: u64,
         /// Requests for that step sent so far.
         asks: u32,
+        /// A merge: the last vehicle of the platoon the joiner heads.
+        tail: Option<VehicleId>,
     },
 }
 
@@ -125,6 +127,7 @@ impl Leader {
             deadline,
             ask_at,
             asks,
+            tail,
         } = self.state
         {
             if step < deadline && step >= ask_at && asks < self.timing.tries {
@@ -137,6 +140,7 @@ impl Leader {
                     deadline,
                     ask_at: step + self.timing.reply_steps,
                     asks: asks + 1,
+                    tail,
                 };
                 match gap_ready {
                     false => self.send(out, opener, Body::OpenGap { joiner }),
@@ -170,8 +174,52 @@ impl Leader {
                 let middle = opener.is_some();
                 self.send(out, from, Body::JoinAccept { behind, middle });
             }
-            (Body::JoinRequest { .. }, LeaderState::Joining { .. }) => {
+            (Body::MergeRequest { behind, .. }, LeaderState::Joining { joiner, .. })
+                if joiner == from =>
+            {
+                self.send(
+                    out,
+                    from,
+                    Body::JoinAccept {
+                        behind,
+                        middle: false,
+                    },
+                );
+            }
+            (Body::JoinRequest { .. } | Body::MergeRequest { .. }, LeaderState::Joining { .. }) => {
                 self.refuse(from, Refusal::Busy, out);
+            }
+            (Body::MergeRequest { behind, tail }, LeaderState::Idle) => {
+                // A platoon merges at the back, numbered on from this one (`Change::Merged`).
+                let size = usize::from(tail.0).saturating_sub(usize::from(from.0)) + 1;
+                if self.formation.contains(from) {
+                    self.refuse(from, Refusal::Member, out);
+                } else if self.formation.members().len() + size > self.max_members {
+                    self.refuse(from, Refusal::Full, out);
+                } else if behind != self.formation.tail()
+                    || self.formation.merged(from, tail).is_err()
+                {
+                    self.refuse(from, Refusal::NoSlot, out);
+                } else {
+                    self.state = LeaderState::Joining {
+                        joiner: from,
+                        behind,
+                        opener: None,
+                        gap_ready: false,
+                        deadline: step + self.timing.maneuver_steps,
+                        ask_at: step + self.timing.reply_steps,
+                        asks: 1,
+                        tail: Some(tail),
+                    };
+                    self.send(
+                        out,
+                        from,
+                        Body::JoinAccept {
+                            behind,
+                            middle: false,
+                        },
+                    );
+                }
             }
             (Body::JoinRequest { behind }, LeaderState::Idle) => {
                 if self.formation.contains(from) {
@@ -190,6 +238,7 @@ impl Leader {
                         deadline: step + self.timing.maneuver_steps,
                         ask_at: step + self.timing.reply_steps,
                         asks: 1,
+                        tail: None,
                     };
                     let middle = opener.is_some();
                     self.send(out, from, Body::JoinAccept { behind, middle });
@@ -206,6 +255,7 @@ impl Leader {
                     behind,
                     deadline,
                     gap_ready: false,
+                    tail,
                     ..
                 },
             ) if j == joiner && opener == Some(from) => {
@@ -217,6 +267,7 @@ impl Leader {
                     deadline,
                     ask_at: step + self.timing.reply_steps,
                     asks: 1,
+                    tail,
                 };
                 self.send(out, joiner, Body::MoveIn);
             }
@@ -227,18 +278,19 @@ impl Leader {
                     behind,
                     opener,
                     gap_ready,
+                    tail,
                     ..
                 },
             ) if joiner == from && (opener.is_none() || gap_ready) => {
                 self.state = LeaderState::Idle;
-                self.commit(
-                    step,
-                    Change::Joined {
+                let change = match tail {
+                    Some(tail) => Change::Merged { head: from, tail },
+                    None => Change::Joined {
                         vehicle: from,
                         behind,
                     },
-                    out,
-                );
+                };
+                self.commit(step, change, out);
             }
             (Body::InPosition, _) if self.formation.contains(from) => {
                 // It joined and missed the update.

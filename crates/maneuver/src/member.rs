@@ -187,7 +187,11 @@ impl Member {
     /// leader had. An older one is in already; a later one means one was missed, and the copy
     /// stays as it is ([`Member::generation`] behind the leader's, which its beacons carry).
     fn update(&mut self, generation: u16, change: Change) {
-        if generation != self.generation.wrapping_add(1) {
+        // The merge of its own platoon, passed on by its head, is numbered in the other
+        // platoon's changes: the copy takes that numbering on, and that platoon's leader.
+        let into_another =
+            matches!(change, Change::Merged { head, .. } if head == self.formation.head());
+        if generation != self.generation.wrapping_add(1) && !into_another {
             return;
         }
         let Ok(next) = self.formation.apply(change) else {

@@ -79,6 +79,16 @@ pub enum Body {
     },
     /// The sender leaves the platoon (a member to the leader).
     LeaveNotice,
+    /// The head of another platoon asks this platoon's leader to merge: its platoon, from the
+    /// sender to `tail`, would follow `behind`, this platoon's tail (a merge at the back, as
+    /// Plexe's and VENTOS's). Accepted with [`Body::JoinAccept`], it goes on as a join at the
+    /// tail and ends in [`Change::Merged`].
+    MergeRequest {
+        /// The member the head would follow: the tail.
+        behind: VehicleId,
+        /// The last vehicle of the sender's platoon.
+        tail: VehicleId,
+    },
 }
 
 /// The kinds of [`Body`], by which an attack picks the messages it acts on.
@@ -104,11 +114,13 @@ pub enum MessageKind {
     Abort,
     /// [`Body::LeaveNotice`].
     LeaveNotice,
+    /// [`Body::MergeRequest`].
+    MergeRequest,
 }
 
 impl MessageKind {
     /// Every kind, in the order of their bits in [`MessageKind::bit`].
-    pub const ALL: [MessageKind; 10] = [
+    pub const ALL: [MessageKind; 11] = [
         Self::JoinRequest,
         Self::JoinAccept,
         Self::JoinRefuse,
@@ -119,6 +131,7 @@ impl MessageKind {
         Self::Update,
         Self::Abort,
         Self::LeaveNotice,
+        Self::MergeRequest,
     ];
 
     /// Its name in configs.
@@ -134,6 +147,7 @@ impl MessageKind {
             Self::Update => "update",
             Self::Abort => "abort",
             Self::LeaveNotice => "leave_notice",
+            Self::MergeRequest => "merge_request",
         }
     }
 
@@ -162,6 +176,7 @@ impl Body {
             Body::Update { .. } => MessageKind::Update,
             Body::Abort { .. } => MessageKind::Abort,
             Body::LeaveNotice => MessageKind::LeaveNotice,
+            Body::MergeRequest { .. } => MessageKind::MergeRequest,
         }
     }
 }
@@ -180,6 +195,15 @@ pub enum Change {
     Left {
         /// The member that left.
         vehicle: VehicleId,
+    },
+    /// The platoon headed by `head` merged behind this one's tail. Platoons that merge are
+    /// numbered consecutively: the front one from the run's leader to `head - 1`, the rear one
+    /// from `head` to `tail`; so each side's copy becomes the whole formation.
+    Merged {
+        /// The rear platoon's head, now the member behind the front's tail.
+        head: VehicleId,
+        /// The rear platoon's last vehicle, now the tail.
+        tail: VehicleId,
     },
 }
 

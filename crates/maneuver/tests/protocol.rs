@@ -411,3 +411,121 @@ fn a_fifth_of_the_messages_lost_still_lets_most_joins_complete() {
     assert_eq!(phantoms, 0);
     assert!(joined * 10 >= runs * 7, "{joined} of {runs} joined");
 }
+
+/// Two platoons on a lossless channel: the leader's (vehicles 0 to 2) and one headed by
+/// vehicle 3 (3 to 5), whose head asks to merge at step 1 and is in position
+/// [`APPROACH_STEPS`] after the accept; with `forged`, the leader hears an in-position report
+/// in the head's name at that step. Returns the leader, every member (1, 2, 4, 5), the head
+/// and every message sent.
+fn merge(max_members: usize, forged: Option<u64>) -> (Leader, Vec<Member>, Joiner, Vec<Message>) {
+    let front = Formation::in_order(2);
+    let rear = Formation::new(vec![v(3), v(4), v(5)]).unwrap();
+    let mut leader = Leader::new(front.clone(), max_members, TIMING);
+    let mut members: Vec<Member> = [(1, &front), (2, &front), (4, &rear), (5, &rear)]
+        .into_iter()
+        .map(|(i, f)| Member::new(v(i), f.clone(), TIMING))
+        .collect();
+    let mut head = Joiner::merging(v(3), v(0), v(2), v(5), TIMING);
+    let (mut in_flight, mut log) = (Vec::new(), Vec::new());
+    let mut approaching = 0;
+    for step in 1..=200 {
+        let mut out = Vec::new();
+        if forged == Some(step) {
+            in_flight.push(Message {
+                sender: v(3),
+                to: v(0),
+                seq: 99,
+                body: Body::InPosition,
+            });
+        }
+        if forged == Some(step) {
+            in_flight.push(Message {
+                sender: v(3),
+                to: v(0),
+                seq: 99,
+                body: Body::InPosition,
+            });
+        }
+        leader.step(step, &in_flight, &mut out);
+        for m in &mut members {
+            m.step(step, &in_flight, false, &mut out);
+        }
+        if step == 1 {
+            head.request(step, &mut out);
+        }
+        head.step(step, &in_flight, approaching >= APPROACH_STEPS, &mut out);
+        approaching = match head.phase() {
+            JoinerPhase::Approaching => approaching + 1,
+            _ => 0,
+        };
+        log.extend(&out);
+        in_flight = out;
+    }
+    (leader, members, head, log)
+}
+
+#[test]
+fn a_merge_brings_the_rear_platoon_in_whole() {
+    let (leader, members, head, log) = merge(8, None);
+    let whole = Formation::in_order(5);
+    assert_eq!(leader.formation(), &whole);
+    assert_eq!(head.phase(), JoinerPhase::Member);
+    for m in &members {
+        assert_eq!(m.formation(), &whole, "vehicle {:?}'s copy", m);
+        assert_eq!(m.generation(), leader.generation());
+    }
+    let bodies: Vec<Body> = log.iter().map(|m| m.body).collect();
+    assert_eq!(
+        bodies[0],
+        Body::MergeRequest {
+            behind: v(2),
+            tail: v(5)
+        }
+    );
+    let update = Body::Update {
+        generation: 1,
+        change: Change::Merged {
+            head: v(3),
+            tail: v(5),
+        },
+    };
+    // The leader announces it; the head passes it on to its followers, which hear only it.
+    let senders: Vec<VehicleId> = log
+        .iter()
+        .filter(|m| m.body == update)
+        .map(|m| m.sender)
+        .collect();
+    assert_eq!(senders.iter().filter(|&&s| s == v(0)).count(), 3);
+    assert!(senders.contains(&v(3)));
+}
+
+/// A forged in-position report makes the leader announce the merge early: the head, not in its
+/// slot, does not pass the update on, so its followers keep following it, and it goes on
+/// approaching.
+#[test]
+fn a_merge_announced_before_the_head_is_in_position_leaves_its_platoon_with_it() {
+    let (leader, members, head, log) = merge(8, Some(10));
+    assert_eq!(leader.formation(), &Formation::in_order(5));
+    assert!(log
+        .iter()
+        .all(|m| !(m.sender == v(3) && matches!(m.body, Body::Update { .. }))));
+    assert_eq!(members[2].formation().head(), v(3));
+    assert_eq!(members[3].formation().head(), v(3));
+    assert_ne!(head.phase(), JoinerPhase::Member);
+}
+
+#[test]
+fn a_merge_that_would_overfill_the_platoon_is_refused() {
+    let (leader, members, head, log) = merge(5, None);
+    assert_eq!(leader.formation(), &Formation::in_order(2));
+    assert_eq!(
+        head.state(),
+        JoinerState::Failed(JoinFailure::Refused(Refusal::Full))
+    );
+    assert!(log.iter().all(|m| !matches!(m.body, Body::Update { .. })));
+    assert_eq!(
+        members[2].formation().head(),
+        v(3),
+        "the rear platoon stays apart"
+    );
+}

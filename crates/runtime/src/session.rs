@@ -431,6 +431,13 @@ fn maneuver_to_wire(m: Option<&Message>, j: usize, num: Numbering) -> V2vPacket 
         } => (V2vPacket::UPDATE_LEFT, generation, Some(vehicle), None),
         Body::Abort { joiner } => (V2vPacket::ABORT, 0, Some(joiner), None),
         Body::LeaveNotice => (V2vPacket::LEAVE_NOTICE, 0, None, None),
+        Body::MergeRequest { behind, tail } => {
+            (V2vPacket::MERGE_REQUEST, 0, Some(behind), Some(tail))
+        }
+        Body::Update {
+            generation,
+            change: Change::Merged { head, tail },
+        } => (V2vPacket::UPDATE_MERGED, generation, Some(head), Some(tail)),
     };
     V2vPacket {
         maneuver: kind,
@@ -510,6 +517,17 @@ fn maneuver_from_wire(
         },
         V2vPacket::ABORT => Body::Abort { joiner: vehicle()? },
         V2vPacket::LEAVE_NOTICE => Body::LeaveNotice,
+        V2vPacket::MERGE_REQUEST => Body::MergeRequest {
+            behind: vehicle()?,
+            tail: id(p.maneuver_behind)?,
+        },
+        V2vPacket::UPDATE_MERGED => Body::Update {
+            generation: p.maneuver_arg,
+            change: Change::Merged {
+                head: vehicle()?,
+                tail: id(p.maneuver_behind)?,
+            },
+        },
         _ => return None,
     };
     Some(Message {

@@ -363,7 +363,7 @@ pub fn step_rows(
     };
     let t = k as f64 * scenario.dt();
     let x0 = states[0];
-    let split = scenario.splits();
+    let (merges, split) = (scenario.merges(), scenario.splits() || scenario.merges());
     out.push(StepRow {
         step: k,
         t,
@@ -406,6 +406,11 @@ pub fn step_rows(
     for (i, x) in states.iter().enumerate().skip(1) {
         let s = follower(i);
         let slot = slots.get(i - 1).copied().unwrap_or(i as f64);
+        // Two platoons before a merge: each follower against its own platoon's head.
+        let (x0, slot) = match s.head.index() {
+            h if merges && h != 0 => (states[h], slot - h as f64),
+            _ => (x0, slot),
+        };
         out.push(StepRow {
             step: k,
             t,
@@ -416,8 +421,8 @@ pub fn step_rows(
             a: x[2],
             u: scenario.applied(i, s.u),
             theta: s.theta,
-            // Against the policy's desired distance to the leader, slot (l + h_t v_i), measured
-            // in the plant (h_t = 0 adds exactly nothing).
+            // Against the policy's desired distance to the leader (or the head it follows),
+            // slot (l + h_t v_i), measured in the plant (h_t = 0 adds exactly nothing).
             spacing_error: x[0] - x0[0] + slot * (scenario.spacing() + scenario.headway() * x[1]),
             velocity_error: x[1] - x0[1],
             triggered: s.triggered,

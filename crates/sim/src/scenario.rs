@@ -244,6 +244,15 @@ impl Scenario {
         self.control.fallback.cut_in.is_some_and(|c| c.split)
     }
 
+    /// Whether two platoons merge during the run (`[maneuvers.merge]`): until then the rear
+    /// one's followers take its head as their leader.
+    pub fn merges(&self) -> bool {
+        self.control
+            .maneuvers
+            .as_ref()
+            .is_some_and(|m| m.merge.is_some())
+    }
+
     /// Whether vehicles change lanes during the run: members leave (`[[maneuvers.leaves]]`)
     /// or a joiner comes from the lane beside (`[[maneuvers.joins]] behind`). The plant then
     /// keeps who is on the platoon's lane and the radars see the lane, not the platoon's order.

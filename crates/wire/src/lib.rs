@@ -29,6 +29,9 @@ use iceoryx2::prelude::ZeroCopySend;
 ///   bits 8-23 say whom the follower took as its leader.
 /// - v4: [`V2vPacket`] carries a maneuver message (`maneuver` and its fields in place of
 ///   `reserved`; 80 bytes, was 64): join and leave negotiated over V2V (`[maneuvers]`).
+///   Later, still v4: the kinds [`V2vPacket::MERGE_REQUEST`] and [`V2vPacket::UPDATE_MERGED`]
+///   (a merge of two platoons; no payload changed, and a reader drops a kind it does not know,
+///   keeping the packet's beacon).
 pub const CONTRACT_VERSION: u32 = 4;
 
 /// The environment variable in which `platoon run` gives every process it starts the contract
@@ -172,8 +175,8 @@ pub struct V2vPacket {
     /// request or an accept is behind, the joiner of an open gap, a gap ready or an abort, the
     /// vehicle an update says joined or left.
     pub maneuver_vehicle: u32,
-    /// An update that says a vehicle joined: the member it follows ([`V2vPacket::NOBODY`]
-    /// otherwise).
+    /// An update that says a vehicle joined: the member it follows; a merge request or update:
+    /// the rear platoon's last vehicle ([`V2vPacket::NOBODY`] otherwise).
     pub maneuver_behind: u32,
 }
 
@@ -202,6 +205,12 @@ impl V2vPacket {
     pub const ABORT: u16 = 10;
     /// The sender leaves the platoon (to the leader).
     pub const LEAVE_NOTICE: u16 = 11;
+    /// The sender, head of another platoon that ends at `maneuver_behind`, asks the leader to
+    /// merge it behind `maneuver_vehicle`, the leader's tail.
+    pub const MERGE_REQUEST: u16 = 12;
+    /// The leader's update `maneuver_arg`: the platoon from `maneuver_vehicle` to
+    /// `maneuver_behind` merged behind its tail.
+    pub const UPDATE_MERGED: u16 = 13;
     /// A refusal's reason: another maneuver is under way.
     pub const REFUSED_BUSY: u16 = 0;
     /// ... the platoon is full.

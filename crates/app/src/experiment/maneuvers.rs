@@ -12,9 +12,9 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 
 /// The maneuvers of [`maneuvers`], by name: a join at the tail (`configs/join.toml`), one in
-/// the middle (`configs/join-middle.toml`) and a leave from the middle (`configs/leave.toml`'s
-/// first).
-pub const MANEUVERS: [&str; 3] = ["join-tail", "join-middle", "leave"];
+/// the middle (`configs/join-middle.toml`), a leave from the middle (`configs/leave.toml`'s
+/// first) and a merge of two platoons (`configs/merge.toml`).
+pub const MANEUVERS: [&str; 4] = ["join-tail", "join-middle", "leave", "merge"];
 
 /// The attacks of [`maneuvers`], by name, each from the maneuver's request on: none, the
 /// channel jammed for 2 s (DoS), 30 % of the packets lost on every link, a reactive jammer on
@@ -96,11 +96,13 @@ pub struct ManeuversRow {
     pub attack: String,
     /// The repeat (its seeds).
     pub repeat: u32,
-    /// `completed` (the joiner admitted, the leaver out of the lane), `failed` (it was not, and
+    /// `completed` (the joiner or the rear platoon's head admitted, the leaver out of the
+    /// lane), `failed` (it was not, and
     /// nobody collided: the protocol ended it safely), `collided` or `refused` (the law refuses
     /// the maneuver: the consensus law and a leave).
     pub outcome: &'static str,
-    /// From the request to the joiner's admission or the leaver's leaving the lane (s).
+    /// From the request to the joiner's (the head's) admission or the leaver's leaving the
+    /// lane (s).
     pub completion_s: Option<f64>,
     /// The largest |spacing error| of any member from the request on (m; a leave starts it at
     /// one slot for the members behind the leaver, counted in the formation from then on).
@@ -124,7 +126,8 @@ pub struct Maneuvers {
 }
 
 /// Every maneuver of `opts` under every law and attack, in process, each on its embedded
-/// scenario (`configs/join.toml`, `configs/join-middle.toml`, `configs/leave.toml` with its
+/// scenario (`configs/join.toml`, `configs/join-middle.toml`, `configs/merge.toml`,
+/// `configs/leave.toml` with its
 /// first leave only): each law on its own distances (the platoon's standstill gap, the
 /// positions scaled to its spacing at the scenario's speed, so a joiner starts as far back or
 /// beside as in the scenario), PATH CACC's leader-following topology, the guard on. With
@@ -167,6 +170,7 @@ fn base(maneuver: &str) -> Result<Config> {
     let embedded = match maneuver {
         "join-tail" => Embedded::Join,
         "join-middle" => Embedded::JoinMiddle,
+        "merge" => Embedded::Merge,
         _ => Embedded::Leave,
     };
     let (mut config, _) = embedded.parse()?;
@@ -216,9 +220,10 @@ fn cell(
 ) -> Result<ManeuversRow> {
     let mut c = configure(base, law);
     let m = c.maneuvers.as_ref().expect("a maneuver scenario");
-    let (vehicle, at_s) = match m.joins.first() {
-        Some(j) => (j.vehicle, j.at_s),
-        None => (m.leaves[0].vehicle, m.leaves[0].at_s),
+    let (vehicle, at_s) = match (m.joins.first(), &m.merge) {
+        (Some(j), _) => (j.vehicle, j.at_s),
+        (None, Some(g)) => (g.head, g.at_s),
+        (None, None) => (m.leaves[0].vehicle, m.leaves[0].at_s),
     };
     apply_attack(&mut c, maneuver, attack, vehicle, at_s);
     c.radar.seed = c.radar.seed.wrapping_add(u64::from(repeat));

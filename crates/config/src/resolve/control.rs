@@ -282,6 +282,21 @@ pub(super) fn maneuvers(
         .into_iter()
         .map(|(vehicle, at_step)| platoon_control::LeaveSpec { vehicle, at_step })
         .collect();
+    let merge = match &m.merge {
+        Some(g) => {
+            if g.head == 0 || g.head > followers {
+                return bad(
+                    "maneuvers.merge.head",
+                    format!("must be a follower, 1 to {followers} (got {})", g.head),
+                );
+            }
+            Some(platoon_control::MergeSpec {
+                head: VehicleId(g.head as u16),
+                at_step: step_of("maneuvers.merge.at_s", g.at_s)?,
+            })
+        }
+        None => None,
+    };
     let params = platoon_control::ManeuverParams {
         timing: platoon_maneuver::Timing {
             reply_steps: u64::from(steps_of("maneuvers.reply_s", m.reply_s, dt)?),
@@ -290,6 +305,7 @@ pub(super) fn maneuvers(
         },
         joins,
         leaves,
+        merge,
         in_position_m: m.in_position_m,
         in_position_mps: m.in_position_mps,
         max_members: m.max_members.unwrap_or(followers + 1),

@@ -360,7 +360,7 @@ pub enum LinkKindConfig {
     JamManeuvers {
         /// The messages jammed, by name: `join_request`, `join_accept`, `join_refuse`,
         /// `open_gap`, `gap_ready`, `move_in`, `in_position`, `update`, `abort`,
-        /// `leave_notice` \[every one\].
+        /// `leave_notice`, `merge_request` \[every one\].
         #[serde(default, skip_serializing_if = "Vec::is_empty")]
         messages: Vec<String>,
     },
@@ -369,7 +369,8 @@ pub enum LinkKindConfig {
     /// and drops that sender's later messages as old); the state stays true.
     ForgeManeuver {
         /// `leave_notice` (a leave nobody asked for: the leader ejects the member) or
-        /// `in_position` (a joiner that is not in its slot says it is).
+        /// `in_position` (a joiner, or the head of a merging platoon, that is not in its slot
+        /// says it is).
         message: String,
         /// An insider (the sender itself lies): the packet is altered once as it is sent, so
         /// every receiver gets the same message; not with `receivers`. Otherwise an outsider

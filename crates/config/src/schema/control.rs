@@ -291,6 +291,12 @@ pub struct ManeuversConfig {
     /// of the lane (to the next lane on SUMO) and drives on at its speed, and the member behind
     /// it closes up to the one ahead, its gap shrinking at `fallback.closing_mps`.
     pub leaves: Vec<LeaveAt>,
+    /// `[maneuvers.merge]`: the vehicles from follower `head` to the last start as a platoon of
+    /// their own, headed by `head` on its ACC (`fallback.acc`) behind the platoon's tail; at
+    /// `at_s` the head asks the leader to merge, closes up to the platoon's gap once accepted,
+    /// and on the leader's update both are one platoon (no joins or leaves beside it).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub merge: Option<MergeAt>,
     /// How long a vehicle waits for an answer before it asks again, and the spacing of the
     /// leader's repeats of a formation update (s).
     pub reply_s: f64,
@@ -334,6 +340,16 @@ pub struct LeaveAt {
     pub at_s: f64,
 }
 
+/// A merge of the rear platoon behind the leader's.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct MergeAt {
+    /// The rear platoon's head (a follower, 2 to N - 1: each platoon keeps a follower).
+    pub head: usize,
+    /// When it asks the leader (s).
+    pub at_s: f64,
+}
+
 /// Plexe-like timing: answers within 0.5 s, 3 tries, a join within 30 s; in position within
 /// 1 m of the platoon's gap, closing slower than 0.5 m/s.
 impl Default for ManeuversConfig {
@@ -341,6 +357,7 @@ impl Default for ManeuversConfig {
         Self {
             joins: Vec::new(),
             leaves: Vec::new(),
+            merge: None,
             reply_s: 0.5,
             tries: 3,
             timeout_s: 30.0,

@@ -1,0 +1,273 @@
+//! Two platoons merging over V2V, in process: `configs/merge.toml` (the leader's platoon of
+//! followers 1-2, and the rear platoon headed by vehicle 3 on its ACC, vehicles 4-5 following
+//! it; the head asks to merge at 5 s), a lost request, a merge jammed half way and a forged
+//! in-position report, each ending in a safe formation. Both transports agree on it bit for
+//! bit (tests/cosim.rs), SUMO with the native plant (tests/sumo.rs).
+mod common;
+
+use common::maneuvers::{of, run, run_with};
+use common::repo;
+use platoon_control::Mode;
+use platoon_maneuver::{Body, Change};
+use platoon_model::VehicleId;
+use platoon_sim::truth::Label;
+use platoon_sim::{Scenario, StepRow};
+
+const LENGTH: f64 = 4.5;
+/// The platoon's gap (m, bumper to bumper): `[control] spacing_m`.
+const GAP: f64 = 15.5;
+
+fn merge_config() -> String {
+    std::fs::read_to_string(repo().join("configs/merge.toml")).unwrap()
+}
+
+fn parse(text: &str) -> Result<Scenario, String> {
+    platoon_config::parse(text, std::path::Path::new("merge.toml"))
+        .map(|(_, s)| s)
+        .map_err(|e| e.to_string())
+}
+
+/// Vehicle `behind`'s gap to vehicle `behind - 1` at every step (m, bumper to bumper).
+fn gaps(rows: &[StepRow], behind: u16) -> Vec<f64> {
+    of(rows, behind - 1)
+        .iter()
+        .zip(of(rows, behind))
+        .map(|(a, b)| a.p - b.p - LENGTH)
+        .collect()
+}
+
+/// Follower `v`'s largest change of command from one step to the next over `steps`.
+fn largest_step(rows: &[StepRow], v: u16, steps: std::ops::Range<usize>) -> f64 {
+    let u: Vec<f64> = of(rows, v).iter().map(|r| r.u).collect();
+    steps.map(|k| (u[k + 1] - u[k]).abs()).fold(0.0, f64::max)
+}
+
+/// Whom follower `v` took as its leader at every step (the `head` column).
+fn heads(rows: &[StepRow], v: u16) -> Vec<u16> {
+    of(rows, v).iter().map(|r| r.head.unwrap()).collect()
+}
+
+#[test]
+fn two_platoons_merge_over_v2v_and_close_up_without_a_jump() {
+    let (rows, sent) = run(parse(&merge_config()).unwrap(), |_, _| false);
+    let bodies: Vec<(u64, VehicleId, Body)> =
+        sent.iter().map(|(k, m)| (*k, m.sender, m.body)).collect();
+    let request = Body::MergeRequest {
+        behind: VehicleId(2),
+        tail: VehicleId(5),
+    };
+    assert_eq!(bodies[0], (501, VehicleId(3), request));
+    let merged = Change::Merged {
+        head: VehicleId(3),
+        tail: VehicleId(5),
+    };
+    let updates: Vec<u64> = bodies
+        .iter()
+        .filter(|(_, s, b)| {
+            *s == VehicleId::LEADER && matches!(b, Body::Update { change, .. } if *change == merged)
+        })
+        .map(|(k, ..)| *k)
+        .collect();
+    assert_eq!(updates.len(), 3, "announced three times: {updates:?}");
+    let at = updates[0] as usize;
+    // The head takes the law on the update (heard at the step it is sent) and passes it on; its
+    // followers, which hear only it, follow it until then and the leader from the next step.
+    let relayed: Vec<u64> = bodies
+        .iter()
+        .filter(|(_, s, b)| {
+            *s == VehicleId(3) && matches!(b, Body::Update { change, .. } if *change == merged)
+        })
+        .map(|(k, ..)| *k)
+        .collect();
+    assert_eq!(relayed[0], updates[0] + 1, "{relayed:?}");
+    for v in [4, 5] {
+        let h = heads(&rows, v);
+        assert!(h[..=at].iter().all(|&h| h == 3), "vehicle {v}");
+        assert!(h[at + 1..].iter().all(|&h| h == 0), "vehicle {v}");
+    }
+    assert!(heads(&rows, 3).iter().all(|&h| h == 0));
+    let head = of(&rows, 3);
+    assert!(head[..at].iter().all(|r| r.mode == Mode::Outside));
+    assert!(head[at..].iter().all(|r| r.mode != Mode::Outside));
+    // Closed up: every gap the platoon's, nobody near another, no step in any command at the
+    // hand-over (the largest steps of the run are the leader's profile's, at 10, 15, 35, 40 s).
+    for v in 1..=5 {
+        let g = gaps(&rows, v);
+        let last = *g.last().unwrap();
+        assert!((last - GAP).abs() < 0.5, "vehicle {v}: {last}");
+        let smallest = g.iter().copied().fold(f64::INFINITY, f64::min);
+        assert!(smallest > 10.0, "vehicle {v}: {smallest}");
+        let jump = largest_step(&rows, v, at - 200..at + 500);
+        assert!(jump < 0.15, "vehicle {v}: {jump}");
+    }
+    // Until the request the rear platoon kept its head's ACC gap (15.5 m + 2 s x v).
+    let before = gaps(&rows, 3)[500];
+    let v = head[500].v;
+    assert!(
+        (before - (GAP + 2.0 * v)).abs() < 0.5,
+        "{before} at {v} m/s"
+    );
+}
+
+/// A merge request the channel loses every time is asked three times; then the head gives up
+/// and the platoons stay apart to the end, safely: the rear platoon still follows its head.
+#[test]
+fn a_lost_merge_request_leaves_the_platoons_apart_safely() {
+    let (rows, sent) = run(parse(&merge_config()).unwrap(), |_, m| {
+        matches!(m.body, Body::MergeRequest { .. })
+    });
+    let requests: Vec<u64> = sent
+        .iter()
+        .filter(|(_, m)| matches!(m.body, Body::MergeRequest { .. }))
+        .map(|(k, _)| *k)
+        .collect();
+    assert_eq!(requests, [501, 551, 601]);
+    assert!(sent
+        .iter()
+        .all(|(_, m)| !matches!(m.body, Body::Update { .. })));
+    assert!(of(&rows, 3).iter().all(|r| r.mode == Mode::Outside));
+    for v in [4, 5] {
+        assert!(heads(&rows, v).iter().all(|&h| h == 3), "vehicle {v}");
+    }
+    for v in 1..=5 {
+        let smallest = gaps(&rows, v).into_iter().fold(f64::INFINITY, f64::min);
+        assert!(smallest > 10.0, "vehicle {v}: {smallest}");
+    }
+}
+
+/// The field's laws on the predecessor and the leader merge the platoons; the consensus law,
+/// which weighs its neighbours by vehicle for the whole run, is refused with the key to change.
+#[test]
+fn every_law_but_consensus_merges() {
+    let text = merge_config();
+    for law in ["ploeg", "flatbed"] {
+        let mut t = text.replace(
+            "law = \"path_cacc\"\nspacing_m = 15.5",
+            &format!("law = \"{law}\"\nspacing_m = 15.5"),
+        );
+        if law == "ploeg" {
+            // Ploeg's CACC keeps its own time headway and standstill gap.
+            t = t
+                .replace("law = \"ploeg\"\nspacing_m = 15.5", "law = \"ploeg\"")
+                .replace(
+                    "spacing_m = 20.0 ",
+                    "spacing_m = 6.5\nspacing_policy = \"time_headway\"\ntime_headway_s = 0.5 ",
+                );
+        }
+        let (rows, _) = run(parse(&t).unwrap(), |_, _| false);
+        let head = of(&rows, 3);
+        assert_ne!(head.last().unwrap().mode, Mode::Outside, "{law}");
+        for v in 1..=5 {
+            let smallest = gaps(&rows, v).into_iter().fold(f64::INFINITY, f64::min);
+            assert!(smallest > 5.0, "{law}: vehicle {v}: {smallest}");
+        }
+    }
+    let t = text
+        .replace(
+            "law = \"path_cacc\"\nspacing_m = 15.5",
+            "law = \"consensus\"",
+        )
+        .replace(
+            "spacing_m = 20.0 ",
+            "spacing_m = 19.5\nspacing_policy = \"time_headway\"\ntime_headway_s = 0.8 ",
+        );
+    let e = parse(&t).unwrap_err();
+    assert!(e.contains("maneuvers") && e.contains("merge"), "{e}");
+}
+
+#[test]
+fn a_bad_merge_names_its_key() {
+    let text = merge_config();
+    let err = |from: &str, to: &str| {
+        let t = text.replace(from, to);
+        assert_ne!(t, text, "{from}");
+        parse(&t).unwrap_err()
+    };
+    let e = err("head = 3", "head = 1");
+    assert!(e.contains("maneuvers.merge") && e.contains("2 to 4"), "{e}");
+    let e = err("head = 3", "head = 9");
+    assert!(e.contains("maneuvers.merge.head"), "{e}");
+    let e = err(
+        "[maneuvers.merge]",
+        "[[maneuvers.leaves]]\nvehicle = 1\nat_s = 9.0\n\n[maneuvers.merge]",
+    );
+    assert!(
+        e.contains("maneuvers.merge") && e.contains("no joins or leaves"),
+        "{e}"
+    );
+    let e = err("at_s = 5.0", "at_s = -1.0");
+    assert!(e.contains("maneuvers.merge.at_s"), "{e}");
+}
+
+/// The merge jammed half way (`kind = "jam_maneuvers"` on the leader's updates from the
+/// request on): the head closes up and reports in position, never hears the update, asks
+/// again, then withdraws; it stays on its ACC behind the tail and its platoon keeps following
+/// it: two platoons to the end, nobody near another.
+#[test]
+fn a_merge_jammed_half_way_leaves_two_platoons_safely() {
+    let text = merge_config().replace(
+        "[maneuvers]\n",
+        "[[channel.attacks]]\nkind = \"jam_maneuvers\"\nmessages = [\"update\"]\n\
+         start_s = 5.0\n\n[maneuvers]\n",
+    );
+    let (rows, log) = run_with(parse(&text).unwrap(), |_, _| false, |_, _| {});
+    let from_head = |kind: fn(&Body) -> bool| {
+        log.sent
+            .iter()
+            .filter(|(_, m)| m.sender == VehicleId(3) && kind(&m.body))
+            .count()
+    };
+    assert_eq!(from_head(|b| *b == Body::InPosition), 3);
+    assert!(from_head(|b| *b == Body::LeaveNotice) >= 1, "it withdraws");
+    assert_eq!(from_head(|b| matches!(b, Body::Update { .. })), 0);
+    assert!(of(&rows, 3).iter().all(|r| r.mode == Mode::Outside));
+    for v in [4, 5] {
+        assert!(heads(&rows, v).iter().all(|&h| h == 3), "vehicle {v}");
+    }
+    for v in 1..=5 {
+        let smallest = gaps(&rows, v).into_iter().fold(f64::INFINITY, f64::min);
+        assert!(smallest > 10.0, "vehicle {v}: {smallest}");
+    }
+}
+
+/// An outsider's forged in-position report in the head's name 1 s after its request
+/// (`kind = "forge_maneuver"`): the leader announces the merge early; the head, not in its
+/// slot, ignores the update and does not pass it on, so its followers keep following it; the
+/// forged packets are labelled altered in their maneuver field, and nobody comes near another.
+#[test]
+fn a_forged_in_position_report_merges_nobody_early() {
+    let text = merge_config().replace(
+        "[maneuvers]\n",
+        "[[channel.attacks]]\nkind = \"forge_maneuver\"\nmessage = \"in_position\"\n\
+         senders = [3]\nreceivers = [0]\nstart_s = 6.0\nend_s = 6.2\n\n[maneuvers]\n",
+    );
+    let (rows, log) = run_with(parse(&text).unwrap(), |_, _| false, |_, _| {});
+    let early = log
+        .sent
+        .iter()
+        .find(|(_, m)| m.sender == VehicleId::LEADER && matches!(m.body, Body::Update { .. }))
+        .map(|(k, _)| *k)
+        .unwrap();
+    assert!((600..650).contains(&early), "{early}");
+    let altered: Vec<_> = log
+        .labelled
+        .iter()
+        .filter(|(_, l)| *l != Label::Genuine)
+        .collect();
+    assert!(!altered.is_empty());
+    assert!(altered.iter().all(|(m, l)| m.sender == VehicleId(3)
+        && m.body == Body::InPosition
+        && matches!(l, Label::Altered { fields } if fields.contains(platoon_sim::truth::Fields::MANEUVER))));
+    assert!(of(&rows, 3)[early as usize + 100].mode == Mode::Outside);
+    for v in [4, 5] {
+        let h = heads(&rows, v);
+        assert!(
+            h[..early as usize + 100].iter().all(|&h| h == 3),
+            "vehicle {v}"
+        );
+    }
+    for v in 1..=5 {
+        let smallest = gaps(&rows, v).into_iter().fold(f64::INFINITY, f64::min);
+        assert!(smallest > 10.0, "vehicle {v}: {smallest}");
+    }
+}
