@@ -1938,6 +1938,26 @@ fn a_merge_runs_bit_identically_on_both_transports() {
     assert_eq!(json(&ipc.join("summary.json"))["safety"]["collided"], false);
 }
 
+/// A platoon splits in two (`configs/split.toml`): the split notice and the update travel on
+/// the wire (`V2vPacket::SPLIT_NOTICE`, `UPDATE_SPLIT`), the splitter leaves the law for its
+/// ACC (`outside` on the wire) and the members behind it take it as their leader (`head`), and
+/// both transports agree bit for bit.
+#[test]
+fn a_maneuver_split_runs_bit_identically_on_both_transports() {
+    let runs = transports_agree("configs/split.toml");
+    let ipc = runs.path().join("ipc");
+    let events = std::fs::read_to_string(ipc.join("events.csv")).unwrap();
+    let split: Vec<&str> = events.lines().filter(|l| l.contains(",split,")).collect();
+    assert_eq!(
+        split,
+        [
+            "0,4,2002,20.02,split,blend,,false",
+            "0,5,2002,20.02,split,blend,,false"
+        ]
+    );
+    assert_eq!(json(&ipc.join("summary.json"))["safety"]["collided"], false);
+}
+
 /// A platoon that splits behind the car (`configs/cut-in-split.toml`, the flatbed controller):
 /// the head's announcement travels on the wire (`V2vPacket::head`), follower 4 hears follower 3
 /// over a link its `plf` graph does not have (the run's facts give the channel's links apart

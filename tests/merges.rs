@@ -1,8 +1,9 @@
 //! Two platoons merging over V2V, in process: `configs/merge.toml` (the leader's platoon of
 //! followers 1-2, and the rear platoon headed by vehicle 3 on its ACC, vehicles 4-5 following
 //! it; the head asks to merge at 5 s), a lost request, a merge jammed half way and a forged
-//! in-position report, each ending in a safe formation. Both transports agree on it bit for
-//! bit (tests/cosim.rs), SUMO with the native plant (tests/sumo.rs).
+//! in-position report, each ending in a safe formation; and one platoon splitting in two,
+//! `configs/split.toml` (follower 3 heads followers 4-5 off at 20 s). Both transports agree on
+//! them bit for bit (tests/cosim.rs), SUMO with the native plant (tests/sumo.rs).
 mod common;
 
 use common::maneuvers::{of, run, run_with};
@@ -136,7 +137,8 @@ fn a_lost_merge_request_leaves_the_platoons_apart_safely() {
 }
 
 /// The field's laws on the predecessor and the leader merge the platoons; the consensus law,
-/// which weighs its neighbours by vehicle for the whole run, is refused with the key to change.
+/// which weighs its neighbours by vehicle for the whole run, is refused a merge and a split
+/// with the key to change.
 #[test]
 fn every_law_but_consensus_merges() {
     let text = merge_config();
@@ -173,6 +175,9 @@ fn every_law_but_consensus_merges() {
         );
     let e = parse(&t).unwrap_err();
     assert!(e.contains("maneuvers") && e.contains("merge"), "{e}");
+    let split = t.replace("[maneuvers.merge]", "[maneuvers.split]");
+    let e = parse(&split).unwrap_err();
+    assert!(e.contains("maneuvers") && e.contains("split"), "{e}");
 }
 
 #[test]
@@ -192,11 +197,92 @@ fn a_bad_merge_names_its_key() {
         "[[maneuvers.leaves]]\nvehicle = 1\nat_s = 9.0\n\n[maneuvers.merge]",
     );
     assert!(
-        e.contains("maneuvers.merge") && e.contains("no joins or leaves"),
+        e.contains("maneuvers.merge") && e.contains("no joins, leaves"),
         "{e}"
     );
     let e = err("at_s = 5.0", "at_s = -1.0");
     assert!(e.contains("maneuvers.merge.at_s"), "{e}");
+    let e = err(
+        "[maneuvers.merge]",
+        "[maneuvers.split]\nhead = 2\nat_s = 9.0\n\n[maneuvers.merge]",
+    );
+    assert!(e.contains("no joins, leaves or other regrouping"), "{e}");
+}
+
+fn split_config() -> String {
+    std::fs::read_to_string(repo().join("configs/split.toml")).unwrap()
+}
+
+#[test]
+fn a_platoon_splits_over_v2v_and_opens_the_gap_without_a_jump() {
+    let (rows, sent) = run(parse(&split_config()).unwrap(), |_, _| false);
+    let notices: Vec<(u64, VehicleId)> = sent
+        .iter()
+        .filter(|(_, m)| m.body == Body::SplitNotice)
+        .map(|(k, m)| (*k, m.sender))
+        .collect();
+    assert_eq!(notices, [(2001, VehicleId(3))]);
+    let split = Change::Split { head: VehicleId(3) };
+    let updates: Vec<u64> = sent
+        .iter()
+        .filter(|(_, m)| {
+            m.sender == VehicleId::LEADER
+                && matches!(m.body, Body::Update { change, .. } if change == split)
+        })
+        .map(|(k, _)| *k)
+        .collect();
+    assert_eq!(updates.len(), 3, "announced three times: {updates:?}");
+    let at = updates[0] as usize;
+    // The members behind the splitter follow the leader until the update, the splitter from
+    // then on; the splitter leaves the law for its ACC.
+    for v in [4, 5] {
+        let h = heads(&rows, v);
+        assert!(h[..at].iter().all(|&h| h == 0), "vehicle {v}");
+        assert!(h[at..].iter().all(|&h| h == 3), "vehicle {v}");
+    }
+    let head = of(&rows, 3);
+    assert!(head[..at].iter().all(|r| r.mode != Mode::Outside));
+    assert!(head[at..].iter().all(|r| r.mode == Mode::Outside));
+    // Apart: the new head at its ACC's gap (15.5 m + 2 s x v), its platoon at the platoon's;
+    // nobody near another, no step in any command at the hand-over.
+    let last = gaps(&rows, 3).last().copied().unwrap();
+    let v = head.last().unwrap().v;
+    assert!((last - (GAP + 2.0 * v)).abs() < 1.0, "{last} at {v} m/s");
+    for v in 1..=5 {
+        let g = gaps(&rows, v);
+        if v != 3 {
+            let last = *g.last().unwrap();
+            assert!((last - GAP).abs() < 0.5, "vehicle {v}: {last}");
+        }
+        let smallest = g.iter().copied().fold(f64::INFINITY, f64::min);
+        assert!(smallest > 10.0, "vehicle {v}: {smallest}");
+        let jump = largest_step(&rows, v, at - 200..at + 500);
+        assert!(jump < 0.15, "vehicle {v}: {jump}");
+    }
+}
+
+/// Split notices the channel loses are told again every 0.5 s; with none getting through the
+/// splitter gives up after three and the platoon stays whole.
+#[test]
+fn a_split_nobody_hears_leaves_the_platoon_whole() {
+    let (rows, sent) = run(parse(&split_config()).unwrap(), |_, m| {
+        m.body == Body::SplitNotice
+    });
+    let notices: Vec<u64> = sent
+        .iter()
+        .filter(|(_, m)| m.body == Body::SplitNotice)
+        .map(|(k, _)| *k)
+        .collect();
+    assert_eq!(notices, [2001, 2051, 2101]);
+    assert!(sent
+        .iter()
+        .all(|(_, m)| !matches!(m.body, Body::Update { .. })));
+    for v in 1..=5 {
+        assert!(heads(&rows, v).iter().all(|&h| h == 0), "vehicle {v}");
+        assert!(of(&rows, v).iter().all(|r| r.mode != Mode::Outside));
+        let last = gaps(&rows, v).last().copied().unwrap();
+        assert!((last - GAP).abs() < 0.5, "vehicle {v}: {last}");
+    }
 }
 
 /// The merge jammed half way (`kind = "jam_maneuvers"` on the leader's updates from the
@@ -220,6 +306,15 @@ fn a_merge_jammed_half_way_leaves_two_platoons_safely() {
     assert_eq!(from_head(|b| *b == Body::InPosition), 3);
     assert!(from_head(|b| *b == Body::LeaveNotice) >= 1, "it withdraws");
     assert_eq!(from_head(|b| matches!(b, Body::Update { .. })), 0);
+    // The leader, which had merged the head's platoon, splits it off again on the withdrawal.
+    let split = Body::Update {
+        generation: 2,
+        change: Change::Split { head: VehicleId(3) },
+    };
+    assert!(log
+        .sent
+        .iter()
+        .any(|(_, m)| m.sender == VehicleId::LEADER && m.body == split));
     assert!(of(&rows, 3).iter().all(|r| r.mode == Mode::Outside));
     for v in [4, 5] {
         assert!(heads(&rows, v).iter().all(|&h| h == 3), "vehicle {v}");

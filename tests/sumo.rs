@@ -1792,6 +1792,14 @@ fn a_merge_on_sumo_agrees_with_the_native_plant() {
     );
 }
 
+/// A platoon splits on SUMO (`configs/split.toml`): the new head's ACC opens the gap on SUMO's
+/// radar reading of the front platoon's tail, and the run agrees with the native plant's:
+/// every gap within 0.05 m, the split at the same step; nobody collides.
+#[test]
+fn a_split_on_sumo_agrees_with_the_native_plant() {
+    maneuver_on_sumo_agrees("configs/split.toml", 5, ",split,", 2);
+}
+
 /// Members leave on SUMO (`configs/leave.toml`): each leaver changes to the lane beside the
 /// platoon's (lane 2 of the highway) at the step its mode becomes `left`, the radar of the
 /// follower behind it (SUMO's getLeader) then sees the member ahead, the same as the native

@@ -68,7 +68,7 @@ EVERYONE = NOBODY = UNKNOWN
 class Maneuver(NamedTuple):
     """A maneuver message riding on a packet (`[maneuvers]`, docs/maneuvers.md), as the Rust
     SDK's `Packet::maneuver` carries it: its `kind` (wire.V2vPacket.JOIN_REQUEST ...
-    UPDATE_MERGED), its addressee `to` (EVERYONE: every member), the sender's maneuver sequence
+    UPDATE_SPLIT), its addressee `to` (EVERYONE: every member), the sender's maneuver sequence
     number `seq`, `arg` (an accept's middle flag, a refusal's reason, an update's generation),
     the vehicle it names and, for an update that a vehicle joined, whom it follows (for a merge
     request or update: the rear platoon's head or the tail it asks for, and its last vehicle;

@@ -137,6 +137,8 @@ class V2vPacket(Payload):
     LEAVE_NOTICE = 11
     MERGE_REQUEST = 12
     UPDATE_MERGED = 13
+    SPLIT_NOTICE = 14
+    UPDATE_SPLIT = 15
     # `maneuver_arg` of a refusal.
     REFUSED_BUSY = 0
     REFUSED_FULL = 1

@@ -9,7 +9,7 @@ fn configs_dir() -> std::path::PathBuf {
 /// The shipped configs, each run by a line of the README's quick start. A config added to or
 /// removed from `configs/` must be named here too: the test checks that the directory holds
 /// exactly these, so one that stops being found (or a stray file) fails it.
-const SHIPPED: [&str; 17] = [
+const SHIPPED: [&str; 18] = [
     "cut-in-split.toml",
     "cut-in.toml",
     "degradation.toml",
@@ -23,6 +23,7 @@ const SHIPPED: [&str; 17] = [
     "merge.toml",
     "onramp.toml",
     "paper.toml",
+    "split.toml",
     "sumo-paper.toml",
     "table1.toml",
     "time-headway.toml",

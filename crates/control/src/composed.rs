@@ -165,6 +165,8 @@ struct Follower {
     member: bool,
     /// A joiner: the step it began approaching its slot.
     approaching_since: Option<u64>,
+    /// A member that split off the members behind it: the step it began heading them.
+    heading_since: Option<u64>,
     /// The member it follows ([`View::ahead`]).
     ahead: VehicleId,
     /// How much more room than its law's it keeps to the vehicle ahead (m): a gap it opens for
@@ -260,6 +262,7 @@ impl ComposedController {
                 leading: false,
                 member: true,
                 approaching_since: None,
+                heading_since: None,
                 ahead: VehicleId(i as u16 - 1),
                 offset_m: 0.0,
                 offset: None,
@@ -430,7 +433,7 @@ impl Controller for ComposedController {
             });
             let head = match self.maneuvers.as_ref().filter(|m| m.has_heads()) {
                 Some(m) => Some(m.head_of(f.id))
-                    .filter(|&j| j != VehicleId::LEADER)
+                    .filter(|&j| j != VehicleId::LEADER && j != f.id)
                     .and_then(|j| Some((j, self.checks.heard_from(f.id, j)?))),
                 None => head,
             };
@@ -440,7 +443,9 @@ impl Controller for ComposedController {
             let phase = man.map_or(JoinerPhase::Member, |m| m.phase(f.id));
             let left = man.is_some_and(|m| m.has_left(f.id));
             let beside = man.is_some_and(|m| m.beside(f.id));
-            let member = phase == JoinerPhase::Member && !left;
+            // A member that split off the members behind it heads them on its ACC.
+            let split_off = phase == JoinerPhase::Member && man.is_some_and(|m| m.heads(f.id));
+            let member = phase == JoinerPhase::Member && !left && !split_off;
             let opening_for = man.and_then(|m| m.opening_for(f.id));
             let (dt, spacing, headway) = (self.parts.dt, self.parts.spacing, self.parts.headway);
             // A member follows whom its copy of the formation puts ahead of it, from the step its
@@ -534,9 +539,17 @@ impl Controller for ComposedController {
                 false if from_beside && !member => reading.map(|(r, _)| r).or_else(heard_ahead),
                 false => reading.filter(|_| radar_on || !member).map(|(r, _)| r),
             };
+            let just_split = split_off && f.heading_since.is_none();
             let (lawful, joined) = match phase {
                 // A leaver drives on at its speed in the next lane.
                 _ if left => (0.0, false),
+                JoinerPhase::Member if split_off => {
+                    let since = *f.heading_since.get_or_insert(k);
+                    let elapsed_s = (k - since) as f64 * dt;
+                    let headway = crate::maneuvers::split_headway(&fb.acc, headway, elapsed_s);
+                    let acc = acc_command(&fb.acc, reading, headway, own[1], spacing, length_ahead);
+                    (acc, false)
+                }
                 JoinerPhase::Member => (lawful, !f.member),
                 JoinerPhase::Outside | JoinerPhase::Approaching => {
                     let approaching = man.is_some_and(|m| m.approaching(f.id));
@@ -567,7 +580,7 @@ impl Controller for ComposedController {
                 spacing,
                 headway: self.parts.headway,
                 length_ahead,
-                rebased: rebased || joined || switched || just_left,
+                rebased: rebased || joined || switched || just_left || just_split,
             };
             let (mode, u, guard) = f.fallback.step(&situation, |_| lawful);
             let mode = match (member, left, beside) {

@@ -41,7 +41,7 @@ pub use checks::{PacketChecks, RejectCounts, PLAUSIBLE_ACCEL};
 pub use composed::{Beaconing, ComposedController, Composition, Law, Periodic, View};
 pub use controller::{FollowerStep, PlatoonController};
 pub use fallback::{FallbackMode, FallbackParams, Mode};
-pub use maneuvers::{JoinSpec, LeaveSpec, ManeuverParams, MergeSpec};
+pub use maneuvers::{JoinSpec, LeaveSpec, ManeuverParams, MergeSpec, SplitSpec};
 pub use screening::{DetectionParams, Inspection, Reaction};
 pub use seam::{build, build_with, check_topology, Controller};
 pub use spacing::SpacingPolicy;

@@ -50,6 +50,18 @@ pub struct MergeSpec {
     pub at_step: u64,
 }
 
+/// A split: member `head` tells the leader at step `at_step` that it heads the members behind
+/// it off as a platoon of their own; on the leader's update it drives on its ACC behind the
+/// members ahead (its headway opening from the platoon's to the ACC's over the ACC's
+/// `opening_s`), and the members behind it take it as their leader.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SplitSpec {
+    /// The member that heads the part behind.
+    pub head: VehicleId,
+    /// When it tells the leader.
+    pub at_step: u64,
+}
+
 /// A platoon's maneuvers and how its vehicles judge them.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ManeuverParams {
@@ -61,6 +73,8 @@ pub struct ManeuverParams {
     pub leaves: Vec<LeaveSpec>,
     /// A merge of a second platoon behind this one (at most one, with no joins or leaves).
     pub merge: Option<MergeSpec>,
+    /// A split of this platoon (at most one, with no joins, leaves or merge).
+    pub split: Option<SplitSpec>,
     /// A joiner is in position when its gap is within this of the platoon's (m)...
     pub in_position_m: f64,
     /// ...and it closes on the vehicle ahead at most this fast (m/s).
@@ -147,19 +161,28 @@ impl ManeuverParams {
                 "the platoon needs a follower that stays besides the joiners".into(),
             ));
         }
-        if let Some(m) = self.merge {
-            if !self.joins.is_empty() || !self.leaves.is_empty() {
+        let regroups = [
+            ("merge", self.merge.map(|m| m.head)),
+            ("split", self.split.map(|m| m.head)),
+        ];
+        for (key, head) in regroups {
+            let Some(head) = head else { continue };
+            let others = !self.joins.is_empty()
+                || !self.leaves.is_empty()
+                || (self.merge.is_some() && self.split.is_some());
+            if others {
                 return Err((
-                    "merge",
-                    "a run with a merge has no joins or leaves (the platoons that merge are \
-                     numbered consecutively)"
-                        .into(),
+                    key,
+                    format!(
+                        "a run with a {key} has no joins, leaves or other regrouping (the \
+                         platoons of a merge or a split are numbered consecutively)"
+                    ),
                 ));
             }
-            let head = usize::from(m.head.0);
+            let head = usize::from(head.0);
             if head < 2 || head >= followers {
                 return Err((
-                    "merge",
+                    key,
                     format!(
                         "vehicle {head} cannot head the rear platoon: each platoon needs a \
                          follower, so the head is one of vehicles 2 to {}",
@@ -219,13 +242,27 @@ pub(crate) fn joiner_headway(
     }
 }
 
+/// The headway the head of a platoon that split off keeps on its ACC, `since_s` after the
+/// split: growing from the platoon's to the ACC's (never below the platoon's) over the ACC's
+/// `opening_s`, so that its command has no step.
+pub(crate) fn split_headway(acc: &crate::fallback::AccParams, platoon: f64, since_s: f64) -> f64 {
+    let apart = acc.headway_s.max(platoon);
+    let opened = if acc.opening_s > 0.0 {
+        (since_s / acc.opening_s).min(1.0)
+    } else {
+        1.0
+    };
+    platoon + (apart - platoon) * opened
+}
+
 /// One follower's part.
 #[derive(Debug, Clone)]
 enum Machine {
-    /// A member, and the step it asks to leave at (until it asks).
+    /// A member, and the steps it asks to leave or to split at (until it asks).
     Member {
         member: Member,
         leave_at: Option<u64>,
+        split_at: Option<u64>,
     },
     Joiner {
         joiner: Joiner,
@@ -285,6 +322,7 @@ impl Maneuvers {
                     _ if merge.is_some() => Machine::Member {
                         member: Member::new(id, rear.clone(), params.timing),
                         leave_at: None,
+                        split_at: None,
                     },
                     Some(j) => Machine::Joiner {
                         joiner: Joiner::new(
@@ -303,6 +341,7 @@ impl Maneuvers {
                             .iter()
                             .find(|l| l.vehicle == id)
                             .map(|l| l.at_step),
+                        split_at: params.split.filter(|p| p.head == id).map(|p| p.at_step),
                     },
                 };
                 Role {
@@ -354,10 +393,18 @@ impl Maneuvers {
         self.leader_in.clear();
         for (role, &ready) in self.roles.iter_mut().zip(ready) {
             match &mut role.machine {
-                Machine::Member { member, leave_at } => {
+                Machine::Member {
+                    member,
+                    leave_at,
+                    split_at,
+                } => {
                     if leave_at.is_some_and(|at| k >= at) {
                         *leave_at = None;
                         member.leave(k, out);
+                    }
+                    if split_at.is_some_and(|at| k >= at) {
+                        *split_at = None;
+                        member.split(k, out);
                     }
                     member.step(k, &role.inbox, ready, out);
                 }
@@ -432,18 +479,18 @@ impl Maneuvers {
     }
 
     /// Whether follower `i` heads a platoon of its own: the rear platoon's head until its
-    /// merge is announced.
+    /// merge is announced, a member once its split is.
     pub(crate) fn heads(&self, i: VehicleId) -> bool {
         match &self.roles[i.index() - 1].machine {
             Machine::Joiner { joiner, .. } => {
                 joiner.tail().is_some() && joiner.phase() != JoinerPhase::Member
             }
-            Machine::Member { .. } => false,
+            Machine::Member { member, .. } => member.heads(),
         }
     }
 
     /// The vehicle follower `i` takes as its leader: the head of its copy of the formation (a
-    /// joiner's: the platoon's leader).
+    /// joiner's: the platoon's leader; a head's: itself).
     pub(crate) fn head_of(&self, i: VehicleId) -> VehicleId {
         match &self.roles[i.index() - 1].machine {
             Machine::Member { member, .. } => member.formation().head(),
@@ -451,9 +498,9 @@ impl Maneuvers {
         }
     }
 
-    /// Whether a platoon may head part of the vehicles (a merge).
+    /// Whether a platoon may head part of the vehicles (a merge, a split).
     pub(crate) fn has_heads(&self) -> bool {
-        self.params.merge.is_some()
+        self.params.merge.is_some() || self.params.split.is_some()
     }
 
     /// Whether follower `i` left the platoon (its leave announced, as its copy says).

@@ -134,12 +134,12 @@ impl ControllerParams {
             && self
                 .maneuvers
                 .as_ref()
-                .is_some_and(|m| !m.leaves.is_empty() || m.merge.is_some())
+                .is_some_and(|m| !m.leaves.is_empty() || m.merge.is_some() || m.split.is_some())
         {
             return err(
                 "maneuvers",
                 "the consensus law weighs its neighbours by vehicle for the whole run; a \
-                 leave or a merge needs a law on the predecessor and the leader (law = \
+                 leave, a merge or a split needs a law on the predecessor and the leader (law = \
                  \"path_cacc\", \"ploeg\", \"flatbed\" or \"acc\")"
                     .into(),
             );

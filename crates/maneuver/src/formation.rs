@@ -157,12 +157,33 @@ impl Formation {
         Self::new(members)
     }
 
-    /// This formation after `change`.
-    pub fn apply(&self, change: Change) -> Result<Self, FormationError> {
+    /// The two platoons of a split at `head` ([`Change::Split`]): the members ahead of it, and
+    /// those from it on, headed by it.
+    pub fn split(&self, head: VehicleId) -> Result<(Self, Self), FormationError> {
+        match self.position(head) {
+            None => Err(FormationError::NotMember(head.0)),
+            Some(0) => Err(FormationError::HeadLeaves(head.0)),
+            Some(i) => Ok((
+                Self {
+                    members: self.members[..i].to_vec(),
+                },
+                Self {
+                    members: self.members[i..].to_vec(),
+                },
+            )),
+        }
+    }
+
+    /// This formation after `change`, as `me` keeps it (a split leaves it the part it is in).
+    pub fn apply(&self, change: Change, me: VehicleId) -> Result<Self, FormationError> {
         match change {
             Change::Joined { vehicle, behind } => self.joined(vehicle, behind),
             Change::Left { vehicle } => self.left(vehicle),
             Change::Merged { head, tail } => self.merged(head, tail),
+            Change::Split { head } => {
+                let (front, rear) = self.split(head)?;
+                Ok(if rear.contains(me) { rear } else { front })
+            }
         }
     }
 
@@ -225,6 +246,18 @@ mod tests {
         let wrong = Err(FormationError::NotConsecutive { head: 4, tail: 5 });
         assert_eq!(front.merged(v(4), v(5)), wrong, "a gap in the numbers");
         assert_eq!(rear.merged(v(4), v(5)), wrong, "not this platoon's head");
+    }
+
+    #[test]
+    fn a_split_leaves_each_member_its_part() {
+        let f = Formation::in_order(5);
+        let split = Change::Split { head: v(3) };
+        assert_eq!(f.apply(split, v(1)), Ok(Formation::in_order(2)));
+        let rear = Formation::new(vec![v(3), v(4), v(5)]).unwrap();
+        assert_eq!(f.apply(split, v(3)), Ok(rear.clone()));
+        assert_eq!(f.apply(split, v(5)), Ok(rear));
+        assert_eq!(f.split(v(0)), Err(FormationError::HeadLeaves(0)));
+        assert_eq!(f.split(v(7)), Err(FormationError::NotMember(7)));
     }
 
     #[test]

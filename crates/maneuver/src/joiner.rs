@@ -268,7 +268,7 @@ impl Joiner {
             }
             (
                 Body::Update {
-                    change: Change::Left { vehicle },
+                    change: Change::Left { vehicle } | Change::Split { head: vehicle },
                     ..
                 },
                 JoinerState::Withdrawing { .. },

@@ -43,6 +43,8 @@ pub struct Leader {
     outbox: Outbox,
     /// The last update, and the steps at which it is sent again.
     last_update: Option<(Change, u16)>,
+    /// The head of the last platoon that merged into this one.
+    merged: Option<VehicleId>,
     repeats_left: u32,
     next_repeat: u64,
 }
@@ -59,6 +61,7 @@ impl Leader {
             filter: SeqFilter::default(),
             outbox: Outbox::default(),
             last_update: None,
+            merged: None,
             repeats_left: 0,
             next_repeat: 0,
         }
@@ -91,10 +94,13 @@ impl Leader {
     /// Commits `change` and announces it (now and `timing.tries - 1` times more).
     fn commit(&mut self, step: u64, change: Change, out: &mut Vec<Message>) {
         // A change the formation refuses is never announced: the members' copies stay valid.
-        let Ok(next) = self.formation.apply(change) else {
+        let Ok(next) = self.formation.apply(change, self.me()) else {
             return;
         };
         self.formation = next;
+        if let Change::Merged { head, .. } = change {
+            self.merged = Some(head);
+        }
         self.generation = self.generation.wrapping_add(1);
         self.last_update = Some((change, self.generation));
         self.repeats_left = self.timing.tries.saturating_sub(1);
@@ -300,7 +306,12 @@ impl Leader {
                 // A join the leader no longer runs (it timed out): the sender stays out.
                 self.send(out, EVERYONE, Body::Abort { joiner: from });
             }
-            (Body::LeaveNotice, state) if self.formation.contains(from) => {
+            (Body::LeaveNotice | Body::SplitNotice, state)
+                if self.formation.contains(from) && from != self.me() =>
+            {
+                // A split takes the members from `from` on; so does the withdrawal of the head
+                // of a platoon that merged (its platoon goes with it).
+                let split = m.body == Body::SplitNotice || self.merged == Some(from);
                 if let LeaderState::Joining {
                     joiner,
                     behind,
@@ -308,20 +319,28 @@ impl Leader {
                     ..
                 } = state
                 {
-                    if from == behind || Some(from) == opener {
-                        // The slot goes with the member leaving: the join is called off first.
+                    let gone = |v: VehicleId| match split {
+                        true => self.formation.position(v) >= self.formation.position(from),
+                        false => v == from,
+                    };
+                    if gone(behind) || opener.is_some_and(gone) {
+                        // The slot goes with the members leaving: the join is called off first.
                         self.state = LeaderState::Idle;
                         self.send(out, EVERYONE, Body::Abort { joiner });
                     }
                 }
-                self.commit(step, Change::Left { vehicle: from }, out);
+                let change = match split {
+                    true => Change::Split { head: from },
+                    false => Change::Left { vehicle: from },
+                };
+                self.commit(step, change, out);
             }
-            (Body::LeaveNotice, _)
-                if self
-                    .last_update
-                    .is_some_and(|(c, _)| c == Change::Left { vehicle: from }) =>
+            (Body::LeaveNotice | Body::SplitNotice, _)
+                if self.last_update.is_some_and(|(c, _)| {
+                    c == Change::Left { vehicle: from } || c == Change::Split { head: from }
+                }) =>
             {
-                // It left and missed the update: say it again.
+                // It left (or split off) and missed the update: say it again.
                 self.repeat(out);
             }
             (Body::LeaveNotice, LeaderState::Joining { joiner, .. }) if joiner == from => {

@@ -25,6 +25,13 @@ pub enum MemberState {
         /// Leave notices sent so far.
         asks: u32,
     },
+    /// Told the leader it heads the members behind it off; waiting for the update.
+    Splitting {
+        /// When it tells it again if no update came.
+        ask_at: u64,
+        /// Split notices sent so far.
+        asks: u32,
+    },
     /// No longer a member (its leave was announced).
     Left,
 }
@@ -101,6 +108,28 @@ impl Member {
         }
     }
 
+    /// Tells the leader at `step` that it heads the members behind it off as a platoon of
+    /// their own; again every reply time while no update says so, up to the tries, then it
+    /// stays a member.
+    pub fn split(&mut self, step: u64, out: &mut Vec<Message>) {
+        if matches!(
+            self.state,
+            MemberState::Following | MemberState::Opening { .. }
+        ) {
+            self.send(out, Body::SplitNotice);
+            self.state = MemberState::Splitting {
+                ask_at: step + self.timing.reply_steps,
+                asks: 1,
+            };
+        }
+    }
+
+    /// Whether it heads a platoon of its own (it split off, or heads a platoon that has not
+    /// merged).
+    pub fn heads(&self) -> bool {
+        self.formation.head() == self.me
+    }
+
     /// Whether its leave is announced: it is out of the formation.
     pub fn has_left(&self) -> bool {
         self.state == MemberState::Left
@@ -137,13 +166,19 @@ impl Member {
                 };
             }
         }
-        if let MemberState::Leaving { ask_at, asks } = self.state {
+        let asking = match self.state {
+            MemberState::Leaving { ask_at, asks } => Some((ask_at, asks, Body::LeaveNotice)),
+            MemberState::Splitting { ask_at, asks } => Some((ask_at, asks, Body::SplitNotice)),
+            _ => None,
+        };
+        if let Some((ask_at, asks, body)) = asking {
             if step >= ask_at {
                 self.state = if asks < self.timing.tries {
-                    self.send(out, Body::LeaveNotice);
-                    MemberState::Leaving {
-                        ask_at: step + self.timing.reply_steps,
-                        asks: asks + 1,
+                    self.send(out, body);
+                    let (ask_at, asks) = (step + self.timing.reply_steps, asks + 1);
+                    match body {
+                        Body::SplitNotice => MemberState::Splitting { ask_at, asks },
+                        _ => MemberState::Leaving { ask_at, asks },
                     }
                 } else {
                     // No update: the leader may never have heard it; it stays a member.
@@ -194,7 +229,7 @@ impl Member {
         if generation != self.generation.wrapping_add(1) && !into_another {
             return;
         }
-        let Ok(next) = self.formation.apply(change) else {
+        let Ok(next) = self.formation.apply(change, self.me) else {
             return;
         };
         self.formation = next;
@@ -204,6 +239,7 @@ impl Member {
                 self.state = MemberState::Following;
             }
             Change::Left { vehicle } if vehicle == self.me => self.state = MemberState::Left,
+            Change::Split { head } if head == self.me => self.state = MemberState::Following,
             _ => {}
         }
     }

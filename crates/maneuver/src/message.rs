@@ -89,6 +89,9 @@ pub enum Body {
         /// The last vehicle of the sender's platoon.
         tail: VehicleId,
     },
+    /// The sender, a member, heads the members behind it off as a platoon of their own (a
+    /// member to the leader; ends in [`Change::Split`]).
+    SplitNotice,
 }
 
 /// The kinds of [`Body`], by which an attack picks the messages it acts on.
@@ -116,11 +119,13 @@ pub enum MessageKind {
     LeaveNotice,
     /// [`Body::MergeRequest`].
     MergeRequest,
+    /// [`Body::SplitNotice`].
+    SplitNotice,
 }
 
 impl MessageKind {
     /// Every kind, in the order of their bits in [`MessageKind::bit`].
-    pub const ALL: [MessageKind; 11] = [
+    pub const ALL: [MessageKind; 12] = [
         Self::JoinRequest,
         Self::JoinAccept,
         Self::JoinRefuse,
@@ -132,6 +137,7 @@ impl MessageKind {
         Self::Abort,
         Self::LeaveNotice,
         Self::MergeRequest,
+        Self::SplitNotice,
     ];
 
     /// Its name in configs.
@@ -148,6 +154,7 @@ impl MessageKind {
             Self::Abort => "abort",
             Self::LeaveNotice => "leave_notice",
             Self::MergeRequest => "merge_request",
+            Self::SplitNotice => "split_notice",
         }
     }
 
@@ -177,6 +184,7 @@ impl Body {
             Body::Abort { .. } => MessageKind::Abort,
             Body::LeaveNotice => MessageKind::LeaveNotice,
             Body::MergeRequest { .. } => MessageKind::MergeRequest,
+            Body::SplitNotice => MessageKind::SplitNotice,
         }
     }
 }
@@ -204,6 +212,12 @@ pub enum Change {
         head: VehicleId,
         /// The rear platoon's last vehicle, now the tail.
         tail: VehicleId,
+    },
+    /// The members from `head` on left as a platoon of their own, `head` heading it: the
+    /// copies of the members ahead of it keep the part ahead, the others the part from `head`.
+    Split {
+        /// The member that heads the part behind.
+        head: VehicleId,
     },
 }
 

@@ -415,9 +415,13 @@ fn a_fifth_of_the_messages_lost_still_lets_most_joins_complete() {
 /// Two platoons on a lossless channel: the leader's (vehicles 0 to 2) and one headed by
 /// vehicle 3 (3 to 5), whose head asks to merge at step 1 and is in position
 /// [`APPROACH_STEPS`] after the accept; with `forged`, the leader hears an in-position report
-/// in the head's name at that step. Returns the leader, every member (1, 2, 4, 5), the head
-/// and every message sent.
-fn merge(max_members: usize, forged: Option<u64>) -> (Leader, Vec<Member>, Joiner, Vec<Message>) {
+/// in the head's name at that step; with `jam_updates`, every update is lost. Returns the
+/// leader, every member (1, 2, 4, 5), the head and every message sent.
+fn merge(
+    max_members: usize,
+    forged: Option<u64>,
+    jam_updates: bool,
+) -> (Leader, Vec<Member>, Joiner, Vec<Message>) {
     let front = Formation::in_order(2);
     let rear = Formation::new(vec![v(3), v(4), v(5)]).unwrap();
     let mut leader = Leader::new(front.clone(), max_members, TIMING);
@@ -459,6 +463,9 @@ fn merge(max_members: usize, forged: Option<u64>) -> (Leader, Vec<Member>, Joine
             _ => 0,
         };
         log.extend(&out);
+        if jam_updates {
+            out.retain(|m| !matches!(m.body, Body::Update { .. }));
+        }
         in_flight = out;
     }
     (leader, members, head, log)
@@ -466,7 +473,7 @@ fn merge(max_members: usize, forged: Option<u64>) -> (Leader, Vec<Member>, Joine
 
 #[test]
 fn a_merge_brings_the_rear_platoon_in_whole() {
-    let (leader, members, head, log) = merge(8, None);
+    let (leader, members, head, log) = merge(8, None, false);
     let whole = Formation::in_order(5);
     assert_eq!(leader.formation(), &whole);
     assert_eq!(head.phase(), JoinerPhase::Member);
@@ -504,7 +511,7 @@ fn a_merge_brings_the_rear_platoon_in_whole() {
 /// approaching.
 #[test]
 fn a_merge_announced_before_the_head_is_in_position_leaves_its_platoon_with_it() {
-    let (leader, members, head, log) = merge(8, Some(10));
+    let (leader, members, head, log) = merge(8, Some(10), false);
     assert_eq!(leader.formation(), &Formation::in_order(5));
     assert!(log
         .iter()
@@ -516,7 +523,7 @@ fn a_merge_announced_before_the_head_is_in_position_leaves_its_platoon_with_it()
 
 #[test]
 fn a_merge_that_would_overfill_the_platoon_is_refused() {
-    let (leader, members, head, log) = merge(5, None);
+    let (leader, members, head, log) = merge(5, None, false);
     assert_eq!(leader.formation(), &Formation::in_order(2));
     assert_eq!(
         head.state(),
@@ -528,4 +535,77 @@ fn a_merge_that_would_overfill_the_platoon_is_refused() {
         v(3),
         "the rear platoon stays apart"
     );
+}
+
+/// A merge jammed half way (every update lost): the head reports in position, never hears the
+/// update, and withdraws; the leader, which had merged its platoon, takes the withdrawal as a
+/// split at the head, so its formation is its own platoon again, as every copy says.
+#[test]
+fn a_merge_whose_head_withdraws_splits_its_platoon_off_again() {
+    let (leader, members, head, log) = merge(8, None, true);
+    assert_eq!(leader.formation(), &Formation::in_order(2));
+    assert_eq!(head.state(), JoinerState::Failed(JoinFailure::NoUpdate));
+    let changes: Vec<Change> = log
+        .iter()
+        .filter_map(|m| match m.body {
+            Body::Update { change, .. } if m.sender == v(0) => Some(change),
+            _ => None,
+        })
+        .collect();
+    assert!(
+        changes.contains(&Change::Split { head: v(3) }),
+        "{changes:?}"
+    );
+    let rear = Formation::new(vec![v(3), v(4), v(5)]).unwrap();
+    for (m, f) in members.iter().zip([
+        &Formation::in_order(2),
+        &Formation::in_order(2),
+        &rear,
+        &rear,
+    ]) {
+        assert_eq!(m.formation(), f);
+    }
+}
+
+/// A member splits the platoon behind it: the leader announces it, the members ahead keep the
+/// part ahead, the splitter and the members behind it the part from the splitter, which heads
+/// it; a split notice the channel loses is sent again.
+#[test]
+fn a_split_leaves_two_platoons_each_copy_its_own() {
+    let whole = Formation::in_order(5);
+    let mut leader = Leader::new(whole.clone(), 8, TIMING);
+    let mut members: Vec<Member> = (1..=5)
+        .map(|i| Member::new(v(i), whole.clone(), TIMING))
+        .collect();
+    let (mut in_flight, mut log): (Vec<Message>, Vec<Message>) = (Vec::new(), Vec::new());
+    for step in 1..=60 {
+        let mut out = Vec::new();
+        leader.step(step, &in_flight, &mut out);
+        for (i, m) in members.iter_mut().enumerate() {
+            if step == 1 && i == 2 {
+                m.split(step, &mut out);
+            }
+            m.step(step, &in_flight, false, &mut out);
+        }
+        log.extend(&out);
+        // The first notice is lost.
+        if step == 1 {
+            out.retain(|m| m.body != Body::SplitNotice);
+        }
+        in_flight = out;
+    }
+    let notices = log.iter().filter(|m| m.body == Body::SplitNotice).count();
+    assert_eq!(notices, 2, "asked again once");
+    assert_eq!(leader.formation(), &Formation::in_order(2));
+    let rear = Formation::new(vec![v(3), v(4), v(5)]).unwrap();
+    for (i, m) in members.iter().enumerate() {
+        let expected = if i < 2 {
+            Formation::in_order(2)
+        } else {
+            rear.clone()
+        };
+        assert_eq!(m.formation(), &expected, "member {}", i + 1);
+        assert_eq!(m.heads(), i == 2);
+        assert_eq!(m.state(), MemberState::Following);
+    }
 }

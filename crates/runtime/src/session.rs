@@ -438,6 +438,11 @@ fn maneuver_to_wire(m: Option<&Message>, j: usize, num: Numbering) -> V2vPacket 
             generation,
             change: Change::Merged { head, tail },
         } => (V2vPacket::UPDATE_MERGED, generation, Some(head), Some(tail)),
+        Body::SplitNotice => (V2vPacket::SPLIT_NOTICE, 0, None, None),
+        Body::Update {
+            generation,
+            change: Change::Split { head },
+        } => (V2vPacket::UPDATE_SPLIT, generation, Some(head), None),
     };
     V2vPacket {
         maneuver: kind,
@@ -527,6 +532,11 @@ fn maneuver_from_wire(
                 head: vehicle()?,
                 tail: id(p.maneuver_behind)?,
             },
+        },
+        V2vPacket::SPLIT_NOTICE => Body::SplitNotice,
+        V2vPacket::UPDATE_SPLIT => Body::Update {
+            generation: p.maneuver_arg,
+            change: Change::Split { head: vehicle()? },
         },
         _ => return None,
     };

@@ -363,7 +363,10 @@ pub fn step_rows(
     };
     let t = k as f64 * scenario.dt();
     let x0 = states[0];
-    let (merges, split) = (scenario.merges(), scenario.splits() || scenario.merges());
+    let (regroups, split) = (
+        scenario.regroups(),
+        scenario.splits() || scenario.regroups(),
+    );
     out.push(StepRow {
         step: k,
         t,
@@ -406,9 +409,10 @@ pub fn step_rows(
     for (i, x) in states.iter().enumerate().skip(1) {
         let s = follower(i);
         let slot = slots.get(i - 1).copied().unwrap_or(i as f64);
-        // Two platoons before a merge: each follower against its own platoon's head.
+        // Two platoons (before a merge, after a split): each follower against its own
+        // platoon's head.
         let (x0, slot) = match s.head.index() {
-            h if merges && h != 0 => (states[h], slot - h as f64),
+            h if regroups && h != 0 => (states[h], slot - h as f64),
             _ => (x0, slot),
         };
         out.push(StepRow {

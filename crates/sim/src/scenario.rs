@@ -244,13 +244,14 @@ impl Scenario {
         self.control.fallback.cut_in.is_some_and(|c| c.split)
     }
 
-    /// Whether two platoons merge during the run (`[maneuvers.merge]`): until then the rear
-    /// one's followers take its head as their leader.
-    pub fn merges(&self) -> bool {
+    /// Whether the run has two platoons for a while (`[maneuvers.merge]` until the merge,
+    /// `[maneuvers.split]` from the split): the rear one's followers take its head as their
+    /// leader.
+    pub fn regroups(&self) -> bool {
         self.control
             .maneuvers
             .as_ref()
-            .is_some_and(|m| m.merge.is_some())
+            .is_some_and(|m| m.merge.is_some() || m.split.is_some())
     }
 
     /// Whether vehicles change lanes during the run: members leave (`[[maneuvers.leaves]]`)

@@ -29,8 +29,9 @@ use iceoryx2::prelude::ZeroCopySend;
 ///   bits 8-23 say whom the follower took as its leader.
 /// - v4: [`V2vPacket`] carries a maneuver message (`maneuver` and its fields in place of
 ///   `reserved`; 80 bytes, was 64): join and leave negotiated over V2V (`[maneuvers]`).
-///   Later, still v4: the kinds [`V2vPacket::MERGE_REQUEST`] and [`V2vPacket::UPDATE_MERGED`]
-///   (a merge of two platoons; no payload changed, and a reader drops a kind it does not know,
+///   Later, still v4: the kinds [`V2vPacket::MERGE_REQUEST`], [`V2vPacket::UPDATE_MERGED`],
+///   [`V2vPacket::SPLIT_NOTICE`] and [`V2vPacket::UPDATE_SPLIT`] (merges and splits of
+///   platoons; no payload changed, and a reader drops a kind it does not know,
 ///   keeping the packet's beacon).
 pub const CONTRACT_VERSION: u32 = 4;
 
@@ -211,6 +212,12 @@ impl V2vPacket {
     /// The leader's update `maneuver_arg`: the platoon from `maneuver_vehicle` to
     /// `maneuver_behind` merged behind its tail.
     pub const UPDATE_MERGED: u16 = 13;
+    /// The sender, a member, heads the members behind it off as a platoon of their own (to the
+    /// leader).
+    pub const SPLIT_NOTICE: u16 = 14;
+    /// The leader's update `maneuver_arg`: the members from `maneuver_vehicle` on split off,
+    /// headed by it.
+    pub const UPDATE_SPLIT: u16 = 15;
     /// A refusal's reason: another maneuver is under way.
     pub const REFUSED_BUSY: u16 = 0;
     /// ... the platoon is full.

@@ -282,21 +282,23 @@ pub(super) fn maneuvers(
         .into_iter()
         .map(|(vehicle, at_step)| platoon_control::LeaveSpec { vehicle, at_step })
         .collect();
-    let merge = match &m.merge {
-        Some(g) => {
+    // (head, step) of `[maneuvers.<what>]`, a merge or a split.
+    let head_at =
+        |what: &str, g: &Option<crate::HeadAt>| -> Result<Option<(VehicleId, u64)>, Invalid> {
+            let Some(g) = g else { return Ok(None) };
             if g.head == 0 || g.head > followers {
                 return bad(
-                    "maneuvers.merge.head",
+                    &format!("maneuvers.{what}.head"),
                     format!("must be a follower, 1 to {followers} (got {})", g.head),
                 );
             }
-            Some(platoon_control::MergeSpec {
-                head: VehicleId(g.head as u16),
-                at_step: step_of("maneuvers.merge.at_s", g.at_s)?,
-            })
-        }
-        None => None,
-    };
+            let step = step_of(&format!("maneuvers.{what}.at_s"), g.at_s)?;
+            Ok(Some((VehicleId(g.head as u16), step)))
+        };
+    let merge = head_at("merge", &m.merge)?
+        .map(|(head, at_step)| platoon_control::MergeSpec { head, at_step });
+    let split = head_at("split", &m.split)?
+        .map(|(head, at_step)| platoon_control::SplitSpec { head, at_step });
     let params = platoon_control::ManeuverParams {
         timing: platoon_maneuver::Timing {
             reply_steps: u64::from(steps_of("maneuvers.reply_s", m.reply_s, dt)?),
@@ -306,6 +308,7 @@ pub(super) fn maneuvers(
         joins,
         leaves,
         merge,
+        split,
         in_position_m: m.in_position_m,
         in_position_mps: m.in_position_mps,
         max_members: m.max_members.unwrap_or(followers + 1),

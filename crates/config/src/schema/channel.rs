@@ -360,7 +360,7 @@ pub enum LinkKindConfig {
     JamManeuvers {
         /// The messages jammed, by name: `join_request`, `join_accept`, `join_refuse`,
         /// `open_gap`, `gap_ready`, `move_in`, `in_position`, `update`, `abort`,
-        /// `leave_notice`, `merge_request` \[every one\].
+        /// `leave_notice`, `merge_request`, `split_notice` \[every one\].
         #[serde(default, skip_serializing_if = "Vec::is_empty")]
         messages: Vec<String>,
     },

@@ -296,7 +296,13 @@ pub struct ManeuversConfig {
     /// `at_s` the head asks the leader to merge, closes up to the platoon's gap once accepted,
     /// and on the leader's update both are one platoon (no joins or leaves beside it).
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub merge: Option<MergeAt>,
+    pub merge: Option<HeadAt>,
+    /// `[maneuvers.split]`: at `at_s` follower `head` tells the leader it heads the members
+    /// behind it off as a platoon of their own; on the leader's update it drives on its ACC
+    /// (`fallback.acc`, its headway opening from the platoon's to the ACC's over `opening_s`)
+    /// and the members behind it take it as their leader (no joins or leaves beside it).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub split: Option<HeadAt>,
     /// How long a vehicle waits for an answer before it asks again, and the spacing of the
     /// leader's repeats of a formation update (s).
     pub reply_s: f64,
@@ -340,13 +346,13 @@ pub struct LeaveAt {
     pub at_s: f64,
 }
 
-/// A merge of the rear platoon behind the leader's.
+/// A merge or a split: the rear platoon's head, and when it tells the leader.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
-pub struct MergeAt {
+pub struct HeadAt {
     /// The rear platoon's head (a follower, 2 to N - 1: each platoon keeps a follower).
     pub head: usize,
-    /// When it asks the leader (s).
+    /// When it tells the leader (s).
     pub at_s: f64,
 }
 
@@ -358,6 +364,7 @@ impl Default for ManeuversConfig {
             joins: Vec::new(),
             leaves: Vec::new(),
             merge: None,
+            split: None,
             reply_s: 0.5,
             tries: 3,
             timeout_s: 30.0,
