@@ -242,6 +242,94 @@ fn write_config(out: Option<&RunDir>, config: &Config) -> Result<()> {
     Ok(())
 }
 
+/// Runs `cell` on each of `cells` in order as the stage `what` of `progress`, naming each by
+/// `detail` and counting it when it is done; stops at the first error. Returns what each cell
+/// gave, in the cells' order.
+fn walk<C, R>(
+    progress: &dyn Progress,
+    what: &str,
+    cells: Vec<C>,
+    detail: impl Fn(&C) -> String,
+    mut cell: impl FnMut(C) -> Result<R>,
+) -> Result<Vec<R>> {
+    progress.start(what, cells.len() as u64);
+    let mut out = Vec::with_capacity(cells.len());
+    for c in cells {
+        progress.detail(&detail(&c));
+        out.push(cell(c)?);
+        progress.at(out.len() as u64);
+    }
+    progress.finish();
+    Ok(out)
+}
+
+/// `result`, after `write` has written its files into `out` when there is one.
+fn written<T>(
+    result: T,
+    out: Option<&RunDir>,
+    write: impl FnOnce(&T, &RunDir) -> Result<()>,
+) -> Result<T> {
+    if let Some(dir) = out {
+        write(&result, dir)?;
+    }
+    Ok(result)
+}
+
+/// `rows` as `<name>.csv`, one record a row.
+fn write_csv(dir: &RunDir, name: &str, rows: &[impl serde::Serialize]) -> Result<()> {
+    let mut csv = csv::Writer::from_writer(dir.writer(&format!("{name}.csv"))?);
+    for r in rows {
+        csv.serialize(r)?;
+    }
+    csv.flush()?;
+    Ok(())
+}
+
+/// An experiment's table: `rows` as `<name>.csv` ([`write_csv`]) and `markdown` as
+/// `<name>.md`.
+fn write_table(
+    dir: &RunDir,
+    name: &str,
+    rows: &[impl serde::Serialize],
+    markdown: &str,
+) -> Result<()> {
+    write_csv(dir, name, rows)?;
+    dir.write(&format!("{name}.md"), markdown.as_bytes())?;
+    Ok(())
+}
+
+/// The rows of each value of `key`, the values in the order they first appear: the repeats
+/// of one cell of a table.
+fn repeats<'a, R, K: PartialEq>(rows: &'a [R], key: impl Fn(&'a R) -> K) -> Vec<(K, Vec<&'a R>)> {
+    let mut groups: Vec<(K, Vec<&'a R>)> = Vec::new();
+    for r in rows {
+        let k = key(r);
+        match groups.iter_mut().find(|(g, _)| *g == k) {
+            Some((_, same)) => same.push(r),
+            None => groups.push((k, vec![r])),
+        }
+    }
+    groups
+}
+
+/// The bars of a figure by law: for each of `laws`, `value(law, attack)` (by name) under each
+/// of `attacks`.
+fn bars_by_law(
+    laws: &[platoon_config::LawName],
+    attacks: &[impl AsRef<str>],
+    value: impl Fn(&str, &str) -> f64,
+) -> Vec<(String, Vec<f64>)> {
+    laws.iter()
+        .map(|law| {
+            let values = attacks
+                .iter()
+                .map(|a| value(law.name(), a.as_ref()))
+                .collect();
+            (law.name().to_string(), values)
+        })
+        .collect()
+}
+
 /// A value as pretty JSON with a final newline, as every JSON file of platoon is written.
 fn pretty(value: &impl serde::Serialize) -> Result<Vec<u8>> {
     Ok((serde_json::to_string_pretty(value)? + "\n").into_bytes())

@@ -16,7 +16,7 @@
 use anyhow::Result;
 use platoon_attacks::Assumption2;
 use platoon_campaign::metrics;
-use platoon_campaign::{Transport, Values};
+use platoon_campaign::{BaseScenario, Transport, Values};
 use platoon_config::{Config, ConfigError, DosConfig, LawName, LinkAttackConfig, LinkKindConfig};
 use platoon_search::{Budget, Certificate, Grid, Schedule, Target};
 use platoon_sim::{SafetyClass, Scenario, Summary};
@@ -254,21 +254,11 @@ pub fn parse(text: &str, file: &Path, evaluations: Option<usize>) -> Result<Sear
             ));
         }
     }
-    let dir = file.parent().unwrap_or(Path::new("."));
-    let (base, base_label) = match &spec.base {
-        Some(b) => {
-            let path = dir.join(b);
-            let (c, _) = platoon_config::load(&path)
-                .map_err(|e| err("base", format!("the base scenario: {e}")))?;
-            let abs = std::path::absolute(&path).unwrap_or(path);
-            spec.base = Some(abs.display().to_string());
-            (c, abs.display().to_string())
-        }
-        None => {
-            let (c, _) = platoon_config::Embedded::Paper.parse()?;
-            (c, platoon_config::Embedded::Paper.label())
-        }
-    };
+    let BaseScenario {
+        config: base,
+        label: base_label,
+        ..
+    } = BaseScenario::load(&mut spec.base, file, &lines)?;
     let values = |key: &str, v: &Values| -> Result<Vec<f64>, ConfigError> {
         let xs: Vec<f64> = match v {
             Values::List(xs) => xs.clone(),
@@ -317,11 +307,7 @@ pub fn parse(text: &str, file: &Path, evaluations: Option<usize>) -> Result<Sear
             v
         }
     };
-    let name = spec.name.clone().unwrap_or_else(|| {
-        file.file_stem()
-            .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_else(|| "search".into())
-    });
+    let name = platoon_campaign::file_name(spec.name.as_deref(), file, "search");
     let mut problems = Vec::new();
     for (label, mut config, case) in cases {
         let label = if label.is_empty() {

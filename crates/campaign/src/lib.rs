@@ -99,6 +99,58 @@ fn error(file: &Path, line: Option<usize>, key: &str, message: impl Into<String>
     ConfigError::new(file, key, message).at_line(line)
 }
 
+/// The scenario a campaign or search file starts from.
+#[derive(Debug, Clone)]
+pub struct BaseScenario {
+    /// Its resolved config.
+    pub config: platoon_config::Config,
+    /// Where it came from: the absolute path, or the embedded paper scenario's label.
+    pub label: String,
+    /// The absolute path of a base given as a file.
+    pub path: Option<PathBuf>,
+}
+
+impl BaseScenario {
+    /// The file's `base`, relative to the folder of `file` and rewritten absolute (an error at
+    /// the key `base`, its line from `lines`, when it does not load), or without one the
+    /// embedded paper scenario.
+    pub fn load(
+        base: &mut Option<String>,
+        file: &Path,
+        lines: &platoon_config::KeyLines,
+    ) -> Result<Self, ConfigError> {
+        let Some(b) = base else {
+            let (config, _) = platoon_config::Embedded::Paper.parse()?;
+            return Ok(Self {
+                config,
+                label: platoon_config::Embedded::Paper.label(),
+                path: None,
+            });
+        };
+        let path = file.parent().unwrap_or(Path::new(".")).join(b.as_str());
+        let (config, _) = platoon_config::load(&path).map_err(|e| {
+            ConfigError::at_key(file, lines, "base", format!("the base scenario: {e}"))
+        })?;
+        let abs = std::path::absolute(&path).unwrap_or(path);
+        *b = abs.display().to_string();
+        Ok(Self {
+            config,
+            label: b.clone(),
+            path: Some(abs),
+        })
+    }
+}
+
+/// A file's name: its `name` key, or the file's stem, or `fallback` for a path without one.
+pub fn file_name(name: Option<&str>, file: &Path, fallback: &str) -> String {
+    match name {
+        Some(n) => n.to_string(),
+        None => file
+            .file_stem()
+            .map_or_else(|| fallback.into(), |s| s.to_string_lossy().into_owned()),
+    }
+}
+
 /// Rounds away the last bits of `from + i step` (0.30000000000000004 -> 0.3).
 fn tidy(x: f64) -> f64 {
     if x == 0.0 || !x.is_finite() {
@@ -193,23 +245,12 @@ impl Campaign {
         let at = |key: &str| lines.line_of(key);
 
         // The base scenario, resolved.
-        let dir = file.parent().unwrap_or(Path::new("."));
-        let (base_config, base_label, base_dir) = match &spec.base {
-            Some(b) => {
-                let path = dir.join(b);
-                let (c, _) = platoon_config::load(&path).map_err(|e| {
-                    error(file, at("base"), "base", format!("the base scenario: {e}"))
-                })?;
-                let abs = std::path::absolute(&path).unwrap_or(path);
-                spec.base = Some(abs.display().to_string());
-                let parent = abs.parent().map(Path::to_path_buf).unwrap_or_default();
-                (c, abs.display().to_string(), Some(parent))
-            }
-            None => {
-                let (c, _) = platoon_config::Embedded::Paper.parse()?;
-                (c, platoon_config::Embedded::Paper.label(), None)
-            }
-        };
+        let BaseScenario {
+            config: base_config,
+            label: base_label,
+            path: base_path,
+        } = BaseScenario::load(&mut spec.base, file, &lines)?;
+        let base_dir = base_path.map(|p| p.parent().map(Path::to_path_buf).unwrap_or_default());
         let mut base = toml::Value::try_from(&base_config).map_err(|e| {
             error(
                 file,
@@ -444,11 +485,7 @@ impl Campaign {
             }
         };
 
-        let name = spec.name.clone().unwrap_or_else(|| {
-            file.file_stem()
-                .map(|s| s.to_string_lossy().into_owned())
-                .unwrap_or_else(|| "campaign".into())
-        });
+        let name = file_name(spec.name.as_deref(), file, "campaign");
         let mut campaign = Campaign {
             file: file.to_path_buf(),
             spec,

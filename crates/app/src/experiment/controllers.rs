@@ -1,5 +1,8 @@
 //! Controllers side by side under the same attacks ([`controllers`]).
-use super::{in_formation, refuse, write_config, Base, ExperimentError, Result};
+use super::{
+    bars_by_law, in_formation, refuse, walk, write_config, write_table, written, Base,
+    ExperimentError, Result,
+};
 use crate::progress::Progress;
 use platoon_config::{
     Attack, DosConfig, LawConfig, LawName, LinkAttackConfig, LinkKindConfig, RuleConfig,
@@ -119,25 +122,23 @@ pub fn controllers(
 ) -> Result<Controllers> {
     opts.validate()?;
     write_config(out, &base.config)?;
-    let total = opts.laws.len() * ATTACKS.len() * opts.topologies.len();
-    progress.start("simulating", total as u64);
-    let mut rows = Vec::with_capacity(total);
+    let mut cells = Vec::new();
     for &law in &opts.laws {
         for &preset in &opts.topologies {
-            for attack in ATTACKS {
-                progress.detail(&format!("{}, {attack}, {}", law.name(), preset.name()));
-                rows.push(cell(base, opts, law, preset, attack)?);
-                progress.at(rows.len() as u64);
-            }
+            cells.extend(ATTACKS.map(|attack| (law, preset, attack)));
         }
     }
-    progress.finish();
+    let rows = walk(
+        progress,
+        "simulating",
+        cells,
+        |(law, preset, attack)| format!("{}, {attack}, {}", law.name(), preset.name()),
+        |(law, preset, attack)| cell(base, opts, law, preset, attack),
+    )?;
     let markdown = markdown(&rows);
-    let result = Controllers { rows, markdown };
-    if let Some(dir) = out {
-        result.write(opts, dir)?;
-    }
-    Ok(result)
+    written(Controllers { rows, markdown }, out, |r, dir| {
+        r.write(opts, dir)
+    })
 }
 
 /// The base config set up for one cell.
@@ -367,35 +368,16 @@ fn markdown(rows: &[ControllersRow]) -> String {
 
 impl Controllers {
     fn write(&self, opts: &ControllersOptions, dir: &RunDir) -> Result<()> {
-        let mut csv = csv::Writer::from_writer(dir.writer("controllers.csv")?);
-        for r in &self.rows {
-            csv.serialize(r)?;
-        }
-        csv.flush()?;
-        dir.write("controllers.md", self.markdown.as_bytes())?;
+        write_table(dir, "controllers", &self.rows, &self.markdown)?;
         let categories: Vec<String> = ATTACKS.iter().map(|a| a.to_string()).collect();
         for &preset in &opts.topologies {
-            let groups: Vec<(String, Vec<f64>)> = opts
-                .laws
-                .iter()
-                .map(|law| {
-                    let values = ATTACKS
-                        .iter()
-                        .map(|a| {
-                            self.rows
-                                .iter()
-                                .find(|r| {
-                                    r.law == law.name()
-                                        && r.attack == *a
-                                        && r.topology == preset.name()
-                                })
-                                .and_then(|r| r.min_gap_m)
-                                .map_or(0.0, |g| g.max(0.0))
-                        })
-                        .collect();
-                    (law.name().to_string(), values)
-                })
-                .collect();
+            let groups = bars_by_law(&opts.laws, &ATTACKS, |law, a| {
+                self.rows
+                    .iter()
+                    .find(|r| r.law == law && r.attack == a && r.topology == preset.name())
+                    .and_then(|r| r.min_gap_m)
+                    .map_or(0.0, |g| g.max(0.0))
+            });
             plots::grouped_bars(
                 &dir.path(&format!("controllers-{}.png", preset.name())),
                 &format!(

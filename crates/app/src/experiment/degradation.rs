@@ -109,63 +109,65 @@ pub fn degradation(
         ("predict", FallbackMode::Predict),
         ("acc", FallbackMode::Acc),
     ];
-    let total = DEGRADATION_ATTACKS.len() * opts.followers.len() * modes.len() * 2;
-    progress.start("simulating", total as u64);
-    let mut rows = Vec::with_capacity(total);
+    let mut cells = Vec::new();
     for (attack, intervals) in DEGRADATION_ATTACKS {
         for &n in &opts.followers {
             for (name, mode) in modes {
-                for guard in [false, true] {
-                    progress.detail(&format!(
-                        "{attack}, {n} followers, {name}{}",
-                        if guard { " + guard" } else { "" }
-                    ));
-                    let mut c = base.config.clone();
-                    if n != c.platoon.followers {
-                        resize(&mut c, n);
-                    }
-                    c.control.attack_input = None;
-                    c.fallback.mode = Some(mode);
-                    c.guard.enabled = guard;
-                    c.attack = platoon_config::Attack {
-                        kind: platoon_config::DosConfig::Intervals {
-                            intervals: intervals.to_vec(),
-                        },
-                        ..Default::default()
-                    };
-                    let scenario = platoon_config::to_scenario(&mut c).map_err(|(key, e)| {
-                        ExperimentError::Variant(format!(
-                            "{label}: key `{key}` with {n} followers: {e}"
-                        ))
-                    })?;
-                    let s = platoon_sim::run(scenario, |_| {})?;
-                    rows.push(DegradationRow {
-                        attack,
-                        followers: n,
-                        fallback: name,
-                        guard,
-                        max_spacing_error_m: s.max_spacing_error_m(),
-                        min_gap_m: s.safety.min_gap_m,
-                        min_ttc_s: s.safety.min_ttc_s,
-                        max_deceleration_mps2: s.safety.max_deceleration_mps2,
-                        class: s.safety.class,
-                        collided: s.safety.collided,
-                        messages: s.triggers_total,
-                        guard_activations: s.vehicles.iter().map(|v| v.guard_activations).sum(),
-                        fallback_time_s: s
-                            .vehicles
-                            .iter()
-                            .flat_map(|v| v.mode_time_s.iter())
-                            .filter(|(m, _)| m.as_str() != "coop")
-                            .map(|(_, t)| t)
-                            .sum(),
-                    });
-                    progress.at(rows.len() as u64);
-                }
+                cells.extend([false, true].map(|guard| (attack, intervals, n, name, mode, guard)));
             }
         }
     }
-    progress.finish();
+    let rows = walk(
+        progress,
+        "simulating",
+        cells,
+        |&(attack, _, n, name, _, guard)| {
+            format!(
+                "{attack}, {n} followers, {name}{}",
+                if guard { " + guard" } else { "" }
+            )
+        },
+        |(attack, intervals, n, name, mode, guard)| {
+            let mut c = base.config.clone();
+            if n != c.platoon.followers {
+                resize(&mut c, n);
+            }
+            c.control.attack_input = None;
+            c.fallback.mode = Some(mode);
+            c.guard.enabled = guard;
+            c.attack = platoon_config::Attack {
+                kind: platoon_config::DosConfig::Intervals {
+                    intervals: intervals.to_vec(),
+                },
+                ..Default::default()
+            };
+            let scenario = platoon_config::to_scenario(&mut c).map_err(|(key, e)| {
+                ExperimentError::Variant(format!("{label}: key `{key}` with {n} followers: {e}"))
+            })?;
+            let s = platoon_sim::run(scenario, |_| {})?;
+            Ok(DegradationRow {
+                attack,
+                followers: n,
+                fallback: name,
+                guard,
+                max_spacing_error_m: s.max_spacing_error_m(),
+                min_gap_m: s.safety.min_gap_m,
+                min_ttc_s: s.safety.min_ttc_s,
+                max_deceleration_mps2: s.safety.max_deceleration_mps2,
+                class: s.safety.class,
+                collided: s.safety.collided,
+                messages: s.triggers_total,
+                guard_activations: s.vehicles.iter().map(|v| v.guard_activations).sum(),
+                fallback_time_s: s
+                    .vehicles
+                    .iter()
+                    .flat_map(|v| v.mode_time_s.iter())
+                    .filter(|(m, _)| m.as_str() != "coop")
+                    .map(|(_, t)| t)
+                    .sum(),
+            })
+        },
+    )?;
     let mut md = markdown::header(&[
         "attack",
         "followers",
@@ -201,22 +203,15 @@ pub fn degradation(
             ],
         );
     }
-    let result = Degradation { rows, markdown: md };
-    if let Some(dir) = out {
-        result.write(opts.followers[0], &modes.map(|m| m.0), dir)?;
-    }
-    Ok(result)
+    written(Degradation { rows, markdown: md }, out, |r, dir| {
+        r.write(opts.followers[0], &modes.map(|m| m.0), dir)
+    })
 }
 
 impl Degradation {
     fn write(&self, n0: usize, modes: &[&str], dir: &RunDir) -> Result<()> {
         let rows = &self.rows;
-        let mut csv = csv::Writer::from_writer(dir.writer("degradation.csv")?);
-        for r in rows {
-            csv.serialize(r)?;
-        }
-        csv.flush()?;
-        dir.write("degradation.md", self.markdown.as_bytes())?;
+        write_table(dir, "degradation", rows, &self.markdown)?;
         // The smallest gap per attack (the first size, guard off and on) for each fallback.
         let categories: Vec<String> = DEGRADATION_ATTACKS
             .iter()

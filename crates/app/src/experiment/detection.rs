@@ -1,6 +1,6 @@
 //! Every misbehaviour detector against every attack of an insider, measured against ground
 //! truth, with and without a reaction ([`detection`]).
-use super::{refuse, write_config, Base, ExperimentError, Result};
+use super::{refuse, write_config, write_table, written, Base, ExperimentError, Result};
 use crate::progress::Progress;
 use anyhow::anyhow;
 use platoon_config::{Attack, DetectionConfig, LinkAttackConfig, LinkKindConfig};
@@ -323,11 +323,9 @@ pub fn detection(
         }
     }
     let markdown = markdown(&rows, opts);
-    let result = Detection { rows, markdown };
-    if let Some(dir) = out {
-        result.write(opts, dir)?;
-    }
-    Ok(result)
+    written(Detection { rows, markdown }, out, |r, dir| {
+        r.write(opts, dir)
+    })
 }
 
 /// The base config as every run of [`detection`] shares it: no DoS, the attacks and detection
@@ -573,12 +571,7 @@ fn markdown(rows: &[DetectionRow], opts: &DetectionOptions) -> String {
 
 impl Detection {
     fn write(&self, opts: &DetectionOptions, dir: &RunDir) -> Result<()> {
-        let mut csv = csv::Writer::from_writer(dir.writer("detection.csv")?);
-        for r in &self.rows {
-            csv.serialize(r)?;
-        }
-        csv.flush()?;
-        dir.write("detection.md", self.markdown.as_bytes())?;
+        write_table(dir, "detection", &self.rows, &self.markdown)?;
         if opts.reactions.contains(&Reaction::Log) && !opts.attacks.is_empty() {
             f1_heatmap(&dir.path("f1.png"), &self.rows, opts)
                 .map_err(|e| anyhow!("drawing f1.png: {e}"))?;

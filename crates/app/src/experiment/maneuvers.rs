@@ -1,5 +1,8 @@
 //! Maneuvers by law and attack ([`maneuvers`]).
-use super::{keep_law_spacing, law_config, on_standstill, refuse, ExperimentError, Result};
+use super::{
+    bars_by_law, keep_law_spacing, law_config, on_standstill, refuse, repeats, walk, write_table,
+    written, ExperimentError, Result,
+};
 use crate::progress::Progress;
 use platoon_attacks::inject::{InjectError, Injector, Reception, Step};
 use platoon_config::{Config, DosConfig, Embedded, LawName, LinkAttackConfig, LinkKindConfig};
@@ -138,31 +141,32 @@ pub fn maneuvers(
     progress: &dyn Progress,
 ) -> Result<Maneuvers> {
     opts.validate()?;
-    let total = opts.maneuvers.len() * opts.laws.len() * opts.attacks.len() * opts.repeats as usize;
-    progress.start("simulating", total as u64);
-    let mut rows = Vec::with_capacity(total);
-    for maneuver in &opts.maneuvers {
-        let base = base(maneuver)?;
+    let bases = opts
+        .maneuvers
+        .iter()
+        .map(|m| base(m))
+        .collect::<Result<Vec<_>>>()?;
+    let mut cells = Vec::new();
+    for (maneuver, base) in opts.maneuvers.iter().zip(&bases) {
         for &law in &opts.laws {
             for attack in &opts.attacks {
-                for repeat in 0..opts.repeats {
-                    progress.detail(&format!(
-                        "{maneuver}, {}, {attack}, repeat {repeat}",
-                        law.name()
-                    ));
-                    rows.push(cell(&base, maneuver, law, attack, repeat)?);
-                    progress.at(rows.len() as u64);
-                }
+                cells.extend((0..opts.repeats).map(|repeat| (base, maneuver, law, attack, repeat)));
             }
         }
     }
-    progress.finish();
+    let rows = walk(
+        progress,
+        "simulating",
+        cells,
+        |(_, maneuver, law, attack, repeat)| {
+            format!("{maneuver}, {}, {attack}, repeat {repeat}", law.name())
+        },
+        |(base, maneuver, law, attack, repeat)| cell(base, maneuver, law, attack, repeat),
+    )?;
     let markdown = markdown(&rows);
-    let result = Maneuvers { rows, markdown };
-    if let Some(dir) = out {
-        result.write(opts, dir)?;
-    }
-    Ok(result)
+    written(Maneuvers { rows, markdown }, out, |r, dir| {
+        r.write(opts, dir)
+    })
 }
 
 /// The embedded scenario of `maneuver` (a leave: the first of `configs/leave.toml`'s).
@@ -389,18 +393,8 @@ fn markdown(rows: &[ManeuversRow]) -> String {
     let mut md = String::from(
         "| maneuver | law | attack | completed | failed safely | collided | completion (s) | max spacing error (m) | min gap (m) | left the lane | messages |\n|---|---|---|---|---|---|---|---|---|---|---|\n",
     );
-    let mut keys: Vec<(&str, &str, &str)> = Vec::new();
-    for r in rows {
-        let k = (r.maneuver.as_str(), r.law, r.attack.as_str());
-        if !keys.contains(&k) {
-            keys.push(k);
-        }
-    }
-    for (maneuver, law, attack) in keys {
-        let same: Vec<&ManeuversRow> = rows
-            .iter()
-            .filter(|r| (r.maneuver.as_str(), r.law, r.attack.as_str()) == (maneuver, law, attack))
-            .collect();
+    let cells = repeats(rows, |r| (r.maneuver.as_str(), r.law, r.attack.as_str()));
+    for ((maneuver, law, attack), same) in cells {
         if same.iter().all(|r| r.outcome == "refused") {
             let _ = writeln!(
                 md,
@@ -432,34 +426,16 @@ fn markdown(rows: &[ManeuversRow]) -> String {
 
 impl Maneuvers {
     fn write(&self, opts: &ManeuversOptions, dir: &RunDir) -> Result<()> {
-        let mut csv = csv::Writer::from_writer(dir.writer("maneuvers.csv")?);
-        for r in &self.rows {
-            csv.serialize(r)?;
-        }
-        csv.flush()?;
-        dir.write("maneuvers.md", self.markdown.as_bytes())?;
+        write_table(dir, "maneuvers", &self.rows, &self.markdown)?;
         for maneuver in &opts.maneuvers {
-            let groups: Vec<(String, Vec<f64>)> = opts
-                .laws
-                .iter()
-                .map(|law| {
-                    let values = opts
-                        .attacks
-                        .iter()
-                        .map(|a| {
-                            // The slowest completion over the repeats; 0: none completed.
-                            self.rows
-                                .iter()
-                                .filter(|r| {
-                                    r.maneuver == *maneuver && r.law == law.name() && r.attack == *a
-                                })
-                                .filter_map(|r| r.completion_s)
-                                .fold(0.0, f64::max)
-                        })
-                        .collect();
-                    (law.name().to_string(), values)
-                })
-                .collect();
+            let groups = bars_by_law(&opts.laws, &opts.attacks, |law, a| {
+                // The slowest completion over the repeats; 0: none completed.
+                self.rows
+                    .iter()
+                    .filter(|r| r.maneuver == *maneuver && r.law == law && r.attack == a)
+                    .filter_map(|r| r.completion_s)
+                    .fold(0.0, f64::max)
+            });
             plots::grouped_bars(
                 &dir.path(&format!("maneuvers-{maneuver}.png")),
                 &format!("{maneuver}: time to complete (slowest repeat; 0 = never completed)"),

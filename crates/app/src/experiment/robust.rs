@@ -134,10 +134,7 @@ pub fn robust(
         designs,
         markdown: md,
     };
-    if let Some(dir) = out {
-        robust.write(dir)?;
-    }
-    Ok(robust)
+    written(robust, out, Robust::write)
 }
 
 impl Robust {

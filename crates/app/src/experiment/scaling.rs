@@ -280,10 +280,7 @@ pub fn scaling(
         designs,
         markdown,
     };
-    if let Some(dir) = out {
-        result.write(opts, dir)?;
-    }
-    Ok(result)
+    written(result, out, |r, dir| r.write(opts, dir))
 }
 
 fn scaling_markdown(rows: &[ScalingRow], label: &str, opts: &ScalingOptions) -> String {
@@ -346,12 +343,7 @@ impl Scaling {
         }
         designs.flush()?;
         drop(designs);
-        let mut csv = csv::Writer::from_writer(dir.writer("scaling.csv")?);
-        for r in &self.rows {
-            csv.serialize(r)?;
-        }
-        csv.flush()?;
-        dir.write("scaling.md", self.markdown.as_bytes())?;
+        write_table(dir, "scaling", &self.rows, &self.markdown)?;
         let panels: Vec<(String, Vec<Series>)> = opts
             .presets
             .iter()

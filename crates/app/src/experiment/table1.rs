@@ -92,11 +92,9 @@ pub fn table1(base: &Base, out: Option<&RunDir>, progress: &dyn Progress) -> Res
         });
     }
     let markdown = table1_markdown(&base.scenario, &rules);
-    let table = Table1 { rules, markdown };
-    if let Some(dir) = out {
-        table.write(&base.scenario, dir)?;
-    }
-    Ok(table)
+    written(Table1 { rules, markdown }, out, |t, dir| {
+        t.write(&base.scenario, dir)
+    })
 }
 
 impl Table1 {

@@ -157,11 +157,7 @@ pub fn topologies(
         }
     }
     progress.finish();
-    let result = Topologies { rows };
-    if let Some(dir) = out {
-        result.write(opts, dir)?;
-    }
-    Ok(result)
+    written(Topologies { rows }, out, |r, dir| r.write(opts, dir))
 }
 
 /// Fig. 10's topologies, as its rows name them.
@@ -174,11 +170,7 @@ const TOPOLOGIES: [(&str, Preset); 3] = [
 impl Topologies {
     fn write(&self, opts: &TopologiesOptions, dir: &RunDir) -> Result<()> {
         let rows = &self.rows;
-        let mut csv = csv::Writer::from_writer(dir.writer("topologies.csv")?);
-        for r in rows {
-            csv.serialize(r)?;
-        }
-        csv.flush()?;
+        write_csv(dir, "topologies", rows)?;
         let conditions = ["nominal", "uncertainty", "conservative", "dos"];
         let mut categories: Vec<String> = Vec::new();
         for (name, _) in TOPOLOGIES {

@@ -1,7 +1,7 @@
 //! Cut-ins by law and attack ([`traffic`]).
 use super::{
-    configure_law, in_formation, keep_law_spacing, on_standstill, refuse, write_config, Base,
-    ExperimentError, Result,
+    bars_by_law, configure_law, in_formation, keep_law_spacing, on_standstill, refuse, repeats,
+    walk, write_config, write_table, written, Base, ExperimentError, Result,
 };
 use crate::progress::Progress;
 use platoon_config::{LawName, LinkAttackConfig, LinkKindConfig, PlantKind};
@@ -164,40 +164,34 @@ pub fn traffic(
             Some(tmp.path().to_path_buf())
         }
     };
-    let total = opts.laws.len()
-        * opts.gaps_m.len()
-        * opts.speed_diffs_mps.len()
-        * opts.attacks.len()
-        * opts.repeats as usize;
-    progress.start("simulating", total as u64);
-    let mut rows = Vec::with_capacity(total);
+    let mut cells = Vec::new();
     for &law in &opts.laws {
         for &gap in &opts.gaps_m {
             for &dv in &opts.speed_diffs_mps {
                 for attack in &opts.attacks {
-                    for repeat in 0..opts.repeats {
-                        progress.detail(&format!(
-                            "{}, gap {gap} m, {dv:+} m/s, {attack}, repeat {repeat}",
-                            law.name()
-                        ));
-                        let on = Plant {
-                            runs: runs.as_deref(),
-                            label: &base.label,
-                        };
-                        rows.push(cell(base, law, gap, dv, attack, repeat, on)?);
-                        progress.at(rows.len() as u64);
-                    }
+                    cells.extend((0..opts.repeats).map(|repeat| (law, gap, dv, attack, repeat)));
                 }
             }
         }
     }
-    progress.finish();
+    let on = Plant {
+        runs: runs.as_deref(),
+        label: &base.label,
+    };
+    let rows = walk(
+        progress,
+        "simulating",
+        cells,
+        |(law, gap, dv, attack, repeat)| {
+            format!(
+                "{}, gap {gap} m, {dv:+} m/s, {attack}, repeat {repeat}",
+                law.name()
+            )
+        },
+        |(law, gap, dv, attack, repeat)| cell(base, law, gap, dv, attack, repeat, on),
+    )?;
     let markdown = markdown(&rows);
-    let result = Traffic { rows, markdown };
-    if let Some(dir) = out {
-        result.write(opts, dir)?;
-    }
-    Ok(result)
+    written(Traffic { rows, markdown }, out, |r, dir| r.write(opts, dir))
 }
 
 /// Where a cell runs: in process, or on SUMO with its run directory in `runs`.
@@ -392,20 +386,10 @@ fn markdown(rows: &[TrafficRow]) -> String {
     let mut md = String::from(
         "| law | topology | gap (m) | speed diff (m/s) | attack | collisions | min gap (m) | on the car (s) | outside the law (s) | false alarms | forged detected | forged missed |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n",
     );
-    let mut keys: Vec<(&str, f64, f64, &str)> = Vec::new();
-    for r in rows {
-        let k = (r.law, r.gap_m, r.speed_diff_mps, r.attack.as_str());
-        if !keys.contains(&k) {
-            keys.push(k);
-        }
-    }
-    for (law, gap, dv, attack) in keys {
-        let same: Vec<&TrafficRow> = rows
-            .iter()
-            .filter(|r| {
-                (r.law, r.gap_m, r.speed_diff_mps, r.attack.as_str()) == (law, gap, dv, attack)
-            })
-            .collect();
+    let cells = repeats(rows, |r| {
+        (r.law, r.gap_m, r.speed_diff_mps, r.attack.as_str())
+    });
+    for ((law, gap, dv, attack), same) in cells {
         let worst = |f: fn(&TrafficRow) -> f64| same.iter().map(|r| f(r)).fold(f64::NAN, f64::max);
         let _ = writeln!(
             md,
@@ -426,33 +410,17 @@ fn markdown(rows: &[TrafficRow]) -> String {
 
 impl Traffic {
     fn write(&self, opts: &TrafficOptions, dir: &RunDir) -> Result<()> {
-        let mut csv = csv::Writer::from_writer(dir.writer("traffic.csv")?);
-        for r in &self.rows {
-            csv.serialize(r)?;
-        }
-        csv.flush()?;
-        dir.write("traffic.md", self.markdown.as_bytes())?;
+        write_table(dir, "traffic", &self.rows, &self.markdown)?;
         let categories: Vec<String> = opts.attacks.clone();
         for &gap in &opts.gaps_m {
-            let groups: Vec<(String, Vec<f64>)> = opts
-                .laws
-                .iter()
-                .map(|law| {
-                    let values = opts
-                        .attacks
-                        .iter()
-                        .map(|a| {
-                            self.rows
-                                .iter()
-                                .filter(|r| r.law == law.name() && r.attack == *a && r.gap_m == gap)
-                                .map(|r| r.min_gap_m)
-                                .fold(f64::INFINITY, f64::min)
-                                .max(0.0)
-                        })
-                        .collect();
-                    (law.name().to_string(), values)
-                })
-                .collect();
+            let groups = bars_by_law(&opts.laws, &opts.attacks, |law, a| {
+                self.rows
+                    .iter()
+                    .filter(|r| r.law == law && r.attack == a && r.gap_m == gap)
+                    .map(|r| r.min_gap_m)
+                    .fold(f64::INFINITY, f64::min)
+                    .max(0.0)
+            });
             plots::grouped_bars(
                 &dir.path(&format!("traffic-gap{gap}.png")),
                 &format!(
