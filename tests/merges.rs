@@ -366,3 +366,41 @@ fn a_forged_in_position_report_merges_nobody_early() {
         assert!(smallest > 10.0, "vehicle {v}: {smallest}");
     }
 }
+
+/// A split nobody asked for (`kind = "forge_maneuver"`, `message = "split_notice"`): an
+/// outsider's notice in follower 2's name at 10 s. The leader splits the platoon at follower 2,
+/// which heads followers 3-5 on its ACC from then on; follower 3's own split notice at 20 s
+/// goes to its new head, which has none to give, so it stays a member of follower 2's platoon.
+/// The forged packets are labelled altered; nobody comes near another.
+#[test]
+fn a_forged_split_notice_splits_the_platoon_safely_and_is_labelled_altered() {
+    let text = split_config().replace(
+        "[maneuvers]\n",
+        "[[channel.attacks]]\nkind = \"forge_maneuver\"\nmessage = \"split_notice\"\n\
+         senders = [2]\nreceivers = [0]\nstart_s = 10.0\nend_s = 10.2\n\n[maneuvers]\n",
+    );
+    let (rows, log) = run_with(parse(&text).unwrap(), |_, _| false, |_, _| {});
+    let at = of(&rows, 2)
+        .iter()
+        .position(|r| r.mode == Mode::Outside)
+        .expect("follower 2 heads a platoon");
+    assert!((1001..1030).contains(&at), "{at}");
+    for v in [3, 4, 5] {
+        let h = heads(&rows, v);
+        assert!(h[at + 1..].iter().all(|&h| h == 2), "vehicle {v}");
+    }
+    assert!(of(&rows, 3).iter().all(|r| r.mode != Mode::Outside));
+    let altered: Vec<_> = log
+        .labelled
+        .iter()
+        .filter(|(_, l)| *l != Label::Genuine)
+        .collect();
+    assert!(!altered.is_empty());
+    assert!(altered.iter().all(|(m, l)| m.sender == VehicleId(2)
+        && m.body == Body::SplitNotice
+        && matches!(l, Label::Altered { fields } if fields.contains(platoon_sim::truth::Fields::MANEUVER))));
+    for v in 1..=5 {
+        let smallest = gaps(&rows, v).into_iter().fold(f64::INFINITY, f64::min);
+        assert!(smallest > 10.0, "vehicle {v}: {smallest}");
+    }
+}

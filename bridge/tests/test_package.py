@@ -74,7 +74,7 @@ def test_the_package_has_its_installed_core():
     assert core.__version__ == platoon.__version__
     assert platoon.scenarios() == [
         "paper", "table1", "degradation", "cut-in", "join", "join-middle", "leave",
-        "merge",
+        "merge", "split",
     ]
 
 

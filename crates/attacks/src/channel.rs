@@ -103,7 +103,8 @@ pub enum LinkAttackKind {
     /// that is not in its slot), with the highest sequence number (so the receiver takes it,
     /// and drops that sender's later messages as old); the state stays true.
     ForgeManeuver {
-        /// What it says: [`MessageKind::LeaveNotice`] or [`MessageKind::InPosition`].
+        /// What it says: [`MessageKind::LeaveNotice`], [`MessageKind::InPosition`] or
+        /// [`MessageKind::SplitNotice`].
         message: MessageKind,
     },
 }
@@ -162,6 +163,7 @@ impl LinkAttackKind {
             Self::ForgeManeuver { message } => {
                 let body = match message {
                     MessageKind::InPosition => Body::InPosition,
+                    MessageKind::SplitNotice => Body::SplitNotice,
                     _ => Body::LeaveNotice,
                 };
                 packet.maneuver = Some(Message {

@@ -92,13 +92,14 @@ pub enum Experiment {
     /// (traffic-gap<G>.png).
     Traffic(TrafficArgs),
     /// Maneuvers negotiated over V2V under attack: a join at the tail (configs/join.toml), one
-    /// in the middle (configs/join-middle.toml), a leave from the middle (configs/leave.toml)
-    /// and a merge of two platoons (configs/merge.toml), for every field law (each on the platoon's standstill gap, the positions scaled to its
+    /// in the middle (configs/join-middle.toml), a leave from the middle (configs/leave.toml),
+    /// a merge of two platoons (configs/merge.toml) and a split of one (configs/split.toml),
+    /// for every field law (each on the platoon's standstill gap, the positions scaled to its
     /// spacing, the guard on), under no attack, 2 s of DoS from the request, 30 % loss on every
     /// link, a reactive jammer on one of the maneuver's messages (the tail join's updates, the
-    /// middle join's move-in, the leave's and the merge's update) and a forged message (an
-    /// in-position report in the joiner's or the rear head's name, a leave notice in follower 1's name), with seeded repeats, in
-    /// process. Writes maneuvers.csv (one row per run: completed, failed safely or collided,
+    /// middle join's move-in, the leave's, merge's and split's update) and a forged message (an
+    /// in-position report in the joiner's or the rear head's name, a leave or a split notice in
+    /// follower 1's name), with seeded repeats, in process. Writes maneuvers.csv (one row per run: completed, failed safely or collided,
     /// the time to complete, the largest spacing error, the smallest gap, who left the lane,
     /// the messages sent), maneuvers.md (outcomes, worst case over the repeats) and one
     /// completion-time plot per maneuver (maneuvers-<maneuver>.png).
@@ -173,7 +174,7 @@ pub struct ManeuversArgs {
     )]
     pub maneuvers: Vec<String>,
     /// The laws (the field's: the paper's law runs on one graph and refuses maneuvers; the
-    /// consensus law refuses leaves and merges).
+    /// consensus law refuses leaves, merges and splits).
     #[arg(
         long,
         value_delimiter = ',',

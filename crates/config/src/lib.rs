@@ -114,11 +114,13 @@ pub enum Embedded {
     Leave,
     /// `configs/merge.toml`: two platoons merge ([`MERGE_TOML`]).
     Merge,
+    /// `configs/split.toml`: a platoon splits in two ([`SPLIT_TOML`]).
+    Split,
 }
 
 impl Embedded {
     /// Every embedded config.
-    pub const ALL: [Embedded; 8] = [
+    pub const ALL: [Embedded; 9] = [
         Self::Paper,
         Self::Table1,
         Self::Degradation,
@@ -127,6 +129,7 @@ impl Embedded {
         Self::JoinMiddle,
         Self::Leave,
         Self::Merge,
+        Self::Split,
     ];
 
     /// Its stem in `configs/` (the default name of its runs).
@@ -140,6 +143,7 @@ impl Embedded {
             Self::JoinMiddle => "join-middle",
             Self::Leave => "leave",
             Self::Merge => "merge",
+            Self::Split => "split",
         }
     }
 
@@ -154,6 +158,7 @@ impl Embedded {
             Self::JoinMiddle => JOIN_MIDDLE_TOML,
             Self::Leave => LEAVE_TOML,
             Self::Merge => MERGE_TOML,
+            Self::Split => SPLIT_TOML,
         }
     }
 
@@ -375,5 +380,8 @@ pub const JOIN_MIDDLE_TOML: &str = include_str!("../../../configs/join-middle.to
 /// ...leaves...
 pub const LEAVE_TOML: &str = include_str!("../../../configs/leave.toml");
 
-/// ...and a merge of two platoons.
+/// ...a merge of two platoons...
 pub const MERGE_TOML: &str = include_str!("../../../configs/merge.toml");
+
+/// ...and a split of one.
+pub const SPLIT_TOML: &str = include_str!("../../../configs/split.toml");

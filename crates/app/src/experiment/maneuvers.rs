@@ -16,14 +16,16 @@ use std::sync::Arc;
 
 /// The maneuvers of [`maneuvers`], by name: a join at the tail (`configs/join.toml`), one in
 /// the middle (`configs/join-middle.toml`), a leave from the middle (`configs/leave.toml`'s
-/// first) and a merge of two platoons (`configs/merge.toml`).
-pub const MANEUVERS: [&str; 4] = ["join-tail", "join-middle", "leave", "merge"];
+/// first), a merge of two platoons (`configs/merge.toml`) and a split of one
+/// (`configs/split.toml`).
+pub const MANEUVERS: [&str; 5] = ["join-tail", "join-middle", "leave", "merge", "split"];
 
 /// The attacks of [`maneuvers`], by name, each from the maneuver's request on: none, the
 /// channel jammed for 2 s (DoS), 30 % of the packets lost on every link, a reactive jammer on
-/// one of its messages (the tail join's updates, the middle join's move-in, the leave's
-/// update) and a forged message (an in-position report in the joiner's name; for the leave,
-/// a leave notice in follower 1's name).
+/// one of its messages (the tail join's, the leave's, the merge's and the split's updates, the
+/// middle join's move-in) and a forged message (an in-position report in the joiner's or the
+/// rear head's name; for the leave a leave notice, for the split a split notice, in
+/// follower 1's name).
 pub const ATTACKS: [&str; 5] = ["none", "dos", "loss", "jam", "forge"];
 
 /// How [`maneuvers`] runs; [`ManeuversOptions::default`] is `platoon experiment maneuvers`'s
@@ -175,6 +177,7 @@ fn base(maneuver: &str) -> Result<Config> {
         "join-tail" => Embedded::Join,
         "join-middle" => Embedded::JoinMiddle,
         "merge" => Embedded::Merge,
+        "split" => Embedded::Split,
         _ => Embedded::Leave,
     };
     let (mut config, _) = embedded.parse()?;
@@ -224,7 +227,8 @@ fn cell(
 ) -> Result<ManeuversRow> {
     let mut c = configure(base, law);
     let m = c.maneuvers.as_ref().expect("a maneuver scenario");
-    let (vehicle, at_s) = match (m.joins.first(), &m.merge) {
+    let regroup = m.merge.as_ref().or(m.split.as_ref());
+    let (vehicle, at_s) = match (m.joins.first(), regroup) {
         (Some(j), _) => (j.vehicle, j.at_s),
         (None, Some(g)) => (g.head, g.at_s),
         (None, None) => (m.leaves[0].vehicle, m.leaves[0].at_s),
@@ -267,15 +271,17 @@ fn cell(
         ..Plugins::default()
     };
     let ask = (at_s / scenario.dt()).round() as u64;
-    let joins = maneuver != "leave";
+
     let (mut done, mut worst) = (None, 0.0f64);
     let mut left_lane = 0;
     let summary = platoon_sim::run_until_plugins(&scenario, &plugins, |sim| {
         let rows = sim.rows();
         let subject = &rows[vehicle];
-        let finished = match joins {
-            true => !matches!(subject.mode, Mode::Outside | Mode::Beside),
-            false => subject.mode == Mode::Left,
+        let finished = match maneuver {
+            "leave" => subject.mode == Mode::Left,
+            // The splitter heads its part on its ACC, outside the leader's platoon.
+            "split" => subject.mode == Mode::Outside,
+            _ => !matches!(subject.mode, Mode::Outside | Mode::Beside),
         };
         if finished && done.is_none() {
             done = Some(subject.step);
@@ -374,6 +380,8 @@ fn apply_attack(c: &mut Config, maneuver: &str, name: &str, vehicle: usize, at_s
         "forge" => {
             let (sender, message) = match maneuver {
                 "leave" => (1, "leave_notice"),
+                // A split nobody asked for, at follower 1.
+                "split" => (1, "split_notice"),
                 _ => (vehicle, "in_position"),
             };
             c.channel.attacks.push(LinkAttackConfig {

@@ -264,11 +264,15 @@ pub(super) fn channel(
             }
             LinkKindConfig::ForgeManeuver { ref message, .. } => {
                 let message = message_kind(&key("message"), message)?;
-                if !matches!(message, MessageKind::LeaveNotice | MessageKind::InPosition) {
+                if !matches!(
+                    message,
+                    MessageKind::LeaveNotice | MessageKind::InPosition | MessageKind::SplitNotice
+                ) {
                     return bad(
                         &key("message"),
                         format!(
-                            "{:?} cannot be forged; use \"leave_notice\" or \"in_position\"",
+                            "{:?} cannot be forged; use \"leave_notice\", \"in_position\" or \
+                             \"split_notice\"",
                             message.name()
                         ),
                     );

@@ -370,7 +370,8 @@ pub enum LinkKindConfig {
     ForgeManeuver {
         /// `leave_notice` (a leave nobody asked for: the leader ejects the member) or
         /// `in_position` (a joiner, or the head of a merging platoon, that is not in its slot
-        /// says it is).
+        /// says it is) or `split_notice` (a split nobody asked for: the leader splits the
+        /// platoon off at the sender).
         message: String,
         /// An insider (the sender itself lies): the packet is altered once as it is sent, so
         /// every receiver gets the same message; not with `receivers`. Otherwise an outsider
