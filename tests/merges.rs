@@ -404,3 +404,48 @@ fn a_forged_split_notice_splits_the_platoon_safely_and_is_labelled_altered() {
         assert!(smallest > 10.0, "vehicle {v}: {smallest}");
     }
 }
+
+/// `[maneuvers] check_reports`: the leader checks an in-position report against the sender's
+/// own beacon and the beacon of the member its slot is behind. The forged reports of the
+/// catalogue (`forge_maneuver`, `in_position`, a second after the request) put the sender tens
+/// of metres from its slot, so the leader drops them before its sequence filter sees them:
+/// the tail join and the merge complete as if there had been no attack, every row bit for bit;
+/// and the genuine reports pass the check (with no attack, the same rows as without it).
+#[test]
+fn the_leaders_report_check_drops_forged_in_position_reports() {
+    let joins = std::fs::read_to_string(repo().join("configs/join.toml")).unwrap();
+    for (text, joiner, at) in [(merge_config(), 3, "6.0"), (joins, 4, "6.0")] {
+        let checked = text.replace("[maneuvers]\n", "[maneuvers]\ncheck_reports = true\n");
+        let forged = checked.replace(
+            "[maneuvers]\n",
+            &format!(
+                "[[channel.attacks]]\nkind = \"forge_maneuver\"\nmessage = \"in_position\"\n\
+                 senders = [{joiner}]\nreceivers = [0]\nstart_s = {at}\nend_s = 6.2\n\n\
+                 [maneuvers]\n"
+            ),
+        );
+        // Rows compared bit for bit (NaN included) through their debug form.
+        let rows = |rows: Vec<StepRow>| format!("{rows:?}");
+        let plain = rows(run(parse(&text).unwrap(), |_, _| false).0);
+        let clean = rows(run(parse(&checked).unwrap(), |_, _| false).0);
+        assert!(
+            plain == clean,
+            "vehicle {joiner}: a genuine report passes the check"
+        );
+        let (attacked, log) = run_with(parse(&forged).unwrap(), |_, _| false, |_, _| {});
+        assert!(
+            log.labelled.iter().any(|(_, l)| *l != Label::Genuine),
+            "the forger was at work"
+        );
+        assert!(
+            rows(attacked) == clean,
+            "vehicle {joiner}: the forged reports change nothing"
+        );
+        let unchecked = forged.replace("check_reports = true\n", "");
+        let (unchecked, _) = run_with(parse(&unchecked).unwrap(), |_, _| false, |_, _| {});
+        assert!(
+            rows(unchecked) != clean,
+            "vehicle {joiner}: without the check they do"
+        );
+    }
+}

@@ -198,6 +198,9 @@ pub struct ComposedController {
     maneuvers: Option<crate::maneuvers::Maneuvers>,
     /// Each follower's judgement of its slot this step (joiners only).
     in_position: Vec<bool>,
+    /// The last state the leader heard from each vehicle (step, state), for its check of
+    /// in-position reports (`[maneuvers] check_reports`).
+    leader_heard: Vec<Option<(u64, State)>>,
 }
 
 impl ComposedController {
@@ -303,6 +306,7 @@ impl ComposedController {
             readings: Vec::with_capacity(n),
             maneuvers,
             in_position: vec![false; n],
+            leader_heard: vec![None; n + 1],
             parts,
         })
     }
@@ -357,7 +361,52 @@ impl Controller for ComposedController {
         for d in rx {
             if d.receiver.is_leader() {
                 // Only maneuvers reach the leader: its machine reads their messages.
-                if let (Some(m), Some(man)) = (d.packet.maneuver, self.maneuvers.as_mut()) {
+                let Some(man) = self.maneuvers.as_mut() else {
+                    continue;
+                };
+                let slot = man.checked_slot();
+                if slot.is_some() {
+                    let last = self.leader_heard.get_mut(d.packet.sender.index());
+                    if let Some(last) = last.filter(|l| l.is_none_or(|(s, _)| s < d.packet.step)) {
+                        *last = Some((d.packet.step, d.packet.state));
+                    }
+                }
+                let Some(m) = d.packet.maneuver else { continue };
+                // A report that the joiner is in its slot, checked against its own beacon and
+                // the last beacon of the member it follows, both brought to this step.
+                let at = |(s, x): (u64, State)| {
+                    x[0] + x[1] * (k.saturating_sub(s)) as f64 * self.parts.dt
+                };
+                let error = match slot {
+                    Some((joiner, behind))
+                        if m.sender == joiner && m.body == platoon_maneuver::Body::InPosition =>
+                    {
+                        // The leader knows its own state.
+                        let ahead = match behind.is_leader() {
+                            true => Some((k, states[0])),
+                            false => self.leader_heard[behind.index()],
+                        };
+                        ahead.map(|b| {
+                            let own = (d.packet.step, d.packet.state);
+                            let gap = at(b) - at(own) - fb.length(behind.index());
+                            let seen = crate::fallback::Reading {
+                                gap,
+                                closing: 0.0,
+                                intruder: false,
+                            };
+                            let h = self.parts.headway;
+                            crate::fallback::gap_error(
+                                seen,
+                                h,
+                                own.1[1],
+                                self.parts.spacing,
+                                fb.length(behind.index()),
+                            )
+                        })
+                    }
+                    _ => None,
+                };
+                if error.is_none_or(|e| man.plausible_report(e)) {
                     man.heard(d.receiver, m);
                 }
                 continue;

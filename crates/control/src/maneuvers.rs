@@ -81,7 +81,15 @@ pub struct ManeuverParams {
     pub in_position_mps: f64,
     /// Members a platoon may have, the leader counted.
     pub max_members: usize,
+    /// The leader drops an in-position report whose sender's beacon puts it farther than
+    /// [`REPORT_TOLERANCE`] x `in_position_m` from its slot.
+    pub check_reports: bool,
 }
+
+/// How far from its slot, in `in_position_m`, a vehicle's beacon may put it and its
+/// in-position report still be taken (`check_reports`): room for the beacons' age and noise
+/// beside the joiner's own radar judgement.
+pub const REPORT_TOLERANCE: f64 = 3.0;
 
 impl ManeuverParams {
     /// Checks the joins against a platoon of `followers` followers; the key and the reason
@@ -518,6 +526,25 @@ impl Maneuvers {
             Machine::Member { member, .. } => member.formation().predecessor(i),
             Machine::Joiner { joiner, .. } => Some(joiner.behind()),
         }
+    }
+
+    /// The join the leader runs (the joiner and the member its slot is behind), when it checks
+    /// in-position reports.
+    pub(crate) fn checked_slot(&self) -> Option<(VehicleId, VehicleId)> {
+        match self.leader.state() {
+            platoon_maneuver::LeaderState::Joining { joiner, behind, .. }
+                if self.params.check_reports =>
+            {
+                Some((joiner, behind))
+            }
+            _ => None,
+        }
+    }
+
+    /// Whether a gap error of `error` m (the slot's, from beacons) is plausible for a report
+    /// that the sender is in its slot.
+    pub(crate) fn plausible_report(&self, error: f64) -> bool {
+        error.abs() <= REPORT_TOLERANCE * self.params.in_position_m
     }
 
     /// Whether follower `i` is in position, from its radar's `reading` at speed `v` (the

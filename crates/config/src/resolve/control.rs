@@ -312,6 +312,7 @@ pub(super) fn maneuvers(
         in_position_m: m.in_position_m,
         in_position_mps: m.in_position_mps,
         max_members: m.max_members.unwrap_or(followers + 1),
+        check_reports: m.check_reports,
     };
     params
         .validate(followers)

@@ -317,6 +317,12 @@ pub struct ManeuversConfig {
     /// Members the platoon admits, the leader counted; absent: every vehicle of the scenario.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub max_members: Option<usize>,
+    /// The leader checks an in-position report (a joiner's, a merging head's) against the
+    /// sender's own beacons: one whose beacon puts the sender farther than 3 x `in_position_m`
+    /// from its slot (behind the member it follows, as that member's last beacon places it) is
+    /// dropped before the protocol sees it, its sequence number unused. Off: the leader takes
+    /// the report as it comes (Plexe's and VENTOS's way).
+    pub check_reports: bool,
 }
 
 /// A join: at the tail from behind the platoon, or from the lane beside it into the slot
@@ -371,6 +377,7 @@ impl Default for ManeuversConfig {
             in_position_m: 1.0,
             in_position_mps: 0.5,
             max_members: None,
+            check_reports: false,
         }
     }
 }
