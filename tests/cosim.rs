@@ -1730,6 +1730,51 @@ fn only_the_radar_catches_the_sybil_ghost() {
     }
 }
 
+/// The maneuver attacks of bridge/examples/maneuver_attacks.py, a Python injector over
+/// iceoryx2: a leave notice forged onto follower 1's packet to the leader at 10 s ejects it
+/// (its `left` at 10.01 s, before the real leaves at 20 and 45 s), safely; the leader's
+/// updates of a join replayed 8 s later (12 deliveries) are dropped as old by every receiver,
+/// so trajectories and events are those of the run without the injector, byte for byte.
+#[test]
+fn the_python_maneuver_attacks_eject_a_member_and_replay_updates_in_vain() {
+    let tmp = tempfile::tempdir().unwrap();
+    let run = |config: &str, out: &str, injector: Option<&str>| {
+        let config = repo().join(config);
+        let mut args = vec!["run", config.to_str().unwrap(), "--no-plots", "--out", out];
+        let injector = injector.map(|a| py_example("maneuver_attacks.py", a));
+        if let Some(i) = &injector {
+            args.extend(["--injector", i.as_str()]);
+        }
+        ok(&platoon(&args, tmp.path()));
+        tmp.path().join(out)
+    };
+    let forged = run("configs/leave.toml", "forged", Some("forge-leave 1 10"));
+    let events = std::fs::read_to_string(forged.join("events.csv")).unwrap();
+    let left: Vec<&str> = events.lines().filter(|l| l.contains(",left,left,")).collect();
+    assert_eq!(
+        left,
+        [
+            "0,1,1001,10.01,left,left,,false",
+            "0,2,2002,20.02,left,left,,false",
+            "0,5,4502,45.02,left,left,,false"
+        ]
+    );
+    assert_eq!(summary(&forged)["safety"]["collided"], false);
+    let log = std::fs::read_to_string(forged.join("logs/injector.log")).unwrap();
+    assert!(log.contains("forged a leave notice at step 1000"), "{log}");
+    let base = run("configs/join.toml", "base", None);
+    let replayed = run("configs/join.toml", "replayed", Some("replay-updates 8"));
+    let log = std::fs::read_to_string(replayed.join("logs/injector.log")).unwrap();
+    assert!(log.contains("replayed 12 update deliveries"), "{log}");
+    for f in ["trajectories.csv", "events.csv"] {
+        let (a, b) = (base.join(f), replayed.join(f));
+        assert!(
+            std::fs::read(a).unwrap() == std::fs::read(b).unwrap(),
+            "{f} differs"
+        );
+    }
+}
+
 /// A car cuts in between followers 2 and 3 (`configs/cut-in.toml`): the native plant process
 /// tells follower 3's controller (`VehicleState::INTRUDER`) what the in-process plant tells it,
 /// and both transports agree bit for bit through the cut-in, the ACC on it and the return; the
