@@ -1750,7 +1750,10 @@ fn the_python_maneuver_attacks_eject_a_member_and_replay_updates_in_vain() {
     };
     let forged = run("configs/leave.toml", "forged", Some("forge-leave 1 10"));
     let events = std::fs::read_to_string(forged.join("events.csv")).unwrap();
-    let left: Vec<&str> = events.lines().filter(|l| l.contains(",left,left,")).collect();
+    let left: Vec<&str> = events
+        .lines()
+        .filter(|l| l.contains(",left,left,"))
+        .collect();
     assert_eq!(
         left,
         [

@@ -424,6 +424,7 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
             );
         }
     }
+    let cut_in_splits = fallback.cut_in.map(|h| h.split);
     let control = ControllerParams {
         law,
         gain,
@@ -440,7 +441,7 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
         headway,
         leader_broadcast_steps,
         detection: detection(c.detection.as_ref(), dt)?,
-        maneuvers: maneuvers(c.maneuvers.as_ref(), n, dt)?,
+        maneuvers: maneuvers(c.maneuvers.as_ref(), n, dt, cut_in_splits)?,
     };
     control
         .validate()
@@ -515,7 +516,11 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, Invalid> {
         }
     };
 
-    let (link_attacks, channel_seed) = channel(&c.channel, dt, n)?;
+    let regroups = c
+        .maneuvers
+        .as_ref()
+        .is_some_and(|m| m.merge.is_some() || m.split.is_some());
+    let (link_attacks, channel_seed) = channel(&c.channel, dt, n, regroups)?;
     let jammers = jammers(c, n, dt)?;
     let radio = radio(&mut c.channel, dt)?;
     finite("sumo.start_m", c.sumo.start_m)?;

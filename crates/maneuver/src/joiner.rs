@@ -84,8 +84,9 @@ pub struct Joiner {
     behind: VehicleId,
     /// A head merging its platoon: that platoon's last vehicle.
     tail: Option<VehicleId>,
-    /// A merge update heard, for the followers of its platoon (it passes each on).
-    relay: Option<Body>,
+    /// The merge update it passes on to the followers of its platoon, how many more times,
+    /// and when next.
+    relay: Option<(Body, u32, u64)>,
     timing: Timing,
     state: JoinerState,
     filter: SeqFilter,
@@ -202,9 +203,14 @@ impl Joiner {
                 self.handle(step, m);
             }
         }
-        if let Some(update) = self.relay.take() {
-            // The head of a merged platoon tells its followers, which hear only their head.
-            self.outbox.send(out, self.me, crate::EVERYONE, update);
+        if let Some((update, left, at)) = self.relay {
+            // The head of a merged platoon tells its followers, which hear only their head, as
+            // many times as the leader announces a change.
+            if step >= at {
+                self.outbox.send(out, self.me, crate::EVERYONE, update);
+                self.relay =
+                    (left > 1).then_some((update, left - 1, step + self.timing.reply_steps));
+            }
         }
         match self.state {
             JoinerState::Requested { tries, retry_at } if step >= retry_at => {
@@ -293,12 +299,12 @@ impl Joiner {
                     generation,
                     change: Change::Merged { head, .. },
                 },
-                JoinerState::InPosition { .. } | JoinerState::Joined { .. },
+                JoinerState::InPosition { .. },
             ) if head == self.me => {
                 // Only once in its slot: an update that comes earlier (a forged report, say) is
                 // not passed on, so its platoon keeps following it.
                 self.state = JoinerState::Joined { generation };
-                self.relay = Some(m.body);
+                self.relay = Some((m.body, self.timing.tries, step));
             }
             _ => {}
         }

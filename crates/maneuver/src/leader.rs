@@ -43,8 +43,9 @@ pub struct Leader {
     outbox: Outbox,
     /// The last update, and the steps at which it is sent again.
     last_update: Option<(Change, u16)>,
-    /// The head of the last platoon that merged into this one.
-    merged: Option<VehicleId>,
+    /// The head of the last platoon that merged into this one, until the step by which it
+    /// would have withdrawn had it missed the update.
+    merged: Option<(VehicleId, u64)>,
     repeats_left: u32,
     next_repeat: u64,
 }
@@ -99,7 +100,9 @@ impl Leader {
         };
         self.formation = next;
         if let Change::Merged { head, .. } = change {
-            self.merged = Some(head);
+            // Its in-position reports, then its leave notices, each up to the tries.
+            let window = self.timing.reply_steps * (2 * u64::from(self.timing.tries) + 1);
+            self.merged = Some((head, step + window));
         }
         self.generation = self.generation.wrapping_add(1);
         self.last_update = Some((change, self.generation));
@@ -310,8 +313,11 @@ impl Leader {
                 if self.formation.contains(from) && from != self.me() =>
             {
                 // A split takes the members from `from` on; so does the withdrawal of the head
-                // of a platoon that merged (its platoon goes with it).
-                let split = m.body == Body::SplitNotice || self.merged == Some(from);
+                // of a platoon that just merged (its platoon goes with it).
+                let withdrawn = self
+                    .merged
+                    .is_some_and(|(h, until)| h == from && step <= until);
+                let split = m.body == Body::SplitNotice || withdrawn;
                 if let LeaderState::Joining {
                     joiner,
                     behind,

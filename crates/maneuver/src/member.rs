@@ -46,6 +46,8 @@ pub struct Member {
     state: MemberState,
     filter: SeqFilter,
     outbox: Outbox,
+    /// Whether its copy took on another platoon's numbering (its own merged into that one).
+    adopted: bool,
 }
 
 impl Member {
@@ -65,6 +67,7 @@ impl Member {
             state: MemberState::Following,
             filter: SeqFilter::default(),
             outbox: Outbox::default(),
+            adopted: false,
         }
     }
 
@@ -223,9 +226,10 @@ impl Member {
     /// stays as it is ([`Member::generation`] behind the leader's, which its beacons carry).
     fn update(&mut self, generation: u16, change: Change) {
         // The merge of its own platoon, passed on by its head, is numbered in the other
-        // platoon's changes: the copy takes that numbering on, and that platoon's leader.
-        let into_another =
-            matches!(change, Change::Merged { head, .. } if head == self.formation.head());
+        // platoon's changes: the copy takes that numbering on, and that platoon's leader (once:
+        // from then on its updates come in order like any other).
+        let into_another = !self.adopted
+            && matches!(change, Change::Merged { head, .. } if head == self.formation.head());
         if generation != self.generation.wrapping_add(1) && !into_another {
             return;
         }
@@ -234,6 +238,7 @@ impl Member {
         };
         self.formation = next;
         self.generation = generation;
+        self.adopted |= into_another;
         match change {
             Change::Joined { vehicle, .. } if self.opening_for() == Some(vehicle) => {
                 self.state = MemberState::Following;

@@ -611,6 +611,22 @@ mod tests {
             },
             Body::Abort { joiner: v(4) },
             Body::LeaveNotice,
+            Body::MergeRequest {
+                behind: v(2),
+                tail: v(4),
+            },
+            Body::Update {
+                generation: 9,
+                change: Change::Merged {
+                    head: v(3),
+                    tail: v(4),
+                },
+            },
+            Body::SplitNotice,
+            Body::Update {
+                generation: 10,
+                change: Change::Split { head: v(3) },
+            },
         ];
         for j in 0..3 {
             for (i, body) in bodies.into_iter().enumerate() {
@@ -640,6 +656,11 @@ mod tests {
                     bad.maneuver_vehicle = num.global((j + 1) % 3, v(1));
                     let got = packet_from_wire(&bad, j, num);
                     assert_eq!((got.maneuver, got.state), (None, packet.state));
+                }
+                if wire.maneuver_behind != V2vPacket::NOBODY {
+                    bad = wire;
+                    bad.maneuver_behind = num.global((j + 1) % 3, v(1));
+                    assert_eq!(packet_from_wire(&bad, j, num).maneuver, None);
                 }
             }
         }

@@ -411,8 +411,10 @@ pub fn step_rows(
         let slot = slots.get(i - 1).copied().unwrap_or(i as f64);
         // Two platoons (before a merge, after a split): each follower against its own
         // platoon's head.
+        // platoon's head (a head is ahead of its followers; anything else a controller says
+        // is measured against the leader).
         let (x0, slot) = match s.head.index() {
-            h if regroups && h != 0 => (states[h], slot - h as f64),
+            h if regroups && h != 0 && h < i => (states[h], slot - h as f64),
             _ => (x0, slot),
         };
         out.push(StepRow {

@@ -169,6 +169,7 @@ pub(super) fn channel(
     c: &Channel,
     dt: f64,
     followers: usize,
+    regroups: bool,
 ) -> Result<(Vec<LinkAttack>, u64), Invalid> {
     let mut out = Vec::with_capacity(c.attacks.len());
     for (i, a) in c.attacks.iter().enumerate() {
@@ -275,6 +276,15 @@ pub(super) fn channel(
                              \"split_notice\"",
                             message.name()
                         ),
+                    );
+                }
+                if message == MessageKind::SplitNotice && !regroups {
+                    // Who heads whom is followed only in runs that merge or split.
+                    return bad(
+                        &key("message"),
+                        "a forged split notice needs a run whose platoon may split: give \
+                         [maneuvers.split] (or [maneuvers.merge])"
+                            .to_string(),
                     );
                 }
                 LinkAttackKind::ForgeManeuver { message }

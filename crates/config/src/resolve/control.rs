@@ -228,11 +228,13 @@ pub(super) fn detection(
     })
 }
 
-/// `[maneuvers]` for a platoon of `followers` followers at a step of `dt` s.
+/// `[maneuvers]` for a platoon of `followers` followers at a step of `dt` s; `cut_in_splits`:
+/// `[fallback.cut_in] split`, when there is a `[fallback.cut_in]`.
 pub(super) fn maneuvers(
     m: Option<&ManeuversConfig>,
     followers: usize,
     dt: f64,
+    cut_in_splits: Option<bool>,
 ) -> Result<Option<platoon_control::ManeuverParams>, Invalid> {
     let Some(m) = m else {
         return Ok(None);
@@ -295,6 +297,20 @@ pub(super) fn maneuvers(
             let step = step_of(&format!("maneuvers.{what}.at_s"), g.at_s)?;
             Ok(Some((VehicleId(g.head as u16), step)))
         };
+    if let (Some(what), Some(true)) = (
+        m.merge
+            .as_ref()
+            .map(|_| "merge")
+            .or(m.split.as_ref().map(|_| "split")),
+        cut_in_splits,
+    ) {
+        return bad(
+            &format!("maneuvers.{what}"),
+            "a run with a merge or a split keeps who heads whom in its formations; it cannot \
+             also split behind a cut-in ([fallback.cut_in] split = false)"
+                .to_string(),
+        );
+    }
     let merge = head_at("merge", &m.merge)?
         .map(|(head, at_step)| platoon_control::MergeSpec { head, at_step });
     let split = head_at("split", &m.split)?
