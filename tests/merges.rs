@@ -461,3 +461,24 @@ fn the_leaders_report_check_drops_forged_in_position_reports() {
         );
     }
 }
+
+/// The rows measure a follower against the head its controller names only when that head is
+/// a vehicle ahead of it: any other value (a plug-in's mistake) is measured against the
+/// leader, never an index out of the plant's states.
+#[test]
+fn a_head_that_is_no_vehicle_ahead_is_measured_against_the_leader() {
+    let s = parse(&merge_config()).unwrap();
+    let states: Vec<platoon_model::State> = (0..6)
+        .map(|i| platoon_model::State::new(-20.0 * f64::from(i), 15.0, 0.0))
+        .collect();
+    for head in [5, 200, u16::MAX] {
+        let mut out = Vec::new();
+        let step = |_| platoon_control::FollowerStep {
+            head: VehicleId(head),
+            ..Default::default()
+        };
+        platoon_sim::step_rows(0, &s, &states, false, &[false; 6], &[], &[], step, &mut out);
+        // Vehicle 4 at its slot behind the leader: no error against the leader.
+        assert_eq!(out[4].spacing_error, 0.0, "head {head}");
+    }
+}

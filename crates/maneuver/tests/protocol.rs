@@ -602,3 +602,35 @@ fn a_split_leaves_two_platoons_each_copy_its_own() {
         assert_eq!(m.state(), MemberState::Following);
     }
 }
+
+/// The leader takes a merged head's leave notice as a split of its platoon only while a head
+/// that missed the update would be withdrawing; a leave notice after that is a leave.
+#[test]
+fn a_merged_heads_later_leave_is_a_leave() {
+    let mut leader = Leader::new(Formation::in_order(2), 8, TIMING);
+    let m = |seq, body| Message {
+        sender: v(3),
+        to: v(0),
+        seq,
+        body,
+    };
+    let mut out = Vec::new();
+    let request = Body::MergeRequest {
+        behind: v(2),
+        tail: v(5),
+    };
+    leader.step(1, &[m(1, request)], &mut out);
+    leader.step(2, &[m(2, Body::InPosition)], &mut out);
+    assert_eq!(leader.formation(), &Formation::in_order(5));
+    let window = TIMING.reply_steps * (2 * u64::from(TIMING.tries) + 1);
+    leader.step(3 + window, &[m(3, Body::LeaveNotice)], &mut out);
+    let last = out.iter().rev().find_map(|m| match m.body {
+        Body::Update { change, .. } => Some(change),
+        _ => None,
+    });
+    assert_eq!(last, Some(Change::Left { vehicle: v(3) }));
+    assert_eq!(
+        leader.formation().members(),
+        &[v(0), v(1), v(2), v(4), v(5)]
+    );
+}
