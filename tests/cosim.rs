@@ -1962,28 +1962,35 @@ fn leaves_run_bit_identically_on_both_transports() {
     assert_eq!(json(&ipc.join("summary.json"))["safety"]["collided"], false);
 }
 
+/// Runs `config` on both transports (they must agree bit for bit) and checks the events.csv
+/// lines holding one of `marks` are `expected`, and that nobody collided.
+fn regrouped_safely(config: &str, marks: &[&str], expected: &[&str]) {
+    let runs = transports_agree(config);
+    let ipc = runs.path().join("ipc");
+    let events = std::fs::read_to_string(ipc.join("events.csv")).unwrap();
+    let got: Vec<&str> = events
+        .lines()
+        .filter(|l| marks.iter().any(|m| l.contains(m)))
+        .collect();
+    assert_eq!(got, expected, "{config}");
+    assert_eq!(json(&ipc.join("summary.json"))["safety"]["collided"], false);
+}
+
 /// Two platoons merge (`configs/merge.toml`): the rear head's request and the leader's update
 /// travel on the wire (`V2vPacket::MERGE_REQUEST`, `UPDATE_MERGED`), the rear followers take
 /// the leader as theirs from their head's relay of the update, a step later (the `head`
 /// column, `split` and `merged` events), and both transports agree bit for bit.
 #[test]
 fn a_merge_runs_bit_identically_on_both_transports() {
-    let runs = transports_agree("configs/merge.toml");
-    let ipc = runs.path().join("ipc");
-    let events = std::fs::read_to_string(ipc.join("events.csv")).unwrap();
-    let merged: Vec<&str> = events
-        .lines()
-        .filter(|l| l.contains(",joined,") || l.contains(",merged,"))
-        .collect();
-    assert_eq!(
-        merged,
-        [
+    regrouped_safely(
+        "configs/merge.toml",
+        &[",joined,", ",merged,"],
+        &[
             "0,3,2717,27.17,joined,blend,,false",
             "0,4,2718,27.18,merged,blend,,false",
-            "0,5,2718,27.18,merged,blend,,false"
-        ]
+            "0,5,2718,27.18,merged,blend,,false",
+        ],
     );
-    assert_eq!(json(&ipc.join("summary.json"))["safety"]["collided"], false);
 }
 
 /// A platoon splits in two (`configs/split.toml`): the split notice and the update travel on
@@ -1992,18 +1999,14 @@ fn a_merge_runs_bit_identically_on_both_transports() {
 /// both transports agree bit for bit.
 #[test]
 fn a_maneuver_split_runs_bit_identically_on_both_transports() {
-    let runs = transports_agree("configs/split.toml");
-    let ipc = runs.path().join("ipc");
-    let events = std::fs::read_to_string(ipc.join("events.csv")).unwrap();
-    let split: Vec<&str> = events.lines().filter(|l| l.contains(",split,")).collect();
-    assert_eq!(
-        split,
-        [
+    regrouped_safely(
+        "configs/split.toml",
+        &[",split,"],
+        &[
             "0,4,2002,20.02,split,blend,,false",
-            "0,5,2002,20.02,split,blend,,false"
-        ]
+            "0,5,2002,20.02,split,blend,,false",
+        ],
     );
-    assert_eq!(json(&ipc.join("summary.json"))["safety"]["collided"], false);
 }
 
 /// A platoon that splits behind the car (`configs/cut-in-split.toml`, the flatbed controller):

@@ -48,6 +48,51 @@ fn heads(rows: &[StepRow], v: u16) -> Vec<u16> {
     of(rows, v).iter().map(|r| r.head.unwrap()).collect()
 }
 
+/// `text` with the catalogue's forged `message` on `sender`'s packets to the leader over
+/// `[start_s, start_s + 0.2)`.
+fn with_forged(text: &str, message: &str, sender: u16, start_s: f64) -> String {
+    text.replace(
+        "[maneuvers]\n",
+        &format!(
+            "[[channel.attacks]]\nkind = \"forge_maneuver\"\nmessage = \"{message}\"\n\
+             senders = [{sender}]\nreceivers = [0]\nstart_s = {start_s}\nend_s = {}\n\n\
+             [maneuvers]\n",
+            start_s + 0.2
+        ),
+    )
+}
+
+/// Asserts that the ground truth labels every delivery it did not find genuine `altered` in
+/// its maneuver field, a `body` in `sender`'s name, and that there are some.
+fn altered_only(log: &common::maneuvers::Log, sender: u16, body: Body) {
+    let altered: Vec<_> = log
+        .labelled
+        .iter()
+        .filter(|(_, l)| *l != Label::Genuine)
+        .collect();
+    assert!(!altered.is_empty());
+    assert!(altered.iter().all(|(m, l)| m.sender == VehicleId(sender)
+        && m.body == body
+        && matches!(l, Label::Altered { fields } if fields.contains(platoon_sim::truth::Fields::MANEUVER))));
+}
+
+/// Asserts that the rear platoon stayed apart for the whole run: its head outside the
+/// leader's platoon, its followers following it.
+fn apart_to_the_end(rows: &[StepRow]) {
+    assert!(of(rows, 3).iter().all(|r| r.mode == Mode::Outside));
+    for v in [4, 5] {
+        assert!(heads(rows, v).iter().all(|&h| h == 3), "vehicle {v}");
+    }
+}
+
+/// Asserts that no vehicle came within 10 m of the one ahead.
+fn nobody_near_another(rows: &[StepRow]) {
+    for v in 1..=5 {
+        let smallest = gaps(rows, v).into_iter().fold(f64::INFINITY, f64::min);
+        assert!(smallest > 10.0, "vehicle {v}: {smallest}");
+    }
+}
+
 #[test]
 fn two_platoons_merge_over_v2v_and_close_up_without_a_jump() {
     let (rows, sent) = run(parse(&merge_config()).unwrap(), |_, _| false);
@@ -126,14 +171,8 @@ fn a_lost_merge_request_leaves_the_platoons_apart_safely() {
     assert!(sent
         .iter()
         .all(|(_, m)| !matches!(m.body, Body::Update { .. })));
-    assert!(of(&rows, 3).iter().all(|r| r.mode == Mode::Outside));
-    for v in [4, 5] {
-        assert!(heads(&rows, v).iter().all(|&h| h == 3), "vehicle {v}");
-    }
-    for v in 1..=5 {
-        let smallest = gaps(&rows, v).into_iter().fold(f64::INFINITY, f64::min);
-        assert!(smallest > 10.0, "vehicle {v}: {smallest}");
-    }
+    apart_to_the_end(&rows);
+    nobody_near_another(&rows);
 }
 
 /// The field's laws on the predecessor and the leader merge the platoons; the consensus law,
@@ -329,14 +368,8 @@ fn a_merge_jammed_half_way_leaves_two_platoons_safely() {
         .sent
         .iter()
         .any(|(_, m)| m.sender == VehicleId::LEADER && m.body == split));
-    assert!(of(&rows, 3).iter().all(|r| r.mode == Mode::Outside));
-    for v in [4, 5] {
-        assert!(heads(&rows, v).iter().all(|&h| h == 3), "vehicle {v}");
-    }
-    for v in 1..=5 {
-        let smallest = gaps(&rows, v).into_iter().fold(f64::INFINITY, f64::min);
-        assert!(smallest > 10.0, "vehicle {v}: {smallest}");
-    }
+    apart_to_the_end(&rows);
+    nobody_near_another(&rows);
 }
 
 /// An outsider's forged in-position report in the head's name 1 s after its request
@@ -345,11 +378,7 @@ fn a_merge_jammed_half_way_leaves_two_platoons_safely() {
 /// forged packets are labelled altered in their maneuver field, and nobody comes near another.
 #[test]
 fn a_forged_in_position_report_merges_nobody_early() {
-    let text = merge_config().replace(
-        "[maneuvers]\n",
-        "[[channel.attacks]]\nkind = \"forge_maneuver\"\nmessage = \"in_position\"\n\
-         senders = [3]\nreceivers = [0]\nstart_s = 6.0\nend_s = 6.2\n\n[maneuvers]\n",
-    );
+    let text = with_forged(&merge_config(), "in_position", 3, 6.0);
     let (rows, log) = run_with(parse(&text).unwrap(), |_, _| false, |_, _| {});
     let early = log
         .sent
@@ -358,25 +387,11 @@ fn a_forged_in_position_report_merges_nobody_early() {
         .map(|(k, _)| *k)
         .unwrap();
     assert!((600..650).contains(&early), "{early}");
-    let altered: Vec<_> = log
-        .labelled
-        .iter()
-        .filter(|(_, l)| *l != Label::Genuine)
-        .collect();
-    assert!(!altered.is_empty());
-    assert!(altered.iter().all(|(m, l)| m.sender == VehicleId(3)
-        && m.body == Body::InPosition
-        && matches!(l, Label::Altered { fields } if fields.contains(platoon_sim::truth::Fields::MANEUVER))));
+    altered_only(&log, 3, Body::InPosition);
     // The forged report used up the head's sequence numbers: its genuine reports are dropped
     // as old, it never joins, and its platoon follows it to the end.
-    assert!(of(&rows, 3).iter().all(|r| r.mode == Mode::Outside));
-    for v in [4, 5] {
-        assert!(heads(&rows, v).iter().all(|&h| h == 3), "vehicle {v}");
-    }
-    for v in 1..=5 {
-        let smallest = gaps(&rows, v).into_iter().fold(f64::INFINITY, f64::min);
-        assert!(smallest > 10.0, "vehicle {v}: {smallest}");
-    }
+    apart_to_the_end(&rows);
+    nobody_near_another(&rows);
 }
 
 /// A split nobody asked for (`kind = "forge_maneuver"`, `message = "split_notice"`): an
@@ -386,11 +401,7 @@ fn a_forged_in_position_report_merges_nobody_early() {
 /// The forged packets are labelled altered; nobody comes near another.
 #[test]
 fn a_forged_split_notice_splits_the_platoon_safely_and_is_labelled_altered() {
-    let text = split_config().replace(
-        "[maneuvers]\n",
-        "[[channel.attacks]]\nkind = \"forge_maneuver\"\nmessage = \"split_notice\"\n\
-         senders = [2]\nreceivers = [0]\nstart_s = 10.0\nend_s = 10.2\n\n[maneuvers]\n",
-    );
+    let text = with_forged(&split_config(), "split_notice", 2, 10.0);
     let (rows, log) = run_with(parse(&text).unwrap(), |_, _| false, |_, _| {});
     let at = of(&rows, 2)
         .iter()
@@ -402,19 +413,8 @@ fn a_forged_split_notice_splits_the_platoon_safely_and_is_labelled_altered() {
         assert!(h[at + 1..].iter().all(|&h| h == 2), "vehicle {v}");
     }
     assert!(of(&rows, 3).iter().all(|r| r.mode != Mode::Outside));
-    let altered: Vec<_> = log
-        .labelled
-        .iter()
-        .filter(|(_, l)| *l != Label::Genuine)
-        .collect();
-    assert!(!altered.is_empty());
-    assert!(altered.iter().all(|(m, l)| m.sender == VehicleId(2)
-        && m.body == Body::SplitNotice
-        && matches!(l, Label::Altered { fields } if fields.contains(platoon_sim::truth::Fields::MANEUVER))));
-    for v in 1..=5 {
-        let smallest = gaps(&rows, v).into_iter().fold(f64::INFINITY, f64::min);
-        assert!(smallest > 10.0, "vehicle {v}: {smallest}");
-    }
+    altered_only(&log, 2, Body::SplitNotice);
+    nobody_near_another(&rows);
 }
 
 /// `[maneuvers] check_reports`: the leader checks an in-position report against the sender's

@@ -186,14 +186,7 @@ impl Leader {
             (Body::MergeRequest { behind, .. }, LeaderState::Joining { joiner, .. })
                 if joiner == from =>
             {
-                self.send(
-                    out,
-                    from,
-                    Body::JoinAccept {
-                        behind,
-                        middle: false,
-                    },
-                );
+                self.accept_merge(from, behind, out);
             }
             (Body::JoinRequest { .. } | Body::MergeRequest { .. }, LeaderState::Joining { .. }) => {
                 self.refuse(from, Refusal::Busy, out);
@@ -220,14 +213,7 @@ impl Leader {
                         asks: 1,
                         tail: Some(tail),
                     };
-                    self.send(
-                        out,
-                        from,
-                        Body::JoinAccept {
-                            behind,
-                            middle: false,
-                        },
-                    );
+                    self.accept_merge(from, behind, out);
                 }
             }
             (Body::JoinRequest { behind }, LeaderState::Idle) => {
@@ -358,6 +344,12 @@ impl Leader {
             // ask for, a leave from a stranger) change nothing.
             _ => {}
         }
+    }
+
+    /// Accepts `head`'s merge behind `behind`: as a join at the tail.
+    fn accept_merge(&mut self, head: VehicleId, behind: VehicleId, out: &mut Vec<Message>) {
+        let middle = false;
+        self.send(out, head, Body::JoinAccept { behind, middle });
     }
 
     fn refuse(&mut self, to: VehicleId, reason: Refusal, out: &mut Vec<Message>) {
