@@ -1908,63 +1908,10 @@ fn a_cut_in_runs_bit_identically_on_both_transports() {
     }
 }
 
-/// A join at the tail negotiated over V2V (`configs/join.toml`): the maneuver messages cross
-/// the wire on the packets (contract v4), and both transports agree bit for bit, the joiner's
-/// `outside` mode and its `joined` event included; the facts say the leader hears everyone.
-#[test]
-fn a_join_runs_bit_identically_on_both_transports() {
-    let runs = transports_agree("configs/join.toml");
-    let ipc = runs.path().join("ipc");
-    let facts = json(&ipc.join("facts.json"));
-    assert_eq!(
-        facts["hearing"][0]["leader_hears"],
-        serde_json::json!([1, 2, 3, 4])
-    );
-    assert!(facts["topologies"][0].get("leader_hears").is_none());
-    let events = std::fs::read_to_string(ipc.join("events.csv")).unwrap();
-    let joined: Vec<&str> = events.lines().filter(|l| l.contains(",joined,")).collect();
-    assert_eq!(joined, ["0,4,2692,26.92,joined,blend,,false"]);
-    assert_eq!(json(&ipc.join("summary.json"))["safety"]["collided"], false);
-}
-
-/// A join in the middle (`configs/join-middle.toml`): the joiner starts in the lane beside
-/// (mode 9 `beside` on the wire), changes into the gap follower 2 opened, and both transports
-/// agree bit for bit.
-#[test]
-fn a_join_in_the_middle_runs_bit_identically_on_both_transports() {
-    let runs = transports_agree("configs/join-middle.toml");
-    let ipc = runs.path().join("ipc");
-    let events = std::fs::read_to_string(ipc.join("events.csv")).unwrap();
-    let joined: Vec<&str> = events.lines().filter(|l| l.contains(",joined,")).collect();
-    assert_eq!(joined, ["0,4,2760,27.6,joined,blend,,false"]);
-    assert_eq!(json(&ipc.join("summary.json"))["safety"]["collided"], false);
-}
-
-/// Members leave (`configs/leave.toml`: follower 2 from the middle, follower 5 at the tail):
-/// the plant takes each off the lane on its command's mode `left` (on the wire, mode 8), the
-/// radars then see the member ahead of it, and both transports agree bit for bit.
-#[test]
-fn leaves_run_bit_identically_on_both_transports() {
-    let runs = transports_agree("configs/leave.toml");
-    let ipc = runs.path().join("ipc");
-    let events = std::fs::read_to_string(ipc.join("events.csv")).unwrap();
-    let left: Vec<&str> = events
-        .lines()
-        .filter(|l| l.contains(",left,left,"))
-        .collect();
-    assert_eq!(
-        left,
-        [
-            "0,2,2002,20.02,left,left,,false",
-            "0,5,4502,45.02,left,left,,false"
-        ]
-    );
-    assert_eq!(json(&ipc.join("summary.json"))["safety"]["collided"], false);
-}
-
-/// Runs `config` on both transports (they must agree bit for bit) and checks the events.csv
-/// lines holding one of `marks` are `expected`, and that nobody collided.
-fn regrouped_safely(config: &str, marks: &[&str], expected: &[&str]) {
+/// Runs maneuver `config` on both transports (they must agree bit for bit) and checks the
+/// events.csv lines holding one of `marks` are `expected`, and that nobody collided. Returns
+/// the runs' directory (`ipc/`, `inproc/`).
+fn maneuver_runs_safely(config: &str, marks: &[&str], expected: &[&str]) -> tempfile::TempDir {
     let runs = transports_agree(config);
     let ipc = runs.path().join("ipc");
     let events = std::fs::read_to_string(ipc.join("events.csv")).unwrap();
@@ -1974,6 +1921,52 @@ fn regrouped_safely(config: &str, marks: &[&str], expected: &[&str]) {
         .collect();
     assert_eq!(got, expected, "{config}");
     assert_eq!(json(&ipc.join("summary.json"))["safety"]["collided"], false);
+    runs
+}
+
+/// A join at the tail negotiated over V2V (`configs/join.toml`): the maneuver messages cross
+/// the wire on the packets (contract v4), and both transports agree bit for bit, the joiner's
+/// `outside` mode and its `joined` event included; the facts say the leader hears everyone.
+#[test]
+fn a_join_runs_bit_identically_on_both_transports() {
+    let runs = maneuver_runs_safely(
+        "configs/join.toml",
+        &[",joined,"],
+        &["0,4,2692,26.92,joined,blend,,false"],
+    );
+    let facts = json(&runs.path().join("ipc/facts.json"));
+    assert_eq!(
+        facts["hearing"][0]["leader_hears"],
+        serde_json::json!([1, 2, 3, 4])
+    );
+    assert!(facts["topologies"][0].get("leader_hears").is_none());
+}
+
+/// A join in the middle (`configs/join-middle.toml`): the joiner starts in the lane beside
+/// (mode 9 `beside` on the wire), changes into the gap follower 2 opened, and both transports
+/// agree bit for bit.
+#[test]
+fn a_join_in_the_middle_runs_bit_identically_on_both_transports() {
+    maneuver_runs_safely(
+        "configs/join-middle.toml",
+        &[",joined,"],
+        &["0,4,2760,27.6,joined,blend,,false"],
+    );
+}
+
+/// Members leave (`configs/leave.toml`: follower 2 from the middle, follower 5 at the tail):
+/// the plant takes each off the lane on its command's mode `left` (on the wire, mode 8), the
+/// radars then see the member ahead of it, and both transports agree bit for bit.
+#[test]
+fn leaves_run_bit_identically_on_both_transports() {
+    maneuver_runs_safely(
+        "configs/leave.toml",
+        &[",left,left,"],
+        &[
+            "0,2,2002,20.02,left,left,,false",
+            "0,5,4502,45.02,left,left,,false",
+        ],
+    );
 }
 
 /// Two platoons merge (`configs/merge.toml`): the rear head's request and the leader's update
@@ -1982,7 +1975,7 @@ fn regrouped_safely(config: &str, marks: &[&str], expected: &[&str]) {
 /// column, `split` and `merged` events), and both transports agree bit for bit.
 #[test]
 fn a_merge_runs_bit_identically_on_both_transports() {
-    regrouped_safely(
+    maneuver_runs_safely(
         "configs/merge.toml",
         &[",joined,", ",merged,"],
         &[
@@ -1999,7 +1992,7 @@ fn a_merge_runs_bit_identically_on_both_transports() {
 /// both transports agree bit for bit.
 #[test]
 fn a_maneuver_split_runs_bit_identically_on_both_transports() {
-    regrouped_safely(
+    maneuver_runs_safely(
         "configs/split.toml",
         &[",split,"],
         &[

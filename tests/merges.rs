@@ -62,6 +62,11 @@ fn with_forged(text: &str, message: &str, sender: u16, start_s: f64) -> String {
     )
 }
 
+/// `text`'s run in process through the recording channel, its attacks the config's own.
+fn run_attacked(text: &str) -> (Vec<StepRow>, common::maneuvers::Log) {
+    run_with(parse(text).unwrap(), |_, _| false, |_, _| {})
+}
+
 /// Asserts that the ground truth labels every delivery it did not find genuine `altered` in
 /// its maneuver field, a `body` in `sender`'s name, and that there are some.
 fn altered_only(log: &common::maneuvers::Log, sender: u16, body: Body) {
@@ -349,7 +354,7 @@ fn a_merge_jammed_half_way_leaves_two_platoons_safely() {
         "[[channel.attacks]]\nkind = \"jam_maneuvers\"\nmessages = [\"update\"]\n\
          start_s = 5.0\n\n[maneuvers]\n",
     );
-    let (rows, log) = run_with(parse(&text).unwrap(), |_, _| false, |_, _| {});
+    let (rows, log) = run_attacked(&text);
     let from_head = |kind: fn(&Body) -> bool| {
         log.sent
             .iter()
@@ -379,7 +384,7 @@ fn a_merge_jammed_half_way_leaves_two_platoons_safely() {
 #[test]
 fn a_forged_in_position_report_merges_nobody_early() {
     let text = with_forged(&merge_config(), "in_position", 3, 6.0);
-    let (rows, log) = run_with(parse(&text).unwrap(), |_, _| false, |_, _| {});
+    let (rows, log) = run_attacked(&text);
     let early = log
         .sent
         .iter()
@@ -402,7 +407,7 @@ fn a_forged_in_position_report_merges_nobody_early() {
 #[test]
 fn a_forged_split_notice_splits_the_platoon_safely_and_is_labelled_altered() {
     let text = with_forged(&split_config(), "split_notice", 2, 10.0);
-    let (rows, log) = run_with(parse(&text).unwrap(), |_, _| false, |_, _| {});
+    let (rows, log) = run_attacked(&text);
     let at = of(&rows, 2)
         .iter()
         .position(|r| r.mode == Mode::Outside)
@@ -444,7 +449,7 @@ fn the_leaders_report_check_drops_forged_in_position_reports() {
             plain == clean,
             "vehicle {joiner}: a genuine report passes the check"
         );
-        let (attacked, log) = run_with(parse(&forged).unwrap(), |_, _| false, |_, _| {});
+        let (attacked, log) = run_attacked(&forged);
         assert!(
             log.labelled.iter().any(|(_, l)| *l != Label::Genuine),
             "the forger was at work"
@@ -454,7 +459,7 @@ fn the_leaders_report_check_drops_forged_in_position_reports() {
             "vehicle {joiner}: the forged reports change nothing"
         );
         let unchecked = forged.replace("check_reports = true\n", "");
-        let (unchecked, _) = run_with(parse(&unchecked).unwrap(), |_, _| false, |_, _| {});
+        let (unchecked, _) = run_attacked(&unchecked);
         assert!(
             rows(unchecked) != clean,
             "vehicle {joiner}: without the check they do"

@@ -364,14 +364,20 @@ impl FallbackParams {
     }
 }
 
+/// How far the ACC's headway has moved to its new value `elapsed_s` after a switch: from 0 to 1
+/// over `opening_s` (at once without one).
+pub fn opened(acc: &AccParams, elapsed_s: f64) -> f64 {
+    if acc.opening_s > 0.0 {
+        (elapsed_s / acc.opening_s).min(1.0)
+    } else {
+        1.0
+    }
+}
+
 /// The ACC's headway `elapsed_s` after the switch to it: growing from 0 to `headway_s` over
 /// `opening_s` (at once without one).
 pub fn opened_headway(acc: &AccParams, elapsed_s: f64) -> f64 {
-    if acc.opening_s > 0.0 {
-        acc.headway_s * (elapsed_s / acc.opening_s).min(1.0)
-    } else {
-        acc.headway_s
-    }
+    acc.headway_s * opened(acc, elapsed_s)
 }
 
 /// How far the radar's gap `r` is beyond the one the ACC keeps at `headway` (s) and speed `v`

@@ -239,14 +239,7 @@ pub(crate) fn joiner_headway(
     let outside = acc.headway_s.max(platoon);
     match approaching_s {
         None => outside,
-        Some(t) => {
-            let closed = if acc.opening_s > 0.0 {
-                (t / acc.opening_s).min(1.0)
-            } else {
-                1.0
-            };
-            outside - (outside - platoon) * closed
-        }
+        Some(t) => outside - (outside - platoon) * crate::fallback::opened(acc, t),
     }
 }
 
@@ -255,12 +248,7 @@ pub(crate) fn joiner_headway(
 /// `opening_s`, so that its command has no step.
 pub(crate) fn split_headway(acc: &crate::fallback::AccParams, platoon: f64, since_s: f64) -> f64 {
     let apart = acc.headway_s.max(platoon);
-    let opened = if acc.opening_s > 0.0 {
-        (since_s / acc.opening_s).min(1.0)
-    } else {
-        1.0
-    };
-    platoon + (apart - platoon) * opened
+    platoon + (apart - platoon) * crate::fallback::opened(acc, since_s)
 }
 
 /// One follower's part.

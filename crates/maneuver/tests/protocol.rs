@@ -42,6 +42,15 @@ struct World {
 
 const JOINER: VehicleId = VehicleId(100);
 
+/// A platoon of `followers` in order: its leader (up to 8 members) and its members.
+fn platoon(followers: u16) -> (Leader, Vec<Member>) {
+    let formation = Formation::in_order(usize::from(followers));
+    let members = (1..=followers)
+        .map(|i| Member::new(v(i), formation.clone(), TIMING))
+        .collect();
+    (Leader::new(formation, 8, TIMING), members)
+}
+
 impl World {
     fn new(followers: usize, behind: VehicleId, lose: impl FnMut(usize) -> bool + 'static) -> Self {
         let formation = Formation::in_order(followers);
@@ -275,11 +284,7 @@ fn a_replayed_update_changes_no_copy() {
 
 #[test]
 fn a_member_leaves_and_the_one_behind_closes_up() {
-    let formation = Formation::in_order(3);
-    let mut leader = Leader::new(formation.clone(), 8, TIMING);
-    let mut members: Vec<Member> = (1..=3)
-        .map(|i| Member::new(v(i), formation.clone(), TIMING))
-        .collect();
+    let (mut leader, mut members) = platoon(3);
     let mut in_flight = Vec::new();
     members[1].leave(0, &mut in_flight);
     for step in 1..=30 {
@@ -565,11 +570,7 @@ fn a_merge_whose_head_withdraws_splits_its_platoon_off_again() {
 /// it; a split notice the channel loses is sent again.
 #[test]
 fn a_split_leaves_two_platoons_each_copy_its_own() {
-    let whole = Formation::in_order(5);
-    let mut leader = Leader::new(whole.clone(), 8, TIMING);
-    let mut members: Vec<Member> = (1..=5)
-        .map(|i| Member::new(v(i), whole.clone(), TIMING))
-        .collect();
+    let (mut leader, mut members) = platoon(5);
     let (mut in_flight, mut log): (Vec<Message>, Vec<Message>) = (Vec::new(), Vec::new());
     for step in 1..=60 {
         let mut out = Vec::new();
