@@ -390,3 +390,94 @@ fn every_law_takes_a_joiner_at_the_tail() {
         }
     }
 }
+
+/// The fake join request from the attack catalogue (`kind = "forge_maneuver"`, `message =
+/// "join_request"`): an outsider rewrites the joiner's packets to the leader at 3 s, before
+/// it asks, into a request for the slot behind the tail. The leader accepts it and is busy
+/// with a join the joiner never asked for; the joiner's own requests carry lower sequence
+/// numbers and are dropped as old, so it stays outside, safely, until the leader calls the
+/// join off at its deadline. The rewritten packets are labelled altered in their maneuver
+/// field, and nothing else is.
+#[test]
+fn the_catalogues_fake_join_request_keeps_the_joiner_out_and_is_labelled_altered() {
+    let mut text = join_config();
+    text.push_str(
+        "\n[[channel.attacks]]\nkind = \"forge_maneuver\"\nmessage = \"join_request\"\n\
+         senders = [4]\nreceivers = [0]\nstart_s = 3.0\nend_s = 3.2\n",
+    );
+    let s = scenario(&text);
+    let (rows, log) = run_with(s, |_, _| false, common::maneuvers::nothing);
+    assert!(of(&rows, 4).iter().all(|r| r.mode == Mode::Outside));
+    let altered: Vec<_> = log
+        .labelled
+        .iter()
+        .filter(|(_, l)| *l != Label::Genuine)
+        .collect();
+    assert!(!altered.is_empty());
+    for (m, l) in &altered {
+        assert_eq!(
+            (m.sender, m.body),
+            (
+                VehicleId(4),
+                Body::JoinRequest {
+                    behind: VehicleId(3)
+                }
+            )
+        );
+        assert!(
+            matches!(l, Label::Altered { fields } if fields.contains(platoon_sim::truth::Fields::MANEUVER)),
+            "{l:?}"
+        );
+    }
+    let accepted = log
+        .sent
+        .iter()
+        .find(|(_, m)| m.sender.is_leader() && matches!(m.body, Body::JoinAccept { .. }))
+        .map(|(k, _)| *k);
+    assert!(
+        accepted.is_some_and(|k| (300..320).contains(&k)),
+        "the leader took the fake request: {accepted:?}"
+    );
+    let aborted = log.sent.iter().any(|(_, m)| {
+        m.body
+            == Body::Abort {
+                joiner: VehicleId(4),
+            }
+    });
+    assert!(aborted, "the leader called the join off");
+    assert!(smallest_gap(&rows, 4.5) > 10.0);
+}
+
+/// The catalogue's replay (`kind = "replay"`) of the leader's packets from 8 s before, over
+/// the steps that carried the join's update: the update arrives again, labelled `replayed`,
+/// and every copy of the formation ignores it (its sequence number is old), so the joiner
+/// stays a member and nobody leaves the lane.
+#[test]
+fn the_catalogues_replay_of_an_update_is_labelled_replayed_and_changes_no_formation() {
+    let (_, plain) = run(scenario(&join_config()), |_, _| false);
+    let update = plain
+        .iter()
+        .find(|(_, m)| matches!(m.body, Body::Update { .. }))
+        .map(|(k, _)| *k)
+        .unwrap();
+    let mut text = join_config();
+    let at = (update + 800) as f64 * 0.01;
+    text.push_str(&format!(
+        "\n[[channel.attacks]]\nkind = \"replay\"\nlag_s = 8.0\nsenders = [0]\n\
+         start_s = {:.2}\nend_s = {:.2}\n",
+        at - 0.05,
+        at + 0.05
+    ));
+    let (rows, log) = run_with(scenario(&text), |_, _| false, common::maneuvers::nothing);
+    let replayed: Vec<_> = log
+        .labelled
+        .iter()
+        .filter(|(m, l)| *l == Label::Replayed && matches!(m.body, Body::Update { .. }))
+        .collect();
+    assert!(!replayed.is_empty(), "the update was replayed");
+    let joiner = of(&rows, 4);
+    let joined = joiner.iter().position(|r| r.mode != Mode::Outside).unwrap();
+    assert!(joiner[joined..].iter().all(|r| r.mode != Mode::Outside));
+    assert!(rows.iter().all(|r| r.mode != Mode::Left));
+    assert!(smallest_gap(&rows, 4.5) > 10.0);
+}

@@ -99,12 +99,14 @@ pub enum LinkAttackKind {
         kinds: u16,
     },
     /// A forged maneuver message: the targeted senders' packets carry `message` from the
-    /// sender to its leader (a leave notice nobody sent, an in-position report of a joiner
-    /// that is not in its slot), with the highest sequence number (so the receiver takes it,
-    /// and drops that sender's later messages as old); the state stays true.
+    /// sender to its leader (a join request nobody made, a leave notice nobody sent, an
+    /// in-position report of a joiner that is not in its slot), with the highest sequence
+    /// number (so the receiver takes it, and drops that sender's later messages as old); the
+    /// state stays true.
     ForgeManeuver {
-        /// What it says: [`MessageKind::LeaveNotice`], [`MessageKind::InPosition`] or
-        /// [`MessageKind::SplitNotice`].
+        /// What it says: [`MessageKind::JoinRequest`] (for the slot behind the vehicle numbered
+        /// just ahead of the sender), [`MessageKind::LeaveNotice`], [`MessageKind::InPosition`]
+        /// or [`MessageKind::SplitNotice`].
         message: MessageKind,
     },
 }
@@ -162,6 +164,11 @@ impl LinkAttackKind {
             Self::ForgedHead => packet.head = packet.sender,
             Self::ForgeManeuver { message } => {
                 let body = match message {
+                    // The slot behind the vehicle numbered just ahead of the sender: for a
+                    // joiner numbered after the platoon, its tail.
+                    MessageKind::JoinRequest => Body::JoinRequest {
+                        behind: VehicleId(packet.sender.0.saturating_sub(1)),
+                    },
                     MessageKind::InPosition => Body::InPosition,
                     MessageKind::SplitNotice => Body::SplitNotice,
                     _ => Body::LeaveNotice,

@@ -267,13 +267,16 @@ pub(super) fn channel(
                 let message = message_kind(&key("message"), message)?;
                 if !matches!(
                     message,
-                    MessageKind::LeaveNotice | MessageKind::InPosition | MessageKind::SplitNotice
+                    MessageKind::JoinRequest
+                        | MessageKind::LeaveNotice
+                        | MessageKind::InPosition
+                        | MessageKind::SplitNotice
                 ) {
                     return bad(
                         &key("message"),
                         format!(
-                            "{:?} cannot be forged; use \"leave_notice\", \"in_position\" or \
-                             \"split_notice\"",
+                            "{:?} cannot be forged; use \"join_request\", \"leave_notice\", \
+                             \"in_position\" or \"split_notice\"",
                             message.name()
                         ),
                     );

@@ -368,7 +368,10 @@ pub enum LinkKindConfig {
     /// the sender to the leader, with the highest sequence number (the leader takes the first
     /// and drops that sender's later messages as old); the state stays true.
     ForgeManeuver {
-        /// `leave_notice` (a leave nobody asked for: the leader ejects the member) or
+        /// `join_request` (a join nobody asked for, of the slot behind the vehicle numbered
+        /// just ahead of the sender: for a joiner numbered after the platoon, its tail; the
+        /// leader is busy with it until its deadline), `leave_notice` (a leave nobody asked
+        /// for: the leader ejects the member) or
         /// `in_position` (a joiner, or the head of a merging platoon, that is not in its slot
         /// says it is) or `split_notice` (a split nobody asked for: the leader splits the
         /// platoon off at the sender).
