@@ -1778,6 +1778,74 @@ fn the_python_maneuver_attacks_eject_a_member_and_replay_updates_in_vain() {
     }
 }
 
+/// The other maneuver attacks of bridge/examples/maneuver_attacks.py over iceoryx2, each
+/// keeping the joiner from the platoon, safely: a fake join request in the joiner's name at
+/// 3 s, before it asks (the leader waits for a join nobody asked for; the joiner's own
+/// requests are dropped as old); an in-position report in its name at 6 s, while it is still
+/// far back (the leader admits it; it ignores the update while not in its slot, and its own
+/// reports are dropped as old); and every move-in of the middle join lost (it stays beside
+/// the gap). Without the injectors both joiners join (tests/maneuvers.rs,
+/// tests/join_middle.rs).
+#[test]
+fn the_python_maneuver_attacks_keep_a_joiner_out_safely() {
+    let tmp = tempfile::tempdir().unwrap();
+    for (config, attack, log_line, mode) in [
+        (
+            "configs/join.toml",
+            "fake-join 4 3",
+            "forged a join request at step 300",
+            "outside",
+        ),
+        (
+            "configs/join.toml",
+            "lie-in-position 4 6",
+            "forged an in-position report at step 600",
+            "outside",
+        ),
+        (
+            "configs/join-middle.toml",
+            "jam move_in",
+            "jammed ",
+            "beside",
+        ),
+    ] {
+        let out = attack.split(' ').next().unwrap();
+        let config = repo().join(config);
+        let injector = py_example("maneuver_attacks.py", attack);
+        let args = [
+            "run",
+            config.to_str().unwrap(),
+            "--no-plots",
+            "--out",
+            out,
+            "--injector",
+            injector.as_str(),
+        ];
+        ok(&platoon(&args, tmp.path()));
+        let dir = tmp.path().join(out);
+        let log = std::fs::read_to_string(dir.join("logs/injector.log")).unwrap();
+        assert!(log.contains(log_line), "{attack}: {log}");
+        let rows = std::fs::read_to_string(dir.join("trajectories.csv")).unwrap();
+        let joiner: Vec<&str> = rows
+            .lines()
+            .skip(1)
+            .filter(|l| l.split(',').nth(3) == Some("4"))
+            .map(|l| l.split(',').nth(14).unwrap())
+            .collect();
+        assert!(!joiner.is_empty());
+        assert!(
+            joiner.iter().all(|m| *m == mode),
+            "{attack}: the joiner stays {mode}"
+        );
+        let s = summary(&dir);
+        assert_eq!(s["safety"]["collided"], false, "{attack}");
+        assert!(
+            s["safety"]["min_gap_m"].as_f64().unwrap() > 10.0,
+            "{attack}"
+        );
+    }
+}
+
 /// A car cuts in between followers 2 and 3 (`configs/cut-in.toml`): the native plant process
 /// tells follower 3's controller (`VehicleState::INTRUDER`) what the in-process plant tells it,
 /// and both transports agree bit for bit through the cut-in, the ACC on it and the return; the

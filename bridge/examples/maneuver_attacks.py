@@ -1,14 +1,24 @@
 """Attacks on the maneuver protocol (docs/maneuvers.md), as an injector you can copy: the
 maneuver messages ride in the V2vPacket's `maneuver*` fields (docs/injector-contract.md), so an
-injector reads, rewrites, replays or invents them as it does the beacons. Two attacks:
+injector reads, rewrites, replays, drops or invents them as it does the beacons. Five
+attacks on a platoon-management protocol (after Amoozadeh et al., 2015):
 
 - `forge-leave VEHICLE AT_S`: the first packet VEHICLE sends to the leader at or after AT_S
   reaches the leader as a leave notice in its name (an outsider rewriting it on the way, with
   the highest sequence number so the leader takes it): the leader ejects a member that never
-  asked to leave, the falsified leave of Amoozadeh et al. (2015).
+  asked to leave, the falsified leave.
 
       platoon run configs/leave.toml \\
           --injector "bridge/.venv/bin/python bridge/examples/maneuver_attacks.py forge-leave 1 10"
+
+- `fake-join VEHICLE AT_S`: the same rewrite into a join request for the slot behind the
+  vehicle numbered just ahead of VEHICLE (for a joiner, the platoon's tail): sent before the
+  joiner asks, the leader waits for a join nobody asked for and the joiner's own requests,
+  numbered lower, are dropped as old: it stays outside (`configs/join.toml`, `fake-join 4 3`).
+
+- `lie-in-position VEHICLE AT_S`: the same rewrite into an in-position report: a joiner that
+  is not in its slot says it is (`configs/join.toml`, `lie-in-position 4 6`). The leader
+  admits it; the joiner, which never said so, ignores the update while it is not in position.
 
 - `replay-updates DELAY_S`: every formation update the leader broadcasts is delivered again,
   unchanged, DELAY_S later to each of its receivers. Each receiver drops it as old (its
@@ -16,6 +26,11 @@ injector reads, rewrites, replays or invents them as it does the beacons. Two at
 
       platoon run configs/join.toml \\
           --injector "bridge/.venv/bin/python bridge/examples/maneuver_attacks.py replay-updates 8"
+
+- `jam KIND`: every packet that carries a maneuver message of KIND (`move_in`, `update`, ...:
+  the names of V2vPacket's constants, lower case) is lost, its beacon with it: a maneuver
+  jammed half way (`configs/join-middle.toml`, `jam move_in`: the gap opens, the joiner never
+  moves in, the leader calls the join off and the gap closes).
 
 Everything else is forwarded as sent. What it did goes to stderr (logs/injector.log).
 """
@@ -33,11 +48,17 @@ P = w.V2vPacket
 UPDATES = (P.UPDATE_JOINED, P.UPDATE_LEFT, P.UPDATE_MERGED, P.UPDATE_SPLIT)
 
 
-class ForgeLeave(pi.Injector):
-    """Rewrites VEHICLE's first packet to the leader from AT_S into a leave notice."""
+class Forge(pi.Injector):
+    """Rewrites VEHICLE's first packet to the leader from AT_S into a message of KIND."""
 
-    def __init__(self, run: pi.Run, vehicle: int, at_s: float):
-        self.run, self.vehicle, self.at_s = run, vehicle, at_s
+    NAMES = {
+        P.LEAVE_NOTICE: "a leave notice",
+        P.JOIN_REQUEST: "a join request",
+        P.IN_POSITION: "an in-position report",
+    }
+
+    def __init__(self, run: pi.Run, kind: int, vehicle: int, at_s: float):
+        self.run, self.kind, self.vehicle, self.at_s = run, kind, vehicle, at_s
         self.forged_at = None
 
     def step(self, step, rx):
@@ -51,15 +72,38 @@ class ForgeLeave(pi.Injector):
             ):
                 it = copy.deepcopy(it)
                 p = it.packet
-                p.maneuver, p.maneuver_arg = P.LEAVE_NOTICE, 0
+                p.maneuver, p.maneuver_arg = self.kind, 0
                 p.maneuver_to = it.receiver  # the leader, in wire ids
                 p.maneuver_seq = 0xFFFF  # the highest a receiver takes
                 p.maneuver_vehicle = p.maneuver_behind = P.NOBODY
+                if self.kind == P.JOIN_REQUEST:
+                    # The slot behind the vehicle numbered just ahead (wire ids are
+                    # consecutive within a platoon).
+                    p.maneuver_vehicle = p.sender - 1
                 self.forged_at = step.k
             rx.append(it)
 
     def finish(self):
-        print(f"maneuver_attacks: forged a leave notice at step {self.forged_at}", file=sys.stderr)
+        what = self.NAMES[self.kind]
+        print(f"maneuver_attacks: forged {what} at step {self.forged_at}", file=sys.stderr)
+
+
+class Jam(pi.Injector):
+    """Loses every packet that carries a maneuver message of KIND."""
+
+    def __init__(self, kind: int):
+        self.kind = kind
+        self.jammed = 0
+
+    def step(self, step, rx):
+        for it in step.tx:
+            if it.packet.maneuver == self.kind:
+                self.jammed += 1
+            else:
+                rx.append(it)
+
+    def finish(self):
+        print(f"maneuver_attacks: jammed {self.jammed} deliveries", file=sys.stderr)
 
 
 class ReplayUpdates(pi.Injector):
@@ -83,15 +127,40 @@ class ReplayUpdates(pi.Injector):
         print(f"maneuver_attacks: replayed {self.replayed} update deliveries", file=sys.stderr)
 
 
+def kind(name: str) -> int:
+    """The V2vPacket constant a message kind's name gives (`move_in` -> MOVE_IN)."""
+    value = getattr(P, name.upper(), None)
+    if not isinstance(value, int) or name.upper() in ("EVERYONE", "NOBODY", "NO_MANEUVER"):
+        raise ValueError(f"no maneuver message kind {name!r}")
+    return value
+
+
+FORGED = {
+    "forge-leave": P.LEAVE_NOTICE,
+    "fake-join": P.JOIN_REQUEST,
+    "lie-in-position": P.IN_POSITION,
+}
+
+
 def main() -> int:
-    usage = "usage: maneuver_attacks.py forge-leave VEHICLE AT_S | replay-updates DELAY_S"
+    usage = (
+        "usage: maneuver_attacks.py forge-leave|fake-join|lie-in-position VEHICLE AT_S"
+        " | replay-updates DELAY_S | jam KIND"
+    )
     args = sys.argv[1:]
-    if args[:1] == ["forge-leave"] and len(args) == 3:
-        vehicle, at_s = int(args[1]), float(args[2])
-        return pi.run(lambda run: ForgeLeave(run, vehicle, at_s))
-    if args[:1] == ["replay-updates"] and len(args) == 2:
-        delay_s = float(args[1])
-        return pi.run(lambda run: ReplayUpdates(run, delay_s))
+    try:
+        if args[:1] and args[0] in FORGED and len(args) == 3:
+            forged, vehicle, at_s = FORGED[args[0]], int(args[1]), float(args[2])
+            return pi.run(lambda run: Forge(run, forged, vehicle, at_s))
+        if args[:1] == ["replay-updates"] and len(args) == 2:
+            delay_s = float(args[1])
+            return pi.run(lambda run: ReplayUpdates(run, delay_s))
+        if args[:1] == ["jam"] and len(args) == 2:
+            jammed = kind(args[1])
+            return pi.run(lambda run: Jam(jammed))
+    except ValueError as e:
+        print(f"maneuver_attacks.py: {e}\n{usage}", file=sys.stderr)
+        return 2
     print(usage, file=sys.stderr)
     return 2
 
