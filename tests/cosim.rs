@@ -1988,7 +1988,15 @@ fn maneuver_runs_safely(config: &str, marks: &[&str], expected: &[&str]) -> temp
         .filter(|l| marks.iter().any(|m| l.contains(m)))
         .collect();
     assert_eq!(got, expected, "{config}");
-    assert_eq!(json(&ipc.join("summary.json"))["safety"]["collided"], false);
+    let summary = json(&ipc.join("summary.json"));
+    assert_eq!(summary["safety"]["collided"], false);
+    // The summary measured every maneuver of the config, each completed (the same bytes on
+    // both transports: above).
+    let maneuvers = summary["maneuvers"]["maneuvers"].as_array().unwrap();
+    assert!(!maneuvers.is_empty(), "{config}");
+    for m in maneuvers {
+        assert_eq!(m["outcome"], "completed", "{config}: {m}");
+    }
     runs
 }
 

@@ -481,3 +481,73 @@ fn the_catalogues_replay_of_an_update_is_labelled_replayed_and_changes_no_format
     assert!(rows.iter().all(|r| r.mode != Mode::Left));
     assert!(smallest_gap(&rows, 4.5) > 10.0);
 }
+
+/// `summary.json`'s `maneuvers` against what the recording injector saw on the packets and
+/// the rows: the join asked when the joiner's request was broadcast, completed when the
+/// joiner left its ACC for the law, the messages about it counted between, the errors and
+/// gaps from the request on; and a join kept out by the fake request is `failed`.
+#[test]
+fn the_summary_measures_the_join_as_the_packets_and_rows_tell_it() {
+    let s = scenario(&join_config());
+    let dt = s.dt();
+    let (rows, sent) = run(s.clone(), |_, _| false);
+    let summary = platoon_sim::run(s, |_| {}).unwrap();
+    let m = summary.maneuvers.expect("a run with [maneuvers]");
+    assert_eq!(m.messages_sent, sent.len() as u64);
+    let [join] = &m.maneuvers[..] else {
+        panic!("{:?}", m.maneuvers)
+    };
+    let asked = sent
+        .iter()
+        .find(|(_, m)| matches!(m.body, Body::JoinRequest { .. }))
+        .map(|(k, _)| *k)
+        .unwrap();
+    let joiner = of(&rows, 4);
+    let done = joiner
+        .iter()
+        .find(|r| r.mode != Mode::Outside)
+        .unwrap()
+        .step;
+    let about = sent
+        .iter()
+        .filter(|(k, m)| {
+            (asked..=done).contains(k)
+                && (m.sender == VehicleId(4)
+                    || m.to == VehicleId(4)
+                    || matches!(m.body, Body::Update { .. }))
+        })
+        .count();
+    let worst = rows
+        .iter()
+        .filter(|r| r.step >= asked && r.vehicle > 0 && r.mode != Mode::Outside)
+        .map(|r| r.spacing_error.abs())
+        .fold(0.0, f64::max);
+    let gap = rows
+        .chunks(5)
+        .filter(|step| step[0].step >= asked)
+        .flat_map(|step| step.windows(2).map(|w| w[0].p - w[1].p - 4.5))
+        .fold(f64::INFINITY, f64::min);
+    assert_eq!(
+        (join.maneuver.as_str(), join.vehicle, join.outcome.as_str()),
+        ("join", 4, "completed")
+    );
+    assert_eq!(join.requested_t_s, Some(asked as f64 * dt));
+    assert_eq!(join.completion_s, Some((done - asked) as f64 * dt));
+    assert_eq!(join.messages, about as u64);
+    assert_eq!(join.max_spacing_error_m, Some(worst));
+    assert!(
+        (join.min_gap_m.unwrap() - gap).abs() < 1e-9,
+        "{join:?} vs {gap}"
+    );
+
+    let mut text = join_config();
+    text.push_str(
+        "\n[[channel.attacks]]\nkind = \"forge_maneuver\"\nmessage = \"join_request\"\n\
+         senders = [4]\nreceivers = [0]\nstart_s = 3.0\nend_s = 3.2\n",
+    );
+    let summary = platoon_sim::run(scenario(&text), |_| {}).unwrap();
+    let join = &summary.maneuvers.unwrap().maneuvers[0];
+    assert_eq!(join.outcome, "failed");
+    assert_eq!(join.completion_s, None);
+    assert!(join.requested_t_s.is_some());
+}

@@ -298,4 +298,24 @@ fn print_summary(s: &Summary, compute_s: f64) {
                 .map_or("-".to_string(), |t| format!("{t:.2} s"))
         );
     }
+    if let Some(m) = &s.maneuvers {
+        println!("  maneuvers: {} messages broadcast", m.messages_sent);
+        for r in &m.maneuvers {
+            let how = match (r.requested_t_s, r.completion_s) {
+                (None, _) => "never asked (the run ended first)".to_string(),
+                (Some(at), Some(took)) => format!("asked at {at:.2} s, completed in {took:.2} s"),
+                (Some(at), None) => format!("asked at {at:.2} s, FAILED"),
+            };
+            let seen = match (r.max_spacing_error_m, r.min_gap_m) {
+                (Some(e), Some(g)) => {
+                    format!("; from then on spacing error <= {e:.2} m, smallest gap {g:.2} m")
+                }
+                _ => String::new(),
+            };
+            println!(
+                "    {} of vehicle {}: {how}, {} messages{seen}",
+                r.maneuver, r.vehicle, r.messages
+            );
+        }
+    }
 }

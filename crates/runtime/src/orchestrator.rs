@@ -535,6 +535,7 @@ impl Streams<'_> {
                 StepWire {
                     per_vehicle: &run.wire,
                     outside: run.outside,
+                    maneuvers: &run.maneuvers,
                 },
                 run.measure.as_ref().map_or(&[], Measure::scored),
             );

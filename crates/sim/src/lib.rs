@@ -9,6 +9,7 @@
 
 pub mod detection;
 mod factory;
+mod maneuver_tally;
 mod metrics;
 mod scenario;
 mod summary;
@@ -22,8 +23,8 @@ pub use factory::{
 pub use metrics::{FleetMetrics, MetricsAccumulator};
 pub use scenario::{Fleet, Scenario, ScenarioError, Vehicle};
 pub use summary::{
-    ErrorStats, FleetOverview, LinkOutage, PlatoonBrief, Safety, SafetyClass, SafetyThresholds,
-    Summary, VehicleSummary, VehicleWire, WireSummary,
+    ErrorStats, FleetOverview, LinkOutage, ManeuverRecord, ManeuversSummary, PlatoonBrief, Safety,
+    SafetyClass, SafetyThresholds, Summary, VehicleSummary, VehicleWire, WireSummary,
 };
 pub use tally::WireCounts;
 
@@ -35,6 +36,9 @@ pub struct StepWire<'a> {
     pub per_vehicle: &'a [WireCounts],
     /// Deliveries to no vehicle.
     pub outside: WireCounts,
+    /// The maneuver messages broadcast, each once whatever its receivers: (platoon, message),
+    /// in platoon-local vehicle ids.
+    pub maneuvers: &'a [(u16, platoon_control::maneuvers::Message)],
 }
 
 use platoon_attacks::channel::{Channel, ChannelEvent};
@@ -691,6 +695,8 @@ pub struct FleetSimulation {
     rows: Vec<StepRow>,
     log: Vec<ChannelEvent>,
     wire: Vec<WireCounts>,
+    /// The maneuver messages broadcast in the last step, (platoon, message).
+    maneuvers: Vec<(u16, platoon_control::maneuvers::Message)>,
     /// Every vehicle's (road position, measured beacon rate), for channels that count the
     /// fleet in their load.
     beacons: Vec<(f64, f64)>,
@@ -727,6 +733,7 @@ impl FleetSimulation {
             rows: Vec::with_capacity(scenario.vehicles()),
             log: Vec::new(),
             wire: Vec::with_capacity(scenario.vehicles()),
+            maneuvers: Vec::new(),
             beacons: Vec::new(),
             sims,
         })
@@ -778,10 +785,15 @@ impl FleetSimulation {
             });
             platoon_attacks::inject::hear_fleet(k, platoons, &mut self.beacons);
         }
-        for s in &mut self.sims {
+        self.maneuvers.clear();
+        for (j, s) in self.sims.iter_mut().enumerate() {
             self.rows.extend_from_slice(s.try_step()?);
             self.log.extend_from_slice(s.channel_log());
             self.wire.extend_from_slice(s.wire());
+            self.maneuvers.extend(
+                s.tx.iter()
+                    .filter_map(|p| p.maneuver.map(|m| (j as u16, m))),
+            );
         }
         Ok(&self.rows)
     }
@@ -796,6 +808,7 @@ impl FleetSimulation {
         StepWire {
             per_vehicle: &self.wire,
             outside: WireCounts::default(),
+            maneuvers: &self.maneuvers,
         }
     }
 

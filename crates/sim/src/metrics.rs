@@ -89,6 +89,11 @@ pub struct MetricsAccumulator {
     last_step: u64,
     last_t: f64,
     safety: Safety,
+    /// The maneuvers (`[maneuvers]` only).
+    maneuvers: Option<crate::maneuver_tally::ManeuverTally>,
+    /// Scratch: each follower's gap to the vehicle ahead on its lane at this step (NaN beside
+    /// the lane), for the maneuvers.
+    gaps: Vec<f64>,
 }
 
 impl MetricsAccumulator {
@@ -153,6 +158,15 @@ impl MetricsAccumulator {
                 min_ttc_s: None,
                 first_collision_t_s: None,
             },
+            maneuvers: crate::maneuver_tally::ManeuverTally::new(scenario),
+            gaps: Vec::new(),
+        }
+    }
+
+    /// A maneuver message broadcast at the step whose rows come next.
+    pub fn push_broadcast(&mut self, m: platoon_control::maneuvers::Message) {
+        if let Some(t) = &mut self.maneuvers {
+            t.broadcast(m);
         }
     }
 
@@ -182,6 +196,8 @@ impl MetricsAccumulator {
                 self.fronts[w[1]] = w[0];
             }
         }
+        self.gaps.clear();
+        self.gaps.resize(rows.len() - 1, f64::NAN);
         let mut front = leader;
         for (i, r) in rows.iter().enumerate().skip(1) {
             if self.lanes {
@@ -234,12 +250,16 @@ impl MetricsAccumulator {
             if gap <= 0.0 && self.safety.first_collision_t_s.is_none() {
                 self.safety.first_collision_t_s = Some(r.t);
             }
+            self.gaps[i - 1] = gap;
             if gap < self.safety.min_gap_m {
                 self.safety.min_gap_m = gap;
                 self.safety.min_gap_vehicle = r.vehicle;
                 self.safety.min_gap_t_s = r.t;
             }
             front = r;
+        }
+        if let Some(t) = &mut self.maneuvers {
+            t.push(rows, &self.gaps);
         }
     }
 
@@ -393,6 +413,7 @@ impl MetricsAccumulator {
             wire: None,
             channel: None,
             detection: None,
+            maneuvers: self.maneuvers.as_ref().map(|t| t.finish()),
             vehicles,
         }
     }
@@ -428,6 +449,11 @@ impl FleetMetrics {
     pub fn push_wire(&mut self, step: crate::StepWire<'_>) {
         for (acc, c) in self.wire.iter_mut().zip(step.per_vehicle) {
             acc.add(c);
+        }
+        for &(j, m) in step.maneuvers {
+            if let Some(acc) = self.per.get_mut(usize::from(j)) {
+                acc.push_broadcast(m);
+            }
         }
         self.wire_outside.add(&step.outside);
         self.wire_steps += 1;

@@ -289,6 +289,48 @@ pub struct Summary {
     /// platoon 0).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub detection: Option<crate::detection::DetectionSummary>,
+    /// The maneuvers (`[maneuvers]` only; platoon 0), measured on the wire and in the plant.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub maneuvers: Option<ManeuversSummary>,
+}
+
+/// What a run's maneuvers did (`summary.json`'s `maneuvers`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ManeuversSummary {
+    /// Maneuver messages the vehicles broadcast, each broadcast once whatever its receivers
+    /// (what the channel did to them is in `wire`).
+    pub messages_sent: u64,
+    /// Each maneuver the config asks for, in the order of the steps they are asked at.
+    pub maneuvers: Vec<ManeuverRecord>,
+}
+
+/// One maneuver of a run: when its vehicle asked (on the wire), whether and when it was done
+/// (in the plant), and what the platoon went through from the request on.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ManeuverRecord {
+    /// `join`, `leave`, `merge` or `split`.
+    pub maneuver: String,
+    /// The joiner, the leaver, the merging platoon's head or the splitter.
+    pub vehicle: u16,
+    /// `completed` (the joiner or merging head admitted and in the lane's platoon, the leaver
+    /// out of the lane, the splitter heading its part), `failed` (asked, and not completed by
+    /// the end of the run: refused, timed out, given up or under way) or `not_requested` (the
+    /// run ended before its vehicle asked).
+    pub outcome: String,
+    /// When its vehicle first broadcast the request (or the leave or split notice) (s).
+    pub requested_t_s: Option<f64>,
+    /// From the request to its completion (s).
+    pub completion_s: Option<f64>,
+    /// The largest |spacing error| of a vehicle in the lane's platoon, from the request to the
+    /// end of the run (m).
+    pub max_spacing_error_m: Option<f64>,
+    /// The smallest gap to the vehicle ahead on the lane, from the request to the end of the
+    /// run (m).
+    pub min_gap_m: Option<f64>,
+    /// Maneuver messages broadcast about it from the request until its completion: sent by
+    /// its vehicle or to it, or naming it (the leader's accept, the opener's gap ready, the
+    /// update that admits it, ...).
+    pub messages: u64,
 }
 
 /// The V2V channel over a run, as measured on the wire (see [`crate::tally`]).

@@ -4,15 +4,11 @@ use super::{
     written, ExperimentError, Result,
 };
 use crate::progress::Progress;
-use platoon_attacks::inject::{InjectError, Injector, Reception, Step};
 use platoon_config::{Config, DosConfig, Embedded, LawName, LinkAttackConfig, LinkKindConfig};
 use platoon_control::Mode;
 use platoon_output::plots;
 use platoon_output::rundir::RunDir;
-use platoon_sim::{InjectorFactory, Plugins};
 use std::fmt::Write as _;
-use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::Arc;
 
 /// The maneuvers of [`maneuvers`], by name: a join at the tail (`configs/join.toml`), one in
 /// the middle (`configs/join-middle.toml`), a leave from the middle (`configs/leave.toml`'s
@@ -187,37 +183,6 @@ fn base(maneuver: &str) -> Result<Config> {
     Ok(config)
 }
 
-/// Counts the maneuver messages the vehicles broadcast, in front of the built-in channel.
-#[derive(Debug, Clone)]
-struct Counting {
-    inner: Box<dyn Injector>,
-    messages: Arc<AtomicU64>,
-}
-
-impl Injector for Counting {
-    fn step(&mut self, step: &Step<'_>, out: &mut Reception<'_>) -> Result<(), InjectError> {
-        let sent = step.tx.iter().filter(|p| p.maneuver.is_some()).count();
-        self.messages.fetch_add(sent as u64, Ordering::Relaxed);
-        self.inner.step(step, out)
-    }
-
-    fn finish(&mut self) -> Result<(), InjectError> {
-        self.inner.finish()
-    }
-
-    fn radio_stats(&self) -> Option<platoon_attacks::channel::RadioStats> {
-        self.inner.radio_stats()
-    }
-
-    fn channel(&self) -> Option<&platoon_attacks::channel::Channel> {
-        self.inner.channel()
-    }
-
-    fn channel_mut(&mut self) -> Option<&mut platoon_attacks::channel::Channel> {
-        self.inner.channel_mut()
-    }
-}
-
 fn cell(
     base: &Config,
     maneuver: &str,
@@ -259,57 +224,38 @@ fn cell(
             law.name()
         ),
     };
-    let messages = Arc::new(AtomicU64::new(0));
-    let counter = messages.clone();
-    let plugins = Plugins {
-        injector: InjectorFactory::new(move |s| {
-            Ok(Box::new(Counting {
-                inner: InjectorFactory::builtin().make(s)?,
-                messages: counter.clone(),
-            }))
-        }),
-        ..Plugins::default()
-    };
-    let ask = (at_s / scenario.dt()).round() as u64;
-
-    let (mut done, mut worst) = (None, 0.0f64);
     let mut left_lane = 0;
-    let summary = platoon_sim::run_until_plugins(&scenario, &plugins, |sim| {
-        let rows = sim.rows();
-        let subject = &rows[vehicle];
-        let finished = match maneuver {
-            "leave" => subject.mode == Mode::Left,
-            // The splitter heads its part on its ACC, outside the leader's platoon.
-            "split" => subject.mode == Mode::Outside,
-            _ => !matches!(subject.mode, Mode::Outside | Mode::Beside),
-        };
-        if finished && done.is_none() {
-            done = Some(subject.step);
-        }
-        if subject.step >= ask {
-            for r in rows
-                .iter()
-                .skip(1)
-                .filter(|r| !r.mode.is_beside_the_lane() && r.mode != Mode::Outside)
-            {
-                worst = worst.max(r.spacing_error.abs());
-            }
-        }
+    let summary = platoon_sim::run_until(&scenario, |sim| {
         // Leaving is for good: the last step's count is everyone who left.
-        left_lane = rows.iter().filter(|r| r.mode == Mode::Left).count();
+        left_lane = sim.rows().iter().filter(|r| r.mode == Mode::Left).count();
         std::ops::ControlFlow::Continue(())
     })?;
-    let outcome = match (summary.safety.collided, done) {
+    // The run's maneuver, as summary.json measures it.
+    let measured = summary.maneuvers.as_ref().and_then(|m| {
+        m.maneuvers
+            .iter()
+            .find(|r| r.vehicle == vehicle as u16)
+            .map(|r| (r, m.messages_sent))
+    });
+    let Some((record, messages)) = measured else {
+        refuse!(
+            Variant,
+            "{maneuver}: the summary of the run with law {} under {attack} measured no \
+             maneuver of vehicle {vehicle}",
+            law.name()
+        );
+    };
+    let outcome = match (summary.safety.collided, record.completion_s) {
         (true, _) => "collided",
         (false, Some(_)) => "completed",
         (false, None) => "failed",
     };
     Ok(ManeuversRow {
-        completion_s: done.map(|k| (k.saturating_sub(ask)) as f64 * scenario.dt()),
-        max_spacing_error_m: worst,
+        completion_s: record.completion_s,
+        max_spacing_error_m: record.max_spacing_error_m.unwrap_or(f64::NAN),
         min_gap_m: summary.safety.min_gap_m,
         left_lane,
-        messages: messages.load(Ordering::Relaxed),
+        messages,
         ..row(outcome)
     })
 }

@@ -23,6 +23,10 @@ pub(super) struct Recorder<'a> {
     pub(super) deliveries: Vec<Vec<platoon_control::Delivery>>,
     pub(super) wire: Vec<WireCounts>,
     pub(super) outside: WireCounts,
+    /// The maneuver messages broadcast at this step, (platoon, message), once a broadcast.
+    pub(super) maneuvers: Vec<(u16, platoon_control::maneuvers::Message)>,
+    /// Scratch: who broadcast them, (platoon, sender).
+    pub(super) broadcasters: Vec<(u16, platoon_model::VehicleId)>,
     pub(super) wire_counter: platoon_sim::tally::WireCounter,
     /// The detectors measured against ground truth (`[detection]` runs).
     pub(super) measure: Option<Measure>,
@@ -47,6 +51,8 @@ impl<'a> Recorder<'a> {
             deliveries: vec![Vec::new(); num.platoons],
             wire: vec![WireCounts::default(); num.vehicles()],
             outside: WireCounts::default(),
+            maneuvers: Vec::new(),
+            broadcasters: Vec::new(),
             wire_counter: Default::default(),
             measure: Measure::new(scenario),
         }
@@ -166,6 +172,19 @@ impl<'a> Recorder<'a> {
         }
         // The wire, measured as the in-process runner measures it.
         self.outside = WireCounts::default();
+        // A broadcast's message once, on its first link (the in-process runner reads each
+        // broadcast once): a sender broadcasts one packet a step.
+        self.maneuvers.clear();
+        self.broadcasters.clear();
+        for (j, _, p) in t.iter().filter_map(|it| link_from_wire(it, num)) {
+            if let Some(m) = p.maneuver {
+                let key = (j as u16, p.sender);
+                if !self.broadcasters.contains(&key) {
+                    self.broadcasters.push(key);
+                    self.maneuvers.push((key.0, m));
+                }
+            }
+        }
         for j in 0..num.platoons {
             let links = t.iter().filter_map(|it| {
                 link_from_wire(it, num)

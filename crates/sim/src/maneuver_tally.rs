@@ -1,0 +1,193 @@
+//! The maneuvers of a run (`[maneuvers]`), measured where they happened: each request on the
+//! wire (the step its vehicle broadcast it), its completion in the plant (the mode the
+//! vehicle drives in), the errors and gaps from the request on, and the messages about it.
+//! Both runtimes feed it the same rows and broadcasts, so `summary.json` agrees bit for bit.
+use crate::summary::{ManeuverRecord, ManeuversSummary};
+use crate::StepRow;
+use platoon_control::maneuvers::Message;
+use platoon_control::Mode;
+use platoon_maneuver::{Body, Change};
+use platoon_model::VehicleId;
+
+/// What a maneuver is, by what its vehicle's request says and how it ends.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Kind {
+    Join,
+    Leave,
+    Merge,
+    Split,
+}
+
+impl Kind {
+    fn name(self) -> &'static str {
+        match self {
+            Self::Join => "join",
+            Self::Leave => "leave",
+            Self::Merge => "merge",
+            Self::Split => "split",
+        }
+    }
+
+    /// Whether `body`, sent by the maneuver's vehicle, is its request (or notice).
+    fn requested_by(self, body: &Body) -> bool {
+        matches!(
+            (self, body),
+            (Self::Join, Body::JoinRequest { .. })
+                | (Self::Leave, Body::LeaveNotice)
+                | (Self::Merge, Body::MergeRequest { .. })
+                | (Self::Split, Body::SplitNotice)
+        )
+    }
+
+    /// Whether the maneuver's vehicle, driving in `mode`, has completed it: a joiner (or a
+    /// merging head) admitted to the lane's platoon, a leaver out of the lane, a splitter
+    /// heading its part on its ACC.
+    fn completed_in(self, mode: Mode) -> bool {
+        match self {
+            Self::Join | Self::Merge => !matches!(mode, Mode::Outside | Mode::Beside),
+            Self::Leave => mode == Mode::Left,
+            Self::Split => mode == Mode::Outside,
+        }
+    }
+}
+
+/// Whether `m` is about the maneuver of `vehicle`: sent by it or to it, or naming it.
+fn concerns(m: &Message, vehicle: VehicleId) -> bool {
+    m.sender == vehicle
+        || m.to == vehicle
+        || match m.body {
+            Body::OpenGap { joiner } | Body::GapReady { joiner } | Body::Abort { joiner } => {
+                joiner == vehicle
+            }
+            Body::Update { change, .. } => match change {
+                Change::Joined { vehicle: v, .. } | Change::Left { vehicle: v } => v == vehicle,
+                Change::Merged { head, .. } | Change::Split { head } => head == vehicle,
+            },
+            _ => false,
+        }
+}
+
+/// One maneuver being measured.
+#[derive(Debug, Clone)]
+struct Tracked {
+    kind: Kind,
+    vehicle: VehicleId,
+    requested: Option<u64>,
+    completed: Option<u64>,
+    max_spacing_error: f64,
+    min_gap: f64,
+    messages: u64,
+}
+
+/// Accumulates a platoon's maneuvers step by step (constant memory).
+#[derive(Debug, Clone)]
+pub(crate) struct ManeuverTally {
+    dt: f64,
+    tracked: Vec<Tracked>,
+    /// The broadcasts of the step whose rows come next.
+    pending: Vec<Message>,
+    sent: u64,
+}
+
+impl ManeuverTally {
+    /// The maneuvers `scenario`'s config asks for; `None` without `[maneuvers]`.
+    pub(crate) fn new(scenario: &crate::Scenario) -> Option<Self> {
+        let m = scenario.control.maneuvers.as_ref()?;
+        let mut tracked: Vec<(u64, Kind, VehicleId)> = Vec::new();
+        tracked.extend(m.joins.iter().map(|j| (j.at_step, Kind::Join, j.vehicle)));
+        tracked.extend(m.leaves.iter().map(|l| (l.at_step, Kind::Leave, l.vehicle)));
+        tracked.extend(m.merge.iter().map(|g| (g.at_step, Kind::Merge, g.head)));
+        tracked.extend(m.split.iter().map(|g| (g.at_step, Kind::Split, g.head)));
+        tracked.sort_by_key(|&(at, _, v)| (at, v));
+        Some(Self {
+            dt: scenario.dt(),
+            tracked: tracked
+                .into_iter()
+                .map(|(_, kind, vehicle)| Tracked {
+                    kind,
+                    vehicle,
+                    requested: None,
+                    completed: None,
+                    max_spacing_error: 0.0,
+                    min_gap: f64::INFINITY,
+                    messages: 0,
+                })
+                .collect(),
+            pending: Vec::new(),
+            sent: 0,
+        })
+    }
+
+    /// The maneuver messages broadcast at the step whose rows come next (one a broadcast,
+    /// whatever its receivers).
+    pub(crate) fn broadcast(&mut self, m: Message) {
+        self.pending.push(m);
+    }
+
+    /// One step: its rows (leader first), and each follower's gap to the vehicle ahead on
+    /// its lane (`NaN` for a vehicle beside the lane), as the metrics measure it.
+    pub(crate) fn push(&mut self, rows: &[StepRow], gaps: &[f64]) {
+        let Some(k) = rows.first().map(|r| r.step) else {
+            return;
+        };
+        self.sent += self.pending.len() as u64;
+        for t in &mut self.tracked {
+            for m in &self.pending {
+                if t.requested.is_none() && m.sender == t.vehicle && t.kind.requested_by(&m.body) {
+                    t.requested = Some(k);
+                }
+                if t.requested.is_some() && t.completed.is_none() && concerns(m, t.vehicle) {
+                    t.messages += 1;
+                }
+            }
+            if t.requested.is_none() {
+                continue;
+            }
+            let Some(own) = rows.get(t.vehicle.index()) else {
+                continue;
+            };
+            if t.completed.is_none() && t.kind.completed_in(own.mode) {
+                t.completed = Some(k);
+            }
+            for (r, gap) in rows.iter().skip(1).zip(gaps) {
+                if !r.mode.is_beside_the_lane() && r.mode != Mode::Outside {
+                    t.max_spacing_error = t.max_spacing_error.max(r.spacing_error.abs());
+                }
+                if !gap.is_nan() {
+                    t.min_gap = t.min_gap.min(*gap);
+                }
+            }
+        }
+        self.pending.clear();
+    }
+
+    /// What was measured.
+    pub(crate) fn finish(&self) -> ManeuversSummary {
+        let seconds = |steps: u64| steps as f64 * self.dt;
+        ManeuversSummary {
+            messages_sent: self.sent,
+            maneuvers: self
+                .tracked
+                .iter()
+                .map(|t| ManeuverRecord {
+                    maneuver: t.kind.name().to_string(),
+                    vehicle: t.vehicle.0,
+                    outcome: match (t.requested, t.completed) {
+                        (None, _) => "not_requested",
+                        (Some(_), Some(_)) => "completed",
+                        (Some(_), None) => "failed",
+                    }
+                    .to_string(),
+                    requested_t_s: t.requested.map(seconds),
+                    completion_s: t
+                        .requested
+                        .zip(t.completed)
+                        .map(|(a, b)| seconds(b.saturating_sub(a))),
+                    max_spacing_error_m: t.requested.map(|_| t.max_spacing_error),
+                    min_gap_m: t.min_gap.is_finite().then_some(t.min_gap),
+                    messages: t.messages,
+                })
+                .collect(),
+        }
+    }
+}
