@@ -551,3 +551,43 @@ fn the_summary_measures_the_join_as_the_packets_and_rows_tell_it() {
     assert_eq!(join.completion_s, None);
     assert!(join.requested_t_s.is_some());
 }
+
+/// `[maneuvers] check_reports` drops a join request from a vehicle the leader never heard
+/// beaconing: the ghost's request (vehicle 7, no vehicle of the run) never reaches the leader's
+/// machine, so the real joiner joins as if there had been no attack, every row bit for bit;
+/// a genuine request passes (the run without the ghost is the run without the check).
+#[test]
+fn checked_requests_drop_the_ghost_and_keep_the_real_join() {
+    fn ghost(step: &Step<'_>, out: &mut Vec<Delivery>) {
+        if step.k == 300 {
+            let state = step.states[4];
+            out.push(forged_to_leader(
+                step.k,
+                7,
+                state,
+                (1, 1),
+                Body::JoinRequest {
+                    behind: VehicleId(3),
+                },
+            ));
+        }
+    }
+    let checked = join_config().replace("[maneuvers]\n", "[maneuvers]\ncheck_reports = true\n");
+    assert_ne!(checked, join_config());
+    let (attacked, log) = run_with(scenario(&checked), |_, _| false, ghost);
+    let (plain, _) = run(scenario(&checked), |_, _| false);
+    let (unchecked, _) = run(scenario(&join_config()), |_, _| false);
+    assert!(log
+        .sent
+        .iter()
+        .all(|(_, m)| m.to != VehicleId(7) && m.sender != VehicleId(7)));
+    for (a, b) in [(&attacked, &plain), (&plain, &unchecked)] {
+        assert_eq!(a.len(), b.len());
+        let first = a
+            .iter()
+            .zip(b)
+            .find(|(x, y)| format!("{x:?}") != format!("{y:?}"));
+        assert!(first.is_none(), "{first:?}");
+    }
+    assert!(of(&attacked, 4).iter().any(|r| r.mode != Mode::Outside));
+}

@@ -199,7 +199,7 @@ pub struct ComposedController {
     /// Each follower's judgement of its slot this step (joiners only).
     in_position: Vec<bool>,
     /// The last state the leader heard from each vehicle (step, state), for its check of
-    /// in-position reports (`[maneuvers] check_reports`).
+    /// in-position reports and join requests (`[maneuvers] check_reports`).
     leader_heard: Vec<Option<(u64, State)>>,
 }
 
@@ -365,13 +365,28 @@ impl Controller for ComposedController {
                     continue;
                 };
                 let slot = man.checked_slot();
-                if slot.is_some() {
+                let checking = man.checks_messages();
+                // Whether the leader had heard the sender beacon before this packet.
+                let known = self
+                    .leader_heard
+                    .get(d.packet.sender.index())
+                    .is_some_and(Option::is_some);
+                if checking {
                     let last = self.leader_heard.get_mut(d.packet.sender.index());
                     if let Some(last) = last.filter(|l| l.is_none_or(|(s, _)| s < d.packet.step)) {
                         *last = Some((d.packet.step, d.packet.state));
                     }
                 }
                 let Some(m) = d.packet.maneuver else { continue };
+                // A request to join (or to merge) from a vehicle the leader never heard
+                // beaconing: a vehicle that is not there.
+                let ghost = checking
+                    && !known
+                    && matches!(
+                        m.body,
+                        platoon_maneuver::Body::JoinRequest { .. }
+                            | platoon_maneuver::Body::MergeRequest { .. }
+                    );
                 // A report that the joiner is in its slot, checked against its own beacon and
                 // the last beacon of the member it follows, both brought to this step.
                 let at = |(s, x): (u64, State)| {
@@ -406,7 +421,7 @@ impl Controller for ComposedController {
                     }
                     _ => None,
                 };
-                if error.is_none_or(|e| man.plausible_report(e)) {
+                if !ghost && error.is_none_or(|e| man.plausible_report(e)) {
                     man.heard(d.receiver, m);
                 }
                 continue;

@@ -82,7 +82,8 @@ pub struct ManeuverParams {
     /// Members a platoon may have, the leader counted.
     pub max_members: usize,
     /// The leader drops an in-position report whose sender's beacon puts it farther than
-    /// [`REPORT_TOLERANCE`] x `in_position_m` from its slot.
+    /// [`REPORT_TOLERANCE`] x `in_position_m` from its slot, and a join or merge request from
+    /// a vehicle it never heard beaconing before.
     pub check_reports: bool,
 }
 
@@ -527,6 +528,11 @@ impl Maneuvers {
             }
             _ => None,
         }
+    }
+
+    /// Whether the leader checks the messages it receives (`check_reports`).
+    pub(crate) fn checks_messages(&self) -> bool {
+        self.params.check_reports
     }
 
     /// Whether a gap error of `error` m (the slot's, from beacons) is plausible for a report

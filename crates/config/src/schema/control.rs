@@ -320,8 +320,9 @@ pub struct ManeuversConfig {
     /// The leader checks an in-position report (a joiner's, a merging head's) against the
     /// sender's own beacons: one whose beacon puts the sender farther than 3 x `in_position_m`
     /// from its slot (behind the member it follows, as that member's last beacon places it) is
-    /// dropped before the protocol sees it, its sequence number unused. Off: the leader takes
-    /// the report as it comes (Plexe's and VENTOS's way).
+    /// dropped before the protocol sees it, its sequence number unused; so is a join or
+    /// merge request from a vehicle the leader never heard beaconing before it. Off: the
+    /// leader takes the messages as they come (Plexe's and VENTOS's way).
     pub check_reports: bool,
 }
 
