@@ -69,6 +69,7 @@ pub const FILES: &[(&str, &[u8])] = files!(
     "bridge/tools/bench_peers.py",
     "bridge/tools/bench_sumo.py",
     "bridge/tools/parquet_equals_csv.py",
+    "bridge/tools/plexe_join.py",
     "bridge/tools/plexe_reference.py",
     "bridge/wire_layout.json",
     "sumo/README.md",

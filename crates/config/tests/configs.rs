@@ -9,7 +9,7 @@ fn configs_dir() -> std::path::PathBuf {
 /// The shipped configs, each run by a line of the README's quick start. A config added to or
 /// removed from `configs/` must be named here too: the test checks that the directory holds
 /// exactly these, so one that stops being found (or a stray file) fails it.
-const SHIPPED: [&str; 18] = [
+const SHIPPED: [&str; 19] = [
     "cut-in-split.toml",
     "cut-in.toml",
     "degradation.toml",
@@ -17,6 +17,7 @@ const SHIPPED: [&str; 18] = [
     "highway-large.toml",
     "jammer.toml",
     "join-middle.toml",
+    "join-plexe.toml",
     "join.toml",
     "leave.toml",
     "link-attacks.toml",
