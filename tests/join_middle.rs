@@ -255,3 +255,42 @@ fn a_bad_slot_names_its_key() {
     let e = err("behind = 1 ", "behind = 4 ");
     assert!(e.contains("maneuvers.joins") && e.contains("behind"), "{e}");
 }
+
+/// While follower 2 opens the gap it heads the members behind it (its packets' `head` is
+/// itself) and follower 3 takes it as its leader, blended, so its own gap holds while the
+/// opener slows (Plexe's rule, docs/maneuvers.md "Beside Plexe's join"): within 0.5 m of the
+/// platoon's gap from the request to the join, where following the platoon's leader it came
+/// to 12.8 m. Once the joiner is in, follower 3 is back on the leader's packets, blended.
+#[test]
+fn the_members_behind_the_opener_follow_it_and_keep_their_gaps() {
+    let (rows, sent) = run(scenario(), |_, _| false);
+    let opened = sent
+        .iter()
+        .find(|(_, m)| matches!(m.body, Body::OpenGap { .. }))
+        .map(|(k, _)| *k)
+        .unwrap();
+    let joined = of(&rows, 4)
+        .iter()
+        .find(|r| !matches!(r.mode, Mode::Beside | Mode::Outside))
+        .unwrap()
+        .step;
+    let (two, three) = (of(&rows, 2), of(&rows, 3));
+    let gaps: Vec<f64> = two
+        .iter()
+        .zip(&three)
+        .filter(|(a, _)| (opened..joined).contains(&a.step))
+        .map(|(a, b)| a.p - b.p - LENGTH)
+        .collect();
+    let worst = gaps.iter().map(|g| (g - GAP).abs()).fold(0.0, f64::max);
+    assert!(
+        worst < 0.5,
+        "follower 3's gap strayed {worst:.2} m from {GAP} m"
+    );
+    // Rebased twice (to the opener, back to the leader), blended each time.
+    let blends = three
+        .windows(2)
+        .filter(|w| w[0].mode != Mode::Blend && w[1].mode == Mode::Blend)
+        .count();
+    assert_eq!(blends, 2);
+    assert!(largest_step(&rows, 3) < 0.15);
+}

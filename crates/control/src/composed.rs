@@ -501,6 +501,15 @@ impl Controller for ComposedController {
                     .and_then(|j| Some((j, self.checks.heard_from(f.id, j)?))),
                 None => head,
             };
+            // While a member ahead opens a gap for a joiner it heads the members behind it:
+            // the nearest that announces itself as a head leads them.
+            let head = match self.maneuvers.as_ref().filter(|m| m.opens_gaps()) {
+                Some(m) if head.is_none() => m.ahead_in_copy(f.id).find_map(|j| {
+                    let h = self.checks.heard_from(f.id, j)?;
+                    h.heads(j).then_some((j, h))
+                }),
+                _ => head,
+            };
             let rebased = head.map_or(VehicleId::LEADER, |(j, _)| j) != f.head;
             f.head = head.map_or(VehicleId::LEADER, |(j, _)| j);
             let man = self.maneuvers.as_ref();
@@ -667,7 +676,7 @@ impl Controller for ComposedController {
             // It heads while on the car's ACC, and while an attack's fallback interrupts that
             // with the car still ahead.
             f.leading = split && (mode == crate::Mode::CutIn || situation.cut_in)
-                || man.is_some_and(|m| m.heads(f.id));
+                || man.is_some_and(|m| m.heads(f.id) || m.opens_gaps() && opening_for.is_some());
             *u_out = u;
         }
         &self.commands

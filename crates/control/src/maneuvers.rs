@@ -495,6 +495,24 @@ impl Maneuvers {
         }
     }
 
+    /// Whether a member may open a gap for a joiner (a join in the middle). While it opens,
+    /// it heads the members behind it (Plexe's rule: they take it as their leader, so their
+    /// gaps hold while it slows) and they follow it.
+    pub(crate) fn opens_gaps(&self) -> bool {
+        self.params.joins.iter().any(|j| j.behind.is_some())
+    }
+
+    /// The members ahead of follower `i` by its copy of the formation, the nearest first, the
+    /// leader not counted (none for a joiner).
+    pub(crate) fn ahead_in_copy(&self, i: VehicleId) -> impl Iterator<Item = VehicleId> + '_ {
+        let formation = match &self.roles[i.index() - 1].machine {
+            Machine::Member { member, .. } => Some(member.formation()),
+            Machine::Joiner { .. } => None,
+        };
+        let before = move |j: VehicleId| formation.and_then(|f| f.predecessor(j));
+        std::iter::successors(before(i), move |&j| before(j)).take_while(|j| !j.is_leader())
+    }
+
     /// Whether a platoon may head part of the vehicles (a merge, a split).
     pub(crate) fn has_heads(&self) -> bool {
         self.params.merge.is_some() || self.params.split.is_some()

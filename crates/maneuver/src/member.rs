@@ -15,8 +15,12 @@ pub enum MemberState {
         joiner: VehicleId,
         /// When it closes the gap again if nothing happened.
         deadline: u64,
-        /// Whether it told the leader the gap is open.
-        reported: bool,
+        /// How many times it told the leader the gap is open (again every reply time while the
+        /// leader's update does not come, up to the tries: a lost report would otherwise leave
+        /// the joiner waiting beside an open gap until the deadline).
+        reports: u32,
+        /// When it tells it again.
+        report_at: u64,
     },
     /// Asked to leave; waiting for the leader's update.
     Leaving {
@@ -155,17 +159,19 @@ impl Member {
         if let MemberState::Opening {
             joiner,
             deadline,
-            reported,
+            reports,
+            report_at,
         } = self.state
         {
             if step >= deadline {
                 self.state = MemberState::Following;
-            } else if gap_open && !reported {
+            } else if gap_open && reports < self.timing.tries && step >= report_at {
                 self.send(out, Body::GapReady { joiner });
                 self.state = MemberState::Opening {
                     joiner,
                     deadline,
-                    reported: true,
+                    reports: reports + 1,
+                    report_at: step + self.timing.reply_steps,
                 };
             }
         }
@@ -202,7 +208,8 @@ impl Member {
                     self.state = MemberState::Opening {
                         joiner,
                         deadline,
-                        reported: false,
+                        reports: 0,
+                        report_at: step,
                     };
                 }
             }
@@ -210,7 +217,8 @@ impl Member {
                 self.state = MemberState::Opening {
                     joiner,
                     deadline: step + self.timing.maneuver_steps,
-                    reported: false,
+                    reports: 0,
+                    report_at: step,
                 };
             }
             Body::Update { generation, change } => self.update(generation, change),

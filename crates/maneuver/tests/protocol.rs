@@ -186,6 +186,38 @@ fn a_join_in_the_middle_waits_for_the_gap() {
     assert_eq!(opener, v(2));
 }
 
+/// A lost gap-ready report is told again a reply time later: the leader's asks to open the
+/// gap are long over by the time it opens, so without the repeat the joiner would wait beside
+/// an open gap until the deadline. The join completes; the opener reported every reply time
+/// while no update came, up to the tries (the leader takes the first it hears).
+#[test]
+fn a_lost_gap_ready_report_is_told_again() {
+    let mut w = World::new(3, v(1), |_| false);
+    let mut dropped = false;
+    for step in 1..=300 {
+        w.step(step);
+        let ready = |m: &Message| matches!(m.body, Body::GapReady { .. });
+        if let Some(i) = w.in_flight.iter().position(ready).filter(|_| !dropped) {
+            w.in_flight.remove(i);
+            dropped = true;
+        }
+    }
+    assert!(dropped);
+    assert_eq!(w.joiner.state(), JoinerState::Joined { generation: 1 });
+    let reports = w
+        .log
+        .iter()
+        .filter(|m| matches!(m.body, Body::GapReady { .. }))
+        .count();
+    assert_eq!(reports, TIMING.tries as usize);
+    let asks = w
+        .log
+        .iter()
+        .filter(|m| matches!(m.body, Body::OpenGap { .. }))
+        .count();
+    assert_eq!(asks, 3, "the leader's asks were over before the gap opened");
+}
+
 #[test]
 fn a_join_whose_gap_never_opens_is_called_off_and_the_formation_kept() {
     let mut w = World::new(3, v(1), |_| false);
