@@ -5,7 +5,7 @@
 //! (tests/sumo.rs).
 mod common;
 
-use common::maneuvers::{forged_to_leader, of, run, run_with};
+use common::maneuvers::{altered_only, forged_to_leader, of, run, run_with};
 use common::repo;
 use platoon_attacks::inject::Step;
 use platoon_control::{Delivery, Mode};
@@ -263,16 +263,7 @@ fn the_catalogues_forged_leave_ejects_the_member_and_is_labelled_altered() {
     let (rows, log) = run_with(scenario(&text), |_, _| false, |_, _| {});
     let left = first_left(&rows, 2).unwrap();
     assert!((1001..1030).contains(&left), "{left}");
-    let altered: Vec<_> = log
-        .labelled
-        .iter()
-        .filter(|(_, l)| *l != Label::Genuine)
-        .map(|(m, l)| (m.sender, m.body, *l))
-        .collect();
-    assert!(!altered.is_empty());
-    assert!(altered.iter().all(|(s, b, l)| *s == VehicleId(2)
-        && *b == Body::LeaveNotice
-        && matches!(l, Label::Altered { fields } if fields.contains(platoon_sim::truth::Fields::MANEUVER))));
+    altered_only(&log, 2, Body::LeaveNotice);
     assert!(smallest_gap_on_the_lane(&rows) > 10.0);
     let bad = text.replace("\"leave_notice\"", "\"move_in\"");
     let e = platoon_config::parse(&bad, std::path::Path::new("leave.toml"))

@@ -5,7 +5,7 @@
 //! agree on it bit for bit: tests/cosim.rs.
 mod common;
 
-use common::maneuvers::{forged_to_leader, of, run, run_with};
+use common::maneuvers::{altered_only, forged_to_leader, of, run, run_with};
 use common::{cut_in_config, repo};
 use platoon_attacks::inject::Step;
 use platoon_control::{Delivery, Mode};
@@ -29,6 +29,28 @@ fn smallest_gap(rows: &[StepRow], length: f64) -> f64 {
     rows.chunks(5)
         .flat_map(|step| step.windows(2).map(|w| w[0].p - w[1].p - length))
         .fold(f64::INFINITY, f64::min)
+}
+
+/// The catalogue's fake join request: the joiner's packets to the leader rewritten at 3 s,
+/// before it asks, into a request for the slot behind the tail.
+const FAKE_JOIN_REQUEST: &str = "\n[[channel.attacks]]\nkind = \"forge_maneuver\"\n\
+    message = \"join_request\"\nsenders = [4]\nreceivers = [0]\nstart_s = 3.0\nend_s = 3.2\n";
+
+/// A ghost: at 3 s an outsider sends the leader a join request in the name of vehicle 7, which
+/// is not there (the joiner's state on the packet), for the slot behind the tail.
+fn ghost(step: &Step<'_>, out: &mut Vec<Delivery>) {
+    if step.k == 300 {
+        let state = step.states[4];
+        out.push(forged_to_leader(
+            step.k,
+            7,
+            state,
+            (1, 1),
+            Body::JoinRequest {
+                behind: VehicleId(3),
+            },
+        ));
+    }
 }
 
 #[test]
@@ -175,20 +197,6 @@ fn a_bad_maneuvers_table_names_its_key() {
 /// ground truth labels the forged message `forged` and every genuine one `genuine`.
 #[test]
 fn a_forged_join_request_keeps_the_real_joiner_out_and_is_labelled_forged() {
-    fn ghost(step: &Step<'_>, out: &mut Vec<Delivery>) {
-        if step.k == 300 {
-            let state = step.states[4];
-            out.push(forged_to_leader(
-                step.k,
-                7,
-                state,
-                (1, 1),
-                Body::JoinRequest {
-                    behind: VehicleId(3),
-                },
-            ));
-        }
-    }
     let s = scenario(&join_config());
     let deadline = 300 + (40.0 / s.dt()).round() as u64;
     let (rows, log) = run_with(s, |_, _| false, ghost);
@@ -401,34 +409,17 @@ fn every_law_takes_a_joiner_at_the_tail() {
 #[test]
 fn the_catalogues_fake_join_request_keeps_the_joiner_out_and_is_labelled_altered() {
     let mut text = join_config();
-    text.push_str(
-        "\n[[channel.attacks]]\nkind = \"forge_maneuver\"\nmessage = \"join_request\"\n\
-         senders = [4]\nreceivers = [0]\nstart_s = 3.0\nend_s = 3.2\n",
-    );
+    text.push_str(FAKE_JOIN_REQUEST);
     let s = scenario(&text);
     let (rows, log) = run_with(s, |_, _| false, common::maneuvers::nothing);
     assert!(of(&rows, 4).iter().all(|r| r.mode == Mode::Outside));
-    let altered: Vec<_> = log
-        .labelled
-        .iter()
-        .filter(|(_, l)| *l != Label::Genuine)
-        .collect();
-    assert!(!altered.is_empty());
-    for (m, l) in &altered {
-        assert_eq!(
-            (m.sender, m.body),
-            (
-                VehicleId(4),
-                Body::JoinRequest {
-                    behind: VehicleId(3)
-                }
-            )
-        );
-        assert!(
-            matches!(l, Label::Altered { fields } if fields.contains(platoon_sim::truth::Fields::MANEUVER)),
-            "{l:?}"
-        );
-    }
+    altered_only(
+        &log,
+        4,
+        Body::JoinRequest {
+            behind: VehicleId(3),
+        },
+    );
     let accepted = log
         .sent
         .iter()
@@ -541,10 +532,7 @@ fn the_summary_measures_the_join_as_the_packets_and_rows_tell_it() {
     );
 
     let mut text = join_config();
-    text.push_str(
-        "\n[[channel.attacks]]\nkind = \"forge_maneuver\"\nmessage = \"join_request\"\n\
-         senders = [4]\nreceivers = [0]\nstart_s = 3.0\nend_s = 3.2\n",
-    );
+    text.push_str(FAKE_JOIN_REQUEST);
     let summary = platoon_sim::run(scenario(&text), |_| {}).unwrap();
     let join = &summary.maneuvers.unwrap().maneuvers[0];
     assert_eq!(join.outcome, "failed");
@@ -558,20 +546,6 @@ fn the_summary_measures_the_join_as_the_packets_and_rows_tell_it() {
 /// a genuine request passes (the run without the ghost is the run without the check).
 #[test]
 fn checked_requests_drop_the_ghost_and_keep_the_real_join() {
-    fn ghost(step: &Step<'_>, out: &mut Vec<Delivery>) {
-        if step.k == 300 {
-            let state = step.states[4];
-            out.push(forged_to_leader(
-                step.k,
-                7,
-                state,
-                (1, 1),
-                Body::JoinRequest {
-                    behind: VehicleId(3),
-                },
-            ));
-        }
-    }
     let checked = join_config().replace("[maneuvers]\n", "[maneuvers]\ncheck_reports = true\n");
     assert_ne!(checked, join_config());
     let (attacked, log) = run_with(scenario(&checked), |_, _| false, ghost);

@@ -6,7 +6,7 @@
 //! them bit for bit (tests/cosim.rs), SUMO with the native plant (tests/sumo.rs).
 mod common;
 
-use common::maneuvers::{of, run, run_with};
+use common::maneuvers::{altered_only, of, run, run_with};
 use common::repo;
 use platoon_control::Mode;
 use platoon_maneuver::{Body, Change};
@@ -65,20 +65,6 @@ fn with_forged(text: &str, message: &str, sender: u16, start_s: f64) -> String {
 /// `text`'s run in process through the recording channel, its attacks the config's own.
 fn run_attacked(text: &str) -> (Vec<StepRow>, common::maneuvers::Log) {
     run_with(parse(text).unwrap(), |_, _| false, |_, _| {})
-}
-
-/// Asserts that the ground truth labels every delivery it did not find genuine `altered` in
-/// its maneuver field, a `body` in `sender`'s name, and that there are some.
-fn altered_only(log: &common::maneuvers::Log, sender: u16, body: Body) {
-    let altered: Vec<_> = log
-        .labelled
-        .iter()
-        .filter(|(_, l)| *l != Label::Genuine)
-        .collect();
-    assert!(!altered.is_empty());
-    assert!(altered.iter().all(|(m, l)| m.sender == VehicleId(sender)
-        && m.body == body
-        && matches!(l, Label::Altered { fields } if fields.contains(platoon_sim::truth::Fields::MANEUVER))));
 }
 
 /// Asserts that the rear platoon stayed apart for the whole run: its head outside the

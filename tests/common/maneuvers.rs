@@ -4,7 +4,7 @@ use platoon_attacks::inject::{InjectError, Injector, Reception, Step};
 use platoon_control::{Delivery, Packet};
 use platoon_maneuver::{Body, Message};
 use platoon_model::{State, VehicleId};
-use platoon_sim::truth::{Label, TruthLabeler};
+use platoon_sim::truth::{Fields, Label, TruthLabeler};
 use platoon_sim::{InjectorFactory, Plugins, Scenario, Simulation, StepRow};
 use std::sync::{Arc, Mutex};
 
@@ -125,5 +125,23 @@ pub fn forged_to_leader(
             }),
             ..Packet::beacon(sender, packet_seq, k, state)
         },
+    }
+}
+
+/// Asserts that the ground truth labels every delivery it did not find genuine `altered` in
+/// its maneuver field, a `body` in `sender`'s name, and that there are some.
+pub fn altered_only(log: &Log, sender: u16, body: Body) {
+    let altered: Vec<_> = log
+        .labelled
+        .iter()
+        .filter(|(_, l)| *l != Label::Genuine)
+        .collect();
+    assert!(!altered.is_empty());
+    for (m, l) in altered {
+        assert_eq!((m.sender, m.body), (VehicleId(sender), body));
+        assert!(
+            matches!(l, Label::Altered { fields } if fields.contains(Fields::MANEUVER)),
+            "{l:?}"
+        );
     }
 }
