@@ -2,7 +2,7 @@
 //! 127.0.0.1 against the local pool, resumption after Ctrl-C, failed cells, bad files.
 mod common;
 
-use common::{json, ok, platoon, platoon_command, repo, wait_for};
+use common::{json, ok, platoon, platoon_command, published, repo, wait_for};
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
@@ -742,7 +742,51 @@ fn every_shipped_campaign_parses() {
             seen += 1;
         }
     }
-    assert_eq!(seen, 7);
+    assert_eq!(seen, 8);
+}
+
+/// campaigns/join-loss.toml whole (60 cells, in process): the middle join under every loss
+/// rate it draws, binned as docs/maneuvers.md publishes it; nobody collides.
+#[test]
+fn a_middle_join_under_loss_completes_as_the_docs_say() {
+    let tmp = tempfile::tempdir().unwrap();
+    let file = shipped("join-loss", tmp.path(), |_| {});
+    let out = tmp.path().join("out");
+    ok(&campaign(
+        &[file.to_str().unwrap(), "--out", out.to_str().unwrap()],
+        tmp.path(),
+    ));
+    let rows = cells(&out);
+    assert_eq!(rows.len(), 60);
+    for (lo, hi) in [(0.0, 0.15), (0.15, 0.3), (0.3, 0.45), (0.45, 0.6)] {
+        let bin: Vec<_> = rows
+            .iter()
+            .filter(|r| (lo..hi).contains(&num(r, "mc.loss")))
+            .collect();
+        let done: Vec<f64> = bin
+            .iter()
+            .filter(|r| r["maneuvers_completed"] == "1")
+            .map(|r| num(r, "maneuver_time_s"))
+            .collect();
+        let smallest = bin
+            .iter()
+            .map(|r| num(r, "min_gap_m"))
+            .fold(f64::INFINITY, f64::min);
+        assert!(bin.iter().all(|r| r["safety_class"] != "severe"));
+        let slowest = done.iter().copied().fold(0.0, f64::max);
+        published(
+            "docs/maneuvers.md",
+            "| {}-{} | {} of {} | {} | {} |",
+            &[
+                format!("{:.0} %", lo * 100.0),
+                format!("{:.0} %", hi * 100.0),
+                done.len().to_string(),
+                bin.len().to_string(),
+                format!("{slowest:.1}"),
+                format!("{smallest:.1}"),
+            ],
+        );
+    }
 }
 
 /// campaigns/jammer.toml: the README's findings on four of its cells, measured in the run.

@@ -144,6 +144,18 @@ pub const ALL: &[(&str, &str)] = &[
         "guard_activations",
         "times the emergency-braking guard took over, all followers (platoon 0)",
     ),
+    (
+        "maneuvers_completed",
+        "maneuvers of the config completed by the end of the run (runs with [maneuvers])",
+    ),
+    (
+        "maneuver_time_s",
+        "the slowest completed maneuver, from its request to its completion (runs with [maneuvers]), s",
+    ),
+    (
+        "maneuver_messages",
+        "maneuver messages the vehicles broadcast (runs with [maneuvers])",
+    ),
 ];
 
 /// Collected when the campaign file names none.
@@ -398,6 +410,20 @@ pub fn extract(names: &[String], max_followers: usize, summary: &Summary) -> Vec
             "guard_activations" => {
                 Metric::Int(summary.vehicles.iter().map(|v| v.guard_activations).sum())
             }
+            "maneuvers_completed" => summary.maneuvers.as_ref().map_or(Metric::Empty, |m| {
+                let done = m.maneuvers.iter().filter(|r| r.completion_s.is_some());
+                Metric::Int(done.count() as u64)
+            }),
+            "maneuver_time_s" => num(summary.maneuvers.as_ref().and_then(|m| {
+                m.maneuvers
+                    .iter()
+                    .filter_map(|r| r.completion_s)
+                    .reduce(f64::max)
+            })),
+            "maneuver_messages" => summary
+                .maneuvers
+                .as_ref()
+                .map_or(Metric::Empty, |m| Metric::Int(m.messages_sent)),
             _ => Metric::Empty,
         };
         out.push(m);
@@ -483,6 +509,25 @@ mod tests {
         s.safety.min_ttc_s = Some(3.5);
         s.rejected_packets.non_finite = 1;
         s.rejected_packets.stale_seq = 2;
+        let record = |completion_s: Option<f64>| platoon_sim::ManeuverRecord {
+            maneuver: "leave".into(),
+            vehicle: 2,
+            outcome: if completion_s.is_some() {
+                "completed"
+            } else {
+                "failed"
+            }
+            .into(),
+            requested_t_s: Some(5.0),
+            completion_s,
+            max_spacing_error_m: Some(1.0),
+            min_gap_m: Some(10.0),
+            messages: 2,
+        };
+        s.maneuvers = Some(platoon_sim::ManeuversSummary {
+            messages_sent: 9,
+            maneuvers: vec![record(Some(0.5)), record(None), record(Some(21.5))],
+        });
         s
     }
 
@@ -510,6 +555,9 @@ mod tests {
         assert_eq!(get("min_ttc_s"), "3.5");
         assert_eq!(get("fallback_time_s"), "7.5");
         assert_eq!(get("guard_activations"), "3");
+        assert_eq!(get("maneuvers_completed"), "2");
+        assert_eq!(get("maneuver_time_s"), "21.5");
+        assert_eq!(get("maneuver_messages"), "9");
         assert!(failure(&summary()).is_none());
     }
 
