@@ -555,6 +555,10 @@ fn checked_requests_drop_the_ghost_and_keep_the_real_join() {
         .sent
         .iter()
         .all(|(_, m)| m.to != VehicleId(7) && m.sender != VehicleId(7)));
+    assert_eq!(
+        log.rejected.unknown_sender, 1,
+        "the ghost's request, counted"
+    );
     for (a, b) in [(&attacked, &plain), (&plain, &unchecked)] {
         assert_eq!(a.len(), b.len());
         let first = a

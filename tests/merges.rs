@@ -450,6 +450,13 @@ fn the_leaders_report_check_drops_forged_in_position_reports() {
             rows(unchecked) != clean,
             "vehicle {joiner}: without the check they do"
         );
+        // What the leader dropped is counted in the summary's refused packets.
+        let refused = |text: &str| {
+            let summary = platoon_sim::run(parse(text).unwrap(), |_| {}).unwrap();
+            summary.rejected_packets.implausible_state
+        };
+        assert_eq!(refused(&checked), 0, "vehicle {joiner}");
+        assert!(refused(&forged) > 0, "vehicle {joiner}");
     }
 }
 

@@ -26,6 +26,8 @@ pub struct Recording {
 pub struct Log {
     pub sent: Vec<(u64, Message)>,
     pub labelled: Vec<(Message, Label)>,
+    /// What the controllers refused over the run (`summary.json`'s `rejected_packets`).
+    pub rejected: platoon_control::RejectCounts,
 }
 
 impl Injector for Recording {
@@ -86,7 +88,8 @@ pub fn run_with(
     while !sim.is_done() {
         rows.extend_from_slice(sim.step());
     }
-    let log = std::mem::take(&mut *log.lock().unwrap());
+    let mut log = std::mem::take(&mut *log.lock().unwrap());
+    log.rejected = sim.controller().rejected();
     (rows, log)
 }
 

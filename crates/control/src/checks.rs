@@ -366,6 +366,19 @@ impl PacketChecks {
     pub fn rejected(&self) -> RejectCounts {
         self.rejected
     }
+
+    /// Counts a packet a receiver refused on a check of its own, beyond
+    /// [`PacketChecks::admit`], as from a sender it does not know (the leader's check of a
+    /// join request from a vehicle it never heard, `[maneuvers] check_reports`).
+    pub fn refuse_unknown_sender(&mut self) {
+        self.rejected.unknown_sender += 1;
+    }
+
+    /// Counts a packet a receiver refused on a check of its own as claiming what its sender
+    /// cannot be (the leader's check of an in-position report against the sender's beacon).
+    pub fn refuse_implausible_state(&mut self) {
+        self.rejected.implausible_state += 1;
+    }
 }
 
 /// A packet as a receiver last accepted it.

@@ -421,7 +421,11 @@ impl Controller for ComposedController {
                     }
                     _ => None,
                 };
-                if !ghost && error.is_none_or(|e| man.plausible_report(e)) {
+                if ghost {
+                    self.checks.refuse_unknown_sender();
+                } else if error.is_some_and(|e| !man.plausible_report(e)) {
+                    self.checks.refuse_implausible_state();
+                } else {
                     man.heard(d.receiver, m);
                 }
                 continue;

@@ -321,8 +321,9 @@ pub struct ManeuversConfig {
     /// sender's own beacons: one whose beacon puts the sender farther than 3 x `in_position_m`
     /// from its slot (behind the member it follows, as that member's last beacon places it) is
     /// dropped before the protocol sees it, its sequence number unused; so is a join or
-    /// merge request from a vehicle the leader never heard beaconing before it. Off: the
-    /// leader takes the messages as they come (Plexe's and VENTOS's way).
+    /// merge request from a vehicle the leader never heard beaconing before it (both counted
+    /// in `summary.json`'s `rejected_packets`). Off: the leader takes the messages as they
+    /// come (Plexe's and VENTOS's way).
     pub check_reports: bool,
 }
 
