@@ -294,3 +294,39 @@ fn the_members_behind_the_opener_follow_it_and_keep_their_gaps() {
     assert_eq!(blends, 2);
     assert!(largest_step(&rows, 3) < 0.15);
 }
+
+/// A member that announces itself as a head (the catalogue's `forged_head` on follower 1's
+/// packets, an insider, all through the opening) is not followed: the members behind it take a
+/// member as their leader only while they know the leader asked it to open a gap, so every
+/// row is that of the run without the attack. And a middle join cannot be combined with a
+/// split behind a cut-in, which follows any announced head.
+#[test]
+fn a_forged_head_is_not_followed_in_a_middle_join() {
+    let text = std::fs::read_to_string(repo().join("configs/join-middle.toml")).unwrap();
+    let forged = format!(
+        "{text}\n[[channel.attacks]]\nkind = \"forged_head\"\nsenders = [1]\ninsider = true\n\
+         start_s = 4.0\nend_s = 40.0\n"
+    );
+    let parse = |t: &str| platoon_config::parse(t, std::path::Path::new("join-middle.toml"));
+    let (plain, _) = run(parse(&text).unwrap().1, |_, _| false);
+    let (attacked, log) = run_with(parse(&forged).unwrap().1, |_, _| false, |_, _| {});
+    assert!(log.labelled.iter().all(|(_, l)| *l == Label::Genuine));
+    let first = plain
+        .iter()
+        .zip(&attacked)
+        .find(|(a, b)| format!("{a:?}") != format!("{b:?}"));
+    assert!(
+        first.is_none(),
+        "the forged head changed the run: {first:?}"
+    );
+    let split = text.replace(
+        "closing_mps = 2.0",
+        "closing_mps = 2.0\ncut_in = { split = true }",
+    );
+    assert_ne!(split, text);
+    let e = parse(&split).unwrap_err().to_string();
+    assert!(
+        e.contains("maneuvers.joins[0].behind") && e.contains("cut-in"),
+        "{e}"
+    );
+}

@@ -27,10 +27,11 @@ attacks on a platoon-management protocol (after Amoozadeh et al., 2015):
       platoon run configs/join.toml \\
           --injector "bridge/.venv/bin/python bridge/examples/maneuver_attacks.py replay-updates 8"
 
-- `jam KIND`: every packet that carries a maneuver message of KIND (`move_in`, `update`, ...:
-  the names of V2vPacket's constants, lower case) is lost, its beacon with it: a maneuver
-  jammed half way (`configs/join-middle.toml`, `jam move_in`: the gap opens, the joiner never
-  moves in, the leader calls the join off and the gap closes).
+- `jam KIND`: every packet that carries a maneuver message of KIND (`move_in`, `gap_ready`,
+  ...: the names of V2vPacket's constants, lower case; `update`: every formation update) is
+  lost, its beacon with it: a maneuver jammed half way (`configs/join-middle.toml`,
+  `jam move_in`: the gap opens, the joiner never moves in, the leader calls the join off and
+  the gap closes).
 
 Everything else is forwarded as sent. What it did goes to stderr (logs/injector.log).
 """
@@ -89,15 +90,15 @@ class Forge(pi.Injector):
 
 
 class Jam(pi.Injector):
-    """Loses every packet that carries a maneuver message of KIND."""
+    """Loses every packet that carries a maneuver message of one of KINDS."""
 
-    def __init__(self, kind: int):
-        self.kind = kind
+    def __init__(self, kinds: frozenset):
+        self.kinds = kinds
         self.jammed = 0
 
     def step(self, step, rx):
         for it in step.tx:
-            if it.packet.maneuver == self.kind:
+            if it.packet.maneuver in self.kinds:
                 self.jammed += 1
             else:
                 rx.append(it)
@@ -127,12 +128,23 @@ class ReplayUpdates(pi.Injector):
         print(f"maneuver_attacks: replayed {self.replayed} update deliveries", file=sys.stderr)
 
 
-def kind(name: str) -> int:
-    """The V2vPacket constant a message kind's name gives (`move_in` -> MOVE_IN)."""
-    value = getattr(P, name.upper(), None)
-    if not isinstance(value, int) or name.upper() in ("EVERYONE", "NOBODY", "NO_MANEUVER"):
-        raise ValueError(f"no maneuver message kind {name!r}")
-    return value
+# The message kinds by name (V2vPacket's constants, lower case); `update` is every update.
+KINDS = {
+    name: frozenset([getattr(P, name.upper())])
+    for name in (
+        "join_request", "join_accept", "join_refuse", "open_gap", "gap_ready", "move_in",
+        "in_position", "update_joined", "update_left", "abort", "leave_notice",
+        "merge_request", "update_merged", "split_notice", "update_split",
+    )
+}
+KINDS["update"] = frozenset(UPDATES)
+
+
+def kinds(name: str) -> frozenset:
+    """The V2vPacket constants a message kind's name gives (`move_in` -> {MOVE_IN})."""
+    if name not in KINDS:
+        raise ValueError(f"no maneuver message kind {name!r}; one of {', '.join(sorted(KINDS))}")
+    return KINDS[name]
 
 
 FORGED = {
@@ -156,7 +168,7 @@ def main() -> int:
             delay_s = float(args[1])
             return pi.run(lambda run: ReplayUpdates(run, delay_s))
         if args[:1] == ["jam"] and len(args) == 2:
-            jammed = kind(args[1])
+            jammed = kinds(args[1])
             return pi.run(lambda run: Jam(jammed))
     except ValueError as e:
         print(f"maneuver_attacks.py: {e}\n{usage}", file=sys.stderr)

@@ -1,5 +1,5 @@
 """Plexe's join in the middle of a platoon, run by SUMO itself: the reference beside which
-`platoon`'s join is measured (docs/maneuvers.md, tests/sumo.rs).
+`platoon`'s join is measured (docs/maneuvers.md, tests/plexe_join.rs).
 
 Plexe's maneuvers live in its Veins application, except one: the join of its Python API's
 example (plexe-pyapi, examples/joindemo.py), which runs on SUMO alone through SUMO's CC

@@ -505,10 +505,11 @@ impl Controller for ComposedController {
                     .and_then(|j| Some((j, self.checks.heard_from(f.id, j)?))),
                 None => head,
             };
-            // While a member ahead opens a gap for a joiner it heads the members behind it:
-            // the nearest that announces itself as a head leads them.
+            // While a member ahead opens a gap for a joiner it heads the members behind it: they
+            // follow it once its packets say so, as long as they know the leader asked it to
+            // open (a head announced without that is not believed).
             let head = match self.maneuvers.as_ref().filter(|m| m.opens_gaps()) {
-                Some(m) if head.is_none() => m.ahead_in_copy(f.id).find_map(|j| {
+                Some(m) if head.is_none() => m.opener_ahead(f.id).and_then(|j| {
                     let h = self.checks.heard_from(f.id, j)?;
                     h.heads(j).then_some((j, h))
                 }),

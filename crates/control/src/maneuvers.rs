@@ -502,15 +502,23 @@ impl Maneuvers {
         self.params.joins.iter().any(|j| j.behind.is_some())
     }
 
-    /// The members ahead of follower `i` by its copy of the formation, the nearest first, the
-    /// leader not counted (none for a joiner).
-    pub(crate) fn ahead_in_copy(&self, i: VehicleId) -> impl Iterator<Item = VehicleId> + '_ {
-        let formation = match &self.roles[i.index() - 1].machine {
-            Machine::Member { member, .. } => Some(member.formation()),
-            Machine::Joiner { .. } => None,
+    /// The member opening a gap ahead of follower `i`, as `i` knows it: the leader asked it to
+    /// (`i` overheard the "open gap"), the join is not over, and it is ahead of `i` in `i`'s
+    /// copy of the formation (none for a joiner).
+    pub(crate) fn opener_ahead(&self, i: VehicleId) -> Option<VehicleId> {
+        let Machine::Member { member, .. } = &self.roles[i.index() - 1].machine else {
+            return None;
         };
-        let before = move |j: VehicleId| formation.and_then(|f| f.predecessor(j));
-        std::iter::successors(before(i), move |&j| before(j)).take_while(|j| !j.is_leader())
+        let opener = member.opener()?;
+        let formation = member.formation();
+        let mut j = formation.predecessor(i);
+        while let Some(a) = j.filter(|a| !a.is_leader()) {
+            if a == opener {
+                return Some(a);
+            }
+            j = formation.predecessor(a);
+        }
+        None
     }
 
     /// Whether a platoon may head part of the vehicles (a merge, a split).

@@ -52,6 +52,9 @@ pub struct Member {
     outbox: Outbox,
     /// Whether its copy took on another platoon's numbering (its own merged into that one).
     adopted: bool,
+    /// The member the leader asked to open a gap (its "open gap" heard on the way to that
+    /// member), until the join's deadline, an abort or the update that admits the joiner.
+    opener: Option<(VehicleId, u64)>,
 }
 
 impl Member {
@@ -72,6 +75,7 @@ impl Member {
             filter: SeqFilter::default(),
             outbox: Outbox::default(),
             adopted: false,
+            opener: None,
         }
     }
 
@@ -97,6 +101,13 @@ impl Member {
             MemberState::Opening { joiner, .. } => Some(joiner),
             _ => None,
         }
+    }
+
+    /// The member the leader asked to open a gap for a joiner, as this member heard it (the
+    /// leader's "open gap" to that member), while the join lasts: until the update that admits
+    /// the joiner, an abort, or the join's deadline.
+    pub fn opener(&self) -> Option<VehicleId> {
+        self.opener.map(|(o, _)| o)
     }
 
     /// Asks the leader to leave at `step`. It asks again every reply time while no update
@@ -151,9 +162,20 @@ impl Member {
     /// controller's judgement that the gap it opens is wide enough. Appends what it sends.
     pub fn step(&mut self, step: u64, inbox: &[Message], gap_open: bool, out: &mut Vec<Message>) {
         let leader = self.formation.head();
+        if self.opener.is_some_and(|(_, until)| step >= until) {
+            self.opener = None;
+        }
         for m in inbox {
-            if m.sender == leader && m.is_for(self.me) && self.filter.fresh(m) {
-                self.handle(step, m);
+            if m.sender != leader {
+                continue;
+            }
+            if m.is_for(self.me) {
+                if self.filter.fresh(m) {
+                    self.handle(step, m);
+                }
+            } else if let Body::OpenGap { .. } = m.body {
+                // Overheard: who opens a gap ahead of or behind it.
+                self.opener = Some((m.to, step + self.timing.maneuver_steps));
             }
         }
         if let MemberState::Opening {
@@ -221,9 +243,17 @@ impl Member {
                     report_at: step,
                 };
             }
-            Body::Update { generation, change } => self.update(generation, change),
-            Body::Abort { joiner } if self.opening_for() == Some(joiner) => {
-                self.state = MemberState::Following;
+            Body::Update { generation, change } => {
+                if let Change::Joined { .. } = change {
+                    self.opener = None;
+                }
+                self.update(generation, change)
+            }
+            Body::Abort { joiner } => {
+                self.opener = None;
+                if self.opening_for() == Some(joiner) {
+                    self.state = MemberState::Following;
+                }
             }
             _ => {}
         }

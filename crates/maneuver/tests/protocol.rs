@@ -186,6 +186,25 @@ fn a_join_in_the_middle_waits_for_the_gap() {
     assert_eq!(opener, v(2));
 }
 
+/// The members overhear the leader's "open gap": each knows who opens a gap while the join
+/// lasts (follower 3 behind the opener takes it as its leader meanwhile), and forgets it on
+/// the update that admits the joiner.
+#[test]
+fn the_members_know_the_opener_while_the_join_lasts() {
+    let mut w = World::new(3, v(1), |_| false);
+    let mut seen = false;
+    for step in 1..=300 {
+        w.step(step);
+        if matches!(w.members[1].state(), MemberState::Opening { .. }) {
+            assert_eq!(w.members[2].opener(), Some(v(2)), "step {step}");
+            seen = true;
+        }
+    }
+    assert!(seen);
+    assert_eq!(w.joiner.state(), JoinerState::Joined { generation: 1 });
+    assert!(w.members.iter().all(|m| m.opener().is_none()));
+}
+
 /// A lost gap-ready report is told again a reply time later: the leader's asks to open the
 /// gap are long over by the time it opens, so without the repeat the joiner would wait beside
 /// an open gap until the deadline. The join completes; the opener reported every reply time

@@ -272,6 +272,14 @@ pub(super) fn maneuvers(
                     format!("must be a member, 0 to {followers} (got {b})"),
                 )
             }
+            Some(_) if cut_in_splits == Some(true) => {
+                return bad(
+                    &format!("maneuvers.joins[{i}].behind"),
+                    "a join from the lane beside lets the member that opens its gap head the \
+                     members behind it; it cannot also split behind a cut-in \
+                     ([fallback.cut_in] split = false)",
+                )
+            }
             b => b.map(|b| VehicleId(b as u16)),
         };
         joins.push(platoon_control::JoinSpec {
