@@ -327,7 +327,8 @@ pub struct ManeuverRecord {
     /// The smallest gap to the vehicle ahead on the lane, from the request to the end of the
     /// run (m).
     pub min_gap_m: Option<f64>,
-    /// Maneuver messages broadcast about it from the request until its completion: sent by
+    /// Maneuver messages broadcast about it from the request until its completion (or the
+    /// end of the run): sent by
     /// its vehicle or to it, or naming it (the leader's accept, the opener's gap ready, the
     /// update that admits it, ...).
     pub messages: u64,
