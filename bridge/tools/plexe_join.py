@@ -41,7 +41,8 @@ import tempfile
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 
-import plexe_reference as ref  # noqa: E402  (the same network checks and error type)
+import plexe_reference as ref  # noqa: E402  (its network checks, SUMO start, file writes)
+from plexe_reference import set_par  # noqa: E402
 
 ACC, CACC, FAKED_CACC = 1, 2, 3
 
@@ -71,10 +72,6 @@ def write_routes(path, args, lanes_count):
     lines.append("</routes>")
     with open(path, "w") as f:
         f.write("\n".join(lines) + "\n")
-
-
-def set_par(sumo, vid, key, value):
-    sumo.vehicle.setParameter(vid, "carFollowModel." + key, str(value))
 
 
 def data(sumo, vid):
@@ -120,76 +117,61 @@ def simulate(sumo, args, out):
         set_par(sumo, vid, "ccsp", repr(join_gap if vid == joiner else args.distance))
         set_par(sumo, vid, "ccac", str(CACC if 0 < i <= n else ACC))
     links = {ids[i]: [ids[0], ids[i - 1]] for i in range(1, n + 1)}
-    phase = "waiting"
     steps = round(args.duration / args.dt)
     ask = round(args.ask_s / args.dt)
-    partial = out + ".partial"
-    try:
-        f = open(partial, "w")
-    except OSError as e:
-        raise ref.ScenarioError(f"cannot write {out}: {e}") from e
-    try:
-        with f:
-            f.write("t,vehicle,lane,p,v,a,phase\n")
-            for k in range(steps + 1):
-                t = round(k * args.dt, 9)
-                # Lane order: the joiner is numbered last whatever lane it is in.
-                for i, vid in enumerate(ids):
-                    if vid not in sumo.vehicle.getIDList():
-                        raise ref.ScenarioError(f"{vid} left the simulation at t = {t:.2f} s")
-                    f.write(
-                        f"{t!r},{i},{sumo.vehicle.getLaneIndex(vid)},"
-                        f"{sumo.vehicle.getLanePosition(vid)!r},{sumo.vehicle.getSpeed(vid)!r},"
-                        f"{sumo.vehicle.getAcceleration(vid)!r},{phase}\n"
-                    )
-                if k == steps:
-                    break
-                if k % round(0.1 / args.dt) == 1:
-                    communicate(sumo, links, args.length)
-                if k == ask:
-                    links[joiner] = [ids[0], front]
-                    set_par(sumo, joiner, "ccds", repr(args.speed + 15.0))
-                    set_par(sumo, joiner, "ccac", str(FAKED_CACC))
-                    phase = "approaching"
-                if phase == "approaching" and distance(sumo, front, joiner, args.length) < join_gap + 1:
-                    for vid in ids[args.behind + 2 : n + 1]:
-                        links[vid][0] = opener
-                    links[opener][1] = joiner
-                    set_par(sumo, opener, "ccac", str(FAKED_CACC))
-                    set_par(sumo, opener, "ccsp", repr(join_gap))
-                    phase = "opening"
-                if phase == "opening" and distance(sumo, front, opener, args.length) > 2 * join_gap + 2:
-                    for vid in (joiner, opener):
-                        set_par(sumo, vid, "ccac", str(CACC))
-                        set_par(sumo, vid, "ccsp", repr(args.distance))
-                    links[opener][1] = joiner
-                    for vid in ids[args.behind + 2 : n + 1]:
-                        links[vid][0] = ids[0]
-                    phase = "completed"
-                if phase == "completed" and sumo.vehicle.getLaneIndex(joiner) != 0:
-                    # Asked again every step until it is in (as Plexe's fixed lane is).
-                    sumo.vehicle.changeLane(joiner, 0, 1.0)
-                sumo.simulationStep()
-                if sumo.simulation.getCollidingVehiclesNumber():
-                    raise ref.ScenarioError(
-                        f"collision at t = {(k + 1) * args.dt:.2f} s: "
-                        f"{', '.join(sumo.simulation.getCollidingVehiclesIDList())}"
-                    )
-        os.replace(partial, out)
-    except OSError as e:
-        raise ref.ScenarioError(f"cannot write {out}: {e}") from e
-    finally:
-        if os.path.exists(partial):
-            os.unlink(partial)
+
+    def write(f):
+        phase = "waiting"
+        f.write("t,vehicle,lane,p,v,a,phase\n")
+        for k in range(steps + 1):
+            t = round(k * args.dt, 9)
+            # Lane order: the joiner is numbered last whatever lane it is in.
+            for i, vid in enumerate(ids):
+                if vid not in sumo.vehicle.getIDList():
+                    raise ref.ScenarioError(f"{vid} left the simulation at t = {t:.2f} s")
+                f.write(
+                    f"{t!r},{i},{sumo.vehicle.getLaneIndex(vid)},"
+                    f"{sumo.vehicle.getLanePosition(vid)!r},{sumo.vehicle.getSpeed(vid)!r},"
+                    f"{sumo.vehicle.getAcceleration(vid)!r},{phase}\n"
+                )
+            if k == steps:
+                break
+            if k % round(0.1 / args.dt) == 1:
+                communicate(sumo, links, args.length)
+            if k == ask:
+                links[joiner] = [ids[0], front]
+                set_par(sumo, joiner, "ccds", repr(args.speed + 15.0))
+                set_par(sumo, joiner, "ccac", str(FAKED_CACC))
+                phase = "approaching"
+            if phase == "approaching" and distance(sumo, front, joiner, args.length) < join_gap + 1:
+                for vid in ids[args.behind + 2 : n + 1]:
+                    links[vid][0] = opener
+                links[opener][1] = joiner
+                set_par(sumo, opener, "ccac", str(FAKED_CACC))
+                set_par(sumo, opener, "ccsp", repr(join_gap))
+                phase = "opening"
+            if phase == "opening" and distance(sumo, front, opener, args.length) > 2 * join_gap + 2:
+                for vid in (joiner, opener):
+                    set_par(sumo, vid, "ccac", str(CACC))
+                    set_par(sumo, vid, "ccsp", repr(args.distance))
+                links[opener][1] = joiner
+                for vid in ids[args.behind + 2 : n + 1]:
+                    links[vid][0] = ids[0]
+                phase = "completed"
+            if phase == "completed" and sumo.vehicle.getLaneIndex(joiner) != 0:
+                # Asked again every step until it is in (as Plexe's fixed lane is).
+                sumo.vehicle.changeLane(joiner, 0, 1.0)
+            sumo.simulationStep()
+            if sumo.simulation.getCollidingVehiclesNumber():
+                raise ref.ScenarioError(
+                    f"collision at t = {(k + 1) * args.dt:.2f} s: "
+                    f"{', '.join(sumo.simulation.getCollidingVehiclesIDList())}"
+                )
+
+    ref.write_atomically(out, write)
 
 
 def run(args, out):
-    try:
-        import libsumo
-    except ImportError as e:
-        raise ref.ScenarioError(
-            f"cannot import libsumo ({e}); run bridge/setup-venv.sh and use bridge/.venv/bin/python"
-        ) from e
     lanes_count, lane_length = ref.lane_info(args.net, args.edge, 1)
     need = args.start + args.followers * (args.distance + args.length) + args.duration * (
         args.speed) + 50.0
@@ -201,24 +183,8 @@ def run(args, out):
     with tempfile.TemporaryDirectory(prefix="plexe_join.") as tmp:
         routes = os.path.join(tmp, "routes.rou.xml")
         write_routes(routes, args, lanes_count)
-        sumo_args = [
-            "sumo", "--net-file", args.net, "--route-files", routes,
-            "--step-length", repr(args.dt), "--step-method.ballistic", "true",
-            "--lanechange.duration", "3",
-            "--collision.action", "warn", "--collision.mingap-factor", "0",
-            "--time-to-teleport", "-1", "--no-step-log", "true", "--no-warnings", "true",
-            "--seed", "0",
-        ]
-        try:
-            libsumo.start(sumo_args)
-        except Exception as e:  # libsumo raises its own TraCIException / FatalTraCIError
-            raise ref.ScenarioError(f"SUMO did not start: {e}") from e
-        try:
-            simulate(libsumo, args, out)
-        except libsumo.TraCIException as e:
-            raise ref.ScenarioError(f"SUMO refused a call: {e}") from e
-        finally:
-            libsumo.close()
+        ref.in_sumo(args.net, routes, args.dt, lambda sumo: simulate(sumo, args, out),
+                    extra=("--lanechange.duration", "3"))
 
 
 def main(argv=None):

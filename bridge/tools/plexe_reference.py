@@ -107,12 +107,6 @@ def write_routes(path, args, lanes_count):
 
 
 def run(args, out):
-    try:
-        import libsumo
-    except ImportError as e:
-        raise ScenarioError(
-            f"cannot import libsumo ({e}); run bridge/setup-venv.sh and use bridge/.venv/bin/python"
-        ) from e
     lanes_count, lane_length = lane_info(args.net, args.edge, args.lane)
     need = args.start + args.followers * args.spacing + leader_distance(args.duration) + 50.0
     if need > lane_length:
@@ -128,29 +122,62 @@ def run(args, out):
     with tempfile.TemporaryDirectory(prefix="plexe_reference.") as tmp:
         routes = os.path.join(tmp, "routes.rou.xml")
         write_routes(routes, args, lanes_count)
-        sumo_args = [
-            "sumo",
-            "--net-file", args.net,
-            "--route-files", routes,
-            "--step-length", repr(args.dt),
-            "--step-method.ballistic", "true",
-            "--collision.action", "warn",
-            "--collision.mingap-factor", "0",
-            "--time-to-teleport", "-1",
-            "--no-step-log", "true",
-            "--no-warnings", "true",
-            "--seed", "0",
-        ]
-        try:
-            libsumo.start(sumo_args)
-        except Exception as e:  # libsumo raises its own TraCIException / FatalTraCIError
-            raise ScenarioError(f"SUMO did not start: {e}") from e
-        try:
-            return simulate(libsumo, args, ids, steps, out)
-        except libsumo.TraCIException as e:
-            raise ScenarioError(f"SUMO refused a call: {e}") from e
-        finally:
-            libsumo.close()
+        in_sumo(args.net, routes, args.dt, lambda sumo: simulate(sumo, args, ids, steps, out))
+
+
+def in_sumo(net, routes, dt, simulate, extra=()):
+    """Starts libsumo on `net` and `routes` with a step of `dt` s (ballistic, collisions
+    warned, no teleports, seed 0) and the `extra` options, runs `simulate(libsumo)` and closes
+    it; what goes wrong is a ScenarioError."""
+    try:
+        import libsumo
+    except ImportError as e:
+        raise ScenarioError(
+            f"cannot import libsumo ({e}); run bridge/setup-venv.sh and use bridge/.venv/bin/python"
+        ) from e
+    sumo_args = [
+        "sumo",
+        "--net-file", net,
+        "--route-files", routes,
+        "--step-length", repr(dt),
+        "--step-method.ballistic", "true",
+        *extra,
+        "--collision.action", "warn",
+        "--collision.mingap-factor", "0",
+        "--time-to-teleport", "-1",
+        "--no-step-log", "true",
+        "--no-warnings", "true",
+        "--seed", "0",
+    ]
+    try:
+        libsumo.start(sumo_args)
+    except Exception as e:  # libsumo raises its own TraCIException / FatalTraCIError
+        raise ScenarioError(f"SUMO did not start: {e}") from e
+    try:
+        return simulate(libsumo)
+    except libsumo.TraCIException as e:
+        raise ScenarioError(f"SUMO refused a call: {e}") from e
+    finally:
+        libsumo.close()
+
+
+def write_atomically(out, write):
+    """Calls `write(f)` on OUT.partial and renames it to `out` once it returned: a failure
+    (a ScenarioError, an OSError) leaves no file that looks complete."""
+    partial = out + ".partial"
+    try:
+        f = open(partial, "w")
+    except OSError as e:
+        raise ScenarioError(f"cannot write {out}: {e}") from e
+    try:
+        with f:
+            write(f)
+        os.replace(partial, out)
+    except OSError as e:
+        raise ScenarioError(f"cannot write {out}: {e}") from e
+    finally:
+        if os.path.exists(partial):
+            os.unlink(partial)
 
 
 def set_par(sumo, vid, key, value):
@@ -193,23 +220,14 @@ def simulate(sumo, args, ids, steps, out):
         if got.strip() != str(law):
             raise ScenarioError(f"{vid}: SUMO's active controller is '{got}', not {law} ({args.law})")
     t0 = sumo.simulation.getTime()
-    partial = out + ".partial"
-    try:
-        f = open(partial, "w")
-    except OSError as e:
-        raise ScenarioError(f"cannot write {out}: {e}") from e
-    try:
-        with f:
-            write_steps(sumo, args, ids, steps, f)
+
+    def write(f):
+        write_steps(sumo, args, ids, steps, f)
         elapsed = sumo.simulation.getTime() - t0
         if abs(elapsed - steps * args.dt) > 1e-6:
             raise ScenarioError(f"SUMO advanced {elapsed} s in {steps} steps of {args.dt} s")
-        os.replace(partial, out)
-    except OSError as e:
-        raise ScenarioError(f"cannot write {out}: {e}") from e
-    finally:
-        if os.path.exists(partial):
-            os.unlink(partial)
+
+    write_atomically(out, write)
 
 
 def write_steps(sumo, args, ids, steps, f):

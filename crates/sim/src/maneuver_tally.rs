@@ -131,6 +131,18 @@ impl ManeuverTally {
             return;
         };
         self.sent += self.pending.len() as u64;
+        // The step's largest spacing error in the lane's platoon and smallest gap on the lane,
+        // once for every maneuver under way.
+        let worst = rows
+            .iter()
+            .skip(1)
+            .filter(|r| !r.mode.is_beside_the_lane() && r.mode != Mode::Outside)
+            .map(|r| r.spacing_error.abs())
+            .fold(0.0, f64::max);
+        let smallest = gaps
+            .iter()
+            .filter(|g| !g.is_nan())
+            .fold(f64::INFINITY, |a, &g| a.min(g));
         for t in &mut self.tracked {
             for m in &self.pending {
                 if t.requested.is_none() && m.sender == t.vehicle && t.kind.requested_by(&m.body) {
@@ -149,14 +161,8 @@ impl ManeuverTally {
             if t.completed.is_none() && t.kind.completed_in(own.mode) {
                 t.completed = Some(k);
             }
-            for (r, gap) in rows.iter().skip(1).zip(gaps) {
-                if !r.mode.is_beside_the_lane() && r.mode != Mode::Outside {
-                    t.max_spacing_error = t.max_spacing_error.max(r.spacing_error.abs());
-                }
-                if !gap.is_nan() {
-                    t.min_gap = t.min_gap.min(*gap);
-                }
-            }
+            t.max_spacing_error = t.max_spacing_error.max(worst);
+            t.min_gap = t.min_gap.min(smallest);
         }
         self.pending.clear();
     }
