@@ -436,8 +436,8 @@ fn every_shipped_search_parses() {
                 // A total jammed time on top of Assumption 2: the hand-made 6.5 s jam is over
                 // it, so there is no reference.
                 let total: f64 = total.parse().unwrap();
-                assert_eq!(s.problems[0].budget.max_jammed_s, Some(total));
-                assert!(s.problems[0].budget.assumption2.is_some());
+                assert_eq!(s.problems[0].budget.limits.max_jammed_s, Some(total));
+                assert!(s.problems[0].budget.limits.assumption2.is_some());
                 assert_eq!(s.spec.evaluations, 48, "{}", path.display());
             } else {
                 assert_eq!(s.spec.evaluations, 1000, "{}", path.display());

@@ -72,7 +72,7 @@ fn safety(problem: &Problem, found: &Found) -> Safety {
 /// The longest single jam Assumption 2 admits, `D1 / (1 - 1/D2)`, and the most jamming it
 /// admits over the whole run, `D1 + horizon / D2` (s).
 fn allowance(problem: &Problem) -> (f64, f64) {
-    let a = problem.budget.assumption2.unwrap();
+    let a = problem.budget.limits.assumption2.unwrap();
     (
         a.D1 / (1.0 - 1.0 / a.D2),
         a.D1 + problem.grid.horizon() / a.D2,
@@ -290,7 +290,7 @@ fn a_fraction_of_the_budget_is_enough_for_a_collision() {
     for budget in ["2.9", "2.7"] {
         let r = run(&format!("campaigns/worst-dos-budget-{budget}.toml"), None);
         let (problem, p) = (&r.search.problems[0], &r.problems[0]);
-        assert_eq!(problem.budget.max_jammed_s, Some(budget.parse().unwrap()));
+        assert_eq!(problem.budget.limits.max_jammed_s, Some(budget.parse().unwrap()));
         assert_eq!(r.search.harm.name(), "min_gap_m");
         assert_eq!(p.reproduced, Some(true));
         let b = best(p, "search").clone();

@@ -18,7 +18,7 @@ use platoon_attacks::Assumption2;
 use platoon_campaign::metrics;
 use platoon_campaign::{BaseScenario, Transport, Values};
 use platoon_config::{Config, ConfigError, DosConfig, LawName, LinkAttackConfig, LinkKindConfig};
-use platoon_search::{Budget, Certificate, Grid, Schedule, Target};
+use platoon_search::{Budget, Certificate, Grid, JamKind, Limits, Schedule, Target};
 use platoon_sim::{SafetyClass, Scenario, Summary};
 use platoon_topology::Preset;
 use serde::Serialize;
@@ -182,8 +182,8 @@ impl Problem {
         } else {
             DosConfig::Intervals { intervals: channel }
         };
-        if self.budget.assumption2.is_some() {
-            c.attack.assumption2 = self.budget.assumption2;
+        if self.budget.limits.assumption2.is_some() {
+            c.attack.assumption2 = self.budget.limits.assumption2;
         }
         for j in &schedule.jams {
             if let Target::Link { sender, receiver } = j.target {
@@ -397,11 +397,10 @@ pub fn parse(text: &str, file: &Path, evaluations: Option<usize>) -> Result<Sear
             }
         };
         let budget = Budget {
-            assumption2: bounds,
-            max_jammed_s: b.max_jammed_s,
-            max_intervals: b.max_intervals,
-            min_interval_s: b.min_interval_s,
-            max_interval_s: b.max_interval_s,
+            limits: Limits {
+                assumption2: bounds,
+                ..b.clone()
+            },
             targets,
         };
         budget
@@ -661,7 +660,7 @@ mod tests {
         assert_eq!(s.problems.len(), 1);
         let p = &s.problems[0];
         assert_eq!(
-            p.budget.assumption2,
+            p.budget.limits.assumption2,
             Some(Assumption2 {
                 T1: 2.0,
                 T2: 9.46,

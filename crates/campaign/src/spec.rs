@@ -4,41 +4,60 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
-/// A campaign file. `campaigns/*.toml` document every key with a comment.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
-#[serde(deny_unknown_fields)]
-pub struct CampaignFile {
-    /// Free-form name [the file's stem].
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub name: Option<String>,
-    /// The scenario every cell starts from, relative to the campaign file [the embedded paper
-    /// scenario, configs/paper.toml].
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub base: Option<String>,
-    /// Campaign seed: every Monte Carlo draw derives from it and the sample index \[0\].
-    #[serde(default)]
-    pub seed: u64,
-    /// How each cell runs: `inproc` (the pure core in the campaign's own workers, the oracle)
-    /// or `iceoryx2` (a full co-simulation of processes per cell; needed for `plant = "sumo"`).
-    #[serde(default = "in_process")]
-    pub transport: Transport,
-    /// Keys set in every cell, by dotted path (`"simulation.duration_s" = 20.0`).
-    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
-    #[schemars(with = "BTreeMap<String, serde_json::Value>")]
-    pub set: BTreeMap<String, toml::Value>,
-    /// The axes, crossed in file order (the first varies slowest), except those sharing a
-    /// `zip` group, which advance together.
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub axes: Vec<AxisSpec>,
-    /// The DoS-window map: one attack interval `[onset, onset + duration)` per cell.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub dos_window: Option<DosWindow>,
-    /// Random draws per sample, crossed with the axes.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub monte_carlo: Option<MonteCarlo>,
-    /// What `cells.csv` reports per cell [see `platoon campaign --help`].
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub metrics: Option<Vec<String>>,
+/// Declares a file that runs a base scenario (a campaign file, a search file): its keys
+/// `name`, `base`, `seed` and `transport` first, then the struct's own. A macro, not a shared
+/// struct: the files are flat TOML tables, and `serde(flatten)` goes neither with
+/// `deny_unknown_fields` nor with the config crate's key-span errors. Every crate that uses it
+/// depends on `platoon-config`.
+#[macro_export]
+macro_rules! scenario_file {
+    ($(#[$meta:meta])* pub struct $name:ident { $($fields:tt)* }) => {
+        $(#[$meta])*
+        pub struct $name {
+            /// Free-form name \[the file's stem\].
+            #[serde(default, skip_serializing_if = "Option::is_none")]
+            pub name: Option<String>,
+            /// The scenario it starts from, relative to this file \[the embedded paper
+            /// scenario, configs/paper.toml\].
+            #[serde(default, skip_serializing_if = "Option::is_none")]
+            pub base: Option<String>,
+            /// The seed every random draw derives from \[0\].
+            #[serde(default)]
+            pub seed: u64,
+            /// How each run goes: `inproc` (the pure core in this process's workers, the
+            /// oracle) or `iceoryx2` (a full co-simulation of processes per run; needed for
+            /// `plant = "sumo"`).
+            #[serde(default = "platoon_config::Transport::file_default")]
+            pub transport: platoon_config::Transport,
+            $($fields)*
+        }
+    };
+}
+
+scenario_file! {
+    /// A campaign file. `campaigns/*.toml` document every key with a comment. Its Monte Carlo
+    /// draws derive from the seed and the sample index.
+    #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+    #[serde(deny_unknown_fields)]
+    pub struct CampaignFile {
+        /// Keys set in every cell, by dotted path (`"simulation.duration_s" = 20.0`).
+        #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+        #[schemars(with = "BTreeMap<String, serde_json::Value>")]
+        pub set: BTreeMap<String, toml::Value>,
+        /// The axes, crossed in file order (the first varies slowest), except those sharing a
+        /// `zip` group, which advance together.
+        #[serde(default, skip_serializing_if = "Vec::is_empty")]
+        pub axes: Vec<AxisSpec>,
+        /// The DoS-window map: one attack interval `[onset, onset + duration)` per cell.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        pub dos_window: Option<DosWindow>,
+        /// Random draws per sample, crossed with the axes.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        pub monte_carlo: Option<MonteCarlo>,
+        /// What `cells.csv` reports per cell [see `platoon campaign --help`].
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        pub metrics: Option<Vec<String>>,
+    }
 }
 
 /// `[[axes]]`: one config key and its values (a list or a range).
@@ -151,11 +170,6 @@ pub struct RandomDosSpec {
     pub min_duration_s: f64,
     /// Longest proposed attack (s).
     pub max_duration_s: f64,
-}
-
-/// Cells run in the campaign's own workers unless the file says otherwise.
-fn in_process() -> Transport {
-    Transport::Inproc
 }
 
 /// `docs/campaign-reference.md`: every key of a campaign file, generated from [`CampaignFile`].

@@ -15,6 +15,12 @@ pub enum Transport {
 }
 
 impl Transport {
+    /// What a campaign or search file runs on when it does not say: in process (`platoon run`
+    /// says iceoryx2).
+    pub fn file_default() -> Self {
+        Transport::Inproc
+    }
+
     /// Its name in files and on the command line.
     pub fn name(self) -> &'static str {
         match self {

@@ -30,13 +30,14 @@ pub struct Plan(pub Vec<Jam>);
 /// tolerance, so that a bound met exactly on the grid (a 2 s jam under a 2 s cap) is kept.
 const ROUNDING: f64 = 1e-10;
 
-/// The attacker's budget. Every bound given applies at once; the jamming activity (the union
-/// of the jams, whatever they hit) is what is bounded: one jammer.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+/// What the attacker may do, as a search file's `[budget]` table gives it. Every bound given
+/// applies.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "schemars", derive(schemars::JsonSchema))]
 #[serde(deny_unknown_fields)]
-pub struct Budget {
-    /// Assumption 2 (frequency and duration of DoS): certified on every window by the exact
-    /// checker.
+pub struct Limits {
+    /// Assumption 2 (frequency and duration of DoS), certified on every window by the exact
+    /// checker [in a search file: the base's `attack.assumption2`].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub assumption2: Option<Assumption2>,
     /// Total jammed time over the run (s).
@@ -51,6 +52,34 @@ pub struct Budget {
     /// Longest jam (s).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub max_interval_s: Option<f64>,
+    /// `channel` (the paper's DoS: every vehicle senses it) or `links` (one V2V link at a
+    /// time, the receivers not told) \[channel\].
+    #[serde(default)]
+    pub jam: JamKind,
+    /// With `jam = "links"`: the links, `[sender, receiver]` \[every link of the topology\].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub links: Option<Vec<[u16; 2]>>,
+}
+
+/// What a jam hits.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "schemars", derive(schemars::JsonSchema))]
+#[serde(rename_all = "snake_case")]
+pub enum JamKind {
+    /// The whole channel.
+    #[default]
+    Channel,
+    /// One link at a time.
+    Links,
+}
+
+/// The attacker's budget: its [`Limits`] on the jamming activity (the union of the jams,
+/// whatever they hit: one jammer) and the targets they resolve to.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Budget {
+    /// The bounds, every one given applying at once.
+    #[serde(flatten)]
+    pub limits: Limits,
     /// What a jam may hit: the whole channel, or links.
     pub targets: Vec<Target>,
 }
@@ -77,18 +106,17 @@ impl Budget {
     /// Whole-channel jamming under the paper's Assumption 2 and nothing else.
     pub fn assumption2(bounds: Assumption2) -> Self {
         Self {
-            assumption2: Some(bounds),
-            max_jammed_s: None,
-            max_intervals: None,
-            min_interval_s: None,
-            max_interval_s: None,
+            limits: Limits {
+                assumption2: Some(bounds),
+                ..Limits::default()
+            },
             targets: vec![Target::Channel],
         }
     }
 
     /// Checks the values; errors name the key (`budget.max_jammed_s`).
     pub fn validate(&self) -> Result<(), SearchError> {
-        if let Some(b) = &self.assumption2 {
+        if let Some(b) = &self.limits.assumption2 {
             b.validate()
                 .map_err(|e| SearchError::new("budget.assumption2", e.to_string()))?;
         }
@@ -99,10 +127,10 @@ impl Budget {
             )),
             _ => Ok(()),
         };
-        positive("max_jammed_s", self.max_jammed_s)?;
-        positive("min_interval_s", self.min_interval_s)?;
-        positive("max_interval_s", self.max_interval_s)?;
-        if let (Some(lo), Some(hi)) = (self.min_interval_s, self.max_interval_s) {
+        positive("max_jammed_s", self.limits.max_jammed_s)?;
+        positive("min_interval_s", self.limits.min_interval_s)?;
+        positive("max_interval_s", self.limits.max_interval_s)?;
+        if let (Some(lo), Some(hi)) = (self.limits.min_interval_s, self.limits.max_interval_s) {
             if lo > hi {
                 return Err(SearchError::new(
                     "budget.min_interval_s",
@@ -110,7 +138,7 @@ impl Budget {
                 ));
             }
         }
-        if self.max_intervals == Some(0) {
+        if self.limits.max_intervals == Some(0) {
             return Err(SearchError::new(
                 "budget.max_intervals",
                 "must be at least 1 (no jam at all is no attack to search)",
@@ -128,10 +156,10 @@ impl Budget {
     /// The longest single jam on a run of `horizon` s (s).
     pub fn longest(&self, horizon: f64) -> f64 {
         let mut l = horizon;
-        if let Some(b) = &self.assumption2 {
+        if let Some(b) = &self.limits.assumption2 {
             l = l.min(b.D1 / (1.0 - 1.0 / b.D2));
         }
-        for x in [self.max_jammed_s, self.max_interval_s]
+        for x in [self.limits.max_jammed_s, self.limits.max_interval_s]
             .into_iter()
             .flatten()
         {
@@ -145,16 +173,18 @@ impl Budget {
     pub fn most_intervals(&self, grid: &Grid) -> usize {
         let horizon = grid.horizon();
         let mut n = (grid.steps() as usize).div_ceil(2);
-        if let Some(b) = &self.assumption2 {
+        if let Some(b) = &self.limits.assumption2 {
             if b.T1 < 1.0 {
                 return 0;
             }
             n = n.min((b.T1 + horizon / b.T2).floor() as usize);
         }
-        if let Some(m) = self.max_intervals {
+        if let Some(m) = self.limits.max_intervals {
             n = n.min(m);
         }
-        if let (Some(total), Some(shortest)) = (self.max_jammed_s, self.min_interval_s) {
+        if let (Some(total), Some(shortest)) =
+            (self.limits.max_jammed_s, self.limits.min_interval_s)
+        {
             n = n.min((total / shortest).floor() as usize);
         }
         n
@@ -162,7 +192,8 @@ impl Budget {
 
     /// The shortest jam in steps (at least one).
     fn min_len(&self, grid: &Grid) -> u64 {
-        self.min_interval_s
+        self.limits
+            .min_interval_s
             .map_or(1, |m| grid.ceil(m - ROUNDING).max(1))
     }
 
@@ -186,7 +217,7 @@ impl Budget {
             Err(e) => return fail(cert, e),
         };
         cert.jammed_s = activity.active_time(0.0, horizon);
-        if let Some(b) = &self.assumption2 {
+        if let Some(b) = &self.limits.assumption2 {
             cert.assumption2 = Some(b.check(&activity, horizon));
         }
         for (i, j) in schedule.jams.iter().enumerate() {
@@ -202,23 +233,23 @@ impl Budget {
                     return fail(cert, format!("jams {i} and {} overlap", i + 1));
                 }
             }
-            if let Some(m) = self.min_interval_s {
+            if let Some(m) = self.limits.min_interval_s {
                 if j.duration_s < m - 1e-9 {
                     return fail(cert, format!("jam {i} is shorter than {m} s"));
                 }
             }
-            if let Some(m) = self.max_interval_s {
+            if let Some(m) = self.limits.max_interval_s {
                 if j.duration_s > m + 1e-9 {
                     return fail(cert, format!("jam {i} is longer than {m} s"));
                 }
             }
         }
-        if let Some(m) = self.max_intervals {
+        if let Some(m) = self.limits.max_intervals {
             if schedule.jams.len() > m {
                 return fail(cert, format!("{} jams, more than {m}", schedule.jams.len()));
             }
         }
-        if let Some(m) = self.max_jammed_s {
+        if let Some(m) = self.limits.max_jammed_s {
             if cert.jammed_s > m + 1e-9 {
                 let why = format!("{} s jammed, more than {m} s", cert.jammed_s);
                 return fail(cert, why);
@@ -302,7 +333,7 @@ impl Budget {
             let (mut a, mut e) = (j.start, j.end());
             let mut ta = grid.time(a);
             let mut d_max = longest + ROUNDING;
-            if let Some(b) = &self.assumption2 {
+            if let Some(b) = &self.limits.assumption2 {
                 let k = out.len() as f64;
                 // Frequency on windows [a_i, a_j]: (k + 1) - (a_j - a_i)/T2 <= T1.
                 let earliest = b.T2 * (k + 1.0 - b.T1 + best_f) - ROUNDING;
@@ -316,7 +347,7 @@ impl Budget {
                     d_max = d_max.min(cap + ROUNDING);
                 }
             }
-            if let Some(total) = self.max_jammed_s {
+            if let Some(total) = self.limits.max_jammed_s {
                 d_max = d_max.min(total - cumulative + ROUNDING);
             }
             if a >= e || d_max <= 0.0 {
@@ -327,7 +358,7 @@ impl Budget {
                 continue;
             }
             let d = grid.time(e) - ta;
-            if let Some(b) = &self.assumption2 {
+            if let Some(b) = &self.limits.assumption2 {
                 best_f = best_f.max(ta / b.T2 - out.len() as f64);
                 best_d = best_d.max(ta / b.D2 - cumulative);
             }
@@ -448,11 +479,13 @@ mod tests {
     #[test]
     fn totals_counts_and_lengths_bound_the_repair() {
         let b = Budget {
-            assumption2: None,
-            max_jammed_s: Some(3.0),
-            max_intervals: Some(2),
-            min_interval_s: Some(0.5),
-            max_interval_s: Some(2.0),
+            limits: Limits {
+                max_jammed_s: Some(3.0),
+                max_intervals: Some(2),
+                min_interval_s: Some(0.5),
+                max_interval_s: Some(2.0),
+                ..Limits::default()
+            },
             targets: vec![Target::Channel],
         };
         let p = b.repair(
@@ -475,11 +508,11 @@ mod tests {
     #[test]
     fn bad_budgets_name_their_key() {
         let mut b = Budget::assumption2(PAPER);
-        b.max_jammed_s = Some(-1.0);
+        b.limits.max_jammed_s = Some(-1.0);
         assert_eq!(b.validate().unwrap_err().key, "budget.max_jammed_s");
         let mut b = Budget::assumption2(Assumption2 { D2: 0.5, ..PAPER });
         assert_eq!(b.validate().unwrap_err().key, "budget.assumption2");
-        b.assumption2 = None;
+        b.limits.assumption2 = None;
         b.targets.clear();
         assert_eq!(b.validate().unwrap_err().key, "budget.jam");
     }
@@ -499,11 +532,13 @@ mod tests {
         ) {
             let grid = Grid::new(dt, (55.0 / dt).round() as u64).unwrap();
             let b = Budget {
-                assumption2: Some(Assumption2 { T1: t1, T2: t2, D1: d1, D2: d2 }),
-                max_jammed_s: total,
-                max_intervals: count,
-                min_interval_s: min,
-                max_interval_s: None,
+                limits: Limits {
+                    assumption2: Some(Assumption2 { T1: t1, T2: t2, D1: d1, D2: d2 }),
+                    max_jammed_s: total,
+                    max_intervals: count,
+                    min_interval_s: min,
+                    ..Limits::default()
+                },
                 targets: vec![
                     Target::Channel,
                     Target::Link { sender: 0, receiver: 1 },

@@ -24,7 +24,7 @@
 mod budget;
 mod strategy;
 
-pub use budget::{Budget, Certificate, Jam, Plan};
+pub use budget::{Budget, Certificate, Jam, JamKind, Limits, Plan};
 pub use strategy::{
     monte_carlo_seed, Evolution, EvolutionSettings, GridSampler, RandomSampler, RandomSettings,
     Strategy,

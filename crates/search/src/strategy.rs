@@ -108,7 +108,7 @@ impl RandomSampler {
         targets.set_stream(1);
         let n = self.budget.targets.len();
         let horizon = self.grid.horizon();
-        let Some(bounds) = &self.budget.assumption2 else {
+        let Some(bounds) = &self.budget.limits.assumption2 else {
             let mut rng = ChaCha8Rng::seed_from_u64(seed);
             let most = self.budget.most_intervals(&self.grid).min(8);
             let longest = self.grid.floor(self.budget.longest(horizon)).max(1);
@@ -142,14 +142,19 @@ impl RandomSampler {
         let mut total = 0.0;
         let mut jams = Vec::new();
         for iv in generated.intervals() {
-            if self.budget.max_intervals.is_some_and(|m| jams.len() >= m) {
+            if self
+                .budget
+                .limits
+                .max_intervals
+                .is_some_and(|m| jams.len() >= m)
+            {
                 break;
             }
             let mut d = iv.duration().min(longest);
-            if let Some(m) = self.budget.max_jammed_s {
+            if let Some(m) = self.budget.limits.max_jammed_s {
                 d = d.min(m - total);
             }
-            if d <= 0.0 || self.budget.min_interval_s.is_some_and(|m| d < m) {
+            if d <= 0.0 || self.budget.limits.min_interval_s.is_some_and(|m| d < m) {
                 continue;
             }
             total += d;
@@ -863,7 +868,7 @@ mod tests {
         let g = GridSampler::new(&grid(), &budget, &onsets, &durations, 100).unwrap();
         assert_eq!(g.cells(), 100);
         let mut tight = budget.clone();
-        tight.max_jammed_s = Some(2.0);
+        tight.limits.max_jammed_s = Some(2.0);
         let mut g = GridSampler::new(&grid(), &tight, &onsets, &durations, 1000).unwrap();
         assert_eq!((g.cells(), g.rejected()), (51 * 4, 51 * 6));
         assert!(g.ask(1000).iter().all(|s| tight.certify(s, 55.0).holds));

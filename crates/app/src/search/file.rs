@@ -1,10 +1,9 @@
 //! The search file's schema (TOML, unknown keys are errors): the scenario, the harm, the
 //! budget, the evaluations and the baselines. `campaigns/worst-dos.toml` documents every key.
-use platoon_attacks::Assumption2;
 use platoon_campaign::metrics;
-use platoon_campaign::{Transport, Values};
+use platoon_campaign::Values;
 use platoon_config::LawName;
-use platoon_search::{EvolutionSettings, RandomSettings};
+use platoon_search::{EvolutionSettings, Limits, RandomSettings};
 use platoon_topology::Preset;
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
@@ -22,51 +21,41 @@ pub fn harms() -> Vec<&'static str> {
 /// The strategies a search can be compared with.
 pub const BASELINES: [&str; 2] = ["random", "grid"];
 
-/// A search file. `campaigns/worst-dos.toml` documents every key.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
-#[serde(deny_unknown_fields)]
-pub struct SearchFile {
-    /// Free-form name \[the file's stem\].
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub name: Option<String>,
-    /// The scenario, relative to this file \[the embedded paper scenario\]. Its DoS is replaced by
-    /// each candidate; its link attacks stay.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub base: Option<String>,
-    /// Seed of the search \[0\].
-    #[serde(default)]
-    pub seed: u64,
-    /// Runs per strategy \[1000\].
-    #[serde(default = "default_evaluations")]
-    pub evaluations: usize,
-    /// What the attacker maximises: a campaign metric \[max_spacing_error_m\].
-    #[serde(default = "default_harm")]
-    pub harm: String,
-    /// The strategies run beside the search at the same evaluations \[random, grid\].
-    #[serde(default = "default_compare")]
-    pub compare: Vec<String>,
-    /// How each candidate runs \[inproc\].
-    #[serde(default = "in_process")]
-    pub transport: Transport,
-    /// A schedule of your own to report beside them, `[start (s), duration (s)]` pairs (the
-    /// budget must admit it; it is not one of the evaluations).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub reference: Option<Vec<[f64; 2]>>,
-    /// What the attacker may do.
-    #[serde(default)]
-    pub budget: BudgetFile,
-    /// How the search searches.
-    #[serde(default)]
-    pub search: EvolutionSettings,
-    /// The random baseline.
-    #[serde(default)]
-    pub random: RandomFile,
-    /// The grid baseline.
-    #[serde(default)]
-    pub grid: GridFile,
-    /// One search per law and topology.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub study: Option<StudyFile>,
+platoon_campaign::scenario_file! {
+    /// A search file. `campaigns/worst-dos.toml` documents every key. Each candidate replaces
+    /// its base's DoS; the base's link attacks stay.
+    #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+    #[serde(deny_unknown_fields)]
+    pub struct SearchFile {
+        /// Runs per strategy \[1000\].
+        #[serde(default = "default_evaluations")]
+        pub evaluations: usize,
+        /// What the attacker maximises: a campaign metric \[max_spacing_error_m\].
+        #[serde(default = "default_harm")]
+        pub harm: String,
+        /// The strategies run beside the search at the same evaluations \[random, grid\].
+        #[serde(default = "default_compare")]
+        pub compare: Vec<String>,
+        /// A schedule of your own to report beside them, `[start (s), duration (s)]` pairs (the
+        /// budget must admit it; it is not one of the evaluations).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        pub reference: Option<Vec<[f64; 2]>>,
+        /// What the attacker may do.
+        #[serde(default)]
+        pub budget: Limits,
+        /// How the search searches.
+        #[serde(default)]
+        pub search: EvolutionSettings,
+        /// The random baseline.
+        #[serde(default)]
+        pub random: RandomFile,
+        /// The grid baseline.
+        #[serde(default)]
+        pub grid: GridFile,
+        /// One search per law and topology.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        pub study: Option<StudyFile>,
+    }
 }
 
 fn default_evaluations() -> usize {
@@ -77,48 +66,6 @@ fn default_harm() -> String {
 }
 fn default_compare() -> Vec<String> {
     BASELINES.iter().map(|s| s.to_string()).collect()
-}
-fn in_process() -> Transport {
-    Transport::Inproc
-}
-
-/// `[budget]`: what the attacker may do. Every bound given applies.
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize, JsonSchema)]
-#[serde(deny_unknown_fields)]
-pub struct BudgetFile {
-    /// Assumption 2's bounds [the base's `attack.assumption2`].
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub assumption2: Option<Assumption2>,
-    /// Total jammed time (s).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub max_jammed_s: Option<f64>,
-    /// Number of jams.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub max_intervals: Option<usize>,
-    /// Shortest jam (s).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub min_interval_s: Option<f64>,
-    /// Longest jam (s).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub max_interval_s: Option<f64>,
-    /// `channel` (the paper's DoS: every vehicle senses it) or `links` (one V2V link at a
-    /// time, the receivers not told) \[channel\].
-    #[serde(default)]
-    pub jam: JamKind,
-    /// With `jam = "links"`: the links, `[sender, receiver]` \[every link of the topology\].
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub links: Option<Vec<[u16; 2]>>,
-}
-
-/// What a jam hits.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, JsonSchema)]
-#[serde(rename_all = "snake_case")]
-pub enum JamKind {
-    /// The whole channel.
-    #[default]
-    Channel,
-    /// One link at a time.
-    Links,
 }
 
 /// `[random]`: the random admissible baseline (the generator's settings default to the

@@ -49,64 +49,79 @@ pub struct Channel {
     pub jammers: Vec<JammerConfig>,
 }
 
-/// `[[channel.jammers]]`: a transmitter on the road. While it transmits, a vehicle that
-/// receives it above the radio's sensing threshold (the path loss of `[channel.radio]`, its
-/// defaults without one) senses its channel jammed and can neither send nor receive, as under
-/// the paper's DoS; with `[channel] model = "80211p"` its power also enters every other link's
-/// SINR. It stands at `position_m` (moving at `speed_mps`), rides with platoon vehicle `member`
-/// (at `offset_m`), or rides SUMO background vehicle `background`: exactly one of the three.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
-#[serde(deny_unknown_fields)]
-pub struct JammerConfig {
-    /// Its road coordinate at t = 0 (m; the platoon's coordinates): a roadside jammer.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub position_m: Option<f64>,
-    /// Rides with this platoon vehicle (0 = the leader), `offset_m` along the road from it.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub member: Option<u16>,
-    /// With `member`: its offset along the road from that vehicle (m; negative: behind).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub offset_m: Option<f64>,
-    /// Rides SUMO background vehicle `bg<background>` (`simulation.plant = "sumo"` with
-    /// `sumo.background_vehicles` above it); silent while that vehicle is off the road.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub background: Option<usize>,
-    /// When it transmits within `[start_s, end_s)`: `constant`, `periodic` (`on_s`/`off_s`),
-    /// `random` (exponential on/off times of means `mean_on_s`/`mean_off_s`, seeded from
-    /// `[channel] seed`) or `reactive` (only while it senses a vehicle's transmission; it then
-    /// destroys that packet wherever it is heard). Absent: `periodic` with `on_s`/`off_s`,
-    /// `constant` without.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub behaviour: Option<JammerBehaviour>,
-    /// Random: mean burst length (s).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub mean_on_s: Option<f64>,
-    /// Random: mean pause between bursts (s).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub mean_off_s: Option<f64>,
-    /// Its speed along the road (m/s; 0: roadside; with `position_m` only).
-    #[serde(default)]
-    pub speed_mps: f64,
-    /// Its distance from the road (m): it reaches the road over the part of it within its
-    /// sensing radius, none when it stands farther away than that.
-    #[serde(default)]
-    pub lateral_m: f64,
-    /// Its transmit power (dBm).
-    #[serde(default = "jammer_power")]
-    pub power_dbm: f64,
-    /// When it starts (s).
-    #[serde(default)]
-    pub start_s: f64,
-    /// When it stops (s; `inf`: never).
-    #[serde(default = "forever")]
-    #[schemars(default = "forever_in_json")]
-    pub end_s: f64,
-    /// Periodic: on for `on_s`, then off for `off_s`, from `start_s` (absent: always on).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub on_s: Option<f64>,
-    /// Periodic: off time between two bursts (s).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub off_s: Option<f64>,
+/// Declares a table that is active on `[start_s, end_s)` (a jammer, a link attack): its own
+/// keys, then `start_s` and `end_s`. A macro, not a shared struct: the tables are flat, and
+/// `serde(flatten)` goes neither with `deny_unknown_fields` nor with the key-span errors.
+macro_rules! with_window {
+    ($(#[$meta:meta])* pub struct $name:ident { $($fields:tt)* }) => {
+        $(#[$meta])*
+        pub struct $name {
+            $($fields)*
+            /// Start of its activity (s).
+            #[serde(default)]
+            pub start_s: f64,
+            /// End of its activity (s, exclusive; `inf`, the default: never, the end of the
+            /// run).
+            #[serde(default = "forever")]
+            #[schemars(default = "forever_in_json")]
+            pub end_s: f64,
+        }
+    };
+}
+
+with_window! {
+    /// `[[channel.jammers]]`: a transmitter on the road. While it transmits, a vehicle that
+    /// receives it above the radio's sensing threshold (the path loss of `[channel.radio]`, its
+    /// defaults without one) senses its channel jammed and can neither send nor receive, as under
+    /// the paper's DoS; with `[channel] model = "80211p"` its power also enters every other link's
+    /// SINR. It stands at `position_m` (moving at `speed_mps`), rides with platoon vehicle `member`
+    /// (at `offset_m`), or rides SUMO background vehicle `background`: exactly one of the three.
+    #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+    #[serde(deny_unknown_fields)]
+    pub struct JammerConfig {
+        /// Its road coordinate at t = 0 (m; the platoon's coordinates): a roadside jammer.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        pub position_m: Option<f64>,
+        /// Rides with this platoon vehicle (0 = the leader), `offset_m` along the road from it.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        pub member: Option<u16>,
+        /// With `member`: its offset along the road from that vehicle (m; negative: behind).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        pub offset_m: Option<f64>,
+        /// Rides SUMO background vehicle `bg<background>` (`simulation.plant = "sumo"` with
+        /// `sumo.background_vehicles` above it); silent while that vehicle is off the road.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        pub background: Option<usize>,
+        /// When it transmits within `[start_s, end_s)`: `constant`, `periodic` (`on_s`/`off_s`),
+        /// `random` (exponential on/off times of means `mean_on_s`/`mean_off_s`, seeded from
+        /// `[channel] seed`) or `reactive` (only while it senses a vehicle's transmission; it then
+        /// destroys that packet wherever it is heard). Absent: `periodic` with `on_s`/`off_s`,
+        /// `constant` without.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        pub behaviour: Option<JammerBehaviour>,
+        /// Random: mean burst length (s).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        pub mean_on_s: Option<f64>,
+        /// Random: mean pause between bursts (s).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        pub mean_off_s: Option<f64>,
+        /// Its speed along the road (m/s; 0: roadside; with `position_m` only).
+        #[serde(default)]
+        pub speed_mps: f64,
+        /// Its distance from the road (m): it reaches the road over the part of it within its
+        /// sensing radius, none when it stands farther away than that.
+        #[serde(default)]
+        pub lateral_m: f64,
+        /// Its transmit power (dBm).
+        #[serde(default = "jammer_power")]
+        pub power_dbm: f64,
+        /// Periodic: on for `on_s`, then off for `off_s`, from `start_s` (absent: always on).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        pub on_s: Option<f64>,
+        /// Periodic: off time between two bursts (s).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        pub off_s: Option<f64>,
+    }
 }
 
 /// `[[channel.jammers]] behaviour`.
@@ -189,26 +204,21 @@ impl Channel {
     }
 }
 
-/// `[[channel.attacks]]`: one link attack, its `kind` and that kind's keys (the keys of another
-/// kind are errors), active on `[start_s, end_s)` for the links it targets.
-#[derive(Debug, Clone, PartialEq, Deserialize, JsonSchema)]
-pub struct LinkAttackConfig {
-    /// What it does to the packets it hits.
-    #[serde(flatten)]
-    pub kind: LinkKindConfig,
-    /// Start of activity (s).
-    #[serde(default)]
-    pub start_s: f64,
-    /// End of activity (s, exclusive); `inf`, the default: the end of the run.
-    #[serde(default = "forever")]
-    #[schemars(default = "forever_in_json")]
-    pub end_s: f64,
-    /// Targeted senders (vehicle ids, 0 = leader); absent: all.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub senders: Option<Vec<u16>>,
-    /// Targeted receivers; absent: all.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub receivers: Option<Vec<u16>>,
+with_window! {
+    /// `[[channel.attacks]]`: one link attack, its `kind` and that kind's keys (the keys of another
+    /// kind are errors), active on `[start_s, end_s)` for the links it targets.
+    #[derive(Debug, Clone, PartialEq, Deserialize, JsonSchema)]
+    pub struct LinkAttackConfig {
+        /// What it does to the packets it hits.
+        #[serde(flatten)]
+        pub kind: LinkKindConfig,
+        /// Targeted senders (vehicle ids, 0 = leader); absent: all.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        pub senders: Option<Vec<u16>>,
+        /// Targeted receivers; absent: all.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        pub receivers: Option<Vec<u16>>,
+    }
 }
 
 fn forever() -> f64 {
