@@ -2018,6 +2018,58 @@ fn a_join_runs_bit_identically_on_both_transports() {
     assert!(facts["topologies"][0].get("leader_hears").is_none());
 }
 
+/// The leader's checks of maneuver messages measured against the ground truth over iceoryx2:
+/// the join of `configs/join.toml` with `check_reports` and `[detection]`, the catalogue's
+/// forged in-position reports at 6 s. The controller process reports each message the leader
+/// tested as an inspection of receiver 0; both transports write the same bytes (the summary's
+/// `maneuver_checks`, the leader's rows of detections.csv), every forged report flagged and
+/// refused, no genuine one.
+#[test]
+fn the_leaders_checks_are_measured_the_same_on_both_transports() {
+    let text = std::fs::read_to_string(repo().join("configs/join.toml"))
+        .unwrap()
+        .replace(
+            "[maneuvers]\n",
+            "[[channel.attacks]]\nkind = \"forge_maneuver\"\nmessage = \"in_position\"\n\
+             senders = [4]\nreceivers = [0]\nstart_s = 6.0\nend_s = 6.2\n\n\
+             [detection.plausibility]\n\n[maneuvers]\ncheck_reports = true\n",
+        );
+    let dir = tempfile::tempdir().unwrap();
+    let config = dir.path().join("join-checked.toml");
+    std::fs::write(&config, text).unwrap();
+    let runs = transports_agree(config.to_str().unwrap());
+    let (ipc, inproc) = (runs.path().join("ipc"), runs.path().join("inproc"));
+    same_outputs(&ipc, &inproc, &["detections.csv"]);
+    let checks = &summary(&ipc)["detection"]["maneuver_checks"];
+    assert_eq!(checks["by_label"]["altered"]["tp"], 2, "{checks}");
+    assert_eq!(checks["totals"]["fp"], 0, "{checks}");
+    assert_eq!(checks["totals"]["fn"], 0, "{checks}");
+    let rows = std::fs::read_to_string(ipc.join("detections.csv")).unwrap();
+    let leader: Vec<Vec<&str>> = rows
+        .lines()
+        .map(|l| l.split(',').collect::<Vec<_>>())
+        .filter(|r| r[3] == "0")
+        .collect();
+    assert_eq!(
+        leader.len(),
+        4,
+        "request, two forged reports, the genuine one"
+    );
+    for r in &leader {
+        // label, flagged, refused
+        let bad = r[13] == "altered";
+        assert_eq!(
+            (r[14], r[15]),
+            if bad {
+                ("true", "true")
+            } else {
+                ("false", "false")
+            }
+        );
+        assert!(r[16..].iter().all(|c| c.is_empty()), "no detector's: {r:?}");
+    }
+}
+
 /// A join in the middle (`configs/join-middle.toml`): the joiner starts in the lane beside
 /// (mode 9 `beside` on the wire), changes into the gap follower 2 opened, and both transports
 /// agree bit for bit.

@@ -569,3 +569,47 @@ fn checked_requests_drop_the_ghost_and_keep_the_real_join() {
     }
     assert!(of(&attacked, 4).iter().any(|r| r.mode != Mode::Outside));
 }
+
+/// With `[detection]` on, the leader's checks of maneuver messages (`check_reports`) are
+/// measured against the ground truth like the followers' detectors, apart from them
+/// (`detection.maneuver_checks`): with no attack every request and report they test is genuine
+/// and passes; the catalogue's forged in-position reports are each labelled `altered` and each
+/// flagged; and the followers' detectors' figures are those of the run without the checks.
+#[test]
+fn the_leaders_checks_are_scored_against_the_ground_truth() {
+    let checked = join_config().replace(
+        "[maneuvers]\n",
+        "[detection.plausibility]\n\n[maneuvers]\ncheck_reports = true\n",
+    );
+    let forged = checked.replace(
+        "[maneuvers]\n",
+        "[[channel.attacks]]\nkind = \"forge_maneuver\"\nmessage = \"in_position\"\n\
+         senders = [4]\nreceivers = [0]\nstart_s = 6.0\nend_s = 6.2\n\n[maneuvers]\n",
+    );
+    let score = |text: &str| {
+        platoon_sim::run(scenario(text), |_| {})
+            .unwrap()
+            .detection
+            .unwrap()
+    };
+    let clean = score(&checked);
+    let m = clean.maneuver_checks.clone().unwrap();
+    assert_eq!((m.totals.tp, m.totals.fp, m.totals.fn_), (0, 0, 0), "{m:?}");
+    assert!(
+        m.totals.tn >= 2,
+        "the request and the report, at least: {m:?}"
+    );
+    assert_eq!(m.false_alarm_rate, Some(0.0));
+    let unchecked = score(&checked.replace("check_reports = true\n", ""));
+    assert!(unchecked.maneuver_checks.is_none());
+    assert_eq!(
+        (&unchecked.detectors, &unchecked.any, unchecked.inspected),
+        (&clean.detectors, &clean.any, clean.inspected)
+    );
+    let m = score(&forged).maneuver_checks.unwrap();
+    assert!(m.totals.tp > 0, "{m:?}");
+    assert_eq!((m.totals.fp, m.totals.fn_), (0, 0), "{m:?}");
+    assert_eq!(m.by_label["altered"].tp, m.totals.tp);
+    assert_eq!((m.precision, m.recall), (Some(1.0), Some(1.0)));
+    assert_eq!(m.time_to_detect_s, Some(0.0));
+}

@@ -290,7 +290,10 @@ fn a_fraction_of_the_budget_is_enough_for_a_collision() {
     for budget in ["2.9", "2.7"] {
         let r = run(&format!("campaigns/worst-dos-budget-{budget}.toml"), None);
         let (problem, p) = (&r.search.problems[0], &r.problems[0]);
-        assert_eq!(problem.budget.limits.max_jammed_s, Some(budget.parse().unwrap()));
+        assert_eq!(
+            problem.budget.limits.max_jammed_s,
+            Some(budget.parse().unwrap())
+        );
         assert_eq!(r.search.harm.name(), "min_gap_m");
         assert_eq!(p.reproduced, Some(true));
         let b = best(p, "search").clone();

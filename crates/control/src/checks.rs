@@ -367,6 +367,15 @@ impl PacketChecks {
         self.rejected
     }
 
+    /// Records, when the run measures detectors, that the leader checked a maneuver message
+    /// of delivery `d` at step `k` (`[maneuvers] check_reports`) and whether it `refused` it:
+    /// an inspection of the leader's, scored against ground truth apart from the detectors.
+    pub fn note_leader_check(&mut self, k: u64, d: &Delivery, refused: bool) {
+        if let Some(s) = &mut self.screening {
+            s.note(k, d.receiver, &d.packet, refused);
+        }
+    }
+
     /// Counts a packet a receiver refused on a check of its own, beyond
     /// [`PacketChecks::admit`], as from a sender it does not know (the leader's check of a
     /// join request from a vehicle it never heard, `[maneuvers] check_reports`).

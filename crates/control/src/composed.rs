@@ -421,9 +421,21 @@ impl Controller for ComposedController {
                     }
                     _ => None,
                 };
+                let implausible = !ghost && error.is_some_and(|e| !man.plausible_report(e));
+                // What the checks tested: every request, a report from the slot's joiner.
+                let tested = checking
+                    && (error.is_some()
+                        || matches!(
+                            m.body,
+                            platoon_maneuver::Body::JoinRequest { .. }
+                                | platoon_maneuver::Body::MergeRequest { .. }
+                        ));
+                if tested {
+                    self.checks.note_leader_check(k, d, ghost || implausible);
+                }
                 if ghost {
                     self.checks.refuse_unknown_sender();
-                } else if error.is_some_and(|e| !man.plausible_report(e)) {
+                } else if implausible {
                     self.checks.refuse_implausible_state();
                 } else {
                     man.heard(d.receiver, m);

@@ -376,26 +376,40 @@ impl Screening {
             self.distrust_until[fi][s] = k + 1 + self.quiet_steps;
         }
         let refused = self.reaction != Reaction::Log && k < self.distrust_until[fi][s];
-        let mut verdicts = [Verdict::NOT_TESTED; MAX_DETECTORS];
-        for (v, x) in verdicts.iter_mut().zip(&self.scratch) {
-            *v = *x;
-        }
-        self.log.push(Inspection {
+        self.log.push(Inspection::new(
             k,
             receiver,
-            sender: packet.sender,
-            seq: packet.seq,
-            step: packet.step,
-            state: packet.state,
+            (packet.sender, packet.seq, packet.step, packet.state),
             flagged,
             refused,
-            verdicts,
-            detectors: self.scratch.len().min(MAX_DETECTORS) as u8,
-        });
+            &self.scratch,
+        ));
         self.counts.inspected += 1;
         self.counts.flagged += u64::from(flagged);
         self.counts.refused += u64::from(refused);
         refused
+    }
+
+    /// Records what a check outside the detectors said of a packet `receiver` got at step `k`
+    /// (the leader's checks of maneuver messages): no detector's verdict, flagged and refused
+    /// as the check decided. Not counted in [`Screening::counts`]: the recorder scores such
+    /// checks apart from the detectors.
+    pub(crate) fn note(
+        &mut self,
+        k: u64,
+        receiver: VehicleId,
+        packet: &crate::Packet,
+        refused: bool,
+    ) {
+        let untested = [Verdict::NOT_TESTED; MAX_DETECTORS];
+        self.log.push(Inspection::new(
+            k,
+            receiver,
+            (packet.sender, packet.seq, packet.step, packet.state),
+            refused,
+            refused,
+            &untested[..self.names.len().min(MAX_DETECTORS)],
+        ));
     }
 
     /// Whether follower `fi` (0-based) runs its fallback at step `k` because it distrusts a

@@ -143,8 +143,9 @@ struct WireRow {
     jammed: u64,
 }
 
-/// One row of detections.csv: a packet a follower's detectors inspected, what it claimed, the
-/// truth, and each built-in detector's verdict (empty when that detector is off).
+/// One row of detections.csv: a packet a follower's detectors inspected (or, receiver 0, a
+/// maneuver message the leader's `check_reports` tested), what it claimed, the truth, and each
+/// built-in detector's verdict (empty when that detector is off, and on the leader's rows).
 #[derive(serde::Serialize, serde::Deserialize)]
 struct DetectionRow {
     /// The step it was received (and inspected) at.
@@ -554,10 +555,12 @@ impl RunFiles {
                     self.pending.push((v, Event::Trust));
                 }
             }
+            // The leader's checks of maneuver messages are no detector's: their columns empty.
             let verdict = |name: &str| {
                 names
                     .iter()
                     .position(|n| *n == name)
+                    .filter(|_| !i.receiver.is_leader())
                     .and_then(|d| i.verdicts().get(d))
             };
             let flagged = |name: &str| verdict(name).map(|v| v.flagged);

@@ -100,6 +100,11 @@ pub struct DetectionSummary {
     pub detectors: Vec<DetectorScore>,
     /// Any detector (what the reaction acts on).
     pub any: DetectorScore,
+    /// The leader's checks of maneuver messages (`[maneuvers] check_reports`: requests from
+    /// vehicles it never heard, in-position reports its beacons contradict), over the messages
+    /// they tested; not among `inspected` and `any`, which are the followers' detectors'.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub maneuver_checks: Option<DetectorScore>,
 }
 
 /// One inspected packet with its ground truth: a row of the per-message dataset.
@@ -117,6 +122,21 @@ pub struct Scored {
     pub truth: Option<State>,
 }
 
+/// One detector's (or check's) figures so far: its confusion, per label, and the step of its
+/// first flag on a misbehaving packet.
+#[derive(Debug, Clone, Default)]
+struct Tally(Confusion, BTreeMap<&'static str, Confusion>, Option<u64>);
+
+impl Tally {
+    fn add(&mut self, k: u64, label: &'static str, bad: bool, flagged: bool) {
+        self.0.add(bad, flagged);
+        self.1.entry(label).or_default().add(bad, flagged);
+        if bad && flagged && self.2.is_none() {
+            self.2 = Some(k);
+        }
+    }
+}
+
 /// Records one platoon's detection, step by step.
 #[derive(Debug, Clone)]
 pub struct DetectionRecorder {
@@ -127,9 +147,12 @@ pub struct DetectionRecorder {
     names: Vec<String>,
     reaction: &'static str,
     counts: platoon_control::screening::ScreenCounts,
-    per: Vec<(Confusion, BTreeMap<&'static str, Confusion>, Option<u64>)>,
-    any: (Confusion, BTreeMap<&'static str, Confusion>, Option<u64>),
+    per: Vec<Tally>,
+    any: Tally,
     first_bad: Option<u64>,
+    /// The leader's checks, and their first misbehaving message (`None` before one).
+    leader: Option<Tally>,
+    leader_first_bad: Option<u64>,
     labels: BTreeMap<&'static str, u64>,
     scored: Vec<Scored>,
 }
@@ -155,6 +178,8 @@ impl DetectionRecorder {
             per: vec![Default::default(); names.len()],
             any: Default::default(),
             first_bad: None,
+            leader: None,
+            leader_first_bad: None,
             labels: BTreeMap::new(),
             scored: Vec::new(),
         }
@@ -193,28 +218,28 @@ impl DetectionRecorder {
             let Some(j) = found.map(|j| next + j) else {
                 continue;
             };
-            self.counts.inspected += 1;
-            self.counts.flagged += u64::from(i.flagged);
-            self.counts.refused += u64::from(i.refused);
             next = j + 1;
             let l = self.labelled[j];
-            let bad = l.label.is_misbehaviour();
-            if bad && self.first_bad.is_none() {
-                self.first_bad = Some(k);
-            }
-            *self.labels.entry(l.label.name()).or_default() += 1;
-            for ((c, by, first), v) in self.per.iter_mut().zip(i.verdicts()) {
-                c.add(bad, v.flagged);
-                by.entry(l.label.name()).or_default().add(bad, v.flagged);
-                if bad && v.flagged && first.is_none() {
-                    *first = Some(k);
+            let (bad, label) = (l.label.is_misbehaviour(), l.label.name());
+            if i.receiver.is_leader() {
+                // The leader's checks of maneuver messages: scored apart.
+                if bad && self.leader_first_bad.is_none() {
+                    self.leader_first_bad = Some(k);
                 }
-            }
-            let (c, by, first) = &mut self.any;
-            c.add(bad, i.flagged);
-            by.entry(l.label.name()).or_default().add(bad, i.flagged);
-            if bad && i.flagged && first.is_none() {
-                *first = Some(k);
+                let leader = self.leader.get_or_insert_with(Default::default);
+                leader.add(k, label, bad, i.flagged);
+            } else {
+                self.counts.inspected += 1;
+                self.counts.flagged += u64::from(i.flagged);
+                self.counts.refused += u64::from(i.refused);
+                if bad && self.first_bad.is_none() {
+                    self.first_bad = Some(k);
+                }
+                *self.labels.entry(label).or_default() += 1;
+                for (t, v) in self.per.iter_mut().zip(i.verdicts()) {
+                    t.add(k, label, bad, v.flagged);
+                }
+                self.any.add(k, label, bad, i.flagged);
             }
             self.scored.push(Scored {
                 platoon: self.platoon,
@@ -234,13 +259,8 @@ impl DetectionRecorder {
     /// The figures so far.
     pub fn summary(&self) -> DetectionSummary {
         let screened = self.counts;
-        let score = |name: &str,
-                     (c, by, first): &(
-            Confusion,
-            BTreeMap<&'static str, Confusion>,
-            Option<u64>,
-        )| {
-            DetectorScore {
+        let score =
+            |name: &str, first_bad: Option<u64>, Tally(c, by, first): &Tally| DetectorScore {
                 name: name.to_string(),
                 totals: *c,
                 by_label: by.iter().map(|(k, v)| (k.to_string(), *v)).collect(),
@@ -249,10 +269,9 @@ impl DetectionRecorder {
                 f1: c.f1(),
                 false_alarm_rate: c.false_alarm_rate(),
                 time_to_detect_s: first
-                    .zip(self.first_bad)
+                    .zip(first_bad)
                     .map(|(f, b)| f.saturating_sub(b) as f64 * self.dt),
-            }
-        };
+            };
         DetectionSummary {
             reaction: self.reaction.to_string(),
             inspected: screened.inspected,
@@ -267,9 +286,13 @@ impl DetectionRecorder {
                 .names
                 .iter()
                 .zip(&self.per)
-                .map(|(n, p)| score(n, p))
+                .map(|(n, p)| score(n, self.first_bad, p))
                 .collect(),
-            any: score("any", &self.any),
+            any: score("any", self.first_bad, &self.any),
+            maneuver_checks: self
+                .leader
+                .as_ref()
+                .map(|p| score("maneuver_checks", self.leader_first_bad, p)),
         }
     }
 }

@@ -322,8 +322,9 @@ pub struct ManeuversConfig {
     /// from its slot (behind the member it follows, as that member's last beacon places it) is
     /// dropped before the protocol sees it, its sequence number unused; so is a join or
     /// merge request from a vehicle the leader never heard beaconing before it (both counted
-    /// in `summary.json`'s `rejected_packets`). Off: the leader takes the messages as they
-    /// come (Plexe's and VENTOS's way).
+    /// in `summary.json`'s `rejected_packets`; with `[detection]`, every message it tested is
+    /// measured against the ground truth in `detection.maneuver_checks` and `detections.csv`).
+    /// Off: the leader takes the messages as they come (Plexe's and VENTOS's way).
     pub check_reports: bool,
 }
 
