@@ -17,6 +17,7 @@ mod error;
 pub mod campaign;
 pub mod design;
 pub mod experiment;
+pub mod formations;
 pub mod progress;
 pub mod run;
 pub mod search;

@@ -299,6 +299,7 @@ pub fn run(
         None => (summary, failure),
     };
     let compute = started.elapsed();
+    crate::formations::certify(scenario, &mut summary);
     summary.attack.applied = opts
         .injector
         .as_ref()

@@ -527,6 +527,7 @@ mod tests {
         s.maneuvers = Some(platoon_sim::ManeuversSummary {
             messages_sent: 9,
             maneuvers: vec![record(Some(0.5)), record(None), record(Some(21.5))],
+            formations: Vec::new(),
         });
         s
     }

@@ -317,5 +317,31 @@ fn print_summary(s: &Summary, compute_s: f64) {
                 r.maneuver, r.vehicle, r.messages
             );
         }
+        for f in &m.formations {
+            let platoons: Vec<String> = f
+                .platoons
+                .iter()
+                .map(|p| {
+                    let ids: Vec<String> = p.iter().map(u16::to_string).collect();
+                    format!("[{}]", ids.join(" "))
+                })
+                .collect();
+            let verdict = match &f.stability {
+                None => "not checked".to_string(),
+                Some(c) => match (&c.unchecked, c.decay_per_s) {
+                    (Some(why), _) => format!("not checked: {why}"),
+                    (None, Some(d)) => format!("stable, certified decay {d:.3}/s"),
+                    (None, None) => format!(
+                        "NOT certified (largest spectral radius {:.6})",
+                        c.spectral_radius
+                    ),
+                },
+            };
+            println!(
+                "    formation {} from {:.2} s: {verdict}",
+                platoons.join(" "),
+                f.t_s
+            );
+        }
     }
 }

@@ -27,6 +27,7 @@ pub mod checks;
 pub mod composed;
 mod controller;
 pub mod fallback;
+pub mod formation_loop;
 pub mod laws;
 pub mod maneuvers;
 mod radar;

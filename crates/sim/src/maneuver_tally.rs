@@ -2,7 +2,7 @@
 //! wire (the step its vehicle broadcast it), its completion in the plant (the mode the
 //! vehicle drives in), the errors and gaps from the request on, and the messages about it.
 //! Both runtimes feed it the same rows and broadcasts, so `summary.json` agrees bit for bit.
-use crate::summary::{ManeuverRecord, ManeuversSummary};
+use crate::summary::{FormationRecord, ManeuverRecord, ManeuversSummary};
 use crate::StepRow;
 use platoon_control::maneuvers::Message;
 use platoon_control::Mode;
@@ -87,6 +87,41 @@ pub(crate) struct ManeuverTally {
     /// The broadcasts of the step whose rows come next.
     pending: Vec<Message>,
     sent: u64,
+    formations: Vec<FormationRecord>,
+}
+
+/// The lane's platoons at a step, from its rows (leader first): each vehicle in the platoon of
+/// the leader it took, unless outside the lane's platoons (approaching, beside, left) or a head
+/// of a part itself; platoons and their members in road order, each head first.
+fn platoons_of(rows: &[StepRow]) -> Vec<Vec<u16>> {
+    let head = |r: &StepRow| r.head.unwrap_or(0);
+    let member =
+        |r: &&StepRow| r.vehicle != 0 && !r.mode.is_beside_the_lane() && r.mode != Mode::Outside;
+    let mut heads: Vec<u16> = vec![0];
+    for r in rows.iter().filter(member) {
+        if !heads.contains(&head(r)) {
+            heads.push(head(r));
+        }
+    }
+    let ahead = |a: u16, b: u16| {
+        let p = |v: u16| rows.get(usize::from(v)).map_or(f64::NAN, |r| r.p);
+        p(b).total_cmp(&p(a))
+    };
+    heads.sort_by(|&a, &b| ahead(a, b));
+    heads
+        .iter()
+        .map(|&h| {
+            let mut platoon: Vec<u16> = rows
+                .iter()
+                .filter(member)
+                .filter(|r| head(r) == h && !heads.contains(&r.vehicle))
+                .map(|r| r.vehicle)
+                .collect();
+            platoon.sort_by(|&a, &b| ahead(a, b));
+            platoon.insert(0, h);
+            platoon
+        })
+        .collect()
 }
 
 impl ManeuverTally {
@@ -115,6 +150,7 @@ impl ManeuverTally {
                 .collect(),
             pending: Vec::new(),
             sent: 0,
+            formations: Vec::new(),
         })
     }
 
@@ -131,6 +167,19 @@ impl ManeuverTally {
             return;
         };
         self.sent += self.pending.len() as u64;
+        let platoons = platoons_of(rows);
+        if self
+            .formations
+            .last()
+            .is_none_or(|f| f.platoons != platoons)
+        {
+            self.formations.push(FormationRecord {
+                t_s: k as f64 * self.dt,
+                speed_mps: rows[0].v,
+                platoons,
+                stability: None,
+            });
+        }
         // The step's largest spacing error in the lane's platoon and smallest gap on the lane,
         // once for every maneuver under way.
         let worst = rows
@@ -172,6 +221,7 @@ impl ManeuverTally {
         let seconds = |steps: u64| steps as f64 * self.dt;
         ManeuversSummary {
             messages_sent: self.sent,
+            formations: self.formations.clone(),
             maneuvers: self
                 .tracked
                 .iter()

@@ -302,6 +302,42 @@ pub struct ManeuversSummary {
     pub messages_sent: u64,
     /// Each maneuver the config asks for, in the order of the steps they are asked at.
     pub maneuvers: Vec<ManeuverRecord>,
+    /// Every formation the run visited, as the plant drove it, the first at 0 s.
+    pub formations: Vec<FormationRecord>,
+}
+
+/// A formation a run visited: the lane's platoons as the rows say (the vehicles in each, by
+/// the leader they took, in road order), from the step it began.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FormationRecord {
+    /// When it began (s).
+    pub t_s: f64,
+    /// The leader's speed then (m/s).
+    pub speed_mps: f64,
+    /// The platoons in road order, each head first (the first headed by the leader): a
+    /// vehicle belongs to the platoon of the leader it took, unless it is outside the lane's
+    /// platoons (approaching, beside, left); a head of its own part (a split's, a merging
+    /// platoon's) heads it on its ACC.
+    pub platoons: Vec<Vec<u16>>,
+    /// The stability certificate of its nominal closed loop (`platoon run` checks it, not
+    /// the in-process library: `platoon_app::formations`): absent where it was not checked.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stability: Option<FormationStability>,
+}
+
+/// The certificate of a formation's closed loop (docs/maneuvers.md#what-holds-during-a-formation-change):
+/// its one-step maps at the ends of the lag range, and a common quadratic Lyapunov function.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FormationStability {
+    /// The largest spectral radius of the one-step maps (below 1: each stable on its own).
+    pub spectral_radius: f64,
+    /// The decay rate a common quadratic Lyapunov function certifies (1/s); absent: none was
+    /// found.
+    pub decay_per_s: Option<f64>,
+    /// Why it could not be checked (the law has no loop, no SDP solver in this build, too
+    /// many vehicles); the figures above are then NaN and absent.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub unchecked: Option<String>,
 }
 
 /// One maneuver of a run: when its vehicle asked (on the wire), whether and when it was done

@@ -8,6 +8,8 @@
 //!   eigenvalues, independently of the solver.
 //! * [`closed_loop_spectrum`]: eigenvalues of `I_N kron A(tau) - H kron B(tau) K` over a tau range.
 //! * [`dos_bounds`]: the bounds (16) on T2 and D2 (readings R20, R21).
+//! * [`common_decay`]: a common quadratic Lyapunov function for sampled loops (a platoon
+//!   formation's, at the ends of its lag range), with its decay rate.
 //! * [`string_stability()`](fn@string_stability): whether spacing errors grow along a long platoon
 //!   (see [`mod@string_stability`]).
 //!
@@ -19,6 +21,7 @@
 mod certificate;
 mod decay;
 mod design;
+mod discrete;
 mod lmi;
 mod mixed;
 mod sdp;
@@ -26,6 +29,7 @@ mod spectrum;
 pub mod string_stability;
 
 pub use design::{design_theorem1, Design, DesignSpec};
+pub use discrete::{cascade_decay, common_decay, Decay};
 pub use sdp::SdpError;
 pub use string_stability::{string_stability, StringStability, TauStringStability};
 

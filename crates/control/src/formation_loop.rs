@@ -1,0 +1,180 @@
+//! The closed loop of a formation, linearised: what a stability certificate of a formation
+//! (`platoon_synthesis::common_decay`) is checked on.
+//!
+//! A formation is the vehicles of the lane's platoons in road order, each platoon headed by the
+//! leader or by a member that heads a part of its own on its ACC (a split's, or a merging
+//! platoon's before the merge). In it every member runs the config's law ([`crate::Law`], the
+//! very code a run calls) on what it would know in the nominal case: the radar's exact gap and
+//! closing speed to the vehicle ahead in the formation, and a packet from every vehicle it
+//! hears at every step (its state and the command of the step before, as a packet carries it);
+//! a head runs its ACC (the fallback's, opened to its headway) behind the member ahead of it.
+//! The plant moves each with its lag under the run's discretisation.
+//!
+//! One step of that loop maps the followers' deviations from the equilibrium (every vehicle at
+//! the leader's constant speed, at the distances its law keeps) `z = [p, v, a, u_last]` per
+//! follower, in road order, to the next: [`step_matrix`] returns that map's Jacobian, by central
+//! differences of the loop around the equilibrium (exact for the laws, which are affine there,
+//! up to rounding). Left out: the beaconing's sample and hold, losses, attacks, the fallback,
+//! the guard and the saturations (none is active at the equilibrium).
+use crate::checks::Heard;
+use crate::composed::View;
+use crate::fallback::{acc_command, Reading};
+use crate::radar::RadarTruth;
+use crate::ControllerParams;
+use nalgebra::DMatrix;
+use platoon_model::{Discretisation, State, VehicleId};
+use platoon_topology::Topology;
+
+/// States per follower in [`step_matrix`]: `p`, `v`, `a` and the command of the step before.
+pub const STATES: usize = 4;
+
+/// What the loop of a formation is built from: the run's controller parameters (its law,
+/// spacing policy, fallback ACC and lengths, step), its graph (whom each vehicle hears, by id)
+/// and its plant's discretisation.
+#[derive(Debug, Clone, Copy)]
+pub struct LoopSpec<'a> {
+    /// The controllers' parameters.
+    pub params: &'a ControllerParams,
+    /// The communication graph, by vehicle id.
+    pub topology: &'a Topology,
+    /// How the plant moves the followers.
+    pub discretisation: Discretisation,
+}
+
+/// Why a formation's loop cannot be built.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum LoopError {
+    /// The law has no [`crate::Law`] (the paper's runs on its own controller, on one graph).
+    #[error("law = \"{0}\" is not one of the field's laws: it has no formation loop")]
+    NoLaw(&'static str),
+    /// The formation does not start with the leader, names a vehicle twice or beyond the run.
+    #[error("not a formation of this run: {0}")]
+    Formation(String),
+}
+
+/// The Jacobian of one step of the formation's loop (`STATES * followers` square, followers
+/// in road order) at the leader's constant `speed` (m/s), each vehicle `j` with lag `taus[j]`
+/// (s; index 0, the leader's, unused). `platoons` lists the lane's platoons in road order, each
+/// head first; the first is headed by the leader.
+pub fn step_matrix(
+    spec: &LoopSpec<'_>,
+    platoons: &[Vec<VehicleId>],
+    speed: f64,
+    taus: &[f64],
+) -> Result<DMatrix<f64>, LoopError> {
+    let p = spec.params;
+    let Some(law) = p.law.law(p.fallback.vehicle_length) else {
+        return Err(LoopError::NoLaw(p.law.name()));
+    };
+    let vehicles = p.fallback.lengths.len().max(spec.topology.followers() + 1);
+    // Road order, each vehicle with the head of its platoon.
+    let road: Vec<(VehicleId, VehicleId)> = platoons
+        .iter()
+        .flat_map(|pl| pl.iter().map(move |&v| (v, pl[0])))
+        .collect();
+    let bad = |why: String| Err(LoopError::Formation(why));
+    if road.first().is_none_or(|(v, _)| !v.is_leader()) {
+        return bad("the first platoon is not headed by the leader".into());
+    }
+    for (i, (v, _)) in road.iter().enumerate() {
+        if v.index() >= vehicles || v.index() >= taus.len() {
+            return bad(format!("vehicle {} is not one of the run's", v.0));
+        }
+        if road[..i].iter().any(|(w, _)| w == v) {
+            return bad(format!("vehicle {} is named twice", v.0));
+        }
+    }
+    let followers = road.len() - 1;
+    // The equilibrium: each behind the one ahead at the distance it keeps at `speed`.
+    let heads_headway = crate::maneuvers::split_headway(&p.fallback.acc, p.headway, f64::INFINITY);
+    let mut z0 = vec![0.0; STATES * followers];
+    let mut ahead_p = 0.0;
+    for (i, &(v, head)) in road.iter().enumerate().skip(1) {
+        let h = if v == head { heads_headway } else { p.headway };
+        let at = ahead_p - (p.spacing + h * speed);
+        z0[STATES * (i - 1)..STATES * i].copy_from_slice(&[at, speed, 0.0, 0.0]);
+        ahead_p = at;
+    }
+    let mut laws: Vec<_> = (0..followers)
+        .map(|_| dyn_clone::clone_box(&*law))
+        .collect();
+    let mut step = |z: &[f64]| -> Vec<f64> {
+        // Every vehicle's state and last command: the leader's, then the followers' from `z`;
+        // a vehicle out of the formation keeps the leader's (it is no part of the loop).
+        let mut state = vec![(State::new(0.0, speed, 0.0), 0.0); vehicles];
+        for (i, &(v, _)) in road.iter().enumerate().skip(1) {
+            let s = &z[STATES * (i - 1)..STATES * i];
+            state[v.index()] = (State::new(s[0], s[1], s[2]), s[3]);
+        }
+        let packet = |j: VehicleId| Heard {
+            step: Some(0),
+            seq: 1,
+            state: state[j.index()].0,
+            u: state[j.index()].1,
+            head: VehicleId::LEADER,
+        };
+        let mut next = vec![0.0; z.len()];
+        for (i, &(v, head)) in road.iter().enumerate().skip(1) {
+            let (own, last_u) = state[v.index()];
+            let ahead = road[i - 1].0;
+            let (ahead_state, _) = state[ahead.index()];
+            let length = p.fallback.length(ahead.index());
+            let radar = RadarTruth {
+                gap: ahead_state[0] - own[0] - length,
+                closing: own[1] - ahead_state[1],
+                intruder: false,
+            };
+            let u = if v == head {
+                let reading = Reading {
+                    gap: radar.gap,
+                    closing: radar.closing,
+                    intruder: false,
+                };
+                acc_command(
+                    &p.fallback.acc,
+                    Some(reading),
+                    heads_headway,
+                    own[1],
+                    p.spacing,
+                    length,
+                )
+            } else {
+                let neighbours = spec.topology.in_neighbours(v);
+                let heard: Vec<Heard> = neighbours.iter().map(|&j| packet(j)).collect();
+                let ahead_heard = packet(ahead);
+                let head_heard = packet(head);
+                laws[i - 1].command(&View {
+                    k: 0,
+                    dt: p.dt,
+                    id: v,
+                    vehicles,
+                    own,
+                    last_u,
+                    radar: Some(radar),
+                    ahead,
+                    ahead_heard: Some(&ahead_heard),
+                    neighbours,
+                    heard: &heard,
+                    head: (!head.is_leader()).then_some((head, &head_heard)),
+                })
+            };
+            let x = spec.discretisation.step(&own, u, taus[v.index()], p.dt);
+            next[STATES * (i - 1)..STATES * i].copy_from_slice(&[x[0], x[1], x[2], u]);
+        }
+        next
+    };
+    let n = z0.len();
+    let mut jacobian = DMatrix::zeros(n, n);
+    for c in 0..n {
+        let h = 1e-6 * z0[c].abs().max(1.0);
+        let mut up = z0.clone();
+        up[c] += h;
+        let mut down = z0.clone();
+        down[c] -= h;
+        let (fu, fd) = (step(&up), step(&down));
+        for r in 0..n {
+            jacobian[(r, c)] = (fu[r] - fd[r]) / (2.0 * h);
+        }
+    }
+    Ok(jacobian)
+}
