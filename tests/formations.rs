@@ -59,7 +59,7 @@ fn every_formation_of_the_maneuver_configs_is_certified() {
             "merge.toml",
             &[
                 (0.0, &[&[0, 1, 2], &[3, 4, 5]]),
-                (27.18, &[&[0, 1, 2, 3, 4, 5]]),
+                (27.17, &[&[0, 1, 2, 3, 4, 5]]),
             ],
         ),
         (
@@ -82,8 +82,11 @@ fn every_formation_of_the_maneuver_configs_is_certified() {
         for f in &got {
             let c = f.stability.as_ref().unwrap();
             assert_eq!(c.unchecked, None, "{name}: {f:?}");
-            assert!(c.spectral_radius < 1.0, "{name}: {f:?}");
-            assert!(c.decay_per_s.is_some_and(|d| d > 0.05), "{name}: {f:?}");
+            assert!(c.spectral_radius.unwrap() < 1.0, "{name}: {f:?}");
+            // Every config's members run the PATH CACC: a cascade whose rate is its members'
+            // (docs/maneuvers.md), whatever the formation.
+            let d = c.decay_per_s.unwrap();
+            assert!((d - 0.145).abs() < 0.002, "{name}: {f:?}");
         }
     }
 }
@@ -100,11 +103,19 @@ fn every_laws_formations_are_certified() {
     let acc = &acc[..acc.find("[[cut_ins]]").unwrap()];
     let cruising = platoon_app::formations::check(&scenario(acc), &[vec![0, 1, 2, 3]], 15.0);
     assert!(
-        (cruising.spectral_radius - 1.0).abs() < 1e-6,
+        (cruising.spectral_radius.unwrap() - 1.0).abs() < 1e-6,
         "{cruising:?}"
     );
     assert_eq!(cruising.decay_per_s, None, "{cruising:?}");
-    for law in ["acc", "ploeg", "path_cacc", "consensus", "flatbed"] {
+    // The rates docs/maneuvers.md publishes (1/s).
+    let published = [
+        ("acc", 0.097),
+        ("ploeg", 0.347),
+        ("path_cacc", 0.145),
+        ("consensus", 0.284),
+        ("flatbed", 0.246),
+    ];
+    for (law, rate) in published {
         let text =
             cut_in_config(law).replace("law = \"acc\"", "law = \"acc\"\ndesired_speed_mps = 40.0");
         let text = &text[..text.find("[[cut_ins]]").unwrap()];
@@ -112,11 +123,9 @@ fn every_laws_formations_are_certified() {
         for platoon in [vec![0, 1, 2, 3], vec![0, 1, 2, 3, 4]] {
             let c = platoon_app::formations::check(&s, std::slice::from_ref(&platoon), 15.0);
             assert_eq!(c.unchecked, None, "{law} {platoon:?}: {c:?}");
-            assert!(c.spectral_radius < 1.0, "{law} {platoon:?}: {c:?}");
-            assert!(
-                c.decay_per_s.is_some_and(|d| d > 0.0),
-                "{law} {platoon:?}: {c:?}"
-            );
+            assert!(c.spectral_radius.unwrap() < 1.0, "{law} {platoon:?}: {c:?}");
+            let d = c.decay_per_s.unwrap();
+            assert!((d - rate).abs() < 0.002, "{law} {platoon:?}: {c:?}");
         }
     }
 }
@@ -131,7 +140,7 @@ fn an_unstable_gain_is_not_certified() {
     assert_ne!(bad, text, "the law's key");
     let c = platoon_app::formations::check(&scenario(&bad), &[vec![0, 1, 2, 3]], 15.0);
     assert_eq!(c.unchecked, None);
-    assert!(c.spectral_radius > 1.0, "{c:?}");
+    assert!(c.spectral_radius.unwrap() > 1.0, "{c:?}");
     assert_eq!(c.decay_per_s, None);
 }
 
@@ -231,4 +240,28 @@ fn a_cascades_certificate_agrees_with_the_whole_sdp() {
     let (c, w) = (cascade.decay_per_s.unwrap(), whole.decay_per_s.unwrap());
     assert!(c > 0.0 && w > 0.0);
     assert!((c - w).abs() <= 0.1 * c.max(w), "cascade {c}, whole {w}");
+}
+
+/// A formation that could not be checked (here: no follower) reads back from its JSON (no
+/// NaN written as null where a number is due), and a summary written before formations were
+/// recorded still reads.
+#[test]
+fn an_unchecked_formation_and_an_older_summary_read_back() {
+    let s = scenario(&config("join.toml"));
+    let c = platoon_app::formations::check(&s, &[vec![0]], 15.0);
+    assert_eq!((c.spectral_radius, c.decay_per_s), (None, None));
+    assert!(c.unchecked.is_some());
+    let mut summary = platoon_sim::run(s.clone(), |_| {}).unwrap();
+    let maneuvers = summary.maneuvers.as_mut().unwrap();
+    maneuvers.formations[0].stability = Some(c);
+    let text = serde_json::to_string(&summary).unwrap();
+    let back: platoon_sim::Summary = serde_json::from_str(&text).unwrap();
+    assert_eq!(back.maneuvers, summary.maneuvers);
+    let mut older: serde_json::Value = serde_json::from_str(&text).unwrap();
+    older["maneuvers"]
+        .as_object_mut()
+        .unwrap()
+        .remove("formations");
+    let older: platoon_sim::Summary = serde_json::from_value(older).unwrap();
+    assert!(older.maneuvers.unwrap().formations.is_empty());
 }

@@ -1,30 +1,53 @@
 //! The stability certificate of every formation a run visited (`summary.json`'s
 //! `maneuvers.formations[].stability`): its nominal closed loop under the run's law
-//! (`platoon_control::formation_loop`) at the ends of the members' lag range, and the LMI of a
-//! common quadratic Lyapunov function over them (`platoon_synthesis::common_decay`). What it
-//! says and does not: docs/maneuvers.md#what-holds-during-a-formation-change.
+//! (`platoon_control::formation_loop`) at every corner of the members' lag box, and the LMI
+//! of a common quadratic Lyapunov function over them (`platoon_synthesis::cascade_decay`).
+//! What it says and does not: docs/maneuvers.md#what-holds-during-a-formation-change.
 use platoon_control::formation_loop::{step_matrix, LoopSpec, STATES};
 use platoon_model::VehicleId;
 use platoon_sim::{FormationStability, Scenario, Summary};
 
 /// The most followers a formation may have for its certificate: the SDP has
-/// `n (n + 1) / 2` unknowns for `n = 4 x followers`.
+/// `n (n + 1) / 2` unknowns for `n = 4 x followers` where the loop is no cascade.
 pub const MAX_FOLLOWERS: usize = 10;
 
-/// Checks every formation of `summary`'s maneuvers (platoon 0's) under `scenario`.
+/// The most members with a lag range (a corner of their box is a map: `2^m` of them).
+pub const MAX_LAG_RANGES: usize = 10;
+
+/// Checks every formation of `summary`'s maneuvers (platoon 0's) under `scenario`, once per
+/// formation and speed; nothing for a run that did not complete (stopped, or failed).
 pub fn certify(scenario: &Scenario, summary: &mut Summary) {
+    if !summary.complete {
+        return;
+    }
     let Some(maneuvers) = summary.maneuvers.as_mut() else {
         return;
     };
-    for f in &mut maneuvers.formations {
-        f.stability = Some(check(scenario, &f.platoons, f.speed_mps));
+    let mut done: Vec<(&[Vec<u16>], u64, FormationStability)> = Vec::new();
+    let mut out = Vec::with_capacity(maneuvers.formations.len());
+    for f in &maneuvers.formations {
+        let key = (f.platoons.as_slice(), f.speed_mps.to_bits());
+        let c = match done.iter().find(|(p, v, _)| (*p, *v) == key) {
+            Some((_, _, c)) => c.clone(),
+            None => {
+                let c = check(scenario, &f.platoons, f.speed_mps);
+                done.push((key.0, key.1, c.clone()));
+                c
+            }
+        };
+        out.push(c);
+    }
+    for (f, c) in maneuvers.formations.iter_mut().zip(out) {
+        f.stability = Some(c);
     }
 }
 
-/// One formation's certificate.
+/// One formation's certificate: its loop's one-step maps at every corner of the members' lag
+/// box (each member's lowest and highest lag, the others' independently), then a common
+/// quadratic Lyapunov function over them (`cascade_decay`).
 pub fn check(scenario: &Scenario, platoons: &[Vec<u16>], speed: f64) -> FormationStability {
     let unchecked = |why: String| FormationStability {
-        spectral_radius: f64::NAN,
+        spectral_radius: None,
         decay_per_s: None,
         unchecked: Some(why),
     };
@@ -50,26 +73,62 @@ pub fn check(scenario: &Scenario, platoons: &[Vec<u16>], speed: f64) -> Formatio
         .iter()
         .map(|p| p.iter().map(|&v| VehicleId(v)).collect())
         .collect();
-    // The ends of the lag range: every member at its lowest, then at its highest.
-    let ranges = scenario.member_tau_ranges();
-    let mut maps = Vec::with_capacity(2);
-    for end in [0, 1] {
-        let taus: Vec<f64> = std::iter::once(scenario.control.tau_nominal)
-            .chain(
-                ranges
-                    .iter()
-                    .map(|&(lo, hi)| if end == 0 { lo } else { hi }),
-            )
+    // Each vehicle's lag range by id (the leader's unused), and the members whose range is
+    // more than a point.
+    let ranges: Vec<(f64, f64)> =
+        std::iter::once((scenario.control.tau_nominal, scenario.control.tau_nominal))
+            .chain(scenario.member_tau_ranges())
             .collect();
-        match step_matrix(&spec, &platoons, speed, &taus) {
-            Ok(m) => maps.push(m),
+    let members: Vec<usize> = platoons
+        .iter()
+        .flatten()
+        .map(|v| v.index())
+        .filter(|&i| i > 0)
+        .collect();
+    if members.iter().any(|&i| i >= ranges.len()) {
+        return unchecked("a member is no vehicle of the run".into());
+    }
+    let free: Vec<usize> = members
+        .iter()
+        .copied()
+        .filter(|&i| ranges[i].0 < ranges[i].1)
+        .collect();
+    if free.len() > MAX_LAG_RANGES {
+        return unchecked(format!(
+            "{} members with a lag range: certificates take at most {MAX_LAG_RANGES}",
+            free.len()
+        ));
+    }
+    let lows: Vec<f64> = ranges.iter().map(|r| r.0).collect();
+    let map = |taus: &[f64]| step_matrix(&spec, &platoons, speed, taus);
+    let low = match map(&lows) {
+        Ok(m) => m,
+        Err(e) => return unchecked(e.to_string()),
+    };
+    // The map is affine in each member's lag term, and only that member's rows depend on it:
+    // a corner is the lowest lags' map plus the change each member at its highest makes.
+    let mut changes = Vec::with_capacity(free.len());
+    for &i in &free {
+        let mut taus = lows.clone();
+        taus[i] = ranges[i].1;
+        match map(&taus) {
+            Ok(m) => changes.push(m - &low),
             Err(e) => return unchecked(e.to_string()),
         }
     }
-    debug_assert!(maps.iter().all(|m| m.nrows() == STATES * followers));
-    match platoon_synthesis::cascade_decay(&maps, scenario.dt(), STATES) {
+    let corners: Vec<_> = (0..1usize << free.len())
+        .map(|mask| {
+            changes
+                .iter()
+                .enumerate()
+                .filter(|(j, _)| mask & (1 << j) != 0)
+                .fold(low.clone(), |acc, (_, d)| acc + d)
+        })
+        .collect();
+    debug_assert!(corners.iter().all(|m| m.nrows() == STATES * followers));
+    match platoon_synthesis::cascade_decay(&corners, scenario.dt(), STATES) {
         Ok(d) => FormationStability {
-            spectral_radius: d.spectral_radius,
+            spectral_radius: Some(d.spectral_radius),
             decay_per_s: d.decay_per_s,
             unchecked: None,
         },

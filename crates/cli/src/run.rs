@@ -333,7 +333,7 @@ fn print_summary(s: &Summary, compute_s: f64) {
                     (None, Some(d)) => format!("stable, certified decay {d:.3}/s"),
                     (None, None) => format!(
                         "NOT certified (largest spectral radius {:.6})",
-                        c.spectral_radius
+                        c.spectral_radius.unwrap_or(f64::NAN)
                     ),
                 },
             };

@@ -66,7 +66,7 @@ pub fn step_matrix(
     let Some(law) = p.law.law(p.fallback.vehicle_length) else {
         return Err(LoopError::NoLaw(p.law.name()));
     };
-    let vehicles = p.fallback.lengths.len().max(spec.topology.followers() + 1);
+    let vehicles = spec.topology.followers() + 1;
     // Road order, each vehicle with the head of its platoon.
     let road: Vec<(VehicleId, VehicleId)> = platoons
         .iter()

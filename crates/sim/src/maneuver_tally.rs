@@ -94,7 +94,15 @@ pub(crate) struct ManeuverTally {
 /// the leader it took, unless outside the lane's platoons (approaching, beside, left) or a head
 /// of a part itself; platoons and their members in road order, each head first.
 fn platoons_of(rows: &[StepRow]) -> Vec<Vec<u16>> {
-    let head = |r: &StepRow| r.head.unwrap_or(0);
+    // A member heads a part of its own only on its ACC outside the leader's platoon (a split's,
+    // a merging platoon's): one heading behind a car that cut in stays in the leader's.
+    let head = |r: &StepRow| match r.head.unwrap_or(0) {
+        0 => 0,
+        h => match rows.get(usize::from(h)) {
+            Some(x) if x.mode == Mode::Outside => h,
+            _ => 0,
+        },
+    };
     let member =
         |r: &&StepRow| r.vehicle != 0 && !r.mode.is_beside_the_lane() && r.mode != Mode::Outside;
     let mut heads: Vec<u16> = vec![0];

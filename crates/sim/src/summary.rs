@@ -303,6 +303,7 @@ pub struct ManeuversSummary {
     /// Each maneuver the config asks for, in the order of the steps they are asked at.
     pub maneuvers: Vec<ManeuverRecord>,
     /// Every formation the run visited, as the plant drove it, the first at 0 s.
+    #[serde(default)]
     pub formations: Vec<FormationRecord>,
 }
 
@@ -329,13 +330,14 @@ pub struct FormationRecord {
 /// its one-step maps at the ends of the lag range, and a common quadratic Lyapunov function.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct FormationStability {
-    /// The largest spectral radius of the one-step maps (below 1: each stable on its own).
-    pub spectral_radius: f64,
+    /// The largest spectral radius of the one-step maps (below 1: each stable on its own);
+    /// absent where it was not checked.
+    pub spectral_radius: Option<f64>,
     /// The decay rate a common quadratic Lyapunov function certifies (1/s); absent: none was
     /// found.
     pub decay_per_s: Option<f64>,
     /// Why it could not be checked (the law has no loop, no SDP solver in this build, too
-    /// many vehicles); the figures above are then NaN and absent.
+    /// many vehicles); the figures above are then absent.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub unchecked: Option<String>,
 }

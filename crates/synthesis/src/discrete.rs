@@ -1,5 +1,8 @@
 //! A common quadratic Lyapunov function for sampled loops: the LMI that certifies a formation
-//! of a platoon (its one-step maps at the ends of the lag range, `platoon_control::formation_loop`).
+//! of a platoon (`platoon_control::formation_loop`: its one-step maps at every corner of the
+//! members' lag box; a map is affine in each member's own lag term and `Phi -> Phi^T P Phi`
+//! is matrix convex, so the LMI at the corners holds for any lags in the box, changing from
+//! step to step as they may).
 //!
 //! For one-step maps `Phi_v` of a loop sampled every `dt` s, `A_v = (Phi_v - I) / dt`, the LMI
 //! in a symmetric `P`
@@ -21,6 +24,9 @@ use serde::Serialize;
 /// The margin `delta` of the LMI.
 const MARGIN: f64 = 1e-6;
 
+/// The most maps [`common_decay`] puts in one SDP.
+pub const MAX_MAPS: usize = 16;
+
 /// What [`common_decay`] found.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Decay {
@@ -35,6 +41,15 @@ pub struct Decay {
 /// loop sampled every `dt` s, by one SDP over the whole state.
 pub fn common_decay(phis: &[DMatrix<f64>], dt: f64) -> Result<Decay, LmiError> {
     let n = check_maps(phis, dt)?;
+    if phis.len() > MAX_MAPS {
+        return Err(LmiError::Bad(format!(
+            "{} maps: one SDP takes at most {MAX_MAPS} (the corners of the lag box of {} \
+             members; a loop that is no cascade with more members having a lag range is not \
+             checked)",
+            phis.len(),
+            MAX_MAPS.ilog2()
+        )));
+    }
     let spectral_radius = spectral_radius(phis);
     let flows = flows(phis, dt, n);
     let decay_per_s = match spectral_radius < 1.0 {
@@ -70,10 +85,14 @@ pub fn cascade_decay(phis: &[DMatrix<f64>], dt: f64, block: usize) -> Result<Dec
     let mut parts = Vec::with_capacity(blocks);
     for b in 0..blocks {
         let at = b * block;
-        let diagonal: Vec<DMatrix<f64>> = phis
-            .iter()
-            .map(|p| p.view((at, at), (block, block)).into_owned())
-            .collect();
+        // A member's block depends on its own lag alone: the corners repeat it.
+        let mut diagonal: Vec<DMatrix<f64>> = Vec::new();
+        for p in phis {
+            let d = p.view((at, at), (block, block)).into_owned();
+            if !diagonal.contains(&d) {
+                diagonal.push(d);
+            }
+        }
         let r = spectral_radius(&diagonal);
         radius = radius.max(r);
         if r.is_nan() || r >= 1.0 {
@@ -124,16 +143,23 @@ pub fn cascade_decay(phis: &[DMatrix<f64>], dt: f64, block: usize) -> Result<Dec
 
 fn check_maps(phis: &[DMatrix<f64>], dt: f64) -> Result<usize, LmiError> {
     let n = phis.first().map_or(0, DMatrix::nrows);
-    if n == 0 || phis.iter().any(|p| p.nrows() != n || p.ncols() != n) || dt.is_nan() || dt <= 0.0 {
+    let finite = phis.iter().all(|p| p.iter().all(|x| x.is_finite()));
+    if n == 0
+        || !finite
+        || phis.iter().any(|p| p.nrows() != n || p.ncols() != n)
+        || dt.is_nan()
+        || dt <= 0.0
+    {
         return Err(LmiError::Bad(format!(
-            "a decay needs square maps of one size and dt > 0 (got {} maps, dt = {dt})",
+            "a decay needs finite square maps of one size and dt > 0 (got {} maps, dt = {dt})",
             phis.len()
         )));
     }
     Ok(n)
 }
 
-/// The largest modulus of an eigenvalue of any of the maps.
+/// The largest modulus of an eigenvalue of any of the maps (their entries are finite:
+/// [`check_maps`]; a NaN all the same is kept).
 fn spectral_radius(phis: &[DMatrix<f64>]) -> f64 {
     phis.iter()
         .flat_map(|p| {
@@ -142,7 +168,10 @@ fn spectral_radius(phis: &[DMatrix<f64>]) -> f64 {
                 .map(|z| z.norm())
                 .collect::<Vec<_>>()
         })
-        .fold(0.0, f64::max)
+        .fold(
+            0.0,
+            |a: f64, b| if b.is_nan() { f64::NAN } else { a.max(b) },
+        )
 }
 
 /// `(Phi - I) / dt` of each map.
@@ -255,13 +284,14 @@ fn certified(flows: &[DMatrix<f64>], dt: f64, c: f64) -> Result<Option<DMatrix<f
     Ok(holds(flows, &p, dt, c).then_some(p))
 }
 
-/// The re-check: `P > 0` and the LMI's matrix negative definite for every flow, by their
-/// eigenvalues.
+/// The re-check: `P > 0` and the LMI's matrix at most `-MARGIN / 2` for every flow, by their
+/// eigenvalues (half the margin asked of the solver: an answer that rounding alone keeps below
+/// zero is not believed).
 fn holds(flows: &[DMatrix<f64>], p: &DMatrix<f64>, dt: f64, c: f64) -> bool {
     p.clone().symmetric_eigenvalues().min() > 0.0
         && flows.iter().all(|a| {
             let m = lmi_at(a, p, dt, c);
-            ((&m + m.transpose()) * 0.5).symmetric_eigenvalues().max() < 0.0
+            ((&m + m.transpose()) * 0.5).symmetric_eigenvalues().max() <= -0.5 * MARGIN
         })
 }
 

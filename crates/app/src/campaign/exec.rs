@@ -148,7 +148,8 @@ fn in_process(job: &CellJob, plugins: &CellPlugins) -> Result<Value> {
             scenario.control.detection.plugin.join(", ")
         );
     }
-    let summary = match &job.keep {
+    // Certified as `platoon run` certifies a co-simulated cell's (before a kept run's files).
+    let mut summary = match &job.keep {
         _ if plugins.any() => {
             if job.keep.is_some() {
                 anyhow::bail!(
@@ -163,8 +164,9 @@ fn in_process(job: &CellJob, plugins: &CellPlugins) -> Result<Value> {
         Some(out) => {
             let dir = RunDir::replace(out)?;
             dir.write("config.toml", job.config.as_bytes())?;
-            let (rows, summary) =
+            let (rows, mut summary) =
                 crate::run::simulate_until(&scenario, &config.output, &dir, &(), &Stop::default())?;
+            crate::formations::certify(&scenario, &mut summary);
             let extra = [("injector", crate::run::builtin_injector_json())];
             crate::run::write_outputs(
                 &dir,
@@ -178,8 +180,11 @@ fn in_process(job: &CellJob, plugins: &CellPlugins) -> Result<Value> {
             dir.commit()?;
             summary
         }
-        None => platoon_sim::run(scenario, |_| {})?,
+        None => platoon_sim::run(scenario.clone(), |_| {})?,
     };
+    if job.keep.is_none() {
+        crate::formations::certify(&scenario, &mut summary);
+    }
     let mut json = serde_json::to_value(summary)?;
     json["injector"] = match plugins.injector {
         Some(_) => serde_json::json!({ "program": "in process", "mode": "replace" }),

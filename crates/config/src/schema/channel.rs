@@ -49,14 +49,17 @@ pub struct Channel {
     pub jammers: Vec<JammerConfig>,
 }
 
-/// Declares a table that is active on `[start_s, end_s)` (a jammer, a link attack): its own
-/// keys, then `start_s` and `end_s`. A macro, not a shared struct: the tables are flat, and
+/// Declares a table that is active on `[start_s, end_s)` (a jammer, a link attack): its keys
+/// before the window's, `start_s` and `end_s`, then its keys after them (the order its
+/// resolved config is written in). A macro, not a shared struct: the tables are flat, and
 /// `serde(flatten)` goes neither with `deny_unknown_fields` nor with the key-span errors.
 macro_rules! with_window {
-    ($(#[$meta:meta])* pub struct $name:ident { $($fields:tt)* }) => {
+    (
+        $(#[$meta:meta])* pub struct $name:ident { $($before:tt)* } then { $($after:tt)* }
+    ) => {
         $(#[$meta])*
         pub struct $name {
-            $($fields)*
+            $($before)*
             /// Start of its activity (s).
             #[serde(default)]
             pub start_s: f64,
@@ -65,6 +68,7 @@ macro_rules! with_window {
             #[serde(default = "forever")]
             #[schemars(default = "forever_in_json")]
             pub end_s: f64,
+            $($after)*
         }
     };
 }
@@ -115,6 +119,7 @@ with_window! {
         /// Its transmit power (dBm).
         #[serde(default = "jammer_power")]
         pub power_dbm: f64,
+    } then {
         /// Periodic: on for `on_s`, then off for `off_s`, from `start_s` (absent: always on).
         #[serde(default, skip_serializing_if = "Option::is_none")]
         pub on_s: Option<f64>,
@@ -212,6 +217,7 @@ with_window! {
         /// What it does to the packets it hits.
         #[serde(flatten)]
         pub kind: LinkKindConfig,
+    } then {
         /// Targeted senders (vehicle ids, 0 = leader); absent: all.
         #[serde(default, skip_serializing_if = "Option::is_none")]
         pub senders: Option<Vec<u16>>,
