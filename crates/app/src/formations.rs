@@ -23,22 +23,15 @@ pub fn certify(scenario: &Scenario, summary: &mut Summary) {
     let Some(maneuvers) = summary.maneuvers.as_mut() else {
         return;
     };
-    let mut done: Vec<(&[Vec<u16>], u64, FormationStability)> = Vec::new();
-    let mut out = Vec::with_capacity(maneuvers.formations.len());
-    for f in &maneuvers.formations {
-        let key = (f.platoons.as_slice(), f.speed_mps.to_bits());
-        let c = match done.iter().find(|(p, v, _)| (*p, *v) == key) {
-            Some((_, _, c)) => c.clone(),
-            None => {
-                let c = check(scenario, &f.platoons, f.speed_mps);
-                done.push((key.0, key.1, c.clone()));
-                c
-            }
-        };
-        out.push(c);
-    }
-    for (f, c) in maneuvers.formations.iter_mut().zip(out) {
-        f.stability = Some(c);
+    let formations = &mut maneuvers.formations;
+    for i in 0..formations.len() {
+        let (before, rest) = formations.split_at_mut(i);
+        let f = &mut rest[0];
+        let seen = before
+            .iter()
+            .find(|g| g.platoons == f.platoons && g.speed_mps.to_bits() == f.speed_mps.to_bits())
+            .and_then(|g| g.stability.clone());
+        f.stability = Some(seen.unwrap_or_else(|| check(scenario, &f.platoons, f.speed_mps)));
     }
 }
 

@@ -378,15 +378,14 @@ impl Controller for ComposedController {
                     }
                 }
                 let Some(m) = d.packet.maneuver else { continue };
+                let request = matches!(
+                    m.body,
+                    platoon_maneuver::Body::JoinRequest { .. }
+                        | platoon_maneuver::Body::MergeRequest { .. }
+                );
                 // A request to join (or to merge) from a vehicle the leader never heard
                 // beaconing: a vehicle that is not there.
-                let ghost = checking
-                    && !known
-                    && matches!(
-                        m.body,
-                        platoon_maneuver::Body::JoinRequest { .. }
-                            | platoon_maneuver::Body::MergeRequest { .. }
-                    );
+                let ghost = checking && !known && request;
                 // A report that the joiner is in its slot, checked against its own beacon and
                 // the last beacon of the member it follows, both brought to this step.
                 let at = |(s, x): (u64, State)| {
@@ -423,13 +422,7 @@ impl Controller for ComposedController {
                 };
                 let implausible = !ghost && error.is_some_and(|e| !man.plausible_report(e));
                 // What the checks tested: every request, a report from the slot's joiner.
-                let tested = checking
-                    && (error.is_some()
-                        || matches!(
-                            m.body,
-                            platoon_maneuver::Body::JoinRequest { .. }
-                                | platoon_maneuver::Body::MergeRequest { .. }
-                        ));
+                let tested = checking && (error.is_some() || request);
                 if tested {
                     self.checks.note_leader_check(k, d, ghost || implausible);
                 }

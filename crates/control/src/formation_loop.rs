@@ -19,7 +19,7 @@
 use crate::checks::Heard;
 use crate::composed::View;
 use crate::fallback::{acc_command, Reading};
-use crate::radar::RadarTruth;
+use crate::radar::{radar_truth, RadarTruth};
 use crate::ControllerParams;
 use nalgebra::DMatrix;
 use platoon_model::{Discretisation, State, VehicleId};
@@ -113,26 +113,29 @@ pub fn step_matrix(
             u: state[j.index()].1,
             head: VehicleId::LEADER,
         };
+        // What each radar sees: the vehicle ahead in road order.
+        let in_road: Vec<State> = road.iter().map(|(v, _)| state[v.index()].0).collect();
+        let mut truths: Vec<Option<RadarTruth>> = Vec::with_capacity(road.len());
+        radar_truth(
+            &in_road,
+            |j| p.fallback.length(road[j].0.index()),
+            &mut truths,
+        );
         let mut next = vec![0.0; z.len()];
         for (i, &(v, head)) in road.iter().enumerate().skip(1) {
             let (own, last_u) = state[v.index()];
             let ahead = road[i - 1].0;
-            let (ahead_state, _) = state[ahead.index()];
             let length = p.fallback.length(ahead.index());
-            let radar = RadarTruth {
-                gap: ahead_state[0] - own[0] - length,
-                closing: own[1] - ahead_state[1],
-                intruder: false,
-            };
+            let radar = truths[i];
             let u = if v == head {
-                let reading = Reading {
-                    gap: radar.gap,
-                    closing: radar.closing,
+                let reading = radar.map(|r| Reading {
+                    gap: r.gap,
+                    closing: r.closing,
                     intruder: false,
-                };
+                });
                 acc_command(
                     &p.fallback.acc,
-                    Some(reading),
+                    reading,
                     heads_headway,
                     own[1],
                     p.spacing,
@@ -150,7 +153,7 @@ pub fn step_matrix(
                     vehicles,
                     own,
                     last_u,
-                    radar: Some(radar),
+                    radar,
                     ahead,
                     ahead_heard: Some(&ahead_heard),
                     neighbours,

@@ -511,14 +511,9 @@ impl Maneuvers {
         };
         let opener = member.opener()?;
         let formation = member.formation();
-        let mut j = formation.predecessor(i);
-        while let Some(a) = j.filter(|a| !a.is_leader()) {
-            if a == opener {
-                return Some(a);
-            }
-            j = formation.predecessor(a);
-        }
-        None
+        std::iter::successors(formation.predecessor(i), |&a| formation.predecessor(a))
+            .take_while(|a| !a.is_leader())
+            .find(|&a| a == opener)
     }
 
     /// Whether a platoon may head part of the vehicles (a merge, a split).
