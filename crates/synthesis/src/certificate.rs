@@ -1,6 +1,7 @@
 //! Theorem 1's certificates as `certificate.json` holds them, and their re-check independent
 //! of the solver.
-use crate::lmi::{psi, Coupling, LmiError, Lyapunov, Plant3, Plants};
+use crate::condition::{psi, Coupling, Lyapunov, Plant3, Plants};
+use crate::error::LmiError;
 use nalgebra::{DMatrix, Matrix3, RowVector3};
 use serde::{Deserialize, Serialize};
 

@@ -1,7 +1,9 @@
 //! The largest decay `c` Theorem 1 certifies for a gain: bisections over `c` of the SDPs of
 //! [`crate::lmi`].
 use crate::certificate::Certificate;
-use crate::lmi::{min_ratio, min_ratio_with, Coupling, Feasibility, LmiError, LyapunovForm, Query};
+use crate::condition::Coupling;
+use crate::error::LmiError;
+use crate::lmi::{min_ratio, min_ratio_with, Feasibility, LyapunovForm, Query};
 
 /// The largest decay c (to `tol`) for which (13) is feasible with gain `k`, by bisection on
 /// `[0, c_max]`; `None` if it is infeasible already at c = 0.

@@ -16,7 +16,9 @@
 //! platoon is infeasible for the gain found, the certificate is the block-diagonal one
 //! ([`LyapunovForm::BlockDiagonal`]).
 use crate::certificate::Certificate;
-use crate::lmi::{min_ratio, Coupling, Feasibility, LmiError, LyapunovForm, Plant3};
+use crate::condition::{Coupling, Plant3};
+use crate::error::LmiError;
+use crate::lmi::{min_ratio, Feasibility, LyapunovForm};
 use crate::sdp::{dm, solve, sym_basis3, Lmi};
 use nalgebra::{DMatrix, Matrix3};
 

@@ -16,7 +16,8 @@
 //! least `sqrt(1 - 2 c dt)` a step whichever map acts, in any order, so at the rate `c` (1/s),
 //! roughly. [`common_decay`] finds the largest such `c` by bisection, each answer re-checked by
 //! the eigenvalues of the LMI at the solver's `P` before it is believed.
-use crate::lmi::{LmiError, P_MAX};
+use crate::error::LmiError;
+use crate::lmi::P_MAX;
 use crate::sdp::{solve, Lmi};
 use nalgebra::DMatrix;
 use serde::Serialize;

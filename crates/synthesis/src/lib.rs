@@ -19,9 +19,11 @@
 #![warn(missing_docs)]
 
 mod certificate;
+mod condition;
 mod decay;
 mod design;
 mod discrete;
+mod error;
 mod lmi;
 mod mixed;
 mod sdp;
@@ -34,11 +36,10 @@ pub use sdp::SdpError;
 pub use string_stability::{string_stability, StringStability, TauStringStability};
 
 pub use certificate::{Certificate, Verdict};
+pub use condition::{psi, psi_theorem1, Coupling, Lyapunov, Plant3, Plants};
 pub use decay::{max_decay_within_ratio, theorem1_max_decay};
-pub use lmi::{
-    min_ratio, psi, psi_theorem1, theorem1_min_ratio, Coupling, Feasibility, LmiError, Lyapunov,
-    LyapunovForm, Plant3, Plants, P_MAX,
-};
+pub use error::LmiError;
+pub use lmi::{min_ratio, theorem1_min_ratio, Feasibility, LyapunovForm, P_MAX};
 pub use mixed::{check_mixed, mixed_max_real, MixedCheck, MIXED_MAX_FREE};
 pub use spectrum::{closed_loop_spectrum, growth_rate, Spectrum};
 

@@ -5,7 +5,9 @@
 //! for every combination of lags in the box `prod_i [lo_i, hi_i]` (time-varying too) exactly
 //! when it holds at the box's `2^N` vertices, which [`check_mixed`] evaluates.
 use crate::certificate::Certificate;
-use crate::lmi::{psi, Coupling, LmiError, Lyapunov, Plant3, Plants, P_MAX};
+use crate::condition::{psi, Coupling, Lyapunov, Plant3, Plants};
+use crate::error::LmiError;
+use crate::lmi::P_MAX;
 use crate::sdp::{dm, solve, sym_basis3, Lmi};
 use nalgebra::{DMatrix, Matrix3, RowVector3};
 use serde::Serialize;

@@ -1,5 +1,5 @@
 //! Closed-loop spectra over a range of engine lags, and the growth rate with the controls off.
-use crate::lmi::{kron, Coupling, Plant3};
+use crate::condition::{kron, Coupling, Plant3};
 use nalgebra::{DMatrix, Matrix3, RowVector3};
 use serde::Serialize;
 

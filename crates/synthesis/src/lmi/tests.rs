@@ -1,6 +1,7 @@
 //! The unit tests of LMI (13) and its SDPs: the printed ratios, the retries, the time-headway
 //! coupling, both Lyapunov forms, the robust condition and the re-check of every answer.
 use super::*;
+use crate::condition::psi_theorem1;
 use crate::decay::theorem1_max_decay;
 use crate::spectrum::closed_loop_spectrum;
 use platoon_topology::{Preset, Topology};
