@@ -475,7 +475,15 @@ fn a_head_that_is_no_vehicle_ahead_is_measured_against_the_leader() {
             head: VehicleId(head),
             ..Default::default()
         };
-        platoon_sim::step_rows(0, &s, &states, false, &[false; 6], &[], &[], step, &mut out);
+        let sources = platoon_sim::RowSources {
+            k: 0,
+            states: &states,
+            leader_triggered: false,
+            jammed: &[false; 6],
+            ahead: &[],
+            targets: &[],
+        };
+        platoon_sim::step_rows(&s, &sources, step, &mut out);
         // Vehicle 4 at its slot behind the leader: no error against the leader.
         assert_eq!(out[4].spacing_error, 0.0, "head {head}");
     }

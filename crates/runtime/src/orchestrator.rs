@@ -10,7 +10,7 @@ use crate::timing::{StageClock, Timing};
 use crate::RunError;
 use platoon_control::{FollowerStep, RejectCounts};
 use platoon_sim::detection::Scored;
-use platoon_sim::{step_rows, Scenario, StepRow, StepWire, WireCounts};
+use platoon_sim::{step_rows, RowSources, Scenario, StepRow, StepWire, WireCounts};
 use platoon_wire::{
     Command, ControlMsg, Inspection, LinkPacket, Node, Observed, Service, TrafficVehicle,
     VehicleState,

@@ -335,24 +335,42 @@ impl PlantSpec {
     }
 }
 
-/// Assembles the rows of step `k` from what the stages produced: the plant's `states`, whether
-/// the leader broadcast, who sensed jamming, and each follower's step (`follower(i)`, i >= 1);
-/// `ahead` is what the plant's radars saw (by vehicle, empty without traffic), of which the
-/// rows keep the intruders, and `targets` who they saw (by vehicle, empty: the rows say
-/// nothing of the radar), kept within the radar's range. Both runtimes build their rows here,
-/// so their trajectories agree bit for bit.
-#[allow(clippy::too_many_arguments)]
+/// What the stages of one platoon's step produced, which [`step_rows`] records.
+#[derive(Debug, Clone, Copy)]
+pub struct RowSources<'a> {
+    /// The step.
+    pub k: u64,
+    /// The plant's states, leader first.
+    pub states: &'a [State],
+    /// Whether the leader broadcast.
+    pub leader_triggered: bool,
+    /// Who sensed jamming, by vehicle.
+    pub jammed: &'a [bool],
+    /// What the plant's radars saw (by vehicle, empty without traffic), of which the rows keep
+    /// the intruders.
+    pub ahead: &'a [Option<platoon_control::fallback::RadarTruth>],
+    /// Who they saw (by vehicle; empty: the rows say nothing of the radar), kept within the
+    /// radar's range.
+    pub targets: &'a [traffic::RadarTarget],
+}
+
+/// Assembles the rows of step `sources.k` from what the stages produced (`sources`) and each
+/// follower's step (`follower(i)`, i >= 1). Both runtimes build their rows here, so their
+/// trajectories agree bit for bit.
 pub fn step_rows(
-    k: u64,
     scenario: &Scenario,
-    states: &[State],
-    leader_triggered: bool,
-    jammed: &[bool],
-    ahead: &[Option<platoon_control::fallback::RadarTruth>],
-    targets: &[traffic::RadarTarget],
+    sources: &RowSources<'_>,
     follower: impl Fn(usize) -> FollowerStep,
     out: &mut Vec<StepRow>,
 ) {
+    let RowSources {
+        k,
+        states,
+        leader_triggered,
+        jammed,
+        ahead,
+        targets,
+    } = *sources;
     let range = scenario.control.fallback.radar.range_m;
     let radar = |i: usize| {
         let who = *targets.get(i)?;
@@ -668,13 +686,15 @@ impl Simulation {
             self.radar.len()
         };
         step_rows(
-            k,
             sc,
-            states,
-            leader_triggered,
-            &self.jammed,
-            &self.radar[..seen],
-            &self.targets[..seen.min(self.targets.len())],
+            &RowSources {
+                k,
+                states,
+                leader_triggered,
+                jammed: &self.jammed,
+                ahead: &self.radar[..seen],
+                targets: &self.targets[..seen.min(self.targets.len())],
+            },
             |i| controller.follower_step(VehicleId(i as u16)),
             &mut self.rows,
         );

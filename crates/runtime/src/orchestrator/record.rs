@@ -148,13 +148,15 @@ impl<'a> Recorder<'a> {
             let leader_triggered = self.leader_sent[j];
             let cmds = &c[j * (n1 - 1)..(j + 1) * (n1 - 1)];
             step_rows(
-                self.step,
                 replica,
-                &states[j * n1..(j + 1) * n1],
-                leader_triggered,
-                &self.jammed[j * n1..(j + 1) * n1],
-                self.ahead.get(j * n1..(j + 1) * n1).unwrap_or(&[]),
-                self.targets.get(j * n1..(j + 1) * n1).unwrap_or(&[]),
+                &RowSources {
+                    k: self.step,
+                    states: &states[j * n1..(j + 1) * n1],
+                    leader_triggered,
+                    jammed: &self.jammed[j * n1..(j + 1) * n1],
+                    ahead: self.ahead.get(j * n1..(j + 1) * n1).unwrap_or(&[]),
+                    targets: self.targets.get(j * n1..(j + 1) * n1).unwrap_or(&[]),
+                },
                 |i| {
                     let cmd = cmds[i - 1];
                     FollowerStep {
