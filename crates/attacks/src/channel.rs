@@ -267,6 +267,21 @@ pub struct ChannelSpec {
     pub jammers: Vec<crate::jammer::Jammer>,
 }
 
+/// One step of one platoon on the channel: what [`Channel::gate`] gates.
+#[derive(Debug, Clone, Copy)]
+pub struct ChannelStep<'a> {
+    /// The step.
+    pub k: u64,
+    /// Its time (s).
+    pub t: f64,
+    /// Who hears whom: each broadcast goes to its sender's out-neighbours.
+    pub topology: &'a Topology,
+    /// Every vehicle's true state at step k, leader first.
+    pub states: &'a [State],
+    /// The packets broadcast at step k.
+    pub tx: &'a [Packet],
+}
+
 /// The channel's state across steps: random generator, Gilbert-Elliott states, packets in flight
 /// and the history replay draws from.
 #[derive(Debug, Clone)]
@@ -407,22 +422,24 @@ impl Channel {
         &self.spec
     }
 
-    /// Gates step `k` (time `t`): `tx` are the packets broadcast at this step, `states` the true
-    /// vehicle states (for position-dependent attacks). Appends what each receiver gets to `out`,
-    /// sets `jammed[v]` for every vehicle that senses its channel jammed, and appends to `log`
-    /// every packet that was not delivered as sent.
-    #[allow(clippy::too_many_arguments)]
+    /// Gates `step`: its packets broadcast over its topology, with the true vehicle states (for
+    /// position-dependent attacks). Appends what each receiver gets to `out`, sets `jammed[v]`
+    /// for every vehicle that senses its channel jammed, and appends to `log` every packet that
+    /// was not delivered as sent.
     pub fn gate(
         &mut self,
-        k: u64,
-        t: f64,
-        topology: &Topology,
-        states: &[State],
-        tx: &[Packet],
+        step: &ChannelStep<'_>,
         out: &mut Vec<Delivery>,
         jammed: &mut [bool],
         log: &mut Vec<ChannelEvent>,
     ) {
+        let ChannelStep {
+            k,
+            t,
+            topology,
+            states,
+            tx,
+        } = *step;
         let at = (k, self.spec.platoon);
         let dos = self.spec.dos.is_active(t);
         jammed.fill(dos);
@@ -535,13 +552,13 @@ impl Channel {
                 {
                     // Held back by DCC: it arrives late (unless an attack drops it).
                     let before = out.len();
-                    self.link(k, t, *sent, lied, receiver, out, log);
+                    self.link(step, *sent, lied, receiver, out, log);
                     if out.len() > before {
                         log.push(event(at, sent, receiver, Action::DeliveredLate, None));
                     }
                     continue;
                 }
-                self.link(k, t, *sent, lied, receiver, out, log);
+                self.link(step, *sent, lied, receiver, out, log);
             }
             if self.max_lag > 0 {
                 let h = &mut self.history[sent.sender.index()];
@@ -570,19 +587,18 @@ impl Channel {
         lied
     }
 
-    /// One packet on one link through the attack models; `lied`: an insider altered it (logged
-    /// as altered on every link it goes through).
-    #[allow(clippy::too_many_arguments)]
+    /// One packet on one link through the attack models at `step`; `lied`: an insider altered
+    /// it (logged as altered on every link it goes through).
     fn link(
         &mut self,
-        k: u64,
-        t: f64,
+        step: &ChannelStep<'_>,
         mut packet: Packet,
         lied: bool,
         receiver: VehicleId,
         out: &mut Vec<Delivery>,
         log: &mut Vec<ChannelEvent>,
     ) {
+        let (k, t) = (step.k, step.t);
         let at = (k, self.spec.platoon);
         let link = packet.sender.index() * self.vehicles + receiver.index();
         if lied {

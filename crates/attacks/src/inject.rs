@@ -3,7 +3,7 @@
 //! ids (leader 0), so one implementation runs in process (`platoon_sim`: runs, campaigns,
 //! `platoon search`) and as the injector process of a co-simulation (`platoon_runtime::injector`
 //! adapts it to the wire). The built-in [`Channel`] is one.
-use crate::channel::{Channel, ChannelEvent, RadioStats};
+use crate::channel::{Channel, ChannelEvent, ChannelStep, RadioStats};
 use platoon_model::State;
 use platoon_topology::Topology;
 use platoon_v2v::{Delivery, Packet};
@@ -128,11 +128,13 @@ impl Injector for Channel {
     fn step(&mut self, step: &Step<'_>, out: &mut Reception<'_>) -> Result<(), InjectError> {
         self.set_background(step.background);
         self.gate(
-            step.k,
-            step.t,
-            step.topology,
-            step.states,
-            step.tx,
+            &ChannelStep {
+                k: step.k,
+                t: step.t,
+                topology: step.topology,
+                states: step.states,
+                tx: step.tx,
+            },
             out.deliveries,
             out.jammed,
             out.log,

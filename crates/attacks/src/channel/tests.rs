@@ -29,11 +29,13 @@ fn gate(c: &mut Channel, k: u64, tx: &[Packet], states: &[State]) -> Out {
     };
     let topology = pf(states.len() - 1);
     c.gate(
-        k,
-        k as f64 * 0.01,
-        &topology,
-        states,
-        tx,
+        &ChannelStep {
+            k,
+            t: k as f64 * 0.01,
+            topology: &topology,
+            states,
+            tx,
+        },
         &mut o.deliveries,
         &mut o.jammed,
         &mut o.log,
@@ -371,11 +373,13 @@ fn two_receivers(attacks: Vec<LinkAttack>, steps: u64) -> (Vec<[State; 2]>, Vec<
     for k in 0..steps {
         let mut out = Vec::new();
         c.gate(
-            k,
-            k as f64 * 0.01,
-            &topology,
-            &states(3),
-            &[packet(1, k as u32 + 1, k)],
+            &ChannelStep {
+                k,
+                t: k as f64 * 0.01,
+                topology: &topology,
+                states: &states(3),
+                tx: &[packet(1, k as u32 + 1, k)],
+            },
             &mut out,
             &mut [false; 4],
             &mut log,
