@@ -173,6 +173,113 @@ impl Leader {
         }
     }
 
+    /// A platoon asks to merge at the back, numbered on from this one (`Change::Merged`): its
+    /// head `from`, the member it asks to follow (`behind`) and its last vehicle (`tail`).
+    fn merge_request(
+        &mut self,
+        step: u64,
+        from: VehicleId,
+        behind: VehicleId,
+        tail: VehicleId,
+        out: &mut Vec<Message>,
+    ) {
+        let size = usize::from(tail.0).saturating_sub(usize::from(from.0)) + 1;
+        if self.formation.contains(from) {
+            self.refuse(from, Refusal::Member, out);
+        } else if self.formation.members().len() + size > self.max_members {
+            self.refuse(from, Refusal::Full, out);
+        } else if behind != self.formation.tail() || self.formation.merged(from, tail).is_err() {
+            self.refuse(from, Refusal::NoSlot, out);
+        } else {
+            self.state = LeaderState::Joining {
+                joiner: from,
+                behind,
+                opener: None,
+                gap_ready: false,
+                deadline: step + self.timing.maneuver_steps,
+                ask_at: step + self.timing.reply_steps,
+                asks: 1,
+                tail: Some(tail),
+            };
+            self.accept_merge(from, behind, out);
+        }
+    }
+
+    /// `from` asks to join behind `behind`; a join in the middle asks the member there to open
+    /// a gap.
+    fn join_request(
+        &mut self,
+        step: u64,
+        from: VehicleId,
+        behind: VehicleId,
+        out: &mut Vec<Message>,
+    ) {
+        if self.formation.contains(from) {
+            self.refuse(from, Refusal::Member, out);
+        } else if self.formation.members().len() >= self.max_members {
+            self.refuse(from, Refusal::Full, out);
+        } else if !self.formation.contains(behind) {
+            self.refuse(from, Refusal::NoSlot, out);
+        } else {
+            let opener = self.formation.successor(behind);
+            self.state = LeaderState::Joining {
+                joiner: from,
+                behind,
+                opener,
+                gap_ready: false,
+                deadline: step + self.timing.maneuver_steps,
+                ask_at: step + self.timing.reply_steps,
+                asks: 1,
+                tail: None,
+            };
+            let middle = opener.is_some();
+            self.send(out, from, Body::JoinAccept { behind, middle });
+            if let Some(opener) = opener {
+                self.send(out, opener, Body::OpenGap { joiner: from });
+            }
+        }
+    }
+
+    /// Member `from` leaves, or splits off with the members behind it (`split_notice`), while
+    /// the leader is in `state`: a join whose slot goes with it is called off first.
+    fn member_goes(
+        &mut self,
+        step: u64,
+        from: VehicleId,
+        split_notice: bool,
+        state: LeaderState,
+        out: &mut Vec<Message>,
+    ) {
+        // A split takes the members from `from` on; so does the withdrawal of the head of a
+        // platoon that just merged (its platoon goes with it).
+        let withdrawn = self
+            .merged
+            .is_some_and(|(h, until)| h == from && step <= until);
+        let split = split_notice || withdrawn;
+        if let LeaderState::Joining {
+            joiner,
+            behind,
+            opener,
+            ..
+        } = state
+        {
+            let gone = |v: VehicleId| match split {
+                true => self.formation.position(v) >= self.formation.position(from),
+                false => v == from,
+            };
+            if gone(behind) || opener.is_some_and(gone) {
+                // The slot goes with the members leaving: the join is called off first.
+                self.state = LeaderState::Idle;
+                self.send(out, EVERYONE, Body::Abort { joiner });
+            }
+        }
+        let change = match split {
+            true => Change::Split { head: from },
+            false => Change::Left { vehicle: from },
+        };
+        self.commit(step, change, out);
+    }
+
     fn handle(&mut self, step: u64, m: &Message, out: &mut Vec<Message>) {
         let from = m.sender;
         match (m.body, self.state) {
@@ -192,55 +299,10 @@ impl Leader {
                 self.refuse(from, Refusal::Busy, out);
             }
             (Body::MergeRequest { behind, tail }, LeaderState::Idle) => {
-                // A platoon merges at the back, numbered on from this one (`Change::Merged`).
-                let size = usize::from(tail.0).saturating_sub(usize::from(from.0)) + 1;
-                if self.formation.contains(from) {
-                    self.refuse(from, Refusal::Member, out);
-                } else if self.formation.members().len() + size > self.max_members {
-                    self.refuse(from, Refusal::Full, out);
-                } else if behind != self.formation.tail()
-                    || self.formation.merged(from, tail).is_err()
-                {
-                    self.refuse(from, Refusal::NoSlot, out);
-                } else {
-                    self.state = LeaderState::Joining {
-                        joiner: from,
-                        behind,
-                        opener: None,
-                        gap_ready: false,
-                        deadline: step + self.timing.maneuver_steps,
-                        ask_at: step + self.timing.reply_steps,
-                        asks: 1,
-                        tail: Some(tail),
-                    };
-                    self.accept_merge(from, behind, out);
-                }
+                self.merge_request(step, from, behind, tail, out);
             }
             (Body::JoinRequest { behind }, LeaderState::Idle) => {
-                if self.formation.contains(from) {
-                    self.refuse(from, Refusal::Member, out);
-                } else if self.formation.members().len() >= self.max_members {
-                    self.refuse(from, Refusal::Full, out);
-                } else if !self.formation.contains(behind) {
-                    self.refuse(from, Refusal::NoSlot, out);
-                } else {
-                    let opener = self.formation.successor(behind);
-                    self.state = LeaderState::Joining {
-                        joiner: from,
-                        behind,
-                        opener,
-                        gap_ready: false,
-                        deadline: step + self.timing.maneuver_steps,
-                        ask_at: step + self.timing.reply_steps,
-                        asks: 1,
-                        tail: None,
-                    };
-                    let middle = opener.is_some();
-                    self.send(out, from, Body::JoinAccept { behind, middle });
-                    if let Some(opener) = opener {
-                        self.send(out, opener, Body::OpenGap { joiner: from });
-                    }
-                }
+                self.join_request(step, from, behind, out);
             }
             (
                 Body::GapReady { joiner: j },
@@ -298,34 +360,7 @@ impl Leader {
             (Body::LeaveNotice | Body::SplitNotice, state)
                 if self.formation.contains(from) && from != self.me() =>
             {
-                // A split takes the members from `from` on; so does the withdrawal of the head
-                // of a platoon that just merged (its platoon goes with it).
-                let withdrawn = self
-                    .merged
-                    .is_some_and(|(h, until)| h == from && step <= until);
-                let split = m.body == Body::SplitNotice || withdrawn;
-                if let LeaderState::Joining {
-                    joiner,
-                    behind,
-                    opener,
-                    ..
-                } = state
-                {
-                    let gone = |v: VehicleId| match split {
-                        true => self.formation.position(v) >= self.formation.position(from),
-                        false => v == from,
-                    };
-                    if gone(behind) || opener.is_some_and(gone) {
-                        // The slot goes with the members leaving: the join is called off first.
-                        self.state = LeaderState::Idle;
-                        self.send(out, EVERYONE, Body::Abort { joiner });
-                    }
-                }
-                let change = match split {
-                    true => Change::Split { head: from },
-                    false => Change::Left { vehicle: from },
-                };
-                self.commit(step, change, out);
+                self.member_goes(step, from, m.body == Body::SplitNotice, state, out);
             }
             (Body::LeaveNotice | Body::SplitNotice, _)
                 if self.last_update.is_some_and(|(c, _)| {
