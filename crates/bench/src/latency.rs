@@ -148,7 +148,7 @@ pub fn latency(a: Latency) -> Result<LatencyReport> {
         scenario,
         stem,
     } = platoon_config::load_or(a.config.as_deref(), platoon_config::Embedded::Paper)?;
-    let dir = crate::create_out(a.out, "bench-latency", a.force)?;
+    let dir = crate::create_out(a.out.clone(), "bench-latency", a.force)?;
     dir.write("config.toml", platoon_config::to_toml(&config).as_bytes())?;
     let exe = platoon_app::platoon_program()?;
     let n = scenario.topology.followers();
@@ -168,165 +168,14 @@ pub fn latency(a: Latency) -> Result<LatencyReport> {
         )
         .expect("static template"),
     );
-    let mut samples: Vec<(&str, Vec<u64>)> = Vec::new();
+    let samples = baseline_hops(&a, &exe, items, bytes, &bar)?;
 
-    let raw_hop = |busy_poll: bool| {
-        platoon_runtime::bench::raw_hop(
-            &platoon_runtime::new_run_id(),
-            &exe,
-            a.iterations,
-            a.warmup,
-            items,
-            busy_poll,
-        )
-    };
-    bar.set_message("raw iceoryx2 hop");
-    let raw = raw_hop(false).context("raw iceoryx2 hop")?;
-    samples.push(("raw_iceoryx2_hop", raw));
-    bar.inc(1);
-    if a.busy_poll {
-        if cores() < 2 {
-            eprintln!(
-                "warning: {} core(s) for 2 busy-polling processes: the figure will collapse",
-                cores()
-            );
-        }
-        bar.set_message("busy-polling iceoryx2 hop");
-        let busy = raw_hop(true).context("busy-polling iceoryx2 hop")?;
-        samples.push(("raw_iceoryx2_hop_busy_poll", busy));
-    }
-    bar.inc(1);
-    for socket in [
-        platoon_runtime::bench::Socket::Udp,
-        platoon_runtime::bench::Socket::Uds,
-    ] {
-        bar.set_message(format!("{} hop", socket.name()));
-        let name = match socket {
-            platoon_runtime::bench::Socket::Udp => "udp_loopback_hop",
-            platoon_runtime::bench::Socket::Uds => "unix_socket_hop",
-        };
-        // A baseline that cannot run fails the benchmark: the report compares side by side.
-        let h = platoon_runtime::bench::socket_hop(socket, &exe, a.iterations, a.warmup, bytes)
-            .with_context(|| {
-                format!(
-                    "the {name} baseline (a ping-pong with `platoon node echo-{}` in another \
-                     process) failed; fix it before benchmarking",
-                    socket.name()
-                )
-            })?;
-        samples.push((name, h));
-        bar.inc(1);
-    }
-    // The two baselines again with both processes on one core (this process's CPU set, which
-    // the echo inherits), so the one-core rows of the co-simulation compare like with like.
-    bar.set_message("raw iceoryx2 and Unix-socket hops on one core");
-    let (raw_one, uds_one) = on_one_core(|| -> Result<_> {
-        let raw = raw_hop(false).context("raw iceoryx2 hop on one core")?;
-        let uds = platoon_runtime::bench::socket_hop(
-            platoon_runtime::bench::Socket::Uds,
-            &exe,
-            a.iterations,
-            a.warmup,
-            bytes,
-        )
-        .context("the Unix-socket hop on one core")?;
-        Ok((raw, uds))
-    })??;
-    samples.push(("raw_iceoryx2_hop_one_core", raw_one));
-    samples.push(("unix_socket_hop_one_core", uds_one));
-
-    bar.set_message(format!("co-simulating {stem} over iceoryx2"));
-    let logs = dir.path("logs");
-    std::fs::create_dir_all(&logs)?;
-    // Every run names its facts (`PLATOON_RUN_FACTS`) as `platoon run` does: the Python SDK
-    // injector refuses to start without them. The runs go one after another, so each rewrites
-    // the one facts.json with its own run id.
-    let facts = |run_id: &str| -> Result<std::path::PathBuf> {
-        let f = platoon_runtime::plugin::RunFacts::of(
-            run_id,
-            &scenario,
-            platoon_config::PlantKind::Native,
-        );
-        dir.write(
-            platoon_runtime::plugin::RUN_FACTS_FILE,
-            &serde_json::to_vec_pretty(&f)?,
-        )?;
-        Ok(std::path::absolute(
-            dir.path(platoon_runtime::plugin::RUN_FACTS_FILE),
-        )?)
-    };
-    let run_id = platoon_runtime::new_run_id();
-    let opts = platoon_runtime::Options {
-        facts: Some(facts(&run_id)?),
-        run_id,
-        exe: exe.clone(),
-        config: std::path::absolute(dir.path("config.toml"))?,
-        injector: platoon_runtime::Program::Builtin,
-        controller: platoon_runtime::Program::Builtin,
-        plant: platoon_runtime::Program::Builtin,
-        traffic: 0,
-        radar: false,
-        env: Vec::new(),
-        channel_log: None,
-        log_dir: Some(logs),
-        python_path: None,
-        step_timeout: Duration::from_secs(5),
-        ready_timeout: Duration::from_secs(60),
-        stop: None,
-        observers: 0,
-        channel_first: false,
-        cpus: Vec::new(),
-    };
-    let outcome = platoon_runtime::orchestrate(&opts, &scenario, |_, _, _| {})
-        .context("the iceoryx2 co-simulation")?;
-    // The same run with the Python SDK's dos_jammer as the injector (the built-in one is
-    // written on the Rust SDK, so its stage is the Rust SDK's), and both again with the nodes
-    // on one core: a step is a chain of wake-ups, and waking a process on another core can
-    // cost more than the work (VMs that halt idle cores), which is not the SDK's cost.
-    let one_core = platoon_runtime::available_cpus()
-        .first()
-        .map_or_else(Vec::new, |&c| vec![c]);
-    let cosim = |injector: platoon_runtime::Program, cpus: &[usize]| {
-        let run_id = platoon_runtime::new_run_id();
-        let opts = platoon_runtime::Options {
-            facts: Some(facts(&run_id)?),
-            run_id,
-            injector,
-            log_dir: None,
-            cpus: cpus.to_vec(),
-            ..opts.clone()
-        };
-        Ok::<_, anyhow::Error>(platoon_runtime::orchestrate(&opts, &scenario, |_, _, _| {})?.timing)
-    };
-    bar.set_message("co-simulating with the nodes on one core");
-    let builtin_one_core = cosim(platoon_runtime::Program::Builtin, &one_core)
-        .context("the iceoryx2 co-simulation on one core")?;
-    bar.set_message("co-simulating with the Python SDK injector");
-    // The Python rows are part of the report: if they cannot be measured, the benchmark fails.
-    let python = platoon_app::sumo::ensure_venv().context(
-        "the Python SDK injector needs the bridge's Python environment (bridge/setup-venv.sh)",
-    )?;
-    let script = platoon_app::sumo::bridge_dir()?.join("examples/dos_jammer.py");
-    let program = platoon_runtime::Program::Exec {
-        program: python.clone(),
-        args: vec![script.display().to_string()],
-    };
-    // Names what failed and how to reproduce it outside the benchmark.
-    let failed = |what: &str| {
-        format!(
-            "the iceoryx2 co-simulation{what} with the Python SDK injector failed; reproduce \
-             and fix it with `platoon run --injector \"{} {}\"`{}",
-            python.display(),
-            script.display(),
-            if what.is_empty() { "" } else { " --cpus N" }
-        )
-    };
-    let python_sdk = cosim(program.clone(), &[])
-        .with_context(|| failed(""))?
-        .injector;
-    let python_sdk_one_core = cosim(program, &one_core)
-        .with_context(|| failed(" on one core"))?
-        .injector;
+    let Cosims {
+        builtin: t,
+        builtin_one_core,
+        python_sdk,
+        python_sdk_one_core,
+    } = cosims(&dir, &scenario, &stem, &exe, &bar)?;
     let mut sim = FleetSimulation::new(&scenario)?;
     let mut inproc = Vec::with_capacity(scenario.steps as usize + 1);
     while !sim.is_done() {
@@ -341,7 +190,6 @@ pub fn latency(a: Latency) -> Result<LatencyReport> {
         .iter()
         .map(|(name, v)| row(name, Stats::of(&mut v.clone())))
         .collect::<Result<_>>()?;
-    let t = outcome.timing;
     rows.extend(
         [
             row("injector_hop", t.injector),
@@ -404,6 +252,213 @@ pub fn latency(a: Latency) -> Result<LatencyReport> {
     )?;
     let path = dir.commit()?;
 
+    print_report(&report);
+    println!("outputs: {}", path.display());
+    Ok(report)
+}
+
+/// The stage timings of the co-simulations [`latency`] measures.
+struct Cosims {
+    /// The built-in injector, the nodes on any CPU.
+    builtin: platoon_runtime::timing::Timing,
+    /// The built-in injector, the nodes on one core.
+    builtin_one_core: platoon_runtime::timing::Timing,
+    /// The Python SDK's injector hop, the nodes on any CPU.
+    python_sdk: Option<Stats>,
+    /// The Python SDK's injector hop, the nodes on one core.
+    python_sdk_one_core: Option<Stats>,
+}
+
+/// Co-simulates `scenario` (its resolved config in `dir`) over iceoryx2 with the built-in
+/// injector, then with the nodes on one core, then both with the Python SDK's `dos_jammer.py`.
+fn cosims(
+    dir: &platoon_output::rundir::RunDir,
+    scenario: &platoon_sim::Scenario,
+    stem: &str,
+    exe: &std::path::Path,
+    bar: &indicatif::ProgressBar,
+) -> Result<Cosims> {
+    bar.set_message(format!("co-simulating {stem} over iceoryx2"));
+    let logs = dir.path("logs");
+    std::fs::create_dir_all(&logs)?;
+    // Every run names its facts (`PLATOON_RUN_FACTS`) as `platoon run` does: the Python SDK
+    // injector refuses to start without them. The runs go one after another, so each rewrites
+    // the one facts.json with its own run id.
+    let facts = |run_id: &str| -> Result<std::path::PathBuf> {
+        let f = platoon_runtime::plugin::RunFacts::of(
+            run_id,
+            scenario,
+            platoon_config::PlantKind::Native,
+        );
+        dir.write(
+            platoon_runtime::plugin::RUN_FACTS_FILE,
+            &serde_json::to_vec_pretty(&f)?,
+        )?;
+        Ok(std::path::absolute(
+            dir.path(platoon_runtime::plugin::RUN_FACTS_FILE),
+        )?)
+    };
+    let run_id = platoon_runtime::new_run_id();
+    let opts = platoon_runtime::Options {
+        facts: Some(facts(&run_id)?),
+        run_id,
+        exe: exe.to_path_buf(),
+        config: std::path::absolute(dir.path("config.toml"))?,
+        injector: platoon_runtime::Program::Builtin,
+        controller: platoon_runtime::Program::Builtin,
+        plant: platoon_runtime::Program::Builtin,
+        traffic: 0,
+        radar: false,
+        env: Vec::new(),
+        channel_log: None,
+        log_dir: Some(logs),
+        python_path: None,
+        step_timeout: Duration::from_secs(5),
+        ready_timeout: Duration::from_secs(60),
+        stop: None,
+        observers: 0,
+        channel_first: false,
+        cpus: Vec::new(),
+    };
+    let outcome = platoon_runtime::orchestrate(&opts, scenario, |_, _, _| {})
+        .context("the iceoryx2 co-simulation")?;
+    // The same run with the Python SDK's dos_jammer as the injector (the built-in one is
+    // written on the Rust SDK, so its stage is the Rust SDK's), and both again with the nodes
+    // on one core: a step is a chain of wake-ups, and waking a process on another core can
+    // cost more than the work (VMs that halt idle cores), which is not the SDK's cost.
+    let one_core = platoon_runtime::available_cpus()
+        .first()
+        .map_or_else(Vec::new, |&c| vec![c]);
+    let cosim = |injector: platoon_runtime::Program, cpus: &[usize]| {
+        let run_id = platoon_runtime::new_run_id();
+        let opts = platoon_runtime::Options {
+            facts: Some(facts(&run_id)?),
+            run_id,
+            injector,
+            log_dir: None,
+            cpus: cpus.to_vec(),
+            ..opts.clone()
+        };
+        Ok::<_, anyhow::Error>(platoon_runtime::orchestrate(&opts, scenario, |_, _, _| {})?.timing)
+    };
+    bar.set_message("co-simulating with the nodes on one core");
+    let builtin_one_core = cosim(platoon_runtime::Program::Builtin, &one_core)
+        .context("the iceoryx2 co-simulation on one core")?;
+    bar.set_message("co-simulating with the Python SDK injector");
+    // The Python rows are part of the report: if they cannot be measured, the benchmark fails.
+    let python = platoon_app::sumo::ensure_venv().context(
+        "the Python SDK injector needs the bridge's Python environment (bridge/setup-venv.sh)",
+    )?;
+    let script = platoon_app::sumo::bridge_dir()?.join("examples/dos_jammer.py");
+    let program = platoon_runtime::Program::Exec {
+        program: python.clone(),
+        args: vec![script.display().to_string()],
+    };
+    // Names what failed and how to reproduce it outside the benchmark.
+    let failed = |what: &str| {
+        format!(
+            "the iceoryx2 co-simulation{what} with the Python SDK injector failed; reproduce \
+             and fix it with `platoon run --injector \"{} {}\"`{}",
+            python.display(),
+            script.display(),
+            if what.is_empty() { "" } else { " --cpus N" }
+        )
+    };
+    let python_sdk = cosim(program.clone(), &[])
+        .with_context(|| failed(""))?
+        .injector;
+    let python_sdk_one_core = cosim(program, &one_core)
+        .with_context(|| failed(" on one core"))?
+        .injector;
+    Ok(Cosims {
+        builtin: outcome.timing,
+        builtin_one_core,
+        python_sdk,
+        python_sdk_one_core,
+    })
+}
+
+/// The baselines, each a ping-pong of `items` link packets (`bytes` bytes): the raw iceoryx2
+/// hop (and, with `--busy-poll`, a busy-polling one), UDP and Unix-socket hops, then the raw
+/// and Unix-socket hops again with both processes on one core.
+fn baseline_hops(
+    a: &Latency,
+    exe: &std::path::Path,
+    items: usize,
+    bytes: usize,
+    bar: &indicatif::ProgressBar,
+) -> Result<Vec<(&'static str, Vec<u64>)>> {
+    let mut samples: Vec<(&'static str, Vec<u64>)> = Vec::new();
+
+    let raw_hop = |busy_poll: bool| {
+        platoon_runtime::bench::raw_hop(
+            &platoon_runtime::new_run_id(),
+            exe,
+            a.iterations,
+            a.warmup,
+            items,
+            busy_poll,
+        )
+    };
+    bar.set_message("raw iceoryx2 hop");
+    let raw = raw_hop(false).context("raw iceoryx2 hop")?;
+    samples.push(("raw_iceoryx2_hop", raw));
+    bar.inc(1);
+    if a.busy_poll {
+        if cores() < 2 {
+            eprintln!(
+                "warning: {} core(s) for 2 busy-polling processes: the figure will collapse",
+                cores()
+            );
+        }
+        bar.set_message("busy-polling iceoryx2 hop");
+        let busy = raw_hop(true).context("busy-polling iceoryx2 hop")?;
+        samples.push(("raw_iceoryx2_hop_busy_poll", busy));
+    }
+    bar.inc(1);
+    for socket in [
+        platoon_runtime::bench::Socket::Udp,
+        platoon_runtime::bench::Socket::Uds,
+    ] {
+        bar.set_message(format!("{} hop", socket.name()));
+        let name = match socket {
+            platoon_runtime::bench::Socket::Udp => "udp_loopback_hop",
+            platoon_runtime::bench::Socket::Uds => "unix_socket_hop",
+        };
+        // A baseline that cannot run fails the benchmark: the report compares side by side.
+        let h = platoon_runtime::bench::socket_hop(socket, exe, a.iterations, a.warmup, bytes)
+            .with_context(|| {
+                format!(
+                    "the {name} baseline (a ping-pong with `platoon node echo-{}` in another \
+                     process) failed; fix it before benchmarking",
+                    socket.name()
+                )
+            })?;
+        samples.push((name, h));
+        bar.inc(1);
+    }
+    // The two baselines again with both processes on one core (this process's CPU set, which
+    // the echo inherits), so the one-core rows of the co-simulation compare like with like.
+    bar.set_message("raw iceoryx2 and Unix-socket hops on one core");
+    let (raw_one, uds_one) = on_one_core(|| -> Result<_> {
+        let raw = raw_hop(false).context("raw iceoryx2 hop on one core")?;
+        let uds = platoon_runtime::bench::socket_hop(
+            platoon_runtime::bench::Socket::Uds,
+            exe,
+            a.iterations,
+            a.warmup,
+            bytes,
+        )
+        .context("the Unix-socket hop on one core")?;
+        Ok((raw, uds))
+    })??;
+    samples.push(("raw_iceoryx2_hop_one_core", raw_one));
+    samples.push(("unix_socket_hop_one_core", uds_one));
+    Ok(samples)
+}
+
+/// The report on the terminal.
+fn print_report(report: &LatencyReport) {
     println!(
         "{:<28} {:>7} {:>8} {:>8} {:>8} {:>8} {:>9} {:>8}",
         "µs", "n", "p50", "p90", "p99", "p99.9", "max", "x raw"
@@ -433,8 +488,6 @@ pub fn latency(a: Latency) -> Result<LatencyReport> {
         "{}",
         describe_halt_poll(report.guest_halt_poll_ns.as_deref())
     );
-    println!("outputs: {}", path.display());
-    Ok(report)
 }
 
 #[cfg(test)]

@@ -430,39 +430,15 @@ pub fn step(a: Step) -> Result<StepReport> {
                             .with_context(|| format!("running the peers for {n} followers"))?,
                     );
                 }
-                let p = |v: &serde_json::Value, k: &str| v[k]["p50_us"].as_f64();
-                let step_p50 = p(&timing, "step").unwrap_or(f64::NAN);
-                let dt = 0.01;
-                rows.push(StepRow {
+                rows.push(step_row(
                     round,
-                    mode: mode.clone(),
-                    followers: n,
-                    vehicles: n / 4 * 5,
-                    steps: (a.seconds / dt).round() as u64 + 1,
-                    step_p50_us: step_p50,
-                    step_p99_us: timing["step"]["p99_us"].as_f64().unwrap_or(f64::NAN),
-                    real_time_factor: dt * 1e6 / step_p50,
-                    plant_p50_us: p(&timing, "plant"),
-                    controller_p50_us: p(&timing, "controller_tx")
-                        .zip(p(&timing, "controller_rx"))
-                        .map(|(x, y)| x + y),
-                    injector_p50_us: p(&timing, "injector"),
-                    sumo_step_p50_us: sumo
-                        .as_ref()
-                        .and_then(|s| s["sumo_step"]["p50_us"].as_f64()),
-                    bridge_p50_us: sumo
-                        .as_ref()
-                        .and_then(|s| s["bridge_step"]["p50_us"].as_f64()),
-                    sumo_step_tight_p50_us: tight
-                        .as_ref()
-                        .and_then(|t| t["sumo_step_p50_us"].as_f64()),
-                    bridge_tight_p50_us: tight
-                        .as_ref()
-                        .and_then(|t| t["bridge_step_p50_us"].as_f64()),
-                    peak_rss_mib: timing["peak_rss_mib"]
-                        .as_object()
-                        .map(|m| m.values().filter_map(|v| v.as_f64()).sum()),
-                });
+                    mode,
+                    n,
+                    a.seconds,
+                    &timing,
+                    sumo.as_ref(),
+                    tight.as_ref(),
+                ));
                 bar.inc(1);
             }
         }
@@ -484,10 +460,79 @@ pub fn step(a: Step) -> Result<StepReport> {
     let ratios = peer_ratios(&rows, &peer_rows);
     let (round_rows, round_peers) = (rows, peer_rows);
     let (rows, peer_rows) = (median_rows(&round_rows), median_peers(&round_peers));
+    let fits = fit_and_plot(&dir, &a.modes, &rows)?;
+    dir.write(
+        "step.json",
+        (serde_json::to_string_pretty(&serde_json::json!({
+            "rounds": a.rounds,
+            "rows": rows,
+            "fits": fits,
+            "peers": peer_rows,
+            "ratios": ratios,
+            "round_rows": round_rows,
+            "round_peers": round_peers,
+        }))? + "\n")
+            .as_bytes(),
+    )?;
+    let path = dir.commit()?;
+    print_steps(&rows, &fits, &peer_rows, &ratios);
+    println!("outputs: {}", path.display());
+    Ok(StepReport {
+        rows,
+        peers: peer_rows,
+        ratios,
+    })
+}
+
+/// The row of one case of round `round` (`mode`, `n` followers, `seconds` simulated) from its
+/// run's timing.json, sumo.json and SUMO's tight loop (the last two: SUMO cases only).
+fn step_row(
+    round: u32,
+    mode: &str,
+    n: usize,
+    seconds: f64,
+    timing: &serde_json::Value,
+    sumo: Option<&serde_json::Value>,
+    tight: Option<&serde_json::Value>,
+) -> StepRow {
+    let p = |v: &serde_json::Value, k: &str| v[k]["p50_us"].as_f64();
+    let step_p50 = p(timing, "step").unwrap_or(f64::NAN);
+    let dt = 0.01;
+    StepRow {
+        round,
+        mode: mode.to_string(),
+        followers: n,
+        vehicles: n / 4 * 5,
+        steps: (seconds / dt).round() as u64 + 1,
+        step_p50_us: step_p50,
+        step_p99_us: timing["step"]["p99_us"].as_f64().unwrap_or(f64::NAN),
+        real_time_factor: dt * 1e6 / step_p50,
+        plant_p50_us: p(timing, "plant"),
+        controller_p50_us: p(timing, "controller_tx")
+            .zip(p(timing, "controller_rx"))
+            .map(|(x, y)| x + y),
+        injector_p50_us: p(timing, "injector"),
+        sumo_step_p50_us: sumo.and_then(|s| s["sumo_step"]["p50_us"].as_f64()),
+        bridge_p50_us: sumo.and_then(|s| s["bridge_step"]["p50_us"].as_f64()),
+        sumo_step_tight_p50_us: tight.and_then(|t| t["sumo_step_p50_us"].as_f64()),
+        bridge_tight_p50_us: tight.and_then(|t| t["bridge_step_p50_us"].as_f64()),
+        peak_rss_mib: timing["peak_rss_mib"]
+            .as_object()
+            .map(|m| m.values().filter_map(|v| v.as_f64()).sum()),
+    }
+}
+
+/// The least-squares line of each mode's cost per step against N, drawn with the points in
+/// step.png.
+fn fit_and_plot(
+    dir: &platoon_output::rundir::RunDir,
+    modes: &[String],
+    rows: &[StepRow],
+) -> Result<Vec<serde_json::Value>> {
     // Least-squares line per mode: cost per step = a + b N.
     let mut series = Vec::new();
     let mut fits = Vec::new();
-    for (i, mode) in a.modes.iter().enumerate() {
+    for (i, mode) in modes.iter().enumerate() {
         let pts: Vec<(f64, f64)> = rows
             .iter()
             .filter(|r| &r.mode == mode)
@@ -510,27 +555,23 @@ pub fn step(a: Step) -> Result<StepReport> {
         "µs per step",
         &series,
     )?;
-    dir.write(
-        "step.json",
-        (serde_json::to_string_pretty(&serde_json::json!({
-            "rounds": a.rounds,
-            "rows": rows,
-            "fits": fits,
-            "peers": peer_rows,
-            "ratios": ratios,
-            "round_rows": round_rows,
-            "round_peers": round_peers,
-        }))? + "\n")
-            .as_bytes(),
-    )?;
-    let path = dir.commit()?;
+    Ok(fits)
+}
+
+/// The cases, the fits and the peers on the terminal.
+fn print_steps(
+    rows: &[StepRow],
+    fits: &[serde_json::Value],
+    peer_rows: &[PeerRow],
+    ratios: &[PeerRatio],
+) {
     println!(
         "{:<7} {:>6} {:>9} {:>11} {:>10} {:>10} {:>10} {:>10} {:>10}",
         "mode", "N", "vehicles", "step p50", "x realtime", "plant", "control", "injector", "SUMO"
     );
     // A stage a mode does not have (in process: no plant or injector process) prints "-".
     let stage = |x: Option<f64>| x.map_or(String::from("-"), |x| format!("{x:.1}"));
-    for r in &rows {
+    for r in rows {
         println!(
             "{:<7} {:>6} {:>9} {:>9.1}µs {:>10.1} {:>10} {:>10} {:>10} {:>10}",
             r.mode,
@@ -544,7 +585,7 @@ pub fn step(a: Step) -> Result<StepReport> {
             stage(r.sumo_step_p50_us)
         );
     }
-    for f in &fits {
+    for f in fits {
         let mode = f["mode"].as_str().unwrap_or_default();
         match (
             f["intercept_us"].as_f64(),
@@ -561,7 +602,7 @@ pub fn step(a: Step) -> Result<StepReport> {
             "\nthe same fleet driven by SUMO itself (step p50, and our sumo step as a ratio, the \
              median of the rounds' ratios, then each round's):"
         );
-        for p in &peer_rows {
+        for p in peer_rows {
             let r = ratios
                 .iter()
                 .find(|r| r.peer == p.peer && r.followers == p.followers);
@@ -581,12 +622,6 @@ pub fn step(a: Step) -> Result<StepReport> {
             );
         }
     }
-    println!("outputs: {}", path.display());
-    Ok(StepReport {
-        rows,
-        peers: peer_rows,
-        ratios,
-    })
 }
 
 /// BENCHMARKS.md's table of the peers: the same fleets driven by SUMO itself, our `sumo` step
