@@ -50,3 +50,18 @@ def test_inspections_are_a_service_that_wakes_nobody():
     assert w.service_name("r1", "inspections") == "platoon/r1/inspections"
     assert w.WAKES["inspections"] == []
     assert (w.Inspection.FLAGGED, w.Inspection.REFUSED, w.Inspection.DETECTOR_SHIFT) == (1, 2, 8)
+
+
+def test_the_contract_docs_state_this_modules_contract_version():
+    # Issue 50, item 6: both docs said PLATOON_CONTRACT_VERSION was 3 while runs set 4.
+    import re
+
+    docs = os.path.join(HERE, "..", "..", "docs")
+    for doc in ("injector-contract.md", "controller-contract.md"):
+        with open(os.path.join(docs, doc), encoding="utf-8") as f:
+            text = f.read()
+        assert re.findall(r"This page describes platoon contract v(\d+)", text) == [
+            str(w.CONTRACT_VERSION)
+        ], doc
+        row = re.search(r"^\| `PLATOON_CONTRACT_VERSION` \|.*?\(`(\d+)`\)", text, re.M)
+        assert row and int(row.group(1)) == w.CONTRACT_VERSION, doc

@@ -742,6 +742,61 @@ mod tests {
         assert_eq!(listed, names, "layouts() lists every payload type");
     }
 
+    /// The numbers written right after each `prefix` in `text` (`v4`, `(`4`)`).
+    fn numbers_after(text: &str, prefix: &str) -> Vec<u32> {
+        text.match_indices(prefix)
+            .filter_map(|(i, _)| {
+                let rest = &text[i + prefix.len()..];
+                let digits: String = rest.chars().take_while(char::is_ascii_digit).collect();
+                digits.parse().ok()
+            })
+            .collect()
+    }
+
+    /// Issue 50, item 6: both contract docs said `PLATOON_CONTRACT_VERSION` is 3 while runs set
+    /// 4. The version each contract doc states, the variable's value it gives, the newest row
+    /// of its version table and the type names it shows are the code's.
+    #[test]
+    fn the_contract_docs_state_the_codes_contract_version() {
+        let docs = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../docs");
+        for doc in ["injector-contract.md", "controller-contract.md"] {
+            let text = std::fs::read_to_string(docs.join(doc))
+                .unwrap_or_else(|e| panic!("reading docs/{doc}: {e}"));
+            let described = numbers_after(&text, "This page describes platoon contract v");
+            assert_eq!(described, [CONTRACT_VERSION], "docs/{doc}: its first line");
+            let variable = text
+                .lines()
+                .find(|l| l.starts_with(&format!("| `{CONTRACT_VERSION_ENV}` |")))
+                .unwrap_or_else(|| panic!("docs/{doc} has no row for {CONTRACT_VERSION_ENV}"));
+            assert_eq!(
+                numbers_after(variable, "(`"),
+                [CONTRACT_VERSION],
+                "docs/{doc}: the value the run gives {CONTRACT_VERSION_ENV}"
+            );
+            // Type names, but for the version table's rows of the versions before.
+            let names: Vec<u32> = text
+                .lines()
+                .filter(|l| !l.starts_with("| v"))
+                .flat_map(|l| numbers_after(l, "platoon::v"))
+                .collect();
+            assert!(
+                names.iter().all(|&v| v == CONTRACT_VERSION),
+                "docs/{doc} shows type names of another version: {names:?}"
+            );
+        }
+        let injector = std::fs::read_to_string(docs.join("injector-contract.md")).unwrap();
+        let table: Vec<u32> = injector
+            .lines()
+            .filter(|l| l.starts_with("| v"))
+            .flat_map(|l| numbers_after(l, "| v"))
+            .collect();
+        assert_eq!(
+            table.iter().max(),
+            Some(&CONTRACT_VERSION),
+            "docs/injector-contract.md#contract-versions: its newest row"
+        );
+    }
+
     #[test]
     fn a_plugin_of_another_contract_version_is_told_both_versions() {
         assert_eq!(check_contract_version(None), Ok(()));
