@@ -37,6 +37,7 @@ pub const FILES: &[(&str, &[u8])] = files!(
     "bridge/platoon/_cli.py",
     "bridge/platoon/_core.pyi",
     "bridge/platoon/_moved.py",
+    "bridge/platoon/config_layout.json",
     "bridge/platoon/controller.py",
     "bridge/platoon/dask/__init__.py",
     "bridge/platoon/dask/__main__.py",
