@@ -159,8 +159,13 @@ pub fn the_run(role: &'static str) -> Result<(String, Scenario), PluginError> {
     let config: PathBuf = std::env::var_os("PLATOON_CONFIG")
         .ok_or_else(|| missing("PLATOON_CONFIG"))?
         .into();
-    let (_, scenario) = platoon_config::load(&config)?;
-    Ok((run_id, scenario))
+    Ok((run_id, run_scenario(&config)?))
+}
+
+/// The scenario of the run's config at `path`, typed: a key no layout of the config has (an
+/// old `[control.<law>]` table, a misspelt key) is an error naming it, never a default.
+fn run_scenario(path: &Path) -> Result<Scenario, PluginError> {
+    Ok(platoon_config::load(path)?.1)
 }
 
 /// The facts of the run this program was started in as the plug-in `role`, read from
@@ -218,5 +223,22 @@ mod tests {
         assert!(json.contains("\"plant\":\"native\""), "{json}");
         let back: RunFacts = serde_json::from_str(&json).unwrap();
         assert_eq!(back, facts);
+    }
+
+    /// Issue 50, item 6: a config in a layout the SDKs do not know (a law's keys in the old
+    /// `[control.path_cacc]` table) stops a Rust plug-in, naming the key, where a Python one
+    /// used to run on its defaults.
+    #[test]
+    fn a_config_in_an_old_layout_is_refused_naming_the_key() {
+        let path =
+            std::env::temp_dir().join(format!("platoon-old-layout-{}.toml", std::process::id()));
+        std::fs::write(
+            &path,
+            "[control]\nlaw = \"path_cacc\"\n[control.path_cacc]\nspacing_m = 7.0\n",
+        )
+        .unwrap();
+        let e = run_scenario(&path).unwrap_err().to_string();
+        std::fs::remove_file(&path).unwrap();
+        assert!(e.contains("control.path_cacc"), "{e}");
     }
 }
