@@ -1,5 +1,6 @@
 //! A jammer's interference in the SINR: the delivery ratio when a constant extra power adds to
-//! the noise floor at the receiver ([`Model::pdr_with_interference`]).
+//! the noise floor at the receiver (`Model::pdr_with_interference`, on the table this module
+//! builds).
 //!
 //! The approximation: the jammer's power at the receiver is its mean received power (its path
 //! loss, not shadowed) and constant over the packet, so it raises the floor the propagation term
@@ -8,7 +9,7 @@
 //! unchanged: the delivery ratio is `pdr(d) (1 - FER(d, floor)) / (1 - FER(d, noise))`, with
 //! FER the frame error rate averaged over the shadowed signal as the model's `PRO` term does.
 use crate::fer::{FerCurve, FER_TABLE, FLOOR_STEP_DB};
-use crate::{power_sum_dbm, Model, PathLoss};
+use crate::params::Params80211p;
 use std::sync::OnceLock;
 
 /// How far above the strongest signal of the table the interference levels go (dB): beyond it
@@ -37,17 +38,16 @@ struct Table {
 }
 
 impl Table {
-    fn new(model: &Model) -> Table {
-        let p = &model.params;
+    /// The table of a model of `p` whose distance table has `points` points.
+    fn new(p: &Params80211p, points: usize) -> Table {
         let fer = FerCurve::parse(FER_TABLE).expect("the model parsed it when it was built");
-        let path_loss = PathLoss::new(p);
+        let path_loss = p.path_loss();
         let offset = 10.0 * (p.bandwidth_mhz / p.data_rate_mbps).log10();
         let top_dbm = p.tx_power_dbm - path_loss.db(0.0);
         let levels = ((top_dbm + ABOVE_SIGNAL_DB - p.noise_dbm) / FLOOR_STEP_DB)
             .ceil()
             .max(1.0) as usize
             + 2;
-        let points = model.pdr.len();
         let mut keep = Vec::with_capacity(points * levels);
         for k in 0..points {
             let signal_dbm = p.tx_power_dbm - path_loss.db(k as f64 * p.table_step_m);
@@ -71,46 +71,31 @@ impl Table {
     }
 }
 
-impl crate::Params80211p {
-    /// Mean path loss (dB, WINNER+ B1 line of sight) over `distance_m` with these parameters'
-    /// geometry: what a jammer's power loses on its way to a receiver.
-    pub fn path_loss_db(&self, distance_m: f64) -> f64 {
-        PathLoss::new(self).db(distance_m)
+impl InterferenceTable {
+    /// The table of a model of `p` with `points` distance table points, built on the first
+    /// call.
+    pub(crate) fn keep(&self, p: &Params80211p, points: usize) -> Keep<'_> {
+        Keep(self.0.get_or_init(|| Table::new(p, points)))
     }
 }
 
-impl Model {
-    /// The packet delivery ratio at `distance_m` when an interferer adds `interference_dbm` of
-    /// constant mean power at the receiver (a jammer's transmit power minus its path loss): the
-    /// propagation term's frame error rate evaluated against noise plus interference instead of
-    /// noise, the other losses unchanged (the module's approximation). Exactly [`Model::pdr`]
-    /// for `-inf` (or NaN: no interferer); 0 beyond the range or when the interference is
-    /// 40 dB above the strongest signal. Interpolated linearly in distance and in
-    /// the interference-plus-noise level (0.25 dB steps); the table behind it is built on the
-    /// first call (tens of milliseconds), then a call costs a few tens of nanoseconds.
-    pub fn pdr_with_interference(&self, distance_m: f64, interference_dbm: f64) -> f64 {
-        if interference_dbm.is_nan() || interference_dbm == f64::NEG_INFINITY {
-            return self.pdr(distance_m);
-        }
-        let Some((k, t)) = self.locate(distance_m) else {
-            return 0.0;
-        };
-        let table = self.interference.0.get_or_init(|| Table::new(self));
-        let noise = self.params.noise_dbm;
-        let x = (power_sum_dbm(interference_dbm, noise) - noise).max(0.0) / FLOOR_STEP_DB;
-        // Beyond the table (an interference above every signal, or infinite): nothing gets
-        // through.
-        if !x.is_finite() || x >= (table.levels - 1) as f64 {
-            return 0.0;
-        }
+/// [`InterferenceTable::keep`]'s table, built.
+pub(crate) struct Keep<'a>(&'a Table);
+
+impl Keep<'_> {
+    /// The largest floor the table holds, in steps of `FLOOR_STEP_DB` above the noise
+    /// (exclusive).
+    pub(crate) fn top(&self) -> f64 {
+        (self.0.levels - 1) as f64
+    }
+
+    /// The share surviving at table point `k` and floor `x` (`0 <= x < top()`), interpolated
+    /// linearly between levels.
+    pub(crate) fn at(&self, k: usize, x: f64) -> f64 {
         let n = x as usize;
         let f = x - n as f64;
-        let at = |k: usize| {
-            let row = &table.keep[k * table.levels..];
-            self.pdr[k] * (row[n] + (row[n + 1] - row[n]) * f)
-        };
-        let (a, b) = (at(k), at(k + 1));
-        a + (b - a) * t
+        let row = &self.0.keep[k * self.0.levels..];
+        row[n] + (row[n + 1] - row[n]) * f
     }
 }
 

@@ -8,7 +8,8 @@
 //! models on a geometric grid of `q`, each built the first time a run needs it, and interpolates
 //! between the two that bracket the load.
 use crate::fer::{FerCurve, FER_TABLE};
-use crate::{Builder, Error, Model, Params80211p};
+use crate::params::{Error, Params80211p};
+use crate::{Builder, Model};
 use std::sync::OnceLock;
 
 /// The beacon rate of the grid's models (Hz): `q` is reached with density `q / 10`.

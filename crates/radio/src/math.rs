@@ -88,6 +88,12 @@ pub(crate) fn gauss_hermite(n: usize) -> (Vec<f64>, Vec<f64>) {
     (nodes, weights)
 }
 
+/// `10 log10(10^(a/10) + 10^(b/10))` without overflow.
+pub(crate) fn power_sum_dbm(a: f64, b: f64) -> f64 {
+    let (hi, lo) = if a >= b { (a, b) } else { (b, a) };
+    hi + 10.0 * (10f64.powf((lo - hi) / 10.0)).ln_1p() / std::f64::consts::LN_10
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -1,7 +1,5 @@
 //! WINNER+ B1 line-of-sight path loss, as the 802.11p model uses it.
 
-use crate::Params80211p;
-
 /// Speed of light as the WINNER+ breakpoint distance is computed with (m/s).
 const LIGHT_SPEED: f64 = 3e8;
 /// Distances below this are evaluated at it (the model's near-field floor, m).
@@ -20,9 +18,11 @@ pub(crate) struct PathLoss {
 }
 
 impl PathLoss {
-    pub(crate) fn new(p: &Params80211p) -> Self {
-        let f = p.carrier_ghz;
-        let h = p.antenna_height_m - p.environment_height_m;
+    /// At carrier `carrier_ghz`, both antennas `antenna_height_m` high in an environment
+    /// `environment_height_m` high.
+    pub(crate) fn new(carrier_ghz: f64, antenna_height_m: f64, environment_height_m: f64) -> Self {
+        let f = carrier_ghz;
+        let h = antenna_height_m - environment_height_m;
         PathLoss {
             near: 27.0 + 20.0 * f.log10(),
             far: 7.56 - 2.0 * 17.3 * h.log10() + 2.7 * f.log10(),
@@ -50,7 +50,8 @@ mod tests {
 
     #[test]
     fn the_paper_geometry() {
-        let pl = PathLoss::new(&Params80211p::default());
+        // The paper's geometry, `Params80211p::default()`'s.
+        let pl = PathLoss::new(5.89, 1.5, 0.5);
         // h' = 1 m at 5.89 GHz: breakpoint 78.5 m.
         assert!((pl.breakpoint_m - 78.5333333).abs() < 1e-6);
         // With these constants free space exceeds the near formula below the breakpoint and the

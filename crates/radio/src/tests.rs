@@ -7,7 +7,7 @@ fn a_jammer_is_heard_out_to_its_sensing_radius() {
     let r23 = p.sensing_radius_m(23.0);
     assert!(r10 > 1.0 && r23 > r10, "{r10} {r23}");
     // At the radius the mean received power is the sensing threshold.
-    let path_loss = PathLoss::new(&p);
+    let path_loss = p.path_loss();
     assert!((23.0 - path_loss.db(r23) - p.sensing_threshold_dbm).abs() < 1e-3);
     assert_eq!(p.sensing_radius_m(-200.0), 0.0);
     // What docs/channel-80211p.md says: 20 dBm is heard out to a few hundred metres.
