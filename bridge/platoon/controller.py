@@ -50,7 +50,7 @@ from typing import NamedTuple, Optional
 
 from . import plugin as _plugin
 from . import wire as w
-from .plugin import Run, Topology  # noqa: F401 (part of this SDK's API)
+from .plugin import ConfigLayoutError, ConfigTable, Run, Topology  # noqa: F401 (this SDK's API)
 
 # Modes a command may report (Command.mode), as the outputs name them.
 COOP, ZERO, HOLD, PREDICT, ACC, BLEND, CUT_IN, OUTSIDE, LEFT, BESIDE = range(10)

@@ -23,7 +23,7 @@ import os
 
 from . import plugin as _plugin
 from . import wire as w
-from .plugin import Run, stop_received  # noqa: F401 (part of this SDK's API)
+from .plugin import ConfigLayoutError, ConfigTable, Run, stop_received  # noqa: F401 (its API)
 
 
 def send_failed(outlet, step: int, reason: str) -> None:

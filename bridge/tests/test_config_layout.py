@@ -150,7 +150,8 @@ def old_layout_run(tmp_path, monkeypatch):
 @pytest.mark.parametrize("sdk", [pc, pi], ids=["controller", "injector"])
 def test_both_sdks_give_plug_ins_the_strict_config(old_layout_run, sdk):
     run = sdk.load_run()
-    assert isinstance(run.config, pp.ConfigTable)
+    assert sdk.ConfigLayoutError is pp.ConfigLayoutError
+    assert isinstance(run.config, sdk.ConfigTable)
     assert run.config["control"]["spacing_m"] == 7.0
     with pytest.raises(pp.ConfigLayoutError, match=r"control\.path_cacc"):
         run.config["control"].get("path_cacc", {})
