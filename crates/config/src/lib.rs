@@ -17,6 +17,8 @@ pub mod reference;
 mod resolve;
 mod schema;
 mod serde_util;
+#[cfg(test)]
+mod shipped;
 mod tagged;
 mod transport;
 
