@@ -289,16 +289,17 @@ impl Campaign {
             let mut v = base.clone();
             set(&mut v, key, value.clone()).map_err(|m| error(file, line, what, m))?;
             drop_excluded(&mut v, &[key]);
-            platoon_config::from_value(v)
-                .map(|_| ())
-                .map_err(|(at, message)| {
-                    error(
-                        file,
-                        line,
-                        what,
-                        format!("`{key}` = {value}: {message} (at scenario key `{at}`)"),
-                    )
-                })
+            platoon_config::from_value(v).map(|_| ()).map_err(|e| {
+                error(
+                    file,
+                    line,
+                    what,
+                    format!(
+                        "`{key}` = {value}: {} (at scenario key `{}`)",
+                        e.reason, e.key
+                    ),
+                )
+            })
         };
         for (key, value) in &spec.set {
             schema_check(key, value, &format!("set.{key}"), lines.line(&["set", key]))?;

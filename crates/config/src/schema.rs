@@ -550,7 +550,7 @@ impl Default for SpacingConfig {
 }
 
 impl SpacingConfig {
-    /// The policy it names (not validated: see [`crate::to_scenario`]).
+    /// The policy it names (not validated: see [`crate::scenario_of`]).
     pub fn policy(self) -> SpacingPolicy {
         match self {
             Self::Constant {} => SpacingPolicy::Constant,

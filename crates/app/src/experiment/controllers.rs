@@ -166,8 +166,10 @@ fn cell(
     let scenario = match platoon_config::to_scenario(&mut c) {
         Ok(s) => s,
         // The topology does not give the law whom it reads: a finding, not a failure.
-        Err((key, e)) if key == "topology.preset" => return Ok(row(e)),
-        Err((key, e)) => {
+        Err(e) if matches!(e.reason, platoon_config::Reason::Unheard(_)) => {
+            return Ok(row(e.reason.to_string()))
+        }
+        Err(platoon_config::KeyError { key, reason: e }) => {
             refuse!(
                 Variant,
                 "{}: key `{key}` with law {} on {} under {attack}: {e}",
