@@ -1,6 +1,6 @@
 //! Serde plumbing for the tagged tables: a selector key (`rule`, `kind`, `spacing_policy`, ...)
 //! whose value picks the other keys a table may hold, written flat in the table as users write
-//! it, held as a typed enum in [`crate::Config`].
+//! it, held as a typed enum in [`crate::schema::Config`].
 
 use serde::de::{DeserializeOwned, Deserializer};
 use serde::ser::{self, Impossible, Serialize, SerializeMap, SerializeStruct};
@@ -300,7 +300,7 @@ impl ser::Serializer for UnitName {
 }
 
 /// The selector's value (`kind`, `rule`, ...) serde writes for a tagged table's enum: the enum's
-/// `rename_all` is the one list of its names. Served from [`crate::tagged_tables`], which holds
+/// `rename_all` is the one list of its names. Served from [`crate::tagged::tagged_tables`], which holds
 /// every such name for the process's lifetime.
 pub(crate) fn tag_name<T: Serialize>(value: &T, selector: &str) -> &'static str {
     let table = toml::Value::try_from(value).expect("a tagged table serialises");
@@ -308,7 +308,7 @@ pub(crate) fn tag_name<T: Serialize>(value: &T, selector: &str) -> &'static str 
         .get(selector)
         .and_then(toml::Value::as_str)
         .expect("a tagged table writes its selector");
-    crate::tagged_tables()
+    crate::tagged::tagged_tables()
         .iter()
         .filter(|t| t.selector == selector)
         .flat_map(|t| &t.variants)

@@ -10,12 +10,12 @@ use crate::error::{KeyError, Reason};
 use serde_json::{Map, Value};
 use std::sync::OnceLock;
 
-/// The schema as schemars derives it from [`crate::Config`] (JSON Schema draft 7, the dialect
+/// The schema as schemars derives it from [`crate::schema::Config`] (JSON Schema draft 7, the dialect
 /// TOML editors support best).
 pub(crate) fn raw_schema() -> Value {
     schemars::generate::SchemaSettings::draft07()
         .into_generator()
-        .into_root_schema_for::<crate::Config>()
+        .into_root_schema_for::<crate::schema::Config>()
         .to_value()
 }
 
