@@ -11,6 +11,7 @@ mod control;
 
 pub use channel::*;
 pub use control::*;
+pub use platoon_control::{LawName, LawParams, PaperParams};
 
 // A table whose keys depend on a selector (`[trigger] rule`, `[attack] kind`,
 // `[[channel.attacks]] kind`, `[platoon] spacing_policy`, `[topology] preset`) holds an

@@ -26,7 +26,7 @@ pub(crate) fn paper_gains(c: &Control) -> Result<(RowVector3<f64>, f64, f64), Ke
 
 /// The law of `[control]`.
 pub(crate) fn law(c: &Control) -> LawParams {
-    c.law.params()
+    c.law.clone()
 }
 
 /// The law fits the platoon: a split behind a cut-in needs a law that reads the leader, and
@@ -49,7 +49,7 @@ pub(crate) fn check_law(
             ),
         );
     }
-    if *law == LawParams::Paper {
+    if law.is_paper() {
         return Ok(());
     }
     let vehicle_length = shape.vehicle_length;
