@@ -138,3 +138,106 @@ pub fn to_scenario(c: &mut Config) -> Result<Scenario, KeyError> {
     write_resolved_defaults(c);
     Ok(scenario)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::error::Reason;
+    use crate::{Embedded, KeyLines, LawName};
+    use platoon_control::SpacingPolicy;
+    use platoon_topology::Preset;
+
+    /// configs/leave.toml with `law` (its defaults, the platoon spaced as it keeps it) on
+    /// `preset`.
+    fn leave_with(law: LawName, preset: Preset) -> Config {
+        let mut c = Embedded::Leave.parse().unwrap().0;
+        c.control.law = law.defaults();
+        let (l, h) = c
+            .control
+            .law
+            .spacing_policy(c.platoon.vehicle_length_m)
+            .unwrap();
+        c.platoon.spacing_m = l;
+        c.platoon.spacing = if h == 0.0 {
+            SpacingPolicy::Constant
+        } else {
+            SpacingPolicy::TimeHeadway(h)
+        }
+        .into();
+        c.topology = preset.into();
+        c
+    }
+
+    /// What callers used to tell by the key's name, they tell by the reason.
+    #[test]
+    fn the_reason_says_what_the_key_named() {
+        // PATH CACC reads the leader, whom predecessor following does not carry.
+        let e = scenario_of(&leave_with(LawName::PathCacc, Preset::Pf)).unwrap_err();
+        assert_eq!(e.key, "topology.preset", "{e}");
+        assert!(matches!(e.reason, Reason::Unheard(_)), "{e}");
+        // The consensus law keeps its neighbours for the whole run: no leave.
+        let e = scenario_of(&leave_with(LawName::Consensus, Preset::Plf)).unwrap_err();
+        assert_eq!(e.key, "maneuvers", "{e}");
+        assert!(matches!(e.reason, Reason::LawWithoutManeuvers(_)), "{e}");
+        // The shared checks keep their numbers.
+        let mut c = Embedded::Paper.parse().unwrap().0;
+        c.simulation.dt_s = -0.5;
+        let e = scenario_of(&c).unwrap_err();
+        assert_eq!(
+            e,
+            KeyError::new("simulation.dt_s", Reason::NotPositive(-0.5))
+        );
+        assert_eq!(
+            e.to_string(),
+            "key `simulation.dt_s`: must be > 0, got -0.5"
+        );
+        c.simulation.dt_s = 0.01;
+        c.trigger.h_s = 0.015;
+        let e = scenario_of(&c).unwrap_err();
+        assert_eq!(
+            e.reason,
+            Reason::NotWholeSteps {
+                period_s: 0.015,
+                dt_s: 0.01
+            }
+        );
+    }
+
+    /// A key error in a file names the file and the key's line.
+    #[test]
+    fn a_key_error_is_placed_at_its_line() {
+        let text = Embedded::Paper.text();
+        let e = KeyError::new("trigger.h_s", Reason::NotPositive(0.0))
+            .in_file("paper.toml", &KeyLines::new(text));
+        let line = text.lines().position(|l| l.starts_with("h_s")).unwrap() + 1;
+        assert_eq!(e.line, Some(line));
+        assert_eq!(
+            e.to_string(),
+            format!("paper.toml:{line}: key `trigger.h_s`: must be > 0, got 0")
+        );
+    }
+
+    /// Resolving reads the config; writing the defaults is a step of its own, after which the
+    /// config resolves to the same scenario and writing them again changes nothing.
+    #[test]
+    fn resolving_reads_and_the_defaults_are_written_apart() {
+        let mut c = Embedded::Paper.parse().unwrap().0;
+        c.trigger.check_period_s = None;
+        c.fallback.mode = None;
+        c.control.attack_input = Some(platoon_control::FallbackMode::Hold);
+        c.channel.model = crate::RadioModel::Ieee80211p;
+        let before = c.clone();
+        let scenario = scenario_of(&c).unwrap();
+        assert_eq!(c, before, "scenario_of changed the config");
+        write_resolved_defaults(&mut c);
+        assert_eq!(c.trigger.check_period_s, Some(c.simulation.dt_s));
+        assert_eq!(c.fallback.mode, Some(platoon_control::FallbackMode::Hold));
+        assert_eq!(c.control.attack_input, None);
+        assert!(c.channel.radio.is_some() && c.channel.load.is_some());
+        let again = scenario_of(&c).unwrap();
+        assert_eq!(format!("{again:?}"), format!("{scenario:?}"));
+        let written = c.clone();
+        write_resolved_defaults(&mut c);
+        assert_eq!(c, written);
+    }
+}
