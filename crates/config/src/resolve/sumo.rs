@@ -41,6 +41,14 @@ pub(crate) fn check(s: &Sumo, dt: f64) -> Result<(), KeyError> {
 /// The leader in SUMO's traffic (`leader.drive`), the vehicles ahead of it (`[[sumo.ahead]]`),
 /// the flows (`[[sumo.flows]]`) and the route through several edges (`sumo.route`).
 pub(crate) fn traffic_around(c: &Config) -> Result<(), KeyError> {
+    leader_drive(c)?;
+    ahead(&c.sumo)?;
+    flows(&c.sumo, c.simulation.duration_s)?;
+    route(c)
+}
+
+/// `leader.drive`: SUMO's car-following model drives the leader (SUMO as the plant, its states).
+fn leader_drive(c: &Config) -> Result<(), KeyError> {
     let sumo_plant = c.simulation.plant == PlantKind::Sumo;
     if let LeaderDrive::Sumo {
         speed_mps,
@@ -77,7 +85,12 @@ pub(crate) fn traffic_around(c: &Config) -> Result<(), KeyError> {
             );
         }
     }
-    for (i, a) in c.sumo.ahead.iter().enumerate() {
+    Ok(())
+}
+
+/// `[[sumo.ahead]]`: the vehicles ahead of the leader.
+fn ahead(s: &Sumo) -> Result<(), KeyError> {
+    for (i, a) in s.ahead.iter().enumerate() {
         let key = |k: &str| format!("sumo.ahead[{i}].{k}");
         positive(&key("gap_m"), a.gap_m)?;
         positive(&key("length_m"), a.length_m)?;
@@ -88,7 +101,12 @@ pub(crate) fn traffic_around(c: &Config) -> Result<(), KeyError> {
             );
         }
     }
-    for (i, f) in c.sumo.flows.iter().enumerate() {
+    Ok(())
+}
+
+/// `[[sumo.flows]]`: SUMO's flows, each entering before the run's end (`duration_s`).
+fn flows(s: &Sumo, duration_s: f64) -> Result<(), KeyError> {
+    for (i, f) in s.flows.iter().enumerate() {
         let key = |k: &str| format!("sumo.flows[{i}].{k}");
         for (k, edge) in [("from", &f.from), ("to", &f.to)] {
             if edge.is_empty() {
@@ -99,13 +117,13 @@ pub(crate) fn traffic_around(c: &Config) -> Result<(), KeyError> {
         if finite(&key("begin_s"), f.begin_s)? < 0.0 {
             return bad(&key("begin_s"), format!("must be >= 0, got {}", f.begin_s));
         }
-        if f.end_s.is_none() && f.begin_s >= c.simulation.duration_s {
+        if f.end_s.is_none() && f.begin_s >= duration_s {
             return bad(
                 &key("begin_s"),
                 format!(
                     "{} s is not before the run's end (simulation.duration_s = {} s): no vehicle \
                      would enter",
-                    f.begin_s, c.simulation.duration_s
+                    f.begin_s, duration_s
                 ),
             );
         }
@@ -129,6 +147,11 @@ pub(crate) fn traffic_around(c: &Config) -> Result<(), KeyError> {
             );
         }
     }
+    Ok(())
+}
+
+/// `sumo.route`: the edges the platoon drives, from `sumo.edge` on.
+fn route(c: &Config) -> Result<(), KeyError> {
     let route = &c.sumo.route;
     if let Some(first) = route.first() {
         if *first != c.sumo.edge {
