@@ -3,7 +3,11 @@
 //! Unknown keys are errors; every default is written in one place (the schema types' serde
 //! defaults and `Default` impls); a bad value is reported as `FILE:LINE: key `KEY`: what is
 //! wrong`. [`load`] parses and validates a file into a resolved [`Config`] (every default
-//! written out, so it can be saved next to a run's outputs) and a runnable [`Scenario`].
+//! written out, so it can be saved next to a run's outputs) and a runnable [`Scenario`]:
+//! [`scenario_of`] resolves the tables, one resolver each, reading the config only, and
+//! [`write_resolved_defaults`] then writes the defaults that depend on other keys. A value
+//! that cannot be used is a [`KeyError`] (the key and a [`Reason`]), placed at its file and
+//! line as a [`ConfigError`].
 //!
 //! A table whose keys depend on a selector (`[trigger] rule`, `[attack] kind`,
 //! `[[channel.attacks]] kind`, `[platoon] spacing_policy`, `[topology] preset`) is a typed enum
