@@ -179,11 +179,11 @@ pub fn apply_design(
             scenario.headway()
         )
     });
-    let platoon_config::LawConfig::Paper(paper) = &mut config.control.law else {
+    let platoon_config::LawParams::Paper(paper) = &mut config.control.law else {
         anyhow::bail!(
             "{}: a design is the paper's law's gain and ratio, but the config runs law = \"{}\"",
             file.display(),
-            config.control.law.kind().name()
+            config.control.law.name()
         );
     };
     paper.gain = cert.k;

@@ -318,7 +318,7 @@ pub fn parse(text: &str, file: &Path, evaluations: Option<usize>) -> Result<Sear
         let bounds = spec.budget.assumption2.or(config.attack.assumption2);
         let scenario = match platoon_config::to_scenario(&mut config) {
             Ok(s) => s,
-            Err((key, e)) if case.is_some() && key == "topology.preset" => {
+            Err(e) if case.is_some() && matches!(e.reason, platoon_config::Reason::Unheard(_)) => {
                 problems.push(Problem {
                     label,
                     config,
@@ -330,11 +330,11 @@ pub fn parse(text: &str, file: &Path, evaluations: Option<usize>) -> Result<Sear
                         D2: 2.0,
                     }),
                     anchors: Vec::new(),
-                    not_run: Some(e),
+                    not_run: Some(e.reason.to_string()),
                 });
                 continue;
             }
-            Err((key, e)) => {
+            Err(platoon_config::KeyError { key, reason: e }) => {
                 let at = case.map_or(String::new(), |(l, p)| {
                     format!(" with law {} on {}", l.name(), p.name())
                 });

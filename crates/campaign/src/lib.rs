@@ -229,6 +229,261 @@ pub fn cell_hash(config: &str, transport: Transport) -> String {
     format!("{:x}", h.finalize())
 }
 
+/// The base scenario as a TOML value, its relative SUMO network made absolute (relative to the
+/// base file `base_path`), since cell configs are written elsewhere.
+fn base_value(
+    base_config: &platoon_config::Config,
+    base_path: Option<&Path>,
+    file: &Path,
+) -> Result<toml::Value, ConfigError> {
+    let base_dir = base_path.map(|p| p.parent().map(Path::to_path_buf).unwrap_or_default());
+    let mut base = toml::Value::try_from(base_config).map_err(|e| {
+        error(
+            file,
+            None,
+            "base",
+            format!("cannot represent the base: {e}"),
+        )
+    })?;
+    if let (Some(net), Some(bdir)) = (&base_config.sumo.net, &base_dir) {
+        if Path::new(net).is_relative() {
+            let abs = bdir.join(net);
+            let abs = abs.canonicalize().unwrap_or(abs);
+            set(
+                &mut base,
+                "sumo.net",
+                toml::Value::String(abs.display().to_string()),
+            )
+            .map_err(|e| error(file, None, "base", e))?;
+        }
+    }
+    Ok(base)
+}
+
+/// The keys a campaign file (`file`) sets on its base scenario.
+struct Settings<'a> {
+    base: &'a toml::Value,
+    file: &'a Path,
+}
+
+impl Settings<'_> {
+    /// `key` exists in the schema and takes `value` (the setting `what` of the campaign, at
+    /// `line`).
+    fn check(
+        &self,
+        key: &str,
+        value: &toml::Value,
+        what: &str,
+        line: Option<usize>,
+    ) -> Result<(), ConfigError> {
+        let file = self.file;
+        let mut v = self.base.clone();
+        set(&mut v, key, value.clone()).map_err(|m| error(file, line, what, m))?;
+        drop_excluded(&mut v, &[key]);
+        platoon_config::from_value(v).map(|_| ()).map_err(|e| {
+            error(
+                file,
+                line,
+                what,
+                format!(
+                    "`{key}` = {value}: {} (at scenario key `{}`)",
+                    e.reason, e.key
+                ),
+            )
+        })
+    }
+}
+
+/// `[[axes]]`: a column each, and the dimensions they span (zipped axes share one).
+fn axes(
+    spec: &CampaignFile,
+    settings: &Settings<'_>,
+    lines: &platoon_config::KeyLines,
+) -> Result<(Vec<Column>, Vec<usize>), ConfigError> {
+    let file = settings.file;
+    let mut columns: Vec<Column> = Vec::new();
+    let mut dims: Vec<usize> = Vec::new();
+    let mut zip_dims: Vec<(String, usize)> = Vec::new();
+    for (i, axis) in spec.axes.iter().enumerate() {
+        let what = format!("axes[{i}]");
+        let line = lines.line_of(&format!("{what}.key"));
+        let values = match (&axis.values, &axis.range) {
+            (Some(v), None) => v.clone(),
+            (None, Some(r)) => {
+                expand_range(r).map_err(|m| error(file, line, &format!("{what}.range"), m))?
+            }
+            _ => {
+                return Err(error(
+                    file,
+                    line,
+                    &what,
+                    format!("axis `{}` needs either `values` or `range`", axis.key),
+                ))
+            }
+        };
+        let refused = if values.is_empty() {
+            Some(format!("axis `{}` has no values", axis.key))
+        } else if columns.iter().any(|c| c.name == axis.key) {
+            Some(format!("`{}` is on two axes", axis.key))
+        } else if spec.set.contains_key(&axis.key) {
+            Some(format!("`{}` is both in `set` and on an axis", axis.key))
+        } else {
+            None
+        };
+        if let Some(message) = refused {
+            return Err(error(file, line, &what, message));
+        }
+        for v in &values {
+            settings.check(&axis.key, v, &what, line)?;
+        }
+        let dim = match &axis.zip {
+            Some(group) => match zip_dims.iter().find(|(g, _)| g == group) {
+                Some(&(_, d)) => {
+                    if dims[d] != values.len() {
+                        return Err(error(
+                            file,
+                            line,
+                            &format!("{what}.zip"),
+                            format!(
+                                "zip group \"{group}\" has axes of {} and {} values; zipped axes need equal lengths",
+                                dims[d],
+                                values.len()
+                            ),
+                        ));
+                    }
+                    d
+                }
+                None => {
+                    zip_dims.push((group.clone(), dims.len()));
+                    dims.push(values.len());
+                    dims.len() - 1
+                }
+            },
+            None => {
+                dims.push(values.len());
+                dims.len() - 1
+            }
+        };
+        columns.push(Column {
+            name: axis.key.clone(),
+            values,
+            dim,
+        });
+    }
+    Ok((columns, dims))
+}
+
+/// `[dos_window]`: its onsets and durations as two more axes.
+fn dos_window(
+    w: &DosWindow,
+    file: &Path,
+    lines: &platoon_config::KeyLines,
+    columns: &mut Vec<Column>,
+    dims: &mut Vec<usize>,
+) -> Result<(), ConfigError> {
+    for (name, v) in [("onset_s", &w.onset_s), ("duration_s", &w.duration_s)] {
+        let key = format!("dos_window.{name}");
+        let at = lines.line_of(&key);
+        let values = values_of(v).map_err(|m| error(file, at, &key, m))?;
+        let bad = values.iter().any(|x| {
+            let x = as_f64(x).unwrap_or(f64::NAN);
+            !(x.is_finite() && (x > 0.0 || (name == "onset_s" && x == 0.0)))
+        });
+        if values.is_empty() || bad {
+            return Err(error(
+                file,
+                at,
+                &key,
+                "needs at least one value; onsets >= 0 and durations > 0 (s)",
+            ));
+        }
+        dims.push(values.len());
+        columns.push(Column {
+            name: format!("dos.{name}"),
+            values,
+            dim: dims.len() - 1,
+        });
+    }
+    Ok(())
+}
+
+/// `[monte_carlo]` (its sample count overridden by `samples`): the samples per combination of
+/// the axes, and the columns of what each draws.
+fn monte_carlo(
+    monte_carlo: &mut Option<MonteCarlo>,
+    samples: Option<usize>,
+    file: &Path,
+    lines: &platoon_config::KeyLines,
+) -> Result<(usize, Vec<String>), ConfigError> {
+    let at = |key: &str| lines.line_of(key);
+    let mut drawn_columns = Vec::new();
+    let Some(mc) = monte_carlo else {
+        if samples.is_some() {
+            return Err(error(
+                file,
+                None,
+                "monte_carlo",
+                "a sample count (--samples, or samples= from Python) needs a [monte_carlo] section",
+            ));
+        }
+        return Ok((1, drawn_columns));
+    };
+    if let Some(n) = samples {
+        mc.samples = n;
+    }
+    if mc.samples == 0 {
+        return Err(error(
+            file,
+            at("monte_carlo.samples"),
+            "monte_carlo.samples",
+            "must be >= 1",
+        ));
+    }
+    for (key, range) in [("loss", mc.loss), ("tau_s", mc.tau_s)] {
+        if let Some([lo, hi]) = range {
+            let ok = lo.is_finite() && hi.is_finite() && lo <= hi && lo >= 0.0;
+            let ok = ok && (key != "loss" || hi <= 1.0) && (key != "tau_s" || lo > 0.0);
+            if !ok {
+                return Err(error(
+                    file,
+                    at(&format!("monte_carlo.{key}")),
+                    &format!("monte_carlo.{key}"),
+                    "needs [min, max] with 0 <= min <= max (a loss rate at most 1, a tau above 0)",
+                ));
+            }
+            drawn_columns.push(format!("mc.{key}"));
+        }
+    }
+    for (key, x) in [
+        ("position_jitter_m", mc.position_jitter_m),
+        ("speed_jitter_mps", mc.speed_jitter_mps),
+    ] {
+        if !(x.is_finite() && x >= 0.0) {
+            return Err(error(
+                file,
+                at(&format!("monte_carlo.{key}")),
+                &format!("monte_carlo.{key}"),
+                "must be a number >= 0",
+            ));
+        }
+    }
+    Ok((mc.samples, drawn_columns))
+}
+
+/// The cells of `samples` samples of every combination of `dims`, at most [`MAX_CELLS`].
+fn cell_count(dims: &[usize], samples: usize, file: &Path) -> Result<usize, ConfigError> {
+    let combos = dims.iter().try_fold(1usize, |a, &d| a.checked_mul(d));
+    match combos.and_then(|c| c.checked_mul(samples)) {
+        Some(t) if t <= MAX_CELLS => Ok(t),
+        _ => Err(error(
+            file,
+            None,
+            "",
+            format!("the campaign would have more than {MAX_CELLS} cells; check the ranges"),
+        )),
+    }
+}
+
 impl Campaign {
     /// Reads and expands a campaign file. `samples` overrides `monte_carlo.samples` (a quick
     /// pilot of a large study).
@@ -250,29 +505,7 @@ impl Campaign {
             label: base_label,
             path: base_path,
         } = BaseScenario::load(&mut spec.base, file, &lines)?;
-        let base_dir = base_path.map(|p| p.parent().map(Path::to_path_buf).unwrap_or_default());
-        let mut base = toml::Value::try_from(&base_config).map_err(|e| {
-            error(
-                file,
-                None,
-                "base",
-                format!("cannot represent the base: {e}"),
-            )
-        })?;
-        // A relative SUMO network is relative to the base file: make it absolute, since cell
-        // configs are written elsewhere.
-        if let (Some(net), Some(bdir)) = (&base_config.sumo.net, &base_dir) {
-            if Path::new(net).is_relative() {
-                let abs = bdir.join(net);
-                let abs = abs.canonicalize().unwrap_or(abs);
-                set(
-                    &mut base,
-                    "sumo.net",
-                    toml::Value::String(abs.display().to_string()),
-                )
-                .map_err(|e| error(file, None, "base", e))?;
-            }
-        }
+        let base = base_value(&base_config, base_path.as_deref(), file)?;
         let base_toml = platoon_config::to_toml(&base_config);
 
         // Metrics.
@@ -285,205 +518,16 @@ impl Campaign {
 
         // Every key the campaign sets must exist in the schema and take the values given:
         // checked on the base alone, so a typo is a campaign error, not a thousand failed cells.
-        let schema_check = |key: &str, value: &toml::Value, what: &str, line: Option<usize>| {
-            let mut v = base.clone();
-            set(&mut v, key, value.clone()).map_err(|m| error(file, line, what, m))?;
-            drop_excluded(&mut v, &[key]);
-            platoon_config::from_value(v)
-                .map(|_| ())
-                .map_err(|(at, message)| {
-                    error(
-                        file,
-                        line,
-                        what,
-                        format!("`{key}` = {value}: {message} (at scenario key `{at}`)"),
-                    )
-                })
-        };
+        let settings = Settings { base: &base, file };
         for (key, value) in &spec.set {
-            schema_check(key, value, &format!("set.{key}"), lines.line(&["set", key]))?;
+            settings.check(key, value, &format!("set.{key}"), lines.line(&["set", key]))?;
         }
-
-        // Axes -> columns and dimensions.
-        let mut columns: Vec<Column> = Vec::new();
-        let mut dims: Vec<usize> = Vec::new();
-        let mut zip_dims: Vec<(String, usize)> = Vec::new();
-        for (i, axis) in spec.axes.iter().enumerate() {
-            let what = format!("axes[{i}]");
-            let line = at(&format!("{what}.key"));
-            let values = match (&axis.values, &axis.range) {
-                (Some(v), None) => v.clone(),
-                (None, Some(r)) => {
-                    expand_range(r).map_err(|m| error(file, line, &format!("{what}.range"), m))?
-                }
-                _ => {
-                    return Err(error(
-                        file,
-                        line,
-                        &what,
-                        format!("axis `{}` needs either `values` or `range`", axis.key),
-                    ))
-                }
-            };
-            if values.is_empty() {
-                return Err(error(
-                    file,
-                    line,
-                    &what,
-                    format!("axis `{}` has no values", axis.key),
-                ));
-            }
-            if columns.iter().any(|c| c.name == axis.key) {
-                return Err(error(
-                    file,
-                    line,
-                    &what,
-                    format!("`{}` is on two axes", axis.key),
-                ));
-            }
-            if spec.set.contains_key(&axis.key) {
-                return Err(error(
-                    file,
-                    line,
-                    &what,
-                    format!("`{}` is both in `set` and on an axis", axis.key),
-                ));
-            }
-            for v in &values {
-                schema_check(&axis.key, v, &what, line)?;
-            }
-            let dim = match &axis.zip {
-                Some(group) => match zip_dims.iter().find(|(g, _)| g == group) {
-                    Some(&(_, d)) => {
-                        if dims[d] != values.len() {
-                            return Err(error(
-                                file,
-                                line,
-                                &format!("{what}.zip"),
-                                format!(
-                                    "zip group \"{group}\" has axes of {} and {} values; zipped axes need equal lengths",
-                                    dims[d],
-                                    values.len()
-                                ),
-                            ));
-                        }
-                        d
-                    }
-                    None => {
-                        zip_dims.push((group.clone(), dims.len()));
-                        dims.push(values.len());
-                        dims.len() - 1
-                    }
-                },
-                None => {
-                    dims.push(values.len());
-                    dims.len() - 1
-                }
-            };
-            columns.push(Column {
-                name: axis.key.clone(),
-                values,
-                dim,
-            });
-        }
+        let (mut columns, mut dims) = axes(&spec, &settings, &lines)?;
         if let Some(w) = &spec.dos_window {
-            for (name, v) in [("onset_s", &w.onset_s), ("duration_s", &w.duration_s)] {
-                let key = format!("dos_window.{name}");
-                let values = values_of(v).map_err(|m| error(file, at(&key), &key, m))?;
-                let bad = values.iter().any(|x| {
-                    let x = as_f64(x).unwrap_or(f64::NAN);
-                    !(x.is_finite() && (x > 0.0 || (name == "onset_s" && x == 0.0)))
-                });
-                if values.is_empty() || bad {
-                    return Err(error(
-                        file,
-                        at(&key),
-                        &key,
-                        "needs at least one value; onsets >= 0 and durations > 0 (s)",
-                    ));
-                }
-                dims.push(values.len());
-                columns.push(Column {
-                    name: format!("dos.{name}"),
-                    values,
-                    dim: dims.len() - 1,
-                });
-            }
+            dos_window(w, file, &lines, &mut columns, &mut dims)?;
         }
-
-        // Monte Carlo.
-        let mut drawn_columns = Vec::new();
-        let samples = match &mut spec.monte_carlo {
-            None => {
-                if samples.is_some() {
-                    return Err(error(
-                        file,
-                        None,
-                        "monte_carlo",
-                        "a sample count (--samples, or samples= from Python) needs a [monte_carlo] section",
-                    ));
-                }
-                1
-            }
-            Some(mc) => {
-                if let Some(n) = samples {
-                    mc.samples = n;
-                }
-                if mc.samples == 0 {
-                    return Err(error(
-                        file,
-                        at("monte_carlo.samples"),
-                        "monte_carlo.samples",
-                        "must be >= 1",
-                    ));
-                }
-                for (key, range) in [("loss", mc.loss), ("tau_s", mc.tau_s)] {
-                    if let Some([lo, hi]) = range {
-                        let ok = lo.is_finite() && hi.is_finite() && lo <= hi && lo >= 0.0;
-                        let ok = ok && (key != "loss" || hi <= 1.0) && (key != "tau_s" || lo > 0.0);
-                        if !ok {
-                            return Err(error(
-                                file,
-                                at(&format!("monte_carlo.{key}")),
-                                &format!("monte_carlo.{key}"),
-                                "needs [min, max] with 0 <= min <= max (a loss rate at most 1, a tau above 0)",
-                            ));
-                        }
-                        drawn_columns.push(format!("mc.{key}"));
-                    }
-                }
-                for (key, x) in [
-                    ("position_jitter_m", mc.position_jitter_m),
-                    ("speed_jitter_mps", mc.speed_jitter_mps),
-                ] {
-                    if !(x.is_finite() && x >= 0.0) {
-                        return Err(error(
-                            file,
-                            at(&format!("monte_carlo.{key}")),
-                            &format!("monte_carlo.{key}"),
-                            "must be a number >= 0",
-                        ));
-                    }
-                }
-                mc.samples
-            }
-        };
-
-        let combos = dims.iter().try_fold(1usize, |a, &d| a.checked_mul(d));
-        let total = combos.and_then(|c| c.checked_mul(samples));
-        let total = match total {
-            Some(t) if t <= MAX_CELLS => t,
-            _ => {
-                return Err(error(
-                    file,
-                    None,
-                    "",
-                    format!(
-                        "the campaign would have more than {MAX_CELLS} cells; check the ranges"
-                    ),
-                ))
-            }
-        };
+        let (samples, drawn_columns) = monte_carlo(&mut spec.monte_carlo, samples, file, &lines)?;
+        let total = cell_count(&dims, samples, file)?;
 
         let name = file_name(spec.name.as_deref(), file, "campaign");
         let mut campaign = Campaign {

@@ -272,163 +272,172 @@ pub fn read(summary: &Value) -> Result<Summary, String> {
 
 /// The values of the columns of `names` for one cell's summary.
 pub fn extract(names: &[String], max_followers: usize, summary: &Summary) -> Vec<Metric> {
+    let mut out = Vec::new();
+    for name in names {
+        if name == "triggers_by_follower" {
+            for i in 1..=max_followers {
+                out.push(
+                    summary
+                        .triggers
+                        .get(&i.to_string())
+                        .map_or(Metric::Empty, |n| Metric::Int(*n)),
+                );
+            }
+            continue;
+        }
+        let m = platoon_metric(name, summary).or_else(|| run_metric(name, summary));
+        out.push(m.unwrap_or(Metric::Empty));
+    }
+    out
+}
+
+/// A metric of the platoon's motion, safety and broadcasts; `None` for another name.
+fn platoon_metric(name: &str, summary: &Summary) -> Option<Metric> {
     let fleet = summary.fleet.as_ref();
     let safety = &summary.safety;
     let followers = summary.vehicles.len();
-    let mut out = Vec::new();
-    for name in names {
-        let m = match name.as_str() {
-            "max_spacing_error_m" => match fleet {
-                Some(f) => f
-                    .per_platoon
-                    .iter()
-                    .map(|p| finite(p.max_spacing_error_m))
-                    .try_fold(0.0f64, |a, x| x.map(|x| a.max(x)))
-                    .map_or(Metric::Empty, Metric::Num),
-                None => over_vehicles(summary, |v| v.spacing_error_m.max_abs, f64::max),
-            },
-            "rms_spacing_error_m" => {
-                let rms: Option<Vec<f64>> = summary
-                    .vehicles
-                    .iter()
-                    .map(|v| finite(v.spacing_error_m.rms))
-                    .collect();
-                match rms {
-                    Some(r) if !r.is_empty() => {
-                        Metric::Num((r.iter().map(|x| x * x).sum::<f64>() / r.len() as f64).sqrt())
-                    }
-                    _ => Metric::Empty,
+    Some(match name {
+        "max_spacing_error_m" => match fleet {
+            Some(f) => f
+                .per_platoon
+                .iter()
+                .map(|p| finite(p.max_spacing_error_m))
+                .try_fold(0.0f64, |a, x| x.map(|x| a.max(x)))
+                .map_or(Metric::Empty, Metric::Num),
+            None => over_vehicles(summary, |v| v.spacing_error_m.max_abs, f64::max),
+        },
+        "rms_spacing_error_m" => {
+            let rms: Option<Vec<f64>> = summary
+                .vehicles
+                .iter()
+                .map(|v| finite(v.spacing_error_m.rms))
+                .collect();
+            match rms {
+                Some(r) if !r.is_empty() => {
+                    Metric::Num((r.iter().map(|x| x * x).sum::<f64>() / r.len() as f64).sqrt())
                 }
+                _ => Metric::Empty,
             }
-            "mean_spacing_error_m" => {
-                match over_vehicles(summary, |v| v.spacing_error_m.mean_abs, |a, b| a + b) {
-                    Metric::Num(s) if followers > 0 => Metric::Num(s / followers as f64),
-                    _ => Metric::Empty,
-                }
+        }
+        "mean_spacing_error_m" => {
+            match over_vehicles(summary, |v| v.spacing_error_m.mean_abs, |a, b| a + b) {
+                Metric::Num(s) if followers > 0 => Metric::Num(s / followers as f64),
+                _ => Metric::Empty,
             }
-            "final_spacing_error_m" => {
-                over_vehicles(summary, |v| v.spacing_error_m.final_abs, f64::max)
+        }
+        "final_spacing_error_m" => {
+            over_vehicles(summary, |v| v.spacing_error_m.final_abs, f64::max)
+        }
+        "max_gap_error_m" => over_vehicles(summary, |v| v.gap_error_m.max_abs, f64::max),
+        "gap_error_growth" => {
+            let v = &summary.vehicles;
+            let max = |x: Option<&VehicleSummary>| x.and_then(|x| finite(x.gap_error_m.max_abs));
+            match (max(v.first()), max(v.last())) {
+                (Some(a), Some(b)) if v.len() > 1 && (b / a).is_finite() => Metric::Num(b / a),
+                _ => Metric::Empty,
             }
-            "max_gap_error_m" => over_vehicles(summary, |v| v.gap_error_m.max_abs, f64::max),
-            "gap_error_growth" => {
-                let v = &summary.vehicles;
-                let max =
-                    |x: Option<&VehicleSummary>| x.and_then(|x| finite(x.gap_error_m.max_abs));
-                match (max(v.first()), max(v.last())) {
-                    (Some(a), Some(b)) if v.len() > 1 && (b / a).is_finite() => Metric::Num(b / a),
-                    _ => Metric::Empty,
-                }
-            }
-            "max_velocity_error_mps" => {
-                over_vehicles(summary, |v| v.velocity_error_mps.max_abs, f64::max)
-            }
-            "min_gap_m" => num(Some(fleet.map_or(safety.min_gap_m, |f| f.min_gap_m))),
-            "max_deceleration_mps2" => {
-                num(Some(fleet.map_or(safety.max_deceleration_mps2, |f| {
-                    f.max_deceleration_mps2
-                })))
-            }
-            "safety_class" => Metric::Text(fleet.map_or(safety.class, |f| f.class).name().into()),
-            "collided" => Metric::Int(u64::from(fleet.map_or(safety.collided, |f| f.collided))),
-            "first_collision_s" => {
-                num(fleet.map_or(safety.first_collision_t_s, |f| f.first_collision_t_s))
-            }
-            "triggers_total" => {
-                Metric::Int(fleet.map_or(summary.triggers_total, |f| f.triggers_total))
-            }
-            "triggers_per_follower" if followers > 0 => {
-                Metric::Num(summary.triggers_total as f64 / followers as f64)
-            }
-            "triggers_by_follower" => {
-                for i in 1..=max_followers {
-                    out.push(
-                        summary
-                            .triggers
-                            .get(&i.to_string())
-                            .map_or(Metric::Empty, |n| Metric::Int(*n)),
-                    );
-                }
-                continue;
-            }
-            "min_inter_event_s" => num(summary.min_inter_event_s),
-            "assumption2" => match &summary.attack.assumption2 {
+        }
+        "max_velocity_error_mps" => {
+            over_vehicles(summary, |v| v.velocity_error_mps.max_abs, f64::max)
+        }
+        "min_gap_m" => num(Some(fleet.map_or(safety.min_gap_m, |f| f.min_gap_m))),
+        "max_deceleration_mps2" => {
+            num(Some(fleet.map_or(safety.max_deceleration_mps2, |f| {
+                f.max_deceleration_mps2
+            })))
+        }
+        "safety_class" => Metric::Text(fleet.map_or(safety.class, |f| f.class).name().into()),
+        "collided" => Metric::Int(u64::from(fleet.map_or(safety.collided, |f| f.collided))),
+        "first_collision_s" => {
+            num(fleet.map_or(safety.first_collision_t_s, |f| f.first_collision_t_s))
+        }
+        "triggers_total" => Metric::Int(fleet.map_or(summary.triggers_total, |f| f.triggers_total)),
+        "triggers_per_follower" if followers > 0 => {
+            Metric::Num(summary.triggers_total as f64 / followers as f64)
+        }
+        "min_ttc_s" => num(safety.min_ttc_s),
+        "max_affected_time_s" => over_vehicles(summary, |v| v.affected_time_s, f64::max),
+        _ => return None,
+    })
+}
+
+/// A metric of the attack, the channel, detection, maneuvers and fallbacks; `None` for another
+/// name.
+fn run_metric(name: &str, summary: &Summary) -> Option<Metric> {
+    Some(match name {
+        "min_inter_event_s" => num(summary.min_inter_event_s),
+        "assumption2" => match &summary.attack.assumption2 {
+            Some(r) if r.holds => Metric::Text("holds".into()),
+            Some(_) => Metric::Text("violated".into()),
+            None => Metric::Empty,
+        },
+        "attack_intervals" => Metric::Int(summary.attack.intervals as u64),
+        "attacked_time_s" => num(Some(summary.attack.attacked_time_s)),
+        "observed_jammed_s" => num(summary.attack.observed.as_ref().map(|o| o.jammed_time_s)),
+        "delivery_ratio" => num(summary.wire.as_ref().and_then(|w| {
+            (w.totals.sent > 0).then(|| w.totals.delivered_as_sent as f64 / w.totals.sent as f64)
+        })),
+        "mean_cbr" => num(summary.channel.map(|c| c.mean_cbr)),
+        "detection_precision" => num(summary.detection.as_ref().and_then(|d| d.any.precision)),
+        "detection_recall" => num(summary.detection.as_ref().and_then(|d| d.any.recall)),
+        "detection_f1" => num(summary.detection.as_ref().and_then(|d| d.any.f1)),
+        "false_alarm_rate" => num(summary
+            .detection
+            .as_ref()
+            .and_then(|d| d.any.false_alarm_rate)),
+        "time_to_detect_s" => num(summary
+            .detection
+            .as_ref()
+            .and_then(|d| d.any.time_to_detect_s)),
+        "max_cbr" => num(summary.channel.map(|c| c.max_cbr)),
+        "channel_load" => num(summary.channel.map(|c| c.mean_load)),
+        "transmissions" => summary
+            .channel
+            .map_or(Metric::Empty, |c| Metric::Int(c.transmissions)),
+        "dcc_deferred" => summary
+            .channel
+            .map_or(Metric::Empty, |c| Metric::Int(c.dcc_deferred)),
+        "observed_assumption2" => {
+            match summary
+                .attack
+                .observed
+                .as_ref()
+                .and_then(|o| o.assumption2.as_ref())
+            {
                 Some(r) if r.holds => Metric::Text("holds".into()),
                 Some(_) => Metric::Text("violated".into()),
                 None => Metric::Empty,
-            },
-            "attack_intervals" => Metric::Int(summary.attack.intervals as u64),
-            "attacked_time_s" => num(Some(summary.attack.attacked_time_s)),
-            "observed_jammed_s" => num(summary.attack.observed.as_ref().map(|o| o.jammed_time_s)),
-            "delivery_ratio" => num(summary.wire.as_ref().and_then(|w| {
-                (w.totals.sent > 0)
-                    .then(|| w.totals.delivered_as_sent as f64 / w.totals.sent as f64)
-            })),
-            "mean_cbr" => num(summary.channel.map(|c| c.mean_cbr)),
-            "detection_precision" => num(summary.detection.as_ref().and_then(|d| d.any.precision)),
-            "detection_recall" => num(summary.detection.as_ref().and_then(|d| d.any.recall)),
-            "detection_f1" => num(summary.detection.as_ref().and_then(|d| d.any.f1)),
-            "false_alarm_rate" => num(summary
-                .detection
-                .as_ref()
-                .and_then(|d| d.any.false_alarm_rate)),
-            "time_to_detect_s" => num(summary
-                .detection
-                .as_ref()
-                .and_then(|d| d.any.time_to_detect_s)),
-            "max_cbr" => num(summary.channel.map(|c| c.max_cbr)),
-            "channel_load" => num(summary.channel.map(|c| c.mean_load)),
-            "transmissions" => summary
-                .channel
-                .map_or(Metric::Empty, |c| Metric::Int(c.transmissions)),
-            "dcc_deferred" => summary
-                .channel
-                .map_or(Metric::Empty, |c| Metric::Int(c.dcc_deferred)),
-            "observed_assumption2" => {
-                match summary
-                    .attack
-                    .observed
-                    .as_ref()
-                    .and_then(|o| o.assumption2.as_ref())
-                {
-                    Some(r) if r.holds => Metric::Text("holds".into()),
-                    Some(_) => Metric::Text("violated".into()),
-                    None => Metric::Empty,
-                }
             }
-            "max_affected_time_s" => over_vehicles(summary, |v| v.affected_time_s, f64::max),
-            "rejected_packets" => Metric::Int(summary.rejected_packets.total()),
-            "min_ttc_s" => num(safety.min_ttc_s),
-            "fallback_time_s" => Metric::Num(
-                summary
-                    .vehicles
-                    .iter()
-                    .flat_map(|v| v.mode_time_s.iter())
-                    .filter(|(mode, _)| mode.as_str() != "coop")
-                    .filter_map(|(_, t)| finite(*t))
-                    .sum(),
-            ),
-            "guard_activations" => {
-                Metric::Int(summary.vehicles.iter().map(|v| v.guard_activations).sum())
-            }
-            "maneuvers_completed" => summary.maneuvers.as_ref().map_or(Metric::Empty, |m| {
-                let done = m.maneuvers.iter().filter(|r| r.completion_s.is_some());
-                Metric::Int(done.count() as u64)
-            }),
-            "maneuver_time_s" => num(summary.maneuvers.as_ref().and_then(|m| {
-                m.maneuvers
-                    .iter()
-                    .filter_map(|r| r.completion_s)
-                    .reduce(f64::max)
-            })),
-            "maneuver_messages" => summary
-                .maneuvers
-                .as_ref()
-                .map_or(Metric::Empty, |m| Metric::Int(m.messages_sent)),
-            _ => Metric::Empty,
-        };
-        out.push(m);
-    }
-    out
+        }
+        "rejected_packets" => Metric::Int(summary.rejected_packets.total()),
+        "fallback_time_s" => Metric::Num(
+            summary
+                .vehicles
+                .iter()
+                .flat_map(|v| v.mode_time_s.iter())
+                .filter(|(mode, _)| mode.as_str() != "coop")
+                .filter_map(|(_, t)| finite(*t))
+                .sum(),
+        ),
+        "guard_activations" => {
+            Metric::Int(summary.vehicles.iter().map(|v| v.guard_activations).sum())
+        }
+        "maneuvers_completed" => summary.maneuvers.as_ref().map_or(Metric::Empty, |m| {
+            let done = m.maneuvers.iter().filter(|r| r.completion_s.is_some());
+            Metric::Int(done.count() as u64)
+        }),
+        "maneuver_time_s" => num(summary.maneuvers.as_ref().and_then(|m| {
+            m.maneuvers
+                .iter()
+                .filter_map(|r| r.completion_s)
+                .reduce(f64::max)
+        })),
+        "maneuver_messages" => summary
+            .maneuvers
+            .as_ref()
+            .map_or(Metric::Empty, |m| Metric::Int(m.messages_sent)),
+        _ => return None,
+    })
 }
 
 /// Why a cell whose run finished must still count as failed: it diverged (non-finite errors,

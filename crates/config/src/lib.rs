@@ -3,7 +3,11 @@
 //! Unknown keys are errors; every default is written in one place (the schema types' serde
 //! defaults and `Default` impls); a bad value is reported as `FILE:LINE: key `KEY`: what is
 //! wrong`. [`load`] parses and validates a file into a resolved [`Config`] (every default
-//! written out, so it can be saved next to a run's outputs) and a runnable [`Scenario`].
+//! written out, so it can be saved next to a run's outputs) and a runnable [`Scenario`]:
+//! [`scenario_of`] resolves the tables, one resolver each, reading the config only, and
+//! [`write_resolved_defaults`] then writes the defaults that depend on other keys. A value
+//! that cannot be used is a [`KeyError`] (the key and a [`Reason`]), placed at its file and
+//! line as a [`ConfigError`].
 //!
 //! A table whose keys depend on a selector (`[trigger] rule`, `[attack] kind`,
 //! `[[channel.attacks]] kind`, `[platoon] spacing_policy`, `[topology] preset`) is a typed enum
@@ -12,88 +16,30 @@
 //! [`mod@reference`] module derives from the types.
 #![warn(missing_docs)]
 
+mod error;
 mod lines;
 pub mod reference;
 mod resolve;
 mod schema;
 mod serde_util;
+#[cfg(test)]
+mod shipped;
 mod tagged;
 mod transport;
 
+pub use error::{ConfigError, KeyError, Reason};
+use lines::line_at;
 pub use lines::KeyLines;
 pub use reference::{
     check_committed, file_reference, json_schema, reference_markdown, schema_json, schema_of,
 };
-pub use resolve::to_scenario;
+pub use resolve::{scenario_of, to_scenario, write_resolved_defaults};
 pub use schema::*;
 pub use tagged::{tagged_tables, TaggedTable, TaggedVariant};
 pub use transport::Transport;
 
 use platoon_sim::Scenario;
-use std::fmt;
-use std::path::{Path, PathBuf};
-
-/// A config that cannot be used, with the file, the key and what is wrong.
-#[derive(Debug, Clone, PartialEq)]
-pub struct ConfigError {
-    /// The file (or a label such as `<embedded paper>`).
-    pub file: PathBuf,
-    /// Dotted key path, e.g. `trigger.h_s`; empty for syntax errors.
-    pub key: String,
-    /// What is wrong and, where useful, what to do.
-    pub message: String,
-    /// 1-based line, when known.
-    pub line: Option<usize>,
-}
-
-impl fmt::Display for ConfigError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}", self.file.display())?;
-        if let Some(line) = self.line {
-            write!(f, ":{line}")?;
-        }
-        if !self.key.is_empty() {
-            write!(f, ": key `{}`", self.key)?;
-        }
-        write!(f, ": {}", self.message)
-    }
-}
-
-impl std::error::Error for ConfigError {}
-
-impl ConfigError {
-    /// What is wrong with `key` (dotted path; empty for the file as a whole) of `file`.
-    pub fn new(
-        file: impl Into<PathBuf>,
-        key: impl Into<String>,
-        message: impl Into<String>,
-    ) -> Self {
-        Self {
-            file: file.into(),
-            key: key.into(),
-            message: message.into(),
-            line: None,
-        }
-    }
-
-    /// What is wrong with `key` of `file`, placed at the line the key stands on in `lines`.
-    pub fn at_key(
-        file: impl Into<PathBuf>,
-        lines: &KeyLines,
-        key: impl Into<String>,
-        message: impl Into<String>,
-    ) -> Self {
-        let key = key.into();
-        let line = lines.line_of(&key);
-        Self::new(file, key, message).at_line(line)
-    }
-
-    /// The same error, placed at 1-based `line` when known.
-    pub fn at_line(mut self, line: Option<usize>) -> Self {
-        self.line = line;
-        self
-    }
-}
+use std::path::Path;
 
 /// The configs this crate embeds, so that commands run with nothing but the binary.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -208,15 +154,6 @@ pub const PAPER_TOML: &str = include_str!("../../../configs/paper.toml");
 /// A deserialisation error: the error, and the span of the value it is about.
 type Spanned = (ConfigError, Option<std::ops::Range<usize>>);
 
-/// The 1-based line of byte `at` of `text`.
-fn line_at(text: &str, at: usize) -> usize {
-    let mut at = at.min(text.len());
-    while !text.is_char_boundary(at) {
-        at -= 1;
-    }
-    text[..at].lines().count().max(1) + usize::from(text[..at].ends_with('\n'))
-}
-
 fn deserialize_spanned<T: serde::de::DeserializeOwned>(
     text: &str,
     file: &Path,
@@ -265,16 +202,18 @@ fn missing_key(path: &str, message: &str) -> Option<String> {
 /// the errors inside a tagged table (a flattened enum) at the table; [`tagged::diagnose`] finds
 /// the key and says what is wrong in the config's terms (`trigger.mu` is not used with
 /// `rule = "dynamic"`). `None` when the error is already about a key.
-fn refine(path: &str, message: &str, document: &toml::Value) -> Option<(String, String)> {
+fn refine(path: &str, message: &str, document: &toml::Value) -> Option<KeyError> {
     let value = refine_value(document, path)?;
     let parent = path.rsplit_once('.').map(|(p, _)| p).unwrap_or("");
     tagged::diagnose(path, value, message)
         .or_else(|| {
             // An unknown selector value is reported at the selector, below its table.
             let table = refine_value(document, parent)?;
-            tagged::diagnose(parent, table, message).filter(|(k, _)| k == path)
+            tagged::diagnose(parent, table, message).filter(|e| e.key == path)
         })
-        .or_else(|| missing_key(path, message).map(|k| (k, message.to_string())))
+        .or_else(|| {
+            missing_key(path, message).map(|k| KeyError::new(k, Reason::Schema(message.into())))
+        })
 }
 
 /// The value at a dotted `path` (`channel.attacks[1]`) of `document`.
@@ -318,33 +257,34 @@ fn key_line(text: &str, span: &std::ops::Range<usize>, key: &str) -> Option<usiz
 fn deserialize_config(text: &str, file: &Path) -> Result<Config, ConfigError> {
     deserialize_spanned(text, file).map_err(|(mut e, span)| {
         let document: Option<toml::Value> = toml::from_str(text).ok();
-        if let Some((key, message)) = document.and_then(|d| refine(&e.key, &e.message, &d)) {
-            if let Some(line) = span.as_ref().and_then(|s| key_line(text, s, &key)) {
+        if let Some(refined) = document.and_then(|d| refine(&e.key, &e.message, &d)) {
+            if let Some(line) = span.as_ref().and_then(|s| key_line(text, s, &refined.key)) {
                 e.line = Some(line);
             }
-            e.key = key;
-            e.message = message;
+            e.message = refined.reason.to_string();
+            e.key = refined.key;
         }
         e
     })
 }
 
 /// Deserialises a config held as a TOML value (a campaign's cell before it is written), the
-/// error as `(key, message)` with the key at fault named as [`parse`] names it.
-pub fn from_value(value: toml::Value) -> Result<Config, (String, String)> {
+/// error naming the key at fault as [`parse`] names it ([`Reason::Schema`]).
+pub fn from_value(value: toml::Value) -> Result<Config, KeyError> {
     serde_path_to_error::deserialize::<_, Config>(value.clone()).map_err(|e| {
         let path = e.path().to_string();
         let path = if path == "." { String::new() } else { path };
         let message = e.inner().message().trim().to_string();
-        refine(&path, &message, &value).unwrap_or((path, message))
+        refine(&path, &message, &value)
+            .unwrap_or_else(|| KeyError::new(path, Reason::Schema(message)))
     })
 }
 
 /// Parses TOML text (from `file`, used in errors) into a resolved config and its scenario.
 pub fn parse(text: &str, file: &Path) -> Result<(Config, Scenario), ConfigError> {
     let mut config: Config = deserialize_config(text, file)?;
-    let scenario = to_scenario(&mut config)
-        .map_err(|(key, message)| ConfigError::at_key(file, &KeyLines::new(text), key, message))?;
+    let scenario = scenario_of(&config).map_err(|e| e.in_file(file, &KeyLines::new(text)))?;
+    write_resolved_defaults(&mut config);
     Ok((config, scenario))
 }
 

@@ -44,7 +44,7 @@ impl KeyLines {
             at = Some(*start);
             node = next;
         }
-        at.map(|at| crate::line_at(&self.text, at))
+        at.map(|at| line_at(&self.text, at))
     }
 
     /// [`Self::line`] of a dotted key with indices, as errors name keys
@@ -56,6 +56,15 @@ impl KeyLines {
             .collect();
         self.line(&segments)
     }
+}
+
+/// The 1-based line of byte `at` of `text`.
+pub(crate) fn line_at(text: &str, at: usize) -> usize {
+    let mut at = at.min(text.len());
+    while !text.is_char_boundary(at) {
+        at -= 1;
+    }
+    text[..at].lines().count().max(1) + usize::from(text[..at].ends_with('\n'))
 }
 
 impl<'de> Deserialize<'de> for Node {

@@ -11,6 +11,7 @@ mod control;
 
 pub use channel::*;
 pub use control::*;
+pub use platoon_control::{LawName, LawParams, PaperParams};
 
 // A table whose keys depend on a selector (`[trigger] rule`, `[attack] kind`,
 // `[[channel.attacks]] kind`, `[platoon] spacing_policy`, `[topology] preset`) holds an
@@ -550,7 +551,7 @@ impl Default for SpacingConfig {
 }
 
 impl SpacingConfig {
-    /// The policy it names (not validated: see [`crate::to_scenario`]).
+    /// The policy it names (not validated: see [`crate::scenario_of`]).
     pub fn policy(self) -> SpacingPolicy {
         match self {
             Self::Constant {} => SpacingPolicy::Constant,

@@ -1,6 +1,6 @@
 //! Serde plumbing for the tagged tables: a selector key (`rule`, `kind`, `spacing_policy`, ...)
 //! whose value picks the other keys a table may hold, written flat in the table as users write
-//! it, held as a typed enum in [`crate::Config`].
+//! it, held as a typed enum in [`crate::schema::Config`].
 
 use serde::de::{DeserializeOwned, Deserializer};
 use serde::ser::{self, Impossible, Serialize, SerializeMap, SerializeStruct};
@@ -237,70 +237,8 @@ impl<'a, M: SerializeMap> ser::Serializer for Entries<'a, M> {
     refuse_the_rest!(not_a_struct);
 }
 
-/// The name serde gives a unit variant (`LawName::PathCacc` -> `path_cacc`): the enum's
-/// `rename_all` is the one list of its names.
-pub(crate) fn unit_name<T: Serialize>(value: &T) -> &'static str {
-    value
-        .serialize(UnitName)
-        .expect("a unit variant of a fieldless enum")
-}
-
-struct UnitName;
-
-#[derive(Debug)]
-struct NotAUnitVariant;
-
-impl std::fmt::Display for NotAUnitVariant {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str("not a unit variant")
-    }
-}
-
-impl std::error::Error for NotAUnitVariant {}
-
-impl ser::Error for NotAUnitVariant {
-    fn custom<T: std::fmt::Display>(_: T) -> Self {
-        Self
-    }
-}
-
-fn not_a_unit_variant() -> NotAUnitVariant {
-    NotAUnitVariant
-}
-
-impl ser::Serializer for UnitName {
-    type Ok = &'static str;
-    type Error = NotAUnitVariant;
-    type SerializeSeq = Impossible<&'static str, NotAUnitVariant>;
-    type SerializeTuple = Impossible<&'static str, NotAUnitVariant>;
-    type SerializeTupleStruct = Impossible<&'static str, NotAUnitVariant>;
-    type SerializeTupleVariant = Impossible<&'static str, NotAUnitVariant>;
-    type SerializeMap = Impossible<&'static str, NotAUnitVariant>;
-    type SerializeStruct = Impossible<&'static str, NotAUnitVariant>;
-    type SerializeStructVariant = Impossible<&'static str, NotAUnitVariant>;
-
-    fn serialize_unit_variant(
-        self,
-        _: &'static str,
-        _: u32,
-        variant: &'static str,
-    ) -> Result<&'static str, NotAUnitVariant> {
-        Ok(variant)
-    }
-
-    fn serialize_struct(
-        self,
-        _: &'static str,
-        _: usize,
-    ) -> Result<Self::SerializeStruct, NotAUnitVariant> {
-        Err(NotAUnitVariant)
-    }
-
-    refuse_the_rest!(not_a_unit_variant);
-}
-
 /// The selector's value (`kind`, `rule`, ...) serde writes for a tagged table's enum: the enum's
-/// `rename_all` is the one list of its names. Served from [`crate::tagged_tables`], which holds
+/// `rename_all` is the one list of its names. Served from [`crate::tagged::tagged_tables`], which holds
 /// every such name for the process's lifetime.
 pub(crate) fn tag_name<T: Serialize>(value: &T, selector: &str) -> &'static str {
     let table = toml::Value::try_from(value).expect("a tagged table serialises");
@@ -308,7 +246,7 @@ pub(crate) fn tag_name<T: Serialize>(value: &T, selector: &str) -> &'static str 
         .get(selector)
         .and_then(toml::Value::as_str)
         .expect("a tagged table writes its selector");
-    crate::tagged_tables()
+    crate::tagged::tagged_tables()
         .iter()
         .filter(|t| t.selector == selector)
         .flat_map(|t| &t.variants)

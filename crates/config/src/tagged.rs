@@ -6,15 +6,16 @@
 //! ([`diagnose`]) and campaigns that drop the keys a new selector value does not use
 //! (`platoon_campaign::drop_excluded`).
 
+use crate::error::{KeyError, Reason};
 use serde_json::{Map, Value};
 use std::sync::OnceLock;
 
-/// The schema as schemars derives it from [`crate::Config`] (JSON Schema draft 7, the dialect
+/// The schema as schemars derives it from [`crate::schema::Config`] (JSON Schema draft 7, the dialect
 /// TOML editors support best).
 pub(crate) fn raw_schema() -> Value {
     schemars::generate::SchemaSettings::draft07()
         .into_generator()
-        .into_root_schema_for::<crate::Config>()
+        .into_root_schema_for::<crate::schema::Config>()
         .to_value()
 }
 
@@ -350,31 +351,33 @@ pub(crate) fn fits(root: &Value, schema: &Value, value: &toml::Value, depth: usi
 }
 
 /// Why the table at `path` (concrete, `channel.attacks[1]`), a tagged table that did not
-/// deserialise with `message`, is wrong, said of the key at fault: `(key path, message)`.
+/// deserialise with `message`, is wrong, said of the key at fault ([`Reason::Schema`]).
 /// `None` when `path` is no tagged table or nothing more precise is found.
-pub(crate) fn diagnose(path: &str, value: &toml::Value, message: &str) -> Option<(String, String)> {
+pub(crate) fn diagnose(path: &str, value: &toml::Value, message: &str) -> Option<KeyError> {
     let t = tagged_tables().iter().find(|t| t.matches(path))?;
     let table = value.as_table()?;
-    let at = |k: &str| {
-        if path.is_empty() {
+    // `key` of the table is wrong, as `message` says.
+    let at = |k: &str, message: String| {
+        let key = if path.is_empty() {
             k.to_string()
         } else {
             format!("{path}.{k}")
-        }
+        };
+        KeyError::new(key, Reason::Schema(message))
     };
     let sel = &t.selector;
     let tag = match table.get(sel) {
         None => match &t.default {
             Some(d) => d.as_str(),
             None => {
-                return Some((at(sel), format!("missing; use {}", t.tags())));
+                return Some(at(sel, format!("missing; use {}", t.tags())));
             }
         },
         Some(v) => match v.as_str() {
             Some(s) if t.variant(s).is_some() => s,
             _ => {
-                return Some((
-                    at(sel),
+                return Some(at(
+                    sel,
                     format!("unknown {} {}; use {}", t.noun(), v, t.tags()),
                 ))
             }
@@ -397,16 +400,16 @@ pub(crate) fn diagnose(path: &str, value: &toml::Value, message: &str) -> Option
             expected.extend(t.common.iter().cloned());
             expected.extend(variant.keys.iter().cloned());
             let expected: Vec<String> = expected.iter().map(|k| format!("`{k}`")).collect();
-            return Some((
-                at(key),
+            return Some(at(
+                key,
                 format!(
                     "unknown field `{key}`, expected one of {}",
                     expected.join(", ")
                 ),
             ));
         }
-        return Some((
-            at(key),
+        return Some(at(
+            key,
             format!(
                 "is not used with {}; it is only used with {}; remove it",
                 said(tag),
@@ -416,14 +419,14 @@ pub(crate) fn diagnose(path: &str, value: &toml::Value, message: &str) -> Option
     }
     for key in &variant.required {
         if !table.contains_key(key) {
-            return Some((at(key), format!("missing: required with {}", said(tag))));
+            return Some(at(key, format!("missing: required with {}", said(tag))));
         }
     }
     let root = raw_schema();
     for (key, v) in table {
         if let Some(s) = variant.schemas.get(key) {
             if !fits(&root, s, v, 0) {
-                return Some((at(key), message.to_string()));
+                return Some(at(key, message.to_string()));
             }
         }
     }

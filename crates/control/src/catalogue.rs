@@ -12,45 +12,156 @@ use crate::laws::{
     FlatbedParams, PathCaccParams, PlexeAccParams, PloegParams,
 };
 use platoon_model::VehicleId;
+use serde::{Deserialize, Serialize};
 
-/// Which law the followers run, with its parameters.
-#[derive(Debug, Clone, PartialEq, Default)]
+/// `[control] law` and its keys (docs/controllers.md): the paper's (`gain`, `beta1`, `beta2`,
+/// and the event triggers of `[trigger]`), or one of the field's, which beacon periodically or
+/// by ETSI's CAM rules (`[trigger] rule = "periodic"` or `"cam"`); every key of a field's law
+/// is optional, with SUMO's Plexe defaults. The one list of the laws: a config file holds it
+/// and the controller runs it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schemars", derive(schemars::JsonSchema))]
+#[serde(tag = "law", rename_all = "snake_case", deny_unknown_fields)]
 pub enum LawParams {
-    /// The paper's `u = -K q` on open-loop estimates with its event triggers
-    /// ([`crate::PlatoonController`]).
-    #[default]
-    Paper,
-    /// Plexe's ACC: radar only, no V2V.
+    /// The paper's `u = -K q` on open-loop estimates, with its event triggers.
+    Paper(PaperParams),
+    /// Plexe's ACC: cruise control and a constant time headway on the radar, no V2V.
     Acc(PlexeAccParams),
-    /// The PATH CACC (Rajamani): predecessor and leader.
+    /// The PATH CACC (Rajamani et al.): constant spacing, predecessor and leader.
     PathCacc(PathCaccParams),
-    /// Ploeg's CACC: the predecessor and its command.
+    /// Ploeg et al.'s CACC: time headway, the predecessor's command fed forward.
     Ploeg(PloegParams),
-    /// The consensus law (Santini et al.): every vehicle its row names, and the leader.
+    /// The consensus law of Santini et al.
     Consensus(ConsensusParams),
-    /// The flatbed controller (Ali, Garcia, Martinet 2015, as Plexe has it): predecessor and
-    /// leader.
+    /// The flatbed controller of Ali, Garcia and Martinet (2015), as Plexe has it.
     Flatbed(FlatbedParams),
 }
 
-impl LawParams {
-    /// Its config name (`[control] law`).
-    pub fn name(&self) -> &'static str {
+/// The paper's law with its Section IV values.
+impl Default for LawParams {
+    fn default() -> Self {
+        Self::Paper(PaperParams::default())
+    }
+}
+
+/// `law = "paper"`: the gain and the trigger conditions' weights.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(
+    feature = "schemars",
+    derive(schemars::JsonSchema),
+    schemars(rename = "PaperLaw")
+)]
+#[serde(default, deny_unknown_fields)]
+pub struct PaperParams {
+    /// K in `u_i = -K q_i` (docs/paper-readings.md#R1).
+    pub gain: [f64; 3],
+    /// Weight of |eps|^2 in the trigger conditions.
+    pub beta1: f64,
+    /// Weight of |q|^2 in the trigger conditions.
+    pub beta2: f64,
+}
+
+/// The paper's values (Section IV).
+impl Default for PaperParams {
+    fn default() -> Self {
+        Self {
+            gain: [4.81, 9.12, 2.97],
+            beta1: 319.38,
+            beta2: 5.62,
+        }
+    }
+}
+
+/// Which law, without its parameters (a list of laws on the command line or in a search file).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "schemars", derive(schemars::JsonSchema))]
+#[serde(rename_all = "snake_case")]
+pub enum LawName {
+    /// The paper's.
+    #[default]
+    Paper,
+    /// Plexe's ACC.
+    Acc,
+    /// The PATH CACC.
+    PathCacc,
+    /// Ploeg et al.'s CACC.
+    Ploeg,
+    /// The consensus law.
+    Consensus,
+    /// The flatbed controller.
+    Flatbed,
+}
+
+impl LawName {
+    /// Every law, the paper's first.
+    pub const ALL: [LawName; 6] = [
+        Self::Paper,
+        Self::Acc,
+        Self::PathCacc,
+        Self::Ploeg,
+        Self::Consensus,
+        Self::Flatbed,
+    ];
+
+    /// The law of a config name (`ploeg`).
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|l| l.name() == name)
+    }
+
+    /// The law with its default parameters (SUMO's Plexe defaults; the paper's own).
+    pub fn defaults(self) -> LawParams {
+        match self {
+            Self::Paper => LawParams::Paper(Default::default()),
+            Self::Acc => LawParams::Acc(Default::default()),
+            Self::PathCacc => LawParams::PathCacc(Default::default()),
+            Self::Ploeg => LawParams::Ploeg(Default::default()),
+            Self::Consensus => LawParams::Consensus(Default::default()),
+            Self::Flatbed => LawParams::Flatbed(Default::default()),
+        }
+    }
+
+    /// Its config name (`[control] law`; serde's for [`LawParams`] and for this enum, which
+    /// platoon-config's tests check against it).
+    pub fn name(self) -> &'static str {
         match self {
             Self::Paper => "paper",
-            Self::Acc(_) => "acc",
-            Self::PathCacc(_) => "path_cacc",
-            Self::Ploeg(_) => "ploeg",
-            Self::Consensus(_) => "consensus",
-            Self::Flatbed(_) => "flatbed",
+            Self::Acc => "acc",
+            Self::PathCacc => "path_cacc",
+            Self::Ploeg => "ploeg",
+            Self::Consensus => "consensus",
+            Self::Flatbed => "flatbed",
         }
+    }
+}
+
+impl LawParams {
+    /// Which law it is.
+    pub fn kind(&self) -> LawName {
+        match self {
+            Self::Paper(_) => LawName::Paper,
+            Self::Acc(_) => LawName::Acc,
+            Self::PathCacc(_) => LawName::PathCacc,
+            Self::Ploeg(_) => LawName::Ploeg,
+            Self::Consensus(_) => LawName::Consensus,
+            Self::Flatbed(_) => LawName::Flatbed,
+        }
+    }
+
+    /// Its config name (`[control] law`).
+    pub fn name(&self) -> &'static str {
+        self.kind().name()
+    }
+
+    /// Whether it is the paper's law (which triggers its broadcasts on its own estimates).
+    pub fn is_paper(&self) -> bool {
+        matches!(self, Self::Paper(_))
     }
 
     /// The [`Law`] of one of the field's laws (`None` for the paper's, which is a controller of
     /// its own).
     pub fn law(&self, vehicle_length: f64) -> Option<Box<dyn Law>> {
         Some(match self {
-            Self::Paper => return None,
+            Self::Paper(_) => return None,
             Self::Acc(p) => Box::new(Acc(*p)),
             Self::PathCacc(p) => Box::new(PathCacc(*p)),
             Self::Ploeg(p) => Box::new(Ploeg(*p)),
@@ -70,7 +181,7 @@ impl LawParams {
     pub fn spacing_policy(&self, vehicle_length: f64) -> Option<(f64, f64)> {
         let l = vehicle_length;
         match self {
-            Self::Paper => None,
+            Self::Paper(_) => None,
             Self::Acc(p) => Some((p.standstill_m + l, p.headway_s)),
             Self::PathCacc(p) => Some((p.spacing_m + l, 0.0)),
             Self::Ploeg(p) => Some((p.standstill_m + l, p.headway_s)),
@@ -87,16 +198,19 @@ impl LawParams {
     }
 
     /// Checks ranges; the error names the key (under `control.`).
-    pub fn validate(&self) -> Result<(), (&'static str, String)> {
-        let check = |key: &'static str, x: f64, ok: bool, what: &str| {
+    pub fn validate(&self) -> Result<(), crate::ParamsError> {
+        let check = |field: &'static str, x: f64, ok: bool, what: &str| {
             if x.is_finite() && ok {
                 Ok(())
             } else {
-                Err((key, format!("must be {what} (got {x})")))
+                Err(crate::ParamsError {
+                    field,
+                    message: format!("must be {what} (got {x})"),
+                })
             }
         };
         match self {
-            Self::Paper => Ok(()),
+            Self::Paper(_) => Ok(()),
             Self::Acc(p) => {
                 check("headway_s", p.headway_s, p.headway_s > 0.0, "> 0")?;
                 check("lambda_per_s", p.lambda_per_s, true, "finite")?;
@@ -169,7 +283,7 @@ impl LawParams {
     /// `(predecessor, leader)`.
     pub fn needs(&self) -> (bool, bool) {
         match self {
-            Self::Paper | Self::Acc(_) => (false, false),
+            Self::Paper(_) | Self::Acc(_) => (false, false),
             Self::PathCacc(_) | Self::Flatbed(_) => (true, true),
             Self::Ploeg(_) => (true, false),
             Self::Consensus(_) => (false, true),

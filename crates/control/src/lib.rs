@@ -37,7 +37,7 @@ pub mod seam;
 mod spacing;
 mod trigger;
 
-pub use catalogue::LawParams;
+pub use catalogue::{LawName, LawParams, PaperParams};
 pub use checks::{PacketChecks, RejectCounts, PLAUSIBLE_ACCEL};
 pub use composed::{Beaconing, ComposedController, Composition, Law, Periodic, View};
 pub use controller::{FollowerStep, PlatoonController};

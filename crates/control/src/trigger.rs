@@ -100,10 +100,8 @@ impl ControllerParams {
     pub fn validate(&self) -> Result<(), ParamsError> {
         let err = |field, message: String| Err(ParamsError { field, message });
         let pos = |x: f64| x.is_finite() && x > 0.0;
-        if self.law != crate::LawParams::Paper {
-            self.law
-                .validate()
-                .map_err(|(field, message)| ParamsError { field, message })?;
+        if !self.law.is_paper() {
+            self.law.validate()?;
             if !matches!(
                 self.rule,
                 TriggerRule::Periodic { .. } | TriggerRule::Cam(_)
@@ -122,7 +120,7 @@ impl ControllerParams {
         } else if self.gain.iter().any(|g| !g.is_finite()) {
             return err("gain", "must be finite".into());
         }
-        if self.law == crate::LawParams::Paper && self.maneuvers.is_some() {
+        if self.law.is_paper() && self.maneuvers.is_some() {
             return err(
                 "maneuvers",
                 "the paper's law runs on one graph for the whole run; maneuvers need one of \
@@ -144,7 +142,7 @@ impl ControllerParams {
                     .into(),
             );
         }
-        if self.law == crate::LawParams::Paper && (!pos(self.beta1) || !pos(self.beta2)) {
+        if self.law.is_paper() && (!pos(self.beta1) || !pos(self.beta2)) {
             return err(
                 "beta",
                 format!(
@@ -172,9 +170,7 @@ impl ControllerParams {
             TriggerRule::Periodic { period_steps: 0 } => {
                 return err("period", "must be at least one step".into())
             }
-            TriggerRule::Cam(cam) => cam
-                .validate()
-                .map_err(|(field, message)| ParamsError { field, message })?,
+            TriggerRule::Cam(cam) => cam.validate()?,
             TriggerRule::Dynamic {
                 phi,
                 rho,
@@ -250,24 +246,25 @@ impl CamRule {
     }
 
     /// Checks ranges; the error names the config key (under `trigger.`).
-    pub fn validate(&self) -> Result<(), (&'static str, String)> {
+    pub fn validate(&self) -> Result<(), ParamsError> {
+        let err = |field, message| Err(ParamsError { field, message });
         if self.min_steps == 0 || self.max_steps < self.min_steps {
-            return Err((
+            return err(
                 "min_interval_s",
                 format!(
                     "needs 1 step <= min_interval_s <= max_interval_s (got {} and {} steps)",
                     self.min_steps, self.max_steps
                 ),
-            ));
+            );
         }
         if !(self.position_m.is_finite() && self.position_m > 0.0) {
-            return Err((
+            return err(
                 "position_m",
                 format!("must be > 0 (got {})", self.position_m),
-            ));
+            );
         }
         if !(self.speed_mps.is_finite() && self.speed_mps > 0.0) {
-            return Err(("speed_mps", format!("must be > 0 (got {})", self.speed_mps)));
+            return err("speed_mps", format!("must be > 0 (got {})", self.speed_mps));
         }
         Ok(())
     }

@@ -5,7 +5,7 @@ use super::{
 };
 use crate::progress::Progress;
 use platoon_config::{
-    Attack, DosConfig, LawConfig, LawName, LinkAttackConfig, LinkKindConfig, RuleConfig,
+    Attack, DosConfig, LawName, LawParams, LinkAttackConfig, LinkKindConfig, RuleConfig,
     SpacingConfig, TopologyConfig,
 };
 use platoon_output::plots;
@@ -166,8 +166,10 @@ fn cell(
     let scenario = match platoon_config::to_scenario(&mut c) {
         Ok(s) => s,
         // The topology does not give the law whom it reads: a finding, not a failure.
-        Err((key, e)) if key == "topology.preset" => return Ok(row(e)),
-        Err((key, e)) => {
+        Err(e) if matches!(e.reason, platoon_config::Reason::Unheard(_)) => {
+            return Ok(row(e.reason.to_string()))
+        }
+        Err(platoon_config::KeyError { key, reason: e }) => {
             refuse!(
                 Variant,
                 "{}: key `{key}` with law {} on {} under {attack}: {e}",
@@ -221,10 +223,10 @@ pub(crate) fn configure(
 /// `law` with its defaults as the experiments run it: the paper's with `base`'s gains, Plexe's
 /// ACC with its cruise control set above the profile's 25 m/s (SUMO's 14 m/s would hold the
 /// followers below the leader's speed).
-pub(crate) fn law_config(base: &platoon_config::Config, law: LawName) -> LawConfig {
+pub(crate) fn law_config(base: &platoon_config::Config, law: LawName) -> LawParams {
     match law {
-        LawName::Paper => LawConfig::Paper(base.control.paper_law()),
-        LawName::Acc => LawConfig::Acc(platoon_control::laws::PlexeAccParams {
+        LawName::Paper => LawParams::Paper(base.control.paper_law()),
+        LawName::Acc => LawParams::Acc(platoon_control::laws::PlexeAccParams {
             desired_speed_mps: 30.0,
             ..Default::default()
         }),
@@ -233,26 +235,21 @@ pub(crate) fn law_config(base: &platoon_config::Config, law: LawName) -> LawConf
 }
 
 /// Sets the standstill gap (m, bumper to bumper) of a field's law to `standstill`.
-pub(crate) fn on_standstill(law: &mut LawConfig, standstill: f64) {
+pub(crate) fn on_standstill(law: &mut LawParams, standstill: f64) {
     match law {
-        LawConfig::Paper(_) => {}
-        LawConfig::Acc(p) => p.standstill_m = standstill,
-        LawConfig::PathCacc(p) => p.spacing_m = standstill,
-        LawConfig::Ploeg(p) => p.standstill_m = standstill,
-        LawConfig::Consensus(p) => p.standstill_m = standstill,
-        LawConfig::Flatbed(p) => p.spacing_m = standstill,
+        LawParams::Paper(_) => {}
+        LawParams::Acc(p) => p.standstill_m = standstill,
+        LawParams::PathCacc(p) => p.spacing_m = standstill,
+        LawParams::Ploeg(p) => p.standstill_m = standstill,
+        LawParams::Consensus(p) => p.standstill_m = standstill,
+        LawParams::Flatbed(p) => p.spacing_m = standstill,
     }
 }
 
 /// Sets the platoon's spacing policy to the one `c`'s law keeps (its distances plus the
 /// vehicle length); false, leaving it, for the paper's law, whose spacing is the platoon's.
 pub(crate) fn keep_law_spacing(c: &mut platoon_config::Config) -> bool {
-    let Some((l, h)) = c
-        .control
-        .law
-        .params()
-        .spacing_policy(c.platoon.vehicle_length_m)
-    else {
+    let Some((l, h)) = c.control.law.spacing_policy(c.platoon.vehicle_length_m) else {
         return false;
     };
     c.platoon.spacing_m = l;

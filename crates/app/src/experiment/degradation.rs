@@ -141,7 +141,8 @@ pub fn degradation(
                 },
                 ..Default::default()
             };
-            let scenario = platoon_config::to_scenario(&mut c).map_err(|(key, e)| {
+            let scenario = platoon_config::to_scenario(&mut c).map_err(|e| {
+                let (key, e) = (e.key, e.reason);
                 ExperimentError::Variant(format!("{label}: key `{key}` with {n} followers: {e}"))
             })?;
             let s = platoon_sim::run(scenario, |_| {})?;

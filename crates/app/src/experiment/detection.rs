@@ -425,7 +425,7 @@ fn run_cell(
         )
     };
     let scenario = platoon_config::to_scenario(&mut c)
-        .map_err(|(key, e)| ExperimentError::Variant(format!("{}: key `{key}`: {e}", name())))?;
+        .map_err(|e| ExperimentError::Variant(format!("{}: {e}", name())))?;
     let summary = platoon_sim::run(scenario, |_| {})?;
     let Some(d) = &summary.detection else {
         return Err(anyhow!("{}: the run measured no detection", name()).into());

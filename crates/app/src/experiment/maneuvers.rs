@@ -215,10 +215,13 @@ fn cell(
     };
     let scenario = match platoon_config::to_scenario(&mut c) {
         Ok(s) => s,
-        Err((key, _)) if key == "maneuvers" && law == LawName::Consensus => {
+        Err(e)
+            if matches!(e.reason, platoon_config::Reason::LawWithoutManeuvers(_))
+                && law == LawName::Consensus =>
+        {
             return Ok(row("refused"))
         }
-        Err((key, e)) => refuse!(
+        Err(platoon_config::KeyError { key, reason: e }) => refuse!(
             Variant,
             "{maneuver}: key `{key}` with law {} under {attack}: {e}",
             law.name()

@@ -234,7 +234,8 @@ pub fn scaling(
                     if dos == "none" {
                         c.attack = platoon_config::Attack::default();
                     }
-                    let scenario = platoon_config::to_scenario(&mut c).map_err(|(key, e)| {
+                    let scenario = platoon_config::to_scenario(&mut c).map_err(|e| {
+                        let (key, e) = (e.key, e.reason);
                         ExperimentError::Variant(format!(
                             "{label}: key `{key}` with {n} followers ({name}, {gain}): {e}"
                         ))

@@ -270,11 +270,11 @@ fn cell(
         let scenario = match platoon_config::to_scenario(&mut c) {
             Ok(s) => s,
             // The law needs the leader: the next topology gives it.
-            Err((key, e)) if key == "topology.preset" => {
-                last = Some(e);
+            Err(e) if matches!(e.reason, platoon_config::Reason::Unheard(_)) => {
+                last = Some(e.reason.to_string());
                 continue;
             }
-            Err((key, e)) => refuse!(
+            Err(platoon_config::KeyError { key, reason: e }) => refuse!(
                 Variant,
                 "{}: key `{key}` with law {} under {attack}: {e}",
                 base.label,

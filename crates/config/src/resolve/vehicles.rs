@@ -1,11 +1,13 @@
 //! `[vehicle_classes]` and `[platoon] members`: each vehicle's class (docs/traffic.md#mixed-vehicles).
-use super::{bad, finite, positive, tau_schedule, Invalid};
+use super::checks::{bad, finite, positive};
+use super::plant::tau_schedule;
+use crate::error::KeyError;
 use crate::schema::*;
 use platoon_model::{LeaderProfile, State, TauSchedule};
 use platoon_sim::Vehicle;
 
 /// One member's class, checked: its name, the class and its true lag (if the class gives one).
-pub(super) struct Member<'a> {
+pub(crate) struct Member<'a> {
     name: &'a str,
     class: &'a VehicleClass,
     tau: Option<TauSchedule>,
@@ -13,14 +15,14 @@ pub(super) struct Member<'a> {
 
 impl Member<'_> {
     /// Its length (m).
-    pub(super) fn length(&self) -> f64 {
+    pub(crate) fn length(&self) -> f64 {
         self.class.length_m
     }
 }
 
 /// The members of the platoon (leader first) with their classes, each class checked; empty
 /// without `platoon.members`.
-pub(super) fn members(c: &Config, n: usize) -> Result<Vec<Member<'_>>, Invalid> {
+pub(crate) fn members(c: &Config, n: usize) -> Result<Vec<Member<'_>>, KeyError> {
     let classes = &c.vehicle_classes;
     let Some(names) = &c.platoon.members else {
         if let Some(name) = classes.keys().next() {
@@ -113,14 +115,14 @@ pub(super) fn members(c: &Config, n: usize) -> Result<Vec<Member<'_>>, Invalid> 
 /// (`taus` as `[plant]` gave them). Checks that every range contains its member's lag, that
 /// no follower's lag is given twice, and that the initial accelerations and the leader's
 /// profile keep within the limits.
-pub(super) fn vehicles(
+pub(crate) fn vehicles(
     c: &Config,
     members: &[Member<'_>],
     taus: &mut [TauSchedule],
     tau_nominal: f64,
     leader: &LeaderProfile,
     initial: &[State],
-) -> Result<Vec<Vehicle>, Invalid> {
+) -> Result<Vec<Vehicle>, KeyError> {
     let mut out = Vec::with_capacity(members.len());
     for (i, m) in members.iter().enumerate() {
         let key = |k: &str| format!("vehicle_classes.{}.{k}", m.name);
@@ -161,7 +163,7 @@ pub(super) fn vehicles(
             }
             None => own,
         };
-        let limits = |a: f64, what: &str| -> Result<(), Invalid> {
+        let limits = |a: f64, what: &str| -> Result<(), KeyError> {
             if let Some(max) = class.accel_max_mps2.filter(|&max| a > max) {
                 return bad(
                     what,

@@ -2,17 +2,18 @@
 //! what the followers run.
 use crate::serde_util::{self, DefaultTag};
 use platoon_control::fallback::AccParams;
-use platoon_control::FallbackMode;
+use platoon_control::{FallbackMode, LawParams, PaperParams};
 use schemars::JsonSchema;
 use serde::ser::SerializeMap;
 use serde::{Deserialize, Serialize, Serializer};
 
 /// `[control]`: the law (`law`) and its keys (the keys of another law are errors).
 #[derive(Debug, Clone, PartialEq, Deserialize, JsonSchema)]
+#[schemars(transform = serde_util::default_tag_schema::<LawParams>)]
 pub struct Control {
     /// The law and its parameters.
     #[serde(flatten, deserialize_with = "serde_util::with_default_tag")]
-    pub law: LawConfig,
+    pub law: LawParams,
     /// The older name of `fallback.mode`; set one of them. The resolved config says
     /// `fallback.mode`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -24,7 +25,7 @@ pub struct Control {
 impl Serialize for Control {
     fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
         let mut m = s.serialize_map(None)?;
-        m.serialize_entry("law", self.law.kind().name())?;
+        m.serialize_entry("law", self.law.name())?;
         serde_util::entries(&mut m, &self.law, "law")?;
         if let Some(a) = &self.attack_input {
             m.serialize_entry("attack_input", a)?;
@@ -36,160 +37,28 @@ impl Serialize for Control {
 impl Control {
     /// The paper's law's gain and weights: the config's with `law = "paper"`, else the paper's
     /// own (the controller takes them whatever it runs).
-    pub fn paper_law(&self) -> PaperLaw {
+    pub fn paper_law(&self) -> PaperParams {
         match &self.law {
-            LawConfig::Paper(p) => *p,
-            _ => PaperLaw::default(),
+            LawParams::Paper(p) => *p,
+            _ => PaperParams::default(),
         }
     }
 
     /// The paper's law's keys, to change them; the law becomes the paper's if it was another.
-    pub fn paper_law_mut(&mut self) -> &mut PaperLaw {
-        if !matches!(self.law, LawConfig::Paper(_)) {
-            self.law = LawConfig::Paper(PaperLaw::default());
+    pub fn paper_law_mut(&mut self) -> &mut PaperParams {
+        if !self.law.is_paper() {
+            self.law = LawParams::Paper(PaperParams::default());
         }
         match &mut self.law {
-            LawConfig::Paper(p) => p,
+            LawParams::Paper(p) => p,
             _ => unreachable!("set just above"),
         }
     }
 }
 
-/// `[control] law` and its keys (docs/controllers.md): the paper's (`gain`, `beta1`, `beta2`,
-/// and the event triggers of `[trigger]`), or one of the field's, which beacon periodically or
-/// by ETSI's CAM rules (`[trigger] rule = "periodic"` or `"cam"`); every key of a field's law
-/// is optional, with SUMO's Plexe defaults.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
-#[serde(tag = "law", rename_all = "snake_case", deny_unknown_fields)]
-#[schemars(transform = serde_util::default_tag_schema::<LawConfig>)]
-pub enum LawConfig {
-    /// The paper's `u = -K q` on open-loop estimates, with its event triggers.
-    Paper(PaperLaw),
-    /// Plexe's ACC: cruise control and a constant time headway on the radar, no V2V.
-    Acc(platoon_control::laws::PlexeAccParams),
-    /// The PATH CACC (Rajamani et al.): constant spacing, predecessor and leader.
-    PathCacc(platoon_control::laws::PathCaccParams),
-    /// Ploeg et al.'s CACC: time headway, the predecessor's command fed forward.
-    Ploeg(platoon_control::laws::PloegParams),
-    /// The consensus law of Santini et al.
-    Consensus(platoon_control::laws::ConsensusParams),
-    /// The flatbed controller of Ali, Garcia and Martinet (2015), as Plexe has it.
-    Flatbed(platoon_control::laws::FlatbedParams),
-}
-
-impl DefaultTag for LawConfig {
+impl DefaultTag for LawParams {
     const SELECTOR: &'static str = "law";
     const DEFAULT: &'static str = "paper";
-}
-
-impl Default for LawConfig {
-    fn default() -> Self {
-        Self::Paper(PaperLaw::default())
-    }
-}
-
-impl LawConfig {
-    /// Which law it is.
-    pub fn kind(&self) -> LawName {
-        match self {
-            Self::Paper(_) => LawName::Paper,
-            Self::Acc(_) => LawName::Acc,
-            Self::PathCacc(_) => LawName::PathCacc,
-            Self::Ploeg(_) => LawName::Ploeg,
-            Self::Consensus(_) => LawName::Consensus,
-            Self::Flatbed(_) => LawName::Flatbed,
-        }
-    }
-
-    /// The controller's law and its parameters.
-    pub fn params(&self) -> platoon_control::LawParams {
-        use platoon_control::LawParams as P;
-        match self {
-            Self::Paper(_) => P::Paper,
-            Self::Acc(p) => P::Acc(*p),
-            Self::PathCacc(p) => P::PathCacc(*p),
-            Self::Ploeg(p) => P::Ploeg(*p),
-            Self::Consensus(p) => P::Consensus(p.clone()),
-            Self::Flatbed(p) => P::Flatbed(*p),
-        }
-    }
-}
-
-/// `law = "paper"`: the gain and the trigger conditions' weights.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
-#[serde(default, deny_unknown_fields)]
-pub struct PaperLaw {
-    /// K in `u_i = -K q_i` (docs/paper-readings.md#R1).
-    pub gain: [f64; 3],
-    /// Weight of |eps|^2 in the trigger conditions.
-    pub beta1: f64,
-    /// Weight of |q|^2 in the trigger conditions.
-    pub beta2: f64,
-}
-
-/// The paper's values (Section IV).
-impl Default for PaperLaw {
-    fn default() -> Self {
-        Self {
-            gain: [4.81, 9.12, 2.97],
-            beta1: 319.38,
-            beta2: 5.62,
-        }
-    }
-}
-
-/// Which law the followers run (`[control] law`; a list on the command line).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, JsonSchema)]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
-#[serde(rename_all = "snake_case")]
-pub enum LawName {
-    /// The paper's.
-    #[default]
-    Paper,
-    /// Plexe's ACC.
-    Acc,
-    /// The PATH CACC.
-    PathCacc,
-    /// Ploeg et al.'s CACC.
-    Ploeg,
-    /// The consensus law.
-    Consensus,
-    /// The flatbed controller.
-    Flatbed,
-}
-
-impl LawName {
-    /// Every law, the paper's first.
-    pub const ALL: [LawName; 6] = [
-        Self::Paper,
-        Self::Acc,
-        Self::PathCacc,
-        Self::Ploeg,
-        Self::Consensus,
-        Self::Flatbed,
-    ];
-
-    /// The law of a config name (`ploeg`).
-    pub fn from_name(name: &str) -> Option<Self> {
-        Self::ALL.into_iter().find(|l| l.name() == name)
-    }
-
-    /// The law with its default parameters (SUMO's Plexe defaults; the paper's own).
-    pub fn defaults(self) -> LawConfig {
-        match self {
-            Self::Paper => LawConfig::Paper(Default::default()),
-            Self::Acc => LawConfig::Acc(Default::default()),
-            Self::PathCacc => LawConfig::PathCacc(Default::default()),
-            Self::Ploeg => LawConfig::Ploeg(Default::default()),
-            Self::Consensus => LawConfig::Consensus(Default::default()),
-            Self::Flatbed => LawConfig::Flatbed(Default::default()),
-        }
-    }
-
-    /// Its config name (serde's, so the one list of names is the enum's).
-    pub fn name(self) -> &'static str {
-        serde_util::unit_name(&self)
-    }
 }
 
 /// `[fallback]`: what a follower does while affected by an attack, and how it comes back.
@@ -600,4 +469,38 @@ pub struct DetectionConfig {
 
 fn quiet_period_s() -> f64 {
     1.0
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `LawName::name` is the one list of the laws' names: serde's for both enums agree.
+    #[test]
+    fn every_law_is_named_as_serde_names_it() {
+        for law in platoon_control::LawName::ALL {
+            let as_name = toml::Value::try_from(law).unwrap();
+            assert_eq!(as_name.as_str(), Some(law.name()));
+            let params = toml::Value::try_from(law.defaults()).unwrap();
+            assert_eq!(params.get("law").and_then(|l| l.as_str()), Some(law.name()));
+            assert_eq!(law.defaults().kind(), law);
+            assert_eq!(platoon_control::LawName::from_name(law.name()), Some(law));
+        }
+    }
+
+    /// A `[control]` table without `law` is the paper's.
+    #[test]
+    fn the_law_defaults_to_the_papers() {
+        let c: Control = toml::from_str("gain = [1.0, 2.0, 3.0]").unwrap();
+        assert_eq!(
+            c.law,
+            LawParams::Paper(PaperParams {
+                gain: [1.0, 2.0, 3.0],
+                ..Default::default()
+            })
+        );
+        let c: Control = toml::from_str("law = \"ploeg\"\nheadway_s = 0.6").unwrap();
+        assert!(matches!(c.law, LawParams::Ploeg(p) if p.headway_s == 0.6));
+        assert!(toml::from_str::<Control>("law = \"ploeg\"\ngain = [1.0, 2.0, 3.0]").is_err());
+    }
 }

@@ -1,0 +1,143 @@
+//! What can be wrong with a config: [`KeyError`], a key and why (what resolution and
+//! deserialising a value say), and [`ConfigError`], what users see: the file, the line, the
+//! key and the message (`FILE:LINE: key `KEY`: message`).
+use crate::lines::KeyLines;
+use std::fmt;
+use std::path::PathBuf;
+
+/// A config that cannot be used, with the file, the key and what is wrong.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ConfigError {
+    /// The file (or a label such as `<embedded paper>`).
+    pub file: PathBuf,
+    /// Dotted key path, e.g. `trigger.h_s`; empty for syntax errors.
+    pub key: String,
+    /// What is wrong and, where useful, what to do.
+    pub message: String,
+    /// 1-based line, when known.
+    pub line: Option<usize>,
+}
+
+impl fmt::Display for ConfigError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}", self.file.display())?;
+        if let Some(line) = self.line {
+            write!(f, ":{line}")?;
+        }
+        if !self.key.is_empty() {
+            write!(f, ": key `{}`", self.key)?;
+        }
+        write!(f, ": {}", self.message)
+    }
+}
+
+impl std::error::Error for ConfigError {}
+
+impl ConfigError {
+    /// What is wrong with `key` (dotted path; empty for the file as a whole) of `file`.
+    pub fn new(
+        file: impl Into<PathBuf>,
+        key: impl Into<String>,
+        message: impl Into<String>,
+    ) -> Self {
+        Self {
+            file: file.into(),
+            key: key.into(),
+            message: message.into(),
+            line: None,
+        }
+    }
+
+    /// What is wrong with `key` of `file`, placed at the line the key stands on in `lines`.
+    pub fn at_key(
+        file: impl Into<PathBuf>,
+        lines: &KeyLines,
+        key: impl Into<String>,
+        message: impl Into<String>,
+    ) -> Self {
+        let key = key.into();
+        let line = lines.line_of(&key);
+        Self::new(file, key, message).at_line(line)
+    }
+
+    /// The same error, placed at 1-based `line` when known.
+    pub fn at_line(mut self, line: Option<usize>) -> Self {
+        self.line = line;
+        self
+    }
+}
+
+/// What is wrong with one key of a config, before it is placed in a file: the key's dotted path
+/// (`channel.attacks[1].loss`) and the [`Reason`]. [`crate::scenario_of`] and
+/// [`crate::from_value`] return it; [`KeyError::in_file`] makes it a [`ConfigError`] at the
+/// key's line.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("key `{key}`: {reason}")]
+pub struct KeyError {
+    /// Dotted key path; empty for the config as a whole.
+    pub key: String,
+    /// What is wrong with it.
+    pub reason: Reason,
+}
+
+impl KeyError {
+    /// `key` is wrong for `reason`.
+    pub fn new(key: impl Into<String>, reason: Reason) -> Self {
+        Self {
+            key: key.into(),
+            reason,
+        }
+    }
+
+    /// `key` is wrong, as `message` says ([`Reason::Invalid`]).
+    pub fn invalid(key: impl Into<String>, message: impl Into<String>) -> Self {
+        Self::new(key, Reason::Invalid(message.into()))
+    }
+
+    /// The error users see: in `file`, at the line `lines` gives the key.
+    pub fn in_file(self, file: impl Into<PathBuf>, lines: &KeyLines) -> ConfigError {
+        ConfigError::at_key(file, lines, self.key, self.reason.to_string())
+    }
+}
+
+/// Why a key's value cannot be used. The message of each says it in the config's terms.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum Reason {
+    /// The value does not deserialise (a wrong type, an unknown key, a missing one, the keys of
+    /// another variant of a tagged table): what serde, or the tagged table's schema, says.
+    #[error("{0}")]
+    Schema(String),
+    /// Not a finite number.
+    #[error("must be a finite number, got {0}")]
+    NotFinite(f64),
+    /// Not above zero.
+    #[error("must be > 0, got {0}")]
+    NotPositive(f64),
+    /// A period shorter than the simulation's step.
+    #[error("{period_s} s is shorter than the step simulation.dt_s = {dt_s} s")]
+    ShorterThanStep {
+        /// The period (s).
+        period_s: f64,
+        /// The step (s).
+        dt_s: f64,
+    },
+    /// A period that is no whole number of steps.
+    #[error("{period_s} s must be a whole number of steps of {dt_s} s")]
+    NotWholeSteps {
+        /// The period (s).
+        period_s: f64,
+        /// The step (s).
+        dt_s: f64,
+    },
+    /// The law reads a vehicle that the topology does not let a follower hear (key
+    /// `topology.preset`): another topology may run it.
+    #[error("{0}")]
+    Unheard(String),
+    /// The law cannot run the platoon's maneuvers (key `maneuvers`): another law may.
+    #[error("{0}")]
+    LawWithoutManeuvers(String),
+    /// Any other value out of its range or at odds with another key, as the message says.
+    #[error("{0}")]
+    Invalid(String),
+}
