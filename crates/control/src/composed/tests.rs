@@ -1,6 +1,7 @@
 //! The composed controller's tests: beaconing, fallbacks, the room offsets, maneuvers.
 use super::*;
-use crate::{FallbackMode, Mode};
+use crate::fallback::RadarTruth;
+use crate::{FallbackMode, FallbackParams, Mode};
 use platoon_topology::Preset;
 
 /// A law that echoes the predecessor's speed in its last packet, so a test sees which
