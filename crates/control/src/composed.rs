@@ -174,11 +174,7 @@ impl Controller for ComposedController {
                 ..FollowerStep::default()
             };
             let fires = match law.triggering() {
-                Some(t) => {
-                    let machines = self.maneuvers.as_ref().map(|m| &m.machines);
-                    let part = maneuver_stage::part_of(machines, &self.ids, f.id, f.head);
-                    t.fires(k, own, f.fallback.offset(k), part)
-                }
+                Some(t) => t.fires(k, own, f.fallback.offset(k), f.part()),
                 None => {
                     let last = f.last_sent.as_ref().map(|(step, x)| (*step, x));
                     self.parts.beaconing.fires(k, f.id, own, last)

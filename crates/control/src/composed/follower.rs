@@ -2,7 +2,6 @@
 //! of its part), whom it follows and the room it keeps to it, its law's command on what it
 //! knows, the command its place in the platoon calls for, then the fallback machine and the
 //! guard.
-use super::maneuver_stage::part_of;
 use super::{Composition, Law, View};
 use crate::checks::{Heard, PacketChecks};
 use crate::fallback::{acc_command, gap_error, FallbackMachine, Radar, RadarTruth, Reading};
@@ -44,6 +43,10 @@ pub(super) struct Follower {
     opening: Option<VehicleId>,
     /// Whether it left the platoon (`[maneuvers]`).
     left: bool,
+    /// Its part of the platoon as its law saw it at the last step ([`View::part`]), when
+    /// `in_part`.
+    part: Vec<VehicleId>,
+    in_part: bool,
 }
 
 /// What every follower shares at step `k`.
@@ -101,6 +104,8 @@ impl Follower {
             offset: None,
             opening: None,
             left: false,
+            part: Vec::new(),
+            in_part: false,
         };
         if let Some(m) = man {
             // A joiner follows the member of its slot; the rear platoon of a merge, its head.
@@ -111,9 +116,53 @@ impl Follower {
         f
     }
 
-    /// Its part of the platoon as its law sees it ([`View::part`]), with `head` as its leader.
-    pub(super) fn part<'a>(&self, s: &Shared<'a>, head: VehicleId) -> Option<&'a [VehicleId]> {
-        part_of(s.man, s.ids, self.id, head)
+    /// Its part of the platoon as its law saw it at the last step ([`View::part`]).
+    pub(super) fn part(&self) -> Option<&[VehicleId]> {
+        self.in_part.then_some(&self.part[..])
+    }
+
+    /// Its part of the platoon with `head` as its leader ([`View::part`]): its copy of the
+    /// formation from `head` on in a platoon that negotiates maneuvers (none for a joiner),
+    /// else, while a member ahead heads it, every vehicle from that member on; in either, it
+    /// stands right behind the member it follows ([`View::ahead`]), as its radar does: until
+    /// it switches to the one its formation puts ahead of it, and, once it follows a joiner
+    /// that moved in, before the leader's update says so.
+    fn arrange_part(&mut self, s: &Shared<'_>, head: VehicleId) {
+        let part = match s.man {
+            Some(m) => m.formation(self.id).map(|f| {
+                let members = f.members();
+                let at = members.iter().position(|&v| v == head).unwrap_or(0);
+                &members[at..]
+            }),
+            None if head.is_leader() => None,
+            None => s.ids.get(head.index()..),
+        };
+        self.in_part = part.is_some();
+        self.part.clear();
+        let Some(part) = part else { return };
+        let known = part.contains(&self.ahead);
+        for &v in part {
+            match v == self.id {
+                // A joiner its radar already follows, before the leader's update: where the
+                // update will put it.
+                true if !known && self.ahead != VehicleId::LEADER => {
+                    self.part.extend([self.ahead, self.id])
+                }
+                true if !known => self.part.push(v),
+                true => {}
+                false => {
+                    self.part.push(v);
+                    if v == self.ahead {
+                        self.part.push(self.id);
+                    }
+                }
+            }
+        }
+        if !self.part.contains(&self.id) {
+            // It heads the part: the formation's order.
+            self.part.clear();
+            self.part.extend_from_slice(part);
+        }
     }
 
     /// Step `s.k`: its command, with `reading` its radar's of this step.
@@ -132,6 +181,7 @@ impl Follower {
         let opening_for = s.man.and_then(|m| m.opening_for(self.id));
         let switched = self.follow_next(s, place, opening_for, &own);
         self.open_for(s, switched, opening_for, &own);
+        self.arrange_part(s, self.head);
         let lawful = self.law_command(law, s, head, &own);
         let reading = self.reading_for(s, place, reading, &own);
         let length_ahead = fb.length(self.ahead.index());
@@ -187,9 +237,11 @@ impl Follower {
         self.step.mode = mode;
         self.step.guard = guard;
         self.step.head = self.head;
-        // It heads while on the car's ACC, and while an attack's fallback interrupts that
-        // with the car still ahead.
-        self.leading = s.split && (mode == Mode::CutIn || situation.cut_in)
+        // It heads while on the car's ACC, while an attack's fallback interrupts that with the
+        // car still ahead, and on its way back to its law once the car left, until it has
+        // closed up: the members behind it keep following it until then.
+        let returning = self.leading && mode == Mode::Blend;
+        self.leading = s.split && (mode == Mode::CutIn || situation.cut_in || returning)
             || s.man
                 .is_some_and(|m| m.heads(self.id) || m.opens_gaps() && opening_for.is_some());
         u
@@ -340,7 +392,7 @@ impl Follower {
             neighbours: s.checks.neighbours(self.id),
             heard: s.checks.heard(self.id),
             head,
-            part: self.part(s, self.head),
+            part: self.part(),
             room: State::new(self.offset_m, rate, accel),
         };
         law.command(&view)

@@ -10,7 +10,7 @@ use crate::maneuvers::Maneuvers;
 use crate::room::v2v_reading;
 use crate::Delivery;
 use platoon_maneuver::{Body, JoinerPhase, Message};
-use platoon_model::{State, VehicleId};
+use platoon_model::State;
 
 #[derive(Debug, Clone)]
 pub(super) struct ManeuverStage {
@@ -157,25 +157,5 @@ impl ManeuverStage {
             };
         }
         self.machines.step(k, &self.in_position);
-    }
-}
-
-/// Follower `id`'s part of the platoon as its law sees it ([`super::View::part`]): its copy of
-/// the formation from `head` on in a platoon that negotiates maneuvers (none for a joiner),
-/// else, while a member ahead heads it, `ids` (every vehicle in order) from that member on.
-pub(super) fn part_of<'a>(
-    man: Option<&'a Maneuvers>,
-    ids: &'a [VehicleId],
-    id: VehicleId,
-    head: VehicleId,
-) -> Option<&'a [VehicleId]> {
-    match man {
-        Some(m) => m.formation(id).map(|f| {
-            let members = f.members();
-            let at = members.iter().position(|&v| v == head).unwrap_or(0);
-            &members[at..]
-        }),
-        None if head.is_leader() => None,
-        None => ids.get(head.index()..),
     }
 }
