@@ -19,7 +19,7 @@
 //!   (no NaN or absurd state ever reaches an estimator), and no more refusals than deliveries.
 use anyhow::{bail, Context, Result};
 use clap::{Parser, Subcommand};
-use platoon_control::{Controller, Delivery, Packet, PlatoonController};
+use platoon_control::{Controller, Delivery, Packet};
 use platoon_model::State;
 use platoon_runtime::session::{deliveries_from_wire, packet_to_wire, states_from_wire, Numbering};
 use platoon_wire::{LinkPacket, VehicleState};
@@ -326,12 +326,12 @@ impl PacketBench {
         let rest = input.get(1..).unwrap_or(&[]);
         let half = rest.len() / 2;
         let n1 = self.num.per_platoon;
-        let mut controllers: Vec<PlatoonController> = self
+        let mut controllers: Vec<Box<dyn Controller>> = self
             .scenario
             .replicas()
             .iter()
             .map(|r| {
-                PlatoonController::new(r.control.clone(), &r.topology, &r.initial)
+                platoon_control::build(&r.control, &r.topology, &r.initial)
                     .expect("the paper's controllers build")
             })
             .collect();
@@ -376,11 +376,11 @@ fn seed_corpus() -> Result<()> {
     let mut sim = platoon_sim::FleetSimulation::new(&bench.scenario)?;
     let mut written = 0;
     // Real broadcasts of the paper's fleet, as the controller node puts them on the wire.
-    let mut controllers: Vec<PlatoonController> = bench
+    let mut controllers: Vec<Box<dyn Controller>> = bench
         .scenario
         .replicas()
         .iter()
-        .map(|r| PlatoonController::new(r.control.clone(), &r.topology, &r.initial))
+        .map(|r| platoon_control::build(&r.control, &r.topology, &r.initial))
         .collect::<Result<_, _>>()?;
     for k in 0..1200u64 {
         let rows = sim.step().to_vec();

@@ -272,11 +272,12 @@ impl LawParams {
         }
     }
 
-    /// Whether a follower reads its leader's packets through [`View::leader`], so that a
-    /// platoon split behind a cut-in re-points it to the member heading its part
-    /// (`[fallback.cut_in] split`): the PATH CACC and the flatbed controller.
+    /// Whether a platoon split behind a cut-in (`[fallback.cut_in] split`) re-points a
+    /// follower to the member heading its part: the PATH CACC and the flatbed controller read
+    /// its packets as their leader's ([`View::leader`]); the paper's law couples the followers
+    /// of that part only, the head in the leader's place ([`View::part`]).
     pub fn follows_head(&self) -> bool {
-        matches!(self, Self::PathCacc(_) | Self::Flatbed(_))
+        matches!(self, Self::Paper(_) | Self::PathCacc(_) | Self::Flatbed(_))
     }
 
     /// Which vehicles a follower of this law must hear from (besides nobody for the ACC):

@@ -349,6 +349,13 @@ impl PacketChecks {
         &self.neighbours[i.index() - 1][..self.graph[i.index() - 1]]
     }
 
+    /// Every vehicle follower `i` (1-based) accepts packets from, its graph's neighbours first
+    /// (as [`PacketChecks::neighbours`]), then those it also hears in a platoon that may split
+    /// or negotiates maneuvers: the slots of what it heard.
+    pub fn hearing(&self, i: VehicleId) -> &[VehicleId] {
+        &self.neighbours[i.index() - 1]
+    }
+
     /// The last packet accepted by follower `i` (1-based) from each of its graph's neighbours.
     pub fn heard(&self, i: VehicleId) -> &[Heard] {
         &self.heard[i.index() - 1][..self.graph[i.index() - 1]]

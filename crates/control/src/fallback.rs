@@ -637,9 +637,7 @@ impl FallbackMachine {
                 }
             }
             // A new reference on the law: from the last command to the new law's, blended.
-            (Phase::Law | Phase::Back { .. }, false, false)
-                if s.rebased && self.back == Return::CommandBlend && blend(true) > 0 =>
-            {
+            (Phase::Law | Phase::Back { .. }, false, false) if s.rebased && blend(true) > 0 => {
                 Phase::Back {
                     exit: s.k,
                     delta0: State::zeros(),

@@ -159,6 +159,8 @@ pub fn step_matrix(
                     neighbours,
                     heard: &heard,
                     head: (!head.is_leader()).then_some((head, &head_heard)),
+                    part: None,
+                    room: State::zeros(),
                 })
             };
             let x = spec.discretisation.step(&own, u, taus[v.index()], p.dt);

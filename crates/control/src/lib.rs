@@ -15,21 +15,26 @@
 //! One co-simulation step `k` is two calls, so that a network (in process or across processes)
 //! can sit in between:
 //!
-//! 1. [`PlatoonController::transmit`]: every vehicle checks its triggering rule on its current
+//! 1. [`Controller::transmit`]: every vehicle checks its triggering rule on its current
 //!    estimates; the packets of those that fire (and the leader's) are returned.
-//! 2. [`PlatoonController::receive`]: the packets that the network delivered reset the receivers'
+//! 2. [`Controller::receive`]: the packets that the network delivered reset the receivers'
 //!    estimators; each follower computes `u_i[k]`, updates its internal variable `theta_i`, and
 //!    all estimators advance to step `k + 1`.
+//!
+//! The paper's law ([`PaperLaw`]) and the field's ([`laws`]) run on one follower pipeline,
+//! [`ComposedController`]: maneuvers, the split behind a car that cut in, detectors and
+//! fallbacks are written once and every law has them.
 #![warn(missing_docs)]
 
+mod build;
 mod catalogue;
 pub mod checks;
 pub mod composed;
-mod controller;
 pub mod fallback;
 pub mod formation_loop;
 pub mod laws;
 pub mod maneuvers;
+mod paper;
 mod radar;
 mod room;
 pub mod screening;
@@ -37,14 +42,15 @@ pub mod seam;
 mod spacing;
 mod trigger;
 
+pub use build::{build, build_with, check_topology};
 pub use catalogue::{LawName, LawParams, PaperParams};
 pub use checks::{PacketChecks, RejectCounts, PLAUSIBLE_ACCEL};
-pub use composed::{Beaconing, ComposedController, Composition, Law, Periodic, View};
-pub use controller::{FollowerStep, PlatoonController};
+pub use composed::{Beaconing, ComposedController, Composition, Law, Periodic, Triggering, View};
 pub use fallback::{FallbackMode, FallbackParams, Mode};
 pub use maneuvers::{JoinSpec, LeaveSpec, ManeuverParams, MergeSpec, SplitSpec};
+pub use paper::PaperLaw;
 pub use screening::{DetectionParams, Inspection, Reaction};
-pub use seam::{build, build_with, check_topology, Controller};
+pub use seam::{Controller, FollowerStep};
 pub use spacing::SpacingPolicy;
 pub use trigger::{CamRule, ControllerParams, ParamsError, TriggerRule};
 

@@ -428,6 +428,19 @@ impl Maneuvers {
         }
     }
 
+    /// Follower `i`'s copy of the formation, members in road order from its head: a member's
+    /// own; a joiner's once it joined, the one the leader's update described (the leader's);
+    /// none for a joiner outside.
+    pub(crate) fn formation(&self, i: VehicleId) -> Option<&Formation> {
+        match &self.roles[i.index() - 1].machine {
+            Machine::Member { member, .. } => Some(member.formation()),
+            Machine::Joiner { joiner, .. } if joiner.phase() == JoinerPhase::Member => {
+                Some(self.leader.formation())
+            }
+            Machine::Joiner { .. } => None,
+        }
+    }
+
     /// The joiner follower `i` opens a gap ahead of it for (a member asked to), if any.
     pub(crate) fn opening_for(&self, i: VehicleId) -> Option<VehicleId> {
         match &self.roles[i.index() - 1].machine {

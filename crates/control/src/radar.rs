@@ -52,6 +52,11 @@ impl Truths {
         self.given = true;
     }
 
+    /// The view the last [`Truths::take`] gave.
+    pub(crate) fn current(&self) -> &[Option<RadarTruth>] {
+        &self.truth
+    }
+
     /// This step's view: the plant's if it gave one, else (when `needed`) the states'. The next
     /// step starts without one again.
     pub(crate) fn take(

@@ -9,17 +9,33 @@
 //! [`Controller::rejected`] how many packets its checks refused.
 //!
 //! Implementations are pure and deterministic: the same calls give the same results bit for
-//! bit, whoever makes them (the in-process runner and the iceoryx2 controller node). The paper's
-//! controller is [`crate::PlatoonController`]; [`build`] makes the one a [`ControllerParams`]
-//! names.
+//! bit, whoever makes them (the in-process runner and the iceoryx2 controller node). The
+//! built-in one is the pipeline every law runs on, [`crate::ComposedController`];
+//! [`crate::build`] makes the one a [`crate::ControllerParams`] names.
 
 use crate::fallback::RadarTruth;
-use crate::screening::Detector;
-use crate::{
-    ControllerParams, Delivery, FollowerStep, Packet, PacketChecks, ParamsError, RejectCounts,
-};
+use crate::{Delivery, Mode, Packet, PacketChecks, RejectCounts};
 use platoon_model::{State, VehicleId};
-use platoon_topology::Topology;
+
+/// What one follower did in a step.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct FollowerStep {
+    /// It broadcast its state in this step.
+    pub triggered: bool,
+    /// It was affected by an attack (`A*`): its fallback applies, theta frozen.
+    pub affected: bool,
+    /// The command `u_i[k]`.
+    pub u: f64,
+    /// `theta_i` at the start of the step (0 for rules without one).
+    pub theta: f64,
+    /// What it did: cooperative law, a fallback, or blending back.
+    pub mode: Mode,
+    /// The emergency-braking guard overrode the command.
+    pub guard: bool,
+    /// Whom it took as its leader: the platoon's (the default), or the member heading its part
+    /// of a platoon split behind a car that cut in (`[fallback.cut_in] split`).
+    pub head: VehicleId,
+}
 
 /// One platoon's follower controllers behind one boundary (module docs).
 pub trait Controller: std::fmt::Debug + Send + dyn_clone::DynClone {
@@ -79,151 +95,3 @@ pub trait Controller: std::fmt::Debug + Send + dyn_clone::DynClone {
 }
 
 dyn_clone::clone_trait_object!(Controller);
-
-/// The leader's beacons, which every built-in controller sends for it: its state every
-/// `every` steps, with its acceleration over the step before as its command.
-#[derive(Debug, Clone, Default)]
-pub(crate) struct LeaderBeacon {
-    seq: u32,
-    last_u: f64,
-}
-
-impl LeaderBeacon {
-    /// Step `k` (`states[0]` is the leader's): appends its packet to `out` when it is due.
-    pub(crate) fn transmit(&mut self, k: u64, every: u32, states: &[State], out: &mut Vec<Packet>) {
-        self.transmit_with(k, every, states, None, out);
-    }
-
-    /// [`LeaderBeacon::transmit`], also when not due if it carries a maneuver message.
-    pub(crate) fn transmit_with(
-        &mut self,
-        k: u64,
-        every: u32,
-        states: &[State],
-        maneuver: Option<crate::maneuvers::Message>,
-        out: &mut Vec<Packet>,
-    ) {
-        if k.is_multiple_of(u64::from(every)) || maneuver.is_some() {
-            self.seq += 1;
-            out.push(Packet {
-                sender: VehicleId::LEADER,
-                seq: self.seq,
-                step: k,
-                state: states[0],
-                u: self.last_u,
-                head: VehicleId::LEADER,
-                maneuver,
-            });
-        }
-        self.last_u = states[0][2];
-    }
-}
-
-/// The controller `params` names, for the followers of `topology` starting from `initial`
-/// (leader first): the paper's [`crate::PlatoonController`], or one of the field's laws on a
-/// [`crate::ComposedController`] (refused, naming the key, when the topology does not let a
-/// follower hear whom its law reads).
-pub fn build(
-    params: &ControllerParams,
-    topology: &Topology,
-    initial: &[State],
-) -> Result<Box<dyn Controller>, ParamsError> {
-    build_with(params, topology, initial, Vec::new())
-}
-
-/// [`build`] with misbehaviour detectors of the caller's (any [`Detector`]) after those of
-/// `params.detection`, under its reaction and quiet period (log, drop, fallback;
-/// [`crate::screening`]): how a Rust user adds a detector to a built-in controller, e.g. in a
-/// `platoon_sim::ControllerFactory`. The controller reads its radar every step for them.
-pub fn build_with(
-    params: &ControllerParams,
-    topology: &Topology,
-    initial: &[State],
-    detectors: Vec<Box<dyn Detector>>,
-) -> Result<Box<dyn Controller>, ParamsError> {
-    params.validate()?;
-    let Some(law) = params.law.law(params.fallback.vehicle_length) else {
-        return Ok(Box::new(crate::PlatoonController::with_detectors(
-            params.clone(),
-            topology,
-            initial,
-            detectors,
-        )?));
-    };
-    check_topology(params, topology)?;
-    let err = |field, message| ParamsError { field, message };
-    let beaconing: Box<dyn crate::Beaconing> = match params.rule {
-        crate::TriggerRule::Periodic { period_steps } => Box::new(crate::composed::Periodic {
-            steps: period_steps,
-        }),
-        crate::TriggerRule::Cam(cam) => Box::new(cam),
-        _ => {
-            return Err(err(
-                "rule",
-                "the field's laws beacon periodically or by CAM rules".into(),
-            ))
-        }
-    };
-    let parts = crate::Composition {
-        dt: params.dt,
-        beaconing,
-        leader_broadcast_steps: params.leader_broadcast_steps,
-        spacing: params.spacing,
-        headway: params.headway,
-        fallback: params.fallback.clone(),
-        detection: params.detection.clone(),
-        maneuvers: params.maneuvers.clone(),
-    };
-    Ok(Box::new(crate::ComposedController::with_detectors(
-        law, parts, topology, initial, detectors,
-    )?))
-}
-
-/// Whether `topology` lets every follower hear whom the law of `params` reads (the field
-/// `preset` for a predecessor or the leader missing, `adjacency` for a consensus row).
-pub fn check_topology(params: &ControllerParams, topology: &Topology) -> Result<(), ParamsError> {
-    let err = |field, message| ParamsError { field, message };
-    let n = topology.followers();
-    let (predecessor, leader) = params.law.needs();
-    for i in 1..=n {
-        let id = VehicleId::follower(i);
-        let hears = |j: u16| topology.in_neighbours(id).contains(&VehicleId(j));
-        let missing = if predecessor && !hears(id.0 - 1) {
-            Some(("its predecessor", id.0 - 1))
-        } else if leader && !hears(0) {
-            Some(("the leader", 0))
-        } else {
-            None
-        };
-        if let Some((whom, j)) = missing {
-            return Err(err(
-                "preset",
-                format!(
-                    "law = \"{}\" needs every follower to hear {whom}, but follower {i} does \
-                     not hear vehicle {j} in this topology",
-                    params.law.name()
-                ),
-            ));
-        }
-    }
-    if let crate::LawParams::Consensus(c) = &params.law {
-        c.check(n + 1).map_err(|(field, m)| err(field, m))?;
-        for i in 1..=n {
-            for j in (0..=n).filter(|&j| j != i && c.adjacency[i][j] != 0.0) {
-                if !topology
-                    .in_neighbours(VehicleId::follower(i))
-                    .contains(&VehicleId(j as u16))
-                {
-                    return Err(err(
-                        "adjacency",
-                        format!(
-                            "consensus row {i} listens to vehicle {j}, whom follower {i} does \
-                             not hear in this topology"
-                        ),
-                    ));
-                }
-            }
-        }
-    }
-    Ok(())
-}

@@ -80,7 +80,7 @@ pub struct ControllerParams {
     pub leader_broadcast_steps: u32,
     /// Misbehaviour detection in the receive path (`[detection]`; off by default).
     pub detection: crate::DetectionParams,
-    /// The platoon's maneuvers (`[maneuvers]`; none by default): the field's laws only.
+    /// The platoon's maneuvers (`[maneuvers]`; none by default).
     pub maneuvers: Option<crate::ManeuverParams>,
 }
 
@@ -119,14 +119,6 @@ impl ControllerParams {
             }
         } else if self.gain.iter().any(|g| !g.is_finite()) {
             return err("gain", "must be finite".into());
-        }
-        if self.law.is_paper() && self.maneuvers.is_some() {
-            return err(
-                "maneuvers",
-                "the paper's law runs on one graph for the whole run; maneuvers need one of \
-                 the field's laws (law = \"acc\", \"path_cacc\", ...)"
-                    .into(),
-            );
         }
         if matches!(self.law, crate::LawParams::Consensus(_))
             && self

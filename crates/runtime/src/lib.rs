@@ -6,7 +6,7 @@
 //! ```
 //!
 //! Every node composes the same pure core as the in-process runner (`platoon-sim`): the plant
-//! runs [`platoon_sim::Plant`], the controller [`platoon_control::PlatoonController`], the
+//! runs [`platoon_sim::Plant`], the controller [`platoon_control::ComposedController`], the
 //! injector [`platoon_attacks::channel::Channel`], and the orchestrator assembles its rows with
 //! [`platoon_sim::step_rows`], so both transports give the same trajectories bit for bit.
 //!

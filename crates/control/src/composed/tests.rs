@@ -1,6 +1,7 @@
 //! The composed controller's tests: beaconing, fallbacks, the room offsets, maneuvers.
 use super::*;
-use crate::{FallbackMode, Mode};
+use crate::fallback::RadarTruth;
+use crate::{FallbackMode, FallbackParams, Mode};
 use platoon_topology::Preset;
 
 /// A law that echoes the predecessor's speed in its last packet, so a test sees which
@@ -124,10 +125,11 @@ impl Law for EchoLeader {
 }
 
 /// Follower 1 runs ACC on a car that cut in ahead of it on steps 5 to 14 (but for two steps
-/// of an attack's fallback) and, with a split, heads followers 2 and 3 meanwhile: they hear it (though `plf` gives them only their
-/// predecessor and the leader), take its packets as their leader's from the step after
-/// it announced itself, blend to the new reference from their last command, and take the
-/// leader again once it no longer announces itself. Each vehicle drives at its own speed,
+/// of an attack's fallback), then blends back to its law on steps 15 to 18, and, with a
+/// split, heads followers 2 and 3 meanwhile (until it is back on its law): they hear it
+/// (though `plf` gives them only their predecessor and the leader), take its packets as their
+/// leader's from the step after it announced itself, blend to the new reference from their
+/// last command, and take the leader again once it no longer announces itself. Each vehicle drives at its own speed,
 /// 15 + i m/s, so the echoed speed names whom a follower took as its leader.
 #[test]
 fn a_follower_on_a_cut_in_heads_the_followers_behind_it() {
@@ -205,7 +207,7 @@ fn a_follower_on_a_cut_in_heads_the_followers_behind_it() {
         // Follower 1 announces itself while on the car's ACC, the others their head.
         let announced = |i: u16| out.iter().find(|p| p.sender == VehicleId(i)).unwrap().head;
         if k > 0 {
-            let leading = (6..16).contains(&k);
+            let leading = (6..20).contains(&k);
             assert_eq!(announced(1).0, if leading { 1 } else { 0 }, "step {k}");
             assert_eq!(
                 announced(3),
@@ -215,9 +217,9 @@ fn a_follower_on_a_cut_in_heads_the_followers_behind_it() {
         }
     }
     // Follower 1 keeps the platoon's leader; 2 and 3 take follower 1 from step 6 (its
-    // first packet as a head) to step 15 (its last), then the leader again.
+    // first packet as a head) to step 19 (its last), then the leader again.
     for (k, h) in heads.iter().enumerate() {
-        let behind = if (6..16).contains(&k) { 1 } else { 0 };
+        let behind = if (6..20).contains(&k) { 1 } else { 0 };
         assert_eq!(*h, [0, behind, behind], "step {k}");
     }
     // Bumpless both ways: from the leader's 15 m/s to follower 1's 16 over 4 steps, and
@@ -225,7 +227,7 @@ fn a_follower_on_a_cut_in_heads_the_followers_behind_it() {
     let f3: Vec<f64> = u.iter().map(|u| u[2]).collect();
     assert_eq!(f3[5], 15.0);
     assert_eq!(&f3[6..11], [15.0, 15.25, 15.5, 15.75, 16.0]);
-    assert_eq!(&f3[16..21], [16.0, 15.75, 15.5, 15.25, 15.0]);
+    assert_eq!(&f3[20..25], [16.0, 15.75, 15.5, 15.25, 15.0]);
     assert_eq!(c.follower_step(VehicleId(3)).mode, Mode::Coop);
 }
 
