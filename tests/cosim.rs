@@ -2191,3 +2191,133 @@ fn a_split_runs_bit_identically_on_both_transports() {
     let labels = &json(&ipc.join("summary.json"))["detection"]["labels"];
     assert_eq!(labels["altered"], 100, "{labels}");
 }
+
+/// `config` (a shipped one) with the paper's law in place of its `[control]` table (the
+/// paper's gains; the trigger is the config's), written to `dir`.
+fn with_the_papers_law(config: &str, dir: &Path, edit: impl Fn(String) -> String) -> PathBuf {
+    let text = std::fs::read_to_string(repo().join(config)).unwrap();
+    let start = text.find("[control]\n").expect("a [control] table");
+    let end = start + text[start + 1..].find("\n[").expect("a table after it") + 1;
+    let paper = "[control]\ngain = [4.81, 9.12, 2.97]\nbeta1 = 319.38\nbeta2 = 5.62\n";
+    let text = edit(format!("{}{paper}{}", &text[..start], &text[end..]));
+    let path = dir.join(Path::new(config).file_name().unwrap());
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+/// The paper's law runs the maneuvers of the field's laws through the same pipeline: the tail
+/// join of `configs/join.toml` and the two leaves of `configs/leave.toml` complete, nobody
+/// collides, and both transports agree bit for bit.
+#[test]
+fn the_papers_law_joins_and_leaves_on_both_transports() {
+    let dir = tempfile::tempdir().unwrap();
+    for (config, done) in [
+        ("configs/join.toml", vec![",joined,"]),
+        (
+            "configs/leave.toml",
+            vec!["0,2,2002,20.02,left,", "0,5,4502,45.02,left,"],
+        ),
+    ] {
+        let path = with_the_papers_law(config, dir.path(), |t| t);
+        let runs = transports_agree(path.to_str().unwrap());
+        let ipc = runs.path().join("ipc");
+        let summary = json(&ipc.join("summary.json"));
+        assert_eq!(summary["safety"]["collided"], false, "{config}");
+        let maneuvers = summary["maneuvers"]["maneuvers"].as_array().unwrap();
+        assert_eq!(maneuvers.len(), done.len(), "{config}");
+        for m in maneuvers {
+            assert_eq!(m["outcome"], "completed", "{config}: {m}");
+        }
+        let events = std::fs::read_to_string(ipc.join("events.csv")).unwrap();
+        for mark in done {
+            assert!(events.lines().any(|l| l.contains(mark)), "{config}: {mark}");
+        }
+        // The members settle in their new formation: every gap to the vehicle ahead at the
+        // law's by the end (the rooms the leavers left closed).
+        for v in summary["vehicles"].as_array().unwrap() {
+            let last = v["gap_error_m"]["final_abs"].as_f64().unwrap();
+            assert!(last < 0.05, "{config}: {v}");
+        }
+    }
+}
+
+/// The paper's law on its own TPSF graph, and on PLF, behind a car cutting in 6 m ahead of
+/// follower 3 at 2 m/s slower, with the split behind the car (`[fallback.cut_in] split`)
+/// and no guard: follower 3 heads followers 4 and 5 (who stop steering on the members ahead
+/// of the car) from the step after the car entered until it is back on its law, nobody
+/// collides, and both transports agree bit for bit. Without the split, follower 4 (which
+/// also hears follower 2 on TPSF) drives into follower 3.
+#[test]
+fn the_papers_law_splits_behind_a_cut_in_on_both_transports() {
+    let dir = tempfile::tempdir().unwrap();
+    for preset in ["tpsf", "plf"] {
+        let edit = |split: bool| {
+            move |t: String| {
+                t.replace("followers = 4", "followers = 5")
+                    .replace("preset = \"pf\"", &format!("preset = \"{preset}\" #"))
+                    .replace(
+                        "cut_in = { dwell_s = 1.0, blend_s = 3.0 }",
+                        &format!("cut_in = {{ dwell_s = 1.0, blend_s = 3.0, split = {split} }}"),
+                    )
+                    .replace("decel_mps2 = 2.0", "decel_mps2 = 0.0")
+                    .replace("at_s = 20.0 ", "gap_m = 6.0\nat_s = 20.0 ")
+            }
+        };
+        let sub = dir.path().join(preset);
+        std::fs::create_dir_all(&sub).unwrap();
+        let path = with_the_papers_law("configs/cut-in.toml", &sub, edit(true));
+        let text = std::fs::read_to_string(&path).unwrap();
+        assert!(
+            text.contains("gap_m = 6.0") && text.contains("split = true"),
+            "{text}"
+        );
+        let runs = transports_agree(path.to_str().unwrap());
+        let ipc = runs.path().join("ipc");
+        let summary = json(&ipc.join("summary.json"));
+        assert_eq!(
+            summary["safety"]["collided"], false,
+            "{preset}: {}",
+            summary["safety"]
+        );
+        let rows = std::fs::read_to_string(ipc.join("trajectories.csv")).unwrap();
+        let header: Vec<&str> = rows.lines().next().unwrap().split(',').collect();
+        let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+        let (vehicle, step, head) = (col("vehicle"), col("step"), col("head"));
+        for v in ["4", "5"] {
+            let led: Vec<u64> = rows
+                .lines()
+                .skip(1)
+                .map(|l| l.split(',').collect::<Vec<_>>())
+                .filter(|r| r[vehicle] == v && r[head] == "3")
+                .map(|r| r[step].parse().unwrap())
+                .collect();
+            // From the step after the car entered (at 20 s) until past the car's leaving
+            // (30 s): follower 3 is back on its law only once it closed up.
+            assert_eq!(led.first(), Some(&2001), "{preset}: follower {v}");
+            assert!(
+                led.last().is_some_and(|&k| k > 3000),
+                "{preset}: follower {v}"
+            );
+        }
+        // Without the split the paper's law on TPSF collides (PLF hears no one beyond its
+        // predecessor but the leader, which the radar's car does not hide).
+        if preset == "tpsf" {
+            let path = with_the_papers_law("configs/cut-in.toml", &sub, edit(false));
+            let o = platoon(
+                &[
+                    "run",
+                    path.to_str().unwrap(),
+                    "--out",
+                    "nosplit",
+                    "--no-plots",
+                    "--transport",
+                    "inproc",
+                ],
+                &sub,
+            );
+            ok(&o);
+            let s = json(&sub.join("nosplit/summary.json"));
+            assert_eq!(s["safety"]["collided"], true, "{}", s["safety"]);
+        }
+    }
+}
