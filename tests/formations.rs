@@ -144,6 +144,36 @@ fn an_unstable_gain_is_not_certified() {
     assert_eq!(c.decay_per_s, None);
 }
 
+/// The paper's law runs on the one pipeline, so the formations it visits are certified as the
+/// field's laws' are, its graph (the cut-in config's `pf`, and `plf`) the preset's pattern on
+/// each platoon: before and after a tail join, and both parts of a split; a gain that makes
+/// the loop unstable (the position gain's sign flipped) is not certified.
+#[test]
+fn the_papers_law_formations_are_certified_and_an_unstable_gain_is_not() {
+    let text = cut_in_config("paper");
+    let text = &text[..text.find("[[cut_ins]]").unwrap()];
+    for preset in ["pf", "plf"] {
+        let text = text.replace("preset = \"pf\"", &format!("preset = \"{preset}\" #"));
+        let s = scenario(&text);
+        for platoons in [
+            vec![vec![0, 1, 2, 3]],
+            vec![vec![0, 1, 2, 3, 4]],
+            vec![vec![0, 1], vec![2, 3, 4]],
+        ] {
+            let c = platoon_app::formations::check(&s, &platoons, 15.0);
+            assert_eq!(c.unchecked, None, "{preset} {platoons:?}: {c:?}");
+            assert!(c.spectral_radius.unwrap() < 1.0, "{preset} {platoons:?}: {c:?}");
+            assert!(c.decay_per_s.unwrap() > 0.0, "{preset} {platoons:?}: {c:?}");
+        }
+    }
+    let bad = text.replace("gain = [4.81,", "gain = [-4.81,");
+    assert_ne!(bad, text, "the paper's gain");
+    let c = platoon_app::formations::check(&scenario(&bad), &[vec![0, 1, 2, 3]], 15.0);
+    assert_eq!(c.unchecked, None);
+    assert!(c.spectral_radius.unwrap() > 1.0, "{c:?}");
+    assert_eq!(c.decay_per_s, None);
+}
+
 /// The linearised loop is the loop a run closes: a PATH CACC platoon beaconing every step
 /// at a constant speed, started off its equilibrium, follows `z[k+1] = Phi z[k]` of its
 /// formation step by step (the deviations from the equilibrium trajectory: position, speed,

@@ -102,8 +102,9 @@ fn without_cut_in_handling_the_papers_law_drives_into_the_intruder() {
 /// The flatbed controller tracks the leader's speed (`configs/cut-in-split.toml`): without a
 /// split its follower 4 closes in on follower 3 as that one drops back behind the car, and hits
 /// it. With the split, follower 3 heads follower 4 from the step after the car entered (its
-/// first packet as a head) until it returns to its law, nobody collides, and each hand-over is
-/// bumpless: the command moves no more at the switch than over the steps around it.
+/// first packet as a head) until it is back on its law (its blend over), nobody collides, and
+/// each hand-over is bumpless: the command moves no more at the switch than over the steps
+/// around it.
 #[test]
 fn a_split_behind_the_car_keeps_the_flatbed_followers_apart() {
     let text = std::fs::read_to_string(repo().join("configs/cut-in-split.toml")).unwrap();
@@ -129,8 +130,8 @@ fn a_split_behind_the_car_keeps_the_flatbed_followers_apart() {
     assert!(smallest > 4.0, "{smallest}");
     let of = |i: u16| -> Vec<&StepRow> { rows.iter().filter(|r| r.vehicle == i).collect() };
     // Followers 1 to 3 keep the platoon's leader; follower 4 takes follower 3 from step 2001
-    // (the car entered at 2000) until follower 3's first packet after it left the car's ACC
-    // (it blends back from step 3100; its beacons come every 10 steps again).
+    // (the car entered at 2000) until follower 3's first packet after it is back on its law
+    // (it blends back on steps 3100 to 3399; its beacons come every 10 steps again).
     for i in 0..=3 {
         assert!(of(i).iter().all(|r| r.head == Some(0)), "vehicle {i}");
     }
@@ -142,7 +143,7 @@ fn a_split_behind_the_car_keeps_the_flatbed_followers_apart() {
         .collect();
     assert_eq!(
         (took.first(), took.last(), took.len()),
-        (Some(&2001), Some(&3109), 1109)
+        (Some(&2001), Some(&3409), 1409)
     );
     assert_eq!(of(3)[3100].mode, Mode::Blend);
     // Into the split and out of it, follower 4 blends from its last command to the new law.
@@ -153,7 +154,7 @@ fn a_split_behind_the_car_keeps_the_flatbed_followers_apart() {
             .map(step)
             .fold(0.0, f64::max)
     };
-    for k in [2001, 3110] {
+    for k in [2001, 3410] {
         assert_eq!(f4[k].mode, Mode::Blend, "step {k}");
         assert!(
             step(k) <= around(k),

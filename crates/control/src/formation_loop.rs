@@ -4,9 +4,11 @@
 //! A formation is the vehicles of the lane's platoons in road order, each platoon headed by the
 //! leader or by a member that heads a part of its own on its ACC (a split's, or a merging
 //! platoon's before the merge). In it every member runs the config's law ([`crate::Law`], the
-//! very code a run calls) on what it would know in the nominal case: the radar's exact gap and
-//! closing speed to the vehicle ahead in the formation, and a packet from every vehicle it
-//! hears at every step (its state and the command of the step before, as a packet carries it);
+//! very code a run calls; the paper's on the preset's pattern over its platoon) on what it
+//! would know in the nominal case: the radar's exact gap and closing speed to the vehicle ahead
+//! in the formation, and a packet from every vehicle it hears at every step (its state and the
+//! command of the step before, as a packet carries it; the paper's law's estimates are those
+//! states);
 //! a head runs its ACC (the fallback's, opened to its headway) behind the member ahead of it.
 //! The plant moves each with its lag under the run's discretisation.
 //!
@@ -44,8 +46,8 @@ pub struct LoopSpec<'a> {
 /// Why a formation's loop cannot be built.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum LoopError {
-    /// The law has no [`crate::Law`] (the paper's runs on its own controller, on one graph).
-    #[error("law = \"{0}\" is not one of the field's laws: it has no formation loop")]
+    /// The law has no [`crate::Law`].
+    #[error("law = \"{0}\" has no formation loop")]
     NoLaw(&'static str),
     /// The formation does not start with the leader, names a vehicle twice or beyond the run.
     #[error("not a formation of this run: {0}")]
@@ -63,8 +65,13 @@ pub fn step_matrix(
     taus: &[f64],
 ) -> Result<DMatrix<f64>, LoopError> {
     let p = spec.params;
-    let Some(law) = p.law.law(p.fallback.vehicle_length) else {
-        return Err(LoopError::NoLaw(p.law.name()));
+    // The paper's law reads its estimates: in the nominal case, every vehicle's state at
+    // every step.
+    let estimating = p.law.is_paper();
+    let law: Box<dyn crate::Law> = match p.law.law(p.fallback.vehicle_length) {
+        Some(law) => law,
+        None if estimating => Box::new(crate::PaperLaw::new(p)),
+        None => return Err(LoopError::NoLaw(p.law.name())),
     };
     let vehicles = spec.topology.followers() + 1;
     // Road order, each vehicle with the head of its platoon.
@@ -95,9 +102,21 @@ pub fn step_matrix(
         z0[STATES * (i - 1)..STATES * i].copy_from_slice(&[at, speed, 0.0, 0.0]);
         ahead_p = at;
     }
-    let mut laws: Vec<_> = (0..followers)
-        .map(|_| dyn_clone::clone_box(&*law))
+    // Each follower hears every vehicle (its slots: every id but its own).
+    let slots = |v: VehicleId| -> Vec<VehicleId> {
+        (0..vehicles as u16).map(VehicleId).filter(|&j| j != v).collect()
+    };
+    let rest = vec![State::new(0.0, speed, 0.0); vehicles];
+    let mut laws: Vec<_> = road[1..]
+        .iter()
+        .map(|&(v, _)| {
+            let mut law = dyn_clone::clone_box(&*law);
+            law.start(v, spec.topology, &slots(v), &rest);
+            law
+        })
         .collect();
+    // Each vehicle's platoon, head first (the part the paper's law steers in).
+    let part_of = |v: VehicleId| platoons.iter().find(|pl| pl.contains(&v)).map(Vec::as_slice);
     let mut step = |z: &[f64]| -> Vec<f64> {
         // Every vehicle's state and last command: the leader's, then the followers' from `z`;
         // a vehicle out of the formation keeps the leader's (it is no part of the loop).
@@ -146,7 +165,16 @@ pub fn step_matrix(
                 let heard: Vec<Heard> = neighbours.iter().map(|&j| packet(j)).collect();
                 let ahead_heard = packet(ahead);
                 let head_heard = packet(head);
-                laws[i - 1].command(&View {
+                let law = &mut laws[i - 1];
+                if estimating {
+                    for (slot, j) in slots(v).into_iter().enumerate() {
+                        law.heard(0, slot, &crate::Packet::beacon(j, 1, 0, state[j.index()].0));
+                    }
+                    if let Some(t) = law.triggering() {
+                        t.sent(0, &own);
+                    }
+                }
+                law.command(&View {
                     k: 0,
                     dt: p.dt,
                     id: v,
@@ -159,7 +187,7 @@ pub fn step_matrix(
                     neighbours,
                     heard: &heard,
                     head: (!head.is_leader()).then_some((head, &head_heard)),
-                    part: None,
+                    part: part_of(v),
                     room: State::zeros(),
                 })
             };
