@@ -92,7 +92,7 @@ fn return_jump(rows: &[StepRow], blend: bool) -> f64 {
     for v in 1..=4u16 {
         let mine: Vec<&StepRow> = rows.iter().filter(|r| r.vehicle == v).collect();
         for w in mine.windows(2) {
-            let fallback = |m: Mode| m != Mode::Coop && m != Mode::Blend;
+            let fallback = |m: platoon_control::Status| m != Mode::Coop && m != Mode::Blend;
             let leaving = fallback(w[0].mode) && !fallback(w[1].mode);
             if leaving || (blend && w[1].mode == Mode::Blend) {
                 worst = worst.max((w[1].u - w[0].u).abs());

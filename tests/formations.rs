@@ -162,7 +162,10 @@ fn the_papers_law_formations_are_certified_and_an_unstable_gain_is_not() {
         ] {
             let c = platoon_app::formations::check(&s, &platoons, 15.0);
             assert_eq!(c.unchecked, None, "{preset} {platoons:?}: {c:?}");
-            assert!(c.spectral_radius.unwrap() < 1.0, "{preset} {platoons:?}: {c:?}");
+            assert!(
+                c.spectral_radius.unwrap() < 1.0,
+                "{preset} {platoons:?}: {c:?}"
+            );
             assert!(c.decay_per_s.unwrap() > 0.0, "{preset} {platoons:?}: {c:?}");
         }
     }

@@ -10,7 +10,7 @@ use common::maneuvers::{forged_to_leader, of, run, run_with};
 use common::repo;
 use platoon_attacks::inject::Step;
 use platoon_control::Delivery;
-use platoon_control::Mode;
+use platoon_control::{Mode, Role};
 use platoon_maneuver::{Body, Change, Message};
 use platoon_model::VehicleId;
 use platoon_sim::truth::Label;
@@ -109,14 +109,14 @@ fn a_join_in_the_middle_opens_a_gap_and_moves_in_without_a_jump() {
         .unwrap();
     assert_eq!(opener.1.to, v2);
     let joiner = of(&rows, 4);
-    let moved_in = joiner.iter().position(|r| r.mode != Mode::Beside).unwrap();
+    let moved_in = joiner.iter().position(|r| r.mode != Role::Beside).unwrap();
     let ready = sent
         .iter()
         .find(|(_, m)| matches!(m.body, Body::GapReady { .. }))
         .unwrap()
         .0 as usize;
     assert!(ready < moved_in, "{ready} {moved_in}");
-    assert!(joiner[..moved_in].iter().all(|r| r.mode == Mode::Beside));
+    assert!(joiner[..moved_in].iter().all(|r| r.mode == Role::Beside));
     assert!(joiner[moved_in..]
         .iter()
         .all(|r| !r.mode.is_beside_the_lane()));
@@ -155,7 +155,7 @@ fn a_join_jammed_half_way_is_called_off_and_the_gap_closes() {
     assert!(!sent
         .iter()
         .any(|(_, m)| matches!(m.body, Body::Update { .. })));
-    assert!(of(&rows, 4).iter().all(|r| r.mode == Mode::Beside));
+    assert!(of(&rows, 4).iter().all(|r| r.mode == Role::Beside));
     let g = last_gap(&rows, 1, 2);
     assert!((g - GAP).abs() < 1.0, "the gap closes again: {g}");
     let gap = smallest_gap_on_the_lane(&rows);
@@ -192,11 +192,11 @@ fn a_false_in_position_report_admits_nobody_into_a_slot_it_is_not_in() {
         .0;
     assert_eq!(update, 2751, "admitted on the false report");
     let joiner = of(&rows, 4);
-    let moved_in = joiner.iter().position(|r| r.mode != Mode::Beside).unwrap();
+    let moved_in = joiner.iter().position(|r| r.mode != Role::Beside).unwrap();
     assert!(moved_in > 2752, "it moves in when in position: {moved_in}");
     assert!(joiner[2751..moved_in]
         .iter()
-        .all(|r| r.mode == Mode::Beside));
+        .all(|r| r.mode == Role::Beside));
     assert!(
         joiner.last().unwrap().mode == Mode::Coop,
         "a member in the end"
@@ -226,7 +226,7 @@ fn the_catalogues_maneuver_jammer_calls_the_join_off_safely() {
         == Body::Abort {
             joiner: VehicleId(4)
         }));
-    assert!(of(&rows, 4).iter().all(|r| r.mode == Mode::Beside));
+    assert!(of(&rows, 4).iter().all(|r| r.mode == Role::Beside));
     let g = last_gap(&rows, 1, 2);
     assert!((g - GAP).abs() < 1.0, "the gap closes again: {g}");
     assert!(smallest_gap_on_the_lane(&rows) > 10.0);
@@ -271,7 +271,7 @@ fn the_members_behind_the_opener_follow_it_and_keep_their_gaps() {
         .unwrap();
     let joined = of(&rows, 4)
         .iter()
-        .find(|r| !matches!(r.mode, Mode::Beside | Mode::Outside))
+        .find(|r| !matches!(r.mode.role(), Role::Beside | Role::Outside))
         .unwrap()
         .step;
     let (two, three) = (of(&rows, 2), of(&rows, 3));

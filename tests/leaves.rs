@@ -8,7 +8,7 @@ mod common;
 use common::maneuvers::{altered_only, forged_to_leader, of, run, run_with};
 use common::repo;
 use platoon_attacks::inject::Step;
-use platoon_control::{Delivery, Mode};
+use platoon_control::{Delivery, Role};
 use platoon_maneuver::{Body, Change};
 use platoon_model::VehicleId;
 use platoon_sim::truth::Label;
@@ -43,7 +43,7 @@ fn smallest_gap_on_the_lane(rows: &[StepRow]) -> f64 {
     let per_step = rows.len() / of(rows, 0).len();
     rows.chunks(per_step)
         .flat_map(|step| {
-            let on: Vec<&StepRow> = step.iter().filter(|r| r.mode != Mode::Left).collect();
+            let on: Vec<&StepRow> = step.iter().filter(|r| r.mode != Role::Left).collect();
             on.windows(2)
                 .map(|w| w[0].p - w[1].p - LENGTH)
                 .collect::<Vec<_>>()
@@ -60,7 +60,7 @@ fn largest_step(rows: &[StepRow], v: u16, steps: std::ops::Range<usize>) -> f64 
 fn first_left(rows: &[StepRow], v: u16) -> Option<u64> {
     of(rows, v)
         .iter()
-        .find(|r| r.mode == Mode::Left)
+        .find(|r| r.mode == Role::Left)
         .map(|r| r.step)
 }
 
@@ -91,7 +91,7 @@ fn members_leave_from_the_middle_and_the_tail_and_the_room_closes_without_a_jump
     for (v, at) in [(2, left2), (5, left5)] {
         assert!(of(&rows, v)
             .iter()
-            .all(|r| (r.mode == Mode::Left) == (r.step >= at)));
+            .all(|r| (r.mode == Role::Left) == (r.step >= at)));
     }
     // Follower 3 follows follower 1 from the step its radar sees it, and closes the room
     // follower 2 left gradually: its gap never falls below the platoon's on the way (closing

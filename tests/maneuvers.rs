@@ -8,7 +8,7 @@ mod common;
 use common::maneuvers::{altered_only, forged_to_leader, of, run, run_with};
 use common::{cut_in_config, repo};
 use platoon_attacks::inject::Step;
-use platoon_control::{Delivery, Mode};
+use platoon_control::{Delivery, Mode, Role};
 use platoon_maneuver::{Body, Change, Refusal};
 use platoon_model::VehicleId;
 use platoon_sim::truth::Label;
@@ -60,10 +60,10 @@ fn a_join_at_the_tail_is_negotiated_on_the_packets_and_taken_without_a_jump() {
     let (rows, sent) = run(s, |_, _| false);
     let joiner = of(&rows, 4);
     // Outside from the start; the law from the step the update reached it, blended.
-    assert_eq!(joiner[0].mode, Mode::Outside);
-    let joined = joiner.iter().position(|r| r.mode != Mode::Outside).unwrap();
+    assert_eq!(joiner[0].mode, Role::Outside);
+    let joined = joiner.iter().position(|r| r.mode != Role::Outside).unwrap();
     assert_eq!(joiner[joined].mode, Mode::Blend);
-    assert!(joiner[joined..].iter().all(|r| r.mode != Mode::Outside));
+    assert!(joiner[joined..].iter().all(|r| r.mode != Role::Outside));
     // The messages, on the packets the injector saw: request at 5 s, the leader's accept the
     // step after it arrived, in position, then the update announced three times.
     let bodies: Vec<(u16, Body)> = sent.iter().map(|(_, m)| (m.sender.0, m.body)).collect();
@@ -138,7 +138,7 @@ fn a_join_whose_update_never_arrives_is_withdrawn_and_the_joiner_stays_out() {
         matches!(m.body, Body::Update { .. })
     });
     let joiner = of(&rows, 4);
-    assert!(joiner.iter().all(|r| r.mode == Mode::Outside));
+    assert!(joiner.iter().all(|r| r.mode == Role::Outside));
     let count = |b: fn(&Body) -> bool| sent.iter().filter(|(_, m)| b(&m.body)).count();
     assert_eq!(count(|b| *b == Body::InPosition), 3);
     // Its notices go unanswered too (the update is lost): it sends all three.
@@ -162,7 +162,7 @@ fn without_maneuvers_the_packets_carry_none_and_the_outputs_are_unchanged() {
     let plain = text[..text.find("[maneuvers]").unwrap()].to_string();
     let (rows, sent) = run(scenario(&plain), |_, _| false);
     assert!(sent.is_empty());
-    assert!(rows.iter().all(|r| r.mode != Mode::Outside));
+    assert!(rows.iter().all(|r| r.mode != Role::Outside));
 }
 
 #[test]
@@ -200,7 +200,7 @@ fn a_forged_join_request_keeps_the_real_joiner_out_and_is_labelled_forged() {
     let s = scenario(&join_config());
     let deadline = 300 + (40.0 / s.dt()).round() as u64;
     let (rows, log) = run_with(s, |_, _| false, ghost);
-    assert!(of(&rows, 4).iter().all(|r| r.mode == Mode::Outside));
+    assert!(of(&rows, 4).iter().all(|r| r.mode == Role::Outside));
     let refused = log.sent.iter().any(|(_, m)| {
         m.to == VehicleId(4)
             && m.body
@@ -290,7 +290,7 @@ fn a_jammed_request_ends_the_join_safely() {
         sent.iter().all(|(_, m)| m.sender == VehicleId(4)),
         "the leader heard nothing"
     );
-    assert!(of(&rows, 4).iter().all(|r| r.mode == Mode::Outside));
+    assert!(of(&rows, 4).iter().all(|r| r.mode == Role::Outside));
     assert!(smallest_gap(&rows, 4.5) > 10.0);
 }
 
@@ -312,7 +312,7 @@ fn a_rewritten_join_request_is_labelled_altered_and_the_joiner_stays_out() {
         }
     }
     let (rows, log) = run_with(scenario(&join_config()), |_, _| false, rewrite);
-    assert!(of(&rows, 4).iter().all(|r| r.mode == Mode::Outside));
+    assert!(of(&rows, 4).iter().all(|r| r.mode == Role::Outside));
     let altered: Vec<_> = log
         .labelled
         .iter()
@@ -373,11 +373,11 @@ fn every_law_takes_a_joiner_at_the_tail() {
     for law in ["acc", "ploeg", "path_cacc", "consensus", "flatbed"] {
         let (rows, sent) = run(scenario(&join_config_for(law)), |_, _| false);
         let joiner = of(&rows, 4);
-        let admitted = joiner.iter().position(|r| r.mode != Mode::Outside);
+        let admitted = joiner.iter().position(|r| r.mode != Role::Outside);
         let Some(admitted) = admitted else {
             panic!("{law}: never admitted; sent {sent:?}");
         };
-        assert!(joiner[admitted..].iter().all(|r| r.mode != Mode::Outside));
+        assert!(joiner[admitted..].iter().all(|r| r.mode != Role::Outside));
         let gap = smallest_gap(&rows, 4.5);
         assert!(gap > 5.0, "{law}: smallest gap {gap} m");
         let accepted = sent
@@ -412,7 +412,7 @@ fn the_catalogues_fake_join_request_keeps_the_joiner_out_and_is_labelled_altered
     text.push_str(FAKE_JOIN_REQUEST);
     let s = scenario(&text);
     let (rows, log) = run_with(s, |_, _| false, common::maneuvers::nothing);
-    assert!(of(&rows, 4).iter().all(|r| r.mode == Mode::Outside));
+    assert!(of(&rows, 4).iter().all(|r| r.mode == Role::Outside));
     altered_only(
         &log,
         4,
@@ -467,9 +467,9 @@ fn the_catalogues_replay_of_an_update_is_labelled_replayed_and_changes_no_format
         .collect();
     assert!(!replayed.is_empty(), "the update was replayed");
     let joiner = of(&rows, 4);
-    let joined = joiner.iter().position(|r| r.mode != Mode::Outside).unwrap();
-    assert!(joiner[joined..].iter().all(|r| r.mode != Mode::Outside));
-    assert!(rows.iter().all(|r| r.mode != Mode::Left));
+    let joined = joiner.iter().position(|r| r.mode != Role::Outside).unwrap();
+    assert!(joiner[joined..].iter().all(|r| r.mode != Role::Outside));
+    assert!(rows.iter().all(|r| r.mode != Role::Left));
     assert!(smallest_gap(&rows, 4.5) > 10.0);
 }
 
@@ -496,7 +496,7 @@ fn the_summary_measures_the_join_as_the_packets_and_rows_tell_it() {
     let joiner = of(&rows, 4);
     let done = joiner
         .iter()
-        .find(|r| r.mode != Mode::Outside)
+        .find(|r| r.mode != Role::Outside)
         .unwrap()
         .step;
     let about = sent
@@ -510,7 +510,7 @@ fn the_summary_measures_the_join_as_the_packets_and_rows_tell_it() {
         .count();
     let worst = rows
         .iter()
-        .filter(|r| r.step >= asked && r.vehicle > 0 && r.mode != Mode::Outside)
+        .filter(|r| r.step >= asked && r.vehicle > 0 && r.mode != Role::Outside)
         .map(|r| r.spacing_error.abs())
         .fold(0.0, f64::max);
     let gap = rows
@@ -567,7 +567,7 @@ fn checked_requests_drop_the_ghost_and_keep_the_real_join() {
             .find(|(x, y)| format!("{x:?}") != format!("{y:?}"));
         assert!(first.is_none(), "{first:?}");
     }
-    assert!(of(&attacked, 4).iter().any(|r| r.mode != Mode::Outside));
+    assert!(of(&attacked, 4).iter().any(|r| r.mode != Role::Outside));
 }
 
 /// With `[detection]` on, the leader's checks of maneuver messages (`check_reports`) are

@@ -8,7 +8,7 @@ mod common;
 
 use common::maneuvers::{altered_only, of, run, run_with};
 use common::repo;
-use platoon_control::Mode;
+use platoon_control::Role;
 use platoon_maneuver::{Body, Change};
 use platoon_model::VehicleId;
 use platoon_sim::truth::Label;
@@ -70,7 +70,7 @@ fn run_attacked(text: &str) -> (Vec<StepRow>, common::maneuvers::Log) {
 /// Asserts that the rear platoon stayed apart for the whole run: its head outside the
 /// leader's platoon, its followers following it.
 fn apart_to_the_end(rows: &[StepRow]) {
-    assert!(of(rows, 3).iter().all(|r| r.mode == Mode::Outside));
+    assert!(of(rows, 3).iter().all(|r| r.mode == Role::Outside));
     for v in [4, 5] {
         assert!(heads(rows, v).iter().all(|&h| h == 3), "vehicle {v}");
     }
@@ -124,8 +124,8 @@ fn two_platoons_merge_over_v2v_and_close_up_without_a_jump() {
     }
     assert!(heads(&rows, 3).iter().all(|&h| h == 0));
     let head = of(&rows, 3);
-    assert!(head[..at].iter().all(|r| r.mode == Mode::Outside));
-    assert!(head[at..].iter().all(|r| r.mode != Mode::Outside));
+    assert!(head[..at].iter().all(|r| r.mode == Role::Outside));
+    assert!(head[at..].iter().all(|r| r.mode != Role::Outside));
     // Closed up: every gap the platoon's, nobody near another, no step in any command at the
     // hand-over (the largest steps of the run are the leader's profile's, at 10, 15, 35, 40 s).
     for v in 1..=5 {
@@ -188,7 +188,7 @@ fn every_law_but_consensus_merges() {
         }
         let (rows, _) = run(parse(&t).unwrap(), |_, _| false);
         let head = of(&rows, 3);
-        assert_ne!(head.last().unwrap().mode, Mode::Outside, "{law}");
+        assert_ne!(head.last().unwrap().mode, Role::Outside, "{law}");
         for v in 1..=5 {
             let smallest = gaps(&rows, v).into_iter().fold(f64::INFINITY, f64::min);
             assert!(smallest > 5.0, "{law}: vehicle {v}: {smallest}");
@@ -285,8 +285,8 @@ fn a_platoon_splits_over_v2v_and_opens_the_gap_without_a_jump() {
         assert!(h[at..].iter().all(|&h| h == 3), "vehicle {v}");
     }
     let head = of(&rows, 3);
-    assert!(head[..at].iter().all(|r| r.mode != Mode::Outside));
-    assert!(head[at..].iter().all(|r| r.mode == Mode::Outside));
+    assert!(head[..at].iter().all(|r| r.mode != Role::Outside));
+    assert!(head[at..].iter().all(|r| r.mode == Role::Outside));
     // Apart: the new head at its ACC's gap (15.5 m + 2 s x v), its platoon at the platoon's;
     // nobody near another, no step in any command at the hand-over.
     let last = gaps(&rows, 3).last().copied().unwrap();
@@ -323,7 +323,7 @@ fn a_split_nobody_hears_leaves_the_platoon_whole() {
         .all(|(_, m)| !matches!(m.body, Body::Update { .. })));
     for v in 1..=5 {
         assert!(heads(&rows, v).iter().all(|&h| h == 0), "vehicle {v}");
-        assert!(of(&rows, v).iter().all(|r| r.mode != Mode::Outside));
+        assert!(of(&rows, v).iter().all(|r| r.mode != Role::Outside));
         let last = gaps(&rows, v).last().copied().unwrap();
         assert!((last - GAP).abs() < 0.5, "vehicle {v}: {last}");
     }
@@ -396,14 +396,14 @@ fn a_forged_split_notice_splits_the_platoon_safely_and_is_labelled_altered() {
     let (rows, log) = run_attacked(&text);
     let at = of(&rows, 2)
         .iter()
-        .position(|r| r.mode == Mode::Outside)
+        .position(|r| r.mode == Role::Outside)
         .expect("follower 2 heads a platoon");
     assert!((1001..1030).contains(&at), "{at}");
     for v in [3, 4, 5] {
         let h = heads(&rows, v);
         assert!(h[at + 1..].iter().all(|&h| h == 2), "vehicle {v}");
     }
-    assert!(of(&rows, 3).iter().all(|r| r.mode != Mode::Outside));
+    assert!(of(&rows, 3).iter().all(|r| r.mode != Role::Outside));
     altered_only(&log, 2, Body::SplitNotice);
     nobody_near_another(&rows);
 }

@@ -75,7 +75,8 @@ impl FallbackMode {
     }
 }
 
-/// What a follower is doing at a step.
+/// How a follower's command is computed at a step: its law, a fallback, the blend back, or
+/// the ACC on a car that cut in. Where it stands in the platoon is its [`Role`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Mode {
@@ -94,21 +95,11 @@ pub enum Mode {
     Blend,
     /// ACC on a vehicle that cut in ahead (not the platoon's predecessor).
     CutIn,
-    /// Outside the platoon: a joiner on its ACC behind the vehicle it will follow, until the
-    /// leader admits it (`[maneuvers]`).
-    Outside,
-    /// Left the platoon and its lane (`[maneuvers]`): it drives on in the next lane at its
-    /// speed, and the radars of the lane no longer see it.
-    Left,
-    /// Outside the platoon in the lane beside it: a joiner waiting for the gap in the middle
-    /// opening, then moving up beside it on what it hears (`[maneuvers]`); it changes lanes
-    /// into the gap when it is in position.
-    Beside,
 }
 
 impl Mode {
     /// Every mode, in code order.
-    pub const ALL: [Mode; 10] = [
+    pub const ALL: [Mode; 7] = [
         Mode::Coop,
         Mode::Zero,
         Mode::Hold,
@@ -116,26 +107,7 @@ impl Mode {
         Mode::Acc,
         Mode::Blend,
         Mode::CutIn,
-        Mode::Outside,
-        Mode::Left,
-        Mode::Beside,
     ];
-
-    /// The mode's code on the wire (4 bits).
-    pub fn code(self) -> u32 {
-        self as u32
-    }
-
-    /// The mode of a wire code (unknown codes read as `Coop`).
-    pub fn from_code(code: u32) -> Mode {
-        Mode::ALL.get(code as usize).copied().unwrap_or(Mode::Coop)
-    }
-
-    /// Whether a vehicle in this mode drives in the lane beside the platoon's: `left` and
-    /// `beside`.
-    pub fn is_beside_the_lane(self) -> bool {
-        matches!(self, Mode::Left | Mode::Beside)
-    }
 
     /// Its name in outputs.
     pub fn name(self) -> &'static str {
@@ -147,10 +119,216 @@ impl Mode {
             Mode::Acc => "acc",
             Mode::Blend => "blend",
             Mode::CutIn => "cut_in",
-            Mode::Outside => "outside",
-            Mode::Left => "left",
-            Mode::Beside => "beside",
         }
+    }
+}
+
+/// Where a follower stands in its platoon at a step (`[maneuvers]`): how its command is
+/// computed is its [`Mode`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Role {
+    /// A member of the platoon (every follower without maneuvers).
+    #[default]
+    Member,
+    /// Outside the platoon: a joiner on its ACC behind the vehicle it will follow, until the
+    /// leader admits it, or a member that split off the members behind it, heading them.
+    Outside,
+    /// Left the platoon and its lane: it drives on in the next lane at its speed, and the
+    /// radars of the lane no longer see it.
+    Left,
+    /// Outside the platoon in the lane beside it: a joiner waiting for the gap in the middle
+    /// opening, then moving up beside it on what it hears; it changes lanes into the gap when
+    /// it is in position.
+    Beside,
+}
+
+impl Role {
+    /// Its name in outputs.
+    pub fn name(self) -> &'static str {
+        match self {
+            Role::Member => "member",
+            Role::Outside => "outside",
+            Role::Left => "left",
+            Role::Beside => "beside",
+        }
+    }
+
+    /// Whether a vehicle in this role drives in the lane beside the platoon's: `left` and
+    /// `beside`.
+    pub fn is_beside_the_lane(self) -> bool {
+        matches!(self, Role::Left | Role::Beside)
+    }
+}
+
+/// What the outputs and the wire say a follower did at a step (the trajectories' `mode`
+/// column, `Command`'s mode code): its command's [`Mode`] while it is a member of the
+/// platoon, its [`Role`] otherwise. Compares equal to a `Mode` for a member in that mode, and
+/// to a `Role` in that role.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Status {
+    role: Role,
+    /// `Coop` when not a member: what it is not doing is not told.
+    mode: Mode,
+}
+
+/// A wire code that names no [`Status`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[error("mode code {0} names no mode (0-9: coop, zero, hold, predict, acc, blend, cut_in, outside, left, beside)")]
+pub struct UnknownStatus(pub u32);
+
+impl Status {
+    /// Every status, in code order: the modes of a member, then the roles outside.
+    pub const ALL: [Status; 10] = [
+        Status::member(Mode::Coop),
+        Status::member(Mode::Zero),
+        Status::member(Mode::Hold),
+        Status::member(Mode::Predict),
+        Status::member(Mode::Acc),
+        Status::member(Mode::Blend),
+        Status::member(Mode::CutIn),
+        Status::outside(Role::Outside),
+        Status::outside(Role::Left),
+        Status::outside(Role::Beside),
+    ];
+
+    /// A member in `mode`.
+    pub const fn member(mode: Mode) -> Self {
+        Self {
+            role: Role::Member,
+            mode,
+        }
+    }
+
+    const fn outside(role: Role) -> Self {
+        Self {
+            role,
+            mode: Mode::Coop,
+        }
+    }
+
+    /// A follower in `role`, its command computed in `mode`.
+    pub fn new(role: Role, mode: Mode) -> Self {
+        match role {
+            Role::Member => Self::member(mode),
+            _ => Self::outside(role),
+        }
+    }
+
+    /// Where it stands.
+    pub fn role(self) -> Role {
+        self.role
+    }
+
+    /// How a member's command is computed (`None` outside the platoon).
+    pub fn mode(self) -> Option<Mode> {
+        (self.role == Role::Member).then_some(self.mode)
+    }
+
+    /// Its code on the wire (4 bits): the mode's (0-6) for a member, else 7 (outside), 8
+    /// (left), 9 (beside).
+    pub fn code(self) -> u32 {
+        match self.role {
+            Role::Member => self.mode as u32,
+            Role::Outside => 7,
+            Role::Left => 8,
+            Role::Beside => 9,
+        }
+    }
+
+    /// The status of a wire code; an unknown code is an error (a plug-in's mistake, never
+    /// read as the cooperative law).
+    pub fn from_code(code: u32) -> Result<Self, UnknownStatus> {
+        Self::ALL
+            .get(code as usize)
+            .copied()
+            .ok_or(UnknownStatus(code))
+    }
+
+    /// Its name in outputs.
+    pub fn name(self) -> &'static str {
+        match self.role {
+            Role::Member => self.mode.name(),
+            role => role.name(),
+        }
+    }
+
+    /// Whether it drives in the lane beside the platoon's ([`Role::is_beside_the_lane`]).
+    pub fn is_beside_the_lane(self) -> bool {
+        self.role.is_beside_the_lane()
+    }
+}
+
+impl From<Mode> for Status {
+    fn from(mode: Mode) -> Self {
+        Self::member(mode)
+    }
+}
+
+impl PartialEq<Mode> for Status {
+    fn eq(&self, mode: &Mode) -> bool {
+        self.mode() == Some(*mode)
+    }
+}
+
+impl PartialEq<Role> for Status {
+    fn eq(&self, role: &Role) -> bool {
+        self.role == *role
+    }
+}
+
+/// A [`Status`] as outputs hold it: one name of ten (the enum the trajectories' `mode` column
+/// has always had, so CSV and Parquet files keep their schema).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename = "Mode", rename_all = "snake_case")]
+enum StatusName {
+    Coop,
+    Zero,
+    Hold,
+    Predict,
+    Acc,
+    Blend,
+    CutIn,
+    Outside,
+    Left,
+    Beside,
+}
+
+impl StatusName {
+    const ALL: [StatusName; 10] = [
+        StatusName::Coop,
+        StatusName::Zero,
+        StatusName::Hold,
+        StatusName::Predict,
+        StatusName::Acc,
+        StatusName::Blend,
+        StatusName::CutIn,
+        StatusName::Outside,
+        StatusName::Left,
+        StatusName::Beside,
+    ];
+}
+
+impl From<Status> for StatusName {
+    fn from(s: Status) -> Self {
+        StatusName::ALL[s.code() as usize]
+    }
+}
+
+impl From<StatusName> for Status {
+    fn from(n: StatusName) -> Self {
+        Status::ALL[n as usize]
+    }
+}
+
+impl Serialize for Status {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        StatusName::from(*self).serialize(s)
+    }
+}
+
+impl<'de> Deserialize<'de> for Status {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        StatusName::deserialize(d).map(Status::from)
     }
 }
 
@@ -747,6 +925,39 @@ mod tests {
             5.0
         );
         assert!(close.ttc() < 2.0 && far.ttc().is_infinite());
+    }
+
+    /// The role in the platoon and the command's mode are two questions; the outputs and the
+    /// wire tell them as one status with the codes and names they always had, and an unknown
+    /// code is an error, never read as the cooperative law.
+    #[test]
+    fn a_status_is_a_role_and_a_mode_and_unknown_codes_are_errors() {
+        let names: Vec<&str> = Status::ALL.iter().map(|s| s.name()).collect();
+        assert_eq!(
+            names,
+            [
+                "coop", "zero", "hold", "predict", "acc", "blend", "cut_in", "outside", "left",
+                "beside"
+            ]
+        );
+        for (code, s) in Status::ALL.into_iter().enumerate() {
+            assert_eq!(s.code(), code as u32);
+            assert_eq!(Status::from_code(code as u32), Ok(s));
+            let json = serde_json::to_string(&s).unwrap();
+            assert_eq!(json, format!("\"{}\"", s.name()));
+            assert_eq!(serde_json::from_str::<Status>(&json).unwrap(), s);
+        }
+        assert_eq!(Status::from_code(10), Err(UnknownStatus(10)));
+        assert!(UnknownStatus(15).to_string().contains("15"));
+        // Outside the platoon the mode is not told: a leaver blending is `left`.
+        let left = Status::new(Role::Left, Mode::Blend);
+        assert_eq!(
+            (left.role(), left.mode(), left.code()),
+            (Role::Left, None, 8)
+        );
+        assert!(left == Role::Left && left != Mode::Blend && left.is_beside_the_lane());
+        let blending = Status::new(Role::Member, Mode::Blend);
+        assert!(blending == Mode::Blend && blending == Role::Member);
     }
 
     #[test]

@@ -104,7 +104,10 @@ pub fn step_matrix(
     }
     // Each follower hears every vehicle (its slots: every id but its own).
     let slots = |v: VehicleId| -> Vec<VehicleId> {
-        (0..vehicles as u16).map(VehicleId).filter(|&j| j != v).collect()
+        (0..vehicles as u16)
+            .map(VehicleId)
+            .filter(|&j| j != v)
+            .collect()
     };
     let rest = vec![State::new(0.0, speed, 0.0); vehicles];
     let mut laws: Vec<_> = road[1..]
@@ -116,7 +119,12 @@ pub fn step_matrix(
         })
         .collect();
     // Each vehicle's platoon, head first (the part the paper's law steers in).
-    let part_of = |v: VehicleId| platoons.iter().find(|pl| pl.contains(&v)).map(Vec::as_slice);
+    let part_of = |v: VehicleId| {
+        platoons
+            .iter()
+            .find(|pl| pl.contains(&v))
+            .map(Vec::as_slice)
+    };
     let mut step = |z: &[f64]| -> Vec<f64> {
         // Every vehicle's state and last command: the leader's, then the followers' from `z`;
         // a vehicle out of the formation keeps the leader's (it is no part of the loop).

@@ -14,6 +14,7 @@
 //! [`crate::build`] makes the one a [`crate::ControllerParams`] names.
 
 use crate::fallback::RadarTruth;
+use crate::fallback::{Role, Status};
 use crate::{Delivery, Mode, Packet, PacketChecks, RejectCounts};
 use platoon_model::{State, VehicleId};
 
@@ -28,13 +29,22 @@ pub struct FollowerStep {
     pub u: f64,
     /// `theta_i` at the start of the step (0 for rules without one).
     pub theta: f64,
-    /// What it did: cooperative law, a fallback, or blending back.
+    /// How its command was computed: cooperative law, a fallback, or blending back.
     pub mode: Mode,
+    /// Where it stands in the platoon (a member but with `[maneuvers]`).
+    pub role: Role,
     /// The emergency-braking guard overrode the command.
     pub guard: bool,
     /// Whom it took as its leader: the platoon's (the default), or the member heading its part
     /// of a platoon split behind a car that cut in (`[fallback.cut_in] split`).
     pub head: VehicleId,
+}
+
+impl FollowerStep {
+    /// What the outputs and the wire say it did ([`Status`]).
+    pub fn status(&self) -> Status {
+        Status::new(self.role, self.mode)
+    }
 }
 
 /// One platoon's follower controllers behind one boundary (module docs).

@@ -365,7 +365,7 @@ impl<'a, W: Write> FcdWriter<'a, W> {
         self.last[v] = Some((r.step, r.a));
         // Where it is at this row: where its last row's mode sent it (a lane change takes the
         // step), at its first row where its mode says.
-        let beside = self.beside[v].unwrap_or(r.mode == platoon_control::Mode::Beside);
+        let beside = self.beside[v].unwrap_or(r.mode == platoon_control::Role::Beside);
         self.beside[v] = Some(r.mode.is_beside_the_lane());
         if !r.step.is_multiple_of(self.period_steps) {
             return Ok(());
@@ -569,7 +569,7 @@ mod tests {
             triggered: false,
             under_attack: false,
             affected: false,
-            mode: platoon_control::Mode::Coop,
+            mode: platoon_control::Status::default(),
             guard: false,
             intruder: None,
             radar_target: None,

@@ -263,20 +263,20 @@ pub fn fig6(path: &Path, scenario: &Scenario, rows: &[StepRow]) -> Result<()> {
     Ok(())
 }
 
-/// Colour of a mode in `modes.png` (`coop` is left white).
-fn mode_color(m: platoon_control::Mode) -> RGBColor {
-    use platoon_control::Mode;
-    match m {
-        Mode::Coop => WHITE,
-        Mode::Zero => RGBColor(120, 120, 120),
-        Mode::Hold => RGBColor(230, 159, 0),
-        Mode::Predict => RGBColor(86, 180, 233),
-        Mode::Acc => RGBColor(0, 158, 115),
-        Mode::Blend => RGBColor(204, 121, 167),
-        Mode::CutIn => RGBColor(213, 94, 0),
-        Mode::Outside => RGBColor(240, 228, 66),
-        Mode::Left => RGBColor(0, 114, 178),
-        Mode::Beside => RGBColor(170, 170, 40),
+/// Colour of a status in `modes.png` (`coop` is left white).
+fn mode_color(m: platoon_control::Status) -> RGBColor {
+    use platoon_control::{Mode, Role};
+    match (m.role(), m.mode()) {
+        (_, Some(Mode::Coop)) => WHITE,
+        (_, Some(Mode::Zero)) => RGBColor(120, 120, 120),
+        (_, Some(Mode::Hold)) => RGBColor(230, 159, 0),
+        (_, Some(Mode::Predict)) => RGBColor(86, 180, 233),
+        (_, Some(Mode::Acc)) => RGBColor(0, 158, 115),
+        (_, Some(Mode::Blend)) => RGBColor(204, 121, 167),
+        (_, Some(Mode::CutIn)) => RGBColor(213, 94, 0),
+        (Role::Left, None) => RGBColor(0, 114, 178),
+        (Role::Beside, None) => RGBColor(170, 170, 40),
+        (_, None) => RGBColor(240, 228, 66),
     }
 }
 
@@ -295,7 +295,7 @@ pub fn modes(
     rows: &[StepRow],
     flags: &[(u16, f64)],
 ) -> Result<()> {
-    use platoon_control::Mode;
+    use platoon_control::{Mode, Role, Status};
     ensure_font();
     let n = scenario.topology.followers();
     let attacks = observed_attacks(rows, scenario.dt());
@@ -360,9 +360,10 @@ pub fn modes(
     }
     // `outside`, `left` and `beside` only with maneuvers: other runs keep their figure.
     let maneuvers = scenario.control.maneuvers.is_some();
-    for m in Mode::ALL.into_iter().filter(|m| {
-        *m != Mode::Coop && (maneuvers || !matches!(m, Mode::Outside | Mode::Left | Mode::Beside))
-    }) {
+    for m in Status::ALL
+        .into_iter()
+        .filter(|m| *m != Mode::Coop && (maneuvers || *m == Role::Member))
+    {
         let c = mode_color(m);
         chart
             .draw_series(std::iter::empty::<Rectangle<(f64, f64)>>())

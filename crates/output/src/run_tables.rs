@@ -24,7 +24,7 @@ pub struct RunFiles {
     detections: Table<DetectionRow>,
     decimate: u64,
     last: Vec<Option<u64>>,
-    modes: Vec<platoon_control::Mode>,
+    modes: Vec<platoon_control::Status>,
     per_platoon: usize,
     dt: f64,
     rows: Vec<StepRow>,
@@ -203,7 +203,7 @@ struct EventRow {
     /// `trust`, `joined` or `left`.
     event: Event,
     /// The mode it is in (after the switch).
-    mode: platoon_control::Mode,
+    mode: platoon_control::Status,
     /// Broadcasts: the time since its previous broadcast.
     inter_event_s: Option<f64>,
     under_attack: bool,
@@ -321,7 +321,7 @@ impl RunFiles {
             )?,
             decimate: output.decimate,
             last: vec![None; scenario.vehicles()],
-            modes: vec![platoon_control::Mode::Coop; scenario.vehicles()],
+            modes: vec![platoon_control::Status::default(); scenario.vehicles()],
             per_platoon: scenario.vehicles_per_platoon(),
             dt: scenario.dt(),
             // Platoon 0's rows for the plots; grown as needed past a million steps.
@@ -449,14 +449,16 @@ impl RunFiles {
             if r.mode != self.modes[v] {
                 let was = std::mem::replace(&mut self.modes[v], r.mode);
                 self.events.write(row(Event::Switch, None))?;
-                let outside = [
-                    platoon_control::Mode::Outside,
-                    platoon_control::Mode::Beside,
-                ];
-                if outside.contains(&was) && !outside.contains(&r.mode) {
+                let outside = |s: platoon_control::Status| {
+                    matches!(
+                        s.role(),
+                        platoon_control::Role::Outside | platoon_control::Role::Beside
+                    )
+                };
+                if outside(was) && !outside(r.mode) {
                     self.events.write(row(Event::Joined, None))?;
                 }
-                if r.mode == platoon_control::Mode::Left {
+                if r.mode == platoon_control::Role::Left {
                     self.events.write(row(Event::Left, None))?;
                 }
                 if r.mode == platoon_control::Mode::Coop && std::mem::take(&mut self.intruded[v]) {

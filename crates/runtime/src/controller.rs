@@ -209,7 +209,7 @@ pub fn run(
                                     f.triggered,
                                     f.affected,
                                     f.guard,
-                                    f.mode.code(),
+                                    f.status().code(),
                                     f.head.0,
                                 ),
                                 u,

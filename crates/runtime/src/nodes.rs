@@ -87,8 +87,10 @@ pub fn plant(run_id: &str, scenario: &Scenario) -> Result<(), RunError> {
                 // the in-process run.
                 for c in cmds.iter() {
                     if let Some((j, i)) = num.split(c.vehicle) {
-                        let mode = platoon_control::Mode::from_code(c.mode_code());
-                        plants[j].set_lane(i.index(), mode.is_beside_the_lane());
+                        // Checked in `commands_into`.
+                        let beside = platoon_control::Status::from_code(c.mode_code())
+                            .is_ok_and(|s| s.is_beside_the_lane());
+                        plants[j].set_lane(i.index(), beside);
                     }
                 }
             }
@@ -113,6 +115,12 @@ fn commands_into(cmds: &[Command], num: Numbering, u: &mut [f64]) -> Result<(), 
         ));
     }
     for c in cmds {
+        if let Err(e) = platoon_control::Status::from_code(c.mode_code()) {
+            return Err(contract(
+                Node::Controller,
+                format!("bad command for vehicle {}: {e}", c.vehicle),
+            ));
+        }
         match num.split(c.vehicle) {
             Some((j, i)) if !i.is_leader() && c.u.is_finite() => {
                 u[j * (num.per_platoon - 1) + i.index() - 1] = c.u;

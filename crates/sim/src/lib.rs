@@ -83,7 +83,7 @@ pub struct StepRow {
     pub affected: bool,
     /// What the vehicle did: `coop` (the cooperative law; the leader's rows), its fallback
     /// (`zero`, `hold`, `predict`, `acc`) or `blend` (on its way back).
-    pub mode: platoon_control::Mode,
+    pub mode: platoon_control::Status,
     /// The emergency-braking guard overrode the command.
     pub guard: bool,
     /// What its radar saw of a vehicle from outside the platoon ahead of it (a cut-in), as
@@ -190,8 +190,8 @@ impl Plant {
     }
 
     /// Puts follower `i` on the lane beside the platoon's (`beside`: a member that left, mode
-    /// [`platoon_control::Mode::Left`], or a joiner waiting there, mode
-    /// [`platoon_control::Mode::Beside`]), where no radar of the platoon's lane sees it and it
+    /// [`platoon_control::Role::Left`], or a joiner waiting there, role
+    /// [`platoon_control::Role::Beside`]), where no radar of the platoon's lane sees it and it
     /// sees nothing, or on the platoon's lane.
     pub fn set_lane(&mut self, i: usize, beside: bool) {
         if self.off_lane.is_empty() {
@@ -202,7 +202,7 @@ impl Plant {
 
     /// Puts every follower on the lane its step's mode says (`mode(i)`, i >= 1): beside the
     /// platoon's for `left` and `beside`, else the platoon's.
-    pub fn follow_modes(&mut self, mode: impl Fn(usize) -> platoon_control::Mode) {
+    pub fn follow_modes(&mut self, mode: impl Fn(usize) -> platoon_control::Status) {
         for i in 1..self.states.len() {
             self.set_lane(i, mode(i).is_beside_the_lane());
         }
@@ -405,7 +405,7 @@ pub fn step_rows(
         triggered: leader_triggered,
         under_attack: jammed[0],
         affected: false,
-        mode: platoon_control::Mode::Coop,
+        mode: platoon_control::Status::member(platoon_control::Mode::Coop),
         guard: false,
         intruder: None,
         radar_target: radar(0).map(|r| r.0),
@@ -416,11 +416,9 @@ pub fn step_rows(
     // Where vehicles change lanes, a follower's slot is counted on the road: 1 + the members
     // ahead of it (a member that left gives up its slot, a joiner takes one once admitted).
     let slots: Vec<f64> = if scenario.changes_lanes() {
-        let member = |m: platoon_control::Mode| {
-            !m.is_beside_the_lane() && m != platoon_control::Mode::Outside
-        };
+        let member = |m: platoon_control::Status| m.role() == platoon_control::Role::Member;
         let members: Vec<(f64, bool)> = (1..states.len())
-            .map(|i| (states[i][0], member(follower(i).mode)))
+            .map(|i| (states[i][0], member(follower(i).status())))
             .collect();
         members
             .iter()
@@ -457,7 +455,7 @@ pub fn step_rows(
             triggered: s.triggered,
             under_attack: jammed[i],
             affected: s.affected,
-            mode: s.mode,
+            mode: s.status(),
             guard: s.guard,
             intruder: ahead.get(i).copied().flatten().filter(|t| t.intruder),
             radar_target: radar(i).map(|r| r.0),
@@ -700,7 +698,7 @@ impl Simulation {
         );
         if sc.changes_lanes() {
             self.plant
-                .follow_modes(|i| controller.follower_step(VehicleId(i as u16)).mode);
+                .follow_modes(|i| controller.follower_step(VehicleId(i as u16)).status());
         }
         self.plant.advance(k, self.controller.commands());
         self.step += 1;

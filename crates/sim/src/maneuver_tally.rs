@@ -5,7 +5,7 @@
 use crate::summary::{FormationRecord, ManeuverRecord, ManeuversSummary};
 use crate::StepRow;
 use platoon_control::maneuvers::Message;
-use platoon_control::Mode;
+use platoon_control::{Role, Status};
 use platoon_maneuver::{Body, Change};
 use platoon_model::VehicleId;
 
@@ -42,11 +42,11 @@ impl Kind {
     /// Whether the maneuver's vehicle, driving in `mode`, has completed it: a joiner (or a
     /// merging head) admitted to the lane's platoon, a leaver out of the lane, a splitter
     /// heading its part on its ACC.
-    fn completed_in(self, mode: Mode) -> bool {
+    fn completed_in(self, mode: Status) -> bool {
         match self {
-            Self::Join | Self::Merge => !matches!(mode, Mode::Outside | Mode::Beside),
-            Self::Leave => mode == Mode::Left,
-            Self::Split => mode == Mode::Outside,
+            Self::Join | Self::Merge => !matches!(mode.role(), Role::Outside | Role::Beside),
+            Self::Leave => mode == Role::Left,
+            Self::Split => mode == Role::Outside,
         }
     }
 }
@@ -99,12 +99,11 @@ fn platoons_of(rows: &[StepRow]) -> Vec<Vec<u16>> {
     let head = |r: &StepRow| match r.head.unwrap_or(0) {
         0 => 0,
         h => match rows.get(usize::from(h)) {
-            Some(x) if x.mode == Mode::Outside => h,
+            Some(x) if x.mode == Role::Outside => h,
             _ => 0,
         },
     };
-    let member =
-        |r: &&StepRow| r.vehicle != 0 && !r.mode.is_beside_the_lane() && r.mode != Mode::Outside;
+    let member = |r: &&StepRow| r.vehicle != 0 && r.mode == Role::Member;
     let mut heads: Vec<u16> = vec![0];
     for r in rows.iter().filter(member) {
         if !heads.contains(&head(r)) {
@@ -193,7 +192,7 @@ impl ManeuverTally {
         let worst = rows
             .iter()
             .skip(1)
-            .filter(|r| !r.mode.is_beside_the_lane() && r.mode != Mode::Outside)
+            .filter(|r| r.mode == Role::Member)
             .map(|r| r.spacing_error.abs())
             .fold(0.0, f64::max);
         let smallest = gaps

@@ -45,8 +45,8 @@ struct VehicleAcc {
     velocity: ErrorAcc,
     affected_steps: u64,
     min_accel: f64,
-    mode_steps: [u64; platoon_control::Mode::ALL.len()],
-    mode: platoon_control::Mode,
+    mode_steps: [u64; platoon_control::Status::ALL.len()],
+    mode: platoon_control::Status,
     switches: u64,
     guard_on: bool,
     guard_activations: u64,
@@ -122,8 +122,8 @@ impl MetricsAccumulator {
                     velocity: ErrorAcc::default(),
                     affected_steps: 0,
                     min_accel: f64::INFINITY,
-                    mode_steps: [0; platoon_control::Mode::ALL.len()],
-                    mode: platoon_control::Mode::Coop,
+                    mode_steps: [0; platoon_control::Status::ALL.len()],
+                    mode: platoon_control::Status::member(platoon_control::Mode::Coop),
                     switches: 0,
                     guard_on: false,
                     guard_activations: 0,
@@ -218,7 +218,7 @@ impl MetricsAccumulator {
             // A joiner's errors count from the step it is admitted: outside, it has no slot;
             // a leaver's end with its leave.
             let left = r.mode.is_beside_the_lane();
-            if r.mode != platoon_control::Mode::Outside && !left {
+            if r.mode != platoon_control::Role::Outside && !left {
                 acc.spacing.push(r.spacing_error);
                 acc.gap
                     .push(front.p - r.p - (self.spacing + self.headway * r.v));
@@ -342,7 +342,7 @@ impl MetricsAccumulator {
                 velocity_error_mps: a.velocity.finish(),
                 affected_time_s: a.affected_steps as f64 * self.dt,
                 min_acceleration_mps2: a.min_accel,
-                mode_time_s: platoon_control::Mode::ALL
+                mode_time_s: platoon_control::Status::ALL
                     .iter()
                     .zip(a.mode_steps)
                     .filter(|(_, n)| *n > 0)

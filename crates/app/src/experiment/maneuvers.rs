@@ -5,7 +5,7 @@ use super::{
 };
 use crate::progress::Progress;
 use platoon_config::{Config, DosConfig, Embedded, LawName, LinkAttackConfig, LinkKindConfig};
-use platoon_control::Mode;
+use platoon_control::Role;
 use platoon_output::plots;
 use platoon_output::rundir::RunDir;
 use std::fmt::Write as _;
@@ -230,7 +230,7 @@ fn cell(
     let mut left_lane = 0;
     let summary = platoon_sim::run_until(&scenario, |sim| {
         // Leaving is for good: the last step's count is everyone who left.
-        left_lane = sim.rows().iter().filter(|r| r.mode == Mode::Left).count();
+        left_lane = sim.rows().iter().filter(|r| r.mode == Role::Left).count();
         std::ops::ControlFlow::Continue(())
     })?;
     // The run's maneuver, as summary.json measures it.

@@ -4,6 +4,7 @@
 //! guard.
 use super::{Composition, Law, View};
 use crate::checks::{Heard, PacketChecks};
+use crate::fallback::Role;
 use crate::fallback::{acc_command, gap_error, FallbackMachine, Radar, RadarTruth, Reading};
 use crate::fallback::{Return, Situation};
 use crate::maneuvers::Maneuvers;
@@ -216,11 +217,11 @@ impl Follower {
         let (mode, u, guard) = self
             .fallback
             .step(&situation, |offset| law.command_offset(offset));
-        let mode = match place {
-            Place::Member => mode,
-            Place::Left => Mode::Left,
-            _ if beside => Mode::Beside,
-            _ => Mode::Outside,
+        let role = match place {
+            Place::Member => Role::Member,
+            Place::Left => Role::Left,
+            _ if beside => Role::Beside,
+            _ => Role::Outside,
         };
         if let Some(t) = law.triggering() {
             t.settle(&own, affected, self.fallback.offset(k));
@@ -235,13 +236,15 @@ impl Follower {
         self.step.u = u;
         self.step.affected = affected;
         self.step.mode = mode;
+        self.step.role = role;
         self.step.guard = guard;
         self.step.head = self.head;
         // It heads while on the car's ACC, while an attack's fallback interrupts that with the
         // car still ahead, and on its way back to its law once the car left, until it has
         // closed up: the members behind it keep following it until then.
-        let returning = self.leading && mode == Mode::Blend;
-        self.leading = s.split && (mode == Mode::CutIn || situation.cut_in || returning)
+        let status = self.step.status();
+        let returning = self.leading && status == Mode::Blend;
+        self.leading = s.split && (status == Mode::CutIn || situation.cut_in || returning)
             || s.man
                 .is_some_and(|m| m.heads(self.id) || m.opens_gaps() && opening_for.is_some());
         u

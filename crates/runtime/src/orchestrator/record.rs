@@ -86,6 +86,12 @@ impl<'a> Recorder<'a> {
         for (x, cmd) in c.iter().enumerate() {
             let i = platoon_model::VehicleId((x % (n1 - 1) + 1) as u16);
             let want = num.global(x / (n1 - 1), i);
+            if let Err(e) = platoon_control::Status::from_code(cmd.mode_code()) {
+                return Err(RunError::Contract {
+                    node: "controller",
+                    message: format!("step {}: command {x} (vehicle {want}): {e}", self.step),
+                });
+            }
             if cmd.vehicle != want || !cmd.u.is_finite() {
                 return Err(RunError::Contract {
                     node: "controller",
@@ -159,12 +165,16 @@ impl<'a> Recorder<'a> {
                 },
                 |i| {
                     let cmd = cmds[i - 1];
+                    let status =
+                        platoon_control::Status::from_code(cmd.mode_code()).unwrap_or_default();
                     FollowerStep {
                         triggered: cmd.flags & Command::TRIGGERED != 0,
                         affected: cmd.flags & Command::AFFECTED != 0,
                         u: cmd.u,
                         theta: cmd.theta,
-                        mode: platoon_control::Mode::from_code(cmd.mode_code()),
+                        // Checked above.
+                        mode: status.mode().unwrap_or_default(),
+                        role: status.role(),
                         guard: cmd.flags & Command::GUARD != 0,
                         head: platoon_model::VehicleId(cmd.head()),
                     }
