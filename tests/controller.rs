@@ -272,6 +272,8 @@ fn malformed_commands_are_named_and_the_steps_before_them_kept() {
     for (fault, step, needle) in [
         ("--wrong-ids-at 70", 70, "command 0 is for vehicle 0"),
         ("--nan-at 80", 80, "with u = NaN"),
+        // An unknown mode code is an error, never read as the cooperative law.
+        ("--bad-mode-at 90", 90, "mode code 12 names no mode"),
     ] {
         let (stderr, s, dir) = faulty(fault, "20");
         let error = s["error"].as_str().unwrap();

@@ -11,7 +11,8 @@ last step reports DONE, as docs/controller-contract.md asks.
 To test how a run treats a faulty controller, `--crash-at K` exits with status 1 at step K,
 `--hang-at K` stops answering at step K (sleeps), `--spam-at K` publishes commands[K] again and
 again and never tx[K + 1], `--wrong-ids-at K` sends the commands of step K for the wrong
-vehicles and `--nan-at K` sends a NaN command at step K.
+vehicles, `--nan-at K` sends a NaN command at step K and `--bad-mode-at K` a command whose
+mode code names no mode (12).
 """
 
 import argparse
@@ -38,7 +39,7 @@ def stopped(control) -> bool:
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    for fault in ("crash", "hang", "spam", "wrong-ids", "nan"):
+    for fault in ("crash", "hang", "spam", "wrong-ids", "nan", "bad-mode"):
         ap.add_argument(f"--{fault}-at", type=int, default=None, metavar="K")
     args = ap.parse_args()
 
@@ -86,6 +87,8 @@ def main() -> int:
                         c.vehicle -= 1  # the first one lands on the leader
                 if k == args.nan_at:
                     commands[0].u = float("nan")
+                if k == args.bad_mode_at:
+                    commands[0].flags |= 12 << w.Command.MODE_SHIFT
                 cmd_out.send(k, k * dt, commands)
                 if k == args.spam_at:
                     while not stopped(control):  # commands[K] forever, until STOP or ABORT
