@@ -182,7 +182,7 @@ impl Controller for ComposedController {
             };
             // A head beacons at the leader's rate as well: the followers behind it take its
             // packets as their leader's.
-            let heads = f.leading && k.is_multiple_of(u64::from(every));
+            let heads = f.targets.leading && k.is_multiple_of(u64::from(every));
             let maneuver = self
                 .maneuvers
                 .as_mut()
@@ -200,7 +200,11 @@ impl Controller for ComposedController {
                     step: k,
                     state: *own,
                     u: f.fallback.last_u(),
-                    head: if f.leading { f.id } else { f.head },
+                    head: if f.targets.leading {
+                        f.id
+                    } else {
+                        f.targets.head
+                    },
                     maneuver,
                 });
             }

@@ -21,17 +21,20 @@ pub(super) struct Follower {
     pub(super) step: FollowerStep,
     pub(super) fallback: FallbackMachine,
     pub(super) radar: Radar,
+    /// Whom it steers on: its head, the member it follows and the room it keeps to it.
+    pub(super) targets: Targets,
+    /// Where it stood in the platoon, and since when (`[maneuvers]`).
+    standing: Standing,
+}
+
+/// Whom a follower steers on: the stage between what it heard and its law.
+#[derive(Debug, Clone)]
+pub(super) struct Targets {
     /// Whom it takes as its leader: the platoon's, or the member heading its part of a split
     /// platoon.
     pub(super) head: VehicleId,
     /// Whether it heads the followers behind it (on a cut-in's ACC, with a split).
     pub(super) leading: bool,
-    /// Whether it was a member of the formation at the step before (`[maneuvers]`).
-    member: bool,
-    /// A joiner: the step it began approaching its slot.
-    approaching_since: Option<u64>,
-    /// A member that split off the members behind it: the step it began heading them.
-    heading_since: Option<u64>,
     /// The member it follows ([`View::ahead`]).
     pub(super) ahead: VehicleId,
     /// How much more room than its law's it keeps to the vehicle ahead (m): a gap it opens for
@@ -42,12 +45,24 @@ pub(super) struct Follower {
     pub(super) offset: Option<Ramp>,
     /// The joiner it opened a gap for at the step before (`[maneuvers]`).
     opening: Option<VehicleId>,
-    /// Whether it left the platoon (`[maneuvers]`).
-    left: bool,
     /// Its part of the platoon as its law saw it at the last step ([`View::part`]), when
     /// `in_part`.
     part: Vec<VehicleId>,
     in_part: bool,
+}
+
+/// Where a follower stood in the platoon at the step before, and since when: what the
+/// maneuver step's role for it changes.
+#[derive(Debug, Clone)]
+struct Standing {
+    /// Whether it was a member of the formation.
+    member: bool,
+    /// A joiner: the step it began approaching its slot.
+    approaching_since: Option<u64>,
+    /// A member that split off the members behind it: the step it began heading them.
+    heading_since: Option<u64>,
+    /// Whether it left the platoon.
+    left: bool,
 }
 
 /// What every follower shares at step `k`.
@@ -95,31 +110,35 @@ impl Follower {
             step: FollowerStep::default(),
             fallback: FallbackMachine::new(parts.fallback.of(i), back),
             radar: Radar::new(parts.fallback.radar.seed, i as u16),
-            head: VehicleId::LEADER,
-            leading: false,
-            member: true,
-            approaching_since: None,
-            heading_since: None,
-            ahead: VehicleId(i as u16 - 1),
-            offset_m: 0.0,
-            offset: None,
-            opening: None,
-            left: false,
-            part: Vec::new(),
-            in_part: false,
+            targets: Targets {
+                head: VehicleId::LEADER,
+                leading: false,
+                ahead: VehicleId(i as u16 - 1),
+                offset_m: 0.0,
+                offset: None,
+                opening: None,
+                part: Vec::new(),
+                in_part: false,
+            },
+            standing: Standing {
+                member: true,
+                approaching_since: None,
+                heading_since: None,
+                left: false,
+            },
         };
         if let Some(m) = man {
             // A joiner follows the member of its slot; the rear platoon of a merge, its head.
-            f.ahead = m.predecessor(id).unwrap_or(f.ahead);
-            f.head = m.head_of(id);
-            f.leading = m.heads(id);
+            f.targets.ahead = m.predecessor(id).unwrap_or(f.targets.ahead);
+            f.targets.head = m.head_of(id);
+            f.targets.leading = m.heads(id);
         }
         f
     }
 
     /// Its part of the platoon as its law saw it at the last step ([`View::part`]).
     pub(super) fn part(&self) -> Option<&[VehicleId]> {
-        self.in_part.then_some(&self.part[..])
+        self.targets.in_part.then_some(&self.targets.part[..])
     }
 
     /// Its part of the platoon with `head` as its leader ([`View::part`]): its copy of the
@@ -138,31 +157,31 @@ impl Follower {
             None if head.is_leader() => None,
             None => s.ids.get(head.index()..),
         };
-        self.in_part = part.is_some();
-        self.part.clear();
+        self.targets.in_part = part.is_some();
+        self.targets.part.clear();
         let Some(part) = part else { return };
-        let known = part.contains(&self.ahead);
+        let known = part.contains(&self.targets.ahead);
         for &v in part {
             match v == self.id {
                 // A joiner its radar already follows, before the leader's update: where the
                 // update will put it.
-                true if !known && self.ahead != VehicleId::LEADER => {
-                    self.part.extend([self.ahead, self.id])
+                true if !known && self.targets.ahead != VehicleId::LEADER => {
+                    self.targets.part.extend([self.targets.ahead, self.id])
                 }
-                true if !known => self.part.push(v),
+                true if !known => self.targets.part.push(v),
                 true => {}
                 false => {
-                    self.part.push(v);
-                    if v == self.ahead {
-                        self.part.push(self.id);
+                    self.targets.part.push(v);
+                    if v == self.targets.ahead {
+                        self.targets.part.push(self.id);
                     }
                 }
             }
         }
-        if !self.part.contains(&self.id) {
+        if !self.targets.part.contains(&self.id) {
             // It heads the part: the formation's order.
-            self.part.clear();
-            self.part.extend_from_slice(part);
+            self.targets.part.clear();
+            self.targets.part.extend_from_slice(part);
         }
     }
 
@@ -176,22 +195,22 @@ impl Follower {
         let (k, fb) = (s.k, &s.parts.fallback);
         let own = s.states[self.id.index()];
         let head = self.take_head(s);
-        let rebased = head.map_or(VehicleId::LEADER, |(j, _)| j) != self.head;
-        self.head = head.map_or(VehicleId::LEADER, |(j, _)| j);
+        let rebased = head.map_or(VehicleId::LEADER, |(j, _)| j) != self.targets.head;
+        self.targets.head = head.map_or(VehicleId::LEADER, |(j, _)| j);
         let place = self.place(s.man);
         let opening_for = s.man.and_then(|m| m.opening_for(self.id));
         let switched = self.follow_next(s, place, opening_for, &own);
         self.open_for(s, switched, opening_for, &own);
-        self.arrange_part(s, self.head);
+        self.arrange_part(s, self.targets.head);
         let lawful = self.law_command(law, s, head, &own);
         let reading = self.reading_for(s, place, reading, &own);
-        let length_ahead = fb.length(self.ahead.index());
-        let just_split = place == Place::SplitOff && self.heading_since.is_none();
+        let length_ahead = fb.length(self.targets.ahead.index());
+        let just_split = place == Place::SplitOff && self.standing.heading_since.is_none();
         let (lawful, joined) = self.command_at(s, place, lawful, reading, &own);
-        let just_left = place == Place::Left && !self.left;
-        self.left = place == Place::Left;
+        let just_left = place == Place::Left && !self.standing.left;
+        self.standing.left = place == Place::Left;
         let member = place == Place::Member;
-        self.member = member;
+        self.standing.member = member;
         let attacked = law
             .triggering()
             .is_some_and(|t| t.attacked(k, self.step.triggered, s.jammed[self.id.index()]));
@@ -227,10 +246,10 @@ impl Follower {
             t.settle(&own, affected, self.fallback.offset(k));
         }
         law.end_step();
-        if let Some(o) = self.offset {
-            self.offset_m = o.at(k + 1);
+        if let Some(o) = self.targets.offset {
+            self.targets.offset_m = o.at(k + 1);
             if o.done(k + 1) && o.to == 0.0 {
-                self.offset = None;
+                self.targets.offset = None;
             }
         }
         self.step.u = u;
@@ -238,13 +257,13 @@ impl Follower {
         self.step.mode = mode;
         self.step.role = role;
         self.step.guard = guard;
-        self.step.head = self.head;
+        self.step.head = self.targets.head;
         // It heads while on the car's ACC, while an attack's fallback interrupts that with the
         // car still ahead, and on its way back to its law once the car left, until it has
         // closed up: the members behind it keep following it until then.
         let status = self.step.status();
-        let returning = self.leading && status == Mode::Blend;
-        self.leading = s.split && (status == Mode::CutIn || situation.cut_in || returning)
+        let returning = self.targets.leading && status == Mode::Blend;
+        self.targets.leading = s.split && (status == Mode::CutIn || situation.cut_in || returning)
             || s.man
                 .is_some_and(|m| m.heads(self.id) || m.opens_gaps() && opening_for.is_some());
         u
@@ -304,19 +323,19 @@ impl Follower {
         let (Place::Member, Some(next), Some(r)) = (place, next, s.truths[self.id.index()]) else {
             return false;
         };
-        if next == self.ahead {
+        if next == self.targets.ahead {
             return false;
         }
         let gap_to = |j: VehicleId| {
             v2v_reading(s.checks, self.id, j, k, dt, own, fb.length(j.index())).map(|v| v.gap)
         };
-        let (Some(to_next), Some(to_old)) = (gap_to(next), gap_to(self.ahead)) else {
+        let (Some(to_next), Some(to_old)) = (gap_to(next), gap_to(self.targets.ahead)) else {
             return false;
         };
         if (r.gap - to_next).abs() >= (r.gap - to_old).abs() {
             return false;
         }
-        self.ahead = next;
+        self.targets.ahead = next;
         let seen = Reading {
             gap: r.gap,
             closing: r.closing,
@@ -324,8 +343,8 @@ impl Follower {
         };
         let length = fb.length(next.index());
         let room = gap_error(seen, s.parts.headway, own[1], s.parts.spacing, length);
-        self.offset = Some(Ramp::new(room, 0.0, k, fb.closing_mps, dt));
-        self.offset_m = room;
+        self.targets.offset = Some(Ramp::new(room, 0.0, k, fb.closing_mps, dt));
+        self.targets.offset_m = room;
         true
     }
 
@@ -338,18 +357,24 @@ impl Follower {
         opening_for: Option<VehicleId>,
         own: &State,
     ) {
-        if !switched && opening_for != self.opening {
+        if !switched && opening_for != self.targets.opening {
             let target = match opening_for {
                 Some(_) => s.parts.spacing + s.parts.headway * own[1],
                 None => 0.0,
             };
-            if self.opening.is_none_or(|j| j != self.ahead) {
+            if self.targets.opening.is_none_or(|j| j != self.targets.ahead) {
                 let fb = &s.parts.fallback;
-                let ramp = Ramp::new(self.offset_m, target, s.k, fb.closing_mps, s.parts.dt);
-                self.offset = Some(ramp);
+                let ramp = Ramp::new(
+                    self.targets.offset_m,
+                    target,
+                    s.k,
+                    fb.closing_mps,
+                    s.parts.dt,
+                );
+                self.targets.offset = Some(ramp);
             }
         }
-        self.opening = opening_for;
+        self.targets.opening = opening_for;
     }
 
     /// Its law's command on what it knows. The law follows a virtual vehicle `offset` behind
@@ -363,25 +388,27 @@ impl Follower {
         own: &State,
     ) -> f64 {
         let (k, dt) = (s.k, s.parts.dt);
-        let (rate, accel) = self.offset.map_or((0.0, 0.0), |o| o.motion(k, dt));
+        let (rate, accel) = self.targets.offset.map_or((0.0, 0.0), |o| o.motion(k, dt));
         let radar = match s.truths[self.id.index()] {
-            Some(t) if self.offset_m != 0.0 => Some(RadarTruth {
-                gap: t.gap - self.offset_m,
+            Some(t) if self.targets.offset_m != 0.0 => Some(RadarTruth {
+                gap: t.gap - self.targets.offset_m,
                 closing: t.closing + rate,
                 ..t
             }),
             t => t,
         };
-        let heard = s.checks.heard_from(self.id, self.ahead);
-        let shifted = heard.filter(|_| self.offset_m != 0.0).map(|h| Heard {
-            state: State::new(
-                h.state[0] - self.offset_m,
-                h.state[1] - rate,
-                h.state[2] - accel,
-            ),
-            u: h.u - accel,
-            ..*h
-        });
+        let heard = s.checks.heard_from(self.id, self.targets.ahead);
+        let shifted = heard
+            .filter(|_| self.targets.offset_m != 0.0)
+            .map(|h| Heard {
+                state: State::new(
+                    h.state[0] - self.targets.offset_m,
+                    h.state[1] - rate,
+                    h.state[2] - accel,
+                ),
+                u: h.u - accel,
+                ..*h
+            });
         let view = View {
             k,
             dt,
@@ -390,13 +417,13 @@ impl Follower {
             own: *own,
             last_u: self.fallback.last_u(),
             radar,
-            ahead: self.ahead,
+            ahead: self.targets.ahead,
             ahead_heard: shifted.as_ref().or(heard),
             neighbours: s.checks.neighbours(self.id),
             heard: s.checks.heard(self.id),
             head,
             part: self.part(),
-            room: State::new(self.offset_m, rate, accel),
+            room: State::new(self.targets.offset_m, rate, accel),
         };
         law.command(&view)
     }
@@ -413,8 +440,18 @@ impl Follower {
     ) -> Option<Reading> {
         let fb = &s.parts.fallback;
         let (k, dt) = (s.k, s.parts.dt);
-        let length_ahead = fb.length(self.ahead.index());
-        let heard_ahead = || v2v_reading(s.checks, self.id, self.ahead, k, dt, own, length_ahead);
+        let length_ahead = fb.length(self.targets.ahead.index());
+        let heard_ahead = || {
+            v2v_reading(
+                s.checks,
+                self.id,
+                self.targets.ahead,
+                k,
+                dt,
+                own,
+                length_ahead,
+            )
+        };
         let beside = s.man.is_some_and(|m| m.beside(self.id));
         let from_beside = s.man.is_some_and(|m| m.joins_from_beside(self.id));
         let member = place == Place::Member;
@@ -441,7 +478,7 @@ impl Follower {
         own: &State,
     ) -> (f64, bool) {
         let (k, dt, fb) = (s.k, s.parts.dt, &s.parts.fallback);
-        let length_ahead = fb.length(self.ahead.index());
+        let length_ahead = fb.length(self.targets.ahead.index());
         let acc = |headway| {
             acc_command(
                 &fb.acc,
@@ -455,15 +492,15 @@ impl Follower {
         match place {
             Place::Left => (0.0, false),
             Place::SplitOff => {
-                let since = *self.heading_since.get_or_insert(k);
+                let since = *self.standing.heading_since.get_or_insert(k);
                 let elapsed_s = (k - since) as f64 * dt;
                 let headway = crate::maneuvers::split_headway(&fb.acc, s.parts.headway, elapsed_s);
                 (acc(headway), false)
             }
-            Place::Member => (lawful, !self.member),
+            Place::Member => (lawful, !self.standing.member),
             Place::Joiner => {
                 let approaching = s.man.is_some_and(|m| m.approaching(self.id));
-                let since = approaching.then(|| *self.approaching_since.get_or_insert(k));
+                let since = approaching.then(|| *self.standing.approaching_since.get_or_insert(k));
                 let elapsed_s = since.map(|since| (k - since) as f64 * dt);
                 let headway = crate::maneuvers::joiner_headway(&fb.acc, s.parts.headway, elapsed_s);
                 (acc(headway), false)

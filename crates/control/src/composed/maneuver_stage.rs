@@ -128,21 +128,21 @@ impl ManeuverStage {
         for ((f, ready), reading) in followers.iter().zip(&mut self.in_position).zip(readings) {
             let own = states[f.id.index()];
             let reading = reading.map(|(r, _)| r);
-            let behind = man.predecessor(f.id).unwrap_or(f.ahead);
+            let behind = man.predecessor(f.id).unwrap_or(f.targets.ahead);
             let length = fb.length(behind.index());
             *ready = if man.opening_for(f.id).is_some() {
                 // The gap it opens is open: its offset arrived at the room it opens, and its
                 // radar's gap has caught up with it.
-                f.offset.is_some_and(|o| o.done(k) && o.to > 0.0)
+                f.targets.offset.is_some_and(|o| o.done(k) && o.to > 0.0)
                     && man.in_position(
                         reading.map(|r| Reading {
-                            gap: r.gap - f.offset_m,
+                            gap: r.gap - f.targets.offset_m,
                             ..r
                         }),
                         own[1],
                         spacing,
                         headway,
-                        fb.length(f.ahead.index()),
+                        fb.length(f.targets.ahead.index()),
                     )
             } else if man.phase(f.id) == JoinerPhase::Member {
                 // Not asked to open a gap (yet): nothing is open.
