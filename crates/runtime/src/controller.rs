@@ -23,7 +23,7 @@ use crate::session::{
     contract, deliveries_from_wire, inspection_to_wire, packet_to_wire, reporting,
     states_from_wire, Numbering,
 };
-use crate::{monotonic_ns, RunError};
+use crate::{monotonic_ns, CosimError};
 use platoon_control::fallback::RadarTruth;
 use platoon_control::{Controller, Packet};
 use platoon_model::{State, VehicleId};
@@ -37,7 +37,7 @@ pub fn run(
     run_id: &str,
     scenario: &Scenario,
     mut make: impl FnMut(&Scenario) -> Result<Box<dyn Controller>, String>,
-) -> Result<(), RunError> {
+) -> Result<(), CosimError> {
     reporting(run_id, Node::Controller, |ctx, k| {
         let e = &ctx.endpoint;
         let num = Numbering::of(scenario);

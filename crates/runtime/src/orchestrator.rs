@@ -7,7 +7,7 @@ use crate::session::{
     check_traffic, deliveries_from_wire, link_from_wire, states_from_wire, Numbering,
 };
 use crate::timing::{StageClock, Timing};
-use crate::RunError;
+use crate::CosimError;
 use platoon_control::{FollowerStep, RejectCounts};
 use platoon_sim::detection::Scored;
 use platoon_sim::{step_rows, Scenario, StepRow, StepWire, WireCounts};
@@ -90,7 +90,7 @@ pub struct Options {
     /// Read-only observers each `observe/<leaf>` service has room for.
     pub observers: usize,
     /// Set from outside (a signal handler) to stop the run cleanly: the nodes get ABORT and
-    /// the run ends with [`RunError::Interrupted`] within one wait tick (100 ms).
+    /// the run ends with [`CosimError::Interrupted`] within one wait tick (100 ms).
     pub stop: Option<std::sync::Arc<std::sync::atomic::AtomicBool>>,
     /// The CPUs the nodes (plant, controller, injector, channel) may run on; empty: any. The
     /// orchestrator itself is not pinned. A step is a chain of wake-ups in which one process
@@ -163,7 +163,7 @@ pub fn orchestrate(
     opts: &Options,
     scenario: &Scenario,
     mut on_step: impl FnMut(&[StepRow], StepWire<'_>, &[Scored]),
-) -> Result<Outcome, RunError> {
+) -> Result<Outcome, CosimError> {
     let e = Endpoint::new(&opts.run_id, Node::Orchestrator)?;
     // Create everything before any node starts, so nodes only ever open.
     let wake = Node::ALL
@@ -224,7 +224,7 @@ pub fn orchestrate(
         };
         while ready.iter().any(|r| !r) {
             if stopped() {
-                return Err(RunError::Interrupted { step: 0 });
+                return Err(CosimError::Interrupted { step: 0 });
             }
             watch(&mut children, 0, &status)?;
             while let Some(m) = status.next()? {
@@ -246,7 +246,7 @@ pub fn orchestrate(
                     .filter(|n| !ready[**n as usize])
                     .min_by_key(|n| !children.of(n.name()).is_some_and(|p| p.plugin))
                     .expect("one is not ready");
-                return Err(RunError::Stalled {
+                return Err(CosimError::Stalled {
                     node: late.name(),
                     step: 0,
                     waited_s: opts.ready_timeout.as_secs_f64(),
@@ -316,7 +316,7 @@ pub fn orchestrate(
         }
         loop {
             if stopped() {
-                return Err(RunError::Interrupted { step: run.step });
+                return Err(CosimError::Interrupted { step: run.step });
             }
             // Progress is a step recorded or a node reporting: samples that arrive without
             // completing a step (an injector repeating rx[k]) do not reset the timeout.
@@ -380,7 +380,7 @@ pub fn orchestrate(
                 streams.drain_all();
                 let recorded =
                     streams.record(scenario, &mut run, &mut clock, &observe, &mut on_step);
-                if matches!(e, RunError::Failed { .. }) {
+                if matches!(e, CosimError::Failed { .. }) {
                     recorded?;
                 }
                 return Err(e);
@@ -405,7 +405,7 @@ pub fn orchestrate(
                 } else {
                     ("controller", "commands")
                 };
-                return Err(RunError::Stalled {
+                return Err(CosimError::Stalled {
                     node,
                     step: k,
                     waited_s: opts.step_timeout.as_secs_f64(),
@@ -492,7 +492,7 @@ impl Streams<'_> {
         clock: &mut StageClock,
         observe: &Observe,
         on_step: &mut impl FnMut(&[StepRow], StepWire<'_>, &[Scored]),
-    ) -> Result<bool, RunError> {
+    ) -> Result<bool, CosimError> {
         let mut progressed = false;
         while run.step <= scenario.steps && self.states.has(run.step) {
             let k = run.step;
@@ -500,7 +500,7 @@ impl Streams<'_> {
             // missing or malformed, it is the plant's fault, whoever else failed on it since
             // (the injector reads it too).
             if let Some((inlet, count)) = &self.traffic {
-                let items = inlet.peek(k).ok_or_else(|| RunError::Contract {
+                let items = inlet.peek(k).ok_or_else(|| CosimError::Contract {
                     node: "plant",
                     message: format!(
                         "no traffic sample for step {k} (the plant publishes it before the \

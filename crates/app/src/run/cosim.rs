@@ -42,7 +42,7 @@ pub(super) fn cosimulate(
     plant: Option<crate::sumo::SumoPlant>,
     stop: &Stop,
     progress: &dyn Progress,
-) -> Result<(Plotted, Summary, Option<platoon_runtime::RunError>)> {
+) -> Result<(Plotted, Summary, Option<platoon_runtime::CosimError>)> {
     let logs = dir.path("logs");
     std::fs::create_dir_all(&logs).with_context(|| format!("creating {}", logs.display()))?;
     let injector = match &opts.injector {

@@ -15,7 +15,7 @@ pub enum RunError {
     Node(Box<NodeFailure>),
     /// The co-simulation failed with no process to blame (iceoryx2, the contract version).
     #[error(transparent)]
-    Cosim(Box<platoon_runtime::RunError>),
+    Cosim(Box<platoon_runtime::CosimError>),
     /// The run directory or one of its files.
     #[error(transparent)]
     Output(#[from] platoon_output::error::OutputError),
@@ -67,8 +67,8 @@ impl RunError {
 
     /// A co-simulation's failure, typed: [`RunError::Node`] when a process is to blame (its
     /// log in `logs`, the run directory's `logs/`), else [`RunError::Cosim`].
-    pub fn from_runtime(error: platoon_runtime::RunError, logs: &Path) -> Self {
-        use platoon_runtime::RunError as R;
+    pub fn from_runtime(error: platoon_runtime::CosimError, logs: &Path) -> Self {
+        use platoon_runtime::CosimError as R;
         let (step, message) = match &error {
             R::Spawn {
                 command, source, ..
@@ -114,7 +114,7 @@ pub struct NodeFailure {
     /// What went wrong, in a line: its reason, its exit status, what it did not publish.
     pub message: String,
     /// The run's error, as the orchestrator reported it.
-    pub error: platoon_runtime::RunError,
+    pub error: platoon_runtime::CosimError,
 }
 
 impl std::fmt::Display for NodeFailure {
