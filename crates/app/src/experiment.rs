@@ -7,8 +7,9 @@
 //! returns its results in memory; given a run directory it also writes the files of
 //! `platoon experiment` there (the caller creates and commits it). Progress goes to a
 //! [`Progress`].
+use crate::error::OtherError;
 use crate::progress::Progress;
-use crate::run::{record, simulate, write_outputs, StepSink, Stop};
+use crate::run::{record, simulate, write_outputs, RunError, StepSink, Stop};
 use platoon_config::{Config, ConfigError, Embedded};
 use platoon_control::TriggerRule;
 use platoon_output::error::OutputError;
@@ -92,24 +93,44 @@ pub enum ExperimentError {
     Output(#[from] OutputError),
     /// Anything else (a table that could not be written, a run that measured nothing).
     #[error(transparent)]
-    Other(anyhow::Error),
+    Other(OtherError),
 }
 
 operation_error!(ExperimentError);
 
 impl From<platoon_topology::TopologyError> for ExperimentError {
     fn from(e: platoon_topology::TopologyError) -> Self {
-        Self::Other(e.into())
+        Self::Other(OtherError::wrap(e))
+    }
+}
+
+impl From<RunError> for ExperimentError {
+    /// A run's config and output errors are the experiment's; the rest is `Other`.
+    fn from(e: RunError) -> Self {
+        match e {
+            RunError::Config(c) | RunError::Sumo(crate::sumo::SumoError::Config(c)) => {
+                Self::Config(c)
+            }
+            RunError::Output(o) => Self::Output(o),
+            RunError::Other(o) => Self::Other(o),
+            e => Self::Other(OtherError::wrap(e)),
+        }
     }
 }
 
 impl ExperimentError {
-    /// The config error this is, if it is one (`platoon experiment` exits 2 on it), also one
-    /// that a context wrapped.
+    /// The config error this is, if it is one (`platoon experiment` exits 2 on it).
     pub fn config(&self) -> Option<&ConfigError> {
         match self {
             Self::Config(c) => Some(c),
-            Self::Other(e) => e.downcast_ref(),
+            _ => None,
+        }
+    }
+
+    /// The output error this is, if it is one.
+    pub fn output(&self) -> Option<&OutputError> {
+        match self {
+            Self::Output(o) => Some(o),
             _ => None,
         }
     }
@@ -154,7 +175,7 @@ impl Base {
 struct Rows(Vec<StepRow>);
 
 impl StepSink for Rows {
-    fn step(&mut self, rows: &[StepRow], _wire: StepWire<'_>) -> anyhow::Result<()> {
+    fn step(&mut self, rows: &[StepRow], _wire: StepWire<'_>) -> Result<(), RunError> {
         self.0.extend(rows.iter().take_while(|r| r.platoon == 0));
         Ok(())
     }

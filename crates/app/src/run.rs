@@ -2,8 +2,8 @@
 //! native plant or SUMO. [`run`] records into a run directory (the outputs of `platoon run`);
 //! [`record`] drives the same step loop into any [`StepSink`]; [`platoon_sim::run`] gives the
 //! summary alone, with no files at all.
+use crate::error::{Context, OtherError};
 use crate::progress::Progress;
-use anyhow::{Context, Result};
 use platoon_attacks::channel::ChannelEvent;
 use platoon_config::{Config, Transport};
 use platoon_output::plots;
@@ -24,6 +24,9 @@ use cosim::{cosimulate, peak_rss_mib};
 pub use error::{NodeFailure, RunError};
 pub use platoon_config::PlantKind;
 pub use platoon_output::run_tables::{read_tables, Plotted, RunFiles, Tables};
+
+/// The result of a run, and of the steps of one.
+pub type Result<T, E = RunError> = std::result::Result<T, E>;
 
 /// How a third-party injector composes with the built-in channel.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -156,8 +159,8 @@ pub fn apply_design(
         .with_context(|| format!("reading the design {}", file.display()))?;
     let cert: platoon_synthesis::Certificate = serde_json::from_str(&text)
         .with_context(|| format!("{} is not a certificate", file.display()))?;
-    if !cert.verify()?.holds {
-        anyhow::bail!(
+    if !cert.verify().map_err(OtherError::wrap)?.holds {
+        bail!(
             "{}: the certificate does not hold (platoon design verify says why)",
             file.display()
         );
@@ -180,7 +183,7 @@ pub fn apply_design(
         )
     });
     let platoon_config::LawConfig::Paper(paper) = &mut config.control.law else {
-        anyhow::bail!(
+        bail!(
             "{}: a design is the paper's law's gain and ratio, but the config runs law = \"{}\"",
             file.display(),
             config.control.law.kind().name()
@@ -208,12 +211,12 @@ pub fn run(
     progress: &dyn Progress,
 ) -> Result<RunOutcome, RunError> {
     if opts.injector.is_some() && opts.transport == Transport::Inproc {
-        return Err(RunError::Other(anyhow::anyhow!(
+        return Err(RunError::Other(failure!(
             "--injector needs --transport iceoryx2: an external injector is a process"
         )));
     }
     if opts.controller.is_some() && opts.transport == Transport::Inproc {
-        return Err(RunError::Other(anyhow::anyhow!(
+        return Err(RunError::Other(failure!(
             "--controller needs --transport iceoryx2: an external controller is a process"
         )));
     }
@@ -246,28 +249,28 @@ pub fn run(
     }
     let sumo_plan = if config.simulation.plant == PlantKind::Sumo {
         if config.plant.discretisation != platoon_model::Discretisation::Exact {
-            return Err(RunError::Other(anyhow::anyhow!(
+            return Err(RunError::Other(failure!(
                 "--plant sumo: the SUMO plant moves vehicles its own way; plant.discretisation = \
                  \"plexe\" is for the native plant (leave --plant out, or set discretisation = \
                  \"exact\")"
             )));
         }
         if opts.transport == Transport::Inproc {
-            return Err(RunError::Other(anyhow::anyhow!(
+            return Err(RunError::Other(failure!(
                 "the SUMO plant is a process: use --transport iceoryx2 (the default), or --plant native"
             )));
         }
-        Some(crate::sumo::plan(&opts.config_file, &config, scenario).map_err(RunError::sumo)?)
+        Some(crate::sumo::plan(&opts.config_file, &config, scenario)?)
     } else {
         None
     };
     if opts.step_timeout.is_zero() {
-        return Err(RunError::Other(anyhow::anyhow!(
+        return Err(RunError::Other(failure!(
             "--step-timeout must be a positive number of seconds"
         )));
     }
     if opts.ready_timeout.is_zero() {
-        return Err(RunError::Other(anyhow::anyhow!(
+        return Err(RunError::Other(failure!(
             "--ready-timeout must be a positive number of seconds"
         )));
     }
@@ -280,11 +283,7 @@ pub fn run(
             (rows, summary, None)
         }
         Transport::Iceoryx2 => {
-            let plant = sumo_plan
-                .as_ref()
-                .map(|p| p.launch(&dir))
-                .transpose()
-                .map_err(RunError::sumo)?;
+            let plant = sumo_plan.as_ref().map(|p| p.launch(&dir)).transpose()?;
             cosimulate(scenario, &config.output, &dir, opts, plant, stop, progress)?
         }
     };
@@ -339,10 +338,11 @@ pub fn run(
             Err(e) => {
                 if summary.complete {
                     progress.message(&format!(
-                        "warning: fcd.xml (the replay file) was not written, the run is kept: {e:#}"
+                        "warning: fcd.xml (the replay file) was not written, the run is kept: {}",
+                        OtherError::report(&e)
                     ));
                 }
-                Some(serde_json::json!({ "writer": "recorded", "error": format!("{e:#}") }))
+                Some(serde_json::json!({ "writer": "recorded", "error": OtherError::report(&e) }))
             }
         };
         // A plant that wrote no sumo.json (it died first) still has its fcd.xml reported.

@@ -13,7 +13,7 @@
 //! Harm is measured: every candidate's harm is read from its run's `summary.json` by the
 //! campaign metrics ([`platoon_campaign::metrics`]), so the worst schedule re-run gives the same
 //! harm, bit for bit (checked on the worst run before the directory is committed).
-use anyhow::Result;
+use crate::error::OtherError;
 use platoon_attacks::Assumption2;
 use platoon_campaign::metrics;
 use platoon_campaign::{BaseScenario, Transport, Values};
@@ -56,7 +56,7 @@ pub enum SearchError {
     },
     /// The executor failed before a batch was in (the local pool's, Dask's, the caller's).
     #[error(transparent)]
-    Executor(anyhow::Error),
+    Executor(OtherError),
     /// The worst schedule's re-run into `worst/` failed.
     #[error(transparent)]
     Worst(#[from] crate::run::RunError),
@@ -70,18 +70,37 @@ pub enum SearchError {
     },
     /// Anything else (a figure that could not be drawn, a summary that could not be read).
     #[error(transparent)]
-    Other(anyhow::Error),
+    Other(OtherError),
 }
 
 operation_error!(SearchError);
 
+impl From<crate::campaign::ExecutorError> for SearchError {
+    /// A record the executor passed on is the search's output; the rest is the executor's.
+    fn from(e: crate::campaign::ExecutorError) -> Self {
+        match e {
+            crate::campaign::ExecutorError::Output(o) => Self::Output(o),
+            crate::campaign::ExecutorError::Failed(e) => Self::Executor(e),
+        }
+    }
+}
+
 impl SearchError {
-    /// The config error this is, if it is one, also one that a context wrapped.
+    /// The config error this is, if it is one: the search file's, or the worst schedule's.
     pub fn config(&self) -> Option<&ConfigError> {
         match self {
             Self::Config(c) => Some(c),
             Self::Worst(r) => r.config(),
-            Self::Executor(e) | Self::Other(e) => e.downcast_ref(),
+            _ => None,
+        }
+    }
+
+    /// The output error this is, if it is one: the search directory's, or the worst
+    /// schedule's run's.
+    pub fn output(&self) -> Option<&platoon_output::error::OutputError> {
+        match self {
+            Self::Output(o) => Some(o),
+            Self::Worst(r) => r.output(),
             _ => None,
         }
     }

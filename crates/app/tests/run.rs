@@ -56,13 +56,13 @@ struct Count {
 }
 
 impl StepSink for Count {
-    fn step(&mut self, rows: &[StepRow], wire: StepWire<'_>) -> anyhow::Result<()> {
+    fn step(&mut self, rows: &[StepRow], wire: StepWire<'_>) -> Result<(), run::RunError> {
         self.steps += 1;
         self.rows += rows.len();
         self.sent += wire.per_vehicle.iter().map(|c| c.sent).sum::<u64>();
         Ok(())
     }
-    fn finish(&mut self) -> anyhow::Result<()> {
+    fn finish(&mut self) -> Result<(), run::RunError> {
         self.finished = true;
         Ok(())
     }

@@ -3,7 +3,7 @@
 use crate::names::one_of;
 use crate::outdir::OutDir;
 use crate::progress::Bar;
-use anyhow::Result;
+use crate::Result;
 use clap::builder::PossibleValuesParser;
 use platoon_app::experiment::{
     self, Base, ControllersOptions, DegradationOptions, DetectionOptions, Intensity,

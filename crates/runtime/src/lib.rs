@@ -41,7 +41,7 @@ pub enum CosimError {
         source: Box<dyn std::error::Error + Send + Sync + 'static>,
     },
     /// A node's process could not be started.
-    #[error("could not start the {node} process ({command}): {source}")]
+    #[error("could not start the {node} process ({command})")]
     Spawn {
         /// Which.
         node: &'static str,

@@ -449,7 +449,7 @@ pub fn orchestrate(
         Err(err) => {
             let _ = control.send(
                 ControlMsg::new(ControlMsg::ABORT, Node::Orchestrator, 0)
-                    .with_reason(&err.to_string()),
+                    .with_reason(&crate::Causes(err).to_string()),
             );
             children.shut_down(Duration::from_millis(300));
         }

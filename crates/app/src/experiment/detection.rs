@@ -2,7 +2,6 @@
 //! truth, with and without a reaction ([`detection`]).
 use super::{refuse, write_config, write_table, written, Base, ExperimentError, Result};
 use crate::progress::Progress;
-use anyhow::anyhow;
 use platoon_config::{Attack, DetectionConfig, LinkAttackConfig, LinkKindConfig};
 use platoon_control::{FallbackMode, Reaction};
 use platoon_output::plots;
@@ -428,7 +427,7 @@ fn run_cell(
         .map_err(|(key, e)| ExperimentError::Variant(format!("{}: key `{key}`: {e}", name())))?;
     let summary = platoon_sim::run(scenario, |_| {})?;
     let Some(d) = &summary.detection else {
-        return Err(anyhow!("{}: the run measured no detection", name()).into());
+        return Err(failure!("{}: the run measured no detection", name()).into());
     };
     let mut scores: Vec<&DetectorScore> = d.detectors.iter().collect();
     if cell.detectors.len() > 1 {
@@ -574,7 +573,7 @@ impl Detection {
         write_table(dir, "detection", &self.rows, &self.markdown)?;
         if opts.reactions.contains(&Reaction::Log) && !opts.attacks.is_empty() {
             f1_heatmap(&dir.path("f1.png"), &self.rows, opts)
-                .map_err(|e| anyhow!("drawing f1.png: {e}"))?;
+                .map_err(|e| failure!("drawing f1.png: {e}"))?;
         }
         // The smallest gap per attack (strong, or the only intensity), with and without the
         // reaction.

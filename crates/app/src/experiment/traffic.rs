@@ -3,6 +3,7 @@ use super::{
     bars_by_law, configure_law, in_formation, keep_law_spacing, on_standstill, refuse, repeats,
     walk, write_config, write_table, written, Base, ExperimentError, Result,
 };
+use crate::error::OtherError;
 use crate::progress::Progress;
 use platoon_config::{LawName, LinkAttackConfig, LinkKindConfig, PlantKind};
 use platoon_output::plots;
@@ -159,7 +160,7 @@ pub fn traffic(
         (PlantKind::Sumo, Some(dir)) => Some(dir.path("runs")),
         (PlantKind::Sumo, None) => {
             tmp = tempfile::tempdir().map_err(|e| {
-                ExperimentError::Other(anyhow::Error::new(e).context("a directory for the runs"))
+                ExperimentError::Other(OtherError::context("a directory for the runs", e))
             })?;
             Some(tmp.path().to_path_buf())
         }
@@ -223,8 +224,9 @@ impl Plant<'_> {
             config_file: std::path::PathBuf::from(self.label),
             ..Default::default()
         };
-        let failed =
-            |e: anyhow::Error| ExperimentError::Other(e.context(format!("the run {name} on SUMO")));
+        let failed = |e: crate::BoxError| {
+            ExperimentError::Other(OtherError::context(format!("the run {name} on SUMO"), e))
+        };
         let dir = runs.join(name);
         let outcome = crate::run::run(
             config,
@@ -235,11 +237,15 @@ impl Plant<'_> {
             &Default::default(),
             &(),
         )
-        .map_err(|e| failed(e.into()))?;
+        .map_err(|e| match e.config() {
+            // Refused as a bad config is, whoever runs it (`platoon experiment` exits 2).
+            Some(_) => ExperimentError::from(e),
+            None => failed(e.into()),
+        })?;
         match outcome.failure {
             Some(e) => Err(failed(
-                anyhow::Error::new(e)
-                    .context(format!("see {}", outcome.dir.join("logs").display())),
+                OtherError::context(format!("see {}", outcome.dir.join("logs").display()), e)
+                    .into(),
             )),
             None => Ok(outcome.summary),
         }

@@ -6,9 +6,9 @@ use super::{
     SearchOutcome,
 };
 use crate::campaign::{CellJob, CellReply, Execution, Executor};
+use crate::error::{Context, OtherError};
 use crate::progress::Progress;
 use crate::run::Stop;
-use anyhow::{bail, Context, Result};
 use platoon_campaign::metrics;
 use platoon_output::rundir::RunDir;
 use platoon_search::{Evolution, GridSampler, RandomSampler, Schedule, Strategy};
@@ -33,14 +33,12 @@ pub(super) fn execute(
         }
         Ok(())
     };
-    executor
-        .execute(Execution {
-            jobs,
-            dir,
-            stop,
-            record: &mut record,
-        })
-        .map_err(SearchError::Executor)?;
+    executor.execute(Execution {
+        jobs,
+        dir,
+        stop,
+        record: &mut record,
+    })?;
     Ok(replies)
 }
 
@@ -484,7 +482,7 @@ pub(super) fn rerun_worst(
         let summary = platoon_sim::run_until_plugins(&scenario, &plugins.plugins(), |_| {
             std::ops::ControlFlow::Continue(())
         })
-        .map_err(anyhow::Error::from)?;
+        .map_err(OtherError::wrap)?;
         return Ok(metrics::read(&serde_json::to_value(summary)?).ok());
     }
     let out = dir.staging().join(sub).join("worst");
