@@ -144,6 +144,77 @@ macro_rules! refuse {
 }
 pub(crate) use refuse;
 
+/// What every experiment is: options checked before anything runs, a base config it may
+/// refuse, a run on the base that returns its result in memory (given a run directory it also
+/// writes its files there, as `platoon experiment <NAME>` does), and the text that result
+/// prints. [`run`] runs any of them; each also has a function of its own (`controllers`, ...).
+pub trait Experiment: Sized {
+    /// Its options (`()` when it has none).
+    type Options;
+    /// Its name: `platoon experiment <NAME>`.
+    const NAME: &'static str;
+    /// The run directory `platoon experiment` writes it into by default.
+    const DIR: &'static str;
+    /// The embedded config it starts from when given none.
+    const BASE: Embedded;
+    /// Refuses options no run can use, before anything runs.
+    fn validate(opts: &Self::Options) -> Result<()>;
+    /// Refuses a base config the experiment cannot start from, before anything runs.
+    fn check_base(_base: &Base) -> Result<()> {
+        Ok(())
+    }
+    /// Runs it on `base`; with `out`, writes its files (and its runs' directories) there.
+    fn run(
+        base: &Base,
+        opts: &Self::Options,
+        out: Option<&RunDir>,
+        progress: &dyn Progress,
+    ) -> Result<Self>;
+    /// Its table as `platoon experiment` prints it (the Markdown of its `.md` file).
+    fn summary(&self) -> String;
+}
+
+/// Runs the experiment `E` on `base` (its options and the base checked first); with `out`,
+/// its files are written there.
+pub fn run<E: Experiment>(
+    base: &Base,
+    opts: &E::Options,
+    out: Option<&RunDir>,
+    progress: &dyn Progress,
+) -> Result<E> {
+    E::validate(opts)?;
+    E::check_base(base)?;
+    E::run(base, opts, out, progress)
+}
+
+/// The [`Experiment`] whose result is `$result`, with options `$options` (their `validate`),
+/// run by the function `$run`, its summary its `markdown`.
+macro_rules! experiment {
+    ($result:ty, $options:ty, $name:literal, $dir:literal, $base:ident, $run:expr) => {
+        impl $crate::experiment::Experiment for $result {
+            type Options = $options;
+            const NAME: &'static str = $name;
+            const DIR: &'static str = $dir;
+            const BASE: platoon_config::Embedded = platoon_config::Embedded::$base;
+            fn validate(opts: &Self::Options) -> $crate::experiment::Result<()> {
+                opts.validate()
+            }
+            fn run(
+                base: &$crate::experiment::Base,
+                opts: &Self::Options,
+                out: Option<&platoon_output::rundir::RunDir>,
+                progress: &dyn $crate::progress::Progress,
+            ) -> $crate::experiment::Result<Self> {
+                $run(base, opts, out, progress)
+            }
+            fn summary(&self) -> String {
+                self.markdown.clone()
+            }
+        }
+    };
+}
+pub(crate) use experiment;
+
 /// The scenario an experiment starts from: its config, what it runs, and how errors name it.
 #[derive(Debug, Clone)]
 pub struct Base {

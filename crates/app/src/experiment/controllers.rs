@@ -392,3 +392,12 @@ impl Controllers {
         Ok(())
     }
 }
+
+super::experiment!(
+    Controllers,
+    ControllersOptions,
+    "controllers",
+    "runs/controllers",
+    Paper,
+    controllers
+);

@@ -249,3 +249,12 @@ impl Degradation {
         )?)
     }
 }
+
+super::experiment!(
+    Degradation,
+    DegradationOptions,
+    "degradation",
+    "runs/degradation",
+    Degradation,
+    degradation
+);

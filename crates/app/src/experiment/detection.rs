@@ -723,3 +723,12 @@ fn centred(x: f64, names: &[String]) -> String {
         String::new()
     }
 }
+
+super::experiment!(
+    Detection,
+    DetectionOptions,
+    "detection",
+    "runs/detection",
+    Paper,
+    detection
+);

@@ -1,7 +1,7 @@
 //! Maneuvers by law and attack ([`maneuvers`]).
 use super::{
     bars_by_law, keep_law_spacing, law_config, on_standstill, refuse, repeats, walk, write_table,
-    written, ExperimentError, Result,
+    written, Base, Experiment, ExperimentError, Result,
 };
 use crate::progress::Progress;
 use platoon_config::{Config, DosConfig, Embedded, LawName, LinkAttackConfig, LinkKindConfig};
@@ -399,5 +399,27 @@ impl Maneuvers {
             )?;
         }
         Ok(())
+    }
+}
+
+/// Each maneuver runs on a scenario of its own (configs/join.toml, ...): the base is not used.
+impl Experiment for Maneuvers {
+    type Options = ManeuversOptions;
+    const NAME: &'static str = "maneuvers";
+    const DIR: &'static str = "runs/maneuvers";
+    const BASE: Embedded = Embedded::Paper;
+    fn validate(opts: &ManeuversOptions) -> Result<()> {
+        opts.validate()
+    }
+    fn run(
+        _base: &Base,
+        opts: &ManeuversOptions,
+        out: Option<&RunDir>,
+        progress: &dyn Progress,
+    ) -> Result<Self> {
+        maneuvers(opts, out, progress)
+    }
+    fn summary(&self) -> String {
+        self.markdown.clone()
     }
 }

@@ -162,3 +162,24 @@ impl Robust {
         Ok(dir.write("fig9.md", self.markdown.as_bytes())?)
     }
 }
+
+impl Experiment for Robust {
+    type Options = RobustOptions;
+    const NAME: &'static str = "robust";
+    const DIR: &'static str = "runs/robust";
+    const BASE: Embedded = Embedded::Paper;
+    fn validate(_opts: &RobustOptions) -> Result<()> {
+        Ok(())
+    }
+    fn run(
+        base: &Base,
+        opts: &RobustOptions,
+        out: Option<&RunDir>,
+        progress: &dyn Progress,
+    ) -> Result<Self> {
+        robust(base, opts, out, progress)
+    }
+    fn summary(&self) -> String {
+        self.markdown.clone()
+    }
+}

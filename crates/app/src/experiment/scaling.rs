@@ -388,3 +388,12 @@ impl Scaling {
         )?)
     }
 }
+
+super::experiment!(
+    Scaling,
+    ScalingOptions,
+    "scaling",
+    "runs/scaling-experiment",
+    Paper,
+    scaling
+);

@@ -235,3 +235,22 @@ fn table1_markdown(base: &Scenario, results: &[RuleRun]) -> String {
     );
     md
 }
+
+impl Experiment for Table1 {
+    type Options = ();
+    const NAME: &'static str = "table1";
+    const DIR: &'static str = "runs/table1";
+    const BASE: Embedded = Embedded::Table1;
+    fn validate(_opts: &()) -> Result<()> {
+        Ok(())
+    }
+    fn check_base(base: &Base) -> Result<()> {
+        check_table1_base(base)
+    }
+    fn run(base: &Base, _opts: &(), out: Option<&RunDir>, progress: &dyn Progress) -> Result<Self> {
+        table1(base, out, progress)
+    }
+    fn summary(&self) -> String {
+        self.markdown.clone()
+    }
+}

@@ -206,3 +206,39 @@ impl Topologies {
         )?)
     }
 }
+
+impl Experiment for Topologies {
+    type Options = TopologiesOptions;
+    const NAME: &'static str = "topologies";
+    const DIR: &'static str = "runs/topologies";
+    const BASE: Embedded = Embedded::Paper;
+    fn validate(opts: &TopologiesOptions) -> Result<()> {
+        opts.validate()
+    }
+    fn check_base(base: &Base) -> Result<()> {
+        check_topologies_base(base)
+    }
+    fn run(
+        base: &Base,
+        opts: &TopologiesOptions,
+        out: Option<&RunDir>,
+        progress: &dyn Progress,
+    ) -> Result<Self> {
+        topologies(base, opts, out, progress)
+    }
+    /// One line per topology, size and condition (varsigma1, c, beta1/beta2), in columns.
+    fn summary(&self) -> String {
+        let mut text = format!(
+            "{:<6} {:>3} {:>13} {:>10} {:>8} {:>12}\n",
+            "graph", "N", "condition", "varsigma1", "c", "b1/b2"
+        );
+        for r in &self.rows {
+            let _ = writeln!(
+                text,
+                "{:<6} {:>3} {:>13} {:>10.4} {:>8.4} {:>12.1}",
+                r.topology, r.followers, r.condition, r.varsigma1, r.c, r.beta1_over_beta2
+            );
+        }
+        text
+    }
+}

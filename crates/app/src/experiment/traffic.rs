@@ -440,3 +440,12 @@ impl Traffic {
         Ok(())
     }
 }
+
+super::experiment!(
+    Traffic,
+    TrafficOptions,
+    "traffic",
+    "runs/traffic",
+    CutIn,
+    traffic
+);
