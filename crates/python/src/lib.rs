@@ -345,7 +345,7 @@ fn load_config(
             ConfigFileError::new(&label, "", format!("not a config dict: {e}"))
         };
         let json: serde_json::Value = serde_json::from_str(text).map_err(bad)?;
-        Ok(serde_json::from_value(without_nulls(json)).map_err(bad)?)
+        serde_json::from_value(without_nulls(json)).map_err(bad)
     };
     let mut value = parse_json(config)?;
     if let Some(origin) = &origin.config {

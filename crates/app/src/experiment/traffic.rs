@@ -170,7 +170,13 @@ pub fn traffic(
         for &gap in &opts.gaps_m {
             for &dv in &opts.speed_diffs_mps {
                 for attack in &opts.attacks {
-                    cells.extend((0..opts.repeats).map(|repeat| (law, gap, dv, attack, repeat)));
+                    cells.extend((0..opts.repeats).map(|repeat| Cell {
+                        law,
+                        gap,
+                        dv,
+                        attack,
+                        repeat,
+                    }));
                 }
             }
         }
@@ -183,13 +189,17 @@ pub fn traffic(
         progress,
         "simulating",
         cells,
-        |(law, gap, dv, attack, repeat)| {
+        |c| {
             format!(
-                "{}, gap {gap} m, {dv:+} m/s, {attack}, repeat {repeat}",
-                law.name()
+                "{}, gap {} m, {:+} m/s, {}, repeat {}",
+                c.law.name(),
+                c.gap,
+                c.dv,
+                c.attack,
+                c.repeat
             )
         },
-        |(law, gap, dv, attack, repeat)| cell(base, law, gap, dv, attack, repeat, on),
+        |c| cell(base, &c, on),
     )?;
     let markdown = markdown(&rows);
     written(Traffic { rows, markdown }, out, |r, dir| r.write(opts, dir))
@@ -252,16 +262,25 @@ impl Plant<'_> {
     }
 }
 
-#[allow(clippy::too_many_arguments)]
-fn cell(
-    base: &Base,
+/// One cell of the table: a law, the cut-in's gap (m) and speed difference (m/s), an attack,
+/// and which repeat.
+struct Cell<'a> {
     law: LawName,
     gap: f64,
     dv: f64,
-    attack: &str,
+    attack: &'a str,
     repeat: u32,
-    plant: Plant<'_>,
-) -> Result<TrafficRow> {
+}
+
+/// The row of `cell` (on pf, or plf for a law that needs the leader), run on `plant`.
+fn cell(base: &Base, cell: &Cell<'_>, plant: Plant<'_>) -> Result<TrafficRow> {
+    let &Cell {
+        law,
+        gap,
+        dv,
+        attack,
+        repeat,
+    } = cell;
     let mut last = None;
     for preset in [Preset::Pf, Preset::Plf] {
         let mut c = configure(&base.config, law, preset);
