@@ -303,6 +303,27 @@ pub fn run(
         .injector
         .as_ref()
         .is_none_or(|i| i.mode == InjectorMode::After);
+    let mut extra = extra_json(opts);
+    if let Some(plan) = &sumo_plan {
+        if let Some(report) = sumo_json(plan, &dir, &mut summary, progress)? {
+            extra.push(("sumo", report));
+        }
+    }
+    write_outputs(&dir, &config, scenario, &rows, &summary, opts.plots, &extra)?;
+    let dir = dir.commit()?;
+    let failure = failure.map(|e| RunError::from_runtime(e, &dir.join("logs")));
+    Ok(RunOutcome {
+        dir,
+        rows: rows.rows,
+        summary,
+        failure,
+        stopped,
+        compute,
+    })
+}
+
+/// summary.json's `injector` and, for a controller service of the caller's, `controller`.
+fn extra_json(opts: &RunOptions) -> Vec<(&'static str, serde_json::Value)> {
     let mut extra = vec![(
         "injector",
         match &opts.injector {
@@ -320,63 +341,60 @@ pub fn run(
     if let Some(program) = &opts.controller {
         extra.push(("controller", serde_json::json!({ "program": program })));
     }
-    if let Some(plan) = &sumo_plan {
-        // fcd.xml from what was recorded (a stopped run's too), after the run's last step.
-        // It is only a replay file: a conversion that fails (a run that ended early may have
-        // recorded nothing to write) is said in the report and on stderr, and the run is kept
-        // as it ended; its own failure, if any, stays the error.
-        let fcd = match plan.write_recorded_fcd(&dir) {
-            Ok(fcd) => fcd.map(|fcd| {
-                serde_json::json!({
-                    "file": "fcd.xml",
-                    "writer": "recorded",
-                    "period_s": fcd.period_s,
-                    "timesteps": fcd.timesteps,
-                    "vehicles": fcd.vehicles,
-                })
-            }),
-            Err(e) => {
-                if summary.complete {
-                    progress.message(&format!(
-                        "warning: fcd.xml (the replay file) was not written, the run is kept: {}",
-                        OtherError::report(&e)
-                    ));
-                }
-                Some(serde_json::json!({ "writer": "recorded", "error": OtherError::report(&e) }))
+    extra
+}
+
+/// summary.json's `sumo` (the bridge's sumo.json with the fcd.xml written from what was
+/// recorded), if there is any; a collision SUMO reported makes the run's safety severe.
+fn sumo_json(
+    plan: &crate::sumo::SumoPlan<'_>,
+    dir: &RunDir,
+    summary: &mut Summary,
+    progress: &dyn Progress,
+) -> Result<Option<serde_json::Value>> {
+    // fcd.xml from what was recorded (a stopped run's too), after the run's last step.
+    // It is only a replay file: a conversion that fails (a run that ended early may have
+    // recorded nothing to write) is said in the report and on stderr, and the run is kept
+    // as it ended; its own failure, if any, stays the error.
+    let fcd = match plan.write_recorded_fcd(dir) {
+        Ok(fcd) => fcd.map(|fcd| {
+            serde_json::json!({
+                "file": "fcd.xml",
+                "writer": "recorded",
+                "period_s": fcd.period_s,
+                "timesteps": fcd.timesteps,
+                "vehicles": fcd.vehicles,
+            })
+        }),
+        Err(e) => {
+            if summary.complete {
+                progress.message(&format!(
+                    "warning: fcd.xml (the replay file) was not written, the run is kept: {}",
+                    OtherError::report(&e)
+                ));
             }
-        };
-        // A plant that wrote no sumo.json (it died first) still has its fcd.xml reported.
-        let report =
-            crate::sumo::report(&dir)?.or_else(|| fcd.is_some().then(|| serde_json::json!({})));
-        if let Some(mut report) = report {
-            if let Some(fcd) = fcd {
-                report["fcd"] = fcd;
-            }
-            if report["collisions"]
-                .as_array()
-                .is_some_and(|c| !c.is_empty())
-            {
-                summary.safety.collided = true;
-                summary.safety.class = platoon_sim::SafetyClass::Severe;
-                if let Some(f) = &mut summary.fleet {
-                    f.collided = true;
-                    f.class = platoon_sim::SafetyClass::Severe;
-                }
-            }
-            extra.push(("sumo", report));
+            Some(serde_json::json!({ "writer": "recorded", "error": OtherError::report(&e) }))
         }
-    }
-    write_outputs(&dir, &config, scenario, &rows, &summary, opts.plots, &extra)?;
-    let dir = dir.commit()?;
-    let failure = failure.map(|e| RunError::from_runtime(e, &dir.join("logs")));
-    Ok(RunOutcome {
-        dir,
-        rows: rows.rows,
-        summary,
-        failure,
-        stopped,
-        compute,
-    })
+    };
+    // A plant that wrote no sumo.json (it died first) still has its fcd.xml reported.
+    let report = crate::sumo::report(dir)?.or_else(|| fcd.is_some().then(|| serde_json::json!({})));
+    Ok(report.map(|mut report| {
+        if let Some(fcd) = fcd {
+            report["fcd"] = fcd;
+        }
+        if report["collisions"]
+            .as_array()
+            .is_some_and(|c| !c.is_empty())
+        {
+            summary.safety.collided = true;
+            summary.safety.class = platoon_sim::SafetyClass::Severe;
+            if let Some(f) = &mut summary.fleet {
+                f.collided = true;
+                f.class = platoon_sim::SafetyClass::Severe;
+            }
+        }
+        report
+    }))
 }
 
 /// Where a run's per-step data goes, step by step, whichever transport ran it.

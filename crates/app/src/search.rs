@@ -253,6 +253,92 @@ pub fn load(path: &Path, evaluations: Option<usize>) -> Result<Search, ConfigErr
     parse(&text, path, evaluations)
 }
 
+/// The problems' configs: the base alone, or with a `[study]` the base with each law on each
+/// topology.
+fn cases(
+    base: &Config,
+    study: Option<&StudyFile>,
+    err: &dyn Fn(&str, String) -> ConfigError,
+) -> Result<Vec<Case>, ConfigError> {
+    Ok(match study {
+        None => vec![(String::new(), base.clone(), None)],
+        Some(study) => {
+            if study.laws.is_empty() || study.topologies.is_empty() {
+                return Err(err(
+                    "study.laws",
+                    "a study needs at least one law and one topology".into(),
+                ));
+            }
+            if !(study.beacon_period_s.is_finite() && study.beacon_period_s > 0.0) {
+                return Err(err(
+                    "study.beacon_period_s",
+                    format!("must be > 0 s (got {})", study.beacon_period_s),
+                ));
+            }
+            let mut v = Vec::new();
+            for &law in &study.laws {
+                for &preset in &study.topologies {
+                    let c =
+                        crate::experiment::configure_law(base, law, preset, study.beacon_period_s);
+                    v.push((
+                        format!("{}-{}", law.name(), preset.name()),
+                        c,
+                        Some((law, preset)),
+                    ));
+                }
+            }
+            v
+        }
+    })
+}
+
+/// What the budget `b` lets the attacker jam on `scenario`'s platoon (`label`): the channel,
+/// or links of its topology (all, or those `budget.links` names).
+fn targets(
+    b: &Limits,
+    scenario: &Scenario,
+    label: &str,
+    err: &dyn Fn(&str, String) -> ConfigError,
+) -> Result<Vec<Target>, ConfigError> {
+    Ok(match b.jam {
+        JamKind::Channel => {
+            if b.links.is_some() {
+                return Err(err("budget.links", "needs budget.jam = \"links\"".into()));
+            }
+            vec![Target::Channel]
+        }
+        JamKind::Links => {
+            let all: Vec<(u16, u16)> = scenario
+                .hearing()
+                .links()
+                .map(|(s, r)| (s.0, r.0))
+                .collect();
+            match &b.links {
+                None => all
+                    .iter()
+                    .map(|&(sender, receiver)| Target::Link { sender, receiver })
+                    .collect(),
+                Some(links) => {
+                    let mut t = Vec::new();
+                    for &[sender, receiver] in links {
+                        if !all.contains(&(sender, receiver)) {
+                            return Err(err(
+                                "budget.links",
+                                format!(
+                                    "{sender} -> {receiver} is not a link of the topology \
+                                     ({label})"
+                                ),
+                            ));
+                        }
+                        t.push(Target::Link { sender, receiver });
+                    }
+                    t
+                }
+            }
+        }
+    })
+}
+
 /// Parses and resolves search text (`file` names it in errors and anchors `base`).
 pub fn parse(text: &str, file: &Path, evaluations: Option<usize>) -> Result<Search, ConfigError> {
     let mut spec: SearchFile = platoon_config::deserialize(text, file)?;
@@ -296,36 +382,7 @@ pub fn parse(text: &str, file: &Path, evaluations: Option<usize>) -> Result<Sear
         values("grid.onset_s", &spec.grid.onset_s)?,
         values("grid.duration_s", &spec.grid.duration_s)?,
     );
-    let cases: Vec<Case> = match &spec.study {
-        None => vec![(String::new(), base.clone(), None)],
-        Some(study) => {
-            if study.laws.is_empty() || study.topologies.is_empty() {
-                return Err(err(
-                    "study.laws",
-                    "a study needs at least one law and one topology".into(),
-                ));
-            }
-            if !(study.beacon_period_s.is_finite() && study.beacon_period_s > 0.0) {
-                return Err(err(
-                    "study.beacon_period_s",
-                    format!("must be > 0 s (got {})", study.beacon_period_s),
-                ));
-            }
-            let mut v = Vec::new();
-            for &law in &study.laws {
-                for &preset in &study.topologies {
-                    let c =
-                        crate::experiment::configure_law(&base, law, preset, study.beacon_period_s);
-                    v.push((
-                        format!("{}-{}", law.name(), preset.name()),
-                        c,
-                        Some((law, preset)),
-                    ));
-                }
-            }
-            v
-        }
-    };
+    let cases = cases(&base, spec.study.as_ref(), &err)?;
     let name = platoon_campaign::file_name(spec.name.as_deref(), file, "search");
     let mut problems = Vec::new();
     for (label, mut config, case) in cases {
@@ -378,43 +435,7 @@ pub fn parse(text: &str, file: &Path, evaluations: Option<usize>) -> Result<Sear
                     .into(),
             ));
         }
-        let targets = match b.jam {
-            JamKind::Channel => {
-                if b.links.is_some() {
-                    return Err(err("budget.links", "needs budget.jam = \"links\"".into()));
-                }
-                vec![Target::Channel]
-            }
-            JamKind::Links => {
-                let all: Vec<(u16, u16)> = scenario
-                    .hearing()
-                    .links()
-                    .map(|(s, r)| (s.0, r.0))
-                    .collect();
-                match &b.links {
-                    None => all
-                        .iter()
-                        .map(|&(sender, receiver)| Target::Link { sender, receiver })
-                        .collect(),
-                    Some(links) => {
-                        let mut t = Vec::new();
-                        for &[sender, receiver] in links {
-                            if !all.contains(&(sender, receiver)) {
-                                return Err(err(
-                                    "budget.links",
-                                    format!(
-                                        "{sender} -> {receiver} is not a link of the topology \
-                                         ({label})"
-                                    ),
-                                ));
-                            }
-                            t.push(Target::Link { sender, receiver });
-                        }
-                        t
-                    }
-                }
-            }
-        };
+        let targets = targets(b, &scenario, &label, &err)?;
         let budget = Budget {
             limits: Limits {
                 assumption2: bounds,

@@ -237,6 +237,75 @@ pub struct SumoPlan<'a> {
     side_lanes: Vec<u32>,
 }
 
+/// How far back (the rear of the last platoon) and ahead (the leader) the run reaches, each
+/// as (position along the platoons' lane, t): platoon 0 runs natively (SUMO reproduces it to
+/// 1e-9 m), the others are the same shifted back (to well under a millimetre); a leader SUMO
+/// drives goes at most at its desired speed.
+fn reach(config: &Config, scenario: &Scenario) -> Result<((f64, f64), (f64, f64))> {
+    let back = scenario.fleet.offset(scenario.fleet.platoons - 1);
+    let (mut lo, mut hi) = ((f64::INFINITY, 0.0), (f64::NEG_INFINITY, 0.0));
+    let mut platoon0 = scenario.clone();
+    platoon0.fleet.platoons = 1;
+    platoon_sim::run(platoon0, |rows| {
+        for r in rows {
+            if r.p - back < lo.0 {
+                lo = (r.p - back, r.t);
+            }
+            if r.p > hi.0 {
+                hi = (r.p, r.t);
+            }
+        }
+    })?;
+    if let platoon_config::LeaderDrive::Sumo { speed_mps, .. } = &config.leader.drive {
+        // SUMO drives the leader at most at its desired speed (or its initial one).
+        let (p0, v0) = (scenario.initial[0][0], scenario.initial[0][1]);
+        let t = scenario.steps as f64 * scenario.dt();
+        let far = p0 + v0.max(*speed_mps) * t;
+        if far > hi.0 {
+            hi = (far, t);
+        }
+    }
+    Ok((lo, hi))
+}
+
+/// The lane beside each platoon's (of the edge's `lanes`, index and length), where a leaver
+/// changes to and a joiner from beside starts: the next lane to the left, else to the right;
+/// none unless the scenario changes lanes (on a route of `several_edges` it cannot).
+fn side_lanes(
+    config_file: &Path,
+    scenario: &Scenario,
+    s: &platoon_config::Sumo,
+    lanes: &[(u32, f64)],
+    several_edges: bool,
+) -> Result<Vec<u32>> {
+    let mut side_lanes = Vec::new();
+    if scenario.changes_lanes() {
+        let lanes_error = |message: String| config_error(config_file, "maneuvers", message);
+        if several_edges {
+            return Err(lanes_error(
+                "on SUMO a leaver or a joiner from beside changes lanes on one edge; sumo.route \
+                 has several"
+                    .into(),
+            ));
+        }
+        for &lane in &scenario.fleet.lanes {
+            let beside = [lane + 1, lane.wrapping_sub(1)]
+                .into_iter()
+                .find(|l| lanes.iter().any(|(i, _)| i == l));
+            let Some(beside) = beside else {
+                return Err(lanes_error(format!(
+                    "on SUMO a leaver or a joiner from beside uses the lane beside the \
+                     platoon's, and edge {} has only lane {lane} (sumo.net: a network with two \
+                     lanes or more, such as the default)",
+                    s.edge
+                )));
+            };
+            side_lanes.push(beside);
+        }
+    }
+    Ok(side_lanes)
+}
+
 /// Checks the network, lane and that the platoon stays on the road for the whole run (from the
 /// native run, which SUMO reproduces to 1e-9 m). Errors are config errors naming the key.
 pub fn plan<'a>(
@@ -345,30 +414,7 @@ pub fn plan<'a>(
             format!("must be at least the vehicle length ({longest} m) so every vehicle starts on the road"),
         ));
     }
-    // Platoon 0 runs; the others are the same shifted back (to well under a millimetre).
-    let back = scenario.fleet.offset(scenario.fleet.platoons - 1);
-    let (mut lo, mut hi) = ((f64::INFINITY, 0.0), (f64::NEG_INFINITY, 0.0));
-    let mut platoon0 = scenario.clone();
-    platoon0.fleet.platoons = 1;
-    platoon_sim::run(platoon0, |rows| {
-        for r in rows {
-            if r.p - back < lo.0 {
-                lo = (r.p - back, r.t);
-            }
-            if r.p > hi.0 {
-                hi = (r.p, r.t);
-            }
-        }
-    })?;
-    if let platoon_config::LeaderDrive::Sumo { speed_mps, .. } = &config.leader.drive {
-        // SUMO drives the leader at most at its desired speed (or its initial one).
-        let (p0, v0) = (scenario.initial[0][0], scenario.initial[0][1]);
-        let t = scenario.steps as f64 * scenario.dt();
-        let far = p0 + v0.max(*speed_mps) * t;
-        if far > hi.0 {
-            hi = (far, t);
-        }
-    }
+    let (lo, hi) = reach(config, scenario)?;
     if lo.0 + offset < longest {
         return Err(config_error(
             config_file,
@@ -394,33 +440,7 @@ pub fn plan<'a>(
             ),
         ));
     }
-    // A leaver changes to the lane beside its platoon's, and a joiner from beside starts
-    // there: the next lane to the left, else to the right.
-    let mut side_lanes = Vec::new();
-    if scenario.changes_lanes() {
-        let lanes_error = |message: String| config_error(config_file, "maneuvers", message);
-        if road.is_some() {
-            return Err(lanes_error(
-                "on SUMO a leaver or a joiner from beside changes lanes on one edge; sumo.route \
-                 has several"
-                    .into(),
-            ));
-        }
-        for &lane in &scenario.fleet.lanes {
-            let beside = [lane + 1, lane.wrapping_sub(1)]
-                .into_iter()
-                .find(|l| lanes.iter().any(|(i, _)| i == l));
-            let Some(beside) = beside else {
-                return Err(lanes_error(format!(
-                    "on SUMO a leaver or a joiner from beside uses the lane beside the \
-                     platoon's, and edge {} has only lane {lane} (sumo.net: a network with two \
-                     lanes or more, such as the default)",
-                    s.edge
-                )));
-            };
-            side_lanes.push(beside);
-        }
-    }
+    let side_lanes = side_lanes(config_file, scenario, s, &lanes, road.is_some())?;
     Ok(SumoPlan {
         config,
         scenario,
