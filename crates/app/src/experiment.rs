@@ -145,9 +145,10 @@ macro_rules! refuse {
 pub(crate) use refuse;
 
 /// What every experiment is: options checked before anything runs, a base config it may
-/// refuse, a run on the base that returns its result in memory (given a run directory it also
-/// writes its files there, as `platoon experiment <NAME>` does), and the text that result
-/// prints. [`run`] runs any of them; each also has a function of its own (`controllers`, ...).
+/// refuse, its cells measured on the base (results in memory; given a run directory, the
+/// runs' own directories there), its tables and figures written into that directory, and the
+/// text it prints. [`run`] runs any of them; each also has a function of its own
+/// (`controllers`, ...) that is [`run`] of it.
 pub trait Experiment: Sized {
     /// Its options (`()` when it has none).
     type Options;
@@ -163,19 +164,22 @@ pub trait Experiment: Sized {
     fn check_base(_base: &Base) -> Result<()> {
         Ok(())
     }
-    /// Runs it on `base`; with `out`, writes its files (and its runs' directories) there.
-    fn run(
+    /// Measures its cells on `base`; with `out`, writes its config.toml and its runs'
+    /// directories there.
+    fn measure(
         base: &Base,
         opts: &Self::Options,
         out: Option<&RunDir>,
         progress: &dyn Progress,
     ) -> Result<Self>;
+    /// Writes its tables (`<name>.csv`, `<name>.md`) and figures into `dir`.
+    fn write(&self, base: &Base, opts: &Self::Options, dir: &RunDir) -> Result<()>;
     /// Its table as `platoon experiment` prints it (the Markdown of its `.md` file).
     fn summary(&self) -> String;
 }
 
-/// Runs the experiment `E` on `base` (its options and the base checked first); with `out`,
-/// its files are written there.
+/// Runs the experiment `E` on `base`: its options and the base checked, its cells measured,
+/// and with `out` its files written there.
 pub fn run<E: Experiment>(
     base: &Base,
     opts: &E::Options,
@@ -184,36 +188,9 @@ pub fn run<E: Experiment>(
 ) -> Result<E> {
     E::validate(opts)?;
     E::check_base(base)?;
-    E::run(base, opts, out, progress)
+    let result = E::measure(base, opts, out, progress)?;
+    written(result, out, |r, dir| r.write(base, opts, dir))
 }
-
-/// The [`Experiment`] whose result is `$result`, with options `$options` (their `validate`),
-/// run by the function `$run`, its summary its `markdown`.
-macro_rules! experiment {
-    ($result:ty, $options:ty, $name:literal, $dir:literal, $base:ident, $run:expr) => {
-        impl $crate::experiment::Experiment for $result {
-            type Options = $options;
-            const NAME: &'static str = $name;
-            const DIR: &'static str = $dir;
-            const BASE: platoon_config::Embedded = platoon_config::Embedded::$base;
-            fn validate(opts: &Self::Options) -> $crate::experiment::Result<()> {
-                opts.validate()
-            }
-            fn run(
-                base: &$crate::experiment::Base,
-                opts: &Self::Options,
-                out: Option<&platoon_output::rundir::RunDir>,
-                progress: &dyn $crate::progress::Progress,
-            ) -> $crate::experiment::Result<Self> {
-                $run(base, opts, out, progress)
-            }
-            fn summary(&self) -> String {
-                self.markdown.clone()
-            }
-        }
-    };
-}
-pub(crate) use experiment;
 
 /// The scenario an experiment starts from: its config, what it runs, and how errors name it.
 #[derive(Debug, Clone)]

@@ -414,7 +414,7 @@ fn experiment<E: platoon_app::experiment::Experiment>(
     let base = Base::load(config, E::BASE)?;
     E::check_base(&base)?;
     output.write(E::DIR, |dir| {
-        Ok(E::run(&base, &opts, Some(dir), &bar)?.summary())
+        Ok(platoon_app::experiment::run::<E>(&base, &opts, Some(dir), &bar)?.summary())
     })
 }
 

@@ -1,8 +1,8 @@
 //! Every misbehaviour detector against every attack of an insider, measured against ground
 //! truth, with and without a reaction ([`detection`]).
-use super::{refuse, write_config, write_table, written, Base, ExperimentError, Result};
+use super::{refuse, write_config, write_table, Base, Experiment, ExperimentError, Result};
 use crate::progress::Progress;
-use platoon_config::{Attack, DetectionConfig, LinkAttackConfig, LinkKindConfig};
+use platoon_config::{Attack, DetectionConfig, Embedded, LinkAttackConfig, LinkKindConfig};
 use platoon_control::{FallbackMode, Reaction};
 use platoon_output::plots;
 use platoon_output::rundir::RunDir;
@@ -282,7 +282,16 @@ pub fn detection(
     out: Option<&RunDir>,
     progress: &dyn Progress,
 ) -> Result<Detection> {
-    opts.validate()?;
+    super::run::<Detection>(base, opts, out, progress)
+}
+
+/// [`detection`]'s cells (and their runs' directories in `out`), without its tables and figures.
+fn measure(
+    base: &Base,
+    opts: &DetectionOptions,
+    out: Option<&RunDir>,
+    progress: &dyn Progress,
+) -> Result<Detection> {
     let prepared = prepare(&base.config, opts);
     write_config(out, &prepared)?;
     let cells = cells(opts);
@@ -322,9 +331,7 @@ pub fn detection(
         }
     }
     let markdown = markdown(&rows, opts);
-    written(Detection { rows, markdown }, out, |r, dir| {
-        r.write(opts, dir)
-    })
+    Ok(Detection { rows, markdown })
 }
 
 /// The base config as every run of [`detection`] shares it: no DoS, the attacks and detection
@@ -569,7 +576,7 @@ fn markdown(rows: &[DetectionRow], opts: &DetectionOptions) -> String {
 }
 
 impl Detection {
-    fn write(&self, opts: &DetectionOptions, dir: &RunDir) -> Result<()> {
+    fn write_files(&self, opts: &DetectionOptions, dir: &RunDir) -> Result<()> {
         write_table(dir, "detection", &self.rows, &self.markdown)?;
         if opts.reactions.contains(&Reaction::Log) && !opts.attacks.is_empty() {
             f1_heatmap(&dir.path("f1.png"), &self.rows, opts)
@@ -724,11 +731,26 @@ fn centred(x: f64, names: &[String]) -> String {
     }
 }
 
-super::experiment!(
-    Detection,
-    DetectionOptions,
-    "detection",
-    "runs/detection",
-    Paper,
-    detection
-);
+impl Experiment for Detection {
+    type Options = DetectionOptions;
+    const NAME: &'static str = "detection";
+    const DIR: &'static str = "runs/detection";
+    const BASE: Embedded = Embedded::Paper;
+    fn validate(opts: &DetectionOptions) -> Result<()> {
+        opts.validate()
+    }
+    fn measure(
+        base: &Base,
+        opts: &DetectionOptions,
+        out: Option<&RunDir>,
+        progress: &dyn Progress,
+    ) -> Result<Self> {
+        measure(base, opts, out, progress)
+    }
+    fn write(&self, _base: &Base, opts: &DetectionOptions, dir: &RunDir) -> Result<()> {
+        self.write_files(opts, dir)
+    }
+    fn summary(&self) -> String {
+        self.markdown.clone()
+    }
+}

@@ -94,7 +94,16 @@ pub fn topologies(
     out: Option<&RunDir>,
     progress: &dyn Progress,
 ) -> Result<Topologies> {
-    opts.validate()?;
+    super::run::<Topologies>(base, opts, out, progress)
+}
+
+/// [`topologies`]'s cells (and their runs' directories in `out`), without its tables and figures.
+fn measure(
+    base: &Base,
+    opts: &TopologiesOptions,
+    out: Option<&RunDir>,
+    progress: &dyn Progress,
+) -> Result<Topologies> {
     let ((phi, rho, eta), a2) = dynamic_with_bounds(&base.scenario)?;
     let base_scenario = &base.scenario;
     let tau = base_scenario.control.tau_nominal;
@@ -157,7 +166,7 @@ pub fn topologies(
         }
     }
     progress.finish();
-    written(Topologies { rows }, out, |r, dir| r.write(opts, dir))
+    Ok(Topologies { rows })
 }
 
 /// Fig. 10's topologies, as its rows name them.
@@ -168,7 +177,7 @@ const TOPOLOGIES: [(&str, Preset); 3] = [
 ];
 
 impl Topologies {
-    fn write(&self, opts: &TopologiesOptions, dir: &RunDir) -> Result<()> {
+    fn write_files(&self, opts: &TopologiesOptions, dir: &RunDir) -> Result<()> {
         let rows = &self.rows;
         write_csv(dir, "topologies", rows)?;
         let conditions = ["nominal", "uncertainty", "conservative", "dos"];
@@ -218,13 +227,16 @@ impl Experiment for Topologies {
     fn check_base(base: &Base) -> Result<()> {
         check_topologies_base(base)
     }
-    fn run(
+    fn measure(
         base: &Base,
         opts: &TopologiesOptions,
         out: Option<&RunDir>,
         progress: &dyn Progress,
     ) -> Result<Self> {
-        topologies(base, opts, out, progress)
+        measure(base, opts, out, progress)
+    }
+    fn write(&self, _base: &Base, opts: &TopologiesOptions, dir: &RunDir) -> Result<()> {
+        self.write_files(opts, dir)
     }
     /// One line per topology, size and condition (varsigma1, c, beta1/beta2), in columns.
     fn summary(&self) -> String {

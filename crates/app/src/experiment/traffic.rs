@@ -1,11 +1,11 @@
 //! Cut-ins by law and attack ([`traffic`]).
 use super::{
     bars_by_law, configure_law, in_formation, keep_law_spacing, on_standstill, refuse, repeats,
-    walk, write_config, write_table, written, Base, ExperimentError, Result,
+    walk, write_config, write_table, Base, Experiment, ExperimentError, Result,
 };
 use crate::error::OtherError;
 use crate::progress::Progress;
-use platoon_config::{LawName, LinkAttackConfig, LinkKindConfig, PlantKind};
+use platoon_config::{Embedded, LawName, LinkAttackConfig, LinkKindConfig, PlantKind};
 use platoon_output::plots;
 use platoon_output::rundir::RunDir;
 use platoon_topology::Preset;
@@ -144,7 +144,16 @@ pub fn traffic(
     out: Option<&RunDir>,
     progress: &dyn Progress,
 ) -> Result<Traffic> {
-    opts.validate()?;
+    super::run::<Traffic>(base, opts, out, progress)
+}
+
+/// [`traffic`]'s cells (and their runs' directories in `out`), without its tables and figures.
+fn measure(
+    base: &Base,
+    opts: &TrafficOptions,
+    out: Option<&RunDir>,
+    progress: &dyn Progress,
+) -> Result<Traffic> {
     if base.config.cut_ins.is_empty() {
         refuse!(
             Base,
@@ -202,7 +211,7 @@ pub fn traffic(
         |c| cell(base, &c, on),
     )?;
     let markdown = markdown(&rows);
-    written(Traffic { rows, markdown }, out, |r, dir| r.write(opts, dir))
+    Ok(Traffic { rows, markdown })
 }
 
 /// Where a cell runs: in process, or on SUMO with its run directory in `runs`.
@@ -434,7 +443,7 @@ fn markdown(rows: &[TrafficRow]) -> String {
 }
 
 impl Traffic {
-    fn write(&self, opts: &TrafficOptions, dir: &RunDir) -> Result<()> {
+    fn write_files(&self, opts: &TrafficOptions, dir: &RunDir) -> Result<()> {
         write_table(dir, "traffic", &self.rows, &self.markdown)?;
         let categories: Vec<String> = opts.attacks.clone();
         for &gap in &opts.gaps_m {
@@ -460,11 +469,26 @@ impl Traffic {
     }
 }
 
-super::experiment!(
-    Traffic,
-    TrafficOptions,
-    "traffic",
-    "runs/traffic",
-    CutIn,
-    traffic
-);
+impl Experiment for Traffic {
+    type Options = TrafficOptions;
+    const NAME: &'static str = "traffic";
+    const DIR: &'static str = "runs/traffic";
+    const BASE: Embedded = Embedded::CutIn;
+    fn validate(opts: &TrafficOptions) -> Result<()> {
+        opts.validate()
+    }
+    fn measure(
+        base: &Base,
+        opts: &TrafficOptions,
+        out: Option<&RunDir>,
+        progress: &dyn Progress,
+    ) -> Result<Self> {
+        measure(base, opts, out, progress)
+    }
+    fn write(&self, _base: &Base, opts: &TrafficOptions, dir: &RunDir) -> Result<()> {
+        self.write_files(opts, dir)
+    }
+    fn summary(&self) -> String {
+        self.markdown.clone()
+    }
+}
