@@ -44,8 +44,6 @@ pub fn all(a: All) -> Result<()> {
     // Read before anything runs: the commit that measures every section below.
     let commit = commit();
     println!("benchmarking commit {commit}");
-    let measured =
-        |command: &str| format!("Measured by `platoon {command}` at commit `{commit}`.\n");
     let lat = latency(Latency {
         out: Some(out.join("latency")),
         force: true,
@@ -92,10 +90,31 @@ pub fn all(a: All) -> Result<()> {
             .unwrap_or_else(|| "unknown CPU".into()),
         describe_halt_poll(lat.guest_halt_poll_ns.as_deref())
     );
+    latency_section(&mut md, &commit, &lat);
+    step_section(&mut md, &commit, &steps);
+    peers_section(&mut md, &peer_rows, &ratios);
+    // What was measured by hand (a `### ... (measured by hand` subsection of the report being
+    // replaced) is carried over: no run of `bench all` drops it.
+    let previous = std::fs::read_to_string(&a.markdown).unwrap_or_default();
+    md.push_str(&hand_sections(&previous));
+    design_section(&mut md, &commit, &designs, &checks);
+    campaign_section(&mut md, &commit, &campaigns);
+    search_section(&mut md, &commit, &searches);
+    // Written whole or not at all: a killed run leaves the previous report.
+    let partial = a.markdown.with_extension("md.partial");
+    std::fs::write(&partial, md)
+        .and_then(|()| std::fs::rename(&partial, &a.markdown))
+        .with_context(|| format!("writing {}", a.markdown.display()))?;
+    println!("wrote {}", a.markdown.display());
+    Ok(())
+}
+
+/// BENCHMARKS.md's section of `platoon bench latency`: the hops and the step overhead.
+fn latency_section(md: &mut String, commit: &str, lat: &crate::latency::LatencyReport) {
     let _ = writeln!(
         md,
         "## V2V hop and step overhead (`platoon bench latency`)\n\n{}",
-        measured("bench latency")
+        measured(commit, "bench latency")
     );
     let _ = writeln!(
         md,
@@ -115,10 +134,7 @@ pub fn all(a: All) -> Result<()> {
     for r in &lat.rows {
         let (figures, over) = r.figures();
         let [p50, p90, p99, p999, max] = figures.map(|x| format!("{x:.2}"));
-        markdown::row(
-            &mut md,
-            &[&r.quantity, &p50, &p90, &p99, &p999, &max, &over],
-        );
+        markdown::row(md, &[&r.quantity, &p50, &p90, &p99, &p999, &max, &over]);
     }
     let _ = writeln!(
         md,
@@ -160,10 +176,14 @@ pub fn all(a: All) -> Result<()> {
             "what the one-core rows do not pay is the wake-up of a process on the other core; `platoon run --cpus 0` avoids it"
         }
     );
+}
+
+/// BENCHMARKS.md's section of `platoon bench step`: the step cost against the size.
+fn step_section(md: &mut String, commit: &str, steps: &[crate::step::StepRow]) {
     let _ = writeln!(
         md,
         "## Step cost against size (`platoon bench step`)\n\n{}",
-        measured("bench step")
+        measured(commit, "bench step")
     );
     let _ = writeln!(md, "Platoons of 4 followers (PF, dynamic ETM, no DoS), 5 simulated seconds per case, dt = 0.01 s, every case run in 3 rounds (interleaved). p50 µs per step, each figure the median over the rounds:\n");
     let _ = writeln!(md, "Modes ending in -1cpu run the nodes on one core (`platoon run --cpus`). Peak RSS is the sum over every process of the run (`platoon run` and its nodes; `timing.json` has each), in MiB.\n");
@@ -183,9 +203,9 @@ pub fn all(a: All) -> Result<()> {
         "peak RSS",
     ]));
     let f = |x: Option<f64>| x.map_or("-".to_string(), |v| format!("{v:.1}"));
-    for r in &steps {
+    for r in steps {
         markdown::row(
-            &mut md,
+            md,
             &[
                 &r.mode,
                 &r.followers,
@@ -257,15 +277,19 @@ pub fn all(a: All) -> Result<()> {
         md,
         "The scaling plot with the least-squares lines is runs/bench/step/step.png.\n"
     );
-    peers_section(&mut md, &peer_rows, &ratios);
-    // What was measured by hand (a `### ... (measured by hand` subsection of the report being
-    // replaced) is carried over: no run of `bench all` drops it.
-    let previous = std::fs::read_to_string(&a.markdown).unwrap_or_default();
-    md.push_str(&hand_sections(&previous));
+}
+
+/// BENCHMARKS.md's section of `platoon bench design`: the LMI design and check times.
+fn design_section(
+    md: &mut String,
+    commit: &str,
+    designs: &[crate::design::DesignRow],
+    checks: &[crate::design::CheckRow],
+) {
     let _ = writeln!(
         md,
         "## LMI design time (`platoon bench design`)\n\n{}",
-        measured("bench design")
+        measured(commit, "bench design")
     );
     md.push_str(&markdown::header(&[
         "followers (TPSF)",
@@ -276,9 +300,9 @@ pub fn all(a: All) -> Result<()> {
         "designed on",
     ]));
     let ratio = |x: Option<f64>| x.map_or("infeasible".to_string(), |x| format!("{x:.1}"));
-    for r in &designs {
+    for r in designs {
         markdown::row(
-            &mut md,
+            md,
             &[
                 &r.followers,
                 &format_args!("{:.2}", r.seconds),
@@ -307,7 +331,7 @@ pub fn all(a: All) -> Result<()> {
         "string stability (s)",
         "all (s)",
     ]));
-    for r in &checks {
+    for r in checks {
         let [common, block_diagonal, decay, spectrum, string, all] = [
             r.common_s,
             r.block_diagonal_s,
@@ -318,7 +342,7 @@ pub fn all(a: All) -> Result<()> {
         ]
         .map(|x| format!("{x:.2}"));
         markdown::row(
-            &mut md,
+            md,
             &[
                 &r.followers,
                 &common,
@@ -338,10 +362,14 @@ pub fn all(a: All) -> Result<()> {
             "\nThe check time grows as N^{e:.2} (least squares on log-log). Target: under 60 s for N = 100."
         );
     }
+}
+
+/// BENCHMARKS.md's section of `platoon bench campaign`: the campaign throughput.
+fn campaign_section(md: &mut String, commit: &str, campaigns: &[CampaignRow]) {
     let _ = writeln!(
         md,
         "\n## Campaign throughput (`platoon bench campaign`)\n\n{}",
-        measured("bench campaign")
+        measured(commit, "bench campaign")
     );
     let _ = writeln!(
         md,
@@ -360,9 +388,9 @@ pub fn all(a: All) -> Result<()> {
         "cells/s",
         "ms per cell",
     ]));
-    for r in &campaigns {
+    for r in campaigns {
         markdown::row(
-            &mut md,
+            md,
             &[
                 &r.executor,
                 &r.cells,
@@ -437,10 +465,14 @@ pub fn all(a: All) -> Result<()> {
             );
         }
     }
+}
+
+/// BENCHMARKS.md's section of `platoon bench search`: the search's evaluations per second.
+fn search_section(md: &mut String, commit: &str, searches: &[crate::search::SearchRow]) {
     let _ = writeln!(
         md,
         "\n## Worst-case DoS search (`platoon bench search`)\n\n{}",
-        measured("bench search")
+        measured(commit, "bench search")
     );
     let _ = writeln!(
         md,
@@ -456,9 +488,9 @@ pub fn all(a: All) -> Result<()> {
         "ms per evaluation",
         "largest spacing error found (m)",
     ]));
-    for r in &searches {
+    for r in searches {
         markdown::row(
-            &mut md,
+            md,
             &[
                 &r.jobs,
                 &r.evaluations,
@@ -477,13 +509,11 @@ pub fn all(a: All) -> Result<()> {
             if r.wall_s < 5.0 { "met" } else { "missed" }
         );
     }
-    // Written whole or not at all: a killed run leaves the previous report.
-    let partial = a.markdown.with_extension("md.partial");
-    std::fs::write(&partial, md)
-        .and_then(|()| std::fs::rename(&partial, &a.markdown))
-        .with_context(|| format!("writing {}", a.markdown.display()))?;
-    println!("wrote {}", a.markdown.display());
-    Ok(())
+}
+
+/// Who measured a section, and at which commit.
+fn measured(commit: &str, command: &str) -> String {
+    format!("Measured by `platoon {command}` at commit `{commit}`.\n")
 }
 
 /// The subsections of a report measured by hand (a `### ` heading that says "(measured by
