@@ -339,6 +339,43 @@ fn targets(
     })
 }
 
+/// The reference schedule (`reference`: each jam's start and duration, s, on the channel),
+/// admissible under every runnable problem's budget.
+fn reference(
+    pairs: Option<&[[f64; 2]]>,
+    problems: &[Problem],
+    err: &dyn Fn(&str, String) -> ConfigError,
+) -> Result<Option<Schedule>, ConfigError> {
+    Ok(match pairs {
+        None => None,
+        Some(pairs) => {
+            let s = Schedule {
+                jams: pairs
+                    .iter()
+                    .map(|&[start_s, duration_s]| platoon_search::Jamming {
+                        start_s,
+                        duration_s,
+                        target: Target::Channel,
+                    })
+                    .collect(),
+            };
+            for p in problems.iter().filter(|p| p.not_run.is_none()) {
+                let c = p.budget.certify(&s, p.grid.horizon());
+                if !c.holds {
+                    return Err(err(
+                        "reference",
+                        format!(
+                            "the budget refuses it ({}): a reference must be admissible",
+                            c.violation.unwrap_or_default()
+                        ),
+                    ));
+                }
+            }
+            Some(s)
+        }
+    })
+}
+
 /// Parses and resolves search text (`file` names it in errors and anchors `base`).
 pub fn parse(text: &str, file: &Path, evaluations: Option<usize>) -> Result<Search, ConfigError> {
     let mut spec: SearchFile = platoon_config::deserialize(text, file)?;
@@ -459,34 +496,7 @@ pub fn parse(text: &str, file: &Path, evaluations: Option<usize>) -> Result<Sear
     spec.search
         .validate()
         .map_err(|e| err(&e.key, e.message.clone()))?;
-    let reference = match &spec.reference {
-        None => None,
-        Some(pairs) => {
-            let s = Schedule {
-                jams: pairs
-                    .iter()
-                    .map(|&[start_s, duration_s]| platoon_search::Jamming {
-                        start_s,
-                        duration_s,
-                        target: Target::Channel,
-                    })
-                    .collect(),
-            };
-            for p in problems.iter().filter(|p| p.not_run.is_none()) {
-                let c = p.budget.certify(&s, p.grid.horizon());
-                if !c.holds {
-                    return Err(err(
-                        "reference",
-                        format!(
-                            "the budget refuses it ({}): a reference must be admissible",
-                            c.violation.unwrap_or_default()
-                        ),
-                    ));
-                }
-            }
-            Some(s)
-        }
-    };
+    let reference = reference(spec.reference.as_deref(), &problems, &err)?;
     Ok(Search {
         file: file.to_path_buf(),
         base_toml: platoon_config::to_toml(&base),
