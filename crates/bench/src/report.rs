@@ -356,7 +356,7 @@ fn design_section(
             ],
         );
     }
-    if let Some(e) = growth_exponent(&checks) {
+    if let Some(e) = growth_exponent(checks) {
         let _ = writeln!(
             md,
             "\nThe check time grows as N^{e:.2} (least squares on log-log). Target: under 60 s for N = 100."
