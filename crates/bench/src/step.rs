@@ -2,7 +2,7 @@
 //! transport and stage, with SUMO-driven peers.
 use anyhow::{bail, Context, Result};
 use std::fmt::Write as _;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::Command;
 
 /// What `platoon bench step` measures.
@@ -378,35 +378,7 @@ pub fn step(a: Step) -> Result<StepReport> {
                 let traffic = mode == "sumo-traffic";
                 std::fs::write(&config, fleet_config(n, a.seconds, sumo, traffic)?)?;
                 let case = dir.path(&format!("{mode}-{n}"));
-                let transport = if mode == "inproc" {
-                    "inproc"
-                } else {
-                    "iceoryx2"
-                };
-                let mut cmd = Command::new(&exe);
-                cmd.args([
-                    "run",
-                    config.to_str().unwrap_or_default(),
-                    "--no-plots",
-                    "--force",
-                    "--transport",
-                    transport,
-                    "--out",
-                ])
-                .arg(&case);
-                if mode.ends_with("-1cpu") {
-                    cmd.arg("--cpus").arg(one_cpu.as_str());
-                }
-                let o = cmd
-                    .env("PLATOON_STEP_TIMEOUT", "30")
-                    .output()
-                    .with_context(|| format!("running the {mode} case with {n} followers"))?;
-                if !o.status.success() {
-                    bail!(
-                        "the {mode} case with {n} followers failed: {}",
-                        String::from_utf8_lossy(&o.stderr).trim()
-                    );
-                }
+                run_case(&exe, &config, &case, mode, n, &one_cpu)?;
                 let read = |f: &str| -> Option<serde_json::Value> {
                     serde_json::from_str(&std::fs::read_to_string(case.join(f)).ok()?).ok()
                 };
@@ -430,39 +402,15 @@ pub fn step(a: Step) -> Result<StepReport> {
                             .with_context(|| format!("running the peers for {n} followers"))?,
                     );
                 }
-                let p = |v: &serde_json::Value, k: &str| v[k]["p50_us"].as_f64();
-                let step_p50 = p(&timing, "step").unwrap_or(f64::NAN);
-                let dt = 0.01;
-                rows.push(StepRow {
+                rows.push(step_row(
                     round,
-                    mode: mode.clone(),
-                    followers: n,
-                    vehicles: n / 4 * 5,
-                    steps: (a.seconds / dt).round() as u64 + 1,
-                    step_p50_us: step_p50,
-                    step_p99_us: timing["step"]["p99_us"].as_f64().unwrap_or(f64::NAN),
-                    real_time_factor: dt * 1e6 / step_p50,
-                    plant_p50_us: p(&timing, "plant"),
-                    controller_p50_us: p(&timing, "controller_tx")
-                        .zip(p(&timing, "controller_rx"))
-                        .map(|(x, y)| x + y),
-                    injector_p50_us: p(&timing, "injector"),
-                    sumo_step_p50_us: sumo
-                        .as_ref()
-                        .and_then(|s| s["sumo_step"]["p50_us"].as_f64()),
-                    bridge_p50_us: sumo
-                        .as_ref()
-                        .and_then(|s| s["bridge_step"]["p50_us"].as_f64()),
-                    sumo_step_tight_p50_us: tight
-                        .as_ref()
-                        .and_then(|t| t["sumo_step_p50_us"].as_f64()),
-                    bridge_tight_p50_us: tight
-                        .as_ref()
-                        .and_then(|t| t["bridge_step_p50_us"].as_f64()),
-                    peak_rss_mib: timing["peak_rss_mib"]
-                        .as_object()
-                        .map(|m| m.values().filter_map(|v| v.as_f64()).sum()),
-                });
+                    mode,
+                    n,
+                    a.seconds,
+                    &timing,
+                    sumo.as_ref(),
+                    tight.as_ref(),
+                ));
                 bar.inc(1);
             }
         }
@@ -524,13 +472,29 @@ pub fn step(a: Step) -> Result<StepReport> {
             .as_bytes(),
     )?;
     let path = dir.commit()?;
+    print_table(&rows, &fits, &peer_rows, &ratios);
+    println!("outputs: {}", path.display());
+    Ok(StepReport {
+        rows,
+        peers: peer_rows,
+        ratios,
+    })
+}
+
+/// The step costs, the fits of cost against size and the peers' ratios, on stdout.
+fn print_table(
+    rows: &[StepRow],
+    fits: &[serde_json::Value],
+    peer_rows: &[PeerRow],
+    ratios: &[PeerRatio],
+) {
     println!(
         "{:<7} {:>6} {:>9} {:>11} {:>10} {:>10} {:>10} {:>10} {:>10}",
         "mode", "N", "vehicles", "step p50", "x realtime", "plant", "control", "injector", "SUMO"
     );
     // A stage a mode does not have (in process: no plant or injector process) prints "-".
     let stage = |x: Option<f64>| x.map_or(String::from("-"), |x| format!("{x:.1}"));
-    for r in &rows {
+    for r in rows {
         println!(
             "{:<7} {:>6} {:>9} {:>9.1}µs {:>10.1} {:>10} {:>10} {:>10} {:>10}",
             r.mode,
@@ -544,7 +508,7 @@ pub fn step(a: Step) -> Result<StepReport> {
             stage(r.sumo_step_p50_us)
         );
     }
-    for f in &fits {
+    for f in fits {
         let mode = f["mode"].as_str().unwrap_or_default();
         match (
             f["intercept_us"].as_f64(),
@@ -561,7 +525,7 @@ pub fn step(a: Step) -> Result<StepReport> {
             "\nthe same fleet driven by SUMO itself (step p50, and our sumo step as a ratio, the \
              median of the rounds' ratios, then each round's):"
         );
-        for p in &peer_rows {
+        for p in peer_rows {
             let r = ratios
                 .iter()
                 .find(|r| r.peer == p.peer && r.followers == p.followers);
@@ -581,12 +545,86 @@ pub fn step(a: Step) -> Result<StepReport> {
             );
         }
     }
-    println!("outputs: {}", path.display());
-    Ok(StepReport {
-        rows,
-        peers: peer_rows,
-        ratios,
-    })
+}
+
+/// `platoon run` (the binary `exe`) of the case `mode` with `n` followers: `config` into
+/// `case`, on the CPU `one_cpu` for a `-1cpu` mode.
+fn run_case(
+    exe: &Path,
+    config: &Path,
+    case: &Path,
+    mode: &str,
+    n: usize,
+    one_cpu: &str,
+) -> Result<()> {
+    let transport = if mode == "inproc" {
+        "inproc"
+    } else {
+        "iceoryx2"
+    };
+    let mut cmd = Command::new(exe);
+    cmd.args([
+        "run",
+        config.to_str().unwrap_or_default(),
+        "--no-plots",
+        "--force",
+        "--transport",
+        transport,
+        "--out",
+    ])
+    .arg(case);
+    if mode.ends_with("-1cpu") {
+        cmd.arg("--cpus").arg(one_cpu);
+    }
+    let o = cmd
+        .env("PLATOON_STEP_TIMEOUT", "30")
+        .output()
+        .with_context(|| format!("running the {mode} case with {n} followers"))?;
+    if !o.status.success() {
+        bail!(
+            "the {mode} case with {n} followers failed: {}",
+            String::from_utf8_lossy(&o.stderr).trim()
+        );
+    }
+    Ok(())
+}
+
+/// The row of one case: its timing.json, and with SUMO its sumo.json and the tight loop's
+/// timing.
+fn step_row(
+    round: u32,
+    mode: &str,
+    n: usize,
+    seconds: f64,
+    timing: &serde_json::Value,
+    sumo: Option<&serde_json::Value>,
+    tight: Option<&serde_json::Value>,
+) -> StepRow {
+    let p = |v: &serde_json::Value, k: &str| v[k]["p50_us"].as_f64();
+    let step_p50 = p(timing, "step").unwrap_or(f64::NAN);
+    let dt = 0.01;
+    StepRow {
+        round,
+        mode: mode.to_string(),
+        followers: n,
+        vehicles: n / 4 * 5,
+        steps: (seconds / dt).round() as u64 + 1,
+        step_p50_us: step_p50,
+        step_p99_us: timing["step"]["p99_us"].as_f64().unwrap_or(f64::NAN),
+        real_time_factor: dt * 1e6 / step_p50,
+        plant_p50_us: p(timing, "plant"),
+        controller_p50_us: p(timing, "controller_tx")
+            .zip(p(timing, "controller_rx"))
+            .map(|(x, y)| x + y),
+        injector_p50_us: p(timing, "injector"),
+        sumo_step_p50_us: sumo.and_then(|s| s["sumo_step"]["p50_us"].as_f64()),
+        bridge_p50_us: sumo.and_then(|s| s["bridge_step"]["p50_us"].as_f64()),
+        sumo_step_tight_p50_us: tight.and_then(|t| t["sumo_step_p50_us"].as_f64()),
+        bridge_tight_p50_us: tight.and_then(|t| t["bridge_step_p50_us"].as_f64()),
+        peak_rss_mib: timing["peak_rss_mib"]
+            .as_object()
+            .map(|m| m.values().filter_map(|v| v.as_f64()).sum()),
+    }
 }
 
 /// BENCHMARKS.md's table of the peers: the same fleets driven by SUMO itself, our `sumo` step
