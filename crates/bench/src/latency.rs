@@ -235,105 +235,13 @@ pub fn latency(a: Latency) -> Result<LatencyReport> {
     samples.push(("raw_iceoryx2_hop_one_core", raw_one));
     samples.push(("unix_socket_hop_one_core", uds_one));
 
-    bar.set_message(format!("co-simulating {stem} over iceoryx2"));
-    let logs = dir.path("logs");
-    std::fs::create_dir_all(&logs)?;
-    // Every run names its facts (`PLATOON_RUN_FACTS`) as `platoon run` does: the Python SDK
-    // injector refuses to start without them. The runs go one after another, so each rewrites
-    // the one facts.json with its own run id.
-    let facts = |run_id: &str| -> Result<std::path::PathBuf> {
-        let f = platoon_runtime::plugin::RunFacts::of(
-            run_id,
-            &scenario,
-            platoon_config::PlantKind::Native,
-        );
-        dir.write(
-            platoon_runtime::plugin::RUN_FACTS_FILE,
-            &serde_json::to_vec_pretty(&f)?,
-        )?;
-        Ok(std::path::absolute(
-            dir.path(platoon_runtime::plugin::RUN_FACTS_FILE),
-        )?)
-    };
-    let run_id = platoon_runtime::new_run_id();
-    let opts = platoon_runtime::Options {
-        facts: Some(facts(&run_id)?),
-        run_id,
-        exe: exe.clone(),
-        config: std::path::absolute(dir.path("config.toml"))?,
-        injector: platoon_runtime::Program::Builtin,
-        controller: platoon_runtime::Program::Builtin,
-        plant: platoon_runtime::Program::Builtin,
-        traffic: 0,
-        radar: false,
-        env: Vec::new(),
-        channel_log: None,
-        log_dir: Some(logs),
-        python_path: None,
-        step_timeout: Duration::from_secs(5),
-        ready_timeout: Duration::from_secs(60),
-        stop: None,
-        observers: 0,
-        channel_first: false,
-        cpus: Vec::new(),
-    };
-    let outcome = platoon_runtime::orchestrate(&opts, &scenario, |_, _, _| {})
-        .context("the iceoryx2 co-simulation")?;
-    // The same run with the Python SDK's dos_jammer as the injector (the built-in one is
-    // written on the Rust SDK, so its stage is the Rust SDK's), and both again with the nodes
-    // on one core: a step is a chain of wake-ups, and waking a process on another core can
-    // cost more than the work (VMs that halt idle cores), which is not the SDK's cost.
-    let one_core = platoon_runtime::available_cpus()
-        .first()
-        .map_or_else(Vec::new, |&c| vec![c]);
-    let cosim = |injector: platoon_runtime::Program, cpus: &[usize]| {
-        let run_id = platoon_runtime::new_run_id();
-        let opts = platoon_runtime::Options {
-            facts: Some(facts(&run_id)?),
-            run_id,
-            injector,
-            log_dir: None,
-            cpus: cpus.to_vec(),
-            ..opts.clone()
-        };
-        Ok::<_, anyhow::Error>(platoon_runtime::orchestrate(&opts, &scenario, |_, _, _| {})?.timing)
-    };
-    bar.set_message("co-simulating with the nodes on one core");
-    let builtin_one_core = cosim(platoon_runtime::Program::Builtin, &one_core)
-        .context("the iceoryx2 co-simulation on one core")?;
-    bar.set_message("co-simulating with the Python SDK injector");
-    // The Python rows are part of the report: if they cannot be measured, the benchmark fails.
-    let python = platoon_app::sumo::ensure_venv().context(
-        "the Python SDK injector needs the bridge's Python environment (bridge/setup-venv.sh)",
-    )?;
-    let script = platoon_app::sumo::bridge_dir()?.join("examples/dos_jammer.py");
-    let program = platoon_runtime::Program::Exec {
-        program: python.clone(),
-        args: vec![script.display().to_string()],
-    };
-    // Names what failed and how to reproduce it outside the benchmark.
-    let failed = |what: &str| {
-        format!(
-            "the iceoryx2 co-simulation{what} with the Python SDK injector failed; reproduce \
-             and fix it with `platoon run --injector \"{} {}\"`{}",
-            python.display(),
-            script.display(),
-            if what.is_empty() { "" } else { " --cpus N" }
-        )
-    };
-    let python_sdk = cosim(program.clone(), &[])
-        .with_context(|| failed(""))?
-        .injector;
-    let python_sdk_one_core = cosim(program, &one_core)
-        .with_context(|| failed(" on one core"))?
-        .injector;
-    let mut sim = FleetSimulation::new(&scenario)?;
-    let mut inproc = Vec::with_capacity(scenario.steps as usize + 1);
-    while !sim.is_done() {
-        let t = Instant::now();
-        std::hint::black_box(sim.step());
-        inproc.push(t.elapsed().as_nanos() as u64);
-    }
+    let Cosims {
+        builtin,
+        builtin_one_core,
+        python_sdk,
+        python_sdk_one_core,
+    } = cosims(&dir, &exe, &scenario, &stem, &bar)?;
+    let mut inproc = inproc_steps(&scenario)?;
     bar.finish_and_clear();
 
     // Every row is required: a quantity with no samples fails the benchmark, by name.
@@ -341,7 +249,7 @@ pub fn latency(a: Latency) -> Result<LatencyReport> {
         .iter()
         .map(|(name, v)| row(name, Stats::of(&mut v.clone())))
         .collect::<Result<_>>()?;
-    let t = outcome.timing;
+    let t = builtin;
     rows.extend(
         [
             row("injector_hop", t.injector),
@@ -384,6 +292,21 @@ pub fn latency(a: Latency) -> Result<LatencyReport> {
         guest_halt_poll_ns: guest_halt_poll_ns(),
         rows,
     };
+    write_files(&dir, &report, &samples)?;
+    let path = dir.commit()?;
+
+    print_report(&report);
+    println!("outputs: {}", path.display());
+    Ok(report)
+}
+
+/// latency.csv (the rows), latency-samples.csv (every hop's time), latency.png and
+/// latency.json (the report) in `dir`.
+fn write_files(
+    dir: &platoon_output::rundir::RunDir,
+    report: &LatencyReport,
+    samples: &[(&str, Vec<u64>)],
+) -> Result<()> {
     let mut csv = csv::Writer::from_writer(dir.writer("latency.csv")?);
     for r in &report.rows {
         r.write_csv(&mut csv)?;
@@ -391,19 +314,152 @@ pub fn latency(a: Latency) -> Result<LatencyReport> {
     csv.flush()?;
     let mut raw_csv = csv::Writer::from_writer(dir.writer("latency-samples.csv")?);
     raw_csv.write_record(["method", "hop_ns"])?;
-    for (name, v) in &samples {
+    for (name, v) in samples {
         for x in v {
             raw_csv.write_record([name.to_string(), x.to_string()])?;
         }
     }
     raw_csv.flush()?;
-    platoon_output::plots::histograms(&dir.path("latency.png"), &samples)?;
+    platoon_output::plots::histograms(&dir.path("latency.png"), samples)?;
     dir.write(
         "latency.json",
-        (serde_json::to_string_pretty(&report)? + "\n").as_bytes(),
+        (serde_json::to_string_pretty(report)? + "\n").as_bytes(),
     )?;
-    let path = dir.commit()?;
+    Ok(())
+}
 
+/// The co-simulations `latency` times: the built-in injector, then with the nodes on one core,
+/// and the Python SDK's dos_jammer as the injector, both ways.
+struct Cosims {
+    builtin: platoon_runtime::timing::Timing,
+    builtin_one_core: platoon_runtime::timing::Timing,
+    python_sdk: Option<Stats>,
+    python_sdk_one_core: Option<Stats>,
+}
+
+/// Runs [`Cosims`]' co-simulations of `scenario` (`stem`) with the binary `exe`, their facts
+/// and logs in `dir`, saying which on `bar`.
+fn cosims(
+    dir: &platoon_output::rundir::RunDir,
+    exe: &std::path::Path,
+    scenario: &platoon_sim::Scenario,
+    stem: &str,
+    bar: &indicatif::ProgressBar,
+) -> Result<Cosims> {
+    bar.set_message(format!("co-simulating {stem} over iceoryx2"));
+    let logs = dir.path("logs");
+    std::fs::create_dir_all(&logs)?;
+    // Every run names its facts (`PLATOON_RUN_FACTS`) as `platoon run` does: the Python SDK
+    // injector refuses to start without them. The runs go one after another, so each rewrites
+    // the one facts.json with its own run id.
+    let facts = |run_id: &str| -> Result<std::path::PathBuf> {
+        let f = platoon_runtime::plugin::RunFacts::of(
+            run_id,
+            scenario,
+            platoon_config::PlantKind::Native,
+        );
+        dir.write(
+            platoon_runtime::plugin::RUN_FACTS_FILE,
+            &serde_json::to_vec_pretty(&f)?,
+        )?;
+        Ok(std::path::absolute(
+            dir.path(platoon_runtime::plugin::RUN_FACTS_FILE),
+        )?)
+    };
+    let run_id = platoon_runtime::new_run_id();
+    let opts = platoon_runtime::Options {
+        facts: Some(facts(&run_id)?),
+        run_id,
+        exe: exe.to_path_buf(),
+        config: std::path::absolute(dir.path("config.toml"))?,
+        injector: platoon_runtime::Program::Builtin,
+        controller: platoon_runtime::Program::Builtin,
+        plant: platoon_runtime::Program::Builtin,
+        traffic: 0,
+        radar: false,
+        env: Vec::new(),
+        channel_log: None,
+        log_dir: Some(logs),
+        python_path: None,
+        step_timeout: Duration::from_secs(5),
+        ready_timeout: Duration::from_secs(60),
+        stop: None,
+        observers: 0,
+        channel_first: false,
+        cpus: Vec::new(),
+    };
+    let outcome = platoon_runtime::orchestrate(&opts, scenario, |_, _, _| {})
+        .context("the iceoryx2 co-simulation")?;
+    // The same run with the Python SDK's dos_jammer as the injector (the built-in one is
+    // written on the Rust SDK, so its stage is the Rust SDK's), and both again with the nodes
+    // on one core: a step is a chain of wake-ups, and waking a process on another core can
+    // cost more than the work (VMs that halt idle cores), which is not the SDK's cost.
+    let one_core = platoon_runtime::available_cpus()
+        .first()
+        .map_or_else(Vec::new, |&c| vec![c]);
+    let cosim = |injector: platoon_runtime::Program, cpus: &[usize]| {
+        let run_id = platoon_runtime::new_run_id();
+        let opts = platoon_runtime::Options {
+            facts: Some(facts(&run_id)?),
+            run_id,
+            injector,
+            log_dir: None,
+            cpus: cpus.to_vec(),
+            ..opts.clone()
+        };
+        Ok::<_, anyhow::Error>(platoon_runtime::orchestrate(&opts, scenario, |_, _, _| {})?.timing)
+    };
+    bar.set_message("co-simulating with the nodes on one core");
+    let builtin_one_core = cosim(platoon_runtime::Program::Builtin, &one_core)
+        .context("the iceoryx2 co-simulation on one core")?;
+    bar.set_message("co-simulating with the Python SDK injector");
+    // The Python rows are part of the report: if they cannot be measured, the benchmark fails.
+    let python = platoon_app::sumo::ensure_venv().context(
+        "the Python SDK injector needs the bridge's Python environment (bridge/setup-venv.sh)",
+    )?;
+    let script = platoon_app::sumo::bridge_dir()?.join("examples/dos_jammer.py");
+    let program = platoon_runtime::Program::Exec {
+        program: python.clone(),
+        args: vec![script.display().to_string()],
+    };
+    // Names what failed and how to reproduce it outside the benchmark.
+    let failed = |what: &str| {
+        format!(
+            "the iceoryx2 co-simulation{what} with the Python SDK injector failed; reproduce \
+             and fix it with `platoon run --injector \"{} {}\"`{}",
+            python.display(),
+            script.display(),
+            if what.is_empty() { "" } else { " --cpus N" }
+        )
+    };
+    let python_sdk = cosim(program.clone(), &[])
+        .with_context(|| failed(""))?
+        .injector;
+    let python_sdk_one_core = cosim(program, &one_core)
+        .with_context(|| failed(" on one core"))?
+        .injector;
+    Ok(Cosims {
+        builtin: outcome.timing,
+        builtin_one_core,
+        python_sdk,
+        python_sdk_one_core,
+    })
+}
+
+/// Each step's time (ns) of `scenario` run in process.
+fn inproc_steps(scenario: &platoon_sim::Scenario) -> Result<Vec<u64>> {
+    let mut sim = FleetSimulation::new(scenario)?;
+    let mut inproc = Vec::with_capacity(scenario.steps as usize + 1);
+    while !sim.is_done() {
+        let t = Instant::now();
+        std::hint::black_box(sim.step());
+        inproc.push(t.elapsed().as_nanos() as u64);
+    }
+    Ok(inproc)
+}
+
+/// The rows and the ratios against their targets, on stdout.
+fn print_report(report: &LatencyReport) {
     println!(
         "{:<28} {:>7} {:>8} {:>8} {:>8} {:>8} {:>9} {:>8}",
         "µs", "n", "p50", "p90", "p99", "p99.9", "max", "x raw"
@@ -433,8 +489,6 @@ pub fn latency(a: Latency) -> Result<LatencyReport> {
         "{}",
         describe_halt_poll(report.guest_halt_poll_ns.as_deref())
     );
-    println!("outputs: {}", path.display());
-    Ok(report)
 }
 
 #[cfg(test)]
