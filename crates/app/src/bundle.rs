@@ -3,7 +3,9 @@
 //! injectors: the first time it needs them it unpacks them (atomically) into a directory of its
 //! own version and contents, `$XDG_DATA_HOME/platoon/bundle-<version>-<hash>/` (default
 //! `~/.local/share`), laid out like the repository (`bridge/`, `sumo/`).
-use anyhow::{Context, Result};
+use crate::error::{Context, OtherError};
+
+type Result<T, E = OtherError> = std::result::Result<T, E>;
 use sha2::{Digest, Sha256};
 use std::path::{Path, PathBuf};
 

@@ -82,18 +82,24 @@ pub enum DesignError {
     Output(#[from] OutputError),
     /// Anything else (a table that could not be written).
     #[error(transparent)]
-    Other(anyhow::Error),
+    Other(crate::error::OtherError),
 }
 
 operation_error!(DesignError);
 
 impl DesignError {
-    /// The config error this is, if it is one (`platoon design` exits 2 on it), also one that a
-    /// context wrapped.
+    /// The config error this is, if it is one (`platoon design` exits 2 on it).
     pub fn config(&self) -> Option<&ConfigError> {
         match self {
             Self::Config(c) => Some(c),
-            Self::Other(e) => e.downcast_ref(),
+            _ => None,
+        }
+    }
+
+    /// The output error this is, if it is one.
+    pub fn output(&self) -> Option<&OutputError> {
+        match self {
+            Self::Output(o) => Some(o),
             _ => None,
         }
     }

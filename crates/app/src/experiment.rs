@@ -7,8 +7,9 @@
 //! returns its results in memory; given a run directory it also writes the files of
 //! `platoon experiment` there (the caller creates and commits it). Progress goes to a
 //! [`Progress`].
+use crate::error::OtherError;
 use crate::progress::Progress;
-use crate::run::{record, simulate, write_outputs, StepSink, Stop};
+use crate::run::{record, simulate, write_outputs, RunError, StepSink, Stop};
 use platoon_config::{Config, ConfigError, Embedded};
 use platoon_control::TriggerRule;
 use platoon_output::error::OutputError;
@@ -92,24 +93,44 @@ pub enum ExperimentError {
     Output(#[from] OutputError),
     /// Anything else (a table that could not be written, a run that measured nothing).
     #[error(transparent)]
-    Other(anyhow::Error),
+    Other(OtherError),
 }
 
 operation_error!(ExperimentError);
 
 impl From<platoon_topology::TopologyError> for ExperimentError {
     fn from(e: platoon_topology::TopologyError) -> Self {
-        Self::Other(e.into())
+        Self::Other(OtherError::wrap(e))
+    }
+}
+
+impl From<RunError> for ExperimentError {
+    /// A run's config and output errors are the experiment's; the rest is `Other`.
+    fn from(e: RunError) -> Self {
+        match e {
+            RunError::Config(c) | RunError::Sumo(crate::sumo::SumoError::Config(c)) => {
+                Self::Config(c)
+            }
+            RunError::Output(o) => Self::Output(o),
+            RunError::Other(o) => Self::Other(o),
+            e => Self::Other(OtherError::wrap(e)),
+        }
     }
 }
 
 impl ExperimentError {
-    /// The config error this is, if it is one (`platoon experiment` exits 2 on it), also one
-    /// that a context wrapped.
+    /// The config error this is, if it is one (`platoon experiment` exits 2 on it).
     pub fn config(&self) -> Option<&ConfigError> {
         match self {
             Self::Config(c) => Some(c),
-            Self::Other(e) => e.downcast_ref(),
+            _ => None,
+        }
+    }
+
+    /// The output error this is, if it is one.
+    pub fn output(&self) -> Option<&OutputError> {
+        match self {
+            Self::Output(o) => Some(o),
             _ => None,
         }
     }
@@ -122,6 +143,54 @@ macro_rules! refuse {
     };
 }
 pub(crate) use refuse;
+
+/// What every experiment is: options checked before anything runs, a base config it may
+/// refuse, its cells measured on the base (results in memory; given a run directory, the
+/// runs' own directories there), its tables and figures written into that directory, and the
+/// text it prints. [`run`] runs any of them; each also has a function of its own
+/// (`controllers`, ...) that is [`run`] of it.
+pub trait Experiment: Sized {
+    /// Its options (`()` when it has none).
+    type Options;
+    /// Its name: `platoon experiment <NAME>`.
+    const NAME: &'static str;
+    /// The run directory `platoon experiment` writes it into by default.
+    const DIR: &'static str;
+    /// The embedded config it starts from when given none.
+    const BASE: Embedded;
+    /// Refuses options no run can use, before anything runs.
+    fn validate(opts: &Self::Options) -> Result<()>;
+    /// Refuses a base config the experiment cannot start from, before anything runs.
+    fn check_base(_base: &Base) -> Result<()> {
+        Ok(())
+    }
+    /// Measures its cells on `base`; with `out`, writes its config.toml and its runs'
+    /// directories there.
+    fn measure(
+        base: &Base,
+        opts: &Self::Options,
+        out: Option<&RunDir>,
+        progress: &dyn Progress,
+    ) -> Result<Self>;
+    /// Writes its tables (`<name>.csv`, `<name>.md`) and figures into `dir`.
+    fn write(&self, base: &Base, opts: &Self::Options, dir: &RunDir) -> Result<()>;
+    /// Its table as `platoon experiment` prints it (the Markdown of its `.md` file).
+    fn summary(&self) -> String;
+}
+
+/// Runs the experiment `E` on `base`: its options and the base checked, its cells measured,
+/// and with `out` its files written there.
+pub fn run<E: Experiment>(
+    base: &Base,
+    opts: &E::Options,
+    out: Option<&RunDir>,
+    progress: &dyn Progress,
+) -> Result<E> {
+    E::validate(opts)?;
+    E::check_base(base)?;
+    let result = E::measure(base, opts, out, progress)?;
+    written(result, out, |r, dir| r.write(base, opts, dir))
+}
 
 /// The scenario an experiment starts from: its config, what it runs, and how errors name it.
 #[derive(Debug, Clone)]
@@ -154,7 +223,7 @@ impl Base {
 struct Rows(Vec<StepRow>);
 
 impl StepSink for Rows {
-    fn step(&mut self, rows: &[StepRow], _wire: StepWire<'_>) -> anyhow::Result<()> {
+    fn step(&mut self, rows: &[StepRow], _wire: StepWire<'_>) -> Result<(), RunError> {
         self.0.extend(rows.iter().take_while(|r| r.platoon == 0));
         Ok(())
     }

@@ -25,6 +25,7 @@ pub mod sumo;
 
 pub use campaign::CampaignError;
 pub use design::DesignError;
+pub use error::{BoxError, OtherError};
 pub use experiment::ExperimentError;
 pub use progress::Progress;
 pub use run::{RunError, RunOptions, RunOutcome, Stop};
@@ -34,11 +35,11 @@ pub use search::SearchError;
 /// co-simulated campaign cells, Dask workers' cells, a benchmark's runs): `$PLATOON_PROGRAM`
 /// when set, else this executable. The Python package sets it to its `platoon` script, since
 /// there this process is the Python interpreter.
-pub fn platoon_program() -> anyhow::Result<std::path::PathBuf> {
+pub fn platoon_program() -> Result<std::path::PathBuf, OtherError> {
     match std::env::var_os("PLATOON_PROGRAM").filter(|p| !p.is_empty()) {
         Some(p) => Ok(p.into()),
         None => {
-            use anyhow::Context;
+            use error::Context;
             std::env::current_exe().context("locating the platoon binary")
         }
     }

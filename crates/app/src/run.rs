@@ -2,8 +2,8 @@
 //! native plant or SUMO. [`run`] records into a run directory (the outputs of `platoon run`);
 //! [`record`] drives the same step loop into any [`StepSink`]; [`platoon_sim::run`] gives the
 //! summary alone, with no files at all.
+use crate::error::{Context, OtherError};
 use crate::progress::Progress;
-use anyhow::{Context, Result};
 use platoon_attacks::channel::ChannelEvent;
 use platoon_config::{Config, Transport};
 use platoon_output::plots;
@@ -24,6 +24,9 @@ use cosim::{cosimulate, peak_rss_mib};
 pub use error::{NodeFailure, RunError};
 pub use platoon_config::PlantKind;
 pub use platoon_output::run_tables::{read_tables, Plotted, RunFiles, Tables};
+
+/// The result of a run, and of the steps of one.
+pub type Result<T, E = RunError> = std::result::Result<T, E>;
 
 /// How a third-party injector composes with the built-in channel.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -156,8 +159,8 @@ pub fn apply_design(
         .with_context(|| format!("reading the design {}", file.display()))?;
     let cert: platoon_synthesis::Certificate = serde_json::from_str(&text)
         .with_context(|| format!("{} is not a certificate", file.display()))?;
-    if !cert.verify()?.holds {
-        anyhow::bail!(
+    if !cert.verify().map_err(OtherError::wrap)?.holds {
+        bail!(
             "{}: the certificate does not hold (platoon design verify says why)",
             file.display()
         );
@@ -180,7 +183,7 @@ pub fn apply_design(
         )
     });
     let platoon_config::LawParams::Paper(paper) = &mut config.control.law else {
-        anyhow::bail!(
+        bail!(
             "{}: a design is the paper's law's gain and ratio, but the config runs law = \"{}\"",
             file.display(),
             config.control.law.name()
@@ -208,12 +211,12 @@ pub fn run(
     progress: &dyn Progress,
 ) -> Result<RunOutcome, RunError> {
     if opts.injector.is_some() && opts.transport == Transport::Inproc {
-        return Err(RunError::Other(anyhow::anyhow!(
+        return Err(RunError::Other(failure!(
             "--injector needs --transport iceoryx2: an external injector is a process"
         )));
     }
     if opts.controller.is_some() && opts.transport == Transport::Inproc {
-        return Err(RunError::Other(anyhow::anyhow!(
+        return Err(RunError::Other(failure!(
             "--controller needs --transport iceoryx2: an external controller is a process"
         )));
     }
@@ -246,28 +249,28 @@ pub fn run(
     }
     let sumo_plan = if config.simulation.plant == PlantKind::Sumo {
         if config.plant.discretisation != platoon_model::Discretisation::Exact {
-            return Err(RunError::Other(anyhow::anyhow!(
+            return Err(RunError::Other(failure!(
                 "--plant sumo: the SUMO plant moves vehicles its own way; plant.discretisation = \
                  \"plexe\" is for the native plant (leave --plant out, or set discretisation = \
                  \"exact\")"
             )));
         }
         if opts.transport == Transport::Inproc {
-            return Err(RunError::Other(anyhow::anyhow!(
+            return Err(RunError::Other(failure!(
                 "the SUMO plant is a process: use --transport iceoryx2 (the default), or --plant native"
             )));
         }
-        Some(crate::sumo::plan(&opts.config_file, &config, scenario).map_err(RunError::sumo)?)
+        Some(crate::sumo::plan(&opts.config_file, &config, scenario)?)
     } else {
         None
     };
     if opts.step_timeout.is_zero() {
-        return Err(RunError::Other(anyhow::anyhow!(
+        return Err(RunError::Other(failure!(
             "--step-timeout must be a positive number of seconds"
         )));
     }
     if opts.ready_timeout.is_zero() {
-        return Err(RunError::Other(anyhow::anyhow!(
+        return Err(RunError::Other(failure!(
             "--ready-timeout must be a positive number of seconds"
         )));
     }
@@ -280,11 +283,7 @@ pub fn run(
             (rows, summary, None)
         }
         Transport::Iceoryx2 => {
-            let plant = sumo_plan
-                .as_ref()
-                .map(|p| p.launch(&dir))
-                .transpose()
-                .map_err(RunError::sumo)?;
+            let plant = sumo_plan.as_ref().map(|p| p.launch(&dir)).transpose()?;
             cosimulate(scenario, &config.output, &dir, opts, plant, stop, progress)?
         }
     };
@@ -304,6 +303,27 @@ pub fn run(
         .injector
         .as_ref()
         .is_none_or(|i| i.mode == InjectorMode::After);
+    let mut extra = extra_json(opts);
+    if let Some(plan) = &sumo_plan {
+        if let Some(report) = sumo_json(plan, &dir, &mut summary, progress)? {
+            extra.push(("sumo", report));
+        }
+    }
+    write_outputs(&dir, &config, scenario, &rows, &summary, opts.plots, &extra)?;
+    let dir = dir.commit()?;
+    let failure = failure.map(|e| RunError::from_runtime(e, &dir.join("logs")));
+    Ok(RunOutcome {
+        dir,
+        rows: rows.rows,
+        summary,
+        failure,
+        stopped,
+        compute,
+    })
+}
+
+/// summary.json's `injector` and, for a controller service of the caller's, `controller`.
+fn extra_json(opts: &RunOptions) -> Vec<(&'static str, serde_json::Value)> {
     let mut extra = vec![(
         "injector",
         match &opts.injector {
@@ -321,62 +341,60 @@ pub fn run(
     if let Some(program) = &opts.controller {
         extra.push(("controller", serde_json::json!({ "program": program })));
     }
-    if let Some(plan) = &sumo_plan {
-        // fcd.xml from what was recorded (a stopped run's too), after the run's last step.
-        // It is only a replay file: a conversion that fails (a run that ended early may have
-        // recorded nothing to write) is said in the report and on stderr, and the run is kept
-        // as it ended; its own failure, if any, stays the error.
-        let fcd = match plan.write_recorded_fcd(&dir) {
-            Ok(fcd) => fcd.map(|fcd| {
-                serde_json::json!({
-                    "file": "fcd.xml",
-                    "writer": "recorded",
-                    "period_s": fcd.period_s,
-                    "timesteps": fcd.timesteps,
-                    "vehicles": fcd.vehicles,
-                })
-            }),
-            Err(e) => {
-                if summary.complete {
-                    progress.message(&format!(
-                        "warning: fcd.xml (the replay file) was not written, the run is kept: {e:#}"
-                    ));
-                }
-                Some(serde_json::json!({ "writer": "recorded", "error": format!("{e:#}") }))
+    extra
+}
+
+/// summary.json's `sumo` (the bridge's sumo.json with the fcd.xml written from what was
+/// recorded), if there is any; a collision SUMO reported makes the run's safety severe.
+fn sumo_json(
+    plan: &crate::sumo::SumoPlan<'_>,
+    dir: &RunDir,
+    summary: &mut Summary,
+    progress: &dyn Progress,
+) -> Result<Option<serde_json::Value>> {
+    // fcd.xml from what was recorded (a stopped run's too), after the run's last step.
+    // It is only a replay file: a conversion that fails (a run that ended early may have
+    // recorded nothing to write) is said in the report and on stderr, and the run is kept
+    // as it ended; its own failure, if any, stays the error.
+    let fcd = match plan.write_recorded_fcd(dir) {
+        Ok(fcd) => fcd.map(|fcd| {
+            serde_json::json!({
+                "file": "fcd.xml",
+                "writer": "recorded",
+                "period_s": fcd.period_s,
+                "timesteps": fcd.timesteps,
+                "vehicles": fcd.vehicles,
+            })
+        }),
+        Err(e) => {
+            if summary.complete {
+                progress.message(&format!(
+                    "warning: fcd.xml (the replay file) was not written, the run is kept: {}",
+                    OtherError::report(&e)
+                ));
             }
-        };
-        // A plant that wrote no sumo.json (it died first) still has its fcd.xml reported.
-        let report =
-            crate::sumo::report(&dir)?.or_else(|| fcd.is_some().then(|| serde_json::json!({})));
-        if let Some(mut report) = report {
-            if let Some(fcd) = fcd {
-                report["fcd"] = fcd;
-            }
-            if report["collisions"]
-                .as_array()
-                .is_some_and(|c| !c.is_empty())
-            {
-                summary.safety.collided = true;
-                summary.safety.class = platoon_sim::SafetyClass::Severe;
-                if let Some(f) = &mut summary.fleet {
-                    f.collided = true;
-                    f.class = platoon_sim::SafetyClass::Severe;
-                }
-            }
-            extra.push(("sumo", report));
+            Some(serde_json::json!({ "writer": "recorded", "error": OtherError::report(&e) }))
         }
-    }
-    write_outputs(&dir, &config, scenario, &rows, &summary, opts.plots, &extra)?;
-    let dir = dir.commit()?;
-    let failure = failure.map(|e| RunError::from_runtime(e, &dir.join("logs")));
-    Ok(RunOutcome {
-        dir,
-        rows: rows.rows,
-        summary,
-        failure,
-        stopped,
-        compute,
-    })
+    };
+    // A plant that wrote no sumo.json (it died first) still has its fcd.xml reported.
+    let report = crate::sumo::report(dir)?.or_else(|| fcd.is_some().then(|| serde_json::json!({})));
+    Ok(report.map(|mut report| {
+        if let Some(fcd) = fcd {
+            report["fcd"] = fcd;
+        }
+        if report["collisions"]
+            .as_array()
+            .is_some_and(|c| !c.is_empty())
+        {
+            summary.safety.collided = true;
+            summary.safety.class = platoon_sim::SafetyClass::Severe;
+            if let Some(f) = &mut summary.fleet {
+                f.collided = true;
+                f.class = platoon_sim::SafetyClass::Severe;
+            }
+        }
+        report
+    }))
 }
 
 /// Where a run's per-step data goes, step by step, whichever transport ran it.

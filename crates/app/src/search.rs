@@ -13,7 +13,7 @@
 //! Harm is measured: every candidate's harm is read from its run's `summary.json` by the
 //! campaign metrics ([`platoon_campaign::metrics`]), so the worst schedule re-run gives the same
 //! harm, bit for bit (checked on the worst run before the directory is committed).
-use anyhow::Result;
+use crate::error::OtherError;
 use platoon_attacks::Assumption2;
 use platoon_campaign::metrics;
 use platoon_campaign::{BaseScenario, Transport, Values};
@@ -56,7 +56,7 @@ pub enum SearchError {
     },
     /// The executor failed before a batch was in (the local pool's, Dask's, the caller's).
     #[error(transparent)]
-    Executor(anyhow::Error),
+    Executor(OtherError),
     /// The worst schedule's re-run into `worst/` failed.
     #[error(transparent)]
     Worst(#[from] crate::run::RunError),
@@ -70,18 +70,37 @@ pub enum SearchError {
     },
     /// Anything else (a figure that could not be drawn, a summary that could not be read).
     #[error(transparent)]
-    Other(anyhow::Error),
+    Other(OtherError),
 }
 
 operation_error!(SearchError);
 
+impl From<crate::campaign::ExecutorError> for SearchError {
+    /// A record the executor passed on is the search's output; the rest is the executor's.
+    fn from(e: crate::campaign::ExecutorError) -> Self {
+        match e {
+            crate::campaign::ExecutorError::Output(o) => Self::Output(o),
+            crate::campaign::ExecutorError::Failed(e) => Self::Executor(e),
+        }
+    }
+}
+
 impl SearchError {
-    /// The config error this is, if it is one, also one that a context wrapped.
+    /// The config error this is, if it is one: the search file's, or the worst schedule's.
     pub fn config(&self) -> Option<&ConfigError> {
         match self {
             Self::Config(c) => Some(c),
             Self::Worst(r) => r.config(),
-            Self::Executor(e) | Self::Other(e) => e.downcast_ref(),
+            _ => None,
+        }
+    }
+
+    /// The output error this is, if it is one: the search directory's, or the worst
+    /// schedule's run's.
+    pub fn output(&self) -> Option<&platoon_output::error::OutputError> {
+        match self {
+            Self::Output(o) => Some(o),
+            Self::Worst(r) => r.output(),
             _ => None,
         }
     }
@@ -234,6 +253,129 @@ pub fn load(path: &Path, evaluations: Option<usize>) -> Result<Search, ConfigErr
     parse(&text, path, evaluations)
 }
 
+/// The problems' configs: the base alone, or with a `[study]` the base with each law on each
+/// topology.
+fn cases(
+    base: &Config,
+    study: Option<&StudyFile>,
+    err: &dyn Fn(&str, String) -> ConfigError,
+) -> Result<Vec<Case>, ConfigError> {
+    Ok(match study {
+        None => vec![(String::new(), base.clone(), None)],
+        Some(study) => {
+            if study.laws.is_empty() || study.topologies.is_empty() {
+                return Err(err(
+                    "study.laws",
+                    "a study needs at least one law and one topology".into(),
+                ));
+            }
+            if !(study.beacon_period_s.is_finite() && study.beacon_period_s > 0.0) {
+                return Err(err(
+                    "study.beacon_period_s",
+                    format!("must be > 0 s (got {})", study.beacon_period_s),
+                ));
+            }
+            let mut v = Vec::new();
+            for &law in &study.laws {
+                for &preset in &study.topologies {
+                    let c =
+                        crate::experiment::configure_law(base, law, preset, study.beacon_period_s);
+                    v.push((
+                        format!("{}-{}", law.name(), preset.name()),
+                        c,
+                        Some((law, preset)),
+                    ));
+                }
+            }
+            v
+        }
+    })
+}
+
+/// What the budget `b` lets the attacker jam on `scenario`'s platoon (`label`): the channel,
+/// or links of its topology (all, or those `budget.links` names).
+fn targets(
+    b: &Limits,
+    scenario: &Scenario,
+    label: &str,
+    err: &dyn Fn(&str, String) -> ConfigError,
+) -> Result<Vec<Target>, ConfigError> {
+    Ok(match b.jam {
+        JamKind::Channel => {
+            if b.links.is_some() {
+                return Err(err("budget.links", "needs budget.jam = \"links\"".into()));
+            }
+            vec![Target::Channel]
+        }
+        JamKind::Links => {
+            let all: Vec<(u16, u16)> = scenario
+                .hearing()
+                .links()
+                .map(|(s, r)| (s.0, r.0))
+                .collect();
+            match &b.links {
+                None => all
+                    .iter()
+                    .map(|&(sender, receiver)| Target::Link { sender, receiver })
+                    .collect(),
+                Some(links) => {
+                    let mut t = Vec::new();
+                    for &[sender, receiver] in links {
+                        if !all.contains(&(sender, receiver)) {
+                            return Err(err(
+                                "budget.links",
+                                format!(
+                                    "{sender} -> {receiver} is not a link of the topology \
+                                     ({label})"
+                                ),
+                            ));
+                        }
+                        t.push(Target::Link { sender, receiver });
+                    }
+                    t
+                }
+            }
+        }
+    })
+}
+
+/// The reference schedule (`reference`: each jam's start and duration, s, on the channel),
+/// admissible under every runnable problem's budget.
+fn reference(
+    pairs: Option<&[[f64; 2]]>,
+    problems: &[Problem],
+    err: &dyn Fn(&str, String) -> ConfigError,
+) -> Result<Option<Schedule>, ConfigError> {
+    Ok(match pairs {
+        None => None,
+        Some(pairs) => {
+            let s = Schedule {
+                jams: pairs
+                    .iter()
+                    .map(|&[start_s, duration_s]| platoon_search::Jamming {
+                        start_s,
+                        duration_s,
+                        target: Target::Channel,
+                    })
+                    .collect(),
+            };
+            for p in problems.iter().filter(|p| p.not_run.is_none()) {
+                let c = p.budget.certify(&s, p.grid.horizon());
+                if !c.holds {
+                    return Err(err(
+                        "reference",
+                        format!(
+                            "the budget refuses it ({}): a reference must be admissible",
+                            c.violation.unwrap_or_default()
+                        ),
+                    ));
+                }
+            }
+            Some(s)
+        }
+    })
+}
+
 /// Parses and resolves search text (`file` names it in errors and anchors `base`).
 pub fn parse(text: &str, file: &Path, evaluations: Option<usize>) -> Result<Search, ConfigError> {
     let mut spec: SearchFile = platoon_config::deserialize(text, file)?;
@@ -277,36 +419,7 @@ pub fn parse(text: &str, file: &Path, evaluations: Option<usize>) -> Result<Sear
         values("grid.onset_s", &spec.grid.onset_s)?,
         values("grid.duration_s", &spec.grid.duration_s)?,
     );
-    let cases: Vec<Case> = match &spec.study {
-        None => vec![(String::new(), base.clone(), None)],
-        Some(study) => {
-            if study.laws.is_empty() || study.topologies.is_empty() {
-                return Err(err(
-                    "study.laws",
-                    "a study needs at least one law and one topology".into(),
-                ));
-            }
-            if !(study.beacon_period_s.is_finite() && study.beacon_period_s > 0.0) {
-                return Err(err(
-                    "study.beacon_period_s",
-                    format!("must be > 0 s (got {})", study.beacon_period_s),
-                ));
-            }
-            let mut v = Vec::new();
-            for &law in &study.laws {
-                for &preset in &study.topologies {
-                    let c =
-                        crate::experiment::configure_law(&base, law, preset, study.beacon_period_s);
-                    v.push((
-                        format!("{}-{}", law.name(), preset.name()),
-                        c,
-                        Some((law, preset)),
-                    ));
-                }
-            }
-            v
-        }
-    };
+    let cases = cases(&base, spec.study.as_ref(), &err)?;
     let name = platoon_campaign::file_name(spec.name.as_deref(), file, "search");
     let mut problems = Vec::new();
     for (label, mut config, case) in cases {
@@ -359,43 +472,7 @@ pub fn parse(text: &str, file: &Path, evaluations: Option<usize>) -> Result<Sear
                     .into(),
             ));
         }
-        let targets = match b.jam {
-            JamKind::Channel => {
-                if b.links.is_some() {
-                    return Err(err("budget.links", "needs budget.jam = \"links\"".into()));
-                }
-                vec![Target::Channel]
-            }
-            JamKind::Links => {
-                let all: Vec<(u16, u16)> = scenario
-                    .hearing()
-                    .links()
-                    .map(|(s, r)| (s.0, r.0))
-                    .collect();
-                match &b.links {
-                    None => all
-                        .iter()
-                        .map(|&(sender, receiver)| Target::Link { sender, receiver })
-                        .collect(),
-                    Some(links) => {
-                        let mut t = Vec::new();
-                        for &[sender, receiver] in links {
-                            if !all.contains(&(sender, receiver)) {
-                                return Err(err(
-                                    "budget.links",
-                                    format!(
-                                        "{sender} -> {receiver} is not a link of the topology \
-                                         ({label})"
-                                    ),
-                                ));
-                            }
-                            t.push(Target::Link { sender, receiver });
-                        }
-                        t
-                    }
-                }
-            }
-        };
+        let targets = targets(b, &scenario, &label, &err)?;
         let budget = Budget {
             limits: Limits {
                 assumption2: bounds,
@@ -419,34 +496,7 @@ pub fn parse(text: &str, file: &Path, evaluations: Option<usize>) -> Result<Sear
     spec.search
         .validate()
         .map_err(|e| err(&e.key, e.message.clone()))?;
-    let reference = match &spec.reference {
-        None => None,
-        Some(pairs) => {
-            let s = Schedule {
-                jams: pairs
-                    .iter()
-                    .map(|&[start_s, duration_s]| platoon_search::Jamming {
-                        start_s,
-                        duration_s,
-                        target: Target::Channel,
-                    })
-                    .collect(),
-            };
-            for p in problems.iter().filter(|p| p.not_run.is_none()) {
-                let c = p.budget.certify(&s, p.grid.horizon());
-                if !c.holds {
-                    return Err(err(
-                        "reference",
-                        format!(
-                            "the budget refuses it ({}): a reference must be admissible",
-                            c.violation.unwrap_or_default()
-                        ),
-                    ));
-                }
-            }
-            Some(s)
-        }
-    };
+    let reference = reference(spec.reference.as_deref(), &problems, &err)?;
     Ok(Search {
         file: file.to_path_buf(),
         base_toml: platoon_config::to_toml(&base),

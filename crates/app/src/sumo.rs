@@ -1,11 +1,58 @@
 //! SUMO as the plant: the bridge's Python environment, the road check, and plant.json.
-use anyhow::{bail, Context, Result};
+use crate::error::{Context, OtherError};
 use platoon_config::{Config, ConfigError};
+use platoon_output::error::OutputError;
 use platoon_output::rundir::RunDir;
 use platoon_runtime::Program;
 use platoon_sim::{PlantSpec, Scenario};
 use std::path::{Path, PathBuf};
 use std::process::Command;
+
+/// The result of SUMO's set-up.
+pub type Result<T, E = SumoError> = std::result::Result<T, E>;
+
+/// Why SUMO could not be set up for a run (the bridge, its venv, the network and the road,
+/// `plant.json`) or a run's fcd.xml written.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum SumoError {
+    /// The config's `[sumo]` (or the road it asks for) does not fit the network: the key
+    /// named (`platoon run` exits 2).
+    #[error(transparent)]
+    Config(#[from] ConfigError),
+    /// A file of the run (`plant.json`, the table fcd.xml is written from) or fcd.xml.
+    #[error(transparent)]
+    Output(#[from] OutputError),
+    /// Anything else: the bridge and its venv, a file the bridge wrote.
+    #[error(transparent)]
+    Other(OtherError),
+}
+
+operation_error!(SumoError);
+
+impl From<platoon_sim::ScenarioError> for SumoError {
+    fn from(e: platoon_sim::ScenarioError) -> Self {
+        Self::Other(OtherError::wrap(e))
+    }
+}
+
+impl SumoError {
+    /// The config error this is, if it is one.
+    pub fn config(&self) -> Option<&ConfigError> {
+        match self {
+            Self::Config(c) => Some(c),
+            _ => None,
+        }
+    }
+
+    /// The output error this is, if it is one.
+    pub fn output(&self) -> Option<&OutputError> {
+        match self {
+            Self::Output(o) => Some(o),
+            _ => None,
+        }
+    }
+}
 
 /// The bridge directory (Python plant, injector SDK, examples; `../sumo/` beside it holds the
 /// networks), found once per process in this order:
@@ -13,7 +60,7 @@ use std::process::Command;
 /// 2. the checkout this binary was built from, while the binary is inside it (`cargo run`);
 /// 3. a `bridge/` in the current directory, or beside or above the binary (a release archive);
 /// 4. the copy embedded in the binary, unpacked on first use (`crate::bundle`).
-pub fn bridge_dir() -> Result<PathBuf> {
+pub fn bridge_dir() -> Result<PathBuf, OtherError> {
     static FOUND: std::sync::OnceLock<PathBuf> = std::sync::OnceLock::new();
     if let Some(dir) = FOUND.get() {
         return Ok(dir.clone());
@@ -22,7 +69,7 @@ pub fn bridge_dir() -> Result<PathBuf> {
     Ok(FOUND.get_or_init(|| dir).clone())
 }
 
-fn find_bridge() -> Result<PathBuf> {
+fn find_bridge() -> Result<PathBuf, OtherError> {
     use crate::bundle::is_bridge;
     if let Some(dir) = std::env::var_os("PLATOON_BRIDGE_DIR").filter(|d| !d.is_empty()) {
         let dir = PathBuf::from(dir);
@@ -58,7 +105,7 @@ fn find_bridge() -> Result<PathBuf> {
 
 /// Creates `bridge/.venv` with the pinned packages if it is missing (with a progress message),
 /// and returns its Python.
-pub fn ensure_venv() -> Result<PathBuf> {
+pub fn ensure_venv() -> Result<PathBuf, OtherError> {
     let bridge = bridge_dir()?;
     let setup = bridge.join("setup-venv.sh");
     let status = Command::new(&setup)
@@ -76,14 +123,16 @@ pub fn ensure_venv() -> Result<PathBuf> {
 /// The bridge's Python running a module of the bridge's `platoon` package (`python -m
 /// <module>`, e.g. `platoon.dask`), the bridge first on its `PYTHONPATH` so that the bridge's
 /// own copy runs, not another one installed in the venv.
-pub fn bridge_module(module: &str) -> Result<Command> {
+pub fn bridge_module(module: &str) -> Result<Command, OtherError> {
     let python = ensure_venv()?;
     let theirs = std::env::var_os("PYTHONPATH").unwrap_or_default();
     let path = std::iter::once(bridge_dir()?)
         .chain(std::env::split_paths(&theirs).filter(|p| !p.as_os_str().is_empty()));
     let mut cmd = Command::new(python);
-    cmd.args(["-m", module])
-        .env("PYTHONPATH", std::env::join_paths(path)?);
+    cmd.args(["-m", module]).env(
+        "PYTHONPATH",
+        std::env::join_paths(path).map_err(OtherError::wrap)?,
+    );
     Ok(cmd)
 }
 
@@ -168,7 +217,7 @@ fn is_zero(x: &f64) -> bool {
     *x == 0.0
 }
 
-fn config_error(file: &Path, key: &str, message: String) -> anyhow::Error {
+fn config_error(file: &Path, key: &str, message: String) -> SumoError {
     ConfigError::new(file, key, message).into()
 }
 
@@ -186,6 +235,75 @@ pub struct SumoPlan<'a> {
     road: Option<Road>,
     /// The lane beside each platoon's (leaves, joins from beside).
     side_lanes: Vec<u32>,
+}
+
+/// How far back (the rear of the last platoon) and ahead (the leader) the run reaches, each
+/// as (position along the platoons' lane, t): platoon 0 runs natively (SUMO reproduces it to
+/// 1e-9 m), the others are the same shifted back (to well under a millimetre); a leader SUMO
+/// drives goes at most at its desired speed.
+fn reach(config: &Config, scenario: &Scenario) -> Result<((f64, f64), (f64, f64))> {
+    let back = scenario.fleet.offset(scenario.fleet.platoons - 1);
+    let (mut lo, mut hi) = ((f64::INFINITY, 0.0), (f64::NEG_INFINITY, 0.0));
+    let mut platoon0 = scenario.clone();
+    platoon0.fleet.platoons = 1;
+    platoon_sim::run(platoon0, |rows| {
+        for r in rows {
+            if r.p - back < lo.0 {
+                lo = (r.p - back, r.t);
+            }
+            if r.p > hi.0 {
+                hi = (r.p, r.t);
+            }
+        }
+    })?;
+    if let platoon_config::LeaderDrive::Sumo { speed_mps, .. } = &config.leader.drive {
+        // SUMO drives the leader at most at its desired speed (or its initial one).
+        let (p0, v0) = (scenario.initial[0][0], scenario.initial[0][1]);
+        let t = scenario.steps as f64 * scenario.dt();
+        let far = p0 + v0.max(*speed_mps) * t;
+        if far > hi.0 {
+            hi = (far, t);
+        }
+    }
+    Ok((lo, hi))
+}
+
+/// The lane beside each platoon's (of the edge's `lanes`, index and length), where a leaver
+/// changes to and a joiner from beside starts: the next lane to the left, else to the right;
+/// none unless the scenario changes lanes (on a route of `several_edges` it cannot).
+fn side_lanes(
+    config_file: &Path,
+    scenario: &Scenario,
+    s: &platoon_config::Sumo,
+    lanes: &[(u32, f64)],
+    several_edges: bool,
+) -> Result<Vec<u32>> {
+    let mut side_lanes = Vec::new();
+    if scenario.changes_lanes() {
+        let lanes_error = |message: String| config_error(config_file, "maneuvers", message);
+        if several_edges {
+            return Err(lanes_error(
+                "on SUMO a leaver or a joiner from beside changes lanes on one edge; sumo.route \
+                 has several"
+                    .into(),
+            ));
+        }
+        for &lane in &scenario.fleet.lanes {
+            let beside = [lane + 1, lane.wrapping_sub(1)]
+                .into_iter()
+                .find(|l| lanes.iter().any(|(i, _)| i == l));
+            let Some(beside) = beside else {
+                return Err(lanes_error(format!(
+                    "on SUMO a leaver or a joiner from beside uses the lane beside the \
+                     platoon's, and edge {} has only lane {lane} (sumo.net: a network with two \
+                     lanes or more, such as the default)",
+                    s.edge
+                )));
+            };
+            side_lanes.push(beside);
+        }
+    }
+    Ok(side_lanes)
 }
 
 /// Checks the network, lane and that the platoon stays on the road for the whole run (from the
@@ -296,30 +414,7 @@ pub fn plan<'a>(
             format!("must be at least the vehicle length ({longest} m) so every vehicle starts on the road"),
         ));
     }
-    // Platoon 0 runs; the others are the same shifted back (to well under a millimetre).
-    let back = scenario.fleet.offset(scenario.fleet.platoons - 1);
-    let (mut lo, mut hi) = ((f64::INFINITY, 0.0), (f64::NEG_INFINITY, 0.0));
-    let mut platoon0 = scenario.clone();
-    platoon0.fleet.platoons = 1;
-    platoon_sim::run(platoon0, |rows| {
-        for r in rows {
-            if r.p - back < lo.0 {
-                lo = (r.p - back, r.t);
-            }
-            if r.p > hi.0 {
-                hi = (r.p, r.t);
-            }
-        }
-    })?;
-    if let platoon_config::LeaderDrive::Sumo { speed_mps, .. } = &config.leader.drive {
-        // SUMO drives the leader at most at its desired speed (or its initial one).
-        let (p0, v0) = (scenario.initial[0][0], scenario.initial[0][1]);
-        let t = scenario.steps as f64 * scenario.dt();
-        let far = p0 + v0.max(*speed_mps) * t;
-        if far > hi.0 {
-            hi = (far, t);
-        }
-    }
+    let (lo, hi) = reach(config, scenario)?;
     if lo.0 + offset < longest {
         return Err(config_error(
             config_file,
@@ -345,33 +440,7 @@ pub fn plan<'a>(
             ),
         ));
     }
-    // A leaver changes to the lane beside its platoon's, and a joiner from beside starts
-    // there: the next lane to the left, else to the right.
-    let mut side_lanes = Vec::new();
-    if scenario.changes_lanes() {
-        let lanes_error = |message: String| config_error(config_file, "maneuvers", message);
-        if road.is_some() {
-            return Err(lanes_error(
-                "on SUMO a leaver or a joiner from beside changes lanes on one edge; sumo.route \
-                 has several"
-                    .into(),
-            ));
-        }
-        for &lane in &scenario.fleet.lanes {
-            let beside = [lane + 1, lane.wrapping_sub(1)]
-                .into_iter()
-                .find(|l| lanes.iter().any(|(i, _)| i == l));
-            let Some(beside) = beside else {
-                return Err(lanes_error(format!(
-                    "on SUMO a leaver or a joiner from beside uses the lane beside the \
-                     platoon's, and edge {} has only lane {lane} (sumo.net: a network with two \
-                     lanes or more, such as the default)",
-                    s.edge
-                )));
-            };
-            side_lanes.push(beside);
-        }
-    }
+    let side_lanes = side_lanes(config_file, scenario, s, &lanes, road.is_some())?;
     Ok(SumoPlan {
         config,
         scenario,
@@ -680,7 +749,7 @@ fn run_decimate(run: &Path) -> Result<u64> {
     let text = match std::fs::read_to_string(&path) {
         Ok(text) => text,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(1),
-        Err(e) => return Err(e).with_context(|| format!("reading {}", path.display())),
+        Err(e) => return Err(OtherError::context(format!("reading {}", path.display()), e).into()),
     };
     let value: toml::Value =
         toml::from_str(&text).with_context(|| format!("parsing {}", path.display()))?;
@@ -729,7 +798,7 @@ pub fn write_fcd(run: &Path, opts: &FcdOptions) -> Result<FcdWritten> {
         .map(|f| run.join(f))
         .find(|p| p.exists())
         .ok_or_else(|| {
-            anyhow::anyhow!(
+            failure!(
                 "{} has no trajectories.csv or trajectories.parquet to write fcd.xml from (`[output] files` must include trajectories)",
                 run.display()
             )
@@ -808,14 +877,14 @@ pub fn write_fcd(run: &Path, opts: &FcdOptions) -> Result<FcdWritten> {
                 table.display()
             );
         }
-        Ok(count)
+        Ok::<_, SumoError>(count)
     })()
     .with_context(|| format!("writing {}", out.display()));
     let count = match written {
         Ok(count) => count,
         Err(e) => {
             let _ = std::fs::remove_file(&partial);
-            return Err(e);
+            return Err(e.into());
         }
     };
     std::fs::rename(&partial, &out)

@@ -121,7 +121,7 @@ impl Executor for Sequential {
         "sequential".into()
     }
 
-    fn execute(&self, run: Execution<'_>) -> anyhow::Result<()> {
+    fn execute(&self, run: Execution<'_>) -> Result<(), campaign::ExecutorError> {
         for job in run.jobs.iter().take(self.limit) {
             (run.record)(campaign::execute(job, None))?;
         }
@@ -387,9 +387,9 @@ impl Executor for Failing {
         "failing".into()
     }
 
-    fn execute(&self, run: Execution<'_>) -> anyhow::Result<()> {
+    fn execute(&self, run: Execution<'_>) -> Result<(), campaign::ExecutorError> {
         (run.record)(campaign::execute(&run.jobs[0], None))?;
-        anyhow::bail!("the cluster went away")
+        Err(platoon_app::OtherError::new("the cluster went away").into())
     }
 }
 

@@ -56,13 +56,13 @@ struct Count {
 }
 
 impl StepSink for Count {
-    fn step(&mut self, rows: &[StepRow], wire: StepWire<'_>) -> anyhow::Result<()> {
+    fn step(&mut self, rows: &[StepRow], wire: StepWire<'_>) -> Result<(), run::RunError> {
         self.steps += 1;
         self.rows += rows.len();
         self.sent += wire.per_vehicle.iter().map(|c| c.sent).sum::<u64>();
         Ok(())
     }
-    fn finish(&mut self) -> anyhow::Result<()> {
+    fn finish(&mut self) -> Result<(), run::RunError> {
         self.finished = true;
         Ok(())
     }
@@ -160,7 +160,7 @@ fn a_failed_process_is_a_node_failure_with_its_log() {
     let logs = tmp.path().join("logs");
     std::fs::create_dir(&logs).unwrap();
     std::fs::write(logs.join("injector.log"), "Traceback: gave up\n").unwrap();
-    let died = platoon_runtime::RunError::Died {
+    let died = platoon_runtime::CosimError::Died {
         node: "injector",
         pid: 42,
         step: 7,
@@ -185,7 +185,7 @@ fn a_failed_process_is_a_node_failure_with_its_log() {
     assert_eq!(n.message, "exited: exit status: 3");
 
     // A node that reported its failure and wrote no log.
-    let failed = platoon_runtime::RunError::Failed {
+    let failed = platoon_runtime::CosimError::Failed {
         node: "controller",
         step: 3,
         reason: "no gain".into(),
@@ -200,7 +200,10 @@ fn a_failed_process_is_a_node_failure_with_its_log() {
     );
 
     // No process to blame: the co-simulation's own kind.
-    let ipc = platoon_runtime::RunError::Ipc("refused".into());
+    let ipc = platoon_runtime::CosimError::Ipc {
+        what: "creating a service".into(),
+        source: "refused".into(),
+    };
     assert!(matches!(
         run::RunError::from_runtime(ipc, &logs),
         run::RunError::Cosim(_)

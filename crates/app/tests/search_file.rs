@@ -54,8 +54,8 @@ impl Executor for Failing {
         "failing".into()
     }
 
-    fn execute(&self, _run: Execution<'_>) -> anyhow::Result<()> {
-        anyhow::bail!("the cluster went away")
+    fn execute(&self, _run: Execution<'_>) -> Result<(), platoon_app::campaign::ExecutorError> {
+        Err(platoon_app::OtherError::new("the cluster went away").into())
     }
 }
 

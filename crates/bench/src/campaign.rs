@@ -54,13 +54,13 @@ pub fn campaign(a: Campaign) -> Result<Vec<CampaignRow>> {
     }
     let dir = crate::create_out(a.out, "bench-campaign", a.force)?;
     let exe = platoon_app::platoon_program()?;
-    let file = |samples: usize| file_on(&dir, &samples.to_string(), samples, None);
-    let measure = |t: Timed<'_>| measure(&exe, &dir, t);
+    let file = |samples: usize| campaign_file(&dir, &samples.to_string(), samples, None);
+    let measure = |case: Case<'_>| measure(&exe, &dir, case);
     let mut rows = Vec::new();
     let big = file(a.cells)?;
     for &j in &a.jobs {
         let jobs = j.to_string();
-        rows.push(measure(Timed {
+        rows.push(measure(Case {
             part: "throughput",
             file: &big,
             name: &format!("local-{j}"),
@@ -71,7 +71,7 @@ pub fn campaign(a: Campaign) -> Result<Vec<CampaignRow>> {
         })?);
     }
     if a.dask_cells > 0 {
-        rows.extend(dask_rows(&dir, a.dask_cells, &file, &measure)?);
+        rows.extend(dask_rows(&exe, &dir, a.dask_cells)?);
     }
     // The 802.11p channel's cost per cell beside Bernoulli loss: the same Monte Carlo cells on
     // one job, the paper scenario with each channel.
@@ -93,13 +93,13 @@ pub fn campaign(a: Campaign) -> Result<Vec<CampaignRow>> {
         let base = dir.path(&format!("base-{name}.toml"));
         std::fs::write(&base, format!("{paper}\n{section}"))
             .with_context(|| format!("writing {}", base.display()))?;
-        let path = file_on(
+        let path = campaign_file(
             &dir,
             name,
             channel_cells,
             Some(&format!("base-{name}.toml")),
         )?;
-        rows.push(measure(Timed {
+        rows.push(measure(Case {
             part: "channel",
             file: &path,
             name: &format!("channel-{name}"),
@@ -124,18 +124,14 @@ pub fn campaign(a: Campaign) -> Result<Vec<CampaignRow>> {
     Ok(rows)
 }
 
-/// The Dask rows: `cells` cells on the local pool with two jobs, then through a local Dask
-/// cluster of two workers, in the workers' processes and with a process per cell, and a fifth
-/// of the cells both ways.
-fn dask_rows(
-    dir: &RunDir,
-    cells: usize,
-    file: &impl Fn(usize) -> Result<PathBuf>,
-    measure: &impl Fn(Timed<'_>) -> Result<CampaignRow>,
-) -> Result<Vec<CampaignRow>> {
+/// The Dask rows: `cells` cells on the local pool beside a local cluster of two workers
+/// (in the workers' processes, then a process per cell), and a fifth of them both ways.
+fn dask_rows(exe: &Path, dir: &RunDir, cells: usize) -> Result<Vec<CampaignRow>> {
+    let measure = |case: Case<'_>| measure(exe, dir, case);
+    let file = |samples: usize| campaign_file(dir, &samples.to_string(), samples, None);
     let mut rows = Vec::new();
     let small = file(cells)?;
-    rows.push(measure(Timed {
+    rows.push(measure(Case {
         part: "dask",
         file: &small,
         name: "dask-local-2",
@@ -149,7 +145,7 @@ fn dask_rows(
     let cluster = platoon_app::campaign::LocalCluster::start(2, &logs)?;
     // The cells in the workers' processes (batches on the platoon package's core, when
     // bridge/.venv has it), then a `platoon campaign-cell` process per cell.
-    let mut in_worker = measure(Timed {
+    let mut in_worker = measure(Case {
         part: "dask",
         file: &small,
         name: "dask-2",
@@ -170,7 +166,7 @@ fn dask_rows(
         in_worker.executor = "Dask, 2 workers (127.0.0.1), fell back to a process per cell".into();
     }
     rows.push(in_worker);
-    rows.push(measure(Timed {
+    rows.push(measure(Case {
         part: "dask",
         file: &small,
         name: "dask-2-process",
@@ -184,7 +180,7 @@ fn dask_rows(
     let fifth = cells / 5;
     if fifth > 0 {
         let path = file(fifth)?;
-        rows.push(measure(Timed {
+        rows.push(measure(Case {
             part: "dask-fifth",
             file: &path,
             name: "dask-local-2-fifth",
@@ -193,7 +189,7 @@ fn dask_rows(
             workers: 2,
             env: &[],
         })?);
-        rows.push(measure(Timed {
+        rows.push(measure(Case {
             part: "dask-fifth",
             file: &path,
             name: "dask-2-fifth",
@@ -208,7 +204,7 @@ fn dask_rows(
 
 /// A Monte Carlo campaign of `samples` cells on `base` (a file in the output directory; None:
 /// the embedded paper scenario), written as `bench-<name>.toml`.
-fn file_on(dir: &RunDir, name: &str, samples: usize, base: Option<&str>) -> Result<PathBuf> {
+fn campaign_file(dir: &RunDir, name: &str, samples: usize, base: Option<&str>) -> Result<PathBuf> {
     let path = dir.path(&format!("bench-{name}.toml"));
     let base = base.map_or(String::new(), |b| format!("base = \"{b}\"\n"));
     let text = format!(
@@ -220,9 +216,9 @@ fn file_on(dir: &RunDir, name: &str, samples: usize, base: Option<&str>) -> Resu
     Ok(path)
 }
 
-/// One `platoon campaign` to time: its part of the report, file, output directory (`name`,
-/// in the bench's), extra arguments and environment, and how its row names the executor.
-struct Timed<'a> {
+/// One `platoon campaign` to time: the report's part and executor, the campaign file, the
+/// run's directory name, its extra arguments and environment, and its workers.
+struct Case<'a> {
     part: &'static str,
     file: &'a Path,
     name: &'a str,
@@ -232,10 +228,9 @@ struct Timed<'a> {
     env: &'a [(&'a str, &'a str)],
 }
 
-/// Runs `t` with `exe` into the bench's directory `dir` and reads its row back from the
-/// campaign's campaign.json.
-fn measure(exe: &Path, dir: &RunDir, t: Timed<'_>) -> Result<CampaignRow> {
-    let Timed {
+/// Runs `case` with the `platoon` binary `exe` into `dir` and reads its campaign.json.
+fn measure(exe: &Path, dir: &RunDir, case: Case<'_>) -> Result<CampaignRow> {
+    let Case {
         part,
         file,
         name,
@@ -243,7 +238,7 @@ fn measure(exe: &Path, dir: &RunDir, t: Timed<'_>) -> Result<CampaignRow> {
         executor,
         workers,
         env,
-    } = t;
+    } = case;
     let target = dir.path(name);
     let o = Command::new(exe)
         .arg("campaign")

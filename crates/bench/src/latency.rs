@@ -148,7 +148,7 @@ pub fn latency(a: Latency) -> Result<LatencyReport> {
         scenario,
         stem,
     } = platoon_config::load_or(a.config.as_deref(), platoon_config::Embedded::Paper)?;
-    let dir = crate::create_out(a.out.clone(), "bench-latency", a.force)?;
+    let dir = crate::create_out(a.out, "bench-latency", a.force)?;
     dir.write("config.toml", platoon_config::to_toml(&config).as_bytes())?;
     let exe = platoon_app::platoon_program()?;
     let n = scenario.topology.followers();
@@ -168,21 +168,80 @@ pub fn latency(a: Latency) -> Result<LatencyReport> {
         )
         .expect("static template"),
     );
-    let samples = baseline_hops(&a, &exe, items, bytes, &bar)?;
+    let mut samples: Vec<(&str, Vec<u64>)> = Vec::new();
+
+    let raw_hop = |busy_poll: bool| {
+        platoon_runtime::bench::raw_hop(
+            &platoon_runtime::new_run_id(),
+            &exe,
+            a.iterations,
+            a.warmup,
+            items,
+            busy_poll,
+        )
+    };
+    bar.set_message("raw iceoryx2 hop");
+    let raw = raw_hop(false).context("raw iceoryx2 hop")?;
+    samples.push(("raw_iceoryx2_hop", raw));
+    bar.inc(1);
+    if a.busy_poll {
+        if cores() < 2 {
+            eprintln!(
+                "warning: {} core(s) for 2 busy-polling processes: the figure will collapse",
+                cores()
+            );
+        }
+        bar.set_message("busy-polling iceoryx2 hop");
+        let busy = raw_hop(true).context("busy-polling iceoryx2 hop")?;
+        samples.push(("raw_iceoryx2_hop_busy_poll", busy));
+    }
+    bar.inc(1);
+    for socket in [
+        platoon_runtime::bench::Socket::Udp,
+        platoon_runtime::bench::Socket::Uds,
+    ] {
+        bar.set_message(format!("{} hop", socket.name()));
+        let name = match socket {
+            platoon_runtime::bench::Socket::Udp => "udp_loopback_hop",
+            platoon_runtime::bench::Socket::Uds => "unix_socket_hop",
+        };
+        // A baseline that cannot run fails the benchmark: the report compares side by side.
+        let h = platoon_runtime::bench::socket_hop(socket, &exe, a.iterations, a.warmup, bytes)
+            .with_context(|| {
+                format!(
+                    "the {name} baseline (a ping-pong with `platoon node echo-{}` in another \
+                     process) failed; fix it before benchmarking",
+                    socket.name()
+                )
+            })?;
+        samples.push((name, h));
+        bar.inc(1);
+    }
+    // The two baselines again with both processes on one core (this process's CPU set, which
+    // the echo inherits), so the one-core rows of the co-simulation compare like with like.
+    bar.set_message("raw iceoryx2 and Unix-socket hops on one core");
+    let (raw_one, uds_one) = on_one_core(|| -> Result<_> {
+        let raw = raw_hop(false).context("raw iceoryx2 hop on one core")?;
+        let uds = platoon_runtime::bench::socket_hop(
+            platoon_runtime::bench::Socket::Uds,
+            &exe,
+            a.iterations,
+            a.warmup,
+            bytes,
+        )
+        .context("the Unix-socket hop on one core")?;
+        Ok((raw, uds))
+    })??;
+    samples.push(("raw_iceoryx2_hop_one_core", raw_one));
+    samples.push(("unix_socket_hop_one_core", uds_one));
 
     let Cosims {
-        builtin: t,
+        builtin,
         builtin_one_core,
         python_sdk,
         python_sdk_one_core,
-    } = cosims(&dir, &scenario, &stem, &exe, &bar)?;
-    let mut sim = FleetSimulation::new(&scenario)?;
-    let mut inproc = Vec::with_capacity(scenario.steps as usize + 1);
-    while !sim.is_done() {
-        let t = Instant::now();
-        std::hint::black_box(sim.step());
-        inproc.push(t.elapsed().as_nanos() as u64);
-    }
+    } = cosims(&dir, &exe, &scenario, &stem, &bar)?;
+    let mut inproc = inproc_steps(&scenario)?;
     bar.finish_and_clear();
 
     // Every row is required: a quantity with no samples fails the benchmark, by name.
@@ -190,6 +249,7 @@ pub fn latency(a: Latency) -> Result<LatencyReport> {
         .iter()
         .map(|(name, v)| row(name, Stats::of(&mut v.clone())))
         .collect::<Result<_>>()?;
+    let t = builtin;
     rows.extend(
         [
             row("injector_hop", t.injector),
@@ -232,24 +292,7 @@ pub fn latency(a: Latency) -> Result<LatencyReport> {
         guest_halt_poll_ns: guest_halt_poll_ns(),
         rows,
     };
-    let mut csv = csv::Writer::from_writer(dir.writer("latency.csv")?);
-    for r in &report.rows {
-        r.write_csv(&mut csv)?;
-    }
-    csv.flush()?;
-    let mut raw_csv = csv::Writer::from_writer(dir.writer("latency-samples.csv")?);
-    raw_csv.write_record(["method", "hop_ns"])?;
-    for (name, v) in &samples {
-        for x in v {
-            raw_csv.write_record([name.to_string(), x.to_string()])?;
-        }
-    }
-    raw_csv.flush()?;
-    platoon_output::plots::histograms(&dir.path("latency.png"), &samples)?;
-    dir.write(
-        "latency.json",
-        (serde_json::to_string_pretty(&report)? + "\n").as_bytes(),
-    )?;
+    write_files(&dir, &report, &samples)?;
     let path = dir.commit()?;
 
     print_report(&report);
@@ -257,25 +300,50 @@ pub fn latency(a: Latency) -> Result<LatencyReport> {
     Ok(report)
 }
 
-/// The stage timings of the co-simulations [`latency`] measures.
+/// latency.csv (the rows), latency-samples.csv (every hop's time), latency.png and
+/// latency.json (the report) in `dir`.
+fn write_files(
+    dir: &platoon_output::rundir::RunDir,
+    report: &LatencyReport,
+    samples: &[(&str, Vec<u64>)],
+) -> Result<()> {
+    let mut csv = csv::Writer::from_writer(dir.writer("latency.csv")?);
+    for r in &report.rows {
+        r.write_csv(&mut csv)?;
+    }
+    csv.flush()?;
+    let mut raw_csv = csv::Writer::from_writer(dir.writer("latency-samples.csv")?);
+    raw_csv.write_record(["method", "hop_ns"])?;
+    for (name, v) in samples {
+        for x in v {
+            raw_csv.write_record([name.to_string(), x.to_string()])?;
+        }
+    }
+    raw_csv.flush()?;
+    platoon_output::plots::histograms(&dir.path("latency.png"), samples)?;
+    dir.write(
+        "latency.json",
+        (serde_json::to_string_pretty(report)? + "\n").as_bytes(),
+    )?;
+    Ok(())
+}
+
+/// The co-simulations `latency` times: the built-in injector, then with the nodes on one core,
+/// and the Python SDK's dos_jammer as the injector, both ways.
 struct Cosims {
-    /// The built-in injector, the nodes on any CPU.
     builtin: platoon_runtime::timing::Timing,
-    /// The built-in injector, the nodes on one core.
     builtin_one_core: platoon_runtime::timing::Timing,
-    /// The Python SDK's injector hop, the nodes on any CPU.
     python_sdk: Option<Stats>,
-    /// The Python SDK's injector hop, the nodes on one core.
     python_sdk_one_core: Option<Stats>,
 }
 
-/// Co-simulates `scenario` (its resolved config in `dir`) over iceoryx2 with the built-in
-/// injector, then with the nodes on one core, then both with the Python SDK's `dos_jammer.py`.
+/// Runs [`Cosims`]' co-simulations of `scenario` (`stem`) with the binary `exe`, their facts
+/// and logs in `dir`, saying which on `bar`.
 fn cosims(
     dir: &platoon_output::rundir::RunDir,
+    exe: &std::path::Path,
     scenario: &platoon_sim::Scenario,
     stem: &str,
-    exe: &std::path::Path,
     bar: &indicatif::ProgressBar,
 ) -> Result<Cosims> {
     bar.set_message(format!("co-simulating {stem} over iceoryx2"));
@@ -378,86 +446,19 @@ fn cosims(
     })
 }
 
-/// The baselines, each a ping-pong of `items` link packets (`bytes` bytes): the raw iceoryx2
-/// hop (and, with `--busy-poll`, a busy-polling one), UDP and Unix-socket hops, then the raw
-/// and Unix-socket hops again with both processes on one core.
-fn baseline_hops(
-    a: &Latency,
-    exe: &std::path::Path,
-    items: usize,
-    bytes: usize,
-    bar: &indicatif::ProgressBar,
-) -> Result<Vec<(&'static str, Vec<u64>)>> {
-    let mut samples: Vec<(&'static str, Vec<u64>)> = Vec::new();
-
-    let raw_hop = |busy_poll: bool| {
-        platoon_runtime::bench::raw_hop(
-            &platoon_runtime::new_run_id(),
-            exe,
-            a.iterations,
-            a.warmup,
-            items,
-            busy_poll,
-        )
-    };
-    bar.set_message("raw iceoryx2 hop");
-    let raw = raw_hop(false).context("raw iceoryx2 hop")?;
-    samples.push(("raw_iceoryx2_hop", raw));
-    bar.inc(1);
-    if a.busy_poll {
-        if cores() < 2 {
-            eprintln!(
-                "warning: {} core(s) for 2 busy-polling processes: the figure will collapse",
-                cores()
-            );
-        }
-        bar.set_message("busy-polling iceoryx2 hop");
-        let busy = raw_hop(true).context("busy-polling iceoryx2 hop")?;
-        samples.push(("raw_iceoryx2_hop_busy_poll", busy));
+/// Each step's time (ns) of `scenario` run in process.
+fn inproc_steps(scenario: &platoon_sim::Scenario) -> Result<Vec<u64>> {
+    let mut sim = FleetSimulation::new(scenario)?;
+    let mut inproc = Vec::with_capacity(scenario.steps as usize + 1);
+    while !sim.is_done() {
+        let t = Instant::now();
+        std::hint::black_box(sim.step());
+        inproc.push(t.elapsed().as_nanos() as u64);
     }
-    bar.inc(1);
-    for socket in [
-        platoon_runtime::bench::Socket::Udp,
-        platoon_runtime::bench::Socket::Uds,
-    ] {
-        bar.set_message(format!("{} hop", socket.name()));
-        let name = match socket {
-            platoon_runtime::bench::Socket::Udp => "udp_loopback_hop",
-            platoon_runtime::bench::Socket::Uds => "unix_socket_hop",
-        };
-        // A baseline that cannot run fails the benchmark: the report compares side by side.
-        let h = platoon_runtime::bench::socket_hop(socket, exe, a.iterations, a.warmup, bytes)
-            .with_context(|| {
-                format!(
-                    "the {name} baseline (a ping-pong with `platoon node echo-{}` in another \
-                     process) failed; fix it before benchmarking",
-                    socket.name()
-                )
-            })?;
-        samples.push((name, h));
-        bar.inc(1);
-    }
-    // The two baselines again with both processes on one core (this process's CPU set, which
-    // the echo inherits), so the one-core rows of the co-simulation compare like with like.
-    bar.set_message("raw iceoryx2 and Unix-socket hops on one core");
-    let (raw_one, uds_one) = on_one_core(|| -> Result<_> {
-        let raw = raw_hop(false).context("raw iceoryx2 hop on one core")?;
-        let uds = platoon_runtime::bench::socket_hop(
-            platoon_runtime::bench::Socket::Uds,
-            exe,
-            a.iterations,
-            a.warmup,
-            bytes,
-        )
-        .context("the Unix-socket hop on one core")?;
-        Ok((raw, uds))
-    })??;
-    samples.push(("raw_iceoryx2_hop_one_core", raw_one));
-    samples.push(("unix_socket_hop_one_core", uds_one));
-    Ok(samples)
+    Ok(inproc)
 }
 
-/// The report on the terminal.
+/// The rows and the ratios against their targets, on stdout.
 fn print_report(report: &LatencyReport) {
     println!(
         "{:<28} {:>7} {:>8} {:>8} {:>8} {:>8} {:>9} {:>8}",

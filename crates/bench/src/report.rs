@@ -1,11 +1,8 @@
 //! `platoon bench all`: every benchmark with its defaults, and BENCHMARKS.md.
 use crate::campaign::CampaignRow;
 use crate::design::growth_exponent;
-use crate::design::{CheckRow, DesignRow};
-use crate::latency::LatencyReport;
 use crate::machine::*;
-use crate::search::SearchRow;
-use crate::step::{peers_section, PeerRatio, PeerRow, StepReport, StepRow};
+use crate::step::{peers_section, StepReport};
 use crate::{campaign, design, latency, search, step};
 use crate::{Campaign, Design, Latency, Search, Step};
 use anyhow::{bail, Context, Result};
@@ -94,7 +91,8 @@ pub fn all(a: All) -> Result<()> {
         describe_halt_poll(lat.guest_halt_poll_ns.as_deref())
     );
     latency_section(&mut md, &commit, &lat);
-    step_section(&mut md, &commit, &steps, &peer_rows, &ratios);
+    step_section(&mut md, &commit, &steps);
+    peers_section(&mut md, &peer_rows, &ratios);
     // What was measured by hand (a `### ... (measured by hand` subsection of the report being
     // replaced) is carried over: no run of `bench all` drops it.
     let previous = std::fs::read_to_string(&a.markdown).unwrap_or_default();
@@ -111,13 +109,8 @@ pub fn all(a: All) -> Result<()> {
     Ok(())
 }
 
-/// The line that says which command measured a section, at which commit.
-fn measured(commit: &str, command: &str) -> String {
-    format!("Measured by `platoon {command}` at commit `{commit}`.\n")
-}
-
-/// The V2V hop and the step overhead (`platoon bench latency`).
-fn latency_section(md: &mut String, commit: &str, lat: &LatencyReport) {
+/// BENCHMARKS.md's section of `platoon bench latency`: the hops and the step overhead.
+fn latency_section(md: &mut String, commit: &str, lat: &crate::latency::LatencyReport) {
     let _ = writeln!(
         md,
         "## V2V hop and step overhead (`platoon bench latency`)\n\n{}",
@@ -185,14 +178,8 @@ fn latency_section(md: &mut String, commit: &str, lat: &LatencyReport) {
     );
 }
 
-/// The step cost against size (`platoon bench step`), with the peers.
-fn step_section(
-    md: &mut String,
-    commit: &str,
-    steps: &[StepRow],
-    peer_rows: &[PeerRow],
-    ratios: &[PeerRatio],
-) {
+/// BENCHMARKS.md's section of `platoon bench step`: the step cost against the size.
+fn step_section(md: &mut String, commit: &str, steps: &[crate::step::StepRow]) {
     let _ = writeln!(
         md,
         "## Step cost against size (`platoon bench step`)\n\n{}",
@@ -290,11 +277,15 @@ fn step_section(
         md,
         "The scaling plot with the least-squares lines is runs/bench/step/step.png.\n"
     );
-    peers_section(md, peer_rows, ratios);
 }
 
-/// The LMI design and check times (`platoon bench design`).
-fn design_section(md: &mut String, commit: &str, designs: &[DesignRow], checks: &[CheckRow]) {
+/// BENCHMARKS.md's section of `platoon bench design`: the LMI design and check times.
+fn design_section(
+    md: &mut String,
+    commit: &str,
+    designs: &[crate::design::DesignRow],
+    checks: &[crate::design::CheckRow],
+) {
     let _ = writeln!(
         md,
         "## LMI design time (`platoon bench design`)\n\n{}",
@@ -373,7 +364,7 @@ fn design_section(md: &mut String, commit: &str, designs: &[DesignRow], checks: 
     }
 }
 
-/// The campaign throughput (`platoon bench campaign`).
+/// BENCHMARKS.md's section of `platoon bench campaign`: the campaign throughput.
 fn campaign_section(md: &mut String, commit: &str, campaigns: &[CampaignRow]) {
     let _ = writeln!(
         md,
@@ -476,8 +467,8 @@ fn campaign_section(md: &mut String, commit: &str, campaigns: &[CampaignRow]) {
     }
 }
 
-/// The worst-case DoS search (`platoon bench search`).
-fn search_section(md: &mut String, commit: &str, searches: &[SearchRow]) {
+/// BENCHMARKS.md's section of `platoon bench search`: the search's evaluations per second.
+fn search_section(md: &mut String, commit: &str, searches: &[crate::search::SearchRow]) {
     let _ = writeln!(
         md,
         "\n## Worst-case DoS search (`platoon bench search`)\n\n{}",
@@ -518,6 +509,11 @@ fn search_section(md: &mut String, commit: &str, searches: &[SearchRow]) {
             if r.wall_s < 5.0 { "met" } else { "missed" }
         );
     }
+}
+
+/// Who measured a section, and at which commit.
+fn measured(commit: &str, command: &str) -> String {
+    format!("Measured by `platoon {command}` at commit `{commit}`.\n")
 }
 
 /// The subsections of a report measured by hand (a `### ` heading that says "(measured by

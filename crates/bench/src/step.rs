@@ -2,7 +2,7 @@
 //! transport and stage, with SUMO-driven peers.
 use anyhow::{bail, Context, Result};
 use std::fmt::Write as _;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::Command;
 
 /// What `platoon bench step` measures.
@@ -378,35 +378,7 @@ pub fn step(a: Step) -> Result<StepReport> {
                 let traffic = mode == "sumo-traffic";
                 std::fs::write(&config, fleet_config(n, a.seconds, sumo, traffic)?)?;
                 let case = dir.path(&format!("{mode}-{n}"));
-                let transport = if mode == "inproc" {
-                    "inproc"
-                } else {
-                    "iceoryx2"
-                };
-                let mut cmd = Command::new(&exe);
-                cmd.args([
-                    "run",
-                    config.to_str().unwrap_or_default(),
-                    "--no-plots",
-                    "--force",
-                    "--transport",
-                    transport,
-                    "--out",
-                ])
-                .arg(&case);
-                if mode.ends_with("-1cpu") {
-                    cmd.arg("--cpus").arg(one_cpu.as_str());
-                }
-                let o = cmd
-                    .env("PLATOON_STEP_TIMEOUT", "30")
-                    .output()
-                    .with_context(|| format!("running the {mode} case with {n} followers"))?;
-                if !o.status.success() {
-                    bail!(
-                        "the {mode} case with {n} followers failed: {}",
-                        String::from_utf8_lossy(&o.stderr).trim()
-                    );
-                }
+                run_case(&exe, &config, &case, mode, n, &one_cpu)?;
                 let read = |f: &str| -> Option<serde_json::Value> {
                     serde_json::from_str(&std::fs::read_to_string(case.join(f)).ok()?).ok()
                 };
@@ -460,79 +432,10 @@ pub fn step(a: Step) -> Result<StepReport> {
     let ratios = peer_ratios(&rows, &peer_rows);
     let (round_rows, round_peers) = (rows, peer_rows);
     let (rows, peer_rows) = (median_rows(&round_rows), median_peers(&round_peers));
-    let fits = fit_and_plot(&dir, &a.modes, &rows)?;
-    dir.write(
-        "step.json",
-        (serde_json::to_string_pretty(&serde_json::json!({
-            "rounds": a.rounds,
-            "rows": rows,
-            "fits": fits,
-            "peers": peer_rows,
-            "ratios": ratios,
-            "round_rows": round_rows,
-            "round_peers": round_peers,
-        }))? + "\n")
-            .as_bytes(),
-    )?;
-    let path = dir.commit()?;
-    print_steps(&rows, &fits, &peer_rows, &ratios);
-    println!("outputs: {}", path.display());
-    Ok(StepReport {
-        rows,
-        peers: peer_rows,
-        ratios,
-    })
-}
-
-/// The row of one case of round `round` (`mode`, `n` followers, `seconds` simulated) from its
-/// run's timing.json, sumo.json and SUMO's tight loop (the last two: SUMO cases only).
-fn step_row(
-    round: u32,
-    mode: &str,
-    n: usize,
-    seconds: f64,
-    timing: &serde_json::Value,
-    sumo: Option<&serde_json::Value>,
-    tight: Option<&serde_json::Value>,
-) -> StepRow {
-    let p = |v: &serde_json::Value, k: &str| v[k]["p50_us"].as_f64();
-    let step_p50 = p(timing, "step").unwrap_or(f64::NAN);
-    let dt = 0.01;
-    StepRow {
-        round,
-        mode: mode.to_string(),
-        followers: n,
-        vehicles: n / 4 * 5,
-        steps: (seconds / dt).round() as u64 + 1,
-        step_p50_us: step_p50,
-        step_p99_us: timing["step"]["p99_us"].as_f64().unwrap_or(f64::NAN),
-        real_time_factor: dt * 1e6 / step_p50,
-        plant_p50_us: p(timing, "plant"),
-        controller_p50_us: p(timing, "controller_tx")
-            .zip(p(timing, "controller_rx"))
-            .map(|(x, y)| x + y),
-        injector_p50_us: p(timing, "injector"),
-        sumo_step_p50_us: sumo.and_then(|s| s["sumo_step"]["p50_us"].as_f64()),
-        bridge_p50_us: sumo.and_then(|s| s["bridge_step"]["p50_us"].as_f64()),
-        sumo_step_tight_p50_us: tight.and_then(|t| t["sumo_step_p50_us"].as_f64()),
-        bridge_tight_p50_us: tight.and_then(|t| t["bridge_step_p50_us"].as_f64()),
-        peak_rss_mib: timing["peak_rss_mib"]
-            .as_object()
-            .map(|m| m.values().filter_map(|v| v.as_f64()).sum()),
-    }
-}
-
-/// The least-squares line of each mode's cost per step against N, drawn with the points in
-/// step.png.
-fn fit_and_plot(
-    dir: &platoon_output::rundir::RunDir,
-    modes: &[String],
-    rows: &[StepRow],
-) -> Result<Vec<serde_json::Value>> {
     // Least-squares line per mode: cost per step = a + b N.
     let mut series = Vec::new();
     let mut fits = Vec::new();
-    for (i, mode) in modes.iter().enumerate() {
+    for (i, mode) in a.modes.iter().enumerate() {
         let pts: Vec<(f64, f64)> = rows
             .iter()
             .filter(|r| &r.mode == mode)
@@ -555,11 +458,31 @@ fn fit_and_plot(
         "µs per step",
         &series,
     )?;
-    Ok(fits)
+    dir.write(
+        "step.json",
+        (serde_json::to_string_pretty(&serde_json::json!({
+            "rounds": a.rounds,
+            "rows": rows,
+            "fits": fits,
+            "peers": peer_rows,
+            "ratios": ratios,
+            "round_rows": round_rows,
+            "round_peers": round_peers,
+        }))? + "\n")
+            .as_bytes(),
+    )?;
+    let path = dir.commit()?;
+    print_table(&rows, &fits, &peer_rows, &ratios);
+    println!("outputs: {}", path.display());
+    Ok(StepReport {
+        rows,
+        peers: peer_rows,
+        ratios,
+    })
 }
 
-/// The cases, the fits and the peers on the terminal.
-fn print_steps(
+/// The step costs, the fits of cost against size and the peers' ratios, on stdout.
+fn print_table(
     rows: &[StepRow],
     fits: &[serde_json::Value],
     peer_rows: &[PeerRow],
@@ -621,6 +544,86 @@ fn print_steps(
                 r.map_or(f64::NAN, |r| r.median)
             );
         }
+    }
+}
+
+/// `platoon run` (the binary `exe`) of the case `mode` with `n` followers: `config` into
+/// `case`, on the CPU `one_cpu` for a `-1cpu` mode.
+fn run_case(
+    exe: &Path,
+    config: &Path,
+    case: &Path,
+    mode: &str,
+    n: usize,
+    one_cpu: &str,
+) -> Result<()> {
+    let transport = if mode == "inproc" {
+        "inproc"
+    } else {
+        "iceoryx2"
+    };
+    let mut cmd = Command::new(exe);
+    cmd.args([
+        "run",
+        config.to_str().unwrap_or_default(),
+        "--no-plots",
+        "--force",
+        "--transport",
+        transport,
+        "--out",
+    ])
+    .arg(case);
+    if mode.ends_with("-1cpu") {
+        cmd.arg("--cpus").arg(one_cpu);
+    }
+    let o = cmd
+        .env("PLATOON_STEP_TIMEOUT", "30")
+        .output()
+        .with_context(|| format!("running the {mode} case with {n} followers"))?;
+    if !o.status.success() {
+        bail!(
+            "the {mode} case with {n} followers failed: {}",
+            String::from_utf8_lossy(&o.stderr).trim()
+        );
+    }
+    Ok(())
+}
+
+/// The row of one case: its timing.json, and with SUMO its sumo.json and the tight loop's
+/// timing.
+fn step_row(
+    round: u32,
+    mode: &str,
+    n: usize,
+    seconds: f64,
+    timing: &serde_json::Value,
+    sumo: Option<&serde_json::Value>,
+    tight: Option<&serde_json::Value>,
+) -> StepRow {
+    let p = |v: &serde_json::Value, k: &str| v[k]["p50_us"].as_f64();
+    let step_p50 = p(timing, "step").unwrap_or(f64::NAN);
+    let dt = 0.01;
+    StepRow {
+        round,
+        mode: mode.to_string(),
+        followers: n,
+        vehicles: n / 4 * 5,
+        steps: (seconds / dt).round() as u64 + 1,
+        step_p50_us: step_p50,
+        step_p99_us: timing["step"]["p99_us"].as_f64().unwrap_or(f64::NAN),
+        real_time_factor: dt * 1e6 / step_p50,
+        plant_p50_us: p(timing, "plant"),
+        controller_p50_us: p(timing, "controller_tx")
+            .zip(p(timing, "controller_rx"))
+            .map(|(x, y)| x + y),
+        injector_p50_us: p(timing, "injector"),
+        sumo_step_p50_us: sumo.and_then(|s| s["sumo_step"]["p50_us"].as_f64()),
+        bridge_p50_us: sumo.and_then(|s| s["bridge_step"]["p50_us"].as_f64()),
+        sumo_step_tight_p50_us: tight.and_then(|t| t["sumo_step_p50_us"].as_f64()),
+        bridge_tight_p50_us: tight.and_then(|t| t["bridge_step_p50_us"].as_f64()),
+        peak_rss_mib: timing["peak_rss_mib"]
+            .as_object()
+            .map(|m| m.values().filter_map(|v| v.as_f64()).sum()),
     }
 }
 

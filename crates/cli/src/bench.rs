@@ -1,7 +1,7 @@
 //! `platoon bench`: the arguments of each benchmark (the harness and its defaults are
 //! `platoon_bench`'s).
 use crate::outdir::OutDir;
-use anyhow::Result;
+use crate::Result;
 use platoon_bench::{All, Campaign, Design, Latency, Search, Step};
 use std::path::PathBuf;
 
@@ -162,14 +162,22 @@ pub(crate) struct AllArgs {
 
 /// Runs one benchmark.
 pub(crate) fn run(b: Bench) -> Result<()> {
-    match b {
+    if let Bench::Latency(LatencyArgs {
+        config: Some(path), ..
+    }) = &b
+    {
+        // Refused as every bad config is (exit 2), before the harness (whose errors are
+        // anyhow's) runs.
+        platoon_config::load(path)?;
+    }
+    Ok(match b {
         Bench::Latency(a) => platoon_bench::latency(a.into()).map(|_| ()),
         Bench::Step(a) => platoon_bench::step(a.into()).map(|_| ()),
         Bench::Design(a) => platoon_bench::design(a.into()).map(|_| ()),
         Bench::Campaign(a) => platoon_bench::campaign(a.into()).map(|_| ()),
         Bench::Search(a) => platoon_bench::search(a.into()).map(|_| ()),
         Bench::All(a) => platoon_bench::all(a.into()),
-    }
+    }?)
 }
 
 impl From<LatencyArgs> for Latency {

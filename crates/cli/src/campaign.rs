@@ -1,6 +1,7 @@
 //! `platoon campaign` and the hidden `platoon campaign-cell`: the arguments, the signals, what
 //! is printed and the exit codes; the campaign itself is [`platoon_app::campaign`].
-use anyhow::{Context, Result};
+use crate::{bail, Result};
+use anyhow::Context;
 use platoon_app::campaign::{CampaignOptions, CellJob, CellStatus, Dask, Executor, LocalPool};
 use platoon_app::Stop;
 use platoon_campaign::Campaign;
@@ -75,9 +76,7 @@ pub fn run(args: Args) -> Result<()> {
     );
     println!("outputs: {}", outcome.dir.display());
     if failed > 0 {
-        anyhow::bail!(
-            "{failed} of {cells} cells failed; campaign.json lists them with their errors"
-        );
+        bail!("{failed} of {cells} cells failed; campaign.json lists them with their errors");
     }
     Ok(())
 }

@@ -1,7 +1,8 @@
 //! `platoon design`: the arguments and what is printed; the checks, designs and certificates are
 //! [`platoon_app::design`]'s.
 use crate::outdir::OutDir;
-use anyhow::{bail, Context, Result};
+use crate::{bail, Result};
+use anyhow::Context;
 use platoon_app::design::{
     self, BoundsOptions, CheckOptions, CheckReport, Synthesis, SynthesisOptions, Theorem,
 };

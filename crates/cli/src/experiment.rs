@@ -3,19 +3,19 @@
 use crate::names::one_of;
 use crate::outdir::OutDir;
 use crate::progress::Bar;
-use anyhow::Result;
+use crate::Result;
 use clap::builder::PossibleValuesParser;
 use platoon_app::experiment::{
-    self, Base, ControllersOptions, DegradationOptions, DetectionOptions, Intensity,
-    ManeuversOptions, RobustOptions, ScalingOptions, TopologiesOptions, TrafficOptions,
+    Base, Controllers, ControllersOptions, Degradation, DegradationOptions, Detection,
+    DetectionOptions, Intensity, Maneuvers, ManeuversOptions, Robust, RobustOptions, Scaling,
+    ScalingOptions, Table1, Topologies, TopologiesOptions, Traffic, TrafficOptions,
     DETECTION_ATTACKS, DETECTION_REACTIONS, DETECTORS, MANEUVERS, MANEUVER_ATTACKS,
     TRAFFIC_ATTACKS,
 };
-use platoon_config::{Embedded, LawName};
+use platoon_config::LawName;
 use platoon_control::Reaction;
 use platoon_topology::Preset;
-use std::fmt::Write as _;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// The experiments.
 #[derive(Debug, clap::Subcommand)]
@@ -401,12 +401,25 @@ pub fn run(e: Experiment) -> Result<()> {
     }
 }
 
-fn table1(args: Table1Args) -> Result<()> {
-    let base = Base::load(args.config.as_deref(), Embedded::Table1)?;
-    experiment::check_table1_base(&base)?;
-    args.output.write("runs/table1", |dir| {
-        Ok(experiment::table1(&base, Some(dir), &Bar::default())?.markdown)
+/// Runs the experiment `E` with `opts` on the config `config` (None: `E::BASE`) into the
+/// output directory (by default `E::DIR`), printing its summary; options and base are refused
+/// before anything is written.
+fn experiment<E: platoon_app::experiment::Experiment>(
+    opts: E::Options,
+    config: Option<&Path>,
+    output: &OutDir,
+    bar: Bar,
+) -> Result<()> {
+    E::validate(&opts)?;
+    let base = Base::load(config, E::BASE)?;
+    E::check_base(&base)?;
+    output.write(E::DIR, |dir| {
+        Ok(platoon_app::experiment::run::<E>(&base, &opts, Some(dir), &bar)?.summary())
     })
+}
+
+fn table1(args: Table1Args) -> Result<()> {
+    experiment::<Table1>((), args.config.as_deref(), &args.output, Bar::default())
 }
 
 fn traffic(args: TrafficArgs) -> Result<()> {
@@ -418,12 +431,8 @@ fn traffic(args: TrafficArgs) -> Result<()> {
         repeats: args.repeats,
         plant: args.plant,
     };
-    opts.validate()?;
-    let base = Base::load(args.config.as_deref(), Embedded::CutIn)?;
-    args.output.write("runs/traffic", |dir| {
-        let bar = Bar::counting("runs");
-        Ok(experiment::traffic(&base, &opts, Some(dir), &bar)?.markdown)
-    })
+    let bar = Bar::counting("runs");
+    experiment::<Traffic>(opts, args.config.as_deref(), &args.output, bar)
 }
 
 fn maneuvers(args: ManeuversArgs) -> Result<()> {
@@ -433,19 +442,12 @@ fn maneuvers(args: ManeuversArgs) -> Result<()> {
         attacks: args.attacks,
         repeats: args.repeats,
     };
-    opts.validate()?;
-    args.output.write("runs/maneuvers", |dir| {
-        let bar = Bar::counting("runs");
-        Ok(experiment::maneuvers(&opts, Some(dir), &bar)?.markdown)
-    })
+    experiment::<Maneuvers>(opts, None, &args.output, Bar::counting("runs"))
 }
 
 fn robust(args: RobustArgs) -> Result<()> {
-    let base = Base::load(args.config.as_deref(), Embedded::Paper)?;
     let opts = RobustOptions { k_max: args.k_max };
-    args.output.write("runs/robust", |dir| {
-        Ok(experiment::robust(&base, &opts, Some(dir), &Bar::default())?.markdown)
-    })
+    experiment::<Robust>(opts, args.config.as_deref(), &args.output, Bar::default())
 }
 
 fn topologies(args: TopologiesArgs) -> Result<()> {
@@ -454,35 +456,16 @@ fn topologies(args: TopologiesArgs) -> Result<()> {
         conservative_rho: args.conservative_rho,
         k_max: args.k_max,
     };
-    opts.validate()?;
-    let base = Base::load(args.config.as_deref(), Embedded::Paper)?;
-    experiment::check_topologies_base(&base)?;
-    args.output.write("runs/topologies", |dir| {
-        let t = experiment::topologies(&base, &opts, Some(dir), &Bar::counting("platoons"))?;
-        let mut text = format!(
-            "{:<6} {:>3} {:>13} {:>10} {:>8} {:>12}\n",
-            "graph", "N", "condition", "varsigma1", "c", "b1/b2"
-        );
-        for r in &t.rows {
-            writeln!(
-                text,
-                "{:<6} {:>3} {:>13} {:>10.4} {:>8.4} {:>12.1}",
-                r.topology, r.followers, r.condition, r.varsigma1, r.c, r.beta1_over_beta2
-            )?;
-        }
-        Ok(text)
-    })
+    let bar = Bar::counting("platoons");
+    experiment::<Topologies>(opts, args.config.as_deref(), &args.output, bar)
 }
 
 fn degradation(args: DegradationArgs) -> Result<()> {
     let opts = DegradationOptions {
         followers: args.followers,
     };
-    opts.validate()?;
-    let base = Base::load(args.config.as_deref(), Embedded::Degradation)?;
-    args.output.write("runs/degradation", |dir| {
-        Ok(experiment::degradation(&base, &opts, Some(dir), &Bar::counting("runs"))?.markdown)
-    })
+    let bar = Bar::counting("runs");
+    experiment::<Degradation>(opts, args.config.as_deref(), &args.output, bar)
 }
 
 fn controllers(args: ControllersArgs) -> Result<()> {
@@ -491,11 +474,8 @@ fn controllers(args: ControllersArgs) -> Result<()> {
         topologies: args.topologies,
         beacon_period_s: args.beacon_period,
     };
-    opts.validate()?;
-    let base = Base::load(args.config.as_deref(), Embedded::Paper)?;
-    args.output.write("runs/controllers", |dir| {
-        Ok(experiment::controllers(&base, &opts, Some(dir), &Bar::counting("runs"))?.markdown)
-    })
+    let bar = Bar::counting("runs");
+    experiment::<Controllers>(opts, args.config.as_deref(), &args.output, bar)
 }
 
 fn detection(args: DetectionArgs) -> Result<()> {
@@ -511,11 +491,8 @@ fn detection(args: DetectionArgs) -> Result<()> {
         start_s: args.start,
         jobs: args.jobs,
     };
-    opts.validate()?;
-    let base = Base::load(args.config.as_deref(), Embedded::Paper)?;
-    args.output.write("runs/detection", |dir| {
-        Ok(experiment::detection(&base, &opts, Some(dir), &Bar::counting("runs"))?.markdown)
-    })
+    let bar = Bar::counting("runs");
+    experiment::<Detection>(opts, args.config.as_deref(), &args.output, bar)
 }
 
 fn scaling(args: ScalingArgs) -> Result<()> {
@@ -527,9 +504,6 @@ fn scaling(args: ScalingArgs) -> Result<()> {
         k_max: args.k_max,
         certify_up_to: args.certify_up_to,
     };
-    opts.validate()?;
-    let base = Base::load(args.config.as_deref(), Embedded::Paper)?;
-    args.output.write("runs/scaling-experiment", |dir| {
-        Ok(experiment::scaling(&base, &opts, Some(dir), &Bar::counting("runs"))?.markdown)
-    })
+    let bar = Bar::counting("runs");
+    experiment::<Scaling>(opts, args.config.as_deref(), &args.output, bar)
 }

@@ -1,6 +1,6 @@
 //! `platoon fcd`: SUMO's FCD output from a SUMO run directory's trajectories; the conversion is
 //! [`platoon_app::sumo::write_fcd`].
-use anyhow::Result;
+use crate::Result;
 use platoon_app::sumo::{write_fcd, FcdOptions};
 use std::path::PathBuf;
 

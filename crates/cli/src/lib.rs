@@ -182,38 +182,91 @@ where
     };
     match result {
         Ok(()) => 0,
-        Err(e) => {
-            if let Some(config) = config_error(&e) {
-                eprintln!("error: {config}");
-                return EXIT_BAD_INPUT;
-            }
+        Err(Failure::BadInput(config)) => {
+            eprintln!("error: {config}");
+            EXIT_BAD_INPUT
+        }
+        Err(Failure::Failed(e)) => {
             eprintln!("error: {e:#}");
             1
         }
     }
 }
 
-/// The config error `e` is, raised as one or as an operation's kind ([`platoon_app::RunError`],
-/// [`platoon_app::CampaignError`], [`platoon_app::SearchError`], [`platoon_app::DesignError`],
-/// [`platoon_app::ExperimentError`]): the command then exits [`EXIT_BAD_INPUT`].
-fn config_error(e: &anyhow::Error) -> Option<&platoon_config::ConfigError> {
-    use platoon_app::{CampaignError, DesignError, ExperimentError, RunError, SearchError};
-    e.downcast_ref::<platoon_config::ConfigError>()
-        .or_else(|| e.downcast_ref::<RunError>().and_then(RunError::config))
-        .or_else(|| {
-            e.downcast_ref::<CampaignError>()
-                .and_then(CampaignError::config)
-        })
-        .or_else(|| {
-            e.downcast_ref::<SearchError>()
-                .and_then(SearchError::config)
-        })
-        .or_else(|| {
-            e.downcast_ref::<DesignError>()
-                .and_then(DesignError::config)
-        })
-        .or_else(|| {
-            e.downcast_ref::<ExperimentError>()
-                .and_then(ExperimentError::config)
-        })
+/// Why a command failed, by what its exit status says: every error of the library that is a
+/// config error (a run's, a campaign's, ...: each operation's error says so by its kind) is
+/// unusable input, anything else a failure.
+#[derive(Debug)]
+enum Failure {
+    /// A config, campaign or search file (or what the arguments make of it) is refused: the
+    /// command exits [`EXIT_BAD_INPUT`], printing it alone.
+    BadInput(platoon_config::ConfigError),
+    /// Anything else: the command exits 1, printing the error with its causes.
+    Failed(anyhow::Error),
 }
+
+/// The result of a command.
+type Result<T = (), E = Failure> = std::result::Result<T, E>;
+
+impl From<anyhow::Error> for Failure {
+    fn from(e: anyhow::Error) -> Self {
+        Self::Failed(e)
+    }
+}
+
+impl From<platoon_config::ConfigError> for Failure {
+    fn from(e: platoon_config::ConfigError) -> Self {
+        Self::BadInput(e)
+    }
+}
+
+/// `From` an operation's error: its config error is bad input, the rest a failure.
+macro_rules! by_kind {
+    ($($error:ty),+) => {$(
+        impl From<$error> for Failure {
+            fn from(e: $error) -> Self {
+                match e.config() {
+                    Some(c) => Self::BadInput(c.clone()),
+                    None => Self::Failed(e.into()),
+                }
+            }
+        }
+    )+};
+}
+
+by_kind!(
+    platoon_app::RunError,
+    platoon_app::CampaignError,
+    platoon_app::SearchError,
+    platoon_app::DesignError,
+    platoon_app::ExperimentError,
+    platoon_app::sumo::SumoError
+);
+
+/// `From` errors that are never a config's: a failure.
+macro_rules! failed {
+    ($($error:ty),+) => {$(
+        impl From<$error> for Failure {
+            fn from(e: $error) -> Self {
+                Self::Failed(e.into())
+            }
+        }
+    )+};
+}
+
+failed!(
+    std::io::Error,
+    std::fmt::Error,
+    serde_json::Error,
+    platoon_output::error::OutputError,
+    platoon_synthesis::LmiError,
+    platoon_app::OtherError
+);
+
+/// Returns an error (a [`Failure::Failed`]) with the message `format!` makes.
+macro_rules! bail {
+    ($($message:tt)+) => {
+        return Err(anyhow::anyhow!($($message)+).into())
+    };
+}
+use bail;

@@ -1,6 +1,7 @@
 //! `platoon node <role>`: one process of an iceoryx2 run, started by the orchestrator (or by
 //! `platoon bench latency`, for the echo).
-use anyhow::{Context, Result};
+use crate::Result;
+use anyhow::Context;
 use std::path::PathBuf;
 
 /// Which process `platoon node` runs: the nodes of a run ([`platoon_wire::Node`], by the same
@@ -48,10 +49,12 @@ pub fn run(args: Args) -> Result<()> {
     use platoon_runtime::bench::{echo, socket_echo, Socket};
     use platoon_wire::Node;
     let node = match args.role {
-        Role::Echo => return echo(&args.run_id, args.busy).context("echo node"),
-        Role::EchoUdp => return socket_echo(Socket::Udp, &args.config).context("UDP echo node"),
+        Role::Echo => return Ok(echo(&args.run_id, args.busy).context("echo node")?),
+        Role::EchoUdp => {
+            return Ok(socket_echo(Socket::Udp, &args.config).context("UDP echo node")?)
+        }
         Role::EchoUds => {
-            return socket_echo(Socket::Uds, &args.config).context("Unix-socket echo node")
+            return Ok(socket_echo(Socket::Uds, &args.config).context("Unix-socket echo node")?)
         }
         Role::Plant => Node::Plant,
         Role::Controller => Node::Controller,
@@ -66,5 +69,5 @@ pub fn run(args: Args) -> Result<()> {
         Node::Channel => platoon_runtime::nodes::channel(run_id, &scenario, log),
         _ => platoon_runtime::nodes::injector(run_id, &scenario, log),
     };
-    r.with_context(|| format!("{} node of run {}", node.name(), args.run_id))
+    Ok(r.with_context(|| format!("{} node of run {}", node.name(), args.run_id))?)
 }

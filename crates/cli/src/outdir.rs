@@ -1,5 +1,5 @@
 //! `--out` and `--force`, of every command that writes a directory of outputs.
-use anyhow::Result;
+use crate::Result;
 use platoon_output::rundir::RunDir;
 use std::path::PathBuf;
 

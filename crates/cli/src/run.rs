@@ -1,6 +1,7 @@
 //! `platoon run`: the arguments, the signals and what is printed; the run itself is
 //! [`platoon_app::run::run`].
-use anyhow::{Context, Result};
+use crate::{bail, Result};
+use anyhow::Context;
 use platoon_app::run::{Injector, RunOptions, Stop};
 use platoon_config::Transport;
 use platoon_sim::Summary;
@@ -117,10 +118,10 @@ pub fn run(args: Args) -> Result<()> {
         }
     }
     if !(args.step_timeout.is_finite() && args.step_timeout > 0.0) {
-        anyhow::bail!("--step-timeout must be a positive number of seconds");
+        bail!("--step-timeout must be a positive number of seconds");
     }
     if !(args.ready_timeout.is_finite() && args.ready_timeout > 0.0) {
-        anyhow::bail!("--ready-timeout must be a positive number of seconds");
+        bail!("--ready-timeout must be a positive number of seconds");
     }
     let opts = RunOptions {
         transport: args.transport,

@@ -1,7 +1,7 @@
 //! `platoon search`: the arguments, the signals, what is printed and the exit codes; the search
 //! itself is [`platoon_app::search`].
 use crate::outdir::OutDir;
-use anyhow::Result;
+use crate::Result;
 use platoon_app::search::{SearchOptions, SearchOutcome};
 use std::path::{Path, PathBuf};
 

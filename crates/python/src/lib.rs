@@ -9,13 +9,15 @@
 //! calling thread waits for it, checking for signals every 100 ms: a KeyboardInterrupt asks
 //! the run (or campaign) to stop as the CLI's Ctrl-C does, waits for it to stop cleanly (a run
 //! directory is committed, marked incomplete; a campaign stays resumable), then is raised.
-use anyhow::{Context, Result};
+use anyhow::Context;
 use arrow_array::RecordBatch;
 use arrow_pyarrow::IntoPyArrow;
 use platoon_app::campaign::{CampaignOptions, CellJob, CellReply, Dask, Executor, LocalPool};
 use platoon_app::run::{RunError, RunOptions, Tables};
 use platoon_app::Stop;
+use platoon_app::{CampaignError, DesignError};
 use platoon_config::{ConfigError as ConfigFileError, Embedded, PlantKind, Transport};
+use platoon_output::error::OutputError as OutputFileError;
 use pyo3::create_exception;
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
@@ -56,37 +58,144 @@ create_exception!(
      file or directory, None when unknown)."
 );
 
-/// A co-simulation that failed, and where what it recorded is kept: its message says both.
+/// Why a call failed, by kind: what decides the Python exception (see [`py_err`]).
 #[derive(Debug)]
-struct Recorded {
-    failure: RunError,
-    dir: PathBuf,
+enum CoreError {
+    /// A config (a file or a dict) or a campaign file is refused.
+    Config(ConfigFileError),
+    /// A run failed before it recorded anything.
+    Run(RunError),
+    /// A co-simulation failed, and what it recorded is kept in `dir`.
+    Recorded { failure: RunError, dir: PathBuf },
+    /// A campaign failed before it started.
+    Campaign(CampaignError),
+    /// A campaign's executor stopped; the cells done are kept in `dir`.
+    Resumable {
+        failure: CampaignError,
+        dir: PathBuf,
+    },
+    /// A design check failed.
+    Design(DesignError),
+    /// The files of a run read back.
+    Output(OutputFileError),
+    /// Anything else, with its context.
+    Other(anyhow::Error),
 }
 
-impl std::fmt::Display for Recorded {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(
-            f,
-            "{} (what the run recorded is in {})",
-            self.failure,
-            self.dir.display()
-        )
+type Result<T, E = CoreError> = std::result::Result<T, E>;
+
+impl CoreError {
+    /// The error of a run, if this is one.
+    fn run(&self) -> Option<&RunError> {
+        match self {
+            Self::Run(e) | Self::Recorded { failure: e, .. } => Some(e),
+            _ => None,
+        }
+    }
+
+    /// The output error this is, of any call.
+    fn output(&self) -> Option<&OutputFileError> {
+        match self {
+            Self::Output(o) => Some(o),
+            Self::Run(e) | Self::Recorded { failure: e, .. } => e.output(),
+            Self::Campaign(e) | Self::Resumable { failure: e, .. } => e.output(),
+            Self::Design(e) => e.output(),
+            Self::Config(_) | Self::Other(_) => None,
+        }
+    }
+
+    /// The config error this is, of any call.
+    fn config(&self) -> Option<&ConfigFileError> {
+        match self {
+            Self::Config(c) => Some(c),
+            Self::Run(e) | Self::Recorded { failure: e, .. } => e.config(),
+            Self::Campaign(e) | Self::Resumable { failure: e, .. } => e.config(),
+            Self::Design(e) => e.config(),
+            Self::Output(_) | Self::Other(_) => None,
+        }
+    }
+
+    /// The message: the error with its causes, and where a failed run's records are.
+    fn message(&self) -> String {
+        let report = platoon_app::OtherError::report;
+        match self {
+            Self::Config(e) => report(e),
+            Self::Run(e) => report(e),
+            Self::Recorded { failure, dir } => {
+                format!("{failure} (what the run recorded is in {})", dir.display())
+            }
+            Self::Campaign(e) => report(e),
+            Self::Resumable { failure, dir } => format!(
+                "the cells done are kept in {}; call again to resume: {}",
+                dir.display(),
+                report(failure)
+            ),
+            Self::Design(e) => report(e),
+            Self::Output(e) => report(e),
+            Self::Other(e) => format!("{e:#}"),
+        }
     }
 }
 
-impl std::error::Error for Recorded {}
+impl From<ConfigFileError> for CoreError {
+    fn from(e: ConfigFileError) -> Self {
+        Self::Config(e)
+    }
+}
 
-/// The Python exception for `e`, by its kind: [`ConfigError`] with its attributes for a
-/// config error (a run's, a campaign's, a design's), [`NodeError`] for a run's failed process,
-/// [`OutputError`] for the files of a run or a campaign, else [`PlatoonError`]; the message is
-/// the whole chain of causes.
-fn py_err(py: Python<'_>, e: anyhow::Error) -> PyErr {
-    let message = format!("{e:#}");
-    let (kind, dir) = match e.downcast_ref::<Recorded>() {
-        Some(r) => (Some(&r.failure), Some(&r.dir)),
-        None => (e.downcast_ref::<RunError>(), None),
-    };
-    if let Some(RunError::Node(n)) = kind {
+impl From<RunError> for CoreError {
+    fn from(e: RunError) -> Self {
+        Self::Run(e)
+    }
+}
+
+impl From<CampaignError> for CoreError {
+    fn from(e: CampaignError) -> Self {
+        Self::Campaign(e)
+    }
+}
+
+impl From<DesignError> for CoreError {
+    fn from(e: DesignError) -> Self {
+        Self::Design(e)
+    }
+}
+
+impl From<OutputFileError> for CoreError {
+    fn from(e: OutputFileError) -> Self {
+        Self::Output(e)
+    }
+}
+
+impl From<anyhow::Error> for CoreError {
+    fn from(e: anyhow::Error) -> Self {
+        Self::Other(e)
+    }
+}
+
+impl From<serde_json::Error> for CoreError {
+    fn from(e: serde_json::Error) -> Self {
+        Self::Other(e.into())
+    }
+}
+
+impl From<std::io::Error> for CoreError {
+    fn from(e: std::io::Error) -> Self {
+        Self::Other(e.into())
+    }
+}
+
+/// The Python exception for `e`, by its kind: [`NodeError`] with its attributes for a run's
+/// failed process, [`OutputError`] for the files of a run or a campaign, [`ConfigError`] with
+/// its attributes for a config error (a run's, a campaign's, a design's), else
+/// [`PlatoonError`]; the message is the whole chain of causes.
+fn py_err(py: Python<'_>, e: CoreError) -> PyErr {
+    let message = e.message();
+    if let Some(RunError::Node(n)) = e.run() {
+        let dir = match &e {
+            CoreError::Recorded { dir, .. } => Some(dir),
+            _ => None,
+        };
         let err = NodeError::new_err(message);
         let value = err.value(py);
         let _ = value.setattr("node", n.node);
@@ -96,14 +205,14 @@ fn py_err(py: Python<'_>, e: anyhow::Error) -> PyErr {
         let _ = value.setattr("run_dir", dir.map(|d| d.display().to_string()));
         return err;
     }
-    if let Some(o) = output_error(&e, kind) {
+    if let Some(o) = e.output() {
         let err = OutputError::new_err(message);
         let _ = err
             .value(py)
             .setattr("path", o.path().map(|p| p.display().to_string()));
         return err;
     }
-    if let Some(c) = config_error(&e, kind) {
+    if let Some(c) = e.config() {
         let err = ConfigError::new_err(c.to_string());
         let value = err.value(py);
         let _ = value.setattr("file", c.file.display().to_string());
@@ -113,45 +222,6 @@ fn py_err(py: Python<'_>, e: anyhow::Error) -> PyErr {
         return err;
     }
     PlatoonError::new_err(message)
-}
-
-/// The output error `e` is: raised as one, or as an operation's kind (`kind`: a run's).
-fn output_error<'a>(
-    e: &'a anyhow::Error,
-    kind: Option<&'a RunError>,
-) -> Option<&'a platoon_output::error::OutputError> {
-    use platoon_app::{CampaignError as C, DesignError as D};
-    match kind {
-        Some(RunError::Output(o)) => Some(o),
-        _ => e
-            .downcast_ref::<platoon_output::error::OutputError>()
-            .or(match e.downcast_ref::<C>() {
-                Some(C::Output(o)) => Some(o),
-                _ => None,
-            })
-            .or(match e.downcast_ref::<D>() {
-                Some(D::Output(o)) => Some(o),
-                _ => None,
-            }),
-    }
-}
-
-/// The config error `e` is: raised as one, or as an operation's kind (`kind`: a run's).
-fn config_error<'a>(
-    e: &'a anyhow::Error,
-    kind: Option<&'a RunError>,
-) -> Option<&'a ConfigFileError> {
-    use platoon_app::{CampaignError, DesignError};
-    e.downcast_ref::<ConfigFileError>()
-        .or_else(|| kind.and_then(RunError::config))
-        .or_else(|| {
-            e.downcast_ref::<CampaignError>()
-                .and_then(CampaignError::config)
-        })
-        .or_else(|| {
-            e.downcast_ref::<DesignError>()
-                .and_then(DesignError::config)
-        })
 }
 
 /// Runs `work` on a thread of its own without the GIL; the calling thread waits, checking for
@@ -270,12 +340,12 @@ fn load_config(
             other => other,
         }
     }
-    let parse_json = |text: &str| -> Result<toml::Value> {
+    let parse_json = |text: &str| -> Result<toml::Value, ConfigFileError> {
         let bad = |e: serde_json::Error| {
             ConfigFileError::new(&label, "", format!("not a config dict: {e}"))
         };
         let json: serde_json::Value = serde_json::from_str(text).map_err(bad)?;
-        Ok(serde_json::from_value(without_nulls(json)).map_err(bad)?)
+        serde_json::from_value(without_nulls(json)).map_err(bad)
     };
     let mut value = parse_json(config)?;
     if let Some(origin) = &origin.config {
@@ -295,14 +365,14 @@ fn load_config(
 #[pyfunction]
 fn scenario(py: Python<'_>, name: &str) -> PyResult<String> {
     let loaded = match Embedded::ALL.iter().find(|e| e.name() == name) {
-        Some(e) => e.parse().map_err(anyhow::Error::from),
+        Some(e) => e.parse().map_err(CoreError::from),
         None if Path::new(name).is_file() => {
-            platoon_config::load(Path::new(name)).map_err(Into::into)
+            platoon_config::load(Path::new(name)).map_err(CoreError::from)
         }
-        None => Err(anyhow::anyhow!(
+        None => Err(CoreError::Other(anyhow::anyhow!(
             "no scenario {name:?}: the embedded ones are {}, or give a TOML file's path",
             Embedded::ALL.map(|e| e.name()).join(", ")
-        )),
+        ))),
     };
     let (config, _) = loaded.map_err(|e| py_err(py, e))?;
     serde_json::to_string(&config).map_err(|e| py_err(py, e.into()))
@@ -442,7 +512,9 @@ fn run(
                 .map_err(|e| {
                     py_err(
                         py,
-                        anyhow::Error::from(e).context("creating a temporary run directory"),
+                        anyhow::Error::from(e)
+                            .context("creating a temporary run directory")
+                            .into(),
                     )
                 })?;
             (temp.path().join("run"), Some(temp))
@@ -460,7 +532,7 @@ fn run(
                     Some(t) => t.keep().join("run"),
                     None => outcome.dir,
                 };
-                return Err(Recorded { failure, dir }.into());
+                return Err(CoreError::Recorded { failure, dir });
             }
             let summary = outcome.dir.join("summary.json");
             let json = std::fs::read_to_string(&summary)
@@ -501,7 +573,7 @@ fn cells_schema(inferred: &arrow_schema::Schema) -> arrow_schema::Schema {
 }
 
 /// `cells.csv` as record batches with [`cells_schema`]'s types (an empty cell is null).
-fn read_cells(path: &Path) -> Result<(arrow_schema::SchemaRef, Vec<RecordBatch>)> {
+fn read_cells(path: &Path) -> anyhow::Result<(arrow_schema::SchemaRef, Vec<RecordBatch>)> {
     use std::io::Seek;
     let mut file =
         std::fs::File::open(path).with_context(|| format!("opening {}", path.display()))?;
@@ -568,16 +640,16 @@ fn campaign(
     let done = interruptible(py, Some(&flag), move || -> Result<_> {
         let outcome = platoon_app::campaign::run(&campaign, &out, &opts, &*executor, &stop, &())?;
         if let Some(e) = outcome.failure {
-            return Err(anyhow::Error::from(e).context(format!(
-                "the cells done are kept in {}; call again to resume",
-                outcome.dir.display()
-            )));
+            return Err(CoreError::Resumable {
+                failure: e,
+                dir: outcome.dir,
+            });
         }
         if let Some(why) = outcome.stopped {
-            anyhow::bail!(
+            return Err(CoreError::Other(anyhow::anyhow!(
                 "{why}: the cells done are kept in {}; call again to resume",
                 outcome.dir.display()
-            );
+            )));
         }
         let report = outcome.dir.join("campaign.json");
         let json = std::fs::read_to_string(&report)

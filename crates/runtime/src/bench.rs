@@ -6,7 +6,7 @@
 //! the echo's publish stamp minus the ping's publish stamp (`CLOCK_MONOTONIC`, shared by both
 //! processes), so the two figures mean the same thing.
 use crate::ipc::{wait, Endpoint, Inlet, Outlet};
-use crate::RunError;
+use crate::CosimError;
 use platoon_wire::{LinkPacket, Node, Service};
 use std::path::Path;
 use std::process::{Command, Stdio};
@@ -24,7 +24,7 @@ pub fn raw_hop(
     warmup: usize,
     items: usize,
     busy: bool,
-) -> Result<Vec<u64>, RunError> {
+) -> Result<Vec<u64>, CosimError> {
     let e = Endpoint::new(run_id, Node::Controller)?;
     let _wake = [Node::Controller, Node::Injector]
         .iter()
@@ -43,7 +43,7 @@ pub fn raw_hop(
     let mut child = cmd
         .stdin(Stdio::null())
         .spawn()
-        .map_err(|source| RunError::Spawn {
+        .map_err(|source| CosimError::Spawn {
             node: "echo",
             command: format!("{} node echo", exe.display()),
             source,
@@ -60,7 +60,7 @@ pub fn raw_hop(
                 break;
             }
             if let Ok(Some(status)) = child.try_wait() {
-                return Err(RunError::Died {
+                return Err(CosimError::Died {
                     node: "echo",
                     pid: child.id(),
                     step: 0,
@@ -69,7 +69,7 @@ pub fn raw_hop(
                 });
             }
             if started.elapsed() > Duration::from_secs(30) {
-                return Err(RunError::Stalled {
+                return Err(CosimError::Stalled {
                     node: "echo",
                     step: 0,
                     waited_s: 30.0,
@@ -94,7 +94,7 @@ pub fn raw_hop(
                 spins = 0;
                 wait(&listener, Duration::from_secs(1))?;
                 if let Ok(Some(status)) = child.try_wait() {
-                    return Err(RunError::Died {
+                    return Err(CosimError::Died {
                         node: "echo",
                         pid: child.id(),
                         step: i,
@@ -125,7 +125,7 @@ pub fn raw_hop(
 
 /// The echo process: republishes every tx sample on rx, until told to quit or orphaned. With
 /// `busy` it polls instead of waiting (opt-in: it burns a core).
-pub fn echo(run_id: &str, busy: bool) -> Result<(), RunError> {
+pub fn echo(run_id: &str, busy: bool) -> Result<(), CosimError> {
     let e = Endpoint::new(run_id, Node::Injector)?;
     let listener = e.listener()?;
     let mut tx: Inlet<LinkPacket> =
@@ -148,7 +148,7 @@ pub fn echo(run_id: &str, busy: bool) -> Result<(), RunError> {
             wait(&listener, Duration::from_millis(200))?;
         }
         if std::os::unix::process::parent_id() != parent {
-            return Err(RunError::Orphaned);
+            return Err(CosimError::Orphaned);
         }
     }
 }

@@ -23,7 +23,7 @@ use crate::session::{
     contract, deliveries_from_wire, inspection_to_wire, packet_to_wire, reporting,
     states_from_wire, Numbering,
 };
-use crate::{monotonic_ns, RunError};
+use crate::{monotonic_ns, CosimError};
 use platoon_control::fallback::RadarTruth;
 use platoon_control::{Controller, Packet};
 use platoon_model::{State, VehicleId};
@@ -37,7 +37,7 @@ pub fn run(
     run_id: &str,
     scenario: &Scenario,
     mut make: impl FnMut(&Scenario) -> Result<Box<dyn Controller>, String>,
-) -> Result<(), RunError> {
+) -> Result<(), CosimError> {
     reporting(run_id, Node::Controller, |ctx, k| {
         let e = &ctx.endpoint;
         let num = Numbering::of(scenario);
@@ -101,10 +101,8 @@ pub fn run(
             || scenario.control.detection.reads_radar()
             || scenario.changes_lanes();
         let mut truths: Vec<Option<RadarTruth>> = Vec::with_capacity(num.vehicles());
-        let mut tx: Vec<Packet> = Vec::new();
-        let mut sent: Vec<bool> = Vec::new();
-        let (mut wire_tx, mut deliveries, mut jammed, mut cmds) = (
-            Vec::new(),
+        let mut scratch = Broadcasts::default();
+        let (mut deliveries, mut jammed, mut cmds) = (
             vec![Vec::new(); num.platoons],
             vec![false; num.vehicles()],
             Vec::with_capacity(num.followers()),
@@ -115,57 +113,10 @@ pub fn run(
         loop {
             if states.is_none() {
                 if let Some(s) = states_in.take(*k)? {
-                    truths.clear();
-                    truths.extend(s.iter().map(|x| {
-                        (x.flags & VehicleState::AHEAD != 0).then_some(RadarTruth {
-                            gap: x.gap,
-                            closing: x.closing,
-                            intruder: x.flags & VehicleState::INTRUDER != 0,
-                        })
-                    }));
+                    radar_truths(&s, &mut truths);
                     let s = states_from_wire(&s, num.vehicles())?;
-                    wire_tx.clear();
-                    let stamp = monotonic_ns();
-                    for (j, c) in controllers.iter_mut().enumerate() {
-                        tx.clear();
-                        c.transmit(*k, &s[j * n1..(j + 1) * n1], &mut tx);
-                        sent.clear();
-                        sent.resize(n1, false);
-                        for p in tx.iter() {
-                            let Some(to) =
-                                (p.sender.index() < n1).then(|| hearing.out_neighbours(p.sender))
-                            else {
-                                return Err(fail(format!(
-                                    "step {k}: platoon {j} broadcast as vehicle {}, which it \
-                                     does not have",
-                                    p.sender.0
-                                )));
-                            };
-                            if p.head.index() >= n1 {
-                                return Err(fail(format!(
-                                    "step {k}: platoon {j}: vehicle {} names vehicle {} as its \
-                                     head, which the platoon does not have",
-                                    p.sender.0, p.head.0
-                                )));
-                            }
-                            // At most one broadcast per vehicle and step: the tx outlet holds
-                            // one item per link.
-                            if std::mem::replace(&mut sent[p.sender.index()], true) {
-                                return Err(fail(format!(
-                                    "step {k}: platoon {j}: vehicle {} broadcast twice in one \
-                                     step (at most once per step)",
-                                    p.sender.0
-                                )));
-                            }
-                            let packet = packet_to_wire(p, stamp, j, num);
-                            wire_tx.extend(to.iter().map(|&r| LinkPacket {
-                                receiver: num.global(j, r),
-                                kind: LinkPacket::DELIVERY,
-                                packet,
-                            }));
-                        }
-                    }
-                    tx_out.send(*k, scenario.dt(), &wire_tx)?;
+                    let wire_tx = scratch.broadcasts(&mut controllers, *k, &s, &hearing, num)?;
+                    tx_out.send(*k, scenario.dt(), wire_tx)?;
                     states = Some(s);
                 }
             }
@@ -241,4 +192,92 @@ pub fn run(
             }
         }
     })
+}
+
+/// The transmit half's buffers, kept from step to step.
+#[derive(Default)]
+struct Broadcasts {
+    tx: Vec<Packet>,
+    sent: Vec<bool>,
+    wire: Vec<LinkPacket>,
+}
+
+impl Broadcasts {
+    /// What each platoon's controller broadcasts at step `k` on `s` (every platoon's states,
+    /// in order), one item per link of `hearing`; a broadcast as a vehicle the platoon does
+    /// not have, naming a head it does not have, or a second one in the step breaks the
+    /// contract.
+    fn broadcasts(
+        &mut self,
+        controllers: &mut [Box<dyn Controller>],
+        k: u64,
+        s: &[State],
+        hearing: &platoon_topology::Topology,
+        num: Numbering,
+    ) -> Result<&[LinkPacket], CosimError> {
+        let n1 = num.per_platoon;
+        self.wire.clear();
+        let stamp = monotonic_ns();
+        for (j, c) in controllers.iter_mut().enumerate() {
+            self.tx.clear();
+            c.transmit(k, &s[j * n1..(j + 1) * n1], &mut self.tx);
+            self.sent.clear();
+            self.sent.resize(n1, false);
+            for p in self.tx.iter() {
+                let Some(to) = (p.sender.index() < n1).then(|| hearing.out_neighbours(p.sender))
+                else {
+                    return Err(contract(
+                        Node::Controller,
+                        format!(
+                            "step {k}: platoon {j} broadcast as vehicle {}, which it \
+                             does not have",
+                            p.sender.0
+                        ),
+                    ));
+                };
+                if p.head.index() >= n1 {
+                    return Err(contract(
+                        Node::Controller,
+                        format!(
+                            "step {k}: platoon {j}: vehicle {} names vehicle {} as its \
+                             head, which the platoon does not have",
+                            p.sender.0, p.head.0
+                        ),
+                    ));
+                }
+                // At most one broadcast per vehicle and step: the tx outlet holds
+                // one item per link.
+                if std::mem::replace(&mut self.sent[p.sender.index()], true) {
+                    return Err(contract(
+                        Node::Controller,
+                        format!(
+                            "step {k}: platoon {j}: vehicle {} broadcast twice in one \
+                             step (at most once per step)",
+                            p.sender.0
+                        ),
+                    ));
+                }
+                let packet = packet_to_wire(p, stamp, j, num);
+                self.wire.extend(to.iter().map(|&r| LinkPacket {
+                    receiver: num.global(j, r),
+                    kind: LinkPacket::DELIVERY,
+                    packet,
+                }));
+            }
+        }
+        Ok(&self.wire)
+    }
+}
+
+/// What each vehicle's radar sees of the vehicle ahead, as the plant reported it in `states`
+/// (None: nothing ahead), into `truths`.
+fn radar_truths(states: &[VehicleState], truths: &mut Vec<Option<RadarTruth>>) {
+    truths.clear();
+    truths.extend(states.iter().map(|x| {
+        (x.flags & VehicleState::AHEAD != 0).then_some(RadarTruth {
+            gap: x.gap,
+            closing: x.closing,
+            intruder: x.flags & VehicleState::INTRUDER != 0,
+        })
+    }));
 }

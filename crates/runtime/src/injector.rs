@@ -18,7 +18,7 @@ use crate::session::{
     check_traffic, contract, packet_from_wire, packet_to_wire, reporting, states_from_wire,
     Numbering,
 };
-use crate::{monotonic_ns, RunError};
+use crate::{monotonic_ns, CosimError};
 use platoon_attacks::channel::{ChannelEvent, RadioStats};
 use platoon_attacks::inject::{InjectError, Injector, Reception};
 use platoon_control::{Delivery, Packet};
@@ -117,7 +117,7 @@ pub fn run(
     run_id: &str,
     scenario: &Scenario,
     injector: &mut dyn WireInjector,
-) -> Result<(), RunError> {
+) -> Result<(), CosimError> {
     run_on(Ports::INJECTOR, run_id, scenario, injector)
 }
 
@@ -127,7 +127,7 @@ pub fn run_on(
     run_id: &str,
     scenario: &Scenario,
     injector: &mut dyn WireInjector,
-) -> Result<(), RunError> {
+) -> Result<(), CosimError> {
     reporting(run_id, ports.role, |ctx, k| {
         let e = &ctx.endpoint;
         let vehicles = Numbering::of(scenario).vehicles();
@@ -287,7 +287,7 @@ impl Platoons {
         scenario: &Scenario,
         factory: &InjectorFactory,
         log: Option<&Path>,
-    ) -> Result<Self, RunError> {
+    ) -> Result<Self, CosimError> {
         let num = Numbering::of(scenario);
         let writer = match log {
             Some(p) => Some(csv::Writer::from_path(p).map_err(|e| {

@@ -1,6 +1,6 @@
 //! The iceoryx2 ports of one node: step outlets that publish and wake their readers, step inlets
 //! that buffer by step, the control channel and the node's own wake-up listener.
-use crate::{monotonic_ns, RunError};
+use crate::{monotonic_ns, CosimError};
 use iceoryx2::node::NodeBuilder;
 use iceoryx2::port::listener::Listener;
 use iceoryx2::port::notifier::Notifier;
@@ -21,8 +21,14 @@ pub const BUFFER: usize = 64;
 
 type Ipc = ipc::Service;
 
-fn ipc_err(what: impl std::fmt::Display, e: impl Debug) -> RunError {
-    RunError::Ipc(format!("{what}: {e:?}"))
+fn ipc_err(
+    what: impl std::fmt::Display,
+    e: impl std::error::Error + Send + Sync + 'static,
+) -> CosimError {
+    CosimError::Ipc {
+        what: what.to_string(),
+        source: Box::new(e),
+    }
 }
 
 /// The iceoryx2 node of one process in run `run_id`, with the cleanup of dead nodes done first
@@ -35,7 +41,7 @@ pub struct Endpoint {
 
 impl Endpoint {
     /// Creates the node.
-    pub fn new(run_id: &str, role: Role) -> Result<Self, RunError> {
+    pub fn new(run_id: &str, role: Role) -> Result<Self, CosimError> {
         set_log_level_from_env_or(LogLevel::Error);
         let name = NodeName::new(&format!("platoon-{}-{run_id}", role.name()))
             .map_err(|e| ipc_err("node name", e))?;
@@ -58,7 +64,7 @@ impl Endpoint {
         self.node.try_cleanup_dead_nodes();
     }
 
-    fn name(&self, s: Service) -> Result<ServiceName, RunError> {
+    fn name(&self, s: Service) -> Result<ServiceName, CosimError> {
         let n = service_name(&self.run_id, s);
         ServiceName::new(&n).map_err(|e| ipc_err(format!("service name {n}"), e))
     }
@@ -67,7 +73,7 @@ impl Endpoint {
     pub fn create_step_service<T: Debug + ZeroCopySend + 'static>(
         &self,
         s: Service,
-    ) -> Result<StepService<T>, RunError> {
+    ) -> Result<StepService<T>, CosimError> {
         self.create_service(s, 2, 4, 8, false)
     }
 
@@ -78,7 +84,7 @@ impl Endpoint {
         &self,
         o: platoon_wire::Observed,
         observers: usize,
-    ) -> Result<StepService<T>, RunError> {
+    ) -> Result<StepService<T>, CosimError> {
         let observers = observers.max(1);
         self.create_service(Service::Observe(o), 1, observers, observers + 2, true)
     }
@@ -91,7 +97,7 @@ impl Endpoint {
         subscribers: usize,
         nodes: usize,
         safe_overflow: bool,
-    ) -> Result<StepService<T>, RunError> {
+    ) -> Result<StepService<T>, CosimError> {
         let name = self.name(s)?;
         self.step_builder::<T>(&name)
             .max_publishers(publishers)
@@ -119,7 +125,7 @@ impl Endpoint {
     pub fn open_step_service<T: Debug + ZeroCopySend + 'static>(
         &self,
         s: Service,
-    ) -> Result<StepService<T>, RunError> {
+    ) -> Result<StepService<T>, CosimError> {
         let name = self.name(s)?;
         self.step_builder::<T>(&name)
             .open()
@@ -131,7 +137,7 @@ impl Endpoint {
     pub fn open_optional_step_service<T: Debug + ZeroCopySend + 'static>(
         &self,
         s: Service,
-    ) -> Result<Option<StepService<T>>, RunError> {
+    ) -> Result<Option<StepService<T>>, CosimError> {
         let name = self.name(s)?;
         match self
             .node
@@ -149,7 +155,7 @@ impl Endpoint {
     }
 
     /// Creates (orchestrator) or opens the control or status service.
-    pub fn control_service(&self, s: Service, create: bool) -> Result<ControlService, RunError> {
+    pub fn control_service(&self, s: Service, create: bool) -> Result<ControlService, CosimError> {
         let name = self.name(s)?;
         let b = self
             .node
@@ -171,7 +177,7 @@ impl Endpoint {
     }
 
     /// Creates (orchestrator) or opens the wake-up event service of `node`.
-    pub fn wake_service(&self, node: Role, create: bool) -> Result<WakeService, RunError> {
+    pub fn wake_service(&self, node: Role, create: bool) -> Result<WakeService, CosimError> {
         let name = self.name(Service::Wake(node))?;
         let b = self.node.service_builder(&name).event();
         if create {
@@ -187,7 +193,7 @@ impl Endpoint {
     }
 
     /// This node's listener.
-    pub fn listener(&self) -> Result<Listener<Ipc>, RunError> {
+    pub fn listener(&self) -> Result<Listener<Ipc>, CosimError> {
         self.wake_service(platoon_wire::wake_listener_of(self.role), false)?
             .listener_builder()
             .create()
@@ -195,7 +201,7 @@ impl Endpoint {
     }
 
     /// Notifiers that wake the readers of `s` (all but this node).
-    pub fn wakers(&self, s: Service) -> Result<Vec<Waker>, RunError> {
+    pub fn wakers(&self, s: Service) -> Result<Vec<Waker>, CosimError> {
         wakes(s)
             .iter()
             .filter(|&&r| r != self.role)
@@ -224,7 +230,7 @@ impl Endpoint {
         service: &StepService<T>,
         s: Service,
         max_len: usize,
-    ) -> Result<Outlet<T>, RunError> {
+    ) -> Result<Outlet<T>, CosimError> {
         self.outlet_with(service, s, max_len, AllocationStrategy::PowerOfTwo)
     }
 
@@ -236,7 +242,7 @@ impl Endpoint {
         service: &StepService<T>,
         s: Service,
         max_len: usize,
-    ) -> Result<Outlet<T>, RunError> {
+    ) -> Result<Outlet<T>, CosimError> {
         self.outlet_with(service, s, max_len, AllocationStrategy::Static)
     }
 
@@ -246,7 +252,7 @@ impl Endpoint {
         s: Service,
         max_len: usize,
         strategy: AllocationStrategy,
-    ) -> Result<Outlet<T>, RunError> {
+    ) -> Result<Outlet<T>, CosimError> {
         let publisher = service
             .publisher_builder()
             .initial_max_slice_len(max_len.max(1))
@@ -264,7 +270,7 @@ impl Endpoint {
         &self,
         service: &ControlService,
         s: Service,
-    ) -> Result<ControlOutlet, RunError> {
+    ) -> Result<ControlOutlet, CosimError> {
         let publisher = service
             .publisher_builder()
             .create()
@@ -297,7 +303,7 @@ pub struct Waker {
 impl Waker {
     /// Notifies the node, first handing it this process's CPU, except the orchestrator's (it
     /// records and writes the outputs, off the chain of a step).
-    fn wake(&self) -> Result<(), RunError> {
+    fn wake(&self) -> Result<(), CosimError> {
         if self.role != Role::Orchestrator && crate::handoff::enabled() {
             crate::handoff::hand_to(self.listener_pids());
         }
@@ -334,7 +340,7 @@ pub struct Outlet<T: Debug + ZeroCopySend + 'static> {
 
 impl<T: Debug + Copy + ZeroCopySend + 'static> Outlet<T> {
     /// Sends `items` as the sample of step `step` (time `step dt`); returns its publish stamp.
-    pub fn send(&self, step: u64, dt: f64, items: &[T]) -> Result<u64, RunError> {
+    pub fn send(&self, step: u64, dt: f64, items: &[T]) -> Result<u64, CosimError> {
         let mut sample = self
             .publisher
             .loan_slice_uninit(items.len())
@@ -352,7 +358,7 @@ impl<T: Debug + Copy + ZeroCopySend + 'static> Outlet<T> {
     }
 }
 
-fn wake(wakers: &[Waker]) -> Result<(), RunError> {
+fn wake(wakers: &[Waker]) -> Result<(), CosimError> {
     wakers.iter().try_for_each(Waker::wake)
 }
 
@@ -364,7 +370,7 @@ pub struct ControlOutlet {
 
 impl ControlOutlet {
     /// Sends one message.
-    pub fn send(&self, msg: ControlMsg) -> Result<(), RunError> {
+    pub fn send(&self, msg: ControlMsg) -> Result<(), CosimError> {
         self.publisher
             .send_copy(msg)
             .map_err(|e| ipc_err("sending a control message", e))?;
@@ -387,7 +393,7 @@ pub struct Inlet<T: Debug + ZeroCopySend + 'static> {
 
 impl<T: Debug + Copy + ZeroCopySend + 'static> Inlet<T> {
     /// A subscriber on `service`, whose samples come from `from`.
-    pub fn new(service: &StepService<T>, from: Role) -> Result<Self, RunError> {
+    pub fn new(service: &StepService<T>, from: Role) -> Result<Self, CosimError> {
         let subscriber = service
             .subscriber_builder()
             .create()
@@ -405,7 +411,7 @@ impl<T: Debug + Copy + ZeroCopySend + 'static> Inlet<T> {
     /// process exits) takes the samples this subscriber never connected to with it; those of
     /// a connection already made stay readable. So a run connects once every node has opened
     /// its ports, before the first step, and what a crashing node published is not lost.
-    pub fn connect(&self) -> Result<(), RunError> {
+    pub fn connect(&self) -> Result<(), CosimError> {
         use iceoryx2::port::update_connections::UpdateConnections as _;
         self.subscriber
             .update_connections()
@@ -420,7 +426,7 @@ impl<T: Debug + Copy + ZeroCopySend + 'static> Inlet<T> {
 
     /// Moves every new received sample into the buffer (a repeated step is dropped and
     /// counted, see [`Inlet::duplicates`]); returns how many were new.
-    pub fn drain(&mut self) -> Result<usize, RunError> {
+    pub fn drain(&mut self) -> Result<usize, CosimError> {
         let mut n = 0;
         while let Some(s) = self
             .subscriber
@@ -431,7 +437,7 @@ impl<T: Debug + Copy + ZeroCopySend + 'static> Inlet<T> {
             let items = usize::try_from(h.count)
                 .ok()
                 .and_then(|n| s.payload().get(..n))
-                .ok_or_else(|| RunError::Contract {
+                .ok_or_else(|| CosimError::Contract {
                     node: self.from.name(),
                     message: format!(
                         "the sample of step {} says it holds {} items but carries {}",
@@ -469,12 +475,12 @@ impl<T: Debug + Copy + ZeroCopySend + 'static> Inlet<T> {
     }
 
     /// The sample of step `k`, if it arrived; samples of earlier steps are dropped.
-    pub fn take(&mut self, k: u64) -> Result<Option<Vec<T>>, RunError> {
+    pub fn take(&mut self, k: u64) -> Result<Option<Vec<T>>, CosimError> {
         Ok(self.take_sample(k)?.map(|(_, v)| v))
     }
 
     /// Like [`Inlet::take`], with the sample's header.
-    pub fn take_sample(&mut self, k: u64) -> Result<Option<Sample<T>>, RunError> {
+    pub fn take_sample(&mut self, k: u64) -> Result<Option<Sample<T>>, CosimError> {
         self.drain()?;
         Ok(self.take_buffered(k))
     }
@@ -502,7 +508,7 @@ pub struct ControlInlet {
 
 impl ControlInlet {
     /// A subscriber on `service`.
-    pub fn new(service: &ControlService) -> Result<Self, RunError> {
+    pub fn new(service: &ControlService) -> Result<Self, CosimError> {
         Ok(Self {
             subscriber: service
                 .subscriber_builder()
@@ -512,7 +518,7 @@ impl ControlInlet {
     }
 
     /// The next message, if any.
-    pub fn next(&self) -> Result<Option<ControlMsg>, RunError> {
+    pub fn next(&self) -> Result<Option<ControlMsg>, CosimError> {
         Ok(self
             .subscriber
             .receive()
@@ -522,7 +528,7 @@ impl ControlInlet {
 }
 
 /// Waits until this node is notified, or `timeout` passes.
-pub fn wait(listener: &Listener<Ipc>, timeout: Duration) -> Result<(), RunError> {
+pub fn wait(listener: &Listener<Ipc>, timeout: Duration) -> Result<(), CosimError> {
     listener
         .timed_wait(|_| {}, timeout)
         .map_err(|e| ipc_err("waiting for a wake-up", e))?;

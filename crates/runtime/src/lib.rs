@@ -28,14 +28,20 @@ pub mod timing;
 
 pub use orchestrator::{orchestrate, DuplicateSamples, Options, Outcome, Program};
 
-/// Why a co-simulation run stopped early.
+/// Why a co-simulation (the orchestrator's run, or one of its processes) stopped early.
 #[derive(Debug, thiserror::Error)]
-pub enum RunError {
+pub enum CosimError {
     /// iceoryx2 refused an operation.
-    #[error("iceoryx2: {0}")]
-    Ipc(String),
+    #[error("iceoryx2: {what}")]
+    Ipc {
+        /// What this process was doing (`creating service platoon/<run>/states`, ...).
+        what: String,
+        /// iceoryx2's error.
+        #[source]
+        source: Box<dyn std::error::Error + Send + Sync + 'static>,
+    },
     /// A node's process could not be started.
-    #[error("could not start the {node} process ({command}): {source}")]
+    #[error("could not start the {node} process ({command})")]
     Spawn {
         /// Which.
         node: &'static str,
@@ -117,17 +123,33 @@ pub enum RunError {
     Aborted(String),
 }
 
-impl RunError {
+impl CosimError {
     /// The node this error is about, if one.
     pub fn node(&self) -> Option<&'static str> {
         match self {
-            RunError::Spawn { node, .. }
-            | RunError::Died { node, .. }
-            | RunError::Stalled { node, .. }
-            | RunError::Failed { node, .. }
-            | RunError::Contract { node, .. } => Some(node),
+            CosimError::Spawn { node, .. }
+            | CosimError::Died { node, .. }
+            | CosimError::Stalled { node, .. }
+            | CosimError::Failed { node, .. }
+            | CosimError::Contract { node, .. } => Some(node),
             _ => None,
         }
+    }
+}
+
+/// An error and its causes, `: `-separated (as `anyhow` prints `{:#}`): for a message that
+/// goes where no one walks the chain (a node's report, a plug-in's stderr).
+pub struct Causes<'a>(pub &'a (dyn std::error::Error + 'static));
+
+impl std::fmt::Display for Causes<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}", self.0)?;
+        let mut cause = self.0.source();
+        while let Some(c) = cause {
+            write!(f, ": {c}")?;
+            cause = c.source();
+        }
+        Ok(())
     }
 }
 

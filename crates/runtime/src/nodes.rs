@@ -6,7 +6,7 @@
 use crate::injector::Platoons;
 use crate::ipc::{Inlet, Outlet};
 use crate::session::{contract, reporting, Numbering};
-use crate::RunError;
+use crate::CosimError;
 use platoon_control::fallback::RadarTruth;
 use platoon_sim::traffic::RadarTarget;
 use platoon_sim::{InjectorFactory, Plant, Scenario};
@@ -14,7 +14,7 @@ use platoon_wire::{Command, ControlMsg, Node, Service, VehicleState};
 use std::path::Path;
 
 /// The native plant process: integrates every vehicle with the model of `platoon-sim`.
-pub fn plant(run_id: &str, scenario: &Scenario) -> Result<(), RunError> {
+pub fn plant(run_id: &str, scenario: &Scenario) -> Result<(), CosimError> {
     reporting(run_id, Node::Plant, |ctx, k| {
         let e = &ctx.endpoint;
         let num = Numbering::of(scenario);
@@ -107,7 +107,7 @@ pub fn plant(run_id: &str, scenario: &Scenario) -> Result<(), RunError> {
 }
 
 /// Checks a command batch (one finite command per follower) and copies it into `u`.
-fn commands_into(cmds: &[Command], num: Numbering, u: &mut [f64]) -> Result<(), RunError> {
+fn commands_into(cmds: &[Command], num: Numbering, u: &mut [f64]) -> Result<(), CosimError> {
     if cmds.len() != u.len() {
         return Err(contract(
             Node::Controller,
@@ -139,7 +139,7 @@ fn commands_into(cmds: &[Command], num: Numbering, u: &mut [f64]) -> Result<(), 
 /// The controller service: every follower's triggering rule, estimators and control law, for
 /// every platoon: the controllers [`platoon_control::build`] makes from the config, on the
 /// controller SDK ([`crate::controller`]) like any third-party one.
-pub fn controller(run_id: &str, scenario: &Scenario) -> Result<(), RunError> {
+pub fn controller(run_id: &str, scenario: &Scenario) -> Result<(), CosimError> {
     crate::controller::run(run_id, scenario, |s| {
         platoon_control::build(&s.control, &s.topology, &s.initial).map_err(|e| e.to_string())
     })
@@ -148,14 +148,14 @@ pub fn controller(run_id: &str, scenario: &Scenario) -> Result<(), RunError> {
 /// The built-in attack injector: the channel of `platoon-attacks` between the controllers, one
 /// per platoon, adapted to the wire ([`crate::injector::Platoons`]) like any injector of the
 /// pure seam. Writes its log (every packet not delivered as sent) to `log` as CSV.
-pub fn injector(run_id: &str, scenario: &Scenario, log: Option<&Path>) -> Result<(), RunError> {
+pub fn injector(run_id: &str, scenario: &Scenario, log: Option<&Path>) -> Result<(), CosimError> {
     let mut channel = Platoons::new(scenario, &InjectorFactory::builtin(), log)?;
     crate::injector::run(run_id, scenario, &mut channel)
 }
 
 /// The same channel in front of a third-party injector (`--injector-mode after`): reads `tx`,
 /// publishes `gated`.
-pub fn channel(run_id: &str, scenario: &Scenario, log: Option<&Path>) -> Result<(), RunError> {
+pub fn channel(run_id: &str, scenario: &Scenario, log: Option<&Path>) -> Result<(), CosimError> {
     let mut channel = Platoons::new(scenario, &InjectorFactory::builtin(), log)?;
     crate::injector::run_on(
         crate::injector::Ports::CHANNEL,

@@ -7,7 +7,7 @@ use crate::session::{
     check_traffic, deliveries_from_wire, link_from_wire, states_from_wire, Numbering,
 };
 use crate::timing::{StageClock, Timing};
-use crate::RunError;
+use crate::CosimError;
 use platoon_control::{FollowerStep, RejectCounts};
 use platoon_sim::detection::Scored;
 use platoon_sim::{step_rows, RowSources, Scenario, StepRow, StepWire, WireCounts};
@@ -90,7 +90,7 @@ pub struct Options {
     /// Read-only observers each `observe/<leaf>` service has room for.
     pub observers: usize,
     /// Set from outside (a signal handler) to stop the run cleanly: the nodes get ABORT and
-    /// the run ends with [`RunError::Interrupted`] within one wait tick (100 ms).
+    /// the run ends with [`CosimError::Interrupted`] within one wait tick (100 ms).
     pub stop: Option<std::sync::Arc<std::sync::atomic::AtomicBool>>,
     /// The CPUs the nodes (plant, controller, injector, channel) may run on; empty: any. The
     /// orchestrator itself is not pinned. A step is a chain of wake-ups in which one process
@@ -154,6 +154,35 @@ struct Services {
     _wake: Vec<crate::ipc::WakeService>,
 }
 
+impl Services {
+    /// Every step service of the run (traffic and inspections when it has them) beside the
+    /// wake-up services `wake`: created before any node starts, so nodes only ever open.
+    fn create(
+        e: &Endpoint,
+        opts: &Options,
+        scenario: &Scenario,
+        wake: Vec<crate::ipc::WakeService>,
+    ) -> Result<Self, CosimError> {
+        Ok(Services {
+            _states: e.create_step_service(Service::States)?,
+            _tx: e.create_step_service(Service::Tx)?,
+            _rx: e.create_step_service(Service::Rx)?,
+            _commands: e.create_step_service(Service::Commands)?,
+            _gated: e.create_step_service(Service::Gated)?,
+            _traffic: (opts.traffic > 0)
+                .then(|| e.create_step_service(Service::Traffic))
+                .transpose()?,
+            _inspections: scenario
+                .control
+                .detection
+                .is_measured()
+                .then(|| e.create_step_service(Service::Inspections))
+                .transpose()?,
+            _wake: wake,
+        })
+    }
+}
+
 /// Runs `scenario` across processes and calls `on_step` with the rows of every step, in order,
 /// what happened on the wire in it (measured between the tx and rx batches) and, in runs that
 /// measure detectors, the packets they inspected with their ground truth (the per-message
@@ -163,30 +192,14 @@ pub fn orchestrate(
     opts: &Options,
     scenario: &Scenario,
     mut on_step: impl FnMut(&[StepRow], StepWire<'_>, &[Scored]),
-) -> Result<Outcome, RunError> {
+) -> Result<Outcome, CosimError> {
     let e = Endpoint::new(&opts.run_id, Node::Orchestrator)?;
     // Create everything before any node starts, so nodes only ever open.
     let wake = Node::ALL
         .iter()
         .map(|&n| e.wake_service(n, true))
         .collect::<Result<Vec<_>, _>>()?;
-    let services = Services {
-        _states: e.create_step_service(Service::States)?,
-        _tx: e.create_step_service(Service::Tx)?,
-        _rx: e.create_step_service(Service::Rx)?,
-        _commands: e.create_step_service(Service::Commands)?,
-        _gated: e.create_step_service(Service::Gated)?,
-        _traffic: (opts.traffic > 0)
-            .then(|| e.create_step_service(Service::Traffic))
-            .transpose()?,
-        _inspections: scenario
-            .control
-            .detection
-            .is_measured()
-            .then(|| e.create_step_service(Service::Inspections))
-            .transpose()?,
-        _wake: wake,
-    };
+    let services = Services::create(&e, opts, scenario, wake)?;
     let control_service = e.control_service(Service::Control, true)?;
     let status_service = e.control_service(Service::Status, true)?;
     let listener = e.listener()?;
@@ -213,53 +226,7 @@ pub fn orchestrate(
         spawn_all(opts, &mut children)?;
         let mut run = Recorder::new(scenario, opts.radar);
         // Startup: wait until every node is READY.
-        let mut ready = [false; Node::ALL.len()];
-        ready[Node::Orchestrator as usize] = true;
-        ready[Node::Channel as usize] = !opts.channel_first;
-        let started = Instant::now();
-        let stopped = || {
-            opts.stop
-                .as_ref()
-                .is_some_and(|s| s.load(std::sync::atomic::Ordering::SeqCst))
-        };
-        while ready.iter().any(|r| !r) {
-            if stopped() {
-                return Err(RunError::Interrupted { step: 0 });
-            }
-            watch(&mut children, 0, &status)?;
-            while let Some(m) = status.next()? {
-                check_failed(&m, &children)?;
-                if m.kind == ControlMsg::READY {
-                    if let Some(n) = Node::from_u32(m.node) {
-                        ready[n as usize] = true;
-                    }
-                }
-            }
-            if ready.iter().all(|r| *r) {
-                break;
-            }
-            if started.elapsed() > opts.ready_timeout {
-                // A plug-in first (the user's program, or the SUMO bridge): a built-in node is
-                // late only when the machine is, and then so is every other.
-                let late = Node::ALL
-                    .iter()
-                    .filter(|n| !ready[**n as usize])
-                    .min_by_key(|n| !children.of(n.name()).is_some_and(|p| p.plugin))
-                    .expect("one is not ready");
-                return Err(RunError::Stalled {
-                    node: late.name(),
-                    step: 0,
-                    waited_s: opts.ready_timeout.as_secs_f64(),
-                    what: "it never reported READY",
-                    duplicates: 0,
-                    detail: children.of(late.name()).map_or_else(String::new, |p| {
-                        log_detail(p, true)
-                            + "\n  --ready-timeout sets how long the processes may take to start"
-                    }),
-                });
-            }
-            wait(&listener, Duration::from_millis(100))?;
-        }
+        await_ready(opts, &mut children, &status, &listener)?;
         // A controller that does not publish inspections (a raw-protocol one, say) inspects
         // nothing: its steps are recorded without waiting for them. Every node opened its
         // ports before READY.
@@ -279,28 +246,8 @@ pub fn orchestrate(
         run.last_progress = Instant::now();
 
         // The run: record each step once its four samples are in.
-        let mut rejected = None;
         let mut clock = StageClock::default();
-        // Plant and controller report DONE (the controller with its reject counts); an injector
-        // only has to publish every step, so a third-party one need not know about DONE.
-        let mut done = [false; Node::ALL.len()];
-        done[Node::Orchestrator as usize] = true;
-        done[Node::Injector as usize] = true;
-        done[Node::Channel as usize] = !opts.channel_first;
-        // The built-in channel reports its radio's measurements with DONE, and flushes the
-        // channel log the run reads back for jammers' per-link outages before it: wait for it.
-        let waits = scenario.radio.is_some() || !scenario.jammers.is_empty();
-        let channel_node = if !waits {
-            None
-        } else if opts.channel_first {
-            Some(Node::Channel)
-        } else {
-            matches!(opts.injector, Program::Builtin).then_some(Node::Injector)
-        };
-        if let Some(n) = channel_node {
-            done[n as usize] = false;
-        }
-        let mut radio = None;
+        let mut done = Done::awaited(opts, scenario);
         // The inlets as one `Streams`, borrowed anew wherever the loop records.
         macro_rules! streams {
             () => {
@@ -315,8 +262,8 @@ pub fn orchestrate(
             };
         }
         loop {
-            if stopped() {
-                return Err(RunError::Interrupted { step: run.step });
+            if stopped(opts) {
+                return Err(CosimError::Interrupted { step: run.step });
             }
             // Progress is a step recorded or a node reporting: samples that arrive without
             // completing a step (an injector repeating rx[k]) do not reset the timeout.
@@ -351,24 +298,11 @@ pub fn orchestrate(
                     return Err(failed);
                 }
                 if m.kind == ControlMsg::DONE {
-                    if let Some(n) = Node::from_u32(m.node) {
-                        done[n as usize] = true;
-                    }
-                    if m.node == Node::Controller as u32 {
-                        rejected = Some(RejectCounts::from_array(m.counts));
-                    }
-                    if scenario.radio.is_some() && channel_node.is_some_and(|n| m.node == n as u32)
-                    {
-                        // Every vehicle of every platoon measures at every step.
-                        let samples = scenario.vehicles() as u64 * (scenario.steps + 1);
-                        radio = Some(platoon_attacks::channel::RadioStats::from_counts(
-                            m.counts, samples,
-                        ));
-                    }
+                    done.report(&m, scenario);
                 }
             }
             drained?;
-            if run.step > scenario.steps && done.iter().all(|d| *d) {
+            if run.step > scenario.steps && done.all() {
                 break;
             }
             if let Err(e) = watch(&mut children, run.step, &status) {
@@ -380,7 +314,7 @@ pub fn orchestrate(
                 streams.drain_all();
                 let recorded =
                     streams.record(scenario, &mut run, &mut clock, &observe, &mut on_step);
-                if matches!(e, RunError::Failed { .. }) {
+                if matches!(e, CosimError::Failed { .. }) {
                     recorded?;
                 }
                 return Err(e);
@@ -388,46 +322,17 @@ pub fn orchestrate(
             if progressed {
                 run.last_progress = Instant::now();
             } else if run.last_progress.elapsed() > opts.step_timeout {
-                let k = run.step;
-                let (node, what) = if k > scenario.steps {
-                    let late = Node::ALL.iter().find(|n| !done[**n as usize]).expect("one");
-                    (late.name(), "it never reported DONE")
-                } else if !states.has(k) {
-                    ("plant", "states")
-                } else if traffic.as_ref().is_some_and(|t| !t.has(k)) {
-                    ("plant", "the traffic sample")
-                } else if !tx.has(k) {
-                    ("controller", "the tx batch")
-                } else if !rx.has(k) {
-                    ("injector", "the rx batch")
-                } else if inspections.as_ref().is_some_and(|i| !i.has(k)) {
-                    ("controller", "the inspections")
-                } else {
-                    ("controller", "commands")
-                };
-                return Err(RunError::Stalled {
-                    node,
-                    step: k,
-                    waited_s: opts.step_timeout.as_secs_f64(),
-                    what,
-                    duplicates: states.duplicates()
-                        + traffic.as_ref().map_or(0, Inlet::duplicates)
-                        + tx.duplicates()
-                        + rx.duplicates()
-                        + inspections.as_ref().map_or(0, Inlet::duplicates)
-                        + commands.duplicates(),
-                    detail: children.of(node).map_or_else(String::new, |p| {
-                        log_detail(p, true)
-                            + "\n  --step-timeout sets how long a run waits for a step"
-                    }),
-                });
+                let streams = streams!();
+                return Err(stalled_at(
+                    run.step, scenario, opts, &done.done, &streams, &children,
+                ));
             }
             wait(&listener, Duration::from_millis(100))?;
         }
         Ok(Outcome {
-            radio,
+            radio: done.radio,
             detection: run.measure.as_ref().and_then(Measure::summary),
-            rejected: rejected.unwrap_or_default(),
+            rejected: done.rejected.unwrap_or_default(),
             timing: clock.report(),
             duplicates: DuplicateSamples {
                 states: states.duplicates(),
@@ -449,7 +354,7 @@ pub fn orchestrate(
         Err(err) => {
             let _ = control.send(
                 ControlMsg::new(ControlMsg::ABORT, Node::Orchestrator, 0)
-                    .with_reason(&err.to_string()),
+                    .with_reason(&crate::Causes(err).to_string()),
             );
             children.shut_down(Duration::from_millis(300));
         }
@@ -492,7 +397,7 @@ impl Streams<'_> {
         clock: &mut StageClock,
         observe: &Observe,
         on_step: &mut impl FnMut(&[StepRow], StepWire<'_>, &[Scored]),
-    ) -> Result<bool, RunError> {
+    ) -> Result<bool, CosimError> {
         let mut progressed = false;
         while run.step <= scenario.steps && self.states.has(run.step) {
             let k = run.step;
@@ -500,7 +405,7 @@ impl Streams<'_> {
             // missing or malformed, it is the plant's fault, whoever else failed on it since
             // (the injector reads it too).
             if let Some((inlet, count)) = &self.traffic {
-                let items = inlet.peek(k).ok_or_else(|| RunError::Contract {
+                let items = inlet.peek(k).ok_or_else(|| CosimError::Contract {
                     node: "plant",
                     message: format!(
                         "no traffic sample for step {k} (the plant publishes it before the \
@@ -543,5 +448,174 @@ impl Streams<'_> {
             progressed = true;
         }
         Ok(progressed)
+    }
+}
+
+/// Whether the run was asked to stop.
+fn stopped(opts: &Options) -> bool {
+    opts.stop
+        .as_ref()
+        .is_some_and(|s| s.load(std::sync::atomic::Ordering::SeqCst))
+}
+
+/// Waits until every node reports READY (the channel too when it runs first), watching the
+/// children and the status reports; a node not READY within the ready timeout is named,
+/// a plug-in before a built-in node.
+fn await_ready(
+    opts: &Options,
+    children: &mut Children,
+    status: &ControlInlet,
+    listener: &iceoryx2::port::listener::Listener<iceoryx2::service::ipc::Service>,
+) -> Result<(), CosimError> {
+    let mut ready = [false; Node::ALL.len()];
+    ready[Node::Orchestrator as usize] = true;
+    ready[Node::Channel as usize] = !opts.channel_first;
+    let started = Instant::now();
+    while ready.iter().any(|r| !r) {
+        if stopped(opts) {
+            return Err(CosimError::Interrupted { step: 0 });
+        }
+        watch(children, 0, status)?;
+        while let Some(m) = status.next()? {
+            check_failed(&m, children)?;
+            if m.kind == ControlMsg::READY {
+                if let Some(n) = Node::from_u32(m.node) {
+                    ready[n as usize] = true;
+                }
+            }
+        }
+        if ready.iter().all(|r| *r) {
+            break;
+        }
+        if started.elapsed() > opts.ready_timeout {
+            // A plug-in first (the user's program, or the SUMO bridge): a built-in node is
+            // late only when the machine is, and then so is every other.
+            let late = Node::ALL
+                .iter()
+                .filter(|n| !ready[**n as usize])
+                .min_by_key(|n| !children.of(n.name()).is_some_and(|p| p.plugin))
+                .expect("one is not ready");
+            return Err(CosimError::Stalled {
+                node: late.name(),
+                step: 0,
+                waited_s: opts.ready_timeout.as_secs_f64(),
+                what: "it never reported READY",
+                duplicates: 0,
+                detail: children.of(late.name()).map_or_else(String::new, |p| {
+                    log_detail(p, true)
+                        + "\n  --ready-timeout sets how long the processes may take to start"
+                }),
+            });
+        }
+        wait(listener, Duration::from_millis(100))?;
+    }
+    Ok(())
+}
+
+/// The nodes' DONE reports: who the run waits for (false until it reports; true for whom it
+/// does not wait), the node that reports the channel's radio with its DONE (if one does), and
+/// what the reports carried.
+struct Done {
+    done: [bool; Node::ALL.len()],
+    channel_node: Option<Node>,
+    /// The controller's reject counts.
+    rejected: Option<RejectCounts>,
+    /// The channel's radio measurements.
+    radio: Option<platoon_attacks::channel::RadioStats>,
+}
+
+impl Done {
+    /// Whom `opts`' run of `scenario` waits for.
+    fn awaited(opts: &Options, scenario: &Scenario) -> Self {
+        // Plant and controller report DONE (the controller with its reject counts); an injector
+        // only has to publish every step, so a third-party one need not know about DONE.
+        let mut done = [false; Node::ALL.len()];
+        done[Node::Orchestrator as usize] = true;
+        done[Node::Injector as usize] = true;
+        done[Node::Channel as usize] = !opts.channel_first;
+        // The built-in channel reports its radio's measurements with DONE, and flushes the
+        // channel log the run reads back for jammers' per-link outages before it: wait for it.
+        let waits = scenario.radio.is_some() || !scenario.jammers.is_empty();
+        let channel_node = if !waits {
+            None
+        } else if opts.channel_first {
+            Some(Node::Channel)
+        } else {
+            matches!(opts.injector, Program::Builtin).then_some(Node::Injector)
+        };
+        if let Some(n) = channel_node {
+            done[n as usize] = false;
+        }
+        Self {
+            done,
+            channel_node,
+            rejected: None,
+            radio: None,
+        }
+    }
+
+    /// Takes the DONE report `m`.
+    fn report(&mut self, m: &ControlMsg, scenario: &Scenario) {
+        if let Some(n) = Node::from_u32(m.node) {
+            self.done[n as usize] = true;
+        }
+        if m.node == Node::Controller as u32 {
+            self.rejected = Some(RejectCounts::from_array(m.counts));
+        }
+        if scenario.radio.is_some() && self.channel_node.is_some_and(|n| m.node == n as u32) {
+            // Every vehicle of every platoon measures at every step.
+            let samples = scenario.vehicles() as u64 * (scenario.steps + 1);
+            self.radio = Some(platoon_attacks::channel::RadioStats::from_counts(
+                m.counts, samples,
+            ));
+        }
+    }
+
+    /// Whether every node awaited has reported.
+    fn all(&self) -> bool {
+        self.done.iter().all(|d| *d)
+    }
+}
+
+/// Why the run stalled at step `k`: the node that did not publish (or, past the last step,
+/// report DONE) within the step timeout, what it owed, and the duplicates that arrived.
+fn stalled_at(
+    k: u64,
+    scenario: &Scenario,
+    opts: &Options,
+    done: &[bool],
+    streams: &Streams<'_>,
+    children: &Children,
+) -> CosimError {
+    let (node, what) = if k > scenario.steps {
+        let late = Node::ALL.iter().find(|n| !done[**n as usize]).expect("one");
+        (late.name(), "it never reported DONE")
+    } else if !streams.states.has(k) {
+        ("plant", "states")
+    } else if streams.traffic.as_ref().is_some_and(|(t, _)| !t.has(k)) {
+        ("plant", "the traffic sample")
+    } else if !streams.tx.has(k) {
+        ("controller", "the tx batch")
+    } else if !streams.rx.has(k) {
+        ("injector", "the rx batch")
+    } else if streams.inspections.as_ref().is_some_and(|i| !i.has(k)) {
+        ("controller", "the inspections")
+    } else {
+        ("controller", "commands")
+    };
+    CosimError::Stalled {
+        node,
+        step: k,
+        waited_s: opts.step_timeout.as_secs_f64(),
+        what,
+        duplicates: streams.states.duplicates()
+            + streams.traffic.as_ref().map_or(0, |(t, _)| t.duplicates())
+            + streams.tx.duplicates()
+            + streams.rx.duplicates()
+            + streams.inspections.as_ref().map_or(0, |i| i.duplicates())
+            + streams.commands.duplicates(),
+        detail: children.of(node).map_or_else(String::new, |p| {
+            log_detail(p, true) + "\n  --step-timeout sets how long a run waits for a step"
+        }),
     }
 }

@@ -1,7 +1,7 @@
 //! What the Rust SDKs for plug-ins (`platoon-injector-sdk`, `platoon-controller-sdk`) share:
 //! finding the run a program was started in, the run's resolved facts (`facts.json`,
 //! [`RunFacts`]), and their error.
-use crate::RunError;
+use crate::CosimError;
 use platoon_config::PlantKind;
 use platoon_sim::Scenario;
 use serde::{Deserialize, Serialize};
@@ -137,15 +137,19 @@ pub enum PluginError {
     #[error("the run's facts: {0}")]
     Facts(String),
     /// The run failed or stopped this plug-in.
-    #[error("{0}")]
-    Run(#[from] RunError),
+    #[error(transparent)]
+    Run(#[from] CosimError),
 }
 
 /// As its message: `fn main() -> Result<(), PluginError>` prints an error with `Debug`, and
 /// the run quotes the plug-in's last lines of stderr.
 impl std::fmt::Debug for PluginError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        std::fmt::Display::fmt(self, f)
+        match self {
+            // With its causes (iceoryx2's error): no one walks the chain of a `main`'s error.
+            Self::Run(e) => std::fmt::Display::fmt(&crate::Causes(e), f),
+            _ => std::fmt::Display::fmt(self, f),
+        }
     }
 }
 
@@ -182,9 +186,9 @@ pub fn the_facts(role: &'static str) -> Result<RunFacts, PluginError> {
 
 /// How a plug-in's loop ended, for its `main`: stopped by the run (it failed elsewhere, or
 /// `platoon run` is gone) is no error of its own.
-pub fn ended(result: Result<(), RunError>) -> Result<(), PluginError> {
+pub fn ended(result: Result<(), CosimError>) -> Result<(), PluginError> {
     match result {
-        Err(RunError::Aborted(_) | RunError::Orphaned) => Ok(()),
+        Err(CosimError::Aborted(_) | CosimError::Orphaned) => Ok(()),
         other => other.map_err(PluginError::from),
     }
 }

@@ -6,7 +6,7 @@
 //! and the built-in nodes ([`crate::nodes`]) are written on it; none imports another's
 //! internals.
 use crate::ipc::{wait, ControlInlet, ControlOutlet, Endpoint};
-use crate::RunError;
+use crate::CosimError;
 use iceoryx2::port::listener::Listener;
 use iceoryx2::prelude::ipc;
 use platoon_control::{Delivery, Packet};
@@ -37,7 +37,7 @@ pub(crate) struct Ctx {
 }
 
 impl Ctx {
-    fn new(run_id: &str, role: Node) -> Result<Self, RunError> {
+    fn new(run_id: &str, role: Node) -> Result<Self, CosimError> {
         // Before opening anything: a process of another version cannot connect, and would only
         // say that the services are incompatible.
         check_contract_version()?;
@@ -58,29 +58,29 @@ impl Ctx {
         })
     }
 
-    fn status(&self, kind: u32, step: u64) -> Result<(), RunError> {
+    fn status(&self, kind: u32, step: u64) -> Result<(), CosimError> {
         self.status.send(ControlMsg::new(kind, self.role, step))
     }
 
     /// Blocks until notified (or a tick passes). `Ok(false)` means STOP: exit cleanly.
-    pub(crate) fn wait(&mut self) -> Result<bool, RunError> {
+    pub(crate) fn wait(&mut self) -> Result<bool, CosimError> {
         wait(&self.listener, TICK)?;
         while let Some(m) = self.control.next()? {
             match m.kind {
                 ControlMsg::START => self.started = true,
                 ControlMsg::STOP => return Ok(false),
-                ControlMsg::ABORT => return Err(RunError::Aborted(m.reason())),
+                ControlMsg::ABORT => return Err(CosimError::Aborted(m.reason())),
                 _ => {}
             }
         }
         if std::os::unix::process::parent_id() != self.parent {
-            return Err(RunError::Orphaned);
+            return Err(CosimError::Orphaned);
         }
         Ok(true)
     }
 
     /// Reports READY and waits for START.
-    pub(crate) fn ready(&mut self) -> Result<bool, RunError> {
+    pub(crate) fn ready(&mut self) -> Result<bool, CosimError> {
         self.status(ControlMsg::READY, 0)?;
         while !self.started {
             if !self.wait()? {
@@ -91,7 +91,7 @@ impl Ctx {
     }
 
     /// After the last step: report DONE (with `msg`) and wait for STOP.
-    pub(crate) fn done(&mut self, msg: ControlMsg) -> Result<(), RunError> {
+    pub(crate) fn done(&mut self, msg: ControlMsg) -> Result<(), CosimError> {
         self.status.send(msg)?;
         while self.wait()? {}
         Ok(())
@@ -101,10 +101,11 @@ impl Ctx {
     /// [`FAILED_WAIT`], or until it is gone): the report lives in this process's status
     /// publisher, and a process that exits at once may take it with it, leaving the run to name
     /// its exit instead of its report.
-    fn report(&mut self, step: u64, e: &RunError) {
-        let sent = self
-            .status
-            .send(ControlMsg::new(ControlMsg::FAILED, self.role, step).with_reason(&e.to_string()));
+    fn report(&mut self, step: u64, e: &CosimError) {
+        let sent = self.status.send(
+            ControlMsg::new(ControlMsg::FAILED, self.role, step)
+                .with_reason(&crate::Causes(e).to_string()),
+        );
         if sent.is_err() {
             return;
         }
@@ -116,13 +117,13 @@ impl Ctx {
 /// Whether this process speaks the contract version of the run that started it
 /// (`PLATOON_CONTRACT_VERSION`, set by `platoon run` for every process; absent: nothing to
 /// compare). The error names both versions and the document to read.
-pub fn check_contract_version() -> Result<(), RunError> {
+pub fn check_contract_version() -> Result<(), CosimError> {
     let run = std::env::var(platoon_wire::CONTRACT_VERSION_ENV).ok();
-    platoon_wire::check_contract_version(run.as_deref()).map_err(RunError::ContractVersion)
+    platoon_wire::check_contract_version(run.as_deref()).map_err(CosimError::ContractVersion)
 }
 
-pub(crate) fn contract(node: Node, message: String) -> RunError {
-    RunError::Contract {
+pub(crate) fn contract(node: Node, message: String) -> CosimError {
+    CosimError::Contract {
         node: node.name(),
         message,
     }
@@ -132,16 +133,16 @@ pub(crate) fn contract(node: Node, message: String) -> RunError {
 pub(crate) fn reporting(
     run_id: &str,
     role: Node,
-    body: impl FnOnce(&mut Ctx, &mut u64) -> Result<(), RunError>,
-) -> Result<(), RunError> {
+    body: impl FnOnce(&mut Ctx, &mut u64) -> Result<(), CosimError>,
+) -> Result<(), CosimError> {
     let mut ctx = Ctx::new(run_id, role)?;
     let mut step = 0;
     let r = body(&mut ctx, &mut step);
     if let Err(e) = &r {
-        if !matches!(e, RunError::Orphaned | RunError::Aborted(_)) {
+        if !matches!(e, CosimError::Orphaned | CosimError::Aborted(_)) {
             // The whole error into the log (stderr) first: the report's reason is cut to 120
             // bytes, and the process may be killed soon after the orchestrator reads it.
-            eprintln!("{}: step {step}: {e}", role.name());
+            eprintln!("{}: step {step}: {}", role.name(), crate::Causes(e));
             ctx.report(step, e);
         }
     }
@@ -195,7 +196,7 @@ impl Numbering {
 }
 
 /// Plant states from the wire, leader first; the plant must send every vehicle in order.
-pub fn states_from_wire(s: &[VehicleState], vehicles: usize) -> Result<Vec<State>, RunError> {
+pub fn states_from_wire(s: &[VehicleState], vehicles: usize) -> Result<Vec<State>, CosimError> {
     if s.len() != vehicles || s.iter().enumerate().any(|(i, x)| x.vehicle as usize != i) {
         return Err(contract(
             Node::Plant,
@@ -215,7 +216,7 @@ pub fn check_traffic(
     items: &[TrafficVehicle],
     expected: Option<usize>,
     k: u64,
-) -> Result<(), RunError> {
+) -> Result<(), CosimError> {
     if let Some(n) = expected.filter(|&n| n != items.len()) {
         return Err(contract(
             Node::Plant,

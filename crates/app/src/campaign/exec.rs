@@ -2,9 +2,11 @@
 //! `platoon run` co-simulation), and the executors that run many: the [`LocalPool`] of worker
 //! threads, a Dask cluster through `platoon.dask` ([`Dask`]), or the caller's own
 //! ([`Executor`]).
+use crate::error::{Context, OtherError};
+use crate::run::RunError;
 use crate::run::Stop;
-use anyhow::{bail, Context, Result};
 use platoon_campaign::Transport;
+use platoon_output::error::OutputError;
 use platoon_output::rundir::RunDir;
 use platoon_sim::{ControllerFactory, InjectorFactory, Plugins};
 use serde::{Deserialize, Serialize};
@@ -15,6 +17,35 @@ use std::process::{Command, Stdio};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
+
+/// The result of an executor's work.
+pub type Result<T, E = ExecutorError> = std::result::Result<T, E>;
+
+/// Why an [`Executor`] stopped before every cell was in.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum ExecutorError {
+    /// A reply could not be recorded: the campaign's record of a cell ([`Execution::record`]'s
+    /// error, passed on).
+    #[error(transparent)]
+    Output(#[from] OutputError),
+    /// The executor's own failure (its workers', its cluster's), or a reply for a cell the
+    /// campaign does not have.
+    #[error(transparent)]
+    Failed(#[from] OtherError),
+}
+
+impl From<std::io::Error> for ExecutorError {
+    fn from(e: std::io::Error) -> Self {
+        Self::Failed(e.into())
+    }
+}
+
+impl From<serde_json::Error> for ExecutorError {
+    fn from(e: serde_json::Error) -> Self {
+        Self::Failed(e.into())
+    }
+}
 
 /// What a worker needs to run one cell (the JSON a Dask worker receives).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -73,7 +104,7 @@ pub trait Executor {
 }
 
 /// The `platoon` binary that runs what needs a process: `program`, else this executable.
-fn platoon_program(program: Option<&Path>) -> Result<PathBuf> {
+fn platoon_program(program: Option<&Path>) -> Result<PathBuf, OtherError> {
     match program {
         Some(p) => Ok(p.to_path_buf()),
         None => crate::platoon_program(),
@@ -116,12 +147,13 @@ impl CellPlugins {
 /// [`execute`], in-process cells with the controllers and injectors `plugins` make.
 pub fn execute_with(job: &CellJob, program: Option<&Path>, plugins: &CellPlugins) -> CellReply {
     let result = match job.transport {
-        Transport::Iceoryx2 if plugins.any() => Err(anyhow::anyhow!(
+        Transport::Iceoryx2 if plugins.any() => Err(failure!(
             "a controller or an injector of the caller's runs in process only: set transport = \
              \"inproc\" (or run it as a process with platoon run --controller or --injector)"
-        )),
+        )
+        .into()),
         Transport::Inproc => in_process(job, plugins),
-        Transport::Iceoryx2 => co_simulation(job, program),
+        Transport::Iceoryx2 => co_simulation(job, program).map_err(RunError::from),
     };
     match result {
         Ok(summary) => CellReply {
@@ -132,16 +164,16 @@ pub fn execute_with(job: &CellJob, program: Option<&Path>, plugins: &CellPlugins
         Err(e) => CellReply {
             index: job.index,
             summary: None,
-            error: Some(format!("{e:#}")),
+            error: Some(OtherError::report(&e)),
         },
     }
 }
 
-fn in_process(job: &CellJob, plugins: &CellPlugins) -> Result<Value> {
+fn in_process(job: &CellJob, plugins: &CellPlugins) -> Result<Value, RunError> {
     let label = format!("cell {}", job.index);
     let (config, scenario) = platoon_config::parse(&job.config, Path::new(&label))?;
     if plugins.controller.is_none() && !scenario.control.detection.plugin.is_empty() {
-        anyhow::bail!(
+        bail!(
             "{label}: detection.plugin names detectors a controller plug-in runs ({}), but the \
              cell runs the built-in controllers in process: set transport = \"iceoryx2\" with \
              a --controller, or remove detection.plugin",
@@ -152,7 +184,7 @@ fn in_process(job: &CellJob, plugins: &CellPlugins) -> Result<Value> {
     let mut summary = match &job.keep {
         _ if plugins.any() => {
             if job.keep.is_some() {
-                anyhow::bail!(
+                bail!(
                     "keeping the runs of cells is not supported with a controller or an \
                      injector of the caller's: leave --keep-runs out"
                 );
@@ -195,7 +227,7 @@ fn in_process(job: &CellJob, plugins: &CellPlugins) -> Result<Value> {
 
 /// `platoon run --transport iceoryx2` in a child process (its own run id, so concurrent cells
 /// never share services); the summary is read from its run directory.
-fn co_simulation(job: &CellJob, program: Option<&Path>) -> Result<Value> {
+fn co_simulation(job: &CellJob, program: Option<&Path>) -> Result<Value, OtherError> {
     let scratch = tempfile::Builder::new()
         .prefix("platoon-cell-")
         .tempdir()
@@ -470,11 +502,11 @@ pub struct LocalCluster {
 impl LocalCluster {
     /// Starts a scheduler and `workers` single-threaded workers, logging into `dir`, and waits
     /// (at most a minute) until every worker has registered.
-    pub fn start(workers: usize, dir: &Path) -> Result<Self> {
+    pub fn start(workers: usize, dir: &Path) -> Result<Self, OtherError> {
         crate::sumo::ensure_venv()?;
         let dask = crate::sumo::bridge_dir()?.join(".venv/bin/dask");
         let file = dir.join("scheduler.json");
-        let log = |name: &str| -> Result<std::fs::File> {
+        let log = |name: &str| -> Result<std::fs::File, OtherError> {
             std::fs::File::create(dir.join(name))
                 .with_context(|| format!("creating {}", dir.join(name).display()))
         };
@@ -499,7 +531,7 @@ impl LocalCluster {
             address: String::new(),
         };
         let deadline = Instant::now() + Duration::from_secs(60);
-        let wait = |what: &str| -> Result<()> {
+        let wait = |what: &str| -> Result<(), OtherError> {
             if Instant::now() > deadline {
                 bail!(
                     "the local Dask cluster did not start within a minute ({what}; logs in {})",

@@ -15,15 +15,15 @@ mod report;
 
 pub use exec::{
     execute, execute_with, CellJob, CellPlugins, CellReply, Dask, Execution, Executor,
-    LocalCluster, LocalPool,
+    ExecutorError, LocalCluster, LocalPool,
 };
 pub use platoon_campaign::metrics::Metric;
 pub use platoon_campaign::{Campaign, Cell};
 pub use report::{Axis, Failure, Group, Quantiles, Report};
 
+use crate::error::{Context, OtherError};
 use crate::progress::Progress;
 use crate::run::Stop;
-use anyhow::{Context, Result};
 use platoon_campaign::metrics;
 use platoon_config::ConfigError;
 use platoon_output::error::OutputError;
@@ -34,6 +34,8 @@ use serde_json::{json, Value};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::Ordering;
 use std::time::Instant;
+
+type Result<T, E = CampaignError> = std::result::Result<T, E>;
 
 /// How [`run`] runs a campaign; [`CampaignOptions::default`] is `platoon campaign`'s default.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -212,7 +214,7 @@ pub enum CampaignError {
     Config(#[from] ConfigError),
     /// The SUMO environment could not be set up for SUMO cells (the bridge, its venv).
     #[error(transparent)]
-    Sumo(anyhow::Error),
+    Sumo(OtherError),
     /// The campaign directory or one of its records (`out` exists, a cell's record,
     /// `cells.csv`, `campaign.json`).
     #[error(transparent)]
@@ -220,33 +222,38 @@ pub enum CampaignError {
     /// The executor stopped before every cell was in: a worker pool's, the Dask driver's or
     /// scheduler's, or the caller's executor's failure ([`CampaignOutcome::failure`]).
     #[error(transparent)]
-    Executor(anyhow::Error),
+    Executor(OtherError),
     /// Anything else (a figure that could not be drawn, a directory that could not be pruned).
     #[error(transparent)]
-    Other(anyhow::Error),
+    Other(OtherError),
 }
 
 operation_error!(CampaignError);
 
+impl From<ExecutorError> for CampaignError {
+    /// A record the executor passed on is the campaign's output; the rest is the executor's.
+    fn from(e: ExecutorError) -> Self {
+        match e {
+            ExecutorError::Output(o) => Self::Output(o),
+            ExecutorError::Failed(e) => Self::Executor(e),
+        }
+    }
+}
+
 impl CampaignError {
-    /// The config error this is, if it is one (`platoon campaign` exits 2 on it), also one that
-    /// a context wrapped.
+    /// The config error this is, if it is one (`platoon campaign` exits 2 on it).
     pub fn config(&self) -> Option<&ConfigError> {
         match self {
             Self::Config(c) => Some(c),
-            Self::Sumo(e) | Self::Executor(e) | Self::Other(e) => e.downcast_ref(),
-            Self::Output(_) => None,
+            _ => None,
         }
     }
 
-    /// An executor's failure: [`CampaignError::Output`] when it is a record that could not be
-    /// written (the record's error, as the executor passed it on), else
-    /// [`CampaignError::Executor`].
-    fn executor(e: anyhow::Error) -> Self {
-        match Self::from(e) {
-            Self::Output(o) => Self::Output(o),
-            Self::Config(c) => Self::Executor(c.into()),
-            Self::Other(e) | Self::Sumo(e) | Self::Executor(e) => Self::Executor(e),
+    /// The output error this is, if it is one.
+    pub fn output(&self) -> Option<&OutputError> {
+        match self {
+            Self::Output(o) => Some(o),
+            _ => None,
         }
     }
 }
@@ -273,7 +280,7 @@ fn write_cell(
     campaign: &Campaign,
     cell: &Cell,
     outcome: &CellResult,
-) -> Result<()> {
+) -> Result<(), OutputError> {
     let dir = RunDir::create(
         &staging
             .join("cells")
@@ -284,10 +291,7 @@ fn write_cell(
         dir.write("config.toml", config.as_bytes())?;
     }
     if let Some(s) = &outcome.json {
-        dir.write(
-            "summary.json",
-            (serde_json::to_string_pretty(s)? + "\n").as_bytes(),
-        )?;
+        dir.write("summary.json", (pretty(s) + "\n").as_bytes())?;
     }
     let record = json!({
         "cell": cell.index,
@@ -297,12 +301,14 @@ fn write_cell(
         "sample": cell.sample,
         "seed": cell.seed,
     });
-    dir.write(
-        "cell.json",
-        (serde_json::to_string_pretty(&record)? + "\n").as_bytes(),
-    )?;
+    dir.write("cell.json", (pretty(&record) + "\n").as_bytes())?;
     dir.commit()?;
     Ok(())
+}
+
+/// A JSON value, pretty-printed (a `Value` always is: its keys are strings).
+fn pretty(value: &Value) -> String {
+    serde_json::to_string_pretty(value).expect("a JSON value prints")
 }
 
 /// A cell finished by an earlier run of this campaign, if its record matches.
@@ -503,9 +509,9 @@ pub fn run(
     let mut done = (campaign.cells.len() - pending.len()) as u64;
     progress.at(done);
     let mut failed_now = 0usize;
-    let mut record = |reply: CellReply| -> Result<()> {
+    let mut record = |reply: CellReply| -> Result<(), ExecutorError> {
         let Some(cell) = campaign.cells.get(reply.index) else {
-            anyhow::bail!(
+            bail!(
                 "a worker replied for cell {}, which this campaign does not have",
                 reply.index
             );
@@ -568,7 +574,7 @@ pub fn run(
         (serde_json::to_string_pretty(&json)? + "\n").as_bytes(),
     )?;
     let columns = table.columns;
-    let failure = executed.err().map(CampaignError::executor);
+    let failure = executed.err().map(CampaignError::from);
     let (dir, committed) = if stopped.is_none() && failure.is_none() {
         (dir.commit()?, true)
     } else {

@@ -1,7 +1,8 @@
 //! What a campaign writes once its cells are in: `cells.csv`, `campaign.json` ([`Report`]) and
 //! the plots.
+use super::Result;
 use super::{CellResult, CellStatus};
-use anyhow::{Context, Result};
+use crate::error::Context;
 use platoon_campaign::metrics::{self, Metric};
 use platoon_campaign::{Campaign, Cell};
 use platoon_output::plots::{ensure_font, err};

@@ -1,11 +1,11 @@
 //! Controllers side by side under the same attacks ([`controllers`]).
 use super::{
-    bars_by_law, in_formation, refuse, walk, write_config, write_table, written, Base,
+    bars_by_law, in_formation, refuse, walk, write_config, write_table, Base, Experiment,
     ExperimentError, Result,
 };
 use crate::progress::Progress;
 use platoon_config::{
-    Attack, DosConfig, LawName, LawParams, LinkAttackConfig, LinkKindConfig, RuleConfig,
+    Attack, DosConfig, Embedded, LawName, LawParams, LinkAttackConfig, LinkKindConfig, RuleConfig,
     SpacingConfig, TopologyConfig,
 };
 use platoon_output::plots;
@@ -120,7 +120,16 @@ pub fn controllers(
     out: Option<&RunDir>,
     progress: &dyn Progress,
 ) -> Result<Controllers> {
-    opts.validate()?;
+    super::run::<Controllers>(base, opts, out, progress)
+}
+
+/// [`controllers`]'s cells (and their runs' directories in `out`), without its tables and figures.
+fn measure(
+    base: &Base,
+    opts: &ControllersOptions,
+    out: Option<&RunDir>,
+    progress: &dyn Progress,
+) -> Result<Controllers> {
     write_config(out, &base.config)?;
     let mut cells = Vec::new();
     for &law in &opts.laws {
@@ -136,9 +145,7 @@ pub fn controllers(
         |(law, preset, attack)| cell(base, opts, law, preset, attack),
     )?;
     let markdown = markdown(&rows);
-    written(Controllers { rows, markdown }, out, |r, dir| {
-        r.write(opts, dir)
-    })
+    Ok(Controllers { rows, markdown })
 }
 
 /// The base config set up for one cell.
@@ -364,7 +371,7 @@ fn markdown(rows: &[ControllersRow]) -> String {
 }
 
 impl Controllers {
-    fn write(&self, opts: &ControllersOptions, dir: &RunDir) -> Result<()> {
+    fn write_files(&self, opts: &ControllersOptions, dir: &RunDir) -> Result<()> {
         write_table(dir, "controllers", &self.rows, &self.markdown)?;
         let categories: Vec<String> = ATTACKS.iter().map(|a| a.to_string()).collect();
         for &preset in &opts.topologies {
@@ -387,5 +394,29 @@ impl Controllers {
             )?;
         }
         Ok(())
+    }
+}
+
+impl Experiment for Controllers {
+    type Options = ControllersOptions;
+    const NAME: &'static str = "controllers";
+    const DIR: &'static str = "runs/controllers";
+    const BASE: Embedded = Embedded::Paper;
+    fn validate(opts: &ControllersOptions) -> Result<()> {
+        opts.validate()
+    }
+    fn measure(
+        base: &Base,
+        opts: &ControllersOptions,
+        out: Option<&RunDir>,
+        progress: &dyn Progress,
+    ) -> Result<Self> {
+        measure(base, opts, out, progress)
+    }
+    fn write(&self, _base: &Base, opts: &ControllersOptions, dir: &RunDir) -> Result<()> {
+        self.write_files(opts, dir)
+    }
+    fn summary(&self) -> String {
+        self.markdown.clone()
     }
 }

@@ -86,6 +86,14 @@ pub const DEGRADATION_ATTACKS: [(&str, &[[f64; 2]]); 5] = [
     ("long-jam", &[[25.0, 20.0]]),
 ];
 
+/// The fallbacks compared, by name.
+const MODES: [(&str, platoon_control::FallbackMode); 4] = [
+    ("zero", platoon_control::FallbackMode::Zero),
+    ("hold", platoon_control::FallbackMode::Hold),
+    ("predict", platoon_control::FallbackMode::Predict),
+    ("acc", platoon_control::FallbackMode::Acc),
+];
+
 /// Graceful degradation: the same attacks ([`DEGRADATION_ATTACKS`]: an 8 s jam on the
 /// leader's acceleration ramp, one on its braking ramp, a 10 s jam during cruise, the paper's
 /// schedule, and a 20 s jam) on platoons of each size, for every fallback (zero, hold,
@@ -99,16 +107,19 @@ pub fn degradation(
     out: Option<&RunDir>,
     progress: &dyn Progress,
 ) -> Result<Degradation> {
-    use platoon_control::FallbackMode;
-    opts.validate()?;
+    super::run::<Degradation>(base, opts, out, progress)
+}
+
+/// [`degradation`]'s cells (and their runs' directories in `out`), without its tables and figures.
+fn measure(
+    base: &Base,
+    opts: &DegradationOptions,
+    out: Option<&RunDir>,
+    progress: &dyn Progress,
+) -> Result<Degradation> {
     let label = &base.label;
     write_config(out, &base.config)?;
-    let modes = [
-        ("zero", FallbackMode::Zero),
-        ("hold", FallbackMode::Hold),
-        ("predict", FallbackMode::Predict),
-        ("acc", FallbackMode::Acc),
-    ];
+    let modes = MODES;
     let mut cells = Vec::new();
     for (attack, intervals) in DEGRADATION_ATTACKS {
         for &n in &opts.followers {
@@ -204,13 +215,11 @@ pub fn degradation(
             ],
         );
     }
-    written(Degradation { rows, markdown: md }, out, |r, dir| {
-        r.write(opts.followers[0], &modes.map(|m| m.0), dir)
-    })
+    Ok(Degradation { rows, markdown: md })
 }
 
 impl Degradation {
-    fn write(&self, n0: usize, modes: &[&str], dir: &RunDir) -> Result<()> {
+    fn write_files(&self, n0: usize, modes: &[&str], dir: &RunDir) -> Result<()> {
         let rows = &self.rows;
         write_table(dir, "degradation", rows, &self.markdown)?;
         // The smallest gap per attack (the first size, guard off and on) for each fallback.
@@ -248,5 +257,29 @@ impl Degradation {
             &categories,
             &groups,
         )?)
+    }
+}
+
+impl Experiment for Degradation {
+    type Options = DegradationOptions;
+    const NAME: &'static str = "degradation";
+    const DIR: &'static str = "runs/degradation";
+    const BASE: Embedded = Embedded::Degradation;
+    fn validate(opts: &DegradationOptions) -> Result<()> {
+        opts.validate()
+    }
+    fn measure(
+        base: &Base,
+        opts: &DegradationOptions,
+        out: Option<&RunDir>,
+        progress: &dyn Progress,
+    ) -> Result<Self> {
+        measure(base, opts, out, progress)
+    }
+    fn write(&self, _base: &Base, opts: &DegradationOptions, dir: &RunDir) -> Result<()> {
+        self.write_files(opts.followers[0], &MODES.map(|m| m.0), dir)
+    }
+    fn summary(&self) -> String {
+        self.markdown.clone()
     }
 }

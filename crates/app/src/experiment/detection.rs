@@ -1,9 +1,8 @@
 //! Every misbehaviour detector against every attack of an insider, measured against ground
 //! truth, with and without a reaction ([`detection`]).
-use super::{refuse, write_config, write_table, written, Base, ExperimentError, Result};
+use super::{refuse, write_config, write_table, Base, Experiment, ExperimentError, Result};
 use crate::progress::Progress;
-use anyhow::anyhow;
-use platoon_config::{Attack, DetectionConfig, LinkAttackConfig, LinkKindConfig};
+use platoon_config::{Attack, DetectionConfig, Embedded, LinkAttackConfig, LinkKindConfig};
 use platoon_control::{FallbackMode, Reaction};
 use platoon_output::plots;
 use platoon_output::rundir::RunDir;
@@ -283,7 +282,16 @@ pub fn detection(
     out: Option<&RunDir>,
     progress: &dyn Progress,
 ) -> Result<Detection> {
-    opts.validate()?;
+    super::run::<Detection>(base, opts, out, progress)
+}
+
+/// [`detection`]'s cells (and their runs' directories in `out`), without its tables and figures.
+fn measure(
+    base: &Base,
+    opts: &DetectionOptions,
+    out: Option<&RunDir>,
+    progress: &dyn Progress,
+) -> Result<Detection> {
     let prepared = prepare(&base.config, opts);
     write_config(out, &prepared)?;
     let cells = cells(opts);
@@ -323,9 +331,7 @@ pub fn detection(
         }
     }
     let markdown = markdown(&rows, opts);
-    written(Detection { rows, markdown }, out, |r, dir| {
-        r.write(opts, dir)
-    })
+    Ok(Detection { rows, markdown })
 }
 
 /// The base config as every run of [`detection`] shares it: no DoS, the attacks and detection
@@ -428,7 +434,7 @@ fn run_cell(
         .map_err(|e| ExperimentError::Variant(format!("{}: {e}", name())))?;
     let summary = platoon_sim::run(scenario, |_| {})?;
     let Some(d) = &summary.detection else {
-        return Err(anyhow!("{}: the run measured no detection", name()).into());
+        return Err(failure!("{}: the run measured no detection", name()).into());
     };
     let mut scores: Vec<&DetectorScore> = d.detectors.iter().collect();
     if cell.detectors.len() > 1 {
@@ -570,11 +576,11 @@ fn markdown(rows: &[DetectionRow], opts: &DetectionOptions) -> String {
 }
 
 impl Detection {
-    fn write(&self, opts: &DetectionOptions, dir: &RunDir) -> Result<()> {
+    fn write_files(&self, opts: &DetectionOptions, dir: &RunDir) -> Result<()> {
         write_table(dir, "detection", &self.rows, &self.markdown)?;
         if opts.reactions.contains(&Reaction::Log) && !opts.attacks.is_empty() {
             f1_heatmap(&dir.path("f1.png"), &self.rows, opts)
-                .map_err(|e| anyhow!("drawing f1.png: {e}"))?;
+                .map_err(|e| failure!("drawing f1.png: {e}"))?;
         }
         // The smallest gap per attack (strong, or the only intensity), with and without the
         // reaction.
@@ -722,5 +728,29 @@ fn centred(x: f64, names: &[String]) -> String {
         names[i].clone()
     } else {
         String::new()
+    }
+}
+
+impl Experiment for Detection {
+    type Options = DetectionOptions;
+    const NAME: &'static str = "detection";
+    const DIR: &'static str = "runs/detection";
+    const BASE: Embedded = Embedded::Paper;
+    fn validate(opts: &DetectionOptions) -> Result<()> {
+        opts.validate()
+    }
+    fn measure(
+        base: &Base,
+        opts: &DetectionOptions,
+        out: Option<&RunDir>,
+        progress: &dyn Progress,
+    ) -> Result<Self> {
+        measure(base, opts, out, progress)
+    }
+    fn write(&self, _base: &Base, opts: &DetectionOptions, dir: &RunDir) -> Result<()> {
+        self.write_files(opts, dir)
+    }
+    fn summary(&self) -> String {
+        self.markdown.clone()
     }
 }

@@ -1,7 +1,7 @@
 //! Maneuvers by law and attack ([`maneuvers`]).
 use super::{
     bars_by_law, keep_law_spacing, law_config, on_standstill, refuse, repeats, walk, write_table,
-    written, ExperimentError, Result,
+    Base, Experiment, ExperimentError, Result,
 };
 use crate::progress::Progress;
 use platoon_config::{Config, DosConfig, Embedded, LawName, LinkAttackConfig, LinkKindConfig};
@@ -138,7 +138,11 @@ pub fn maneuvers(
     out: Option<&RunDir>,
     progress: &dyn Progress,
 ) -> Result<Maneuvers> {
-    opts.validate()?;
+    super::run::<Maneuvers>(&Base::load(None, Maneuvers::BASE)?, opts, out, progress)
+}
+
+/// [`maneuvers`]'s cells, without its tables and figures (its runs keep no directory).
+fn measure(opts: &ManeuversOptions, progress: &dyn Progress) -> Result<Maneuvers> {
     let bases = opts
         .maneuvers
         .iter()
@@ -162,9 +166,7 @@ pub fn maneuvers(
         |(base, maneuver, law, attack, repeat)| cell(base, maneuver, law, attack, repeat),
     )?;
     let markdown = markdown(&rows);
-    written(Maneuvers { rows, markdown }, out, |r, dir| {
-        r.write(opts, dir)
-    })
+    Ok(Maneuvers { rows, markdown })
 }
 
 /// The embedded scenario of `maneuver` (a leave: the first of `configs/leave.toml`'s).
@@ -382,7 +384,7 @@ fn markdown(rows: &[ManeuversRow]) -> String {
 }
 
 impl Maneuvers {
-    fn write(&self, opts: &ManeuversOptions, dir: &RunDir) -> Result<()> {
+    fn write_files(&self, opts: &ManeuversOptions, dir: &RunDir) -> Result<()> {
         write_table(dir, "maneuvers", &self.rows, &self.markdown)?;
         for maneuver in &opts.maneuvers {
             let groups = bars_by_law(&opts.laws, &opts.attacks, |law, a| {
@@ -402,5 +404,30 @@ impl Maneuvers {
             )?;
         }
         Ok(())
+    }
+}
+
+/// Each maneuver runs on a scenario of its own (configs/join.toml, ...): the base is not used.
+impl Experiment for Maneuvers {
+    type Options = ManeuversOptions;
+    const NAME: &'static str = "maneuvers";
+    const DIR: &'static str = "runs/maneuvers";
+    const BASE: Embedded = Embedded::Paper;
+    fn validate(opts: &ManeuversOptions) -> Result<()> {
+        opts.validate()
+    }
+    fn measure(
+        _base: &Base,
+        opts: &ManeuversOptions,
+        _out: Option<&RunDir>,
+        progress: &dyn Progress,
+    ) -> Result<Self> {
+        measure(opts, progress)
+    }
+    fn write(&self, _base: &Base, opts: &ManeuversOptions, dir: &RunDir) -> Result<()> {
+        self.write_files(opts, dir)
+    }
+    fn summary(&self) -> String {
+        self.markdown.clone()
     }
 }

@@ -54,6 +54,16 @@ pub fn robust(
     out: Option<&RunDir>,
     progress: &dyn Progress,
 ) -> Result<Robust> {
+    super::run::<Robust>(base, opts, out, progress)
+}
+
+/// [`robust`]'s cells (and their runs' directories in `out`), without its tables and figures.
+fn measure(
+    base: &Base,
+    opts: &RobustOptions,
+    out: Option<&RunDir>,
+    progress: &dyn Progress,
+) -> Result<Robust> {
     let config = &base.config;
     let mut scenario0 = base.scenario.clone();
     scenario0.dos = platoon_attacks::DosSchedule::none();
@@ -134,11 +144,11 @@ pub fn robust(
         designs,
         markdown: md,
     };
-    written(robust, out, Robust::write)
+    Ok(robust)
 }
 
 impl Robust {
-    fn write(&self, dir: &RunDir) -> Result<()> {
+    fn write_files(&self, dir: &RunDir) -> Result<()> {
         let mut table = csv::Writer::from_writer(dir.writer("designs.csv")?);
         table.write_record(["design", "k1", "k2", "k3", "beta1_over_beta2", "taus"])?;
         for r in &self.designs {
@@ -160,5 +170,29 @@ impl Robust {
             .collect();
         error_figure(dir, "fig9", &curves)?;
         Ok(dir.write("fig9.md", self.markdown.as_bytes())?)
+    }
+}
+
+impl Experiment for Robust {
+    type Options = RobustOptions;
+    const NAME: &'static str = "robust";
+    const DIR: &'static str = "runs/robust";
+    const BASE: Embedded = Embedded::Paper;
+    fn validate(_opts: &RobustOptions) -> Result<()> {
+        Ok(())
+    }
+    fn measure(
+        base: &Base,
+        opts: &RobustOptions,
+        out: Option<&RunDir>,
+        progress: &dyn Progress,
+    ) -> Result<Self> {
+        measure(base, opts, out, progress)
+    }
+    fn write(&self, _base: &Base, _opts: &RobustOptions, dir: &RunDir) -> Result<()> {
+        self.write_files(dir)
+    }
+    fn summary(&self) -> String {
+        self.markdown.clone()
     }
 }

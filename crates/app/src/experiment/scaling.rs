@@ -136,9 +136,18 @@ pub fn scaling(
     out: Option<&RunDir>,
     progress: &dyn Progress,
 ) -> Result<Scaling> {
+    super::run::<Scaling>(base, opts, out, progress)
+}
+
+/// [`scaling`]'s cells (and their runs' directories in `out`), without its tables and figures.
+fn measure(
+    base: &Base,
+    opts: &ScalingOptions,
+    out: Option<&RunDir>,
+    progress: &dyn Progress,
+) -> Result<Scaling> {
     use platoon_synthesis::{Coupling, Feasibility};
     use platoon_topology::Topology;
-    opts.validate()?;
     let label = &base.label;
     let scenario0 = &base.scenario;
     let base_config = &base.config;
@@ -281,7 +290,7 @@ pub fn scaling(
         designs,
         markdown,
     };
-    written(result, out, |r, dir| r.write(opts, dir))
+    Ok(result)
 }
 
 fn scaling_markdown(rows: &[ScalingRow], label: &str, opts: &ScalingOptions) -> String {
@@ -316,7 +325,7 @@ fn scaling_markdown(rows: &[ScalingRow], label: &str, opts: &ScalingOptions) -> 
 }
 
 impl Scaling {
-    fn write(&self, opts: &ScalingOptions, dir: &RunDir) -> Result<()> {
+    fn write_files(&self, opts: &ScalingOptions, dir: &RunDir) -> Result<()> {
         let mut designs = csv::Writer::from_writer(dir.writer("designs.csv")?);
         designs.write_record([
             "preset",
@@ -387,5 +396,29 @@ impl Scaling {
             "largest |gap error| (m)",
             &panels,
         )?)
+    }
+}
+
+impl Experiment for Scaling {
+    type Options = ScalingOptions;
+    const NAME: &'static str = "scaling";
+    const DIR: &'static str = "runs/scaling-experiment";
+    const BASE: Embedded = Embedded::Paper;
+    fn validate(opts: &ScalingOptions) -> Result<()> {
+        opts.validate()
+    }
+    fn measure(
+        base: &Base,
+        opts: &ScalingOptions,
+        out: Option<&RunDir>,
+        progress: &dyn Progress,
+    ) -> Result<Self> {
+        measure(base, opts, out, progress)
+    }
+    fn write(&self, _base: &Base, opts: &ScalingOptions, dir: &RunDir) -> Result<()> {
+        self.write_files(opts, dir)
+    }
+    fn summary(&self) -> String {
+        self.markdown.clone()
     }
 }

@@ -77,7 +77,11 @@ pub fn check_table1_base(base: &Base) -> Result<()> {
 /// configs/table1.toml). With `out`: config.toml, one run directory per rule, table1.csv,
 /// table1.md (the paper's numbers beside ours), table1.png, fig8.csv and fig8.png.
 pub fn table1(base: &Base, out: Option<&RunDir>, progress: &dyn Progress) -> Result<Table1> {
-    check_table1_base(base)?;
+    super::run::<Table1>(base, &(), out, progress)
+}
+
+/// [`table1`]'s cells (and their runs' directories in `out`), without its tables and figures.
+fn measure(base: &Base, out: Option<&RunDir>, progress: &dyn Progress) -> Result<Table1> {
     write_config(out, &base.config)?;
     let mut rules = Vec::new();
     for (name, rule) in table1_rules(&base.scenario) {
@@ -92,13 +96,11 @@ pub fn table1(base: &Base, out: Option<&RunDir>, progress: &dyn Progress) -> Res
         });
     }
     let markdown = table1_markdown(&base.scenario, &rules);
-    written(Table1 { rules, markdown }, out, |t, dir| {
-        t.write(&base.scenario, dir)
-    })
+    Ok(Table1 { rules, markdown })
 }
 
 impl Table1 {
-    fn write(&self, base: &Scenario, dir: &RunDir) -> Result<()> {
+    fn write_files(&self, base: &Scenario, dir: &RunDir) -> Result<()> {
         // table1.csv
         let mut csv = csv::Writer::from_writer(dir.writer("table1.csv")?);
         csv.write_record([
@@ -234,4 +236,31 @@ fn table1_markdown(base: &Scenario, results: &[RuleRun]) -> String {
         if fewer { "yes" } else { "NO" }
     );
     md
+}
+
+impl Experiment for Table1 {
+    type Options = ();
+    const NAME: &'static str = "table1";
+    const DIR: &'static str = "runs/table1";
+    const BASE: Embedded = Embedded::Table1;
+    fn validate(_opts: &()) -> Result<()> {
+        Ok(())
+    }
+    fn check_base(base: &Base) -> Result<()> {
+        check_table1_base(base)
+    }
+    fn measure(
+        base: &Base,
+        _opts: &(),
+        out: Option<&RunDir>,
+        progress: &dyn Progress,
+    ) -> Result<Self> {
+        measure(base, out, progress)
+    }
+    fn write(&self, base: &Base, _opts: &(), dir: &RunDir) -> Result<()> {
+        self.write_files(&base.scenario, dir)
+    }
+    fn summary(&self) -> String {
+        self.markdown.clone()
+    }
 }

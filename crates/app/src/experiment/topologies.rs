@@ -94,7 +94,16 @@ pub fn topologies(
     out: Option<&RunDir>,
     progress: &dyn Progress,
 ) -> Result<Topologies> {
-    opts.validate()?;
+    super::run::<Topologies>(base, opts, out, progress)
+}
+
+/// [`topologies`]'s cells (and their runs' directories in `out`), without its tables and figures.
+fn measure(
+    base: &Base,
+    opts: &TopologiesOptions,
+    out: Option<&RunDir>,
+    progress: &dyn Progress,
+) -> Result<Topologies> {
     let ((phi, rho, eta), a2) = dynamic_with_bounds(&base.scenario)?;
     let base_scenario = &base.scenario;
     let tau = base_scenario.control.tau_nominal;
@@ -157,7 +166,7 @@ pub fn topologies(
         }
     }
     progress.finish();
-    written(Topologies { rows }, out, |r, dir| r.write(opts, dir))
+    Ok(Topologies { rows })
 }
 
 /// Fig. 10's topologies, as its rows name them.
@@ -168,7 +177,7 @@ const TOPOLOGIES: [(&str, Preset); 3] = [
 ];
 
 impl Topologies {
-    fn write(&self, opts: &TopologiesOptions, dir: &RunDir) -> Result<()> {
+    fn write_files(&self, opts: &TopologiesOptions, dir: &RunDir) -> Result<()> {
         let rows = &self.rows;
         write_csv(dir, "topologies", rows)?;
         let conditions = ["nominal", "uncertainty", "conservative", "dos"];
@@ -204,5 +213,44 @@ impl Topologies {
             &categories,
             &groups,
         )?)
+    }
+}
+
+impl Experiment for Topologies {
+    type Options = TopologiesOptions;
+    const NAME: &'static str = "topologies";
+    const DIR: &'static str = "runs/topologies";
+    const BASE: Embedded = Embedded::Paper;
+    fn validate(opts: &TopologiesOptions) -> Result<()> {
+        opts.validate()
+    }
+    fn check_base(base: &Base) -> Result<()> {
+        check_topologies_base(base)
+    }
+    fn measure(
+        base: &Base,
+        opts: &TopologiesOptions,
+        out: Option<&RunDir>,
+        progress: &dyn Progress,
+    ) -> Result<Self> {
+        measure(base, opts, out, progress)
+    }
+    fn write(&self, _base: &Base, opts: &TopologiesOptions, dir: &RunDir) -> Result<()> {
+        self.write_files(opts, dir)
+    }
+    /// One line per topology, size and condition (varsigma1, c, beta1/beta2), in columns.
+    fn summary(&self) -> String {
+        let mut text = format!(
+            "{:<6} {:>3} {:>13} {:>10} {:>8} {:>12}\n",
+            "graph", "N", "condition", "varsigma1", "c", "b1/b2"
+        );
+        for r in &self.rows {
+            let _ = writeln!(
+                text,
+                "{:<6} {:>3} {:>13} {:>10.4} {:>8.4} {:>12.1}",
+                r.topology, r.followers, r.condition, r.varsigma1, r.c, r.beta1_over_beta2
+            );
+        }
+        text
     }
 }

@@ -1,10 +1,11 @@
 //! Cut-ins by law and attack ([`traffic`]).
 use super::{
     bars_by_law, configure_law, in_formation, keep_law_spacing, on_standstill, refuse, repeats,
-    walk, write_config, write_table, written, Base, ExperimentError, Result,
+    walk, write_config, write_table, Base, Experiment, ExperimentError, Result,
 };
+use crate::error::OtherError;
 use crate::progress::Progress;
-use platoon_config::{LawName, LinkAttackConfig, LinkKindConfig, PlantKind};
+use platoon_config::{Embedded, LawName, LinkAttackConfig, LinkKindConfig, PlantKind};
 use platoon_output::plots;
 use platoon_output::rundir::RunDir;
 use platoon_topology::Preset;
@@ -143,7 +144,16 @@ pub fn traffic(
     out: Option<&RunDir>,
     progress: &dyn Progress,
 ) -> Result<Traffic> {
-    opts.validate()?;
+    super::run::<Traffic>(base, opts, out, progress)
+}
+
+/// [`traffic`]'s cells (and their runs' directories in `out`), without its tables and figures.
+fn measure(
+    base: &Base,
+    opts: &TrafficOptions,
+    out: Option<&RunDir>,
+    progress: &dyn Progress,
+) -> Result<Traffic> {
     if base.config.cut_ins.is_empty() {
         refuse!(
             Base,
@@ -159,7 +169,7 @@ pub fn traffic(
         (PlantKind::Sumo, Some(dir)) => Some(dir.path("runs")),
         (PlantKind::Sumo, None) => {
             tmp = tempfile::tempdir().map_err(|e| {
-                ExperimentError::Other(anyhow::Error::new(e).context("a directory for the runs"))
+                ExperimentError::Other(OtherError::context("a directory for the runs", e))
             })?;
             Some(tmp.path().to_path_buf())
         }
@@ -169,7 +179,13 @@ pub fn traffic(
         for &gap in &opts.gaps_m {
             for &dv in &opts.speed_diffs_mps {
                 for attack in &opts.attacks {
-                    cells.extend((0..opts.repeats).map(|repeat| (law, gap, dv, attack, repeat)));
+                    cells.extend((0..opts.repeats).map(|repeat| Cell {
+                        law,
+                        gap,
+                        dv,
+                        attack,
+                        repeat,
+                    }));
                 }
             }
         }
@@ -182,16 +198,20 @@ pub fn traffic(
         progress,
         "simulating",
         cells,
-        |(law, gap, dv, attack, repeat)| {
+        |c| {
             format!(
-                "{}, gap {gap} m, {dv:+} m/s, {attack}, repeat {repeat}",
-                law.name()
+                "{}, gap {} m, {:+} m/s, {}, repeat {}",
+                c.law.name(),
+                c.gap,
+                c.dv,
+                c.attack,
+                c.repeat
             )
         },
-        |(law, gap, dv, attack, repeat)| cell(base, law, gap, dv, attack, repeat, on),
+        |c| cell(base, &c, on),
     )?;
     let markdown = markdown(&rows);
-    written(Traffic { rows, markdown }, out, |r, dir| r.write(opts, dir))
+    Ok(Traffic { rows, markdown })
 }
 
 /// Where a cell runs: in process, or on SUMO with its run directory in `runs`.
@@ -223,8 +243,9 @@ impl Plant<'_> {
             config_file: std::path::PathBuf::from(self.label),
             ..Default::default()
         };
-        let failed =
-            |e: anyhow::Error| ExperimentError::Other(e.context(format!("the run {name} on SUMO")));
+        let failed = |e: crate::BoxError| {
+            ExperimentError::Other(OtherError::context(format!("the run {name} on SUMO"), e))
+        };
         let dir = runs.join(name);
         let outcome = crate::run::run(
             config,
@@ -235,27 +256,40 @@ impl Plant<'_> {
             &Default::default(),
             &(),
         )
-        .map_err(|e| failed(e.into()))?;
+        .map_err(|e| match e.config() {
+            // Refused as a bad config is, whoever runs it (`platoon experiment` exits 2).
+            Some(_) => ExperimentError::from(e),
+            None => failed(e.into()),
+        })?;
         match outcome.failure {
             Some(e) => Err(failed(
-                anyhow::Error::new(e)
-                    .context(format!("see {}", outcome.dir.join("logs").display())),
+                OtherError::context(format!("see {}", outcome.dir.join("logs").display()), e)
+                    .into(),
             )),
             None => Ok(outcome.summary),
         }
     }
 }
 
-#[allow(clippy::too_many_arguments)]
-fn cell(
-    base: &Base,
+/// One cell of the table: a law, the cut-in's gap (m) and speed difference (m/s), an attack,
+/// and which repeat.
+struct Cell<'a> {
     law: LawName,
     gap: f64,
     dv: f64,
-    attack: &str,
+    attack: &'a str,
     repeat: u32,
-    plant: Plant<'_>,
-) -> Result<TrafficRow> {
+}
+
+/// The row of `cell` (on pf, or plf for a law that needs the leader), run on `plant`.
+fn cell(base: &Base, cell: &Cell<'_>, plant: Plant<'_>) -> Result<TrafficRow> {
+    let &Cell {
+        law,
+        gap,
+        dv,
+        attack,
+        repeat,
+    } = cell;
     let mut last = None;
     for preset in [Preset::Pf, Preset::Plf] {
         let mut c = configure(&base.config, law, preset);
@@ -409,7 +443,7 @@ fn markdown(rows: &[TrafficRow]) -> String {
 }
 
 impl Traffic {
-    fn write(&self, opts: &TrafficOptions, dir: &RunDir) -> Result<()> {
+    fn write_files(&self, opts: &TrafficOptions, dir: &RunDir) -> Result<()> {
         write_table(dir, "traffic", &self.rows, &self.markdown)?;
         let categories: Vec<String> = opts.attacks.clone();
         for &gap in &opts.gaps_m {
@@ -432,5 +466,29 @@ impl Traffic {
             )?;
         }
         Ok(())
+    }
+}
+
+impl Experiment for Traffic {
+    type Options = TrafficOptions;
+    const NAME: &'static str = "traffic";
+    const DIR: &'static str = "runs/traffic";
+    const BASE: Embedded = Embedded::CutIn;
+    fn validate(opts: &TrafficOptions) -> Result<()> {
+        opts.validate()
+    }
+    fn measure(
+        base: &Base,
+        opts: &TrafficOptions,
+        out: Option<&RunDir>,
+        progress: &dyn Progress,
+    ) -> Result<Self> {
+        measure(base, opts, out, progress)
+    }
+    fn write(&self, _base: &Base, opts: &TrafficOptions, dir: &RunDir) -> Result<()> {
+        self.write_files(opts, dir)
+    }
+    fn summary(&self) -> String {
+        self.markdown.clone()
     }
 }

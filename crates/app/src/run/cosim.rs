@@ -42,7 +42,7 @@ pub(super) fn cosimulate(
     plant: Option<crate::sumo::SumoPlant>,
     stop: &Stop,
     progress: &dyn Progress,
-) -> Result<(Plotted, Summary, Option<platoon_runtime::RunError>)> {
+) -> Result<(Plotted, Summary, Option<platoon_runtime::CosimError>)> {
     let logs = dir.path("logs");
     std::fs::create_dir_all(&logs).with_context(|| format!("creating {}", logs.display()))?;
     let injector = match &opts.injector {
@@ -121,7 +121,7 @@ pub(super) fn cosimulate(
     progress.start("co-simulating", steps);
     let mut files = RunFiles::create(scenario, output, dir, false, radar)?;
     let mut metrics = platoon_sim::FleetMetrics::new(scenario);
-    let mut failure: Option<anyhow::Error> = None;
+    let mut failure: Option<RunError> = None;
     let names = scenario.control.detection.names();
     let names: Vec<&str> = names.iter().map(String::as_str).collect();
     let result = platoon_runtime::orchestrate(&rt, scenario, |rows, wire, scored| {
@@ -167,7 +167,7 @@ pub(super) fn cosimulate(
         Err(e) => {
             let mut summary = metrics.finish(Default::default());
             summary.complete = false;
-            summary.error = Some(e.to_string());
+            summary.error = Some(OtherError::report(&e));
             Ok((rows, summary, Some(e)))
         }
     }
@@ -225,7 +225,8 @@ fn channel_log_format(
         table.write(row.with_context(|| format!("reading {}", csv_path.display()))?)?;
     }
     table.finish()?;
-    std::fs::remove_file(&csv_path).with_context(|| format!("removing {}", csv_path.display()))
+    std::fs::remove_file(&csv_path).with_context(|| format!("removing {}", csv_path.display()))?;
+    Ok(())
 }
 
 #[cfg(test)]

@@ -1,5 +1,6 @@
 //! [`RunError`]: why a run failed, by kind, and [`NodeFailure`], a process that failed.
 use super::*;
+use crate::error::OtherError;
 
 /// Why [`run`] failed, by kind: what a caller branches on (the Python package raises one
 /// exception class per kind). Each message is the one `platoon run` prints.
@@ -15,60 +16,52 @@ pub enum RunError {
     Node(Box<NodeFailure>),
     /// The co-simulation failed with no process to blame (iceoryx2, the contract version).
     #[error(transparent)]
-    Cosim(Box<platoon_runtime::RunError>),
+    Cosim(Box<platoon_runtime::CosimError>),
     /// The run directory or one of its files.
     #[error(transparent)]
     Output(#[from] platoon_output::error::OutputError),
     /// The SUMO plant could not be set up (the bridge, its venv, the network, `plant.json`).
     #[error(transparent)]
-    Sumo(anyhow::Error),
-    /// Anything else (options that do not go together, a figure that could not be drawn).
+    Sumo(#[from] crate::sumo::SumoError),
+    /// Anything else (options that do not go together, a figure that could not be drawn, a
+    /// scenario the simulation refused, a sink's failure).
     #[error(transparent)]
-    Other(anyhow::Error),
+    Other(OtherError),
 }
 
-impl From<anyhow::Error> for RunError {
-    /// Its kind when it is a config or output error as it was raised; with a context (words
-    /// that the message keeps) it stays [`RunError::Other`].
-    fn from(e: anyhow::Error) -> Self {
-        let bare = |e: &anyhow::Error| e.chain().count() == 1;
-        if bare(&e) && e.is::<platoon_config::ConfigError>() {
-            return Self::Config(e.downcast().expect("checked"));
-        }
-        if e.is::<platoon_output::error::OutputError>()
-            && e.chain()
-                .next()
-                .is_some_and(|c| c.is::<platoon_output::error::OutputError>())
-        {
-            return Self::Output(e.downcast().expect("checked"));
-        }
-        Self::Other(e)
+operation_error!(RunError);
+
+impl From<platoon_sim::ScenarioError> for RunError {
+    fn from(e: platoon_sim::ScenarioError) -> Self {
+        Self::Other(OtherError::wrap(e))
     }
 }
 
 impl RunError {
-    /// The config error this is, if it is one (`platoon run` exits 2 on it), also one that a
-    /// context wrapped.
+    /// The config error this is, if it is one (`platoon run` exits 2 on it): the run's, or
+    /// the one SUMO's set-up found.
     pub fn config(&self) -> Option<&platoon_config::ConfigError> {
         match self {
             Self::Config(c) => Some(c),
-            Self::Other(e) | Self::Sumo(e) => e.downcast_ref(),
+            Self::Sumo(s) => s.config(),
             _ => None,
         }
     }
 
-    /// A SUMO set-up error: its kind when it is a config or output error, else [`RunError::Sumo`].
-    pub(super) fn sumo(e: anyhow::Error) -> Self {
-        match Self::from(e) {
-            Self::Other(e) => Self::Sumo(e),
-            kind => kind,
+    /// The output error this is, if it is one: the run directory's, or one SUMO's set-up or
+    /// the FCD conversion met.
+    pub fn output(&self) -> Option<&platoon_output::error::OutputError> {
+        match self {
+            Self::Output(o) => Some(o),
+            Self::Sumo(s) => s.output(),
+            _ => None,
         }
     }
 
     /// A co-simulation's failure, typed: [`RunError::Node`] when a process is to blame (its
     /// log in `logs`, the run directory's `logs/`), else [`RunError::Cosim`].
-    pub fn from_runtime(error: platoon_runtime::RunError, logs: &Path) -> Self {
-        use platoon_runtime::RunError as R;
+    pub fn from_runtime(error: platoon_runtime::CosimError, logs: &Path) -> Self {
+        use platoon_runtime::CosimError as R;
         let (step, message) = match &error {
             R::Spawn {
                 command, source, ..
@@ -114,7 +107,7 @@ pub struct NodeFailure {
     /// What went wrong, in a line: its reason, its exit status, what it did not publish.
     pub message: String,
     /// The run's error, as the orchestrator reported it.
-    pub error: platoon_runtime::RunError,
+    pub error: platoon_runtime::CosimError,
 }
 
 impl std::fmt::Display for NodeFailure {

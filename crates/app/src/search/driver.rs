@@ -6,9 +6,9 @@ use super::{
     SearchOutcome,
 };
 use crate::campaign::{CellJob, CellReply, Execution, Executor};
+use crate::error::{Context, OtherError};
 use crate::progress::Progress;
 use crate::run::Stop;
-use anyhow::{bail, Context, Result};
 use platoon_campaign::metrics;
 use platoon_output::rundir::RunDir;
 use platoon_search::{Evolution, GridSampler, RandomSampler, Schedule, Strategy};
@@ -33,28 +33,48 @@ pub(super) fn execute(
         }
         Ok(())
     };
-    executor
-        .execute(Execution {
-            jobs,
-            dir,
-            stop,
-            record: &mut record,
-        })
-        .map_err(SearchError::Executor)?;
+    executor.execute(Execution {
+        jobs,
+        dir,
+        stop,
+        record: &mut record,
+    })?;
     Ok(replies)
 }
 
-/// Runs `schedules` on `problem` and measures them.
-#[allow(clippy::too_many_arguments)]
-pub(super) fn evaluate(
-    search: &Search,
-    problem: &Problem,
+/// What every batch of one problem's search shares: the search, the problem, who runs the
+/// cells and where (the staging directory, for the executor's logs), when to stop, and who
+/// hears of the evaluations.
+struct Driver<'a> {
+    search: &'a Search,
+    problem: &'a Problem,
+    executor: &'a dyn Executor,
+    dir: &'a Path,
+    stop: &'a Stop,
+    progress: &'a dyn Progress,
+}
+
+impl Driver<'_> {
+    fn stopped(&self) -> bool {
+        self.stop.flag.load(Ordering::SeqCst)
+    }
+}
+
+/// Runs `schedules` on the driver's problem and measures them; the first is evaluation
+/// number `first`.
+fn evaluate(
+    driver: &Driver<'_>,
     schedules: &[Schedule],
     first: usize,
-    executor: &dyn Executor,
-    dir: &Path,
-    stop: &Stop,
 ) -> Result<Vec<Evaluation>, SearchError> {
+    let Driver {
+        search,
+        problem,
+        executor,
+        dir,
+        stop,
+        ..
+    } = *driver;
     let jobs: Vec<CellJob> = schedules
         .iter()
         .enumerate()
@@ -108,19 +128,21 @@ pub(super) fn evaluate(
         .collect())
 }
 
-/// Drives one strategy through `evaluations` runs.
-#[allow(clippy::too_many_arguments)]
-pub(super) fn drive(
-    search: &Search,
-    problem: &Problem,
+/// Drives one strategy through `evaluations` runs, `batch` at a time; `done` counts every
+/// evaluation of the search.
+fn drive(
+    driver: &Driver<'_>,
     strategy: &mut dyn Strategy,
     batch: usize,
-    executor: &dyn Executor,
-    dir: &Path,
-    stop: &Stop,
-    progress: &dyn Progress,
     done: &mut u64,
 ) -> Result<MethodOutcome, SearchError> {
+    let Driver {
+        search,
+        problem,
+        stop,
+        progress,
+        ..
+    } = *driver;
     let started = Instant::now();
     let total = search.spec.evaluations;
     let mut history: Vec<Evaluation> = Vec::with_capacity(total);
@@ -130,15 +152,7 @@ pub(super) fn drive(
         if schedules.is_empty() {
             break;
         }
-        let evaluated = evaluate(
-            search,
-            problem,
-            &schedules,
-            history.len() + 1,
-            executor,
-            dir,
-            stop,
-        )?;
+        let evaluated = evaluate(driver, &schedules, history.len() + 1)?;
         if stop.flag.load(Ordering::SeqCst) {
             break;
         }
@@ -267,9 +281,15 @@ pub fn run(
             });
             continue;
         }
-        let outcome = run_problem(
-            search, problem, &dir, &sub, opts, executor, stop, progress, &mut done,
-        )?;
+        let driver = Driver {
+            search,
+            problem,
+            executor,
+            dir: &staging,
+            stop,
+            progress,
+        };
+        let outcome = run_problem(&driver, &dir, &sub, opts, &mut done)?;
         outcomes.push(outcome);
     }
     progress.finish();
@@ -314,20 +334,19 @@ pub fn run(
     })
 }
 
-#[allow(clippy::too_many_arguments)]
-pub(super) fn run_problem(
-    search: &Search,
-    problem: &Problem,
+/// The driver's problem: the search and each baseline, the reference, its files in `sub` of
+/// `dir`, and its worst schedule re-run.
+fn run_problem(
+    driver: &Driver<'_>,
     dir: &RunDir,
     sub: &Path,
     opts: &SearchOptions,
-    executor: &dyn Executor,
-    stop: &Stop,
-    progress: &dyn Progress,
     done: &mut u64,
 ) -> Result<ProblemOutcome, SearchError> {
+    let Driver {
+        search, problem, ..
+    } = *driver;
     let spec = &search.spec;
-    let staging = dir.staging().to_path_buf();
     let mut methods = Vec::new();
     let mut evolution = Evolution::new(
         problem.grid,
@@ -339,19 +358,9 @@ pub(super) fn run_problem(
     )
     .map_err(strategy(problem))?;
     let population = spec.search.population;
-    methods.push(drive(
-        search,
-        problem,
-        &mut evolution,
-        population,
-        executor,
-        &staging,
-        stop,
-        progress,
-        done,
-    )?);
+    methods.push(drive(driver, &mut evolution, population, done)?);
     for name in &spec.compare {
-        if stop.flag.load(Ordering::SeqCst) {
+        if driver.stopped() {
             break;
         }
         let mut strategy: Box<dyn Strategy> = match name.as_str() {
@@ -376,33 +385,15 @@ pub(super) fn run_problem(
             ),
         };
         let before = *done;
-        let m = drive(
-            search,
-            problem,
-            strategy.as_mut(),
-            100,
-            executor,
-            &staging,
-            stop,
-            progress,
-            done,
-        )?;
+        let m = drive(driver, strategy.as_mut(), 100, done)?;
         // A grid smaller than the evaluations leaves the rest unused: the bar moves on.
         *done = before + spec.evaluations as u64;
-        progress.at(*done);
+        driver.progress.at(*done);
         methods.push(m);
     }
     let reference = match &search.reference {
-        Some(s) if !stop.flag.load(Ordering::SeqCst) => {
-            let e = evaluate(
-                search,
-                problem,
-                std::slice::from_ref(s),
-                0,
-                executor,
-                &staging,
-                stop,
-            )?;
+        Some(s) if !driver.stopped() => {
+            let e = evaluate(driver, std::slice::from_ref(s), 0)?;
             e.first().map(|e| found(problem, e))
         }
         _ => None,
@@ -429,11 +420,10 @@ pub(super) fn run_problem(
     };
     write_problem(search, problem, dir, sub, &outcome, opts)?;
     if let Some((_, worst)) = outcome.worst() {
-        if !stop.flag.load(Ordering::SeqCst) {
+        if !driver.stopped() {
             let harm = worst.harm;
             let schedule = worst.schedule.clone();
-            let plugins = executor.plugins();
-            let again = rerun_worst(search, problem, &schedule, dir, sub, opts, stop, &plugins)?;
+            let again = rerun_worst(driver, &schedule, dir, sub, opts)?;
             outcome.reproduced = Some(again.map(|s| search.harm.value(&s)) == Some(harm));
             if outcome.reproduced == Some(false) {
                 return Err(SearchError::NotReproduced {
@@ -463,20 +453,23 @@ pub(super) fn score_of(methods: &[MethodOutcome], method: &str, best: &Found) ->
         .map_or(f64::NEG_INFINITY, |e| e.score)
 }
 
-/// `worst.toml` re-run into `worst/` (files and figures), and its summary. With parts of the
-/// caller's (`plugins`, the executor's) it re-runs in process with them, and `worst/` is not
-/// written (the files of a run are the built-in parts').
-#[allow(clippy::too_many_arguments)]
-pub(super) fn rerun_worst(
-    search: &Search,
-    problem: &Problem,
+/// `worst.toml` re-run into `worst/` in `sub` of `dir` (files and figures), and its summary.
+/// With parts of the caller's (the executor's plugins) it re-runs in process with them, and
+/// `worst/` is not written (the files of a run are the built-in parts').
+fn rerun_worst(
+    driver: &Driver<'_>,
     schedule: &Schedule,
     dir: &RunDir,
     sub: &Path,
     opts: &SearchOptions,
-    stop: &Stop,
-    plugins: &crate::campaign::CellPlugins,
 ) -> Result<Option<Summary>, SearchError> {
+    let Driver {
+        search,
+        problem,
+        stop,
+        ..
+    } = *driver;
+    let plugins = &driver.executor.plugins();
     let mut config = problem.config_of(schedule);
     let text = platoon_config::to_toml(&config);
     let (_, scenario) = platoon_config::parse(&text, Path::new("worst.toml"))?;
@@ -484,7 +477,7 @@ pub(super) fn rerun_worst(
         let summary = platoon_sim::run_until_plugins(&scenario, &plugins.plugins(), |_| {
             std::ops::ControlFlow::Continue(())
         })
-        .map_err(anyhow::Error::from)?;
+        .map_err(OtherError::wrap)?;
         return Ok(metrics::read(&serde_json::to_value(summary)?).ok());
     }
     let out = dir.staging().join(sub).join("worst");

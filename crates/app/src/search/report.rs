@@ -1,7 +1,9 @@
 //! The search's outputs: each problem's CSV, convergence figure and worst config, and the
 //! study's tables.
+use super::SearchError;
 use super::{MethodOutcome, Problem, ProblemOutcome, Search, SearchOptions};
-use anyhow::Result;
+
+type Result<T, E = SearchError> = std::result::Result<T, E>;
 use platoon_output::rundir::RunDir;
 use platoon_output::{markdown, plots};
 use std::fmt::Write as _;

@@ -18,7 +18,7 @@ impl Observe {
         e: &Endpoint,
         observers: usize,
         scenario: &Scenario,
-    ) -> Result<Self, RunError> {
+    ) -> Result<Self, CosimError> {
         let vehicles = Numbering::of(scenario).vehicles();
         macro_rules! stream {
             ($o:expr, $len:expr) => {{
@@ -43,14 +43,14 @@ impl Observe {
         t: &[LinkPacket],
         r: &[LinkPacket],
         c: &[Command],
-    ) -> Result<(), RunError> {
+    ) -> Result<(), CosimError> {
         use iceoryx2::service::port_factory::PortFactory as _;
         fn one<T: std::fmt::Debug + Copy + iceoryx2::prelude::ZeroCopySend + 'static>(
             (service, outlet): &Mirror<T>,
             k: u64,
             dt: f64,
             items: &[T],
-        ) -> Result<(), RunError> {
+        ) -> Result<(), CosimError> {
             if service.dynamic_config().number_of_subscribers() > 0 {
                 outlet.send(k, dt, items)?;
             }

@@ -67,7 +67,7 @@ impl<'a> Recorder<'a> {
         r: &[LinkPacket],
         c: &[Command],
         inspections: &[Inspection],
-    ) -> Result<(), RunError> {
+    ) -> Result<(), CosimError> {
         let num = self.num;
         let n1 = num.per_platoon;
         let states = states_from_wire(s, num.vehicles())?;
@@ -75,7 +75,7 @@ impl<'a> Recorder<'a> {
         // told its channel was jammed (for the rows and for the wire tally below).
         deliveries_from_wire(r, num, &mut self.deliveries, &mut self.jammed);
         if c.len() != num.followers() {
-            return Err(RunError::Contract {
+            return Err(CosimError::Contract {
                 node: "controller",
                 message: format!("{} commands for {} followers", c.len(), num.followers()),
             });
@@ -87,13 +87,13 @@ impl<'a> Recorder<'a> {
             let i = platoon_model::VehicleId((x % (n1 - 1) + 1) as u16);
             let want = num.global(x / (n1 - 1), i);
             if let Err(e) = platoon_control::Status::from_code(cmd.mode_code()) {
-                return Err(RunError::Contract {
+                return Err(CosimError::Contract {
                     node: "controller",
                     message: format!("step {}: command {x} (vehicle {want}): {e}", self.step),
                 });
             }
             if cmd.vehicle != want || !cmd.u.is_finite() {
-                return Err(RunError::Contract {
+                return Err(CosimError::Contract {
                     node: "controller",
                     message: format!(
                         "step {}: command {x} is for vehicle {} with u = {}; a step's commands \

@@ -62,10 +62,10 @@ impl Drop for Children {
 }
 
 /// A node's FAILED report as the run's error, naming the log that holds the whole of it.
-pub(super) fn check_failed(m: &ControlMsg, children: &Children) -> Result<(), RunError> {
+pub(super) fn check_failed(m: &ControlMsg, children: &Children) -> Result<(), CosimError> {
     if m.kind == ControlMsg::FAILED {
         let node = Node::from_u32(m.node).map_or("unknown", |n| n.name());
-        return Err(RunError::Failed {
+        return Err(CosimError::Failed {
             node,
             step: m.step,
             reason: printable(&m.reason()),
@@ -85,7 +85,7 @@ pub(super) fn watch(
     children: &mut Children,
     step: u64,
     status: &ControlInlet,
-) -> Result<(), RunError> {
+) -> Result<(), CosimError> {
     let Some((i, exit)) = children.exited() else {
         return Ok(());
     };
@@ -93,7 +93,7 @@ pub(super) fn watch(
         check_failed(&m, children)?;
     }
     let p = &children.procs[i];
-    Err(RunError::Died {
+    Err(CosimError::Died {
         node: p.node.name(),
         pid: p.child.id(),
         step,
@@ -198,7 +198,7 @@ pub(super) fn last_lines(path: &std::path::Path, n: usize) -> Vec<String> {
     lines
 }
 
-pub(super) fn spawn_all(opts: &Options, children: &mut Children) -> Result<(), RunError> {
+pub(super) fn spawn_all(opts: &Options, children: &mut Children) -> Result<(), CosimError> {
     let channel = opts.channel_first.then_some(Node::Channel);
     for node in [Node::Plant, Node::Controller, Node::Injector]
         .into_iter()
@@ -264,7 +264,7 @@ pub(super) fn spawn_all(opts: &Options, children: &mut Children) -> Result<(), R
         if let (true, Some(dir)) = (plugin, &opts.python_path) {
             cmd.env("PYTHONPATH", python_path(dir, &opts.env));
         }
-        let spawn_err = |source| RunError::Spawn {
+        let spawn_err = |source| CosimError::Spawn {
             node: node.name(),
             command: shown.clone(),
             source,
