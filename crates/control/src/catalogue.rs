@@ -344,16 +344,15 @@ impl Law for Ploeg {
         let (gap, _) = radar(view);
         let (v_pred, u_pred, _) = heard(view, view.predecessor());
         let own = view.own;
-        ploeg(
-            &self.0,
-            view.dt,
-            view.last_u,
-            own[1],
-            own[2],
+        let x = crate::laws::PloegInput {
+            u_prev: view.last_u,
+            v: own[1],
+            a: own[2],
             gap,
             v_pred,
             u_pred,
-        )
+        };
+        ploeg(&self.0, view.dt, &x)
     }
 }
 

@@ -206,21 +206,34 @@ impl Default for PloegParams {
     }
 }
 
+/// What Ploeg's controller reads at a step.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PloegInput {
+    /// Its own previous command (m/s^2; 0 before the first).
+    pub u_prev: f64,
+    /// Its speed (m/s).
+    pub v: f64,
+    /// Its actual acceleration (m/s^2).
+    pub a: f64,
+    /// The gap to the predecessor (m).
+    pub gap: f64,
+    /// The predecessor's speed (m/s).
+    pub v_pred: f64,
+    /// The predecessor's *command* (m/s^2; in Plexe: the previous step's).
+    pub u_pred: f64,
+}
+
 /// Ploeg's command for this step: `u = u_prev + dt du/dt`, with `du/dt` the right-hand side of
-/// Ploeg's controller (m/s^3) from its own previous command `u_prev` (0 before the first), its
-/// speed and actual acceleration, the gap, the predecessor's speed and the predecessor's
-/// *command* `u_pred` (in Plexe: the previous step's); `dt` is the step (s).
-#[allow(clippy::too_many_arguments)]
-pub fn ploeg(
-    p: &PloegParams,
-    dt: f64,
-    u_prev: f64,
-    v: f64,
-    a: f64,
-    gap: f64,
-    v_pred: f64,
-    u_pred: f64,
-) -> f64 {
+/// Ploeg's controller (m/s^3) from what it reads (`x`); `dt` is the step (s).
+pub fn ploeg(p: &PloegParams, dt: f64, x: &PloegInput) -> f64 {
+    let PloegInput {
+        u_prev,
+        v,
+        a,
+        gap,
+        v_pred,
+        u_pred,
+    } = *x;
     let h = p.headway_s;
     let rate = 1.0 / h
         * (-u_prev
@@ -469,7 +482,15 @@ mod tests {
         // Ploeg: s0 + h v.
         let p = PloegParams::default();
         let gap = p.standstill_m + p.headway_s * v;
-        assert_eq!(ploeg(&p, 0.01, 0.0, v, 0.0, gap, v, 0.0), 0.0);
+        let rest = PloegInput {
+            u_prev: 0.0,
+            v,
+            a: 0.0,
+            gap,
+            v_pred: v,
+            u_pred: 0.0,
+        };
+        assert_eq!(ploeg(&p, 0.01, &rest), 0.0);
         // Flatbed: d.
         let p = FlatbedParams::default();
         assert_eq!(flatbed(&p, v, 0.0, p.spacing_m, v, v), 0.0);
@@ -532,7 +553,15 @@ mod tests {
         let gap = p.standstill_m + p.headway_s * 20.0;
         let mut u = 0.0;
         for _ in 0..10_000 {
-            u = ploeg(&p, 0.01, u, 20.0, 0.0, gap, 20.0, 1.0);
+            let x = PloegInput {
+                u_prev: u,
+                v: 20.0,
+                a: 0.0,
+                gap,
+                v_pred: 20.0,
+                u_pred: 1.0,
+            };
+            u = ploeg(&p, 0.01, &x);
         }
         assert!((u - 1.0).abs() < 1e-9, "{u}");
     }

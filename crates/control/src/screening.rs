@@ -127,7 +127,6 @@ impl Inspection {
     /// co-simulation rebuilds what a controller process reported on the wire. `flagged` is
     /// whether any verdict flagged it (a reaction may act on fewer detectors than it
     /// reports), `refused` whether the reaction refused it.
-    #[allow(clippy::too_many_arguments)]
     pub fn new(
         k: u64,
         receiver: VehicleId,

@@ -33,7 +33,7 @@ use std::process::Command;
 
 use platoon_control::laws::{
     consensus, flatbed, path_cacc, plexe_acc, ploeg, ConsensusParams, ConsensusVehicle,
-    FlatbedParams, PathCaccParams, PlexeAccParams, PloegParams,
+    FlatbedParams, PathCaccParams, PlexeAccParams, PloegInput, PloegParams,
 };
 
 /// The scenario's constants (the script's defaults, passed explicitly).
@@ -274,7 +274,17 @@ fn max_gap_deviation(law: Law, reference: &Reference, limits: Limits) -> Vec<f64
             let u = match law {
                 Law::Acc => plexe_acc(&acc, me.v, gap, pred.v),
                 Law::Cacc => path_cacc(&path, me.v, gap, pred.v, pred.u, leader.v, leader.u),
-                Law::Ploeg => ploeg(&ploeg_p, DT, me.u, me.v, me.a, gap, pred.v, pred.u),
+                Law::Ploeg => {
+                    let x = PloegInput {
+                        u_prev: me.u,
+                        v: me.v,
+                        a: me.a,
+                        gap,
+                        v_pred: pred.v,
+                        u_pred: pred.u,
+                    };
+                    ploeg(&ploeg_p, DT, &x)
+                }
                 Law::Consensus => consensus(&cons, i, &predicted),
                 Law::Flatbed => flatbed(&flat, me.v, me.a, gap, pred.v, leader.v),
             };
