@@ -2165,7 +2165,7 @@ fn a_split_runs_bit_identically_on_both_transports() {
         .filter(|f| f[4] == "split" || f[4] == "merged")
         .map(|f| format!("{} {} {}", f[1], f[2], f[4]))
         .collect();
-    assert_eq!(formation, ["4 2001 split", "4 3110 merged"]);
+    assert_eq!(formation, ["4 2001 split", "4 3410 merged"]);
     let rows = std::fs::read_to_string(ipc.join("trajectories.csv")).unwrap();
     assert!(
         rows.lines().next().unwrap().ends_with(",head"),

@@ -1711,7 +1711,7 @@ fn a_split_behind_a_cut_in_on_sumo_agrees_with_the_native_plant() {
             .map(|f| format!("{} {} {}", f[1], f[2], f[4]))
             .collect()
     };
-    assert_eq!(formation(&sumo), ["4 2001 split", "4 3110 merged"]);
+    assert_eq!(formation(&sumo), ["4 2001 split", "4 3410 merged"]);
     assert_eq!(formation(&sumo), formation(&native));
     mode_times_agree(&s, &n, 0.05);
 }
