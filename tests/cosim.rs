@@ -1,7 +1,7 @@
 //! The iceoryx2 co-simulation end to end: it matches the in-process oracle bit for bit, a
 //! Python injector can take the built-in one's place, and a dead or silent process stops the run
 //! with its name, keeps what was recorded, and leaves nothing running.
-mod common;
+use crate::common;
 
 use common::{
     json, ok, platoon, platoon_command, published, repo, wait_for, without_paper_law_keys, PATIENCE,
