@@ -306,10 +306,12 @@ fn hostile_packets_are_refused_and_counted_and_change_nothing() {
     assert_eq!(s["rejected_packets"]["implausible_state"], 0);
 }
 
+/// The layout tests of the bridge's pytest (the whole of bridge/tests is .ci/run's pytest stage,
+/// once; this test is what `cargo test` alone checks of the Python mirror).
 #[test]
 fn python_layout_mirror_matches_the_rust_layout() {
     let o = Command::new(python())
-        .args(["-m", "pytest", "-q", "bridge/tests"])
+        .args(["-m", "pytest", "-q", "bridge/tests/test_layout.py"])
         .current_dir(repo())
         .output()
         .unwrap();
