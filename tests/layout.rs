@@ -49,7 +49,10 @@ fn every_test_file_is_a_module_of_its_binary() {
         );
         dirs.push(tests);
     }
-    assert!(dirs.len() > 1, "no crate gathers its tests in tests/main.rs");
+    assert!(
+        dirs.len() > 1,
+        "no crate gathers its tests in tests/main.rs"
+    );
     for dir in dirs {
         let (declared, present) = (declared(&dir), present(&dir));
         let missing: Vec<_> = present.difference(&declared).collect();
