@@ -1,6 +1,6 @@
 //! `platoon campaign` end to end: the shipped campaigns at a reduced size, a Dask cluster on
 //! 127.0.0.1 against the local pool, resumption after Ctrl-C, failed cells, bad files.
-mod common;
+use crate::common;
 
 use common::{json, ok, platoon, platoon_command, published, repo, wait_for};
 use std::io::{BufRead, BufReader};

@@ -1,5 +1,5 @@
 //! The `platoon` binary end to end: outputs, determinism, atomic run directories, exit codes.
-mod common;
+use crate::common;
 
 use common::{json, ok, platoon, repo};
 use std::path::Path;

@@ -3,7 +3,7 @@
 //! the Python SDK reproduces the built-in run byte for byte, a law the project does not have
 //! runs to completion, and a controller that crashes, hangs, repeats itself or sends malformed
 //! commands is named, the complete steps are kept, `complete: false`, and the exit is non-zero.
-mod common;
+use crate::common;
 
 use common::{json, ok, platoon, platoon_command, repo};
 use std::path::{Path, PathBuf};

@@ -1,7 +1,7 @@
 //! The iceoryx2 co-simulation end to end: it matches the in-process oracle bit for bit, a
 //! Python injector can take the built-in one's place, and a dead or silent process stops the run
 //! with its name, keeps what was recorded, and leaves nothing running.
-mod common;
+use crate::common;
 
 use common::{
     json, ok, platoon, platoon_command, published, repo, wait_for, without_paper_law_keys, PATIENCE,
@@ -306,10 +306,12 @@ fn hostile_packets_are_refused_and_counted_and_change_nothing() {
     assert_eq!(s["rejected_packets"]["implausible_state"], 0);
 }
 
+/// The layout tests of the bridge's pytest (the whole of bridge/tests is .ci/run's pytest stage,
+/// once; this test is what `cargo test` alone checks of the Python mirror).
 #[test]
 fn python_layout_mirror_matches_the_rust_layout() {
     let o = Command::new(python())
-        .args(["-m", "pytest", "-q", "bridge/tests"])
+        .args(["-m", "pytest", "-q", "bridge/tests/test_layout.py"])
         .current_dir(repo())
         .output()
         .unwrap();

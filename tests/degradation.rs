@@ -1,7 +1,7 @@
 //! Graceful degradation under attack, in process (the pure core): what each fallback does
 //! through a long jam on the leader's braking ramp, the guard, the bumpless return, and the
 //! errors a bad `[fallback]`, `[radar]` or `[guard]` gets.
-mod common;
+use crate::common;
 
 use common::{ok, platoon, repo};
 use platoon_config::parse;

@@ -2,7 +2,6 @@
 //! digits they print (`common::published`): the runs are deterministic, so a figure that drifts,
 //! in the code or in the text, fails here. Each study has its own module; each test runs the
 //! study's own settings or a reduced grid of it that still gives the published digits.
-mod common;
 #[path = "figures/design.rs"]
 mod design;
 #[path = "figures/detection.rs"]

@@ -3,7 +3,7 @@
 //! drove; each one's linearised loop is the loop the controller and the plant run (checked
 //! against a run step by step); every formation of the maneuver configs and of every law's
 //! tail join is certified, and a destabilising gain is not.
-mod common;
+use crate::common;
 
 use common::maneuvers::run;
 use common::{cut_in_config, repo};

@@ -4,7 +4,7 @@
 //! command, and a join jammed half way (the move-in never arrives: the leader calls it off and
 //! the opener closes its gap). Both transports agree on it bit for bit (tests/cosim.rs), SUMO
 //! with the native plant (tests/sumo.rs).
-mod common;
+use crate::common;
 
 use common::maneuvers::{forged_to_leader, of, run, run_with};
 use common::repo;

@@ -3,7 +3,7 @@
 //! without a jump in any command, leave notices the channel loses, and a forged leave notice.
 //! Both transports agree on it bit for bit (tests/cosim.rs), SUMO with the native plant
 //! (tests/sumo.rs).
-mod common;
+use crate::common;
 
 use common::maneuvers::{altered_only, forged_to_leader, of, run, run_with};
 use common::repo;

@@ -3,7 +3,7 @@
 //! them on the packets, the joiner's command at the hand-over to the law, a join whose
 //! messages the channel loses, and the errors a bad `[maneuvers]` gets. Both transports
 //! agree on it bit for bit: tests/cosim.rs.
-mod common;
+use crate::common;
 
 use common::maneuvers::{altered_only, forged_to_leader, of, run, run_with};
 use common::{cut_in_config, repo};

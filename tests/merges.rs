@@ -4,7 +4,7 @@
 //! in-position report, each ending in a safe formation; and one platoon splitting in two,
 //! `configs/split.toml` (follower 3 heads followers 4-5 off at 20 s). Both transports agree on
 //! them bit for bit (tests/cosim.rs), SUMO with the native plant (tests/sumo.rs).
-mod common;
+use crate::common;
 
 use common::maneuvers::{altered_only, of, run, run_with};
 use common::repo;

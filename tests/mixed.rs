@@ -1,7 +1,7 @@
 //! Mixed vehicles (`configs/truck-car.toml`): a truck at follower 2 among cars. It designs for
 //! every member's lag, runs on the native plant with each member's length in the gaps and its
 //! class's limits on the input the plant applies, and both transports agree bit for bit.
-mod common;
+use crate::common;
 
 use common::{json, repo, run_config};
 use platoon_app::design::{check_gain, CheckOptions, Theorem};

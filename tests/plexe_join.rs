@@ -3,7 +3,7 @@
 //! `configs/join-plexe.toml` (the example's platoon and start) run with SUMO as the plant.
 //! Both end in the same formation; the figures docs/maneuvers.md publishes side by side are
 //! the ones measured here.
-mod common;
+use crate::common;
 
 use common::{json, ok, platoon, published, repo};
 use std::collections::BTreeMap;

@@ -2,7 +2,7 @@
 //! checker, its worst schedule re-run with `platoon run` gives the reported harm exactly, the
 //! same seed gives the same result (on the local pool and on a Dask cluster on 127.0.0.1), a
 //! study per law and topology, and bad files.
-mod common;
+use crate::common;
 
 use common::{json, ok, platoon, repo};
 use platoon_attacks::{Assumption2, DosSchedule};

@@ -1,7 +1,7 @@
 //! SUMO as the plant, for real (libsumo through the bridge's `platoon.sumo`; the test sets the
 //! bridge's Python up if it is missing): agreement with the native plant, FCD output,
 //! collisions, faults.
-mod common;
+use crate::common;
 
 use common::{cut_in_config, json, ok, platoon, platoon_command, published, repo, run_config};
 use std::path::{Path, PathBuf};

@@ -2,7 +2,7 @@
 //! followers 2 and 3 (`configs/cut-in.toml`) seen by follower 3's radar, handled by each law
 //! through the controller seam (ACC on the intruder, then back to the law), and the errors a
 //! bad `[[cut_ins]]` gets.
-mod common;
+use crate::common;
 
 use common::{cut_in_config, published, repo};
 use platoon_config::parse;

@@ -22,8 +22,8 @@ fn a_search_files_error_names_the_keys_own_line() {
 }
 
 /// The committed search file reference is what the schema types generate: after changing them,
-/// `PLATOON_BLESS=1 cargo test -p platoon-app --test search_file` rewrites it (never where `CI`
-/// is set).
+/// `PLATOON_BLESS=1 cargo test -p platoon-app --test app search_file::` rewrites it (never where
+/// `CI` is set).
 #[test]
 fn the_search_reference_is_current() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../docs/search-reference.md");
@@ -41,7 +41,7 @@ fn the_search_reference_is_current() {
     platoon_config::check_committed(
         &path,
         &page,
-        "PLATOON_BLESS=1 cargo test -p platoon-app --test search_file",
+        "PLATOON_BLESS=1 cargo test -p platoon-app --test app search_file::",
     )
     .unwrap_or_else(|e| panic!("{e}"));
 }

@@ -2,7 +2,8 @@
 //! (`docs/config.schema.json`: Taplo / Even Better TOML complete and check config files with it)
 //! and a page for readers (`docs/config-reference.md`). Both are committed and a test checks
 //! them against what this module generates (`PLATOON_BLESS=1 cargo test -p platoon-config
-//! --test reference` rewrites them, locally: with `CI=true` it refuses), so the reference cannot
+//! --test config reference::` rewrites them, locally: with `CI=true` it refuses), so the
+//! reference cannot
 //! drift from the code: the keys, their
 //! types, their defaults (taken from the code, not from comments) and their doc comments.
 
@@ -387,7 +388,7 @@ pub fn reference_markdown() -> String {
         &raw_schema(),
         "Config reference",
         "platoon_config::reference_markdown() from the schema types in crates/config/src/schema.rs",
-        "`PLATOON_BLESS=1 cargo test -p platoon-config --test reference`",
+        "`PLATOON_BLESS=1 cargo test -p platoon-config --test config reference::`",
         "Every key of a scenario file, table by table. Unknown keys are errors. A key with a \
          default may be left out; `absent` means the key may be left out and its description \
          says what that means. A run writes its resolved config (every default written out) as \

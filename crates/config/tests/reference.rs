@@ -1,7 +1,7 @@
 //! The committed config reference is what the schema types generate: `docs/config.schema.json`
 //! (the JSON Schema editors read) and `docs/config-reference.md`. After changing a schema type,
-//! `PLATOON_BLESS=1 cargo test -p platoon-config --test reference` rewrites both (never where
-//! `CI` is set, `CI=true` say: CI checks the committed files, it does not make them).
+//! `PLATOON_BLESS=1 cargo test -p platoon-config --test config reference::` rewrites both (never
+//! where `CI` is set, `CI=true` say: CI checks the committed files, it does not make them).
 use std::path::{Path, PathBuf};
 
 fn docs() -> PathBuf {
@@ -41,7 +41,8 @@ fn check(name: &str, generated: &str) {
             .unwrap_or_else(|| committed.lines().count().min(generated.lines().count()));
         panic!(
             "docs/{name} is not what the schema types generate (first difference at line {}): \
-             run `PLATOON_BLESS=1 cargo test -p platoon-config --test reference` and commit it",
+             run `PLATOON_BLESS=1 cargo test -p platoon-config --test config reference::` and \
+             commit it",
             line + 1
         );
     }

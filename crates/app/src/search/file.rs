@@ -190,7 +190,7 @@ pub fn reference_markdown() -> String {
         "Search file reference",
         "platoon_app::search::reference_markdown() from the schema types in \
          crates/app/src/search/file.rs",
-        "`PLATOON_BLESS=1 cargo test -p platoon-app --test search_file`",
+        "`PLATOON_BLESS=1 cargo test -p platoon-app --test app search_file::`",
         "Every key of a search file (`platoon search FILE`), table by table. Unknown keys are \
          errors; a key with a default may be left out. [search.md](search.md) shows them at \
          work.",
