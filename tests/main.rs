@@ -2,6 +2,10 @@
 //! of this folder is a module, so that the whole workspace is linked once, not once per file.
 //! A new file needs its `mod` line here (the `layout` module checks it). One file's tests:
 //! `cargo test -p platoon-cli --test e2e cosim::`.
+//!
+//! A scenario's checks may read top to bottom in one function longer than the crates' sources
+//! allow (the workspace's `too_many_lines`, for `crates/*/src`).
+#![allow(clippy::too_many_lines)]
 mod common;
 
 mod campaign;
