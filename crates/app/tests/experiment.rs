@@ -278,7 +278,10 @@ fn traffic_runs_each_law_on_a_topology_it_can_and_scores_the_forged_packets() {
         "| paper | pf | 3 | -4 | none | 0/1 | 0.09 | 11.0 | 50.0 | 11 | 0 | 0 |",
         "| paper | pf | 3 | -4 | fdi-bias | 0/1 | 0.09 | 11.0 | 50.0 | 12 | 9 | 14 |",
         "| path_cacc | plf | 3 | -4 | none | 0/1 | 0.10 | 11.0 | 20.0 | 6 | 0 | 0 |",
-        "| flatbed | plf | 3 | -4 | none | 0/1 | 0.08 | 11.0 | 20.0 | 38 | 0 | 0 |",
+        // The flatbed's head keeps heading (beaconing every step) until it is back on its law,
+        // and its return commands more than a car can: the plausibility check flags those
+        // beacons (38 false alarms when the split ended as the return began).
+        "| flatbed | plf | 3 | -4 | none | 0/1 | 0.08 | 11.0 | 20.0 | 299 | 0 | 0 |",
     ] {
         assert!(
             t.markdown.contains(row),
