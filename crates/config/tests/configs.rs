@@ -52,18 +52,24 @@ fn every_file_in_configs_parses_and_validates() {
     assert_eq!(seen, SHIPPED, "the .toml files of configs/");
 }
 
-/// A split behind a cut-in re-points the followers' leader: the paper's law, coupled through the
-/// topology's Laplacian, has none, and says so; the flatbed controller of the shipped config
-/// splits, and its followers hear every member ahead.
+/// A split behind a cut-in re-points the followers' leader: the paper's law (on its part of the
+/// platoon, the head in the leader's place) and the flatbed controller of the shipped config
+/// split, and their followers hear every member ahead; a law with no leader to re-point (the
+/// ACC reads its radar alone) says so.
 #[test]
-fn a_split_needs_a_law_that_reads_the_leader() {
-    let text = platoon_config::CUT_IN_TOML.replacen(
+fn a_split_needs_a_law_that_follows_a_head() {
+    let split = platoon_config::CUT_IN_TOML.replacen(
         "cut_in = { dwell_s = 1.0, blend_s = 3.0 }",
         "cut_in = { dwell_s = 1.0, blend_s = 3.0, split = true }",
         1,
     );
+    let (_, paper) = parse(&split, Path::new("paper.toml")).unwrap();
+    assert!(paper.splits());
+    let gains = "gain = [4.81, 9.12, 2.97]      # the paper's law u_i = -K q_i\nbeta1 = 319.38\nbeta2 = 5.62";
+    assert!(split.contains(gains), "the cut-in config's gains");
+    let acc = split.replacen(gains, "law = \"acc\"", 1);
     assert_error(
-        parse(&text, Path::new("bad.toml")).map(|_| ()),
+        parse(&acc, Path::new("bad.toml")).map(|_| ()),
         "fallback.cut_in.split",
         "path_cacc",
     );
