@@ -175,12 +175,7 @@ pub fn step_matrix(
                 let head_heard = packet(head);
                 let law = &mut laws[i - 1];
                 if estimating {
-                    for (slot, j) in slots(v).into_iter().enumerate() {
-                        law.heard(0, slot, &crate::Packet::beacon(j, 1, 0, state[j.index()].0));
-                    }
-                    if let Some(t) = law.triggering() {
-                        t.sent(0, &own);
-                    }
+                    exact_estimates(&mut **law, v, &state);
                 }
                 law.command(&View {
                     k: 0,
@@ -218,4 +213,20 @@ pub fn step_matrix(
         }
     }
     Ok(jacobian)
+}
+
+/// What the paper's law of vehicle `v` knows in the nominal case: every vehicle's state
+/// (`states[j].0`, its slots every id but `v`'s, as `step_matrix` started it) and its own.
+fn exact_estimates(law: &mut dyn crate::Law, v: VehicleId, states: &[(State, f64)]) {
+    let others = (0..states.len() as u16).map(VehicleId).filter(|&j| j != v);
+    for (slot, j) in others.enumerate() {
+        law.heard(
+            0,
+            slot,
+            &crate::Packet::beacon(j, 1, 0, states[j.index()].0),
+        );
+    }
+    if let Some(t) = law.triggering() {
+        t.sent(0, &states[v.index()].0);
+    }
 }

@@ -74,36 +74,7 @@ impl<'a> Recorder<'a> {
         // The rx batch, sorted as the controllers sort it: deliveries per platoon and who was
         // told its channel was jammed (for the rows and for the wire tally below).
         deliveries_from_wire(r, num, &mut self.deliveries, &mut self.jammed);
-        if c.len() != num.followers() {
-            return Err(CosimError::Contract {
-                node: "controller",
-                message: format!("{} commands for {} followers", c.len(), num.followers()),
-            });
-        }
-        // Follower i of platoon j at j * N + i - 1 with a finite command: anything else would be
-        // recorded against the wrong vehicle (a plug-in controller's mistake, named; the step
-        // is not recorded).
-        for (x, cmd) in c.iter().enumerate() {
-            let i = platoon_model::VehicleId((x % (n1 - 1) + 1) as u16);
-            let want = num.global(x / (n1 - 1), i);
-            if let Err(e) = platoon_control::Status::from_code(cmd.mode_code()) {
-                return Err(CosimError::Contract {
-                    node: "controller",
-                    message: format!("step {}: command {x} (vehicle {want}): {e}", self.step),
-                });
-            }
-            if cmd.vehicle != want || !cmd.u.is_finite() {
-                return Err(CosimError::Contract {
-                    node: "controller",
-                    message: format!(
-                        "step {}: command {x} is for vehicle {} with u = {}; a step's commands \
-                         list every follower in order (vehicle {want} here), each with a \
-                         finite u",
-                        self.step, cmd.vehicle, cmd.u
-                    ),
-                });
-            }
-        }
+        check_commands(self.step, num, c)?;
         // Which leaders broadcast: one pass over the tx batch, not one per platoon.
         self.leader_sent.fill(false);
         for p in t {
@@ -217,4 +188,40 @@ impl<'a> Recorder<'a> {
         let _ = self.scenario;
         Ok(())
     }
+}
+
+/// Step `step`'s commands, checked before anything is recorded: one per follower, follower i of
+/// platoon j at j * N + i - 1, each with a finite command and a known mode code; anything else
+/// would be recorded against the wrong vehicle (a plug-in controller's mistake, named; the step
+/// is not recorded).
+fn check_commands(step: u64, num: Numbering, c: &[Command]) -> Result<(), CosimError> {
+    let n1 = num.per_platoon;
+    if c.len() != num.followers() {
+        return Err(CosimError::Contract {
+            node: "controller",
+            message: format!("{} commands for {} followers", c.len(), num.followers()),
+        });
+    }
+    for (x, cmd) in c.iter().enumerate() {
+        let i = platoon_model::VehicleId((x % (n1 - 1) + 1) as u16);
+        let want = num.global(x / (n1 - 1), i);
+        if let Err(e) = platoon_control::Status::from_code(cmd.mode_code()) {
+            return Err(CosimError::Contract {
+                node: "controller",
+                message: format!("step {}: command {x} (vehicle {want}): {e}", step),
+            });
+        }
+        if cmd.vehicle != want || !cmd.u.is_finite() {
+            return Err(CosimError::Contract {
+                node: "controller",
+                message: format!(
+                    "step {}: command {x} is for vehicle {} with u = {}; a step's commands \
+                     list every follower in order (vehicle {want} here), each with a \
+                     finite u",
+                    step, cmd.vehicle, cmd.u
+                ),
+            });
+        }
+    }
+    Ok(())
 }
