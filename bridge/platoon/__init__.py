@@ -269,16 +269,18 @@ def run(
     together, KeyboardInterrupt after stopping it (a second one returns at once, leaving the
     run to stop at its next step)."""
     summary, tables, directory = _native().run(
-        transport=transport,
-        **_config_arg(config),
-        plant=plant,
-        out=_fspath(out),
-        force=force,
-        plots=plots,
-        injector=injector,
-        injector_after=injector_after,
-        controller=controller,
-        step_timeout_s=float(step_timeout_s),
+        _config_arg(config),
+        {
+            "transport": transport,
+            "plant": plant,
+            "out": _fspath(out),
+            "force": force,
+            "plots": plots,
+            "injector": injector,
+            "injector_after": injector_after,
+            "controller": controller,
+            "step_timeout_s": float(step_timeout_s),
+        },
     )
     return Run(
         json.loads(summary),
@@ -333,13 +335,15 @@ def campaign(
         address = dask if isinstance(dask, str) else dask.scheduler.address
     report, cells, directory = _native().campaign(
         os.fspath(spec),
-        out=_fspath(out),
-        jobs=jobs,
-        dask=address,
-        force=force,
-        keep_runs=keep_runs,
-        plots=plots,
-        samples=samples,
+        {
+            "out": _fspath(out),
+            "jobs": jobs,
+            "dask": address,
+            "force": force,
+            "keep_runs": keep_runs,
+            "plots": plots,
+            "samples": samples,
+        },
     )
     return Campaign(json.loads(report), Table("cells", cells), pathlib.Path(directory))
 

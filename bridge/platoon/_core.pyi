@@ -1,7 +1,7 @@
 """Type stubs of platoon._core, the package's compiled Rust core (crates/python). Call it
 through the functions of `platoon` (platoon/__init__.py), which document the arguments."""
 
-from typing import List, Optional, Sequence, Tuple
+from typing import List, Optional, Sequence, Tuple, TypedDict
 
 import pyarrow
 
@@ -35,40 +35,50 @@ class OutputError(PlatoonError):
 
 def scenario_names() -> List[str]: ...
 def scenario(name: str) -> str: ...
+class ConfigArg(TypedDict, total=False):
+    """Where a call's config comes from (platoon._config_arg builds it)."""
+
+    config: str  # a dict as JSON, a file's path or an embedded scenario's name
+    is_path: bool
+    origin: Optional[str]
+    source: Optional[str]
+
+class RunArgs(TypedDict):
+    """platoon.run's keyword arguments, every one."""
+
+    transport: str
+    plant: Optional[str]
+    out: Optional[str]
+    force: bool
+    plots: bool
+    injector: Optional[str]
+    injector_after: bool
+    controller: Optional[str]
+    step_timeout_s: float
+
+class CampaignArgs(TypedDict):
+    """platoon.campaign's keyword arguments (dask: a scheduler's address)."""
+
+    out: Optional[str]
+    jobs: Optional[int]
+    dask: Optional[str]
+    force: bool
+    keep_runs: bool
+    plots: bool
+    samples: Optional[int]
+
+class CheckGainArgs(TypedDict):
+    """platoon.design.check_gain's keyword arguments."""
+
+    gain: Optional[Sequence[float]]
+    c: float
+    theorem: int
+    time_headway: Optional[float]
+
 def run(
-    config: str,
-    is_path: bool,
-    transport: str,
-    origin: Optional[str] = None,
-    source: Optional[str] = None,
-    plant: Optional[str] = None,
-    out: Optional[str] = None,
-    force: bool = False,
-    plots: bool = False,
-    injector: Optional[str] = None,
-    injector_after: bool = False,
-    controller: Optional[str] = None,
-    step_timeout_s: float = 1.0,
+    config: ConfigArg, options: RunArgs
 ) -> Tuple[str, List[Tuple[str, pyarrow.Table]], Optional[str]]: ...
-def campaign(
-    path: str,
-    out: Optional[str] = None,
-    jobs: Optional[int] = None,
-    dask: Optional[str] = None,
-    force: bool = False,
-    keep_runs: bool = False,
-    plots: bool = False,
-    samples: Optional[int] = None,
-) -> Tuple[str, pyarrow.Table, str]: ...
+def campaign(path: str, options: CampaignArgs) -> Tuple[str, pyarrow.Table, str]: ...
 def execute_cells(jobs: str) -> str: ...
-def check_gain(
-    config: str,
-    is_path: bool,
-    origin: Optional[str] = None,
-    source: Optional[str] = None,
-    gain: Optional[Sequence[float]] = None,
-    c: float = 0.0,
-    theorem: int = 1,
-    time_headway: Optional[float] = None,
-) -> str: ...
+def check_gain(config: ConfigArg, options: CheckGainArgs) -> str: ...
 def cli(argv: List[str]) -> int: ...

@@ -30,10 +30,12 @@ def check_gain(
 
     return json.loads(
         _native().check_gain(
-            **_config_arg(config),
-            gain=None if gain is None else [float(k) for k in gain],
-            c=float(c),
-            theorem=int(theorem),
-            time_headway=None if time_headway is None else float(time_headway),
+            _config_arg(config),
+            {
+                "gain": None if gain is None else [float(k) for k in gain],
+                "c": float(c),
+                "theorem": int(theorem),
+                "time_headway": None if time_headway is None else float(time_headway),
+            },
         )
     )

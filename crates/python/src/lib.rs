@@ -406,17 +406,36 @@ type RunResult = (String, Vec<(String, Py<PyAny>)>, Option<String>);
 /// injector or controller) it is `platoon run` into `out` (a temporary directory, removed
 /// after, when None; kept and named when the run fails), and the tables are read back from
 /// its files.
-#[pyfunction]
-#[pyo3(signature = (config, is_path, transport, origin=None, source=None, plant=None, out=None, force=false, plots=false, injector=None, injector_after=false, controller=None, step_timeout_s=1.0))]
-#[allow(clippy::too_many_arguments)]
-fn run(
-    py: Python<'_>,
-    config: &str,
+/// Where a call's config comes from, as the package's `_config_arg` hands it over: a dict as
+/// JSON (with where a Scenario came from), a file's path, or an embedded scenario's name.
+#[derive(FromPyObject)]
+#[pyo3(from_item_all)]
+struct ConfigArg {
+    config: String,
     is_path: bool,
-    transport: &str,
+    #[pyo3(default)]
     origin: Option<String>,
+    #[pyo3(default)]
     source: Option<PathBuf>,
-    plant: Option<&str>,
+}
+
+impl ConfigArg {
+    /// The config, its scenario and the label a run records it under.
+    fn load(self) -> Result<(platoon_config::Config, platoon_sim::Scenario, PathBuf)> {
+        let origin = DictOrigin {
+            config: self.origin,
+            file: self.source,
+        };
+        load_config(&self.config, self.is_path, &origin)
+    }
+}
+
+/// `run`'s options, the keyword arguments of `platoon.run` (a dict with every key).
+#[derive(FromPyObject)]
+#[pyo3(from_item_all)]
+struct RunArgs {
+    transport: String,
+    plant: Option<String>,
     out: Option<PathBuf>,
     force: bool,
     plots: bool,
@@ -424,14 +443,28 @@ fn run(
     injector_after: bool,
     controller: Option<String>,
     step_timeout_s: f64,
-) -> PyResult<RunResult> {
-    let origin = DictOrigin {
-        config: origin,
-        file: source,
-    };
-    let (config, scenario, label) =
-        load_config(config, is_path, &origin).map_err(|e| py_err(py, e))?;
-    let transport = match transport {
+}
+
+/// `run(config, options)`: one scenario. In process with no `out`, nothing touches the disk:
+/// the tables come from memory. Otherwise (a run directory asked for, a co-simulation, SUMO,
+/// an external injector or controller) it is `platoon run` into `out` (a temporary directory,
+/// removed after, when None; kept and named when the run fails), and the tables are read back
+/// from its files.
+#[pyfunction]
+fn run(py: Python<'_>, config: ConfigArg, options: RunArgs) -> PyResult<RunResult> {
+    let RunArgs {
+        transport,
+        plant,
+        out,
+        force,
+        plots,
+        injector,
+        injector_after,
+        controller,
+        step_timeout_s,
+    } = options;
+    let (config, scenario, label) = config.load().map_err(|e| py_err(py, e))?;
+    let transport = match transport.as_str() {
         "inproc" => Transport::Inproc,
         "iceoryx2" => Transport::Iceoryx2,
         other => {
@@ -440,7 +473,7 @@ fn run(
             )))
         }
     };
-    let plant = match plant {
+    let plant = match plant.as_deref() {
         None => None,
         Some("native") => Some(PlantKind::Native),
         Some("sumo") => Some(PlantKind::Sumo),
@@ -596,14 +629,10 @@ fn read_cells(path: &Path) -> anyhow::Result<(arrow_schema::SchemaRef, Vec<Recor
 /// What `campaign` hands back: campaign.json (text), the cells, the directory.
 type CampaignResult = (String, Py<PyAny>, String);
 
-/// `campaign(...)`: `platoon campaign` into `out` (default `runs/<campaign name>`), on the
-/// local pool or a Dask scheduler.
-#[pyfunction]
-#[pyo3(signature = (path, out=None, jobs=None, dask=None, force=false, keep_runs=false, plots=false, samples=None))]
-#[allow(clippy::too_many_arguments)]
-fn campaign(
-    py: Python<'_>,
-    path: PathBuf,
+/// `campaign`'s options, the keyword arguments of `platoon.campaign` (a dict with every key).
+#[derive(FromPyObject)]
+#[pyo3(from_item_all)]
+struct CampaignArgs {
     out: Option<PathBuf>,
     jobs: Option<usize>,
     dask: Option<String>,
@@ -611,7 +640,21 @@ fn campaign(
     keep_runs: bool,
     plots: bool,
     samples: Option<usize>,
-) -> PyResult<CampaignResult> {
+}
+
+/// `campaign(path, options)`: `platoon campaign` into `out` (default `runs/<campaign name>`),
+/// on the local pool or a Dask scheduler.
+#[pyfunction]
+fn campaign(py: Python<'_>, path: PathBuf, options: CampaignArgs) -> PyResult<CampaignResult> {
+    let CampaignArgs {
+        out,
+        jobs,
+        dask,
+        force,
+        keep_runs,
+        plots,
+        samples,
+    } = options;
     let campaign =
         platoon_campaign::Campaign::load(&path, samples).map_err(|e| py_err(py, e.into()))?;
     let jobs = match jobs {
@@ -693,28 +736,29 @@ fn execute_cells(py: Python<'_>, jobs: &str) -> PyResult<String> {
     serde_json::to_string(&replies).map_err(|e| py_err(py, e.into()))
 }
 
-/// `check_gain(...)`: `platoon design check-gain`'s report (check.json) as JSON. A design
-/// check cannot be stopped halfway: a KeyboardInterrupt returns at once and leaves it to
-/// finish on its thread.
-#[pyfunction]
-#[pyo3(signature = (config, is_path, origin=None, source=None, gain=None, c=0.0, theorem=1, time_headway=None))]
-#[allow(clippy::too_many_arguments)]
-fn check_gain(
-    py: Python<'_>,
-    config: &str,
-    is_path: bool,
-    origin: Option<String>,
-    source: Option<PathBuf>,
+/// `check_gain`'s options, the keyword arguments of `platoon.design.check_gain` (a dict with
+/// every key).
+#[derive(FromPyObject)]
+#[pyo3(from_item_all)]
+struct CheckGainArgs {
     gain: Option<[f64; 3]>,
     c: f64,
     theorem: u8,
     time_headway: Option<f64>,
-) -> PyResult<String> {
-    let origin = DictOrigin {
-        config: origin,
-        file: source,
-    };
-    let (config, scenario, _) = load_config(config, is_path, &origin).map_err(|e| py_err(py, e))?;
+}
+
+/// `check_gain(config, options)`: `platoon design check-gain`'s report (check.json) as JSON.
+/// A design check cannot be stopped halfway: a KeyboardInterrupt returns at once and leaves
+/// it to finish on its thread.
+#[pyfunction]
+fn check_gain(py: Python<'_>, config: ConfigArg, options: CheckGainArgs) -> PyResult<String> {
+    let CheckGainArgs {
+        gain,
+        c,
+        theorem,
+        time_headway,
+    } = options;
+    let (config, scenario, _) = config.load().map_err(|e| py_err(py, e))?;
     let theorem = platoon_app::design::Theorem::from_number(theorem)
         .ok_or_else(|| PyValueError::new_err(format!("theorem={theorem}: 1 or 2")))?;
     let opts = platoon_app::design::CheckOptions {
