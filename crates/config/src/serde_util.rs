@@ -4,6 +4,8 @@
 
 use serde::de::{DeserializeOwned, Deserializer};
 use serde::ser::{self, Impossible, Serialize, SerializeMap, SerializeStruct};
+use std::collections::BTreeSet;
+use std::sync::{Mutex, PoisonError};
 
 /// The methods of a `Serializer` that refuses every value but a struct and a unit variant
 /// (each serializer here writes those two itself), failing with `$refuse()`.
@@ -238,19 +240,21 @@ impl<'a, M: SerializeMap> ser::Serializer for Entries<'a, M> {
 }
 
 /// The selector's value (`kind`, `rule`, ...) serde writes for a tagged table's enum: the enum's
-/// `rename_all` is the one list of its names. Served from [`crate::tagged::tagged_tables`], which holds
-/// every such name for the process's lifetime.
+/// `rename_all` is the one list of its names. Each distinct value is kept for the process's
+/// lifetime, once (the enums' names are a finite set), so that it can be handed out as
+/// `&'static str` like a literal.
 pub(crate) fn tag_name<T: Serialize>(value: &T, selector: &str) -> &'static str {
+    static NAMES: Mutex<BTreeSet<&'static str>> = Mutex::new(BTreeSet::new());
     let table = toml::Value::try_from(value).expect("a tagged table serialises");
     let tag = table
         .get(selector)
         .and_then(toml::Value::as_str)
         .expect("a tagged table writes its selector");
-    crate::tagged::tagged_tables()
-        .iter()
-        .filter(|t| t.selector == selector)
-        .flat_map(|t| &t.variants)
-        .map(|v| v.tag.as_str())
-        .find(|t| *t == tag)
-        .expect("every selector value is in the schema")
+    let mut names = NAMES.lock().unwrap_or_else(PoisonError::into_inner);
+    if let Some(name) = names.get(tag) {
+        return name;
+    }
+    let name: &'static str = Box::leak(tag.to_owned().into_boxed_str());
+    names.insert(name);
+    name
 }
