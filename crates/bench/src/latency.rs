@@ -148,7 +148,7 @@ pub fn latency(a: Latency) -> Result<LatencyReport> {
         scenario,
         stem,
     } = platoon_config::load_or(a.config.as_deref(), platoon_config::Embedded::Paper)?;
-    let dir = crate::create_out(a.out, "bench-latency", a.force)?;
+    let dir = crate::create_out(a.out.clone(), "bench-latency", a.force)?;
     dir.write("config.toml", platoon_config::to_toml(&config).as_bytes())?;
     let exe = platoon_app::platoon_program()?;
     let n = scenario.topology.followers();
@@ -168,72 +168,7 @@ pub fn latency(a: Latency) -> Result<LatencyReport> {
         )
         .expect("static template"),
     );
-    let mut samples: Vec<(&str, Vec<u64>)> = Vec::new();
-
-    let raw_hop = |busy_poll: bool| {
-        platoon_runtime::bench::raw_hop(
-            &platoon_runtime::new_run_id(),
-            &exe,
-            a.iterations,
-            a.warmup,
-            items,
-            busy_poll,
-        )
-    };
-    bar.set_message("raw iceoryx2 hop");
-    let raw = raw_hop(false).context("raw iceoryx2 hop")?;
-    samples.push(("raw_iceoryx2_hop", raw));
-    bar.inc(1);
-    if a.busy_poll {
-        if cores() < 2 {
-            eprintln!(
-                "warning: {} core(s) for 2 busy-polling processes: the figure will collapse",
-                cores()
-            );
-        }
-        bar.set_message("busy-polling iceoryx2 hop");
-        let busy = raw_hop(true).context("busy-polling iceoryx2 hop")?;
-        samples.push(("raw_iceoryx2_hop_busy_poll", busy));
-    }
-    bar.inc(1);
-    for socket in [
-        platoon_runtime::bench::Socket::Udp,
-        platoon_runtime::bench::Socket::Uds,
-    ] {
-        bar.set_message(format!("{} hop", socket.name()));
-        let name = match socket {
-            platoon_runtime::bench::Socket::Udp => "udp_loopback_hop",
-            platoon_runtime::bench::Socket::Uds => "unix_socket_hop",
-        };
-        // A baseline that cannot run fails the benchmark: the report compares side by side.
-        let h = platoon_runtime::bench::socket_hop(socket, &exe, a.iterations, a.warmup, bytes)
-            .with_context(|| {
-                format!(
-                    "the {name} baseline (a ping-pong with `platoon node echo-{}` in another \
-                     process) failed; fix it before benchmarking",
-                    socket.name()
-                )
-            })?;
-        samples.push((name, h));
-        bar.inc(1);
-    }
-    // The two baselines again with both processes on one core (this process's CPU set, which
-    // the echo inherits), so the one-core rows of the co-simulation compare like with like.
-    bar.set_message("raw iceoryx2 and Unix-socket hops on one core");
-    let (raw_one, uds_one) = on_one_core(|| -> Result<_> {
-        let raw = raw_hop(false).context("raw iceoryx2 hop on one core")?;
-        let uds = platoon_runtime::bench::socket_hop(
-            platoon_runtime::bench::Socket::Uds,
-            &exe,
-            a.iterations,
-            a.warmup,
-            bytes,
-        )
-        .context("the Unix-socket hop on one core")?;
-        Ok((raw, uds))
-    })??;
-    samples.push(("raw_iceoryx2_hop_one_core", raw_one));
-    samples.push(("unix_socket_hop_one_core", uds_one));
+    let samples = hops(&a, &exe, items, bytes, &bar)?;
 
     let Cosims {
         builtin,
@@ -298,6 +233,86 @@ pub fn latency(a: Latency) -> Result<LatencyReport> {
     print_report(&report);
     println!("outputs: {}", path.display());
     Ok(report)
+}
+
+/// The hops the co-simulation's are set against, each `a.iterations` ping-pongs of a batch of
+/// `items` link packets (`bytes` bytes) with another process: the raw iceoryx2 hop (and, with
+/// `a.busy_poll`, its busy-polling form), the UDP and Unix-socket hops, and the raw and
+/// Unix-socket hops again with both processes on one core. Four steps of `bar`.
+fn hops(
+    a: &Latency,
+    exe: &std::path::Path,
+    items: usize,
+    bytes: usize,
+    bar: &indicatif::ProgressBar,
+) -> Result<Vec<(&'static str, Vec<u64>)>> {
+    let mut samples: Vec<(&'static str, Vec<u64>)> = Vec::new();
+
+    let raw_hop = |busy_poll: bool| {
+        platoon_runtime::bench::raw_hop(
+            &platoon_runtime::new_run_id(),
+            exe,
+            a.iterations,
+            a.warmup,
+            items,
+            busy_poll,
+        )
+    };
+    bar.set_message("raw iceoryx2 hop");
+    let raw = raw_hop(false).context("raw iceoryx2 hop")?;
+    samples.push(("raw_iceoryx2_hop", raw));
+    bar.inc(1);
+    if a.busy_poll {
+        if cores() < 2 {
+            eprintln!(
+                "warning: {} core(s) for 2 busy-polling processes: the figure will collapse",
+                cores()
+            );
+        }
+        bar.set_message("busy-polling iceoryx2 hop");
+        let busy = raw_hop(true).context("busy-polling iceoryx2 hop")?;
+        samples.push(("raw_iceoryx2_hop_busy_poll", busy));
+    }
+    bar.inc(1);
+    for socket in [
+        platoon_runtime::bench::Socket::Udp,
+        platoon_runtime::bench::Socket::Uds,
+    ] {
+        bar.set_message(format!("{} hop", socket.name()));
+        let name = match socket {
+            platoon_runtime::bench::Socket::Udp => "udp_loopback_hop",
+            platoon_runtime::bench::Socket::Uds => "unix_socket_hop",
+        };
+        // A baseline that cannot run fails the benchmark: the report compares side by side.
+        let h = platoon_runtime::bench::socket_hop(socket, exe, a.iterations, a.warmup, bytes)
+            .with_context(|| {
+                format!(
+                    "the {name} baseline (a ping-pong with `platoon node echo-{}` in another \
+                     process) failed; fix it before benchmarking",
+                    socket.name()
+                )
+            })?;
+        samples.push((name, h));
+        bar.inc(1);
+    }
+    // The two baselines again with both processes on one core (this process's CPU set, which
+    // the echo inherits), so the one-core rows of the co-simulation compare like with like.
+    bar.set_message("raw iceoryx2 and Unix-socket hops on one core");
+    let (raw_one, uds_one) = on_one_core(|| -> Result<_> {
+        let raw = raw_hop(false).context("raw iceoryx2 hop on one core")?;
+        let uds = platoon_runtime::bench::socket_hop(
+            platoon_runtime::bench::Socket::Uds,
+            exe,
+            a.iterations,
+            a.warmup,
+            bytes,
+        )
+        .context("the Unix-socket hop on one core")?;
+        Ok((raw, uds))
+    })??;
+    samples.push(("raw_iceoryx2_hop_one_core", raw_one));
+    samples.push(("unix_socket_hop_one_core", uds_one));
+    Ok(samples)
 }
 
 /// latency.csv (the rows), latency-samples.csv (every hop's time), latency.png and

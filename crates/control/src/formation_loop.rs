@@ -74,27 +74,10 @@ pub fn step_matrix(
         None => return Err(LoopError::NoLaw(p.law.name())),
     };
     let vehicles = spec.topology.followers() + 1;
-    // Road order, each vehicle with the head of its platoon.
-    let road: Vec<(VehicleId, VehicleId)> = platoons
-        .iter()
-        .flat_map(|pl| pl.iter().map(move |&v| (v, pl[0])))
-        .collect();
-    let bad = |why: String| Err(LoopError::Formation(why));
-    if road.first().is_none_or(|(v, _)| !v.is_leader()) {
-        return bad("the first platoon is not headed by the leader".into());
-    }
-    for (i, (v, _)) in road.iter().enumerate() {
-        if v.index() >= vehicles || v.index() >= taus.len() {
-            return bad(format!("vehicle {} is not one of the run's", v.0));
-        }
-        if road[..i].iter().any(|(w, _)| w == v) {
-            return bad(format!("vehicle {} is named twice", v.0));
-        }
-    }
-    let followers = road.len() - 1;
+    let road = road_order(platoons, vehicles.min(taus.len()))?;
     // The equilibrium: each behind the one ahead at the distance it keeps at `speed`.
     let heads_headway = crate::maneuvers::split_headway(&p.fallback.acc, p.headway, f64::INFINITY);
-    let mut z0 = vec![0.0; STATES * followers];
+    let mut z0 = vec![0.0; STATES * (road.len() - 1)];
     let mut ahead_p = 0.0;
     for (i, &(v, head)) in road.iter().enumerate().skip(1) {
         let h = if v == head { heads_headway } else { p.headway };
@@ -125,7 +108,7 @@ pub fn step_matrix(
             .find(|pl| pl.contains(&v))
             .map(Vec::as_slice)
     };
-    let mut step = |z: &[f64]| -> Vec<f64> {
+    let step = |z: &[f64]| -> Vec<f64> {
         // Every vehicle's state and last command: the leader's, then the followers' from `z`;
         // a vehicle out of the formation keeps the leader's (it is no part of the loop).
         let mut state = vec![(State::new(0.0, speed, 0.0), 0.0); vehicles];
@@ -199,20 +182,52 @@ pub fn step_matrix(
         }
         next
     };
+    Ok(central_jacobian(&z0, step))
+}
+
+/// The formation's vehicles in road order, each with the head of its platoon (`platoons` in
+/// road order, each head first), checked: the leader first, every vehicle one of the run's
+/// `vehicles` ids, none twice.
+fn road_order(
+    platoons: &[Vec<VehicleId>],
+    vehicles: usize,
+) -> Result<Vec<(VehicleId, VehicleId)>, LoopError> {
+    let road: Vec<(VehicleId, VehicleId)> = platoons
+        .iter()
+        .flat_map(|pl| pl.iter().map(move |&v| (v, pl[0])))
+        .collect();
+    let bad = |why: String| Err(LoopError::Formation(why));
+    if road.first().is_none_or(|(v, _)| !v.is_leader()) {
+        return bad("the first platoon is not headed by the leader".into());
+    }
+    for (i, (v, _)) in road.iter().enumerate() {
+        if v.index() >= vehicles {
+            return bad(format!("vehicle {} is not one of the run's", v.0));
+        }
+        if road[..i].iter().any(|(w, _)| w == v) {
+            return bad(format!("vehicle {} is named twice", v.0));
+        }
+    }
+    Ok(road)
+}
+
+/// The Jacobian of `f` at `z0` by central differences, each step relative to the
+/// coordinate's size (`1e-6 max(|z|, 1)`).
+fn central_jacobian(z0: &[f64], mut f: impl FnMut(&[f64]) -> Vec<f64>) -> DMatrix<f64> {
     let n = z0.len();
     let mut jacobian = DMatrix::zeros(n, n);
     for c in 0..n {
         let h = 1e-6 * z0[c].abs().max(1.0);
-        let mut up = z0.clone();
+        let mut up = z0.to_vec();
         up[c] += h;
-        let mut down = z0.clone();
+        let mut down = z0.to_vec();
         down[c] -= h;
-        let (fu, fd) = (step(&up), step(&down));
+        let (fu, fd) = (f(&up), f(&down));
         for r in 0..n {
             jacobian[(r, c)] = (fu[r] - fd[r]) / (2.0 * h);
         }
     }
-    Ok(jacobian)
+    jacobian
 }
 
 /// What the paper's law of vehicle `v` knows in the nominal case: every vehicle's state

@@ -273,6 +273,50 @@ fn cpu_seconds() -> f64 {
     total
 }
 
+/// What is already done (a resumed campaign's finished cells, read back), what cannot run (a
+/// cell whose scenario is invalid: recorded as failed) and what to run, as jobs (each with
+/// the directory its full outputs go to when `keep_runs`).
+fn sort_cells(
+    campaign: &Campaign,
+    staging: &Path,
+    resumed: bool,
+    keep_runs: bool,
+) -> Result<(Vec<CellResult>, Vec<CellJob>)> {
+    let mut outcomes: Vec<CellResult> = vec![CellResult::not_run(); campaign.cells.len()];
+    let mut pending = Vec::new();
+    for cell in &campaign.cells {
+        match &cell.config {
+            Err(e) => {
+                let o = CellResult::failed(format!("invalid scenario: {e}"));
+                write_cell(staging, campaign, cell, &o)?;
+                outcomes[cell.index] = o;
+            }
+            Ok(config) => {
+                if resumed {
+                    if let Some(o) = finished_before(staging, campaign, cell) {
+                        outcomes[cell.index] = o;
+                        continue;
+                    }
+                }
+                pending.push(CellJob {
+                    index: cell.index,
+                    config: config.clone(),
+                    transport: campaign.spec.transport,
+                    keep: keep_runs.then(|| {
+                        std::path::absolute(
+                            staging
+                                .join("runs")
+                                .join(cell.dir_name(campaign.cells.len())),
+                        )
+                        .unwrap_or_default()
+                    }),
+                });
+            }
+        }
+    }
+    Ok((outcomes, pending))
+}
+
 /// The record of a finished cell: `cells/<cNNNN>/{config.toml, summary.json, cell.json}`,
 /// written atomically (cell.json identifies it when the campaign resumes).
 fn write_cell(
@@ -454,39 +498,7 @@ pub fn run(
         prune(&staging, campaign, progress)?;
     }
 
-    // What is already done, what cannot run, what to run.
-    let mut outcomes: Vec<CellResult> = vec![CellResult::not_run(); campaign.cells.len()];
-    let mut pending = Vec::new();
-    for cell in &campaign.cells {
-        match &cell.config {
-            Err(e) => {
-                let o = CellResult::failed(format!("invalid scenario: {e}"));
-                write_cell(&staging, campaign, cell, &o)?;
-                outcomes[cell.index] = o;
-            }
-            Ok(config) => {
-                if resumed {
-                    if let Some(o) = finished_before(&staging, campaign, cell) {
-                        outcomes[cell.index] = o;
-                        continue;
-                    }
-                }
-                pending.push(CellJob {
-                    index: cell.index,
-                    config: config.clone(),
-                    transport: campaign.spec.transport,
-                    keep: opts.keep_runs.then(|| {
-                        std::path::absolute(
-                            staging
-                                .join("runs")
-                                .join(cell.dir_name(campaign.cells.len())),
-                        )
-                        .unwrap_or_default()
-                    }),
-                });
-            }
-        }
-    }
+    let (mut outcomes, pending) = sort_cells(campaign, &staging, resumed, opts.keep_runs)?;
     let reused = outcomes.iter().filter(|o| o.reused).count();
     let executor_name = executor.name();
     progress.message(&format!(

@@ -146,7 +146,7 @@ fn measure(
     out: Option<&RunDir>,
     progress: &dyn Progress,
 ) -> Result<Scaling> {
-    use platoon_synthesis::{Coupling, Feasibility};
+    use platoon_synthesis::Coupling;
     use platoon_topology::Topology;
     let label = &base.label;
     let scenario0 = &base.scenario;
@@ -204,29 +204,8 @@ fn measure(
                     .fold(0.0, f64::max);
                 let (certified_ratio, block) = if n <= opts.certify_up_to {
                     progress.detail(&format!("certifying {name} {n} {gain}"));
-                    let ratio = |f: Result<Feasibility, platoon_synthesis::LmiError>| match f {
-                        Ok(Feasibility::Feasible(c)) => {
-                            let growth = c.transient_growth()?;
-                            Ok((c.ratio, Some(growth)))
-                        }
-                        Ok(Feasibility::Infeasible)
-                        | Err(platoon_synthesis::LmiError::NotCertified(_)) => {
-                            Ok((f64::INFINITY, None))
-                        }
-                        Err(e) => Err(e),
-                    };
-                    let common = ratio(platoon_synthesis::theorem1_min_ratio(
-                        k, 0.0, &coupling, tau, 1e-6,
-                    ))?;
-                    let block = ratio(platoon_synthesis::min_ratio(
-                        k,
-                        0.0,
-                        &coupling,
-                        &[tau],
-                        1e-6,
-                        platoon_synthesis::LyapunovForm::BlockDiagonal,
-                    ))?;
-                    (Some(common.0), Some(block))
+                    let (common, block) = certified_ratios(k, &coupling, tau)?;
+                    (Some(common), Some(block))
                 } else {
                     (None, None)
                 };
@@ -291,6 +270,37 @@ fn measure(
         markdown,
     };
     Ok(result)
+}
+
+/// The smallest beta1/beta2 for which LMI (13) certifies gain `k` on `coupling` at lag `tau`
+/// (c = 0), with one common P and with one P per follower (and that certificate's transient
+/// growth); infinite where it certifies none.
+fn certified_ratios(
+    k: [f64; 3],
+    coupling: &platoon_synthesis::Coupling,
+    tau: f64,
+) -> Result<(f64, (f64, Option<f64>)), platoon_synthesis::LmiError> {
+    use platoon_synthesis::{Feasibility, LmiError};
+    let ratio = |f: Result<Feasibility, LmiError>| match f {
+        Ok(Feasibility::Feasible(c)) => {
+            let growth = c.transient_growth()?;
+            Ok((c.ratio, Some(growth)))
+        }
+        Ok(Feasibility::Infeasible) | Err(LmiError::NotCertified(_)) => Ok((f64::INFINITY, None)),
+        Err(e) => Err(e),
+    };
+    let common = ratio(platoon_synthesis::theorem1_min_ratio(
+        k, 0.0, coupling, tau, 1e-6,
+    ))?;
+    let block = ratio(platoon_synthesis::min_ratio(
+        k,
+        0.0,
+        coupling,
+        &[tau],
+        1e-6,
+        platoon_synthesis::LyapunovForm::BlockDiagonal,
+    ))?;
+    Ok((common.0, block))
 }
 
 fn scaling_markdown(rows: &[ScalingRow], label: &str, opts: &ScalingOptions) -> String {
