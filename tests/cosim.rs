@@ -2244,22 +2244,27 @@ fn the_papers_law_joins_and_leaves_on_both_transports() {
 }
 
 /// The paper's law on its own TPSF graph, and on PLF, behind a car cutting in 6 m ahead of
-/// follower 3 at 2 m/s slower, with the split behind the car (`[fallback.cut_in] split`)
-/// and no guard: follower 3 heads followers 4 and 5 (who stop steering on the members ahead
-/// of the car) from the step after the car entered until it is back on its law, nobody
-/// collides, and both transports agree bit for bit. Without the split, follower 4 (which
-/// also hears follower 2 on TPSF) drives into follower 3.
+/// follower 3 at 2 m/s slower, with `[fallback.cut_in]` as configs/cut-in.toml has it (no
+/// `split` key: on these graphs the platoon splits behind the car by default) and no guard:
+/// follower 3 heads followers 4 and 5 (who stop steering on the members ahead of the car)
+/// from the step after the car entered until it is back on its law, nobody collides, and both
+/// transports agree bit for bit. With `split = false`, follower 4 (which also hears follower
+/// 2 on TPSF) drives into follower 3.
 #[test]
 fn the_papers_law_splits_behind_a_cut_in_on_both_transports() {
     let dir = tempfile::tempdir().unwrap();
     for preset in ["tpsf", "plf"] {
-        let edit = |split: bool| {
+        let edit = |split: Option<bool>| {
             move |t: String| {
+                let handling = match split {
+                    None => String::new(),
+                    Some(split) => format!(", split = {split}"),
+                };
                 t.replace("followers = 4", "followers = 5")
                     .replace("preset = \"pf\"", &format!("preset = \"{preset}\" #"))
                     .replace(
                         "cut_in = { dwell_s = 1.0, blend_s = 3.0 }",
-                        &format!("cut_in = {{ dwell_s = 1.0, blend_s = 3.0, split = {split} }}"),
+                        &format!("cut_in = {{ dwell_s = 1.0, blend_s = 3.0{handling} }}"),
                     )
                     .replace("decel_mps2 = 2.0", "decel_mps2 = 0.0")
                     .replace("at_s = 20.0 ", "gap_m = 6.0\nat_s = 20.0 ")
@@ -2267,10 +2272,12 @@ fn the_papers_law_splits_behind_a_cut_in_on_both_transports() {
         };
         let sub = dir.path().join(preset);
         std::fs::create_dir_all(&sub).unwrap();
-        let path = with_the_papers_law("configs/cut-in.toml", &sub, edit(true));
+        let path = with_the_papers_law("configs/cut-in.toml", &sub, edit(None));
         let text = std::fs::read_to_string(&path).unwrap();
         assert!(
-            text.contains("gap_m = 6.0") && text.contains("split = true"),
+            text.contains("gap_m = 6.0")
+                && text.contains("cut_in = { dwell_s = 1.0, blend_s = 3.0 }")
+                && text.contains(&format!("preset = \"{preset}\"")),
             "{text}"
         );
         let runs = transports_agree(path.to_str().unwrap());
@@ -2304,7 +2311,7 @@ fn the_papers_law_splits_behind_a_cut_in_on_both_transports() {
         // Without the split the paper's law on TPSF collides (PLF hears no one beyond its
         // predecessor but the leader, which the radar's car does not hide).
         if preset == "tpsf" {
-            let path = with_the_papers_law("configs/cut-in.toml", &sub, edit(false));
+            let path = with_the_papers_law("configs/cut-in.toml", &sub, edit(Some(false)));
             let o = platoon(
                 &[
                     "run",

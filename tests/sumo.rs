@@ -1716,6 +1716,67 @@ fn a_split_behind_a_cut_in_on_sumo_agrees_with_the_native_plant() {
     mode_times_agree(&s, &n, 0.05);
 }
 
+/// The paper's law on its own TPSF graph, and on PLF, on SUMO: a car cutting in 6 m ahead of
+/// follower 3 at 2 m/s slower, `[fallback.cut_in]` as configs/cut-in.toml has it (so the
+/// platoon splits behind the car by default on these graphs), no guard. Nobody collides on
+/// SUMO or natively, SUMO's report is clean, and the two plants agree: every gap within
+/// 0.05 m, followers 4 and 5 split and merge at the same steps.
+#[test]
+fn the_papers_law_splits_behind_a_cut_in_on_sumo_as_natively() {
+    let tmp = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(repo().join("configs/cut-in.toml")).unwrap();
+    for preset in ["tpsf", "plf"] {
+        let edited = text
+            .replace("followers = 4", "followers = 5")
+            .replace("preset = \"pf\"", &format!("preset = \"{preset}\" #"))
+            .replace("decel_mps2 = 2.0", "decel_mps2 = 0.0")
+            .replace("at_s = 20.0 ", "gap_m = 6.0\nat_s = 20.0 ");
+        assert!(
+            edited.contains("gap_m = 6.0")
+                && !edited.contains("split")
+                && !edited.contains("[guard]"),
+            "{edited}"
+        );
+        let config = tmp.path().join(format!("{preset}.toml"));
+        std::fs::write(&config, edited).unwrap();
+        let sumo = run_config(
+            &config,
+            &format!("{preset}-sumo"),
+            &["--plant", "sumo"],
+            tmp.path(),
+        );
+        let native = run_config(
+            &config,
+            &format!("{preset}-native"),
+            &["--transport", "inproc"],
+            tmp.path(),
+        );
+        for run in [&sumo, &native] {
+            let s = json(&run.join("summary.json"));
+            assert_eq!(s["safety"]["collided"], false, "{preset}: {}", s["safety"]);
+        }
+        sumo_report_clean(&sumo);
+        let worst = worst_gap_difference(&rows(&sumo), &rows(&native), 7001 * 5);
+        assert!(worst < 0.05, "{preset}: the gaps differ by up to {worst} m");
+        let formation = |run: &Path| -> Vec<String> {
+            std::fs::read_to_string(run.join("events.csv"))
+                .unwrap()
+                .lines()
+                .map(|l| l.split(',').collect::<Vec<_>>())
+                .filter(|f| f[4] == "split" || f[4] == "merged")
+                .map(|f| format!("{} {} {}", f[1], f[2], f[4]))
+                .collect()
+        };
+        let on_sumo = formation(&sumo);
+        assert_eq!(
+            on_sumo.iter().filter(|e| e.ends_with(" split")).count(),
+            2,
+            "{preset}: {on_sumo:?}"
+        );
+        assert_eq!(on_sumo, formation(&native), "{preset}");
+    }
+}
+
 /// Runs the maneuver config `config` (`followers` followers) on SUMO and natively and checks
 /// that they agree: nobody collides, SUMO's report is clean, every gap within 0.05 m of the
 /// native run's, events.csv's `event` rows the same (`count` of them), each vehicle's time in

@@ -108,7 +108,7 @@ fn without_cut_in_handling_the_papers_law_drives_into_the_intruder() {
 #[test]
 fn a_split_behind_the_car_keeps_the_flatbed_followers_apart() {
     let text = std::fs::read_to_string(repo().join("configs/cut-in-split.toml")).unwrap();
-    let (rows, summary, _) = run(scenario(&text.replace(", split = true", "")));
+    let (rows, summary, _) = run(scenario(&text.replace(", split = true", ", split = false")));
     assert!(summary.safety.collided, "{:?}", summary.safety);
     assert_eq!(summary.safety.min_gap_vehicle, 4, "{:?}", summary.safety);
     assert!(
@@ -180,7 +180,10 @@ fn a_split_behind_the_car_keeps_the_flatbed_followers_apart() {
     // The PATH CACC of the cut-in tests, with and without the split: the smallest gap.
     let path = cut_in_config("path_cacc");
     let gap = |text: &str| run(scenario(text)).1.safety.min_gap_m;
-    let (with, without) = (gap(&path), gap(&path.replace(", split = true", "")));
+    let (with, without) = (
+        gap(&path),
+        gap(&path.replace(", split = true", ", split = false")),
+    );
     published(
         "docs/traffic.md",
         "The PATH CACC of the cut-in tests keeps {} m with the split, against {} m",

@@ -242,9 +242,9 @@ fn controllers_side_by_side_show_what_each_law_reads() {
 }
 
 /// `experiment traffic` on a reduced grid: a car 3 m ahead of follower 3, 4 m/s slower, for
-/// the paper's law (pf), the PATH CACC and the flatbed controller (plf, they need the leader;
-/// both split the platoon behind the car), with no attack and with a false-data bias on
-/// follower 2's packets while the car is there.
+/// the paper's law (on pf, and on its own TPSF, where it splits the platoon behind the car),
+/// the PATH CACC and the flatbed controller (plf, they need the leader; both split), with no
+/// attack and with a false-data bias on follower 2's packets while the car is there.
 #[test]
 fn traffic_runs_each_law_on_a_topology_it_can_and_scores_the_forged_packets() {
     use platoon_config::LawName;
@@ -258,9 +258,13 @@ fn traffic_runs_each_law_on_a_topology_it_can_and_scores_the_forged_packets() {
         plant: platoon_config::PlantKind::Native,
     };
     let t = experiment::traffic(&base, &opts, None, &()).unwrap();
-    assert_eq!(t.rows.len(), 6);
+    assert_eq!(t.rows.len(), 8);
     for r in &t.rows {
-        assert_eq!(r.topology, if r.law == "paper" { "pf" } else { "plf" });
+        if r.law == "paper" {
+            assert!(["pf", "tpsf"].contains(&r.topology), "{r:?}");
+        } else {
+            assert_eq!(r.topology, "plf", "{r:?}");
+        }
         // The car stays 10 s; the follower is on its ACC at least that long.
         assert!(r.cut_in_s >= 10.0, "{r:?}");
         assert!(r.min_gap_m.is_finite(), "{r:?}");
@@ -272,11 +276,13 @@ fn traffic_runs_each_law_on_a_topology_it_can_and_scores_the_forged_packets() {
             assert!(forged > 0, "{r:?}");
         }
     }
-    assert_eq!(t.markdown.lines().count(), 2 + 6, "{}", t.markdown);
+    assert_eq!(t.markdown.lines().count(), 2 + 8, "{}", t.markdown);
     // The rows docs/traffic.md quotes.
     for row in [
         "| paper | pf | 3 | -4 | none | 0/1 | 0.09 | 11.0 | 50.0 | 11 | 0 | 0 |",
         "| paper | pf | 3 | -4 | fdi-bias | 0/1 | 0.09 | 11.0 | 50.0 | 12 | 9 | 14 |",
+        // On its own graph the paper's law splits behind the car (the default on TPSF).
+        "| paper | tpsf | 3 | -4 | none | 0/1 | 0.09 | 11.0 | 53.0 | 5 | 0 | 0 |",
         "| path_cacc | plf | 3 | -4 | none | 0/1 | 0.10 | 11.0 | 20.0 | 6 | 0 | 0 |",
         // The flatbed's head keeps heading (beaconing every step) until it is back on its law,
         // and its return commands more than a car can: the plausibility check flags those

@@ -82,7 +82,9 @@ pub enum Experiment {
     /// [[cut_ins]], by default configs/cut-in.toml: between followers 2 and 3, braking, leaving
     /// after 10 s) at each gap and speed difference, for every law (the paper's and the field's,
     /// each on its own beaconing and on the platoon's standstill gap; pf, or plf for the laws
-    /// that need the leader; the guard on), under no attack, a periodic DoS, a false-data bias
+    /// that need the leader, and the paper's law also on its own TPSF; the guard on; the
+    /// platoon split behind the car where a law steers on vehicles ahead of it), under no
+    /// attack, a periodic DoS, a false-data bias
     /// and a feigned braking on the packets of the member ahead of the car while it is there,
     /// with the three built-in detectors logging, in process or on SUMO (--plant sumo), with
     /// seeded repeats. Writes

@@ -67,6 +67,12 @@ pub fn scenario_of(c: &Config) -> Result<Scenario, KeyError> {
     let mut fallback = fallback::fallback(c, dt, shape.vehicle_length)?;
     fallback.lengths = vehicles.iter().map(|v| v.length_m).collect();
     let law = control::law(&c.control);
+    if let (Some(h), Some(split)) = (
+        &mut fallback.cut_in,
+        control::cut_in_split(c, &law, &topology),
+    ) {
+        h.split = split;
+    }
     control::check_law(&law, &fallback, &vehicles, &shape)?;
     let cut_in_splits = fallback.cut_in.map(|h| h.split);
     let control = ControllerParams {

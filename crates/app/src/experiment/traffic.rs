@@ -1,7 +1,7 @@
 //! Cut-ins by law and attack ([`traffic`]).
 use super::{
-    bars_by_law, configure_law, in_formation, keep_law_spacing, on_standstill, refuse, repeats,
-    walk, write_config, write_table, Base, Experiment, ExperimentError, Result,
+    configure_law, in_formation, keep_law_spacing, on_standstill, refuse, repeats, walk,
+    write_config, write_table, Base, Experiment, ExperimentError, Result,
 };
 use crate::error::OtherError;
 use crate::progress::Progress;
@@ -131,12 +131,13 @@ pub struct Traffic {
 /// and speed difference, under each attack, in process: the base scenario (`configs/cut-in.toml`
 /// by default: its car, profile, `[fallback.cut_in]` and radar) with each law on its own
 /// beaconing and on the base's distances (each law's standstill gap set to the platoon's, so the
-/// car fits the same gap), on `pf`, or `plf` for the laws that need the leader, the guard on,
-/// the PATH CACC and the flatbed controller splitting the platoon behind the car, and the three
-/// built-in detectors logging. With `out`: config.toml, traffic.csv, traffic.md and
+/// car fits the same gap), on `pf`, or `plf` for the laws that need the leader, and the paper's
+/// law also on its own TPSF, the guard on, the split behind the car as the base's
+/// `[fallback.cut_in]` has it (by default the laws that steer on vehicles ahead of the car
+/// split), and the three built-in detectors logging. With `out`: config.toml, traffic.csv, traffic.md and
 /// one smallest-gap plot per gap. On SUMO (`opts.plant`) every run is `platoon run --plant sumo`
 /// of the same scenario (the cut-in a SUMO vehicle), its run directory (summary.json,
-/// sumo.json, the logs; no per-step tables) in `runs/<law>-gap<G>-dv<V>-<attack>-r<R>` of `out`
+/// sumo.json, the logs; no per-step tables) in `runs/<law>[-tpsf]-gap<G>-dv<V>-<attack>-r<R>` of `out`
 /// (without `out`, of a temporary directory); SUMO's collisions count as collisions.
 pub fn traffic(
     base: &Base,
@@ -179,13 +180,16 @@ fn measure(
         for &gap in &opts.gaps_m {
             for &dv in &opts.speed_diffs_mps {
                 for attack in &opts.attacks {
-                    cells.extend((0..opts.repeats).map(|repeat| Cell {
-                        law,
-                        gap,
-                        dv,
-                        attack,
-                        repeat,
-                    }));
+                    for own in [None].into_iter().chain(own_topology(law).map(Some)) {
+                        cells.extend((0..opts.repeats).map(|repeat| Cell {
+                            law,
+                            own,
+                            gap,
+                            dv,
+                            attack,
+                            repeat,
+                        }));
+                    }
                 }
             }
         }
@@ -200,8 +204,9 @@ fn measure(
         cells,
         |c| {
             format!(
-                "{}, gap {} m, {:+} m/s, {}, repeat {}",
+                "{}{}, gap {} m, {:+} m/s, {}, repeat {}",
                 c.law.name(),
+                c.own.map_or(String::new(), |p| format!(" on {}", p.name())),
                 c.gap,
                 c.dv,
                 c.attack,
@@ -271,27 +276,41 @@ impl Plant<'_> {
     }
 }
 
-/// One cell of the table: a law, the cut-in's gap (m) and speed difference (m/s), an attack,
-/// and which repeat.
+/// One cell of the table: a law (on `pf`, or `plf` if it needs the leader; or on `own`, its
+/// own topology), the cut-in's gap (m) and speed difference (m/s), an attack, and which
+/// repeat.
 struct Cell<'a> {
     law: LawName,
+    own: Option<Preset>,
     gap: f64,
     dv: f64,
     attack: &'a str,
     repeat: u32,
 }
 
-/// The row of `cell` (on pf, or plf for a law that needs the leader), run on `plant`.
+/// The topology a law was designed on, where it is neither `pf` nor the `plf` it needs for
+/// the leader: the paper's law's TPSF (Section IV of the paper).
+fn own_topology(law: LawName) -> Option<Preset> {
+    (law == LawName::Paper).then_some(Preset::Tpsf)
+}
+
+/// The row of `cell` (on its own topology, or on pf, or plf for a law that needs the leader),
+/// run on `plant`.
 fn cell(base: &Base, cell: &Cell<'_>, plant: Plant<'_>) -> Result<TrafficRow> {
     let &Cell {
         law,
+        own,
         gap,
         dv,
         attack,
         repeat,
     } = cell;
     let mut last = None;
-    for preset in [Preset::Pf, Preset::Plf] {
+    let presets = match own {
+        Some(p) => vec![p],
+        None => vec![Preset::Pf, Preset::Plf],
+    };
+    for preset in presets {
         let mut c = configure(&base.config, law, preset);
         let first = &mut c.cut_ins[0];
         first.gap_m = Some(gap);
@@ -315,7 +334,8 @@ fn cell(base: &Base, cell: &Cell<'_>, plant: Plant<'_>) -> Result<TrafficRow> {
                 law.name()
             ),
         };
-        let name = format!("{}-gap{gap}-dv{dv}-{attack}-r{repeat}", law.name());
+        let on = own.map_or(String::new(), |p| format!("-{}", p.name()));
+        let name = format!("{}{on}-gap{gap}-dv{dv}-{attack}-r{repeat}", law.name());
         let s = plant.run(c, scenario, &name)?;
         let time_in = |v: &platoon_sim::VehicleSummary, mode: Option<&str>| {
             v.mode_time_s
@@ -343,7 +363,7 @@ fn cell(base: &Base, cell: &Cell<'_>, plant: Plant<'_>) -> Result<TrafficRow> {
         });
     }
     Err(ExperimentError::Variant(format!(
-        "law {} runs on neither pf nor plf: {}",
+        "law {} runs on none of its topologies: {}",
         law.name(),
         last.unwrap_or_default()
     )))
@@ -364,13 +384,10 @@ fn configure(
     keep_law_spacing(&mut c);
     in_formation(&mut c);
     c.guard.enabled = true;
-    // The laws that read the leader's packets split the platoon behind the car, so the
-    // followers behind it keep their distance to the member that drops back (docs/traffic.md).
-    if matches!(law, LawName::PathCacc | LawName::Flatbed) {
-        if let Some(h) = &mut c.fallback.cut_in {
-            h.split = true;
-        }
-    }
+    // `[fallback.cut_in] split` as the base has it: absent, the laws that read the leader's
+    // packets, and the paper's law on a graph beyond the predecessor, split the platoon behind
+    // the car, so the followers behind it keep their distance to the member that drops back
+    // (docs/traffic.md).
     let detection = c.detection.get_or_insert_with(Default::default);
     detection.plausibility.get_or_insert_with(Default::default);
     detection.radar_cross.get_or_insert_with(Default::default);
@@ -421,9 +438,15 @@ fn markdown(rows: &[TrafficRow]) -> String {
         "| law | topology | gap (m) | speed diff (m/s) | attack | collisions | min gap (m) | on the car (s) | outside the law (s) | false alarms | forged detected | forged missed |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n",
     );
     let cells = repeats(rows, |r| {
-        (r.law, r.gap_m, r.speed_diff_mps, r.attack.as_str())
+        (
+            r.law,
+            r.topology,
+            r.gap_m,
+            r.speed_diff_mps,
+            r.attack.as_str(),
+        )
     });
-    for ((law, gap, dv, attack), same) in cells {
+    for ((law, _, gap, dv, attack), same) in cells {
         let worst = |f: fn(&TrafficRow) -> f64| same.iter().map(|r| f(r)).fold(f64::NAN, f64::max);
         let _ = writeln!(
             md,
@@ -447,14 +470,36 @@ impl Traffic {
         write_table(dir, "traffic", &self.rows, &self.markdown)?;
         let categories: Vec<String> = opts.attacks.clone();
         for &gap in &opts.gaps_m {
-            let groups = bars_by_law(&opts.laws, &opts.attacks, |law, a| {
-                self.rows
-                    .iter()
-                    .filter(|r| r.law == law && r.attack == a && r.gap_m == gap)
-                    .map(|r| r.min_gap_m)
-                    .fold(f64::INFINITY, f64::min)
-                    .max(0.0)
-            });
+            // One group per law and topology it ran on, in the rows' order.
+            let mut ran: Vec<(&str, &str)> = Vec::new();
+            for r in &self.rows {
+                if !ran.contains(&(r.law, r.topology)) {
+                    ran.push((r.law, r.topology));
+                }
+            }
+            let groups: Vec<(String, Vec<f64>)> = ran
+                .iter()
+                .map(|&(law, topology)| {
+                    let values = opts
+                        .attacks
+                        .iter()
+                        .map(|a| {
+                            self.rows
+                                .iter()
+                                .filter(|r| {
+                                    r.law == law
+                                        && r.topology == topology
+                                        && &r.attack == a
+                                        && r.gap_m == gap
+                                })
+                                .map(|r| r.min_gap_m)
+                                .fold(f64::INFINITY, f64::min)
+                                .max(0.0)
+                        })
+                        .collect();
+                    (format!("{law} ({topology})"), values)
+                })
+                .collect();
             plots::grouped_bars(
                 &dir.path(&format!("traffic-gap{gap}.png")),
                 &format!(

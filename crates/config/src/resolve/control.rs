@@ -3,9 +3,10 @@
 use super::checks::{bad, finite, positive};
 use super::platoon::Shape;
 use crate::error::{KeyError, Reason};
-use crate::schema::Control;
+use crate::schema::{Config, Control};
 use nalgebra::RowVector3;
 use platoon_control::{ControllerParams, FallbackParams, LawParams};
+use platoon_model::VehicleId;
 use platoon_sim::Vehicle;
 use platoon_topology::Topology;
 
@@ -27,6 +28,40 @@ pub(crate) fn paper_gains(c: &Control) -> Result<(RowVector3<f64>, f64, f64), Ke
 /// The law of `[control]`.
 pub(crate) fn law(c: &Control) -> LawParams {
     c.law.clone()
+}
+
+/// Whether the platoon splits behind a car that cut in, `[fallback.cut_in] split`: as written,
+/// or, absent, where a follower would otherwise steer on a vehicle ahead of the car: a law
+/// that follows the head of its part ([`LawParams::follows_head`]) whose followers steer on a
+/// vehicle ahead of their predecessor ([`steers_beyond_predecessor`]), in a run whose
+/// `[maneuvers]` neither merge nor split (a maneuver's head is not also a cut-in's). `None`
+/// without `[fallback.cut_in]`.
+pub(crate) fn cut_in_split(c: &Config, law: &LawParams, topology: &Topology) -> Option<bool> {
+    let h = c.fallback.cut_in.as_ref()?;
+    Some(h.split.unwrap_or_else(|| {
+        let regroups = c
+            .maneuvers
+            .as_ref()
+            .is_some_and(|m| m.merge.is_some() || m.split.is_some());
+        law.follows_head() && steers_beyond_predecessor(law, topology) && !regroups
+    }))
+}
+
+/// Whether some follower of `law` on `topology` steers on a vehicle ahead of its predecessor:
+/// the laws that read the leader (but follower 1, whose predecessor it is), the paper's law
+/// where the graph has a follower hear a vehicle ahead of its predecessor.
+fn steers_beyond_predecessor(law: &LawParams, topology: &Topology) -> bool {
+    let n = topology.followers();
+    if law.is_paper() {
+        (2..=n).any(|i| {
+            topology
+                .in_neighbours(VehicleId(i as u16))
+                .iter()
+                .any(|j| j.index() + 1 < i)
+        })
+    } else {
+        law.needs().1 && n >= 2
+    }
 }
 
 /// The law fits the platoon: a split behind a cut-in needs a law that reads the leader, and

@@ -71,7 +71,8 @@ pub(crate) fn fallback(
             Some(h) => Some(platoon_control::fallback::CutInParams {
                 dwell_steps: steps("fallback.cut_in.dwell_s", h.dwell_s)?,
                 blend_steps: steps("fallback.cut_in.blend_s", h.blend_s)?,
-                split: h.split,
+                // Absent: what the law and graph need, set by `control::cut_in_split`.
+                split: h.split.unwrap_or(false),
             }),
             None => None,
         },
