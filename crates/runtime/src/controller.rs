@@ -82,17 +82,8 @@ pub fn run(
             })
             .transpose()?;
         let mut inspections: Vec<Inspection> = Vec::new();
-        // Verdicts are recorded under the config's names, in order: a controller whose
-        // detectors are others would have its figures filed under the wrong names.
-        let names = scenario.control.detection.names();
-        for c in &controllers {
-            let own = c.detector_names();
-            if inspections_out.is_some() && !own.is_empty() && own != names {
-                return Err(fail(format!(
-                    "its detectors are {own:?}, but the config's [detection] measures {names:?} \
-                     (built-in tables first, then plugin = [...]): name them there, in order"
-                )));
-            }
+        if inspections_out.is_some() {
+            same_detectors(&controllers, &scenario.control.detection.names()).map_err(fail)?;
         }
         let mut states: Option<Vec<State>> = None;
         // The radar reads the plant's view of the vehicle ahead (SUMO: its lane leader), for
@@ -130,8 +121,6 @@ pub fn run(
                         if radar_from_plant {
                             c.set_radar_truth(&truths[range.clone()]);
                         }
-                        // The commands are `commands()`, what the in-process runner hands the
-                        // plant; `follower_step` adds the flags.
                         c.receive(
                             *k,
                             &s[range.clone()],
@@ -145,28 +134,8 @@ pub fn run(
                                     .map(|i| inspection_to_wire(i, j, num)),
                             );
                         }
-                        let u = c.commands();
-                        for i in 1..n1 {
-                            let f = c.follower_step(VehicleId(i as u16));
-                            let u = u.get(i - 1).copied().unwrap_or(f64::NAN);
-                            if !u.is_finite() {
-                                return Err(fail(format!(
-                                    "step {k}: the command of follower {i} of platoon {j} is {u}"
-                                )));
-                            }
-                            cmds.push(Command {
-                                vehicle: num.global(j, VehicleId(i as u16)),
-                                flags: Command::flags_of(
-                                    f.triggered,
-                                    f.affected,
-                                    f.guard,
-                                    f.status().code(),
-                                    f.head.0,
-                                ),
-                                u,
-                                theta: f.theta,
-                            });
-                        }
+                        commands_of(&**c, j, num, &mut cmds)
+                            .map_err(|why| fail(format!("step {k}: {why}")))?;
                     }
                     if let Some(out) = &inspections_out {
                         out.send(*k, scenario.dt(), &inspections)?;
@@ -174,14 +143,7 @@ pub fn run(
                     cmd_out.send(*k, scenario.dt(), &cmds)?;
                     states = None;
                     if *k == scenario.steps {
-                        let mut done = ControlMsg::new(ControlMsg::DONE, Node::Controller, *k);
-                        for c in &controllers {
-                            let r = c.rejected();
-                            for (sum, x) in done.counts.iter_mut().zip(r.as_array()) {
-                                *sum += x;
-                            }
-                        }
-                        return ctx.done(done);
+                        return ctx.done(done_message(&controllers, *k));
                     }
                     *k += 1;
                     continue; // the next states may already be here
@@ -192,6 +154,65 @@ pub fn run(
             }
         }
     })
+}
+
+/// Verdicts are recorded under the config's detector names `names`, in order: a controller
+/// whose detectors are others would have its figures filed under the wrong names.
+fn same_detectors(controllers: &[Box<dyn Controller>], names: &[String]) -> Result<(), String> {
+    for c in controllers {
+        let own = c.detector_names();
+        if !own.is_empty() && own != names {
+            return Err(format!(
+                "its detectors are {own:?}, but the config's [detection] measures {names:?} \
+                 (built-in tables first, then plugin = [...]): name them there, in order"
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// The commands of controller `c` (platoon `j`) for its followers, with their flags, onto
+/// `cmds`: what the in-process runner hands the plant (`commands()`), `follower_step` adding
+/// the flags. A command that is not finite is an error naming the follower.
+fn commands_of(
+    c: &dyn Controller,
+    j: usize,
+    num: Numbering,
+    cmds: &mut Vec<Command>,
+) -> Result<(), String> {
+    let u = c.commands();
+    for i in 1..num.per_platoon {
+        let f = c.follower_step(VehicleId(i as u16));
+        let u = u.get(i - 1).copied().unwrap_or(f64::NAN);
+        if !u.is_finite() {
+            return Err(format!("the command of follower {i} of platoon {j} is {u}"));
+        }
+        cmds.push(Command {
+            vehicle: num.global(j, VehicleId(i as u16)),
+            flags: Command::flags_of(
+                f.triggered,
+                f.affected,
+                f.guard,
+                f.status().code(),
+                f.head.0,
+            ),
+            u,
+            theta: f.theta,
+        });
+    }
+    Ok(())
+}
+
+/// The controller's DONE at step `k`, with the packets every controller rejected, by reason.
+fn done_message(controllers: &[Box<dyn Controller>], k: u64) -> ControlMsg {
+    let mut done = ControlMsg::new(ControlMsg::DONE, Node::Controller, k);
+    for c in controllers {
+        let r = c.rejected();
+        for (sum, x) in done.counts.iter_mut().zip(r.as_array()) {
+            *sum += x;
+        }
+    }
+    done
 }
 
 /// The transmit half's buffers, kept from step to step.

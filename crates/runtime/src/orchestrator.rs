@@ -205,20 +205,7 @@ pub fn orchestrate(
     let listener = e.listener()?;
     let status = ControlInlet::new(&status_service)?;
     let control = e.control_outlet(&control_service, Service::Control)?;
-    let mut states: Inlet<VehicleState> = Inlet::new(&services._states, Node::Plant)?;
-    let mut tx: Inlet<LinkPacket> = Inlet::new(&services._tx, Node::Controller)?;
-    let mut rx: Inlet<LinkPacket> = Inlet::new(&services._rx, Node::Injector)?;
-    let mut commands: Inlet<Command> = Inlet::new(&services._commands, Node::Controller)?;
-    let mut traffic: Option<Inlet<TrafficVehicle>> = services
-        ._traffic
-        .as_ref()
-        .map(|s| Inlet::new(s, Node::Plant))
-        .transpose()?;
-    let mut inspections: Option<Inlet<Inspection>> = services
-        ._inspections
-        .as_ref()
-        .map(|s| Inlet::new(s, Node::Controller))
-        .transpose()?;
+    let mut inlets = Inlets::open(&services)?;
     let observe = Observe::create(&e, opts.observers, scenario)?;
 
     let mut children = Children { procs: Vec::new() };
@@ -227,40 +214,13 @@ pub fn orchestrate(
         let mut run = Recorder::new(scenario, opts.radar);
         // Startup: wait until every node is READY.
         await_ready(opts, &mut children, &status, &listener)?;
-        // A controller that does not publish inspections (a raw-protocol one, say) inspects
-        // nothing: its steps are recorded without waiting for them. Every node opened its
-        // ports before READY.
-        if services._inspections.as_ref().is_some_and(|s| {
-            use iceoryx2::service::port_factory::PortFactory as _;
-            s.dynamic_config().number_of_publishers() == 0
-        }) {
-            inspections = None;
-        }
-        states.connect()?;
-        traffic.as_ref().map_or(Ok(()), Inlet::connect)?;
-        tx.connect()?;
-        rx.connect()?;
-        inspections.as_ref().map_or(Ok(()), Inlet::connect)?;
-        commands.connect()?;
+        inlets.connect(&services)?;
         control.send(ControlMsg::new(ControlMsg::START, Node::Orchestrator, 0))?;
         run.last_progress = Instant::now();
 
         // The run: record each step once its four samples are in.
         let mut clock = StageClock::default();
         let mut done = Done::awaited(opts, scenario);
-        // The inlets as one `Streams`, borrowed anew wherever the loop records.
-        macro_rules! streams {
-            () => {
-                Streams {
-                    states: &mut states,
-                    traffic: traffic.as_mut().map(|t| (t, opts.traffic)),
-                    tx: &mut tx,
-                    rx: &mut rx,
-                    inspections: inspections.as_mut(),
-                    commands: &mut commands,
-                }
-            };
-        }
         loop {
             if stopped(opts) {
                 return Err(CosimError::Interrupted { step: run.step });
@@ -270,21 +230,8 @@ pub fn orchestrate(
             let mut progressed = false;
             // A malformed sample stops the run, but only after every step that was complete
             // before it is recorded.
-            // Each inlet is drained even when another's sample was malformed; traffic after
-            // states, so the traffic of every step whose states are in is in too (the plant
-            // publishes it first).
-            let drained = [
-                states.drain(),
-                traffic.as_mut().map_or(Ok(0), Inlet::drain),
-                tx.drain(),
-                rx.drain(),
-                inspections.as_mut().map_or(Ok(0), Inlet::drain),
-                commands.drain(),
-            ]
-            .into_iter()
-            .find(Result::is_err)
-            .unwrap_or(Ok(0));
-            let mut streams = streams!();
+            let drained = inlets.drain();
+            let mut streams = inlets.streams(opts.traffic);
             progressed |= streams.record(scenario, &mut run, &mut clock, &observe, &mut on_step)?;
             while let Some(m) = status.next()? {
                 progressed = true;
@@ -292,7 +239,7 @@ pub fn orchestrate(
                     // What it failed on may be a malformed sample of another node (a plant
                     // refusing a controller's commands) that arrived with the steps complete
                     // before it: record those, and name the sender if its sample is the cause.
-                    let mut streams = streams!();
+                    let mut streams = inlets.streams(opts.traffic);
                     streams.drain_all();
                     streams.record(scenario, &mut run, &mut clock, &observe, &mut on_step)?;
                     return Err(failed);
@@ -310,7 +257,7 @@ pub fn orchestrate(
                 // every step that is complete before saying so. Looked at before the step
                 // timeout: a process that died is why nothing came. A report read here is
                 // treated as one read above: a malformed sample it failed on names its sender.
-                let mut streams = streams!();
+                let mut streams = inlets.streams(opts.traffic);
                 streams.drain_all();
                 let recorded =
                     streams.record(scenario, &mut run, &mut clock, &observe, &mut on_step);
@@ -322,7 +269,7 @@ pub fn orchestrate(
             if progressed {
                 run.last_progress = Instant::now();
             } else if run.last_progress.elapsed() > opts.step_timeout {
-                let streams = streams!();
+                let streams = inlets.streams(opts.traffic);
                 return Err(stalled_at(
                     run.step, scenario, opts, &done.done, &streams, &children,
                 ));
@@ -334,13 +281,7 @@ pub fn orchestrate(
             detection: run.measure.as_ref().and_then(Measure::summary),
             rejected: done.rejected.unwrap_or_default(),
             timing: clock.report(),
-            duplicates: DuplicateSamples {
-                states: states.duplicates(),
-                tx: tx.duplicates(),
-                rx: rx.duplicates(),
-                commands: commands.duplicates(),
-                inspections: inspections.as_ref().map_or(0, Inlet::duplicates),
-            },
+            duplicates: inlets.duplicates(),
             peak_rss_kib: Vec::new(),
         })
     })();
@@ -362,6 +303,99 @@ pub fn orchestrate(
     drop(children);
     e.cleanup_dead_nodes();
     result
+}
+
+/// The orchestrator's subscribers: the four samples of a step, the plant's traffic and the
+/// controller's inspections when the run has them.
+struct Inlets {
+    states: Inlet<VehicleState>,
+    traffic: Option<Inlet<TrafficVehicle>>,
+    tx: Inlet<LinkPacket>,
+    rx: Inlet<LinkPacket>,
+    inspections: Option<Inlet<Inspection>>,
+    commands: Inlet<Command>,
+}
+
+impl Inlets {
+    /// Subscribes to the run's services (before any node starts).
+    fn open(services: &Services) -> Result<Self, CosimError> {
+        Ok(Self {
+            states: Inlet::new(&services._states, Node::Plant)?,
+            traffic: services
+                ._traffic
+                .as_ref()
+                .map(|s| Inlet::new(s, Node::Plant))
+                .transpose()?,
+            tx: Inlet::new(&services._tx, Node::Controller)?,
+            rx: Inlet::new(&services._rx, Node::Injector)?,
+            inspections: services
+                ._inspections
+                .as_ref()
+                .map(|s| Inlet::new(s, Node::Controller))
+                .transpose()?,
+            commands: Inlet::new(&services._commands, Node::Controller)?,
+        })
+    }
+
+    /// Connects to the nodes' publishers, once every node is READY (every node opened its
+    /// ports before). A controller that does not publish inspections (a raw-protocol one,
+    /// say) inspects nothing: its steps are recorded without waiting for them.
+    fn connect(&mut self, services: &Services) -> Result<(), CosimError> {
+        if services._inspections.as_ref().is_some_and(|s| {
+            use iceoryx2::service::port_factory::PortFactory as _;
+            s.dynamic_config().number_of_publishers() == 0
+        }) {
+            self.inspections = None;
+        }
+        self.states.connect()?;
+        self.traffic.as_ref().map_or(Ok(()), Inlet::connect)?;
+        self.tx.connect()?;
+        self.rx.connect()?;
+        self.inspections.as_ref().map_or(Ok(()), Inlet::connect)?;
+        self.commands.connect()
+    }
+
+    /// Takes every sample that arrived. Each inlet is drained even when another's sample was
+    /// malformed (the first such error is returned); traffic after states, so the traffic of
+    /// every step whose states are in is in too (the plant publishes it first).
+    fn drain(&mut self) -> Result<(), CosimError> {
+        [
+            self.states.drain(),
+            self.traffic.as_mut().map_or(Ok(0), Inlet::drain),
+            self.tx.drain(),
+            self.rx.drain(),
+            self.inspections.as_mut().map_or(Ok(0), Inlet::drain),
+            self.commands.drain(),
+        ]
+        .into_iter()
+        .find(Result::is_err)
+        .unwrap_or(Ok(0))
+        .map(|_| ())
+    }
+
+    /// The inlets as one [`Streams`] (the run's traffic with `traffic` vehicles), borrowed anew
+    /// wherever the loop records.
+    fn streams(&mut self, traffic: usize) -> Streams<'_> {
+        Streams {
+            states: &mut self.states,
+            traffic: self.traffic.as_mut().map(|t| (t, traffic)),
+            tx: &mut self.tx,
+            rx: &mut self.rx,
+            inspections: self.inspections.as_mut(),
+            commands: &mut self.commands,
+        }
+    }
+
+    /// How many samples each inlet got twice.
+    fn duplicates(&self) -> DuplicateSamples {
+        DuplicateSamples {
+            states: self.states.duplicates(),
+            tx: self.tx.duplicates(),
+            rx: self.rx.duplicates(),
+            commands: self.commands.duplicates(),
+            inspections: self.inspections.as_ref().map_or(0, Inlet::duplicates),
+        }
+    }
 }
 
 /// The orchestrator's four inlets, and the plant's traffic with its count if the run has it.
