@@ -311,6 +311,9 @@ fn a_forged_head_is_not_followed_in_a_middle_join() {
     let (plain, _) = run(parse(&text).unwrap().1, |_, _| false);
     let (attacked, log) = run_with(parse(&forged).unwrap().1, |_, _| false, |_, _| {});
     assert!(log.labelled.iter().all(|(_, l)| *l == Label::Genuine));
+    // The attack did reach the wire: follower 1's beacons, 10 Hz for 36 s, to the members
+    // that hear it, all announce a head they are not (a no-op attack would leave none).
+    assert!(log.altered >= 360, "{} altered deliveries", log.altered);
     let first = plain
         .iter()
         .zip(&attacked)

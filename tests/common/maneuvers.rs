@@ -26,6 +26,8 @@ pub struct Recording {
 pub struct Log {
     pub sent: Vec<(u64, Message)>,
     pub labelled: Vec<(Message, Label)>,
+    /// How many deliveries of any kind (beacons too) the truth labelled `altered`.
+    pub altered: usize,
     /// What the controllers refused over the run (`summary.json`'s `rejected_packets`).
     pub rejected: platoon_control::RejectCounts,
 }
@@ -57,6 +59,10 @@ impl Injector for Recording {
                 .iter()
                 .filter_map(|l| l.delivery.packet.maneuver.map(|m| (m, l.label))),
         );
+        log.altered += labelled
+            .iter()
+            .filter(|l| matches!(l.label, Label::Altered { .. }))
+            .count();
         Ok(())
     }
 }
