@@ -307,6 +307,54 @@ fn traffic_runs_each_law_on_a_topology_it_can_and_scores_the_forged_packets() {
     assert!(bad.validate().unwrap_err().to_string().contains("sybil"));
 }
 
+/// docs/traffic.md's claim for the flatbed controller on the default grid (2 gaps, 2 speed
+/// differences, 4 attacks: its 16 cells): with the split behind the car (the default for a law
+/// that reads the leader) none collides; with `split = false` in the base, 14 of the 16 do.
+#[test]
+fn the_split_takes_the_flatbed_controller_from_14_collisions_in_16_cells_to_none() {
+    use platoon_config::LawName;
+    let mut base = Base::load(None, Embedded::CutIn).unwrap();
+    let opts = experiment::TrafficOptions {
+        laws: vec![LawName::Flatbed],
+        ..Default::default()
+    };
+    assert_eq!(
+        opts.gaps_m.len() * opts.speed_diffs_mps.len() * opts.attacks.len(),
+        16
+    );
+    let collided = |base: &Base| {
+        let t = experiment::traffic(base, &opts, None, &()).unwrap();
+        assert_eq!(t.rows.len(), 16);
+        t.rows.iter().filter(|r| r.collided).count()
+    };
+    assert_eq!(collided(&base), 0);
+    base.config
+        .fallback
+        .cut_in
+        .as_mut()
+        .expect("configs/cut-in.toml handles cut-ins")
+        .split = Some(false);
+    assert_eq!(collided(&base), 14);
+}
+
+/// docs/maneuvers.md's and the README's claim on `experiment maneuvers`' default grid (every
+/// maneuver, field law and attack, 3 repeats): 375 runs, none collides, and the smallest gap
+/// of the PATH CACC's is its own, 11.8 m on the leader's braking ramp.
+#[test]
+fn the_default_maneuver_grid_has_375_runs_and_no_collision() {
+    let m = experiment::maneuvers(&Default::default(), None, &()).unwrap();
+    assert_eq!(m.rows.len(), 375);
+    let collided: Vec<_> = m.rows.iter().filter(|r| r.min_gap_m <= 0.0).collect();
+    assert!(collided.is_empty(), "{collided:?}");
+    let path = m
+        .rows
+        .iter()
+        .filter(|r| r.law == "path_cacc" && r.min_gap_m.is_finite())
+        .map(|r| r.min_gap_m)
+        .fold(f64::INFINITY, f64::min);
+    assert_eq!(format!("{path:.1}"), "11.8");
+}
+
 /// `experiment maneuvers` on a reduced grid: a leave from the middle under PATH CACC with no
 /// attack (completed, the leaver out of the lane), a forged leave notice in follower 1's name
 /// (both out: the platoon ejected a member) and a jammer on the leader's updates (the leaver
