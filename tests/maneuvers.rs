@@ -615,3 +615,29 @@ fn the_leaders_checks_are_scored_against_the_ground_truth() {
     assert_eq!((m.precision, m.recall), (Some(1.0), Some(1.0)));
     assert_eq!(m.time_to_detect_s, Some(0.0));
 }
+
+/// Every shipped maneuver config runs on passenger cars with limits, and no law asks beyond
+/// them there: each follower's `saturated_time_s` is 0 (docs/traffic.md#vehicles-with-limits).
+#[test]
+fn the_maneuver_configs_run_on_cars_within_their_limits() {
+    for config in ["join", "join-middle", "leave", "merge", "split"] {
+        let path = repo().join(format!("configs/{config}.toml"));
+        let (_, s) = platoon_config::load(&path).unwrap();
+        assert!(
+            !s.vehicles.is_empty()
+                && s.vehicles
+                    .iter()
+                    .all(|v| v.emergency_decel_mps2 == Some(9.0)),
+            "{config}"
+        );
+        let summary = platoon_sim::run(s, |_| {}).unwrap();
+        for v in &summary.vehicles {
+            assert_eq!(
+                v.saturated_time_s,
+                Some(0.0),
+                "{config}: follower {}",
+                v.vehicle
+            );
+        }
+    }
+}

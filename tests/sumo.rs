@@ -2590,19 +2590,24 @@ fn a_truck_car_platoon_on_sumo_agrees_with_the_native_plant() {
 /// driven by commands that cross every limit, every vehicle's acceleration at every step.
 #[test]
 fn the_python_input_limits_are_the_rust_ones_bit_for_bit() {
-    let (_, scenario) = platoon_config::load(&repo().join("configs/truck-car.toml")).unwrap();
+    let (_, mut scenario) = platoon_config::load(&repo().join("configs/truck-car.toml")).unwrap();
+    // The cars brake harder while the guard brakes (the truck has no emergency limit).
+    for v in scenario.vehicles.iter_mut().filter(|v| v.class == "car") {
+        v.emergency_decel_mps2 = v.decel_max_mps2.map(|d| d + 1.0);
+    }
     let spec = serde_json::to_string(&platoon_sim::PlantSpec::new(&scenario)).unwrap();
     let steps = 3000u64;
-    let command = |k: u64, f: usize| -> f64 { 9.0 * ((k as f64) * 0.013 + f as f64).sin() };
+    let command = |k: u64, f: usize| -> f64 { 9.5 * ((k as f64) * 0.013 + f as f64).sin() };
+    let guard = |k: u64, f: usize| (k / 97 + f as u64).is_multiple_of(3);
     let mut plant = platoon_sim::Plant::new(&scenario);
     let mut expected = Vec::new();
     for k in 0..steps {
         let u: Vec<f64> = (0..4).map(|f| command(k, f)).collect();
-        plant.advance(k, &u);
+        plant.advance(k, &u, |i| guard(k, i - 1));
         expected.extend(plant.states().iter().map(|x| x[2]));
     }
-    // The limits bind both ways.
-    assert!(expected.iter().any(|&a| a > 1.5) && expected.iter().any(|&a| a < -4.0));
+    // The limits bind both ways, the emergency one too.
+    assert!(expected.iter().any(|&a| a > 1.5) && expected.iter().any(|&a| a < -8.0));
     for vector in ["1000", "1"] {
         let script = format!(
             r#"
@@ -2614,8 +2619,9 @@ spec = json.loads({spec:?})
 d = m.Dynamics(spec)
 out = []
 for k in range({steps}):
-    u = [9.0 * math.sin(float(k) * 0.013 + float(f)) for f in range(4)]
-    d.advance(k, np.array(u) if d.vector else u)
+    u = [9.5 * math.sin(float(k) * 0.013 + float(f)) for f in range(4)]
+    g = [(k // 97 + f) % 3 == 0 for f in range(4)]
+    d.advance(k, np.array(u) if d.vector else u, np.array(g) if d.vector else g)
     out += [float(a) for a in d.accel]
 print("\n".join(repr(x) for x in out))
 "#,

@@ -68,14 +68,19 @@ def lagged(a: float, u: float, tau: float, dt: float) -> float:
 
 
 def limits_of(member):
-    """A member's `(accel_max, decel_max)` from plant.json (each None when absent)."""
-    a, d = member.get("accel_max_mps2"), member.get("decel_max_mps2")
-    return (None if a is None else float(a), None if d is None else float(d))
+    """A member's `(accel_max, decel_max, emergency_decel)` from plant.json (each None when
+    absent; an absent emergency braking is decel_max)."""
+    a, d, e = (member.get(k) for k in ("accel_max_mps2", "decel_max_mps2", "emergency_decel_mps2"))
+    a, d = (None if a is None else float(a), None if d is None else float(d))
+    return (a, d, d if e is None else float(e))
 
 
-def limit(u: float, limits) -> float:
-    """`Vehicle::limit`: u held below accel_max, then above -decel_max."""
-    a, d = limits
+def limit(u: float, limits, guard: bool = False) -> float:
+    """`Vehicle::limit`: u held below accel_max, then above -decel_max (-emergency_decel
+    while the guard brakes)."""
+    a, d, e = limits
+    if guard:
+        d = e
     if a is not None and a < u:
         u = a
     if d is not None and -d > u:
@@ -129,16 +134,18 @@ class Dynamics:
                 by_slot = [None] * len(slots)
                 for (_, f), lim in zip(slots, self.limits):
                     by_slot[f] = lim
-                self.accel_max = np.array([math.inf if a is None else a for a, _ in by_slot])
-                self.decel_min = np.array([-math.inf if d is None else -d for _, d in by_slot])
+                self.accel_max = np.array([math.inf if a is None else a for a, _, _ in by_slot])
+                self.decel_min = np.array([-math.inf if d is None else -d for _, d, _ in by_slot])
+                self.emergency_min = np.array([-math.inf if e is None else -e for _, _, e in by_slot])
         else:
             self.accel = accel
             self.slots = slots
             self.leaders = range(0, len(accel), n1)
 
-    def advance(self, k: int, u) -> None:
+    def advance(self, k: int, u, guard=None) -> None:
         """From step k to k + 1 with the followers' commands u (platoon j's follower i at
-        j * N + i - 1; an array when `vector`)."""
+        j * N + i - 1; an array when `vector`); guard: whether the guard overrode each command
+        (the same order and type; None: none did), which brakes within the emergency limit."""
         t = k * self.dt
         dt = self.dt
         decay = [math.exp(-dt / s.at(t)) for s in self.schedules]
@@ -146,7 +153,8 @@ class Dynamics:
         if self.vector:
             g = self.follower_vehicles
             if self.limits is not None:
-                u = np.maximum(np.minimum(u, self.accel_max), self.decel_min)
+                lo = self.decel_min if guard is None else np.where(guard, self.emergency_min, self.decel_min)
+                u = np.maximum(np.minimum(u, self.accel_max), lo)
             uf = u[self.follower_slots]
             self.accel[g] = uf + (self.accel[g] - uf) * np.array(decay)[self.follower_schedule]
             self.accel[self.leaders] = a_leader
@@ -154,7 +162,7 @@ class Dynamics:
         accel, which = self.accel, self.schedule_of
         if self.limits is not None:
             for (g, f), lim in zip(self.slots, self.limits):
-                uf = limit(u[f], lim)
+                uf = limit(u[f], lim, guard is not None and bool(guard[f]))
                 accel[g] = uf + (accel[g] - uf) * decay[which[f]]
         else:
             for g, f in self.slots:

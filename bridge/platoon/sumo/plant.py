@@ -491,7 +491,8 @@ class Kinematics:
         self.view["vehicle"] = np.arange(n, dtype=np.uint32)
 
     def commands(self, cmds):
-        """The followers' commands u in slot order (platoon j's follower i at j * N + i - 1)."""
+        """The followers' commands u in slot order (platoon j's follower i at j * N + i - 1),
+        and whether the guard overrode each (Command.GUARD), in the same order."""
         n1 = self.n1
         if self.vector:
             got = np.frombuffer(cmds, dtype=COMMAND)
@@ -504,8 +505,11 @@ class Kinematics:
                 raise SumoError(f"non-finite commands for vehicles {got['vehicle'][odd][:5].tolist()}")
             u = np.zeros(len(cmds), dtype=np.float64)
             u[j * (n1 - 1) + i - 1] = got["u"]
-            return u
+            guard = np.zeros(len(cmds), dtype=bool)
+            guard[j * (n1 - 1) + i - 1] = (got["flags"] & np.uint32(w.Command.GUARD)) != 0
+            return u, guard
         u = [0.0] * len(cmds)
+        guard = [False] * len(cmds)
         for c in cmds:
             j, i = divmod(c.vehicle, n1)
             if i == 0 or j >= self.platoons:
@@ -513,7 +517,8 @@ class Kinematics:
             if not np.isfinite(c.u):
                 raise SumoError(f"a non-finite command ({c.u}) for vehicle {c.vehicle}")
             u[j * (n1 - 1) + i - 1] = c.u
-        return u
+            guard[j * (n1 - 1) + i - 1] = (c.flags & w.Command.GUARD) != 0
+        return u, guard
 
     def change_lanes(self, cmds, k, report):
         """Each follower to the lane its command's mode says (Command.flags, MODE_SHIFT): the
@@ -931,7 +936,7 @@ def run(spec) -> int:
             c0 = time.thread_time_ns()
             if len(cmds) != len(spec["taus"]):
                 raise SumoError(f"{len(cmds)} commands for {len(spec['taus'])} followers")
-            u = kin.commands(cmds)
+            u, guard = kin.commands(cmds)
             kin.change_lanes(cmds, k, report.setdefault("lane_changes", []) if kin.side_lanes else None)
             if intruders:
                 intruders.hold(k)
@@ -976,7 +981,7 @@ def run(spec) -> int:
             for vid in sumo.simulation.getStartingTeleportIDList():
                 report["teleports"].append({"step": k + 1, "t": (k + 1) * dt, "vehicle": vid})
             kin.step(dyn.accel, k)
-            dyn.advance(k, u)
+            dyn.advance(k, u, guard)
             for g in kin.driven:
                 # What SUMO's model held over the step (ballistic: the speed's change / dt).
                 dyn.accel[g] = sumo.vehicle.getAcceleration(kin.ids[g])

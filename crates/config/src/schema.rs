@@ -482,10 +482,10 @@ pub struct Platoon {
     /// `members` each member's class gives its own (this stays the cut-ins' default).
     #[serde(default)]
     pub vehicle_length_m: f64,
-    /// Each vehicle's class in `[vehicle_classes]`, the leader first (N + 1 names); absent:
-    /// no classes.
+    /// Each vehicle's class in `[vehicle_classes]`, the leader first (N + 1 names), or one
+    /// class's name for every vehicle (`members = "car"`); absent: no classes.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub members: Option<Vec<String>>,
+    pub members: Option<Members>,
     /// `[p, v, a]` of the leader then of each follower (N + 1 rows); or give `formation`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub initial_states: Option<Vec<[f64; 3]>>,
@@ -493,6 +493,16 @@ pub struct Platoon {
     /// leader's initial speed, with seeded jitter (so `followers` alone sets the platoon's size).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub formation: Option<Formation>,
+}
+
+/// `[platoon] members`: which class each vehicle is of.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(untagged)]
+pub enum Members {
+    /// One class for every vehicle, the leader included, however many followers there are.
+    Every(String),
+    /// Each vehicle's class, the leader first (N + 1 names).
+    Each(Vec<String>),
 }
 
 /// `[vehicle_classes.<name>]`: one kind of vehicle (a car, a truck). The plant moves each
@@ -518,9 +528,15 @@ pub struct VehicleClass {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub accel_max_mps2: Option<f64>,
     /// The largest deceleration the plant applies (m/s^2, > 0): a follower's command is held
-    /// above its negative. Absent: unlimited.
+    /// above its negative (while the guard brakes, above `-emergency_decel_mps2` if given).
+    /// Absent: unlimited.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub decel_max_mps2: Option<f64>,
+    /// The harder braking the plant applies while the emergency-braking guard overrides the
+    /// command (m/s^2, >= `decel_max_mps2`): a production ACC brakes within `decel_max_mps2`,
+    /// an emergency brake beyond it. Absent: `decel_max_mps2` for the guard too.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub emergency_decel_mps2: Option<f64>,
 }
 
 /// `[platoon] spacing_policy` and its keys: which distance the law keeps

@@ -28,6 +28,7 @@ pub fn plant(run_id: &str, scenario: &Scenario) -> Result<(), CosimError> {
         let mut plants: Vec<Plant> = scenario.replicas().iter().map(Plant::new).collect();
         let mut buf = Vec::with_capacity(num.vehicles());
         let mut u = vec![0.0; num.followers()];
+        let mut guard = vec![false; num.followers()];
         if !ctx.ready()? {
             return Ok(());
         }
@@ -81,7 +82,7 @@ pub fn plant(run_id: &str, scenario: &Scenario) -> Result<(), CosimError> {
                 }
                 continue;
             };
-            commands_into(&cmds, num, &mut u)?;
+            commands_into(&cmds, num, &mut u, &mut guard)?;
             if scenario.changes_lanes() {
                 // Each vehicle on the lane its mode says (`left`, `beside`: the one beside), as
                 // the in-process run.
@@ -94,8 +95,8 @@ pub fn plant(run_id: &str, scenario: &Scenario) -> Result<(), CosimError> {
                     }
                 }
             }
-            for (plant, u) in plants.iter_mut().zip(u.chunks(n)) {
-                plant.advance(*k, u);
+            for ((plant, u), guard) in plants.iter_mut().zip(u.chunks(n)).zip(guard.chunks(n)) {
+                plant.advance(*k, u, |i| guard[i - 1]);
             }
             if *k == scenario.steps {
                 return ctx.done(ControlMsg::new(ControlMsg::DONE, Node::Plant, *k));
@@ -107,7 +108,12 @@ pub fn plant(run_id: &str, scenario: &Scenario) -> Result<(), CosimError> {
 }
 
 /// Checks a command batch (one finite command per follower) and copies it into `u`.
-fn commands_into(cmds: &[Command], num: Numbering, u: &mut [f64]) -> Result<(), CosimError> {
+fn commands_into(
+    cmds: &[Command],
+    num: Numbering,
+    u: &mut [f64],
+    guard: &mut [bool],
+) -> Result<(), CosimError> {
     if cmds.len() != u.len() {
         return Err(contract(
             Node::Controller,
@@ -123,7 +129,9 @@ fn commands_into(cmds: &[Command], num: Numbering, u: &mut [f64]) -> Result<(), 
         }
         match num.split(c.vehicle) {
             Some((j, i)) if !i.is_leader() && c.u.is_finite() => {
-                u[j * (num.per_platoon - 1) + i.index() - 1] = c.u;
+                let slot = j * (num.per_platoon - 1) + i.index() - 1;
+                u[slot] = c.u;
+                guard[slot] = c.flags & Command::GUARD != 0;
             }
             _ => {
                 return Err(contract(

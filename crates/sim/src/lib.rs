@@ -86,6 +86,10 @@ pub struct StepRow {
     pub mode: platoon_control::Status,
     /// The emergency-braking guard overrode the command.
     pub guard: bool,
+    /// The plant held the command within the member's class's limits (`u` is not what the
+    /// controller commanded). Not a column of `trajectories.csv`; the summary counts it.
+    #[serde(skip)]
+    pub saturated: bool,
     /// What its radar saw of a vehicle from outside the platoon ahead of it (a cut-in), as
     /// the plant has it; the summary's safety counts the gap to it. Not a column of
     /// `trajectories.csv`.
@@ -214,11 +218,15 @@ impl Plant {
     }
 
     /// Advances from step `k` to `k + 1` with the followers' commands `u` (index i - 1), each
-    /// held within its member's limits (with vehicle classes).
-    pub fn advance(&mut self, k: u64, u: &[f64]) {
+    /// held within its member's limits (with vehicle classes; the emergency braking's where
+    /// `guard(i)`, the guard overrode follower i's command).
+    pub fn advance(&mut self, k: u64, u: &[f64], guard: impl Fn(usize) -> bool) {
         let t = k as f64 * self.dt;
         for (i, x) in self.states.iter_mut().enumerate().skip(1) {
-            let ui = self.vehicles.get(i).map_or(u[i - 1], |v| v.limit(u[i - 1]));
+            let ui = self
+                .vehicles
+                .get(i)
+                .map_or(u[i - 1], |v| v.limit(u[i - 1], guard(i)));
             *x = self
                 .discretisation
                 .step(x, ui, self.taus[i - 1].at(t), self.dt);
@@ -407,6 +415,7 @@ pub fn step_rows(
         affected: false,
         mode: platoon_control::Status::member(platoon_control::Mode::Coop),
         guard: false,
+        saturated: false,
         intruder: None,
         radar_target: radar(0).map(|r| r.0),
         radar_gap_m: radar(0).map(|r| r.1),
@@ -446,7 +455,7 @@ pub fn step_rows(
             p: x[0],
             v: x[1],
             a: x[2],
-            u: scenario.applied(i, s.u),
+            u: scenario.applied(i, s.u, s.guard),
             theta: s.theta,
             // Against the policy's desired distance to the leader (or the head it follows),
             // slot (l + h_t v_i), measured in the plant (h_t = 0 adds exactly nothing).
@@ -457,6 +466,7 @@ pub fn step_rows(
             affected: s.affected,
             mode: s.status(),
             guard: s.guard,
+            saturated: scenario.applied(i, s.u, s.guard).to_bits() != s.u.to_bits(),
             intruder: ahead.get(i).copied().flatten().filter(|t| t.intruder),
             radar_target: radar(i).map(|r| r.0),
             radar_gap_m: radar(i).map(|r| r.1),
@@ -700,7 +710,10 @@ impl Simulation {
             self.plant
                 .follow_modes(|i| controller.follower_step(VehicleId(i as u16)).status());
         }
-        self.plant.advance(k, self.controller.commands());
+        let controller = &self.controller;
+        self.plant.advance(k, controller.commands(), |i| {
+            controller.follower_step(VehicleId(i as u16)).guard
+        });
         self.step += 1;
         Ok(&self.rows)
     }

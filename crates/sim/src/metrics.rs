@@ -51,6 +51,7 @@ struct VehicleAcc {
     guard_on: bool,
     guard_activations: u64,
     guard_steps: u64,
+    saturated_steps: u64,
 }
 
 /// One link's outage: the step it began if it is out, and its past outages `(first, steps)`.
@@ -68,6 +69,8 @@ pub struct MetricsAccumulator {
     headway: f64,
     /// Every vehicle's length, leader first.
     lengths: Vec<f64>,
+    /// The members have vehicle classes, whose limits the plant holds (saturation counts).
+    limited: bool,
     dos: DosSchedule,
     assumption2: Option<Assumption2>,
     vehicles: Vec<VehicleAcc>,
@@ -109,6 +112,7 @@ impl MetricsAccumulator {
             spacing: scenario.spacing(),
             headway: scenario.headway(),
             lengths: scenario.lengths(),
+            limited: !scenario.vehicles.is_empty(),
             dos: scenario.dos.clone(),
             assumption2: scenario.assumption2,
             vehicles: vec![
@@ -128,6 +132,7 @@ impl MetricsAccumulator {
                     guard_on: false,
                     guard_activations: 0,
                     guard_steps: 0,
+                    saturated_steps: 0,
                 };
                 n
             ],
@@ -232,6 +237,7 @@ impl MetricsAccumulator {
             acc.guard_activations += u64::from(r.guard && !acc.guard_on);
             acc.guard_on = r.guard;
             acc.guard_steps += u64::from(r.guard);
+            acc.saturated_steps += u64::from(r.saturated);
             if left {
                 continue;
             }
@@ -351,6 +357,7 @@ impl MetricsAccumulator {
                 mode_switches: a.switches,
                 guard_activations: a.guard_activations,
                 guard_time_s: a.guard_steps as f64 * self.dt,
+                saturated_time_s: self.limited.then_some(a.saturated_steps as f64 * self.dt),
             })
             .collect();
         let clipped = self.dos.clipped(horizon);

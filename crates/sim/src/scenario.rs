@@ -85,6 +85,10 @@ pub struct Vehicle {
     pub accel_max_mps2: Option<f64>,
     /// The largest deceleration the plant applies (m/s^2, > 0); `None`: unlimited.
     pub decel_max_mps2: Option<f64>,
+    /// The largest deceleration while the guard brakes (m/s^2, >= `decel_max_mps2`); `None`:
+    /// `decel_max_mps2`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub emergency_decel_mps2: Option<f64>,
     /// The engine lags the design must cover for this member, `(lo, hi)` (s): they contain
     /// its true schedule. Unused for the leader, which drives its profile.
     pub tau_range_s: (f64, f64),
@@ -92,14 +96,19 @@ pub struct Vehicle {
 
 impl Vehicle {
     /// The input the plant applies for command `u`: `u` held within the class's limits
-    /// (first the acceleration, then the deceleration; the SUMO bridge's model does the same).
+    /// (first the acceleration, then the deceleration, the emergency one while the guard
+    /// brakes, `guard`; the SUMO bridge's model does the same).
     #[inline]
-    pub fn limit(&self, u: f64) -> f64 {
+    pub fn limit(&self, u: f64, guard: bool) -> f64 {
         let mut u = u;
         if let Some(a) = self.accel_max_mps2 {
             u = u.min(a);
         }
-        if let Some(d) = self.decel_max_mps2 {
+        let decel = match (guard, self.emergency_decel_mps2) {
+            (true, Some(e)) => Some(e),
+            _ => self.decel_max_mps2,
+        };
+        if let Some(d) = decel {
             u = u.max(-d);
         }
         u
@@ -221,11 +230,12 @@ impl Scenario {
             .collect()
     }
 
-    /// The input the plant applies to follower `i` (>= 1) for command `u`: `u` itself
-    /// without vehicle classes, else held within its class's limits ([`Vehicle::limit`]).
+    /// The input the plant applies to follower `i` (>= 1) for command `u` (`guard`: the guard
+    /// overrode it): `u` itself without vehicle classes, else held within its class's limits
+    /// ([`Vehicle::limit`]).
     #[inline]
-    pub fn applied(&self, i: usize, u: f64) -> f64 {
-        self.vehicles.get(i).map_or(u, |v| v.limit(u))
+    pub fn applied(&self, i: usize, u: f64, guard: bool) -> f64 {
+        self.vehicles.get(i).map_or(u, |v| v.limit(u, guard))
     }
 
     /// Vehicles per platoon, N + 1.

@@ -58,6 +58,11 @@ pub struct VehicleSummary {
     /// Time the guard was braking (s).
     #[serde(deserialize_with = "nullable")]
     pub guard_time_s: f64,
+    /// Time the plant held its command within its class's limits (s): the law (or the
+    /// guard) asked for more than the vehicle does. Absent without vehicle classes (the
+    /// paper's ideal vehicle, which has none).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub saturated_time_s: Option<f64>,
 }
 
 /// Gaps, decelerations and the run's safety class.

@@ -24,7 +24,7 @@ impl Member<'_> {
 /// without `platoon.members`.
 pub(crate) fn members(c: &Config, n: usize) -> Result<Vec<Member<'_>>, KeyError> {
     let classes = &c.vehicle_classes;
-    let Some(names) = &c.platoon.members else {
+    let Some(members) = &c.platoon.members else {
         if let Some(name) = classes.keys().next() {
             return bad(
                 &format!("vehicle_classes.{name}"),
@@ -34,16 +34,26 @@ pub(crate) fn members(c: &Config, n: usize) -> Result<Vec<Member<'_>>, KeyError>
         }
         return Ok(Vec::new());
     };
-    if names.len() != n + 1 {
-        return bad(
-            "platoon.members",
-            format!(
-                "lists {} vehicles but platoon.followers = {n} needs {} (the leader first)",
-                names.len(),
-                n + 1
-            ),
-        );
-    }
+    // Each name with the key that gave it.
+    let names: Vec<(&String, String)> = match members {
+        Members::Every(name) => vec![(name, "platoon.members".to_string()); n + 1],
+        Members::Each(names) if names.len() == n + 1 => names
+            .iter()
+            .enumerate()
+            .map(|(i, name)| (name, format!("platoon.members[{i}]")))
+            .collect(),
+        Members::Each(names) => {
+            return bad(
+                "platoon.members",
+                format!(
+                    "lists {} vehicles but platoon.followers = {n} needs {} (the leader first; \
+                     or name one class for every vehicle, members = \"car\")",
+                    names.len(),
+                    n + 1
+                ),
+            )
+        }
+    };
     let mut checked = std::collections::BTreeMap::new();
     for (name, class) in classes {
         let key = |k: &str| format!("vehicle_classes.{name}.{k}");
@@ -58,6 +68,27 @@ pub(crate) fn members(c: &Config, n: usize) -> Result<Vec<Member<'_>>, KeyError>
         }
         if let Some(d) = class.decel_max_mps2 {
             positive(&key("decel_max_mps2"), d)?;
+        }
+        if let Some(e) = class.emergency_decel_mps2 {
+            positive(&key("emergency_decel_mps2"), e)?;
+            match class.decel_max_mps2 {
+                Some(d) if e >= d => {}
+                Some(d) => {
+                    return bad(
+                        &key("emergency_decel_mps2"),
+                        format!(
+                            "{e} m/s^2 is below decel_max_mps2 = {d}: the guard's braking is the \
+                             harder one"
+                        ),
+                    )
+                }
+                None => {
+                    return bad(
+                        &key("emergency_decel_mps2"),
+                        "needs decel_max_mps2, the braking it goes beyond",
+                    )
+                }
+            }
         }
         let tau = match (class.tau_s, &class.tau) {
             (Some(_), Some(_)) => {
@@ -84,16 +115,15 @@ pub(crate) fn members(c: &Config, n: usize) -> Result<Vec<Member<'_>>, KeyError>
         checked.insert(name.as_str(), (class, tau));
     }
     names
-        .iter()
-        .enumerate()
-        .map(|(i, name)| match checked.get(name.as_str()) {
+        .into_iter()
+        .map(|(name, key)| match checked.get(name.as_str()) {
             Some((class, tau)) => Ok(Member {
                 name,
                 class,
                 tau: tau.clone(),
             }),
             None => bad(
-                &format!("platoon.members[{i}]"),
+                &key,
                 format!(
                     "unknown vehicle class \"{name}\": [vehicle_classes] defines {}",
                     if classes.is_empty() {
@@ -199,6 +229,7 @@ pub(crate) fn vehicles(
             length_m: class.length_m,
             accel_max_mps2: class.accel_max_mps2,
             decel_max_mps2: class.decel_max_mps2,
+            emergency_decel_mps2: class.emergency_decel_mps2,
             tau_range_s: range,
         });
     }
