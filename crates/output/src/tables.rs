@@ -401,6 +401,14 @@ mod tests {
         assert_eq!(text, format!("{}\n", columns.join(",")));
         let (_, batches) = read_batches::<StepRow>(&dir.path("empty.csv"), &[]).unwrap();
         assert!(batches.is_empty());
+        // The injector node writes the channel log's header itself: the same columns.
+        use platoon_attacks::channel::ChannelEvent;
+        let names: Vec<String> = fields::<ChannelEvent>()
+            .unwrap()
+            .iter()
+            .map(|f| f.name().clone())
+            .collect();
+        assert_eq!(names, ChannelEvent::COLUMNS);
     }
 
     fn the_same_in_both_formats(rows: &[StepRow], radar: bool) {

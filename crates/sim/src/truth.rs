@@ -91,6 +91,26 @@ impl Fields {
         f
     }
 
+    /// Each field with its name in files, in bit order.
+    pub const NAMED: [(Fields, &'static str); 7] = [
+        (Self::P, "p"),
+        (Self::V, "v"),
+        (Self::A, "a"),
+        (Self::U, "u"),
+        (Self::STEP, "step"),
+        (Self::HEAD, "head"),
+        (Self::MANEUVER, "maneuver"),
+    ];
+
+    /// The names of the fields it holds, in bit order (`["p", "maneuver"]`).
+    pub fn names(self) -> Vec<&'static str> {
+        Self::NAMED
+            .iter()
+            .filter(|(f, _)| self.contains(*f))
+            .map(|&(_, n)| n)
+            .collect()
+    }
+
     /// Nothing differs.
     pub fn is_empty(self) -> bool {
         self.0 == 0
