@@ -178,10 +178,13 @@ fn the_dataset_has_one_row_per_delivery_with_its_label_and_what_refused_it() {
         rejected.total(),
         "{refusals:?}"
     );
-    assert_eq!(
-        refusals.get("stale_seq").copied().unwrap_or(0),
-        rejected.stale_seq
-    );
+    // Reason by reason (the checks' reasons in the order of `as_array`).
+    for (why, n) in platoon_control::RefusedBy::ALL
+        .iter()
+        .zip(rejected.as_array())
+    {
+        assert_eq!(refusals.get(why.name()).copied().unwrap_or(0), n, "{why:?}");
+    }
 }
 
 #[test]
