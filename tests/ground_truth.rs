@@ -50,7 +50,7 @@ fn one_row_per_delivery(run: &Path, rows: &[HashMap<String, String>]) {
 
 /// The catalogue's maneuver attacks, each on the config the docs run it on, with the
 /// followers' plausibility checks on (the dataset's condition).
-const CATALOGUE: [(&str, &str, &str); 8] = [
+const CATALOGUE: [(&str, &str, &str); 10] = [
     (
         "fake join request",
         "configs/join.toml",
@@ -80,6 +80,17 @@ const CATALOGUE: [(&str, &str, &str); 8] = [
         "configs/split.toml",
         "kind = \"forge_maneuver\"\nmessage = \"split_notice\"\nsenders = [2]\nreceivers = [0]\n\
          start_s = 10.0\nend_s = 10.2\n",
+    ),
+    (
+        "forged merge report",
+        "configs/merge.toml",
+        "kind = \"forge_maneuver\"\nmessage = \"in_position\"\nsenders = [3]\nreceivers = [0]\n\
+         start_s = 6.0\nend_s = 6.2\n",
+    ),
+    (
+        "forged head in a middle join",
+        "configs/join-middle.toml",
+        "kind = \"forged_head\"\nsenders = [1]\ninsider = true\nstart_s = 4.0\nend_s = 40.0\n",
     ),
     (
         "jammed move-in",
@@ -162,6 +173,9 @@ fn the_catalogues_maneuver_attacks_are_labelled_as_the_channel_logged_them() {
             if label == "altered" && attack.contains("forge_maneuver") {
                 assert_eq!(r["fields"], "maneuver", "{name}: {r:?}");
             }
+            if label == "altered" && attack.contains("forged_head") {
+                assert_eq!(r["fields"], "head", "{name}: {r:?}");
+            }
             *by_label
                 .entry(match label {
                     "genuine" => "genuine",
@@ -171,7 +185,10 @@ fn the_catalogues_maneuver_attacks_are_labelled_as_the_channel_logged_them() {
             to_leader += u64::from(r["receiver"] == "0");
         }
         assert!(to_leader > 0, "{name}: the leader's receipts have rows");
-        if attack.contains("forge_maneuver") || attack.contains("replay") {
+        if ["forge_maneuver", "forged_head", "replay"]
+            .iter()
+            .any(|k| attack.contains(k))
+        {
             assert!(by_label.get("attacked").is_some_and(|&a| a > 0), "{name}");
             // What the channel altered or replayed and delivered has its row.
             let rows_by_key: BTreeMap<Key, &HashMap<String, String>> =
