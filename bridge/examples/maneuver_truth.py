@@ -16,9 +16,9 @@ delivery for delivery (tests/ground_truth.rs). Run it on `configs/leave.toml` wi
 - replay: every formation update of the leader is delivered again, unchanged, 8 s later (the
   followers refuse the copies as stale).
 
-Everything else is forwarded as sent. LOG.csv gets one line per delivery:
-`step,receiver,sender,seq,action` (vehicle indices within the platoon; `action` one of `pass`,
-`forge`, `alter`, `replay`).
+Everything else is forwarded as sent. LOG.csv (the SDK's `DeliveryLog`) gets one line per
+delivery: `step,receiver,sender,seq,action` (vehicle indices within the platoon; `action` one of
+`pass`, `forge`, `alter`, `replay`).
 """
 
 import copy
@@ -37,18 +37,11 @@ UPDATES = (P.UPDATE_JOINED, P.UPDATE_LEFT, P.UPDATE_MERGED, P.UPDATE_SPLIT)
 class Truth(pi.Injector):
     def __init__(self, run: pi.Run, log: str, victim: int, at_s: float):
         self.run, self.victim, self.at_s = run, victim, at_s
-        self.log = open(log, "w")
-        self.log.write("step,receiver,sender,seq,action\n")
+        self.log = pi.DeliveryLog(run, log)
         self.forged = False
         self.altered = False
         self.delay = max(1, round(8.0 / run.dt))
         self.pending = {}  # step -> link packets to deliver again then
-
-    def deliver(self, step, rx, it, action):
-        rx.append(it)
-        local = self.run.local
-        p = it.packet
-        self.log.write(f"{step.k},{local(it.receiver)},{local(p.sender)},{p.seq},{action}\n")
 
     def step(self, step, rx):
         forgeries = []
@@ -81,14 +74,14 @@ class Truth(pi.Injector):
                 q.maneuver_seq = 0xFFFF
                 q.maneuver_vehicle = q.maneuver_behind = P.NOBODY
                 self.altered = True
-                self.deliver(step, rx, it, "alter")
+                self.log.deliver(step, rx, it, "alter")
                 continue
-            self.deliver(step, rx, it, "pass")
+            self.log.deliver(step, rx, it, "pass")
         for it in forgeries:
-            self.deliver(step, rx, it, "forge")
+            self.log.deliver(step, rx, it, "forge")
         self.forged = self.forged or bool(forgeries)
         for it in self.pending.pop(step.k, []):
-            self.deliver(step, rx, it, "replay")
+            self.log.deliver(step, rx, it, "replay")
 
     def finish(self):
         self.log.close()
