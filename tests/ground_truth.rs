@@ -320,3 +320,40 @@ fn a_python_plugins_forgeries_alterations_and_replays_are_labelled_as_its_log_sa
     let s = json(&run.join("summary.json"));
     assert_eq!(s["wire"]["totals"]["altered"], 1, "{}", s["wire"]);
 }
+
+/// The dataset of a catalogue attack whose deliveries the receivers refuse (a replay of the
+/// leader's packets, refused as stale) and that forges a leave notice to the leader is the same
+/// bytes over iceoryx2 as in process: the refusals' reasons cross the wire.
+#[test]
+fn refused_and_leader_rows_are_the_same_bytes_on_both_transports() {
+    let tmp = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(repo().join("configs/leave.toml")).unwrap()
+        + "\n[[channel.attacks]]\nkind = \"replay\"\nlag_s = 8.0\nsenders = [0]\n\
+           start_s = 10.0\nend_s = 10.5\n\n[[channel.attacks]]\nkind = \"forge_maneuver\"\n\
+           message = \"leave_notice\"\nsenders = [2]\nreceivers = [0]\nstart_s = 12.0\n\
+           end_s = 12.2\n\n[detection.plausibility]\n";
+    let c = tmp.path().join("leave-attacked.toml");
+    std::fs::write(&c, text).unwrap();
+    let c = c.to_str().unwrap();
+    for (out, transport) in [("ipc", "iceoryx2"), ("inproc", "inproc")] {
+        let args = [
+            "run",
+            c,
+            "--out",
+            out,
+            "--no-plots",
+            "--transport",
+            transport,
+        ];
+        ok(&platoon(&args, tmp.path()));
+    }
+    let read = |run: &str| std::fs::read(tmp.path().join(run).join("detections.csv")).unwrap();
+    assert!(read("ipc") == read("inproc"), "detections.csv differs");
+    let rows = table(&tmp.path().join("ipc/detections.csv"));
+    assert!(rows
+        .iter()
+        .any(|r| r["refused_by"] == "stale_seq" && r["label"] == "replayed"));
+    assert!(rows.iter().any(|r| r["receiver"] == "0"
+        && r["maneuver"] == "leave_notice"
+        && r["label"] == "altered"));
+}
