@@ -208,6 +208,28 @@ fn the_catalogues_maneuver_attacks_are_labelled_as_the_channel_logged_them() {
                 "{name}"
             );
         }
+        if *name == "fake join request" {
+            // The joiner's own requests, numbered below the forged one, reach the leader and
+            // its machine drops them as old: genuine, and said so.
+            assert!(
+                rows.iter().any(|r| r["receiver"] == "0"
+                    && r["maneuver"] == "join_request"
+                    && r["label"] == "genuine"
+                    && r["refused_by"] == "maneuver_seq"),
+                "{name}"
+            );
+        }
+        if *name == "fake join request" {
+            // The joiner's own requests, numbered below the forged one, reach the leader and
+            // its machine drops them as old: genuine, and said so.
+            assert!(
+                rows.iter().any(|r| r["receiver"] == "0"
+                    && r["maneuver"] == "join_request"
+                    && r["label"] == "genuine"
+                    && r["refused_by"] == "maneuver_seq"),
+                "{name}"
+            );
+        }
         if *name == "lying joiner" {
             assert!(
                 rows.iter().any(|r| r["receiver"] == "0"
@@ -321,39 +343,55 @@ fn a_python_plugins_forgeries_alterations_and_replays_are_labelled_as_its_log_sa
     assert_eq!(s["wire"]["totals"]["altered"], 1, "{}", s["wire"]);
 }
 
-/// The dataset of a catalogue attack whose deliveries the receivers refuse (a replay of the
-/// leader's packets, refused as stale) and that forges a leave notice to the leader is the same
+/// The dataset of catalogue attacks whose deliveries the receivers refuse (a replay of the
+/// leader's packets, refused as stale), that forge a leave notice to the leader, or a join
+/// request whose number makes the leader's machine drop the joiner's own as old, is the same
 /// bytes over iceoryx2 as in process: the refusals' reasons cross the wire.
 #[test]
 fn refused_and_leader_rows_are_the_same_bytes_on_both_transports() {
     let tmp = tempfile::tempdir().unwrap();
-    let text = std::fs::read_to_string(repo().join("configs/leave.toml")).unwrap()
-        + "\n[[channel.attacks]]\nkind = \"replay\"\nlag_s = 8.0\nsenders = [0]\n\
-           start_s = 10.0\nend_s = 10.5\n\n[[channel.attacks]]\nkind = \"forge_maneuver\"\n\
-           message = \"leave_notice\"\nsenders = [2]\nreceivers = [0]\nstart_s = 12.0\n\
-           end_s = 12.2\n\n[detection.plausibility]\n";
-    let c = tmp.path().join("leave-attacked.toml");
-    std::fs::write(&c, text).unwrap();
-    let c = c.to_str().unwrap();
-    for (out, transport) in [("ipc", "iceoryx2"), ("inproc", "inproc")] {
-        let args = [
-            "run",
-            c,
-            "--out",
-            out,
-            "--no-plots",
-            "--transport",
-            transport,
-        ];
-        ok(&platoon(&args, tmp.path()));
+    let leave = "\n[[channel.attacks]]\nkind = \"replay\"\nlag_s = 8.0\nsenders = [0]\n\
+                 start_s = 10.0\nend_s = 10.5\n\n[[channel.attacks]]\n\
+                 kind = \"forge_maneuver\"\nmessage = \"leave_notice\"\nsenders = [2]\n\
+                 receivers = [0]\nstart_s = 12.0\nend_s = 12.2\n";
+    let join = format!("\n[[channel.attacks]]\n{}", CATALOGUE[0].2);
+    for (n, (config, attacks, expect)) in [
+        ("configs/leave.toml", leave, "stale_seq"),
+        ("configs/join.toml", join.as_str(), "maneuver_seq"),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let text = std::fs::read_to_string(repo().join(config)).unwrap()
+            + attacks
+            + "\n[detection.plausibility]\n";
+        let c = tmp.path().join(format!("{n}.toml"));
+        std::fs::write(&c, text).unwrap();
+        let c = c.to_str().unwrap();
+        for transport in ["iceoryx2", "inproc"] {
+            let out = format!("{n}-{transport}");
+            let args = [
+                "run",
+                c,
+                "--out",
+                &out,
+                "--no-plots",
+                "--transport",
+                transport,
+            ];
+            ok(&platoon(&args, tmp.path()));
+        }
+        let read = |t: &str| std::fs::read(tmp.path().join(format!("{n}-{t}/detections.csv")));
+        assert!(
+            read("iceoryx2").unwrap() == read("inproc").unwrap(),
+            "{config}: detections.csv differs"
+        );
+        let rows = table(&tmp.path().join(format!("{n}-iceoryx2/detections.csv")));
+        assert!(rows.iter().any(|r| r["refused_by"] == expect), "{config}");
+        assert!(
+            rows.iter()
+                .any(|r| r["receiver"] == "0" && r["label"] == "altered"),
+            "{config}"
+        );
     }
-    let read = |run: &str| std::fs::read(tmp.path().join(run).join("detections.csv")).unwrap();
-    assert!(read("ipc") == read("inproc"), "detections.csv differs");
-    let rows = table(&tmp.path().join("ipc/detections.csv"));
-    assert!(rows
-        .iter()
-        .any(|r| r["refused_by"] == "stale_seq" && r["label"] == "replayed"));
-    assert!(rows.iter().any(|r| r["receiver"] == "0"
-        && r["maneuver"] == "leave_notice"
-        && r["label"] == "altered"));
 }

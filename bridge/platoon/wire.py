@@ -205,7 +205,8 @@ class Inspection(Payload):
     (wire ids), its seq, step and claimed state; flags: FLAGGED (any detector), REFUSED (the
     reaction refused it), bits REFUSED_BY_SHIFT.. (REFUSED_BY_MASK) what refused it (0: accepted
     or not said; 1-6 the packet checks' reasons in the order of ControlMsg.counts, for a
-    delivery no detector saw; 7 the reaction; 8 the leader's check of maneuver messages), and
+    delivery no detector saw; 7 the reaction; 8 the leader's check of maneuver messages; 9 the
+    receiver's maneuver machine dropped the message as old, after the step's other items), and
     bit DETECTOR_SHIFT + d when detector d flagged it (the run's `[detection]` order: built-in
     ones, then `plugin`); scores[d] its statistic (NaN: not tested)."""
 

@@ -83,11 +83,15 @@ pub enum RefusedBy {
     /// The leader's check of maneuver messages (`[maneuvers] check_reports`: a request from a
     /// vehicle it never heard, a report its sender's beacon contradicts).
     CheckReports,
+    /// The maneuver protocol's sequence filter: the message the packet carried was dropped as
+    /// old by the receiver's machine (a replay, a duplicate, one numbered below a message it
+    /// took); the packet itself was taken.
+    ManeuverSeq,
 }
 
 impl RefusedBy {
     /// Every reason, in the order of [`RefusedBy::code`] (1 first).
-    pub const ALL: [RefusedBy; 8] = [
+    pub const ALL: [RefusedBy; 9] = [
         Self::NonFinite,
         Self::UnknownSender,
         Self::FutureStep,
@@ -96,6 +100,7 @@ impl RefusedBy {
         Self::ImplausibleState,
         Self::Reaction,
         Self::CheckReports,
+        Self::ManeuverSeq,
     ];
 
     /// Its name in files (`stale_seq`, ...).
@@ -109,10 +114,11 @@ impl RefusedBy {
             Self::ImplausibleState => "implausible_state",
             Self::Reaction => "reaction",
             Self::CheckReports => "check_reports",
+            Self::ManeuverSeq => "maneuver_seq",
         }
     }
 
-    /// Its code on the wire (1 to 8; 0 is no refusal).
+    /// Its code on the wire (1 to 9; 0 is no refusal).
     pub fn code(self) -> u8 {
         Self::ALL
             .iter()
@@ -129,7 +135,16 @@ impl RefusedBy {
 
     /// One of the packet checks' reasons (before any detector saw the packet).
     pub fn by_checks(self) -> bool {
-        !matches!(self, Self::Reaction | Self::CheckReports)
+        !matches!(
+            self,
+            Self::Reaction | Self::CheckReports | Self::ManeuverSeq
+        )
+    }
+
+    /// The packet itself was refused (`false` only for [`RefusedBy::ManeuverSeq`], which
+    /// dropped the message it carried).
+    pub fn refuses_packet(self) -> bool {
+        self != Self::ManeuverSeq
     }
 }
 
@@ -467,6 +482,15 @@ impl PacketChecks {
     pub fn note_leader_check(&mut self, k: u64, d: &Delivery, refused: bool) {
         if let Some(s) = &mut self.screening {
             s.note(k, d.receiver, &d.packet, refused);
+        }
+    }
+
+    /// Records, when the run measures detectors, that the maneuver message of delivery `d`
+    /// (step `k`) was dropped as old by its receiver's protocol machine (its sequence filter),
+    /// the packet's beacon having been taken: not a refusal of the packet, not counted.
+    pub fn note_dropped_message(&mut self, k: u64, d: &Delivery) {
+        if let Some(s) = &mut self.screening {
+            s.refusal(k, d.receiver, &d.packet, RefusedBy::ManeuverSeq);
         }
     }
 

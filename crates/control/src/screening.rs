@@ -158,7 +158,8 @@ impl Inspection {
 
     /// This inspection refused by `by` instead (`None`: accepted, `refused` false).
     pub fn with_refusal(mut self, by: Option<crate::RefusedBy>) -> Self {
-        self.refused = by.is_some_and(|b| !b.by_checks());
+        use crate::RefusedBy as R;
+        self.refused = matches!(by, Some(R::Reaction | R::CheckReports));
         self.refused_by = by;
         self
     }
@@ -167,6 +168,13 @@ impl Inspection {
     /// inspection, no verdict, `refused` false (the reaction did not refuse it).
     pub fn refused_by_checks(&self) -> bool {
         self.refused_by.is_some_and(|b| b.by_checks())
+    }
+
+    /// A record that the maneuver message of a packet was dropped as old by its receiver's
+    /// protocol machine ([`crate::RefusedBy::ManeuverSeq`]): recorded after the step's other
+    /// inspections, not an inspection.
+    pub fn dropped_message(&self) -> bool {
+        self.refused_by == Some(crate::RefusedBy::ManeuverSeq)
     }
 
     /// Each detector's verdict, in the order of [`DetectionParams::specs`].

@@ -354,10 +354,11 @@ pub fn inspections_from_wire(
             };
         }
         // What refused it, when the controller said (a plug-in may not: then only `refused`);
-        // a packet the checks refused reached no detector.
+        // a packet the checks refused reached no detector, and a record of a message dropped
+        // as old carries no verdict.
         let by = platoon_control::RefusedBy::from_code(it.refused_by());
         let tested = match by {
-            Some(b) if b.by_checks() => 0,
+            Some(b) if b.by_checks() || !b.refuses_packet() => 0,
             _ => detectors,
         };
         let i = platoon_control::Inspection::new(

@@ -128,6 +128,19 @@ pub struct Scored {
     pub truth: Option<State>,
 }
 
+/// Whether inspection `i` is of delivery `r`: its link, sequence number, step and claimed state.
+fn of(r: &Scored, i: &Inspection) -> bool {
+    let p = &r.delivery.packet;
+    r.delivery.receiver == i.receiver
+        && p.sender == i.sender
+        && p.seq == i.seq
+        && p.step == i.step
+        && p.state
+            .iter()
+            .zip(i.state.iter())
+            .all(|(x, y)| x.to_bits() == y.to_bits())
+}
+
 /// One detector's (or check's) figures so far: its confusion, per label, and the step of its
 /// first flag on a misbehaving packet.
 #[derive(Debug, Clone, Default)]
@@ -220,19 +233,18 @@ impl DetectionRecorder {
         // is the next delivery of its link, sequence number, step and claimed state.
         let mut next = 0;
         for i in inspections {
-            let same = |a: &State, b: &State| {
-                a.iter()
-                    .zip(b.iter())
-                    .all(|(x, y)| x.to_bits() == y.to_bits())
-            };
-            let found = self.scored[next..].iter().position(|r| {
-                let p = &r.delivery.packet;
-                r.delivery.receiver == i.receiver
-                    && p.sender == i.sender
-                    && p.seq == i.seq
-                    && p.step == i.step
-                    && same(&p.state, &i.state)
-            });
+            if i.dropped_message() {
+                // A message a machine dropped as old, recorded after the step's others: the
+                // last taken delivery that carried it (an identical earlier copy was taken).
+                let row = self.scored.iter_mut().rev().find(|r| {
+                    r.refused_by.is_none() && r.delivery.packet.maneuver.is_some() && of(r, i)
+                });
+                if let Some(row) = row {
+                    row.refused_by = i.refused_by;
+                }
+                continue;
+            }
+            let found = self.scored[next..].iter().position(|r| of(r, i));
             // One that matches no delivery (a plug-in's, out of order or made up) is not
             // counted: the figures are of packets that were delivered.
             let Some(j) = found.map(|j| next + j) else {

@@ -370,7 +370,8 @@ pub struct Inspection {
     /// ([`Inspection::REFUSED_BY_SHIFT`], [`Inspection::REFUSED_BY_MASK`]): what refused it, a
     /// `platoon_control::RefusedBy` code (0: accepted, or not said; 1-6 the packet checks'
     /// reasons, in the order of `ControlMsg::counts`, for a packet no detector saw; 7 the
-    /// reaction; 8 the leader's check of maneuver messages); bit `8 + d`
+    /// reaction; 8 the leader's check of maneuver messages; 9 the receiver's maneuver machine
+    /// dropped the message the packet carried as old, after the step's other items); bit `8 + d`
     /// ([`Inspection::DETECTOR_SHIFT`]): detector d (the run's `[detection]` order: built-in
     /// ones, then `plugin`) flagged it.
     pub flags: u32,
