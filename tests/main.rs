@@ -16,6 +16,7 @@ mod degradation;
 mod docs;
 mod figures;
 mod formations;
+mod ground_truth;
 mod join_middle;
 mod layout;
 mod leaves;

@@ -12,7 +12,7 @@ Name the detector in the config and run it as the controller:
     platoon run my.toml --controller "bridge/.venv/bin/python bridge/examples/speed_check.py"
 
 `summary.json`'s `detection` then has its precision, recall, F1 and time to detect per
-ground-truth label, and `detections.csv` a row per packet it inspected.
+ground-truth label, and `detections.csv` a row per delivery (`inspected` on those it inspected).
 """
 
 import math

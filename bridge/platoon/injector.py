@@ -82,6 +82,41 @@ class Injector:
         """Called once after the last step."""
 
 
+class DeliveryLog:
+    """A per-delivery log of what an injector did, to set a run's ground truth against
+    (`detections.csv`'s `label`, docs/detection.md): `deliver(step, rx, item, action)` appends
+    `item` to `rx` and writes `step,receiver,sender,seq,action` (vehicle indices within the
+    platoon) to the CSV file `path`, whose header it writes first; `dropped(step, item)` writes
+    an item left out (`drop`). The actions are yours to name; `pass`, `alter`, `forge`, `replay`
+    and `delay` are the labels `genuine`, `altered`, `forged`, `replayed` (`delayed` to a
+    receiver that never got the original) and `delayed`. Call `close()` in `finish`.
+
+        log = pi.DeliveryLog(run, "injector.csv")
+        log.deliver(step, rx, item, "pass")
+    """
+
+    def __init__(self, run: Run, path: str):
+        self.run = run
+        self.file = open(path, "w")
+        self.file.write("step,receiver,sender,seq,action\n")
+
+    def _write(self, step: Step, item: w.LinkPacket, action: str) -> None:
+        local, p = self.run.local, item.packet
+        self.file.write(f"{step.k},{local(item.receiver)},{local(p.sender)},{p.seq},{action}\n")
+
+    def deliver(self, step: Step, rx: list, item: w.LinkPacket, action: str) -> None:
+        """Delivers `item` (appends it to `rx`) and logs it as `action`."""
+        rx.append(item)
+        self._write(step, item, action)
+
+    def dropped(self, step: Step, item: w.LinkPacket) -> None:
+        """Logs `item` as dropped (not delivered)."""
+        self._write(step, item, "drop")
+
+    def close(self) -> None:
+        self.file.close()
+
+
 def jammed(receiver: int) -> w.LinkPacket:
     """A jammed notice for `receiver` (its broadcast of this step did not get through)."""
     return w.LinkPacket(receiver=receiver, kind=w.LinkPacket.JAMMED)

@@ -203,11 +203,16 @@ class Inspection(Payload):
     what its reaction did (controller -> orchestrator, service `inspections`, published before
     the step's commands in runs that measure detectors): the receiver and the packet's sender
     (wire ids), its seq, step and claimed state; flags: FLAGGED (any detector), REFUSED (the
-    reaction refused it), and bit DETECTOR_SHIFT + d when detector d flagged it (the run's
-    `[detection]` order: built-in ones, then `plugin`); scores[d] its statistic (NaN: not
-    tested)."""
+    reaction refused it), bits REFUSED_BY_SHIFT.. (REFUSED_BY_MASK) what refused it (0: accepted
+    or not said; 1-6 the packet checks' reasons in the order of ControlMsg.counts, for a
+    delivery no detector saw; 7 the reaction; 8 the leader's check of maneuver messages; 9 the
+    receiver's maneuver machine dropped the message as old, after the step's other items), and
+    bit DETECTOR_SHIFT + d when detector d flagged it (the run's `[detection]` order: built-in
+    ones, then `plugin`); scores[d] its statistic (NaN: not tested)."""
 
     FLAGGED, REFUSED, DETECTOR_SHIFT = 1, 2, 8
+    REFUSED_BY_SHIFT = 2
+    REFUSED_BY_MASK = 0xF << REFUSED_BY_SHIFT
 
     _fields_ = [
         ("receiver", ctypes.c_uint32),

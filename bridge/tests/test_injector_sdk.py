@@ -63,3 +63,19 @@ def test_states_are_taken_on_first_read_only():
         assert "step 9" in str(e)
     else:
         raise AssertionError("missing states must raise")
+
+
+def test_the_delivery_log_delivers_and_logs_every_item_with_its_action(tmp_path):
+    run = make_run([])
+    path = tmp_path / "log.csv"
+    log = pi.DeliveryLog(run, str(path))
+    step = pi.Step(7, 0.07, [], None)
+    item = pi.w.LinkPacket(receiver=4, kind=pi.w.LinkPacket.DELIVERY)
+    item.packet.sender, item.packet.seq = 3, 12
+    rx = []
+    log.deliver(step, rx, item, "forge")
+    log.dropped(step, item)
+    log.close()
+    assert rx == [item]
+    # Vehicle indices within the platoon (3 vehicles per platoon: wire id 4 is vehicle 1).
+    assert path.read_text() == "step,receiver,sender,seq,action\n7,1,0,12,forge\n7,1,0,12,drop\n"

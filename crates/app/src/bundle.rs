@@ -27,6 +27,7 @@ pub const FILES: &[(&str, &[u8])] = files!(
     "bridge/examples/ghost.py",
     "bridge/examples/hostile.py",
     "bridge/examples/maneuver_attacks.py",
+    "bridge/examples/maneuver_truth.py",
     "bridge/examples/notebooks/platoon.ipynb",
     "bridge/examples/observer.py",
     "bridge/examples/paper_law.py",

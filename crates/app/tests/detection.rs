@@ -125,7 +125,7 @@ fn on_clean_traffic_every_detector_stays_under_its_false_alarm_rate() {
 }
 
 #[test]
-fn the_dataset_has_one_row_per_inspected_packet_with_its_label() {
+fn the_dataset_has_one_row_per_delivery_with_its_label_and_what_refused_it() {
     let c = config(
         &["plausibility", "radar_cross", "residual"],
         attack_kind("random_offset", Intensity::Strong),
@@ -137,24 +137,54 @@ fn the_dataset_has_one_row_per_inspected_packet_with_its_label() {
     let col = |name: &str| header.iter().position(|h| h == name).unwrap();
     let (label, refused, flagged) = (col("label"), col("refused"), col("flagged"));
     let (true_p, residual) = (col("true_p"), col("residual_flagged"));
-    let mut rows = 0u64;
+    let (inspected, refused_by, fields) = (col("inspected"), col("refused_by"), col("fields"));
+    let (mut rows, mut inspected_rows) = (0u64, 0u64);
     let mut labels = std::collections::BTreeMap::<String, u64>::new();
+    let mut refusals = std::collections::BTreeMap::<String, u64>::new();
     let (mut flags, mut residual_flags) = (0u64, 0u64);
     for r in reader.records() {
         let r = r.unwrap();
         rows += 1;
-        *labels.entry(r[label].to_string()).or_default() += 1;
-        flags += u64::from(&r[flagged] == "true");
-        residual_flags += u64::from(&r[residual] == "true");
-        assert_eq!(&r[refused], "false", "log refuses nothing");
         assert!(!r[true_p].is_empty(), "every sender is a platoon member");
+        assert_eq!(&r[refused], "false", "log refuses nothing");
+        assert_eq!(r[label] == *"altered", !r[fields].is_empty(), "{r:?}");
+        if &r[inspected] == "true" {
+            // What a detector saw passed the packet checks.
+            assert_eq!(&r[refused_by], "", "{r:?}");
+            inspected_rows += 1;
+            *labels.entry(r[label].to_string()).or_default() += 1;
+            flags += u64::from(&r[flagged] == "true");
+            residual_flags += u64::from(&r[residual] == "true");
+        } else {
+            // What none saw, the packet checks refused, and say why.
+            assert!(!r[refused_by].is_empty(), "{r:?}");
+            assert_eq!(&r[residual], "", "{r:?}");
+            *refusals.entry(r[refused_by].to_string()).or_default() += 1;
+        }
     }
-    assert_eq!(rows, d.inspected);
+    assert_eq!(inspected_rows, d.inspected);
     assert_eq!(labels, d.labels);
     assert!(labels["altered"] > 0);
     assert_eq!(flags, d.flagged);
     let s = score(&d, "residual");
     assert_eq!(residual_flags, s.totals.tp + s.totals.fp);
+    // Every delivery has its row: those refused by the checks are the summary's refusals.
+    let w = out.summary.wire.as_ref().unwrap().totals;
+    assert_eq!(rows, w.delivered_as_sent + w.altered + w.injected);
+    let rejected = out.summary.rejected_packets;
+    assert!(rows > d.inspected && refusals.get("implausible_state").is_some_and(|&n| n > 0));
+    assert_eq!(
+        refusals.values().sum::<u64>(),
+        rejected.total(),
+        "{refusals:?}"
+    );
+    // Reason by reason (the checks' reasons in the order of `as_array`).
+    for (why, n) in platoon_control::RefusedBy::ALL
+        .iter()
+        .zip(rejected.as_array())
+    {
+        assert_eq!(refusals.get(why.name()).copied().unwrap_or(0), n, "{why:?}");
+    }
 }
 
 #[test]

@@ -60,6 +60,94 @@ impl RejectCounts {
     }
 }
 
+/// What refused a delivery: a packet check (named as in [`RejectCounts`]), the detectors'
+/// reaction or the leader's check of maneuver messages. The per-message dataset's `refused_by`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RefusedBy {
+    /// [`RejectCounts::non_finite`].
+    NonFinite,
+    /// [`RejectCounts::unknown_sender`].
+    UnknownSender,
+    /// [`RejectCounts::future_step`].
+    FutureStep,
+    /// [`RejectCounts::stale_seq`]: the sequence filter (a replay, a duplicate, an overtaken
+    /// packet).
+    StaleSeq,
+    /// [`RejectCounts::implausible_seq`].
+    ImplausibleSeq,
+    /// [`RejectCounts::implausible_state`].
+    ImplausibleState,
+    /// The detectors' reaction (`[detection] reaction`: a flag, or a distrusted sender).
+    Reaction,
+    /// The leader's check of maneuver messages (`[maneuvers] check_reports`: a request from a
+    /// vehicle it never heard, a report its sender's beacon contradicts).
+    CheckReports,
+    /// The maneuver protocol's sequence filter: the message the packet carried was dropped as
+    /// old by the receiver's machine (a replay, a duplicate, one numbered below a message it
+    /// took); the packet itself was taken.
+    ManeuverSeq,
+}
+
+impl RefusedBy {
+    /// Every reason, in the order of [`RefusedBy::code`] (1 first).
+    pub const ALL: [RefusedBy; 9] = [
+        Self::NonFinite,
+        Self::UnknownSender,
+        Self::FutureStep,
+        Self::StaleSeq,
+        Self::ImplausibleSeq,
+        Self::ImplausibleState,
+        Self::Reaction,
+        Self::CheckReports,
+        Self::ManeuverSeq,
+    ];
+
+    /// Its name in files (`stale_seq`, ...).
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::NonFinite => "non_finite",
+            Self::UnknownSender => "unknown_sender",
+            Self::FutureStep => "future_step",
+            Self::StaleSeq => "stale_seq",
+            Self::ImplausibleSeq => "implausible_seq",
+            Self::ImplausibleState => "implausible_state",
+            Self::Reaction => "reaction",
+            Self::CheckReports => "check_reports",
+            Self::ManeuverSeq => "maneuver_seq",
+        }
+    }
+
+    /// Its code on the wire (1 to 9; 0 is no refusal).
+    pub fn code(self) -> u8 {
+        Self::ALL
+            .iter()
+            .position(|&r| r == self)
+            .map_or(0, |i| i as u8 + 1)
+    }
+
+    /// The reason of code `code` (`None` for 0 or a code it does not know).
+    pub fn from_code(code: u8) -> Option<Self> {
+        usize::from(code)
+            .checked_sub(1)
+            .and_then(|i| Self::ALL.get(i).copied())
+    }
+
+    /// One of the packet checks' reasons (before any detector saw the packet).
+    pub fn by_checks(self) -> bool {
+        !matches!(
+            self,
+            Self::Reaction | Self::CheckReports | Self::ManeuverSeq
+        )
+    }
+
+    /// The packet itself was refused (`false` only for [`RefusedBy::ManeuverSeq`], which
+    /// dropped the message it carried).
+    pub fn refuses_packet(self) -> bool {
+        self != Self::ManeuverSeq
+    }
+}
+
 /// The largest acceleration any vehicle can have (m/s^2, 5 g): a packet whose state implies a
 /// larger one since the sender's last accepted packet is refused as implausible.
 pub const PLAUSIBLE_ACCEL: f64 = 50.0;
@@ -300,14 +388,32 @@ impl PacketChecks {
 
     /// The checks of [`PacketChecks::admit`] without recording the packet.
     fn verify(&mut self, k: u64, d: &Delivery) -> Option<(usize, usize)> {
+        let checked = self.check(k, d);
+        if let Err(why) = checked {
+            let r = &mut self.rejected;
+            *match why {
+                RefusedBy::NonFinite => &mut r.non_finite,
+                RefusedBy::FutureStep => &mut r.future_step,
+                RefusedBy::UnknownSender => &mut r.unknown_sender,
+                RefusedBy::StaleSeq => &mut r.stale_seq,
+                RefusedBy::ImplausibleSeq => &mut r.implausible_seq,
+                _ => &mut r.implausible_state,
+            } += 1;
+            if let Some(s) = &mut self.screening {
+                s.refusal(k, d.receiver, &d.packet, why);
+            }
+        }
+        checked.ok()
+    }
+
+    /// The checks of [`PacketChecks::verify`]: the slot, or the first reason to refuse.
+    fn check(&self, k: u64, d: &Delivery) -> Result<(usize, usize), RefusedBy> {
         let pk = &d.packet;
         if pk.state.iter().any(|x| !x.is_finite()) || !pk.u.is_finite() {
-            self.rejected.non_finite += 1;
-            return None;
+            return Err(RefusedBy::NonFinite);
         }
         if pk.step > k {
-            self.rejected.future_step += 1;
-            return None;
+            return Err(RefusedBy::FutureStep);
         }
         let r = d.receiver.index();
         let slot = (r >= 1 && r <= self.neighbours.len())
@@ -319,8 +425,7 @@ impl PacketChecks {
             })
             .flatten();
         let Some((fi, s)) = slot else {
-            self.rejected.unknown_sender += 1;
-            return None;
+            return Err(RefusedBy::UnknownSender);
         };
         // Freshness by the sampling step, not by the sequence number alone: a forged packet
         // with a huge sequence number would otherwise lock the genuine sender out for good.
@@ -328,19 +433,16 @@ impl PacketChecks {
         // only, since steps ahead of the receiver's are refused above.
         let heard = self.heard[fi][s];
         if heard.step.is_some_and(|h| pk.step <= h) {
-            self.rejected.stale_seq += 1;
-            return None;
+            return Err(RefusedBy::StaleSeq);
         }
         if u64::from(pk.seq) > pk.step + 1 {
-            self.rejected.implausible_seq += 1;
-            return None;
+            return Err(RefusedBy::ImplausibleSeq);
         }
         let since = heard.step.unwrap_or(0);
         if !plausible(&heard.state, &pk.state, (pk.step - since) as f64 * self.dt) {
-            self.rejected.implausible_state += 1;
-            return None;
+            return Err(RefusedBy::ImplausibleState);
         }
-        Some((fi, s))
+        Ok((fi, s))
     }
 
     /// Whom follower `i` (1-based) hears from in its graph, in the order of
@@ -380,6 +482,15 @@ impl PacketChecks {
     pub fn note_leader_check(&mut self, k: u64, d: &Delivery, refused: bool) {
         if let Some(s) = &mut self.screening {
             s.note(k, d.receiver, &d.packet, refused);
+        }
+    }
+
+    /// Records, when the run measures detectors, that the maneuver message of delivery `d`
+    /// (step `k`) was dropped as old by its receiver's protocol machine (its sequence filter),
+    /// the packet's beacon having been taken: not a refusal of the packet, not counted.
+    pub fn note_dropped_message(&mut self, k: u64, d: &Delivery) {
+        if let Some(s) = &mut self.screening {
+            s.refusal(k, d.receiver, &d.packet, RefusedBy::ManeuverSeq);
         }
     }
 

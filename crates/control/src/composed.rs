@@ -226,18 +226,25 @@ impl Controller for ComposedController {
             read_radars(k, &fb.radar, radar_any, radars, truths, &mut self.readings);
         }
         self.checks.begin_step();
-        for d in rx {
+        if let Some(man) = self.maneuvers.as_mut() {
+            man.begin_step();
+        }
+        for (j, d) in rx.iter().enumerate() {
             match self.maneuvers.as_mut() {
                 // Only maneuvers reach the leader: its machine reads their messages.
                 Some(man) if d.receiver.is_leader() => {
-                    man.leader_receives(k, d, states, &mut self.checks, &self.parts)
+                    man.leader_receives((k, j), d, states, &mut self.checks, &self.parts)
                 }
-                _ => self.admit(k, d, states),
+                _ => self.admit((k, j), d, states),
             }
         }
         if let Some(man) = self.maneuvers.as_mut() {
             let (followers, readings) = (&self.followers, &self.readings);
             man.step(k, states, followers, readings, &self.checks, &self.parts);
+            // The messages the machines dropped as old: recorded after the step's others.
+            for j in man.dropped_as_old() {
+                self.checks.note_dropped_message(k, &rx[j]);
+            }
         }
         let shared = Shared {
             k,
@@ -276,9 +283,10 @@ impl Controller for ComposedController {
 }
 
 impl ComposedController {
-    /// A delivery to a follower: the packet checks and detectors, then its maneuver message
-    /// to its machine and its packet to its law (refused ones are counted and go nowhere).
-    fn admit(&mut self, k: u64, d: &Delivery, states: &[State]) {
+    /// Delivery `j` of step `k` to a follower: the packet checks and detectors, then its
+    /// maneuver message to its machine and its packet to its law (refused ones are counted and
+    /// go nowhere).
+    fn admit(&mut self, (k, j): (u64, usize), d: &Delivery, states: &[State]) {
         let fb = &self.parts.fallback;
         let sensed = sensed(k, self.parts.dt, d, states, &self.readings, |j| {
             fb.length(j)
@@ -287,7 +295,7 @@ impl ComposedController {
             return;
         };
         if let (Some(m), Some(man)) = (d.packet.maneuver, self.maneuvers.as_mut()) {
-            man.machines.heard(d.receiver, m);
+            man.hand_over(j, d, m);
         }
         self.laws[fi].heard(k, slot, &d.packet);
     }

@@ -44,7 +44,7 @@ mod trigger;
 
 pub use build::{build, build_with, check_topology};
 pub use catalogue::{LawName, LawParams, PaperParams};
-pub use checks::{PacketChecks, RejectCounts, PLAUSIBLE_ACCEL};
+pub use checks::{PacketChecks, RefusedBy, RejectCounts, PLAUSIBLE_ACCEL};
 pub use composed::{Beaconing, ComposedController, Composition, Law, Periodic, Triggering, View};
 pub use fallback::{FallbackMode, FallbackParams, Mode, Role, Status, UnknownStatus};
 pub use maneuvers::{JoinSpec, LeaveSpec, ManeuverParams, MergeSpec, SplitSpec};

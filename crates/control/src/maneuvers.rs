@@ -285,6 +285,8 @@ pub(crate) struct Maneuvers {
     leader_out: VecDeque<Message>,
     roles: Vec<Role>,
     scratch: Vec<Message>,
+    /// The last step's messages the machines dropped as old: (receiver, place in its inbox).
+    dropped: Vec<(VehicleId, usize)>,
 }
 
 impl Maneuvers {
@@ -355,7 +357,15 @@ impl Maneuvers {
             leader_out: VecDeque::new(),
             roles,
             scratch: Vec::new(),
+            dropped: Vec::new(),
         }
+    }
+
+    /// The messages the machines dropped as old at the last step (their sequence filters: a
+    /// replay, a duplicate, one numbered below a message taken), as (receiver, place among the
+    /// messages [`Maneuvers::heard`] gave it that step).
+    pub(crate) fn dropped_as_old(&self) -> &[(VehicleId, usize)] {
+        &self.dropped
     }
 
     /// The message vehicle `v`'s packet carries at this step, if it has one to send.
@@ -388,7 +398,10 @@ impl Maneuvers {
         self.leader.step(k, &self.leader_in, out);
         self.leader_out.extend(out.drain(..));
         self.leader_in.clear();
-        for (role, &ready) in self.roles.iter_mut().zip(ready) {
+        self.dropped.clear();
+        let leader = self.leader.dropped_as_old().iter();
+        self.dropped.extend(leader.map(|&i| (VehicleId::LEADER, i)));
+        for (fi, (role, &ready)) in self.roles.iter_mut().zip(ready).enumerate() {
             match &mut role.machine {
                 Machine::Member {
                     member,
@@ -404,6 +417,9 @@ impl Maneuvers {
                         member.split(k, out);
                     }
                     member.step(k, &role.inbox, ready, out);
+                    let dropped = member.dropped_as_old().iter();
+                    let id = VehicleId::follower(fi + 1);
+                    self.dropped.extend(dropped.map(|&i| (id, i)));
                 }
                 Machine::Joiner {
                     joiner, at_step, ..
@@ -412,6 +428,9 @@ impl Maneuvers {
                         joiner.request(k, out);
                     }
                     joiner.step(k, &role.inbox, ready, out);
+                    let dropped = joiner.dropped_as_old().iter();
+                    let id = VehicleId::follower(fi + 1);
+                    self.dropped.extend(dropped.map(|&i| (id, i)));
                 }
             }
             role.inbox.clear();

@@ -117,6 +117,9 @@ pub struct Inspection {
     pub flagged: bool,
     /// Whether the reaction refused it (flagged, or its sender distrusted).
     pub refused: bool,
+    /// What refused it: the reaction, the leader's check, or (a record of a packet no detector
+    /// saw, [`Inspection::refused_by_checks`]) one of the packet checks; `None` if accepted.
+    pub refused_by: Option<crate::RefusedBy>,
     verdicts: [Verdict; MAX_DETECTORS],
     detectors: u8,
 }
@@ -147,9 +150,31 @@ impl Inspection {
             state,
             flagged,
             refused,
+            refused_by: refused.then_some(crate::RefusedBy::Reaction),
             verdicts: all,
             detectors: n as u8,
         }
+    }
+
+    /// This inspection refused by `by` instead (`None`: accepted, `refused` false).
+    pub fn with_refusal(mut self, by: Option<crate::RefusedBy>) -> Self {
+        use crate::RefusedBy as R;
+        self.refused = matches!(by, Some(R::Reaction | R::CheckReports));
+        self.refused_by = by;
+        self
+    }
+
+    /// A record of a packet the packet checks refused before any detector saw it: not an
+    /// inspection, no verdict, `refused` false (the reaction did not refuse it).
+    pub fn refused_by_checks(&self) -> bool {
+        self.refused_by.is_some_and(|b| b.by_checks())
+    }
+
+    /// A record that the maneuver message of a packet was dropped as old by its receiver's
+    /// protocol machine ([`crate::RefusedBy::ManeuverSeq`]): recorded after the step's other
+    /// inspections, not an inspection.
+    pub fn dropped_message(&self) -> bool {
+        self.refused_by == Some(crate::RefusedBy::ManeuverSeq)
     }
 
     /// Each detector's verdict, in the order of [`DetectionParams::specs`].
@@ -401,14 +426,40 @@ impl Screening {
         refused: bool,
     ) {
         let untested = [Verdict::NOT_TESTED; MAX_DETECTORS];
-        self.log.push(Inspection::new(
-            k,
-            receiver,
-            (packet.sender, packet.seq, packet.step, packet.state),
-            refused,
-            refused,
-            &untested[..self.names.len().min(MAX_DETECTORS)],
-        ));
+        self.log.push(
+            Inspection::new(
+                k,
+                receiver,
+                (packet.sender, packet.seq, packet.step, packet.state),
+                refused,
+                refused,
+                &untested[..self.names.len().min(MAX_DETECTORS)],
+            )
+            .with_refusal(refused.then_some(crate::RefusedBy::CheckReports)),
+        );
+    }
+
+    /// Records that the packet checks refused a packet `receiver` got at step `k` (`why`),
+    /// before any detector saw it: in the log, in delivery order, so the recorder can say
+    /// what refused each delivery; not counted in [`Screening::counts`].
+    pub(crate) fn refusal(
+        &mut self,
+        k: u64,
+        receiver: VehicleId,
+        packet: &crate::Packet,
+        why: crate::RefusedBy,
+    ) {
+        self.log.push(
+            Inspection::new(
+                k,
+                receiver,
+                (packet.sender, packet.seq, packet.step, packet.state),
+                false,
+                false,
+                &[],
+            )
+            .with_refusal(Some(why)),
+        );
     }
 
     /// Whether follower `fi` (0-based) runs its fallback at step `k` because it distrusts a

@@ -103,6 +103,42 @@ fn logging_only_changes_nothing_but_the_record() {
 }
 
 #[test]
+fn a_packet_the_checks_refuse_is_recorded_with_the_reason_and_no_verdict() {
+    use platoon_control::RefusedBy;
+    let (mut c, _) = checks(Reaction::Fallback, 50);
+    c.begin_step();
+    assert!(c
+        .admit_sensed(100, &leader(100, 0.0), sensed(100))
+        .is_some());
+    // The same packet again (a replay: the sequence filter), then one from a stranger.
+    c.begin_step();
+    assert!(c
+        .admit_sensed(101, &leader(100, 0.0), sensed(101))
+        .is_none());
+    let mut stranger = leader(101, 0.0);
+    stranger.receiver = VehicleId(2);
+    assert!(c.admit_sensed(101, &stranger, sensed(101)).is_none());
+    let i = c.inspections();
+    assert_eq!(i.len(), 2);
+    assert_eq!(i[0].refused_by, Some(RefusedBy::StaleSeq));
+    assert_eq!(i[1].refused_by, Some(RefusedBy::UnknownSender));
+    assert!(i
+        .iter()
+        .all(|i| i.refused_by_checks() && !i.refused && i.verdicts().is_empty()));
+    // Not inspections: the detectors' counts and the distrust are unchanged.
+    assert_eq!(c.screened().inspected, 1);
+    assert!(!c.distrusts(VehicleId(1), 101));
+    assert_eq!(
+        (c.rejected().stale_seq, c.rejected().unknown_sender),
+        (1, 1)
+    );
+    for r in RefusedBy::ALL {
+        assert_eq!(RefusedBy::from_code(r.code()), Some(r));
+    }
+    assert_eq!(RefusedBy::from_code(0), None);
+}
+
+#[test]
 fn without_detectors_nothing_is_inspected() {
     let topology = Topology::preset(Preset::Pf, 2).unwrap();
     let initial = vec![State::zeros(); 3];

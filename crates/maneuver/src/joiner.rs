@@ -188,6 +188,12 @@ impl Joiner {
         self.state = JoinerState::Failed(why);
     }
 
+    /// The places in the last step's inbox of the leader's messages for it that its sequence
+    /// filter dropped as old.
+    pub fn dropped_as_old(&self) -> &[usize] {
+        self.filter.dropped()
+    }
+
     /// One step: acts on `inbox` (everything received, in order); `in_position` is its
     /// controller's judgement that it holds its slot (the gap to the member ahead near the
     /// law's, the speeds matched). Appends what it sends to `out`.
@@ -198,8 +204,9 @@ impl Joiner {
         in_position: bool,
         out: &mut Vec<Message>,
     ) {
-        for m in inbox {
-            if m.sender == self.leader && m.is_for(self.me) && self.filter.fresh(m) {
+        self.filter.begin_step();
+        for (i, m) in inbox.iter().enumerate() {
+            if m.sender == self.leader && m.is_for(self.me) && self.filter.fresh_in(i, m) {
                 self.handle(step, m);
             }
         }

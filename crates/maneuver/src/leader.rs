@@ -119,12 +119,19 @@ impl Leader {
         }
     }
 
+    /// The places in the last step's inbox of the messages for it that its sequence filter
+    /// dropped as old (a replay, a duplicate, or a message numbered below one it took).
+    pub fn dropped_as_old(&self) -> &[usize] {
+        self.filter.dropped()
+    }
+
     /// One step: acts on what reached the leader (`inbox`: everything received, in order) and
     /// appends what it sends to `out`.
     pub fn step(&mut self, step: u64, inbox: &[Message], out: &mut Vec<Message>) {
         let me = self.me();
-        for m in inbox {
-            if m.is_for(me) && self.filter.fresh(m) {
+        self.filter.begin_step();
+        for (i, m) in inbox.iter().enumerate() {
+            if m.is_for(me) && self.filter.fresh_in(i, m) {
                 self.handle(step, m, out);
             }
         }

@@ -158,6 +158,12 @@ impl Member {
         self.outbox.send(out, self.me, leader, body);
     }
 
+    /// The places in the last step's inbox of the leader's messages for it that its sequence
+    /// filter dropped as old.
+    pub fn dropped_as_old(&self) -> &[usize] {
+        self.filter.dropped()
+    }
+
     /// One step: acts on `inbox` (everything received, in order); `gap_open` is its
     /// controller's judgement that the gap it opens is wide enough. Appends what it sends.
     pub fn step(&mut self, step: u64, inbox: &[Message], gap_open: bool, out: &mut Vec<Message>) {
@@ -165,12 +171,13 @@ impl Member {
         if self.opener.is_some_and(|(_, until)| step >= until) {
             self.opener = None;
         }
-        for m in inbox {
+        self.filter.begin_step();
+        for (i, m) in inbox.iter().enumerate() {
             if m.sender != leader {
                 continue;
             }
             if m.is_for(self.me) {
-                if self.filter.fresh(m) {
+                if self.filter.fresh_in(i, m) {
                     self.handle(step, m);
                 }
             } else if let Body::OpenGap { .. } = m.body {

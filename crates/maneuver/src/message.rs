@@ -239,6 +239,9 @@ pub enum Refusal {
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct SeqFilter {
     last: BTreeMap<VehicleId, u16>,
+    /// The places in the current step's inbox of the messages dropped as old
+    /// ([`SeqFilter::fresh_in`]).
+    dropped: Vec<usize>,
 }
 
 impl SeqFilter {
@@ -251,6 +254,26 @@ impl SeqFilter {
         } else {
             false
         }
+    }
+
+    /// [`SeqFilter::fresh`] for the message at place `i` of a step's inbox, remembering the
+    /// place when it is dropped as old ([`SeqFilter::dropped`]).
+    pub fn fresh_in(&mut self, i: usize, m: &Message) -> bool {
+        let fresh = self.fresh(m);
+        if !fresh {
+            self.dropped.push(i);
+        }
+        fresh
+    }
+
+    /// Starts a step: forgets the last step's dropped places.
+    pub fn begin_step(&mut self) {
+        self.dropped.clear();
+    }
+
+    /// The places in this step's inbox of the messages dropped as old, in order.
+    pub fn dropped(&self) -> &[usize] {
+        &self.dropped
     }
 }
 
@@ -296,6 +319,12 @@ mod tests {
         assert!(!f.fresh(&m(1)), "a duplicate");
         assert!(f.fresh(&m(4)));
         assert!(!f.fresh(&m(2)), "an old one after a newer");
+        // In a step's inbox, the places of those dropped are remembered until the next step.
+        f.begin_step();
+        assert!(!f.fresh_in(0, &m(3)) && f.fresh_in(1, &m(5)) && !f.fresh_in(2, &m(5)));
+        assert_eq!(f.dropped(), [0, 2]);
+        f.begin_step();
+        assert!(f.dropped().is_empty());
         let other = Message {
             sender: VehicleId(4),
             ..m(1)

@@ -9,6 +9,7 @@ use arrow_schema::SchemaRef;
 use platoon_attacks::channel::ChannelEvent;
 use platoon_config::OutputFile;
 use platoon_sim::detection::Scored;
+use platoon_sim::truth::Label;
 use platoon_sim::{Scenario, StepRow, StepWire};
 use std::path::Path;
 
@@ -143,9 +144,10 @@ struct WireRow {
     jammed: u64,
 }
 
-/// One row of detections.csv: a packet a follower's detectors inspected (or, receiver 0, a
-/// maneuver message the leader's `check_reports` tested), what it claimed, the truth, and each
-/// built-in detector's verdict (empty when that detector is off, and on the leader's rows).
+/// One row of detections.csv: a delivery the injector made (to any receiver, the leader
+/// included, accepted or refused), what it claimed, the truth, what refused it, and each
+/// built-in detector's verdict (empty when that detector is off or did not see the packet, and
+/// on the leader's rows).
 #[derive(serde::Serialize, serde::Deserialize)]
 struct DetectionRow {
     /// The step it was received (and inspected) at.
@@ -167,6 +169,16 @@ struct DetectionRow {
     true_a: Option<f64>,
     /// `platoon_sim::truth::Label`'s name: genuine, altered, lied, delayed, replayed, forged.
     label: String,
+    /// `altered`: the fields changed from the broadcast; `lied`: those false; `+`-separated
+    /// (`p`, `v`, `a`, `u`, `step`, `head`, `maneuver`), empty for the other labels.
+    fields: String,
+    /// The kind of the maneuver message it carries (`leave_notice`, ...), empty for none.
+    maneuver: String,
+    /// A detector (or, receiver 0, the leader's check of maneuver messages) tested it.
+    inspected: bool,
+    /// What refused it: a packet check (`stale_seq`, ... as in `rejected_packets`), the
+    /// detectors' `reaction` or the leader's `check_reports`; empty when accepted.
+    refused_by: Option<String>,
     /// Any detector flagged it.
     flagged: bool,
     /// The reaction refused it.
@@ -540,61 +552,10 @@ impl RunFiles {
     /// step's rows); `names` are the detectors, in the order of each packet's verdicts.
     pub fn detections(&mut self, names: &[&str], scored: &[Scored]) -> Result<()> {
         for s in scored {
-            let i = &s.inspection;
-            // The events of a follower (a packet to the leader or to no vehicle has none).
-            if (1..self.per_platoon).contains(&usize::from(i.receiver.0)) {
-                let v = usize::from(s.platoon) * self.per_platoon + usize::from(i.receiver.0);
-                if i.flagged {
-                    self.pending.push((v, Event::Flagged));
-                    if s.platoon == 0 {
-                        self.flags.push((i.receiver.0, i.k as f64 * self.dt));
-                    }
-                }
-                let key = (v, i.sender.0);
-                if i.refused && self.refusing.insert(key) {
-                    self.pending.push((v, Event::Distrust));
-                } else if !i.refused && self.refusing.remove(&key) {
-                    self.pending.push((v, Event::Trust));
-                }
+            if let Some(i) = &s.inspection {
+                self.events_of(s.platoon, i);
             }
-            // The leader's checks of maneuver messages are no detector's: their columns empty.
-            let verdict = |name: &str| {
-                names
-                    .iter()
-                    .position(|n| *n == name)
-                    .filter(|_| !i.receiver.is_leader())
-                    .and_then(|d| i.verdicts().get(d))
-            };
-            let flagged = |name: &str| verdict(name).map(|v| v.flagged);
-            // NaN: the detector had nothing to test (no radar reading, no earlier packet).
-            let score = |name: &str| verdict(name).map(|v| v.score).filter(|x| !x.is_nan());
-            let row = DetectionRow {
-                step: i.k,
-                t: i.k as f64 * self.dt,
-                platoon: s.platoon,
-                receiver: i.receiver.0,
-                sender: i.sender.0,
-                seq: i.seq,
-                sampled_step: i.step,
-                claimed_p: s.packet.state[0],
-                claimed_v: s.packet.state[1],
-                claimed_a: s.packet.state[2],
-                true_p: s.truth.map(|x| x[0]),
-                true_v: s.truth.map(|x| x[1]),
-                true_a: s.truth.map(|x| x[2]),
-                label: s.label.name().to_string(),
-                flagged: i.flagged,
-                refused: i.refused,
-                plausibility_flagged: flagged("plausibility"),
-                plausibility_score: score("plausibility"),
-                radar_cross_flagged: flagged("radar_cross"),
-                radar_cross_score: score("radar_cross"),
-                residual_flagged: flagged("residual"),
-                residual_score: score("residual"),
-                radar_target: None,
-                radar_gap_m: None,
-                radar_closing_mps: None,
-            };
+            let row = detection_row(names, s, self.dt);
             if self.radar {
                 // Written with the step's rows, which say what the radars saw.
                 self.waiting.push(row);
@@ -603,6 +564,27 @@ impl RunFiles {
             }
         }
         Ok(())
+    }
+
+    /// The events of a follower's inspection (a packet to the leader or to no vehicle has
+    /// none): a flag, and a reaction that begins or ends refusing a sender.
+    fn events_of(&mut self, platoon: u16, i: &platoon_control::Inspection) {
+        if !(1..self.per_platoon).contains(&usize::from(i.receiver.0)) {
+            return;
+        }
+        let v = usize::from(platoon) * self.per_platoon + usize::from(i.receiver.0);
+        if i.flagged {
+            self.pending.push((v, Event::Flagged));
+            if platoon == 0 {
+                self.flags.push((i.receiver.0, i.k as f64 * self.dt));
+            }
+        }
+        let key = (v, i.sender.0);
+        if i.refused && self.refusing.insert(key) {
+            self.pending.push((v, Event::Distrust));
+        } else if !i.refused && self.refusing.remove(&key) {
+            self.pending.push((v, Event::Trust));
+        }
     }
 
     /// After the last step.
@@ -622,6 +604,59 @@ impl RunFiles {
             t.finish()?;
         }
         Ok(())
+    }
+}
+
+/// The dataset's row of one delivery (`names`: the detectors, in the order of each
+/// inspection's verdicts; `dt` the step).
+fn detection_row(names: &[&str], s: &Scored, dt: f64) -> DetectionRow {
+    let i = s.inspection.as_ref();
+    // The leader's checks of maneuver messages are no detector's: their columns empty.
+    let verdict = |name: &str| {
+        let i = i.filter(|i| !i.receiver.is_leader())?;
+        let d = names.iter().position(|n| *n == name)?;
+        i.verdicts().get(d).copied()
+    };
+    let flagged = |name: &str| verdict(name).map(|v| v.flagged);
+    // NaN: the detector had nothing to test (no radar reading, no earlier packet).
+    let score = |name: &str| verdict(name).map(|v| v.score).filter(|x| !x.is_nan());
+    let p = &s.delivery.packet;
+    let fields = match s.label {
+        Label::Altered { fields } | Label::Lied { fields } => fields.names().join("+"),
+        _ => String::new(),
+    };
+    DetectionRow {
+        step: s.step,
+        t: s.step as f64 * dt,
+        platoon: s.platoon,
+        receiver: s.delivery.receiver.0,
+        sender: p.sender.0,
+        seq: p.seq,
+        sampled_step: p.step,
+        claimed_p: p.state[0],
+        claimed_v: p.state[1],
+        claimed_a: p.state[2],
+        true_p: s.truth.map(|x| x[0]),
+        true_v: s.truth.map(|x| x[1]),
+        true_a: s.truth.map(|x| x[2]),
+        label: s.label.name().to_string(),
+        fields,
+        maneuver: p
+            .maneuver
+            .map_or_else(String::new, |m| m.body.kind().name().to_string()),
+        inspected: i.is_some(),
+        refused_by: s.refused_by.map(|r| r.name().to_string()),
+        flagged: i.is_some_and(|i| i.flagged),
+        refused: i.is_some_and(|i| i.refused),
+        plausibility_flagged: flagged("plausibility"),
+        plausibility_score: score("plausibility"),
+        radar_cross_flagged: flagged("radar_cross"),
+        radar_cross_score: score("radar_cross"),
+        residual_flagged: flagged("residual"),
+        residual_score: score("residual"),
+        radar_target: None,
+        radar_gap_m: None,
+        radar_closing_mps: None,
     }
 }
 

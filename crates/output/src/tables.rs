@@ -50,7 +50,9 @@ impl Format {
 
 enum Sink<T> {
     Off,
-    Csv(Box<csv::Writer<BufWriter<File>>>),
+    /// The writer, and the header to write should no row come (`None` once one came: serde
+    /// wrote the header with it).
+    Csv(Box<csv::Writer<BufWriter<File>>>, Option<Vec<String>>),
     /// Rows buffered into record batches of [`BATCH`], each written to `out` when full.
     Batches {
         fields: Vec<FieldRef>,
@@ -107,7 +109,14 @@ impl<T: Serialize + DeserializeOwned> Table<T> {
         let sink = match (enabled, format) {
             (false, _) => Sink::Off,
             (true, Format::Csv) => {
-                Sink::Csv(Box::new(csv::Writer::from_writer(dir.writer(&name)?)))
+                let header = fields_without::<T>(absent)?
+                    .iter()
+                    .map(|f| f.name().clone())
+                    .collect();
+                Sink::Csv(
+                    Box::new(csv::Writer::from_writer(dir.writer(&name)?)),
+                    Some(header),
+                )
             }
             (true, Format::Parquet) => {
                 let fields = fields_without::<T>(absent)?;
@@ -177,9 +186,12 @@ impl<T: Serialize + DeserializeOwned> Table<T> {
     pub fn write(&mut self, row: T) -> Result<()> {
         match &mut self.sink {
             Sink::Off => Ok(()),
-            Sink::Csv(w) => w
-                .serialize(row)
-                .map_err(|e| OutputError::table(&self.name, format!("writing {}", self.name), e)),
+            Sink::Csv(w, header) => {
+                *header = None;
+                w.serialize(row).map_err(|e| {
+                    OutputError::table(&self.name, format!("writing {}", self.name), e)
+                })
+            }
             Sink::Batches { rows, .. } => {
                 rows.push(row);
                 if rows.len() >= BATCH {
@@ -220,9 +232,17 @@ impl<T: Serialize + DeserializeOwned> Table<T> {
         }
         match std::mem::replace(&mut self.sink, Sink::Off) {
             Sink::Off => Ok(()),
-            Sink::Csv(mut w) => w
-                .flush()
-                .map_err(|e| OutputError::table(&self.name, format!("writing {}", self.name), e)),
+            Sink::Csv(mut w, header) => {
+                // A table without rows still has its header.
+                if let Some(header) = header {
+                    w.write_record(&header).map_err(|e| {
+                        OutputError::table(&self.name, format!("writing {}", self.name), e)
+                    })?;
+                }
+                w.flush().map_err(|e| {
+                    OutputError::table(&self.name, format!("writing {}", self.name), e)
+                })
+            }
             Sink::Batches { out, .. } => match out {
                 BatchOut::Parquet(writer) => writer.close().map(|_| ()).map_err(|e| {
                     OutputError::table(&self.name, format!("closing {}", self.name), e)
@@ -361,6 +381,34 @@ mod tests {
             let rows: Vec<StepRow> = rows.iter().map(|r| r.with_radar_columns(radar)).collect();
             the_same_in_both_formats(&rows, radar);
         }
+    }
+
+    #[test]
+    fn a_csv_without_rows_has_its_header_and_reads_back_empty() {
+        let tmp = tempfile::tempdir().unwrap();
+        let dir = RunDir::create(&tmp.path().join("r"), false).unwrap();
+        let absent = [StepRow::HEAD_COLUMN];
+        let mut t =
+            Table::<StepRow>::create_without(&dir, "empty", Format::Csv, true, &absent).unwrap();
+        t.finish().unwrap();
+        let text = std::fs::read_to_string(dir.path("empty.csv")).unwrap();
+        let columns: Vec<String> = fields::<StepRow>()
+            .unwrap()
+            .iter()
+            .map(|f| f.name().clone())
+            .filter(|f| !absent.contains(&f.as_str()))
+            .collect();
+        assert_eq!(text, format!("{}\n", columns.join(",")));
+        let (_, batches) = read_batches::<StepRow>(&dir.path("empty.csv"), &[]).unwrap();
+        assert!(batches.is_empty());
+        // The injector node writes the channel log's header itself: the same columns.
+        use platoon_attacks::channel::ChannelEvent;
+        let names: Vec<String> = fields::<ChannelEvent>()
+            .unwrap()
+            .iter()
+            .map(|f| f.name().clone())
+            .collect();
+        assert_eq!(names, ChannelEvent::COLUMNS);
     }
 
     fn the_same_in_both_formats(rows: &[StepRow], radar: bool) {

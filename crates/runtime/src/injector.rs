@@ -290,9 +290,19 @@ impl Platoons {
     ) -> Result<Self, CosimError> {
         let num = Numbering::of(scenario);
         let writer = match log {
-            Some(p) => Some(csv::Writer::from_path(p).map_err(|e| {
-                contract(Node::Injector, format!("cannot write {}: {e}", p.display()))
-            })?),
+            // The header first, so that a log without rows has it too.
+            Some(p) => Some(
+                csv::WriterBuilder::new()
+                    .has_headers(false)
+                    .from_path(p)
+                    .and_then(|mut w| {
+                        w.write_record(ChannelEvent::COLUMNS)?;
+                        Ok(w)
+                    })
+                    .map_err(|e| {
+                        contract(Node::Injector, format!("cannot write {}: {e}", p.display()))
+                    })?,
+            ),
             None => None,
         };
         Ok(Self {

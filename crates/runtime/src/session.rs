@@ -302,6 +302,7 @@ pub fn inspection_to_wire(
         }
     };
     let mut flags = u32::from(i.flagged) * W::FLAGGED + u32::from(i.refused) * W::REFUSED;
+    flags |= u32::from(i.refused_by.map_or(0, |r| r.code())) << W::REFUSED_BY_SHIFT;
     let mut scores = [f64::NAN; 8];
     for (d, (v, score)) in i.verdicts().iter().zip(&mut scores).enumerate() {
         flags |= u32::from(v.flagged) << (W::DETECTOR_SHIFT + d as u32);
@@ -352,14 +353,26 @@ pub fn inspections_from_wire(
                 score: it.scores[d],
             };
         }
-        out[j].push(platoon_control::Inspection::new(
+        // What refused it, when the controller said (a plug-in may not: then only `refused`);
+        // a packet the checks refused reached no detector, and a record of a message dropped
+        // as old carries no verdict.
+        let by = platoon_control::RefusedBy::from_code(it.refused_by());
+        let tested = match by {
+            Some(b) if b.by_checks() || !b.refuses_packet() => 0,
+            _ => detectors,
+        };
+        let i = platoon_control::Inspection::new(
             k,
             receiver,
             (sender, it.seq, it.step, State::from(it.state)),
             it.flags & platoon_wire::Inspection::FLAGGED != 0,
             it.flags & platoon_wire::Inspection::REFUSED != 0,
-            &verdicts[..detectors],
-        ));
+            &verdicts[..tested],
+        );
+        out[j].push(match by {
+            Some(_) => i.with_refusal(by),
+            None => i,
+        });
     }
 }
 

@@ -107,19 +107,38 @@ pub struct DetectionSummary {
     pub maneuver_checks: Option<DetectorScore>,
 }
 
-/// One inspected packet with its ground truth: a row of the per-message dataset.
+/// One delivery with its ground truth and what became of it: a row of the per-message dataset.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Scored {
     /// The platoon.
     pub platoon: u16,
-    /// What the detectors said and what became of it.
-    pub inspection: Inspection,
-    /// The packet as delivered.
-    pub packet: Packet,
+    /// The step it was delivered at.
+    pub step: u64,
+    /// The delivery: its receiver and the packet as delivered.
+    pub delivery: Delivery,
+    /// What the detectors (or, receiver 0, the leader's check of maneuver messages) said of it
+    /// and what became of it; `None` when none of them tested it (refused by the packet
+    /// checks before them, a beacon to the leader, or a controller that did not say).
+    pub inspection: Option<Inspection>,
+    /// What refused it (`None`: accepted, or the controller did not say).
+    pub refused_by: Option<platoon_control::RefusedBy>,
     /// What truly happened to it.
     pub label: Label,
     /// The claimed sender's true state at the packet's sampling step (if known).
     pub truth: Option<State>,
+}
+
+/// Whether inspection `i` is of delivery `r`: its link, sequence number, step and claimed state.
+fn of(r: &Scored, i: &Inspection) -> bool {
+    let p = &r.delivery.packet;
+    r.delivery.receiver == i.receiver
+        && p.sender == i.sender
+        && p.seq == i.seq
+        && p.step == i.step
+        && p.state
+            .iter()
+            .zip(i.state.iter())
+            .all(|(x, y)| x.to_bits() == y.to_bits())
 }
 
 /// One detector's (or check's) figures so far: its confusion, per label, and the step of its
@@ -201,57 +220,76 @@ impl DetectionRecorder {
         self.labeler
             .label(k, states, links, deliveries, &mut self.labelled);
         self.scored.clear();
-        // Inspections come in delivery order (the controllers admit deliveries in order, some
-        // refused by the checks before any detector): each is the next delivery of its link,
-        // sequence number, step and claimed state.
+        self.scored.extend(self.labelled.iter().map(|l| Scored {
+            platoon: self.platoon,
+            step: l.step,
+            delivery: l.delivery,
+            inspection: None,
+            refused_by: None,
+            label: l.label,
+            truth: l.truth,
+        }));
+        // Inspections come in delivery order (the controllers admit deliveries in order): each
+        // is the next delivery of its link, sequence number, step and claimed state.
         let mut next = 0;
         for i in inspections {
-            let found = self.labelled[next..].iter().position(|l| {
-                l.delivery.receiver == i.receiver
-                    && l.delivery.packet.sender == i.sender
-                    && l.delivery.packet.seq == i.seq
-                    && l.delivery.packet.step == i.step
-                    && l.delivery.packet.state == i.state
-            });
+            if i.dropped_message() {
+                // A message a machine dropped as old, recorded after the step's others: the
+                // last taken delivery that carried it (an identical earlier copy was taken).
+                let row = self.scored.iter_mut().rev().find(|r| {
+                    r.refused_by.is_none() && r.delivery.packet.maneuver.is_some() && of(r, i)
+                });
+                if let Some(row) = row {
+                    row.refused_by = i.refused_by;
+                }
+                continue;
+            }
+            let found = self.scored[next..].iter().position(|r| of(r, i));
             // One that matches no delivery (a plug-in's, out of order or made up) is not
             // counted: the figures are of packets that were delivered.
             let Some(j) = found.map(|j| next + j) else {
                 continue;
             };
             next = j + 1;
-            let l = self.labelled[j];
-            let (bad, label) = (l.label.is_misbehaviour(), l.label.name());
-            if i.receiver.is_leader() {
-                // The leader's checks of maneuver messages: scored apart.
-                if bad && self.leader_first_bad.is_none() {
-                    self.leader_first_bad = Some(k);
-                }
-                let leader = self.leader.get_or_insert_with(Default::default);
-                leader.add(k, label, bad, i.flagged);
-            } else {
-                self.counts.inspected += 1;
-                self.counts.flagged += u64::from(i.flagged);
-                self.counts.refused += u64::from(i.refused);
-                if bad && self.first_bad.is_none() {
-                    self.first_bad = Some(k);
-                }
-                *self.labels.entry(label).or_default() += 1;
-                for (t, v) in self.per.iter_mut().zip(i.verdicts()) {
-                    t.add(k, label, bad, v.flagged);
-                }
-                self.any.add(k, label, bad, i.flagged);
+            let row = &mut self.scored[j];
+            row.refused_by = i.refused_by;
+            if i.refused_by_checks() {
+                // Refused before any detector: no inspection to score.
+                continue;
             }
-            self.scored.push(Scored {
-                platoon: self.platoon,
-                inspection: *i,
-                packet: l.delivery.packet,
-                label: l.label,
-                truth: l.truth,
-            });
+            row.inspection = Some(*i);
+            let label = row.label;
+            self.score(k, i, label);
         }
     }
 
-    /// The packets scored at the last [`DetectionRecorder::record`].
+    /// Scores one inspection of a delivery labelled `label` at step `k`.
+    fn score(&mut self, k: u64, i: &Inspection, label: Label) {
+        let (bad, label) = (label.is_misbehaviour(), label.name());
+        if i.receiver.is_leader() {
+            // The leader's checks of maneuver messages: scored apart.
+            if bad && self.leader_first_bad.is_none() {
+                self.leader_first_bad = Some(k);
+            }
+            let leader = self.leader.get_or_insert_with(Default::default);
+            leader.add(k, label, bad, i.flagged);
+        } else {
+            self.counts.inspected += 1;
+            self.counts.flagged += u64::from(i.flagged);
+            self.counts.refused += u64::from(i.refused);
+            if bad && self.first_bad.is_none() {
+                self.first_bad = Some(k);
+            }
+            *self.labels.entry(label).or_default() += 1;
+            for (t, v) in self.per.iter_mut().zip(i.verdicts()) {
+                t.add(k, label, bad, v.flagged);
+            }
+            self.any.add(k, label, bad, i.flagged);
+        }
+    }
+
+    /// Every delivery of the last [`DetectionRecorder::record`], in delivery order, with what
+    /// the controller said of it.
     pub fn scored(&self) -> &[Scored] {
         &self.scored
     }

@@ -12,7 +12,8 @@ pub struct WireCounts {
     pub sent: u64,
     /// Delivered exactly as sent, in the step they were sent.
     pub delivered_as_sent: u64,
-    /// Delivered in the step they were sent, with their state or sampling step changed.
+    /// Delivered in the step they were sent with a field changed: the state, the command `u`,
+    /// the sampling step, the head or the maneuver message.
     pub altered: u64,
     /// Sent and not delivered in that step (dropped, or delayed to a later step).
     pub dropped: u64,
@@ -79,12 +80,8 @@ impl WireCounter {
             match found {
                 Some((_, p, used)) => {
                     *used = true;
-                    let same = p.step == d.packet.step
-                        && p.state
-                            .iter()
-                            .zip(d.packet.state.iter())
-                            .all(|(a, b)| a.to_bits() == b.to_bits());
-                    if same {
+                    // Every field counts: state, `u`, sampling step, head, maneuver message.
+                    if crate::truth::Fields::of_packets(p, &d.packet).is_empty() {
                         counts.delivered_as_sent += 1;
                     } else {
                         counts.altered += 1;
@@ -162,5 +159,33 @@ mod tests {
         );
         assert_eq!(outside.injected, 1);
         assert!(!per[0].is_eventful() && per[2].is_eventful());
+    }
+
+    #[test]
+    fn a_rewritten_maneuver_message_or_head_counts_as_altered() {
+        let sent = pk(0, 4, 10.0);
+        let mut maneuver = sent;
+        maneuver.maneuver = Some(platoon_maneuver::Message {
+            sender: VehicleId(0),
+            to: VehicleId(1),
+            seq: 1,
+            body: platoon_maneuver::Body::LeaveNotice,
+        });
+        let mut head = sent;
+        head.head = VehicleId(1);
+        for altered in [maneuver, head] {
+            let mut per = vec![WireCounts::default(); 2];
+            WireCounter::default().count(
+                [(VehicleId(1), sent)].into_iter(),
+                &[Delivery {
+                    receiver: VehicleId(1),
+                    packet: altered,
+                }],
+                &[false, false],
+                &mut per,
+                &mut WireCounts::default(),
+            );
+            assert_eq!((per[1].altered, per[1].delivered_as_sent), (1, 0));
+        }
     }
 }

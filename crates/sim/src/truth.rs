@@ -10,7 +10,7 @@
 //! |---|---|
 //! | [`Label::Forged`] | no packet with that (sender, seq) was broadcast (within the horizon) |
 //! | [`Label::Altered`] | its state (or `u`, or sampling step, or the head it announces, or the maneuver message it carries) differs from the broadcast one, bit for bit |
-//! | [`Label::Replayed`] | this receiver already got that (sender, seq) |
+//! | [`Label::Replayed`] | this receiver already got an identical copy (same (sender, seq), same content) |
 //! | [`Label::Delayed`] | broadcast at an earlier step (its first delivery to this receiver) |
 //! | [`Label::Lied`] | as broadcast, but the broadcast state is not the sender's true state at its sampling step |
 //! | [`Label::Genuine`] | as broadcast, in its step, and true |
@@ -21,6 +21,11 @@
 //! copy of a packet alike, as if its sender had lied, but they act after the broadcast, so they
 //! are labelled `Altered`: nothing on the wire can tell a sender's lie told by the channel from
 //! a channel's alteration of every copy, and the labels say where the change happened.
+//!
+//! Labels come from the content, never from the sequence number alone: a forger that uses a
+//! sender's next sequence number before the sender does delivers a packet no broadcast backs
+//! (`Forged`); the sender's own packet with that number, broadcast later, is still `Genuine` to a
+//! receiver that got the forgery first, since the receiver never got a copy of *it*.
 //!
 //! `Replayed` and `Delayed` are about the receiver: an old packet it never got is `Delayed`,
 //! so a replay attack that replaces every packet of a sender by an older one is, after its first
@@ -84,6 +89,26 @@ impl Fields {
             f.0 |= Self::MANEUVER.0;
         }
         f
+    }
+
+    /// Each field with its name in files, in bit order.
+    pub const NAMED: [(Fields, &'static str); 7] = [
+        (Self::P, "p"),
+        (Self::V, "v"),
+        (Self::A, "a"),
+        (Self::U, "u"),
+        (Self::STEP, "step"),
+        (Self::HEAD, "head"),
+        (Self::MANEUVER, "maneuver"),
+    ];
+
+    /// The names of the fields it holds, in bit order (`["p", "maneuver"]`).
+    pub fn names(self) -> Vec<&'static str> {
+        Self::NAMED
+            .iter()
+            .filter(|(f, _)| self.contains(*f))
+            .map(|&(_, n)| n)
+            .collect()
     }
 
     /// Nothing differs.
@@ -222,8 +247,9 @@ pub struct TruthLabeler {
     /// Broadcasts by (sender, seq); `sent_order` lists their keys by step, to forget them.
     sent: HashMap<(u16, u32), Sent>,
     sent_order: VecDeque<(u64, (u16, u32))>,
-    /// Deliveries by (receiver, sender, seq): the step of the first; `got_order` as above.
-    got: HashMap<(u16, u16, u32), u64>,
+    /// Deliveries by (receiver, sender, seq): the contents delivered under that key (a forger
+    /// may have used the key first with other content); `got_order` as above.
+    got: HashMap<(u16, u16, u32), Vec<Packet>>,
     got_order: VecDeque<(u64, (u16, u16, u32))>,
     totals: LabelCounts,
 }
@@ -280,32 +306,19 @@ impl TruthLabeler {
             }
         }
         for d in deliveries {
+            let label = self.label_one(k, d);
             let p = &d.packet;
-            let label = match self.sent.get(&(p.sender.0, p.seq)) {
-                None => Label::Forged,
-                Some(sent) => {
-                    let changed = Fields::of_packets(&sent.packet, p);
-                    let first = self.got.get(&(d.receiver.0, p.sender.0, p.seq));
-                    if !changed.is_empty() {
-                        Label::Altered { fields: changed }
-                    } else if first.is_some() {
-                        Label::Replayed
-                    } else if sent.step < k {
-                        Label::Delayed
-                    } else {
-                        match self.truth(p.sender, p.step) {
-                            Some(x) if !Fields::of_states(&x, &p.state).is_empty() => Label::Lied {
-                                fields: Fields::of_states(&x, &p.state),
-                            },
-                            _ => Label::Genuine,
-                        }
+            let got = (d.receiver.0, p.sender.0, p.seq);
+            match self.got.entry(got) {
+                Entry::Vacant(e) => {
+                    e.insert(vec![*p]);
+                    self.got_order.push_back((k, got));
+                }
+                Entry::Occupied(mut e) => {
+                    if !e.get().iter().any(|q| Fields::of_packets(q, p).is_empty()) {
+                        e.get_mut().push(*p);
                     }
                 }
-            };
-            let got = (d.receiver.0, p.sender.0, p.seq);
-            if let Entry::Vacant(e) = self.got.entry(got) {
-                e.insert(k);
-                self.got_order.push_back((k, got));
             }
             self.totals.count(&label);
             out.push(Labelled {
@@ -314,6 +327,37 @@ impl TruthLabeler {
                 label,
                 truth: self.truth(p.sender, p.step),
             });
+        }
+    }
+
+    /// The label of delivery `d` at step `k`, by the table of the [module](self), before it is
+    /// remembered as got.
+    fn label_one(&self, k: u64, d: &Delivery) -> Label {
+        let p = &d.packet;
+        let Some(sent) = self.sent.get(&(p.sender.0, p.seq)) else {
+            return Label::Forged;
+        };
+        let changed = Fields::of_packets(&sent.packet, p);
+        if !changed.is_empty() {
+            return Label::Altered { fields: changed };
+        }
+        // Replayed: this receiver already got this very content (not merely a packet that
+        // used the same sequence number, which a forger may have done first).
+        let again = self
+            .got
+            .get(&(d.receiver.0, p.sender.0, p.seq))
+            .is_some_and(|copies| copies.iter().any(|q| Fields::of_packets(q, p).is_empty()));
+        if again {
+            Label::Replayed
+        } else if sent.step < k {
+            Label::Delayed
+        } else {
+            match self.truth(p.sender, p.step) {
+                Some(x) if !Fields::of_states(&x, &p.state).is_empty() => Label::Lied {
+                    fields: Fields::of_states(&x, &p.state),
+                },
+                _ => Label::Genuine,
+            }
         }
     }
 
@@ -445,6 +489,46 @@ mod tests {
             (1, 1, 1, 1, 1, 2)
         );
         assert_eq!(t.total(), 7);
+    }
+
+    #[test]
+    fn a_forger_using_the_next_sequence_number_first_leaves_the_genuine_packet_genuine() {
+        let mut sut = TruthLabeler::new(100);
+        let genuine0 = pk(1, 1, 0, 90.0);
+        assert_eq!(
+            step(&mut sut, 0, &[(2, genuine0)], &[to(2, genuine0)]),
+            [Label::Genuine]
+        );
+        // A forger delivers seq 2 in follower 1's name before follower 1 sends it, twice.
+        let mut forged = pk(1, 2, 1, 90.0);
+        forged.maneuver = Some(platoon_maneuver::Message {
+            sender: VehicleId(1),
+            to: VehicleId(0),
+            seq: 9,
+            body: platoon_maneuver::Body::LeaveNotice,
+        });
+        assert_eq!(
+            step(&mut sut, 1, &[], &[to(2, forged), to(2, forged)]),
+            [Label::Forged, Label::Forged]
+        );
+        // Follower 1's own seq 2, a step later: genuine to the receiver that got the forgery,
+        // and a copy of it again is a replay; the forgery again is still forged.
+        let genuine2 = pk(1, 2, 2, 90.0);
+        assert_eq!(
+            step(
+                &mut sut,
+                2,
+                &[(2, genuine2)],
+                &[to(2, genuine2), to(2, genuine2), to(2, forged)]
+            ),
+            [
+                Label::Genuine,
+                Label::Replayed,
+                Label::Altered {
+                    fields: Fields(Fields::STEP.0 | Fields::MANEUVER.0)
+                }
+            ]
+        );
     }
 
     #[test]

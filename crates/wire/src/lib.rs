@@ -22,6 +22,9 @@ use iceoryx2::prelude::ZeroCopySend;
 ///   v2: the optional [`Service::Traffic`] of [`TrafficVehicle`]s (a new service; no payload
 ///   of v2 changed, and a plug-in that does not open it is unaffected). Later, still v2: the
 ///   optional [`Service::Inspections`] of [`Inspection`]s (the same way: a new service).
+///   Later, still v4: [`Inspection::flags`] bits 2-5 say what refused the packet, and an
+///   inspection may record a packet the packet checks refused before any detector (bits that
+///   were 0, and every reader tests bits).
 ///   Later, still v2: [`VehicleState::flags`] bits 8-31 name an intruder
 ///   ([`VehicleState::TARGET_SHIFT`]; bits that were 0, and every reader tests bits).
 /// - v3: [`V2vPacket`] gained `head`, the head of the platoon the sender drives in (a platoon
@@ -363,7 +366,12 @@ pub struct Inspection {
     /// Its sequence number.
     pub seq: u32,
     /// Bit 0 ([`Inspection::FLAGGED`]): a detector flagged it; bit 1
-    /// ([`Inspection::REFUSED`]): the reaction refused it; bit `8 + d`
+    /// ([`Inspection::REFUSED`]): the reaction refused it; bits 2-5
+    /// ([`Inspection::REFUSED_BY_SHIFT`], [`Inspection::REFUSED_BY_MASK`]): what refused it, a
+    /// `platoon_control::RefusedBy` code (0: accepted, or not said; 1-6 the packet checks'
+    /// reasons, in the order of `ControlMsg::counts`, for a packet no detector saw; 7 the
+    /// reaction; 8 the leader's check of maneuver messages; 9 the receiver's maneuver machine
+    /// dropped the message the packet carried as old, after the step's other items); bit `8 + d`
     /// ([`Inspection::DETECTOR_SHIFT`]): detector d (the run's `[detection]` order: built-in
     /// ones, then `plugin`) flagged it.
     pub flags: u32,
@@ -383,6 +391,16 @@ impl Inspection {
     pub const REFUSED: u32 = 2;
     /// `flags` bit of detector d's flag: `1 << (DETECTOR_SHIFT + d)`.
     pub const DETECTOR_SHIFT: u32 = 8;
+    /// The first of `flags`' bits that say what refused the packet.
+    pub const REFUSED_BY_SHIFT: u32 = 2;
+    /// `flags`' bits that say what refused the packet (a code 0-15 at
+    /// [`Inspection::REFUSED_BY_SHIFT`]).
+    pub const REFUSED_BY_MASK: u32 = 0xF << Self::REFUSED_BY_SHIFT;
+
+    /// The code of what refused the packet (0: accepted, or not said).
+    pub fn refused_by(&self) -> u8 {
+        ((self.flags & Self::REFUSED_BY_MASK) >> Self::REFUSED_BY_SHIFT) as u8
+    }
 
     /// Whether detector `d` flagged the packet.
     pub fn flagged_by(&self, d: usize) -> bool {

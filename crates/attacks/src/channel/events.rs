@@ -56,6 +56,13 @@ pub struct ChannelEvent {
     pub detail: Option<u64>,
 }
 
+impl ChannelEvent {
+    /// The columns of the log, in the order of the fields (a CSV's header).
+    pub const COLUMNS: [&'static str; 7] = [
+        "step", "platoon", "sender", "receiver", "seq", "action", "detail",
+    ];
+}
+
 pub(super) fn event(
     (step, platoon): (u64, u16),
     p: &Packet,

@@ -19,6 +19,9 @@ pub(super) struct ManeuverStage {
     in_position: Vec<bool>,
     /// The last state the leader heard from each vehicle (step, state).
     leader_heard: Vec<Option<(u64, State)>>,
+    /// This step's deliveries whose message went to a machine, in order: (receiver, the
+    /// delivery's place in the step's rx), to name those the machines dropped as old.
+    carried: Vec<(platoon_model::VehicleId, usize)>,
 }
 
 impl ManeuverStage {
@@ -27,7 +30,31 @@ impl ManeuverStage {
             machines: Maneuvers::new(params, followers),
             in_position: vec![false; followers],
             leader_heard: vec![None; followers + 1],
+            carried: Vec::new(),
         }
+    }
+
+    /// Gives receiver `d.receiver` the message `m` of the step's delivery `j`.
+    pub(super) fn hand_over(&mut self, j: usize, d: &Delivery, m: Message) {
+        self.machines.heard(d.receiver, m);
+        self.carried.push((d.receiver, j));
+    }
+
+    /// After [`ManeuverStage::step`]: the places in the step's rx of the deliveries whose
+    /// message a machine dropped as old (its sequence filter).
+    pub(super) fn dropped_as_old(&self) -> impl Iterator<Item = usize> + '_ {
+        self.machines.dropped_as_old().iter().filter_map(|&(r, i)| {
+            self.carried
+                .iter()
+                .filter(|(to, _)| *to == r)
+                .nth(i)
+                .map(|&(_, j)| j)
+        })
+    }
+
+    /// Starts a step's deliveries.
+    pub(super) fn begin_step(&mut self) {
+        self.carried.clear();
     }
 
     /// A delivery to the leader at step `k`: only maneuver messages reach it; with
@@ -36,7 +63,7 @@ impl ManeuverStage {
     /// refusals and noted as inspections), and hands the rest to its machine.
     pub(super) fn leader_receives(
         &mut self,
-        k: u64,
+        (k, j): (u64, usize),
         d: &Delivery,
         states: &[State],
         checks: &mut PacketChecks,
@@ -69,7 +96,7 @@ impl ManeuverStage {
         } else if implausible {
             checks.refuse_implausible_state();
         } else {
-            self.machines.heard(d.receiver, m);
+            self.hand_over(j, d, m);
         }
     }
 
