@@ -1906,7 +1906,7 @@ fn leaves_on_sumo_change_lanes_and_agree_with_the_native_plant() {
 
 /// The cut-in of `configs/cut-in.toml` on SUMO for every law of the controller seam (each on
 /// the platoon's 15.5 m standstill gap, the laws that need the leader on `plf` with the guard,
-/// those that read the leader's packets splitting the platoon behind the car, as
+/// those that steer on the leader splitting the platoon behind the car, as
 /// `tests/traffic.rs` runs them in process): follower 3's radar (SUMO's getLeader) sees the
 /// car at the step it enters, the follower switches to ACC on it at that step (a law on the
 /// radar alone, Plexe's ACC, follows whoever is ahead and has nothing to switch), opens the gap
@@ -1946,7 +1946,7 @@ fn every_law_handles_a_cut_in_on_sumo() {
             .iter()
             .filter_map(|e| e.split(' ').nth(2).filter(|e| *e != "switch"))
             .collect();
-        if law == "path_cacc" || law == "flatbed" {
+        if ["path_cacc", "flatbed", "consensus"].contains(&law) {
             assert_eq!(formation, ["split", "merged"], "{law}: {behind:?}");
             assert!(
                 behind.iter().all(|e| e.starts_with("4 ")),

@@ -274,10 +274,13 @@ impl LawParams {
 
     /// Whether a platoon split behind a cut-in (`[fallback.cut_in] split`) re-points a
     /// follower to the member heading its part: the PATH CACC and the flatbed controller read
-    /// its packets as their leader's ([`View::leader`]); the paper's law couples the followers
-    /// of that part only, the head in the leader's place ([`View::part`]).
+    /// its packets as their leader's ([`View::leader`]); the paper's law and the consensus law
+    /// couple the followers of that part only, the head in the leader's place ([`View::part`]).
     pub fn follows_head(&self) -> bool {
-        matches!(self, Self::Paper(_) | Self::PathCacc(_) | Self::Flatbed(_))
+        matches!(
+            self,
+            Self::Paper(_) | Self::PathCacc(_) | Self::Flatbed(_) | Self::Consensus(_)
+        )
     }
 
     /// Which vehicles a follower of this law must hear from (besides nobody for the ACC):
@@ -383,38 +386,103 @@ struct Consensus {
     scratch: Vec<ConsensusVehicle>,
 }
 
+impl Consensus {
+    /// Vehicle `j` as follower `view.id` knows it, predicted with its speed to the end of the
+    /// step (the own one by dt) from its packet `heard`; one it does not hear from has no
+    /// weight (a_ij = 0 for it is checked with the config), so its entry only has to be finite.
+    fn vehicle(
+        &self,
+        view: &View<'_>,
+        j: VehicleId,
+        heard: Option<&crate::checks::Heard>,
+    ) -> ConsensusVehicle {
+        let end = (view.k + 1) as f64 * view.dt;
+        let (position, speed) = if j == view.id {
+            (view.own[0] + view.own[1] * view.dt, view.own[1])
+        } else {
+            match heard {
+                Some(h) => {
+                    let sampled = h.step.unwrap_or(0) as f64 * view.dt;
+                    (h.state[0] + h.state[1] * (end - sampled), h.state[1])
+                }
+                None => (view.own[0], view.own[1]),
+            }
+        };
+        ConsensusVehicle {
+            position,
+            speed,
+            length: self.vehicle_length,
+        }
+    }
+
+    /// The command while a member ahead heads `part` (road order, the head first, this
+    /// follower in it): the consensus of the part alone, the head in the leader's place. Each
+    /// member keeps its own gains, headway and speed gain; its links to the leader and to the
+    /// head both become its link to the part's head (the leader's gain where it heard the
+    /// leader), and it ignores every vehicle ahead of the head.
+    fn of_part(&mut self, view: &View<'_>, part: &[VehicleId], head: &crate::checks::Heard) -> f64 {
+        let p = &self.params;
+        let index = |v: VehicleId| v.index();
+        let row = |a: VehicleId| -> (Vec<f64>, Vec<f64>) {
+            let (i, h) = (index(a), index(part[0]));
+            let leader = p.adjacency[i][0] > 0.0;
+            let (to_head, gain_head) = if leader {
+                (p.adjacency[i][0], p.gains[i][0])
+            } else {
+                (p.adjacency[i][h], p.gains[i][h])
+            };
+            let mut adjacency = vec![to_head];
+            let mut gains = vec![gain_head];
+            for &b in &part[1..] {
+                adjacency.push(p.adjacency[i][index(b)]);
+                gains.push(p.gains[i][index(b)]);
+            }
+            (adjacency, gains)
+        };
+        let (mut adjacency, mut gains) = (Vec::new(), Vec::new());
+        for (q, &a) in part.iter().enumerate() {
+            // The head's own row is never read (it runs its ACC, not this law).
+            let (r, g) = if q == 0 {
+                (vec![0.0; part.len()], vec![0.0; part.len()])
+            } else {
+                row(a)
+            };
+            adjacency.push(r);
+            gains.push(g);
+        }
+        let sub = ConsensusParams {
+            gains,
+            adjacency,
+            speed_gains: part.iter().map(|&v| p.speed_gains[index(v)]).collect(),
+            headways_s: part.iter().map(|&v| p.headways_s[index(v)]).collect(),
+            standstill_m: p.standstill_m,
+            scale: p.scale,
+        };
+        let vehicles: Vec<ConsensusVehicle> = part
+            .iter()
+            .enumerate()
+            .map(|(q, &v)| {
+                let heard = if q == 0 { Some(head) } else { view.from(v) };
+                self.vehicle(view, v, heard)
+            })
+            .collect();
+        let i = part.iter().position(|&v| v == view.id).unwrap_or(1);
+        consensus(&sub, i, &vehicles)
+    }
+}
+
 impl Law for Consensus {
     fn command(&mut self, view: &View<'_>) -> f64 {
-        // Every vehicle, predicted with its speed to the end of the step (the own one by dt);
-        // those it does not hear from have no weight (a_ij = 0 for them is checked with the
-        // config), so their entry only has to be finite.
+        if let (Some((_, head)), Some(part)) = (view.head, view.part) {
+            if part.len() >= 2 && part.contains(&view.id) && part[0] != view.id {
+                return self.of_part(view, part, head);
+            }
+        }
         let i = view.id.index();
-        let end = (view.k + 1) as f64 * view.dt;
         self.scratch.clear();
         for j in 0..view.vehicles {
-            let vehicle = if j == i {
-                ConsensusVehicle {
-                    position: view.own[0] + view.own[1] * view.dt,
-                    speed: view.own[1],
-                    length: self.vehicle_length,
-                }
-            } else {
-                match view.from(VehicleId(j as u16)) {
-                    Some(h) => {
-                        let sampled = h.step.unwrap_or(0) as f64 * view.dt;
-                        ConsensusVehicle {
-                            position: h.state[0] + h.state[1] * (end - sampled),
-                            speed: h.state[1],
-                            length: self.vehicle_length,
-                        }
-                    }
-                    None => ConsensusVehicle {
-                        position: view.own[0],
-                        speed: view.own[1],
-                        length: self.vehicle_length,
-                    },
-                }
-            };
+            let v = VehicleId(j as u16);
+            let vehicle = self.vehicle(view, v, view.from(v));
             self.scratch.push(vehicle);
         }
         consensus(&self.params, i, &self.scratch)

@@ -76,9 +76,9 @@ pub(crate) fn check_law(
         return bad(
             "fallback.cut_in.split",
             format!(
-                "law = \"{}\" has no leader to re-point (it reads its predecessor, or every \
-                 member by place): split behind a cut-in works with the laws that follow the \
-                 head of their part, control.law = \"paper\", \"path_cacc\" or \"flatbed\"",
+                "law = \"{}\" has no leader to re-point (it reads its predecessor alone): \
+                 split behind a cut-in works with the laws that follow the head of their part, \
+                 control.law = \"paper\", \"path_cacc\", \"flatbed\" or \"consensus\"",
                 law.name()
             ),
         );

@@ -98,14 +98,15 @@ pub struct CutInHandling {
     /// Split the platoon behind the car: while a follower runs its ACC on a car that cut in, it
     /// announces in its beacons that it heads the followers behind it, and they take it as
     /// their leader until it is back on its law: the PATH CACC and the flatbed controller read
-    /// its packets as their leader's, the paper's law couples the followers behind it only, the
-    /// head in the leader's place. Each switch of leader is blended over `blend_s`. Every
+    /// its packets as their leader's, the paper's law and the consensus law couple the
+    /// followers behind it only, the head in the leader's place. Each switch of leader is blended over `blend_s`. Every
     /// follower then also hears the members ahead of it beyond its `[topology]` (the channel
     /// carries those links too). Absent: split where a follower would otherwise steer on a
-    /// vehicle ahead of the car, that is with `path_cacc` or `flatbed` (they read the leader),
-    /// and with the paper's law on a graph where some follower hears a vehicle ahead of its
-    /// predecessor (`tpsf`, `plf`, not `pf`), unless `[maneuvers]` merges or splits the
-    /// platoon. Only for those three laws (the others have no leader to re-point).
+    /// vehicle ahead of the car, that is with `path_cacc`, `flatbed` or `consensus` (they read
+    /// the leader), and with the paper's law on a graph where some follower hears a vehicle
+    /// ahead of its predecessor (`tpsf`, `plf`, not `pf`), unless `[maneuvers]` merges or
+    /// splits the platoon. Only for those four laws (`ploeg` and `acc` read their predecessor
+    /// alone: nothing to re-point).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub split: Option<bool>,
 }
