@@ -280,6 +280,37 @@ fn bad_cut_ins_name_their_key() {
     }
 }
 
+/// A cut-in that would start inside a vehicle (longer than its gap, or a `gap_m` that lands it
+/// in the vehicle ahead) is a config error: exit 2, one line naming the file and the key, and
+/// no run directory (issue 51, item 6).
+#[test]
+fn a_cut_in_inside_a_vehicle_exits_2_and_writes_nothing() {
+    let tmp = tempfile::tempdir().unwrap();
+    let base = cut_in_config("paper");
+    for (to, key) in [
+        ("leave_s = 30.0\ngap_m = 12.0", "cut_ins[0].gap_m"),
+        ("leave_s = 30.0\nlength_m = 16.0", "cut_ins[0].length_m"),
+    ] {
+        let text = base.replacen("leave_s = 30.0", to, 1);
+        assert_ne!(text, base);
+        std::fs::write(tmp.path().join("bad.toml"), text).unwrap();
+        for transport in ["inproc", "iceoryx2"] {
+            let o = common::platoon(
+                &["run", "bad.toml", "--out", "r", "--transport", transport],
+                tmp.path(),
+            );
+            let err = String::from_utf8_lossy(&o.stderr);
+            assert_eq!(o.status.code(), Some(2), "{err}");
+            assert_eq!(err.trim().lines().count(), 1, "{err}");
+            assert!(
+                err.contains("bad.toml:") && err.contains(&format!("key `{key}`")),
+                "{err}"
+            );
+            assert!(!tmp.path().join("r").exists() && !tmp.path().join("r.partial").exists());
+        }
+    }
+}
+
 /// A benign cut-in is not an attack: the radar sees the intruder, not the predecessor, so the
 /// radar cross-check has nothing to test follower 2's claims against while it is between them
 /// (compared with the intruder, they would look forged), and every packet is labelled genuine.

@@ -109,13 +109,13 @@ pub enum Reason {
     #[error("{0}")]
     Schema(String),
     /// Not a finite number.
-    #[error("must be a finite number, got {0}")]
+    #[error("must be a finite number, got {}", Num(*.0))]
     NotFinite(f64),
     /// Not above zero.
-    #[error("must be > 0, got {0}")]
+    #[error("must be > 0, got {}", Num(*.0))]
     NotPositive(f64),
     /// A period shorter than the simulation's step.
-    #[error("{period_s} s is shorter than the step simulation.dt_s = {dt_s} s")]
+    #[error("{} s is shorter than the step simulation.dt_s = {} s", Num(*.period_s), Num(*.dt_s))]
     ShorterThanStep {
         /// The period (s).
         period_s: f64,
@@ -123,7 +123,7 @@ pub enum Reason {
         dt_s: f64,
     },
     /// A period that is no whole number of steps.
-    #[error("{period_s} s must be a whole number of steps of {dt_s} s")]
+    #[error("{} s must be a whole number of steps of {} s", Num(*.period_s), Num(*.dt_s))]
     NotWholeSteps {
         /// The period (s).
         period_s: f64,
@@ -140,4 +140,20 @@ pub enum Reason {
     /// Any other value out of its range or at odds with another key, as the message says.
     #[error("{0}")]
     Invalid(String),
+}
+
+/// A number as a config error prints it: as Rust writes it between 1e-4 and 1e15 (`0.5`,
+/// `20`), in scientific notation beyond (`1e308`, not its 309 digits).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Num(pub f64);
+
+impl fmt::Display for Num {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let a = self.0.abs();
+        if a.is_finite() && a != 0.0 && !(1e-4..1e15).contains(&a) {
+            write!(f, "{:e}", self.0)
+        } else {
+            write!(f, "{}", self.0)
+        }
+    }
 }

@@ -27,7 +27,7 @@ mod shipped;
 mod tagged;
 mod transport;
 
-pub use error::{ConfigError, KeyError, Reason};
+pub use error::{ConfigError, KeyError, Num, Reason};
 use lines::line_at;
 pub use lines::KeyLines;
 pub use reference::{

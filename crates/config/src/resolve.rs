@@ -18,6 +18,7 @@ mod defaults;
 mod detection;
 mod fallback;
 mod fleet;
+mod geometry;
 mod jammers;
 mod leader;
 mod maneuvers;
@@ -61,6 +62,18 @@ pub fn scenario_of(c: &Config) -> Result<Scenario, KeyError> {
     let mut taus = plant::taus(&c.plant, n)?;
     let vehicles = vehicles::vehicles(c, &members, &mut taus, tau_nominal, &leader, &initial)?;
     drop(members);
+    let layout = geometry::Layout {
+        initial: &initial,
+        lengths: if vehicles.is_empty() {
+            vec![shape.vehicle_length; n + 1]
+        } else {
+            vehicles.iter().map(|v| v.length_m).collect()
+        },
+        spacing: shape.spacing,
+        headway: shape.headway,
+        leader: &leader,
+    };
+    geometry::initial_states(c, &layout)?;
 
     let (gain, beta1, beta2) = control::paper_gains(&c.control)?;
     let triggering = trigger::triggering(&c.trigger, dt)?;
@@ -99,11 +112,14 @@ pub fn scenario_of(c: &Config) -> Result<Scenario, KeyError> {
     let radio = radio::radio(&c.channel, dt)?;
     sumo::check(&c.sumo, dt)?;
     sumo::traffic_around(c)?;
+    geometry::ahead(c, &layout)?;
     let safety = safety::thresholds(&c.safety)?;
     let lanes = fleet::lanes(&c.fleet, c.sumo.lane);
     output::check(&c.output)?;
     let fleet = fleet::fleet(&c.fleet, lanes, n, &initial, longest)?;
     let discretisation = plant::discretisation(&c.plant, c.simulation.plant)?;
+    let cut_ins = cut_ins::cut_ins(c, &layout, shape.vehicle_length, grid.duration)?;
+    drop(layout);
     let scenario = Scenario {
         steps: grid.steps,
         initial,
@@ -120,7 +136,7 @@ pub fn scenario_of(c: &Config) -> Result<Scenario, KeyError> {
         assumption2: c.attack.assumption2,
         vehicle_length: shape.vehicle_length,
         vehicles,
-        cut_ins: cut_ins::cut_ins(c, shape.vehicle_length, grid.duration)?,
+        cut_ins,
         safety,
         fleet,
         platoon: 0,
