@@ -247,6 +247,15 @@ pub fn run(
         )
         .into());
     }
+    if config.simulation.plant == PlantKind::Native {
+        // SUMO's traffic would be dropped without a word: refused as in the config.
+        platoon_config::native_plant_check(&config).map_err(|e| {
+            let lines = platoon_config::KeyLines::new(
+                &std::fs::read_to_string(&opts.config_file).unwrap_or_default(),
+            );
+            RunError::from(e.in_file(&opts.config_file, &lines))
+        })?;
+    }
     let sumo_plan = if config.simulation.plant == PlantKind::Sumo {
         if config.plant.discretisation != platoon_model::Discretisation::Exact {
             return Err(RunError::Other(failure!(

@@ -33,7 +33,7 @@ pub use lines::KeyLines;
 pub use reference::{
     check_committed, file_reference, json_schema, reference_markdown, schema_json, schema_of,
 };
-pub use resolve::{scenario_of, to_scenario, write_resolved_defaults};
+pub use resolve::{native_plant_check, scenario_of, to_scenario, write_resolved_defaults};
 pub use schema::*;
 pub use tagged::{tagged_tables, TaggedTable, TaggedVariant};
 pub use transport::Transport;

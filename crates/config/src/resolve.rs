@@ -44,17 +44,20 @@ pub fn scenario_of(c: &Config) -> Result<Scenario, KeyError> {
     let shape = platoon::shape(&c.platoon)?;
     let n = shape.n;
     let members = vehicles::members(c, n)?;
-    // The longest vehicle: what the checks on whole-platoon room count.
-    let longest = members.iter().map(|m| m.length()).fold(
-        if members.is_empty() {
-            shape.vehicle_length
-        } else {
-            0.0
-        },
-        f64::max,
+    // The longest vehicle: what the checks on whole-platoon room count, and its key.
+    let (longest, longest_key) = members.iter().map(|m| (m.length(), m.length_key())).fold(
+        (
+            if members.is_empty() {
+                shape.vehicle_length
+            } else {
+                0.0
+            },
+            "platoon.vehicle_length_m".to_string(),
+        ),
+        |a, b| if b.0 > a.0 { b } else { a },
     );
     let leader = leader::profile(&c.leader.profile)?;
-    let initial = platoon::initial_states(&c.platoon, &shape, longest, &leader)?;
+    let initial = platoon::initial_states(&c.platoon, &shape, (longest, &longest_key), &leader)?;
     leader::check_start(&leader, &initial)?;
     let leader_broadcast_steps = leader::broadcast_steps(&c.leader, dt)?;
     let topology = topology::topology(&c.topology, n)?;
@@ -98,7 +101,7 @@ pub fn scenario_of(c: &Config) -> Result<Scenario, KeyError> {
         headway: shape.headway,
         leader_broadcast_steps,
         detection: detection::detection(c.detection.as_ref(), dt)?,
-        maneuvers: maneuvers::maneuvers(c.maneuvers.as_ref(), n, dt, cut_in_splits)?,
+        maneuvers: maneuvers::maneuvers(c.maneuvers.as_ref(), n, grid, cut_in_splits)?,
     };
     control::check_controller(&control, &topology)?;
 
@@ -145,6 +148,14 @@ pub fn scenario_of(c: &Config) -> Result<Scenario, KeyError> {
         .validate()
         .or_else(|e| checks::bad("scenario", e.to_string()))?;
     Ok(scenario)
+}
+
+/// The keys of a config that only SUMO's plant runs (its traffic: `[[sumo.flows]]`,
+/// `[[sumo.ahead]]`, `sumo.background_vehicles`, a `sumo.route` of several edges), refused on
+/// the native plant. [`scenario_of`] checks it when `simulation.plant` is native; a front-end
+/// that changes the plant after (`--plant native`) checks it again.
+pub fn native_plant_check(c: &Config) -> Result<(), KeyError> {
+    sumo::native_plant(c)
 }
 
 /// [`scenario_of`], then [`write_resolved_defaults`] into the config: what [`crate::parse`]

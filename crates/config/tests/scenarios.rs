@@ -137,15 +137,238 @@ fn a_joiner_or_a_vehicle_ahead_that_would_start_inside_another_is_refused() {
     let ahead = "\n[[sumo.ahead]]\ngap_m = 60.0\nspeed_mps = 18.0\n";
     refused(
         plus(
-            "paper.toml",
+            "sumo-paper.toml",
             &format!("{ahead}{}", ahead.replace("60.0", "65.0")),
         ),
         "sumo.ahead[1].gap_m",
         "inside sumo.ahead[0]",
     );
     plus(
-        "paper.toml",
+        "sumo-paper.toml",
         &format!("{ahead}{}", ahead.replace("60.0", "80.0")),
     )
     .unwrap();
+}
+
+/// configs/onramp.toml's flow (`vehicles_per_hour = 1200.0`, `speed_mps = 22.0`, cars).
+const FLOW_SPEED: &str = "speed_mps = 22.0";
+
+#[test]
+fn a_setting_that_can_never_take_effect_is_refused() {
+    // Maneuvers after the run's end.
+    refused(
+        edited("join.toml", &[("at_s = 5.0", "at_s = 80.0")]),
+        "maneuvers.joins[0].at_s",
+        "not before the run's end (simulation.duration_s = 70 s)",
+    );
+    refused(
+        edited("leave.toml", &[("at_s = ", "at_s = 1e308 #")]),
+        "maneuvers.leaves[0].at_s",
+        "1e308 s is not before the run's end",
+    );
+    // A flow that begins after the end, even with its own end_s.
+    refused(
+        edited(
+            "onramp.toml",
+            &[(
+                FLOW_SPEED,
+                "speed_mps = 22.0\nbegin_s = 100.0\nend_s = 200.0",
+            )],
+        ),
+        "sumo.flows[0].begin_s",
+        "no vehicle would enter",
+    );
+    // A join that would time out as it is accepted; a tries of 0.
+    refused(
+        edited("join.toml", &[("timeout_s = 40.0", "timeout_s = 0.0")]),
+        "maneuvers.timeout_s",
+        "shorter than a step",
+    );
+    refused(
+        edited("join.toml", &[("tries = 3", "tries = 0")]),
+        "maneuvers.tries",
+        "at least 1",
+    );
+    // A platoon larger than it may be from the start.
+    refused(
+        edited(
+            "join.toml",
+            &[("timeout_s = 40.0", "timeout_s = 40.0\nmax_members = 3")],
+        ),
+        "maneuvers.max_members",
+        "fewer than the 4 members the platoon starts with",
+    );
+    edited(
+        "join.toml",
+        &[("timeout_s = 40.0", "timeout_s = 40.0\nmax_members = 4")],
+    )
+    .unwrap();
+    // SUMO's traffic on the native plant, which would drop it.
+    let native = ("plant = \"sumo\"", "plant = \"native\"");
+    refused(
+        plus(
+            "paper.toml",
+            "\n[[sumo.flows]]\nfrom = \"ramp\"\nto = \"out\"\nvehicles_per_hour = 600.0\n",
+        ),
+        "sumo.flows[0]",
+        "native plant",
+    );
+    refused(
+        plus(
+            "paper.toml",
+            "\n[[sumo.ahead]]\ngap_m = 60.0\nspeed_mps = 18.0\n",
+        ),
+        "sumo.ahead[0]",
+        "native plant",
+    );
+    refused(
+        plus("paper.toml", "\n[sumo]\nbackground_vehicles = 10\n"),
+        "sumo.background_vehicles",
+        "native plant",
+    );
+    refused(
+        plus(
+            "paper.toml",
+            "\n[sumo]\nedge = \"in\"\nroute = [\"in\", \"out\"]\nfcd = \"sumo\"\n",
+        ),
+        "sumo.route",
+        "native plant",
+    );
+    // The rest of [sumo] is where the platoon drives on SUMO's road: ignored natively.
+    edited("sumo-paper.toml", &[native]).unwrap();
+}
+
+#[test]
+fn what_sumo_would_refuse_is_a_config_error_naming_the_key() {
+    // Faster than the flow's trucks may go, or than its cars.
+    refused(
+        edited(
+            "onramp.toml",
+            &[(FLOW_SPEED, "speed_mps = 30.0\ntruck_share = 0.2")],
+        ),
+        "sumo.flows[0].speed_mps",
+        "top speed of 25 m/s",
+    );
+    edited("onramp.toml", &[(FLOW_SPEED, "speed_mps = 30.0")]).unwrap();
+    refused(
+        edited("onramp.toml", &[(FLOW_SPEED, "speed_mps = 40.0")]),
+        "sumo.flows[0].speed_mps",
+        "top speed of 36 m/s",
+    );
+    // More than one vehicle a step, printed as a number.
+    refused(
+        edited(
+            "onramp.toml",
+            &[("vehicles_per_hour = 1200.0", "vehicles_per_hour = 1e308")],
+        ),
+        "sumo.flows[0].vehicles_per_hour",
+        "1e308 is more than one vehicle per step",
+    );
+}
+
+#[test]
+fn errors_name_the_key_the_user_wrote() {
+    // A truck longer than the formation's spacing: its length, not the jitter the file does
+    // not set.
+    refused(
+        edited("truck-car.toml", &[("length_m = 12.0", "length_m = 30.0")]),
+        "vehicle_classes.truck.length_m",
+        "does not fit the formation's 25 m front to front",
+    );
+    refused(
+        edited(
+            "cut-in.toml",
+            &[("vehicle_length_m = 4.5", "vehicle_length_m = 20.0")],
+        ),
+        "platoon.vehicle_length_m",
+        "does not fit",
+    );
+    // A jitter that could make two vehicles touch is still the jitter's.
+    refused(
+        edited(
+            "cut-in.toml",
+            &[(
+                "formation = { leader_position_m = 0.0 }",
+                "formation = { leader_position_m = 0.0, position_jitter_m = 9.0 }",
+            )],
+        ),
+        "platoon.formation.position_jitter_m",
+        "could make two vehicles touch",
+    );
+}
+
+#[test]
+fn huge_values_name_their_own_key_and_print_as_numbers() {
+    // A timeout beyond any run is a join that never times out (no deadline overflows).
+    edited("join.toml", &[("timeout_s = 40.0", "timeout_s = 2e17")]).unwrap();
+    refused(
+        edited(
+            "cut-in.toml",
+            &[("leave_s = 30.0 ", "leave_s = 30.0\nlength_m = 1e308 #")],
+        ),
+        "cut_ins[0].length_m",
+        "1e308 m long",
+    );
+    refused(
+        edited("paper.toml", &[("h_s = 0.02", "h_s = -1e308")]),
+        "trigger.h_s",
+        "got -1e308",
+    );
+}
+
+/// Every number of every shipped config, set in turn to values far out of range: the config
+/// is refused or accepted without a panic, and a refusal prints no number of more than 20
+/// digits (a bad-config corpus of its own, beside the fuzzer's).
+#[test]
+fn far_out_values_never_panic_and_print_as_numbers() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../configs");
+    let mut names: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".toml"))
+        .collect();
+    names.sort();
+    let (mut tried, mut long) = (0, Vec::new());
+    for name in names {
+        let text = shipped(&name);
+        for (i, line) in text.lines().enumerate() {
+            let Some((key, value)) = line.split_once(" = ") else {
+                continue;
+            };
+            let value = value.split('#').next().unwrap().trim();
+            if key.contains('[') || value.parse::<f64>().is_err() {
+                continue;
+            }
+            for far in ["1e308", "-1e308", "2e17", "1e-300"] {
+                let edited: Vec<String> = text
+                    .lines()
+                    .enumerate()
+                    .map(|(j, l)| {
+                        if j == i {
+                            format!("{key} = {far}")
+                        } else {
+                            l.to_string()
+                        }
+                    })
+                    .collect();
+                let edited = edited.join("\n");
+                tried += 1;
+                let result = std::panic::catch_unwind(|| parse(&edited, Path::new("bad.toml")));
+                let result = result.unwrap_or_else(|_| panic!("{name}: {key} = {far} panics"));
+                if let Err(e) = result {
+                    let line = e.to_string();
+                    let digits = line
+                        .split(|c: char| !c.is_ascii_digit())
+                        .map(str::len)
+                        .max()
+                        .unwrap_or(0);
+                    if digits > 20 || line.contains('\n') {
+                        long.push(format!("{name}: {key} = {far}: {line}"));
+                    }
+                }
+            }
+        }
+    }
+    assert!(long.is_empty(), "{}", long.join("\n"));
+    assert!(tried > 500, "{tried} edits");
 }

@@ -179,15 +179,17 @@ pub struct ManeuversConfig {
     /// How long a vehicle waits for an answer before it asks again, and the spacing of the
     /// leader's repeats of a formation update (s).
     pub reply_s: f64,
-    /// How many times a message that wants an answer is sent, at most.
+    /// How many times a message that wants an answer is sent, at most (>= 1).
     pub tries: u32,
-    /// How long a join may take from the leader's accept (s): then it is called off.
+    /// How long a join may take from the leader's accept (s): then it is called off. At least
+    /// a step; one longer than the run is a join that never times out.
     pub timeout_s: f64,
     /// A joiner is in position when its gap is within this of the platoon's (m)...
     pub in_position_m: f64,
     /// ...and it closes on the vehicle ahead at most this fast (m/s).
     pub in_position_mps: f64,
-    /// Members the platoon admits, the leader counted; absent: every vehicle of the scenario.
+    /// Members the platoon admits, the leader counted (at least those it starts with); absent:
+    /// every vehicle of the scenario.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub max_members: Option<usize>,
     /// The leader checks an in-position report (a joiner's, a merging head's) against the
