@@ -311,6 +311,46 @@ fn a_cut_in_inside_a_vehicle_exits_2_and_writes_nothing() {
     }
 }
 
+/// The safety line names who hit whom, on which lane and when, and never contradicts the
+/// smallest gap beside it (issue 51, item 6): without `[fallback.cut_in]` follower 3 drives into
+/// the car, at a gap at or below zero, and the smallest gap printed is no larger.
+#[test]
+fn the_collision_line_names_who_hit_whom_and_agrees_with_the_smallest_gap() {
+    let tmp = tempfile::tempdir().unwrap();
+    let text = cut_in_config("paper");
+    let handling = "cut_in = { dwell_s = 1.0, blend_s = 3.0 }";
+    assert!(text.contains(handling));
+    std::fs::write(tmp.path().join("c.toml"), text.replacen(handling, "", 1)).unwrap();
+    let o = common::platoon(
+        &[
+            "run",
+            "c.toml",
+            "--out",
+            "r",
+            "--no-plots",
+            "--transport",
+            "inproc",
+        ],
+        tmp.path(),
+    );
+    common::ok(&o);
+    let out = String::from_utf8_lossy(&o.stdout);
+    let line = out.lines().find(|l| l.contains("safety:")).unwrap();
+    let number = |after: &str| -> f64 {
+        let rest = &line[line.find(after).unwrap_or_else(|| panic!("{line}")) + after.len()..];
+        rest.split(' ').next().unwrap().parse().unwrap()
+    };
+    assert!(
+        line.contains("COLLISION: follower 3 hit a car that cut in on the platoon's lane at "),
+        "{line}"
+    );
+    let (at, smallest) = (number("(gap "), number("smallest gap "));
+    assert!(at <= 0.0 && smallest <= at, "{line}");
+    let summary = common::json(&tmp.path().join("r/summary.json"));
+    let t = summary["safety"]["first_collision_t_s"].as_f64().unwrap();
+    assert!(line.contains(&format!("lane at {t:.2} s")), "{line} vs {t}");
+}
+
 /// A benign cut-in is not an attack: the radar sees the intruder, not the predecessor, so the
 /// radar cross-check has nothing to test follower 2's claims against while it is between them
 /// (compared with the intruder, they would look forged), and every packet is labelled genuine.

@@ -391,10 +391,26 @@ fn sumo_json(
         if let Some(fcd) = fcd {
             report["fcd"] = fcd;
         }
-        if report["collisions"]
-            .as_array()
-            .is_some_and(|c| !c.is_empty())
-        {
+        if let Some(first) = report["collisions"].as_array().and_then(|c| c.first()) {
+            // SUMO's first collision, unless the platoon's own gaps saw one earlier.
+            let t = first["t"].as_f64().unwrap_or(f64::NAN);
+            if summary
+                .safety
+                .first_collision
+                .as_ref()
+                .is_none_or(|c| c.t_s > t)
+            {
+                let name = |key: &str| first[key].as_str().unwrap_or("?").to_string();
+                summary.safety.first_collision = Some(platoon_sim::Collision {
+                    t_s: t,
+                    collider: format!("SUMO's {}", name("collider")),
+                    victim: name("victim"),
+                    lane: first["lane"]
+                        .as_str()
+                        .map_or("SUMO's road".to_string(), |l| format!("lane {l}")),
+                    gap_m: None,
+                });
+            }
             summary.safety.collided = true;
             summary.safety.class = platoon_sim::SafetyClass::Severe;
             if let Some(f) = &mut summary.fleet {

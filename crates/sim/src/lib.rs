@@ -23,9 +23,9 @@ pub use factory::{
 pub use metrics::{FleetMetrics, MetricsAccumulator};
 pub use scenario::{Fleet, Scenario, ScenarioError, Vehicle};
 pub use summary::{
-    ErrorStats, FleetOverview, FormationRecord, FormationStability, LinkOutage, ManeuverRecord,
-    ManeuversSummary, PlatoonBrief, Safety, SafetyClass, SafetyThresholds, Summary, VehicleSummary,
-    VehicleWire, WireSummary,
+    Collision, ErrorStats, FleetOverview, FormationRecord, FormationStability, LinkOutage,
+    ManeuverRecord, ManeuversSummary, PlatoonBrief, Safety, SafetyClass, SafetyThresholds, Summary,
+    VehicleSummary, VehicleWire, WireSummary,
 };
 pub use tally::WireCounts;
 
