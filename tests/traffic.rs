@@ -351,6 +351,55 @@ fn the_collision_line_names_who_hit_whom_and_agrees_with_the_smallest_gap() {
     assert!(line.contains(&format!("lane at {t:.2} s")), "{line} vs {t}");
 }
 
+/// A run whose physics leaves the vehicle model stops there, naming the vehicle, the step and
+/// the cause, and keeps what it recorded (issue 53): a car cutting in at t = 0 makes follower 3
+/// of the paper's law brake so hard that it would drive backwards at 31.38 s. Both transports
+/// stop at the same step with the same rows.
+#[test]
+fn a_follower_that_would_drive_backwards_stops_the_run_with_its_outputs() {
+    let tmp = tempfile::tempdir().unwrap();
+    let text = cut_in_config("paper");
+    assert!(text.contains("at_s = 20.0"));
+    std::fs::write(
+        tmp.path().join("t0.toml"),
+        text.replacen("at_s = 20.0", "at_s = 0.0", 1),
+    )
+    .unwrap();
+    let mut tables = Vec::new();
+    for transport in ["inproc", "iceoryx2"] {
+        let o = common::platoon(
+            &[
+                "run",
+                "t0.toml",
+                "--out",
+                transport,
+                "--no-plots",
+                "--transport",
+                transport,
+            ],
+            tmp.path(),
+        );
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{err}");
+        assert!(
+            err.contains("follower 3 of platoon 0 drives backwards at step 3138 (t = 31.38 s"),
+            "{err}"
+        );
+        let summary = common::json(&tmp.path().join(transport).join("summary.json"));
+        assert_eq!(summary["complete"], false);
+        assert_eq!(summary["steps"], 3139);
+        assert!(summary["error"]
+            .as_str()
+            .unwrap()
+            .contains("drives backwards"));
+        tables.push(std::fs::read(tmp.path().join(transport).join("trajectories.csv")).unwrap());
+    }
+    assert!(
+        tables[0] == tables[1],
+        "the transports' trajectories differ"
+    );
+}
+
 /// A benign cut-in is not an attack: the radar sees the intruder, not the predecessor, so the
 /// radar cross-check has nothing to test follower 2's claims against while it is between them
 /// (compared with the intruder, they would look forged), and every packet is labelled genuine.

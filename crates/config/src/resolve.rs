@@ -115,7 +115,7 @@ pub fn scenario_of(c: &Config) -> Result<Scenario, KeyError> {
     let radio = radio::radio(&c.channel, dt)?;
     sumo::check(&c.sumo, dt)?;
     sumo::traffic_around(c)?;
-    geometry::ahead(c, &layout)?;
+    geometry::ahead(c, &layout, grid.duration)?;
     let safety = safety::thresholds(&c.safety)?;
     let lanes = fleet::lanes(&c.fleet, c.sumo.lane);
     output::check(&c.output)?;

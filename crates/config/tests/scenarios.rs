@@ -135,19 +135,30 @@ fn a_joiner_or_a_vehicle_ahead_that_would_start_inside_another_is_refused() {
     edited("join-middle.toml", &[]).unwrap();
     // Two vehicles ahead of the leader in one place.
     let ahead = "\n[[sumo.ahead]]\ngap_m = 60.0\nspeed_mps = 18.0\n";
+    let driven = |extra: &str| {
+        let profile = "profile = { kind = \"paper\" }";
+        let text = shipped("sumo-paper.toml");
+        assert!(text.contains(profile));
+        let text = text.replacen(
+            profile,
+            &format!("{profile}\ndrive = {{ kind = \"sumo\", speed_mps = 25.0 }}"),
+            1,
+        ) + extra;
+        parse(&text, Path::new("bad.toml")).map(|_| ())
+    };
     refused(
-        plus(
-            "sumo-paper.toml",
-            &format!("{ahead}{}", ahead.replace("60.0", "65.0")),
-        ),
+        driven(&format!("{ahead}{}", ahead.replace("60.0", "65.0"))),
         "sumo.ahead[1].gap_m",
         "inside sumo.ahead[0]",
     );
-    plus(
-        "sumo-paper.toml",
-        &format!("{ahead}{}", ahead.replace("60.0", "80.0")),
-    )
-    .unwrap();
+    driven(&format!("{ahead}{}", ahead.replace("60.0", "80.0"))).unwrap();
+    // A leader that drives its profile has no radar: it would drive through a slower truck.
+    refused(
+        plus("sumo-paper.toml", ahead),
+        "sumo.ahead[0].speed_mps",
+        "would reach this one, 60 m ahead, at t = ",
+    );
+    plus("sumo-paper.toml", &ahead.replace("18.0", "30.0")).unwrap();
 }
 
 /// configs/onramp.toml's flow (`vehicles_per_hour = 1200.0`, `speed_mps = 22.0`, cars).

@@ -11,6 +11,7 @@ pub mod detection;
 mod factory;
 mod maneuver_tally;
 mod metrics;
+pub mod model_check;
 mod scenario;
 mod summary;
 pub mod tally;

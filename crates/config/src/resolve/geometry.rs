@@ -190,8 +190,10 @@ pub(crate) fn cut_in(
 }
 
 /// `[[sumo.ahead]]`: the vehicles ahead of each leader do not overlap one another, nor, in a
-/// fleet of platoons sharing a lane, the platoon ahead.
-pub(crate) fn ahead(c: &Config, layout: &Layout<'_>) -> Result<(), KeyError> {
+/// fleet of platoons sharing a lane, the platoon ahead; and a leader that drives its profile
+/// (it has no radar, and SUMO's car-following model does not drive it) never reaches one
+/// within the run (`duration` s).
+pub(crate) fn ahead(c: &Config, layout: &Layout<'_>, duration: f64) -> Result<(), KeyError> {
     let a = &c.sumo.ahead;
     // (from, to) of each, measured ahead of the leader's front.
     let span = |x: &crate::schema::AheadVehicle| (x.gap_m, x.gap_m + x.length_m);
@@ -237,5 +239,51 @@ pub(crate) fn ahead(c: &Config, layout: &Layout<'_>) -> Result<(), KeyError> {
             }
         }
     }
+    if c.leader.drive.is_profile() {
+        for (i, x) in a.iter().enumerate() {
+            if let Some(t) = caught_up(layout.leader, x.speed_mps, x.gap_m, duration) {
+                return bad(
+                    &format!("sumo.ahead[{i}].speed_mps"),
+                    format!(
+                        "{} m/s: the leader drives its profile (leader.drive is not SUMO's, so \
+                         nothing slows it for a vehicle ahead) and would reach this one, {} m \
+                         ahead, at t = {t:.2} s, driving through it; let SUMO drive the leader \
+                         (leader.drive = {{ kind = \"sumo\", ... }}) or put it farther or faster",
+                        Num(x.speed_mps),
+                        Num(x.gap_m)
+                    ),
+                );
+            }
+        }
+    }
     Ok(())
+}
+
+/// When a leader driving `leader` first closes a gap of `gap` m to a vehicle ahead at a
+/// constant `speed` (m/s), if within `duration` s: the closing distance integrated exactly
+/// over the profile's pieces (linear in speed, so the distance is quadratic in each piece),
+/// sampled at 1000 points a piece.
+fn caught_up(leader: &LeaderProfile, speed: f64, gap: f64, duration: f64) -> Option<f64> {
+    let mut times: Vec<f64> = leader
+        .waypoints()
+        .iter()
+        .map(|w| w.0)
+        .filter(|&t| t > 0.0 && t < duration)
+        .collect();
+    times.push(duration);
+    let (mut t0, mut closed) = (0.0, 0.0);
+    for t1 in times {
+        let n = 1000;
+        let h = (t1 - t0) / f64::from(n);
+        for k in 0..n {
+            let (a, b) = (t0 + h * f64::from(k), t0 + h * f64::from(k + 1));
+            // The speed is linear on [a, b]: the trapezoid is exact.
+            closed += 0.5 * (leader.velocity_at(a) + leader.velocity_at(b)) * h - speed * h;
+            if closed >= gap {
+                return Some(b);
+            }
+        }
+        t0 = t1;
+    }
+    None
 }
