@@ -549,15 +549,34 @@ fn collision_config(dir: &Path) -> PathBuf {
 fn sumo_detects_a_collision_and_the_run_is_severe() {
     let tmp = tempfile::tempdir().unwrap();
     let c = collision_config(tmp.path());
-    ok(&platoon(
+    let o = platoon(
         &["run", c.to_str().unwrap(), "--out", "r", "--no-plots"],
         tmp.path(),
-    ));
+    );
+    ok(&o);
     let s = json(&tmp.path().join("r/summary.json"));
     let collisions = s["sumo"]["collisions"].as_array().unwrap();
     assert!(!collisions.is_empty(), "SUMO saw no collision: {s}");
     assert_eq!(collisions[0]["collider"], "follower1");
     assert_eq!(collisions[0]["victim"], "leader");
+    // The safety line names who hit whom, on which lane and when (issue 51, item 6): the
+    // first collision, here the platoon's own gap reaching zero (SUMO records it a step
+    // later, with its lane).
+    let lane = collisions[0]["lane"].as_str().unwrap();
+    assert!(lane.starts_with("highway_"), "{lane}");
+    let out = String::from_utf8_lossy(&o.stdout);
+    let line = out.lines().find(|l| l.contains("safety:")).unwrap();
+    let t = s["safety"]["first_collision_t_s"].as_f64().unwrap();
+    assert!(
+        line.contains(&format!(
+            "COLLISION: follower 1 hit the leader on the platoon's lane at {t:.2} s"
+        )),
+        "{line}"
+    );
+    assert!(
+        collisions[0]["t"].as_f64().unwrap() >= t,
+        "{line} {collisions:?}"
+    );
     assert_eq!(s["safety"]["collided"], true);
     assert_eq!(s["safety"]["class"], "severe");
 }
@@ -2610,6 +2629,13 @@ fn the_sumo_plan_names_the_key_the_user_wrote() {
         &text.replacen(drive, &drive.replace("25.0", "1e308"), 1),
         "leader.drive.speed_mps",
         "1e308 m/s would take the leader",
+        &[],
+    );
+    check(
+        &(text.clone()
+            + "\n[[sumo.flows]]\nfrom = \"nowhere\"\nto = \"highway\"\nvehicles_per_hour = 600.0\n"),
+        "sumo.flows[0].from",
+        "has no edge \"nowhere\"",
         &[],
     );
     let paper = std::fs::read_to_string(repo().join("configs/sumo-paper.toml")).unwrap()

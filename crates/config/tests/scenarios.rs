@@ -325,6 +325,12 @@ fn huge_values_name_their_own_key_and_print_as_numbers() {
         "trigger.h_s",
         "got -1e308",
     );
+    // A period of more steps than a step counter holds is too long, not "no whole number".
+    refused(
+        edited("join.toml", &[("reply_s = 0.5", "reply_s = 1e308")]),
+        "maneuvers.reply_s",
+        "1e308 s is more steps of 0.01 s than a period may count",
+    );
 }
 
 /// Every number of every shipped config, set in turn to values far out of range: the config
