@@ -248,7 +248,7 @@ pub fn run(
         .into());
     }
     if config.simulation.plant == PlantKind::Native {
-        // SUMO's traffic would be dropped without a word: refused as in the config.
+        // SUMO's traffic would be dropped without a word: refused, once the plant is chosen.
         platoon_config::native_plant_check(&config).map_err(|e| {
             let lines = platoon_config::KeyLines::new(
                 &std::fs::read_to_string(&opts.config_file).unwrap_or_default(),

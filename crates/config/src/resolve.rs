@@ -152,8 +152,8 @@ pub fn scenario_of(c: &Config) -> Result<Scenario, KeyError> {
 
 /// The keys of a config that only SUMO's plant runs (its traffic: `[[sumo.flows]]`,
 /// `[[sumo.ahead]]`, `sumo.background_vehicles`, a `sumo.route` of several edges), refused on
-/// the native plant. [`scenario_of`] checks it when `simulation.plant` is native; a front-end
-/// that changes the plant after (`--plant native`) checks it again.
+/// the native plant. Not part of [`scenario_of`]: a config whose `simulation.plant` is native
+/// may be run on SUMO (`--plant sumo`); the front-end checks it once the plant is chosen.
 pub fn native_plant_check(c: &Config) -> Result<(), KeyError> {
     sumo::native_plant(c)
 }

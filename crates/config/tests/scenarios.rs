@@ -29,6 +29,15 @@ fn plus(name: &str, extra: &str) -> Result<(), ConfigError> {
     parse(&(shipped(name) + extra), Path::new("bad.toml")).map(|_| ())
 }
 
+/// configs/`name` with `extra` appended, run on the native plant (as `platoon run` checks it
+/// once the plant is chosen).
+fn natively(name: &str, extra: &str) -> Result<(), ConfigError> {
+    let text = shipped(name) + extra;
+    let (config, _) = parse(&text, Path::new("bad.toml"))?;
+    platoon_config::native_plant_check(&config)
+        .map_err(|e| e.in_file("bad.toml", &platoon_config::KeyLines::new(&text)))
+}
+
 /// The error is one line naming bad.toml, the key and `words`, and prints no number of more
 /// than 20 digits.
 #[track_caller]
@@ -215,9 +224,8 @@ fn a_setting_that_can_never_take_effect_is_refused() {
     )
     .unwrap();
     // SUMO's traffic on the native plant, which would drop it.
-    let native = ("plant = \"sumo\"", "plant = \"native\"");
     refused(
-        plus(
+        natively(
             "paper.toml",
             "\n[[sumo.flows]]\nfrom = \"ramp\"\nto = \"out\"\nvehicles_per_hour = 600.0\n",
         ),
@@ -225,28 +233,30 @@ fn a_setting_that_can_never_take_effect_is_refused() {
         "native plant",
     );
     refused(
-        plus(
+        natively(
             "paper.toml",
-            "\n[[sumo.ahead]]\ngap_m = 60.0\nspeed_mps = 18.0\n",
+            "\n[[sumo.ahead]]\ngap_m = 60.0\nspeed_mps = 30.0\n",
         ),
         "sumo.ahead[0]",
         "native plant",
     );
     refused(
-        plus("paper.toml", "\n[sumo]\nbackground_vehicles = 10\n"),
+        natively("paper.toml", "\n[sumo]\nbackground_vehicles = 10\n"),
         "sumo.background_vehicles",
         "native plant",
     );
     refused(
-        plus(
+        natively(
             "paper.toml",
             "\n[sumo]\nedge = \"in\"\nroute = [\"in\", \"out\"]\nfcd = \"sumo\"\n",
         ),
         "sumo.route",
         "native plant",
     );
-    // The rest of [sumo] is where the platoon drives on SUMO's road: ignored natively.
-    edited("sumo-paper.toml", &[native]).unwrap();
+    // The rest of [sumo] is where the platoon drives on SUMO's road: ignored natively; and a
+    // config whose plant is native may carry SUMO's traffic for `--plant sumo`.
+    natively("sumo-paper.toml", "").unwrap();
+    plus("paper.toml", "\n[sumo]\nbackground_vehicles = 10\n").unwrap();
 }
 
 #[test]

@@ -44,9 +44,6 @@ pub(crate) fn traffic_around(c: &Config) -> Result<(), KeyError> {
     leader_drive(c)?;
     ahead(&c.sumo)?;
     flows(&c.sumo, c.simulation.duration_s, c.simulation.dt_s)?;
-    if c.simulation.plant == PlantKind::Native {
-        native_plant(c)?;
-    }
     route(c)
 }
 
@@ -95,7 +92,9 @@ fn leader_drive(c: &Config) -> Result<(), KeyError> {
 /// word): `[[sumo.flows]]`, `[[sumo.ahead]]`, `sumo.background_vehicles` and a `sumo.route` of
 /// several edges. The rest of `[sumo]` says where the platoon drives on SUMO's road and means
 /// nothing to the native plant, which has no road: it is ignored, as `--plant native` on a
-/// SUMO config expects. [`crate::native_plant_check`] runs it for `--plant native`.
+/// SUMO config expects. Checked where the plant is known for good (`platoon run`, after
+/// `--plant`), through [`crate::native_plant_check`]: a config may leave the plant native and be
+/// run with `--plant sumo`.
 pub(crate) fn native_plant(c: &Config) -> Result<(), KeyError> {
     let s = &c.sumo;
     let why = "is SUMO's traffic, which the native plant does not drive (it would run without \
