@@ -140,11 +140,10 @@ pub(crate) fn cut_in(
                     Num(g),
                     Num(x.length_m),
                     if g <= 0.0 {
-                        "against follower {k}, not in"
+                        format!("against follower {k}, not in")
                     } else {
-                        "inside or ahead of the vehicle in front, beyond"
-                    }
-                    .replace("{k}", &k.to_string()),
+                        "inside or ahead of the vehicle in front, beyond".to_string()
+                    },
                     Num(gap),
                     Num(gap - x.length_m)
                 ),
