@@ -168,7 +168,11 @@ fn design_checks_a_gain_on_the_time_headway_policy() {
         let mut args = vec!["design", "check-gain", "th.toml", "--out", out];
         args.extend_from_slice(extra);
         let o = platoon(&args, tmp.path());
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        // The config's ratio (the paper's 56.83) is below what (13) needs: not certified, exit
+        // 1, the report written all the same.
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{err}");
+        assert!(err.contains("NOT certified"), "{err}");
         let stdout = String::from_utf8_lossy(&o.stdout).to_string();
         let report = json(&tmp.path().join(out).join("check.json"));
         (stdout, report)
@@ -435,7 +439,14 @@ fn help_explains_the_commands() {
 fn design_checks_the_papers_gain_and_its_certificate_re_checks() {
     let tmp = tempfile::tempdir().unwrap();
     let o = platoon(&["design", "check-gain", "--out", "d"], tmp.path());
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // Not certified (the paper's ratio is too small, reading R15): exit 1, so that a script
+    // can tell, with the report written and the verdict on stderr (issue 51, item 6).
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("NOT certified") && err.contains("56.83"),
+        "{err}"
+    );
     let out = String::from_utf8_lossy(&o.stdout);
     assert!(
         out.contains("stable") && out.contains("NOT certified"),
@@ -473,6 +484,20 @@ fn design_checks_the_papers_gain_and_its_certificate_re_checks() {
     // Lower the ratio to the paper's: the independent re-check refuses it.
     let mut c: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&cert).unwrap()).unwrap();
+    // With a ratio above what (13) needs (707.37), the same K is certified: exit 0.
+    let text = std::fs::read_to_string(repo().join("configs/paper.toml")).unwrap();
+    assert!(text.contains("beta1 = 319.38"));
+    std::fs::write(
+        tmp.path().join("ratio.toml"),
+        text.replacen("beta1 = 319.38", "beta1 = 4000.0", 1),
+    )
+    .unwrap();
+    let o = platoon(
+        &["design", "check-gain", "ratio.toml", "--out", "ok"],
+        tmp.path(),
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("is certified"));
     c["ratio"] = serde_json::json!(56.83);
     let bad = tmp.path().join("bad.json");
     std::fs::write(&bad, c.to_string()).unwrap();

@@ -542,6 +542,40 @@ fn the_summary_measures_the_join_as_the_packets_and_rows_tell_it() {
     assert!(join.requested_t_s.is_some());
 }
 
+/// A join timeout far beyond any run (2e17 s, 2e19 steps, more than a u64 holds) is a join
+/// that never times out: the join completes as with the config's 40 s, every row bit for bit
+/// (it failed at once when the deadline wrapped, issue 53).
+#[test]
+fn a_huge_join_timeout_never_times_out() {
+    let text = join_config();
+    assert!(text.contains("timeout_s = 40.0"));
+    let (rows, _) = run(scenario(&text), |_, _| false);
+    for timeout in ["2e17", "1e300"] {
+        let huge = text.replacen("timeout_s = 40.0", &format!("timeout_s = {timeout}"), 1);
+        let s = scenario(&huge);
+        assert_eq!(
+            s.control.maneuvers.as_ref().unwrap().timing.maneuver_steps,
+            u64::MAX
+        );
+        let (again, _) = run(s.clone(), |_, _| false);
+        // Debug: the rows hold NaN where nothing is measured.
+        assert_eq!(again.len(), rows.len());
+        let first = rows
+            .iter()
+            .zip(&again)
+            .position(|(a, b)| format!("{a:?}") != format!("{b:?}"));
+        assert_eq!(
+            first,
+            None,
+            "{timeout}: {:?} vs {:?}",
+            first.map(|i| &rows[i]),
+            first.map(|i| &again[i])
+        );
+        let summary = platoon_sim::run(s, |_| {}).unwrap();
+        assert_eq!(summary.maneuvers.unwrap().maneuvers[0].outcome, "completed");
+    }
+}
+
 /// `[maneuvers] check_reports` drops a join request from a vehicle the leader never heard
 /// beaconing: the ghost's request (vehicle 7, no vehicle of the run) never reaches the leader's
 /// machine, so the real joiner joins as if there had been no attack, every row bit for bit;

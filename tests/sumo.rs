@@ -549,15 +549,34 @@ fn collision_config(dir: &Path) -> PathBuf {
 fn sumo_detects_a_collision_and_the_run_is_severe() {
     let tmp = tempfile::tempdir().unwrap();
     let c = collision_config(tmp.path());
-    ok(&platoon(
+    let o = platoon(
         &["run", c.to_str().unwrap(), "--out", "r", "--no-plots"],
         tmp.path(),
-    ));
+    );
+    ok(&o);
     let s = json(&tmp.path().join("r/summary.json"));
     let collisions = s["sumo"]["collisions"].as_array().unwrap();
     assert!(!collisions.is_empty(), "SUMO saw no collision: {s}");
     assert_eq!(collisions[0]["collider"], "follower1");
     assert_eq!(collisions[0]["victim"], "leader");
+    // The safety line names who hit whom, on which lane and when (issue 51, item 6): the
+    // first collision, here the platoon's own gap reaching zero (SUMO records it a step
+    // later, with its lane).
+    let lane = collisions[0]["lane"].as_str().unwrap();
+    assert!(lane.starts_with("highway_"), "{lane}");
+    let out = String::from_utf8_lossy(&o.stdout);
+    let line = out.lines().find(|l| l.contains("safety:")).unwrap();
+    let t = s["safety"]["first_collision_t_s"].as_f64().unwrap();
+    assert!(
+        line.contains(&format!(
+            "COLLISION: follower 1 hit the leader on the platoon's lane at {t:.2} s"
+        )),
+        "{line}"
+    );
+    assert!(
+        collisions[0]["t"].as_f64().unwrap() >= t,
+        "{line} {collisions:?}"
+    );
     assert_eq!(s["safety"]["collided"], true);
     assert_eq!(s["safety"]["class"], "severe");
 }
@@ -2637,4 +2656,67 @@ print("\n".join(repr(x) for x in out))
             );
         }
     }
+}
+
+/// What the SUMO plan checks against the network before anything runs names the key the user
+/// wrote, in one line, with the number as written (exit 2, no run directory): a vehicle ahead
+/// beyond the first edge (SUMO would put it at the edge's end), a start beyond the road, a
+/// leader too fast for the road (all named `sumo.net` before), and SUMO's traffic on the
+/// native plant chosen by `--plant native`.
+#[test]
+fn the_sumo_plan_names_the_key_the_user_wrote() {
+    let tmp = tempfile::tempdir().unwrap();
+    let config = leader_in_traffic(tmp.path(), "");
+    let text = std::fs::read_to_string(&config).unwrap();
+    let drive = "drive = { kind = \"sumo\", car_follow_model = \"krauss\", speed_mps = 25.0 }";
+    assert!(text.contains(drive) && text.contains("start_m = 100.0"));
+    let check = |text: &str, key: &str, words: &str, extra: &[&str]| {
+        std::fs::write(&config, text).unwrap();
+        let mut args = vec!["run", config.to_str().unwrap(), "--out", "r"];
+        args.extend_from_slice(extra);
+        let o = platoon(&args, tmp.path());
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{key}: {err}");
+        assert_eq!(err.trim().lines().count(), 1, "{err}");
+        assert!(
+            err.contains("traffic.toml:") && err.contains(&format!("key `{key}`")),
+            "{key}: {err}"
+        );
+        assert!(err.contains(words), "{key}: {err}");
+        assert!(!err.contains("0000000000000000000000"), "{err}");
+        assert!(!tmp.path().join("r").exists() && !tmp.path().join("r.partial").exists());
+    };
+    check(
+        &text.replacen("gap_m = 60.0", "gap_m = 2900.0", 1),
+        "sumo.ahead[0].gap_m",
+        "beyond the end of edge \"highway\"",
+        &[],
+    );
+    check(
+        &text.replacen("start_m = 100.0", "start_m = 1e308", 1),
+        "sumo.start_m",
+        "1e308 m is beyond the end of the road",
+        &[],
+    );
+    check(
+        &text.replacen(drive, &drive.replace("25.0", "1e308"), 1),
+        "leader.drive.speed_mps",
+        "1e308 m/s would take the leader",
+        &[],
+    );
+    check(
+        &(text.clone()
+            + "\n[[sumo.flows]]\nfrom = \"nowhere\"\nto = \"highway\"\nvehicles_per_hour = 600.0\n"),
+        "sumo.flows[0].from",
+        "has no edge \"nowhere\"",
+        &[],
+    );
+    let paper = std::fs::read_to_string(repo().join("configs/sumo-paper.toml")).unwrap()
+        + "\n[[sumo.flows]]\nfrom = \"highway\"\nto = \"highway\"\nvehicles_per_hour = 600.0\n";
+    check(
+        &paper,
+        "sumo.flows[0]",
+        "native plant",
+        &["--plant", "native"],
+    );
 }

@@ -283,6 +283,126 @@ fn bad_cut_ins_name_their_key() {
     }
 }
 
+/// A cut-in that would start inside a vehicle (longer than its gap, or a `gap_m` that lands it
+/// in the vehicle ahead) is a config error: exit 2, one line naming the file and the key, and
+/// no run directory (issue 51, item 6).
+#[test]
+fn a_cut_in_inside_a_vehicle_exits_2_and_writes_nothing() {
+    let tmp = tempfile::tempdir().unwrap();
+    let base = cut_in_config("paper");
+    for (to, key) in [
+        ("leave_s = 30.0\ngap_m = 12.0", "cut_ins[0].gap_m"),
+        ("leave_s = 30.0\nlength_m = 16.0", "cut_ins[0].length_m"),
+    ] {
+        let text = base.replacen("leave_s = 30.0", to, 1);
+        assert_ne!(text, base);
+        std::fs::write(tmp.path().join("bad.toml"), text).unwrap();
+        for transport in ["inproc", "iceoryx2"] {
+            let o = common::platoon(
+                &["run", "bad.toml", "--out", "r", "--transport", transport],
+                tmp.path(),
+            );
+            let err = String::from_utf8_lossy(&o.stderr);
+            assert_eq!(o.status.code(), Some(2), "{err}");
+            assert_eq!(err.trim().lines().count(), 1, "{err}");
+            assert!(
+                err.contains("bad.toml:") && err.contains(&format!("key `{key}`")),
+                "{err}"
+            );
+            assert!(!tmp.path().join("r").exists() && !tmp.path().join("r.partial").exists());
+        }
+    }
+}
+
+/// The safety line names who hit whom, on which lane and when, and never contradicts the
+/// smallest gap beside it (issue 51, item 6): without `[fallback.cut_in]` follower 3 drives into
+/// the car, at a gap at or below zero, and the smallest gap printed is no larger.
+#[test]
+fn the_collision_line_names_who_hit_whom_and_agrees_with_the_smallest_gap() {
+    let tmp = tempfile::tempdir().unwrap();
+    let text = cut_in_config("paper");
+    let handling = "cut_in = { dwell_s = 1.0, blend_s = 3.0 }";
+    assert!(text.contains(handling));
+    std::fs::write(tmp.path().join("c.toml"), text.replacen(handling, "", 1)).unwrap();
+    let o = common::platoon(
+        &[
+            "run",
+            "c.toml",
+            "--out",
+            "r",
+            "--no-plots",
+            "--transport",
+            "inproc",
+        ],
+        tmp.path(),
+    );
+    common::ok(&o);
+    let out = String::from_utf8_lossy(&o.stdout);
+    let line = out.lines().find(|l| l.contains("safety:")).unwrap();
+    let number = |after: &str| -> f64 {
+        let rest = &line[line.find(after).unwrap_or_else(|| panic!("{line}")) + after.len()..];
+        rest.split(' ').next().unwrap().parse().unwrap()
+    };
+    assert!(
+        line.contains("COLLISION: follower 3 hit a car that cut in on the platoon's lane at "),
+        "{line}"
+    );
+    let (at, smallest) = (number("(gap "), number("smallest gap "));
+    assert!(at <= 0.0 && smallest <= at, "{line}");
+    let summary = common::json(&tmp.path().join("r/summary.json"));
+    let t = summary["safety"]["first_collision_t_s"].as_f64().unwrap();
+    assert!(line.contains(&format!("lane at {t:.2} s")), "{line} vs {t}");
+}
+
+/// A run whose physics leaves the vehicle model stops there, naming the vehicle, the step and
+/// the cause, and keeps what it recorded (issue 53): a car cutting in at t = 0 makes follower 3
+/// of the paper's law brake so hard that it would drive backwards at 31.38 s. Both transports
+/// stop at the same step with the same rows.
+#[test]
+fn a_follower_that_would_drive_backwards_stops_the_run_with_its_outputs() {
+    let tmp = tempfile::tempdir().unwrap();
+    let text = cut_in_config("paper");
+    assert!(text.contains("at_s = 20.0"));
+    std::fs::write(
+        tmp.path().join("t0.toml"),
+        text.replacen("at_s = 20.0", "at_s = 0.0", 1),
+    )
+    .unwrap();
+    let mut tables = Vec::new();
+    for transport in ["inproc", "iceoryx2"] {
+        let o = common::platoon(
+            &[
+                "run",
+                "t0.toml",
+                "--out",
+                transport,
+                "--no-plots",
+                "--transport",
+                transport,
+            ],
+            tmp.path(),
+        );
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{err}");
+        assert!(
+            err.contains("follower 3 of platoon 0 drives backwards at step 3138 (t = 31.38 s"),
+            "{err}"
+        );
+        let summary = common::json(&tmp.path().join(transport).join("summary.json"));
+        assert_eq!(summary["complete"], false);
+        assert_eq!(summary["steps"], 3139);
+        assert!(summary["error"]
+            .as_str()
+            .unwrap()
+            .contains("drives backwards"));
+        tables.push(std::fs::read(tmp.path().join(transport).join("trajectories.csv")).unwrap());
+    }
+    assert!(
+        tables[0] == tables[1],
+        "the transports' trajectories differ"
+    );
+}
+
 /// A benign cut-in is not an attack: the radar sees the intruder, not the predecessor, so the
 /// radar cross-check has nothing to test follower 2's claims against while it is between them
 /// (compared with the intruder, they would look forged), and every packet is labelled genuine.

@@ -972,6 +972,7 @@ def run(spec) -> int:
                         "collider": c.collider,
                         "victim": c.victim,
                         "type": c.type,
+                        "lane": c.lane,
                         # Along the route when it has several edges (SUMO gives the lane's).
                         "position_m": (c.pos if kin.road is None
                                        else kin.road.start.get(c.lane, float("nan")) + c.pos)

@@ -428,6 +428,26 @@ fn pretty(value: &impl serde::Serialize) -> Result<Vec<u8>> {
 }
 
 impl CheckReport {
+    /// Whether the check certifies the gain for the config's beta1/beta2: (13) holds at that
+    /// ratio with a common Lyapunov matrix or with one per follower, and, for followers of
+    /// different lags (vehicle classes), at every vertex of their lag box too (with the
+    /// common P or by the direct SDP). What `platoon design check-gain`'s exit status says.
+    pub fn certified(&self) -> bool {
+        let nominal = self.config_ratio_certified
+            || self
+                .block_diagonal
+                .as_ref()
+                .is_some_and(|b| b.config_ratio_certified);
+        let mixed = self.heterogeneous.as_ref().is_none_or(|m| {
+            m.certified
+                || matches!(
+                    (m.direct_min_ratio, m.direct_max_eigenvalue),
+                    (Some(r), Some(e)) if e < 0.0 && self.config_ratio >= r
+                )
+        });
+        nominal && mixed
+    }
+
     /// Writes `platoon design check-gain`'s files into `dir`: spectrum.csv, the certificates
     /// found (certificate.json, certificate-block-diagonal.json, certificate-max-decay.json)
     /// and check.json.

@@ -247,6 +247,15 @@ pub fn run(
         )
         .into());
     }
+    if config.simulation.plant == PlantKind::Native {
+        // SUMO's traffic would be dropped without a word: refused, once the plant is chosen.
+        platoon_config::native_plant_check(&config).map_err(|e| {
+            let lines = platoon_config::KeyLines::new(
+                &std::fs::read_to_string(&opts.config_file).unwrap_or_default(),
+            );
+            RunError::from(e.in_file(&opts.config_file, &lines))
+        })?;
+    }
     let sumo_plan = if config.simulation.plant == PlantKind::Sumo {
         if config.plant.discretisation != platoon_model::Discretisation::Exact {
             return Err(RunError::Other(failure!(
@@ -297,6 +306,10 @@ pub fn run(
         }
         None => (summary, failure),
     };
+    // A run that stopped by itself, neither asked to nor failed: its physics left the model
+    // (`platoon_sim::model_check`), as its summary says.
+    let left_model = (failure.is_none() && stopped.is_none() && !summary.complete)
+        .then(|| summary.error.clone().unwrap_or_default());
     let compute = started.elapsed();
     crate::formations::certify(scenario, &mut summary);
     summary.attack.applied = opts
@@ -311,7 +324,9 @@ pub fn run(
     }
     write_outputs(&dir, &config, scenario, &rows, &summary, opts.plots, &extra)?;
     let dir = dir.commit()?;
-    let failure = failure.map(|e| RunError::from_runtime(e, &dir.join("logs")));
+    let failure = failure
+        .map(|e| RunError::from_runtime(e, &dir.join("logs")))
+        .or_else(|| left_model.map(|m| RunError::Other(failure!("{m}"))));
     Ok(RunOutcome {
         dir,
         rows: rows.rows,
@@ -382,10 +397,26 @@ fn sumo_json(
         if let Some(fcd) = fcd {
             report["fcd"] = fcd;
         }
-        if report["collisions"]
-            .as_array()
-            .is_some_and(|c| !c.is_empty())
-        {
+        if let Some(first) = report["collisions"].as_array().and_then(|c| c.first()) {
+            // SUMO's first collision, unless the platoon's own gaps saw one earlier.
+            let t = first["t"].as_f64().unwrap_or(f64::NAN);
+            if summary
+                .safety
+                .first_collision
+                .as_ref()
+                .is_none_or(|c| c.t_s > t)
+            {
+                let name = |key: &str| first[key].as_str().unwrap_or("?").to_string();
+                summary.safety.first_collision = Some(platoon_sim::Collision {
+                    t_s: t,
+                    collider: format!("SUMO's {}", name("collider")),
+                    victim: name("victim"),
+                    lane: first["lane"]
+                        .as_str()
+                        .map_or("SUMO's road".to_string(), |l| format!("lane {l}")),
+                    gap_m: None,
+                });
+            }
             summary.safety.collided = true;
             summary.safety.class = platoon_sim::SafetyClass::Severe;
             if let Some(f) = &mut summary.fleet {
@@ -434,12 +465,27 @@ pub fn record(
     stop: &Stop,
     progress: &dyn Progress,
 ) -> Result<(Summary, Vec<u64>)> {
+    record_with(scenario, sink, stop, progress, false)
+}
+
+/// [`record`]; with `check_model`, a run whose physics leaves the vehicle model stops at that
+/// step, its summary `complete: false` with the reason (`platoon_sim::model_check`), as
+/// `platoon run` does on either transport.
+fn record_with(
+    scenario: &Scenario,
+    sink: &mut dyn StepSink,
+    stop: &Stop,
+    progress: &dyn Progress,
+    check_model: bool,
+) -> Result<(Summary, Vec<u64>)> {
     let steps = scenario.steps + 1;
     progress.start("simulating", steps);
     let mut step_ns = Vec::with_capacity(steps.min(1 << 20) as usize);
     let mut failure = None;
     let mut last = Instant::now();
-    let summary = platoon_sim::run_until(scenario, |sim| {
+    let mut check = platoon_sim::model_check::ModelCheck::new(scenario);
+    let mut left_model = None;
+    let mut summary = platoon_sim::run_until(scenario, |sim| {
         step_ns.push(last.elapsed().as_nanos() as u64);
         let written = sim
             .channel_log()
@@ -453,6 +499,11 @@ pub fn record(
             });
         if let Err(e) = written.and_then(|()| sink.step(sim.rows(), sim.wire())) {
             failure = Some(e);
+            return ControlFlow::Break(());
+        }
+        // Physics that left the vehicle model stops the run at that step, recorded.
+        left_model = check_model.then(|| check.push(sim.rows())).flatten();
+        if left_model.is_some() {
             return ControlFlow::Break(());
         }
         let k = sim.rows()[0].step;
@@ -469,6 +520,10 @@ pub fn record(
     progress.finish();
     if let Some(e) = failure {
         return Err(e);
+    }
+    if let Some(exit) = left_model {
+        summary.complete = false;
+        summary.error = Some(exit.to_string());
     }
     sink.finish()?;
     Ok((summary, step_ns))
@@ -570,7 +625,7 @@ fn simulate_plotted(
     stop: &Stop,
 ) -> Result<(Plotted, Summary)> {
     let mut files = RunFiles::create(scenario, output, dir, true, !scenario.cut_ins.is_empty())?;
-    let (summary, mut step_ns) = record(scenario, &mut files, stop, progress)?;
+    let (summary, mut step_ns) = record_with(scenario, &mut files, stop, progress, true)?;
     // In process a step has no stages: only its compute time.
     let timing = platoon_runtime::timing::Timing {
         step: platoon_runtime::timing::Stats::of(&mut step_ns),

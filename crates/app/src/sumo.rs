@@ -1,6 +1,6 @@
 //! SUMO as the plant: the bridge's Python environment, the road check, and plant.json.
 use crate::error::{Context, OtherError};
-use platoon_config::{Config, ConfigError};
+use platoon_config::{Config, ConfigError, Num};
 use platoon_output::error::OutputError;
 use platoon_output::rundir::RunDir;
 use platoon_runtime::Program;
@@ -218,7 +218,9 @@ fn is_zero(x: &f64) -> bool {
 }
 
 fn config_error(file: &Path, key: &str, message: String) -> SumoError {
-    ConfigError::new(file, key, message).into()
+    // Placed at the key's line, as the config's own errors are.
+    let lines = platoon_config::KeyLines::new(&std::fs::read_to_string(file).unwrap_or_default());
+    ConfigError::at_key(file, &lines, key, message).into()
 }
 
 /// A checked SUMO set-up, before any file is written.
@@ -240,8 +242,9 @@ pub struct SumoPlan<'a> {
 /// How far back (the rear of the last platoon) and ahead (the leader) the run reaches, each
 /// as (position along the platoons' lane, t): platoon 0 runs natively (SUMO reproduces it to
 /// 1e-9 m), the others are the same shifted back (to well under a millimetre); a leader SUMO
-/// drives goes at most at its desired speed.
-fn reach(config: &Config, scenario: &Scenario) -> Result<((f64, f64), (f64, f64))> {
+/// drives goes at most at its desired speed (then the third value is true: the farthest point
+/// is that speed's).
+fn reach(config: &Config, scenario: &Scenario) -> Result<Reach> {
     let back = scenario.fleet.offset(scenario.fleet.platoons - 1);
     let (mut lo, mut hi) = ((f64::INFINITY, 0.0), (f64::NEG_INFINITY, 0.0));
     let mut platoon0 = scenario.clone();
@@ -262,10 +265,58 @@ fn reach(config: &Config, scenario: &Scenario) -> Result<((f64, f64), (f64, f64)
         let t = scenario.steps as f64 * scenario.dt();
         let far = p0 + v0.max(*speed_mps) * t;
         if far > hi.0 {
-            hi = (far, t);
+            return Ok(Reach {
+                lo,
+                hi: (far, t),
+                driven: *speed_mps > v0,
+            });
         }
     }
-    Ok((lo, hi))
+    Ok(Reach {
+        lo,
+        hi,
+        driven: false,
+    })
+}
+
+/// How far back and ahead a run reaches ([`reach`]).
+struct Reach {
+    /// The rearmost point and when (m, s).
+    lo: (f64, f64),
+    /// The farthest and when (m, s).
+    hi: (f64, f64),
+    /// Whether the farthest is the desired speed of a leader SUMO drives.
+    driven: bool,
+}
+
+/// `[[sumo.ahead]]`: every vehicle ahead of a leader starts on the platoon's first edge, whose
+/// lane ends at `first_edge_m` (SUMO would put one beyond at the lane's end, nearer than
+/// asked); `front` is the frontmost leader's lane position at t = 0.
+fn ahead_on_edge(
+    config_file: &Path,
+    s: &platoon_config::Sumo,
+    front: f64,
+    first_edge_m: f64,
+) -> Result<()> {
+    for (i, a) in s.ahead.iter().enumerate() {
+        let at = front + a.gap_m + a.length_m;
+        if at > first_edge_m {
+            return Err(config_error(
+                config_file,
+                &format!("sumo.ahead[{i}].gap_m"),
+                format!(
+                    "{} m puts its front at lane position {} m, beyond the end of edge {:?} \
+                     ({} m; SUMO would put it there, nearer than asked): at most {} m",
+                    Num(a.gap_m),
+                    Num(at),
+                    s.edge,
+                    Num(first_edge_m),
+                    Num(first_edge_m - front - a.length_m)
+                ),
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// The lane beside each platoon's (of the edge's `lanes`, index and length), where a leaver
@@ -407,39 +458,24 @@ pub fn plan<'a>(
     let length = scenario.vehicle_length.max(0.01);
     // The longest member (vehicle classes) must fit on the road too.
     let longest = scenario.lengths().into_iter().fold(length, f64::max);
-    if s.start_m < longest {
-        return Err(config_error(
-            config_file,
-            "sumo.start_m",
-            format!("must be at least the vehicle length ({longest} m) so every vehicle starts on the road"),
-        ));
-    }
-    let (lo, hi) = reach(config, scenario)?;
-    if lo.0 + offset < longest {
-        return Err(config_error(
-            config_file,
-            "sumo.start_m",
-            format!(
-                "a vehicle would back off the start of the road at t = {:.2} s ({:.1} m before it); increase sumo.start_m",
-                lo.1,
-                longest - (lo.0 + offset)
-            ),
-        ));
-    }
+    let first_edge_m = lanes
+        .iter()
+        .filter(|(i, _)| scenario.fleet.lanes.contains(i))
+        .map(|(_, l)| *l)
+        .fold(f64::INFINITY, f64::min);
+    stays_on_road(
+        config_file,
+        config,
+        scenario,
+        &Lane {
+            id: &lane_id,
+            length: lane_length,
+            first_edge_m,
+            net: &net,
+        },
+        (offset, longest),
+    )?;
     let fcd_period_s = fcd_period(config_file, config, scenario)?;
-    let margin = 1.0;
-    if hi.0 + offset > lane_length - margin {
-        return Err(config_error(
-            config_file,
-            "sumo.net",
-            format!(
-                "road too short: the leader reaches lane position {:.0} m at t = {:.2} s, but lane {lane_id} of {} is {lane_length:.0} m long; use a longer network or a shorter simulation.duration_s",
-                hi.0 + offset,
-                hi.1,
-                net.display()
-            ),
-        ));
-    }
     let side_lanes = side_lanes(config_file, scenario, s, &lanes, road.is_some())?;
     Ok(SumoPlan {
         config,
@@ -452,6 +488,106 @@ pub fn plan<'a>(
         road,
         side_lanes,
     })
+}
+
+/// The platoons' lane as the road check sees it.
+struct Lane<'a> {
+    /// Its id (and route), as errors name it.
+    id: &'a str,
+    /// Its length along the route (m).
+    length: f64,
+    /// Where the first edge's lane ends (m).
+    first_edge_m: f64,
+    /// The network.
+    net: &'a Path,
+}
+
+/// The platoon stays on the road for the whole run: it starts on it, nothing backs off its
+/// start, the vehicles ahead start on the first edge and the leader does not run off its end
+/// (`offset`: the platoon's coordinates onto the lane; `longest`: the longest vehicle). Each
+/// error names the key that puts a vehicle off the road.
+fn stays_on_road(
+    config_file: &Path,
+    config: &Config,
+    scenario: &Scenario,
+    lane: &Lane<'_>,
+    (offset, longest): (f64, f64),
+) -> Result<()> {
+    let s = &config.sumo;
+    if s.start_m < longest {
+        return Err(config_error(
+            config_file,
+            "sumo.start_m",
+            format!("must be at least the vehicle length ({longest} m) so every vehicle starts on the road"),
+        ));
+    }
+    if s.start_m + longest > lane.length {
+        return Err(config_error(
+            config_file,
+            "sumo.start_m",
+            format!(
+                "{} m is beyond the end of the road (lane {} is {} m long)",
+                Num(s.start_m),
+                lane.id,
+                Num(lane.length)
+            ),
+        ));
+    }
+    ahead_on_edge(
+        config_file,
+        s,
+        scenario.initial[0][0] + offset,
+        lane.first_edge_m,
+    )?;
+    let Reach { lo, hi, driven } = reach(config, scenario)?;
+    if lo.0 + offset < longest {
+        return Err(config_error(
+            config_file,
+            "sumo.start_m",
+            format!(
+                "a vehicle would back off the start of the road at t = {:.2} s ({:.1} m before it); increase sumo.start_m",
+                lo.1,
+                longest - (lo.0 + offset)
+            ),
+        ));
+    }
+    let margin = 1.0;
+    if hi.0 + offset > lane.length - margin {
+        if driven {
+            let speed = match &config.leader.drive {
+                platoon_config::LeaderDrive::Sumo { speed_mps, .. } => *speed_mps,
+                platoon_config::LeaderDrive::Profile {} => f64::NAN,
+            };
+            return Err(config_error(
+                config_file,
+                "leader.drive.speed_mps",
+                format!(
+                    "{} m/s would take the leader to lane position {} m by t = {:.2} s, beyond \
+                     the end of lane {} of {} ({:.0} m): a slower leader, a \
+                     longer network or a shorter simulation.duration_s",
+                    Num(speed),
+                    Num((hi.0 + offset).round()),
+                    hi.1,
+                    lane.id,
+                    lane.net.display(),
+                    lane.length
+                ),
+            ));
+        }
+        return Err(config_error(
+            config_file,
+            "sumo.net",
+            format!(
+                "road too short: the leader reaches lane position {} m at t = {:.2} s, but lane {} of {} is {:.0} m long; use a longer network or a shorter simulation.duration_s",
+                Num((hi.0 + offset).round()),
+                hi.1,
+                lane.id,
+                lane.net.display(),
+                lane.length
+            ),
+        ));
+    }
+    Ok(())
 }
 
 /// The platoons' road along a route of several edges (`[sumo] route`): where each lane of the

@@ -190,6 +190,19 @@ fn check_gain(a: CheckGainArgs) -> Result<()> {
     let path = dir.commit()?;
     print_check(&report);
     println!("outputs: {}", path.display());
+    if !report.certified() {
+        // A script tells by the exit status (1), the files are written all the same.
+        return Err(anyhow::anyhow!(
+            "K = [{}, {}, {}] is NOT certified for this config's beta1/beta2 = {:.2} (see above \
+             and {})",
+            report.k[0],
+            report.k[1],
+            report.k[2],
+            report.config_ratio,
+            path.join("check.json").display()
+        )
+        .into());
+    }
     Ok(())
 }
 

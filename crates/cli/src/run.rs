@@ -264,17 +264,7 @@ fn print_summary(s: &Summary, compute_s: f64) {
             "  (the lines above are platoon 0's; summary.json has every platoon under \"fleet\")"
         );
     }
-    println!(
-        "  safety: {} (smallest gap {:.2} m, follower {} at {:.2} s)",
-        if s.safety.collided {
-            "COLLISION"
-        } else {
-            "no collision"
-        },
-        s.safety.min_gap_m,
-        s.safety.min_gap_vehicle,
-        s.safety.min_gap_t_s
-    );
+    println!("  safety: {}", safety_line(&s.safety));
     // Degradation, when anything but the cooperative law ran.
     let mut modes = std::collections::BTreeMap::<&str, f64>::new();
     for v in &s.vehicles {
@@ -344,5 +334,63 @@ fn print_summary(s: &Summary, compute_s: f64) {
                 f.t_s
             );
         }
+    }
+}
+
+/// The run's safety line: no collision and the smallest gap, or who hit whom first, on which
+/// lane and when, and the smallest gap in words that agree with it (a collision the plant
+/// recorded between vehicles whose gap the platoon does not measure, such as SUMO's between a
+/// background car and a member, leaves the platoon's own gaps above zero: the line says so).
+pub(crate) fn safety_line(s: &platoon_sim::Safety) -> String {
+    let smallest = format!(
+        "smallest gap {:.2} m, follower {} at {:.2} s",
+        s.min_gap_m, s.min_gap_vehicle, s.min_gap_t_s
+    );
+    match (s.collided, &s.first_collision) {
+        (false, _) => format!("no collision ({smallest})"),
+        (true, None) => format!("COLLISION ({smallest})"),
+        (true, Some(c)) if s.min_gap_m <= 0.0 => format!("COLLISION: {c}; {smallest}"),
+        (true, Some(c)) => format!(
+            "COLLISION: {c}; the gaps the platoon measures to the vehicle ahead stayed above \
+             zero ({smallest})"
+        ),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A collision the platoon's gaps did not see (SUMO's, between vehicles whose gap no
+    /// follower measures) is not printed beside a positive "smallest gap" as if it were one.
+    #[test]
+    fn the_safety_line_never_contradicts_its_smallest_gap() {
+        let mut s: platoon_sim::Safety = serde_json::from_value(serde_json::json!({
+            "collided": true, "min_gap_m": 15.76, "min_gap_vehicle": 3, "min_gap_t_s": 20.5,
+            "min_ttc_s": null, "max_deceleration_mps2": 2.0, "class": "severe",
+            "thresholds": {"none": 1.0, "negligible": 2.0,
+                           "benign": 5.0}
+        }))
+        .unwrap();
+        s.first_collision = Some(platoon_sim::Collision {
+            t_s: 20.0,
+            collider: "SUMO's p1".into(),
+            victim: "cutin0".into(),
+            lane: "lane highway_1".into(),
+            gap_m: None,
+        });
+        let line = safety_line(&s);
+        assert_eq!(
+            line,
+            "COLLISION: SUMO's p1 hit cutin0 on lane highway_1 at 20.00 s; the gaps the platoon \
+             measures to the vehicle ahead stayed above zero (smallest gap 15.76 m, follower 3 at \
+             20.50 s)"
+        );
+        s.collided = false;
+        s.first_collision = None;
+        assert_eq!(
+            safety_line(&s),
+            "no collision (smallest gap 15.76 m, follower 3 at 20.50 s)"
+        );
     }
 }

@@ -43,7 +43,7 @@ impl ConfigError {
         Self {
             file: file.into(),
             key: key.into(),
-            message: message.into(),
+            message: sane_numbers(&message.into()),
             line: None,
         }
     }
@@ -72,7 +72,7 @@ impl ConfigError {
 /// [`crate::from_value`] return it; [`KeyError::in_file`] makes it a [`ConfigError`] at the
 /// key's line.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("key `{key}`: {reason}")]
+#[error("key `{key}`: {}", sane_numbers(&reason.to_string()))]
 pub struct KeyError {
     /// Dotted key path; empty for the config as a whole.
     pub key: String,
@@ -109,13 +109,13 @@ pub enum Reason {
     #[error("{0}")]
     Schema(String),
     /// Not a finite number.
-    #[error("must be a finite number, got {0}")]
+    #[error("must be a finite number, got {}", Num(*.0))]
     NotFinite(f64),
     /// Not above zero.
-    #[error("must be > 0, got {0}")]
+    #[error("must be > 0, got {}", Num(*.0))]
     NotPositive(f64),
     /// A period shorter than the simulation's step.
-    #[error("{period_s} s is shorter than the step simulation.dt_s = {dt_s} s")]
+    #[error("{} s is shorter than the step simulation.dt_s = {} s", Num(*.period_s), Num(*.dt_s))]
     ShorterThanStep {
         /// The period (s).
         period_s: f64,
@@ -123,7 +123,7 @@ pub enum Reason {
         dt_s: f64,
     },
     /// A period that is no whole number of steps.
-    #[error("{period_s} s must be a whole number of steps of {dt_s} s")]
+    #[error("{} s must be a whole number of steps of {} s", Num(*.period_s), Num(*.dt_s))]
     NotWholeSteps {
         /// The period (s).
         period_s: f64,
@@ -140,4 +140,58 @@ pub enum Reason {
     /// Any other value out of its range or at odds with another key, as the message says.
     #[error("{0}")]
     Invalid(String),
+}
+
+/// A number as a config error prints it: as Rust writes it between 1e-4 and 1e15 (`0.5`,
+/// `20`), in scientific notation beyond (`1e308`, not its 309 digits).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Num(pub f64);
+
+impl fmt::Display for Num {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let a = self.0.abs();
+        if a.is_finite() && a != 0.0 && !(1e-4..1e15).contains(&a) {
+            write!(f, "{:e}", self.0)
+        } else {
+            write!(f, "{}", self.0)
+        }
+    }
+}
+
+/// `message` with every number of more than 17 digits (how Rust's `{}` and serde print 1e308,
+/// 1e-300 or an integer key given 2e17) rewritten as [`Num`] prints it, whatever wrote it.
+pub(crate) fn sane_numbers(message: &str) -> String {
+    let mut out = String::with_capacity(message.len());
+    let mut rest = message;
+    while let Some(start) = rest.find(|c: char| c.is_ascii_digit()) {
+        out.push_str(&rest[..start]);
+        let token_len = rest[start..]
+            .find(|c: char| !(c.is_ascii_digit() || c == '.'))
+            .unwrap_or(rest.len() - start);
+        let token = rest[start..start + token_len].trim_end_matches('.');
+        let digits = token.chars().filter(char::is_ascii_digit).count();
+        match token.parse::<f64>() {
+            Ok(x) if digits > 17 => out.push_str(&Num(x).to_string()),
+            _ => out.push_str(token),
+        }
+        rest = &rest[start + token.len()..];
+    }
+    out.push_str(rest);
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn long_numbers_are_printed_as_numbers() {
+        let long = format!("got {} and {}, 12.5 m", 1e308, -1e-300);
+        assert_eq!(sane_numbers(&long), "got 1e308 and -1e-300, 12.5 m");
+        assert_eq!(
+            sane_numbers("floating point `100000000000000000000.0`, expected u64."),
+            "floating point `1e20`, expected u64."
+        );
+        assert_eq!(sane_numbers("line 12: 0.5 s"), "line 12: 0.5 s");
+    }
 }

@@ -27,13 +27,13 @@ mod shipped;
 mod tagged;
 mod transport;
 
-pub use error::{ConfigError, KeyError, Reason};
+pub use error::{ConfigError, KeyError, Num, Reason};
 use lines::line_at;
 pub use lines::KeyLines;
 pub use reference::{
     check_committed, file_reference, json_schema, reference_markdown, schema_json, schema_of,
 };
-pub use resolve::{scenario_of, to_scenario, write_resolved_defaults};
+pub use resolve::{native_plant_check, scenario_of, to_scenario, write_resolved_defaults};
 pub use schema::*;
 pub use tagged::{tagged_tables, TaggedTable, TaggedVariant};
 pub use transport::Transport;

@@ -23,7 +23,9 @@ enum Node {
 impl KeyLines {
     /// The document `text` (an unparsable one knows no lines).
     pub fn new(text: &str) -> Self {
-        let root = toml::from_str::<Node>(text).unwrap_or_default();
+        let root = toml::from_str::<Node>(text)
+            .or_else(|_| toml::from_str::<Node>(&with_parent_tables(text)))
+            .unwrap_or_default();
         Self {
             root,
             text: text.to_string(),
@@ -56,6 +58,37 @@ impl KeyLines {
             .collect();
         self.line(&segments)
     }
+}
+
+/// `text` with a header appended for every table that only a deeper header opens (`[sumo]`
+/// for a file whose `[[sumo.ahead]]` comes without it): the parser gives such an implicit
+/// table no place, which its spans cannot take. Appended at the end, so every line keeps its
+/// number.
+fn with_parent_tables(text: &str) -> String {
+    let headers: Vec<&str> = text
+        .lines()
+        .filter_map(|l| {
+            let l = l.trim();
+            let l = l.split('#').next()?.trim();
+            l.strip_prefix("[[")
+                .and_then(|h| h.strip_suffix("]]"))
+                .or_else(|| l.strip_prefix('[').and_then(|h| h.strip_suffix(']')))
+                .map(str::trim)
+        })
+        .collect();
+    let mut out = text.to_string();
+    let mut added: Vec<String> = Vec::new();
+    for h in &headers {
+        let parts: Vec<&str> = h.split('.').map(str::trim).collect();
+        for n in 1..parts.len() {
+            let parent = parts[..n].join(".");
+            if !headers.iter().any(|x| *x == parent) && !added.contains(&parent) {
+                out.push_str(&format!("\n[{parent}]\n"));
+                added.push(parent);
+            }
+        }
+    }
+    out
 }
 
 /// The 1-based line of byte `at` of `text`.
@@ -135,5 +168,10 @@ mod tests {
         assert_eq!(l.line(&["set", "simulation.dt_s"]), Some(11));
         assert_eq!(l.line(&["axes", "1", "key"]), Some(15));
         assert_eq!(l.line_of("nowhere"), None);
+        // An array of tables under a table the file never opens.
+        let l = KeyLines::new("[a]\nx = 1\n\n[[b.c]]\ny = 2\n");
+        assert_eq!(l.line_of("a.x"), Some(2));
+        assert_eq!(l.line_of("b.c[0].y"), Some(5));
+        assert_eq!(l.line_of("b.c[0]"), Some(4));
     }
 }

@@ -18,6 +18,7 @@ mod defaults;
 mod detection;
 mod fallback;
 mod fleet;
+mod geometry;
 mod jammers;
 mod leader;
 mod maneuvers;
@@ -43,17 +44,20 @@ pub fn scenario_of(c: &Config) -> Result<Scenario, KeyError> {
     let shape = platoon::shape(&c.platoon)?;
     let n = shape.n;
     let members = vehicles::members(c, n)?;
-    // The longest vehicle: what the checks on whole-platoon room count.
-    let longest = members.iter().map(|m| m.length()).fold(
-        if members.is_empty() {
-            shape.vehicle_length
-        } else {
-            0.0
-        },
-        f64::max,
+    // The longest vehicle: what the checks on whole-platoon room count, and its key.
+    let (longest, longest_key) = members.iter().map(|m| (m.length(), m.length_key())).fold(
+        (
+            if members.is_empty() {
+                shape.vehicle_length
+            } else {
+                0.0
+            },
+            "platoon.vehicle_length_m".to_string(),
+        ),
+        |a, b| if b.0 > a.0 { b } else { a },
     );
     let leader = leader::profile(&c.leader.profile)?;
-    let initial = platoon::initial_states(&c.platoon, &shape, longest, &leader)?;
+    let initial = platoon::initial_states(&c.platoon, &shape, (longest, &longest_key), &leader)?;
     leader::check_start(&leader, &initial)?;
     let leader_broadcast_steps = leader::broadcast_steps(&c.leader, dt)?;
     let topology = topology::topology(&c.topology, n)?;
@@ -61,6 +65,18 @@ pub fn scenario_of(c: &Config) -> Result<Scenario, KeyError> {
     let mut taus = plant::taus(&c.plant, n)?;
     let vehicles = vehicles::vehicles(c, &members, &mut taus, tau_nominal, &leader, &initial)?;
     drop(members);
+    let layout = geometry::Layout {
+        initial: &initial,
+        lengths: if vehicles.is_empty() {
+            vec![shape.vehicle_length; n + 1]
+        } else {
+            vehicles.iter().map(|v| v.length_m).collect()
+        },
+        spacing: shape.spacing,
+        headway: shape.headway,
+        leader: &leader,
+    };
+    geometry::initial_states(c, &layout)?;
 
     let (gain, beta1, beta2) = control::paper_gains(&c.control)?;
     let triggering = trigger::triggering(&c.trigger, dt)?;
@@ -91,7 +107,7 @@ pub fn scenario_of(c: &Config) -> Result<Scenario, KeyError> {
         headway: shape.headway,
         leader_broadcast_steps,
         detection: detection::detection(c.detection.as_ref(), dt)?,
-        maneuvers: maneuvers::maneuvers(c.maneuvers.as_ref(), n, dt, cut_in_splits)?,
+        maneuvers: maneuvers::maneuvers(c.maneuvers.as_ref(), n, grid, cut_in_splits)?,
     };
     control::check_controller(&control, &topology)?;
 
@@ -105,11 +121,14 @@ pub fn scenario_of(c: &Config) -> Result<Scenario, KeyError> {
     let radio = radio::radio(&c.channel, dt)?;
     sumo::check(&c.sumo, dt)?;
     sumo::traffic_around(c)?;
+    geometry::ahead(c, &layout, grid.duration)?;
     let safety = safety::thresholds(&c.safety)?;
     let lanes = fleet::lanes(&c.fleet, c.sumo.lane);
     output::check(&c.output)?;
     let fleet = fleet::fleet(&c.fleet, lanes, n, &initial, longest)?;
     let discretisation = plant::discretisation(&c.plant, c.simulation.plant)?;
+    let cut_ins = cut_ins::cut_ins(c, &layout, shape.vehicle_length, grid.duration)?;
+    drop(layout);
     let scenario = Scenario {
         steps: grid.steps,
         initial,
@@ -126,7 +145,7 @@ pub fn scenario_of(c: &Config) -> Result<Scenario, KeyError> {
         assumption2: c.attack.assumption2,
         vehicle_length: shape.vehicle_length,
         vehicles,
-        cut_ins: cut_ins::cut_ins(c, shape.vehicle_length, grid.duration)?,
+        cut_ins,
         safety,
         fleet,
         platoon: 0,
@@ -135,6 +154,14 @@ pub fn scenario_of(c: &Config) -> Result<Scenario, KeyError> {
         .validate()
         .or_else(|e| checks::bad("scenario", e.to_string()))?;
     Ok(scenario)
+}
+
+/// The keys of a config that only SUMO's plant runs (its traffic: `[[sumo.flows]]`,
+/// `[[sumo.ahead]]`, `sumo.background_vehicles`, a `sumo.route` of several edges), refused on
+/// the native plant. Not part of [`scenario_of`]: a config whose `simulation.plant` is native
+/// may be run on SUMO (`--plant sumo`); the front-end checks it once the plant is chosen.
+pub fn native_plant_check(c: &Config) -> Result<(), KeyError> {
+    sumo::native_plant(c)
 }
 
 /// [`scenario_of`], then [`write_resolved_defaults`] into the config: what [`crate::parse`]

@@ -256,13 +256,15 @@ pub struct Sumo {
     pub route: Vec<String>,
     /// `[[sumo.ahead]]`: SUMO vehicles on each platoon's lane ahead of its leader at t = 0, at
     /// a constant desired speed (SUMO's Krauss model, no lane changes): a slow truck the leader
-    /// meets when `leader.drive` is SUMO's.
+    /// meets when `leader.drive` is SUMO's. SUMO plant only (a config error on the native
+    /// plant, which does not drive them).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     #[schemars(extend("default" = []))]
     pub ahead: Vec<AheadVehicle>,
     /// `[[sumo.flows]]`: SUMO vehicles entering the network at a steady rate from one edge to
     /// another (an on-ramp's traffic), driven by SUMO's Krauss and LC2013 models
-    /// (`background_lane_changes` sets LC2013's weights).
+    /// (`background_lane_changes` sets LC2013's weights). SUMO plant only (a config error on
+    /// the native plant, as are `background_vehicles` and a `route` of several edges).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     #[schemars(extend("default" = []))]
     pub flows: Vec<SumoFlow>,
@@ -272,7 +274,8 @@ pub struct Sumo {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct AheadVehicle {
-    /// Its gap to the leader at t = 0 (m, bumper to bumper).
+    /// Its gap to the leader at t = 0 (m, bumper to bumper): it must start on the platoon's
+    /// first edge and not inside another vehicle ahead.
     pub gap_m: f64,
     /// Its initial and desired speed (m/s).
     pub speed_mps: f64,
@@ -293,15 +296,16 @@ pub struct SumoFlow {
     pub from: String,
     /// The edge they drive to (SUMO routes them).
     pub to: String,
-    /// How many enter per hour, evenly spaced.
+    /// How many enter per hour, evenly spaced: at most one a step (`3600 / simulation.dt_s`).
     pub vehicles_per_hour: f64,
-    /// When the first may enter (s).
+    /// When the first may enter (s): before the run's end.
     #[serde(default)]
     pub begin_s: f64,
     /// When the last may enter (s); absent: the run's end.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub end_s: Option<f64>,
-    /// Their speed as they enter (m/s); absent: the lane's limit.
+    /// Their speed as they enter (m/s); absent: the lane's limit. At most their vType's top
+    /// speed, which SUMO holds them to: 36 m/s for cars, 25 m/s with a `truck_share`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub speed_mps: Option<f64>,
     /// The share of them that are trucks (12 m, at most 25 m/s), 0..=1.

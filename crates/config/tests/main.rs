@@ -6,4 +6,5 @@ mod configs;
 mod link_attacks;
 mod reaction;
 mod reference;
+mod scenarios;
 mod typed;

@@ -171,7 +171,7 @@ impl Joiner {
         self.send(out, body);
         self.state = JoinerState::Requested {
             tries: tries + 1,
-            retry_at: step + self.timing.reply_steps,
+            retry_at: step.saturating_add(self.timing.reply_steps),
         };
     }
 
@@ -180,7 +180,7 @@ impl Joiner {
         self.send(out, Body::LeaveNotice);
         self.state = JoinerState::Withdrawing {
             tries: tries + 1,
-            retry_at: step + self.timing.reply_steps,
+            retry_at: step.saturating_add(self.timing.reply_steps),
         };
     }
 
@@ -215,8 +215,11 @@ impl Joiner {
             // many times as the leader announces a change.
             if step >= at {
                 self.outbox.send(out, self.me, crate::EVERYONE, update);
-                self.relay =
-                    (left > 1).then_some((update, left - 1, step + self.timing.reply_steps));
+                self.relay = (left > 1).then_some((
+                    update,
+                    left - 1,
+                    step.saturating_add(self.timing.reply_steps),
+                ));
             }
         }
         match self.state {
@@ -236,7 +239,7 @@ impl Joiner {
                 self.send(out, Body::InPosition);
                 self.state = JoinerState::InPosition {
                     tries: 1,
-                    retry_at: step + self.timing.reply_steps,
+                    retry_at: step.saturating_add(self.timing.reply_steps),
                 };
             }
             JoinerState::InPosition { tries, retry_at } if step >= retry_at => {
@@ -244,7 +247,7 @@ impl Joiner {
                     self.send(out, Body::InPosition);
                     self.state = JoinerState::InPosition {
                         tries: tries + 1,
-                        retry_at: step + self.timing.reply_steps,
+                        retry_at: step.saturating_add(self.timing.reply_steps),
                     };
                 } else {
                     self.withdraw(step, 0, out);
@@ -262,7 +265,7 @@ impl Joiner {
     }
 
     fn handle(&mut self, step: u64, m: &Message) {
-        let deadline = step + self.timing.maneuver_steps;
+        let deadline = step.saturating_add(self.timing.maneuver_steps);
         match (m.body, self.state) {
             (Body::JoinAccept { behind, middle }, JoinerState::Requested { .. })
                 if behind == self.behind =>

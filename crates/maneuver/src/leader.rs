@@ -101,13 +101,16 @@ impl Leader {
         self.formation = next;
         if let Change::Merged { head, .. } = change {
             // Its in-position reports, then its leave notices, each up to the tries.
-            let window = self.timing.reply_steps * (2 * u64::from(self.timing.tries) + 1);
-            self.merged = Some((head, step + window));
+            let window = self
+                .timing
+                .reply_steps
+                .saturating_mul(2 * u64::from(self.timing.tries) + 1);
+            self.merged = Some((head, step.saturating_add(window)));
         }
         self.generation = self.generation.wrapping_add(1);
         self.last_update = Some((change, self.generation));
         self.repeats_left = self.timing.tries.saturating_sub(1);
-        self.next_repeat = step + self.timing.reply_steps;
+        self.next_repeat = step.saturating_add(self.timing.reply_steps);
         let generation = self.generation;
         self.send(out, EVERYONE, Body::Update { generation, change });
     }
@@ -154,7 +157,7 @@ impl Leader {
                     opener: Some(opener),
                     gap_ready,
                     deadline,
-                    ask_at: step + self.timing.reply_steps,
+                    ask_at: step.saturating_add(self.timing.reply_steps),
                     asks: asks + 1,
                     tail,
                 };
@@ -175,7 +178,7 @@ impl Leader {
         }
         if self.repeats_left > 0 && step >= self.next_repeat {
             self.repeats_left -= 1;
-            self.next_repeat = step + self.timing.reply_steps;
+            self.next_repeat = step.saturating_add(self.timing.reply_steps);
             self.repeat(out);
         }
     }
@@ -203,8 +206,8 @@ impl Leader {
                 behind,
                 opener: None,
                 gap_ready: false,
-                deadline: step + self.timing.maneuver_steps,
-                ask_at: step + self.timing.reply_steps,
+                deadline: step.saturating_add(self.timing.maneuver_steps),
+                ask_at: step.saturating_add(self.timing.reply_steps),
                 asks: 1,
                 tail: Some(tail),
             };
@@ -234,8 +237,8 @@ impl Leader {
                 behind,
                 opener,
                 gap_ready: false,
-                deadline: step + self.timing.maneuver_steps,
-                ask_at: step + self.timing.reply_steps,
+                deadline: step.saturating_add(self.timing.maneuver_steps),
+                ask_at: step.saturating_add(self.timing.reply_steps),
                 asks: 1,
                 tail: None,
             };
@@ -329,7 +332,7 @@ impl Leader {
                     opener,
                     gap_ready: true,
                     deadline,
-                    ask_at: step + self.timing.reply_steps,
+                    ask_at: step.saturating_add(self.timing.reply_steps),
                     asks: 1,
                     tail,
                 };

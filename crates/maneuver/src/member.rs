@@ -120,7 +120,7 @@ impl Member {
         ) {
             self.send(out, Body::LeaveNotice);
             self.state = MemberState::Leaving {
-                ask_at: step + self.timing.reply_steps,
+                ask_at: step.saturating_add(self.timing.reply_steps),
                 asks: 1,
             };
         }
@@ -136,7 +136,7 @@ impl Member {
         ) {
             self.send(out, Body::SplitNotice);
             self.state = MemberState::Splitting {
-                ask_at: step + self.timing.reply_steps,
+                ask_at: step.saturating_add(self.timing.reply_steps),
                 asks: 1,
             };
         }
@@ -182,7 +182,7 @@ impl Member {
                 }
             } else if let Body::OpenGap { .. } = m.body {
                 // Overheard: who opens a gap ahead of or behind it.
-                self.opener = Some((m.to, step + self.timing.maneuver_steps));
+                self.opener = Some((m.to, step.saturating_add(self.timing.maneuver_steps)));
             }
         }
         if let MemberState::Opening {
@@ -200,7 +200,7 @@ impl Member {
                     joiner,
                     deadline,
                     reports: reports + 1,
-                    report_at: step + self.timing.reply_steps,
+                    report_at: step.saturating_add(self.timing.reply_steps),
                 };
             }
         }
@@ -213,7 +213,7 @@ impl Member {
             if step >= ask_at {
                 self.state = if asks < self.timing.tries {
                     self.send(out, body);
-                    let (ask_at, asks) = (step + self.timing.reply_steps, asks + 1);
+                    let (ask_at, asks) = (step.saturating_add(self.timing.reply_steps), asks + 1);
                     match body {
                         Body::SplitNotice => MemberState::Splitting { ask_at, asks },
                         _ => MemberState::Leaving { ask_at, asks },
@@ -245,7 +245,7 @@ impl Member {
             Body::OpenGap { joiner } if self.state == MemberState::Following => {
                 self.state = MemberState::Opening {
                     joiner,
-                    deadline: step + self.timing.maneuver_steps,
+                    deadline: step.saturating_add(self.timing.maneuver_steps),
                     reports: 0,
                     report_at: step,
                 };

@@ -11,6 +11,7 @@ pub mod detection;
 mod factory;
 mod maneuver_tally;
 mod metrics;
+pub mod model_check;
 mod scenario;
 mod summary;
 pub mod tally;
@@ -23,9 +24,9 @@ pub use factory::{
 pub use metrics::{FleetMetrics, MetricsAccumulator};
 pub use scenario::{Fleet, Scenario, ScenarioError, Vehicle};
 pub use summary::{
-    ErrorStats, FleetOverview, FormationRecord, FormationStability, LinkOutage, ManeuverRecord,
-    ManeuversSummary, PlatoonBrief, Safety, SafetyClass, SafetyThresholds, Summary, VehicleSummary,
-    VehicleWire, WireSummary,
+    Collision, ErrorStats, FleetOverview, FormationRecord, FormationStability, LinkOutage,
+    ManeuverRecord, ManeuversSummary, PlatoonBrief, Safety, SafetyClass, SafetyThresholds, Summary,
+    VehicleSummary, VehicleWire, WireSummary,
 };
 pub use tally::WireCounts;
 

@@ -162,6 +162,7 @@ impl MetricsAccumulator {
                 min_gap_t_s: 0.0,
                 min_ttc_s: None,
                 first_collision_t_s: None,
+                first_collision: None,
             },
             maneuvers: crate::maneuver_tally::ManeuverTally::new(scenario),
             gaps: Vec::new(),
@@ -243,9 +244,9 @@ impl MetricsAccumulator {
             }
             // The nearest vehicle ahead: the predecessor, or one that cut in between.
             let behind = front.p - r.p - self.lengths[usize::from(front.vehicle)];
-            let (gap, closing) = match r.intruder {
-                Some(t) if t.gap < behind => (t.gap, t.closing),
-                _ => (behind, r.v - front.v),
+            let (gap, closing, cut_in) = match r.intruder {
+                Some(t) if t.gap < behind => (t.gap, t.closing, true),
+                _ => (behind, r.v - front.v, false),
             };
             if closing > 0.0 {
                 let ttc = gap.max(0.0) / closing;
@@ -255,6 +256,17 @@ impl MetricsAccumulator {
             }
             if gap <= 0.0 && self.safety.first_collision_t_s.is_none() {
                 self.safety.first_collision_t_s = Some(r.t);
+                self.safety.first_collision = Some(crate::summary::Collision {
+                    t_s: r.t,
+                    collider: format!("follower {}", r.vehicle),
+                    victim: match (cut_in, front.vehicle) {
+                        (true, _) => "a car that cut in".to_string(),
+                        (false, 0) => "the leader".to_string(),
+                        (false, v) => format!("follower {v}"),
+                    },
+                    lane: "the platoon's lane".to_string(),
+                    gap_m: Some(gap),
+                });
             }
             self.gaps[i - 1] = gap;
             if gap < self.safety.min_gap_m {

@@ -85,6 +85,11 @@ pub struct Safety {
     /// When a gap first reached zero (s); absent without a collision.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub first_collision_t_s: Option<f64>,
+    /// Who hit whom first, where and when, as the run's safety line names it (in memory:
+    /// summary.json keeps `first_collision_t_s`, and a SUMO run's collisions are in its
+    /// `sumo.collisions`).
+    #[serde(skip)]
+    pub first_collision: Option<Collision>,
     /// The largest deceleration any follower needed (m/s^2, positive).
     #[serde(deserialize_with = "nullable")]
     pub max_deceleration_mps2: f64,
@@ -94,6 +99,35 @@ pub struct Safety {
     pub class: SafetyClass,
     /// The thresholds used.
     pub thresholds: SafetyThresholds,
+}
+
+/// A collision: who hit whom, on which lane, when.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Collision {
+    /// When (s).
+    pub t_s: f64,
+    /// The vehicle behind, that drove into the other (`follower 3`, SUMO's id).
+    pub collider: String,
+    /// The vehicle ahead (`follower 2`, `the leader`, `cut-in car 0`, SUMO's id).
+    pub victim: String,
+    /// The lane (`the platoon's lane`, SUMO's lane id).
+    pub lane: String,
+    /// The gap between them then (m), when the plant measured it.
+    pub gap_m: Option<f64>,
+}
+
+impl std::fmt::Display for Collision {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{} hit {} on {} at {:.2} s",
+            self.collider, self.victim, self.lane, self.t_s
+        )?;
+        if let Some(g) = self.gap_m {
+            write!(f, " (gap {g:.2} m)")?;
+        }
+        Ok(())
+    }
 }
 
 /// A run's safety class, as attack-injection studies (e.g. ComFASE) class outcomes, from the

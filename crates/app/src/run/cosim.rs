@@ -1,6 +1,8 @@
 //! The co-simulated run: the processes over iceoryx2, what they measured, and the run's
 //! `run.json`.
 use super::*;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 
 /// `timing.json`'s `peak_rss_mib`: the peak resident memory of `platoon run` itself (which
 /// records and writes the outputs) and of each node process.
@@ -88,6 +90,8 @@ pub(super) fn cosimulate(
         Some(p) => p.clone(),
         None => crate::platoon_program()?,
     };
+    // The orchestrator stops on `halt`: the caller's stop, or physics that left the model.
+    let halt = Arc::new(AtomicBool::new(false));
     let rt = platoon_runtime::Options {
         run_id,
         exe,
@@ -112,7 +116,7 @@ pub(super) fn cosimulate(
         python_path,
         step_timeout: opts.step_timeout,
         ready_timeout: opts.ready_timeout,
-        stop: Some(stop.flag.clone()),
+        stop: Some(halt.clone()),
         observers: opts.observers,
         cpus: opts.cpus.clone(),
         channel_first: after,
@@ -124,7 +128,15 @@ pub(super) fn cosimulate(
     let mut failure: Option<RunError> = None;
     let names = scenario.control.detection.names();
     let names: Vec<&str> = names.iter().map(String::as_str).collect();
+    let mut check = platoon_sim::model_check::ModelCheck::new(scenario);
+    let mut left_model = None;
+    let done = Arc::new(AtomicBool::new(false));
+    let relay = relay_stop(stop.flag.clone(), halt.clone(), done.clone());
     let result = platoon_runtime::orchestrate(&rt, scenario, |rows, wire, scored| {
+        if left_model.is_some() {
+            // The run stops at the step that left the model, as in process.
+            return;
+        }
         if failure.is_none() {
             let written = if scored.is_empty() {
                 Ok(())
@@ -137,10 +149,16 @@ pub(super) fn cosimulate(
         }
         metrics.push_wire(wire);
         metrics.push(rows);
+        left_model = check.push(rows);
+        if left_model.is_some() {
+            halt.store(true, Ordering::SeqCst);
+        }
         if rows[0].step.is_multiple_of(1000) {
             progress.at(rows[0].step);
         }
     });
+    done.store(true, Ordering::SeqCst);
+    relay.join().ok();
     progress.finish();
     if let Some(e) = failure {
         return Err(e);
@@ -167,10 +185,32 @@ pub(super) fn cosimulate(
         Err(e) => {
             let mut summary = metrics.finish(Default::default());
             summary.complete = false;
+            if let (Some(exit), platoon_runtime::CosimError::Interrupted { .. }) = (&left_model, &e)
+            {
+                summary.error = Some(exit.to_string());
+                return Ok((rows, summary, None));
+            }
             summary.error = Some(OtherError::report(&e));
             Ok((rows, summary, Some(e)))
         }
     }
+}
+
+/// Sets `halt` once `stop` is set, until `done`: the caller's stop reaches the orchestrator
+/// within 20 ms.
+fn relay_stop(
+    stop: Arc<AtomicBool>,
+    halt: Arc<AtomicBool>,
+    done: Arc<AtomicBool>,
+) -> std::thread::JoinHandle<()> {
+    std::thread::spawn(move || {
+        while !done.load(Ordering::SeqCst) {
+            if stop.load(Ordering::SeqCst) {
+                halt.store(true, Ordering::SeqCst);
+            }
+            std::thread::sleep(std::time::Duration::from_millis(20));
+        }
+    })
 }
 
 /// With jammers as transmitters: the links' outages, from the channel log the injector node

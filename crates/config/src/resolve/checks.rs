@@ -1,5 +1,5 @@
 //! The checks every table's resolver shares: finite, positive, a whole number of steps.
-use crate::error::{KeyError, Reason};
+use crate::error::{KeyError, Num, Reason};
 
 /// `key` is wrong, as `message` says.
 pub(crate) fn bad<T>(key: &str, message: impl Into<String>) -> Result<T, KeyError> {
@@ -34,7 +34,18 @@ pub(crate) fn steps_of(key: &str, period: f64, dt: f64) -> Result<u32, KeyError>
         }
     } else {
         let n = (period / dt).round();
-        if (n * dt - period).abs() <= 1e-9 * period.max(1.0) && n <= f64::from(u32::MAX) {
+        if n > f64::from(u32::MAX) {
+            return Err(KeyError::invalid(
+                key,
+                format!(
+                    "{} s is more steps of {} s than a period may count (at most {} s)",
+                    Num(period),
+                    Num(dt),
+                    Num(f64::from(u32::MAX) * dt)
+                ),
+            ));
+        }
+        if (n * dt - period).abs() <= 1e-9 * period.max(1.0) {
             return Ok(n as u32);
         }
         Reason::NotWholeSteps {

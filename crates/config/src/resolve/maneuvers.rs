@@ -1,6 +1,7 @@
 //! `[maneuvers]`: joins, leaves, a merge or a split, and the protocol's timing.
 use super::checks::{bad, finite, steps_of};
-use crate::error::KeyError;
+use super::simulation::Grid;
+use crate::error::{KeyError, Num};
 use crate::schema::{HeadAt, ManeuversConfig};
 use platoon_model::VehicleId;
 
@@ -9,16 +10,29 @@ use platoon_model::VehicleId;
 pub(crate) fn maneuvers(
     m: Option<&ManeuversConfig>,
     followers: usize,
-    dt: f64,
+    grid: Grid,
     cut_in_splits: Option<bool>,
 ) -> Result<Option<platoon_control::ManeuverParams>, KeyError> {
     let Some(m) = m else {
         return Ok(None);
     };
+    let (dt, duration) = (grid.dt, grid.duration);
+    // The step of a maneuver's `at_s`: inside the run, or it never takes effect.
     let step_of = |key: &str, t: f64| -> Result<u64, KeyError> {
         let t = finite(key, t)?;
         if t < 0.0 {
-            return bad(key, format!("must be >= 0, got {t}"));
+            return bad(key, format!("must be >= 0, got {}", Num(t)));
+        }
+        if t >= duration {
+            return bad(
+                key,
+                format!(
+                    "{} s is not before the run's end (simulation.duration_s = {} s): it would \
+                     never happen",
+                    Num(t),
+                    Num(duration)
+                ),
+            );
         }
         Ok((t / dt).round() as u64)
     };
@@ -98,11 +112,17 @@ pub(crate) fn maneuvers(
         .map(|(head, at_step)| platoon_control::MergeSpec { head, at_step });
     let split = head_at("split", &m.split)?
         .map(|(head, at_step)| platoon_control::SplitSpec { head, at_step });
+    if m.tries == 0 {
+        return bad(
+            "maneuvers.tries",
+            "must be at least 1: a message that wants an answer is sent once at least",
+        );
+    }
     let params = platoon_control::ManeuverParams {
         timing: platoon_maneuver::Timing {
             reply_steps: u64::from(steps_of("maneuvers.reply_s", m.reply_s, dt)?),
             tries: m.tries,
-            maneuver_steps: step_of("maneuvers.timeout_s", m.timeout_s)?,
+            maneuver_steps: timeout_steps(m.timeout_s, dt)?,
         },
         joins,
         leaves,
@@ -116,5 +136,36 @@ pub(crate) fn maneuvers(
     params
         .validate(followers)
         .or_else(|(field, message)| bad(&format!("maneuvers.{field}"), message))?;
+    if let Some(max) = m.max_members {
+        let start = params.initial_formation(followers).members().len();
+        if max < start {
+            return bad(
+                "maneuvers.max_members",
+                format!(
+                    "{max} is fewer than the {start} members the platoon starts with (the \
+                     leader counted): the leader would admit nobody; at least {start}"
+                ),
+            );
+        }
+    }
     Ok(Some(params))
+}
+
+/// `maneuvers.timeout_s` in steps of `dt`: at least one step; a timeout longer than any run
+/// saturates (a join that never times out), so that no deadline can overflow.
+fn timeout_steps(t: f64, dt: f64) -> Result<u64, KeyError> {
+    let key = "maneuvers.timeout_s";
+    if finite(key, t)? < dt {
+        return bad(
+            key,
+            format!(
+                "{} s is shorter than a step (simulation.dt_s = {} s): a join would be called \
+                 off as it is accepted",
+                Num(t),
+                Num(dt)
+            ),
+        );
+    }
+    // `as` saturates at u64::MAX, which the state machines' deadlines keep (saturating adds).
+    Ok((t / dt).round() as u64)
 }

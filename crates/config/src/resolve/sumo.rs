@@ -1,7 +1,7 @@
 //! `[sumo]` and the traffic around the platoon: the SUMO plant's road and options, the leader in
 //! SUMO's traffic (`leader.drive`), the vehicles ahead of it and the flows.
 use super::checks::{bad, finite, positive, steps_of};
-use crate::error::KeyError;
+use crate::error::{KeyError, Num};
 use crate::schema::{Config, FcdWriter, LeaderDrive, PlantKind, Sumo, SumoStates};
 
 /// `[sumo]`'s own keys, at a step of `dt`.
@@ -43,7 +43,7 @@ pub(crate) fn check(s: &Sumo, dt: f64) -> Result<(), KeyError> {
 pub(crate) fn traffic_around(c: &Config) -> Result<(), KeyError> {
     leader_drive(c)?;
     ahead(&c.sumo)?;
-    flows(&c.sumo, c.simulation.duration_s)?;
+    flows(&c.sumo, c.simulation.duration_s, c.simulation.dt_s)?;
     route(c)
 }
 
@@ -88,6 +88,39 @@ fn leader_drive(c: &Config) -> Result<(), KeyError> {
     Ok(())
 }
 
+/// The traffic only SUMO drives, refused on the native plant (which would drop it without a
+/// word): `[[sumo.flows]]`, `[[sumo.ahead]]`, `sumo.background_vehicles` and a `sumo.route` of
+/// several edges. The rest of `[sumo]` says where the platoon drives on SUMO's road and means
+/// nothing to the native plant, which has no road: it is ignored, as `--plant native` on a
+/// SUMO config expects. Checked where the plant is known for good (`platoon run`, after
+/// `--plant`), through [`crate::native_plant_check`]: a config may leave the plant native and be
+/// run with `--plant sumo`.
+pub(crate) fn native_plant(c: &Config) -> Result<(), KeyError> {
+    let s = &c.sumo;
+    let why = "is SUMO's traffic, which the native plant does not drive (it would run without \
+               it): use simulation.plant = \"sumo\" (and no --plant native), or remove it";
+    if !s.flows.is_empty() {
+        return bad("sumo.flows[0]", format!("[[sumo.flows]] {why}"));
+    }
+    if !s.ahead.is_empty() {
+        return bad("sumo.ahead[0]", format!("[[sumo.ahead]] {why}"));
+    }
+    if s.background_vehicles > 0 {
+        return bad(
+            "sumo.background_vehicles",
+            format!("{} vehicles {why}", s.background_vehicles),
+        );
+    }
+    if s.route.len() > 1 {
+        return bad(
+            "sumo.route",
+            "a route of several edges is SUMO's road; the native plant drives one straight lane \
+             (it would run without it): use simulation.plant = \"sumo\", or remove it",
+        );
+    }
+    Ok(())
+}
+
 /// `[[sumo.ahead]]`: the vehicles ahead of the leader.
 fn ahead(s: &Sumo) -> Result<(), KeyError> {
     for (i, a) in s.ahead.iter().enumerate() {
@@ -104,8 +137,14 @@ fn ahead(s: &Sumo) -> Result<(), KeyError> {
     Ok(())
 }
 
-/// `[[sumo.flows]]`: SUMO's flows, each entering before the run's end (`duration_s`).
-fn flows(s: &Sumo, duration_s: f64) -> Result<(), KeyError> {
+/// The top speed of a flow's cars (their SUMO vType's `maxSpeed`, m/s).
+pub const FLOW_CAR_MAX_SPEED_MPS: f64 = 36.0;
+/// The top speed of a flow's trucks (m/s).
+pub const FLOW_TRUCK_MAX_SPEED_MPS: f64 = 25.0;
+
+/// `[[sumo.flows]]`: SUMO's flows, each entering before the run's end (`duration_s`), at a
+/// rate and a speed SUMO accepts at a step of `dt`.
+fn flows(s: &Sumo, duration_s: f64, dt: f64) -> Result<(), KeyError> {
     for (i, f) in s.flows.iter().enumerate() {
         let key = |k: &str| format!("sumo.flows[{i}].{k}");
         for (k, edge) in [("from", &f.from), ("to", &f.to)] {
@@ -113,17 +152,36 @@ fn flows(s: &Sumo, duration_s: f64) -> Result<(), KeyError> {
                 return bad(&key(k), "must name an edge of the network");
             }
         }
-        positive(&key("vehicles_per_hour"), f.vehicles_per_hour)?;
-        if finite(&key("begin_s"), f.begin_s)? < 0.0 {
-            return bad(&key("begin_s"), format!("must be >= 0, got {}", f.begin_s));
+        let rate = positive(&key("vehicles_per_hour"), f.vehicles_per_hour)?;
+        // SUMO inserts a flow's vehicles one per step at most, and refuses a rate whose
+        // period is below its resolution.
+        let most = 3600.0 / dt;
+        if rate > most {
+            return bad(
+                &key("vehicles_per_hour"),
+                format!(
+                    "{} is more than one vehicle per step (simulation.dt_s = {} s): SUMO inserts \
+                     at most {} an hour",
+                    Num(rate),
+                    Num(dt),
+                    Num(most)
+                ),
+            );
         }
-        if f.end_s.is_none() && f.begin_s >= duration_s {
+        if finite(&key("begin_s"), f.begin_s)? < 0.0 {
+            return bad(
+                &key("begin_s"),
+                format!("must be >= 0, got {}", Num(f.begin_s)),
+            );
+        }
+        if f.begin_s >= duration_s {
             return bad(
                 &key("begin_s"),
                 format!(
                     "{} s is not before the run's end (simulation.duration_s = {} s): no vehicle \
                      would enter",
-                    f.begin_s, duration_s
+                    Num(f.begin_s),
+                    Num(duration_s)
                 ),
             );
         }
@@ -135,16 +193,32 @@ fn flows(s: &Sumo, duration_s: f64) -> Result<(), KeyError> {
                 );
             }
         }
-        if let Some(v) = f.speed_mps {
-            if finite(&key("speed_mps"), v)? < 0.0 {
-                return bad(&key("speed_mps"), format!("must be >= 0, got {v}"));
-            }
-        }
         if !(0.0..=1.0).contains(&finite(&key("truck_share"), f.truck_share)?) {
             return bad(
                 &key("truck_share"),
-                format!("must be in [0, 1], got {}", f.truck_share),
+                format!("must be in [0, 1], got {}", Num(f.truck_share)),
             );
+        }
+        if let Some(v) = f.speed_mps {
+            if finite(&key("speed_mps"), v)? < 0.0 {
+                return bad(&key("speed_mps"), format!("must be >= 0, got {}", Num(v)));
+            }
+            // SUMO refuses a vehicle that departs faster than its type's maxSpeed.
+            let (most, who) = if f.truck_share > 0.0 {
+                (FLOW_TRUCK_MAX_SPEED_MPS, "its trucks' (truck_share > 0)")
+            } else {
+                (FLOW_CAR_MAX_SPEED_MPS, "its cars'")
+            };
+            if v > most {
+                return bad(
+                    &key("speed_mps"),
+                    format!(
+                        "{} m/s is above {who} top speed of {most} m/s, which SUMO refuses as a \
+                         departure speed: at most {most}",
+                        Num(v)
+                    ),
+                );
+            }
         }
     }
     Ok(())

@@ -18,6 +18,11 @@ impl Member<'_> {
     pub(crate) fn length(&self) -> f64 {
         self.class.length_m
     }
+
+    /// The key that gives its length.
+    pub(crate) fn length_key(&self) -> String {
+        format!("vehicle_classes.{}.length_m", self.name)
+    }
 }
 
 /// The members of the platoon (leader first) with their classes, each class checked; empty

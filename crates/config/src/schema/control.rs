@@ -126,7 +126,10 @@ impl Default for CutInHandling {
 /// follower, of every platoon of a fleet. The same on either plant: on SUMO it is a SUMO
 /// vehicle on the platoon's lane, put there at the step it enters on the native plant, moved
 /// with the same kinematics and removed at `leave_s`; the radars see it through SUMO's
-/// `getLeader`, and its collisions are SUMO's (docs/sumo.md).
+/// `getLeader`, and its collisions are SUMO's (docs/sumo.md). Checked before the run against
+/// the gap it enters at `at_s` (the initial states' at t = 0, later the larger of that and the
+/// formation's at the leader's speed then): it must fit, and no other car may be in that gap
+/// then (docs/traffic.md#checked-before-the-run).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct CutInConfig {
@@ -134,11 +137,12 @@ pub struct CutInConfig {
     pub at_s: f64,
     /// The follower it cuts in front of (1..=N).
     pub ahead_of: usize,
-    /// The gap it leaves to that follower as it enters (m, bumper to bumper); absent: the
-    /// middle of the gap, equal gaps ahead of it and behind it.
+    /// The gap it leaves to that follower as it enters (m, bumper to bumper, > 0, and the car
+    /// must fit: `gap_m + length_m` below the gap it enters); absent: the middle of the gap,
+    /// equal gaps ahead of it and behind it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub gap_m: Option<f64>,
-    /// Its speed when it enters, minus the follower's (m/s).
+    /// Its speed when it enters, minus the follower's (m/s): it enters at 0 to 100 m/s.
     #[serde(default)]
     pub speed_diff_mps: f64,
     /// How hard it brakes after it entered (m/s^2, >= 0)...
@@ -150,7 +154,7 @@ pub struct CutInConfig {
     /// When it leaves the lane again (s); absent: it stays.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub leave_s: Option<f64>,
-    /// Its length (m); absent: `platoon.vehicle_length_m`.
+    /// Its length (m), shorter than the gap it enters; absent: `platoon.vehicle_length_m`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub length_m: Option<f64>,
 }
@@ -181,15 +185,17 @@ pub struct ManeuversConfig {
     /// How long a vehicle waits for an answer before it asks again, and the spacing of the
     /// leader's repeats of a formation update (s).
     pub reply_s: f64,
-    /// How many times a message that wants an answer is sent, at most.
+    /// How many times a message that wants an answer is sent, at most (>= 1).
     pub tries: u32,
-    /// How long a join may take from the leader's accept (s): then it is called off.
+    /// How long a join may take from the leader's accept (s): then it is called off. At least
+    /// a step; one longer than the run is a join that never times out.
     pub timeout_s: f64,
     /// A joiner is in position when its gap is within this of the platoon's (m)...
     pub in_position_m: f64,
     /// ...and it closes on the vehicle ahead at most this fast (m/s).
     pub in_position_mps: f64,
-    /// Members the platoon admits, the leader counted; absent: every vehicle of the scenario.
+    /// Members the platoon admits, the leader counted (at least those it starts with); absent:
+    /// every vehicle of the scenario.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub max_members: Option<usize>,
     /// The leader checks an in-position report (a joiner's, a merging head's) against the
