@@ -132,6 +132,7 @@ mod tests {
             affected: false,
             mode: platoon_control::Status::default(),
             guard: false,
+            saturated: false,
             intruder: None,
             radar_target: None,
             radar_gap_m: None,

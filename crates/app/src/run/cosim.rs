@@ -47,18 +47,7 @@ pub(super) fn cosimulate(
 ) -> Result<(Plotted, Summary, Option<platoon_runtime::CosimError>)> {
     let logs = dir.path("logs");
     std::fs::create_dir_all(&logs).with_context(|| format!("creating {}", logs.display()))?;
-    let injector = match &opts.injector {
-        Some(i) => platoon_runtime::Program::Shell(i.command.clone()),
-        None => platoon_runtime::Program::Builtin,
-    };
-    let controller = match &opts.controller {
-        Some(command) => platoon_runtime::Program::Shell(command.clone()),
-        None => platoon_runtime::Program::Builtin,
-    };
-    let after = opts
-        .injector
-        .as_ref()
-        .is_some_and(|i| i.mode == InjectorMode::After);
+    let (injector, controller, after) = programs(opts);
     let plant_kind = match plant {
         Some(_) => PlantKind::Sumo,
         None => PlantKind::Native,
@@ -168,18 +157,11 @@ pub(super) fn cosimulate(
     match result {
         Ok(outcome) => {
             link_outages(scenario, output, dir, &mut metrics)?;
+            write_timing(dir, &outcome, progress)?;
             let mut summary = metrics.finish(outcome.rejected);
             summary.channel = outcome.radio;
             summary.detection = outcome.detection;
             channel_log_format(scenario, output, dir)?;
-            let mut timing = serde_json::to_value(&outcome.timing)?;
-            timing["duplicate_samples"] = serde_json::to_value(outcome.duplicates)?;
-            timing["peak_rss_mib"] = peak_rss_mib(&outcome.peak_rss_kib);
-            let json = serde_json::to_string_pretty(&timing)? + "\n";
-            dir.write("timing.json", json.as_bytes())?;
-            if let Some(warning) = duplicates_warning(&outcome.duplicates) {
-                progress.message(&warning);
-            }
             Ok((rows, summary, None))
         }
         Err(e) => {
@@ -194,6 +176,42 @@ pub(super) fn cosimulate(
             Ok((rows, summary, Some(e)))
         }
     }
+}
+
+/// The injector and controller processes `opts` asks for (a shell command, else the built-in
+/// node), and whether the injector runs after the config's attacks.
+fn programs(opts: &RunOptions) -> (platoon_runtime::Program, platoon_runtime::Program, bool) {
+    let injector = match &opts.injector {
+        Some(i) => platoon_runtime::Program::Shell(i.command.clone()),
+        None => platoon_runtime::Program::Builtin,
+    };
+    let controller = match &opts.controller {
+        Some(command) => platoon_runtime::Program::Shell(command.clone()),
+        None => platoon_runtime::Program::Builtin,
+    };
+    let after = opts
+        .injector
+        .as_ref()
+        .is_some_and(|i| i.mode == InjectorMode::After);
+    (injector, controller, after)
+}
+
+/// timing.json: the run's stage timing, the samples a node published twice and each node's
+/// peak memory; a warning through `progress` when samples came twice.
+fn write_timing(
+    dir: &RunDir,
+    outcome: &platoon_runtime::Outcome,
+    progress: &dyn Progress,
+) -> Result<()> {
+    let mut timing = serde_json::to_value(&outcome.timing)?;
+    timing["duplicate_samples"] = serde_json::to_value(outcome.duplicates)?;
+    timing["peak_rss_mib"] = peak_rss_mib(&outcome.peak_rss_kib);
+    let json = serde_json::to_string_pretty(&timing)? + "\n";
+    dir.write("timing.json", json.as_bytes())?;
+    if let Some(warning) = duplicates_warning(&outcome.duplicates) {
+        progress.message(&warning);
+    }
+    Ok(())
 }
 
 /// Sets `halt` once `stop` is set, until `done`: the caller's stop reaches the orchestrator
