@@ -164,6 +164,10 @@ pub trait Experiment: Sized {
     fn check_base(_base: &Base) -> Result<()> {
         Ok(())
     }
+    /// The plant its runs use: the native one, in process, unless its options say SUMO.
+    fn plant(_opts: &Self::Options) -> platoon_config::PlantKind {
+        platoon_config::PlantKind::Native
+    }
     /// Measures its cells on `base`; with `out`, writes its config.toml and its runs'
     /// directories there.
     fn measure(
@@ -188,6 +192,12 @@ pub fn run<E: Experiment>(
 ) -> Result<E> {
     E::validate(opts)?;
     E::check_base(base)?;
+    if E::plant(opts) == platoon_config::PlantKind::Native {
+        // SUMO's traffic in the base would be dropped without a word (as `platoon run`
+        // refuses it on the native plant).
+        platoon_config::native_plant_check(&base.config)
+            .map_err(|e| ConfigError::new(Path::new(&base.label), &e.key, e.reason.to_string()))?;
+    }
     let result = E::measure(base, opts, out, progress)?;
     written(result, out, |r, dir| r.write(base, opts, dir))
 }

@@ -295,6 +295,11 @@ fn traffic_runs_each_law_on_a_topology_it_can_and_scores_the_forged_packets() {
             t.markdown
         );
     }
+    // A base carrying SUMO's traffic is refused in process, by key, before anything runs.
+    let mut busy = Base::load(None, Embedded::CutIn).unwrap();
+    busy.config.sumo.background_vehicles = 5;
+    let e = experiment::traffic(&busy, &opts, None, &()).unwrap_err();
+    assert!(e.to_string().contains("sumo.background_vehicles"), "{e}");
     // A base without a cut-in is refused, by name.
     let paper = Base::load(None, Embedded::Paper).unwrap();
     let e = experiment::traffic(&paper, &opts, None, &()).unwrap_err();

@@ -682,14 +682,22 @@ impl Campaign {
         let label = format!("cell {index}");
         let resolved = result.and_then(|()| {
             let text = toml::to_string(&v).map_err(|e| e.to_string())?;
-            platoon_config::parse(&text, Path::new(&label)).map_err(|e| {
-                // The label adds nothing in cells.csv: key and message only.
-                if e.key.is_empty() {
-                    e.message
-                } else {
-                    format!("key `{}`: {}", e.key, e.message)
-                }
-            })
+            let (config, scenario) =
+                platoon_config::parse(&text, Path::new(&label)).map_err(|e| {
+                    // The label adds nothing in cells.csv: key and message only.
+                    if e.key.is_empty() {
+                        e.message
+                    } else {
+                        format!("key `{}`: {}", e.key, e.message)
+                    }
+                })?;
+            // A cell runs on its config's plant: SUMO's traffic on the native one would be
+            // dropped without a word (as `platoon run` refuses it).
+            if config.simulation.plant == platoon_config::PlantKind::Native {
+                platoon_config::native_plant_check(&config)
+                    .map_err(|e| format!("key `{}`: {}", e.key, e.reason))?;
+            }
+            Ok((config, scenario))
         });
         let transport = self.spec.transport;
         match resolved {

@@ -231,3 +231,12 @@ fn the_hash_changes_with_the_config_and_the_transport() {
     assert_ne!(a.cells[0].hash, b.cells[0].hash);
     assert_eq!(a.cells[0].dir_name(2), "c0000");
 }
+
+#[test]
+fn sumo_traffic_fails_a_cell_on_the_native_plant() {
+    // The native plant would run the cell without it: the cell fails, naming the key.
+    let c = parse("[[axes]]\nkey = \"sumo.background_vehicles\"\nvalues = [0, 5]\n").unwrap();
+    assert!(c.cells[0].config.is_ok());
+    let e = c.cells[1].config.as_ref().unwrap_err();
+    assert!(e.starts_with("key `sumo.background_vehicles`"), "{e}");
+}

@@ -416,45 +416,21 @@ impl Consensus {
     }
 
     /// The command while a member ahead heads `part` (road order, the head first, this
-    /// follower in it): the consensus of the part alone, the head in the leader's place. Each
-    /// member keeps its own gains, headway and speed gain; its links to the leader and to the
-    /// head both become its link to the part's head (the leader's gain where it heard the
-    /// leader), and it ignores every vehicle ahead of the head.
+    /// follower in it): Plexe's consensus on the part as a platoon of its own size, the head
+    /// in the leader's place. The part takes the first places' gains, links, speed gains and
+    /// headways of the platoon's (its second member is a first follower, and so on), and no
+    /// vehicle ahead of the head counts.
     fn of_part(&mut self, view: &View<'_>, part: &[VehicleId], head: &crate::checks::Heard) -> f64 {
         let p = &self.params;
-        let index = |v: VehicleId| v.index();
-        let row = |a: VehicleId| -> (Vec<f64>, Vec<f64>) {
-            let (i, h) = (index(a), index(part[0]));
-            let leader = p.adjacency[i][0] > 0.0;
-            let (to_head, gain_head) = if leader {
-                (p.adjacency[i][0], p.gains[i][0])
-            } else {
-                (p.adjacency[i][h], p.gains[i][h])
-            };
-            let mut adjacency = vec![to_head];
-            let mut gains = vec![gain_head];
-            for &b in &part[1..] {
-                adjacency.push(p.adjacency[i][index(b)]);
-                gains.push(p.gains[i][index(b)]);
-            }
-            (adjacency, gains)
+        let m = part.len();
+        let first = |rows: &[Vec<f64>]| -> Vec<Vec<f64>> {
+            rows[..m].iter().map(|r| r[..m].to_vec()).collect()
         };
-        let (mut adjacency, mut gains) = (Vec::new(), Vec::new());
-        for (q, &a) in part.iter().enumerate() {
-            // The head's own row is never read (it runs its ACC, not this law).
-            let (r, g) = if q == 0 {
-                (vec![0.0; part.len()], vec![0.0; part.len()])
-            } else {
-                row(a)
-            };
-            adjacency.push(r);
-            gains.push(g);
-        }
         let sub = ConsensusParams {
-            gains,
-            adjacency,
-            speed_gains: part.iter().map(|&v| p.speed_gains[index(v)]).collect(),
-            headways_s: part.iter().map(|&v| p.headways_s[index(v)]).collect(),
+            gains: first(&p.gains),
+            adjacency: first(&p.adjacency),
+            speed_gains: p.speed_gains[..m].to_vec(),
+            headways_s: p.headways_s[..m].to_vec(),
             standstill_m: p.standstill_m,
             scale: p.scale,
         };

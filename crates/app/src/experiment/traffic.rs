@@ -522,6 +522,9 @@ impl Experiment for Traffic {
     fn validate(opts: &TrafficOptions) -> Result<()> {
         opts.validate()
     }
+    fn plant(opts: &TrafficOptions) -> PlantKind {
+        opts.plant
+    }
     fn measure(
         base: &Base,
         opts: &TrafficOptions,
