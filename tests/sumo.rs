@@ -1709,6 +1709,17 @@ fn sumo_records_what_the_radars_saw_when_no_controller_reads_them() {
     );
 }
 
+/// A run's `split` and `merged` events from events.csv, as `"<vehicle> <step> <event>"`.
+fn split_events(run: &Path) -> Vec<String> {
+    std::fs::read_to_string(run.join("events.csv"))
+        .unwrap()
+        .lines()
+        .map(|l| l.split(',').collect::<Vec<_>>())
+        .filter(|f| f[4] == "split" || f[4] == "merged")
+        .map(|f| format!("{} {} {}", f[1], f[2], f[4]))
+        .collect()
+}
+
 /// A platoon split behind the car on SUMO (`configs/cut-in-split.toml`, the flatbed
 /// controller): SUMO's radar sees the car, follower 3 heads follower 4 while it runs ACC on
 /// it, nobody collides or teleports, and the run agrees with the native plant's: every gap
@@ -1721,17 +1732,8 @@ fn a_split_behind_a_cut_in_on_sumo_agrees_with_the_native_plant() {
     sumo_report_clean(&sumo);
     let worst = worst_gap_difference(&rows(&sumo), &rows(&native), 7001 * 4);
     assert!(worst < 0.05, "the gaps differ by up to {worst} m");
-    let formation = |run: &Path| -> Vec<String> {
-        std::fs::read_to_string(run.join("events.csv"))
-            .unwrap()
-            .lines()
-            .map(|l| l.split(',').collect::<Vec<_>>())
-            .filter(|f| f[4] == "split" || f[4] == "merged")
-            .map(|f| format!("{} {} {}", f[1], f[2], f[4]))
-            .collect()
-    };
-    assert_eq!(formation(&sumo), ["4 2001 split", "4 3410 merged"]);
-    assert_eq!(formation(&sumo), formation(&native));
+    assert_eq!(split_events(&sumo), ["4 2001 split", "4 3410 merged"]);
+    assert_eq!(split_events(&sumo), split_events(&native));
     mode_times_agree(&s, &n, 0.05);
 }
 
@@ -1777,22 +1779,13 @@ fn the_papers_law_splits_behind_a_cut_in_on_sumo_as_natively() {
         sumo_report_clean(&sumo);
         let worst = worst_gap_difference(&rows(&sumo), &rows(&native), 7001 * 5);
         assert!(worst < 0.05, "{preset}: the gaps differ by up to {worst} m");
-        let formation = |run: &Path| -> Vec<String> {
-            std::fs::read_to_string(run.join("events.csv"))
-                .unwrap()
-                .lines()
-                .map(|l| l.split(',').collect::<Vec<_>>())
-                .filter(|f| f[4] == "split" || f[4] == "merged")
-                .map(|f| format!("{} {} {}", f[1], f[2], f[4]))
-                .collect()
-        };
-        let on_sumo = formation(&sumo);
+        let on_sumo = split_events(&sumo);
         assert_eq!(
             on_sumo.iter().filter(|e| e.ends_with(" split")).count(),
             2,
             "{preset}: {on_sumo:?}"
         );
-        assert_eq!(on_sumo, formation(&native), "{preset}");
+        assert_eq!(on_sumo, split_events(&native), "{preset}");
     }
 }
 
