@@ -220,6 +220,30 @@ pub fn sample_seed(campaign_seed: u64, sample: usize) -> u64 {
     rng.next_u64()
 }
 
+/// A cell's config table `v` resolved (errors as `cells.csv` gives them: the key and the
+/// message; `label` names the cell for the parser).
+fn cell_config(
+    v: &toml::Value,
+    label: &str,
+) -> Result<(platoon_config::Config, platoon_sim::Scenario), String> {
+    let text = toml::to_string(v).map_err(|e| e.to_string())?;
+    let (config, scenario) = platoon_config::parse(&text, Path::new(label)).map_err(|e| {
+        // The label adds nothing in cells.csv: key and message only.
+        if e.key.is_empty() {
+            e.message
+        } else {
+            format!("key `{}`: {}", e.key, e.message)
+        }
+    })?;
+    // A cell runs on its config's plant: SUMO's traffic on the native one would be dropped
+    // without a word (as `platoon run` refuses it).
+    if config.simulation.plant == platoon_config::PlantKind::Native {
+        platoon_config::native_plant_check(&config)
+            .map_err(|e| format!("key `{}`: {}", e.key, e.reason))?;
+    }
+    Ok((config, scenario))
+}
+
 /// A cell's identity: the hash of its resolved config and how it runs.
 pub fn cell_hash(config: &str, transport: Transport) -> String {
     let mut h = Sha256::new();
@@ -680,25 +704,7 @@ impl Campaign {
         let touched_refs: Vec<&str> = touched.iter().map(String::as_str).collect();
         drop_excluded(&mut v, &touched_refs);
         let label = format!("cell {index}");
-        let resolved = result.and_then(|()| {
-            let text = toml::to_string(&v).map_err(|e| e.to_string())?;
-            let (config, scenario) =
-                platoon_config::parse(&text, Path::new(&label)).map_err(|e| {
-                    // The label adds nothing in cells.csv: key and message only.
-                    if e.key.is_empty() {
-                        e.message
-                    } else {
-                        format!("key `{}`: {}", e.key, e.message)
-                    }
-                })?;
-            // A cell runs on its config's plant: SUMO's traffic on the native one would be
-            // dropped without a word (as `platoon run` refuses it).
-            if config.simulation.plant == platoon_config::PlantKind::Native {
-                platoon_config::native_plant_check(&config)
-                    .map_err(|e| format!("key `{}`: {}", e.key, e.reason))?;
-            }
-            Ok((config, scenario))
-        });
+        let resolved = result.and_then(|()| cell_config(&v, &label));
         let transport = self.spec.transport;
         match resolved {
             Ok((config, scenario)) => {
