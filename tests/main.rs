@@ -18,6 +18,7 @@ mod figures;
 mod formations;
 mod ground_truth;
 mod join_middle;
+mod lanes;
 mod layout;
 mod leaves;
 mod maneuvers;

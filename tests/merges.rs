@@ -482,6 +482,7 @@ fn a_head_that_is_no_vehicle_ahead_is_measured_against_the_leader() {
             jammed: &[false; 6],
             ahead: &[],
             targets: &[],
+            beside: &[],
         };
         platoon_sim::step_rows(&s, &sources, step, &mut out);
         // Vehicle 4 at its slot behind the leader: no error against the leader.

@@ -711,7 +711,7 @@ print("\n".join(repr(x) for x in out))  # shortest repr: parses back exactly
 
 /// The numbers `script` prints, one per line, run by the bridge's Python (its venv set up
 /// first).
-fn python_floats(script: &str) -> Vec<f64> {
+pub(crate) fn python_floats(script: &str) -> Vec<f64> {
     let setup = Command::new(repo().join("bridge/setup-venv.sh"))
         .status()
         .unwrap();
@@ -1839,7 +1839,7 @@ fn a_join_in_the_middle_on_sumo_changes_lanes_and_agrees_with_the_native_plant()
     let report = json(&sumo.join("sumo.json"));
     assert_eq!(
         report["lane_changes"],
-        serde_json::json!([{"step": 2758, "t": 27.580000000000002, "vehicle": "follower4", "lane": 1}])
+        serde_json::json!([{"step": 2758, "t": 27.580000000000002, "vehicle": "follower4", "lane": 1, "waited_s": 0.0}])
     );
     let routes = std::fs::read_to_string(sumo.join("routes.rou.xml")).unwrap();
     let joiner = routes

@@ -92,6 +92,7 @@ class VehicleState(Payload):
     COLLIDED = 1
     AHEAD = 2
     INTRUDER = 4  # the vehicle ahead is not the platoon's predecessor
+    BESIDE = 8  # the vehicle drives in the lane beside the platoon's (as the plant has it)
     # With INTRUDER, flags >> TARGET_SHIFT names it: 1 + c for the platoon's cut-in c, 1 + C + b
     # for background vehicle bg<b> (C cut-ins), 0 for a vehicle the plant does not name.
     TARGET_SHIFT = 8

@@ -236,6 +236,42 @@ class CutIns:
         return held
 
 
+class LaneChangeRule:
+    """When a lane change is safe (`sim::lanes::LaneChangeRule`, plant.json's `lane_change`):
+    the gap between a vehicle and the one ahead of it on the lane it moves into, closing at
+    c, at least `min_gap_m + max(c, 0) reaction_s + max(c, 0)^2 / (2 safe_decel_mps2)`, for
+    the changer behind its new leader and for its new follower behind it. The same expressions
+    as Rust, so both plants change lanes at the same steps (tests/sumo.rs)."""
+
+    def __init__(self, rule):
+        self.min_gap_m = float(rule["min_gap_m"])
+        self.reaction_s = float(rule["reaction_s"])
+        self.safe_decel_mps2 = float(rule["safe_decel_mps2"])
+
+    def gap_is_safe(self, gap: float, closing: float) -> bool:
+        c = max(closing, 0.0)
+        return gap >= self.min_gap_m + c * self.reaction_s + c * c / (2.0 * self.safe_decel_mps2)
+
+    def safe(self, me, ahead, behind) -> bool:
+        """Whether `me` may move between `ahead` and `behind` (each [front bumper, speed,
+        length], or None: nobody there)."""
+        front = ahead is None or self.gap_is_safe(ahead[0] - ahead[2] - me[0], me[1] - ahead[1])
+        back = behind is None or self.gap_is_safe(me[0] - me[2] - behind[0], behind[1] - me[1])
+        return front and back
+
+    def safe_among(self, me, others) -> bool:
+        """Whether `me` may move onto a lane where `others` drive: between the nearest ahead
+        (its front bumper further on than `me`'s, or level) and the nearest behind."""
+        ahead = behind = None
+        for o in others:
+            if o[0] >= me[0]:
+                if ahead is None or o[0] < ahead[0]:
+                    ahead = o
+            elif behind is None or o[0] > behind[0]:
+                behind = o
+        return self.safe(me, ahead, behind)
+
+
 # Fleets of at least this many vehicles are stepped with numpy; smaller ones with plain loops,
 # which cost less than numpy's per-call overhead there (a 5-vehicle step: ~20 µs against ~45).
 VECTOR_MIN_VEHICLES = 64

@@ -485,6 +485,14 @@ class Kinematics:
         starts_beside = set(spec["sumo"].get("beside", []))
         self.beside = {g for g in range(n) if g % self.n1 in starts_beside}
         self.platoon_lanes = [int(x) for x in spec["lanes"]]
+        # When a lane change is safe (the native plant's rule), every member's length, and
+        # the lane-change waits (for sumo.json).
+        self.rule = model.LaneChangeRule(spec["lane_change"]) if spec.get("lane_change") else None
+        if self.rule is not None:
+            members = spec.get("vehicles") or []
+            self.lengths = ([float(m["length_m"]) for m in members]
+                            or [float(spec["vehicle_length"])] * self.n1)
+        self.waiting = {}
         # The states sample, filled in place (through a numpy view for large fleets).
         self.out = (w.VehicleState * n)()
         self.view = np.ctypeslib.as_array(self.out)
@@ -521,24 +529,79 @@ class Kinematics:
         return u, guard
 
     def change_lanes(self, cmds, k, report):
-        """Each follower to the lane its command's mode says (Command.flags, MODE_SHIFT): the
-        lane beside the platoon's for `left` (8) and `beside` (9), else the platoon's, as the
-        native plant keeps them. SUMO changes lanes in the coming step (lane-change mode 0: at
-        once); each change goes into the report."""
+        """Each follower to the lane its command's mode asks for (Command.flags, MODE_SHIFT):
+        the lane beside the platoon's for `left` (8) and `beside` (9), else the platoon's, when
+        the gap there is safe (`model.LaneChangeRule`, the native plant's rule, in the same
+        order: by wire number, each seeing the lanes as those before it left them); otherwise
+        it stays and asks again at the next step. SUMO changes lanes in the coming step
+        (lane-change mode 0: at once); each change goes into the report, with how long the
+        vehicle waited for a safe gap."""
         if not self.side_lanes:
             return
         got = np.frombuffer(cmds, dtype=COMMAND)
         modes = (got["flags"] >> w.Command.MODE_SHIFT) & w.Command.MODE_MASK
         side = np.isin(modes, SIDE_MODES)
-        for g, beside in zip(got["vehicle"].tolist(), side.tolist()):
+        for g, beside in sorted(zip(got["vehicle"].tolist(), side.tolist())):
             if beside == (g in self.beside):
+                self.waiting.pop(g, None)
                 continue
+            since = self.waiting.setdefault(g, k)
+            if self.rule is not None and not self.lane_change_safe(g, beside):
+                continue
+            del self.waiting[g]
             j = g // self.n1
             lane = self.side_lanes[j] if beside else self.platoon_lanes[j]
             (self.beside.add if beside else self.beside.discard)(g)
             # Held in that lane until told otherwise.
             self.sumo.vehicle.changeLane(self.ids[g], lane, 1e9)
-            report.append({"step": k, "t": k * self.dt, "vehicle": self.ids[g], "lane": lane})
+            report.append({"step": k, "t": k * self.dt, "vehicle": self.ids[g], "lane": lane,
+                           "waited_s": (k - since) * self.dt})
+
+    def lane_change_safe(self, g, beside):
+        """Whether wire vehicle g may move into the lane beside its platoon's (`beside`) or
+        back into the platoon's, at the states published at this step: among its platoon's
+        members on that lane and, on the platoon's lane, its cut-ins (both as the native plant
+        has them: the model's values), and any other SUMO vehicle that is the nearest ahead or
+        behind it on that lane (background traffic, other platoons), as SUMO has it."""
+        n1 = self.n1
+        j, i = divmod(g, n1)
+        lo = j * n1
+        vehicle = lambda h: [float(self.p[h]), float(self.v[h]), self.lengths[h - lo]]
+        others = [vehicle(h) for h in range(lo, lo + n1)
+                  if h != g and (h in self.beside) == beside]
+        known = {self.ids[h] for h in range(lo, lo + n1)}
+        if not beside and self.intruders:
+            cuts = self.intruders.platoons[j]
+            for c, x in enumerate(cuts.on_lane):
+                if x is not None:
+                    others.append([x[0], x[1], float(cuts.cut_ins[c]["length_m"])])
+                    known.add(intruder_id(j, c))
+        me = vehicle(g)
+        others.extend(self.strangers(g, beside, me, known))
+        return self.rule.safe_among(me, others)
+
+    def strangers(self, g, beside, me, known):
+        """The nearest SUMO vehicles ahead and behind wire vehicle g on the lane it wants,
+        other than `known` ones, as [front bumper, speed, length] in the platoon's road
+        coordinates (SUMO's neighbour gaps: a leader's is bumper to bumper less g's minGap,
+        0 for members; a follower's less the follower's own minGap)."""
+        j = g // self.n1
+        target = self.side_lanes[j] if beside else self.platoon_lanes[j]
+        here = self.platoon_lanes[j] if beside else self.side_lanes[j]
+        vehicle, vid = self.sumo.vehicle, self.ids[g]
+        # getNeighbors' mode: bit 0 right (else left), bit 1 leaders (else followers).
+        right = 0 if target > here else 1
+        leaders, followers = vehicle.getNeighbors(vid, right | 2), vehicle.getNeighbors(vid, right)
+        out = []
+        for other, dist in leaders:
+            if other not in known:
+                length = vehicle.getLength(other)
+                out.append([me[0] + dist + length, vehicle.getSpeed(other), length])
+        for other, dist in followers:
+            if other not in known:
+                gap = dist + vehicle.getMinGap(other)
+                out.append([me[0] - me[2] - gap, vehicle.getSpeed(other), vehicle.getLength(other)])
+        return out
 
     def step(self, accel, k):
         """The model's p, v after step k with the accelerations held over it."""
@@ -603,10 +666,15 @@ class Kinematics:
 
     def arrive_and_sense(self, k):
         """The cut-ins of step k enter (mid-gap, from the states published) and leave, then
-        the radars read the lane."""
+        the radars read the lane, and each state says its vehicle's lane (BESIDE)."""
         if self.intruders and self.intruders.arrive(k, self.p, self.v) and self.native is not None:
             self.native.reread()
         self.sense()
+        if self.side_lanes:
+            flags = self.view["flags"] & ~np.uint32(w.VehicleState.BESIDE)
+            for g in self.beside:
+                flags[g] |= np.uint32(w.VehicleState.BESIDE)
+            self.view["flags"] = flags
 
     def sense(self):
         """What each follower's radar sees, as SUMO has it: the nearest vehicle ahead on its

@@ -537,6 +537,7 @@ mod tests {
             messages_sent: 9,
             maneuvers: vec![record(Some(0.5)), record(None), record(Some(21.5))],
             formations: Vec::new(),
+            lane_changes: Vec::new(),
         });
         s
     }

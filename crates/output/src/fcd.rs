@@ -363,9 +363,13 @@ impl<'a, W: Write> FcdWriter<'a, W> {
             _ => r.a,
         };
         self.last[v] = Some((r.step, r.a));
-        // Where it is at this row: where its last row's mode sent it (a lane change takes the
-        // step), at its first row where its mode says.
-        let beside = self.beside[v].unwrap_or(r.mode == platoon_control::Role::Beside);
+        // Where it is at this row: its lane as the plant had it, or in rows without it
+        // (written before the lane column), where its last row's mode sent it (a lane change
+        // takes the step), at its first row where its mode says.
+        let beside = r
+            .beside
+            .or(self.beside[v])
+            .unwrap_or(r.mode == platoon_control::Role::Beside);
         self.beside[v] = Some(r.mode.is_beside_the_lane());
         if !r.step.is_multiple_of(self.period_steps) {
             return Ok(());
@@ -577,6 +581,7 @@ mod tests {
             radar_gap_m: None,
             radar_closing_mps: None,
             head: None,
+            beside: None,
         }
     }
 

@@ -315,6 +315,10 @@ impl RunFiles {
         if !scenario.splits() {
             absent_rows.push(StepRow::HEAD_COLUMN);
         }
+        // Each vehicle's lane: in runs where vehicles change lanes only.
+        if !scenario.changes_lanes() {
+            absent_rows.push(StepRow::LANE_COLUMN);
+        }
         Ok(Self {
             trajectories: place.table_without(
                 "trajectories",

@@ -388,7 +388,7 @@ mod tests {
     fn a_csv_without_rows_has_its_header_and_reads_back_empty() {
         let tmp = tempfile::tempdir().unwrap();
         let dir = RunDir::create(&tmp.path().join("r"), false).unwrap();
-        let absent = [StepRow::HEAD_COLUMN];
+        let absent = [StepRow::HEAD_COLUMN, StepRow::LANE_COLUMN];
         let mut t =
             Table::<StepRow>::create_without(&dir, "empty", Format::Csv, true, &absent).unwrap();
         t.finish().unwrap();
@@ -413,8 +413,8 @@ mod tests {
     }
 
     fn the_same_in_both_formats(rows: &[StepRow], radar: bool) {
-        // The paper's scenario never splits: no head column either way.
-        let mut absent = vec![StepRow::HEAD_COLUMN];
+        // The paper's scenario never splits nor changes lanes: no head or lane column.
+        let mut absent = vec![StepRow::HEAD_COLUMN, StepRow::LANE_COLUMN];
         if !radar {
             absent.extend(StepRow::RADAR_COLUMNS);
         }

@@ -29,6 +29,8 @@ pub fn plant(run_id: &str, scenario: &Scenario) -> Result<(), CosimError> {
         let mut buf = Vec::with_capacity(num.vehicles());
         let mut u = vec![0.0; num.followers()];
         let mut guard = vec![false; num.followers()];
+        // Which lane each follower's command asks for (`true`: beside), by slot.
+        let mut want = vec![false; num.followers()];
         if !ctx.ready()? {
             return Ok(());
         }
@@ -44,7 +46,11 @@ pub fn plant(run_id: &str, scenario: &Scenario) -> Result<(), CosimError> {
                 // What a radar sees natively: the predecessor, or a vehicle that cut in.
                 p.radar_view(truth, targets);
                 let view = p.states().iter().zip(truth.iter()).zip(targets.iter());
-                buf.extend(view.map(|((x, t), who)| {
+                buf.extend(view.enumerate().map(|(i, ((x, t), who))| {
+                    let lane = match p.beside(i) {
+                        true => VehicleState::BESIDE,
+                        false => 0,
+                    };
                     let (flags, gap, closing) = t.map_or((0, 0.0, 0.0), |t| {
                         let intruder = match (t.intruder, who) {
                             (false, _) => 0,
@@ -58,7 +64,7 @@ pub fn plant(run_id: &str, scenario: &Scenario) -> Result<(), CosimError> {
                     });
                     VehicleState {
                         vehicle: 0, // numbered below
-                        flags,
+                        flags: flags | lane,
                         p: x[0],
                         v: x[1],
                         a: x[2],
@@ -84,15 +90,18 @@ pub fn plant(run_id: &str, scenario: &Scenario) -> Result<(), CosimError> {
             };
             commands_into(&cmds, num, &mut u, &mut guard)?;
             if scenario.changes_lanes() {
-                // Each vehicle on the lane its mode says (`left`, `beside`: the one beside), as
-                // the in-process run.
+                // Each vehicle into the lane its mode asks for (`left`, `beside`: the one
+                // beside) where the gap there is safe, as the in-process run.
                 for c in cmds.iter() {
+                    // Checked in `commands_into`.
                     if let Some((j, i)) = num.split(c.vehicle) {
-                        // Checked in `commands_into`.
-                        let beside = platoon_control::Status::from_code(c.mode_code())
-                            .is_ok_and(|s| s.is_beside_the_lane());
-                        plants[j].set_lane(i.index(), beside);
+                        want[j * n + i.index() - 1] =
+                            platoon_control::Status::from_code(c.mode_code())
+                                .is_ok_and(|s| s.is_beside_the_lane());
                     }
+                }
+                for (plant, want) in plants.iter_mut().zip(want.chunks(n)) {
+                    plant.change_lanes(|i| want[i - 1]);
                 }
             }
             for ((plant, u), guard) in plants.iter_mut().zip(u.chunks(n)).zip(guard.chunks(n)) {

@@ -9,6 +9,7 @@
 
 pub mod detection;
 mod factory;
+pub mod lanes;
 mod maneuver_tally;
 mod metrics;
 pub mod model_check;
@@ -24,9 +25,9 @@ pub use factory::{
 pub use metrics::{FleetMetrics, MetricsAccumulator};
 pub use scenario::{Fleet, Scenario, ScenarioError, Vehicle};
 pub use summary::{
-    Collision, ErrorStats, FleetOverview, FormationRecord, FormationStability, LinkOutage,
-    ManeuverRecord, ManeuversSummary, PlatoonBrief, Safety, SafetyClass, SafetyThresholds, Summary,
-    VehicleSummary, VehicleWire, WireSummary,
+    Collision, ErrorStats, FleetOverview, FormationRecord, FormationStability, LaneChangeRecord,
+    LinkOutage, ManeuverRecord, ManeuversSummary, PlatoonBrief, Safety, SafetyClass,
+    SafetyThresholds, Summary, VehicleSummary, VehicleWire, WireSummary,
 };
 pub use tally::WireCounts;
 
@@ -115,6 +116,12 @@ pub struct StepRow {
     /// (`[fallback.cut_in] split`); elsewhere `None`, and the column is not written.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub head: Option<u16>,
+    /// Whether the vehicle drives in the lane beside the platoon's at this step, as the plant
+    /// has it (a member that left, a joiner not yet moved in; one that wants to change lanes
+    /// stays where it is until the gap is safe: [`lanes`]). Only in runs where vehicles change
+    /// lanes ([`Scenario::changes_lanes`]); elsewhere `None`, and the column is not written.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub beside: Option<bool>,
 }
 
 impl StepRow {
@@ -127,12 +134,17 @@ impl StepRow {
     /// platoon behind a cut-in ([`StepRow::head`]).
     pub const HEAD_COLUMN: &'static str = "head";
 
-    /// Every column a run may leave out: the radar's and the head's.
-    pub const OPTIONAL_COLUMNS: [&'static str; 4] = [
+    /// The column of each vehicle's lane, written only in runs where vehicles change lanes
+    /// ([`StepRow::beside`]).
+    pub const LANE_COLUMN: &'static str = "beside";
+
+    /// Every column a run may leave out: the radar's, the head's and the lane's.
+    pub const OPTIONAL_COLUMNS: [&'static str; 5] = [
         Self::RADAR_COLUMNS[0],
         Self::RADAR_COLUMNS[1],
         Self::RADAR_COLUMNS[2],
         Self::HEAD_COLUMN,
+        Self::LANE_COLUMN,
     ];
 
     /// This row with the radar's columns (`on`: nothing seen where it has none) or without.
@@ -163,8 +175,11 @@ pub struct Plant {
     discretisation: platoon_model::Discretisation,
     leader: LeaderProfile,
     dt: f64,
-    /// Members that left the lane (`[maneuvers]`), leader first; empty while nobody has.
+    /// Each vehicle in the lane beside the platoon's (`[maneuvers]` with lane changes), leader
+    /// first; empty in runs where nobody changes lanes.
     off_lane: Vec<bool>,
+    /// When a vehicle may change lanes.
+    rule: lanes::LaneChangeRule,
 }
 
 impl Plant {
@@ -191,26 +206,55 @@ impl Plant {
                     .collect(),
                 false => Vec::new(),
             },
+            rule: lanes::LaneChangeRule::DEFAULT,
         }
     }
 
-    /// Puts follower `i` on the lane beside the platoon's (`beside`: a member that left, mode
-    /// [`platoon_control::Role::Left`], or a joiner waiting there, role
-    /// [`platoon_control::Role::Beside`]), where no radar of the platoon's lane sees it and it
-    /// sees nothing, or on the platoon's lane.
-    pub fn set_lane(&mut self, i: usize, beside: bool) {
+    /// Moves every follower that wants the other lane (`beside(i)`, i >= 1: the lane beside
+    /// the platoon's, for a member that left, role [`platoon_control::Role::Left`], or a joiner
+    /// waiting there, role [`platoon_control::Role::Beside`]; else the platoon's) into it when
+    /// the gap there is safe ([`lanes::LaneChangeRule`]), in the order of their numbers, each
+    /// seeing the lanes as those before it left them. A follower whose gap is not safe stays
+    /// where it is (it asks again at the next step). Nothing happens in a run where nobody
+    /// changes lanes.
+    pub fn change_lanes(&mut self, beside: impl Fn(usize) -> bool) {
         if self.off_lane.is_empty() {
-            self.off_lane = vec![false; self.states.len()];
+            return;
         }
-        self.off_lane[i] = beside;
+        for i in 1..self.states.len() {
+            let want = beside(i);
+            if want == self.off_lane[i] {
+                continue;
+            }
+            let vehicle = |j: usize| {
+                let x = self.states[j];
+                [x[0], x[1], self.lengths[j]]
+            };
+            let members = (0..self.states.len())
+                .filter(|&j| j != i && self.off_lane[j] == want)
+                .map(vehicle);
+            // The platoon's lane also carries the cars that cut in.
+            let cars = self
+                .traffic
+                .on_lane()
+                .filter(|_| !want)
+                .map(|c| [c.p, c.v, c.length_m]);
+            if self.rule.safe_among(vehicle(i), members.chain(cars)) {
+                self.off_lane[i] = want;
+            }
+        }
     }
 
-    /// Puts every follower on the lane its step's mode says (`mode(i)`, i >= 1): beside the
-    /// platoon's for `left` and `beside`, else the platoon's.
-    pub fn follow_modes(&mut self, mode: impl Fn(usize) -> platoon_control::Status) {
-        for i in 1..self.states.len() {
-            self.set_lane(i, mode(i).is_beside_the_lane());
-        }
+    /// Whether vehicle `i` drives in the lane beside the platoon's (never in a run where
+    /// nobody changes lanes).
+    pub fn beside(&self, i: usize) -> bool {
+        self.off_lane.get(i).copied().unwrap_or(false)
+    }
+
+    /// Every vehicle's lane (`true`: beside the platoon's), leader first; empty in a run where
+    /// nobody changes lanes.
+    pub fn lanes(&self) -> &[bool] {
+        &self.off_lane
     }
 
     /// The states at the current step, leader first.
@@ -309,6 +353,10 @@ pub struct PlantSpec {
     /// The scripted cut-ins into every platoon (absent from plant.json when there are none).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub cut_ins: Vec<traffic::CutIn>,
+    /// When a vehicle may change lanes, in runs where vehicles do (absent from plant.json
+    /// otherwise).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub lane_change: Option<lanes::LaneChangeRule>,
 }
 
 impl PlantSpec {
@@ -340,6 +388,9 @@ impl PlantSpec {
                 || scenario.changes_lanes())
             .then_some(scenario.control.fallback.radar.range_m),
             cut_ins: scenario.cut_ins.clone(),
+            lane_change: scenario
+                .changes_lanes()
+                .then_some(lanes::LaneChangeRule::DEFAULT),
         }
     }
 }
@@ -361,6 +412,9 @@ pub struct RowSources<'a> {
     /// Who they saw (by vehicle; empty: the rows say nothing of the radar), kept within the
     /// radar's range.
     pub targets: &'a [traffic::RadarTarget],
+    /// Each vehicle's lane as the plant has it (`true`: beside the platoon's; empty in runs
+    /// where nobody changes lanes).
+    pub beside: &'a [bool],
 }
 
 /// Assembles the rows of step `sources.k` from what the stages produced (`sources`) and each
@@ -379,7 +433,13 @@ pub fn step_rows(
         jammed,
         ahead,
         targets,
+        beside,
     } = *sources;
+    let lane = |i: usize| {
+        scenario
+            .changes_lanes()
+            .then(|| beside.get(i) == Some(&true))
+    };
     let range = scenario.control.fallback.radar.range_m;
     let radar = |i: usize| {
         let who = *targets.get(i)?;
@@ -422,6 +482,7 @@ pub fn step_rows(
         radar_gap_m: radar(0).map(|r| r.1),
         radar_closing_mps: radar(0).map(|r| r.2),
         head: split.then_some(0),
+        beside: lane(0),
     });
     // Where vehicles change lanes, a follower's slot is counted on the road: 1 + the members
     // ahead of it (a member that left gives up its slot, a joiner takes one once admitted).
@@ -473,6 +534,7 @@ pub fn step_rows(
             radar_gap_m: radar(i).map(|r| r.1),
             radar_closing_mps: radar(i).map(|r| r.2),
             head: split.then_some(s.head.0),
+            beside: lane(i),
         });
     }
 }
@@ -703,14 +765,18 @@ impl Simulation {
                 jammed: &self.jammed,
                 ahead: &self.radar[..seen],
                 targets: &self.targets[..seen.min(self.targets.len())],
+                beside: self.plant.lanes(),
             },
             |i| controller.follower_step(VehicleId(i as u16)),
             &mut self.rows,
         );
-        if sc.changes_lanes() {
-            self.plant
-                .follow_modes(|i| controller.follower_step(VehicleId(i as u16)).status());
-        }
+        // Each vehicle into the lane its role asks for, where the gap there is safe.
+        self.plant.change_lanes(|i| {
+            controller
+                .follower_step(VehicleId(i as u16))
+                .status()
+                .is_beside_the_lane()
+        });
         let controller = &self.controller;
         self.plant.advance(k, controller.commands(), |i| {
             controller.follower_step(VehicleId(i as u16)).guard

@@ -5,7 +5,7 @@
 use crate::summary::{FormationRecord, ManeuverRecord, ManeuversSummary};
 use crate::StepRow;
 use platoon_control::maneuvers::Message;
-use platoon_control::{Role, Status};
+use platoon_control::Role;
 use platoon_maneuver::{Body, Change};
 use platoon_model::VehicleId;
 
@@ -42,12 +42,18 @@ impl Kind {
     /// Whether the maneuver's vehicle, driving in `mode`, has completed it: a joiner (or a
     /// merging head) admitted to the lane's platoon, a leaver out of the lane, a splitter
     /// heading its part on its ACC.
-    fn completed_in(self, mode: Status) -> bool {
-        match self {
-            Self::Join | Self::Merge => !matches!(mode.role(), Role::Outside | Role::Beside),
-            Self::Leave => mode == Role::Left,
-            Self::Split => mode == Role::Outside,
-        }
+    /// Whether it is done at a row of its vehicle: in the role it ends in and, where vehicles
+    /// change lanes, on the lane that role drives in as the plant has it (a leaver waiting for
+    /// a safe gap has not left yet).
+    fn completed_in(self, row: &StepRow) -> bool {
+        let mode = row.mode;
+        let on_its_lane = row.beside.is_none_or(|b| b == mode.is_beside_the_lane());
+        on_its_lane
+            && match self {
+                Self::Join | Self::Merge => !matches!(mode.role(), Role::Outside | Role::Beside),
+                Self::Leave => mode == Role::Left,
+                Self::Split => mode == Role::Outside,
+            }
     }
 }
 
@@ -88,6 +94,12 @@ pub(crate) struct ManeuverTally {
     pending: Vec<Message>,
     sent: u64,
     formations: Vec<FormationRecord>,
+    /// Each follower's wish for the other lane not yet granted: since which step, and which
+    /// lane (`true`: beside).
+    asking: Vec<Option<(u64, bool)>>,
+    /// The last step pushed.
+    last_step: u64,
+    lane_changes: Vec<crate::summary::LaneChangeRecord>,
 }
 
 /// The lane's platoons at a step, from its rows (leader first): each vehicle in the platoon of
@@ -158,7 +170,35 @@ impl ManeuverTally {
             pending: Vec::new(),
             sent: 0,
             formations: Vec::new(),
+            asking: vec![None; scenario.topology.followers() + 1],
+            last_step: 0,
+            lane_changes: Vec::new(),
         })
+    }
+
+    /// A lane change asked for (the role's lane is not the plant's) or made, per follower.
+    fn lanes(&mut self, rows: &[StepRow]) {
+        for r in rows.iter().skip(1) {
+            let Some(beside) = r.beside else { return };
+            let want = r.mode.is_beside_the_lane();
+            let Some(asking) = self.asking.get_mut(usize::from(r.vehicle)) else {
+                continue;
+            };
+            match *asking {
+                None if want != beside => *asking = Some((r.step, want)),
+                Some((since, to)) if want == beside || to != want => {
+                    *asking = (want != beside).then_some((r.step, want));
+                    self.lane_changes.push(crate::summary::LaneChangeRecord {
+                        vehicle: r.vehicle,
+                        to: lane_name(to).to_string(),
+                        asked_t_s: since as f64 * self.dt,
+                        t_s: (beside == to).then_some(r.step as f64 * self.dt),
+                        waited_s: (r.step - since - 1) as f64 * self.dt,
+                    });
+                }
+                _ => {}
+            }
+        }
     }
 
     /// The maneuver messages broadcast at the step whose rows come next (one a broadcast,
@@ -174,6 +214,8 @@ impl ManeuverTally {
             return;
         };
         self.sent += self.pending.len() as u64;
+        self.last_step = k;
+        self.lanes(rows);
         let platoons = platoons_of(rows);
         if self
             .formations
@@ -214,7 +256,7 @@ impl ManeuverTally {
             let Some(own) = rows.get(t.vehicle.index()) else {
                 continue;
             };
-            if t.completed.is_none() && t.kind.completed_in(own.mode) {
+            if t.completed.is_none() && t.kind.completed_in(own) {
                 t.completed = Some(k);
             }
             t.max_spacing_error = t.max_spacing_error.max(worst);
@@ -226,8 +268,23 @@ impl ManeuverTally {
     /// What was measured.
     pub(crate) fn finish(&self) -> ManeuversSummary {
         let seconds = |steps: u64| steps as f64 * self.dt;
+        // A wish still not granted: asked, never made.
+        let last = self.last_step;
+        let open = self.asking.iter().enumerate().filter_map(|(v, a)| {
+            let (since, to) = (*a)?;
+            Some(crate::summary::LaneChangeRecord {
+                vehicle: v as u16,
+                to: lane_name(to).to_string(),
+                asked_t_s: seconds(since),
+                t_s: None,
+                waited_s: seconds(last.saturating_sub(since)),
+            })
+        });
+        let mut lane_changes = self.lane_changes.clone();
+        lane_changes.extend(open);
         ManeuversSummary {
             messages_sent: self.sent,
+            lane_changes,
             formations: self.formations.clone(),
             maneuvers: self
                 .tracked
@@ -252,5 +309,13 @@ impl ManeuverTally {
                 })
                 .collect(),
         }
+    }
+}
+
+/// The name of a lane in the summary: `beside` or `platoon`.
+fn lane_name(beside: bool) -> &'static str {
+    match beside {
+        true => "beside",
+        false => "platoon",
     }
 }

@@ -83,8 +83,9 @@ pub struct MetricsAccumulator {
     /// Vehicles change lanes ([`Scenario::changes_lanes`]): the vehicle ahead on the lane is
     /// found by position.
     lanes: bool,
-    /// Scratch: with `lanes`, each row's vehicle ahead on the lane (index into the rows).
-    fronts: Vec<usize>,
+    /// Scratch: with `lanes`, each row's vehicle ahead on its lane (index into the rows;
+    /// `None`: nobody ahead on that lane).
+    fronts: Vec<Option<usize>>,
     observed: Vec<(u64, u64)>,
     /// With jammers as transmitters: per link (sender, receiver), the step its outage began if
     /// it is out, and its outages `(first step, steps)`.
@@ -189,25 +190,29 @@ impl MetricsAccumulator {
                 _ => self.observed.push((leader.step, 1)),
             }
         }
-        // The vehicle ahead on the lane: those beside it are passed over and, where vehicles
-        // change lanes, the order is the road's (a joiner moves in between members).
+        // The vehicle ahead on the lane: where vehicles change lanes, the nearest on the same
+        // lane as the plant has it, in the road's order (a joiner moves in between members, a
+        // leaver follows those that left before it).
         self.fronts.clear();
         if self.lanes {
-            let mut on: Vec<usize> = (0..rows.len())
-                .filter(|&i| !rows[i].mode.is_beside_the_lane())
-                .collect();
-            on.sort_by(|&a, &b| rows[b].p.total_cmp(&rows[a].p));
-            self.fronts.resize(rows.len(), 0);
-            for w in on.windows(2) {
-                self.fronts[w[1]] = w[0];
+            let mut order: Vec<usize> = (0..rows.len()).collect();
+            order.sort_by(|&a, &b| rows[b].p.total_cmp(&rows[a].p));
+            self.fronts.resize(rows.len(), None);
+            for lane in [false, true] {
+                let on = order
+                    .iter()
+                    .filter(|&&i| (rows[i].beside == Some(true)) == lane);
+                for (&a, &b) in on.clone().zip(on.skip(1)) {
+                    self.fronts[b] = Some(a);
+                }
             }
         }
         self.gaps.clear();
         self.gaps.resize(rows.len() - 1, f64::NAN);
-        let mut front = leader;
+        let mut front = Some(leader);
         for (i, r) in rows.iter().enumerate().skip(1) {
             if self.lanes {
-                front = &rows[self.fronts[i]];
+                front = self.fronts[i].map(|f| &rows[f]);
             }
             let acc = &mut self.vehicles[r.vehicle as usize - 1];
             if r.triggered {
@@ -224,7 +229,8 @@ impl MetricsAccumulator {
             // A joiner's errors count from the step it is admitted: outside, it has no slot;
             // a leaver's end with its leave.
             let left = r.mode.is_beside_the_lane();
-            if r.mode != platoon_control::Role::Outside && !left {
+            if let Some(front) = front.filter(|_| r.mode != platoon_control::Role::Outside && !left)
+            {
                 acc.spacing.push(r.spacing_error);
                 acc.gap
                     .push(front.p - r.p - (self.spacing + self.headway * r.v));
@@ -239,15 +245,15 @@ impl MetricsAccumulator {
             acc.guard_on = r.guard;
             acc.guard_steps += u64::from(r.guard);
             acc.saturated_steps += u64::from(r.saturated);
-            if left {
-                continue;
-            }
-            // The nearest vehicle ahead: the predecessor, or one that cut in between.
-            let behind = front.p - r.p - self.lengths[usize::from(front.vehicle)];
-            let (gap, closing, cut_in) = match r.intruder {
-                Some(t) if t.gap < behind => (t.gap, t.closing, true),
-                _ => (behind, r.v - front.v, false),
+            // The nearest vehicle ahead on its lane: the predecessor, or one that cut in
+            // between (on the platoon's lane).
+            let behind = front.map(|f| (f.p - r.p - self.lengths[usize::from(f.vehicle)], f));
+            let (gap, closing, cut_in, ahead) = match (r.intruder, behind) {
+                (Some(t), b) if b.is_none_or(|(g, _)| t.gap < g) => (t.gap, t.closing, true, None),
+                (_, Some((g, f))) => (g, r.v - f.v, false, Some(f)),
+                _ => continue,
             };
+            let beside = r.beside == Some(true);
             if closing > 0.0 {
                 let ttc = gap.max(0.0) / closing;
                 if self.safety.min_ttc_s.is_none_or(|m| ttc < m) {
@@ -259,22 +265,28 @@ impl MetricsAccumulator {
                 self.safety.first_collision = Some(crate::summary::Collision {
                     t_s: r.t,
                     collider: format!("follower {}", r.vehicle),
-                    victim: match (cut_in, front.vehicle) {
-                        (true, _) => "a car that cut in".to_string(),
-                        (false, 0) => "the leader".to_string(),
-                        (false, v) => format!("follower {v}"),
+                    victim: match (cut_in, ahead.map(|f| f.vehicle)) {
+                        (true, _) | (false, None) => "a car that cut in".to_string(),
+                        (false, Some(0)) => "the leader".to_string(),
+                        (false, Some(v)) => format!("follower {v}"),
                     },
-                    lane: "the platoon's lane".to_string(),
+                    lane: match beside {
+                        true => "the lane beside the platoon's",
+                        false => "the platoon's lane",
+                    }
+                    .to_string(),
                     gap_m: Some(gap),
                 });
             }
-            self.gaps[i - 1] = gap;
+            if !beside {
+                self.gaps[i - 1] = gap;
+            }
             if gap < self.safety.min_gap_m {
                 self.safety.min_gap_m = gap;
                 self.safety.min_gap_vehicle = r.vehicle;
                 self.safety.min_gap_t_s = r.t;
             }
-            front = r;
+            front = Some(r);
         }
         if let Some(t) = &mut self.maneuvers {
             t.push(rows, &self.gaps);

@@ -93,16 +93,25 @@ impl ModelCheck {
     /// it: to its predecessor (with `lanes`, to the nearest vehicle ahead on its lane), or to a
     /// car that cut in ahead of it.
     fn collides(rows: &[StepRow], lengths: &[f64], lanes: bool) -> bool {
-        let mut on: Vec<&StepRow> = rows
-            .iter()
-            .filter(|r| !(lanes && r.mode.is_beside_the_lane()))
-            .collect();
-        if lanes {
-            on.sort_by(|a, b| b.p.total_cmp(&a.p));
-        }
-        let touches = on
-            .windows(2)
-            .any(|w| w[0].p - lengths[usize::from(w[0].vehicle)] - w[1].p <= 0.0);
+        let touches = |on: &[&StepRow]| {
+            on.windows(2)
+                .any(|w| w[0].p - lengths[usize::from(w[0].vehicle)] - w[1].p <= 0.0)
+        };
+        let touches = if lanes {
+            // Each lane as the plant has it, in the road's order.
+            let mut by_road: Vec<&StepRow> = rows.iter().collect();
+            by_road.sort_by(|a, b| b.p.total_cmp(&a.p));
+            [false, true].into_iter().any(|beside| {
+                let on: Vec<&StepRow> = by_road
+                    .iter()
+                    .copied()
+                    .filter(|r| (r.beside == Some(true)) == beside)
+                    .collect();
+                touches(&on)
+            })
+        } else {
+            touches(&rows.iter().collect::<Vec<_>>())
+        };
         touches
             || rows
                 .iter()
@@ -138,6 +147,7 @@ mod tests {
             radar_gap_m: None,
             radar_closing_mps: None,
             head: None,
+            beside: None,
         }
     }
 

@@ -344,6 +344,28 @@ pub struct ManeuversSummary {
     /// Every formation the run visited, as the plant drove it, the first at 0 s.
     #[serde(default)]
     pub formations: Vec<FormationRecord>,
+    /// Every lane change a vehicle's role asked for, as the plant made it (a vehicle changes
+    /// lanes only into a safe gap, `platoon_sim::lanes`); absent in runs where nobody
+    /// changes lanes.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub lane_changes: Vec<LaneChangeRecord>,
+}
+
+/// One lane change: when a vehicle's role asked for the other lane, and when the plant moved
+/// it there, once the gap was safe.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct LaneChangeRecord {
+    /// The vehicle.
+    pub vehicle: u16,
+    /// The lane it asked for: `beside` (the lane beside the platoon's) or `platoon`.
+    pub to: String,
+    /// When its role first asked for it (s).
+    pub asked_t_s: f64,
+    /// When it drove on that lane (s); absent: the gap there never became safe before the
+    /// run ended (or the role asked for its lane back first).
+    pub t_s: Option<f64>,
+    /// How long it waited for a safe gap (s): 0 when it moved at once, the step after asking.
+    pub waited_s: f64,
 }
 
 /// A formation a run visited: the lane's platoons as the rows say (the vehicles in each, by

@@ -135,8 +135,8 @@ pub fn radar_truth(
 
 /// [`radar_truth`], and who each radar sees (`targets`, leader first): the member ahead on the
 /// lane ([`RadarTarget::Member`]: the predecessor, unless vehicles change lanes, then the
-/// nearest by position) or the cut-in ([`RadarTarget::CutIn`]). A vehicle off the lane sees
-/// nothing (the lane beside is empty) and is seen by nobody.
+/// nearest on its own lane by position) or the cut-in ([`RadarTarget::CutIn`], on the
+/// platoon's lane). A vehicle in the lane beside sees the nearest member ahead of it there.
 pub fn radar_view(
     states: &[State],
     lengths: &[f64],
@@ -151,14 +151,14 @@ pub fn radar_view(
     targets.extend((1..states.len()).map(|i| RadarTarget::Member(i as u16 - 1)));
     let off = |i: usize| off_lane.get(i).copied().unwrap_or(false);
     if !off_lane.is_empty() {
-        // Vehicles change lanes: the nearest member ahead on the lane, by position (a joiner
-        // that moved in stands between members).
+        // Vehicles change lanes: the nearest member ahead on its lane, by position (a joiner
+        // that moved in stands between members; a leaver follows those that left before it).
         for i in 1..states.len() {
             let ahead = (0..states.len())
-                .filter(|&j| j != i && !off(j) && states[j][0] > states[i][0])
+                .filter(|&j| j != i && off(j) == off(i) && states[j][0] > states[i][0])
                 .min_by(|&a, &b| states[a][0].total_cmp(&states[b][0]));
             (out[i], targets[i]) = match ahead {
-                Some(j) if !off(i) => (
+                Some(j) => (
                     Some(RadarTruth {
                         gap: states[j][0] - states[i][0] - lengths[j],
                         closing: states[i][1] - states[j][1],

@@ -35,7 +35,9 @@ use iceoryx2::prelude::ZeroCopySend;
 ///   Later, still v4: the kinds [`V2vPacket::MERGE_REQUEST`], [`V2vPacket::UPDATE_MERGED`],
 ///   [`V2vPacket::SPLIT_NOTICE`] and [`V2vPacket::UPDATE_SPLIT`] (merges and splits of
 ///   platoons; no payload changed, and a reader drops a kind it does not know,
-///   keeping the packet's beacon).
+///   keeping the packet's beacon). Later, still v4: [`VehicleState::flags`] bit 3
+///   ([`VehicleState::BESIDE`]) says the vehicle drives in the lane beside the platoon's, as
+///   the plant has it (a bit that was 0, and every reader tests bits).
 pub const CONTRACT_VERSION: u32 = 4;
 
 /// The environment variable in which `platoon run` gives every process it starts the contract
@@ -104,7 +106,8 @@ pub struct VehicleState {
     pub vehicle: u32,
     /// Bit 0: the vehicle collided in this step (SUMO plant); bit 1 ([`VehicleState::AHEAD`]):
     /// the plant sees a vehicle ahead of it, and `gap`, `closing` are about that one; bit 2
-    /// ([`VehicleState::INTRUDER`]): that vehicle is not the platoon's predecessor; bits 8-31
+    /// ([`VehicleState::INTRUDER`]): that vehicle is not the platoon's predecessor; bit 3
+    /// ([`VehicleState::BESIDE`]): the vehicle drives in the lane beside the platoon's; bits 8-31
     /// ([`VehicleState::TARGET_SHIFT`]), with `INTRUDER`: which vehicle it is.
     pub flags: u32,
     /// Position (m).
@@ -126,6 +129,10 @@ impl VehicleState {
     pub const AHEAD: u32 = 2;
     /// `flags` bit: the vehicle ahead is not the platoon's predecessor (a cut-in).
     pub const INTRUDER: u32 = 4;
+    /// `flags` bit: the vehicle drives in the lane beside the platoon's (a member that left, a
+    /// joiner not yet moved in), as the plant has it: a vehicle whose role asks for the other
+    /// lane changes only into a safe gap (`platoon_sim::lanes`), so this may lag its role.
+    pub const BESIDE: u32 = 8;
     /// With [`VehicleState::INTRUDER`], `flags >> TARGET_SHIFT` names the vehicle ahead in the
     /// run's traffic: `1 + c` for the platoon's scripted cut-in c (plant.json's `cut_ins`
     /// entry c), `1 + C + b` for SUMO's background vehicle `bg<b>` (C: the number of cut-ins),

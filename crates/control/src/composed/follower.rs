@@ -63,6 +63,9 @@ struct Standing {
     heading_since: Option<u64>,
     /// Whether it left the platoon.
     left: bool,
+    /// A member that left: the step it did (its ACC's headway opens from then) and its
+    /// speed then (its cruise control's set speed).
+    left_since: Option<(u64, f64)>,
 }
 
 /// What every follower shares at step `k`.
@@ -125,6 +128,7 @@ impl Follower {
                 approaching_since: None,
                 heading_since: None,
                 left: false,
+                left_since: None,
             },
         };
         if let Some(m) = man {
@@ -490,7 +494,23 @@ impl Follower {
             )
         };
         match place {
-            Place::Left => (0.0, false),
+            // A member that left drives on its ACC: a cruise control holding the speed it
+            // left at, unless the vehicle its radar sees ahead on its lane (the members that
+            // left before it, once it is beside; its predecessor while it waits for a safe
+            // gap) asks for less, the gap's headway opening from the platoon's as a split's
+            // head's does.
+            Place::Left => {
+                let (since, set_speed) = *self.standing.left_since.get_or_insert((k, own[1]));
+                let elapsed_s = (k - since) as f64 * dt;
+                let headway = crate::maneuvers::split_headway(&fb.acc, s.parts.headway, elapsed_s);
+                let cruise = ((set_speed - own[1]) / fb.acc.headway_s)
+                    .clamp(-fb.acc.max_decel_mps2, fb.acc.max_accel_mps2);
+                let u = match reading {
+                    Some(_) => acc(headway).min(cruise),
+                    None => cruise,
+                };
+                (u, false)
+            }
             Place::SplitOff => {
                 let since = *self.standing.heading_since.get_or_insert(k);
                 let elapsed_s = (k - since) as f64 * dt;

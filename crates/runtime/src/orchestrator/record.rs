@@ -30,6 +30,9 @@ pub(super) struct Recorder<'a> {
     pub(super) wire_counter: platoon_sim::tally::WireCounter,
     /// The detectors measured against ground truth (`[detection]` runs).
     pub(super) measure: Option<Measure>,
+    /// Each vehicle's lane as the plant reported it (`true`: beside the platoon's), by
+    /// vehicle; empty in runs where nobody changes lanes.
+    pub(super) beside: Vec<bool>,
 }
 
 impl<'a> Recorder<'a> {
@@ -55,6 +58,7 @@ impl<'a> Recorder<'a> {
             broadcasters: Vec::new(),
             wire_counter: Default::default(),
             measure: Measure::new(scenario),
+            beside: Vec::new(),
         }
     }
 
@@ -80,6 +84,15 @@ impl<'a> Recorder<'a> {
         for p in t {
             if let Some((j, i)) = num.split(p.packet.sender) {
                 self.leader_sent[j] |= i.is_leader();
+            }
+        }
+        if self.scenario.changes_lanes() {
+            self.beside.clear();
+            self.beside.resize(num.vehicles(), false);
+            for x in s {
+                if let Some(b) = self.beside.get_mut(x.vehicle as usize) {
+                    *b = x.flags & VehicleState::BESIDE != 0;
+                }
             }
         }
         // The intruders the plant's radars saw (none without traffic on the lane); in runs
@@ -133,6 +146,7 @@ impl<'a> Recorder<'a> {
                     jammed: &self.jammed[j * n1..(j + 1) * n1],
                     ahead: self.ahead.get(j * n1..(j + 1) * n1).unwrap_or(&[]),
                     targets: self.targets.get(j * n1..(j + 1) * n1).unwrap_or(&[]),
+                    beside: self.beside.get(j * n1..(j + 1) * n1).unwrap_or(&[]),
                 },
                 |i| {
                     let cmd = cmds[i - 1];
