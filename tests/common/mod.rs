@@ -56,6 +56,21 @@ pub fn run_config(config: &Path, out: &str, extra: &[&str], cwd: &Path) -> PathB
     cwd.join(out)
 }
 
+/// `platoon design check-gain --out d` of the paper's K (the embedded paper config), run once
+/// for every test that reads it: `cli::` checks what the command prints, exits with and writes,
+/// `figures::design` the figures docs/design.md quotes from its check.json. Its three
+/// bisections of LMI (13) take tens of seconds; each test ran them again. The run's output and
+/// its working directory (`d` in it holds what it wrote; tests write only elsewhere).
+pub fn papers_gain_checked() -> &'static (Output, PathBuf) {
+    static RUN: std::sync::OnceLock<(Output, PathBuf)> = std::sync::OnceLock::new();
+    RUN.get_or_init(|| {
+        let dir = tempfile::tempdir_in(env!("CARGO_TARGET_TMPDIR"))
+            .unwrap()
+            .keep();
+        (platoon(&["design", "check-gain", "--out", "d"], &dir), dir)
+    })
+}
+
 /// Tests that spend most of their time waiting out a timeout (idle: a test thread sat through
 /// each) run their bodies side by side: the first test of the group to call [`Together::run`]
 /// starts every body of the group, each in a thread of its own, and each test then waits for
