@@ -519,18 +519,8 @@ fn killing_the_injector_stops_the_run_and_names_it() {
 /// the stall, and name the wrong step.
 const STALL_TIMEOUT: &str = "20";
 
-/// The stall tests, which wait out [`STALL_TIMEOUT`], run side by side (`common::Together`).
-static STALLS: common::Together = common::Together::new(&[
-    ("stops", an_injector_that_stops_publishing),
-    ("repeats", an_injector_repeating_one_step),
-]);
-
 #[test]
 fn an_injector_that_stops_publishing_is_named_after_the_timeout() {
-    STALLS.run("stops");
-}
-
-fn an_injector_that_stops_publishing() {
     let tmp = tempfile::tempdir().unwrap();
     let injector = drop_sender("--stall-at 300");
     let (child, run) = start_long_run(
@@ -552,10 +542,6 @@ fn an_injector_that_stops_publishing() {
 /// completed step counts as progress, so repeated samples cannot make the run wait forever.
 #[test]
 fn an_injector_repeating_one_step_is_named_after_the_timeout() {
-    STALLS.run("repeats");
-}
-
-fn an_injector_repeating_one_step() {
     let tmp = tempfile::tempdir().unwrap();
     let injector = drop_sender("--repeat-at 200");
     let (child, run) = start_long_run(
