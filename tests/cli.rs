@@ -1,7 +1,7 @@
 //! The `platoon` binary end to end: outputs, determinism, atomic run directories, exit codes.
 use crate::common;
 
-use common::{json, ok, platoon, repo};
+use common::{json, ok, papers_gain_checked, platoon, repo};
 use std::path::Path;
 
 const RUN_FILES: [&str; 7] = [
@@ -438,7 +438,7 @@ fn help_explains_the_commands() {
 #[test]
 fn design_checks_the_papers_gain_and_its_certificate_re_checks() {
     let tmp = tempfile::tempdir().unwrap();
-    let o = platoon(&["design", "check-gain", "--out", "d"], tmp.path());
+    let (o, checked) = papers_gain_checked();
     // Not certified (the paper's ratio is too small, reading R15): exit 1, so that a script
     // can tell, with the report written and the verdict on stderr (issue 51, item 6).
     let err = String::from_utf8_lossy(&o.stderr);
@@ -453,7 +453,7 @@ fn design_checks_the_papers_gain_and_its_certificate_re_checks() {
         "{out}"
     );
     let check: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(tmp.path().join("d/check.json")).unwrap())
+        serde_json::from_str(&std::fs::read_to_string(checked.join("d/check.json")).unwrap())
             .unwrap();
     // Reading R15: the paper's ratio 56.83 is an order of magnitude too small for its K.
     // 707.37 is docs/design.md's figure (12.4x the paper's), and 141.31 / 13.18x those of the
@@ -477,7 +477,7 @@ fn design_checks_the_papers_gain_and_its_certificate_re_checks() {
     assert_eq!(strings[1]["string_stable"], false);
     assert!(strings[1]["per_tau"][0]["per_follower"].as_f64().unwrap() > 1.0);
     assert!(out.contains("STRING UNSTABLE"), "{out}");
-    let cert = tmp.path().join("d/certificate.json");
+    let cert = checked.join("d/certificate.json");
     let o = platoon(&["design", "verify", cert.to_str().unwrap()], tmp.path());
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stdout));
     assert!(String::from_utf8_lossy(&o.stdout).contains("holds"));

@@ -3,7 +3,10 @@
 use std::path::{Path, PathBuf};
 
 pub mod maneuvers;
+use std::collections::HashMap;
 use std::process::{Command, Output};
+use std::sync::Mutex;
+use std::thread::JoinHandle;
 
 /// The repository root.
 pub fn repo() -> PathBuf {
@@ -51,6 +54,65 @@ pub fn run_config(config: &Path, out: &str, extra: &[&str], cwd: &Path) -> PathB
     args.extend_from_slice(extra);
     ok(&platoon(&args, cwd));
     cwd.join(out)
+}
+
+/// `platoon design check-gain --out d` of the paper's K (the embedded paper config), run once
+/// for every test that reads it: `cli::` checks what the command prints, exits with and writes,
+/// `figures::design` the figures docs/design.md quotes from its check.json. Its three
+/// bisections of LMI (13) take tens of seconds; each test ran them again. The run's output and
+/// its working directory (`d` in it holds what it wrote; tests write only elsewhere).
+pub fn papers_gain_checked() -> &'static (Output, PathBuf) {
+    static RUN: std::sync::OnceLock<(Output, PathBuf)> = std::sync::OnceLock::new();
+    RUN.get_or_init(|| {
+        let dir = tempfile::tempdir_in(env!("CARGO_TARGET_TMPDIR"))
+            .unwrap()
+            .keep();
+        (platoon(&["design", "check-gain", "--out", "d"], &dir), dir)
+    })
+}
+
+/// Tests that spend most of their time waiting out a timeout (idle: a test thread sat through
+/// each) run their bodies side by side: the first test of the group to call [`Together::run`]
+/// starts every body of the group, each in a thread of its own, and each test then waits for
+/// its own body, whose failure is the test's (with its message). The timeouts stay what a
+/// loaded machine needs; the suite waits them out once per group, not once per test.
+pub struct Together {
+    bodies: &'static [(&'static str, fn())],
+    started: std::sync::OnceLock<Mutex<HashMap<&'static str, JoinHandle<()>>>>,
+}
+
+impl Together {
+    pub const fn new(bodies: &'static [(&'static str, fn())]) -> Self {
+        Self {
+            bodies,
+            started: std::sync::OnceLock::new(),
+        }
+    }
+
+    /// Runs the body `name` (started with the group's others if none has started yet) to its
+    /// end, failing with its message if it failed.
+    pub fn run(&self, name: &str) {
+        let started = self.started.get_or_init(|| {
+            let threads = self.bodies.iter().map(|&(name, body)| {
+                let thread = std::thread::Builder::new().name(name.to_string());
+                (name, thread.spawn(body).unwrap())
+            });
+            Mutex::new(threads.collect())
+        });
+        let body = started
+            .lock()
+            .unwrap()
+            .remove(name)
+            .unwrap_or_else(|| panic!("{name} is no body of this group, or it ran already"));
+        if let Err(panic) = body.join() {
+            let message = panic
+                .downcast_ref::<String>()
+                .map(String::as_str)
+                .or_else(|| panic.downcast_ref::<&str>().copied())
+                .unwrap_or("(no message)");
+            panic!("{name} failed: {message}");
+        }
+    }
 }
 
 /// Fails the test with platoon's stderr if it did not succeed.

@@ -112,6 +112,28 @@ pub(crate) fn solve(
     Err(SdpError::NoSolver)
 }
 
+/// OpenBLAS on the calling thread alone, once per process, unless the user set
+/// `OPENBLAS_NUM_THREADS`. The PSD blocks here are small (tens of rows): its thread pool costs
+/// more than it gains on them, and its threads spin against each other when SDPs run side by
+/// side (test threads, campaign cells). `platoon design check-gain` of the paper's K on a
+/// 2-core machine, measured: 18.1 s alone with the pool, 12.2 s without; two at once 33 s
+/// with it, 20.5 s without. Every BLAS call of platoon is clarabel's, inside `solve`, after
+/// this.
+#[cfg(sdp_solver)]
+fn blas_on_one_thread() {
+    static ONCE: std::sync::Once = std::sync::Once::new();
+    ONCE.call_once(|| {
+        if std::env::var_os("OPENBLAS_NUM_THREADS").is_none() {
+            extern "C" {
+                fn openblas_set_num_threads(n: std::ffi::c_int);
+            }
+            // SAFETY: OpenBLAS is linked (build.rs, cfg `sdp_solver`) and no BLAS call runs
+            // while this does: every one is in `solve`, which waits for this `Once` first.
+            unsafe { openblas_set_num_threads(1) }
+        }
+    });
+}
+
 /// Minimises `cost . x` subject to the LMIs and the scalar rows `row . x <= b`. `Ok(None)`:
 /// primal infeasible.
 #[cfg(sdp_solver)]
@@ -120,6 +142,7 @@ pub(crate) fn solve(
     rows: &[(Vec<f64>, f64)],
     cost: &[f64],
 ) -> Result<Option<Vec<f64>>, SdpError> {
+    blas_on_one_thread();
     use clarabel::algebra::CscMatrix;
     use clarabel::solver::{
         DefaultSettingsBuilder, DefaultSolver, IPSolver, SolverStatus, SupportedConeT,
