@@ -2261,7 +2261,8 @@ fn the_papers_law_joins_and_leaves_on_both_transports() {
 
 /// The paper's law on its own TPSF graph, and on PLF, behind a car cutting in 6 m ahead of
 /// follower 3 at 2 m/s slower, with `[fallback.cut_in]` as configs/cut-in.toml has it (no
-/// `split` key: on these graphs the platoon splits behind the car by default) and no guard:
+/// `split` key: on these graphs the platoon splits behind the car by default), on its cars,
+/// with the guard off:
 /// follower 3 heads followers 4 and 5 (who stop steering on the members ahead of the car)
 /// from the step after the car entered until it is back on its law, nobody collides, and both
 /// transports agree bit for bit. With `split = false`, follower 4 (which also hears follower
@@ -2276,7 +2277,8 @@ fn the_papers_law_splits_behind_a_cut_in_on_both_transports() {
                     None => String::new(),
                     Some(split) => format!(", split = {split}"),
                 };
-                t.replace("followers = 4", "followers = 5")
+                crate::common::without_guard(&t)
+                    .replace("followers = 4", "followers = 5")
                     .replace("preset = \"pf\"", &format!("preset = \"{preset}\" #"))
                     .replace(
                         "cut_in = { dwell_s = 1.0, blend_s = 3.0 }",

@@ -4,7 +4,7 @@
 //! bad `[[cut_ins]]` gets.
 use crate::common;
 
-use common::{cut_in_config, published, repo};
+use common::{cut_in_config, published, repo, without_cars, without_guard};
 use platoon_config::parse;
 use platoon_control::Mode;
 use platoon_sim::{Scenario, Simulation, StepRow};
@@ -83,10 +83,20 @@ fn a_cut_in_between_followers_2_and_3_is_seen_handled_and_left_by_each_law() {
     }
 }
 
+/// Without `[fallback.cut_in]` the paper's law regulates on V2V behind the car: the guard
+/// (braking on the radar) keeps follower 3 off it, and without the guard it drives into it.
 #[test]
 fn without_cut_in_handling_the_papers_law_drives_into_the_intruder() {
     let text = cut_in_config("paper").replace("cut_in = { dwell_s = 1.0, blend_s = 3.0 }", "");
-    let (rows, summary, smallest) = run(scenario(&text));
+    let (_, guarded, smallest) = run(scenario(&text));
+    assert!(!guarded.safety.collided, "{:?}", guarded.safety);
+    assert_eq!(guarded.safety.min_gap_vehicle, 3, "{:?}", guarded.safety);
+    published(
+        "docs/traffic.md",
+        "the guard alone keeps it {} m off the car",
+        &[format!("{smallest:.2}")],
+    );
+    let (rows, summary, smallest) = run(scenario(&without_guard(&text)));
     assert!(smallest < 0.0, "{smallest}");
     // The summary counts the gap to the intruder: a collision, after it cut in.
     assert!(summary.safety.collided, "{:?}", summary.safety);
@@ -108,17 +118,25 @@ fn without_cut_in_handling_the_papers_law_drives_into_the_intruder() {
 #[test]
 fn a_split_behind_the_car_keeps_the_flatbed_followers_apart() {
     let text = std::fs::read_to_string(repo().join("configs/cut-in-split.toml")).unwrap();
-    let (rows, summary, _) = run(scenario(&text.replace(", split = true", ", split = false")));
-    assert!(summary.safety.collided, "{:?}", summary.safety);
-    assert_eq!(summary.safety.min_gap_vehicle, 4, "{:?}", summary.safety);
+    let unsplit = text.replace(", split = true", ", split = false");
+    let (rows, guarded, _) = run(scenario(&unsplit));
+    assert!(!guarded.safety.collided, "{:?}", guarded.safety);
     assert!(
         rows.iter().all(|r| r.head.is_none()),
         "no head column without a split"
     );
+    let (_, summary, _) = run(scenario(&without_guard(&unsplit)));
+    assert!(summary.safety.collided, "{:?}", summary.safety);
+    for s in [&guarded.safety, &summary.safety] {
+        assert_eq!(s.min_gap_vehicle, 4, "{s:?}");
+    }
     published(
         "docs/traffic.md",
-        "without the split its follower 4 hits follower 3 (smallest gap {} m, at {} s)",
+        "without the split its follower 4 closes to {} m of follower 3 (at {} s), the guard \
+         braking it, and without the guard too it hits follower 3 (smallest gap {} m, at {} s)",
         &[
+            format!("{:.2}", guarded.safety.min_gap_m),
+            format!("{:.2}", guarded.safety.min_gap_t_s),
             format!("{:.2}", summary.safety.min_gap_m),
             format!("{:.2}", summary.safety.min_gap_t_s),
         ],
@@ -315,15 +333,19 @@ fn a_cut_in_inside_a_vehicle_exits_2_and_writes_nothing() {
 }
 
 /// The safety line names who hit whom, on which lane and when, and never contradicts the
-/// smallest gap beside it (issue 51, item 6): without `[fallback.cut_in]` follower 3 drives into
-/// the car, at a gap at or below zero, and the smallest gap printed is no larger.
+/// smallest gap beside it (issue 51, item 6): without `[fallback.cut_in]` and the guard follower 3
+/// drives into the car, at a gap at or below zero, and the smallest gap printed is no larger.
 #[test]
 fn the_collision_line_names_who_hit_whom_and_agrees_with_the_smallest_gap() {
     let tmp = tempfile::tempdir().unwrap();
     let text = cut_in_config("paper");
     let handling = "cut_in = { dwell_s = 1.0, blend_s = 3.0 }";
     assert!(text.contains(handling));
-    std::fs::write(tmp.path().join("c.toml"), text.replacen(handling, "", 1)).unwrap();
+    std::fs::write(
+        tmp.path().join("c.toml"),
+        without_guard(&text.replacen(handling, "", 1)),
+    )
+    .unwrap();
     let o = common::platoon(
         &[
             "run",
@@ -356,12 +378,12 @@ fn the_collision_line_names_who_hit_whom_and_agrees_with_the_smallest_gap() {
 
 /// A run whose physics leaves the vehicle model stops there, naming the vehicle, the step and
 /// the cause, and keeps what it recorded (issue 53): a car cutting in at t = 0 makes follower 3
-/// of the paper's law brake so hard that it would drive backwards at 31.38 s. Both transports
-/// stop at the same step with the same rows.
+/// of the paper's law, on the paper's ideal vehicle without the guard, brake so hard that it
+/// would drive backwards at 31.38 s. Both transports stop at the same step with the same rows.
 #[test]
 fn a_follower_that_would_drive_backwards_stops_the_run_with_its_outputs() {
     let tmp = tempfile::tempdir().unwrap();
-    let text = cut_in_config("paper");
+    let text = without_cars(&without_guard(&cut_in_config("paper")));
     assert!(text.contains("at_s = 20.0"));
     std::fs::write(
         tmp.path().join("t0.toml"),
@@ -440,8 +462,7 @@ fn the_radar_cross_check_does_not_call_a_cut_in_an_attack() {
         .iter()
         .find(|x| x.name == "radar_cross")
         .unwrap();
-    // What is left (docs/traffic.md): the radar's noise beyond 4 sigma, and one packet of
-    // follower 3 accelerating harder than plausible on its way back to the paper's law.
+    // What is left (docs/traffic.md): the radar's noise beyond 4 sigma.
     let fp = |name: &str| {
         let x = d.detectors.iter().find(|x| x.name == name).unwrap();
         (
@@ -449,8 +470,18 @@ fn the_radar_cross_check_does_not_call_a_cut_in_an_attack() {
             x.totals.tp + x.totals.fp + x.totals.tn + x.totals.fn_,
         )
     };
-    assert_eq!(fp("radar_cross"), (6, 8735), "{radar:?}");
-    assert_eq!(fp("plausibility").0, 1);
+    let (radar_fp, inspected) = fp("radar_cross");
+    assert!(radar_fp > 0 && radar_fp < 10, "{radar:?}");
+    published(
+        "docs/traffic.md",
+        "of {} inspected packets, `radar_cross` flags {} (the radar's noise beyond 4 sigma) and \
+         `plausibility` {}",
+        &[
+            inspected.to_string(),
+            radar_fp.to_string(),
+            fp("plausibility").0.to_string(),
+        ],
+    );
 }
 
 /// A campaign varies a cut-in like any other key (`cut_ins[0].gap_m`), in process: the closer
@@ -488,45 +519,54 @@ fn a_campaign_sweeps_the_cut_in_gap() {
     assert!(gaps[0] < 1.0, "{gaps:?}");
 }
 
-/// `configs/cut-in.toml` on passenger cars with limits (the maneuver configs' class, SUMO's
-/// default passenger vehicle): the paper's law's way back asks far beyond them and the plant
-/// holds it there (follower 3 at its limits for over 20 s, counted in `saturated_time_s`).
-/// What docs/traffic.md says of it: without the guard follower 4 then drives into follower 3
-/// (at 40.6 s, as the leader brakes); with the guard (braking to the class's 9 m/s^2) nobody
-/// collides. The shipped cut-in configs keep the paper's ideal vehicle until their figures
-/// are measured on cars.
+/// `configs/cut-in.toml` runs on passenger cars with limits (the maneuver configs' class,
+/// SUMO's default passenger vehicle) and the guard: the paper's law's way back after the car
+/// left asks far beyond the class and the plant holds it there (follower 3 at its limits for
+/// over 20 s, counted in `saturated_time_s`). Without the guard follower 4 then drives into
+/// follower 3 (at 40.6 s, as the leader brakes); with it (braking to the class's 9 m/s^2)
+/// nobody collides. On the paper's ideal vehicle nothing is held or counted.
 #[test]
 fn on_cars_with_limits_the_papers_way_back_needs_the_guard() {
     let text = std::fs::read_to_string(repo().join("configs/cut-in.toml")).unwrap();
     let join = std::fs::read_to_string(repo().join("configs/join.toml")).unwrap();
     let class = &join[join.find("[vehicle_classes.car]").unwrap()..];
     let class = &class[..class.find("\n\n").unwrap()];
-    assert!(class.contains("emergency_decel_mps2 = 9.0"), "{class}");
-    let cars = text.replace(
-        "vehicle_length_m = 4.5",
-        "vehicle_length_m = 4.5\nmembers = \"car\"",
-    ) + "\n"
-        + class
-        + "\n";
-    let (_, ideal, _) = run(scenario(&text));
+    assert!(
+        text.contains(class),
+        "cut-in.toml's cars are not join.toml's"
+    );
+    let (_, ideal, _) = run(scenario(&without_cars(&text)));
     assert!(ideal.vehicles.iter().all(|v| v.saturated_time_s.is_none()));
-    let (rows, summary, _) = run(scenario(&cars));
+    let saturated =
+        |s: &platoon_sim::Summary, i: usize| s.vehicles[i - 1].saturated_time_s.unwrap();
+    let (rows, unguarded, _) = run(scenario(&without_guard(&text)));
     assert!(
         rows.iter().all(|r| r.u <= 2.6 && r.u >= -4.5),
         "a row beyond the limits"
     );
-    let saturated =
-        |s: &platoon_sim::Summary, i: usize| s.vehicles[i - 1].saturated_time_s.unwrap();
-    assert!(saturated(&summary, 3) > 20.0, "{}", saturated(&summary, 3));
-    let s = &summary.safety;
-    assert!(s.collided && s.min_gap_vehicle == 4, "{s:?}");
-    assert_eq!(
-        s.first_collision_t_s.map(|t| format!("{t:.1}")).as_deref(),
-        Some("40.6")
+    assert!(
+        saturated(&unguarded, 3) > 20.0,
+        "{}",
+        saturated(&unguarded, 3)
     );
-    let (rows, guarded, _) = run(scenario(&(cars + "\n[guard]\nenabled = true\n")));
-    assert!(!guarded.safety.collided, "{:?}", guarded.safety);
+    let s = &unguarded.safety;
+    assert!(s.collided && s.min_gap_vehicle == 4, "{s:?}");
+    let (rows, summary, _) = run(scenario(&text));
+    assert!(!summary.safety.collided, "{:?}", summary.safety);
     // The guard brakes harder than the law may: to the emergency limit, not beyond.
     assert!(rows.iter().any(|r| r.guard && r.u < -4.5));
-    assert!(rows.iter().all(|r| r.u >= -9.0));
+    assert!(rows.iter().all(|r| r.u <= 2.6 && r.u >= -9.0));
+    assert!(saturated(&summary, 3) > 20.0, "{}", saturated(&summary, 3));
+    published(
+        "docs/traffic.md",
+        "the plant holds follower 3 at its limits for {} s (follower 4 {} s), and without the \
+         guard follower 4 then drives into follower 3 at {} s, as the leader brakes; with the \
+         guard (braking to 9 m/s^2) nobody collides (smallest gap {} m)",
+        &[
+            format!("{:.1}", saturated(&summary, 3)),
+            format!("{:.1}", saturated(&summary, 4)),
+            format!("{:.1}", s.first_collision_t_s.unwrap()),
+            format!("{:.2}", summary.safety.min_gap_m),
+        ],
+    );
 }

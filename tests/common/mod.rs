@@ -272,9 +272,9 @@ pub fn cut_in_config(law: &str) -> String {
     }
     let body = without_paper_law_keys(&text);
     // Each law keeps the platoon's 20 m front to front (15.5 m between 4.5 m cars) at
-    // standstill, plus its own time headway; laws that need the leader get it (plf), and the
-    // guard, since the followers behind the cut-in still track the leader; those that read
-    // the leader's packets split the platoon behind the car (docs/traffic.md).
+    // standstill, plus its own time headway, on the config's cars and guard; laws that need the
+    // leader get it (plf); those that read the leader's packets split the platoon behind the
+    // car (docs/traffic.md).
     let (keys, headway, leader, split) = match law {
         "acc" => ("standstill_m = 15.5", Some(1.5), false, false),
         "ploeg" => ("standstill_m = 15.5", Some(0.5), false, false),
@@ -304,7 +304,7 @@ pub fn cut_in_config(law: &str) -> String {
         );
     }
     if leader {
-        c = c.replacen("preset = \"pf\"", "preset = \"plf\"", 1) + "\n[guard]\nenabled = true\n";
+        c = c.replacen("preset = \"pf\"", "preset = \"plf\"", 1);
     }
     if split {
         c = c.replacen(
@@ -314,6 +314,31 @@ pub fn cut_in_config(law: &str) -> String {
         );
     }
     c
+}
+
+/// A shipped config's text with its guard off (`[guard] enabled = true` made false).
+pub fn without_guard(text: &str) -> String {
+    let on = "[guard]\nenabled = true";
+    assert!(text.contains(on), "no guard to switch off");
+    text.replacen(on, "[guard]\nenabled = false", 1)
+}
+
+/// A shipped config's text on the paper's ideal vehicle: without its `members = "car"` and
+/// its `[vehicle_classes.car]` table (docs/traffic.md#vehicles-with-limits).
+pub fn without_cars(text: &str) -> String {
+    let (start, members) = (text.find("[vehicle_classes.car]"), "members = \"car\"");
+    let start = start.expect("no [vehicle_classes.car]");
+    let end = start
+        + text[start..]
+            .find("\n\n")
+            .expect("a blank line after the class");
+    let text = format!("{}{}", &text[..start], &text[end + 2..]);
+    assert!(text.contains(members), "no members = \"car\"");
+    text.lines()
+        .filter(|l| !l.starts_with(members))
+        .collect::<Vec<_>>()
+        .join("\n")
+        + "\n"
 }
 
 /// A config's text without the paper's law keys and trigger weights, which another law refuses.

@@ -82,14 +82,16 @@ pub enum Experiment {
     /// [[cut_ins]], by default configs/cut-in.toml: between followers 2 and 3, braking, leaving
     /// after 10 s) at each gap and speed difference, for every law (the paper's and the field's,
     /// each on its own beaconing and on the platoon's standstill gap; pf, or plf for the laws
-    /// that need the leader, and the paper's law also on its own TPSF; the guard on; the
+    /// that need the leader, and the paper's law also on its own TPSF; on the base's vehicles,
+    /// by default passenger cars with acceleration and braking limits; the guard on; the
     /// platoon split behind the car where a law steers on vehicles ahead of it), under no
     /// attack, a periodic DoS, a false-data bias
     /// and a feigned braking on the packets of the member ahead of the car while it is there,
     /// with the three built-in detectors logging, in process or on SUMO (--plant sumo), with
     /// seeded repeats. Writes
     /// traffic.csv (one row per run: collision, smallest gap counting the car, time on the
-    /// car's ACC, time outside the law, false alarms, forged packets detected and missed),
+    /// car's ACC, time outside the law, the longest time a follower was held at its limits,
+    /// false alarms, forged packets detected and missed),
     /// traffic.md (worst case over the repeats) and one smallest-gap plot per gap
     /// (traffic-gap<G>.png).
     Traffic(TrafficArgs),

@@ -52,6 +52,71 @@ fn every_file_in_configs_parses_and_validates() {
     assert_eq!(seen, SHIPPED, "the .toml files of configs/");
 }
 
+/// Every shipped traffic and maneuver config (one with `[[cut_ins]]`, `[maneuvers]` or
+/// `[[sumo.flows]]`) runs on vehicles with limits: `platoon.members` names a class for every
+/// vehicle, and each such class bounds acceleration, braking and the guard's emergency braking
+/// (docs/traffic.md#vehicles-with-limits). A run of one of them (configs/cut-in.toml, in
+/// process) reports each follower's `saturated_time_s`, and follower 3's way back after the
+/// car left is held at the limits.
+#[test]
+fn every_traffic_and_maneuver_config_runs_on_vehicles_with_limits() {
+    let mut checked = Vec::new();
+    for name in SHIPPED {
+        let (config, _) =
+            platoon_config::load(&configs_dir().join(name)).unwrap_or_else(|e| panic!("{e}"));
+        if config.cut_ins.is_empty() && config.maneuvers.is_none() && config.sumo.flows.is_empty() {
+            continue;
+        }
+        let vehicles = config.platoon.followers + 1;
+        let names: Vec<String> = match &config.platoon.members {
+            Some(platoon_config::Members::Every(class)) => vec![class.clone(); vehicles],
+            Some(platoon_config::Members::Each(classes)) => classes.clone(),
+            None => panic!("{name}: no platoon.members"),
+        };
+        assert_eq!(names.len(), vehicles, "{name}");
+        for class in &names {
+            let c = config
+                .vehicle_classes
+                .get(class)
+                .unwrap_or_else(|| panic!("{name}: no [vehicle_classes.{class}]"));
+            for (key, limit) in [
+                ("accel_max_mps2", c.accel_max_mps2),
+                ("decel_max_mps2", c.decel_max_mps2),
+                ("emergency_decel_mps2", c.emergency_decel_mps2),
+            ] {
+                assert!(
+                    limit.is_some_and(|x| x > 0.0),
+                    "{name}: [vehicle_classes.{class}] {key}"
+                );
+            }
+        }
+        checked.push(name);
+    }
+    assert_eq!(
+        checked,
+        [
+            "cut-in-split.toml",
+            "cut-in.toml",
+            "join-middle.toml",
+            "join-plexe.toml",
+            "join.toml",
+            "leave.toml",
+            "merge.toml",
+            "onramp.toml",
+            "split.toml",
+        ]
+    );
+    let (_, scenario) = platoon_config::load(&configs_dir().join("cut-in.toml")).unwrap();
+    let summary = platoon_sim::run(scenario, |_| {}).unwrap();
+    assert_eq!(summary.vehicles.len(), 4);
+    let saturated: Vec<f64> = summary
+        .vehicles
+        .iter()
+        .map(|v| v.saturated_time_s.expect("saturated_time_s per vehicle"))
+        .collect();
+    assert!(saturated[2] > 10.0, "{saturated:?}");
+}
+
 /// A split behind a cut-in re-points the followers' leader: the paper's law (on its part of the
 /// platoon, the head in the leader's place) and the flatbed controller of the shipped config
 /// split, and their followers hear every member ahead; a law with no leader to re-point (the

@@ -110,6 +110,9 @@ pub struct TrafficRow {
     pub cut_in_s: f64,
     /// All followers outside their law: attack fallbacks, cut-ins and the way back (s, summed).
     pub fallback_s: f64,
+    /// The longest time any follower's command was held within its vehicle class's limits (s,
+    /// `saturated_time_s` of summary.json); `None` for a base without vehicle classes.
+    pub saturated_s: Option<f64>,
     /// Packets the detectors flagged that were genuine.
     pub false_alarms: u64,
     /// Forged packets they flagged.
@@ -129,8 +132,8 @@ pub struct Traffic {
 
 /// Every law of `opts` against a car cutting in ahead of the base's cut-in follower at each gap
 /// and speed difference, under each attack, in process: the base scenario (`configs/cut-in.toml`
-/// by default: its car, profile, `[fallback.cut_in]` and radar) with each law on its own
-/// beaconing and on the base's distances (each law's standstill gap set to the platoon's, so the
+/// by default: its car, its vehicles (passenger cars with limits), profile, `[fallback.cut_in]`
+/// and radar) with each law on its own beaconing and on the base's distances (each law's standstill gap set to the platoon's, so the
 /// car fits the same gap), on `pf`, or `plf` for the laws that need the leader, and the paper's
 /// law also on its own TPSF, the guard on, the split behind the car as the base's
 /// `[fallback.cut_in]` has it (by default the laws that steer on vehicles ahead of the car
@@ -357,6 +360,11 @@ fn cell(base: &Base, cell: &Cell<'_>, plant: Plant<'_>) -> Result<TrafficRow> {
             min_gap_m: s.safety.min_gap_m,
             cut_in_s: time_in(&s.vehicles[ahead_of - 1], Some("cut_in")),
             fallback_s: s.vehicles.iter().fold(0.0, |sum, v| sum + time_in(v, None)),
+            saturated_s: s
+                .vehicles
+                .iter()
+                .filter_map(|v| v.saturated_time_s)
+                .reduce(f64::max),
             false_alarms: any(|c| c.fp),
             detected: any(|c| c.tp),
             missed: any(|c| c.fn_),
@@ -435,7 +443,7 @@ fn apply_attack(
 
 fn markdown(rows: &[TrafficRow]) -> String {
     let mut md = String::from(
-        "| law | topology | gap (m) | speed diff (m/s) | attack | collisions | min gap (m) | on the car (s) | outside the law (s) | false alarms | forged detected | forged missed |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+        "| law | topology | gap (m) | speed diff (m/s) | attack | collisions | min gap (m) | on the car (s) | outside the law (s) | saturated (s) | false alarms | forged detected | forged missed |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
     );
     let cells = repeats(rows, |r| {
         (
@@ -450,13 +458,17 @@ fn markdown(rows: &[TrafficRow]) -> String {
         let worst = |f: fn(&TrafficRow) -> f64| same.iter().map(|r| f(r)).fold(f64::NAN, f64::max);
         let _ = writeln!(
             md,
-            "| {law} | {} | {gap} | {dv:+} | {attack} | {}/{} | {:.2} | {:.1} | {:.1} | {} | {} | {} |",
+            "| {law} | {} | {gap} | {dv:+} | {attack} | {}/{} | {:.2} | {:.1} | {:.1} | {} | {} | {} | {} |",
             same[0].topology,
             same.iter().filter(|r| r.collided).count(),
             same.len(),
             same.iter().map(|r| r.min_gap_m).fold(f64::INFINITY, f64::min),
             worst(|r| r.cut_in_s),
             worst(|r| r.fallback_s),
+            match same.iter().filter_map(|r| r.saturated_s).reduce(f64::max) {
+                Some(s) => format!("{s:.1}"),
+                None => "-".to_string(),
+            },
             same.iter().map(|r| r.false_alarms).sum::<u64>(),
             same.iter().map(|r| r.detected).sum::<u64>(),
             same.iter().map(|r| r.missed).sum::<u64>(),
