@@ -143,7 +143,10 @@ fn a_leave_beside_background_traffic_waits_for_a_gap() {
     let s = json(&run.join("summary.json"));
     assert_eq!(s["safety"]["collided"], false, "{}", s["safety"]);
     let changes = s["maneuvers"]["lane_changes"].as_array().unwrap().clone();
-    let who: Vec<u64> = changes.iter().map(|c| c["vehicle"].as_u64().unwrap()).collect();
+    let who: Vec<u64> = changes
+        .iter()
+        .map(|c| c["vehicle"].as_u64().unwrap())
+        .collect();
     assert_eq!(who, [2, 5], "{changes:?}");
     for c in &changes {
         assert!(c["waited_s"].as_f64().unwrap() > 1.0, "{changes:?}");
