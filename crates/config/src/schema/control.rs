@@ -166,9 +166,10 @@ pub struct ManeuversConfig {
     /// `[[maneuvers.joins]]`: vehicles that start outside the platoon, behind it, and join at
     /// its tail. The joiners are the platoon's last vehicles (their initial states are theirs).
     pub joins: Vec<JoinAt>,
-    /// `[[maneuvers.leaves]]`: members that leave: on the leader's update a leaver moves out
-    /// of the lane (to the next lane on SUMO) and drives on at its speed, and the member behind
-    /// it closes up to the one ahead, its gap shrinking at `fallback.closing_mps`.
+    /// `[[maneuvers.leaves]]`: members that leave: on the leader's update a leaver moves to
+    /// the lane beside once the gap there is safe (on either plant) and drives on its ACC at
+    /// the speed it left at, and the member behind it closes up to the one ahead, its gap
+    /// shrinking at `fallback.closing_mps`.
     pub leaves: Vec<LeaveAt>,
     /// `[maneuvers.merge]`: the vehicles from follower `head` to the last start as a platoon of
     /// their own, headed by `head` on its ACC (`fallback.acc`) behind the platoon's tail; at

@@ -470,7 +470,7 @@ impl Follower {
     }
 
     /// The command its place calls for, and whether it just joined: a member's law; a
-    /// leaver's nothing (it drives on at its speed in the next lane); a member that split off
+    /// leaver's ACC (at the speed it left at, behind what is ahead on its lane); a member that split off
     /// heads the members behind it on its ACC, as a joiner drives to its slot, each with a
     /// headway that opens gently.
     fn command_at(
