@@ -7,7 +7,7 @@
 //! background traffic waits for a gap.
 use crate::common;
 
-use common::{json, repo, run_config};
+use common::{json, published, repo, run_config};
 use platoon_sim::{MetricsAccumulator, StepRow};
 use std::path::Path;
 
@@ -117,10 +117,18 @@ fn a_leaver_with_a_vehicle_alongside_waits_on_both_plants() {
         (Some(1), Some(0.0))
     );
     assert_eq!(changes[1]["vehicle"], 3);
-    assert!(
-        changes[1]["waited_s"].as_f64().unwrap() > 0.5,
-        "{changes:?}"
+    let waited = changes[1]["waited_s"].as_f64().unwrap();
+    assert!(waited > 0.5, "{changes:?}");
+    published(
+        "docs/maneuvers.md",
+        "follower 1 is alongside and follower 3 waits {} s for a safe gap",
+        &[centiseconds(waited)],
     );
+}
+
+/// A time as docs/maneuvers.md prints it: to the hundredth, without trailing zeros.
+fn centiseconds(s: f64) -> String {
+    format!("{}", (s * 100.0).round() / 100.0)
 }
 
 /// Members leaving beside SUMO's background traffic (300 vehicles of SUMO's Krauss model,
@@ -152,6 +160,15 @@ fn a_leave_beside_background_traffic_waits_for_a_gap() {
         assert!(c["waited_s"].as_f64().unwrap() > 1.0, "{changes:?}");
         assert!(c["t_s"].is_number());
     }
+    let waited: Vec<String> = changes
+        .iter()
+        .map(|c| centiseconds(c["waited_s"].as_f64().unwrap()))
+        .collect();
+    published(
+        "docs/maneuvers.md",
+        "follower 2 waits {} s for a gap and the tail {} s",
+        &waited,
+    );
     for m in s["maneuvers"]["maneuvers"].as_array().unwrap() {
         assert_eq!(m["outcome"], "completed", "{m}");
     }
