@@ -105,6 +105,14 @@ def leader_length(spec):
     return float(members[0]["length_m"]) if members else spec["sumo"]["vehicle_length_m"]
 
 
+def member_lengths(spec):
+    """Every member's length, leader first: its class's with vehicle classes, else the
+    platoon's."""
+    members = spec.get("vehicles") or []
+    return ([float(m["length_m"]) for m in members]
+            or [float(spec["vehicle_length"])] * int(spec["vehicles_per_platoon"]))
+
+
 def member_vtype(spec, g):
     """The SUMO type of wire vehicle g: its class's, or `platoon`."""
     members = spec.get("vehicles")
@@ -489,9 +497,7 @@ class Kinematics:
         # the lane-change waits (for sumo.json).
         self.rule = model.LaneChangeRule(spec["lane_change"]) if spec.get("lane_change") else None
         if self.rule is not None:
-            members = spec.get("vehicles") or []
-            self.lengths = ([float(m["length_m"]) for m in members]
-                            or [float(spec["vehicle_length"])] * self.n1)
+            self.lengths = member_lengths(spec)
         self.waiting = {}
         # The states sample, filled in place (through a numpy view for large fleets).
         self.out = (w.VehicleState * n)()
@@ -774,9 +780,7 @@ class Intruders:
         self.n1 = int(spec["vehicles_per_platoon"])
         self.dt = float(spec["dt"])
         # Every member's length, leader first (its class's with vehicle classes).
-        members = spec.get("vehicles") or []
-        self.lengths = ([float(m["length_m"]) for m in members]
-                        or [float(spec["vehicle_length"])] * self.n1)
+        self.lengths = member_lengths(spec)
         self.offset = float(spec["sumo"]["offset_m"])
         self.lanes = [(str(lane), f'{spec["sumo"]["edge"]}_{lane}') for lane in spec["lanes"]]
         self.platoons = [model.CutIns(cut_ins) for _ in spec["lanes"]] if cut_ins else []

@@ -198,13 +198,12 @@ impl MetricsAccumulator {
             let mut order: Vec<usize> = (0..rows.len()).collect();
             order.sort_by(|&a, &b| rows[b].p.total_cmp(&rows[a].p));
             self.fronts.resize(rows.len(), None);
-            for lane in [false, true] {
-                let on = order
-                    .iter()
-                    .filter(|&&i| (rows[i].beside == Some(true)) == lane);
-                for (&a, &b) in on.clone().zip(on.skip(1)) {
-                    self.fronts[b] = Some(a);
-                }
+            // Each row's front: the last one seen ahead of it on its lane.
+            let mut last = [None, None];
+            for &i in &order {
+                let lane = &mut last[usize::from(rows[i].beside == Some(true))];
+                self.fronts[i] = *lane;
+                *lane = Some(i);
             }
         }
         self.gaps.clear();

@@ -93,24 +93,21 @@ impl ModelCheck {
     /// it: to its predecessor (with `lanes`, to the nearest vehicle ahead on its lane), or to a
     /// car that cut in ahead of it.
     fn collides(rows: &[StepRow], lengths: &[f64], lanes: bool) -> bool {
-        let touches = |on: &[&StepRow]| {
-            on.windows(2)
-                .any(|w| w[0].p - lengths[usize::from(w[0].vehicle)] - w[1].p <= 0.0)
-        };
+        let touch = |a: &StepRow, b: &StepRow| a.p - lengths[usize::from(a.vehicle)] - b.p <= 0.0;
         let touches = if lanes {
-            // Each lane as the plant has it, in the road's order.
+            // Each lane as the plant has it, in the road's order: each vehicle against the
+            // last one seen ahead of it on its lane.
             let mut by_road: Vec<&StepRow> = rows.iter().collect();
             by_road.sort_by(|a, b| b.p.total_cmp(&a.p));
-            [false, true].into_iter().any(|beside| {
-                let on: Vec<&StepRow> = by_road
-                    .iter()
-                    .copied()
-                    .filter(|r| (r.beside == Some(true)) == beside)
-                    .collect();
-                touches(&on)
+            let mut ahead: [Option<&StepRow>; 2] = [None, None];
+            by_road.into_iter().any(|r| {
+                let lane = &mut ahead[usize::from(r.beside == Some(true))];
+                let hit = lane.is_some_and(|a| touch(a, r));
+                *lane = Some(r);
+                hit
             })
         } else {
-            touches(&rows.iter().collect::<Vec<_>>())
+            rows.windows(2).any(|w| touch(&w[0], &w[1]))
         };
         touches
             || rows
