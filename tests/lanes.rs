@@ -281,3 +281,111 @@ fn a_collision_on_the_lane_beside_is_counted_and_named() {
     );
     assert!((c.gap_m.unwrap() + 1.0).abs() < 1e-12);
 }
+
+/// A car that would cut in 1 m ahead of follower 3, 2 m/s slower (configs/cut-in.toml with
+/// `gap_m = 1.0`), is too close for the lane-change rule (4 m needed at that closing speed): it
+/// waits beside the platoon, falls back along it and cuts in ahead of follower 4 once that gap
+/// is safe, on both plants at the same step; nobody collides, the summary's `cut_ins` says
+/// where and after how long, SUMO's log the same, and the positions agree within what
+/// docs/traffic.md publishes for cut-in.toml. Aggressive (`aggressive = true`), it cuts in at
+/// once, 1 m ahead of follower 3, as before lanes.
+#[test]
+fn a_car_that_would_cut_in_too_close_waits_beside_for_a_safe_gap() {
+    let tmp = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(repo().join("configs/cut-in.toml")).unwrap();
+    let close = text
+        .replace("duration_s = 70.0", "duration_s = 35.0")
+        .replace("at_s = 20.0 ", "gap_m = 1.0\nat_s = 20.0 ");
+    assert!(close.contains("gap_m = 1.0") && close.contains("duration_s = 35.0"));
+    let path = tmp.path().join("close.toml");
+    std::fs::write(&path, &close).unwrap();
+    let inproc = run_config(&path, "inproc", &["--transport", "inproc"], tmp.path());
+    let sumo = run_config(&path, "sumo", &["--plant", "sumo"], tmp.path());
+    let cut_ins: Vec<serde_json::Value> = [&inproc, &sumo]
+        .iter()
+        .map(|r| {
+            let s = json(&r.join("summary.json"));
+            assert_eq!(s["safety"]["collided"], false, "{}", s["safety"]);
+            s["cut_ins"].clone()
+        })
+        .collect();
+    assert_eq!(cut_ins[0], cut_ins[1], "the plants differ");
+    let car = &cut_ins[0][0];
+    assert_eq!(car["ahead_of"], 4, "{car}");
+    let waited = car["waited_s"].as_f64().unwrap();
+    assert!(waited > 1.0, "{car}");
+    let report = json(&sumo.join("sumo.json"));
+    assert_eq!(report["collisions"], serde_json::json!([]));
+    let log = &report["cut_ins"]["vehicles"]["cutin0"];
+    assert_eq!(log["appeared_step"], 2000, "{log}");
+    let entered = log["entered_step"].as_u64().unwrap();
+    assert!(
+        (entered as f64 * 0.01 - car["entered_t_s"].as_f64().unwrap()).abs() < 1e-9,
+        "{log} {car}"
+    );
+    let positions = |run: &Path| -> Vec<f64> {
+        let mut csv = csv::Reader::from_path(run.join("trajectories.csv")).unwrap();
+        csv.deserialize::<StepRow>().map(|r| r.unwrap().p).collect()
+    };
+    let (a, b) = (positions(&inproc), positions(&sumo));
+    assert_eq!(a.len(), b.len());
+    let worst = a
+        .iter()
+        .zip(&b)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f64::max);
+    assert!(worst < 3.2e-3, "positions differ by up to {worst} m");
+    published(
+        "docs/traffic.md",
+        "waits {} s beside the platoon and cuts in ahead of follower 4",
+        &[centiseconds(waited)],
+    );
+    // The same car, aggressive: in at once, 1 m ahead of follower 3.
+    let path = tmp.path().join("aggressive.toml");
+    std::fs::write(
+        &path,
+        close.replace("gap_m = 1.0", "gap_m = 1.0\naggressive = true"),
+    )
+    .unwrap();
+    let run = run_config(&path, "aggressive", &["--transport", "inproc"], tmp.path());
+    let car = json(&run.join("summary.json"))["cut_ins"][0].clone();
+    assert_eq!(
+        (car["ahead_of"].as_u64(), car["waited_s"].as_f64()),
+        (Some(3), Some(0.0)),
+        "{car}"
+    );
+}
+
+/// A joiner moves in only into a safe gap: configs/join-middle.toml's joiner starts beside the
+/// platoon alongside follower 2. Asked at every step to move in while it speeds up past
+/// follower 2 (2 m/s^2, the others holding their speed), the plant keeps it beside until the
+/// rule finds the gap between followers 1 and 2 safe, and moves it at that very step.
+#[test]
+fn a_joiner_alongside_a_member_waits_to_move_in() {
+    let text = std::fs::read_to_string(repo().join("configs/join-middle.toml")).unwrap();
+    let scenario = platoon_config::parse(&text, Path::new("join-middle.toml"))
+        .unwrap()
+        .1;
+    let rule = platoon_sim::lanes::LaneChangeRule::DEFAULT;
+    let mut plant = platoon_sim::Plant::new(&scenario);
+    let (joiner, length) = (4, 4.5);
+    assert!(plant.beside(joiner));
+    let mut u = vec![0.0; scenario.topology.followers()];
+    u[joiner - 1] = 2.0;
+    let mut moved = None;
+    for k in 0..500u64 {
+        let x = plant.states().to_vec();
+        let me = [x[joiner][0], x[joiner][1], length];
+        let safe = rule.safe_among(me, (0..4).map(|j| [x[j][0], x[j][1], length]));
+        plant.change_lanes(|_| false);
+        assert_eq!(!plant.beside(joiner), safe, "step {k}: {x:?}");
+        if safe {
+            moved = Some(k);
+            break;
+        }
+        plant.advance(k, &u, |_| false);
+    }
+    // Not at once (it was alongside), but within the 5 s.
+    let moved = moved.expect("the joiner never found a safe gap");
+    assert!(moved > 100, "{moved}");
+}

@@ -734,8 +734,10 @@ pub(crate) fn python_floats(script: &str) -> Vec<f64> {
 /// ahead of a platoon that moves, every intruder's position and speed at every step.
 #[test]
 fn the_python_cut_in_kinematics_are_the_rust_ones_bit_for_bit() {
+    use platoon_sim::lanes::LaneChangeRule;
     use platoon_sim::traffic::{CutIn, Traffic};
-    // Some entering on a step and some between steps, some staying, one stopping at once.
+    // Some entering on a step and some between steps, some staying, one stopping at once;
+    // every other one aggressive, the others waiting beside for a safe gap (some for ever).
     let cut_ins: Vec<CutIn> = (0..24)
         .map(|c| {
             let x = c as f64;
@@ -749,33 +751,38 @@ fn the_python_cut_in_kinematics_are_the_rust_ones_bit_for_bit() {
                 brake_s: 0.41 * x,
                 leave_s: (c % 4 != 0).then_some(0.0371 * x * x + 1.1 + 0.07 * x),
                 length_m: 3.5 + 0.3 * x,
+                aggressive: c % 2 == 0,
             }
         })
         .collect();
     let (dt, steps, length) = (0.01, 2200u64, 4.5);
-    // A platoon whose positions and speeds change every step (the same expressions in Python).
+    // A platoon whose positions and speeds change every step (the same expressions in Python),
+    // its gaps opening; member 3 in the lane beside from step 700 to 1500.
     let states = |k: u64| -> Vec<platoon_model::State> {
         (0..4)
             .map(|i| {
                 let (i, k) = (i as f64, k as f64);
                 platoon_model::State::new(
-                    100.0 - 13.7 * i + 0.213 * k,
+                    100.0 - (13.7 + 0.004 * k) * i + 0.213 * k,
                     21.0 - 0.1 * i + 0.003 * k,
                     0.0,
                 )
             })
             .collect()
     };
-    let mut traffic = Traffic::new(&cut_ins);
+    let off = |k: u64| [false, false, false, (700..1500).contains(&k)];
+    let mut traffic = Traffic::new(&cut_ins, LaneChangeRule::DEFAULT);
     let mut expected = Vec::new();
-    traffic.arrive(0.0, &states(0), &[length; 4]);
+    traffic.arrive(0.0, &states(0), &[length; 4], &off(0));
     for k in 0..=steps {
         if k > 0 {
             traffic.advance((k - 1) as f64 * dt, dt);
-            traffic.arrive(k as f64 * dt, &states(k), &[length; 4]);
+            traffic.arrive(k as f64 * dt, &states(k), &[length; 4], &off(k));
         }
-        for x in traffic.on_lane() {
-            expected.extend([x.p, x.v]);
+        for c in 0..cut_ins.len() {
+            if let Some(x) = traffic.car(c) {
+                expected.extend([x.p, x.v, f64::from(u8::from(x.beside))]);
+            }
         }
     }
     let script = format!(
@@ -783,28 +790,43 @@ fn the_python_cut_in_kinematics_are_the_rust_ones_bit_for_bit() {
 import json, sys; sys.path.insert(0, {bridge:?})
 import platoon.sumo.model as m
 cut_ins = json.loads({spec:?})
+rule = m.LaneChangeRule(json.loads({rule:?}))
 def states(k):
-    return ([100.0 - 13.7 * float(i) + 0.213 * float(k) for i in range(4)],
+    return ([100.0 - (13.7 + 0.004 * float(k)) * float(i) + 0.213 * float(k) for i in range(4)],
             [21.0 - 0.1 * float(i) + 0.003 * float(k) for i in range(4)])
+def off(k):
+    return {{3}} if 700 <= k < 1500 else set()
 dt, out = 0.01, []
-t = m.CutIns(cut_ins)
-t.arrive(0.0, *states(0), [{length:?}] * 4)
+t = m.CutIns(cut_ins, rule)
+t.arrive(0.0, *states(0), [{length:?}] * 4, off(0))
 for k in range({steps} + 1):
     if k > 0:
         t.advance((k - 1) * dt, dt)
-        t.arrive(k * dt, *states(k), [{length:?}] * 4)
-    for x in t.on_lane:
+        t.arrive(k * dt, *states(k), [{length:?}] * 4, off(k))
+    for x in t.cars:
         if x is not None:
-            out += x
+            out += [x[0], x[1], 1.0 if x[2] else 0.0]
 print("\n".join(repr(x) for x in out))
 "#,
         bridge = repo().join("bridge").display().to_string(),
         spec = serde_json::to_string(&cut_ins).unwrap(),
+        rule = serde_json::to_string(&LaneChangeRule::DEFAULT).unwrap(),
     );
     let got = python_floats(&script);
-    // Many were on the lane at once, some of them stopped.
-    assert!(expected.len() > 2 * 5000, "{}", expected.len());
-    assert!(expected.chunks(2).any(|x| x[1] == 0.0));
+    // Many were on the road at once, some of them stopped; some waited beside for a gap
+    // while others cut in, some left, and some never got in.
+    assert!(expected.len() > 3 * 5000, "{}", expected.len());
+    assert!(expected.chunks(3).any(|x| x[1] == 0.0));
+    let (waited, never): (Vec<_>, Vec<_>) = (0..cut_ins.len())
+        .filter(|&c| !cut_ins[c].aggressive)
+        .partition(|&c| traffic.entered_s(c).is_some());
+    assert!(
+        waited
+            .iter()
+            .any(|&c| traffic.entered_s(c) > Some(cut_ins[c].at_s + dt)),
+        "{waited:?}"
+    );
+    assert!(!never.is_empty() && waited.iter().any(|&c| traffic.left_s(c).is_some()));
     assert_eq!(got.len(), expected.len());
     for (i, (g, e)) in got.iter().zip(&expected).enumerate() {
         assert_eq!(g.to_bits(), e.to_bits(), "value {i}: python {g} rust {e}");

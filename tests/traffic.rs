@@ -485,7 +485,8 @@ fn the_radar_cross_check_does_not_call_a_cut_in_an_attack() {
 }
 
 /// A campaign varies a cut-in like any other key (`cut_ins[0].gap_m`), in process: the closer
-/// the car cuts in, the smaller the smallest gap, which counts the gap to the car.
+/// the car cuts in (aggressive: at that gap, safe or not), the smaller the smallest gap, which
+/// counts the gap to the car.
 #[test]
 fn a_campaign_sweeps_the_cut_in_gap() {
     use common::{ok, platoon};
@@ -495,7 +496,7 @@ fn a_campaign_sweeps_the_cut_in_gap() {
         tmp.path().join("gaps.toml"),
         format!(
             "base = {base:?}\nmetrics = [\"min_gap_m\", \"collided\"]\n\
-             set = {{ \"simulation.duration_s\" = 35.0 }}\n\
+             set = {{ \"simulation.duration_s\" = 35.0, \"cut_ins[0].aggressive\" = true }}\n\
              [[axes]]\nkey = \"cut_ins[0].gap_m\"\nvalues = [1.0, 4.0, 8.0]\n",
             base = base.display().to_string()
         ),

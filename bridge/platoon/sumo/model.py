@@ -174,26 +174,31 @@ class Dynamics:
 
 class CutIns:
     """One platoon's scripted cut-ins (`sim::traffic::Traffic`, from plant.json's `cut_ins`):
-    each one's intruder `[p, v]` (front bumper, speed) while it is on the lane, else None."""
+    each one's car `[p, v, beside]` (front bumper, speed, on the lane beside the platoon's)
+    from the time it appears, else None. It appears beside the gap at `at_s`, changes into
+    the platoon's lane when the gap there is safe (`rule`; at once when `aggressive`), and
+    from `leave_s` back to the lane beside, where it drives on."""
 
-    def __init__(self, cut_ins):
+    def __init__(self, cut_ins, rule):
         self.cut_ins = [dict(c) for c in cut_ins]
-        self.on_lane = [None] * len(self.cut_ins)
-        self.entered = [False] * len(self.cut_ins)
+        n = len(self.cut_ins)
+        self.cars = [None] * n
+        self.appeared = [None] * n
+        self.entered = [None] * n
+        self.left = [None] * n
+        self.rule = rule
 
-    def arrive(self, t: float, p, v, lengths):
+    def arrive(self, t: float, p, v, lengths, off=(), strangers=None):
         """`Traffic::arrive` at time t, given the platoon's positions p, speeds v and lengths
-        (leader first) at that step: those due enter (`gap_m` ahead of their follower, or mid-gap), those due
-        leave. Returns the indices of the cut-ins that entered and of those that left."""
-        entered, left = [], []
+        (leader first) at that step and `off`, the members (by index) on the lane beside: those
+        due appear beside the platoon (`gap_m` ahead of their follower, or mid-gap), those that
+        want the other lane move into it where the gap is safe, also from the vehicles
+        `strangers(lane_beside, me)` names there (SUMO's own). Returns the indices of the
+        cut-ins that appeared, of those that entered the platoon's lane and of those that left
+        it."""
+        appeared, entered, left = [], [], []
         for c, cut in enumerate(self.cut_ins):
-            leave = cut["leave_s"]
-            if leave is not None and t >= leave:
-                if self.on_lane[c] is not None:
-                    left.append(c)
-                self.on_lane[c] = None
-            elif not self.entered[c] and t >= cut["at_s"]:
-                self.entered[c] = True
+            if self.cars[c] is None and t >= cut["at_s"]:
                 i = cut["ahead_of"]
                 gap = cut.get("gap_m")
                 if gap is not None:
@@ -202,30 +207,67 @@ class CutIns:
                     # Equal gaps: ahead - L - x = x - length - behind.
                     x = 0.5 * (float(p[i - 1]) - lengths[i - 1] + float(p[i]) + cut["length_m"])
                 speed = float(v[i]) + cut["speed_diff_mps"]
-                self.on_lane[c] = [x, max(speed, 0.0)]
+                self.cars[c] = [x, max(speed, 0.0), True]
+                self.appeared[c] = t
+                appeared.append(c)
+            car = self.cars[c]
+            if car is None:
+                continue
+            leave = cut["leave_s"]
+            # It asks for the platoon's lane until its time there is up, then for the lane
+            # beside (a car that never got in stays there; one that left never comes back).
+            beside = (leave is not None and t >= leave) or self.left[c] is not None
+            if beside == car[2]:
+                continue
+            if not cut.get("aggressive", False) and not self.safe(c, beside, p, v, lengths, off, strangers):
+                continue
+            car[2] = beside
+            if beside:
+                self.left[c] = t
+                left.append(c)
+            else:
+                self.entered[c] = t
                 entered.append(c)
-        return entered, left
+        return appeared, entered, left
+
+    def safe(self, c, beside, p, v, lengths, off, strangers) -> bool:
+        """Whether cut-in c's car may move onto the lane beside (`beside`) or the platoon's:
+        the members on that lane, the other cars there, then `strangers`' vehicles."""
+        car = self.cars[c]
+        me = [car[0], car[1], float(self.cut_ins[c]["length_m"])]
+        others = [[float(p[i]), float(v[i]), lengths[i]] for i in range(len(p)) if (i in off) == beside]
+        others.extend([x[0], x[1], float(self.cut_ins[d]["length_m"])]
+                      for d, x in enumerate(self.cars) if x is not None and d != c and x[2] == beside)
+        if strangers is not None:
+            others.extend(strangers(beside, me))
+        return self.rule.safe_among(me, others)
 
     def due(self, t: float) -> bool:
-        """Whether `arrive` at time t would have any cut-in enter or leave."""
+        """Whether `arrive` at time t has anything to decide: a cut-in to appear, or a car
+        that wants the other lane."""
         for c, cut in enumerate(self.cut_ins):
-            leave = cut["leave_s"]
-            if leave is not None and t >= leave:
-                if self.on_lane[c] is not None:
+            car = self.cars[c]
+            if car is None:
+                if t >= cut["at_s"]:
                     return True
-            elif not self.entered[c] and t >= cut["at_s"]:
+                continue
+            leave = cut["leave_s"]
+            if ((leave is not None and t >= leave) or self.left[c] is not None) != car[2]:
                 return True
         return False
 
     def advance(self, t: float, dt: float):
-        """`Traffic::advance`: moves every intruder from t to t + dt. Returns the acceleration
-        each one holds over the step (None while it is not on the lane)."""
+        """`Traffic::advance`: moves every car from t to t + dt: once it cut in it brakes for
+        `brake_s` from the moment it entered, otherwise it holds its speed. Returns the
+        acceleration each one holds over the step (None before it appears)."""
         held = []
-        for cut, x in zip(self.cut_ins, self.on_lane):
+        for c, (cut, x) in enumerate(zip(self.cut_ins, self.cars)):
             if x is None:
                 held.append(None)
                 continue
-            braking = t < cut["at_s"] + cut["brake_s"]
+            e, s = self.entered[c], self.appeared[c]
+            # The same float as Rust's: from at_s when it cut in as it appeared.
+            braking = e is not None and t < cut["at_s"] + cut["brake_s"] + (e - s)
             a = -cut["decel_mps2"] if braking else 0.0
             # It stops rather than reverses.
             if x[1] + a * dt < 0.0:

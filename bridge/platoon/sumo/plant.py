@@ -566,8 +566,8 @@ class Kinematics:
     def lane_change_safe(self, g, beside):
         """Whether wire vehicle g may move into the lane beside its platoon's (`beside`) or
         back into the platoon's, at the states published at this step: among its platoon's
-        members on that lane and, on the platoon's lane, its cut-ins (both as the native plant
-        has them: the model's values), and any other SUMO vehicle that is the nearest ahead or
+        members on that lane and the cars of its cut-ins there (both as the native plant has
+        them: the model's values), and any other SUMO vehicle that is the nearest ahead or
         behind it on that lane (background traffic, other platoons), as SUMO has it."""
         n1 = self.n1
         j, i = divmod(g, n1)
@@ -576,12 +576,12 @@ class Kinematics:
         others = [vehicle(h) for h in range(lo, lo + n1)
                   if h != g and (h in self.beside) == beside]
         known = {self.ids[h] for h in range(lo, lo + n1)}
-        if not beside and self.intruders:
+        if self.intruders:
             cuts = self.intruders.platoons[j]
-            for c, x in enumerate(cuts.on_lane):
-                if x is not None:
+            for c, x in enumerate(cuts.cars):
+                known.add(intruder_id(j, c))
+                if x is not None and x[2] == beside:
                     others.append([x[0], x[1], float(cuts.cut_ins[c]["length_m"])])
-                    known.add(intruder_id(j, c))
         me = vehicle(g)
         others.extend(self.strangers(g, beside, me, known))
         return self.rule.safe_among(me, others)
@@ -673,7 +673,10 @@ class Kinematics:
     def arrive_and_sense(self, k):
         """The cut-ins of step k enter (mid-gap, from the states published) and leave, then
         the radars read the lane, and each state says its vehicle's lane (BESIDE)."""
-        if self.intruders and self.intruders.arrive(k, self.p, self.v) and self.native is not None:
+        n1 = self.n1
+        known = lambda j: set(self.ids[j * n1:(j + 1) * n1])
+        if (self.intruders and self.intruders.arrive(k, self.p, self.v, self.beside, known)
+                and self.native is not None):
             self.native.reread()
         self.sense()
         if self.side_lanes:
@@ -765,14 +768,16 @@ class Kinematics:
 
 class Intruders:
     """The scripted cut-ins (plant.json's `cut_ins`, into every platoon), each a SUMO vehicle
-    on its platoon's lane while it is on it (`cutin<c>`, of type `cutin<c>` with its length),
-    with the kinematics of `sim::traffic` (platoon.sumo.model.CutIns). At the step the native
-    plant's enters, it is put mid-gap as computed from the states published at that step:
-    `vehicle.add` then `moveTo` puts a vehicle that has not departed on the lane at once (at its
-    departSpeed), so the radars' `getLeader` of that same step sees it. Over each step it holds
-    its scripted acceleration (`setAcceleration`; speed mode 0, no lane changes); when it leaves
-    it is removed (`vehicle.remove`, also at once). Not a platoon vehicle: no state, no
-    command; its collisions are SUMO's like any other."""
+    (`cutin<c>`, of type `cutin<c>` with its length) from the step it appears, with the
+    kinematics and lane changes of `sim::traffic` (platoon.sumo.model.CutIns). At the step the
+    native plant's appears, it is put beside the gap, as computed from the states published at
+    that step, on the lane beside the platoon's (`side_lanes`), or on the platoon's lane when it
+    cuts in at once: `vehicle.add` then `moveTo` puts a vehicle that has not departed on the
+    lane at once (at its departSpeed), so the radars' `getLeader` of that same step sees it. It
+    changes lanes by `moveTo` at its position (also at once) when the model says the gap is
+    safe, SUMO's own vehicles on that lane counted (`strangers`). Over each step it holds its
+    scripted acceleration (`setAcceleration`; speed mode 0, no lane changes of its own). Not a
+    platoon vehicle: no state, no command; its collisions are SUMO's like any other."""
 
     def __init__(self, spec, sumo):
         self.sumo = sumo
@@ -782,19 +787,25 @@ class Intruders:
         # Every member's length, leader first (its class's with vehicle classes).
         self.lengths = member_lengths(spec)
         self.offset = float(spec["sumo"]["offset_m"])
-        self.lanes = [(str(lane), f'{spec["sumo"]["edge"]}_{lane}') for lane in spec["lanes"]]
-        self.platoons = [model.CutIns(cut_ins) for _ in spec["lanes"]] if cut_ins else []
-        # What happened, for sumo.json: per vehicle, when and where it entered and left, and
-        # how far SUMO's position and speed got from the kinematics while it was on the lane.
+        edge = spec["sumo"]["edge"]
+        self.lanes = [f"{edge}_{lane}" for lane in spec["lanes"]]
+        self.side_lanes = [f"{edge}_{lane}" for lane in spec["sumo"].get("side_lanes", [])]
+        rule = model.LaneChangeRule(spec["lane_change"]) if cut_ins else None
+        self.platoons = [model.CutIns(cut_ins, rule) for _ in spec["lanes"]] if cut_ins else []
+        # What happened, for sumo.json: per vehicle, when and where it appeared, when it
+        # entered the platoon's lane and left it, and how far SUMO's position and speed got
+        # from the kinematics.
         self.log = {}
         self.max_dp = self.max_dv = 0.0
 
     def __bool__(self):
         return bool(self.platoons)
 
-    def arrive(self, k, p, v) -> bool:
-        """Step k's entries and exits, given the states published at k (p, v: every platoon's,
-        wire order). Whether any vehicle entered or left."""
+    def arrive(self, k, p, v, beside=frozenset(), known=None) -> bool:
+        """Step k's appearances and lane changes, given the states published at k (p, v: every
+        platoon's, wire order), the members on the lane beside (`beside`, wire numbers) and
+        `known(j)`, the SUMO ids of platoon j's members. Whether any car appeared or changed
+        lanes."""
         t = k * self.dt
         if not self.due(t):
             return False
@@ -802,36 +813,57 @@ class Intruders:
         vehicle = self.sumo.vehicle
         for j, cuts in enumerate(self.platoons):
             lo = j * n1
-            entered, left = cuts.arrive(t, p[lo:lo + n1], v[lo:lo + n1], self.lengths)
-            for c in left:
+            off = {g - lo for g in beside if lo <= g < lo + n1}
+            ids = {intruder_id(j, c) for c in range(len(cuts.cut_ins))}
+            if known is not None:
+                ids |= known(j)
+
+            def strangers(to_beside, me, j=j, ids=ids):
+                return self.strangers(self.side_lanes[j] if to_beside else self.lanes[j], ids)
+
+            appeared, entered, left = cuts.arrive(t, p[lo:lo + n1], v[lo:lo + n1], self.lengths,
+                                                  off, strangers)
+            for c in appeared:
                 vid = intruder_id(j, c)
-                vehicle.remove(vid)
-                self.log[vid]["left_step"] = k
-            for c in entered:
-                vid = intruder_id(j, c)
-                x, speed = cuts.on_lane[c]
-                lane, lane_id = self.lanes[j]
-                vehicle.add(vid, "road", typeID=f"cutin{c}", depart="now", departLane=lane,
-                            departPos="0", departSpeed=repr(speed))
+                x, speed, on_side = cuts.cars[c]
+                lane_id = self.side_lanes[j] if on_side else self.lanes[j]
+                vehicle.add(vid, "road", typeID=f"cutin{c}", depart="now",
+                            departLane=lane_id.rsplit("_", 1)[1], departPos="0",
+                            departSpeed=repr(speed))
                 vehicle.moveTo(vid, lane_id, x + self.offset)
                 vehicle.setSpeedMode(vid, 0)
                 vehicle.setLaneChangeMode(vid, 0)
-                self.log[vid] = {"entered_step": k, "p_m": x, "v_mps": speed, "left_step": None}
-            changed = changed or bool(entered or left)
+                self.log[vid] = {"appeared_step": k, "p_m": x, "v_mps": speed,
+                                 "entered_step": None, "left_step": None}
+            for c in entered:
+                vid = intruder_id(j, c)
+                if c not in appeared:
+                    vehicle.moveTo(vid, self.lanes[j], cuts.cars[c][0] + self.offset)
+                self.log[vid]["entered_step"] = k
+            for c in left:
+                vid = intruder_id(j, c)
+                vehicle.moveTo(vid, self.side_lanes[j], cuts.cars[c][0] + self.offset)
+                self.log[vid]["left_step"] = k
+            changed = changed or bool(appeared or entered or left)
         if changed:
             self.compare()
         return changed
 
+    def strangers(self, lane_id, known):
+        """SUMO's vehicles on lane `lane_id` other than `known` ones (background traffic, other
+        platoons), as [front bumper, speed, length] in the platoon's road coordinates."""
+        vehicle = self.sumo.vehicle
+        return [[vehicle.getLanePosition(o) - self.offset, vehicle.getSpeed(o), vehicle.getLength(o)]
+                for o in self.sumo.lane.getLastStepVehicleIDs(lane_id) if o not in known]
+
     def due(self, t) -> bool:
-        """Whether any cut-in enters or leaves at time t. Every platoon has the same cut-ins,
-        which enter and leave by the time alone, so the first platoon's tell for all (and a
-        fleet's step does not loop over its platoons for nothing)."""
-        return self.platoons[0].due(t)
+        """Whether any car appears or wants the other lane at time t, in any platoon."""
+        return any(cuts.due(t) for cuts in self.platoons)
 
     def hold(self, k):
-        """Before SUMO's step k -> k + 1: each intruder's acceleration over it, as the
-        kinematics move it (and SUMO then does)."""
-        if all(x is None for x in self.platoons[0].on_lane):  # the same in every platoon
+        """Before SUMO's step k -> k + 1: each car's acceleration over it, as the kinematics
+        move it (and SUMO then does)."""
+        if all(x is None for x in self.platoons[0].cars):  # they appear at the same time in all
             return
         self.compare()
         vehicle, dt = self.sumo.vehicle, self.dt
@@ -842,10 +874,10 @@ class Intruders:
                     vehicle.setAcceleration(intruder_id(j, c), a, dt)
 
     def compare(self):
-        """SUMO's intruders against the kinematics (their lane positions minus the offset)."""
+        """SUMO's cars against the kinematics (their lane positions minus the offset)."""
         vehicle = self.sumo.vehicle
         for j, cuts in enumerate(self.platoons):
-            for c, x in enumerate(cuts.on_lane):
+            for c, x in enumerate(cuts.cars):
                 if x is not None:
                     vid = intruder_id(j, c)
                     dp = abs(vehicle.getLanePosition(vid) - self.offset - x[0])

@@ -320,8 +320,9 @@ fn ahead_on_edge(
 }
 
 /// The lane beside each platoon's (of the edge's `lanes`, index and length), where a leaver
-/// changes to and a joiner from beside starts: the next lane to the left, else to the right;
-/// none unless the scenario changes lanes (on a route of `several_edges` it cannot).
+/// changes to, a joiner from beside starts and a car that cuts in waits and drives out to: the
+/// next lane to the left, else to the right; none unless the scenario changes lanes or has
+/// cut-ins (on a route of `several_edges` it cannot).
 fn side_lanes(
     config_file: &Path,
     scenario: &Scenario,
@@ -330,12 +331,18 @@ fn side_lanes(
     several_edges: bool,
 ) -> Result<Vec<u32>> {
     let mut side_lanes = Vec::new();
-    if scenario.changes_lanes() {
-        let lanes_error = |message: String| config_error(config_file, "maneuvers", message);
+    let cut_ins = !scenario.cut_ins.is_empty();
+    if scenario.changes_lanes() || cut_ins {
+        let key = if scenario.changes_lanes() {
+            "maneuvers"
+        } else {
+            "cut_ins"
+        };
+        let lanes_error = |message: String| config_error(config_file, key, message);
         if several_edges {
             return Err(lanes_error(
-                "on SUMO a leaver or a joiner from beside changes lanes on one edge; sumo.route \
-                 has several"
+                "on SUMO a leaver, a joiner from beside or a car that cuts in changes lanes \
+                 on one edge; sumo.route has several"
                     .into(),
             ));
         }
@@ -345,9 +352,9 @@ fn side_lanes(
                 .find(|l| lanes.iter().any(|(i, _)| i == l));
             let Some(beside) = beside else {
                 return Err(lanes_error(format!(
-                    "on SUMO a leaver or a joiner from beside uses the lane beside the \
-                     platoon's, and edge {} has only lane {lane} (sumo.net: a network with two \
-                     lanes or more, such as the default)",
+                    "on SUMO a leaver, a joiner from beside or a car that cuts in uses the \
+                     lane beside the platoon's, and edge {} has only lane {lane} (sumo.net: a \
+                     network with two lanes or more, such as the default)",
                     s.edge
                 )));
             };

@@ -135,7 +135,8 @@ pub struct TrafficArgs {
     pub config: Option<PathBuf>,
     #[command(flatten)]
     pub laws: Laws,
-    /// The gaps the car leaves to the follower as it cuts in (m, bumper to bumper).
+    /// The gaps the car leaves to the follower as it cuts in (m, bumper to bumper): it cuts in
+    /// at them whether the lane-change rule finds them safe or not (an aggressive car).
     #[arg(long, value_delimiter = ',', default_value = "3,6")]
     pub gaps: Vec<f64>,
     /// The car's speed minus the follower's as it cuts in (m/s).

@@ -26,6 +26,13 @@ pub struct LaneChangeRule {
     pub safe_decel_mps2: f64,
 }
 
+/// [`LaneChangeRule::DEFAULT`].
+impl Default for LaneChangeRule {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
+
 impl LaneChangeRule {
     /// The rule both plants use: 2.5 m, 0.5 s, 4 m/s^2.
     pub const DEFAULT: Self = Self {

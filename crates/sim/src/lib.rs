@@ -187,9 +187,17 @@ impl Plant {
     pub fn new(scenario: &Scenario) -> Self {
         let mut states = scenario.initial.clone();
         states[0][2] = scenario.leader.step_acceleration(0, scenario.dt());
-        let mut traffic = traffic::Traffic::new(&scenario.cut_ins);
+        let rule = lanes::LaneChangeRule::DEFAULT;
+        let mut traffic = traffic::Traffic::new(&scenario.cut_ins, rule);
         let lengths = scenario.lengths();
-        traffic.arrive(0.0, &states, &lengths);
+        // A joiner from beside starts off the lane.
+        let off_lane: Vec<bool> = match scenario.changes_lanes() {
+            true => (0..scenario.initial.len())
+                .map(|i| scenario.starts_beside(i))
+                .collect(),
+            false => Vec::new(),
+        };
+        traffic.arrive(0.0, &states, &lengths, &off_lane);
         Self {
             states,
             traffic,
@@ -199,14 +207,8 @@ impl Plant {
             discretisation: scenario.discretisation,
             leader: scenario.leader.clone(),
             dt: scenario.dt(),
-            // A joiner from beside starts off the lane.
-            off_lane: match scenario.changes_lanes() {
-                true => (0..scenario.initial.len())
-                    .map(|i| scenario.starts_beside(i))
-                    .collect(),
-                false => Vec::new(),
-            },
-            rule: lanes::LaneChangeRule::DEFAULT,
+            off_lane,
+            rule,
         }
     }
 
@@ -233,11 +235,10 @@ impl Plant {
             let members = (0..self.states.len())
                 .filter(|&j| j != i && self.off_lane[j] == want)
                 .map(vehicle);
-            // The platoon's lane also carries the cars that cut in.
-            let cars = self
-                .traffic
-                .on_lane()
-                .filter(|_| !want)
+            // The cars that cut in, on whichever lane they are.
+            let cars = (self.traffic.on_lane())
+                .chain(self.traffic.beside())
+                .filter(|c| c.beside == want)
                 .map(|c| [c.p, c.v, c.length_m]);
             if self.rule.safe_among(vehicle(i), members.chain(cars)) {
                 self.off_lane[i] = want;
@@ -284,7 +285,8 @@ impl Plant {
         if !self.traffic.is_empty() {
             self.traffic.advance(t, self.dt);
             let next = (k + 1) as f64 * self.dt;
-            self.traffic.arrive(next, &self.states, &self.lengths);
+            self.traffic
+                .arrive(next, &self.states, &self.lengths, &self.off_lane);
         }
     }
 
@@ -353,8 +355,8 @@ pub struct PlantSpec {
     /// The scripted cut-ins into every platoon (absent from plant.json when there are none).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub cut_ins: Vec<traffic::CutIn>,
-    /// When a vehicle may change lanes, in runs where vehicles do (absent from plant.json
-    /// otherwise).
+    /// When a vehicle may change lanes, in runs where vehicles do (members, or cars that cut
+    /// in; absent from plant.json otherwise).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub lane_change: Option<lanes::LaneChangeRule>,
 }
@@ -388,8 +390,8 @@ impl PlantSpec {
                 || scenario.changes_lanes())
             .then_some(scenario.control.fallback.radar.range_m),
             cut_ins: scenario.cut_ins.clone(),
-            lane_change: scenario
-                .changes_lanes()
+            // Members that change lanes, and cars that cut in, do so by this rule.
+            lane_change: (scenario.changes_lanes() || !scenario.cut_ins.is_empty())
                 .then_some(lanes::LaneChangeRule::DEFAULT),
         }
     }

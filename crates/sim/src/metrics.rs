@@ -98,6 +98,8 @@ pub struct MetricsAccumulator {
     /// Scratch: each follower's gap to the vehicle ahead on its lane at this step (NaN beside
     /// the lane), for the maneuvers.
     gaps: Vec<f64>,
+    /// Each scripted cut-in as the radars saw it on the platoon's lane.
+    cut_ins: Vec<CutInRecord>,
 }
 
 impl MetricsAccumulator {
@@ -167,6 +169,34 @@ impl MetricsAccumulator {
             },
             maneuvers: crate::maneuver_tally::ManeuverTally::new(scenario),
             gaps: Vec::new(),
+            cut_ins: (scenario.cut_ins.iter().enumerate())
+                .map(|(c, x)| CutInRecord {
+                    cut_in: c as u16,
+                    asked_t_s: x.at_s,
+                    entered_t_s: None,
+                    ahead_of: None,
+                    waited_s: None,
+                    last_seen_t_s: None,
+                })
+                .collect(),
+        }
+    }
+
+    /// The cut-ins a member's radar has ahead on the platoon's lane at this step.
+    fn see_cut_ins(&mut self, rows: &[StepRow]) {
+        for r in rows.iter().filter(|r| r.beside != Some(true)) {
+            let Some(crate::traffic::RadarTarget::CutIn(c)) = r.radar_target else {
+                continue;
+            };
+            let Some(x) = self.cut_ins.get_mut(usize::from(c)) else {
+                continue;
+            };
+            if x.entered_t_s.is_none() {
+                x.entered_t_s = Some(r.t);
+                x.ahead_of = Some(r.vehicle);
+                x.waited_s = Some((r.t - x.asked_t_s).max(0.0));
+            }
+            x.last_seen_t_s = Some(r.t);
         }
     }
 
@@ -180,6 +210,9 @@ impl MetricsAccumulator {
     /// Adds one step's rows (leader first, then followers in order).
     pub fn push(&mut self, rows: &[StepRow]) {
         let Some(leader) = rows.first() else { return };
+        if !self.cut_ins.is_empty() {
+            self.see_cut_ins(rows);
+        }
         self.steps += 1;
         self.last_t = leader.t;
         self.last_step = leader.step;
@@ -444,6 +477,7 @@ impl MetricsAccumulator {
             channel: None,
             detection: None,
             maneuvers: self.maneuvers.as_ref().map(|t| t.finish()),
+            cut_ins: self.cut_ins.clone(),
             vehicles,
         }
     }

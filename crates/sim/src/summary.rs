@@ -331,6 +331,31 @@ pub struct Summary {
     /// The maneuvers (`[maneuvers]` only; platoon 0), measured on the wire and in the plant.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub maneuvers: Option<ManeuversSummary>,
+    /// Each scripted cut-in (`[[cut_ins]]`; platoon 0) as the members' radars saw it: when it
+    /// asked for the platoon's lane, when it was first on it ahead of a member (and of whom),
+    /// and when last; absent in runs without cut-ins.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub cut_ins: Vec<CutInRecord>,
+}
+
+/// One scripted cut-in (`summary.json`'s `cut_ins`), measured by the members' radars (the
+/// truth they measure: `radar_target` of `trajectories.csv`): a car waits beside the platoon
+/// until the gap it wants is safe (unless `aggressive`), so it may cut in later than it asked,
+/// or never.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CutInRecord {
+    /// The cut-in (entry c of `[[cut_ins]]`; `cut_in:<c>` in `radar_target`).
+    pub cut_in: u16,
+    /// When it appeared beside the platoon and asked for its lane (its `at_s`, s).
+    pub asked_t_s: f64,
+    /// When a member's radar first had it ahead on the platoon's lane (s); absent: never.
+    pub entered_t_s: Option<f64>,
+    /// That member (the follower it cut in ahead of).
+    pub ahead_of: Option<u16>,
+    /// How long it waited beside the platoon for a safe gap (s): `entered_t_s - asked_t_s`.
+    pub waited_s: Option<f64>,
+    /// When a member's radar last had it ahead on the platoon's lane (s).
+    pub last_seen_t_s: Option<f64>,
 }
 
 /// What a run's maneuvers did (`summary.json`'s `maneuvers`).

@@ -1,13 +1,22 @@
 //! Vehicles from outside the platoon that act on it: scripted cut-ins on the native plant (the
 //! SUMO bridge moves its cut-in vehicles with the same formulas, `platoon.sumo.model.CutIns`).
 //!
-//! A cut-in is a vehicle that enters the platoon's lane at time `at_s` in the gap ahead of
-//! follower `ahead_of`, `gap_m` ahead of the follower (bumper to bumper; without it in the
-//! middle of the gap, equal gaps to the member ahead and to the follower), at the follower's speed plus `speed_diff_mps`, then brakes at `decel_mps2` for
-//! `brake_s` and keeps its speed after; at `leave_s` it leaves the lane. Its motion is exact
-//! for piecewise-constant acceleration (it stops rather than reverses). The radar of the
-//! vehicle behind it measures it ([`radar_truth`]), and [`RadarTruth::intruder`] says it is not
-//! the platoon's predecessor.
+//! A cut-in is a car that appears at time `at_s` on the lane beside the platoon's, level with
+//! the gap ahead of follower `ahead_of`: its front bumper `gap_m` ahead of the follower's
+//! (bumper to bumper; without it in the middle of the gap, equal gaps to the member ahead and
+//! to the follower), at the follower's speed plus `speed_diff_mps`. From then on it asks at
+//! every step to change into the platoon's lane and does so only into a safe gap
+//! ([`LaneChangeRule`], the rule of the members' lane changes, against the vehicles on the
+//! platoon's lane), unless it is `aggressive` (it cuts in at once whatever the gap: the
+//! aggressive driver a cut-in study asks for). Once in, it brakes at `decel_mps2` for
+//! `brake_s` and keeps its speed after; from `leave_s` it asks to change back to the lane
+//! beside, again into a safe gap there unless aggressive, and drives on there at the speed
+//! it has until the run ends. Beside the platoon it holds its speed (a car waiting for a gap
+//! it wants, then one that drove out). Its motion is exact for piecewise-constant
+//! acceleration (it stops rather than reverses). The radar of the vehicle behind it on its
+//! lane measures it ([`radar_truth`]), and [`RadarTruth::intruder`] says it is not the
+//! platoon's predecessor.
+use crate::lanes::LaneChangeRule;
 use platoon_control::fallback::RadarTruth;
 use platoon_model::State;
 
@@ -15,7 +24,7 @@ use platoon_model::State;
 /// `platoon.sumo.model` moves it with the same formulas).
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct CutIn {
-    /// When it enters the lane (s).
+    /// When it appears beside the gap and starts asking to cut in (s).
     pub at_s: f64,
     /// The follower (1..=N) it cuts in front of.
     pub ahead_of: usize,
@@ -27,13 +36,16 @@ pub struct CutIn {
     pub decel_mps2: f64,
     /// ...and for how long (s).
     pub brake_s: f64,
-    /// When it leaves the lane (s), if it does.
+    /// When it asks to leave the lane (s), if it does.
     pub leave_s: Option<f64>,
     /// Its length (m).
     pub length_m: f64,
+    /// It changes lanes at once whatever the gap (`true`), or only into a safe gap.
+    pub aggressive: bool,
 }
 
-/// Where a cut-in vehicle is: front bumper `p` (m) and speed `v` (m/s), while on the lane.
+/// Where a cut-in vehicle is: front bumper `p` (m), speed `v` (m/s) and lane, from the step it
+/// appears.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Intruder {
     /// Front bumper position (m).
@@ -42,25 +54,42 @@ pub struct Intruder {
     pub v: f64,
     /// Length (m).
     pub length_m: f64,
+    /// On the lane beside the platoon's (before it cut in, and after it left).
+    pub beside: bool,
+}
+
+/// When a cut-in changed lanes: the plant's record of it (`traffic.cut_ins` of a run's summary
+/// measures the same on the wire, from the radars).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+struct Changes {
+    /// When it appeared beside the platoon (s).
+    appeared: Option<f64>,
+    /// When it changed into the platoon's lane (s).
+    entered: Option<f64>,
+    /// When it changed back to the lane beside (s).
+    left: Option<f64>,
 }
 
 /// The scripted cut-ins of one platoon, moving with its plant.
 #[derive(Debug, Clone, Default)]
 pub struct Traffic {
     cut_ins: Vec<CutIn>,
-    /// Each cut-in's vehicle while it is on the lane.
-    on_lane: Vec<Option<Intruder>>,
-    /// Whether it has entered (it never enters twice).
-    entered: Vec<bool>,
+    /// Each cut-in's vehicle from the step it appears.
+    cars: Vec<Option<Intruder>>,
+    /// When each appeared, entered and left.
+    changes: Vec<Changes>,
+    /// When a car may change lanes.
+    rule: LaneChangeRule,
 }
 
 impl Traffic {
-    /// The cut-ins `cut_ins`, none on the lane yet.
-    pub fn new(cut_ins: &[CutIn]) -> Self {
+    /// The cut-ins `cut_ins`, none on the road yet, changing lanes by `rule`.
+    pub fn new(cut_ins: &[CutIn], rule: LaneChangeRule) -> Self {
         Self {
             cut_ins: cut_ins.to_vec(),
-            on_lane: vec![None; cut_ins.len()],
-            entered: vec![false; cut_ins.len()],
+            cars: vec![None; cut_ins.len()],
+            changes: vec![Changes::default(); cut_ins.len()],
+            rule,
         }
     }
 
@@ -69,46 +98,109 @@ impl Traffic {
         self.cut_ins.is_empty()
     }
 
-    /// The vehicles on the lane now.
+    /// The vehicles on the platoon's lane now.
     pub fn on_lane(&self) -> impl Iterator<Item = &Intruder> {
-        self.on_lane.iter().flatten()
+        self.cars.iter().flatten().filter(|c| !c.beside)
     }
 
-    /// The intruders at step `k` (time `t = k dt`), given the platoon's `states` at that step:
-    /// those due enter, those due leave. Called once per step, after the platoon moved there.
-    /// `lengths` holds every vehicle's length, leader first.
-    pub fn arrive(&mut self, t: f64, states: &[State], lengths: &[f64]) {
-        for ((c, slot), entered) in self
-            .cut_ins
-            .iter()
-            .zip(&mut self.on_lane)
-            .zip(&mut self.entered)
-        {
-            if c.leave_s.is_some_and(|l| t >= l) {
-                *slot = None;
-            } else if !*entered && t >= c.at_s {
-                *entered = true;
-                let (ahead, behind) = (states[c.ahead_of - 1], states[c.ahead_of]);
-                let p = match c.gap_m {
-                    Some(g) => behind[0] + g + c.length_m,
+    /// The vehicles on the lane beside the platoon's now (waiting to cut in, or gone out).
+    pub fn beside(&self) -> impl Iterator<Item = &Intruder> {
+        self.cars.iter().flatten().filter(|c| c.beside)
+    }
+
+    /// Cut-in c's vehicle, once it appeared.
+    pub fn car(&self, c: usize) -> Option<&Intruder> {
+        self.cars.get(c).and_then(Option::as_ref)
+    }
+
+    /// When cut-in c changed into the platoon's lane (s), if it did.
+    pub fn entered_s(&self, c: usize) -> Option<f64> {
+        self.changes.get(c).and_then(|x| x.entered)
+    }
+
+    /// When cut-in c changed back to the lane beside (s), if it did.
+    pub fn left_s(&self, c: usize) -> Option<f64> {
+        self.changes.get(c).and_then(|x| x.left)
+    }
+
+    /// The cars at step `k` (time `t = k dt`), given the platoon's `states` at that step:
+    /// those due appear beside the platoon, those that want the other lane change into it
+    /// where the gap is safe. Called once per step, after the platoon moved there.
+    /// `lengths` holds every vehicle's length, leader first; `off_lane[i]`: member i is in the
+    /// lane beside (empty: every member is on the platoon's lane).
+    pub fn arrive(&mut self, t: f64, states: &[State], lengths: &[f64], off_lane: &[bool]) {
+        for c in 0..self.cut_ins.len() {
+            let cut = self.cut_ins[c];
+            if self.cars[c].is_none() && t >= cut.at_s {
+                let (ahead, behind) = (states[cut.ahead_of - 1], states[cut.ahead_of]);
+                let p = match cut.gap_m {
+                    Some(g) => behind[0] + g + cut.length_m,
                     // Equal gaps: ahead[0] - L - p = p - length - behind[0].
-                    None => 0.5 * (ahead[0] - lengths[c.ahead_of - 1] + behind[0] + c.length_m),
+                    None => 0.5 * (ahead[0] - lengths[cut.ahead_of - 1] + behind[0] + cut.length_m),
                 };
-                *slot = Some(Intruder {
+                self.cars[c] = Some(Intruder {
                     p,
-                    v: (behind[1] + c.speed_diff_mps).max(0.0),
-                    length_m: c.length_m,
+                    v: (behind[1] + cut.speed_diff_mps).max(0.0),
+                    length_m: cut.length_m,
+                    beside: true,
                 });
+                self.changes[c].appeared = Some(t);
+            }
+            let Some(car) = self.cars[c] else { continue };
+            // It asks for the platoon's lane until its time there is up, then for the lane
+            // beside (a car that never got in stays there; one that left never comes back).
+            let wants_beside =
+                cut.leave_s.is_some_and(|l| t >= l) || self.changes[c].left.is_some();
+            if wants_beside == car.beside {
+                continue;
+            }
+            if !cut.aggressive && !self.safe(c, car, wants_beside, states, lengths, off_lane) {
+                continue;
+            }
+            self.cars[c] = Some(Intruder {
+                beside: wants_beside,
+                ..car
+            });
+            match wants_beside {
+                false => self.changes[c].entered = Some(t),
+                true => self.changes[c].left = Some(t),
             }
         }
     }
 
-    /// Moves every intruder from time `t` to `t + dt`.
+    /// Whether cut-in c's `car` may move onto the lane beside (`beside`) or the platoon's: the
+    /// members on that lane and the other cars there.
+    fn safe(
+        &self,
+        c: usize,
+        car: Intruder,
+        beside: bool,
+        states: &[State],
+        lengths: &[f64],
+        off_lane: &[bool],
+    ) -> bool {
+        let off = |i: usize| off_lane.get(i).copied().unwrap_or(false);
+        let members = (0..states.len())
+            .filter(|&i| off(i) == beside)
+            .map(|i| [states[i][0], states[i][1], lengths[i]]);
+        let cars = (self.cars.iter().enumerate())
+            .filter_map(|(d, x)| x.filter(|x| d != c && x.beside == beside))
+            .map(|x| [x.p, x.v, x.length_m]);
+        self.rule
+            .safe_among([car.p, car.v, car.length_m], members.chain(cars))
+    }
+
+    /// Moves every car from time `t` to `t + dt`: once it cut in it brakes for `brake_s`
+    /// from the moment it entered, and otherwise holds its speed.
     pub fn advance(&mut self, t: f64, dt: f64) {
-        for (c, slot) in self.cut_ins.iter().zip(&mut self.on_lane) {
+        for ((c, slot), done) in self.cut_ins.iter().zip(&mut self.cars).zip(&self.changes) {
             if let Some(x) = slot {
-                let braking = t < c.at_s + c.brake_s;
-                let a = if braking { -c.decel_mps2 } else { 0.0 };
+                let a = match (done.entered, done.appeared) {
+                    // The braking lasts brake_s from the entry: from at_s when it cut in as
+                    // it appeared (the sum written so, the same float either way).
+                    (Some(e), Some(s)) if t < c.at_s + c.brake_s + (e - s) => -c.decel_mps2,
+                    _ => 0.0,
+                };
                 // It stops rather than reverses.
                 let a = if x.v + a * dt < 0.0 { -x.v / dt } else { a };
                 x.p += x.v * dt + 0.5 * a * dt * dt;
@@ -177,11 +269,11 @@ pub fn radar_view(
         .enumerate()
         .skip(1)
     {
-        if off(i) {
-            continue;
-        }
-        for (n, c) in traffic.on_lane.iter().enumerate() {
-            let Some(c) = c else { continue };
+        // The cars on its own lane: before they cut in and after they left, on the lane beside.
+        for (n, c) in traffic.cars.iter().enumerate() {
+            let Some(c) = c.filter(|c| c.beside == off(i)) else {
+                continue;
+            };
             let gap = c.p - c.length_m - x[0];
             let nearer = t.is_none_or(|t| gap < t.gap);
             if c.p > x[0] && nearer {
@@ -283,21 +375,25 @@ mod tests {
             brake_s: 0.5,
             leave_s: Some(3.0),
             length_m: 4.0,
+            // 1 m either side of the car: too close for the rule.
+            aggressive: true,
         }
     }
+
+    const RULE: LaneChangeRule = LaneChangeRule::DEFAULT;
 
     #[test]
     fn a_cut_in_enters_mid_gap_is_seen_by_the_follower_behind_brakes_and_leaves() {
         let states = platoon();
-        let mut t = Traffic::new(&[cut_in()]);
+        let mut t = Traffic::new(&[cut_in()], RULE);
         let mut truth = Vec::new();
         let l4 = [4.0; 4];
-        t.arrive(0.99, &states, &l4);
+        t.arrive(0.99, &states, &l4, &[]);
         radar_truth(&states, &l4, &t, &[], &mut truth);
         let mut plain = Vec::new();
         platoon_control::fallback::radar_truth(&states, |_| 4.0, &mut plain);
         assert_eq!(truth, plain);
-        t.arrive(1.0, &states, &l4);
+        t.arrive(1.0, &states, &l4, &[]);
         let c = *t.on_lane().next().unwrap();
         // Gap 6 m between followers 1 (at 90) and 2 (at 80): 1 m either side of a 4 m car.
         assert_eq!((c.p, c.v), (85.0, 18.0));
@@ -318,23 +414,77 @@ mod tests {
         let c = *t.on_lane().next().unwrap();
         assert!((c.v - 17.5).abs() < 1e-9, "{}", c.v);
         assert!((c.p - (85.0 + 18.0 * 0.5 - 0.125 + 17.5 * 0.5)).abs() < 1e-9);
-        t.arrive(3.0, &states, &l4);
+        t.arrive(3.0, &states, &l4, &[]);
         assert_eq!(t.on_lane().count(), 0);
-        // It never comes back.
-        t.arrive(1.5, &states, &l4);
+        // It drives on beside the platoon, and never comes back.
+        assert_eq!(t.beside().count(), 1);
+        assert_eq!((t.entered_s(0), t.left_s(0)), (Some(1.0), Some(3.0)));
+        t.arrive(1.5, &states, &l4, &[]);
         assert_eq!(t.on_lane().count(), 0);
+    }
+
+    #[test]
+    fn a_car_waits_beside_for_a_safe_gap_then_cuts_in_and_brakes_from_then() {
+        // Followers 20 m apart: the car mid-gap of 16 m has 6 m either side, closing at 2 m/s
+        // on follower 2 (it needs 2.5 + 1 + 0.5 = 4 m); but 10 m apart, 1 m: it waits.
+        let l4 = [4.0; 4];
+        let tight = platoon();
+        let car = CutIn {
+            aggressive: false,
+            leave_s: None,
+            ..cut_in()
+        };
+        let mut t = Traffic::new(&[car], RULE);
+        t.arrive(1.0, &tight, &l4, &[]);
+        assert_eq!((t.on_lane().count(), t.beside().count()), (0, 1));
+        assert_eq!(t.entered_s(0), None);
+        // The radar of a member on the platoon's lane does not see it; one beside would.
+        let mut truth = Vec::new();
+        radar_truth(&tight, &l4, &t, &[], &mut truth);
+        let mut plain = Vec::new();
+        platoon_control::fallback::radar_truth(&tight, |_| 4.0, &mut plain);
+        assert_eq!(truth, plain);
+        let beside = [false, false, false, true];
+        radar_truth(&tight, &l4, &t, &beside, &mut truth);
+        assert!(truth[3].is_some_and(|r| r.intruder), "{truth:?}");
+        // Holding its speed beside, it falls back 2 m/s on the platoon: a second later it is
+        // level with follower 2 (its tail 1 m behind follower 2's front): still waiting.
+        for k in 0..100 {
+            t.advance(1.0 + k as f64 * 0.01, 0.01);
+        }
+        let moved: Vec<State> = tight
+            .iter()
+            .map(|x| State::new(x[0] + 20.0, 20.0, 0.0))
+            .collect();
+        t.arrive(2.0, &moved, &l4, &[]);
+        assert!((t.car(0).unwrap().p - 103.0).abs() < 1e-9);
+        assert_eq!(t.entered_s(0), None);
+        // The platoon opens its gaps: it cuts in, and brakes for 0.5 s from then.
+        let open: Vec<State> = [120.0, 100.0, 70.0, 50.0]
+            .into_iter()
+            .map(|p| State::new(p, 20.0, 0.0))
+            .collect();
+        let mut t2 = Traffic::new(&[car], RULE);
+        t2.arrive(1.0, &tight, &l4, &[]);
+        t2.arrive(1.5, &open, &l4, &[]);
+        assert_eq!(t2.entered_s(0), Some(1.5));
+        let v0 = t2.car(0).unwrap().v;
+        for k in 0..100 {
+            t2.advance(1.5 + k as f64 * 0.01, 0.01);
+        }
+        assert!((t2.car(0).unwrap().v - (v0 - 0.5)).abs() < 1e-9);
     }
 
     #[test]
     fn the_radar_view_names_the_predecessor_or_the_cut_in() {
         let states = platoon();
-        let mut t = Traffic::new(&[cut_in()]);
+        let mut t = Traffic::new(&[cut_in()], RULE);
         let (mut truth, mut who) = (Vec::new(), Vec::new());
         let l4 = [4.0; 4];
         radar_view(&states, &l4, &t, &[], &mut truth, &mut who);
         use RadarTarget::*;
         assert_eq!(who, [Nothing, Member(0), Member(1), Member(2)]);
-        t.arrive(1.0, &states, &l4);
+        t.arrive(1.0, &states, &l4, &[]);
         radar_view(&states, &l4, &t, &[], &mut truth, &mut who);
         assert_eq!(who, [Nothing, Member(0), CutIn(0), Member(2)]);
         let mut plain = Vec::new();
@@ -352,12 +502,15 @@ mod tests {
 
     #[test]
     fn an_intruder_stops_rather_than_reverses() {
-        let mut t = Traffic::new(&[CutIn {
-            decel_mps2: 50.0,
-            brake_s: 10.0,
-            ..cut_in()
-        }]);
-        t.arrive(1.0, &platoon(), &[4.0; 4]);
+        let mut t = Traffic::new(
+            &[CutIn {
+                decel_mps2: 50.0,
+                brake_s: 10.0,
+                ..cut_in()
+            }],
+            RULE,
+        );
+        t.arrive(1.0, &platoon(), &[4.0; 4], &[]);
         for k in 0..200 {
             t.advance(1.0 + k as f64 * 0.01, 0.01);
         }

@@ -131,7 +131,8 @@ pub struct Traffic {
 }
 
 /// Every law of `opts` against a car cutting in ahead of the base's cut-in follower at each gap
-/// and speed difference, under each attack, in process: the base scenario (`configs/cut-in.toml`
+/// and speed difference (an aggressive car: it cuts in at that gap whether the lane-change
+/// rule finds it safe or not), under each attack, in process: the base scenario (`configs/cut-in.toml`
 /// by default: its car, its vehicles (passenger cars with limits), profile, `[fallback.cut_in]`
 /// and radar) with each law on its own beaconing and on the base's distances (each law's standstill gap set to the platoon's, so the
 /// car fits the same gap), on `pf`, or `plf` for the laws that need the leader, and the paper's
@@ -318,6 +319,8 @@ fn cell(base: &Base, cell: &Cell<'_>, plant: Plant<'_>) -> Result<TrafficRow> {
         let first = &mut c.cut_ins[0];
         first.gap_m = Some(gap);
         first.speed_diff_mps = dv;
+        // The grid's gaps are the study's: the car cuts in at them, safe or not.
+        first.aggressive = true;
         let (at, ahead_of) = (first.at_s, first.ahead_of);
         let until = first.leave_s.unwrap_or(c.simulation.duration_s);
         apply_attack(&mut c, attack, ahead_of - 1, at, until);

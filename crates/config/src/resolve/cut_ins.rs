@@ -86,5 +86,6 @@ fn cut_in(
         brake_s,
         leave_s,
         length_m,
+        aggressive: x.aggressive,
     })
 }

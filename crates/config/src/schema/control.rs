@@ -133,7 +133,8 @@ impl Default for CutInHandling {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct CutInConfig {
-    /// When it enters the lane (s).
+    /// When it appears on the lane beside, level with the gap, and starts asking to cut in
+    /// (s); it cuts in at once where the gap is safe (or it is `aggressive`).
     pub at_s: f64,
     /// The follower it cuts in front of (1..=N).
     pub ahead_of: usize,
@@ -151,12 +152,18 @@ pub struct CutInConfig {
     /// ...and for how long (s).
     #[serde(default)]
     pub brake_s: f64,
-    /// When it leaves the lane again (s); absent: it stays.
+    /// When it asks to leave the lane again, for the lane beside, where it drives on (s);
+    /// absent: it stays.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub leave_s: Option<f64>,
     /// Its length (m), shorter than the gap it enters; absent: `platoon.vehicle_length_m`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub length_m: Option<f64>,
+    /// It cuts in at `at_s` and leaves at `leave_s` whatever the gaps (the aggressive driver of
+    /// a cut-in study); `false` (the default): it waits beside the platoon until the gap is
+    /// safe by the lane-change rule of the members' lane changes, for each change.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub aggressive: bool,
 }
 
 /// `[maneuvers]`: the platoon's maneuvers and the protocol's timing.
