@@ -773,10 +773,31 @@ fn the_python_cut_in_kinematics_are_the_rust_ones_bit_for_bit() {
     let off = |k: u64| [false, false, false, (700..1500).contains(&k)];
     let mut traffic = Traffic::new(&cut_ins, LaneChangeRule::DEFAULT);
     let mut expected = Vec::new();
+    // Steps at which a car braked at the rule's 4 m/s^2 (no script here brakes so) behind a
+    // vehicle it was closing in on.
+    let mut kept_off = 0;
     traffic.arrive(0.0, &states(0), &[length; 4], &off(0));
     for k in 0..=steps {
         if k > 0 {
-            traffic.advance((k - 1) as f64 * dt, dt);
+            let before: Vec<Option<f64>> = (0..cut_ins.len())
+                .map(|c| traffic.car(c).map(|x| x.v))
+                .collect();
+            traffic.advance(
+                (k - 1) as f64 * dt,
+                dt,
+                &states(k - 1),
+                &[length; 4],
+                &off(k - 1),
+            );
+            kept_off += (0..cut_ins.len())
+                .filter(|&c| {
+                    let after = traffic.car(c).map(|x| x.v);
+                    before[c].zip(after).is_some_and(|(b, a)| {
+                        a > 0.0
+                            && ((a - b) / dt + LaneChangeRule::DEFAULT.safe_decel_mps2).abs() < 1e-6
+                    })
+                })
+                .count();
             traffic.arrive(k as f64 * dt, &states(k), &[length; 4], &off(k));
         }
         for c in 0..cut_ins.len() {
@@ -801,7 +822,7 @@ t = m.CutIns(cut_ins, rule)
 t.arrive(0.0, *states(0), [{length:?}] * 4, off(0))
 for k in range({steps} + 1):
     if k > 0:
-        t.advance((k - 1) * dt, dt)
+        t.advance((k - 1) * dt, dt, *states(k - 1), [{length:?}] * 4, off(k - 1))
         t.arrive(k * dt, *states(k), [{length:?}] * 4, off(k))
     for x in t.cars:
         if x is not None:
@@ -814,7 +835,8 @@ print("\n".join(repr(x) for x in out))
     );
     let got = python_floats(&script);
     // Many were on the road at once, some of them stopped; some waited beside for a gap
-    // while others cut in, some left, and some never got in.
+    // while others cut in, some left, and some never got in; some braked behind a vehicle
+    // ahead that they were closing in on.
     assert!(expected.len() > 3 * 5000, "{}", expected.len());
     assert!(expected.chunks(3).any(|x| x[1] == 0.0));
     let (waited, never): (Vec<_>, Vec<_>) = (0..cut_ins.len())
@@ -827,6 +849,7 @@ print("\n".join(repr(x) for x in out))
         "{waited:?}"
     );
     assert!(!never.is_empty() && waited.iter().any(|&c| traffic.left_s(c).is_some()));
+    assert!(kept_off > 0);
     assert_eq!(got.len(), expected.len());
     for (i, (g, e)) in got.iter().zip(&expected).enumerate() {
         assert_eq!(g.to_bits(), e.to_bits(), "value {i}: python {g} rust {e}");

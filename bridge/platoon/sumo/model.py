@@ -256,26 +256,49 @@ class CutIns:
                 return True
         return False
 
-    def advance(self, t: float, dt: float):
-        """`Traffic::advance`: moves every car from t to t + dt: once it cut in it brakes for
-        `brake_s` from the moment it entered, otherwise it holds its speed. Returns the
-        acceleration each one holds over the step (None before it appears)."""
-        held = []
-        for c, (cut, x) in enumerate(zip(self.cut_ins, self.cars)):
-            if x is None:
-                held.append(None)
-                continue
-            e, s = self.entered[c], self.appeared[c]
-            # The same float as Rust's: from at_s when it cut in as it appeared.
-            braking = e is not None and t < cut["at_s"] + cut["brake_s"] + (e - s)
-            a = -cut["decel_mps2"] if braking else 0.0
-            # It stops rather than reverses.
-            if x[1] + a * dt < 0.0:
-                a = -x[1] / dt
-            x[0] += x[1] * dt + 0.5 * a * dt * dt
-            x[1] += a * dt
-            held.append(a)
+    def advance(self, t: float, dt: float, p=(), v=(), lengths=(), off=(), strangers=None):
+        """`Traffic::advance`: moves every car from t to t + dt, given the platoon at t (as
+        `arrive`): once it cut in it brakes for `brake_s` from the moment it entered, otherwise
+        it holds its speed; closing in on the vehicle ahead on its lane nearer than the rule's
+        safe gap, it brakes at the rule's `safe_decel_mps2`. Returns the acceleration each one
+        holds over the step (None before it appears)."""
+        held = [self.acceleration(c, t, dt, p, v, lengths, off, strangers)
+                for c in range(len(self.cars))]
+        for x, a in zip(self.cars, held):
+            if x is not None:
+                x[0] += x[1] * dt + 0.5 * a * dt * dt
+                x[1] += a * dt
         return held
+
+    def acceleration(self, c, t, dt, p, v, lengths, off, strangers):
+        """`Traffic::acceleration`: what cut-in c's car holds from t over dt."""
+        x = self.cars[c]
+        if x is None:
+            return None
+        cut = self.cut_ins[c]
+        e, s = self.entered[c], self.appeared[c]
+        # The same float as Rust's: from at_s when it cut in as it appeared.
+        braking = e is not None and t < cut["at_s"] + cut["brake_s"] + (e - s)
+        a = -cut["decel_mps2"] if braking else 0.0
+        # The nearest vehicle ahead on its lane: members first, then the other cars, then
+        # `strangers`' (SUMO's own).
+        lane = x[2]
+        others = [[float(p[i]), float(v[i]), lengths[i]] for i in range(len(p)) if (i in off) == lane]
+        others.extend([y[0], y[1], float(self.cut_ins[d]["length_m"])]
+                      for d, y in enumerate(self.cars) if y is not None and d != c and y[2] == lane)
+        if strangers is not None:
+            others.extend(strangers(lane, x))
+        ahead = None
+        for o in others:
+            if o[0] > x[0] and (ahead is None or o[0] < ahead[0]):
+                ahead = o
+        if (ahead is not None and x[1] > ahead[1]
+                and not self.rule.gap_is_safe(ahead[0] - ahead[2] - x[0], x[1] - ahead[1])):
+            a = min(a, -self.rule.safe_decel_mps2)
+        # It stops rather than reverses.
+        if x[1] + a * dt < 0.0:
+            a = -x[1] / dt
+        return a
 
 
 class LaneChangeRule:

@@ -670,12 +670,14 @@ class Kinematics:
         self.arrive_and_sense(k)
         return self.out
 
+    def members(self, j):
+        """The SUMO ids of platoon j's members."""
+        return set(self.ids[j * self.n1:(j + 1) * self.n1])
+
     def arrive_and_sense(self, k):
         """The cut-ins of step k enter (mid-gap, from the states published) and leave, then
         the radars read the lane, and each state says its vehicle's lane (BESIDE)."""
-        n1 = self.n1
-        known = lambda j: set(self.ids[j * n1:(j + 1) * n1])
-        if (self.intruders and self.intruders.arrive(k, self.p, self.v, self.beside, known)
+        if (self.intruders and self.intruders.arrive(k, self.p, self.v, self.beside, self.members)
                 and self.native is not None):
             self.native.reread()
         self.sense()
@@ -813,14 +815,7 @@ class Intruders:
         vehicle = self.sumo.vehicle
         for j, cuts in enumerate(self.platoons):
             lo = j * n1
-            off = {g - lo for g in beside if lo <= g < lo + n1}
-            ids = {intruder_id(j, c) for c in range(len(cuts.cut_ins))}
-            if known is not None:
-                ids |= known(j)
-
-            def strangers(to_beside, me, j=j, ids=ids):
-                return self.strangers(self.side_lanes[j] if to_beside else self.lanes[j], ids)
-
+            off, strangers = self.around(j, cuts, beside, known)
             appeared, entered, left = cuts.arrive(t, p[lo:lo + n1], v[lo:lo + n1], self.lengths,
                                                   off, strangers)
             for c in appeared:
@@ -860,18 +855,35 @@ class Intruders:
         """Whether any car appears or wants the other lane at time t, in any platoon."""
         return any(cuts.due(t) for cuts in self.platoons)
 
-    def hold(self, k):
+    def hold(self, k, p, v, beside=frozenset(), known=None):
         """Before SUMO's step k -> k + 1: each car's acceleration over it, as the kinematics
-        move it (and SUMO then does)."""
+        move it (and SUMO then does), given the states published at k (as `arrive`)."""
         if all(x is None for x in self.platoons[0].cars):  # they appear at the same time in all
             return
         self.compare()
-        vehicle, dt = self.sumo.vehicle, self.dt
+        vehicle, dt, n1 = self.sumo.vehicle, self.dt, self.n1
         t = k * dt
         for j, cuts in enumerate(self.platoons):
-            for c, a in enumerate(cuts.advance(t, dt)):
+            lo = j * n1
+            off, strangers = self.around(j, cuts, beside, known)
+            held = cuts.advance(t, dt, p[lo:lo + n1], v[lo:lo + n1], self.lengths, off, strangers)
+            for c, a in enumerate(held):
                 if a is not None:
                     vehicle.setAcceleration(intruder_id(j, c), a, dt)
+
+    def around(self, j, cuts, beside, known):
+        """Platoon j's members on the lane beside (by index), and `strangers(to_beside, me)`:
+        SUMO's other vehicles on that lane, as the model's `arrive` and `advance` take them."""
+        lo = j * self.n1
+        off = {g - lo for g in beside if lo <= g < lo + self.n1}
+        ids = {intruder_id(j, c) for c in range(len(cuts.cut_ins))}
+        if known is not None:
+            ids |= known(j)
+
+        def strangers(to_beside, me):
+            return self.strangers(self.side_lanes[j] if to_beside else self.lanes[j], ids)
+
+        return off, strangers
 
     def compare(self):
         """SUMO's cars against the kinematics (their lane positions minus the offset)."""
@@ -1043,7 +1055,7 @@ def run(spec) -> int:
             u, guard = kin.commands(cmds)
             kin.change_lanes(cmds, k, report.setdefault("lane_changes", []) if kin.side_lanes else None)
             if intruders:
-                intruders.hold(k)
+                intruders.hold(k, kin.p, kin.v, kin.beside, kin.members)
             if native is not None:
                 # Set, step and read in one call; SUMO's step timed inside it.
                 t1 = time.perf_counter_ns()

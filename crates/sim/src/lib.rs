@@ -268,6 +268,11 @@ impl Plant {
     /// `guard(i)`, the guard overrode follower i's command).
     pub fn advance(&mut self, k: u64, u: &[f64], guard: impl Fn(usize) -> bool) {
         let t = k as f64 * self.dt;
+        // The cars that cut in, on what is ahead of them at step k.
+        if !self.traffic.is_empty() {
+            self.traffic
+                .advance(t, self.dt, &self.states, &self.lengths, &self.off_lane);
+        }
         for (i, x) in self.states.iter_mut().enumerate().skip(1) {
             let ui = self
                 .vehicles
@@ -283,7 +288,6 @@ impl Plant {
             self.dt,
         );
         if !self.traffic.is_empty() {
-            self.traffic.advance(t, self.dt);
             let next = (k + 1) as f64 * self.dt;
             self.traffic
                 .arrive(next, &self.states, &self.lengths, &self.off_lane);

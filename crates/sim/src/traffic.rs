@@ -190,23 +190,70 @@ impl Traffic {
             .safe_among([car.p, car.v, car.length_m], members.chain(cars))
     }
 
-    /// Moves every car from time `t` to `t + dt`: once it cut in it brakes for `brake_s`
-    /// from the moment it entered, and otherwise holds its speed.
-    pub fn advance(&mut self, t: f64, dt: f64) {
-        for ((c, slot), done) in self.cut_ins.iter().zip(&mut self.cars).zip(&self.changes) {
-            if let Some(x) = slot {
-                let a = match (done.entered, done.appeared) {
-                    // The braking lasts brake_s from the entry: from at_s when it cut in as
-                    // it appeared (the sum written so, the same float either way).
-                    (Some(e), Some(s)) if t < c.at_s + c.brake_s + (e - s) => -c.decel_mps2,
-                    _ => 0.0,
-                };
-                // It stops rather than reverses.
-                let a = if x.v + a * dt < 0.0 { -x.v / dt } else { a };
+    /// Moves every car from time `t` to `t + dt`, given the platoon at `t` (`states`,
+    /// `lengths`, `off_lane` as for [`Traffic::arrive`]): once it cut in it brakes for
+    /// `brake_s` from the moment it entered, and otherwise holds its speed; whatever its script,
+    /// while it closes in on the vehicle ahead on its lane (a member or another car) nearer than
+    /// the lane-change rule's safe gap it brakes at the rule's `safe_decel_mps2` (so it does
+    /// not drive into it unless that one brakes harder).
+    pub fn advance(
+        &mut self,
+        t: f64,
+        dt: f64,
+        states: &[State],
+        lengths: &[f64],
+        off_lane: &[bool],
+    ) {
+        let held: Vec<Option<f64>> = (0..self.cars.len())
+            .map(|c| self.acceleration(c, t, dt, states, lengths, off_lane))
+            .collect();
+        for (slot, a) in self.cars.iter_mut().zip(held) {
+            if let (Some(x), Some(a)) = (slot, a) {
                 x.p += x.v * dt + 0.5 * a * dt * dt;
                 x.v += a * dt;
             }
         }
+    }
+
+    /// The acceleration cut-in c's car holds from `t` over `dt` (`None` before it appears).
+    fn acceleration(
+        &self,
+        c: usize,
+        t: f64,
+        dt: f64,
+        states: &[State],
+        lengths: &[f64],
+        off_lane: &[bool],
+    ) -> Option<f64> {
+        let (cut, x, done) = (&self.cut_ins[c], self.cars[c]?, &self.changes[c]);
+        let a = match (done.entered, done.appeared) {
+            // The braking lasts brake_s from the entry: from at_s when it cut in as it
+            // appeared (the sum written so, the same float either way).
+            (Some(e), Some(s)) if t < cut.at_s + cut.brake_s + (e - s) => -cut.decel_mps2,
+            _ => 0.0,
+        };
+        // The nearest vehicle ahead on its lane: members first, then the other cars.
+        let off = |i: usize| off_lane.get(i).copied().unwrap_or(false);
+        let members = (0..states.len())
+            .filter(|&i| off(i) == x.beside)
+            .map(|i| [states[i][0], states[i][1], lengths[i]]);
+        let cars = (self.cars.iter().enumerate())
+            .filter_map(|(d, y)| y.filter(|y| d != c && y.beside == x.beside))
+            .map(|y| [y.p, y.v, y.length_m]);
+        let mut ahead: Option<[f64; 3]> = None;
+        for o in members.chain(cars) {
+            if o[0] > x.p && ahead.is_none_or(|a| o[0] < a[0]) {
+                ahead = Some(o);
+            }
+        }
+        let a = match ahead {
+            Some(o) if x.v > o[1] && !self.rule.gap_is_safe(o[0] - o[2] - x.p, x.v - o[1]) => {
+                a.min(-self.rule.safe_decel_mps2)
+            }
+            _ => a,
+        };
+        // It stops rather than reverses.
+        Some(if x.v + a * dt < 0.0 { -x.v / dt } else { a })
     }
 }
 
@@ -409,7 +456,7 @@ mod tests {
         assert_eq!((truth[1], truth[3]), (plain[1], plain[3]));
         // 0.5 s at -1 m/s^2, then constant speed.
         for k in 0..100 {
-            t.advance(1.0 + k as f64 * 0.01, 0.01);
+            t.advance(1.0 + k as f64 * 0.01, 0.01, &[], &[], &[]);
         }
         let c = *t.on_lane().next().unwrap();
         assert!((c.v - 17.5).abs() < 1e-9, "{}", c.v);
@@ -450,7 +497,7 @@ mod tests {
         // Holding its speed beside, it falls back 2 m/s on the platoon: a second later it is
         // level with follower 2 (its tail 1 m behind follower 2's front): still waiting.
         for k in 0..100 {
-            t.advance(1.0 + k as f64 * 0.01, 0.01);
+            t.advance(1.0 + k as f64 * 0.01, 0.01, &[], &[], &[]);
         }
         let moved: Vec<State> = tight
             .iter()
@@ -459,7 +506,8 @@ mod tests {
         t.arrive(2.0, &moved, &l4, &[]);
         assert!((t.car(0).unwrap().p - 103.0).abs() < 1e-9);
         assert_eq!(t.entered_s(0), None);
-        // The platoon opens its gaps: it cuts in, and brakes for 0.5 s from then.
+        // The platoon opens its gaps: it cuts in, and brakes for 0.5 s from then (nobody near
+        // ahead of it: the members do not move in this test).
         let open: Vec<State> = [120.0, 100.0, 70.0, 50.0]
             .into_iter()
             .map(|p| State::new(p, 20.0, 0.0))
@@ -470,7 +518,7 @@ mod tests {
         assert_eq!(t2.entered_s(0), Some(1.5));
         let v0 = t2.car(0).unwrap().v;
         for k in 0..100 {
-            t2.advance(1.5 + k as f64 * 0.01, 0.01);
+            t2.advance(1.5 + k as f64 * 0.01, 0.01, &[], &[], &[]);
         }
         assert!((t2.car(0).unwrap().v - (v0 - 0.5)).abs() < 1e-9);
     }
@@ -512,10 +560,44 @@ mod tests {
         );
         t.arrive(1.0, &platoon(), &[4.0; 4], &[]);
         for k in 0..200 {
-            t.advance(1.0 + k as f64 * 0.01, 0.01);
+            t.advance(1.0 + k as f64 * 0.01, 0.01, &[], &[], &[]);
         }
         let c = *t.on_lane().next().unwrap();
         assert_eq!(c.v, 0.0);
         assert!(c.p > 85.0);
+    }
+
+    #[test]
+    fn a_faster_car_brakes_behind_the_vehicle_ahead_rather_than_drive_into_it() {
+        // Followers 20 m apart at 20 m/s; the car cuts in 2 m ahead of follower 2, 5 m/s
+        // faster, 10 m behind follower 1's tail: closing at 5 m/s it would hit it in 2 s.
+        let at = |k: u64| -> Vec<State> {
+            (0..4)
+                .map(|i| State::new(100.0 - 20.0 * i as f64 + 0.2 * k as f64, 20.0, 0.0))
+                .collect()
+        };
+        let l4 = [4.0; 4];
+        let car = CutIn {
+            at_s: 0.0,
+            gap_m: Some(2.0),
+            speed_diff_mps: 5.0,
+            decel_mps2: 0.0,
+            brake_s: 0.0,
+            leave_s: None,
+            ..cut_in()
+        };
+        let mut t = Traffic::new(&[car], RULE);
+        t.arrive(0.0, &at(0), &l4, &[]);
+        assert_eq!(t.entered_s(0), Some(0.0));
+        let mut smallest = f64::INFINITY;
+        for k in 0..1000u64 {
+            t.advance(k as f64 * 0.01, 0.01, &at(k), &l4, &[]);
+            let x = *t.car(0).unwrap();
+            let follower_1 = at(k + 1)[1];
+            smallest = smallest.min(follower_1[0] - 4.0 - x.p);
+        }
+        // It braked to the follower's speed and kept at least the rule's smallest gap.
+        assert!(smallest > 2.5, "{smallest}");
+        assert!(t.car(0).unwrap().v <= 20.0 + 1e-9);
     }
 }
