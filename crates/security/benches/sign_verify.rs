@@ -5,9 +5,13 @@
 //! already knows the sender's certificate except in `verify_new_certificate`, where every
 //! iteration checks a packet carrying a certificate it has not seen (a fresh verifier each
 //! time, built outside the timing: the chain's signature and the packet's, two verifications).
-//! Criterion reports the median of its samples. Run: `cargo bench -p platoon-security`.
+//! `p256_verify_only` and `ring_verify_only` are the signature check alone, with RustCrypto's
+//! `p256` and with `ring`: the comparison behind verifying with `ring`. Criterion reports the median of its samples.
+//! Run: `cargo bench -p platoon-security`.
 use criterion::{black_box, criterion_group, criterion_main, BatchSize, Criterion};
-use platoon_security::{AttachRule, Pki, Policy, Signer, Validity, VerifierConfig};
+use p256::ecdsa::signature::Verifier as _;
+use p256::ecdsa::{Signature, VerifyingKey};
+use platoon_security::{AttachRule, Pki, Policy, SecurityHeader, Signer, Validity, VerifierConfig};
 use rand::SeedableRng;
 use rand_chacha::ChaCha20Rng;
 
@@ -67,6 +71,16 @@ fn bench(c: &mut Criterion) {
             |mut fresh| fresh.check(black_box(&payload), black_box(&with_cert), 0, Policy::Every),
             BatchSize::SmallInput,
         )
+    });
+    let key = VerifyingKey::from_sec1_bytes(&signer.certificate().subject_key).unwrap();
+    let message = SecurityHeader::signed_message(&payload, 0, &with_digest.signer);
+    let signature = Signature::from_slice(&with_digest.signature).unwrap();
+    g.bench_function("p256_verify_only", |b| {
+        b.iter(|| key.verify(black_box(&message), black_box(&signature)))
+    });
+    let public = signer.certificate().public_key().unwrap();
+    g.bench_function("ring_verify_only", |b| {
+        b.iter(|| public.verifies(black_box(&message), black_box(&with_digest.signature)))
     });
     g.finish();
 }

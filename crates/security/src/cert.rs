@@ -1,9 +1,8 @@
 //! [`Certificate`]: a simulated PKI's certificate, its fixed encoding and its digest.
 
+use crate::ecdsa::{self, PublicKey};
 use crate::{HashedId8, Refusal};
-use p256::ecdsa::signature::{DigestSigner, DigestVerifier};
-use p256::ecdsa::{Signature, SigningKey, VerifyingKey};
-use sha2::{Digest, Sha256};
+use p256::ecdsa::{SigningKey, VerifyingKey};
 
 /// A compressed P-256 point's size (bytes): the sign byte and x.
 pub const PUBLIC_KEY_LEN: usize = 33;
@@ -117,12 +116,10 @@ impl Certificate {
         validity: Validity,
         issuer_key: &SigningKey,
     ) -> Certificate {
-        let mut subject_key = [0; PUBLIC_KEY_LEN];
-        subject_key.copy_from_slice(subject.to_encoded_point(true).as_bytes());
         let fields = Certificate {
             kind,
             issuer,
-            subject_key,
+            subject_key: ecdsa::compressed(subject),
             validity,
             signature: [0; SIGNATURE_LEN],
         };
@@ -136,9 +133,7 @@ impl Certificate {
         issuer_key: &SigningKey,
     ) -> Certificate {
         let mut cert = Certificate { issuer, ..*fields };
-        let hash = Sha256::new_with_prefix(cert.signed_part());
-        let signature: Signature = issuer_key.sign_digest(hash);
-        cert.signature.copy_from_slice(&signature.to_bytes());
+        cert.signature = ecdsa::sign(issuer_key, &cert.signed_part());
         cert
     }
 
@@ -195,17 +190,17 @@ impl Certificate {
     }
 
     /// The holder's public key; [`Refusal::Malformed`] if the bytes are no P-256 point.
-    pub fn verifying_key(&self) -> Result<VerifyingKey, Refusal> {
-        VerifyingKey::from_sec1_bytes(&self.subject_key).map_err(|_| Refusal::Malformed)
+    pub fn public_key(&self) -> Result<PublicKey, Refusal> {
+        PublicKey::from_compressed(&self.subject_key)
     }
 
-    /// Whether `issuer_key` signed it; else [`Refusal::BadCertificateSignature`].
-    pub fn check_signed_by(&self, issuer_key: &VerifyingKey) -> Result<(), Refusal> {
-        let signature =
-            Signature::from_slice(&self.signature).map_err(|_| Refusal::BadCertificateSignature)?;
-        issuer_key
-            .verify_digest(Sha256::new_with_prefix(self.signed_part()), &signature)
-            .map_err(|_| Refusal::BadCertificateSignature)
+    /// Whether `issuer` signed it; else [`Refusal::BadCertificateSignature`].
+    pub fn check_signed_by(&self, issuer: &PublicKey) -> Result<(), Refusal> {
+        if issuer.verifies(&self.signed_part(), &self.signature) {
+            Ok(())
+        } else {
+            Err(Refusal::BadCertificateSignature)
+        }
     }
 }
 

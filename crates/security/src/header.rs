@@ -3,7 +3,6 @@
 
 use crate::cert::SIGNATURE_LEN;
 use crate::{Certificate, HashedId8, Refusal};
-use sha2::{Digest, Sha256};
 
 /// The header format's version, its first byte.
 pub const VERSION: u8 = 1;
@@ -150,14 +149,15 @@ impl SecurityHeader {
         })
     }
 
-    /// The hash the signature covers, for `payload` under a header with these fields.
-    pub(crate) fn hash(payload: &[u8], generated_ms: u64, signer: &SignerId) -> Sha256 {
-        let mut h = Sha256::new();
-        h.update(payload);
-        h.update([VERSION, signer.code()]);
-        h.update(generated_ms.to_be_bytes());
-        h.update(signer.digest().0);
-        h
+    /// The bytes the signature covers (it is over their SHA-256), for `payload` under a
+    /// header with these fields.
+    pub fn signed_message(payload: &[u8], generated_ms: u64, signer: &SignerId) -> Vec<u8> {
+        let mut m = Vec::with_capacity(payload.len() + 2 + 8 + HashedId8::LEN);
+        m.extend_from_slice(payload);
+        m.extend_from_slice(&[VERSION, signer.code()]);
+        m.extend_from_slice(&generated_ms.to_be_bytes());
+        m.extend_from_slice(&signer.digest().0);
+        m
     }
 }
 
@@ -252,7 +252,7 @@ mod tests {
                 let encoded = c.encode();
                 prop_assert_eq!(encoded.as_slice(), bytes.as_slice());
                 // A key that is no point is refused as malformed, never a panic.
-                let _ = c.verifying_key();
+                let _ = c.public_key();
             }
         }
     }

@@ -1,9 +1,7 @@
 //! The sender's side: [`Signer`] signs a vehicle's packets with its current pseudonym and
 //! attaches the full certificate by the [`AttachRule`].
 
-use crate::{Certificate, Credential, HashedId8, SecurityHeader, SignerId};
-use p256::ecdsa::signature::DigestSigner;
-use p256::ecdsa::Signature;
+use crate::{ecdsa, Certificate, Credential, HashedId8, SecurityHeader, SignerId};
 
 /// When a packet carries its signer's full certificate instead of the digest.
 ///
@@ -73,14 +71,11 @@ impl Signer {
         } else {
             SignerId::Digest(self.pseudonym.digest())
         };
-        let hash = SecurityHeader::hash(payload, now_ms, &signer);
-        let signature: Signature = self.pseudonym.signing_key().sign_digest(hash);
-        let mut bytes = [0; 64];
-        bytes.copy_from_slice(&signature.to_bytes());
+        let message = SecurityHeader::signed_message(payload, now_ms, &signer);
         SecurityHeader {
             generated_ms: now_ms,
             signer,
-            signature: bytes,
+            signature: ecdsa::sign(self.pseudonym.signing_key(), &message),
         }
     }
 

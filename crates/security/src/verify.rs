@@ -2,9 +2,8 @@
 //! certificates, the pseudonyms seen in full, the revoked digests) and accepts a packet or
 //! says why not ([`Refusal`]).
 
+use crate::ecdsa::PublicKey;
 use crate::{CertKind, Certificate, Credential, HashedId8, Refusal, SecurityHeader, SignerId};
-use p256::ecdsa::signature::DigestVerifier;
-use p256::ecdsa::{Signature, VerifyingKey};
 use std::collections::{BTreeMap, BTreeSet};
 
 /// A verifier's settings.
@@ -57,7 +56,7 @@ pub struct Accepted {
 #[derive(Debug, Clone, Copy)]
 struct Known {
     cert: Certificate,
-    key: VerifyingKey,
+    key: PublicKey,
 }
 
 /// A receiver's trust store and checks. Pure: the time is the caller's (`now_ms`, the run's
@@ -80,7 +79,7 @@ impl Verifier {
         if root.kind != CertKind::Root || root.issuer != HashedId8::SELF {
             return Err(Refusal::WrongKind);
         }
-        let key = root.verifying_key()?;
+        let key = root.public_key()?;
         root.check_signed_by(&key)?;
         Ok(Verifier::with_root(Known { cert: *root, key }, config))
     }
@@ -94,7 +93,7 @@ impl Verifier {
     ) -> Verifier {
         let known = |c: &Credential| Known {
             cert: *c.certificate(),
-            key: *c.signing_key().verifying_key(),
+            key: PublicKey::of(c.signing_key().verifying_key()),
         };
         let mut verifier = Verifier::with_root(known(root), config);
         verifier
@@ -125,7 +124,7 @@ impl Verifier {
             return Err(Refusal::WrongKind);
         }
         cert.check_signed_by(&self.root.key)?;
-        let key = cert.verifying_key()?;
+        let key = cert.public_key()?;
         let digest = cert.digest();
         self.authorities.insert(digest, Known { cert: *cert, key });
         Ok(digest)
@@ -226,7 +225,7 @@ impl Verifier {
     }
 
     /// The key of `cert`, a pseudonym seen in full, once it chains to the root and is valid.
-    fn chain(&self, cert: &Certificate, now_ms: u64) -> Result<VerifyingKey, Refusal> {
+    fn chain(&self, cert: &Certificate, now_ms: u64) -> Result<PublicKey, Refusal> {
         if cert.kind != CertKind::Pseudonym || cert.issuer == self.root_digest {
             return Err(Refusal::WrongKind);
         }
@@ -238,7 +237,7 @@ impl Verifier {
             return Err(Refusal::Revoked);
         }
         cert.check_signed_by(&issuer.key)?;
-        let key = cert.verifying_key()?;
+        let key = cert.public_key()?;
         self.check_current(cert, now_ms)?;
         Ok(key)
     }
@@ -259,13 +258,11 @@ impl Verifier {
     }
 }
 
-fn verify_packet(
-    key: &VerifyingKey,
-    payload: &[u8],
-    header: &SecurityHeader,
-) -> Result<(), Refusal> {
-    let signature = Signature::from_slice(&header.signature).map_err(|_| Refusal::BadSignature)?;
-    let hash = SecurityHeader::hash(payload, header.generated_ms, &header.signer);
-    key.verify_digest(hash, &signature)
-        .map_err(|_| Refusal::BadSignature)
+fn verify_packet(key: &PublicKey, payload: &[u8], header: &SecurityHeader) -> Result<(), Refusal> {
+    let message = SecurityHeader::signed_message(payload, header.generated_ms, &header.signer);
+    if key.verifies(&message, &header.signature) {
+        Ok(())
+    } else {
+        Err(Refusal::BadSignature)
+    }
 }
