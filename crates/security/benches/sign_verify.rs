@@ -5,7 +5,9 @@
 //! already knows the sender's certificate except in `verify_new_certificate`, where every
 //! iteration checks a packet carrying a certificate it has not seen (a fresh verifier each
 //! time, built outside the timing: the chain's signature and the packet's, two verifications).
-//! `p256_verify_only` and `ring_verify_only` are the signature check alone, with RustCrypto's
+//! `verify_digest_memo_hit` is `verify_digest` through a `SignatureMemo` that already holds the
+//! outcome (what every receiver but the first pays when the receivers of a broadcast share
+//! one). `p256_verify_only` and `ring_verify_only` are the signature check alone, with RustCrypto's
 //! `p256` and with `ring`: the comparison behind verifying with `ring`. Criterion reports the median of its samples.
 //! Run: `cargo bench -p platoon-security`.
 use criterion::{black_box, criterion_group, criterion_main, BatchSize, Criterion};
@@ -50,6 +52,18 @@ fn bench(c: &mut Criterion) {
             receiver.check_bytes(
                 black_box(&payload),
                 black_box(&digest_bytes),
+                0,
+                Policy::Every,
+            )
+        })
+    });
+    let mut memo = platoon_security::SignatureMemo::new();
+    g.bench_function("verify_digest_memo_hit", |b| {
+        b.iter(|| {
+            receiver.check_shared(
+                &mut memo,
+                black_box(&payload),
+                black_box(&with_digest),
                 0,
                 Policy::Every,
             )

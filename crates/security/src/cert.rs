@@ -196,7 +196,16 @@ impl Certificate {
 
     /// Whether `issuer` signed it; else [`Refusal::BadCertificateSignature`].
     pub fn check_signed_by(&self, issuer: &PublicKey) -> Result<(), Refusal> {
-        if issuer.verifies(&self.signed_part(), &self.signature) {
+        self.check_signed_through(None, issuer)
+    }
+
+    /// [`Certificate::check_signed_by`] through `memo` if there is one.
+    pub(crate) fn check_signed_through(
+        &self,
+        memo: Option<&mut ecdsa::SignatureMemo>,
+        issuer: &PublicKey,
+    ) -> Result<(), Refusal> {
+        if ecdsa::verifies(memo, issuer, &self.signed_part(), &self.signature) {
             Ok(())
         } else {
             Err(Refusal::BadCertificateSignature)

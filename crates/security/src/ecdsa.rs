@@ -9,6 +9,8 @@ use crate::Refusal;
 use p256::ecdsa::signature::Signer as _;
 use p256::ecdsa::{Signature, SigningKey, VerifyingKey};
 use ring::signature::{UnparsedPublicKey, ECDSA_P256_SHA256_FIXED};
+use sha2::{Digest, Sha256};
+use std::collections::HashMap;
 
 /// An uncompressed SEC1 point's size (bytes): 0x04, x, y.
 const UNCOMPRESSED_LEN: usize = 65;
@@ -37,6 +39,70 @@ impl PublicKey {
         UnparsedPublicKey::new(&ECDSA_P256_SHA256_FIXED, &self.0)
             .verify(message, signature)
             .is_ok()
+    }
+}
+
+/// Signature checks already made, shared by receivers that verify the same bytes: in a
+/// simulation every receiver of a broadcast verifies the same signature over the same message
+/// with the same key, and the outcome is a pure function of the three, so it is computed once.
+/// Each receiver still makes its own trust checks (its store, validity, revocation,
+/// freshness); only the ECDSA arithmetic is shared ([`crate::Verifier::check_shared`]). The
+/// caller bounds its size ([`SignatureMemo::clear`], say every step).
+#[derive(Debug, Clone, Default)]
+pub struct SignatureMemo {
+    outcomes: HashMap<[u8; 32], bool>,
+}
+
+impl SignatureMemo {
+    /// An empty memo.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Forgets every outcome.
+    pub fn clear(&mut self) {
+        self.outcomes.clear();
+    }
+
+    /// How many outcomes it holds.
+    pub fn len(&self) -> usize {
+        self.outcomes.len()
+    }
+
+    /// Whether it holds none.
+    pub fn is_empty(&self) -> bool {
+        self.outcomes.is_empty()
+    }
+
+    /// [`PublicKey::verifies`], made once per key, message and signature (keyed by SHA-256
+    /// over the three).
+    pub fn verifies(
+        &mut self,
+        key: &PublicKey,
+        message: &[u8],
+        signature: &[u8; SIGNATURE_LEN],
+    ) -> bool {
+        let mut id = Sha256::new();
+        id.update(key.0);
+        id.update(signature);
+        id.update(message);
+        *self
+            .outcomes
+            .entry(id.finalize().into())
+            .or_insert_with(|| key.verifies(message, signature))
+    }
+}
+
+/// `key.verifies(message, signature)`, through `memo` if there is one.
+pub(crate) fn verifies(
+    memo: Option<&mut SignatureMemo>,
+    key: &PublicKey,
+    message: &[u8],
+    signature: &[u8; SIGNATURE_LEN],
+) -> bool {
+    match memo {
+        Some(memo) => memo.verifies(key, message, signature),
+        None => key.verifies(message, signature),
     }
 }
 

@@ -12,7 +12,8 @@
 //!   ([`DIGEST_HEADER_LEN`] 82 bytes, [`CERTIFICATE_HEADER_LEN`] 196) and in IEEE 1609.2 /
 //!   ETSI TS 103 097 ([`STANDARD_DIGEST_OVERHEAD`] 94, [`STANDARD_CERTIFICATE_OVERHEAD`] 219).
 //! - [`ecdsa`]: ECDSA P-256 over SHA-256: signing with RustCrypto's `p256` (RFC 6979,
-//!   deterministic), verifying with `ring` (about five times faster here).
+//!   deterministic), verifying with `ring` (about five times faster here); a [`SignatureMemo`]
+//!   that lets the receivers of one broadcast share its signature check.
 //! - [`sign`]: a vehicle's [`Signer`], its pseudonym changes and the standards' rule for when
 //!   the full certificate rides along ([`AttachRule`]: once a second, after a change, on
 //!   request).
@@ -38,7 +39,7 @@ pub mod sign;
 pub mod verify;
 
 pub use cert::{CertKind, Certificate, Validity};
-pub use ecdsa::PublicKey;
+pub use ecdsa::{PublicKey, SignatureMemo};
 pub use header::{
     SecurityHeader, SignerId, CERTIFICATE_HEADER_LEN, DIGEST_HEADER_LEN,
     STANDARD_CERTIFICATE_OVERHEAD, STANDARD_DIGEST_OVERHEAD,

@@ -2,7 +2,7 @@
 //! certificates, the pseudonyms seen in full, the revoked digests) and accepts a packet or
 //! says why not ([`Refusal`]).
 
-use crate::ecdsa::PublicKey;
+use crate::ecdsa::{self, PublicKey, SignatureMemo};
 use crate::{CertKind, Certificate, Credential, HashedId8, Refusal, SecurityHeader, SignerId};
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -167,13 +167,38 @@ impl Verifier {
         now_ms: u64,
         policy: Policy,
     ) -> Result<Accepted, Refusal> {
+        self.check_through(None, payload, header, now_ms, policy)
+    }
+
+    /// [`Verifier::check`] with the signature checks (the packet's, a new certificate's) made
+    /// through `memo`, which other receivers of the same packets share: the same outcome,
+    /// computed once for all of them.
+    pub fn check_shared(
+        &mut self,
+        memo: &mut SignatureMemo,
+        payload: &[u8],
+        header: &SecurityHeader,
+        now_ms: u64,
+        policy: Policy,
+    ) -> Result<Accepted, Refusal> {
+        self.check_through(Some(memo), payload, header, now_ms, policy)
+    }
+
+    fn check_through(
+        &mut self,
+        mut memo: Option<&mut SignatureMemo>,
+        payload: &[u8],
+        header: &SecurityHeader,
+        now_ms: u64,
+        policy: Policy,
+    ) -> Result<Accepted, Refusal> {
         let signer = header.signer.digest();
         if self.revoked.contains(&signer) {
             return Err(Refusal::Revoked);
         }
         let learned = match &header.signer {
             SignerId::Certificate(cert) if !self.pseudonyms.contains_key(&signer) => {
-                let key = self.chain(cert, now_ms)?;
+                let key = self.chain(memo.as_deref_mut(), cert, now_ms)?;
                 self.pseudonyms.insert(signer, Known { cert: *cert, key });
                 true
             }
@@ -189,7 +214,7 @@ impl Verifier {
         }
         let signature = match policy {
             Policy::Every => {
-                verify_packet(&known.key, payload, header)?;
+                verify_packet(memo, &known.key, payload, header)?;
                 SignatureCheck::Verified
             }
             Policy::OnDemand => SignatureCheck::Deferred,
@@ -221,11 +246,16 @@ impl Verifier {
             .pseudonyms
             .get(&header.signer.digest())
             .ok_or(Refusal::UnknownCertificate)?;
-        verify_packet(&known.key, payload, header)
+        verify_packet(None, &known.key, payload, header)
     }
 
     /// The key of `cert`, a pseudonym seen in full, once it chains to the root and is valid.
-    fn chain(&self, cert: &Certificate, now_ms: u64) -> Result<PublicKey, Refusal> {
+    fn chain(
+        &self,
+        memo: Option<&mut SignatureMemo>,
+        cert: &Certificate,
+        now_ms: u64,
+    ) -> Result<PublicKey, Refusal> {
         if cert.kind != CertKind::Pseudonym || cert.issuer == self.root_digest {
             return Err(Refusal::WrongKind);
         }
@@ -236,7 +266,7 @@ impl Verifier {
         if self.revoked.contains(&cert.issuer) {
             return Err(Refusal::Revoked);
         }
-        cert.check_signed_by(&issuer.key)?;
+        cert.check_signed_through(memo, &issuer.key)?;
         let key = cert.public_key()?;
         self.check_current(cert, now_ms)?;
         Ok(key)
@@ -258,9 +288,14 @@ impl Verifier {
     }
 }
 
-fn verify_packet(key: &PublicKey, payload: &[u8], header: &SecurityHeader) -> Result<(), Refusal> {
+fn verify_packet(
+    memo: Option<&mut SignatureMemo>,
+    key: &PublicKey,
+    payload: &[u8],
+    header: &SecurityHeader,
+) -> Result<(), Refusal> {
     let message = SecurityHeader::signed_message(payload, header.generated_ms, &header.signer);
-    if key.verifies(&message, &header.signature) {
+    if ecdsa::verifies(memo, key, &message, &header.signature) {
         Ok(())
     } else {
         Err(Refusal::BadSignature)

@@ -1,8 +1,8 @@
 //! Signed V2V end to end in the pure core: a PKI, senders, receivers, and every refusal.
 use platoon_security::{
     AttachRule, CertKind, Credential, HashedId8, Pki, Policy, Refusal, SecurityHeader,
-    SignatureCheck, Signer, SignerId, Validity, Verifier, VerifierConfig, CERTIFICATE_HEADER_LEN,
-    DIGEST_HEADER_LEN,
+    SignatureCheck, SignatureMemo, Signer, SignerId, Validity, Verifier, VerifierConfig,
+    CERTIFICATE_HEADER_LEN, DIGEST_HEADER_LEN,
 };
 use proptest::prelude::*;
 use rand::SeedableRng;
@@ -503,6 +503,46 @@ fn a_key_that_is_no_curve_point_is_malformed() {
     assert_eq!(faulty.public_key().err(), Some(Refusal::Malformed));
     assert!(!v.knows(faulty.digest()));
     assert_eq!(HashedId8::of(&faulty.encode()), faulty.digest());
+}
+
+#[test]
+fn receivers_sharing_a_memo_decide_as_receivers_alone_and_verify_each_signature_once() {
+    let mut w = world(17);
+    let mut stranger_world = world(18);
+    let stranger = stranger_world.signer();
+    let mut s = w.signer();
+    let mut memo = SignatureMemo::new();
+    let mut shared: Vec<Verifier> = (0..4).map(|_| w.verifier()).collect();
+    let mut alone: Vec<Verifier> = (0..4).map(|_| w.verifier()).collect();
+    let mut tampered_payload = PAYLOAD;
+    tampered_payload[3] ^= 1;
+    let mut bad_signature = s.sign_with(&PAYLOAD, 0, false);
+    bad_signature.signature[5] ^= 1;
+    let packets = [
+        (PAYLOAD, s.sign(&PAYLOAD, 0)),   // certificate: chain + packet
+        (PAYLOAD, s.sign(&PAYLOAD, 100)), // digest
+        (tampered_payload, s.sign_with(&PAYLOAD, 100, false)),
+        (PAYLOAD, bad_signature),
+        (PAYLOAD, stranger.sign_with(&PAYLOAD, 0, true)), // refused before any signature
+    ];
+    let mut outcomes = vec![];
+    for (payload, header) in &packets {
+        for (a, b) in shared.iter_mut().zip(alone.iter_mut()) {
+            let with = a.check_shared(&mut memo, payload, header, 100, Policy::Every);
+            let without = b.check(payload, header, 100, Policy::Every);
+            assert_eq!(with, without, "{header:?}");
+            outcomes.push(with.map(|a| a.learned));
+        }
+    }
+    assert_eq!(
+        outcomes.iter().filter(|o| o.is_ok()).count(),
+        8,
+        "the first two packets, at each of four receivers: {outcomes:?}"
+    );
+    // One check per distinct signature: the certificate's chain, then four packets.
+    assert_eq!(memo.len(), 5);
+    memo.clear();
+    assert!(memo.is_empty());
 }
 
 proptest! {
