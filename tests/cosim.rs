@@ -521,6 +521,10 @@ const STALL_TIMEOUT: &str = "20";
 
 #[test]
 fn an_injector_that_stops_publishing_is_named_after_the_timeout() {
+    common::TIMEOUTS.run("injector stops");
+}
+
+pub(crate) fn an_injector_that_stops_publishing() {
     let tmp = tempfile::tempdir().unwrap();
     let injector = drop_sender("--stall-at 300");
     let (child, run) = start_long_run(
@@ -542,6 +546,10 @@ fn an_injector_that_stops_publishing_is_named_after_the_timeout() {
 /// completed step counts as progress, so repeated samples cannot make the run wait forever.
 #[test]
 fn an_injector_repeating_one_step_is_named_after_the_timeout() {
+    common::TIMEOUTS.run("injector repeats");
+}
+
+pub(crate) fn an_injector_repeating_one_step() {
     let tmp = tempfile::tempdir().unwrap();
     let injector = drop_sender("--repeat-at 200");
     let (child, run) = start_long_run(
