@@ -718,8 +718,8 @@ fn observers_attach_stall_crash_and_leave_without_touching_the_run() {
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    // --idle 20: an observer leaves once no step came for as long as the tests' step timeout
-    // (a run stalled that long has failed anyway), i.e. after the run.
+    // An observer leaves once the run's directory is in place (the run ended), or once no step
+    // came for --idle 20 s, the tests' step timeout (a run stalled that long has failed anyway).
     let observer = |extra: &[&str]| {
         Command::new(python())
             .arg(repo().join("bridge/examples/observer.py"))
