@@ -236,19 +236,12 @@ fn a_controller_that_crashes_is_named_by_its_exit() {
     let _ = std::fs::remove_dir_all(dir);
 }
 
-/// The tests that wait out a 20 s timeout, run side by side (`common::Together`).
-static TIMEOUTS: common::Together = common::Together::new(&[
-    ("hangs", a_controller_that_hangs),
-    ("repeats", a_controller_repeating_one_step),
-    ("never ready", a_plugin_that_never_reports_ready),
-]);
-
 #[test]
 fn a_controller_that_hangs_is_named_after_the_step_timeout() {
-    TIMEOUTS.run("hangs");
+    common::TIMEOUTS.run("controller hangs");
 }
 
-fn a_controller_that_hangs() {
+pub(crate) fn a_controller_that_hangs() {
     // 20 s, the suite's: a live controller starved by a busy machine is never taken for a hung
     // one before step 50.
     let (stderr, s, dir) = faulty("--hang-at 50", "20");
@@ -266,10 +259,10 @@ fn a_controller_that_hangs() {
 
 #[test]
 fn a_controller_repeating_one_step_is_named_after_the_step_timeout() {
-    TIMEOUTS.run("repeats");
+    common::TIMEOUTS.run("controller repeats");
 }
 
-fn a_controller_repeating_one_step() {
+pub(crate) fn a_controller_repeating_one_step() {
     let (_, s, dir) = faulty("--spam-at 60", "20");
     let error = s["error"].as_str().unwrap();
     // commands[60] arrived (again and again): steps 0..=60 are recorded, 61 never comes.
@@ -566,10 +559,10 @@ os._exit(3)
 /// before, even on a busy machine, so the controller is the one named.
 #[test]
 fn a_plugin_that_never_reports_ready_is_named_after_the_ready_timeout() {
-    TIMEOUTS.run("never ready");
+    common::TIMEOUTS.run("controller never ready");
 }
 
-fn a_plugin_that_never_reports_ready() {
+pub(crate) fn a_plugin_that_never_reports_ready() {
     let tmp = tempfile::tempdir().unwrap();
     let (code, error, _) = failing(tmp.path(), "sleep 600", &["--ready-timeout", "20"]);
     assert_eq!(code, Some(1));

@@ -521,6 +521,10 @@ const STALL_TIMEOUT: &str = "20";
 
 #[test]
 fn an_injector_that_stops_publishing_is_named_after_the_timeout() {
+    common::TIMEOUTS.run("injector stops");
+}
+
+pub(crate) fn an_injector_that_stops_publishing() {
     let tmp = tempfile::tempdir().unwrap();
     let injector = drop_sender("--stall-at 300");
     let (child, run) = start_long_run(
@@ -542,6 +546,10 @@ fn an_injector_that_stops_publishing_is_named_after_the_timeout() {
 /// completed step counts as progress, so repeated samples cannot make the run wait forever.
 #[test]
 fn an_injector_repeating_one_step_is_named_after_the_timeout() {
+    common::TIMEOUTS.run("injector repeats");
+}
+
+pub(crate) fn an_injector_repeating_one_step() {
     let tmp = tempfile::tempdir().unwrap();
     let injector = drop_sender("--repeat-at 200");
     let (child, run) = start_long_run(
@@ -710,8 +718,8 @@ fn observers_attach_stall_crash_and_leave_without_touching_the_run() {
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    // --idle 20: an observer leaves once no step came for as long as the tests' step timeout
-    // (a run stalled that long has failed anyway), i.e. after the run.
+    // An observer leaves once the run's directory is in place (the run ended), or once no step
+    // came for --idle 20 s, the tests' step timeout (a run stalled that long has failed anyway).
     let observer = |extra: &[&str]| {
         Command::new(python())
             .arg(repo().join("bridge/examples/observer.py"))

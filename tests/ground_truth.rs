@@ -6,29 +6,56 @@
 //! (`bridge/examples/maneuver_truth.py`) for one that forges, alters and replays maneuver
 //! messages.
 use crate::common::{json, ok, platoon, repo};
-use std::collections::{BTreeMap, HashMap};
+use std::collections::BTreeMap;
 use std::path::Path;
+use std::rc::Rc;
 
-/// A CSV file as rows of named columns.
-fn table(path: &Path) -> Vec<HashMap<String, String>> {
+/// A CSV file as rows of named columns. A row keeps its record (one buffer) and reads a field
+/// by its column's name: the datasets have hundreds of thousands of rows of 26 columns, and a
+/// map of owned strings per row cost the test most of its time.
+fn table(path: &Path) -> Vec<Row> {
     let mut r = csv::Reader::from_path(path).unwrap();
-    let header: Vec<String> = r.headers().unwrap().iter().map(String::from).collect();
+    let columns: Rc<[String]> = r.headers().unwrap().iter().map(String::from).collect();
     r.records()
-        .map(|x| {
-            let x = x.unwrap();
-            header
-                .iter()
-                .cloned()
-                .zip(x.iter().map(String::from))
-                .collect()
+        .map(|x| Row {
+            columns: Rc::clone(&columns),
+            record: x.unwrap(),
         })
         .collect()
+}
+
+/// A row of [`table`]: `row["label"]` is its `label` field.
+struct Row {
+    columns: Rc<[String]>,
+    record: csv::StringRecord,
+}
+
+impl std::ops::Index<&str> for Row {
+    type Output = str;
+
+    fn index(&self, column: &str) -> &str {
+        let i = self
+            .columns
+            .iter()
+            .position(|c| c == column)
+            .unwrap_or_else(|| panic!("no column {column} in {:?}", self.columns));
+        &self.record[i]
+    }
+}
+
+/// The row as its columns' names and values (what a failing assertion prints).
+impl std::fmt::Debug for Row {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_map()
+            .entries(self.columns.iter().zip(self.record.iter()))
+            .finish()
+    }
 }
 
 /// A delivery's key: step, receiver, sender, seq.
 type Key = (u64, u16, u16, u32);
 
-fn key(r: &HashMap<String, String>) -> Key {
+fn key(r: &Row) -> Key {
     let n = |c: &str| r[c].parse::<u64>().unwrap();
     (
         n("step"),
@@ -39,7 +66,7 @@ fn key(r: &HashMap<String, String>) -> Key {
 }
 
 /// Every delivery has its row: the dataset's rows are the wire's deliveries.
-fn one_row_per_delivery(run: &Path, rows: &[HashMap<String, String>]) {
+fn one_row_per_delivery(run: &Path, rows: &[Row]) {
     let w = &json(&run.join("summary.json"))["wire"]["totals"];
     let delivered: u64 = ["delivered_as_sent", "altered", "injected"]
         .iter()
@@ -159,22 +186,24 @@ fn the_catalogues_maneuver_attacks_are_labelled_as_the_channel_logged_them() {
         one_row_per_delivery(&run, &rows);
         let mut log: BTreeMap<Key, Vec<String>> = BTreeMap::new();
         for e in table(&run.join("channel.csv")) {
-            log.entry(key(&e)).or_default().push(e["action"].clone());
+            log.entry(key(&e))
+                .or_default()
+                .push(e["action"].to_string());
         }
         let mut by_label = BTreeMap::<&str, u64>::new();
         let mut to_leader = 0;
         for r in &rows {
             let actions = log.get(&key(r)).cloned().unwrap_or_default();
-            let label = r["label"].as_str();
+            let label = &r["label"];
             assert!(
                 expected(&actions).contains(&label),
                 "{name}: {r:?} labelled {label}, the channel logged {actions:?}"
             );
             if label == "altered" && attack.contains("forge_maneuver") {
-                assert_eq!(r["fields"], "maneuver", "{name}: {r:?}");
+                assert_eq!(&r["fields"], "maneuver", "{name}: {r:?}");
             }
             if label == "altered" && attack.contains("forged_head") {
-                assert_eq!(r["fields"], "head", "{name}: {r:?}");
+                assert_eq!(&r["fields"], "head", "{name}: {r:?}");
             }
             *by_label
                 .entry(match label {
@@ -182,7 +211,7 @@ fn the_catalogues_maneuver_attacks_are_labelled_as_the_channel_logged_them() {
                     _ => "attacked",
                 })
                 .or_default() += 1;
-            to_leader += u64::from(r["receiver"] == "0");
+            to_leader += u64::from(&r["receiver"] == "0");
         }
         assert!(to_leader > 0, "{name}: the leader's receipts have rows");
         if ["forge_maneuver", "forged_head", "replay"]
@@ -191,8 +220,7 @@ fn the_catalogues_maneuver_attacks_are_labelled_as_the_channel_logged_them() {
         {
             assert!(by_label.get("attacked").is_some_and(|&a| a > 0), "{name}");
             // What the channel altered or replayed and delivered has its row.
-            let rows_by_key: BTreeMap<Key, &HashMap<String, String>> =
-                rows.iter().map(|r| (key(r), r)).collect();
+            let rows_by_key: BTreeMap<Key, &Row> = rows.iter().map(|r| (key(r), r)).collect();
             let delivered_attacks = log
                 .iter()
                 .filter(|(_, a)| a.iter().any(|a| a == "altered" || a == "replayed"))
@@ -204,7 +232,7 @@ fn the_catalogues_maneuver_attacks_are_labelled_as_the_channel_logged_them() {
             // The followers' sequence filter refuses the replays; they still have rows.
             assert!(
                 rows.iter()
-                    .any(|r| r["refused_by"] == "stale_seq" && r["label"] == "replayed"),
+                    .any(|r| &r["refused_by"] == "stale_seq" && &r["label"] == "replayed"),
                 "{name}"
             );
         }
@@ -212,27 +240,27 @@ fn the_catalogues_maneuver_attacks_are_labelled_as_the_channel_logged_them() {
             // The joiner's own requests, numbered below the forged one, reach the leader and
             // its machine drops them as old: genuine, and said so.
             assert!(
-                rows.iter().any(|r| r["receiver"] == "0"
-                    && r["maneuver"] == "join_request"
-                    && r["label"] == "genuine"
-                    && r["refused_by"] == "maneuver_seq"),
+                rows.iter().any(|r| &r["receiver"] == "0"
+                    && &r["maneuver"] == "join_request"
+                    && &r["label"] == "genuine"
+                    && &r["refused_by"] == "maneuver_seq"),
                 "{name}"
             );
         }
         if *name == "lying joiner" {
             assert!(
-                rows.iter().any(|r| r["receiver"] == "0"
-                    && r["refused_by"] == "check_reports"
-                    && r["label"] == "altered"),
+                rows.iter().any(|r| &r["receiver"] == "0"
+                    && &r["refused_by"] == "check_reports"
+                    && &r["label"] == "altered"),
                 "{name}: the leader's check refused the forged reports"
             );
         }
         if *name == "forged leave to everyone" {
             // The followers' copies too.
             assert!(
-                rows.iter().any(|r| r["receiver"] != "0"
-                    && r["maneuver"] == "leave_notice"
-                    && r["label"] == "altered"),
+                rows.iter().any(|r| &r["receiver"] != "0"
+                    && &r["maneuver"] == "leave_notice"
+                    && &r["label"] == "altered"),
                 "{name}"
             );
         }
@@ -289,15 +317,15 @@ fn a_python_plugins_forgeries_alterations_and_replays_are_labelled_as_its_log_sa
     for (r, d) in rows.iter().zip(&did) {
         assert_eq!(key(r), key(d), "the same delivery");
         assert_eq!(
-            r["label"],
+            &r["label"],
             label_of(&d["action"]),
             "{r:?} was {}",
-            d["action"]
+            &d["action"]
         );
-        *counts.entry(d["action"].clone()).or_default() += 1;
-        match d["action"].as_str() {
-            "alter" => assert_eq!(r["fields"], "maneuver"),
-            "forge" => assert_eq!(r["maneuver"], "leave_notice"),
+        *counts.entry(d["action"].to_string()).or_default() += 1;
+        match &d["action"] {
+            "alter" => assert_eq!(&r["fields"], "maneuver"),
+            "forge" => assert_eq!(&r["maneuver"], "leave_notice"),
             _ => {}
         }
     }
@@ -307,26 +335,26 @@ fn a_python_plugins_forgeries_alterations_and_replays_are_labelled_as_its_log_sa
     );
     // The forged notice reached the leader (a row of receiver 0, accepted: it ejects the
     // victim), and the followers refused their copies as stale.
-    let forged: Vec<_> = rows.iter().filter(|r| r["label"] == "forged").collect();
+    let forged: Vec<_> = rows.iter().filter(|r| &r["label"] == "forged").collect();
     assert!(forged
         .iter()
-        .any(|r| r["receiver"] == "0" && r["refused_by"].is_empty()));
+        .any(|r| &r["receiver"] == "0" && r["refused_by"].is_empty()));
     assert!(forged
         .iter()
-        .filter(|r| r["receiver"] != "0")
-        .all(|r| r["refused_by"] == "stale_seq"));
+        .filter(|r| &r["receiver"] != "0")
+        .all(|r| &r["refused_by"] == "stale_seq"));
     assert!(rows
         .iter()
-        .filter(|r| r["label"] == "replayed")
-        .all(|r| r["refused_by"] == "stale_seq"));
+        .filter(|r| &r["label"] == "replayed")
+        .all(|r| &r["refused_by"] == "stale_seq"));
     // The victim's own packet with the number the forger used first: genuine, to everyone.
-    let used = forged[0]["seq"].clone();
+    let used = &forged[0]["seq"];
     let own: Vec<_> = rows
         .iter()
-        .filter(|r| r["sender"] == "2" && r["seq"] == used && r["label"] != "forged")
+        .filter(|r| &r["sender"] == "2" && &r["seq"] == used && &r["label"] != "forged")
         .collect();
     assert!(!own.is_empty(), "the victim sent its next packet");
-    assert!(own.iter().all(|r| r["label"] == "genuine"), "{own:?}");
+    assert!(own.iter().all(|r| &r["label"] == "genuine"), "{own:?}");
     // Maneuver rewrites count as altered on the wire and in the summary.
     let s = json(&run.join("summary.json"));
     assert_eq!(s["wire"]["totals"]["altered"], 1, "{}", s["wire"]);
@@ -376,10 +404,10 @@ fn refused_and_leader_rows_are_the_same_bytes_on_both_transports() {
             "{config}: detections.csv differs"
         );
         let rows = table(&tmp.path().join(format!("{n}-iceoryx2/detections.csv")));
-        assert!(rows.iter().any(|r| r["refused_by"] == expect), "{config}");
+        assert!(rows.iter().any(|r| &r["refused_by"] == expect), "{config}");
         assert!(
             rows.iter()
-                .any(|r| r["receiver"] == "0" && r["label"] == "altered"),
+                .any(|r| &r["receiver"] == "0" && &r["label"] == "altered"),
             "{config}"
         );
     }

@@ -7,8 +7,9 @@ platoon 0 twice a second, read from the run's `observe/states` service (docs/obs
 It finds the run through RUN_DIR/run.json (RUN_DIR.partial while the run is going), so it
 never picks another run's services; it only reads, never publishes, never wakes anyone, and
 polls on a timer: a slow, stalled, crashed or late observer cannot hold the run up (the
-observer services drop what it does not read). It exits when no step arrives for
-`--idle` seconds (the run ended), or after `--max-seconds`.
+observer services drop what it does not read). It exits once the run has ended (its directory
+moved into place: RUN_DIR/run.json of this run, no RUN_DIR.partial), when no step arrives for
+`--idle` seconds (a run stalled or killed), or after `--max-seconds`.
 
 `--stall` subscribes and then never reads (to test that a stalled observer changes nothing).
 Exit codes: 0 done, 2 no run found, 3 no room left for another observer.
@@ -42,6 +43,17 @@ def find_run(run_dir: str, wait_s: float) -> dict:
                   file=sys.stderr)
             sys.exit(2)
         time.sleep(0.1)
+
+
+def run_ended(run_dir: str, run_id) -> bool:
+    """The run has ended: its directory was moved into place (docs/observer-contract.md)."""
+    if os.path.exists(run_dir + ".partial"):
+        return False
+    try:
+        with open(os.path.join(run_dir, "run.json")) as f:
+            return json.load(f).get("run_id") == run_id
+    except (OSError, ValueError):
+        return False
 
 
 def main() -> int:
@@ -114,7 +126,7 @@ def main() -> int:
                 latest = (header.step, header.time_s, [x.p for x in states])
             steps += 1
         if latest is None:
-            if now - last_seen > args.idle:
+            if now - last_seen > args.idle or run_ended(args.run_dir, run["run_id"]):
                 break
             continue
         last_seen = now

@@ -115,6 +115,33 @@ impl Together {
     }
 }
 
+/// The suite's tests that wait out a 20 s step or ready timeout (tests/controller.rs's
+/// faulty controllers, tests/cosim.rs's stalled injectors), run side by side: the first to run
+/// starts them all, so the suite waits the 20 s out once instead of once per module. Each
+/// body idles, its processes asleep or polling, so the group adds no load worth the name.
+pub static TIMEOUTS: Together = Together::new(&[
+    (
+        "controller hangs",
+        crate::controller::a_controller_that_hangs,
+    ),
+    (
+        "controller repeats",
+        crate::controller::a_controller_repeating_one_step,
+    ),
+    (
+        "controller never ready",
+        crate::controller::a_plugin_that_never_reports_ready,
+    ),
+    (
+        "injector stops",
+        crate::cosim::an_injector_that_stops_publishing,
+    ),
+    (
+        "injector repeats",
+        crate::cosim::an_injector_repeating_one_step,
+    ),
+]);
+
 /// Fails the test with platoon's stderr if it did not succeed.
 pub fn ok(o: &Output) {
     assert!(
