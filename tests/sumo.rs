@@ -991,7 +991,11 @@ pi.run(lambda run: Record())
     .unwrap();
     let python = repo().join("bridge/.venv/bin/python");
     for (name, text) in [
-        ("paper", paper.clone()),
+        // The paper's first 25 s: the leader's speed-up and four of its attacks.
+        (
+            "paper",
+            paper.replace("duration_s = 55.0", "duration_s = 25.0"),
+        ),
         ("degradation", degradation),
         ("cut-in", cut_in),
         ("traffic", traffic),
