@@ -1413,6 +1413,7 @@ fn a_binary_moved_out_of_the_checkout_runs_sumo_with_the_bridge_it_carries() {
     )
     .unwrap();
     let config = config.to_str().unwrap();
+    let sumo_run = |out| ["run", config, "--plant", "sumo", "--no-plots", "--out", out];
     let moved = |args: &[&str]| {
         Command::new(&exe)
             .args(args)
@@ -1423,15 +1424,7 @@ fn a_binary_moved_out_of_the_checkout_runs_sumo_with_the_bridge_it_carries() {
             .output()
             .unwrap()
     };
-    let o = moved(&[
-        "run",
-        config,
-        "--plant",
-        "sumo",
-        "--no-plots",
-        "--out",
-        "moved",
-    ]);
+    let o = moved(&sumo_run("moved"));
     ok(&o);
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(stderr.contains("unpacked the SUMO bridge"), "{stderr}");
@@ -1444,18 +1437,7 @@ fn a_binary_moved_out_of_the_checkout_runs_sumo_with_the_bridge_it_carries() {
     assert!(bundles[0].join("sumo/highway/highway.net.xml").exists());
     let sumo = json(&work.join("moved/sumo.json"));
     assert_eq!(sumo["sumo_version"].as_str(), Some("SUMO 1.28.0"), "{sumo}");
-    ok(&platoon(
-        &[
-            "run",
-            config,
-            "--plant",
-            "sumo",
-            "--no-plots",
-            "--out",
-            "checkout",
-        ],
-        tmp.path(),
-    ));
+    ok(&platoon(&sumo_run("checkout"), tmp.path()));
     assert_eq!(
         trajectories(&work.join("moved")),
         trajectories(&tmp.path().join("checkout"))
@@ -1473,15 +1455,7 @@ fn a_binary_moved_out_of_the_checkout_runs_sumo_with_the_bridge_it_carries() {
         bundle.join("bridge/.venv/.requirements"),
     ];
     let before: Vec<_> = watched.iter().cloned().map(mtime).collect();
-    let o = moved(&[
-        "run",
-        config,
-        "--plant",
-        "sumo",
-        "--no-plots",
-        "--out",
-        "again",
-    ]);
+    let o = moved(&sumo_run("again"));
     ok(&o);
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(

@@ -193,7 +193,7 @@ class CutIns:
         (leader first) at that step and `off`, the members (by index) on the lane beside: those
         due appear beside the platoon (`gap_m` ahead of their follower, or mid-gap), those that
         want the other lane move into it where the gap is safe, also from the vehicles
-        `strangers(lane_beside, me)` names there (SUMO's own). Returns the indices of the
+        `strangers(to_beside)` names on that lane (SUMO's own). Returns the indices of the
         cut-ins that appeared, of those that entered the platoon's lane and of those that left
         it."""
         appeared, entered, left = [], [], []
@@ -231,16 +231,21 @@ class CutIns:
         return appeared, entered, left
 
     def safe(self, c, beside, p, v, lengths, off, strangers) -> bool:
-        """Whether cut-in c's car may move onto the lane beside (`beside`) or the platoon's:
-        the members on that lane, the other cars there, then `strangers`' vehicles."""
+        """Whether cut-in c's car may move onto the lane beside (`beside`) or the platoon's."""
         car = self.cars[c]
         me = [car[0], car[1], float(self.cut_ins[c]["length_m"])]
+        return self.rule.safe_among(me, self.lane(c, beside, p, v, lengths, off, strangers))
+
+    def lane(self, c, beside, p, v, lengths, off, strangers):
+        """`Traffic::lane`: the vehicles on the lane beside (`beside`) or the platoon's as
+        [front bumper, speed, length], cut-in c's car left out: the members there, the other
+        cars there, then `strangers`' vehicles (SUMO's own)."""
         others = [[float(p[i]), float(v[i]), lengths[i]] for i in range(len(p)) if (i in off) == beside]
         others.extend([x[0], x[1], float(self.cut_ins[d]["length_m"])]
                       for d, x in enumerate(self.cars) if x is not None and d != c and x[2] == beside)
         if strangers is not None:
-            others.extend(strangers(beside, me))
-        return self.rule.safe_among(me, others)
+            others.extend(strangers(beside))
+        return others
 
     def due(self, t: float) -> bool:
         """Whether `arrive` at time t has anything to decide: a cut-in to appear, or a car
@@ -256,13 +261,15 @@ class CutIns:
                 return True
         return False
 
-    def advance(self, t: float, dt: float, p=(), v=(), lengths=(), off=(), strangers=None):
+    def advance(self, t: float, dt: float, p=(), v=(), lengths=(), off=(), leader=None):
         """`Traffic::advance`: moves every car from t to t + dt, given the platoon at t (as
         `arrive`): once it cut in it brakes for `brake_s` from the moment it entered, otherwise
         it holds its speed; closing in on the vehicle ahead on its lane nearer than the rule's
-        safe gap, it brakes at the rule's `safe_decel_mps2`. Returns the acceleration each one
-        holds over the step (None before it appears)."""
-        held = [self.acceleration(c, t, dt, p, v, lengths, off, strangers)
+        safe gap, it brakes at the rule's `safe_decel_mps2`; `leader(c)`, if given, lists the
+        vehicle of SUMO's own nearest ahead of car c on its lane (none when the nearest is a
+        member or a car). Returns the acceleration each one holds over the step (None before it
+        appears)."""
+        held = [self.acceleration(c, t, dt, p, v, lengths, off, leader)
                 for c in range(len(self.cars))]
         for x, a in zip(self.cars, held):
             if x is not None:
@@ -270,7 +277,7 @@ class CutIns:
                 x[1] += a * dt
         return held
 
-    def acceleration(self, c, t, dt, p, v, lengths, off, strangers):
+    def acceleration(self, c, t, dt, p, v, lengths, off, leader):
         """`Traffic::acceleration`: what cut-in c's car holds from t over dt."""
         x = self.cars[c]
         if x is None:
@@ -281,13 +288,10 @@ class CutIns:
         braking = e is not None and t < cut["at_s"] + cut["brake_s"] + (e - s)
         a = -cut["decel_mps2"] if braking else 0.0
         # The nearest vehicle ahead on its lane: members first, then the other cars, then
-        # `strangers`' (SUMO's own).
-        lane = x[2]
-        others = [[float(p[i]), float(v[i]), lengths[i]] for i in range(len(p)) if (i in off) == lane]
-        others.extend([y[0], y[1], float(self.cut_ins[d]["length_m"])]
-                      for d, y in enumerate(self.cars) if y is not None and d != c and y[2] == lane)
-        if strangers is not None:
-            others.extend(strangers(lane, x))
+        # SUMO's own.
+        others = self.lane(c, x[2], p, v, lengths, off, None)
+        if leader is not None:
+            others.extend(leader(c))
         ahead = None
         for o in others:
             if o[0] > x[0] and (ahead is None or o[0] < ahead[0]):

@@ -815,7 +815,11 @@ class Intruders:
         vehicle = self.sumo.vehicle
         for j, cuts in enumerate(self.platoons):
             lo = j * n1
-            off, strangers = self.around(j, cuts, beside, known)
+            off, ids = self.around(j, cuts, beside, known)
+
+            def strangers(to_beside, j=j, ids=ids):
+                return self.strangers(self.side_lanes[j] if to_beside else self.lanes[j], ids)
+
             appeared, entered, left = cuts.arrive(t, p[lo:lo + n1], v[lo:lo + n1], self.lengths,
                                                   off, strangers)
             for c in appeared:
@@ -865,25 +869,37 @@ class Intruders:
         t = k * dt
         for j, cuts in enumerate(self.platoons):
             lo = j * n1
-            off, strangers = self.around(j, cuts, beside, known)
-            held = cuts.advance(t, dt, p[lo:lo + n1], v[lo:lo + n1], self.lengths, off, strangers)
+            off, ids = self.around(j, cuts, beside, known)
+
+            def leader(c, j=j, ids=ids):
+                return self.leader(intruder_id(j, c), ids)
+
+            held = cuts.advance(t, dt, p[lo:lo + n1], v[lo:lo + n1], self.lengths, off, leader)
             for c, a in enumerate(held):
                 if a is not None:
                     vehicle.setAcceleration(intruder_id(j, c), a, dt)
 
     def around(self, j, cuts, beside, known):
-        """Platoon j's members on the lane beside (by index), and `strangers(to_beside, me)`:
-        SUMO's other vehicles on that lane, as the model's `arrive` and `advance` take them."""
+        """Platoon j's members on the lane beside (by index), and the SUMO ids the model knows
+        (its members' and its cars')."""
         lo = j * self.n1
         off = {g - lo for g in beside if lo <= g < lo + self.n1}
         ids = {intruder_id(j, c) for c in range(len(cuts.cut_ins))}
         if known is not None:
             ids |= known(j)
+        return off, ids
 
-        def strangers(to_beside, me):
-            return self.strangers(self.side_lanes[j] if to_beside else self.lanes[j], ids)
-
-        return off, strangers
+    def leader(self, vid, known):
+        """The vehicle SUMO has nearest ahead of car `vid` on its lane, as [[front bumper,
+        speed, length]] in the platoon's road coordinates, unless it is a `known` one (then
+        the model has it, nearer than any other): one `getLeader` call a step, where reading
+        the whole lane would cost one call per vehicle on it."""
+        vehicle = self.sumo.vehicle
+        got = vehicle.getLeader(vid, 1000.0)
+        if not got or not got[0] or got[0] in known:
+            return []
+        o = got[0]
+        return [[vehicle.getLanePosition(o) - self.offset, vehicle.getSpeed(o), vehicle.getLength(o)]]
 
     def compare(self):
         """SUMO's cars against the kinematics (their lane positions minus the offset)."""

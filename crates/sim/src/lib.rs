@@ -235,11 +235,8 @@ impl Plant {
             let members = (0..self.states.len())
                 .filter(|&j| j != i && self.off_lane[j] == want)
                 .map(vehicle);
-            // The cars that cut in, on whichever lane they are.
-            let cars = (self.traffic.on_lane())
-                .chain(self.traffic.beside())
-                .filter(|c| c.beside == want)
-                .map(|c| [c.p, c.v, c.length_m]);
+            // The cars that cut in, on that lane.
+            let cars = (self.traffic.cars_on(want)).map(|c| [c.p, c.v, c.length_m]);
             if self.rule.safe_among(vehicle(i), members.chain(cars)) {
                 self.off_lane[i] = want;
             }

@@ -100,12 +100,12 @@ impl Traffic {
 
     /// The vehicles on the platoon's lane now.
     pub fn on_lane(&self) -> impl Iterator<Item = &Intruder> {
-        self.cars.iter().flatten().filter(|c| !c.beside)
+        self.cars_on(false)
     }
 
     /// The vehicles on the lane beside the platoon's now (waiting to cut in, or gone out).
     pub fn beside(&self) -> impl Iterator<Item = &Intruder> {
-        self.cars.iter().flatten().filter(|c| c.beside)
+        self.cars_on(true)
     }
 
     /// Cut-in c's vehicle, once it appeared.
@@ -179,15 +179,40 @@ impl Traffic {
         lengths: &[f64],
         off_lane: &[bool],
     ) -> bool {
-        let off = |i: usize| off_lane.get(i).copied().unwrap_or(false);
+        let others = self.lane(c, beside, states, lengths, off_lane);
+        self.rule.safe_among([car.p, car.v, car.length_m], others)
+    }
+
+    /// The vehicles on the lane beside (`beside`) or the platoon's, as `[front bumper, speed,
+    /// length]`, cut-in c's own car left out: the members there, then the other cars there.
+    fn lane<'a>(
+        &'a self,
+        c: usize,
+        beside: bool,
+        states: &'a [State],
+        lengths: &'a [f64],
+        off_lane: &'a [bool],
+    ) -> impl Iterator<Item = [f64; 3]> + 'a {
+        let off = move |i: usize| off_lane.get(i).copied().unwrap_or(false);
         let members = (0..states.len())
-            .filter(|&i| off(i) == beside)
+            .filter(move |&i| off(i) == beside)
             .map(|i| [states[i][0], states[i][1], lengths[i]]);
-        let cars = (self.cars.iter().enumerate())
-            .filter_map(|(d, x)| x.filter(|x| d != c && x.beside == beside))
-            .map(|x| [x.p, x.v, x.length_m]);
-        self.rule
-            .safe_among([car.p, car.v, car.length_m], members.chain(cars))
+        members.chain(
+            self.indexed_on(beside)
+                .filter(move |(d, _)| *d != c)
+                .map(|(_, x)| [x.p, x.v, x.length_m]),
+        )
+    }
+
+    /// The cars on the lane beside (`beside`) or the platoon's.
+    pub fn cars_on(&self, beside: bool) -> impl Iterator<Item = &Intruder> {
+        self.indexed_on(beside).map(|(_, x)| x)
+    }
+
+    /// [`Traffic::cars_on`], with their cut-in's index.
+    fn indexed_on(&self, beside: bool) -> impl Iterator<Item = (usize, &Intruder)> {
+        (self.cars.iter().enumerate())
+            .filter_map(move |(d, x)| x.as_ref().filter(|x| x.beside == beside).map(|x| (d, x)))
     }
 
     /// Moves every car from time `t` to `t + dt`, given the platoon at `t` (`states`,
@@ -233,15 +258,8 @@ impl Traffic {
             _ => 0.0,
         };
         // The nearest vehicle ahead on its lane: members first, then the other cars.
-        let off = |i: usize| off_lane.get(i).copied().unwrap_or(false);
-        let members = (0..states.len())
-            .filter(|&i| off(i) == x.beside)
-            .map(|i| [states[i][0], states[i][1], lengths[i]]);
-        let cars = (self.cars.iter().enumerate())
-            .filter_map(|(d, y)| y.filter(|y| d != c && y.beside == x.beside))
-            .map(|y| [y.p, y.v, y.length_m]);
         let mut ahead: Option<[f64; 3]> = None;
-        for o in members.chain(cars) {
+        for o in self.lane(c, x.beside, states, lengths, off_lane) {
             if o[0] > x.p && ahead.is_none_or(|a| o[0] < a[0]) {
                 ahead = Some(o);
             }
