@@ -442,6 +442,23 @@ fn a_dask_cluster_on_localhost_gives_the_local_cells_csv_byte_for_byte() {
         ok(&c.output().unwrap());
         out
     };
+    // A scheduler that is not there is named, and the campaign stays resumable: the Dask
+    // client waits out its 20 s connect timeout, so this campaign starts first and is read at
+    // the end, the rest of the test running meanwhile.
+    let none = tmp.path().join("none");
+    let unreachable = platoon_command(tmp.path())
+        .args([
+            "campaign",
+            file.to_str().unwrap(),
+            "--dask",
+            "tcp://127.0.0.1:9",
+            "--out",
+        ])
+        .arg(&none)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
     let local = run(&file, "local", &[], &[]);
     let local_cosim = run(&cosim, "local-cosim", &[], &[]);
     // The workers run platoon through a wrapper that logs each call: proof the cells' processes
@@ -537,17 +554,7 @@ fn a_dask_cluster_on_localhost_gives_the_local_cells_csv_byte_for_byte() {
         "{log}"
     );
     drop(cluster);
-    // A scheduler that is not there is named, and the campaign stays resumable.
-    let o = campaign(
-        &[
-            file.to_str().unwrap(),
-            "--dask",
-            "tcp://127.0.0.1:9",
-            "--out",
-            tmp.path().join("none").to_str().unwrap(),
-        ],
-        tmp.path(),
-    );
+    let o = unreachable.wait_with_output().unwrap();
     assert!(!o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("Dask") && err.contains("127.0.0.1:9"), "{err}");
