@@ -17,6 +17,9 @@
 //! - [`sign`]: a vehicle's [`Signer`], its pseudonym changes and the standards' rule for when
 //!   the full certificate rides along ([`AttachRule`]: once a second, after a change, on
 //!   request).
+//! - [`misbehaviour`]: misbehaviour reports (signed, the accused's signed packets as
+//!   evidence), the reporters' [`Uplink`] and the misbehaviour [`Authority`], which revokes a
+//!   vehicle reported by a quorum of other vehicles ([`AuthorityRule`]).
 //! - [`verify`]: a receiver's [`Verifier`] (trust store, revocation list, learned pseudonyms)
 //!   and its [`Policy`] (every packet, or on demand); a refusal is a [`Refusal`] with a stable
 //!   name and code for a dataset.
@@ -33,6 +36,7 @@ pub mod cert;
 pub mod ecdsa;
 pub mod header;
 pub mod id;
+pub mod misbehaviour;
 pub mod pki;
 pub mod refusal;
 pub mod sign;
@@ -45,6 +49,10 @@ pub use header::{
     STANDARD_CERTIFICATE_OVERHEAD, STANDARD_DIGEST_OVERHEAD,
 };
 pub use id::HashedId8;
+pub use misbehaviour::{
+    Authority, AuthorityRule, Evidence, RadarObservation, Report, ReportOutcome, Revocation,
+    SignedReport, Uplink, VehicleKey,
+};
 pub use pki::{Credential, Pki};
 pub use refusal::Refusal;
 pub use sign::{AttachRule, Signer};
