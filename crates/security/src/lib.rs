@@ -17,6 +17,9 @@
 //! - [`sign`]: a vehicle's [`Signer`], its pseudonym changes and the standards' rule for when
 //!   the full certificate rides along ([`AttachRule`]: once a second, after a change, on
 //!   request).
+//! - [`group`]: a platoon's group key, agreed with each member at its join (ECDH P-256, then
+//!   HKDF-SHA256; the key wrapped with ChaCha20-Poly1305), HMAC tags on intra-platoon
+//!   messages, renewed on every leave ([`KeyServer`], [`KeyHolder`]).
 //! - [`misbehaviour`]: misbehaviour reports (signed, the accused's signed packets as
 //!   evidence), the reporters' [`Uplink`] and the misbehaviour [`Authority`], which revokes a
 //!   vehicle reported by a quorum of other vehicles ([`AuthorityRule`]).
@@ -34,6 +37,7 @@
 
 pub mod cert;
 pub mod ecdsa;
+pub mod group;
 pub mod header;
 pub mod id;
 pub mod misbehaviour;
@@ -44,6 +48,7 @@ pub mod verify;
 
 pub use cert::{CertKind, Certificate, Validity};
 pub use ecdsa::{PublicKey, SignatureMemo};
+pub use group::{GroupError, GroupKey, KeyHolder, KeyServer, KeyShare, Tag, WrappedKey};
 pub use header::{
     SecurityHeader, SignerId, CERTIFICATE_HEADER_LEN, DIGEST_HEADER_LEN,
     STANDARD_CERTIFICATE_OVERHEAD, STANDARD_DIGEST_OVERHEAD,
