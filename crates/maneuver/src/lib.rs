@@ -14,12 +14,14 @@
 //! clocks, time in steps.
 #![warn(missing_docs)]
 
+pub mod challenge;
 mod formation;
 mod joiner;
 mod leader;
 mod member;
 mod message;
 
+pub use challenge::{Challenge, ChallengeSpec, Verdict};
 pub use formation::{Formation, FormationError};
 pub use joiner::{JoinFailure, Joiner, JoinerPhase, JoinerState};
 pub use leader::{Leader, LeaderState};
