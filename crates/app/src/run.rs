@@ -237,6 +237,17 @@ pub fn run(
     if let Some(plant) = opts.plant {
         config.simulation.plant = plant;
     }
+    if config.security.is_some() && opts.transport == Transport::Iceoryx2 {
+        // The wire (platoon_wire::V2vPacket) carries no seal yet: refused, not run unsigned.
+        return Err(platoon_config::ConfigError::new(
+            &opts.config_file,
+            "security",
+            "signed V2V runs in process only for now (the iceoryx2 wire carries no seal yet): \
+             give --transport inproc (transport = \"inproc\" in a campaign), or remove [security]"
+                .to_string(),
+        )
+        .into());
+    }
     if !config.leader.drive.is_profile() && config.simulation.plant != PlantKind::Sumo {
         return Err(platoon_config::ConfigError::new(
             &opts.config_file,

@@ -564,3 +564,49 @@ fn vehicle_classes_are_checked_with_the_key_and_line_named() {
         "keeps one vehicle length",
     );
 }
+
+/// `[security]`: absent, no security; present, the controllers sign and verify with its
+/// settings; bad values name their key.
+#[test]
+fn security_resolves_and_bad_values_name_their_key() {
+    let with = |keys: &str| {
+        let text = format!("{}\n[security]\n{keys}", platoon_config::PAPER_TOML);
+        parse(&text, Path::new("bad.toml")).map(|(_, s)| s)
+    };
+    let (_, plain) = parse(platoon_config::PAPER_TOML, Path::new("paper.toml")).unwrap();
+    assert_eq!(plain.control.security, None);
+    let s = with("").unwrap().control.security.unwrap();
+    assert_eq!(s, platoon_control::SecurityParams::default());
+    assert_eq!(
+        (
+            s.certificate_period_ms,
+            s.freshness_ms,
+            s.pseudonym_change_ms
+        ),
+        (1000, 1000, 0)
+    );
+    let s = with("policy = \"on_demand\"\npseudonym_change_s = 60.0\nseed = 7\n")
+        .unwrap()
+        .control
+        .security
+        .unwrap();
+    assert_eq!(s.policy, platoon_control::SecurityPolicy::OnDemand);
+    assert_eq!((s.pseudonym_change_ms, s.seed), (60_000, 7));
+    assert_error(
+        with("certificate_period_s = 0.0\n").map(|_| ()),
+        "security.certificate_period_s",
+        "",
+    );
+    assert_error(
+        with("pseudonym_change_s = -1.0\n").map(|_| ()),
+        "security.pseudonym_change_s",
+        ">= 0",
+    );
+    assert_error(
+        with("freshness_s = 0.0005\n").map(|_| ()),
+        "security.freshness_s",
+        "milliseconds",
+    );
+    assert!(with("policy = \"sometimes\"\n").is_err());
+    assert!(with("bogus = 1\n").is_err());
+}

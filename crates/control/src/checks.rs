@@ -189,6 +189,8 @@ pub struct PacketChecks {
     dt: f64,
     /// Misbehaviour detection after the checks (`[detection]`), if on.
     screening: Option<crate::screening::Screening>,
+    /// Signed V2V (`[security]`), if on: the seals' checks before the others.
+    sealing: Option<Box<crate::security::Sealing>>,
 }
 
 impl PacketChecks {
@@ -219,7 +221,52 @@ impl PacketChecks {
             rejected: RejectCounts::default(),
             dt,
             screening: None,
+            sealing: None,
         }
+    }
+
+    /// These checks with signed V2V (`[security]`; none: unchanged) for `vehicles` vehicles,
+    /// the leader included: [`PacketChecks::seal`] signs what they send, every delivery's seal
+    /// is checked before the other checks ([`crate::security`]).
+    pub fn with_security(
+        mut self,
+        security: Option<crate::SecurityParams>,
+        vehicles: usize,
+    ) -> Self {
+        self.sealing =
+            security.map(|p| Box::new(crate::security::Sealing::new(p, vehicles, self.dt)));
+        self
+    }
+
+    /// Signs `packets` sent at step `k` with their senders' pseudonyms (`[security]`; nothing
+    /// without it).
+    pub fn seal(&mut self, k: u64, packets: &mut [Packet]) {
+        if let Some(s) = &mut self.sealing {
+            s.seal(k, packets);
+        }
+    }
+
+    /// The seal's first check of delivery `d` at step `k` (`[security]`: in full, or all but
+    /// the signature under `on_demand`); `true` without security. A refused packet is counted
+    /// by its reason ([`PacketChecks::seals`]) and goes nowhere.
+    pub fn authenticate(&mut self, k: u64, d: &Delivery) -> bool {
+        self.sealing.as_mut().is_none_or(|s| s.screen(k, d))
+    }
+
+    /// The signature check of a delivery its receiver acts on, under `on_demand` (`true`
+    /// otherwise: [`PacketChecks::authenticate`] made it).
+    pub fn confirm(&mut self, k: u64, d: &Delivery) -> bool {
+        self.sealing.as_mut().is_none_or(|s| s.confirm(k, d))
+    }
+
+    /// What the seals did so far (`[security]` only).
+    pub fn seals(&self) -> Option<crate::security::SealCounts> {
+        self.sealing.as_ref().map(|s| s.counts())
+    }
+
+    /// The signed V2V settings (`[security]` only).
+    pub fn security(&self) -> Option<&crate::SecurityParams> {
+        self.sealing.as_ref().map(|s| s.params())
     }
 
     /// These checks with every follower also hearing every member ahead of it that is not its
@@ -320,6 +367,9 @@ impl PacketChecks {
         if let Some(s) = &mut self.screening {
             s.begin_step();
         }
+        if let Some(s) = &mut self.sealing {
+            s.begin_step();
+        }
     }
 
     /// [`PacketChecks::admit`], then, for a packet that passed, the detectors with what the
@@ -402,6 +452,10 @@ impl PacketChecks {
             if let Some(s) = &mut self.screening {
                 s.refusal(k, d.receiver, &d.packet, why);
             }
+        }
+        // A packet the receiver will act on: its signature now, under `on_demand`.
+        if checked.is_ok() && !self.confirm(k, d) {
+            return None;
         }
         checked.ok()
     }
