@@ -2,8 +2,8 @@
 //! without attacks; an outsider's forged leave notice and forged join request (the catalogue's
 //! `forge_maneuver`, which rewrites genuine packets, and a fresh forgery, unsealed or sealed
 //! with a key of another PKI) are refused at verification and change nothing: the run is the
-//! same bit for bit as without the forgery. Over iceoryx2 a signed run is refused, naming the
-//! key, until the wire carries the seal.
+//! same bit for bit as without the forgery. A signed run over iceoryx2 (contract v5 carries
+//! the seal) is the same bit for bit as in process.
 use crate::common;
 
 use common::maneuvers::{forged_to_leader, of, run_with, Log};
@@ -222,29 +222,70 @@ fn an_outsiders_forged_join_request_is_refused_and_changes_nothing() {
     );
 }
 
+/// A signed join with the catalogue's fake join request, verified on demand, over both
+/// transports: the seals cross the wire (contract v5) and every output is the same bit for
+/// bit, the summary's `security` included (the controller process reports its counts in its
+/// DONE); the forgery is refused as `bad_signature` and the joiner joins.
 #[test]
-fn a_signed_run_over_iceoryx2_is_refused_naming_the_key() {
+fn a_signed_run_is_bit_identical_on_both_transports() {
     let tmp = tempfile::tempdir().unwrap();
     std::fs::write(
         tmp.path().join("signed.toml"),
-        signed(&config("join"), "policy = \"on_demand\"\n"),
+        signed(
+            &format!("{}{FAKE_JOIN_REQUEST}", config("join")),
+            "policy = \"on_demand\"\n",
+        ),
     )
     .unwrap();
+    for (out, transport) in [("ipc", "iceoryx2"), ("inproc", "inproc")] {
+        common::run_config(
+            &tmp.path().join("signed.toml"),
+            out,
+            &["--transport", transport],
+            tmp.path(),
+        );
+    }
+    for f in [
+        "trajectories.csv",
+        "events.csv",
+        "channel.csv",
+        "wire.csv",
+        "summary.json",
+    ] {
+        let a = std::fs::read(tmp.path().join("ipc").join(f)).unwrap();
+        let b = std::fs::read(tmp.path().join("inproc").join(f)).unwrap();
+        assert!(a == b, "{f} differs between the transports");
+    }
+    let summary = common::json(&tmp.path().join("ipc/summary.json"));
+    let security = &summary["security"];
+    assert_eq!(security["policy"], "on_demand", "{security}");
+    assert!(
+        security["refused"]["bad_signature"].as_u64().unwrap() > 0,
+        "{security}"
+    );
+    assert_eq!(
+        security["refused_total"],
+        security["refused"]["bad_signature"]
+    );
+    assert!(security["signed"].as_u64().unwrap() > 5000, "{security}");
+    let events = std::fs::read_to_string(tmp.path().join("ipc/events.csv")).unwrap();
+    assert!(events.contains(",joined,"), "the joiner joins");
+}
+
+/// A controller plug-in neither signs nor verifies: a signed run with one is refused, naming
+/// the key, rather than run unsigned.
+#[test]
+fn a_signed_run_with_a_controller_plug_in_is_refused_naming_the_key() {
+    let tmp = tempfile::tempdir().unwrap();
+    std::fs::write(tmp.path().join("signed.toml"), signed(&config("join"), "")).unwrap();
     let o = common::platoon(
-        &[
-            "run",
-            "signed.toml",
-            "--out",
-            "out",
-            "--transport",
-            "iceoryx2",
-        ],
+        &["run", "signed.toml", "--out", "out", "--controller", "true"],
         tmp.path(),
     );
     assert_eq!(o.status.code(), Some(2));
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(
-        err.contains("signed.toml") && err.contains("security") && err.contains("inproc"),
+        err.contains("signed.toml") && err.contains("security") && err.contains("--controller"),
         "{err}"
     );
     assert!(!tmp.path().join("out").exists());

@@ -93,8 +93,7 @@ pub struct Config {
 }
 
 /// `[security]`: signed V2V, ECDSA P-256 with pseudonym certificates (IEEE 1609.2 / ETSI TS
-/// 103 097 in spirit; docs/security.md). In process only for now: a run over iceoryx2 refuses
-/// it.
+/// 103 097 in spirit; docs/security.md), on either transport (contract v5 carries the seal).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(default, deny_unknown_fields)]
 pub struct SecurityConfig {
