@@ -610,3 +610,35 @@ fn security_resolves_and_bad_values_name_their_key() {
     assert!(with("policy = \"sometimes\"\n").is_err());
     assert!(with("bogus = 1\n").is_err());
 }
+
+/// `[security]` on the 802.11p channel: the model's packets carry what signing adds on the
+/// air (the standards' overhead, the certificate on its share of packets); without it, as
+/// configured. A packet that signing would push past 802.11's largest names its key.
+#[test]
+fn security_enlarges_the_radio_models_packets() {
+    let text = std::fs::read_to_string(configs_dir().join("density.toml")).unwrap();
+    let size = |text: &str| {
+        let (_, s) = parse(text, Path::new("bad.toml")).unwrap();
+        let radio = s.radio.unwrap();
+        (radio.family.params().packet_bytes, s.control.security)
+    };
+    let (plain, none) = size(&text);
+    assert_eq!((plain, none), (190, None));
+    let (signed, security) = size(&format!("{text}\n[security]\n"));
+    let beacon_hz = {
+        let (_, s) = parse(&text, Path::new("bad.toml")).unwrap();
+        s.radio.unwrap().family.params().beacon_hz
+    };
+    let overhead = security.unwrap().mean_overhead_bytes(beacon_hz);
+    assert_eq!(signed, 190 + overhead);
+    assert!((94..=219).contains(&overhead), "{overhead}");
+    // The config ends in [channel.radio].
+    assert!(text.trim_end().ends_with("beacon_hz = 10.0"));
+    let big = format!("{text}packet_bytes = 2300\n");
+    assert_eq!(size(&big).0, 2300);
+    assert_error(
+        parse(&format!("{big}\n[security]\n"), Path::new("bad.toml")).map(|_| ()),
+        "channel.radio.packet_bytes",
+        "2304",
+    );
+}

@@ -65,6 +65,28 @@ pub struct SecurityParams {
     pub seed: u64,
 }
 
+impl SecurityParams {
+    /// What signing adds to a packet on the air, on average (bytes, rounded up), for a radio
+    /// model that takes one packet size: the standards' overhead (IEEE 1609.2 / ETSI TS 103
+    /// 097, [`platoon_security::STANDARD_DIGEST_OVERHEAD`] with the signer's digest,
+    /// [`platoon_security::STANDARD_CERTIFICATE_OVERHEAD`] with its certificate), the
+    /// certificate on one packet in `beacon_hz` x the certificate period (every packet when
+    /// that is under one).
+    pub fn mean_overhead_bytes(&self, beacon_hz: f64) -> u32 {
+        let per_period = beacon_hz * self.certificate_period_ms as f64 / 1e3;
+        let share = if per_period > 1.0 {
+            1.0 / per_period
+        } else {
+            1.0
+        };
+        let (digest, cert) = (
+            platoon_security::STANDARD_DIGEST_OVERHEAD as f64,
+            platoon_security::STANDARD_CERTIFICATE_OVERHEAD as f64,
+        );
+        (digest + (cert - digest) * share).ceil() as u32
+    }
+}
+
 impl Default for SecurityParams {
     fn default() -> Self {
         Self {
@@ -259,6 +281,19 @@ impl Sealing {
 mod tests {
     use super::*;
     use platoon_model::{State, VehicleId};
+
+    #[test]
+    fn the_mean_overhead_weighs_the_certificate_by_its_share() {
+        let p = SecurityParams::default();
+        // 10 Hz, a certificate a second: one packet in ten carries it.
+        assert_eq!(
+            p.mean_overhead_bytes(10.0),
+            (94.0f64 + 125.0 / 10.0).ceil() as u32
+        );
+        // Slower than the certificate period: every packet carries it.
+        assert_eq!(p.mean_overhead_bytes(0.5), 219);
+        assert_eq!(p.mean_overhead_bytes(1.0), 219);
+    }
 
     #[test]
     fn the_seal_holds_the_longest_header() {
