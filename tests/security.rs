@@ -222,17 +222,22 @@ fn an_outsiders_forged_join_request_is_refused_and_changes_nothing() {
     );
 }
 
-/// A signed join with the catalogue's fake join request, verified on demand, over both
-/// transports: the seals cross the wire (contract v5) and every output is the same bit for
-/// bit, the summary's `security` included (the controller process reports its counts in its
-/// DONE); the forgery is refused as `bad_signature` and the joiner joins.
+/// A signed join with the catalogue's fake join request, verified on demand, with a detector
+/// on, over both transports: the seals cross the wire (contract v5) and every output is the
+/// same bit for bit, the summary's `security` and the detections' dataset included (the
+/// controller process reports its counts in its DONE, its refusals as inspections); the
+/// forgery is refused as `bad_signature`, which the dataset says of exactly the deliveries the
+/// ground truth labels altered, and the joiner joins.
 #[test]
 fn a_signed_run_is_bit_identical_on_both_transports() {
     let tmp = tempfile::tempdir().unwrap();
     std::fs::write(
         tmp.path().join("signed.toml"),
         signed(
-            &format!("{}{FAKE_JOIN_REQUEST}", config("join")),
+            &format!(
+                "{}{FAKE_JOIN_REQUEST}\n[detection.plausibility]\n",
+                config("join")
+            ),
             "policy = \"on_demand\"\n",
         ),
     )
@@ -251,6 +256,7 @@ fn a_signed_run_is_bit_identical_on_both_transports() {
         "channel.csv",
         "wire.csv",
         "summary.json",
+        "detections.csv",
     ] {
         let a = std::fs::read(tmp.path().join("ipc").join(f)).unwrap();
         let b = std::fs::read(tmp.path().join("inproc").join(f)).unwrap();
@@ -270,6 +276,24 @@ fn a_signed_run_is_bit_identical_on_both_transports() {
     assert!(security["signed"].as_u64().unwrap() > 5000, "{security}");
     let events = std::fs::read_to_string(tmp.path().join("ipc/events.csv")).unwrap();
     assert!(events.contains(",joined,"), "the joiner joins");
+    let rows = std::fs::read_to_string(tmp.path().join("ipc/detections.csv")).unwrap();
+    let head: Vec<&str> = rows.lines().next().unwrap().split(',').collect();
+    let col = |name: &str| head.iter().position(|h| *h == name).unwrap();
+    let (by, label) = (col("refused_by"), col("label"));
+    let mut refused = 0;
+    for r in rows
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect::<Vec<_>>())
+    {
+        assert_eq!(
+            r[by] == "bad_signature",
+            r[label] == "altered",
+            "only the altered deliveries are refused by their seal: {r:?}"
+        );
+        refused += u64::from(r[by] == "bad_signature");
+    }
+    assert_eq!(refused, security["refused_total"].as_u64().unwrap());
 }
 
 /// A controller plug-in neither signs nor verifies: a signed run with one is refused, naming

@@ -216,13 +216,14 @@ class Inspection(Payload):
     reaction refused it), bits REFUSED_BY_SHIFT.. (REFUSED_BY_MASK) what refused it (0: accepted
     or not said; 1-6 the packet checks' reasons in the order of ControlMsg.counts, for a
     delivery no detector saw; 7 the reaction; 8 the leader's check of maneuver messages; 9 the
-    receiver's maneuver machine dropped the message as old, after the step's other items), and
+    receiver's maneuver machine dropped the message as old, after the step's other items; 10-20
+    the seal of a [security] run, its refusal code + 9; bits 2-7 since v5), and
     bit DETECTOR_SHIFT + d when detector d flagged it (the run's `[detection]` order: built-in
     ones, then `plugin`); scores[d] its statistic (NaN: not tested)."""
 
     FLAGGED, REFUSED, DETECTOR_SHIFT = 1, 2, 8
     REFUSED_BY_SHIFT = 2
-    REFUSED_BY_MASK = 0xF << REFUSED_BY_SHIFT
+    REFUSED_BY_MASK = 0x3F << REFUSED_BY_SHIFT
 
     _fields_ = [
         ("receiver", ctypes.c_uint32),

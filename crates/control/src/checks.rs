@@ -87,10 +87,14 @@ pub enum RefusedBy {
     /// old by the receiver's machine (a replay, a duplicate, one numbered below a message it
     /// took); the packet itself was taken.
     ManeuverSeq,
+    /// The seal of signed V2V (`[security]`, [`crate::security`]): the
+    /// `platoon_security::Refusal` of this code (1-11), named by its name in files
+    /// (`bad_signature`, ...). Checked before the packet checks.
+    Seal(u8),
 }
 
 impl RefusedBy {
-    /// Every reason, in the order of [`RefusedBy::code`] (1 first).
+    /// Every reason but the seal's, in the order of [`RefusedBy::code`] (1 first).
     pub const ALL: [RefusedBy; 9] = [
         Self::NonFinite,
         Self::UnknownSender,
@@ -103,9 +107,13 @@ impl RefusedBy {
         Self::ManeuverSeq,
     ];
 
-    /// Its name in files (`stale_seq`, ...).
+    /// Its name in files (`stale_seq`, ...; a seal's reason by its own name, `bad_signature`,
+    /// ...).
     pub fn name(self) -> &'static str {
         match self {
+            Self::Seal(code) => platoon_security::Refusal::ALL
+                .get(usize::from(code).wrapping_sub(1))
+                .map_or("seal", |r| r.name()),
             Self::NonFinite => "non_finite",
             Self::UnknownSender => "unknown_sender",
             Self::FutureStep => "future_step",
@@ -118,16 +126,26 @@ impl RefusedBy {
         }
     }
 
-    /// Its code on the wire (1 to 9; 0 is no refusal).
+    /// Its code on the wire (1 to 9; a seal's reason `r`: [`RefusedBy::SEAL_CODES`] + r, 10
+    /// to 20; 0 is no refusal).
     pub fn code(self) -> u8 {
+        if let Self::Seal(r) = self {
+            return Self::SEAL_CODES + r;
+        }
         Self::ALL
             .iter()
             .position(|&r| r == self)
             .map_or(0, |i| i as u8 + 1)
     }
 
+    /// Where the seal's reasons start on the wire: reason `r` (1-11) is code 9 + r.
+    pub const SEAL_CODES: u8 = 9;
+
     /// The reason of code `code` (`None` for 0 or a code it does not know).
     pub fn from_code(code: u8) -> Option<Self> {
+        if (Self::SEAL_CODES + 1..=Self::SEAL_CODES + 11).contains(&code) {
+            return Some(Self::Seal(code - Self::SEAL_CODES));
+        }
         usize::from(code)
             .checked_sub(1)
             .and_then(|i| Self::ALL.get(i).copied())
@@ -250,13 +268,34 @@ impl PacketChecks {
     /// the signature under `on_demand`); `true` without security. A refused packet is counted
     /// by its reason ([`PacketChecks::seals`]) and goes nowhere.
     pub fn authenticate(&mut self, k: u64, d: &Delivery) -> bool {
-        self.sealing.as_mut().is_none_or(|s| s.screen(k, d))
+        let outcome = self.sealing.as_mut().map(|s| s.screen(k, d));
+        self.sealed(k, d, outcome)
+    }
+
+    /// Whether a seal's check let delivery `d` through; a refusal goes to the dataset's
+    /// `refused_by` when the run measures detectors.
+    fn sealed(
+        &mut self,
+        k: u64,
+        d: &Delivery,
+        outcome: Option<Result<(), platoon_security::Refusal>>,
+    ) -> bool {
+        match outcome {
+            Some(Err(why)) => {
+                if let Some(s) = &mut self.screening {
+                    s.refusal(k, d.receiver, &d.packet, RefusedBy::Seal(why.code()));
+                }
+                false
+            }
+            _ => true,
+        }
     }
 
     /// The signature check of a delivery its receiver acts on, under `on_demand` (`true`
     /// otherwise: [`PacketChecks::authenticate`] made it).
     pub fn confirm(&mut self, k: u64, d: &Delivery) -> bool {
-        self.sealing.as_mut().is_none_or(|s| s.confirm(k, d))
+        let outcome = self.sealing.as_mut().map(|s| s.confirm(k, d));
+        self.sealed(k, d, outcome)
     }
 
     /// What the seals did so far (`[security]` only).

@@ -225,8 +225,8 @@ impl Sealing {
     }
 
     /// The first check of a delivery at step `k`, by the policy (`Every`: in full;
-    /// `OnDemand`: all but the signature). Refused: counted by reason, `false`.
-    pub fn screen(&mut self, k: u64, d: &Delivery) -> bool {
+    /// `OnDemand`: all but the signature). Refused: counted, and the reason.
+    pub fn screen(&mut self, k: u64, d: &Delivery) -> Result<(), Refusal> {
         let policy = match self.params.policy {
             SecurityPolicy::Every => Policy::Every,
             SecurityPolicy::OnDemand => Policy::OnDemand,
@@ -236,14 +236,14 @@ impl Sealing {
 
     /// The signature check of a delivery the receiver acts on, under `OnDemand` (under
     /// `Every`, [`Sealing::screen`] made it already: nothing to do).
-    pub fn confirm(&mut self, k: u64, d: &Delivery) -> bool {
+    pub fn confirm(&mut self, k: u64, d: &Delivery) -> Result<(), Refusal> {
         match self.params.policy {
-            SecurityPolicy::Every => true,
+            SecurityPolicy::Every => Ok(()),
             SecurityPolicy::OnDemand => self.check(k, d, Policy::Every),
         }
     }
 
-    fn check(&mut self, k: u64, d: &Delivery, policy: Policy) -> bool {
+    fn check(&mut self, k: u64, d: &Delivery, policy: Policy) -> Result<(), Refusal> {
         let now = self.now_ms(k);
         let outcome = match (&d.packet.seal, self.verifiers.get_mut(d.receiver.index())) {
             // A receiver outside the platoon's vehicles takes nothing.
@@ -259,7 +259,7 @@ impl Sealing {
                 if a.signature == platoon_security::SignatureCheck::Verified {
                     self.counts.verified += 1;
                 }
-                true
+                Ok(())
             }
             Err(why) => {
                 self.counts.refused[usize::from(why.code()) - 1] += 1;
@@ -271,7 +271,7 @@ impl Sealing {
                         s.request_certificate();
                     }
                 }
-                false
+                Err(why)
             }
         }
     }
@@ -293,6 +293,22 @@ mod tests {
         // Slower than the certificate period: every packet carries it.
         assert_eq!(p.mean_overhead_bytes(0.5), 219);
         assert_eq!(p.mean_overhead_bytes(1.0), 219);
+    }
+
+    #[test]
+    fn a_seals_refusal_has_its_reasons_name_and_a_wire_code_of_its_own() {
+        use crate::RefusedBy;
+        for r in Refusal::ALL {
+            let by = RefusedBy::Seal(r.code());
+            assert_eq!(by.name(), r.name());
+            assert_eq!(by.code(), 9 + r.code());
+            assert_eq!(RefusedBy::from_code(by.code()), Some(by));
+            assert!(by.by_checks() && by.refuses_packet());
+            assert!(RefusedBy::ALL.iter().all(|o| o.code() != by.code()));
+        }
+        assert_eq!(RefusedBy::from_code(21), None);
+        // Codes fit the wire's field (bits 2-7 of Inspection::flags).
+        assert!(RefusedBy::Seal(11).code() < 64);
     }
 
     #[test]
@@ -320,14 +336,17 @@ mod tests {
         let genuine = out[0];
         assert!(genuine.seal.is_some());
         s.begin_step();
-        assert!(s.screen(0, &delivery(2, genuine)));
+        assert!(s.screen(0, &delivery(2, genuine)).is_ok());
         // Altered on the way: the seal stays, the signature no longer holds.
         let mut altered = genuine;
         altered.state[2] = -6.0;
-        assert!(!s.screen(0, &delivery(2, altered)));
+        assert_eq!(
+            s.screen(0, &delivery(2, altered)),
+            Err(Refusal::BadSignature)
+        );
         // Forged from nothing: no seal.
         let forged = Packet::beacon(VehicleId(1), 2, 0, State::new(1.0, 2.0, 0.0));
-        assert!(!s.screen(0, &delivery(2, forged)));
+        assert_eq!(s.screen(0, &delivery(2, forged)), Err(Refusal::Truncated));
         // Signed by a key outside the PKI.
         let mut outsider = Sealing::new(
             SecurityParams {
@@ -339,7 +358,10 @@ mod tests {
         );
         let mut theirs = [forged];
         outsider.seal(0, &mut theirs);
-        assert!(!s.screen(0, &delivery(2, theirs[0])));
+        assert_eq!(
+            s.screen(0, &delivery(2, theirs[0])),
+            Err(Refusal::ForeignRoot)
+        );
         let c = s.counts();
         let by: std::collections::BTreeMap<_, _> = c.by_reason().collect();
         assert_eq!(
@@ -366,8 +388,8 @@ mod tests {
         let mut altered = out[0];
         altered.state[0] = 50.0;
         let d = delivery(2, altered);
-        assert!(s.screen(0, &d), "the signature waits");
-        assert!(!s.confirm(0, &d));
+        assert!(s.screen(0, &d).is_ok(), "the signature waits");
+        assert_eq!(s.confirm(0, &d), Err(Refusal::BadSignature));
         assert_eq!(s.counts().refused[6], 1, "bad_signature");
     }
 
@@ -390,7 +412,7 @@ mod tests {
             // Every step changes the pseudonym (100 ms): every packet carries its certificate.
             assert_eq!(len, platoon_security::CERTIFICATE_HEADER_LEN, "step {k}");
             s.begin_step();
-            assert!(s.screen(k, &delivery(1, out[0])), "step {k}");
+            assert!(s.screen(k, &delivery(1, out[0])).is_ok(), "step {k}");
         }
     }
 }

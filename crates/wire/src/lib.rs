@@ -408,12 +408,13 @@ pub struct Inspection {
     /// Its sequence number.
     pub seq: u32,
     /// Bit 0 ([`Inspection::FLAGGED`]): a detector flagged it; bit 1
-    /// ([`Inspection::REFUSED`]): the reaction refused it; bits 2-5
+    /// ([`Inspection::REFUSED`]): the reaction refused it; bits 2-7
     /// ([`Inspection::REFUSED_BY_SHIFT`], [`Inspection::REFUSED_BY_MASK`]): what refused it, a
     /// `platoon_control::RefusedBy` code (0: accepted, or not said; 1-6 the packet checks'
     /// reasons, in the order of `ControlMsg::counts`, for a packet no detector saw; 7 the
     /// reaction; 8 the leader's check of maneuver messages; 9 the receiver's maneuver machine
-    /// dropped the message the packet carried as old, after the step's other items); bit `8 + d`
+    /// dropped the message the packet carried as old, after the step's other items; 10-20 the
+    /// seal of a `[security]` run, `platoon_security::Refusal` code + 9); bit `8 + d`
     /// ([`Inspection::DETECTOR_SHIFT`]): detector d (the run's `[detection]` order: built-in
     /// ones, then `plugin`) flagged it.
     pub flags: u32,
@@ -435,9 +436,9 @@ impl Inspection {
     pub const DETECTOR_SHIFT: u32 = 8;
     /// The first of `flags`' bits that say what refused the packet.
     pub const REFUSED_BY_SHIFT: u32 = 2;
-    /// `flags`' bits that say what refused the packet (a code 0-15 at
-    /// [`Inspection::REFUSED_BY_SHIFT`]).
-    pub const REFUSED_BY_MASK: u32 = 0xF << Self::REFUSED_BY_SHIFT;
+    /// `flags`' bits that say what refused the packet (a code 0-63 at
+    /// [`Inspection::REFUSED_BY_SHIFT`]; bits 2-7 since v5, 2-5 before).
+    pub const REFUSED_BY_MASK: u32 = 0x3F << Self::REFUSED_BY_SHIFT;
 
     /// The code of what refused the packet (0: accepted, or not said).
     pub fn refused_by(&self) -> u8 {
