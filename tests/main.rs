@@ -26,5 +26,6 @@ mod merges;
 mod mixed;
 mod plexe_join;
 mod search;
+mod security;
 mod sumo;
 mod traffic;

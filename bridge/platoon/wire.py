@@ -21,8 +21,9 @@ import iceoryx2 as iox
 # the optional `inspections` service (Inspection; the same way); v3: V2vPacket gained `head`
 # (the head of the platoon the sender drives in, for a platoon split behind a cut-in) and
 # `reserved` (always 0); v4: V2vPacket carries a maneuver message (`maneuver` and its fields in
-# place of `reserved`; 80 bytes).
-CONTRACT_VERSION = 4
+# place of `reserved`; 80 bytes); v5: V2vPacket carries its sender's seal (`seal_len`, `seal`:
+# the security header of a `[security]` run, docs/security.md; 280 bytes).
+CONTRACT_VERSION = 5
 CONTRACT_VERSION_ENV = "PLATOON_CONTRACT_VERSION"
 CONTRACT_DOC = "docs/injector-contract.md"
 
@@ -105,7 +106,10 @@ class V2vPacket(Payload):
     maneuver message it may carry (`maneuver`: NO_MANEUVER or a kind below; its addressee,
     sequence number, the vehicle it names and, for an update that a vehicle joined, whom it
     follows, as wire ids; `maneuver_arg`: the middle flag, the refusal reason or the update's
-    generation). An injector passes these through, or forges them (docs/maneuvers.md)."""
+    generation). An injector passes these through, or forges them (docs/maneuvers.md).
+    `seal_len` and `seal`: the sender's seal in a `[security]` run (docs/security.md), opaque
+    bytes an injector forwards with the packet; an altered packet keeps a seal that no longer
+    verifies, an invented one has none (`seal_len` 0)."""
 
     _fields_ = [
         ("sender", ctypes.c_uint32),
@@ -121,7 +125,12 @@ class V2vPacket(Payload):
         ("maneuver_seq", ctypes.c_uint32),
         ("maneuver_vehicle", ctypes.c_uint32),
         ("maneuver_behind", ctypes.c_uint32),
+        ("seal_len", ctypes.c_uint32),
+        ("seal", ctypes.c_uint8 * 196),
     ]
+
+    # The size of `seal` (crates/wire V2vPacket::SEAL_CAPACITY).
+    SEAL_CAPACITY = 196
 
     # `maneuver` (crates/wire V2vPacket's constants).
     NO_MANEUVER = 0
@@ -207,13 +216,14 @@ class Inspection(Payload):
     reaction refused it), bits REFUSED_BY_SHIFT.. (REFUSED_BY_MASK) what refused it (0: accepted
     or not said; 1-6 the packet checks' reasons in the order of ControlMsg.counts, for a
     delivery no detector saw; 7 the reaction; 8 the leader's check of maneuver messages; 9 the
-    receiver's maneuver machine dropped the message as old, after the step's other items), and
+    receiver's maneuver machine dropped the message as old, after the step's other items; 10-20
+    the seal of a [security] run, its refusal code + 9; bits 2-7 since v5), and
     bit DETECTOR_SHIFT + d when detector d flagged it (the run's `[detection]` order: built-in
     ones, then `plugin`); scores[d] its statistic (NaN: not tested)."""
 
     FLAGGED, REFUSED, DETECTOR_SHIFT = 1, 2, 8
     REFUSED_BY_SHIFT = 2
-    REFUSED_BY_MASK = 0xF << REFUSED_BY_SHIFT
+    REFUSED_BY_MASK = 0x3F << REFUSED_BY_SHIFT
 
     _fields_ = [
         ("receiver", ctypes.c_uint32),
@@ -237,6 +247,8 @@ class ControlMsg(Payload):
         ("node", ctypes.c_uint32),
         ("step", ctypes.c_uint64),
         ("counts", ctypes.c_uint64 * 6),
+        # DONE from the controller in a [security] run: signed, verified, refusals by code 1-11.
+        ("seals", ctypes.c_uint64 * 13),
         ("reason", ctypes.c_uint8 * 120),
     ]
 

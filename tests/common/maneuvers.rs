@@ -30,6 +30,8 @@ pub struct Log {
     pub altered: usize,
     /// What the controllers refused over the run (`summary.json`'s `rejected_packets`).
     pub rejected: platoon_control::RejectCounts,
+    /// What the seals did (`[security]` runs; `summary.json`'s `security`).
+    pub seals: Option<platoon_control::SealCounts>,
 }
 
 impl Injector for Recording {
@@ -96,6 +98,7 @@ pub fn run_with(
     }
     let mut log = std::mem::take(&mut *log.lock().unwrap());
     log.rejected = sim.controller().rejected();
+    log.seals = sim.controller().seals();
     (rows, log)
 }
 

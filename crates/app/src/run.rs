@@ -220,6 +220,17 @@ pub fn run(
             "--controller needs --transport iceoryx2: an external controller is a process"
         )));
     }
+    if scenario.control.security.is_some() && opts.controller.is_some() {
+        // A controller plug-in neither signs nor verifies: refused, not run unsigned.
+        return Err(platoon_config::ConfigError::new(
+            &opts.config_file,
+            "security",
+            "a --controller plug-in neither signs nor verifies packets (the built-in \
+             controller does): remove --controller, or remove [security]"
+                .to_string(),
+        )
+        .into());
+    }
     let plugin = &scenario.control.detection.plugin;
     if !plugin.is_empty() && opts.controller.is_none() {
         // A config this run cannot measure: refused as every bad config is (exit 2).

@@ -326,6 +326,7 @@ fn a_callers_controller_runs_in_process_cells() {
             fallback: s.control.fallback.clone(),
             detection: Default::default(),
             maneuvers: None,
+            security: None,
         };
         Ok(Box::new(ComposedController::new(
             Box::new(Radar),

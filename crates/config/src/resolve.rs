@@ -27,6 +27,7 @@ mod plant;
 mod platoon;
 mod radio;
 mod safety;
+mod security;
 mod simulation;
 mod sumo;
 mod topology;
@@ -108,6 +109,7 @@ pub fn scenario_of(c: &Config) -> Result<Scenario, KeyError> {
         leader_broadcast_steps,
         detection: detection::detection(c.detection.as_ref(), dt)?,
         maneuvers: maneuvers::maneuvers(c.maneuvers.as_ref(), n, grid, cut_in_splits)?,
+        security: security::security(c.security.as_ref())?,
     };
     control::check_controller(&control, &topology)?;
 
@@ -118,7 +120,7 @@ pub fn scenario_of(c: &Config) -> Result<Scenario, KeyError> {
         .is_some_and(|m| m.merge.is_some() || m.split.is_some());
     let (link_attacks, channel_seed) = channel::channel(&c.channel, dt, n, regroups)?;
     let jammers = jammers::jammers(c, n, dt)?;
-    let radio = radio::radio(&c.channel, dt)?;
+    let radio = radio::radio(&c.channel, dt, control.security.as_ref())?;
     sumo::check(&c.sumo, dt)?;
     sumo::traffic_around(c)?;
     geometry::ahead(c, &layout, grid.duration)?;

@@ -86,6 +86,55 @@ pub struct Config {
     /// Misbehaviour detection in the followers' receive path (docs/detection.md): absent, off.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub detection: Option<DetectionConfig>,
+    /// `[security]`: signed V2V (docs/security.md): every vehicle signs its broadcasts with a
+    /// pseudonym of a simulated PKI, every receiver checks them before use. Absent: unsigned.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub security: Option<SecurityConfig>,
+}
+
+/// `[security]`: signed V2V, ECDSA P-256 with pseudonym certificates (IEEE 1609.2 / ETSI TS
+/// 103 097 in spirit; docs/security.md), on either transport (contract v5 carries the seal).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(default, deny_unknown_fields)]
+pub struct SecurityConfig {
+    /// Which received packets have their signature verified: `every` (the default) or
+    /// `on_demand` (only those a law or a maneuver acts on; the certificate, validity and
+    /// freshness checks on every packet).
+    pub policy: SecurityPolicyConfig,
+    /// The longest time between two packets of a vehicle that carry its full certificate
+    /// instead of its digest (s; the standards' 1), > 0.
+    pub certificate_period_s: f64,
+    /// Every vehicle changes its pseudonym every this many seconds (0: never), >= 0.
+    pub pseudonym_change_s: f64,
+    /// The largest difference between a packet's generation time and its receiver's time it
+    /// accepts (s; 1), > 0: older is refused as `stale` (a replay).
+    pub freshness_s: f64,
+    /// The seed of the PKI's and pseudonyms' keys (signatures are deterministic: the run is
+    /// the same bit for bit at the same seed).
+    pub seed: u64,
+}
+
+impl Default for SecurityConfig {
+    fn default() -> Self {
+        Self {
+            policy: SecurityPolicyConfig::Every,
+            certificate_period_s: 1.0,
+            pseudonym_change_s: 0.0,
+            freshness_s: 1.0,
+            seed: 0,
+        }
+    }
+}
+
+/// `[security] policy`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum SecurityPolicyConfig {
+    /// Verify every packet received.
+    #[default]
+    Every,
+    /// Verify the signature of a packet only when a law or a maneuver acts on it.
+    OnDemand,
 }
 
 /// `[output]`: the per-step files (trajectories, events, channel log, wire log).

@@ -564,3 +564,81 @@ fn vehicle_classes_are_checked_with_the_key_and_line_named() {
         "keeps one vehicle length",
     );
 }
+
+/// `[security]`: absent, no security; present, the controllers sign and verify with its
+/// settings; bad values name their key.
+#[test]
+fn security_resolves_and_bad_values_name_their_key() {
+    let with = |keys: &str| {
+        let text = format!("{}\n[security]\n{keys}", platoon_config::PAPER_TOML);
+        parse(&text, Path::new("bad.toml")).map(|(_, s)| s)
+    };
+    let (_, plain) = parse(platoon_config::PAPER_TOML, Path::new("paper.toml")).unwrap();
+    assert_eq!(plain.control.security, None);
+    let s = with("").unwrap().control.security.unwrap();
+    assert_eq!(s, platoon_control::SecurityParams::default());
+    assert_eq!(
+        (
+            s.certificate_period_ms,
+            s.freshness_ms,
+            s.pseudonym_change_ms
+        ),
+        (1000, 1000, 0)
+    );
+    let s = with("policy = \"on_demand\"\npseudonym_change_s = 60.0\nseed = 7\n")
+        .unwrap()
+        .control
+        .security
+        .unwrap();
+    assert_eq!(s.policy, platoon_control::SecurityPolicy::OnDemand);
+    assert_eq!((s.pseudonym_change_ms, s.seed), (60_000, 7));
+    assert_error(
+        with("certificate_period_s = 0.0\n").map(|_| ()),
+        "security.certificate_period_s",
+        "",
+    );
+    assert_error(
+        with("pseudonym_change_s = -1.0\n").map(|_| ()),
+        "security.pseudonym_change_s",
+        ">= 0",
+    );
+    assert_error(
+        with("freshness_s = 0.0005\n").map(|_| ()),
+        "security.freshness_s",
+        "milliseconds",
+    );
+    assert!(with("policy = \"sometimes\"\n").is_err());
+    assert!(with("bogus = 1\n").is_err());
+}
+
+/// `[security]` on the 802.11p channel: the model's packets carry what signing adds on the
+/// air (the standards' overhead, the certificate on its share of packets); without it, as
+/// configured. A packet that signing would push past 802.11's largest names its key.
+#[test]
+fn security_enlarges_the_radio_models_packets() {
+    let text = std::fs::read_to_string(configs_dir().join("density.toml")).unwrap();
+    let size = |text: &str| {
+        let (_, s) = parse(text, Path::new("bad.toml")).unwrap();
+        let radio = s.radio.unwrap();
+        (radio.family.params().packet_bytes, s.control.security)
+    };
+    let (plain, none) = size(&text);
+    assert_eq!((plain, none), (190, None));
+    let (signed, security) = size(&format!("{text}\n[security]\n"));
+    let beacon_hz = {
+        let (_, s) = parse(&text, Path::new("bad.toml")).unwrap();
+        s.radio.unwrap().family.params().beacon_hz
+    };
+    let overhead = security.unwrap().mean_overhead_bytes(beacon_hz);
+    assert_eq!(signed, 190 + overhead);
+    assert!((94..=219).contains(&overhead), "{overhead}");
+    // The config ends in [channel.radio].
+    assert!(text.trim_end().ends_with("beacon_hz = 10.0"));
+    let big = format!("{text}packet_bytes = 2300\n");
+    assert_eq!(size(&big).0, 2300);
+    assert_error(
+        parse(&format!("{big}\n[security]\n"), Path::new("bad.toml")).map(|_| ()),
+        "channel.radio.packet_bytes",
+        "2304",
+    );
+}

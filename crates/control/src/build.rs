@@ -49,6 +49,7 @@ pub fn build_with(
         fallback: params.fallback.clone(),
         detection: params.detection.clone(),
         maneuvers: params.maneuvers.clone(),
+        security: params.security,
     };
     Ok(Box::new(crate::ComposedController::with_detectors(
         law, parts, topology, initial, detectors,

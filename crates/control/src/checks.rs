@@ -87,10 +87,14 @@ pub enum RefusedBy {
     /// old by the receiver's machine (a replay, a duplicate, one numbered below a message it
     /// took); the packet itself was taken.
     ManeuverSeq,
+    /// The seal of signed V2V (`[security]`, [`crate::security`]): the
+    /// `platoon_security::Refusal` of this code (1-11), named by its name in files
+    /// (`bad_signature`, ...). Checked before the packet checks.
+    Seal(u8),
 }
 
 impl RefusedBy {
-    /// Every reason, in the order of [`RefusedBy::code`] (1 first).
+    /// Every reason but the seal's, in the order of [`RefusedBy::code`] (1 first).
     pub const ALL: [RefusedBy; 9] = [
         Self::NonFinite,
         Self::UnknownSender,
@@ -103,9 +107,13 @@ impl RefusedBy {
         Self::ManeuverSeq,
     ];
 
-    /// Its name in files (`stale_seq`, ...).
+    /// Its name in files (`stale_seq`, ...; a seal's reason by its own name, `bad_signature`,
+    /// ...).
     pub fn name(self) -> &'static str {
         match self {
+            Self::Seal(code) => platoon_security::Refusal::ALL
+                .get(usize::from(code).wrapping_sub(1))
+                .map_or("seal", |r| r.name()),
             Self::NonFinite => "non_finite",
             Self::UnknownSender => "unknown_sender",
             Self::FutureStep => "future_step",
@@ -118,16 +126,26 @@ impl RefusedBy {
         }
     }
 
-    /// Its code on the wire (1 to 9; 0 is no refusal).
+    /// Its code on the wire (1 to 9; a seal's reason `r`: [`RefusedBy::SEAL_CODES`] + r, 10
+    /// to 20; 0 is no refusal).
     pub fn code(self) -> u8 {
+        if let Self::Seal(r) = self {
+            return Self::SEAL_CODES + r;
+        }
         Self::ALL
             .iter()
             .position(|&r| r == self)
             .map_or(0, |i| i as u8 + 1)
     }
 
+    /// Where the seal's reasons start on the wire: reason `r` (1-11) is code 9 + r.
+    pub const SEAL_CODES: u8 = 9;
+
     /// The reason of code `code` (`None` for 0 or a code it does not know).
     pub fn from_code(code: u8) -> Option<Self> {
+        if (Self::SEAL_CODES + 1..=Self::SEAL_CODES + 11).contains(&code) {
+            return Some(Self::Seal(code - Self::SEAL_CODES));
+        }
         usize::from(code)
             .checked_sub(1)
             .and_then(|i| Self::ALL.get(i).copied())
@@ -189,6 +207,8 @@ pub struct PacketChecks {
     dt: f64,
     /// Misbehaviour detection after the checks (`[detection]`), if on.
     screening: Option<crate::screening::Screening>,
+    /// Signed V2V (`[security]`), if on: the seals' checks before the others.
+    sealing: Option<Box<crate::security::Sealing>>,
 }
 
 impl PacketChecks {
@@ -219,7 +239,73 @@ impl PacketChecks {
             rejected: RejectCounts::default(),
             dt,
             screening: None,
+            sealing: None,
         }
+    }
+
+    /// These checks with signed V2V (`[security]`; none: unchanged) for `vehicles` vehicles,
+    /// the leader included: [`PacketChecks::seal`] signs what they send, every delivery's seal
+    /// is checked before the other checks ([`crate::security`]).
+    pub fn with_security(
+        mut self,
+        security: Option<crate::SecurityParams>,
+        vehicles: usize,
+    ) -> Self {
+        self.sealing =
+            security.map(|p| Box::new(crate::security::Sealing::new(p, vehicles, self.dt)));
+        self
+    }
+
+    /// Signs `packets` sent at step `k` with their senders' pseudonyms (`[security]`; nothing
+    /// without it).
+    pub fn seal(&mut self, k: u64, packets: &mut [Packet]) {
+        if let Some(s) = &mut self.sealing {
+            s.seal(k, packets);
+        }
+    }
+
+    /// The seal's first check of delivery `d` at step `k` (`[security]`: in full, or all but
+    /// the signature under `on_demand`); `true` without security. A refused packet is counted
+    /// by its reason ([`PacketChecks::seals`]) and goes nowhere.
+    pub fn authenticate(&mut self, k: u64, d: &Delivery) -> bool {
+        let outcome = self.sealing.as_mut().map(|s| s.screen(k, d));
+        self.sealed(k, d, outcome)
+    }
+
+    /// Whether a seal's check let delivery `d` through; a refusal goes to the dataset's
+    /// `refused_by` when the run measures detectors.
+    fn sealed(
+        &mut self,
+        k: u64,
+        d: &Delivery,
+        outcome: Option<Result<(), platoon_security::Refusal>>,
+    ) -> bool {
+        match outcome {
+            Some(Err(why)) => {
+                if let Some(s) = &mut self.screening {
+                    s.refusal(k, d.receiver, &d.packet, RefusedBy::Seal(why.code()));
+                }
+                false
+            }
+            _ => true,
+        }
+    }
+
+    /// The signature check of a delivery its receiver acts on, under `on_demand` (`true`
+    /// otherwise: [`PacketChecks::authenticate`] made it).
+    pub fn confirm(&mut self, k: u64, d: &Delivery) -> bool {
+        let outcome = self.sealing.as_mut().map(|s| s.confirm(k, d));
+        self.sealed(k, d, outcome)
+    }
+
+    /// What the seals did so far (`[security]` only).
+    pub fn seals(&self) -> Option<crate::security::SealCounts> {
+        self.sealing.as_ref().map(|s| s.counts())
+    }
+
+    /// The signed V2V settings (`[security]` only).
+    pub fn security(&self) -> Option<&crate::SecurityParams> {
+        self.sealing.as_ref().map(|s| s.params())
     }
 
     /// These checks with every follower also hearing every member ahead of it that is not its
@@ -320,6 +406,9 @@ impl PacketChecks {
         if let Some(s) = &mut self.screening {
             s.begin_step();
         }
+        if let Some(s) = &mut self.sealing {
+            s.begin_step();
+        }
     }
 
     /// [`PacketChecks::admit`], then, for a packet that passed, the detectors with what the
@@ -402,6 +491,10 @@ impl PacketChecks {
             if let Some(s) = &mut self.screening {
                 s.refusal(k, d.receiver, &d.packet, why);
             }
+        }
+        // A packet the receiver will act on: its signature now, under `on_demand`.
+        if checked.is_ok() && !self.confirm(k, d) {
+            return None;
         }
         checked.ok()
     }

@@ -100,7 +100,8 @@ impl ComposedController {
                 parts.fallback.cut_in.is_some_and(|c| c.split),
                 parts.maneuvers.is_some(),
             ),
-        )?;
+        )?
+        .with_security(parts.security, n + 1);
         let laws = followers
             .iter()
             .map(|f| {
@@ -160,6 +161,7 @@ fn validate(parts: &Composition, n: usize, initial: &[State]) -> Result<(), crat
 
 impl Controller for ComposedController {
     fn transmit(&mut self, k: u64, states: &[State], out: &mut Vec<Packet>) {
+        let start = out.len();
         let every = self.parts.leader_broadcast_steps;
         let leader_message = self
             .maneuvers
@@ -206,9 +208,12 @@ impl Controller for ComposedController {
                         f.targets.head
                     },
                     maneuver,
+                    seal: None,
                 });
             }
         }
+        // Every packet of the step signed by its sender (`[security]`).
+        self.checks.seal(k, &mut out[start..]);
     }
 
     fn set_radar_truth(&mut self, truth: &[Option<RadarTruth>]) {
@@ -230,6 +235,13 @@ impl Controller for ComposedController {
             man.begin_step();
         }
         for (j, d) in rx.iter().enumerate() {
+            // The seal first (`[security]`): a refused packet goes nowhere. The leader acts on
+            // every packet it hears (its maneuver machine, its checks of maneuver messages).
+            if !self.checks.authenticate(k, d)
+                || (d.receiver.is_leader() && !self.checks.confirm(k, d))
+            {
+                continue;
+            }
             match self.maneuvers.as_mut() {
                 // Only maneuvers reach the leader: its machine reads their messages.
                 Some(man) if d.receiver.is_leader() => {

@@ -39,6 +39,7 @@ mod radar;
 mod room;
 pub mod screening;
 pub mod seam;
+pub mod security;
 mod spacing;
 mod trigger;
 
@@ -51,6 +52,7 @@ pub use maneuvers::{JoinSpec, LeaveSpec, ManeuverParams, MergeSpec, SplitSpec};
 pub use paper::PaperLaw;
 pub use screening::{DetectionParams, Inspection, Reaction};
 pub use seam::{Controller, FollowerStep};
+pub use security::{SealCounts, SecurityParams, SecurityPolicy};
 pub use spacing::SpacingPolicy;
 pub use trigger::{CamRule, ControllerParams, ParamsError, TriggerRule};
 

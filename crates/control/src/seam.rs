@@ -85,6 +85,12 @@ pub trait Controller: std::fmt::Debug + Send + dyn_clone::DynClone {
             .unwrap_or_default()
     }
 
+    /// What the seals of signed V2V did so far (`[security]` only): packets signed,
+    /// signatures verified, refusals by reason.
+    fn seals(&self) -> Option<crate::SealCounts> {
+        self.checks().and_then(PacketChecks::seals)
+    }
+
     /// What the misbehaviour detectors said of each packet of the last
     /// [`receive`](Self::receive) (`[detection]`; empty without detectors).
     fn inspections(&self) -> &[crate::Inspection] {

@@ -82,6 +82,8 @@ pub struct ControllerParams {
     pub detection: crate::DetectionParams,
     /// The platoon's maneuvers (`[maneuvers]`; none by default).
     pub maneuvers: Option<crate::ManeuverParams>,
+    /// Signed V2V (`[security]`; none by default).
+    pub security: Option<crate::SecurityParams>,
 }
 
 /// Why controller parameters were rejected; the field names match the config keys.

@@ -160,6 +160,7 @@ impl Controller for PaperLaw {
                 u: self.leader_last_u,
                 head: VehicleId::LEADER,
                 maneuver: None,
+                seal: None,
             });
         }
         // Packets carry the sender's command of the step before (for the leader, the
@@ -201,6 +202,7 @@ impl Controller for PaperLaw {
                     u: f.last_u,
                     head: VehicleId::LEADER,
                     maneuver: None,
+                    seal: None,
                 });
             }
         }

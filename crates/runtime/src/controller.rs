@@ -211,6 +211,12 @@ fn done_message(controllers: &[Box<dyn Controller>], k: u64) -> ControlMsg {
         for (sum, x) in done.counts.iter_mut().zip(r.as_array()) {
             *sum += x;
         }
+        if let Some(s) = c.seals() {
+            let all = [s.signed, s.verified].into_iter().chain(s.refused);
+            for (sum, x) in done.seals.iter_mut().zip(all) {
+                *sum += x;
+            }
+        }
     }
     done
 }

@@ -104,6 +104,8 @@ pub struct Options {
 pub struct Outcome {
     /// Packets the controllers refused.
     pub rejected: RejectCounts,
+    /// What the controllers' seals did (`[security]` runs; 0 otherwise).
+    pub seals: platoon_control::SealCounts,
     /// Where the time of a step went.
     pub timing: Timing,
     /// Samples that repeated a step, per service.
@@ -280,6 +282,7 @@ pub fn orchestrate(
             radio: done.radio,
             detection: run.measure.as_ref().and_then(Measure::summary),
             rejected: done.rejected.unwrap_or_default(),
+            seals: done.seals,
             timing: clock.report(),
             duplicates: inlets.duplicates(),
             peak_rss_kib: Vec::new(),
@@ -554,6 +557,8 @@ struct Done {
     channel_node: Option<Node>,
     /// The controller's reject counts.
     rejected: Option<RejectCounts>,
+    /// What its seals did.
+    seals: platoon_control::SealCounts,
     /// The channel's radio measurements.
     radio: Option<platoon_attacks::channel::RadioStats>,
 }
@@ -584,6 +589,7 @@ impl Done {
             done,
             channel_node,
             rejected: None,
+            seals: Default::default(),
             radio: None,
         }
     }
@@ -595,6 +601,12 @@ impl Done {
         }
         if m.node == Node::Controller as u32 {
             self.rejected = Some(RejectCounts::from_array(m.counts));
+            let [signed, verified, refused @ ..] = m.seals;
+            self.seals = platoon_control::SealCounts {
+                signed,
+                verified,
+                refused,
+            };
         }
         if scenario.radio.is_some() && self.channel_node.is_some_and(|n| m.node == n as u32) {
             // Every vehicle of every platoon measures at every step.

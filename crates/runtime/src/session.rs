@@ -400,8 +400,28 @@ pub fn packet_to_wire(p: &Packet, stamp_ns: u64, j: usize, num: Numbering) -> V2
         } else {
             num.global(j, p.head)
         },
-        ..maneuver_to_wire(p.maneuver.as_ref(), j, num)
+        ..seal_to_wire(
+            p.seal.as_ref(),
+            maneuver_to_wire(p.maneuver.as_ref(), j, num),
+        )
     }
+}
+
+/// `packet` with `seal` in its seal fields (none: left 0).
+fn seal_to_wire(seal: Option<&platoon_v2v::Seal>, mut packet: V2vPacket) -> V2vPacket {
+    if let Some(s) = seal {
+        let bytes = s.as_bytes();
+        packet.seal_len = bytes.len() as u32;
+        packet.seal[..bytes.len()].copy_from_slice(bytes);
+    }
+    packet
+}
+
+/// The seal a wire packet carries: none when `seal_len` is 0; a length beyond the buffer is
+/// cut to it (the receiver's verification then refuses the seal, never a panic).
+fn seal_from_wire(p: &V2vPacket) -> Option<platoon_v2v::Seal> {
+    let len = (p.seal_len as usize).min(V2vPacket::SEAL_CAPACITY);
+    (p.seal_len > 0).then(|| platoon_v2v::Seal::new(&p.seal[..len]))?
 }
 
 /// A maneuver message of platoon `j` as the maneuver fields of a [`V2vPacket`] (the others 0);
@@ -583,6 +603,7 @@ pub fn packet_from_wire(p: &V2vPacket, j: usize, num: Numbering) -> Packet {
         u: p.u,
         head: local(p.head),
         maneuver: maneuver_from_wire(p, sender, j, num),
+        seal: seal_from_wire(p),
     }
 }
 
@@ -658,6 +679,8 @@ mod tests {
                     u: 0.5,
                     head: v(0),
                     maneuver: Some(m),
+                    // A seal of `[security]` (its bytes opaque here) crosses as it is.
+                    seal: platoon_v2v::Seal::new(&[i as u8 + 1; 82]),
                 };
                 let wire = packet_to_wire(&packet, 0, j, num);
                 assert_eq!(packet_from_wire(&wire, j, num), packet, "{body:?}");

@@ -27,7 +27,7 @@ pub use scenario::{Fleet, Scenario, ScenarioError, Vehicle};
 pub use summary::{
     Collision, ErrorStats, FleetOverview, FormationRecord, FormationStability, LaneChangeRecord,
     LinkOutage, ManeuverRecord, ManeuversSummary, PlatoonBrief, Safety, SafetyClass,
-    SafetyThresholds, Summary, VehicleSummary, VehicleWire, WireSummary,
+    SafetyThresholds, SecuritySummary, Summary, VehicleSummary, VehicleWire, WireSummary,
 };
 pub use tally::WireCounts;
 
@@ -929,6 +929,17 @@ impl FleetSimulation {
         }
         platoon_control::RejectCounts::from_array(sum)
     }
+
+    /// What the seals of signed V2V did over every platoon (`[security]` only).
+    pub fn security(&self) -> Option<SecuritySummary> {
+        let policy = (self.sims.iter())
+            .find_map(|s| s.controller().checks()?.security())?
+            .policy;
+        let counts = (self.sims.iter())
+            .filter_map(|s| s.controller().seals())
+            .fold(platoon_control::SealCounts::default(), |a, b| a.plus(&b));
+        Some(SecuritySummary::of(policy, &counts))
+    }
 }
 
 /// Runs a whole scenario in process (every platoon of its fleet), calling `each` with the
@@ -987,5 +998,6 @@ pub fn run_until_plugins(
     let mut summary = metrics.finish(sim.rejected());
     summary.channel = sim.radio_stats();
     summary.detection = sim.platoons()[0].detection();
+    summary.security = sim.security();
     Ok(summary)
 }

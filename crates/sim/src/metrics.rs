@@ -478,6 +478,7 @@ impl MetricsAccumulator {
             detection: None,
             maneuvers: self.maneuvers.as_ref().map(|t| t.finish()),
             cut_ins: self.cut_ins.clone(),
+            security: None,
             vehicles,
         }
     }

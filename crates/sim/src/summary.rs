@@ -336,6 +336,46 @@ pub struct Summary {
     /// and when last; absent in runs without cut-ins.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub cut_ins: Vec<CutInRecord>,
+    /// Signed V2V (`[security]` only; over the fleet): packets signed, signatures verified,
+    /// deliveries refused by reason.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub security: Option<SecuritySummary>,
+}
+
+/// `summary.json`'s `security` (`[security]` runs; docs/security.md).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct SecuritySummary {
+    /// `every` or `on_demand`.
+    pub policy: String,
+    /// Packets signed (one per broadcast).
+    pub signed: u64,
+    /// Deliveries whose signature was checked and held (shared by the receivers of one
+    /// broadcast through a memo: at most one ECDSA verification per packet).
+    pub verified: u64,
+    /// Deliveries refused, by reason (`platoon_security::Refusal::name`: `bad_signature`,
+    /// `truncated` for a packet without a seal, ...; every reason listed).
+    pub refused: BTreeMap<String, u64>,
+    /// Deliveries refused in all.
+    pub refused_total: u64,
+}
+
+impl SecuritySummary {
+    /// The summary of `counts` under `policy`.
+    pub fn of(
+        policy: platoon_control::SecurityPolicy,
+        counts: &platoon_control::SealCounts,
+    ) -> Self {
+        Self {
+            policy: policy.name().to_string(),
+            signed: counts.signed,
+            verified: counts.verified,
+            refused: counts
+                .by_reason()
+                .map(|(name, n)| (name.to_string(), n))
+                .collect(),
+            refused_total: counts.refused_total(),
+        }
+    }
 }
 
 /// One scripted cut-in (`summary.json`'s `cut_ins`), measured by the members' radars (the

@@ -7,6 +7,7 @@
 #![warn(missing_docs)]
 
 pub use platoon_maneuver::Message;
+use platoon_maneuver::{Body, Change, Refusal};
 use platoon_model::{State, VehicleId};
 
 /// A V2V broadcast: the sender's sampled state at a step.
@@ -34,6 +35,46 @@ pub struct Packet {
     /// send broadcasts at that step, one message a packet, so the channel, its losses and
     /// every attack act on maneuvers as on beacons.
     pub maneuver: Option<Message>,
+    /// Its sender's seal (`[security]`, docs/security.md): the encoded security header of
+    /// `platoon-security` over [`Packet::signed_bytes`], or `None` in a run without security
+    /// (and on a packet forged from nothing). An attack that alters a packet's fields keeps
+    /// the seal it had, which then fails verification.
+    pub seal: Option<Seal>,
+}
+
+/// The bytes of a security header riding on a [`Packet`]: a fixed buffer and its length, so
+/// that a packet stays `Copy`. Opaque here; `platoon-security` encodes and checks them.
+#[derive(Clone, Copy, PartialEq, Eq)]
+pub struct Seal {
+    len: u8,
+    bytes: [u8; Seal::CAPACITY],
+}
+
+impl Seal {
+    /// The longest seal (bytes): a header that carries its signer's certificate
+    /// (`platoon_security::CERTIFICATE_HEADER_LEN`, checked where the two meet).
+    pub const CAPACITY: usize = 196;
+
+    /// A seal of `bytes` (`None` if longer than [`Seal::CAPACITY`]).
+    pub fn new(bytes: &[u8]) -> Option<Self> {
+        let mut out = [0; Self::CAPACITY];
+        out.get_mut(..bytes.len())?.copy_from_slice(bytes);
+        Some(Self {
+            len: bytes.len() as u8,
+            bytes: out,
+        })
+    }
+
+    /// Its bytes.
+    pub fn as_bytes(&self) -> &[u8] {
+        &self.bytes[..usize::from(self.len)]
+    }
+}
+
+impl std::fmt::Debug for Seal {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "Seal({} bytes)", self.len)
+    }
 }
 
 impl Packet {
@@ -48,13 +89,91 @@ impl Packet {
             u: 0.0,
             head: VehicleId::LEADER,
             maneuver: None,
+            seal: None,
         }
     }
+
+    /// The canonical bytes of what the packet says, every field but the seal: what its
+    /// sender signs (`[security]`). Big-endian, fixed layout: sender (2), seq (4), step (8),
+    /// the state's three and `u` as IEEE 754 bits (4 x 8), head (2), then the maneuver
+    /// message: a kind byte (0 for none, else [`platoon_maneuver::MessageKind`]'s place + 1),
+    /// its sender, recipient and sequence number (2 each) and four arguments (2 each; 0 where
+    /// the kind has fewer). 63 bytes with or without a message.
+    pub fn signed_bytes(&self) -> [u8; Self::SIGNED_LEN] {
+        let mut out = [0u8; Self::SIGNED_LEN];
+        let mut at = 0;
+        let mut put = |bytes: &[u8]| {
+            out[at..at + bytes.len()].copy_from_slice(bytes);
+            at += bytes.len();
+        };
+        put(&self.sender.0.to_be_bytes());
+        put(&self.seq.to_be_bytes());
+        put(&self.step.to_be_bytes());
+        for x in [self.state[0], self.state[1], self.state[2], self.u] {
+            put(&x.to_bits().to_be_bytes());
+        }
+        put(&self.head.0.to_be_bytes());
+        let (kind, m) = match &self.maneuver {
+            None => (0, [0u16; 7]),
+            Some(m) => {
+                let (kind, args) = body_fields(&m.body);
+                (
+                    kind,
+                    [
+                        m.sender.0, m.to.0, m.seq, args[0], args[1], args[2], args[3],
+                    ],
+                )
+            }
+        };
+        put(&[kind]);
+        for x in m {
+            put(&x.to_be_bytes());
+        }
+        out
+    }
+
+    /// The size of [`Packet::signed_bytes`].
+    pub const SIGNED_LEN: usize = 2 + 4 + 8 + 4 * 8 + 2 + 1 + 7 * 2;
 
     /// Whether the sender heads a split platoon (it announces itself as its head).
     pub fn heads(&self) -> bool {
         self.head == self.sender && !self.sender.is_leader()
     }
+}
+
+/// A maneuver body's kind byte and up to four arguments, for [`Packet::signed_bytes`].
+fn body_fields(b: &Body) -> (u8, [u16; 4]) {
+    let kind = platoon_maneuver::MessageKind::ALL
+        .iter()
+        .position(|&k| k == b.kind())
+        .map_or(0, |i| i as u8 + 1);
+    let args = match *b {
+        Body::JoinRequest { behind } => [behind.0, 0, 0, 0],
+        Body::JoinAccept { behind, middle } => [behind.0, u16::from(middle), 0, 0],
+        Body::JoinRefuse { reason } => [
+            match reason {
+                Refusal::Busy => 1,
+                Refusal::Full => 2,
+                Refusal::NoSlot => 3,
+                Refusal::Member => 4,
+            },
+            0,
+            0,
+            0,
+        ],
+        Body::OpenGap { joiner } | Body::GapReady { joiner } | Body::Abort { joiner } => {
+            [joiner.0, 0, 0, 0]
+        }
+        Body::MoveIn | Body::InPosition | Body::LeaveNotice | Body::SplitNotice => [0; 4],
+        Body::Update { generation, change } => match change {
+            Change::Joined { vehicle, behind } => [generation, 1, vehicle.0, behind.0],
+            Change::Left { vehicle } => [generation, 2, vehicle.0, 0],
+            Change::Merged { head, tail } => [generation, 3, head.0, tail.0],
+            Change::Split { head } => [generation, 4, head.0, 0],
+        },
+        Body::MergeRequest { behind, tail } => [behind.0, tail.0, 0, 0],
+    };
+    (kind, args)
 }
 
 /// A packet as it reached one receiver.

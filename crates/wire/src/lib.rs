@@ -11,7 +11,7 @@
 use iceoryx2::prelude::ZeroCopySend;
 
 /// The version of this contract (payload layouts and their meaning). Every payload's type name
-/// carries it (`platoon::v4::LinkPacket`), so iceoryx2 refuses to connect a process built for
+/// carries it (`platoon::v5::LinkPacket`), so iceoryx2 refuses to connect a process built for
 /// another version, and `platoon run` tells every process it starts which version the run
 /// speaks ([`CONTRACT_VERSION_ENV`]); the SDKs compare it with their own before opening anything
 /// ([`check_contract_version`]). Raise it with any change of a payload's layout or meaning, and
@@ -38,7 +38,10 @@ use iceoryx2::prelude::ZeroCopySend;
 ///   keeping the packet's beacon). Later, still v4: [`VehicleState::flags`] bit 3
 ///   ([`VehicleState::BESIDE`]) says the vehicle drives in the lane beside the platoon's, as
 ///   the plant has it (a bit that was 0, and every reader tests bits).
-pub const CONTRACT_VERSION: u32 = 4;
+/// - v5: [`V2vPacket`] carries its sender's seal (`seal_len` and `seal`: the encoded security
+///   header of a `[security]` run, docs/security.md; 280 bytes, was 80), and the controller's
+///   [`ControlMsg::seals`] count what the seals did (288 bytes, was 184).
+pub const CONTRACT_VERSION: u32 = 5;
 
 /// The environment variable in which `platoon run` gives every process it starts the contract
 /// version of the run ([`CONTRACT_VERSION`]).
@@ -68,7 +71,7 @@ pub fn check_contract_version(run: Option<&str>) -> Result<(), String> {
 
 /// The user header of every step sample: which step it belongs to, and how many items it holds.
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
-#[type_name("platoon::v4::StepHeader")]
+#[type_name("platoon::v5::StepHeader")]
 #[repr(C)]
 pub struct StepHeader {
     /// Step index k.
@@ -99,7 +102,7 @@ impl StepHeader {
 
 /// A vehicle's true state at a step (plant -> controller, injector, orchestrator).
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
-#[type_name("platoon::v4::VehicleState")]
+#[type_name("platoon::v5::VehicleState")]
 #[repr(C)]
 pub struct VehicleState {
     /// Vehicle id (0 = leader).
@@ -151,8 +154,8 @@ impl VehicleState {
 }
 
 /// A V2V broadcast (controller -> injector, and inside [`LinkPacket`]).
-#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
-#[type_name("platoon::v4::V2vPacket")]
+#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
+#[type_name("platoon::v5::V2vPacket")]
 #[repr(C)]
 pub struct V2vPacket {
     /// Sender id (0 = leader).
@@ -189,9 +192,41 @@ pub struct V2vPacket {
     /// An update that says a vehicle joined: the member it follows; a merge request or update:
     /// the rear platoon's last vehicle ([`V2vPacket::NOBODY`] otherwise).
     pub maneuver_behind: u32,
+    /// How many bytes of `seal` the seal holds (0: none, a run without `[security]`, or a
+    /// packet an injector invented).
+    pub seal_len: u32,
+    /// The sender's seal (`platoon_v2v::Seal`): the encoded security header of a
+    /// `[security]` run over the packet's other fields (docs/security.md), in its first
+    /// `seal_len` bytes; the rest 0. An injector that alters a packet and forwards its seal
+    /// makes it fail verification, as an outsider's would.
+    pub seal: [u8; V2vPacket::SEAL_CAPACITY],
+}
+
+impl Default for V2vPacket {
+    fn default() -> Self {
+        Self {
+            sender: 0,
+            seq: 0,
+            step: 0,
+            stamp_ns: 0,
+            state: [0.0; 3],
+            u: 0.0,
+            head: 0,
+            maneuver: 0,
+            maneuver_arg: 0,
+            maneuver_to: 0,
+            maneuver_seq: 0,
+            maneuver_vehicle: 0,
+            maneuver_behind: 0,
+            seal_len: 0,
+            seal: [0; V2vPacket::SEAL_CAPACITY],
+        }
+    }
 }
 
 impl V2vPacket {
+    /// The size of `seal` (bytes): the longest security header (`platoon_v2v::Seal::CAPACITY`).
+    pub const SEAL_CAPACITY: usize = 196;
     /// `maneuver`: the packet carries none.
     pub const NO_MANEUVER: u16 = 0;
     /// A vehicle outside the platoon asks the leader to join behind `maneuver_vehicle`.
@@ -246,7 +281,7 @@ impl V2vPacket {
 /// injector: one per out-neighbour of each broadcast) and of the rx batch (injector ->
 /// controller: what each receiver gets, plus `JAMMED` notices).
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
-#[type_name("platoon::v4::LinkPacket")]
+#[type_name("platoon::v5::LinkPacket")]
 #[repr(C)]
 pub struct LinkPacket {
     /// The receiving vehicle (for `JAMMED`: the vehicle that sensed jamming).
@@ -266,7 +301,7 @@ impl LinkPacket {
 
 /// A follower's command and what its controller did (controller -> plant, orchestrator).
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
-#[type_name("platoon::v4::Command")]
+#[type_name("platoon::v5::Command")]
 #[repr(C)]
 pub struct Command {
     /// Follower id (>= 1).
@@ -330,7 +365,7 @@ impl Command {
 /// [`Service::Traffic`]): SUMO's `bg<index>`, which drives on the lanes no platoon uses and
 /// loads the V2V channel. Only the SUMO plant with `[sumo] background_vehicles` publishes it.
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
-#[type_name("platoon::v4::TrafficVehicle")]
+#[type_name("platoon::v5::TrafficVehicle")]
 #[repr(C)]
 pub struct TrafficVehicle {
     /// Its index b (SUMO's `bg<b>`): item b of every traffic sample.
@@ -363,7 +398,7 @@ impl TrafficVehicle {
 /// in runs that measure detectors (`[detection]`), one item per inspected packet, in the order
 /// the receivers got them (the rx batch's order).
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
-#[type_name("platoon::v4::Inspection")]
+#[type_name("platoon::v5::Inspection")]
 #[repr(C)]
 pub struct Inspection {
     /// The receiving follower (wire id).
@@ -373,12 +408,13 @@ pub struct Inspection {
     /// Its sequence number.
     pub seq: u32,
     /// Bit 0 ([`Inspection::FLAGGED`]): a detector flagged it; bit 1
-    /// ([`Inspection::REFUSED`]): the reaction refused it; bits 2-5
+    /// ([`Inspection::REFUSED`]): the reaction refused it; bits 2-7
     /// ([`Inspection::REFUSED_BY_SHIFT`], [`Inspection::REFUSED_BY_MASK`]): what refused it, a
     /// `platoon_control::RefusedBy` code (0: accepted, or not said; 1-6 the packet checks'
     /// reasons, in the order of `ControlMsg::counts`, for a packet no detector saw; 7 the
     /// reaction; 8 the leader's check of maneuver messages; 9 the receiver's maneuver machine
-    /// dropped the message the packet carried as old, after the step's other items); bit `8 + d`
+    /// dropped the message the packet carried as old, after the step's other items; 10-20 the
+    /// seal of a `[security]` run, `platoon_security::Refusal` code + 9); bit `8 + d`
     /// ([`Inspection::DETECTOR_SHIFT`]): detector d (the run's `[detection]` order: built-in
     /// ones, then `plugin`) flagged it.
     pub flags: u32,
@@ -400,9 +436,9 @@ impl Inspection {
     pub const DETECTOR_SHIFT: u32 = 8;
     /// The first of `flags`' bits that say what refused the packet.
     pub const REFUSED_BY_SHIFT: u32 = 2;
-    /// `flags`' bits that say what refused the packet (a code 0-15 at
-    /// [`Inspection::REFUSED_BY_SHIFT`]).
-    pub const REFUSED_BY_MASK: u32 = 0xF << Self::REFUSED_BY_SHIFT;
+    /// `flags`' bits that say what refused the packet (a code 0-63 at
+    /// [`Inspection::REFUSED_BY_SHIFT`]; bits 2-7 since v5, 2-5 before).
+    pub const REFUSED_BY_MASK: u32 = 0x3F << Self::REFUSED_BY_SHIFT;
 
     /// The code of what refused the packet (0: accepted, or not said).
     pub fn refused_by(&self) -> u8 {
@@ -417,7 +453,7 @@ impl Inspection {
 
 /// Control and status messages (orchestrator <-> every node), one per sample.
 #[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
-#[type_name("platoon::v4::ControlMsg")]
+#[type_name("platoon::v5::ControlMsg")]
 #[repr(C)]
 pub struct ControlMsg {
     /// One of the `ControlMsg::*` kinds.
@@ -429,6 +465,10 @@ pub struct ControlMsg {
     /// `DONE` from the controller: rejected packets by reason (non-finite, unknown sender,
     /// future step, stale, implausible sequence number, implausible state).
     pub counts: [u64; 6],
+    /// `DONE` from the controller in a `[security]` run: packets signed, deliveries whose
+    /// signature held, then deliveries refused by `platoon_security::Refusal` code 1 to 11
+    /// (docs/security.md); all 0 otherwise.
+    pub seals: [u64; 13],
     /// `FAILED`/`ABORT`: a reason, UTF-8, NUL-padded.
     pub reason: [u8; 120],
 }
@@ -454,6 +494,7 @@ impl ControlMsg {
             node: node as u32,
             step,
             counts: [0; 6],
+            seals: [0; 13],
             reason: [0; 120],
         }
     }
@@ -692,7 +733,9 @@ pub fn layouts() -> Vec<Layout> {
                 maneuver_to,
                 maneuver_seq,
                 maneuver_vehicle,
-                maneuver_behind
+                maneuver_behind,
+                seal_len,
+                seal
             ]
         ),
         layout!(LinkPacket, [receiver, kind, packet]),
@@ -702,7 +745,7 @@ pub fn layouts() -> Vec<Layout> {
             Inspection,
             [receiver, sender, seq, flags, step, state, scores]
         ),
-        layout!(ControlMsg, [kind, node, step, counts, reason]),
+        layout!(ControlMsg, [kind, node, step, counts, seals, reason]),
     ]
 }
 

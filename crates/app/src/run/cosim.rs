@@ -161,6 +161,8 @@ pub(super) fn cosimulate(
             let mut summary = metrics.finish(outcome.rejected);
             summary.channel = outcome.radio;
             summary.detection = outcome.detection;
+            summary.security = (scenario.control.security)
+                .map(|p| platoon_sim::SecuritySummary::of(p.policy, &outcome.seals));
             channel_log_format(scenario, output, dir)?;
             Ok((rows, summary, None))
         }

@@ -7,7 +7,13 @@ use platoon_attacks::channel::{BackgroundBeacons, Dcc, LoadSource, RadioSpec};
 /// `[channel] model` and `[channel.radio]`: the 802.11p model (absent tables take their
 /// defaults, which `write_resolved_defaults` writes out), built once per distinct configuration
 /// in this process (a model costs milliseconds to tabulate; a campaign's cells share it).
-pub(crate) fn radio(c: &Channel, dt: f64) -> Result<Option<RadioSpec>, KeyError> {
+/// With `security` (`[security]`), the model's packets are larger by what signing adds on the
+/// air ([`platoon_control::SecurityParams::mean_overhead_bytes`]: the standards' overhead).
+pub(crate) fn radio(
+    c: &Channel,
+    dt: f64,
+    security: Option<&platoon_control::SecurityParams>,
+) -> Result<Option<RadioSpec>, KeyError> {
     use std::sync::{Arc, Mutex, OnceLock};
     match c.model {
         RadioModel::Ideal => {
@@ -28,7 +34,21 @@ pub(crate) fn radio(c: &Channel, dt: f64) -> Result<Option<RadioSpec>, KeyError>
             Ok(None)
         }
         RadioModel::Ieee80211p => {
-            let params = c.radio.unwrap_or_default();
+            let mut params = c.radio.unwrap_or_default();
+            if let Some(s) = security {
+                let signed = params.packet_bytes + s.mean_overhead_bytes(params.beacon_hz);
+                if signed > 2304 && params.packet_bytes <= 2304 {
+                    return bad(
+                        "channel.radio.packet_bytes",
+                        format!(
+                            "is {} bytes, {signed} with [security]'s signature and certificate \
+                             on the air, above 802.11's 2304",
+                            params.packet_bytes
+                        ),
+                    );
+                }
+                params.packet_bytes = signed;
+            }
             let load = match c.load.unwrap_or(LoadConfig::Scenario) {
                 LoadConfig::Scenario => LoadSource::Scenario,
                 LoadConfig::Fixed => LoadSource::Fixed,

@@ -31,6 +31,7 @@ impl LeaderBeacon {
                 u: self.last_u,
                 head: VehicleId::LEADER,
                 maneuver,
+                seal: None,
             });
         }
         self.last_u = states[0][2];

@@ -218,4 +218,7 @@ pub struct Composition {
     pub detection: crate::DetectionParams,
     /// The platoon's maneuvers (`[maneuvers]`: joins at the tail; none by default).
     pub maneuvers: Option<crate::ManeuverParams>,
+    /// Signed V2V (`[security]`; none by default): every vehicle signs its broadcasts, every
+    /// receiver checks their seals ([`crate::security`]).
+    pub security: Option<crate::SecurityParams>,
 }

@@ -30,6 +30,7 @@ fn parts(beacon_steps: u32, fallback: FallbackParams) -> Composition {
         fallback,
         detection: Default::default(),
         maneuvers: None,
+        security: None,
     }
 }
 

@@ -33,6 +33,7 @@ fn params(rule: TriggerRule) -> ControllerParams {
         leader_broadcast_steps: 1,
         detection: Default::default(),
         maneuvers: None,
+        security: None,
     }
 }
 

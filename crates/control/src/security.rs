@@ -1,0 +1,418 @@
+//! Signed V2V in a platoon's controller (`[security]`, docs/security.md): every vehicle signs
+//! its broadcasts with a pseudonym of the run's simulated PKI (`platoon-security`), and every
+//! receiver checks the seal before the packet checks may use the packet; a refusal drops the
+//! packet and is counted by its reason ([`platoon_security::Refusal::name`]).
+//!
+//! Pure and seeded: the PKI and the pseudonyms come from a ChaCha20 stream seeded with
+//! [`SecurityParams::seed`] (every platoon of a fleet draws the same root and authority, so
+//! their vehicles trust each other), times are the run's (`k dt`, in ms), and signatures are
+//! RFC 6979 deterministic: a signed run is the same bit for bit at the same seed.
+//!
+//! What a receiver refuses and when, by [`SecurityPolicy`]:
+//! - `Every`: a delivery's seal is checked in full (certificate, validity, freshness and the
+//!   ECDSA signature) before anything else looks at the packet.
+//! - `OnDemand`: every check but the packet's signature first; the signature only for a packet
+//!   the receiver acts on: a follower's packet that passed the packet checks (the law, the
+//!   detectors or its maneuver machine read it), every packet the leader receives (its
+//!   maneuver machine and its checks of maneuver messages read them).
+//!
+//! The receivers of one broadcast share its signature check ([`SignatureMemo`], cleared every
+//! step): the same outcome, computed once per packet rather than once per receiver.
+
+use crate::{Delivery, Packet};
+use platoon_security::{
+    AttachRule, Policy, Refusal, SecurityHeader, SignatureMemo, Signer, Validity, Verifier,
+    VerifierConfig,
+};
+use platoon_v2v::Seal;
+use rand::SeedableRng;
+use rand_chacha::ChaCha20Rng;
+
+/// When a receiver verifies a packet's signature (`[security] policy`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SecurityPolicy {
+    /// Every packet received (`"every"`).
+    Every,
+    /// Only the packets a law or a maneuver acts on (`"on_demand"`, the US deployment
+    /// studies' verify-on-demand); the other checks on every packet.
+    OnDemand,
+}
+
+impl SecurityPolicy {
+    /// Its name in config files and summaries.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Every => "every",
+            Self::OnDemand => "on_demand",
+        }
+    }
+}
+
+/// Signed V2V for one platoon's vehicles (`[security]`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SecurityParams {
+    /// Which packets have their signature verified.
+    pub policy: SecurityPolicy,
+    /// The longest time between two packets of a sender that carry its full certificate
+    /// (ms): the standards' attach rule (1000).
+    pub certificate_period_ms: u64,
+    /// Every vehicle changes its pseudonym every this many ms of run time (0: never).
+    pub pseudonym_change_ms: u64,
+    /// The largest difference between a packet's generation time and the receiver's time it
+    /// accepts (ms); further is refused as `stale`.
+    pub freshness_ms: u64,
+    /// The seed of the PKI's and the pseudonyms' keys.
+    pub seed: u64,
+}
+
+impl SecurityParams {
+    /// What signing adds to a packet on the air, on average (bytes, rounded up), for a radio
+    /// model that takes one packet size: the standards' overhead (IEEE 1609.2 / ETSI TS 103
+    /// 097, [`platoon_security::STANDARD_DIGEST_OVERHEAD`] with the signer's digest,
+    /// [`platoon_security::STANDARD_CERTIFICATE_OVERHEAD`] with its certificate), the
+    /// certificate on one packet in `beacon_hz` x the certificate period (every packet when
+    /// that is under one).
+    pub fn mean_overhead_bytes(&self, beacon_hz: f64) -> u32 {
+        let per_period = beacon_hz * self.certificate_period_ms as f64 / 1e3;
+        let share = if per_period > 1.0 {
+            1.0 / per_period
+        } else {
+            1.0
+        };
+        let (digest, cert) = (
+            platoon_security::STANDARD_DIGEST_OVERHEAD as f64,
+            platoon_security::STANDARD_CERTIFICATE_OVERHEAD as f64,
+        );
+        (digest + (cert - digest) * share).ceil() as u32
+    }
+}
+
+impl Default for SecurityParams {
+    fn default() -> Self {
+        Self {
+            policy: SecurityPolicy::Every,
+            certificate_period_ms: AttachRule::STANDARD.period_ms,
+            pseudonym_change_ms: 0,
+            freshness_ms: VerifierConfig::default().freshness_ms,
+            seed: 0,
+        }
+    }
+}
+
+/// What a platoon's seals did so far: packets signed, signatures verified (the ECDSA
+/// computations made, after the memo), refusals by reason.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct SealCounts {
+    /// Packets signed.
+    pub signed: u64,
+    /// Signatures of packets checked (each delivery whose signature was verified, by a
+    /// computation or from the step's memo).
+    pub verified: u64,
+    /// Refused deliveries by [`Refusal::code`] - 1.
+    pub refused: [u64; 11],
+}
+
+impl SealCounts {
+    /// Refused deliveries in all.
+    pub fn refused_total(&self) -> u64 {
+        self.refused.iter().sum()
+    }
+
+    /// `(name, count)` of every reason, in code order.
+    pub fn by_reason(&self) -> impl Iterator<Item = (&'static str, u64)> + '_ {
+        Refusal::ALL
+            .iter()
+            .zip(self.refused)
+            .map(|(r, n)| (r.name(), n))
+    }
+
+    /// The sum of `self` and `other`.
+    pub fn plus(mut self, other: &SealCounts) -> SealCounts {
+        self.signed += other.signed;
+        self.verified += other.verified;
+        for (a, b) in self.refused.iter_mut().zip(other.refused) {
+            *a += b;
+        }
+        self
+    }
+}
+
+/// One platoon's signers (the leader's first) and receivers' verifiers (the leader's first).
+#[derive(Debug, Clone)]
+pub struct Sealing {
+    params: SecurityParams,
+    dt: f64,
+    pki: platoon_security::Pki,
+    rng: ChaCha20Rng,
+    validity: Validity,
+    signers: Vec<Signer>,
+    verifiers: Vec<Verifier>,
+    memo: SignatureMemo,
+    counts: SealCounts,
+}
+
+impl Sealing {
+    /// Signers and verifiers for `vehicles` vehicles (the leader included) stepped every `dt`
+    /// seconds.
+    pub fn new(params: SecurityParams, vehicles: usize, dt: f64) -> Self {
+        let mut rng = ChaCha20Rng::seed_from_u64(params.seed);
+        // Valid for the whole run, whatever its length.
+        let validity = Validity::new(0, u64::MAX);
+        let pki = platoon_security::Pki::generate(&mut rng, validity);
+        let rule = AttachRule {
+            period_ms: params.certificate_period_ms,
+        };
+        let signers = (0..vehicles)
+            .map(|_| Signer::new(pki.pseudonym(&mut rng, validity), rule))
+            .collect();
+        let config = VerifierConfig {
+            freshness_ms: params.freshness_ms,
+        };
+        let verifiers = vec![pki.verifier(config); vehicles];
+        Self {
+            params,
+            dt,
+            pki,
+            rng,
+            validity,
+            signers,
+            verifiers,
+            memo: SignatureMemo::new(),
+            counts: SealCounts::default(),
+        }
+    }
+
+    /// The run's time at step `k` (ms).
+    pub fn now_ms(&self, k: u64) -> u64 {
+        (k as f64 * self.dt * 1e3).round() as u64
+    }
+
+    /// Its settings.
+    pub fn params(&self) -> &SecurityParams {
+        &self.params
+    }
+
+    /// What its seals did so far.
+    pub fn counts(&self) -> SealCounts {
+        self.counts
+    }
+
+    /// Signs `packets`, sent at step `k`, each with its sender's pseudonym (a sender it has no
+    /// signer for sends unsealed: its packets are refused). At the steps of a pseudonym
+    /// change, every vehicle first takes a new pseudonym (in vehicle order, from the seeded
+    /// stream).
+    pub fn seal(&mut self, k: u64, packets: &mut [Packet]) {
+        let now = self.now_ms(k);
+        let change = self.params.pseudonym_change_ms;
+        if change > 0 && k > 0 && now / change > self.now_ms(k - 1) / change {
+            for s in &mut self.signers {
+                s.change_pseudonym(self.pki.pseudonym(&mut self.rng, self.validity));
+            }
+        }
+        for p in packets {
+            let Some(signer) = self.signers.get_mut(p.sender.index()) else {
+                continue;
+            };
+            let header = signer.sign(&p.signed_bytes(), now);
+            p.seal = Seal::new(&header.to_bytes());
+            self.counts.signed += 1;
+        }
+    }
+
+    /// Starts step `k`'s deliveries: the memo of the last step's signatures goes.
+    pub fn begin_step(&mut self) {
+        self.memo.clear();
+    }
+
+    /// The first check of a delivery at step `k`, by the policy (`Every`: in full;
+    /// `OnDemand`: all but the signature). Refused: counted, and the reason.
+    pub fn screen(&mut self, k: u64, d: &Delivery) -> Result<(), Refusal> {
+        let policy = match self.params.policy {
+            SecurityPolicy::Every => Policy::Every,
+            SecurityPolicy::OnDemand => Policy::OnDemand,
+        };
+        self.check(k, d, policy)
+    }
+
+    /// The signature check of a delivery the receiver acts on, under `OnDemand` (under
+    /// `Every`, [`Sealing::screen`] made it already: nothing to do).
+    pub fn confirm(&mut self, k: u64, d: &Delivery) -> Result<(), Refusal> {
+        match self.params.policy {
+            SecurityPolicy::Every => Ok(()),
+            SecurityPolicy::OnDemand => self.check(k, d, Policy::Every),
+        }
+    }
+
+    fn check(&mut self, k: u64, d: &Delivery, policy: Policy) -> Result<(), Refusal> {
+        let now = self.now_ms(k);
+        let outcome = match (&d.packet.seal, self.verifiers.get_mut(d.receiver.index())) {
+            // A receiver outside the platoon's vehicles takes nothing.
+            (_, None) => Err(Refusal::UnknownCertificate),
+            // A packet forged from nothing (or stripped of its seal).
+            (None, _) => Err(Refusal::Truncated),
+            (Some(seal), Some(v)) => SecurityHeader::decode(seal.as_bytes()).and_then(|h| {
+                v.check_shared(&mut self.memo, &d.packet.signed_bytes(), &h, now, policy)
+            }),
+        };
+        match outcome {
+            Ok(a) => {
+                if a.signature == platoon_security::SignatureCheck::Verified {
+                    self.counts.verified += 1;
+                }
+                Ok(())
+            }
+            Err(why) => {
+                self.counts.refused[usize::from(why.code()) - 1] += 1;
+                // The standards' answer to an unknown digest: the sender attaches its
+                // certificate to its next packet (here at once; the request rides on the
+                // receiver's next broadcast in the field).
+                if why == Refusal::UnknownCertificate {
+                    if let Some(s) = self.signers.get_mut(d.packet.sender.index()) {
+                        s.request_certificate();
+                    }
+                }
+                Err(why)
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use platoon_model::{State, VehicleId};
+
+    #[test]
+    fn the_mean_overhead_weighs_the_certificate_by_its_share() {
+        let p = SecurityParams::default();
+        // 10 Hz, a certificate a second: one packet in ten carries it.
+        assert_eq!(
+            p.mean_overhead_bytes(10.0),
+            (94.0f64 + 125.0 / 10.0).ceil() as u32
+        );
+        // Slower than the certificate period: every packet carries it.
+        assert_eq!(p.mean_overhead_bytes(0.5), 219);
+        assert_eq!(p.mean_overhead_bytes(1.0), 219);
+    }
+
+    #[test]
+    fn a_seals_refusal_has_its_reasons_name_and_a_wire_code_of_its_own() {
+        use crate::RefusedBy;
+        for r in Refusal::ALL {
+            let by = RefusedBy::Seal(r.code());
+            assert_eq!(by.name(), r.name());
+            assert_eq!(by.code(), 9 + r.code());
+            assert_eq!(RefusedBy::from_code(by.code()), Some(by));
+            assert!(by.by_checks() && by.refuses_packet());
+            assert!(RefusedBy::ALL.iter().all(|o| o.code() != by.code()));
+        }
+        assert_eq!(RefusedBy::from_code(21), None);
+        // Codes fit the wire's field (bits 2-7 of Inspection::flags).
+        assert!(RefusedBy::Seal(11).code() < 64);
+    }
+
+    #[test]
+    fn the_seal_holds_the_longest_header() {
+        assert_eq!(Seal::CAPACITY, platoon_security::CERTIFICATE_HEADER_LEN);
+    }
+
+    fn delivery(to: u16, packet: Packet) -> Delivery {
+        Delivery {
+            receiver: VehicleId(to),
+            packet,
+        }
+    }
+
+    #[test]
+    fn genuine_packets_pass_and_altered_or_forged_ones_are_refused_by_reason() {
+        let mut s = Sealing::new(SecurityParams::default(), 3, 0.01);
+        let mut out = [Packet::beacon(
+            VehicleId(1),
+            1,
+            0,
+            State::new(1.0, 2.0, 0.0),
+        )];
+        s.seal(0, &mut out);
+        let genuine = out[0];
+        assert!(genuine.seal.is_some());
+        s.begin_step();
+        assert!(s.screen(0, &delivery(2, genuine)).is_ok());
+        // Altered on the way: the seal stays, the signature no longer holds.
+        let mut altered = genuine;
+        altered.state[2] = -6.0;
+        assert_eq!(
+            s.screen(0, &delivery(2, altered)),
+            Err(Refusal::BadSignature)
+        );
+        // Forged from nothing: no seal.
+        let forged = Packet::beacon(VehicleId(1), 2, 0, State::new(1.0, 2.0, 0.0));
+        assert_eq!(s.screen(0, &delivery(2, forged)), Err(Refusal::Truncated));
+        // Signed by a key outside the PKI.
+        let mut outsider = Sealing::new(
+            SecurityParams {
+                seed: 99,
+                ..SecurityParams::default()
+            },
+            3,
+            0.01,
+        );
+        let mut theirs = [forged];
+        outsider.seal(0, &mut theirs);
+        assert_eq!(
+            s.screen(0, &delivery(2, theirs[0])),
+            Err(Refusal::ForeignRoot)
+        );
+        let c = s.counts();
+        let by: std::collections::BTreeMap<_, _> = c.by_reason().collect();
+        assert_eq!(
+            (by["bad_signature"], by["truncated"], by["foreign_root"]),
+            (1, 1, 1)
+        );
+        assert_eq!((c.signed, c.verified, c.refused_total()), (1, 1, 3));
+    }
+
+    #[test]
+    fn on_demand_defers_the_signature_to_the_confirmation() {
+        let params = SecurityParams {
+            policy: SecurityPolicy::OnDemand,
+            ..SecurityParams::default()
+        };
+        let mut s = Sealing::new(params, 3, 0.01);
+        let mut out = [Packet::beacon(
+            VehicleId(1),
+            1,
+            0,
+            State::new(1.0, 2.0, 0.0),
+        )];
+        s.seal(0, &mut out);
+        let mut altered = out[0];
+        altered.state[0] = 50.0;
+        let d = delivery(2, altered);
+        assert!(s.screen(0, &d).is_ok(), "the signature waits");
+        assert_eq!(s.confirm(0, &d), Err(Refusal::BadSignature));
+        assert_eq!(s.counts().refused[6], 1, "bad_signature");
+    }
+
+    #[test]
+    fn a_pseudonym_change_carries_the_new_certificate() {
+        let params = SecurityParams {
+            pseudonym_change_ms: 100,
+            ..SecurityParams::default()
+        };
+        let mut s = Sealing::new(params, 2, 0.1);
+        for k in 0..5 {
+            let mut out = [Packet::beacon(
+                VehicleId(0),
+                k as u32 + 1,
+                k,
+                State::new(0.0, 1.0, 0.0),
+            )];
+            s.seal(k, &mut out);
+            let len = out[0].seal.unwrap().as_bytes().len();
+            // Every step changes the pseudonym (100 ms): every packet carries its certificate.
+            assert_eq!(len, platoon_security::CERTIFICATE_HEADER_LEN, "step {k}");
+            s.begin_step();
+            assert!(s.screen(k, &delivery(1, out[0])).is_ok(), "step {k}");
+        }
+    }
+}
