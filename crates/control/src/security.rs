@@ -63,6 +63,11 @@ pub struct SecurityParams {
     pub freshness_ms: u64,
     /// The seed of the PKI's and the pseudonyms' keys.
     pub seed: u64,
+    /// The platoon of a fleet these keys are for (`platoon_sim::Scenario::replica` sets it):
+    /// every platoon draws the same PKI from `seed`, and its own pseudonyms (platoon 0 from
+    /// the PKI's stream after it, platoon j from ChaCha20 stream j of the same seed), so no
+    /// two vehicles of a fleet share a key.
+    pub platoon: u16,
 }
 
 impl SecurityParams {
@@ -95,6 +100,7 @@ impl Default for SecurityParams {
             pseudonym_change_ms: 0,
             freshness_ms: VerifierConfig::default().freshness_ms,
             seed: 0,
+            platoon: 0,
         }
     }
 }
@@ -159,6 +165,11 @@ impl Sealing {
         // Valid for the whole run, whatever its length.
         let validity = Validity::new(0, u64::MAX);
         let pki = platoon_security::Pki::generate(&mut rng, validity);
+        // The pseudonyms, and those of later changes: platoon j > 0 of a fleet on stream j.
+        if params.platoon > 0 {
+            rng = ChaCha20Rng::seed_from_u64(params.seed);
+            rng.set_stream(u64::from(params.platoon));
+        }
         let rule = AttachRule {
             period_ms: params.certificate_period_ms,
         };
@@ -369,6 +380,48 @@ mod tests {
             (1, 1, 1)
         );
         assert_eq!((c.signed, c.verified, c.refused_total()), (1, 1, 3));
+    }
+
+    /// Two platoons of a fleet: one PKI, so each verifies the other's packets, and no vehicle
+    /// of one holds a key of the other.
+    #[test]
+    fn the_platoons_of_a_fleet_share_the_pki_and_not_their_pseudonyms() {
+        let of = |platoon| {
+            Sealing::new(
+                SecurityParams {
+                    platoon,
+                    ..SecurityParams::default()
+                },
+                3,
+                0.01,
+            )
+        };
+        let (mut first, mut second) = (of(0), of(1));
+        assert_eq!(
+            first.pki.root().digest(),
+            second.pki.root().digest(),
+            "one PKI"
+        );
+        for (a, b) in first.signers.iter().zip(&second.signers) {
+            assert_ne!(a.digest(), b.digest());
+        }
+        for (a, b) in second.signers.iter().zip(&of(1).signers) {
+            assert_eq!(a.digest(), b.digest(), "reproducible");
+        }
+        let mut out = [Packet::beacon(
+            VehicleId(1),
+            1,
+            0,
+            State::new(1.0, 2.0, 0.0),
+        )];
+        second.seal(0, &mut out);
+        first.begin_step();
+        assert!(first.screen(0, &delivery(2, out[0])).is_ok());
+        // Platoon 0's keys are what they were before platoons had their own.
+        let before = Sealing::new(SecurityParams::default(), 3, 0.01);
+        for (a, b) in first.signers.iter().zip(&before.signers) {
+            assert_eq!(a.digest(), b.digest());
+        }
     }
 
     #[test]

@@ -300,7 +300,7 @@ impl Scenario {
     }
 
     /// Platoon `j` of the fleet: this scenario shifted `fleet.offset(j)` back, with its own
-    /// channel seed and index. Platoon 0 of a fleet is the scenario itself.
+    /// channel seed, radar noise, pseudonyms (`[security]`) and index. Platoon 0 of a fleet is the scenario itself.
     pub fn replica(&self, j: usize) -> Scenario {
         let shift = self.fleet.offset(j);
         let mut s = self.clone();
@@ -312,6 +312,10 @@ impl Scenario {
         s.channel_seed = self.channel_seed.wrapping_add(j as u64);
         // Each platoon's radars draw their own noise.
         s.control.fallback.radar.seed = self.control.fallback.radar.seed.wrapping_add(j as u64);
+        // Each platoon's vehicles sign with pseudonyms of their own, of the fleet's one PKI.
+        if let Some(security) = s.control.security.as_mut() {
+            security.platoon = j as u16;
+        }
         s.platoon = j as u16;
         s
     }

@@ -41,5 +41,7 @@ pub(crate) fn security(s: Option<&SecurityConfig>) -> Result<Option<SecurityPara
         pseudonym_change_ms: ms("security.pseudonym_change_s", s.pseudonym_change_s, true)?,
         freshness_ms: ms("security.freshness_s", s.freshness_s, false)?,
         seed: s.seed,
+        // Scenario::replica gives each platoon of a fleet its own.
+        platoon: 0,
     }))
 }
