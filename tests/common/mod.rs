@@ -20,6 +20,7 @@ pub fn repo() -> PathBuf {
 /// a generous step timeout keeps a starved (not stalled) process from being reported; the stall
 /// test passes its own `--step-timeout`, which wins.
 pub fn platoon_command(cwd: &Path) -> Command {
+    head_start();
     let mut c = Command::new(env!("CARGO_BIN_EXE_platoon"));
     c.current_dir(cwd).env("PLATOON_STEP_TIMEOUT", "20");
     c
@@ -89,16 +90,21 @@ impl Together {
         }
     }
 
-    /// Runs the body `name` (started with the group's others if none has started yet) to its
-    /// end, failing with its message if it failed.
-    pub fn run(&self, name: &str) {
-        let started = self.started.get_or_init(|| {
+    /// Starts every body of the group, each in a thread of its own, unless they started.
+    fn start(&self) -> &Mutex<HashMap<&'static str, JoinHandle<()>>> {
+        self.started.get_or_init(|| {
             let threads = self.bodies.iter().map(|&(name, body)| {
                 let thread = std::thread::Builder::new().name(name.to_string());
                 (name, thread.spawn(body).unwrap())
             });
             Mutex::new(threads.collect())
-        });
+        })
+    }
+
+    /// Runs the body `name` (started with the group's others if none has started yet) to its
+    /// end, failing with its message if it failed.
+    pub fn run(&self, name: &str) {
+        let started = self.start();
         let body = started
             .lock()
             .unwrap()
@@ -117,7 +123,8 @@ impl Together {
 
 /// The suite's tests that wait out a 20 s step or ready timeout (tests/controller.rs's
 /// faulty controllers, tests/cosim.rs's stalled injectors), run side by side: the first to run
-/// starts them all, so the suite waits the 20 s out once instead of once per module. Each
+/// starts them all (in a whole run, the first `platoon` process: [`head_start`]), so the suite
+/// waits the 20 s out once instead of once per module. Each
 /// body idles, its processes asleep or polling, so the group adds no load worth the name.
 pub static TIMEOUTS: Together = Together::new(&[
     (
@@ -141,6 +148,60 @@ pub static TIMEOUTS: Together = Together::new(&[
         crate::cosim::an_injector_repeating_one_step,
     ),
 ]);
+
+/// In a run of the whole binary (no test named on its command line, not nextest's process per
+/// test), [`TIMEOUTS`] starts with the first `platoon` process a test starts. Left to its
+/// tests, the group started when the first of them ran, and the next of them, adjacent in
+/// libtest's order, held the second test thread: both waited out the same 20 s with the
+/// machine idle. Started at the beginning, its bodies wait while the other tests run, and its
+/// tests find them done.
+fn head_start() {
+    static ONCE: std::sync::Once = std::sync::Once::new();
+    ONCE.call_once(|| {
+        if std::env::var_os("NEXTEST").is_none() && !names_tests(std::env::args().skip(1)) {
+            TIMEOUTS.start();
+        }
+    });
+}
+
+/// Whether libtest's arguments name tests to run (a filter, `--exact` or not), rather than the
+/// whole binary: any argument that is no option nor an option's value.
+fn names_tests(mut args: impl Iterator<Item = String>) -> bool {
+    const WITH_VALUE: [&str; 7] = [
+        "--test-threads",
+        "--skip",
+        "--format",
+        "--color",
+        "--logfile",
+        "--shuffle-seed",
+        "-Z",
+    ];
+    while let Some(a) = args.next() {
+        if WITH_VALUE.contains(&a.as_str()) {
+            args.next();
+        } else if !a.starts_with('-') {
+            return true;
+        }
+    }
+    false
+}
+
+#[test]
+fn a_filter_names_tests_and_options_do_not() {
+    let names = |args: &[&str]| names_tests(args.iter().map(|a| a.to_string()));
+    assert!(!names(&[]));
+    assert!(!names(&["--test-threads", "2", "-q", "--nocapture"]));
+    assert!(!names(&[
+        "--test-threads=2",
+        "--skip",
+        "sumo::",
+        "--color",
+        "never"
+    ]));
+    assert!(names(&["sumo::"]));
+    assert!(names(&["--exact", "cli::run_writes_every_output"]));
+    assert!(names(&["--test-threads", "1", "controller::"]));
+}
 
 /// Fails the test with platoon's stderr if it did not succeed.
 pub fn ok(o: &Output) {
