@@ -5,7 +5,7 @@
 //! agree on it bit for bit: tests/cosim.rs.
 use crate::common;
 
-use common::maneuvers::{altered_only, forged_to_leader, of, run, run_with};
+use common::maneuvers::{altered_only, forged_to_leader, of, run, run_with, FAKE_JOIN_REQUEST};
 use common::{cut_in_config, repo};
 use platoon_attacks::inject::Step;
 use platoon_control::{Delivery, Mode, Role};
@@ -30,11 +30,6 @@ fn smallest_gap(rows: &[StepRow], length: f64) -> f64 {
         .flat_map(|step| step.windows(2).map(|w| w[0].p - w[1].p - length))
         .fold(f64::INFINITY, f64::min)
 }
-
-/// The catalogue's fake join request: the joiner's packets to the leader rewritten at 3 s,
-/// before it asks, into a request for the slot behind the tail.
-const FAKE_JOIN_REQUEST: &str = "\n[[channel.attacks]]\nkind = \"forge_maneuver\"\n\
-    message = \"join_request\"\nsenders = [4]\nreceivers = [0]\nstart_s = 3.0\nend_s = 3.2\n";
 
 /// A ghost: at 3 s an outsider sends the leader a join request in the name of vehicle 7, which
 /// is not there (the joiner's state on the packet), for the slot behind the tail.

@@ -6,7 +6,7 @@
 //! the seal) is the same bit for bit as in process.
 use crate::common;
 
-use common::maneuvers::{forged_to_leader, of, run_with, Log};
+use common::maneuvers::{forged_to_leader, nothing, of, run_with, Log, FAKE_JOIN_REQUEST};
 use common::repo;
 use platoon_attacks::inject::Step;
 use platoon_control::security::{Sealing, SecurityParams};
@@ -35,8 +35,6 @@ fn refused(seals: &SealCounts, name: &str) -> u64 {
     seals.by_reason().find(|(n, _)| *n == name).unwrap().1
 }
 
-fn nothing(_: &Step<'_>, _: &mut Vec<Delivery>) {}
-
 /// Whether two runs' rows are the same bit for bit (NaN included: a radar without a target).
 fn same(a: &[StepRow], b: &[StepRow]) -> bool {
     a.len() == b.len()
@@ -62,11 +60,6 @@ fn leave_with(forgery: &str) -> String {
 
 const FORGED_LEAVE: &str = "[[channel.attacks]]\nkind = \"forge_maneuver\"\n\
     message = \"leave_notice\"\nsenders = [2]\nreceivers = [0]\nstart_s = 10.0\nend_s = 10.2\n";
-
-/// The catalogue's fake join request (as tests/maneuvers.rs): the joiner's packets to the
-/// leader rewritten at 3 s, before it asks, into a request for the slot behind the tail.
-const FAKE_JOIN_REQUEST: &str = "\n[[channel.attacks]]\nkind = \"forge_maneuver\"\n\
-    message = \"join_request\"\nsenders = [4]\nreceivers = [0]\nstart_s = 3.0\nend_s = 3.2\n";
 
 /// A fresh forgery at 10 s: a leave notice in follower 2's name, carrying no seal.
 fn unsealed_leave(step: &Step<'_>, out: &mut Vec<Delivery>) {
@@ -142,15 +135,22 @@ fn signing_changes_nothing_in_a_run_without_attacks() {
 
 #[test]
 fn an_outsiders_forged_leave_notice_is_refused_and_changes_nothing() {
+    // Unsigned, the catalogue's forgery ejects follower 2 (tests/leaves.rs), and a fresh
+    // forgery, which carries no seal, changes the run: the runs do not depend on the policy.
+    let (unsigned, _) = rows_and_log(&leave_with(FORGED_LEAVE), nothing);
+    assert!(of(&unsigned, 2).iter().any(|r| r.mode == Role::Left));
+    let (plain, _) = rows_and_log(&leave_with(""), nothing);
+    let (forged, _) = rows_and_log(&leave_with(""), unsealed_leave);
+    assert!(
+        !same(&forged, &plain),
+        "the unsealed leave changes nothing even unsigned"
+    );
     for policy in ["every", "on_demand"] {
         let keys = format!("policy = \"{policy}\"\n");
         let (genuine, _) = rows_and_log(&signed(&leave_with(""), &keys), nothing);
         // Follower 2 stays, follower 5 leaves at 45 s.
         assert!(of(&genuine, 2).iter().all(|r| r.mode != Role::Left));
         assert!(of(&genuine, 5).iter().any(|r| r.mode == Role::Left));
-        // Unsigned, the catalogue's forgery ejects follower 2 (tests/leaves.rs).
-        let (unsigned, _) = rows_and_log(&leave_with(FORGED_LEAVE), nothing);
-        assert!(of(&unsigned, 2).iter().any(|r| r.mode == Role::Left));
 
         // Signed: the rewritten packets keep follower 2's seal, which no longer holds.
         let (rows, log) = rows_and_log(&signed(&leave_with(FORGED_LEAVE), &keys), nothing);
@@ -162,13 +162,7 @@ fn an_outsiders_forged_leave_notice_is_refused_and_changes_nothing() {
         assert!(refused(&seals, "bad_signature") > 0, "{policy}: {seals:?}");
         assert_eq!(seals.refused_total(), refused(&seals, "bad_signature"));
 
-        // A fresh forgery carries no seal. Unsigned, it changes the run.
-        let (plain, _) = rows_and_log(&leave_with(""), nothing);
-        let (forged, _) = rows_and_log(&leave_with(""), unsealed_leave);
-        assert!(
-            !same(&forged, &plain),
-            "the unsealed leave changes nothing even unsigned"
-        );
+        // The fresh forgery, signed: refused.
         let (rows, log) = rows_and_log(&signed(&leave_with(""), &keys), unsealed_leave);
         assert!(
             same(&rows, &genuine),

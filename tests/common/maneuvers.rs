@@ -116,6 +116,11 @@ pub fn of(rows: &[StepRow], v: u16) -> Vec<&StepRow> {
     rows.iter().filter(|r| r.vehicle == v).collect()
 }
 
+/// The catalogue's fake join request: the joiner's packets to the leader rewritten at 3 s,
+/// before it asks, into a request for the slot behind the tail.
+pub const FAKE_JOIN_REQUEST: &str = "\n[[channel.attacks]]\nkind = \"forge_maneuver\"\n\
+    message = \"join_request\"\nsenders = [4]\nreceivers = [0]\nstart_s = 3.0\nend_s = 3.2\n";
+
 /// A delivery to the leader at step `k` of a message `body` in `sender`'s name that it never
 /// sent (message sequence number `seq`), on a packet numbered `packet_seq` carrying `state`.
 pub fn forged_to_leader(

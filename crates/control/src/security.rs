@@ -105,8 +105,8 @@ impl Default for SecurityParams {
     }
 }
 
-/// What a platoon's seals did so far: packets signed, signatures verified (the ECDSA
-/// computations made, after the memo), refusals by reason.
+/// What a platoon's seals did so far: packets signed, deliveries whose signature was verified
+/// (computed, or shared from the step's memo), refusals by reason.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct SealCounts {
     /// Packets signed.
