@@ -290,6 +290,128 @@ fn a_signed_run_is_bit_identical_on_both_transports() {
     assert_eq!(refused, security["refused_total"].as_u64().unwrap());
 }
 
+/// Whom each attack acts as (issue 52, item 2), in the leave scenario: follower 2 an insider
+/// claiming to be 3 m further ahead than it is, an outsider altering follower 1's packets to
+/// follower 2, a thief with follower 4's key forging a leave notice in follower 3's name.
+const ROLES: &str = "[[channel.attacks]]\nkind = \"false_data\"\noffset = [3.0, 0.0, 0.0]\n\
+    senders = [2]\nstart_s = 20.0\nend_s = 21.0\nacts_as = \"insider\"\n\n\
+    [[channel.attacks]]\nkind = \"false_data\"\noffset = [3.0, 0.0, 0.0]\nsenders = [1]\n\
+    receivers = [2]\nstart_s = 30.0\nend_s = 31.0\n\n\
+    [[channel.attacks]]\nkind = \"forge_maneuver\"\nmessage = \"leave_notice\"\n\
+    senders = [3]\nreceivers = [0]\nstart_s = 10.0\nend_s = 10.2\nacts_as = \"thief\"\n\
+    key_of = 4\n";
+
+/// [`leave_with`] `attacks`, 35 s long (the attacks are over by 31 s; follower 5 leaves at
+/// 32 s).
+fn roles_with(attacks: &str) -> String {
+    let text = leave_with(attacks);
+    let shorter = text
+        .replace("duration_s = 70.0", "duration_s = 35.0")
+        .replace("vehicle = 5\nat_s = 45.0", "vehicle = 5\nat_s = 32.0");
+    assert!(shorter.contains("duration_s = 35.0") && shorter.contains("at_s = 32.0"));
+    shorter
+}
+
+/// An insider signs its lie with its own key and a thief with the member's it stole: the
+/// receivers accept both, and they act as they do unsigned, bit for bit; an outsider's
+/// alteration fails verification and its packets go nowhere, as if they were lost.
+#[test]
+fn insiders_and_thieves_sign_what_they_alter_and_outsiders_cannot() {
+    let attack = |role: &str| {
+        ROLES
+            .split("\n\n")
+            .find(|a| a.contains(role) || (role == "outsider" && !a.contains("acts_as")))
+            .unwrap()
+            .to_string()
+    };
+    let (genuine, _) = rows_and_log(&signed(&roles_with(""), ""), nothing);
+    for role in ["insider", "thief"] {
+        let text = roles_with(&attack(role));
+        let (unsigned, _) = rows_and_log(&text, nothing);
+        assert!(!same(&unsigned, &genuine), "{role}: the attack acts");
+        let (rows, log) = rows_and_log(&signed(&text, ""), nothing);
+        assert_eq!(log.seals.unwrap().refused_total(), 0, "{role}: accepted");
+        assert!(same(&rows, &unsigned), "{role}: signed as it acts unsigned");
+    }
+    // The thief's forged leave ejects follower 3.
+    let (rows, _) = rows_and_log(&signed(&roles_with(&attack("thief")), ""), nothing);
+    assert!(of(&rows, 3).iter().any(|r| r.mode == Role::Left));
+    let outsider = attack("outsider");
+    let (unsigned, _) = rows_and_log(&roles_with(&outsider), nothing);
+    let lost = outsider.replace(
+        "kind = \"false_data\"\noffset = [3.0, 0.0, 0.0]",
+        "kind = \"bernoulli\"\nloss = 1.0",
+    );
+    let (lost, _) = rows_and_log(&signed(&roles_with(&lost), ""), nothing);
+    assert!(!same(&unsigned, &lost), "the outsider's lie acts unsigned");
+    let (rows, log) = rows_and_log(&signed(&roles_with(&outsider), ""), nothing);
+    assert!(
+        same(&rows, &lost),
+        "the outsider's refused lies are not lost packets"
+    );
+    let seals = log.seals.unwrap();
+    assert!(refused(&seals, "bad_signature") > 0, "{seals:?}");
+}
+
+/// The ground truth of whom each attack acted as, told from the seals on the wire: the
+/// detections dataset of a signed run says whose key signed each delivery and, for each
+/// misbehaving one, `outsider`, `insider` or `thief`; the same bytes on both transports (the
+/// injector process re-signs as the in-process channel does).
+#[test]
+fn the_dataset_says_whose_key_signed_each_delivery_on_both_transports() {
+    let tmp = tempfile::tempdir().unwrap();
+    let text = format!("{}\n[detection.plausibility]\n", roles_with(ROLES));
+    std::fs::write(tmp.path().join("roles.toml"), signed(&text, "")).unwrap();
+    for (out, transport) in [("ipc", "iceoryx2"), ("inproc", "inproc")] {
+        common::run_config(
+            &tmp.path().join("roles.toml"),
+            out,
+            &["--transport", transport],
+            tmp.path(),
+        );
+    }
+    for f in [
+        "trajectories.csv",
+        "summary.json",
+        "detections.csv",
+        "channel.csv",
+    ] {
+        let a = std::fs::read(tmp.path().join("ipc").join(f)).unwrap();
+        let b = std::fs::read(tmp.path().join("inproc").join(f)).unwrap();
+        assert!(a == b, "{f} differs between the transports");
+    }
+    let rows = std::fs::read_to_string(tmp.path().join("ipc/detections.csv")).unwrap();
+    let head: Vec<&str> = rows.lines().next().unwrap().split(',').collect();
+    let col = |name: &str| head.iter().position(|h| *h == name).unwrap();
+    let (sender, label, signed_by, acts_as, by) = (
+        col("sender"),
+        col("label"),
+        col("signed_by"),
+        col("acts_as"),
+        col("refused_by"),
+    );
+    let mut seen = std::collections::BTreeMap::new();
+    for r in rows
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect::<Vec<_>>())
+    {
+        let want = match (r[label], r[sender]) {
+            ("genuine", s) => ("", s),
+            ("altered", "2") => ("insider", "2"),
+            ("altered", "1") => ("outsider", ""),
+            ("altered", "3") => ("thief", "4"),
+            other => panic!("no attack makes {other:?}: {r:?}"),
+        };
+        assert_eq!((r[acts_as], r[signed_by]), want, "{r:?}");
+        assert_eq!(r[by] == "bad_signature", want.0 == "outsider", "{r:?}");
+        *seen.entry(want.0).or_insert(0) += 1;
+    }
+    assert_eq!(seen.len(), 4, "{seen:?}");
+    let summary = common::json(&tmp.path().join("ipc/summary.json"));
+    assert_eq!(summary["security"]["refused_total"], seen["outsider"]);
+}
+
 /// A controller plug-in neither signs nor verifies: a signed run with one is refused, naming
 /// the key, rather than run unsigned.
 #[test]

@@ -486,6 +486,8 @@ fn trace(base: &Base, opts: &DetectionOptions, change: impl Fn(&mut Config)) -> 
         end_s: f64::INFINITY,
         senders: Some(vec![opts.attacker]),
         receivers: None,
+        acts_as: None,
+        key_of: None,
     });
     c.detection = Some(DetectionConfig {
         plausibility: None,

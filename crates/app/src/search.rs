@@ -212,6 +212,8 @@ impl Problem {
                     end_s: j.start_s + j.duration_s,
                     senders: Some(vec![sender]),
                     receivers: Some(vec![receiver]),
+                    acts_as: None,
+                    key_of: None,
                 });
             }
         }

@@ -20,6 +20,8 @@ fn config(detectors: &[&str], attack: Option<LinkKindConfig>) -> Config {
             end_s: f64::INFINITY,
             senders: Some(vec![2]),
             receivers: None,
+            acts_as: None,
+            key_of: None,
         });
     }
     let on = |name: &str| detectors.contains(&name);

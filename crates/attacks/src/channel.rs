@@ -212,12 +212,51 @@ pub struct LinkAttack {
     pub senders: Vec<VehicleId>,
     /// Targeted receivers (empty: all).
     pub receivers: Vec<VehicleId>,
-    /// An insider (a platoon member lying about itself) rather than an outsider on the links:
-    /// for the kinds that alter states, the alteration is made once per packet when it goes on
-    /// the air, so every receiver gets the same lie (one draw per packet for the random offset),
-    /// and every receiver is targeted. Outsiders alter each link's copy on its own. Other kinds
-    /// ignore it.
-    pub insider: bool,
+    /// Whom the attacker acts as ([`ActsAs`]): for the kinds that alter what packets say, an
+    /// insider alters each packet once, when it goes on the air, so every receiver gets the
+    /// same lie (one draw per packet for the random offset) and every receiver is targeted;
+    /// outsiders and thieves alter each link's copy on its own. In a signed run
+    /// ([`ChannelSpec::keys`]) an insider signs its lie with its own key and a thief with the
+    /// member's it stole; an outsider's alterations keep the seal they break. Other kinds act
+    /// as outsiders, whatever this says.
+    pub acts_as: ActsAs,
+}
+
+/// Whom an attack acts as (issue 52's attacker model): what keys it holds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum ActsAs {
+    /// No valid key: its forgeries and alterations fail verification in a signed run.
+    #[default]
+    Outsider,
+    /// A platoon member lying in its own name, with its own key.
+    Insider,
+    /// A ghost or a Sybil holding the key of a compromised member, `key_of`: it signs what it
+    /// alters with that member's current pseudonym.
+    Thief {
+        /// The member whose key it stole.
+        key_of: VehicleId,
+    },
+}
+
+impl ActsAs {
+    /// Its name in configs and datasets.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Outsider => "outsider",
+            Self::Insider => "insider",
+            Self::Thief { .. } => "thief",
+        }
+    }
+}
+
+/// The keys a signed run's channel derives ([`platoon_security::Keyring`], from `[security]`'s
+/// seed and the platoon's place in its fleet), so its insiders and thieves can sign.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ChannelKeys {
+    /// `[security] seed`.
+    pub seed: u64,
+    /// The platoon of the fleet whose pseudonyms these are.
+    pub platoon: u16,
 }
 
 impl LinkAttack {
@@ -229,13 +268,13 @@ impl LinkAttack {
             end_s: f64::INFINITY,
             senders: Vec::new(),
             receivers: Vec::new(),
-            insider: false,
+            acts_as: ActsAs::Outsider,
         }
     }
 
     /// Whether it alters packets at their sender, once per packet.
     fn lies_at_source(&self) -> bool {
-        self.insider && self.kind.alters_state()
+        self.acts_as == ActsAs::Insider && self.kind.alters_state()
     }
 
     fn active(&self, t: f64) -> bool {
@@ -265,6 +304,9 @@ pub struct ChannelSpec {
     pub radio: Option<RadioSpec>,
     /// Jammers as transmitters (`[[channel.jammers]]`), see [`crate::jammer`].
     pub jammers: Vec<crate::jammer::Jammer>,
+    /// A signed run's keys (`[security]`), which insiders and thieves sign with; `None`:
+    /// unsigned, or nobody on the channel holds a key.
+    pub keys: Option<ChannelKeys>,
 }
 
 /// One step of one platoon on the channel: what [`Channel::gate`] gates.
@@ -314,6 +356,8 @@ pub struct Channel {
     jammers: Jammers,
     /// Per link (sender * n + receiver), with jammers: its last packet was lost to jamming.
     jam_out: Vec<bool>,
+    /// The platoon's keys, in a signed run with insiders or thieves.
+    keys: Option<platoon_security::Keyring>,
 }
 
 impl Channel {
@@ -363,6 +407,15 @@ impl Channel {
             } else {
                 vec![false; vehicles * vehicles]
             },
+            // Only a channel with someone to sign derives the keys.
+            keys: spec
+                .keys
+                .filter(|_| {
+                    spec.attacks
+                        .iter()
+                        .any(|a| a.kind.alters_state() && a.acts_as != ActsAs::Outsider)
+                })
+                .map(|k| platoon_security::Keyring::new(k.seed, k.platoon, vehicles)),
             spec,
         }
     }
@@ -505,7 +558,7 @@ impl Channel {
         for sent in &mut on_air {
             // Insiders lie once per packet, before it reaches any link (a broadcast nobody
             // listens to is not sent: see above).
-            let lied = !topology.out_neighbours(sent.sender).is_empty() && self.lie(t, sent);
+            let lied = !topology.out_neighbours(sent.sender).is_empty() && self.lie(k, t, sent);
             let sent = &*sent;
             for &receiver in topology.out_neighbours(sent.sender) {
                 if dos {
@@ -574,7 +627,7 @@ impl Channel {
 
     /// The insiders' lies in `packet` as it goes on the air at time `t` (in the attacks'
     /// order); whether there was any.
-    fn lie(&mut self, t: f64, packet: &mut Packet) -> bool {
+    fn lie(&mut self, k: u64, t: f64, packet: &mut Packet) -> bool {
         let mut lied = false;
         for a in &self.spec.attacks {
             if a.lies_at_source()
@@ -583,6 +636,10 @@ impl Channel {
             {
                 lied |= a.kind.alter(t - a.start_s, packet, &mut self.noise_rng);
             }
+        }
+        if lied {
+            // The insider signs its lie with its own key.
+            reseal(self.keys.as_mut(), k, packet, None);
         }
         lied
     }
@@ -677,6 +734,9 @@ impl Channel {
                 | LinkAttackKind::ForgeManeuver { .. } => {
                     a.kind
                         .alter(t - a.start_s, &mut packet, &mut self.noise_rng);
+                    if let ActsAs::Thief { key_of } = a.acts_as {
+                        reseal(self.keys.as_mut(), k, &mut packet, Some(key_of));
+                    }
                     log.push(event(at, &packet, receiver, Action::Altered, None));
                 }
             }
@@ -698,6 +758,34 @@ impl Channel {
         {
             *cut = true;
         }
+    }
+}
+
+/// Signs `packet` again after an alteration at step `k`, as its seal's signer would have
+/// (the same time, the same form) with the key of `vehicle` (`None`: the signer's own) of the
+/// signer's pseudonym epoch. Nothing to do without keys, or for a packet that carries no seal
+/// of the platoon's keys.
+fn reseal(
+    keys: Option<&mut platoon_security::Keyring>,
+    k: u64,
+    packet: &mut Packet,
+    vehicle: Option<VehicleId>,
+) {
+    let (Some(keys), Some(seal)) = (keys, packet.seal) else {
+        return;
+    };
+    let Ok(header) = platoon_security::SecurityHeader::decode(seal.as_bytes()) else {
+        return;
+    };
+    // At most one pseudonym change a step: the signer's epoch is among the first k + 1.
+    let Some(mut slot) = keys.holder(header.signer.digest(), k as usize + 1) else {
+        return;
+    };
+    if let Some(v) = vehicle {
+        slot.vehicle = v.index();
+    }
+    if let Some(signed) = keys.sign_like(slot, &packet.signed_bytes(), &header) {
+        packet.seal = platoon_v2v::Seal::new(&signed.to_bytes());
     }
 }
 

@@ -475,7 +475,14 @@ mod tests {
         assert_eq!(link.selector, "kind");
         assert_eq!(
             link.common,
-            ["end_s", "receivers", "senders", "start_s"],
+            [
+                "acts_as",
+                "end_s",
+                "key_of",
+                "receivers",
+                "senders",
+                "start_s"
+            ],
             "the keys every link attack has"
         );
         let tags: Vec<&str> = link.variants.iter().map(|v| v.tag.as_str()).collect();

@@ -21,12 +21,10 @@
 
 use crate::{Delivery, Packet};
 use platoon_security::{
-    AttachRule, Policy, Refusal, SecurityHeader, SignatureMemo, Signer, Validity, Verifier,
+    AttachRule, KeySlot, Keyring, Policy, Refusal, SecurityHeader, SignatureMemo, Signer, Verifier,
     VerifierConfig,
 };
 use platoon_v2v::Seal;
-use rand::SeedableRng;
-use rand_chacha::ChaCha20Rng;
 
 /// When a receiver verifies a packet's signature (`[security] policy`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -92,6 +90,27 @@ impl SecurityParams {
     }
 }
 
+impl SecurityParams {
+    /// The platoon's keys at this seed ([`Keyring`]), for `vehicles` vehicles: the ones its
+    /// vehicles sign with, and the ones an insider, a thief, the authority and the ground
+    /// truth derive.
+    pub fn keyring(&self, vehicles: usize) -> Keyring {
+        Keyring::new(self.seed, self.platoon, vehicles)
+    }
+
+    /// The run's time at step `k` of `dt` seconds (ms): the time signatures carry.
+    pub fn now_ms(k: u64, dt: f64) -> u64 {
+        (k as f64 * dt * 1e3).round() as u64
+    }
+
+    /// Whether every vehicle takes its next pseudonym at step `k` (a step whose time crosses
+    /// a multiple of `pseudonym_change_ms`; never with 0).
+    pub fn changes_pseudonyms_at(&self, k: u64, dt: f64) -> bool {
+        let change = self.pseudonym_change_ms;
+        change > 0 && k > 0 && Self::now_ms(k, dt) / change > Self::now_ms(k - 1, dt) / change
+    }
+}
+
 impl Default for SecurityParams {
     fn default() -> Self {
         Self {
@@ -148,9 +167,7 @@ impl SealCounts {
 pub struct Sealing {
     params: SecurityParams,
     dt: f64,
-    pki: platoon_security::Pki,
-    rng: ChaCha20Rng,
-    validity: Validity,
+    keys: Keyring,
     signers: Vec<Signer>,
     verifiers: Vec<Verifier>,
     memo: SignatureMemo,
@@ -161,31 +178,29 @@ impl Sealing {
     /// Signers and verifiers for `vehicles` vehicles (the leader included) stepped every `dt`
     /// seconds.
     pub fn new(params: SecurityParams, vehicles: usize, dt: f64) -> Self {
-        let mut rng = ChaCha20Rng::seed_from_u64(params.seed);
-        // Valid for the whole run, whatever its length.
-        let validity = Validity::new(0, u64::MAX);
-        let pki = platoon_security::Pki::generate(&mut rng, validity);
-        // The pseudonyms, and those of later changes: platoon j > 0 of a fleet on stream j.
-        if params.platoon > 0 {
-            rng = ChaCha20Rng::seed_from_u64(params.seed);
-            rng.set_stream(u64::from(params.platoon));
-        }
+        // The PKI and the pseudonyms, and those of later changes (platoon j > 0 of a fleet on
+        // stream j), valid for the whole run, whatever its length.
+        let keys = params.keyring(vehicles);
         let rule = AttachRule {
             period_ms: params.certificate_period_ms,
         };
         let signers = (0..vehicles)
-            .map(|_| Signer::new(pki.pseudonym(&mut rng, validity), rule))
+            .map(|v| {
+                let first = keys.pseudonym(KeySlot {
+                    epoch: 0,
+                    vehicle: v,
+                });
+                Signer::new(first.expect("epoch 0 is drawn").clone(), rule)
+            })
             .collect();
         let config = VerifierConfig {
             freshness_ms: params.freshness_ms,
         };
-        let verifiers = vec![pki.verifier(config); vehicles];
+        let verifiers = vec![keys.pki().verifier(config); vehicles];
         Self {
             params,
             dt,
-            pki,
-            rng,
-            validity,
+            keys,
             signers,
             verifiers,
             memo: SignatureMemo::new(),
@@ -195,7 +210,7 @@ impl Sealing {
 
     /// The run's time at step `k` (ms).
     pub fn now_ms(&self, k: u64) -> u64 {
-        (k as f64 * self.dt * 1e3).round() as u64
+        SecurityParams::now_ms(k, self.dt)
     }
 
     /// Its settings.
@@ -214,10 +229,10 @@ impl Sealing {
     /// stream).
     pub fn seal(&mut self, k: u64, packets: &mut [Packet]) {
         let now = self.now_ms(k);
-        let change = self.params.pseudonym_change_ms;
-        if change > 0 && k > 0 && now / change > self.now_ms(k - 1) / change {
-            for s in &mut self.signers {
-                s.change_pseudonym(self.pki.pseudonym(&mut self.rng, self.validity));
+        if self.params.changes_pseudonyms_at(k, self.dt) {
+            let next = self.keys.draw_epoch();
+            for (s, p) in self.signers.iter_mut().zip(next) {
+                s.change_pseudonym(p.clone());
             }
         }
         for p in packets {
@@ -398,8 +413,8 @@ mod tests {
         };
         let (mut first, mut second) = (of(0), of(1));
         assert_eq!(
-            first.pki.root().digest(),
-            second.pki.root().digest(),
+            first.keys.pki().root().digest(),
+            second.keys.pki().root().digest(),
             "one PKI"
         );
         for (a, b) in first.signers.iter().zip(&second.signers) {

@@ -110,9 +110,10 @@ pub fn read_tables(dir: &Path) -> Result<Tables> {
             let path = dir.join(format!("{stem}.{ext}"));
             if path.exists() {
                 // The radar's columns are there in runs with traffic only, the head's in runs
-                // that split.
-                let (schema, batches) =
-                    crate::tables::read_batches::<T>(&path, &StepRow::OPTIONAL_COLUMNS)?;
+                // that split, the key columns of the detections in signed runs.
+                let mut optional = StepRow::OPTIONAL_COLUMNS.to_vec();
+                optional.extend(DetectionRow::KEY_COLUMNS);
+                let (schema, batches) = crate::tables::read_batches::<T>(&path, &optional)?;
                 tables.push((stem, schema, batches));
                 break;
             }
@@ -179,6 +180,14 @@ struct DetectionRow {
     /// What refused it: a packet check (`stale_seq`, ... as in `rejected_packets`), the
     /// detectors' `reaction` or the leader's `check_reports`; empty when accepted.
     refused_by: Option<String>,
+    /// Signed runs (`[security]`) only: the vehicle whose key made its signature, empty if
+    /// none of the platoon's did (no seal, another PKI's key, altered after signing).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    signed_by: Option<String>,
+    /// Signed runs only: whom the attacker of a misbehaving delivery acted as (`outsider`,
+    /// `insider`, `thief`; `platoon_sim::detection::KeyUse`), empty for a genuine one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    acts_as: Option<String>,
     /// Any detector flagged it.
     flagged: bool,
     /// The reaction refused it.
@@ -333,7 +342,7 @@ impl RunFiles {
             detections: place.table_without(
                 "detections",
                 scenario.control.detection.is_measured() && on(OutputFile::Detections),
-                absent,
+                &DetectionRow::absent(absent, scenario.control.security.is_some()),
             )?,
             decimate: output.decimate,
             last: vec![None; scenario.vehicles()],
@@ -650,6 +659,10 @@ fn detection_row(names: &[&str], s: &Scored, dt: f64) -> DetectionRow {
             .map_or_else(String::new, |m| m.body.kind().name().to_string()),
         inspected: i.is_some(),
         refused_by: s.refused_by.map(|r| r.name().to_string()),
+        signed_by: s
+            .key
+            .map(|k| k.signed_by.map_or_else(String::new, |v| v.0.to_string())),
+        acts_as: s.key.map(|k| k.acts_as.unwrap_or_default().to_string()),
         flagged: i.is_some_and(|i| i.flagged),
         refused: i.is_some_and(|i| i.refused),
         plausibility_flagged: flagged("plausibility"),
@@ -661,6 +674,21 @@ fn detection_row(names: &[&str], s: &Scored, dt: f64) -> DetectionRow {
         radar_target: None,
         radar_gap_m: None,
         radar_closing_mps: None,
+    }
+}
+
+impl DetectionRow {
+    /// The key columns, in signed runs only.
+    const KEY_COLUMNS: [&'static str; 2] = ["signed_by", "acts_as"];
+
+    /// The columns a run's detections leave out: `absent` (the radar's, without traffic) and,
+    /// unless `signed`, the key columns.
+    fn absent<'a>(absent: &[&'a str], signed: bool) -> Vec<&'a str> {
+        let mut all = absent.to_vec();
+        if !signed {
+            all.extend(Self::KEY_COLUMNS);
+        }
+        all
     }
 }
 

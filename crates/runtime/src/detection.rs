@@ -35,7 +35,10 @@ impl Measure {
             recorders: scenario
                 .replicas()
                 .iter()
-                .map(|r| DetectionRecorder::new(r.platoon, &names, d.reaction, r.dt()))
+                .map(|r| {
+                    DetectionRecorder::new(r.platoon, &names, d.reaction, r.dt())
+                        .signed(r.control.security.as_ref(), num.per_platoon)
+                })
                 .collect(),
             links: vec![Vec::new(); num.platoons],
             inspections: vec![Vec::new(); num.platoons],

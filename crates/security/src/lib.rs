@@ -17,6 +17,9 @@
 //! - [`sign`]: a vehicle's [`Signer`], its pseudonym changes and the standards' rule for when
 //!   the full certificate rides along ([`AttachRule`]: once a second, after a change, on
 //!   request).
+//! - [`keyring`]: a platoon's keys in a run, all from its seed ([`Keyring`]): what the
+//!   vehicles sign with, and what insiders, thieves, the misbehaviour authority and the
+//!   ground truth derive to sign as a vehicle or to tell whose key signed a packet.
 //! - [`group`]: a platoon's group key, agreed with each member at its join (ECDH P-256, then
 //!   HKDF-SHA256; the key wrapped with ChaCha20-Poly1305), HMAC tags on intra-platoon
 //!   messages, renewed on every leave ([`KeyServer`], [`KeyHolder`]).
@@ -40,6 +43,7 @@ pub mod ecdsa;
 pub mod group;
 pub mod header;
 pub mod id;
+pub mod keyring;
 pub mod misbehaviour;
 pub mod pki;
 pub mod refusal;
@@ -54,6 +58,7 @@ pub use header::{
     STANDARD_CERTIFICATE_OVERHEAD, STANDARD_DIGEST_OVERHEAD,
 };
 pub use id::HashedId8;
+pub use keyring::{KeySlot, Keyring};
 pub use misbehaviour::{
     Authority, AuthorityRule, Evidence, RadarObservation, Report, ReportOutcome, Revocation,
     SignedReport, Uplink, VehicleKey,

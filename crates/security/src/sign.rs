@@ -66,17 +66,7 @@ impl Signer {
     /// The header for `payload` at `now_ms`, with the certificate if `attach`, whatever the
     /// rule says; the rule's state does not change.
     pub fn sign_with(&self, payload: &[u8], now_ms: u64, attach: bool) -> SecurityHeader {
-        let signer = if attach {
-            SignerId::Certificate(*self.pseudonym.certificate())
-        } else {
-            SignerId::Digest(self.pseudonym.digest())
-        };
-        let message = SecurityHeader::signed_message(payload, now_ms, &signer);
-        SecurityHeader {
-            generated_ms: now_ms,
-            signer,
-            signature: ecdsa::sign(self.pseudonym.signing_key(), &message),
-        }
+        sign_as(&self.pseudonym, payload, now_ms, attach)
     }
 
     /// The next packet carries the certificate: a new neighbour appeared, or a receiver asked
@@ -101,5 +91,26 @@ impl Signer {
     /// The current pseudonym's certificate.
     pub fn certificate(&self) -> &Certificate {
         self.pseudonym.certificate()
+    }
+}
+
+/// `payload` signed at `now_ms` with `pseudonym`, carrying its full certificate if `attach`
+/// and else its digest.
+pub(crate) fn sign_as(
+    pseudonym: &Credential,
+    payload: &[u8],
+    now_ms: u64,
+    attach: bool,
+) -> SecurityHeader {
+    let signer = if attach {
+        SignerId::Certificate(*pseudonym.certificate())
+    } else {
+        SignerId::Digest(pseudonym.digest())
+    };
+    let message = SecurityHeader::signed_message(payload, now_ms, &signer);
+    SecurityHeader {
+        generated_ms: now_ms,
+        signer,
+        signature: ecdsa::sign(pseudonym.signing_key(), &message),
     }
 }

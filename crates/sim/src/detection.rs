@@ -126,6 +126,48 @@ pub struct Scored {
     pub label: Label,
     /// The claimed sender's true state at the packet's sampling step (if known).
     pub truth: Option<State>,
+    /// In a signed run (`[security]`), whose key made its signature, told from its seal
+    /// ([`KeyUse::of`]); `None` in an unsigned run.
+    pub key: Option<KeyUse>,
+}
+
+/// Whose key signed a delivery and whom its attacker acted as, told from the seal it
+/// carries: the ground truth of issue 52's attacker model, measured on the wire.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct KeyUse {
+    /// The vehicle of the platoon whose pseudonym made the packet's signature, if the
+    /// signature holds under one (`None`: no seal, a key of another PKI, or a packet altered
+    /// after signing).
+    pub signed_by: Option<VehicleId>,
+    /// For a misbehaving delivery, whom its attacker acted as: `outsider` (the signature holds
+    /// under no key of the platoon, or it does under the sender's own and the content is as
+    /// the sender signed it: a replay, a delay), `insider` (altered, forged or false, and
+    /// signed with the claimed sender's own key), `thief` (signed with another member's key);
+    /// `None` for a genuine delivery.
+    pub acts_as: Option<&'static str>,
+}
+
+impl KeyUse {
+    /// The key use of `d`, delivered at step `k` with ground truth `label`, by `keys`.
+    pub fn of(keys: &mut platoon_security::Keyring, k: u64, d: &Delivery, label: Label) -> Self {
+        let signed_by = d.packet.seal.and_then(|seal| {
+            let header = platoon_security::SecurityHeader::decode(seal.as_bytes()).ok()?;
+            // At most one pseudonym change a step: its epoch is among the first k + 1.
+            let slot = keys.signed_by(&d.packet.signed_bytes(), &header, k as usize + 1)?;
+            Some(VehicleId(slot.vehicle as u16))
+        });
+        let changed = matches!(
+            label,
+            Label::Altered { .. } | Label::Forged | Label::Lied { .. }
+        );
+        let acts_as = match signed_by {
+            _ if !label.is_misbehaviour() => None,
+            Some(v) if v != d.packet.sender => Some("thief"),
+            Some(_) if changed => Some("insider"),
+            _ => Some("outsider"),
+        };
+        Self { signed_by, acts_as }
+    }
 }
 
 /// Whether inspection `i` is of delivery `r`: its link, sequence number, step and claimed state.
@@ -174,6 +216,8 @@ pub struct DetectionRecorder {
     leader_first_bad: Option<u64>,
     labels: BTreeMap<&'static str, u64>,
     scored: Vec<Scored>,
+    /// A signed run's keys, to tell whose key signed each delivery.
+    keys: Option<platoon_security::Keyring>,
 }
 
 impl DetectionRecorder {
@@ -201,7 +245,19 @@ impl DetectionRecorder {
             leader_first_bad: None,
             labels: BTreeMap::new(),
             scored: Vec::new(),
+            keys: None,
         }
+    }
+
+    /// In a signed run (`security`: its `[security]`, for this platoon), every scored
+    /// delivery says whose key signed it ([`Scored::key`]); `vehicles` the platoon's.
+    pub fn signed(
+        mut self,
+        security: Option<&platoon_control::security::SecurityParams>,
+        vehicles: usize,
+    ) -> Self {
+        self.keys = security.map(|s| s.keyring(vehicles));
+        self
     }
 
     /// Step `k`: the true `states`, the step's `links` (broadcasts as (receiver, packet)), what
@@ -228,7 +284,13 @@ impl DetectionRecorder {
             refused_by: None,
             label: l.label,
             truth: l.truth,
+            key: None,
         }));
+        if let Some(keys) = &mut self.keys {
+            for r in &mut self.scored {
+                r.key = Some(KeyUse::of(keys, k, &r.delivery, r.label));
+            }
+        }
         // Inspections come in delivery order (the controllers admit deliveries in order): each
         // is the next delivery of its link, sequence number, step and claimed state.
         let mut next = 0;

@@ -591,6 +591,7 @@ impl Simulation {
         scenario.validate()?;
         let controller = plugins.controller.make(&scenario)?;
         let injector = plugins.injector.make(&scenario)?;
+        let n = scenario.topology.followers();
         let detection = (!controller.detector_names().is_empty()).then(|| {
             detection::DetectionRecorder::new(
                 scenario.platoon,
@@ -598,8 +599,8 @@ impl Simulation {
                 scenario.control.detection.reaction,
                 scenario.dt(),
             )
+            .signed(scenario.control.security.as_ref(), n + 1)
         });
-        let n = scenario.topology.followers();
         Ok(Self {
             injector,
             plant: Plant::new(&scenario),

@@ -184,6 +184,13 @@ impl Scenario {
             platoon: self.platoon,
             radio: self.radio.clone(),
             jammers: self.jammers.clone(),
+            keys: self
+                .control
+                .security
+                .map(|s| platoon_attacks::channel::ChannelKeys {
+                    seed: s.seed,
+                    platoon: s.platoon,
+                }),
         }
     }
 

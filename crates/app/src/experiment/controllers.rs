@@ -278,6 +278,8 @@ fn apply_attack(c: &mut platoon_config::Config, name: &str) {
         end_s: f64::INFINITY,
         senders,
         receivers: None,
+        acts_as: None,
+        key_of: None,
     };
     match name {
         // 1 s of jamming every 5 s.

@@ -398,6 +398,8 @@ fn configure(
             end_s: f64::INFINITY,
             senders: Some(vec![opts.attacker]),
             receivers: None,
+            acts_as: None,
+            key_of: None,
         });
     }
     let on = |name: &str| cell.detectors.iter().any(|d| d == name);

@@ -308,6 +308,8 @@ fn apply_attack(c: &mut Config, maneuver: &str, name: &str, vehicle: usize, at_s
         end_s: f64::INFINITY,
         senders: None,
         receivers: None,
+        acts_as: None,
+        key_of: None,
     };
     match name {
         "dos" => {

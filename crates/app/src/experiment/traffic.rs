@@ -426,6 +426,8 @@ fn apply_attack(
         end_s: until_s,
         senders: Some(vec![sender as u16]),
         receivers: None,
+        acts_as: None,
+        key_of: None,
     };
     match name {
         // 1 s of jamming every 5 s.

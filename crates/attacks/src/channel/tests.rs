@@ -58,6 +58,7 @@ fn channel(attacks: Vec<LinkAttack>) -> Channel {
             platoon: 0,
             radio: None,
             jammers: Vec::new(),
+            keys: None,
         },
         4,
     )
@@ -394,7 +395,11 @@ fn two_receivers(attacks: Vec<LinkAttack>, steps: u64) -> (Vec<[State; 2]>, Vec<
 fn a_random_offset_is_seeded_zero_mean_per_link_and_one_lie_per_packet_for_an_insider() {
     let noisy = |insider| {
         vec![LinkAttack {
-            insider,
+            acts_as: if insider {
+                ActsAs::Insider
+            } else {
+                ActsAs::Outsider
+            },
             ..LinkAttack::everywhere(LinkAttackKind::RandomOffset {
                 std: [0.5, 0.1, 0.0],
             })
@@ -494,4 +499,68 @@ fn a_range_jammer_silences_the_vehicles_within_its_radius() {
         .collect();
     assert_eq!(got, vec![(2, 3)]);
     assert_eq!(o.log.len(), 2);
+}
+
+/// In a signed run an insider signs its lie with its own key, a thief with the member's it
+/// stole (in the form and at the time of the seal it replaces), and an outsider's alteration
+/// keeps the seal it breaks; an unsealed packet stays unsealed.
+#[test]
+fn insiders_and_thieves_sign_what_they_alter_and_outsiders_cannot() {
+    use platoon_security::{AttachRule, KeySlot, Keyring, SecurityHeader, Signer};
+    let keys = ChannelKeys {
+        seed: 5,
+        platoon: 0,
+    };
+    let mut ring = Keyring::new(keys.seed, keys.platoon, 4);
+    let slot = |vehicle| KeySlot { epoch: 0, vehicle };
+    let mut signer = Signer::new(
+        ring.pseudonym(slot(1)).unwrap().clone(),
+        AttachRule::STANDARD,
+    );
+    let mut sealed = packet(1, 1, 0);
+    let header = signer.sign(&sealed.signed_bytes(), 0);
+    sealed.seal = platoon_v2v::Seal::new(&header.to_bytes());
+    let braking = LinkAttackKind::FeignedBraking { accel: -6.0 };
+    for (acts_as, signed_by) in [
+        (ActsAs::Outsider, None),
+        (ActsAs::Insider, Some(slot(1))),
+        (
+            ActsAs::Thief {
+                key_of: VehicleId(3),
+            },
+            Some(slot(3)),
+        ),
+    ] {
+        let attack = LinkAttack {
+            acts_as,
+            ..LinkAttack::everywhere(braking.clone())
+        };
+        let mut c = Channel::new(
+            ChannelSpec {
+                keys: Some(keys),
+                ..channel(vec![attack]).spec().clone()
+            },
+            4,
+        );
+        let out = gate(&mut c, 0, &[sealed], &states(3));
+        let got = out.deliveries[0].packet;
+        assert_eq!(got.state[2], -6.0, "{acts_as:?}");
+        let h = SecurityHeader::decode(got.seal.unwrap().as_bytes()).unwrap();
+        assert_eq!(
+            ring.signed_by(&got.signed_bytes(), &h, 1),
+            signed_by,
+            "{acts_as:?}"
+        );
+        // The time and form of the seal it replaces (here the first packet's certificate).
+        assert_eq!(h.generated_ms, header.generated_ms);
+        let certificate_of = |v| *ring.pseudonym(slot(v)).unwrap().certificate();
+        let form = platoon_security::SignerId::Certificate(certificate_of(match acts_as {
+            ActsAs::Thief { key_of } => key_of.index(),
+            _ => 1,
+        }));
+        assert_eq!(h.signer, form, "{acts_as:?}");
+        // Unsealed (an unsigned run's packet): nothing to sign.
+        let out = gate(&mut c, 1, &[packet(1, 2, 1)], &states(3));
+        assert!(out.deliveries[0].packet.seal.is_none());
+    }
 }

@@ -1,8 +1,8 @@
 //! `[[channel.attacks]]`: the link-level attacks on the V2V channel.
 use super::checks::{bad, finite, positive, steps_of};
 use crate::error::KeyError;
-use crate::schema::{Channel, LinkAttackConfig, LinkKindConfig};
-use platoon_attacks::channel::{LinkAttack, LinkAttackKind};
+use crate::schema::{ActsAsConfig, Channel, LinkAttackConfig, LinkKindConfig};
+use platoon_attacks::channel::{ActsAs, LinkAttack, LinkAttackKind};
 use platoon_maneuver::MessageKind;
 use platoon_model::VehicleId;
 
@@ -47,10 +47,15 @@ fn attack(
         Ok(v.into_iter().map(VehicleId).collect())
     };
     let kind = kind(a, i, dt, regroups)?;
-    let insider = a.kind.insider();
-    if insider && a.receivers.is_some() {
+    let acts_as = acts_as(a, &key, followers)?;
+    if acts_as == ActsAs::Insider && a.receivers.is_some() {
+        let named = if a.acts_as.is_some() {
+            "acts_as"
+        } else {
+            "insider"
+        };
         return bad(
-            &key("insider"),
+            &key(named),
             "an insider's broadcast reaches every receiver alike: drop `receivers`",
         );
     }
@@ -65,8 +70,71 @@ fn attack(
         end_s,
         senders: ids("senders", &a.senders)?,
         receivers: ids("receivers", &a.receivers)?,
-        insider,
+        acts_as,
     })
+}
+
+/// Whom attack `a` acts as (`acts_as`, `key_of`, the older `insider = true`) in a platoon of
+/// `followers`; `key` names its keys.
+fn acts_as(
+    a: &LinkAttackConfig,
+    key: &dyn Fn(&str) -> String,
+    followers: usize,
+) -> Result<ActsAs, KeyError> {
+    let insider = a.kind.insider();
+    let said = match a.acts_as {
+        None if insider => ActsAsConfig::Insider,
+        None => ActsAsConfig::Outsider,
+        Some(ActsAsConfig::Insider) => ActsAsConfig::Insider,
+        Some(other) if insider => {
+            return bad(
+                &key("acts_as"),
+                format!(
+                    "{:?} contradicts `insider = true`: drop one of them",
+                    acts_as_name(other)
+                ),
+            )
+        }
+        Some(other) => other,
+    };
+    if said != ActsAsConfig::Outsider && !a.kind.alters_packets() {
+        return bad(
+            &key("acts_as"),
+            format!(
+                "a `{}` attack alters nothing a key could sign: only false_data, \
+                 random_offset, drift, feigned_braking, accel_scale, forged_head and \
+                 forge_maneuver act as insiders or thieves",
+                a.kind.name()
+            ),
+        );
+    }
+    match (said, a.key_of) {
+        (ActsAsConfig::Thief, None) => bad(
+            &key("key_of"),
+            "a thief signs with a member's stolen key: say whose (0 = the leader)",
+        ),
+        (ActsAsConfig::Thief, Some(m)) if usize::from(m) > followers => bad(
+            &key("key_of"),
+            format!("vehicle {m} does not exist (ids are 0 = leader to {followers})"),
+        ),
+        (ActsAsConfig::Thief, Some(m)) => Ok(ActsAs::Thief {
+            key_of: VehicleId(m),
+        }),
+        (_, Some(_)) => bad(
+            &key("key_of"),
+            "only a thief (`acts_as = \"thief\"`) holds another member's key",
+        ),
+        (ActsAsConfig::Insider, None) => Ok(ActsAs::Insider),
+        (ActsAsConfig::Outsider, None) => Ok(ActsAs::Outsider),
+    }
+}
+
+fn acts_as_name(a: ActsAsConfig) -> &'static str {
+    match a {
+        ActsAsConfig::Outsider => "outsider",
+        ActsAsConfig::Insider => "insider",
+        ActsAsConfig::Thief => "thief",
+    }
 }
 
 /// The attack's `kind` and its keys.

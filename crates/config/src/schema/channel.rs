@@ -224,7 +224,30 @@ with_window! {
         /// Targeted receivers; absent: all.
         #[serde(default, skip_serializing_if = "Option::is_none")]
         pub receivers: Option<Vec<u16>>,
+        /// Whom the attacker acts as, by the keys it holds: `outsider` (none: in a
+        /// `[security]` run its alterations fail verification), `insider` (a member lying in
+        /// its own name and signing the lie with its own key; the same as `insider = true`),
+        /// `thief` (a ghost or Sybil signing what it alters with member `key_of`'s stolen key).
+        /// Only the kinds that alter what packets say take `insider` or `thief` \[`outsider`,
+        /// `insider` with `insider = true`\].
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        pub acts_as: Option<ActsAsConfig>,
+        /// With `acts_as = "thief"`: the member whose key it stole (0 = the leader).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        pub key_of: Option<u16>,
     }
+}
+
+/// `[[channel.attacks]] acts_as`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum ActsAsConfig {
+    /// No valid key.
+    Outsider,
+    /// A member, with its own key.
+    Insider,
+    /// A ghost or Sybil with a member's stolen key (`key_of`).
+    Thief,
 }
 
 fn forever() -> f64 {
@@ -248,6 +271,12 @@ impl Serialize for LinkAttackConfig {
         }
         if let Some(v) = &self.receivers {
             m.serialize_entry("receivers", v)?;
+        }
+        if let Some(v) = &self.acts_as {
+            m.serialize_entry("acts_as", v)?;
+        }
+        if let Some(v) = &self.key_of {
+            m.serialize_entry("key_of", v)?;
         }
         serde_util::entries(&mut m, &self.kind, "kind")?;
         m.end()
@@ -410,6 +439,21 @@ impl LinkKindConfig {
     /// Its `kind`.
     pub fn name(&self) -> &'static str {
         serde_util::tag_name(self, "kind")
+    }
+
+    /// Whether it alters what a packet says (its state, the formation it announces, a
+    /// maneuver message): the kinds an insider or a thief signs.
+    pub fn alters_packets(&self) -> bool {
+        matches!(
+            self,
+            Self::FalseData { .. }
+                | Self::RandomOffset { .. }
+                | Self::Drift { .. }
+                | Self::FeignedBraking { .. }
+                | Self::AccelScale { .. }
+                | Self::ForgedHead { .. }
+                | Self::ForgeManeuver { .. }
+        )
     }
 
     /// Whether the attacker is an insider (false for the kinds that do not alter states).
