@@ -256,6 +256,7 @@ fn a_collision_on_the_lane_beside_is_counted_and_named() {
         },
         guard: false,
         saturated: false,
+        revoked: false,
         intruder: None,
         radar_target: None,
         radar_gap_m: None,

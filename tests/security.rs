@@ -412,6 +412,175 @@ fn the_dataset_says_whose_key_signed_each_delivery_on_both_transports() {
     assert_eq!(summary["security"]["refused_total"], seen["outsider"]);
 }
 
+/// `configs/leave.toml` on the paper's law, 40 s, no leave of its own, the three detectors,
+/// signed with misbehaviour reports (`reports` the keys of `[security.reports]`), and
+/// `attacks`.
+fn reported(attacks: &str, security: &str, reports: &str) -> String {
+    let text = leave_with(attacks);
+    let cut = text.find("[[maneuvers.leaves]]").unwrap();
+    let end = text[cut..].find("\n\n").map_or(text.len(), |e| cut + e + 2);
+    let text = format!("{}{}", &text[..cut], &text[end..]);
+    let paper = text
+        .replace("duration_s = 70.0", "duration_s = 40.0")
+        .replace(
+            "law = \"path_cacc\"\nspacing_m = 15.5",
+            "gain = [4.81, 9.12, 2.97]\nbeta1 = 319.38\nbeta2 = 5.62",
+        );
+    assert!(paper.contains("beta1") && paper.contains("duration_s = 40.0"));
+    assert!(!paper.contains("[[maneuvers.leaves]]"));
+    format!(
+        "{paper}\n[detection.plausibility]\n[detection.radar_cross]\n[detection.residual]\n\
+         \n[security]\n{security}\n[security.reports]\n{reports}"
+    )
+}
+
+/// Follower 2, an insider, feigns braking from 20 s.
+const FEIGNED_BRAKING: &str = "[[channel.attacks]]\nkind = \"feigned_braking\"\n\
+    accel_mps2 = -6.0\nsenders = [2]\nstart_s = 20.0\nacts_as = \"insider\"\n";
+
+/// A run in process: its rows, and what the authority revoked.
+fn revocations(text: &str) -> (Vec<StepRow>, Vec<platoon_security::Revocation>) {
+    let mut sim = platoon_sim::Simulation::new(scenario(text)).unwrap();
+    let mut rows = Vec::new();
+    while !sim.is_done() {
+        rows.extend_from_slice(sim.step());
+    }
+    let revoked = sim.controller().checks().unwrap().revocations().to_vec();
+    (rows, revoked)
+}
+
+/// An insider feigning braking is flagged by the followers behind it, reported by at least
+/// two of them, revoked by the authority and ejected by the leader through the leave
+/// protocol, without a collision; with pseudonym changes too (its later pseudonyms are as
+/// revoked). Without reports nobody is revoked and it stays a member.
+#[test]
+fn an_insider_feigning_braking_is_reported_revoked_and_ejected() {
+    for keys in ["", "pseudonym_change_s = 5.0\n"] {
+        let (rows, revoked) = revocations(&reported(FEIGNED_BRAKING, keys, ""));
+        assert_eq!(revoked.len(), 1, "{keys:?}: {revoked:?}");
+        let r = &revoked[0];
+        assert_eq!(r.vehicle, 2, "{keys:?}");
+        let mut reporters = r.reporters.clone();
+        reporters.sort();
+        reporters.dedup();
+        assert!(reporters.len() >= 2 && !reporters.contains(&2), "{r:?}");
+        assert!((20_000..21_000).contains(&r.decided_ms), "{r:?}");
+        // Ejected: it leaves, revoked from the step after the decision on.
+        let two = of(&rows, 2);
+        assert!(two.iter().any(|x| x.mode == Role::Left), "{keys:?}");
+        assert!(two.iter().filter(|x| x.t > 21.0).all(|x| x.revoked));
+        // The followers behind it close up to follower 1 and nobody collides.
+        let lengths = 4.5;
+        for k in 0..rows.len() / 6 {
+            let at = &rows[k * 6..(k + 1) * 6];
+            for w in [(1, 3), (3, 4), (4, 5)] {
+                let gap = at[w.0].p - at[w.1].p - lengths;
+                assert!(gap > 2.0, "{keys:?}: {w:?} at {}: {gap}", at[0].t);
+            }
+        }
+        let (p1, p3) = (
+            of(&rows, 1).last().unwrap().p,
+            of(&rows, 3).last().unwrap().p,
+        );
+        assert!(
+            (p1 - p3 - 20.0).abs() < 3.0,
+            "follower 3 closed up: {}",
+            p1 - p3
+        );
+    }
+    // Without reports the lie goes on and follower 2 stays.
+    let text = reported(FEIGNED_BRAKING, "", "");
+    let cut = text.find("[security.reports]").unwrap();
+    let (rows, revoked) = revocations(&text[..cut]);
+    assert!(revoked.is_empty());
+    assert!(of(&rows, 2)
+        .iter()
+        .all(|x| x.mode != Role::Left && !x.revoked));
+}
+
+/// The same revocation over iceoryx2: the controller process files the reports and applies
+/// the authority's decision, and every output is the same bit for bit as in process; the
+/// summary says what the reports did and whom they revoked, events.csv when.
+#[test]
+fn a_revocation_is_bit_identical_on_both_transports() {
+    let tmp = tempfile::tempdir().unwrap();
+    std::fs::write(
+        tmp.path().join("reports.toml"),
+        reported(FEIGNED_BRAKING, "", "latency_s = 0.2\n"),
+    )
+    .unwrap();
+    for (out, transport) in [("ipc", "iceoryx2"), ("inproc", "inproc")] {
+        common::run_config(
+            &tmp.path().join("reports.toml"),
+            out,
+            &["--transport", transport],
+            tmp.path(),
+        );
+    }
+    for f in [
+        "trajectories.csv",
+        "events.csv",
+        "summary.json",
+        "detections.csv",
+    ] {
+        let a = std::fs::read(tmp.path().join("ipc").join(f)).unwrap();
+        let b = std::fs::read(tmp.path().join("inproc").join(f)).unwrap();
+        assert!(a == b, "{f} differs between the transports");
+    }
+    let summary = common::json(&tmp.path().join("ipc/summary.json"));
+    let reports = &summary["security"]["reports"];
+    assert_eq!(reports["revoked"].as_array().unwrap().len(), 1, "{reports}");
+    assert_eq!(reports["revoked"][0]["vehicle"], 2, "{reports}");
+    assert!(
+        reports["outcomes"]["counted"].as_u64().unwrap() >= 2,
+        "{reports}"
+    );
+    assert!(reports["filed"].as_u64().unwrap() >= 2, "{reports}");
+    assert_eq!(summary["safety"]["collided"], false);
+    // Refused as revoked from then on.
+    assert!(summary["security"]["refused"]["revoked"].as_u64().unwrap() > 0);
+    let events = std::fs::read_to_string(tmp.path().join("ipc/events.csv")).unwrap();
+    let at = |event: &str| {
+        events
+            .lines()
+            .find(|l| l.starts_with("0,2,") && l.contains(&format!(",{event},")))
+            .map(|l| l.split(',').nth(2).unwrap().parse::<u64>().unwrap())
+    };
+    let (revoked, left) = (at("revoked").unwrap(), at("left").unwrap());
+    assert_eq!(reports["revoked"][0]["step"], revoked);
+    assert!(left > revoked, "ejected after the revocation");
+}
+
+/// One insider reporting an honest member every second, under as many pseudonyms as its
+/// pseudonym changes give it, reaches no quorum: nobody is revoked and the run is the run
+/// without the false reports, bit for bit. The rule is what stands in the way: with a quorum
+/// of one the same campaign revokes the honest member.
+#[test]
+fn one_insiders_false_reports_revoke_nobody() {
+    let liar = "[security.reports.false_reports]\nreporter = 3\naccused = 1\nstart_s = 5.0\n";
+    let keys = "pseudonym_change_s = 5.0\n";
+    let (honest, none) = revocations(&reported("", keys, ""));
+    assert!(none.is_empty());
+    let text = reported("", keys, liar);
+    let (rows, revoked) = revocations(&text);
+    assert!(revoked.is_empty(), "{revoked:?}");
+    assert!(same(&rows, &honest), "the false reports changed the run");
+    let mut sim = platoon_sim::Simulation::new(scenario(&text)).unwrap();
+    while !sim.is_done() {
+        sim.step();
+    }
+    let counts = sim.controller().seals().unwrap().reports;
+    assert!(counts.filed >= 30, "{counts:?}");
+    // Every report that arrived counted (its evidence is the accused's genuine packet); the
+    // last may still be on the uplink at the end.
+    let arrived: u64 = counts.outcomes.iter().sum();
+    assert_eq!(counts.outcomes[0], arrived, "{counts:?}");
+    assert!(arrived + 1 >= counts.filed, "{counts:?}");
+    let (_, revoked) = revocations(&reported("", keys, &format!("quorum = 1\n{liar}")));
+    let one = revoked.iter().find(|r| r.vehicle == 1);
+    assert!(one.is_some_and(|r| r.reporters == [3]), "{revoked:?}");
+}
+
 /// A controller plug-in neither signs nor verifies: a signed run with one is refused, naming
 /// the key, rather than run unsigned.
 #[test]

@@ -22,8 +22,9 @@ import iceoryx2 as iox
 # (the head of the platoon the sender drives in, for a platoon split behind a cut-in) and
 # `reserved` (always 0); v4: V2vPacket carries a maneuver message (`maneuver` and its fields in
 # place of `reserved`; 80 bytes); v5: V2vPacket carries its sender's seal (`seal_len`, `seal`:
-# the security header of a `[security]` run, docs/security.md; 280 bytes).
-CONTRACT_VERSION = 5
+# the security header of a `[security]` run, docs/security.md; 280 bytes); v6: ControlMsg
+# counts the controller's misbehaviour reports (`reports`), Command.flags bit 3 (REVOKED).
+CONTRACT_VERSION = 6
 CONTRACT_VERSION_ENV = "PLATOON_CONTRACT_VERSION"
 CONTRACT_DOC = "docs/injector-contract.md"
 
@@ -178,6 +179,7 @@ class Command(Payload):
     TRIGGERED = 1
     AFFECTED = 2
     GUARD = 4
+    REVOKED = 8  # the misbehaviour authority revoked its certificates ([security.reports])
     MODE_SHIFT = 4  # (flags >> MODE_SHIFT) & MODE_MASK: 0 coop, 1 zero, 2 hold, 3 predict,
     MODE_MASK = 0b1111  # 4 acc, 5 blend, 6 cut_in, 7 outside, 8 left, 9 beside
     # (flags >> HEAD_SHIFT) & HEAD_MASK: whom it took as its leader (0: the platoon's leader;
@@ -247,8 +249,10 @@ class ControlMsg(Payload):
         ("node", ctypes.c_uint32),
         ("step", ctypes.c_uint64),
         ("counts", ctypes.c_uint64 * 6),
-        # DONE from the controller in a [security] run: signed, verified, refusals by code 1-11.
+        # DONE from the controller in a [security] run: signed, verified, refusals by code 1-11;
+        # with [security.reports]: reports filed, lost, then arrived by outcome code 1-9.
         ("seals", ctypes.c_uint64 * 13),
+        ("reports", ctypes.c_uint64 * 11),
         ("reason", ctypes.c_uint8 * 120),
     ]
 

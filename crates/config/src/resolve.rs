@@ -109,7 +109,13 @@ pub fn scenario_of(c: &Config) -> Result<Scenario, KeyError> {
         leader_broadcast_steps,
         detection: detection::detection(c.detection.as_ref(), dt)?,
         maneuvers: maneuvers::maneuvers(c.maneuvers.as_ref(), n, grid, cut_in_splits)?,
-        security: security::security(c.security.as_ref())?,
+        security: security::security(
+            c.security.as_ref(),
+            c.detection.as_ref().is_some_and(|d| {
+                d.plausibility.is_some() || d.radar_cross.is_some() || d.residual.is_some()
+            }),
+            n,
+        )?,
     };
     control::check_controller(&control, &topology)?;
 

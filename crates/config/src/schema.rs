@@ -112,6 +112,63 @@ pub struct SecurityConfig {
     /// The seed of the PKI's and pseudonyms' keys (signatures are deterministic: the run is
     /// the same bit for bit at the same seed).
     pub seed: u64,
+    /// Misbehaviour reports and revocation: a detector's flag becomes a signed report to the
+    /// misbehaviour authority, which revokes a vehicle reported by enough others; needs
+    /// `[detection]`. Absent: a flag stays a flag.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub reports: Option<ReportsConfig>,
+}
+
+/// `[security.reports]`: the reporters' uplink and the misbehaviour authority's rule
+/// (docs/security.md#misbehaviour-reports-and-revocation).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(default, deny_unknown_fields)]
+pub struct ReportsConfig {
+    /// The uplink's latency from a reporter to the authority (s), >= 0, whole milliseconds.
+    pub latency_s: f64,
+    /// The probability that the uplink loses a report, in [0, 1).
+    pub loss: f64,
+    /// How many distinct vehicles other than the accused must report it, >= 1.
+    pub quorum: u32,
+    /// Within how long of each other their reports must arrive (s), > 0.
+    pub window_s: f64,
+    /// A vehicle reports the same pseudonym at most this often (s), > 0.
+    pub every_s: f64,
+    /// The catalogue's false report campaign: an insider reporting an honest member.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub false_reports: Option<FalseReportsConfig>,
+}
+
+/// `[security.reports.false_reports]`: insider `reporter` reports honest member `accused`
+/// whenever it receives one of its packets (at most every `every_s`), over
+/// `[start_s, end_s)`, the packet as evidence.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct FalseReportsConfig {
+    /// The insider filing them (a vehicle id, 0 = the leader).
+    pub reporter: u16,
+    /// The honest member it accuses.
+    pub accused: u16,
+    /// From (s).
+    #[serde(default)]
+    pub start_s: f64,
+    /// Until (s, exclusive; `inf`, the default: the end of the run).
+    #[serde(default = "channel::forever")]
+    #[schemars(default = "channel::forever_in_json")]
+    pub end_s: f64,
+}
+
+impl Default for ReportsConfig {
+    fn default() -> Self {
+        Self {
+            latency_s: 0.1,
+            loss: 0.0,
+            quorum: 2,
+            window_s: 5.0,
+            every_s: 1.0,
+            false_reports: None,
+        }
+    }
 }
 
 impl Default for SecurityConfig {
@@ -122,6 +179,7 @@ impl Default for SecurityConfig {
             pseudonym_change_s: 0.0,
             freshness_s: 1.0,
             seed: 0,
+            reports: None,
         }
     }
 }

@@ -611,6 +611,71 @@ fn security_resolves_and_bad_values_name_their_key() {
     assert!(with("bogus = 1\n").is_err());
 }
 
+/// `[security.reports]`: its defaults (the authority's documented rule), a false report
+/// campaign, and bad values named by key; reports need a detector.
+#[test]
+fn security_reports_resolve_and_bad_values_name_their_key() {
+    let with = |keys: &str| {
+        let text = format!(
+            "{}\n[detection.residual]\n\n[security]\n[security.reports]\n{keys}",
+            platoon_config::PAPER_TOML
+        );
+        parse(&text, Path::new("bad.toml")).map(|(_, s)| s)
+    };
+    let r = with("").unwrap().control.security.unwrap().reports.unwrap();
+    assert_eq!(r, platoon_control::security::ReportParams::default());
+    assert_eq!(
+        (r.latency_ms, r.quorum, r.window_ms, r.every_ms, r.loss),
+        (100, 2, 5000, 1000, 0.0)
+    );
+    let r = with(
+        "quorum = 3\n[security.reports.false_reports]\nreporter = 3\naccused = 1\nstart_s = 5.0\n",
+    )
+    .unwrap()
+    .control
+    .security
+    .unwrap()
+    .reports
+    .unwrap();
+    let f = r.false_reports.unwrap();
+    assert_eq!((r.quorum, f.reporter.0, f.accused.0), (3, 3, 1));
+    assert_eq!((f.start_ms, f.end_ms), (5000, u64::MAX));
+    let cases = [
+        ("loss = 1.0\n", "security.reports.loss", "[0, 1)"),
+        ("quorum = 0\n", "security.reports.quorum", ">= 1"),
+        ("window_s = 0.0\n", "security.reports.window_s", ""),
+        ("latency_s = 0.0001\n", "security.reports.latency_s", "milliseconds"),
+        (
+            "[security.reports.false_reports]\nreporter = 9\naccused = 1\n",
+            "security.reports.false_reports.reporter",
+            "does not exist",
+        ),
+        (
+            "[security.reports.false_reports]\nreporter = 2\naccused = 2\n",
+            "security.reports.false_reports.accused",
+            "itself",
+        ),
+        (
+            "[security.reports.false_reports]\nreporter = 2\naccused = 1\nstart_s = 5.0\nend_s = 4.0\n",
+            "security.reports.false_reports.end_s",
+            "after start_s",
+        ),
+    ];
+    for (keys, key, says) in cases {
+        assert_error(with(keys).map(|_| ()), key, says);
+    }
+    // Without a detector nothing flags: reports are a config error.
+    let text = format!(
+        "{}\n[security]\n[security.reports]\n",
+        platoon_config::PAPER_TOML
+    );
+    assert_error(
+        parse(&text, Path::new("bad.toml")).map(|_| ()),
+        "security.reports",
+        "detector",
+    );
+}
+
 /// `[security]` on the 802.11p channel: the model's packets carry what signing adds on the
 /// air (the standards' overhead, the certificate on its share of packets); without it, as
 /// configured. A packet that signing would push past 802.11's largest names its key.

@@ -303,6 +303,37 @@ impl PacketChecks {
         self.sealing.as_ref().map(|s| s.counts())
     }
 
+    /// What the misbehaviour reports did so far (`[security.reports]` only).
+    pub fn reports(&self) -> Option<&crate::security::ReportCounts> {
+        self.sealing.as_ref().and_then(|s| s.reports())
+    }
+
+    /// The misbehaviour authority's revocations so far (`[security.reports]` only).
+    pub fn revocations(&self) -> &[platoon_security::Revocation] {
+        self.sealing.as_ref().map_or(&[], |s| s.revocations())
+    }
+
+    /// A follower's detector flagged a packet: a report to the authority
+    /// ([`crate::security::Sealing::report`]; nothing without `[security.reports]`).
+    pub fn report(
+        &mut self,
+        k: u64,
+        reporter: VehicleId,
+        packet: &Packet,
+        detector: u8,
+        observed: Option<platoon_security::RadarObservation>,
+    ) {
+        if let Some(s) = &mut self.sealing {
+            s.report(k, reporter, packet, detector, observed);
+        }
+    }
+
+    /// The authority's decisions at the end of step `k`: the vehicles it revoked, whose
+    /// packets every receiver refuses from then on ([`crate::security::Sealing::decide`]).
+    pub fn decide(&mut self, k: u64) -> Vec<VehicleId> {
+        self.sealing.as_mut().map_or_else(Vec::new, |s| s.decide(k))
+    }
+
     /// The signed V2V settings (`[security]` only).
     pub fn security(&self) -> Option<&crate::SecurityParams> {
         self.sealing.as_ref().map(|s| s.params())

@@ -59,6 +59,8 @@ pub struct ComposedController {
     maneuvers: Option<ManeuverStage>,
     /// Every vehicle of the platoon in order, the leader first.
     ids: Vec<VehicleId>,
+    /// Per vehicle (the leader first): revoked by the misbehaviour authority.
+    revoked: Vec<bool>,
 }
 
 impl ComposedController {
@@ -120,6 +122,7 @@ impl ComposedController {
             readings: Vec::with_capacity(n),
             maneuvers,
             ids: (0..=n).map(|i| VehicleId(i as u16)).collect(),
+            revoked: vec![false; n + 1],
             parts,
         })
     }
@@ -250,6 +253,7 @@ impl Controller for ComposedController {
                 _ => self.admit((k, j), d, states),
             }
         }
+        self.report_and_revoke(k, rx);
         if let Some(man) = self.maneuvers.as_mut() {
             let (followers, readings) = (&self.followers, &self.readings);
             man.step(k, states, followers, readings, &self.checks, &self.parts);
@@ -286,7 +290,10 @@ impl Controller for ComposedController {
     }
 
     fn follower_step(&self, i: VehicleId) -> FollowerStep {
-        self.followers[i.index() - 1].step
+        FollowerStep {
+            revoked: self.revoked[i.index()],
+            ..self.followers[i.index() - 1].step
+        }
     }
 
     fn checks(&self) -> Option<&PacketChecks> {
@@ -295,6 +302,67 @@ impl Controller for ComposedController {
 }
 
 impl ComposedController {
+    /// Step `k`'s misbehaviour reports (`[security.reports]`): each packet of `rx` a
+    /// follower's detector flagged is reported, with what the reporter's radar saw; then the
+    /// authority decides on the reports that reached it, every receiver refuses the packets of
+    /// a vehicle it revokes, and the leader ejects that vehicle through the leave protocol.
+    fn report_and_revoke(&mut self, k: u64, rx: &[Delivery]) {
+        if self.checks.reports().is_none() {
+            return;
+        }
+        let now_ms = crate::security::SecurityParams::now_ms(k, self.parts.dt);
+        let flagged: Vec<_> = self
+            .checks
+            .inspections()
+            .iter()
+            .filter(|i| i.flagged && !i.receiver.is_leader() && !i.refused_by_checks())
+            .map(|i| {
+                let detector = i.verdicts().iter().position(|v| v.flagged).unwrap_or(0);
+                (*i, detector as u8 + 1)
+            })
+            .collect();
+        for (i, detector) in flagged {
+            let Some(d) = rx.iter().find(|d| {
+                let p = &d.packet;
+                d.receiver == i.receiver
+                    && p.sender == i.sender
+                    && p.seq == i.seq
+                    && p.step == i.step
+            }) else {
+                continue;
+            };
+            let observed = self.readings[i.receiver.index() - 1]
+                .filter(|(r, _)| !r.intruder)
+                .map(|(r, _)| platoon_security::RadarObservation {
+                    at_ms: now_ms,
+                    gap_m: r.gap,
+                    relative_speed_mps: -r.closing,
+                });
+            self.checks
+                .report(k, i.receiver, &d.packet, detector, observed);
+        }
+        // An insider's false reports: a genuine packet of the accused as "evidence".
+        let liar = (self.parts.security)
+            .and_then(|s| s.reports?.false_reports)
+            .filter(|f| (f.start_ms..f.end_ms).contains(&now_ms));
+        if let Some(f) = liar {
+            let heard = rx.iter().find(|d| {
+                d.receiver == f.reporter && d.packet.sender == f.accused && d.packet.seal.is_some()
+            });
+            if let Some(d) = heard {
+                self.checks.report(k, f.reporter, &d.packet, 0, None);
+            }
+        }
+        for v in self.checks.decide(k) {
+            if let Some(r) = self.revoked.get_mut(v.index()) {
+                *r = true;
+            }
+            if let Some(man) = self.maneuvers.as_mut() {
+                man.machines.eject(k, v);
+            }
+        }
+    }
+
     /// Delivery `j` of step `k` to a follower: the packet checks and detectors, then its
     /// maneuver message to its machine and its packet to its law (refused ones are counted and
     /// go nowhere).

@@ -389,6 +389,15 @@ impl Maneuvers {
         }
     }
 
+    /// The leader ejects `member` at step `k` (revoked by the misbehaviour authority), through
+    /// the leave protocol: its formation update goes out with its next packets.
+    pub(crate) fn eject(&mut self, k: u64, member: VehicleId) {
+        let out = &mut self.scratch;
+        out.clear();
+        self.leader.eject(k, member, out);
+        self.leader_out.extend(out.drain(..));
+    }
+
     /// Step `k`: every machine acts on what its vehicle received; `ready[i - 1]` is follower
     /// `i`'s controller's judgement: a joiner's that it is in its slot, a member's that the gap
     /// it opens is open.

@@ -38,6 +38,9 @@ pub struct FollowerStep {
     /// Whom it took as its leader: the platoon's (the default), or the member heading its part
     /// of a platoon split behind a car that cut in (`[fallback.cut_in] split`).
     pub head: VehicleId,
+    /// The misbehaviour authority has revoked its certificates (`[security.reports]`): every
+    /// receiver refuses its packets.
+    pub revoked: bool,
 }
 
 impl FollowerStep {

@@ -20,11 +20,14 @@
 //! step): the same outcome, computed once per packet rather than once per receiver.
 
 use crate::{Delivery, Packet};
+use platoon_model::VehicleId;
 use platoon_security::{
-    AttachRule, KeySlot, Keyring, Policy, Refusal, SecurityHeader, SignatureMemo, Signer, Verifier,
-    VerifierConfig,
+    AttachRule, Authority, Evidence, HashedId8, KeySlot, Keyring, Policy, RadarObservation,
+    Refusal, Report, ReportOutcome, Revocation, SecurityHeader, SignatureMemo, Signer, Uplink,
+    Verifier, VerifierConfig,
 };
 use platoon_v2v::Seal;
+use std::collections::BTreeMap;
 
 /// When a receiver verifies a packet's signature (`[security] policy`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -66,6 +69,150 @@ pub struct SecurityParams {
     /// the PKI's stream after it, platoon j from ChaCha20 stream j of the same seed), so no
     /// two vehicles of a fleet share a key.
     pub platoon: u16,
+    /// Misbehaviour reports and revocation (`[security.reports]`); `None`: a detector's flag
+    /// stays a flag.
+    pub reports: Option<ReportParams>,
+}
+
+/// Misbehaviour reports and the authority that revokes on them (`[security.reports]`,
+/// docs/security.md#misbehaviour-reports-and-revocation).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ReportParams {
+    /// The uplink's latency from a reporter to the authority (ms).
+    pub latency_ms: u64,
+    /// The uplink's loss probability per report.
+    pub loss: f64,
+    /// The authority's rule: distinct reporting vehicles other than the accused...
+    pub quorum: usize,
+    /// ...whose counted reports arrived within this long of each other (ms).
+    pub window_ms: u64,
+    /// A reporter reports the same pseudonym at most this often (ms).
+    pub every_ms: u64,
+    /// A false report campaign (the catalogue's `false_reports`): an insider reporting an
+    /// honest member.
+    pub false_reports: Option<FalseReports>,
+}
+
+/// An insider's false report campaign: `reporter` reports `accused` whenever it receives a
+/// packet of it (at most every `every_ms`) over `[start_ms, end_ms)`, the packet as evidence;
+/// the authority cannot tell it from an honest report, so only its rule stands in the way.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FalseReports {
+    /// The insider who files them.
+    pub reporter: VehicleId,
+    /// The honest member it accuses.
+    pub accused: VehicleId,
+    /// From (ms).
+    pub start_ms: u64,
+    /// Until (ms, exclusive; `u64::MAX`: the end of the run).
+    pub end_ms: u64,
+}
+
+impl Default for ReportParams {
+    fn default() -> Self {
+        let rule = platoon_security::AuthorityRule::default();
+        Self {
+            latency_ms: 100,
+            loss: 0.0,
+            quorum: rule.quorum,
+            window_ms: rule.window_ms,
+            every_ms: 1000,
+            false_reports: None,
+        }
+    }
+}
+
+/// What the reports did so far: filed, lost on the uplink, and what the authority made of
+/// those that arrived (by [`ReportOutcome::code`]). Which vehicles it revoked, and when, the
+/// rows say ([`crate::FollowerStep::revoked`]).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct ReportCounts {
+    /// Reports filed by the platoon's vehicles.
+    pub filed: u64,
+    /// Lost on the uplink.
+    pub lost: u64,
+    /// Arrived, by outcome (code - 1, [`ReportOutcome::NAMES`] order).
+    pub outcomes: [u64; 9],
+}
+
+impl ReportCounts {
+    /// `(name, count)` of every outcome, in order.
+    pub fn by_outcome(&self) -> impl Iterator<Item = (&'static str, u64)> + '_ {
+        ReportOutcome::NAMES.iter().copied().zip(self.outcomes)
+    }
+
+    /// As 11 numbers: filed, lost, then the outcomes (the wire's `ControlMsg::reports`).
+    pub fn as_array(&self) -> [u64; 11] {
+        let mut a = [0; 11];
+        a[0] = self.filed;
+        a[1] = self.lost;
+        a[2..].copy_from_slice(&self.outcomes);
+        a
+    }
+
+    /// [`ReportCounts::as_array`]'s inverse.
+    pub fn from_array(a: [u64; 11]) -> Self {
+        let mut outcomes = [0; 9];
+        outcomes.copy_from_slice(&a[2..]);
+        Self {
+            filed: a[0],
+            lost: a[1],
+            outcomes,
+        }
+    }
+
+    /// The sum of `self` and `other`.
+    pub fn plus(&self, other: &ReportCounts) -> ReportCounts {
+        let (a, b) = (self.as_array(), other.as_array());
+        Self::from_array(std::array::from_fn(|i| a[i] + b[i]))
+    }
+}
+
+/// A platoon's misbehaviour reporting: its uplink, the authority (every pseudonym of the
+/// platoon enrolled), when each reporter last reported each pseudonym, and what happened.
+#[derive(Debug, Clone)]
+struct Reporting {
+    params: ReportParams,
+    uplink: Uplink,
+    authority: Authority,
+    last: BTreeMap<(usize, HashedId8), u64>,
+    counts: ReportCounts,
+    /// The authority's revocations, in order.
+    revocations: Vec<Revocation>,
+}
+
+impl Reporting {
+    fn new(params: ReportParams, security: &SecurityParams, keys: &Keyring) -> Self {
+        let rule = platoon_security::AuthorityRule {
+            quorum: params.quorum,
+            window_ms: params.window_ms,
+        };
+        let authority = Authority::new(keys.pki().authority().certificate(), rule)
+            .expect("the PKI's authority is an authority");
+        // Its own stream of the seed: its losses never shift the keys'.
+        let seed = security.seed ^ 0x7265_706f_7274_7300 ^ u64::from(security.platoon);
+        let mut reporting = Self {
+            params,
+            uplink: Uplink::new(params.latency_ms, params.loss, seed),
+            authority,
+            last: BTreeMap::new(),
+            counts: ReportCounts::default(),
+            revocations: Vec::new(),
+        };
+        reporting.enrol(keys, 0);
+        reporting
+    }
+
+    /// Enrols epoch `epoch` of `keys`: the PKI's enrolment links each pseudonym to its vehicle.
+    fn enrol(&mut self, keys: &Keyring, epoch: usize) {
+        for vehicle in 0..keys.vehicles() {
+            if let Some(p) = keys.pseudonym(KeySlot { epoch, vehicle }) {
+                self.authority
+                    .enrol(vehicle as u32, p.certificate())
+                    .expect("the PKI's pseudonyms enrol");
+            }
+        }
+    }
 }
 
 impl SecurityParams {
@@ -120,6 +267,7 @@ impl Default for SecurityParams {
             freshness_ms: VerifierConfig::default().freshness_ms,
             seed: 0,
             platoon: 0,
+            reports: None,
         }
     }
 }
@@ -135,6 +283,8 @@ pub struct SealCounts {
     pub verified: u64,
     /// Refused deliveries by [`Refusal::code`] - 1.
     pub refused: [u64; 11],
+    /// The misbehaviour reports (`[security.reports]`; zeros without).
+    pub reports: ReportCounts,
 }
 
 impl SealCounts {
@@ -158,6 +308,7 @@ impl SealCounts {
         for (a, b) in self.refused.iter_mut().zip(other.refused) {
             *a += b;
         }
+        self.reports = self.reports.plus(&other.reports);
         self
     }
 }
@@ -172,6 +323,7 @@ pub struct Sealing {
     verifiers: Vec<Verifier>,
     memo: SignatureMemo,
     counts: SealCounts,
+    reporting: Option<Box<Reporting>>,
 }
 
 impl Sealing {
@@ -200,11 +352,14 @@ impl Sealing {
         Self {
             params,
             dt,
-            keys,
             signers,
             verifiers,
             memo: SignatureMemo::new(),
             counts: SealCounts::default(),
+            reporting: params
+                .reports
+                .map(|r| Box::new(Reporting::new(r, &params, &keys))),
+            keys,
         }
     }
 
@@ -218,9 +373,12 @@ impl Sealing {
         &self.params
     }
 
-    /// What its seals did so far.
+    /// What its seals (and its reports) did so far.
     pub fn counts(&self) -> SealCounts {
-        self.counts
+        SealCounts {
+            reports: self.reports().copied().unwrap_or_default(),
+            ..self.counts
+        }
     }
 
     /// Signs `packets`, sent at step `k`, each with its sender's pseudonym (a sender it has no
@@ -234,6 +392,23 @@ impl Sealing {
             for (s, p) in self.signers.iter_mut().zip(next) {
                 s.change_pseudonym(p.clone());
             }
+            if let Some(r) = &mut self.reporting {
+                let epoch = self.keys.epochs() - 1;
+                r.enrol(&self.keys, epoch);
+                // The PKI issues a revoked vehicle nothing it would trust: its new pseudonym
+                // is as revoked as its old ones.
+                for rev in &r.revocations {
+                    let slot = KeySlot {
+                        epoch,
+                        vehicle: rev.vehicle as usize,
+                    };
+                    if let Some(p) = self.keys.pseudonym(slot) {
+                        for v in &mut self.verifiers {
+                            v.revoke(p.digest());
+                        }
+                    }
+                }
+            }
         }
         for p in packets {
             let Some(signer) = self.signers.get_mut(p.sender.index()) else {
@@ -243,6 +418,90 @@ impl Sealing {
             p.seal = Seal::new(&header.to_bytes());
             self.counts.signed += 1;
         }
+    }
+
+    /// What the reports did so far (`[security.reports]` only).
+    pub fn reports(&self) -> Option<&ReportCounts> {
+        self.reporting.as_ref().map(|r| &r.counts)
+    }
+
+    /// The authority's revocations so far, in order (`[security.reports]` only): whom, every
+    /// pseudonym it held, when, and whose reports made the quorum.
+    pub fn revocations(&self) -> &[Revocation] {
+        self.reporting.as_ref().map_or(&[], |r| &r.revocations)
+    }
+
+    /// Vehicle `reporter`'s detector `detector` flagged `packet` at step `k`, its radar seeing
+    /// `observed`: a report of the packet's signer to the authority, with the packet as
+    /// evidence, signed by the reporter, unless it reported that pseudonym within
+    /// `every_ms` (or the run has no reports, or the packet no seal).
+    pub fn report(
+        &mut self,
+        k: u64,
+        reporter: VehicleId,
+        packet: &Packet,
+        detector: u8,
+        observed: Option<RadarObservation>,
+    ) {
+        let now = self.now_ms(k);
+        let (Some(r), Some(seal)) = (self.reporting.as_mut(), packet.seal) else {
+            return;
+        };
+        let Ok(header) = SecurityHeader::decode(seal.as_bytes()) else {
+            return;
+        };
+        let Some(signer) = self.signers.get(reporter.index()) else {
+            return;
+        };
+        let accused = header.signer.digest();
+        let last = r
+            .last
+            .entry((reporter.index(), accused))
+            .or_insert(u64::MAX);
+        if *last != u64::MAX && now.saturating_sub(*last) < r.params.every_ms {
+            return;
+        }
+        *last = now;
+        let report = Report {
+            accused,
+            detector,
+            filed_ms: now,
+            evidence: vec![Evidence {
+                payload: packet.signed_bytes().to_vec(),
+                header,
+            }],
+            observed,
+        };
+        r.counts.filed += 1;
+        if !r.uplink.send(report.sign(signer, now), now) {
+            r.counts.lost += 1;
+        }
+    }
+
+    /// The end of step `k`'s reporting: the reports that reach the authority by now are
+    /// decided on, and every receiver puts the pseudonyms of a vehicle it revokes on its
+    /// revocation list (its packets are refused as `revoked` from the next delivery on).
+    /// The vehicles revoked at this step.
+    pub fn decide(&mut self, k: u64) -> Vec<VehicleId> {
+        let now = self.now_ms(k);
+        let Some(r) = self.reporting.as_mut() else {
+            return Vec::new();
+        };
+        let mut revoked = Vec::new();
+        for (at, report) in r.uplink.arrivals(now) {
+            let (outcome, revocation) = r.authority.receive(&report, at);
+            r.counts.outcomes[usize::from(outcome.code()) - 1] += 1;
+            if let Some(rev) = revocation {
+                for v in &mut self.verifiers {
+                    for &d in &rev.pseudonyms {
+                        v.revoke(d);
+                    }
+                }
+                revoked.push(VehicleId(rev.vehicle as u16));
+                r.revocations.push(rev);
+            }
+        }
+        revoked
     }
 
     /// Starts step `k`'s deliveries: the memo of the last step's signatures goes.

@@ -252,6 +252,16 @@ impl Leader {
 
     /// Member `from` leaves, or splits off with the members behind it (`split_notice`), while
     /// the leader is in `state`: a join whose slot goes with it is called off first.
+    /// Ejects `member` from the platoon at `step` (the misbehaviour authority revoked it): the
+    /// formation update of a leave goes to everyone, and the member drives out as a leaver
+    /// does. Nothing for the leader itself or a vehicle outside the formation.
+    pub fn eject(&mut self, step: u64, member: VehicleId, out: &mut Vec<Message>) {
+        if self.formation.contains(member) && member != self.me() {
+            let state = self.state;
+            self.member_goes(step, member, false, state, out);
+        }
+    }
+
     fn member_goes(
         &mut self,
         step: u64,

@@ -42,6 +42,8 @@ pub struct RunFiles {
     intrusions: Vec<Option<Intrusion>>,
     /// Per vehicle: an intrusion began since it last ran its law (for `rejoined`).
     intruded: Vec<bool>,
+    /// Per vehicle: the authority revoked it (`revoked` once).
+    revoked: Vec<bool>,
     /// Per vehicle: its gap to the vehicle ahead in the platoon at the step before (m).
     gaps: Vec<f64>,
     /// Per vehicle: whom it took as its leader at the step before (runs that split).
@@ -221,7 +223,8 @@ struct EventRow {
     t: f64,
     /// `broadcast`, `switch` (the vehicle's mode changed at this step), `intruder_in`,
     /// `gap_opened`, `intruder_out`, `rejoined`, `split`, `merged`, `flagged`, `distrust`,
-    /// `trust`, `joined` or `left`.
+    /// `trust`, `joined`, `left` or `revoked` (the misbehaviour authority revoked its
+    /// certificates).
     event: Event,
     /// The mode it is in (after the switch).
     mode: platoon_control::Status,
@@ -262,6 +265,9 @@ enum Event {
     Joined,
     /// A member left the platoon and its lane (`[maneuvers]`; mode `left`).
     Left,
+    /// The misbehaviour authority revoked the vehicle's certificates (`[security.reports]`):
+    /// every receiver refuses its packets from then on.
+    Revoked,
 }
 
 impl From<Vec<StepRow>> for Plotted {
@@ -362,6 +368,7 @@ impl RunFiles {
             flags: Vec::new(),
             intrusions: vec![None; scenario.vehicles()],
             intruded: vec![false; scenario.vehicles()],
+            revoked: vec![false; scenario.vehicles()],
             heads: vec![0; scenario.vehicles()],
             gaps: vec![f64::NAN; scenario.vehicles()],
             lengths: scenario.lengths(),
@@ -470,6 +477,9 @@ impl RunFiles {
             };
             if intrusion == Some(Event::IntruderIn) {
                 self.events.write(row(Event::IntruderIn, None))?;
+            }
+            if r.revoked && !std::mem::replace(&mut self.revoked[v], true) {
+                self.events.write(row(Event::Revoked, None))?;
             }
             if r.mode != self.modes[v] {
                 let was = std::mem::replace(&mut self.modes[v], r.mode);

@@ -193,6 +193,7 @@ fn commands_of(
                 f.triggered,
                 f.affected,
                 f.guard,
+                f.revoked,
                 f.status().code(),
                 f.head.0,
             ),
@@ -214,6 +215,9 @@ fn done_message(controllers: &[Box<dyn Controller>], k: u64) -> ControlMsg {
         if let Some(s) = c.seals() {
             let all = [s.signed, s.verified].into_iter().chain(s.refused);
             for (sum, x) in done.seals.iter_mut().zip(all) {
+                *sum += x;
+            }
+            for (sum, x) in done.reports.iter_mut().zip(s.reports.as_array()) {
                 *sum += x;
             }
         }

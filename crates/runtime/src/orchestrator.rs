@@ -606,6 +606,7 @@ impl Done {
                 signed,
                 verified,
                 refused,
+                reports: platoon_control::security::ReportCounts::from_array(m.reports),
             };
         }
         if scenario.radio.is_some() && self.channel_node.is_some_and(|n| m.node == n as u32) {

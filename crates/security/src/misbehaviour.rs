@@ -152,6 +152,34 @@ pub enum ReportOutcome {
 }
 
 impl ReportOutcome {
+    /// Every outcome's name, in code order (code 1 first).
+    pub const NAMES: [&'static str; 9] = [
+        "counted",
+        "unknown_reporter",
+        "bad_report_signature",
+        "unknown_accused",
+        "no_evidence",
+        "bad_evidence",
+        "self_report",
+        "revoked_reporter",
+        "already_revoked",
+    ];
+
+    /// A stable code, 1 to 9, in the order of [`ReportOutcome::NAMES`].
+    pub fn code(self) -> u8 {
+        match self {
+            ReportOutcome::Counted => 1,
+            ReportOutcome::UnknownReporter => 2,
+            ReportOutcome::BadReportSignature(_) => 3,
+            ReportOutcome::UnknownAccused => 4,
+            ReportOutcome::NoEvidence => 5,
+            ReportOutcome::BadEvidence(_) => 6,
+            ReportOutcome::SelfReport => 7,
+            ReportOutcome::RevokedReporter => 8,
+            ReportOutcome::AlreadyRevoked => 9,
+        }
+    }
+
     /// A stable snake_case name.
     pub fn name(self) -> &'static str {
         match self {
@@ -600,6 +628,25 @@ mod tests {
                 .1,
             None
         );
+    }
+
+    #[test]
+    fn every_outcome_has_its_code_and_name_in_order() {
+        let all = [
+            ReportOutcome::Counted,
+            ReportOutcome::UnknownReporter,
+            ReportOutcome::BadReportSignature(Refusal::BadSignature),
+            ReportOutcome::UnknownAccused,
+            ReportOutcome::NoEvidence,
+            ReportOutcome::BadEvidence(Refusal::BadSignature),
+            ReportOutcome::SelfReport,
+            ReportOutcome::RevokedReporter,
+            ReportOutcome::AlreadyRevoked,
+        ];
+        for (i, o) in all.iter().enumerate() {
+            assert_eq!(usize::from(o.code()), i + 1);
+            assert_eq!(ReportOutcome::NAMES[i], o.name());
+        }
     }
 
     #[test]

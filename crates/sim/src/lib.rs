@@ -26,8 +26,9 @@ pub use metrics::{FleetMetrics, MetricsAccumulator};
 pub use scenario::{Fleet, Scenario, ScenarioError, Vehicle};
 pub use summary::{
     Collision, ErrorStats, FleetOverview, FormationRecord, FormationStability, LaneChangeRecord,
-    LinkOutage, ManeuverRecord, ManeuversSummary, PlatoonBrief, Safety, SafetyClass,
-    SafetyThresholds, SecuritySummary, Summary, VehicleSummary, VehicleWire, WireSummary,
+    LinkOutage, ManeuverRecord, ManeuversSummary, PlatoonBrief, ReportsSummary, RevokedRecord,
+    Safety, SafetyClass, SafetyThresholds, SecuritySummary, Summary, VehicleSummary, VehicleWire,
+    WireSummary,
 };
 pub use tally::WireCounts;
 
@@ -92,6 +93,10 @@ pub struct StepRow {
     /// controller commanded). Not a column of `trajectories.csv`; the summary counts it.
     #[serde(skip)]
     pub saturated: bool,
+    /// The misbehaviour authority has revoked the vehicle's certificates
+    /// (`[security.reports]`). Not a column of `trajectories.csv`: events.csv says when.
+    #[serde(skip)]
+    pub revoked: bool,
     /// What its radar saw of a vehicle from outside the platoon ahead of it (a cut-in), as
     /// the plant has it; the summary's safety counts the gap to it. Not a column of
     /// `trajectories.csv`.
@@ -480,6 +485,7 @@ pub fn step_rows(
         mode: platoon_control::Status::member(platoon_control::Mode::Coop),
         guard: false,
         saturated: false,
+        revoked: false,
         intruder: None,
         radar_target: radar(0).map(|r| r.0),
         radar_gap_m: radar(0).map(|r| r.1),
@@ -532,6 +538,7 @@ pub fn step_rows(
             mode: s.status(),
             guard: s.guard,
             saturated: scenario.applied(i, s.u, s.guard).to_bits() != s.u.to_bits(),
+            revoked: s.revoked,
             intruder: ahead.get(i).copied().flatten().filter(|t| t.intruder),
             radar_target: radar(i).map(|r| r.0),
             radar_gap_m: radar(i).map(|r| r.1),
@@ -931,15 +938,14 @@ impl FleetSimulation {
         platoon_control::RejectCounts::from_array(sum)
     }
 
-    /// What the seals of signed V2V did over every platoon (`[security]` only).
-    pub fn security(&self) -> Option<SecuritySummary> {
-        let policy = (self.sims.iter())
-            .find_map(|s| s.controller().checks()?.security())?
-            .policy;
+    /// What the seals of signed V2V (and the misbehaviour reports) did over every platoon
+    /// (`[security]` only), with the vehicles `revoked` ([`FleetMetrics::revoked`]).
+    pub fn security(&self, revoked: &[summary::RevokedRecord]) -> Option<SecuritySummary> {
+        let params = (self.sims.iter()).find_map(|s| s.controller().checks()?.security())?;
         let counts = (self.sims.iter())
             .filter_map(|s| s.controller().seals())
             .fold(platoon_control::SealCounts::default(), |a, b| a.plus(&b));
-        Some(SecuritySummary::of(policy, &counts))
+        Some(SecuritySummary::of(params, &counts, revoked))
     }
 }
 
@@ -999,6 +1005,6 @@ pub fn run_until_plugins(
     let mut summary = metrics.finish(sim.rejected());
     summary.channel = sim.radio_stats();
     summary.detection = sim.platoons()[0].detection();
-    summary.security = sim.security();
+    summary.security = sim.security(metrics.revoked());
     Ok(summary)
 }

@@ -492,6 +492,7 @@ pub struct FleetMetrics {
     wire: Vec<crate::WireCounts>,
     wire_outside: crate::WireCounts,
     wire_steps: u64,
+    revoked: Vec<crate::summary::RevokedRecord>,
 }
 
 impl FleetMetrics {
@@ -507,7 +508,14 @@ impl FleetMetrics {
             wire: vec![crate::WireCounts::default(); scenario.vehicles()],
             wire_outside: crate::WireCounts::default(),
             wire_steps: 0,
+            revoked: Vec::new(),
         }
+    }
+
+    /// The vehicles revoked so far (`[security.reports]`), in the order their rows first said
+    /// so.
+    pub fn revoked(&self) -> &[crate::summary::RevokedRecord] {
+        &self.revoked
     }
 
     /// Adds one step of what happened on the wire.
@@ -535,6 +543,18 @@ impl FleetMetrics {
 
     /// Adds one step's rows (every platoon's, platoon by platoon).
     pub fn push(&mut self, rows: &[StepRow]) {
+        for r in rows.iter().filter(|r| r.revoked) {
+            let known = |x: &crate::summary::RevokedRecord| {
+                (x.platoon, x.vehicle) == (r.platoon, r.vehicle)
+            };
+            if !self.revoked.iter().any(known) {
+                self.revoked.push(crate::summary::RevokedRecord {
+                    platoon: r.platoon,
+                    vehicle: r.vehicle,
+                    step: r.step,
+                });
+            }
+        }
         for (acc, chunk) in self
             .per
             .iter_mut()

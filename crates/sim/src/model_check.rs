@@ -139,6 +139,7 @@ mod tests {
             mode: platoon_control::Status::default(),
             guard: false,
             saturated: false,
+            revoked: false,
             intruder: None,
             radar_target: None,
             radar_gap_m: None,

@@ -271,14 +271,16 @@ impl Scenario {
             .is_some_and(|m| m.merge.is_some() || m.split.is_some())
     }
 
-    /// Whether vehicles change lanes during the run: members leave (`[[maneuvers.leaves]]`)
-    /// or a joiner comes from the lane beside (`[[maneuvers.joins]] behind`). The plant then
+    /// Whether vehicles change lanes during the run: members leave (`[[maneuvers.leaves]]`),
+    /// a joiner comes from the lane beside (`[[maneuvers.joins]] behind`), or the leader may
+    /// eject a member the misbehaviour authority revoked (`[security.reports]`). The plant then
     /// keeps who is on the platoon's lane and the radars see the lane, not the platoon's order.
     pub fn changes_lanes(&self) -> bool {
-        self.control
-            .maneuvers
-            .as_ref()
-            .is_some_and(|m| !m.leaves.is_empty() || m.joins.iter().any(|j| j.behind.is_some()))
+        // A member the misbehaviour authority revokes is ejected and leaves the lane.
+        let ejects = self.control.security.is_some_and(|s| s.reports.is_some());
+        self.control.maneuvers.as_ref().is_some_and(|m| {
+            !m.leaves.is_empty() || m.joins.iter().any(|j| j.behind.is_some()) || ejects
+        })
     }
 
     /// Whether follower `i` starts in the lane beside the platoon's (a joiner with `behind`).

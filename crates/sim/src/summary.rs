@@ -357,16 +357,47 @@ pub struct SecuritySummary {
     pub refused: BTreeMap<String, u64>,
     /// Deliveries refused in all.
     pub refused_total: u64,
+    /// Misbehaviour reports and revocations (`[security.reports]` only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reports: Option<ReportsSummary>,
+}
+
+/// `summary.json`'s `security.reports` (`[security.reports]` runs; docs/security.md).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ReportsSummary {
+    /// Reports the vehicles filed (over the fleet).
+    pub filed: u64,
+    /// Reports the uplink lost.
+    pub lost: u64,
+    /// What the authority made of those that arrived, by outcome
+    /// (`platoon_security::ReportOutcome::name`: `counted`, `self_report`, ...; every outcome
+    /// listed).
+    pub outcomes: BTreeMap<String, u64>,
+    /// The vehicles revoked, in order, as the controllers reported them at each step.
+    pub revoked: Vec<RevokedRecord>,
+}
+
+/// A vehicle the misbehaviour authority revoked.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct RevokedRecord {
+    /// Its platoon.
+    pub platoon: u16,
+    /// The vehicle (0 = the leader).
+    pub vehicle: u16,
+    /// The first step its rows say it is revoked.
+    pub step: u64,
 }
 
 impl SecuritySummary {
-    /// The summary of `counts` under `policy`.
+    /// The summary of `counts` under `security`, with the vehicles `revoked` (from the rows).
     pub fn of(
-        policy: platoon_control::SecurityPolicy,
+        security: &platoon_control::SecurityParams,
         counts: &platoon_control::SealCounts,
+        revoked: &[RevokedRecord],
     ) -> Self {
+        let reports = &counts.reports;
         Self {
-            policy: policy.name().to_string(),
+            policy: security.policy.name().to_string(),
             signed: counts.signed,
             verified: counts.verified,
             refused: counts
@@ -374,6 +405,15 @@ impl SecuritySummary {
                 .map(|(name, n)| (name.to_string(), n))
                 .collect(),
             refused_total: counts.refused_total(),
+            reports: security.reports.map(|_| ReportsSummary {
+                filed: reports.filed,
+                lost: reports.lost,
+                outcomes: reports
+                    .by_outcome()
+                    .map(|(name, n)| (name.to_string(), n))
+                    .collect(),
+                revoked: revoked.to_vec(),
+            }),
         }
     }
 }

@@ -41,7 +41,10 @@ use iceoryx2::prelude::ZeroCopySend;
 /// - v5: [`V2vPacket`] carries its sender's seal (`seal_len` and `seal`: the encoded security
 ///   header of a `[security]` run, docs/security.md; 280 bytes, was 80), and the controller's
 ///   [`ControlMsg::seals`] count what the seals did (288 bytes, was 184).
-pub const CONTRACT_VERSION: u32 = 5;
+/// - v6: the controller's [`ControlMsg::reports`] count its misbehaviour reports (376 bytes,
+///   was 288), and [`Command::flags`] bit 3 ([`Command::REVOKED`]) says the misbehaviour
+///   authority revoked the vehicle (`[security.reports]`).
+pub const CONTRACT_VERSION: u32 = 6;
 
 /// The environment variable in which `platoon run` gives every process it starts the contract
 /// version of the run ([`CONTRACT_VERSION`]).
@@ -71,7 +74,7 @@ pub fn check_contract_version(run: Option<&str>) -> Result<(), String> {
 
 /// The user header of every step sample: which step it belongs to, and how many items it holds.
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
-#[type_name("platoon::v5::StepHeader")]
+#[type_name("platoon::v6::StepHeader")]
 #[repr(C)]
 pub struct StepHeader {
     /// Step index k.
@@ -102,7 +105,7 @@ impl StepHeader {
 
 /// A vehicle's true state at a step (plant -> controller, injector, orchestrator).
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
-#[type_name("platoon::v5::VehicleState")]
+#[type_name("platoon::v6::VehicleState")]
 #[repr(C)]
 pub struct VehicleState {
     /// Vehicle id (0 = leader).
@@ -155,7 +158,7 @@ impl VehicleState {
 
 /// A V2V broadcast (controller -> injector, and inside [`LinkPacket`]).
 #[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
-#[type_name("platoon::v5::V2vPacket")]
+#[type_name("platoon::v6::V2vPacket")]
 #[repr(C)]
 pub struct V2vPacket {
     /// Sender id (0 = leader).
@@ -281,7 +284,7 @@ impl V2vPacket {
 /// injector: one per out-neighbour of each broadcast) and of the rx batch (injector ->
 /// controller: what each receiver gets, plus `JAMMED` notices).
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
-#[type_name("platoon::v5::LinkPacket")]
+#[type_name("platoon::v6::LinkPacket")]
 #[repr(C)]
 pub struct LinkPacket {
     /// The receiving vehicle (for `JAMMED`: the vehicle that sensed jamming).
@@ -301,13 +304,14 @@ impl LinkPacket {
 
 /// A follower's command and what its controller did (controller -> plant, orchestrator).
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
-#[type_name("platoon::v5::Command")]
+#[type_name("platoon::v6::Command")]
 #[repr(C)]
 pub struct Command {
     /// Follower id (>= 1).
     pub vehicle: u32,
     /// Bit 0: it broadcast in this step; bit 1: it was affected by an attack; bit 2: the
-    /// emergency-braking guard overrode the command; bits 4-7: its mode (0 coop, 1 zero,
+    /// emergency-braking guard overrode the command; bit 3: the misbehaviour authority revoked
+    /// its certificates (`[security.reports]`); bits 4-7: its mode (0 coop, 1 zero,
     /// 2 hold, 3 predict, 4 acc, 5 blend, 6 cut_in, 7 outside, 8 left and 9 beside: in the lane
     /// beside the platoon's, where the plant puts it); bits 8-23: whom it took as its leader, a
     /// vehicle of its platoon (0: the platoon's leader; a member ahead heading a split).
@@ -325,6 +329,8 @@ impl Command {
     pub const AFFECTED: u32 = 2;
     /// `flags` bit: the emergency-braking guard overrode the command.
     pub const GUARD: u32 = 4;
+    /// `flags` bit: the misbehaviour authority revoked its certificates.
+    pub const REVOKED: u32 = 8;
     /// `flags` bits of the mode code: `(flags >> MODE_SHIFT) & MODE_MASK`.
     pub const MODE_SHIFT: u32 = 4;
     /// See [`Command::MODE_SHIFT`].
@@ -345,12 +351,14 @@ impl Command {
         triggered: bool,
         affected: bool,
         guard: bool,
+        revoked: bool,
         mode_code: u32,
         head: u16,
     ) -> u32 {
         u32::from(triggered) * Self::TRIGGERED
             + u32::from(affected) * Self::AFFECTED
             + u32::from(guard) * Self::GUARD
+            + u32::from(revoked) * Self::REVOKED
             + ((mode_code & Self::MODE_MASK) << Self::MODE_SHIFT)
             + (u32::from(head) << Self::HEAD_SHIFT)
     }
@@ -365,7 +373,7 @@ impl Command {
 /// [`Service::Traffic`]): SUMO's `bg<index>`, which drives on the lanes no platoon uses and
 /// loads the V2V channel. Only the SUMO plant with `[sumo] background_vehicles` publishes it.
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
-#[type_name("platoon::v5::TrafficVehicle")]
+#[type_name("platoon::v6::TrafficVehicle")]
 #[repr(C)]
 pub struct TrafficVehicle {
     /// Its index b (SUMO's `bg<b>`): item b of every traffic sample.
@@ -398,7 +406,7 @@ impl TrafficVehicle {
 /// in runs that measure detectors (`[detection]`), one item per inspected packet, in the order
 /// the receivers got them (the rx batch's order).
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
-#[type_name("platoon::v5::Inspection")]
+#[type_name("platoon::v6::Inspection")]
 #[repr(C)]
 pub struct Inspection {
     /// The receiving follower (wire id).
@@ -453,7 +461,7 @@ impl Inspection {
 
 /// Control and status messages (orchestrator <-> every node), one per sample.
 #[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
-#[type_name("platoon::v5::ControlMsg")]
+#[type_name("platoon::v6::ControlMsg")]
 #[repr(C)]
 pub struct ControlMsg {
     /// One of the `ControlMsg::*` kinds.
@@ -469,6 +477,10 @@ pub struct ControlMsg {
     /// signature held, then deliveries refused by `platoon_security::Refusal` code 1 to 11
     /// (docs/security.md); all 0 otherwise.
     pub seals: [u64; 13],
+    /// `DONE` from the controller in a `[security.reports]` run: reports filed, lost on the
+    /// uplink, then those that arrived by the authority's outcome code 1 to 9
+    /// (`platoon_security::ReportOutcome`); all 0 otherwise.
+    pub reports: [u64; 11],
     /// `FAILED`/`ABORT`: a reason, UTF-8, NUL-padded.
     pub reason: [u8; 120],
 }
@@ -495,6 +507,7 @@ impl ControlMsg {
             step,
             counts: [0; 6],
             seals: [0; 13],
+            reports: [0; 11],
             reason: [0; 120],
         }
     }
@@ -745,7 +758,10 @@ pub fn layouts() -> Vec<Layout> {
             Inspection,
             [receiver, sender, seq, flags, step, state, scores]
         ),
-        layout!(ControlMsg, [kind, node, step, counts, seals, reason]),
+        layout!(
+            ControlMsg,
+            [kind, node, step, counts, seals, reports, reason]
+        ),
     ]
 }
 

@@ -162,7 +162,8 @@ pub(super) fn cosimulate(
             summary.channel = outcome.radio;
             summary.detection = outcome.detection;
             summary.security = (scenario.control.security)
-                .map(|p| platoon_sim::SecuritySummary::of(p.policy, &outcome.seals));
+                .as_ref()
+                .map(|p| platoon_sim::SecuritySummary::of(p, &outcome.seals, metrics.revoked()));
             channel_log_format(scenario, output, dir)?;
             Ok((rows, summary, None))
         }

@@ -1,12 +1,19 @@
 //! `[security]`: signed V2V (docs/security.md).
 use super::checks::{bad, finite, positive};
 use crate::error::KeyError;
-use crate::schema::{SecurityConfig, SecurityPolicyConfig};
+use crate::schema::{ReportsConfig, SecurityConfig, SecurityPolicyConfig};
+use platoon_control::security::{FalseReports, ReportParams};
 use platoon_control::{SecurityParams, SecurityPolicy};
+use platoon_model::VehicleId;
 
 /// `[security]` as the controllers' settings (none when absent): positive periods, whole
-/// milliseconds.
-pub(crate) fn security(s: Option<&SecurityConfig>) -> Result<Option<SecurityParams>, KeyError> {
+/// milliseconds; `detecting`: the run has detectors, whose flags reports need; `followers`
+/// the platoon's.
+pub(crate) fn security(
+    s: Option<&SecurityConfig>,
+    detecting: bool,
+    followers: usize,
+) -> Result<Option<SecurityParams>, KeyError> {
     let Some(s) = s else {
         return Ok(None);
     };
@@ -43,5 +50,88 @@ pub(crate) fn security(s: Option<&SecurityConfig>) -> Result<Option<SecurityPara
         seed: s.seed,
         // Scenario::replica gives each platoon of a fleet its own.
         platoon: 0,
+        reports: s
+            .reports
+            .as_ref()
+            .map(|r| reports(r, detecting, followers, &ms))
+            .transpose()?,
     }))
+}
+
+/// `[security.reports]`, checked.
+fn reports(
+    r: &ReportsConfig,
+    detecting: bool,
+    followers: usize,
+    ms: &dyn Fn(&str, f64, bool) -> Result<u64, KeyError>,
+) -> Result<ReportParams, KeyError> {
+    if !detecting {
+        return bad(
+            "security.reports",
+            "reports are filed when a detector flags a packet: add a detector ([detection] \
+             with `plausibility`, `radar_cross` or `residual`)",
+        );
+    }
+    let loss = finite("security.reports.loss", r.loss)?;
+    if !(0.0..1.0).contains(&loss) {
+        return bad(
+            "security.reports.loss",
+            format!("must be a probability in [0, 1), got {loss}"),
+        );
+    }
+    if r.quorum == 0 {
+        return bad(
+            "security.reports.quorum",
+            "must be >= 1 (distinct reporting vehicles)",
+        );
+    }
+    let false_reports = match &r.false_reports {
+        None => None,
+        Some(f) => {
+            let key = "security.reports.false_reports";
+            for (name, v) in [("reporter", f.reporter), ("accused", f.accused)] {
+                if usize::from(v) > followers {
+                    return bad(
+                        &format!("{key}.{name}"),
+                        format!("vehicle {v} does not exist (ids are 0 = leader to {followers})"),
+                    );
+                }
+            }
+            if f.reporter == f.accused {
+                return bad(
+                    &format!("{key}.accused"),
+                    "the reporter would accuse itself: name another vehicle",
+                );
+            }
+            let start = finite(&format!("{key}.start_s"), f.start_s)?;
+            if start < 0.0 {
+                return bad(&format!("{key}.start_s"), "must be >= 0");
+            }
+            if f.end_s.is_nan() || f.end_s <= start {
+                return bad(
+                    &format!("{key}.end_s"),
+                    format!("must be after start_s = {start}"),
+                );
+            }
+            let to_ms = |x: f64| (x * 1e3).round() as u64;
+            Some(FalseReports {
+                reporter: VehicleId(f.reporter),
+                accused: VehicleId(f.accused),
+                start_ms: to_ms(start),
+                end_ms: if f.end_s.is_finite() {
+                    to_ms(f.end_s)
+                } else {
+                    u64::MAX
+                },
+            })
+        }
+    };
+    Ok(ReportParams {
+        false_reports,
+        latency_ms: ms("security.reports.latency_s", r.latency_s, true)?,
+        loss,
+        quorum: r.quorum as usize,
+        window_ms: ms("security.reports.window_s", r.window_s, false)?,
+        every_ms: ms("security.reports.every_s", r.every_s, false)?,
+    })
 }

@@ -250,12 +250,12 @@ pub enum ActsAsConfig {
     Thief,
 }
 
-fn forever() -> f64 {
+pub(crate) fn forever() -> f64 {
     f64::INFINITY
 }
 
 /// JSON has no infinity: the schema gives TOML's spelling.
-fn forever_in_json() -> &'static str {
+pub(crate) fn forever_in_json() -> &'static str {
     "inf"
 }
 

@@ -162,6 +162,7 @@ impl<'a> Recorder<'a> {
                         role: status.role(),
                         guard: cmd.flags & Command::GUARD != 0,
                         head: platoon_model::VehicleId(cmd.head()),
+                        revoked: cmd.flags & Command::REVOKED != 0,
                     }
                 },
                 &mut self.rows,
