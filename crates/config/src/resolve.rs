@@ -111,9 +111,12 @@ pub fn scenario_of(c: &Config) -> Result<Scenario, KeyError> {
         maneuvers: maneuvers::maneuvers(c.maneuvers.as_ref(), n, grid, cut_in_splits)?,
         security: security::security(
             c.security.as_ref(),
-            c.detection.as_ref().is_some_and(|d| {
-                d.plausibility.is_some() || d.radar_cross.is_some() || d.residual.is_some()
-            }),
+            (
+                c.detection.as_ref().is_some_and(|d| {
+                    d.plausibility.is_some() || d.radar_cross.is_some() || d.residual.is_some()
+                }),
+                c.maneuvers.is_some(),
+            ),
             n,
         )?,
     };

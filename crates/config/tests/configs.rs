@@ -617,7 +617,7 @@ fn security_resolves_and_bad_values_name_their_key() {
 fn security_reports_resolve_and_bad_values_name_their_key() {
     let with = |keys: &str| {
         let text = format!(
-            "{}\n[detection.residual]\n\n[security]\n[security.reports]\n{keys}",
+            "{}\n[maneuvers]\n\n[detection.residual]\n\n[security]\n[security.reports]\n{keys}",
             platoon_config::PAPER_TOML
         );
         parse(&text, Path::new("bad.toml")).map(|(_, s)| s)
@@ -664,16 +664,22 @@ fn security_reports_resolve_and_bad_values_name_their_key() {
     for (keys, key, says) in cases {
         assert_error(with(keys).map(|_| ()), key, says);
     }
-    // Without a detector nothing flags: reports are a config error.
-    let text = format!(
-        "{}\n[security]\n[security.reports]\n",
-        platoon_config::PAPER_TOML
-    );
-    assert_error(
-        parse(&text, Path::new("bad.toml")).map(|_| ()),
-        "security.reports",
-        "detector",
-    );
+    // Without a detector nothing flags, without maneuvers nobody can be ejected: reports are
+    // config errors.
+    for (extra, says) in [
+        ("[maneuvers]\n", "detector"),
+        ("[detection.residual]\n", "[maneuvers]"),
+    ] {
+        let text = format!(
+            "{}\n{extra}\n[security]\n[security.reports]\n",
+            platoon_config::PAPER_TOML
+        );
+        assert_error(
+            parse(&text, Path::new("bad.toml")).map(|_| ()),
+            "security.reports",
+            says,
+        );
+    }
 }
 
 /// `[security]` on the 802.11p channel: the model's packets carry what signing adds on the

@@ -11,7 +11,7 @@ use platoon_model::VehicleId;
 /// the platoon's.
 pub(crate) fn security(
     s: Option<&SecurityConfig>,
-    detecting: bool,
+    (detecting, maneuvers): (bool, bool),
     followers: usize,
 ) -> Result<Option<SecurityParams>, KeyError> {
     let Some(s) = s else {
@@ -53,7 +53,7 @@ pub(crate) fn security(
         reports: s
             .reports
             .as_ref()
-            .map(|r| reports(r, detecting, followers, &ms))
+            .map(|r| reports(r, (detecting, maneuvers), followers, &ms))
             .transpose()?,
     }))
 }
@@ -61,7 +61,7 @@ pub(crate) fn security(
 /// `[security.reports]`, checked.
 fn reports(
     r: &ReportsConfig,
-    detecting: bool,
+    (detecting, maneuvers): (bool, bool),
     followers: usize,
     ms: &dyn Fn(&str, f64, bool) -> Result<u64, KeyError>,
 ) -> Result<ReportParams, KeyError> {
@@ -70,6 +70,14 @@ fn reports(
             "security.reports",
             "reports are filed when a detector flags a packet: add a detector ([detection] \
              with `plausibility`, `radar_cross` or `residual`)",
+        );
+    }
+    if !maneuvers {
+        return bad(
+            "security.reports",
+            "a revoked member is ejected through the leave protocol: add [maneuvers] (without \
+             it the member would stay in the lane, its packets refused, and the followers \
+             behind it would steer on what they last heard of it)",
         );
     }
     let loss = finite("security.reports.loss", r.loss)?;
