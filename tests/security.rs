@@ -531,6 +531,14 @@ fn a_revocation_is_bit_identical_on_both_transports() {
     let reports = &summary["security"]["reports"];
     assert_eq!(reports["revoked"].as_array().unwrap().len(), 1, "{reports}");
     assert_eq!(reports["revoked"][0]["vehicle"], 2, "{reports}");
+    // The ground truth: its own key had signed the lies the detectors flagged.
+    assert_eq!(reports["revoked"][0]["signed_a_lie"], true, "{reports}");
+    let lies = summary["detection"]["signed_lies"].as_array().unwrap();
+    assert_eq!(lies.len(), 1, "{lies:?}");
+    assert_eq!(
+        (lies[0]["vehicle"].as_u64(), lies[0]["first_step"].as_u64()),
+        (Some(2), Some(2000))
+    );
     assert!(
         reports["outcomes"]["counted"].as_u64().unwrap() >= 2,
         "{reports}"
@@ -579,6 +587,30 @@ fn one_insiders_false_reports_revoke_nobody() {
     let (_, revoked) = revocations(&reported("", keys, &format!("quorum = 1\n{liar}")));
     let one = revoked.iter().find(|r| r.vehicle == 1);
     assert!(one.is_some_and(|r| r.reporters == [3]), "{revoked:?}");
+    // The summary's ground truth calls every one of them a false revocation: no key signed a
+    // lie in this run.
+    let tmp = tempfile::tempdir().unwrap();
+    std::fs::write(
+        tmp.path().join("liar.toml"),
+        reported("", keys, &format!("quorum = 1\n{liar}")),
+    )
+    .unwrap();
+    let out = common::run_config(
+        &tmp.path().join("liar.toml"),
+        "out",
+        &["--transport", "inproc"],
+        tmp.path(),
+    );
+    let summary = common::json(&out.join("summary.json"));
+    let judged = summary["security"]["reports"]["revoked"]
+        .as_array()
+        .unwrap();
+    assert_eq!(judged.len(), revoked.len(), "{judged:?}");
+    assert!(
+        judged.iter().all(|r| r["signed_a_lie"] == false),
+        "{judged:?}"
+    );
+    assert!(summary["detection"].get("signed_lies").is_none());
 }
 
 /// A controller plug-in neither signs nor verifies: a signed run with one is refused, naming

@@ -180,6 +180,7 @@ class Command(Payload):
     AFFECTED = 2
     GUARD = 4
     REVOKED = 8  # the misbehaviour authority revoked its certificates ([security.reports])
+    LEADER_REVOKED = 1 << 24  # ... and its platoon's leader's
     MODE_SHIFT = 4  # (flags >> MODE_SHIFT) & MODE_MASK: 0 coop, 1 zero, 2 hold, 3 predict,
     MODE_MASK = 0b1111  # 4 acc, 5 blend, 6 cut_in, 7 outside, 8 left, 9 beside
     # (flags >> HEAD_SHIFT) & HEAD_MASK: whom it took as its leader (0: the platoon's leader;

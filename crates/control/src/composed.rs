@@ -292,6 +292,7 @@ impl Controller for ComposedController {
     fn follower_step(&self, i: VehicleId) -> FollowerStep {
         FollowerStep {
             revoked: self.revoked[i.index()],
+            leader_revoked: self.revoked[0],
             ..self.followers[i.index() - 1].step
         }
     }

@@ -41,6 +41,9 @@ pub struct FollowerStep {
     /// The misbehaviour authority has revoked its certificates (`[security.reports]`): every
     /// receiver refuses its packets.
     pub revoked: bool,
+    /// The misbehaviour authority has revoked its platoon's leader (every follower says it:
+    /// the leader has no command of its own to say it in).
+    pub leader_revoked: bool,
 }
 
 impl FollowerStep {

@@ -193,7 +193,7 @@ fn commands_of(
                 f.triggered,
                 f.affected,
                 f.guard,
-                f.revoked,
+                (f.revoked, f.leader_revoked),
                 f.status().code(),
                 f.head.0,
             ),

@@ -105,6 +105,21 @@ pub struct DetectionSummary {
     /// they tested; not among `inspected` and `any`, which are the followers' detectors'.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub maneuver_checks: Option<DetectorScore>,
+    /// Signed runs: every vehicle whose key signed a lie that was delivered (altered, forged
+    /// or false content whose signature holds under its key: an insider's own, or a thief's
+    /// with its stolen key), with the first step one was; ground truth for the misbehaviour
+    /// authority's revocations. Empty (and absent) otherwise.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub signed_lies: Vec<SignedLie>,
+}
+
+/// A vehicle whose key signed a delivered lie ([`DetectionSummary::signed_lies`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct SignedLie {
+    /// The vehicle (0 = the leader).
+    pub vehicle: u16,
+    /// The first step a lie its key signed was delivered.
+    pub first_step: u64,
 }
 
 /// One delivery with its ground truth and what became of it: a row of the per-message dataset.
@@ -218,6 +233,8 @@ pub struct DetectionRecorder {
     scored: Vec<Scored>,
     /// A signed run's keys, to tell whose key signed each delivery.
     keys: Option<platoon_security::Keyring>,
+    /// Per vehicle whose key signed a delivered lie: the first step one was.
+    signed_lies: BTreeMap<u16, u64>,
 }
 
 impl DetectionRecorder {
@@ -246,6 +263,7 @@ impl DetectionRecorder {
             labels: BTreeMap::new(),
             scored: Vec::new(),
             keys: None,
+            signed_lies: BTreeMap::new(),
         }
     }
 
@@ -288,7 +306,11 @@ impl DetectionRecorder {
         }));
         if let Some(keys) = &mut self.keys {
             for r in &mut self.scored {
-                r.key = Some(KeyUse::of(keys, k, &r.delivery, r.label));
+                let key = KeyUse::of(keys, k, &r.delivery, r.label);
+                if let (Some(v), Some("insider" | "thief")) = (key.signed_by, key.acts_as) {
+                    self.signed_lies.entry(v.0).or_insert(r.step);
+                }
+                r.key = Some(key);
             }
         }
         // Inspections come in delivery order (the controllers admit deliveries in order): each
@@ -393,6 +415,14 @@ impl DetectionRecorder {
                 .leader
                 .as_ref()
                 .map(|p| score("maneuver_checks", self.leader_first_bad, p)),
+            signed_lies: self
+                .signed_lies
+                .iter()
+                .map(|(&vehicle, &first_step)| SignedLie {
+                    vehicle,
+                    first_step,
+                })
+                .collect(),
         }
     }
 }

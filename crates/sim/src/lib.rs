@@ -485,7 +485,8 @@ pub fn step_rows(
         mode: platoon_control::Status::member(platoon_control::Mode::Coop),
         guard: false,
         saturated: false,
-        revoked: false,
+        // The leader has no command of its own: its followers say it.
+        revoked: states.len() > 1 && follower(1).leader_revoked,
         intruder: None,
         radar_target: radar(0).map(|r| r.0),
         radar_gap_m: radar(0).map(|r| r.1),
@@ -1006,5 +1007,6 @@ pub fn run_until_plugins(
     summary.channel = sim.radio_stats();
     summary.detection = sim.platoons()[0].detection();
     summary.security = sim.security(metrics.revoked());
+    summary.judge_revocations();
     Ok(summary)
 }

@@ -552,6 +552,7 @@ impl FleetMetrics {
                     platoon: r.platoon,
                     vehicle: r.vehicle,
                     step: r.step,
+                    signed_a_lie: None,
                 });
             }
         }

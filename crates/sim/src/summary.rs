@@ -386,6 +386,33 @@ pub struct RevokedRecord {
     pub vehicle: u16,
     /// The first step its rows say it is revoked.
     pub step: u64,
+    /// Ground truth (platoon 0, which the detections measure): whether its key had signed a
+    /// delivered lie by then (`detection.signed_lies`): a liar, or a member whose key was
+    /// stolen; `false` is a false revocation. Absent for other platoons.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub signed_a_lie: Option<bool>,
+}
+
+impl Summary {
+    /// Says of each revocation of platoon 0 whether the revoked vehicle's key had signed a
+    /// delivered lie by then ([`RevokedRecord::signed_a_lie`]), from the detections' ground
+    /// truth: call once `security` and `detection` are set.
+    pub fn judge_revocations(&mut self) {
+        let (Some(security), Some(detection)) = (&mut self.security, &self.detection) else {
+            return;
+        };
+        let Some(reports) = &mut security.reports else {
+            return;
+        };
+        for r in reports.revoked.iter_mut().filter(|r| r.platoon == 0) {
+            r.signed_a_lie = Some(
+                detection
+                    .signed_lies
+                    .iter()
+                    .any(|l| l.vehicle == r.vehicle && l.first_step <= r.step),
+            );
+        }
+    }
 }
 
 impl SecuritySummary {

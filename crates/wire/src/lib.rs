@@ -311,7 +311,8 @@ pub struct Command {
     pub vehicle: u32,
     /// Bit 0: it broadcast in this step; bit 1: it was affected by an attack; bit 2: the
     /// emergency-braking guard overrode the command; bit 3: the misbehaviour authority revoked
-    /// its certificates (`[security.reports]`); bits 4-7: its mode (0 coop, 1 zero,
+    /// its certificates (`[security.reports]`; bit 24: it revoked the platoon's leader's);
+    /// bits 4-7: its mode (0 coop, 1 zero,
     /// 2 hold, 3 predict, 4 acc, 5 blend, 6 cut_in, 7 outside, 8 left and 9 beside: in the lane
     /// beside the platoon's, where the plant puts it); bits 8-23: whom it took as its leader, a
     /// vehicle of its platoon (0: the platoon's leader; a member ahead heading a split).
@@ -331,6 +332,8 @@ impl Command {
     pub const GUARD: u32 = 4;
     /// `flags` bit: the misbehaviour authority revoked its certificates.
     pub const REVOKED: u32 = 8;
+    /// `flags` bit: the misbehaviour authority revoked its platoon's leader's certificates.
+    pub const LEADER_REVOKED: u32 = 1 << 24;
     /// `flags` bits of the mode code: `(flags >> MODE_SHIFT) & MODE_MASK`.
     pub const MODE_SHIFT: u32 = 4;
     /// See [`Command::MODE_SHIFT`].
@@ -351,7 +354,7 @@ impl Command {
         triggered: bool,
         affected: bool,
         guard: bool,
-        revoked: bool,
+        (revoked, leader_revoked): (bool, bool),
         mode_code: u32,
         head: u16,
     ) -> u32 {
@@ -359,6 +362,7 @@ impl Command {
             + u32::from(affected) * Self::AFFECTED
             + u32::from(guard) * Self::GUARD
             + u32::from(revoked) * Self::REVOKED
+            + u32::from(leader_revoked) * Self::LEADER_REVOKED
             + ((mode_code & Self::MODE_MASK) << Self::MODE_SHIFT)
             + (u32::from(head) << Self::HEAD_SHIFT)
     }

@@ -164,6 +164,7 @@ pub(super) fn cosimulate(
             summary.security = (scenario.control.security)
                 .as_ref()
                 .map(|p| platoon_sim::SecuritySummary::of(p, &outcome.seals, metrics.revoked()));
+            summary.judge_revocations();
             channel_log_format(scenario, output, dir)?;
             Ok((rows, summary, None))
         }

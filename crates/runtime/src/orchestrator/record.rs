@@ -163,6 +163,7 @@ impl<'a> Recorder<'a> {
                         guard: cmd.flags & Command::GUARD != 0,
                         head: platoon_model::VehicleId(cmd.head()),
                         revoked: cmd.flags & Command::REVOKED != 0,
+                        leader_revoked: cmd.flags & Command::LEADER_REVOKED != 0,
                     }
                 },
                 &mut self.rows,
