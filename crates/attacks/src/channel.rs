@@ -65,7 +65,7 @@ pub enum LinkAttackKind {
     },
     /// Random false data: zero-mean normal noise with standard deviation `std` (per component)
     /// is added to the state, drawn per packet and link from the channel's seeded stream (per
-    /// packet with [`LinkAttack::insider`]).
+    /// packet for an insider, [`LinkAttack::acts_as`]).
     RandomOffset {
         /// Standard deviation on `[p, v, a]`, >= 0.
         std: [f64; 3],
