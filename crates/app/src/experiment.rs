@@ -27,6 +27,7 @@ mod detection;
 mod maneuvers;
 mod robust;
 mod scaling;
+mod security;
 mod table1;
 mod topologies;
 mod traffic;
@@ -46,6 +47,10 @@ pub use maneuvers::{
 };
 pub use robust::*;
 pub use scaling::*;
+pub use security::{
+    security, Security, SecurityOptions, SecurityRow, ATTACKERS as SECURITY_ATTACKERS,
+    DEFENCES as SECURITY_DEFENCES,
+};
 pub use table1::*;
 pub use topologies::*;
 pub use traffic::{traffic, Traffic, TrafficOptions, TrafficRow, ATTACKS as TRAFFIC_ATTACKS};

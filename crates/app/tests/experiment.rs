@@ -438,3 +438,73 @@ fn maneuvers_score_each_outcome_and_the_consensus_law_refuses_leaves() {
         .to_string()
         .contains("paper's law"));
 }
+
+/// `experiment security` on a reduced grid (the paper's law; an outsider's forged leave
+/// notice, an insider feigning braking, an insider's false reports; no defence, signatures,
+/// reports and revocation): signatures stop the outsider, and only reports stop the insider,
+/// which the authority revokes within a second; one insider's false reports revoke nobody.
+/// docs/security.md prints this table: every row of it is the measured one. With a run
+/// directory: the table, the CSV and a plot per attacker.
+#[test]
+fn the_security_study_tells_who_stops_whom() {
+    use platoon_config::LawName;
+    let opts = experiment::SecurityOptions {
+        attackers: vec![
+            "outsider-forgery".into(),
+            "insider-feigned-braking".into(),
+            "false-reports".into(),
+        ],
+        defences: vec!["none".into(), "signatures".into(), "reports".into()],
+        laws: vec![LawName::Paper],
+        duration_s: 40.0,
+    };
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = RunDir::create(&tmp.path().join("s"), false).unwrap();
+    let s = experiment::security(&opts, Some(&dir), &()).unwrap();
+    dir.commit().unwrap();
+    let row = |attacker: &str, defence: &str| {
+        s.rows
+            .iter()
+            .find(|r| r.attacker == attacker && r.defence == defence)
+            .unwrap()
+    };
+    // The outsider's forged leave ejects follower 1 unsigned; signed, it is refused.
+    assert_eq!(row("outsider-forgery", "none").left_lane, 1);
+    let signed = row("outsider-forgery", "signatures");
+    assert_eq!((signed.left_lane, signed.refused), (0, 2));
+    // The insider's lie is signed: only reports stop it, by revoking and ejecting it.
+    assert_eq!(row("insider-feigned-braking", "signatures").revoked, "");
+    let reported = row("insider-feigned-braking", "reports");
+    assert_eq!(reported.revoked, "2");
+    assert!(reported.time_to_revocation_s.is_some_and(|t| t < 1.0));
+    assert_eq!(reported.false_revocations, 0);
+    // One insider's false reports revoke nobody.
+    let liar = row("false-reports", "reports");
+    assert!(liar.reports >= 30 && liar.revoked.is_empty(), "{liar:?}");
+    assert!(s.rows.iter().all(|r| !r.collided), "{:?}", s.rows);
+    let doc = std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../docs/security.md"),
+    )
+    .unwrap();
+    for line in s.markdown.lines() {
+        assert!(
+            doc.contains(line),
+            "docs/security.md lacks the measured row {line}"
+        );
+    }
+    for f in ["security.csv", "security.md", "security-false-reports.png"] {
+        assert!(
+            tmp.path().join("s").join(f).metadata().unwrap().len() > 100,
+            "{f}"
+        );
+    }
+    let bad = experiment::SecurityOptions {
+        laws: vec![LawName::Consensus],
+        ..opts.clone()
+    };
+    assert!(bad
+        .validate()
+        .unwrap_err()
+        .to_string()
+        .contains("consensus"));
+}

@@ -8,9 +8,9 @@ use clap::builder::PossibleValuesParser;
 use platoon_app::experiment::{
     Base, Controllers, ControllersOptions, Degradation, DegradationOptions, Detection,
     DetectionOptions, Intensity, Maneuvers, ManeuversOptions, Robust, RobustOptions, Scaling,
-    ScalingOptions, Table1, Topologies, TopologiesOptions, Traffic, TrafficOptions,
-    DETECTION_ATTACKS, DETECTION_REACTIONS, DETECTORS, MANEUVERS, MANEUVER_ATTACKS,
-    TRAFFIC_ATTACKS,
+    ScalingOptions, Security, SecurityOptions, Table1, Topologies, TopologiesOptions, Traffic,
+    TrafficOptions, DETECTION_ATTACKS, DETECTION_REACTIONS, DETECTORS, MANEUVERS, MANEUVER_ATTACKS,
+    SECURITY_ATTACKERS, SECURITY_DEFENCES, TRAFFIC_ATTACKS,
 };
 use platoon_config::LawName;
 use platoon_control::Reaction;
@@ -108,6 +108,51 @@ pub enum Experiment {
     /// the messages sent), maneuvers.md (outcomes, worst case over the repeats) and one
     /// completion-time plot per maneuver (maneuvers-<maneuver>.png).
     Maneuvers(ManeuversArgs),
+    /// Security in the loop (docs/security.md#the-study): attackers (none, an outsider forging
+    /// a leave notice, an insider's false data, an insider feigning braking, a Sybil with a
+    /// member's stolen key forging a leave notice, an insider's false reports) against
+    /// defences (none, signatures, + local detection, + reports and revocation) by law, on
+    /// configs/leave.toml without its own leaves, in process. Writes security.csv (one row per
+    /// run: collided, the smallest gap, the largest spacing error, who left the lane, seal
+    /// refusals, signatures verified per step, reports, whom the authority revoked and how
+    /// soon, false revocations), security.md and one smallest-gap plot per attacker
+    /// (security-<attacker>.png).
+    Security(SecurityArgs),
+}
+
+/// Arguments of `experiment security`.
+#[derive(Debug, clap::Args)]
+#[command(mut_arg("out", |a| a.help("Output directory [default: runs/security]")))]
+pub struct SecurityArgs {
+    /// The attackers.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        value_parser = PossibleValuesParser::new(SECURITY_ATTACKERS),
+        default_values = SECURITY_ATTACKERS
+    )]
+    pub attackers: Vec<String>,
+    /// The defences, each adding to the one before.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        value_parser = PossibleValuesParser::new(SECURITY_DEFENCES),
+        default_values = SECURITY_DEFENCES
+    )]
+    pub defences: Vec<String>,
+    /// The laws (not consensus: it refuses leaves, and a revoked member is ejected by one).
+    #[arg(
+        long,
+        value_delimiter = ',',
+        value_parser = one_of(&LawName::ALL, LawName::name),
+        default_values = ["paper", "path_cacc"]
+    )]
+    pub laws: Vec<LawName>,
+    /// Each run's length (s), over 21 (the insiders lie from 20 s).
+    #[arg(long, default_value_t = 40.0)]
+    pub duration: f64,
+    #[command(flatten)]
+    pub output: OutDir,
 }
 
 /// `--laws`, of the experiments that compare laws.
@@ -403,7 +448,18 @@ pub fn run(e: Experiment) -> Result<()> {
         Experiment::Detection(args) => detection(args),
         Experiment::Traffic(args) => traffic(args),
         Experiment::Maneuvers(args) => maneuvers(args),
+        Experiment::Security(args) => security(args),
     }
+}
+
+fn security(args: SecurityArgs) -> Result<()> {
+    let opts = SecurityOptions {
+        attackers: args.attackers,
+        defences: args.defences,
+        laws: args.laws,
+        duration_s: args.duration,
+    };
+    experiment::<Security>(opts, None, &args.output, Bar::counting("runs"))
 }
 
 /// Runs the experiment `E` with `opts` on the config `config` (None: `E::BASE`) into the

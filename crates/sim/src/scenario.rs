@@ -273,11 +273,19 @@ impl Scenario {
 
     /// Whether vehicles change lanes during the run: members leave (`[[maneuvers.leaves]]`),
     /// a joiner comes from the lane beside (`[[maneuvers.joins]] behind`), or the leader may
-    /// eject a member the misbehaviour authority revoked (`[security.reports]`). The plant then
+    /// eject a member (revoked by the misbehaviour authority, `[security.reports]`, or named in
+    /// a forged leave notice, `forge_maneuver`). The plant then
     /// keeps who is on the platoon's lane and the radars see the lane, not the platoon's order.
     pub fn changes_lanes(&self) -> bool {
-        // A member the misbehaviour authority revokes is ejected and leaves the lane.
-        let ejects = self.control.security.is_some_and(|s| s.reports.is_some());
+        // A member the misbehaviour authority revokes is ejected and leaves the lane; so is
+        // one in whose name a leave notice is forged.
+        let ejects = self.control.security.is_some_and(|s| s.reports.is_some())
+            || self.link_attacks.iter().any(|a| {
+                a.kind
+                    == platoon_attacks::channel::LinkAttackKind::ForgeManeuver {
+                        message: platoon_maneuver::MessageKind::LeaveNotice,
+                    }
+            });
         self.control.maneuvers.as_ref().is_some_and(|m| {
             !m.leaves.is_empty() || m.joins.iter().any(|j| j.behind.is_some()) || ejects
         })

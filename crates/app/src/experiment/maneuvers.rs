@@ -269,7 +269,7 @@ fn cell(
 /// gap (Plexe's ACC set above the profile's top speed), the platoon's spacing policy the law's,
 /// every initial position scaled from the scenario's spacing to the law's at the scenario's
 /// speed, the guard on.
-fn configure(base: &Config, law: LawName) -> Config {
+pub(super) fn configure(base: &Config, law: LawName) -> Config {
     let mut c = base.clone();
     c.control.law = law_config(base, law);
     on_standstill(

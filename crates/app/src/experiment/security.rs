@@ -1,0 +1,392 @@
+//! Security in the loop: attacker by defence by law ([`security`], issue 52 item 5).
+use super::maneuvers::configure;
+use super::{
+    bars_by_law, refuse, repeats, walk, write_table, Base, Experiment, ExperimentError, Result,
+};
+use crate::progress::Progress;
+use platoon_config::{
+    ActsAsConfig, Config, DetectionConfig, Embedded, FalseReportsConfig, LawName, LinkAttackConfig,
+    LinkKindConfig, ReportsConfig, SecurityConfig,
+};
+use platoon_control::Role;
+use platoon_output::plots;
+use platoon_output::rundir::RunDir;
+use std::fmt::Write as _;
+
+/// The attackers of [`security`], by name, on `configs/leave.toml` without its own leaves:
+/// none; an outsider forging a leave notice in follower 1's name at 10 s; an insider
+/// (follower 2) claiming from 20 s to be 3 m further ahead and 1 m/s faster than it is; an
+/// insider (follower 2) feigning a -6 m/s^2 braking from 20 s; a Sybil with follower 4's
+/// stolen key forging a leave notice in follower 3's name at 10 s; an insider (follower 3)
+/// reporting honest follower 1 from 5 s on.
+pub const ATTACKERS: [&str; 6] = [
+    "none",
+    "outsider-forgery",
+    "insider-false-data",
+    "insider-feigned-braking",
+    "stolen-key-sybil",
+    "false-reports",
+];
+
+/// The defences of [`security`], each adding to the one before: none (unsigned, no
+/// detectors), signatures (`[security]`), local detection (the three detectors, reaction
+/// `log`), reports and revocation (`[security.reports]`, its defaults).
+pub const DEFENCES: [&str; 4] = ["none", "signatures", "detection", "reports"];
+
+/// How [`security`] runs; [`SecurityOptions::default`] is `platoon experiment security`'s
+/// default.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SecurityOptions {
+    /// The attackers (`--attackers`), names of [`ATTACKERS`].
+    pub attackers: Vec<String>,
+    /// The defences (`--defences`), names of [`DEFENCES`].
+    pub defences: Vec<String>,
+    /// The laws (`--laws`).
+    pub laws: Vec<LawName>,
+    /// Each run's length (s, `--duration`), over 20 s (the insiders start lying at 20 s).
+    pub duration_s: f64,
+}
+
+impl Default for SecurityOptions {
+    fn default() -> Self {
+        Self {
+            attackers: ATTACKERS.iter().map(|a| a.to_string()).collect(),
+            defences: DEFENCES.iter().map(|d| d.to_string()).collect(),
+            laws: vec![LawName::Paper, LawName::PathCacc],
+            duration_s: 40.0,
+        }
+    }
+}
+
+impl SecurityOptions {
+    /// Fails on empty lists, unknown names, a law that refuses leaves and a run too short.
+    pub fn validate(&self) -> Result<()> {
+        let known = |flag: &str, given: &[String], all: &[&str]| -> Result<()> {
+            if given.is_empty() {
+                refuse!(Options, "{flag} needs at least one of {}", all.join(", "));
+            }
+            if let Some(x) = given.iter().find(|x| !all.contains(&x.as_str())) {
+                refuse!(Options, "{flag}: unknown {x:?}; use {}", all.join(", "));
+            }
+            Ok(())
+        };
+        known("--attackers", &self.attackers, &ATTACKERS)?;
+        known("--defences", &self.defences, &DEFENCES)?;
+        if self.laws.is_empty() {
+            refuse!(
+                Options,
+                "--laws needs at least one law, e.g. paper,path_cacc"
+            );
+        }
+        if self.laws.contains(&LawName::Consensus) {
+            refuse!(
+                Options,
+                "--laws: the consensus law refuses leaves, and a revoked member is ejected by \
+                 one; use paper, acc, ploeg, path_cacc or flatbed"
+            );
+        }
+        if !(self.duration_s.is_finite() && self.duration_s > 21.0) {
+            refuse!(
+                Options,
+                "--duration must be over 21 s (the insiders lie from 20 s), got {}",
+                self.duration_s
+            );
+        }
+        Ok(())
+    }
+}
+
+/// One run of [`security`] (a row of security.csv).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct SecurityRow {
+    /// The law's config name.
+    pub law: &'static str,
+    /// The attacker ([`ATTACKERS`]).
+    pub attacker: String,
+    /// The defence ([`DEFENCES`]).
+    pub defence: String,
+    /// Any vehicle collided (the plant's measure).
+    pub collided: bool,
+    /// The smallest gap to the vehicle ahead on the lane (m).
+    pub min_gap_m: f64,
+    /// The largest |spacing error| of a follower still in the platoon (m).
+    pub max_spacing_error_m: f64,
+    /// Followers that left the lane by the end (ejected by a forged notice or a revocation).
+    pub left_lane: usize,
+    /// Deliveries the seals refused (0 unsigned).
+    pub refused: u64,
+    /// Signatures verified per step (0 unsigned): the verification load.
+    pub verified_per_step: f64,
+    /// Reports filed (0 without reports).
+    pub reports: u64,
+    /// The vehicles revoked, `+`-separated (empty: none).
+    pub revoked: String,
+    /// From the attacker's first lie to its revocation (s), for the lying attackers.
+    pub time_to_revocation_s: Option<f64>,
+    /// Revocations of vehicles whose key signed no lie (the ground truth).
+    pub false_revocations: usize,
+}
+
+/// [`security`]'s result.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Security {
+    /// Law by law, attacker by attacker, defence by defence.
+    pub rows: Vec<SecurityRow>,
+    /// security.md.
+    pub markdown: String,
+}
+
+/// Every attacker of `opts` against every defence under every law, in process, on
+/// `configs/leave.toml` without its own leaves (each law on its own distances, the guard on:
+/// [`super::maneuvers`]'s configuration). With `out`: security.csv, security.md and a plot of
+/// the smallest gap per law.
+pub fn security(
+    opts: &SecurityOptions,
+    out: Option<&RunDir>,
+    progress: &dyn Progress,
+) -> Result<Security> {
+    super::run::<Security>(&Base::load(None, Security::BASE)?, opts, out, progress)
+}
+
+fn measure(base: &Config, opts: &SecurityOptions, progress: &dyn Progress) -> Result<Security> {
+    let mut base = base.clone();
+    if let Some(m) = &mut base.maneuvers {
+        m.leaves.clear();
+    }
+    base.simulation.duration_s = opts.duration_s;
+    let mut cells = Vec::new();
+    for &law in &opts.laws {
+        for attacker in &opts.attackers {
+            cells.extend(opts.defences.iter().map(|d| (law, attacker, d)));
+        }
+    }
+    let rows = walk(
+        progress,
+        "simulating",
+        cells,
+        |(law, attacker, defence)| format!("{}, {attacker}, {defence}", law.name()),
+        |(law, attacker, defence)| cell(&base, law, attacker, defence),
+    )?;
+    let markdown = markdown(&rows);
+    Ok(Security { rows, markdown })
+}
+
+/// When the lying attackers lie first (s).
+fn lies_from(attacker: &str) -> Option<f64> {
+    match attacker {
+        "insider-false-data" | "insider-feigned-braking" => Some(20.0),
+        "stolen-key-sybil" => Some(10.0),
+        _ => None,
+    }
+}
+
+/// `base` under `law` with `attacker` and `defence`.
+fn configured(base: &Config, law: LawName, attacker: &str, defence: &str) -> Config {
+    let mut c = configure(base, law);
+    let link = |kind, senders: u16, start_s: f64, end_s: f64| LinkAttackConfig {
+        kind,
+        start_s,
+        end_s,
+        senders: Some(vec![senders]),
+        receivers: None,
+        acts_as: None,
+        key_of: None,
+    };
+    let forged_leave = || LinkKindConfig::ForgeManeuver {
+        message: "leave_notice".into(),
+        insider: false,
+    };
+    let insider = |kind| LinkAttackConfig {
+        acts_as: Some(ActsAsConfig::Insider),
+        ..link(kind, 2, 20.0, f64::INFINITY)
+    };
+    match attacker {
+        "outsider-forgery" => c.channel.attacks.push(LinkAttackConfig {
+            receivers: Some(vec![0]),
+            ..link(forged_leave(), 1, 10.0, 10.2)
+        }),
+        "insider-false-data" => c.channel.attacks.push(insider(LinkKindConfig::FalseData {
+            offset: [3.0, 1.0, 0.0],
+            insider: false,
+        })),
+        "insider-feigned-braking" => {
+            c.channel
+                .attacks
+                .push(insider(LinkKindConfig::FeignedBraking {
+                    accel_mps2: -6.0,
+                    insider: false,
+                }))
+        }
+        "stolen-key-sybil" => c.channel.attacks.push(LinkAttackConfig {
+            receivers: Some(vec![0]),
+            acts_as: Some(ActsAsConfig::Thief),
+            key_of: Some(4),
+            ..link(forged_leave(), 3, 10.0, 10.2)
+        }),
+        _ => {}
+    }
+    let level = DEFENCES.iter().position(|d| *d == defence).unwrap_or(0);
+    if level >= 1 {
+        c.security = Some(SecurityConfig::default());
+    }
+    if level >= 2 {
+        c.detection = Some(DetectionConfig {
+            plausibility: Some(Default::default()),
+            radar_cross: Some(Default::default()),
+            residual: Some(Default::default()),
+            reaction: Default::default(),
+            quiet_s: 1.0,
+            plugin: Vec::new(),
+        });
+    }
+    if level >= 3 {
+        if let Some(s) = &mut c.security {
+            s.reports = Some(ReportsConfig {
+                false_reports: (attacker == "false-reports").then(|| FalseReportsConfig {
+                    reporter: 3,
+                    accused: 1,
+                    start_s: 5.0,
+                    end_s: f64::INFINITY,
+                }),
+                ..ReportsConfig::default()
+            });
+        }
+    }
+    c
+}
+
+fn cell(base: &Config, law: LawName, attacker: &str, defence: &str) -> Result<SecurityRow> {
+    let mut c = configured(base, law, attacker, defence);
+    let scenario = match platoon_config::to_scenario(&mut c) {
+        Ok(s) => s,
+        Err(platoon_config::KeyError { key, reason: e }) => refuse!(
+            Variant,
+            "key `{key}` with law {} under {attacker} against {defence}: {e}",
+            law.name()
+        ),
+    };
+    let dt = scenario.dt();
+    let mut left_lane = 0;
+    let mut max_spacing_error_m: f64 = 0.0;
+    let summary = platoon_sim::run_until(&scenario, |sim| {
+        let rows = sim.rows();
+        left_lane = rows.iter().filter(|r| r.mode == Role::Left).count();
+        for r in rows
+            .iter()
+            .filter(|r| r.vehicle > 0 && r.mode != Role::Left)
+        {
+            max_spacing_error_m = max_spacing_error_m.max(r.spacing_error.abs());
+        }
+        std::ops::ControlFlow::Continue(())
+    })?;
+    let security = summary.security.as_ref();
+    let reports = security.and_then(|s| s.reports.as_ref());
+    let revoked = reports.map_or(&[][..], |r| r.revoked.as_slice());
+    // The lying attackers: follower 2 (insiders) or the owner of the stolen key (4).
+    let liar = match attacker {
+        "stolen-key-sybil" => Some(4),
+        a if a.starts_with("insider") => Some(2),
+        _ => None,
+    };
+    let time_to_revocation_s = lies_from(attacker).and_then(|from| {
+        let r = revoked.iter().find(|r| Some(r.vehicle) == liar)?;
+        Some(r.step as f64 * dt - from)
+    });
+    let steps = scenario.steps.max(1) as f64;
+    Ok(SecurityRow {
+        law: law.name(),
+        attacker: attacker.to_string(),
+        defence: defence.to_string(),
+        collided: summary.safety.collided,
+        min_gap_m: summary.safety.min_gap_m,
+        max_spacing_error_m,
+        left_lane,
+        refused: security.map_or(0, |s| s.refused_total),
+        verified_per_step: security.map_or(0.0, |s| s.verified as f64 / steps),
+        reports: reports.map_or(0, |r| r.filed),
+        revoked: revoked
+            .iter()
+            .map(|r| r.vehicle.to_string())
+            .collect::<Vec<_>>()
+            .join("+"),
+        time_to_revocation_s,
+        false_revocations: revoked
+            .iter()
+            .filter(|r| r.signed_a_lie == Some(false))
+            .count(),
+    })
+}
+
+fn markdown(rows: &[SecurityRow]) -> String {
+    let mut md = String::from(
+        "| law | attacker | defence | collided | min gap (m) | max spacing error (m) | left the lane | refused | verified per step | reports | revoked | time to revocation (s) | false revocations |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+    );
+    for ((law, attacker, defence), same) in
+        repeats(rows, |r| (r.law, r.attacker.as_str(), r.defence.as_str()))
+    {
+        let r = same[0];
+        let _ = writeln!(
+            md,
+            "| {law} | {attacker} | {defence} | {} | {:.2} | {:.2} | {} | {} | {:.2} | {} | {} | {} | {} |",
+            if r.collided { "yes" } else { "no" },
+            r.min_gap_m,
+            r.max_spacing_error_m,
+            r.left_lane,
+            r.refused,
+            r.verified_per_step,
+            r.reports,
+            if r.revoked.is_empty() { "-" } else { &r.revoked },
+            r.time_to_revocation_s
+                .map_or("-".to_string(), |t| format!("{t:.2}")),
+            r.false_revocations,
+        );
+    }
+    md
+}
+
+impl Security {
+    fn write_files(&self, opts: &SecurityOptions, dir: &RunDir) -> Result<()> {
+        write_table(dir, "security", &self.rows, &self.markdown)?;
+        for attacker in &opts.attackers {
+            let groups = bars_by_law(&opts.laws, &opts.defences, |law, d| {
+                self.rows
+                    .iter()
+                    .find(|r| r.attacker == *attacker && r.law == law && r.defence == d)
+                    .map_or(0.0, |r| r.min_gap_m.max(0.0))
+            });
+            plots::grouped_bars(
+                &dir.path(&format!("security-{attacker}.png")),
+                &format!("{attacker}: smallest gap on the lane by defence (0 = collided)"),
+                "smallest gap (m)",
+                &opts.defences,
+                &groups,
+            )?;
+        }
+        Ok(())
+    }
+}
+
+/// The runs are on `configs/leave.toml`: the base is the embedded one.
+impl Experiment for Security {
+    type Options = SecurityOptions;
+    const NAME: &'static str = "security";
+    const DIR: &'static str = "runs/security";
+    const BASE: Embedded = Embedded::Leave;
+    fn validate(opts: &SecurityOptions) -> Result<()> {
+        opts.validate()
+    }
+    fn measure(
+        base: &Base,
+        opts: &SecurityOptions,
+        _out: Option<&RunDir>,
+        progress: &dyn Progress,
+    ) -> Result<Self> {
+        measure(&base.config, opts, progress)
+    }
+    fn write(&self, _base: &Base, opts: &SecurityOptions, dir: &RunDir) -> Result<()> {
+        self.write_files(opts, dir)
+    }
+    fn summary(&self) -> String {
+        self.markdown.clone()
+    }
+}
