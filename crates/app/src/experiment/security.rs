@@ -242,7 +242,7 @@ fn configured(base: &Config, law: LawName, attacker: &str, defence: &str) -> Con
     if level >= 3 {
         if let Some(s) = &mut c.security {
             s.reports = Some(ReportsConfig {
-                false_reports: (attacker == "false-reports").then(|| FalseReportsConfig {
+                false_reports: (attacker == "false-reports").then_some(FalseReportsConfig {
                     reporter: 3,
                     accused: 1,
                     start_s: 5.0,
