@@ -90,6 +90,11 @@ impl Ctx {
         Ok(true)
     }
 
+    /// Sends the orchestrator a status message (a report besides READY, DONE and FAILED).
+    pub(crate) fn report_status(&self, msg: ControlMsg) -> Result<(), CosimError> {
+        self.status.send(msg)
+    }
+
     /// After the last step: report DONE (with `msg`) and wait for STOP.
     pub(crate) fn done(&mut self, msg: ControlMsg) -> Result<(), CosimError> {
         self.status.send(msg)?;
