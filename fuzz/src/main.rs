@@ -696,7 +696,11 @@ fn fuzz_aimed<A: Strategy>(
     key[..8].copy_from_slice(&seed.to_le_bytes());
     let mut runner =
         TestRunner::new_with_rng(config, TestRng::from_seed(RngAlgorithm::ChaCha, &key));
-    let strategy = (0..corpus.len(), prop::collection::vec(mutation(), 0..8), aimed);
+    let strategy = (
+        0..corpus.len(),
+        prop::collection::vec(mutation(), 0..8),
+        aimed,
+    );
     let input = |i: usize, muts: &[Mutation], aimed: &A::Value| {
         let mut input = mutate(&corpus[i], muts, &corpus);
         aim(&mut input, aimed);
@@ -819,8 +823,12 @@ mod tests {
         let bench = SealBench::new();
         let mut receiver = Sealing::new(SecurityParams::default(), 5, 0.01);
         for (seal, why) in &bench.forged {
-            let mut packet =
-                Packet::beacon(platoon_model::VehicleId(1), 1, 0, State::new(3.0, 21.0, 0.0));
+            let mut packet = Packet::beacon(
+                platoon_model::VehicleId(1),
+                1,
+                0,
+                State::new(3.0, 21.0, 0.0),
+            );
             packet.seal = platoon_v2v::Seal::new(seal);
             let d = Delivery {
                 receiver: platoon_model::VehicleId(2),
@@ -845,6 +853,9 @@ mod tests {
             &bench.forged[0].0[..]
         );
         bench.aim(&mut input, &[SealMutation::Len { item: 0, len: 500 }]);
-        assert_eq!(PacketBench::items(&input[1..1 + size])[0].packet.seal_len, 500);
+        assert_eq!(
+            PacketBench::items(&input[1..1 + size])[0].packet.seal_len,
+            500
+        );
     }
 }

@@ -9,9 +9,9 @@ use platoon_config::{Config, Transport};
 use platoon_output::plots;
 use platoon_output::rundir::RunDir;
 use platoon_output::tables::{Format, Table};
+use platoon_runtime::timing::CryptoStages;
 use platoon_sim::detection::Scored;
 use platoon_sim::{Scenario, StepRow, StepWire, Summary};
-use platoon_runtime::timing::CryptoStages;
 use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -648,8 +648,7 @@ fn simulate_plotted(
     stop: &Stop,
 ) -> Result<(Plotted, Summary)> {
     let mut files = RunFiles::create(scenario, output, dir, true, !scenario.cut_ins.is_empty())?;
-    let (summary, mut step_ns, crypto) =
-        record_with(scenario, &mut files, stop, progress, true)?;
+    let (summary, mut step_ns, crypto) = record_with(scenario, &mut files, stop, progress, true)?;
     // In process a step has no stages: only its compute time, and in `[security]` runs what
     // its signing and verifying took.
     let mut timing = platoon_runtime::timing::Timing {

@@ -131,7 +131,7 @@ pub fn security(a: Security) -> Result<SecurityReport> {
     if a.rounds == 0 || a.fleet_rounds == 0 {
         bail!("--rounds and --fleet-rounds must be at least 1");
     }
-    if a.fleet_vehicles % 5 != 0 {
+    if !a.fleet_vehicles.is_multiple_of(5) {
         bail!("--fleet-vehicles must be a multiple of 5 (platoons of 4 followers), e.g. 1000");
     }
     if !(a.fleet_seconds.is_finite() && a.fleet_seconds >= 0.1) {
@@ -261,7 +261,8 @@ fn run_case(exe: &Path, config: &Path, out: &Path, transport: &str) -> Result<f6
 fn row(round: u32, case: &Case, is_signed: bool, wall_s: f64, out: &Path) -> Result<SecurityRow> {
     let read = |f: &str| -> Result<serde_json::Value> {
         let p = out.join(f);
-        let text = std::fs::read_to_string(&p).with_context(|| format!("{} missing", p.display()))?;
+        let text =
+            std::fs::read_to_string(&p).with_context(|| format!("{} missing", p.display()))?;
         Ok(serde_json::from_str(&text)?)
     };
     let (timing, summary) = (read("timing.json")?, read("summary.json")?);

@@ -768,7 +768,12 @@ mod tests {
             platoons: 1,
         };
         let mut sealing = Sealing::new(SecurityParams::default(), 3, 0.01);
-        let mut sent = [Packet::beacon(VehicleId(1), 1, 0, State::new(1.0, 2.0, 0.0))];
+        let mut sent = [Packet::beacon(
+            VehicleId(1),
+            1,
+            0,
+            State::new(1.0, 2.0, 0.0),
+        )];
         sealing.seal(0, &mut sent);
         let wire = packet_to_wire(&sent[0], 0, 0, num);
         // The first packet carries the certificate: the whole buffer.

@@ -196,7 +196,11 @@ mod tests {
         assert!(Stats::of(&mut []).is_none());
         let mut odd: Vec<u64> = (1..=7).map(|x| x * 1234 + 1).collect();
         let s = Stats::of(&mut odd).unwrap();
-        assert_eq!(Stats::from_ns(&s.to_ns()), Some(s), "the wire's form is exact");
+        assert_eq!(
+            Stats::from_ns(&s.to_ns()),
+            Some(s),
+            "the wire's form is exact"
+        );
         assert_eq!(Stats::from_ns(&[0; 6]), None);
     }
 
