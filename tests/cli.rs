@@ -743,6 +743,19 @@ fn bench_arguments_are_checked_before_anything_runs() {
         (vec!["bench", "step", "--followers", "6"], "multiples of 4"),
         (vec!["bench", "step", "--modes", "warp"], "unknown mode"),
         (vec!["bench", "design", "--followers", "0"], "positive"),
+        (
+            vec!["bench", "security", "--fleet-vehicles", "7"],
+            "multiple of 5",
+        ),
+        (
+            vec!["bench", "security", "--transports", "warp"],
+            "unknown transport",
+        ),
+        (vec!["bench", "security", "--rounds", "0"], "--rounds"),
+        (
+            vec!["bench", "security", "--fleet-seconds", "0"],
+            "--fleet-seconds",
+        ),
     ] {
         let o = platoon(&args, tmp.path());
         assert!(!o.status.success(), "{args:?}");
@@ -754,6 +767,46 @@ fn bench_arguments_are_checked_before_anything_runs() {
         0,
         "nothing written"
     );
+}
+
+/// `bench security` runs the paper's scenario unsigned and signed and reports the pair: the
+/// signed run's sign and verify stages and counts, and its ratio to the unsigned one (their
+/// values are the machine's: only their presence is asserted).
+#[test]
+fn bench_security_pairs_a_signed_run_with_its_unsigned_one() {
+    let tmp = tempfile::tempdir().unwrap();
+    let o = platoon(
+        &[
+            "bench",
+            "security",
+            "--rounds",
+            "1",
+            "--transports",
+            "inproc",
+            "--fleet-vehicles",
+            "0",
+            "--out",
+            "b",
+        ],
+        tmp.path(),
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let report = json(&tmp.path().join("b/security.json"));
+    let rows = report["rows"].as_array().unwrap();
+    let policies: Vec<&str> = rows.iter().map(|r| r["policy"].as_str().unwrap()).collect();
+    assert_eq!(policies, ["none", "every"], "{report}");
+    assert!(rows[0]["sign_p50_us"].is_null(), "{report}");
+    assert!(rows[1]["sign_p99_us"].as_f64().unwrap() > 0.0, "{report}");
+    assert!(rows[1]["signed"].as_u64().unwrap() > 0, "{report}");
+    let ratio = &report["ratios"][0];
+    assert_eq!(
+        (ratio["case"].as_str(), ratio["transport"].as_str()),
+        (Some("paper"), Some("inproc"))
+    );
+    assert_eq!(ratio["wall_rounds"].as_array().unwrap().len(), 1);
+    assert!(ratio["wall_median"].as_f64().unwrap() > 0.0, "{report}");
+    let csv = std::fs::read_to_string(tmp.path().join("b/security.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 3, "a header and the two runs: {csv}");
 }
 
 #[test]

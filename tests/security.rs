@@ -3,7 +3,8 @@
 //! `forge_maneuver`, which rewrites genuine packets, and a fresh forgery, unsealed or sealed
 //! with a key of another PKI) are refused at verification and change nothing: the run is the
 //! same bit for bit as without the forgery. A signed run over iceoryx2 (contract v5 carries
-//! the seal) is the same bit for bit as in process.
+//! the seal) is the same bit for bit as in process, and both say in timing.json what signing
+//! and verifying took per step (an unsigned run's timing.json has neither).
 use crate::common;
 
 use common::maneuvers::{forged_to_leader, nothing, of, run_with, Log, FAKE_JOIN_REQUEST};
@@ -288,6 +289,43 @@ fn a_signed_run_is_bit_identical_on_both_transports() {
         refused += u64::from(r[by] == "bad_signature");
     }
     assert_eq!(refused, security["refused_total"].as_u64().unwrap());
+    // timing.json says what signing and verifying took per step, on both transports, over
+    // every step (durations are the machine's: only their presence is asserted).
+    let steps = |t: &serde_json::Value, stage: &str| t[stage]["n"].as_u64().unwrap_or(0);
+    let (ipc, inproc) = (
+        common::json(&tmp.path().join("ipc/timing.json")),
+        common::json(&tmp.path().join("inproc/timing.json")),
+    );
+    for t in [&ipc, &inproc] {
+        for stage in ["sign", "verify"] {
+            assert!(steps(t, stage) > 5000, "{stage}: {t}");
+            assert!(t[stage]["max_us"].as_f64().unwrap() > 0.0, "{stage}: {t}");
+            assert!(t[stage]["p99_us"].as_f64().unwrap() > 0.0, "{stage}: {t}");
+        }
+    }
+    assert_eq!(steps(&ipc, "sign"), steps(&inproc, "sign"));
+    assert_eq!(steps(&ipc, "verify"), steps(&inproc, "verify"));
+}
+
+/// An unsigned run's timing.json is what it was before `[security]`: no `sign` or `verify`,
+/// on either transport.
+#[test]
+fn an_unsigned_runs_timing_json_has_no_sign_or_verify() {
+    let tmp = tempfile::tempdir().unwrap();
+    std::fs::write(tmp.path().join("plain.toml"), config("join")).unwrap();
+    for (out, transport) in [("ipc", "iceoryx2"), ("inproc", "inproc")] {
+        common::run_config(
+            &tmp.path().join("plain.toml"),
+            out,
+            &["--transport", transport],
+            tmp.path(),
+        );
+        let t = common::json(&tmp.path().join(out).join("timing.json"));
+        assert!(t["step"]["p50_us"].is_f64(), "{transport}: {t}");
+        for stage in ["sign", "verify"] {
+            assert!(t.get(stage).is_none(), "{transport}: {stage}: {t}");
+        }
+    }
 }
 
 /// Whom each attack acts as (issue 52, item 2), in the leave scenario: follower 2 an insider

@@ -244,6 +244,8 @@ class ControlMsg(Payload):
 
     START, STOP, ABORT = 1, 2, 3
     READY, DONE, FAILED = 10, 11, 12
+    # Controller -> orchestrator before DONE in a [security] run: per-step crypto time percentiles.
+    TIMING = 13
 
     _fields_ = [
         ("kind", ctypes.c_uint32),

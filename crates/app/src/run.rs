@@ -9,6 +9,7 @@ use platoon_config::{Config, Transport};
 use platoon_output::plots;
 use platoon_output::rundir::RunDir;
 use platoon_output::tables::{Format, Table};
+use platoon_runtime::timing::CryptoStages;
 use platoon_sim::detection::Scored;
 use platoon_sim::{Scenario, StepRow, StepWire, Summary};
 use std::ops::ControlFlow;
@@ -476,7 +477,8 @@ pub fn record(
     stop: &Stop,
     progress: &dyn Progress,
 ) -> Result<(Summary, Vec<u64>)> {
-    record_with(scenario, sink, stop, progress, false)
+    let (summary, step_ns, _) = record_with(scenario, sink, stop, progress, false)?;
+    Ok((summary, step_ns))
 }
 
 /// [`record`]; with `check_model`, a run whose physics leaves the vehicle model stops at that
@@ -488,7 +490,7 @@ fn record_with(
     stop: &Stop,
     progress: &dyn Progress,
     check_model: bool,
-) -> Result<(Summary, Vec<u64>)> {
+) -> Result<(Summary, Vec<u64>, Option<CryptoStages>)> {
     let steps = scenario.steps + 1;
     progress.start("simulating", steps);
     let mut step_ns = Vec::with_capacity(steps.min(1 << 20) as usize);
@@ -496,8 +498,18 @@ fn record_with(
     let mut last = Instant::now();
     let mut check = platoon_sim::model_check::ModelCheck::new(scenario);
     let mut left_model = None;
-    let mut summary = platoon_sim::run_until(scenario, |sim| {
+    // `[security]`: what signing and verifying took in each step, by the runtime's clock.
+    let mut crypto = scenario
+        .control
+        .security
+        .is_some()
+        .then(CryptoStages::default);
+    let clock = platoon_runtime::monotonic_ns;
+    let mut summary = platoon_sim::run_until_timed(scenario, clock, |sim| {
         step_ns.push(last.elapsed().as_nanos() as u64);
+        if let (Some(c), Some(total)) = (&mut crypto, sim.crypto_time()) {
+            c.push(total);
+        }
         let written = sim
             .channel_log()
             .iter()
@@ -537,7 +549,7 @@ fn record_with(
         summary.error = Some(exit.to_string());
     }
     sink.finish()?;
-    Ok((summary, step_ns))
+    Ok((summary, step_ns, crypto))
 }
 
 impl StepSink for RunFiles {
@@ -636,15 +648,21 @@ fn simulate_plotted(
     stop: &Stop,
 ) -> Result<(Plotted, Summary)> {
     let mut files = RunFiles::create(scenario, output, dir, true, !scenario.cut_ins.is_empty())?;
-    let (summary, mut step_ns) = record_with(scenario, &mut files, stop, progress, true)?;
-    // In process a step has no stages: only its compute time.
-    let timing = platoon_runtime::timing::Timing {
+    let (summary, mut step_ns, crypto) = record_with(scenario, &mut files, stop, progress, true)?;
+    // In process a step has no stages: only its compute time, and in `[security]` runs what
+    // its signing and verifying took.
+    let mut timing = platoon_runtime::timing::Timing {
         step: platoon_runtime::timing::Stats::of(&mut step_ns),
         controller_tx: None,
         injector: None,
         controller_rx: None,
         plant: None,
+        sign: None,
+        verify: None,
     };
+    if let Some(c) = crypto {
+        c.report_into(&mut timing);
+    }
     let mut timing = serde_json::to_value(&timing)?;
     timing["peak_rss_mib"] = peak_rss_mib(&[]);
     dir.write(

@@ -10,6 +10,7 @@ mod latency;
 mod machine;
 mod report;
 mod search;
+mod security;
 mod step;
 
 pub use campaign::{campaign, Campaign};
@@ -17,6 +18,7 @@ pub use design::{design, Design};
 pub use latency::{latency, Latency};
 pub use report::{all, All};
 pub use search::{search, Search};
+pub use security::{security, Security, SecurityRatio, SecurityReport, SecurityRow};
 pub use step::{step, Step};
 
 use platoon_output::rundir::RunDir;

@@ -108,7 +108,7 @@ pub struct PeerRatio {
 }
 
 /// The median of `xs` (NaN when there are none).
-fn median(mut xs: Vec<f64>) -> f64 {
+pub(crate) fn median(mut xs: Vec<f64>) -> f64 {
     xs.retain(|x| !x.is_nan());
     xs.sort_by(f64::total_cmp);
     match xs.len() {
@@ -265,7 +265,12 @@ fn peers(plant_json: &std::path::Path, followers: usize, round: u32) -> Result<V
 /// with the guard on, their car cutting in mid-gap ahead of each platoon's follower 3 at 30 %
 /// of the run and leaving at 70 %, and one SUMO background vehicle per 5 followers drives on the
 /// platoons' lanes, changing lanes by LC2013, a fifth of them trucks.
-fn fleet_config(followers: usize, seconds: f64, sumo: bool, traffic: bool) -> Result<String> {
+pub(crate) fn fleet_config(
+    followers: usize,
+    seconds: f64,
+    sumo: bool,
+    traffic: bool,
+) -> Result<String> {
     let net = platoon_app::sumo::bridge_dir()?.join("../sumo/highway-long/highway-long.net.xml");
     let base = if traffic {
         platoon_config::Embedded::CutIn

@@ -2,7 +2,7 @@
 //! `platoon_bench`'s).
 use crate::outdir::OutDir;
 use crate::Result;
-use platoon_bench::{All, Campaign, Design, Latency, Search, Step};
+use platoon_bench::{All, Campaign, Design, Latency, Search, Security, Step};
 use std::path::PathBuf;
 
 /// Benchmarks.
@@ -44,6 +44,18 @@ pub(crate) enum Bench {
     /// figure is the search's own wall time (search.json: proposing, certifying, running and
     /// measuring every candidate). Writes search.csv and search.json.
     Search(SearchArgs),
+    /// What signed V2V (`[security]`, docs/security.md) costs, as a ratio to the same run
+    /// unsigned: the paper's scenario with every packet verified (`policy = "every"`) on each
+    /// transport, and a fleet on SUMO with verify-on-demand (`policy = "on_demand"`) over
+    /// iceoryx2, with its real-time factor.
+    ///
+    /// Method: each case runs unsigned and signed one right after the other, the pair's order
+    /// alternating from round to round; a round's ratio is its signed run over its unsigned
+    /// one, the tables give the medians over the rounds. Figures: `platoon run`'s wall time,
+    /// timing.json's step p50 (the real-time factor is dt over it) and its `sign` and `verify`
+    /// stages, summary.json's counts. Writes security.csv (every run) and security.json (the
+    /// medians and ratios). Not part of `bench all`.
+    Security(SecurityArgs),
     /// Every benchmark above with its defaults, and BENCHMARKS.md (method, machine, figures).
     All(AllArgs),
 }
@@ -149,6 +161,29 @@ pub(crate) struct SearchArgs {
     pub output: OutDir,
 }
 
+/// Arguments of `platoon bench security`.
+#[derive(Debug, clap::Args)]
+#[command(mut_arg("out", |a| a.help("Output directory [default: runs/bench-security]")))]
+pub(crate) struct SecurityArgs {
+    /// Rounds of the paper's scenario (each an unsigned and a signed run per transport).
+    #[arg(long, default_value_t = Security::default().rounds, value_parser = clap::value_parser!(u32).range(1..))]
+    pub rounds: u32,
+    /// Transports of the paper's scenario: inproc, iceoryx2.
+    #[arg(long, value_delimiter = ',', default_values_t = Security::default().transports)]
+    pub transports: Vec<String>,
+    /// Vehicles of the SUMO fleet, a multiple of 5 (platoons of 4 followers); 0: no fleet.
+    #[arg(long, default_value_t = Security::default().fleet_vehicles)]
+    pub fleet_vehicles: usize,
+    /// Simulated seconds of each fleet run.
+    #[arg(long, default_value_t = Security::default().fleet_seconds)]
+    pub fleet_seconds: f64,
+    /// Rounds of the fleet (each an unsigned and a signed run).
+    #[arg(long, default_value_t = Security::default().fleet_rounds, value_parser = clap::value_parser!(u32).range(1..))]
+    pub fleet_rounds: u32,
+    #[command(flatten)]
+    pub output: OutDir,
+}
+
 /// Arguments of `platoon bench all`.
 #[derive(Debug, clap::Args)]
 #[command(mut_arg("out", |a| a.help("Output directory [default: runs/bench]")))]
@@ -176,6 +211,7 @@ pub(crate) fn run(b: Bench) -> Result<()> {
         Bench::Design(a) => platoon_bench::design(a.into()).map(|_| ()),
         Bench::Campaign(a) => platoon_bench::campaign(a.into()).map(|_| ()),
         Bench::Search(a) => platoon_bench::search(a.into()).map(|_| ()),
+        Bench::Security(a) => platoon_bench::security(a.into()).map(|_| ()),
         Bench::All(a) => platoon_bench::all(a.into()),
     }?)
 }
@@ -235,6 +271,20 @@ impl From<SearchArgs> for Search {
         Self {
             evaluations: a.evaluations,
             jobs: a.jobs,
+            out: a.output.out,
+            force: a.output.force,
+        }
+    }
+}
+
+impl From<SecurityArgs> for Security {
+    fn from(a: SecurityArgs) -> Self {
+        Self {
+            rounds: a.rounds,
+            transports: a.transports,
+            fleet_vehicles: a.fleet_vehicles,
+            fleet_seconds: a.fleet_seconds,
+            fleet_rounds: a.fleet_rounds,
             out: a.output.out,
             force: a.output.force,
         }

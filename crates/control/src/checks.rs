@@ -334,6 +334,20 @@ impl PacketChecks {
         self.sealing.as_mut().map_or_else(Vec::new, |s| s.decide(k))
     }
 
+    /// Times the seals' signing and verifying with the runtime's `clock` (`[security]`;
+    /// nothing without it).
+    pub fn time_crypto(&mut self, clock: crate::CryptoClock) {
+        if let Some(s) = &mut self.sealing {
+            s.time_with(clock);
+        }
+    }
+
+    /// The time the seals' cryptography took so far by the clock of
+    /// [`PacketChecks::time_crypto`] (`[security]` only).
+    pub fn crypto_time(&self) -> Option<crate::CryptoTime> {
+        self.sealing.as_ref().map(|s| s.crypto_time())
+    }
+
     /// The signed V2V settings (`[security]` only).
     pub fn security(&self) -> Option<&crate::SecurityParams> {
         self.sealing.as_ref().map(|s| s.params())

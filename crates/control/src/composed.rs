@@ -300,6 +300,10 @@ impl Controller for ComposedController {
     fn checks(&self) -> Option<&PacketChecks> {
         Some(&self.checks)
     }
+
+    fn time_crypto(&mut self, clock: crate::CryptoClock) {
+        self.checks.time_crypto(clock);
+    }
 }
 
 impl ComposedController {

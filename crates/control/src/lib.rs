@@ -52,7 +52,7 @@ pub use maneuvers::{JoinSpec, LeaveSpec, ManeuverParams, MergeSpec, SplitSpec};
 pub use paper::PaperLaw;
 pub use screening::{DetectionParams, Inspection, Reaction};
 pub use seam::{Controller, FollowerStep};
-pub use security::{SealCounts, SecurityParams, SecurityPolicy};
+pub use security::{CryptoClock, CryptoTime, SealCounts, SecurityParams, SecurityPolicy};
 pub use spacing::SpacingPolicy;
 pub use trigger::{CamRule, ControllerParams, ParamsError, TriggerRule};
 

@@ -97,6 +97,19 @@ pub trait Controller: std::fmt::Debug + Send + dyn_clone::DynClone {
         self.checks().and_then(PacketChecks::seals)
     }
 
+    /// Lends the seals of signed V2V the runtime's `clock` to time their cryptography with
+    /// ([`Controller::crypto_time`]; `[security]` only). Nothing by default: a controller
+    /// without seals has nothing to time, and the clock never changes what it computes.
+    fn time_crypto(&mut self, clock: crate::CryptoClock) {
+        let _ = clock;
+    }
+
+    /// The time its seals spent signing and verifying so far, by the clock of
+    /// [`Controller::time_crypto`] (`[security]` only; 0 without a clock).
+    fn crypto_time(&self) -> Option<crate::CryptoTime> {
+        self.checks().and_then(PacketChecks::crypto_time)
+    }
+
     /// What the misbehaviour detectors said of each packet of the last
     /// [`receive`](Self::receive) (`[detection]`; empty without detectors).
     fn inspections(&self) -> &[crate::Inspection] {

@@ -313,6 +313,33 @@ impl SealCounts {
     }
 }
 
+/// A monotonic clock (ns) the runtime lends the seals to time their cryptography with
+/// (`timing.json`'s `sign` and `verify`, docs/security.md). The pure core never reads a clock of
+/// its own: without one (the default) nothing is timed, and what a run computes never depends
+/// on it.
+pub type CryptoClock = fn() -> u64;
+
+/// The time the seals spent so far by their [`CryptoClock`] (ns): signing (every packet of a
+/// step, [`Sealing::seal`]) and checking deliveries' seals (decoding, certificate, signature
+/// or the step's memo of it).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct CryptoTime {
+    /// Signing.
+    pub sign_ns: u64,
+    /// Verifying.
+    pub verify_ns: u64,
+}
+
+impl CryptoTime {
+    /// The sum of `self` and `other`.
+    pub fn plus(self, other: &CryptoTime) -> CryptoTime {
+        CryptoTime {
+            sign_ns: self.sign_ns + other.sign_ns,
+            verify_ns: self.verify_ns + other.verify_ns,
+        }
+    }
+}
+
 /// One platoon's signers (the leader's first) and receivers' verifiers (the leader's first).
 #[derive(Debug, Clone)]
 pub struct Sealing {
@@ -324,6 +351,9 @@ pub struct Sealing {
     memo: SignatureMemo,
     counts: SealCounts,
     reporting: Option<Box<Reporting>>,
+    /// The runtime's clock, if it times the crypto, and what it measured.
+    clock: Option<CryptoClock>,
+    spent: CryptoTime,
 }
 
 impl Sealing {
@@ -360,6 +390,8 @@ impl Sealing {
                 .reports
                 .map(|r| Box::new(Reporting::new(r, &params, &keys))),
             keys,
+            clock: None,
+            spent: CryptoTime::default(),
         }
     }
 
@@ -379,6 +411,16 @@ impl Sealing {
             reports: self.reports().copied().unwrap_or_default(),
             ..self.counts
         }
+    }
+
+    /// Times its signing and verifying with `clock` from now on ([`Sealing::crypto_time`]).
+    pub fn time_with(&mut self, clock: CryptoClock) {
+        self.clock = Some(clock);
+    }
+
+    /// The time its cryptography took so far (0 without a clock).
+    pub fn crypto_time(&self) -> CryptoTime {
+        self.spent
     }
 
     /// Signs `packets`, sent at step `k`, each with its sender's pseudonym (a sender it has no
@@ -410,6 +452,7 @@ impl Sealing {
                 }
             }
         }
+        let started = self.clock.map(|c| c());
         for p in packets {
             let Some(signer) = self.signers.get_mut(p.sender.index()) else {
                 continue;
@@ -417,6 +460,9 @@ impl Sealing {
             let header = signer.sign(&p.signed_bytes(), now);
             p.seal = Seal::new(&header.to_bytes());
             self.counts.signed += 1;
+        }
+        if let (Some(clock), Some(t0)) = (self.clock, started) {
+            self.spent.sign_ns += clock().saturating_sub(t0);
         }
     }
 
@@ -530,6 +576,7 @@ impl Sealing {
 
     fn check(&mut self, k: u64, d: &Delivery, policy: Policy) -> Result<(), Refusal> {
         let now = self.now_ms(k);
+        let started = self.clock.map(|c| c());
         let outcome = match (&d.packet.seal, self.verifiers.get_mut(d.receiver.index())) {
             // A receiver outside the platoon's vehicles takes nothing.
             (_, None) => Err(Refusal::UnknownCertificate),
@@ -539,6 +586,9 @@ impl Sealing {
                 v.check_shared(&mut self.memo, &d.packet.signed_bytes(), &h, now, policy)
             }),
         };
+        if let (Some(clock), Some(t0)) = (self.clock, started) {
+            self.spent.verify_ns += clock().saturating_sub(t0);
+        }
         match outcome {
             Ok(a) => {
                 if a.signature == platoon_security::SignatureCheck::Verified {

@@ -67,6 +67,12 @@ pub fn run(
             .map(&mut make)
             .collect::<Result<Vec<_>, _>>()
             .map_err(fail)?;
+        // `[security]`: the seals' signing and verifying timed by the machine's clock, per
+        // step, for timing.json (ControlMsg::TIMING before DONE).
+        for c in &mut controllers {
+            c.time_crypto(monotonic_ns);
+        }
+        let mut crypto = crate::timing::CryptoStages::default();
         // What the detectors said, for the orchestrator to measure (`[detection]` runs only):
         // at most every delivery of a step is inspected.
         let inspections_out: Option<Outlet<Inspection>> = scenario
@@ -142,7 +148,14 @@ pub fn run(
                     }
                     cmd_out.send(*k, scenario.dt(), &cmds)?;
                     states = None;
+                    let timed = controllers.iter().filter_map(|c| c.crypto_time());
+                    if let Some(total) = timed.reduce(|a, b| a.plus(&b)) {
+                        crypto.push(total);
+                    }
                     if *k == scenario.steps {
+                        if let Some(timing) = timing_message(&crypto, *k) {
+                            ctx.report_status(timing)?;
+                        }
                         return ctx.done(done_message(&controllers, *k));
                     }
                     *k += 1;
@@ -202,6 +215,19 @@ fn commands_of(
         });
     }
     Ok(())
+}
+
+/// The controller's TIMING at step `k`: what its seals' cryptography took per step
+/// (`[security]` runs; none otherwise).
+fn timing_message(crypto: &crate::timing::CryptoStages, k: u64) -> Option<ControlMsg> {
+    if crypto.per_step().0.is_empty() {
+        return None;
+    }
+    let mut m = ControlMsg::new(ControlMsg::TIMING, Node::Controller, k);
+    let (sign, verify) = crypto.to_ns();
+    m.counts = sign;
+    m.seals[..6].copy_from_slice(&verify);
+    Some(m)
 }
 
 /// The controller's DONE at step `k`, with the packets every controller rejected, by reason.

@@ -6,7 +6,7 @@ use crate::ipc::{wait, ControlInlet, Endpoint, Inlet};
 use crate::session::{
     check_traffic, deliveries_from_wire, link_from_wire, states_from_wire, Numbering,
 };
-use crate::timing::{StageClock, Timing};
+use crate::timing::{StageClock, Stats, Timing};
 use crate::CosimError;
 use platoon_control::{FollowerStep, RejectCounts};
 use platoon_sim::detection::Scored;
@@ -248,6 +248,8 @@ pub fn orchestrate(
                 }
                 if m.kind == ControlMsg::DONE {
                     done.report(&m, scenario);
+                } else if m.kind == ControlMsg::TIMING && m.node == Node::Controller as u32 {
+                    done.crypto = Some((Stats::from_ns(&m.counts), Stats::from_ns(&m.seals)));
                 }
             }
             drained?;
@@ -283,7 +285,13 @@ pub fn orchestrate(
             detection: run.measure.as_ref().and_then(Measure::summary),
             rejected: done.rejected.unwrap_or_default(),
             seals: done.seals,
-            timing: clock.report(),
+            timing: {
+                let mut t = clock.report();
+                if let Some((sign, verify)) = done.crypto {
+                    (t.sign, t.verify) = (sign, verify);
+                }
+                t
+            },
             duplicates: inlets.duplicates(),
             peak_rss_kib: Vec::new(),
         })
@@ -561,6 +569,8 @@ struct Done {
     seals: platoon_control::SealCounts,
     /// The channel's radio measurements.
     radio: Option<platoon_attacks::channel::RadioStats>,
+    /// The controller's TIMING (`[security]` runs): signing and verifying per step.
+    crypto: Option<(Option<Stats>, Option<Stats>)>,
 }
 
 impl Done {
@@ -591,6 +601,7 @@ impl Done {
             rejected: None,
             seals: Default::default(),
             radio: None,
+            crypto: None,
         }
     }
 

@@ -90,6 +90,11 @@ impl Ctx {
         Ok(true)
     }
 
+    /// Sends the orchestrator a status message (a report besides READY, DONE and FAILED).
+    pub(crate) fn report_status(&self, msg: ControlMsg) -> Result<(), CosimError> {
+        self.status.send(msg)
+    }
+
     /// After the last step: report DONE (with `msg`) and wait for STOP.
     pub(crate) fn done(&mut self, msg: ControlMsg) -> Result<(), CosimError> {
         self.status.send(msg)?;
@@ -417,12 +422,21 @@ fn seal_to_wire(seal: Option<&platoon_v2v::Seal>, mut packet: V2vPacket) -> V2vP
     packet
 }
 
-/// The seal a wire packet carries: none when `seal_len` is 0; a length beyond the buffer is
-/// cut to it (the receiver's verification then refuses the seal, never a panic).
+/// The seal a wire packet carries: none when `seal_len` is 0. A length beyond the buffer says
+/// the header is longer than any header is: the seal becomes [`OVERLONG_SEAL`], which the
+/// receiver refuses as `malformed` (as it refuses a header with trailing bytes), whatever the
+/// buffer holds; never a panic.
 fn seal_from_wire(p: &V2vPacket) -> Option<platoon_v2v::Seal> {
-    let len = (p.seal_len as usize).min(V2vPacket::SEAL_CAPACITY);
-    (p.seal_len > 0).then(|| platoon_v2v::Seal::new(&p.seal[..len]))?
+    let len = p.seal_len as usize;
+    if len > V2vPacket::SEAL_CAPACITY {
+        return platoon_v2v::Seal::new(&OVERLONG_SEAL);
+    }
+    (len > 0).then(|| platoon_v2v::Seal::new(&p.seal[..len]))?
 }
+
+/// The seal of a wire packet whose `seal_len` exceeds the buffer: a header version no header
+/// has (0), refused as `malformed`.
+const OVERLONG_SEAL: [u8; 1] = [0];
 
 /// A maneuver message of platoon `j` as the maneuver fields of a [`V2vPacket`] (the others 0);
 /// without one, every maneuver field 0 ([`V2vPacket::NO_MANEUVER`]).
@@ -741,6 +755,54 @@ mod tests {
             assert_eq!(e.node(), Some("plant"), "{e}");
             let text = e.to_string();
             assert!(text.contains(needle) && text.contains("step 7"), "{text}");
+        }
+    }
+
+    /// A `seal_len` beyond the buffer is refused as `malformed`, even with a genuine header in
+    /// the buffer (cut to the buffer, it would verify); within it the seal crosses as it is.
+    #[test]
+    fn a_seal_length_beyond_the_buffer_is_refused_as_malformed() {
+        use platoon_control::security::{Sealing, SecurityParams};
+        let num = Numbering {
+            per_platoon: 3,
+            platoons: 1,
+        };
+        let mut sealing = Sealing::new(SecurityParams::default(), 3, 0.01);
+        let mut sent = [Packet::beacon(
+            VehicleId(1),
+            1,
+            0,
+            State::new(1.0, 2.0, 0.0),
+        )];
+        sealing.seal(0, &mut sent);
+        let wire = packet_to_wire(&sent[0], 0, 0, num);
+        // The first packet carries the certificate: the whole buffer.
+        assert_eq!(wire.seal_len as usize, V2vPacket::SEAL_CAPACITY);
+        for (len, expected) in [
+            (V2vPacket::SEAL_CAPACITY as u32, Ok(())),
+            (V2vPacket::SEAL_CAPACITY as u32 + 1, Err("malformed")),
+            (u32::MAX, Err("malformed")),
+            (100, Err("truncated")),
+            (0, Err("truncated")),
+        ] {
+            let packet = packet_from_wire(
+                &V2vPacket {
+                    seal_len: len,
+                    ..wire
+                },
+                0,
+                num,
+            );
+            sealing.begin_step();
+            let d = Delivery {
+                receiver: VehicleId(2),
+                packet,
+            };
+            assert_eq!(
+                sealing.screen(0, &d).map_err(|r| r.name()),
+                expected,
+                "seal_len {len}"
+            );
         }
     }
 }

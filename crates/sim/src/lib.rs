@@ -644,6 +644,11 @@ impl Simulation {
         self.controller.as_ref()
     }
 
+    /// Lends the controller's seals the runtime's `clock` ([`Controller::time_crypto`]).
+    pub fn time_crypto(&mut self, clock: platoon_control::CryptoClock) {
+        self.controller.time_crypto(clock);
+    }
+
     /// The next step to run.
     pub fn next_step(&self) -> u64 {
         self.step
@@ -939,6 +944,23 @@ impl FleetSimulation {
         platoon_control::RejectCounts::from_array(sum)
     }
 
+    /// Lends every platoon's seals the runtime's `clock`, to time their signing and verifying
+    /// ([`FleetSimulation::crypto_time`]; `[security]` runs only, nothing changes otherwise).
+    pub fn time_crypto(&mut self, clock: platoon_control::CryptoClock) {
+        for s in &mut self.sims {
+            s.time_crypto(clock);
+        }
+    }
+
+    /// The time every platoon's seals spent signing and verifying so far, by the clock of
+    /// [`FleetSimulation::time_crypto`] (`[security]` only).
+    pub fn crypto_time(&self) -> Option<platoon_control::CryptoTime> {
+        self.sims
+            .iter()
+            .filter_map(|s| s.controller().crypto_time())
+            .reduce(|a, b| a.plus(&b))
+    }
+
     /// What the seals of signed V2V (and the misbehaviour reports) did over every platoon
     /// (`[security]` only), with the vehicles `revoked` ([`FleetMetrics::revoked`]).
     pub fn security(&self, revoked: &[summary::RevokedRecord]) -> Option<SecuritySummary> {
@@ -990,9 +1012,31 @@ pub fn run_until_with(
 pub fn run_until_plugins(
     scenario: &Scenario,
     plugins: &Plugins,
+    each: impl FnMut(&FleetSimulation) -> ControlFlow<()>,
+) -> Result<Summary, ScenarioError> {
+    let sim = FleetSimulation::with_plugins(scenario, plugins)?;
+    run_fleet(scenario, sim, each)
+}
+
+/// [`run_until`] with the seals' cryptography timed by the runtime's `clock` (`[security]`
+/// runs; `each` reads [`FleetSimulation::crypto_time`]): what the in-process runner reports in
+/// timing.json. The clock changes nothing the run computes.
+pub fn run_until_timed(
+    scenario: &Scenario,
+    clock: platoon_control::CryptoClock,
+    each: impl FnMut(&FleetSimulation) -> ControlFlow<()>,
+) -> Result<Summary, ScenarioError> {
+    let mut sim = FleetSimulation::with_plugins(scenario, &Plugins::default())?;
+    sim.time_crypto(clock);
+    run_fleet(scenario, sim, each)
+}
+
+/// Steps `sim` (`scenario`'s fleet) until the last step or until `each` breaks.
+fn run_fleet(
+    scenario: &Scenario,
+    mut sim: FleetSimulation,
     mut each: impl FnMut(&FleetSimulation) -> ControlFlow<()>,
 ) -> Result<Summary, ScenarioError> {
-    let mut sim = FleetSimulation::with_plugins(scenario, plugins)?;
     let mut metrics = FleetMetrics::new(scenario);
     while !sim.is_done() {
         sim.try_step()?;

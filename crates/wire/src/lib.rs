@@ -40,7 +40,9 @@ use iceoryx2::prelude::ZeroCopySend;
 ///   the plant has it (a bit that was 0, and every reader tests bits).
 /// - v5: [`V2vPacket`] carries its sender's seal (`seal_len` and `seal`: the encoded security
 ///   header of a `[security]` run, docs/security.md; 280 bytes, was 80), and the controller's
-///   [`ControlMsg::seals`] count what the seals did (288 bytes, was 184).
+///   [`ControlMsg::seals`] count what the seals did (288 bytes, was 184). Later, still v5:
+///   the status kind [`ControlMsg::TIMING`], the controller's per-step crypto time before its
+///   DONE (no payload changed; only the orchestrator reads status messages).
 /// - v6: the controller's [`ControlMsg::reports`] count its misbehaviour reports (376 bytes,
 ///   was 288), and [`Command::flags`] bit 3 ([`Command::REVOKED`]) says the misbehaviour
 ///   authority revoked the vehicle (`[security.reports]`).
@@ -475,11 +477,14 @@ pub struct ControlMsg {
     /// The step it refers to.
     pub step: u64,
     /// `DONE` from the controller: rejected packets by reason (non-finite, unknown sender,
-    /// future step, stale, implausible sequence number, implausible state).
+    /// future step, stale, implausible sequence number, implausible state). `TIMING`: the
+    /// percentiles of the time its seals spent signing per step (ns; see
+    /// [`ControlMsg::TIMING`]).
     pub counts: [u64; 6],
     /// `DONE` from the controller in a `[security]` run: packets signed, deliveries whose
     /// signature held, then deliveries refused by `platoon_security::Refusal` code 1 to 11
-    /// (docs/security.md); all 0 otherwise.
+    /// (docs/security.md); all 0 otherwise. `TIMING`: in its first 6, the percentiles of
+    /// the time its seals spent verifying per step (ns; see [`ControlMsg::TIMING`]).
     pub seals: [u64; 13],
     /// `DONE` from the controller in a `[security.reports]` run: reports filed, lost on the
     /// uplink, then those that arrived by the authority's outcome code 1 to 9
@@ -502,6 +507,12 @@ impl ControlMsg {
     pub const DONE: u32 = 11;
     /// Node -> orchestrator: the node cannot go on (reason given).
     pub const FAILED: u32 = 12;
+    /// Controller -> orchestrator, right before its `DONE`, in a `[security]` run: what its
+    /// seals' cryptography took per step, for timing.json's `sign` and `verify`: `counts` for
+    /// signing, `seals[..6]` for verifying, each the number of steps, then the 50th, 90th,
+    /// 99th and 99.9th percentiles (nearest rank) and the largest, in ns. Since v5 (a kind
+    /// added; no payload changed, and only the orchestrator reads the status service).
+    pub const TIMING: u32 = 13;
 
     /// A message of `kind` from or about `node`.
     pub fn new(kind: u32, node: Node, step: u64) -> Self {

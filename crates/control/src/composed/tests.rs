@@ -265,3 +265,48 @@ fn a_users_beaconing_decides_who_broadcasts() {
     }
     assert_eq!(sent, [0, 5, 10, 15, 20, 25]);
 }
+
+/// A fake clock that ticks once per reading: the seals' timing is counted without a real
+/// clock, and the test asserts nothing about durations.
+fn ticks() -> u64 {
+    use std::sync::atomic::{AtomicU64, Ordering};
+    static NOW: AtomicU64 = AtomicU64::new(0);
+    NOW.fetch_add(1, Ordering::Relaxed)
+}
+
+/// The runtime's clock times the seals' signing and verifying (timing.json's `sign` and
+/// `verify`) and changes nothing the controller computes; without `[security]` there is
+/// nothing to time.
+#[test]
+fn a_lent_clock_times_the_seals_and_changes_nothing() {
+    let topology = Topology::preset(Preset::Pf, 3).unwrap();
+    let initial = accelerating(0);
+    let signed = || {
+        let mut parts = parts(10, FallbackParams::default());
+        parts.security = Some(crate::SecurityParams::default());
+        ComposedController::new(Box::new(Echo), parts, &topology, &initial).unwrap()
+    };
+    let (mut timed, mut plain) = (signed(), signed());
+    timed.time_crypto(ticks);
+    let mut unsigned = controller(10, FallbackParams::default());
+    unsigned.time_crypto(ticks);
+    let (mut a, mut b) = (Vec::new(), Vec::new());
+    for k in 0..12u64 {
+        let states = accelerating(k);
+        a.clear();
+        b.clear();
+        timed.transmit(k, &states, &mut a);
+        plain.transmit(k, &states, &mut b);
+        assert_eq!(a, b, "step {k}: the same packets, seals included");
+        let ua = timed
+            .receive(k, &states, &deliver_all(&a), &[false; 4])
+            .to_vec();
+        let ub = plain.receive(k, &states, &deliver_all(&b), &[false; 4]);
+        assert_eq!(ua, ub, "step {k}");
+    }
+    assert_eq!(timed.seals(), plain.seals());
+    let t = timed.crypto_time().expect("a signed controller");
+    assert!(t.sign_ns > 0 && t.verify_ns > 0, "{t:?}");
+    assert_eq!(plain.crypto_time(), Some(crate::CryptoTime::default()));
+    assert_eq!(unsigned.crypto_time(), None);
+}
