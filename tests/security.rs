@@ -44,6 +44,26 @@ fn same(a: &[StepRow], b: &[StepRow]) -> bool {
             .all(|(x, y)| format!("{x:?}") == format!("{y:?}"))
 }
 
+/// Runs `text` (written as `name` in `dir`) over iceoryx2 (into `ipc`) and in process (into
+/// `inproc`) and asserts that `files` are the same bytes in both; the iceoryx2 run's directory.
+fn on_both_transports(
+    dir: &std::path::Path,
+    name: &str,
+    text: &str,
+    files: &[&str],
+) -> std::path::PathBuf {
+    std::fs::write(dir.join(name), text).unwrap();
+    for (out, transport) in [("ipc", "iceoryx2"), ("inproc", "inproc")] {
+        common::run_config(&dir.join(name), out, &["--transport", transport], dir);
+    }
+    for f in files {
+        let a = std::fs::read(dir.join("ipc").join(f)).unwrap();
+        let b = std::fs::read(dir.join("inproc").join(f)).unwrap();
+        assert!(a == b, "{f} differs between the transports");
+    }
+    dir.join("ipc")
+}
+
 fn rows_and_log(text: &str, forge: fn(&Step<'_>, &mut Vec<Delivery>)) -> (Vec<StepRow>, Log) {
     run_with(scenario(text), |_, _| false, forge)
 }
@@ -226,37 +246,25 @@ fn an_outsiders_forged_join_request_is_refused_and_changes_nothing() {
 #[test]
 fn a_signed_run_is_bit_identical_on_both_transports() {
     let tmp = tempfile::tempdir().unwrap();
-    std::fs::write(
-        tmp.path().join("signed.toml"),
-        signed(
+    on_both_transports(
+        tmp.path(),
+        "signed.toml",
+        &signed(
             &format!(
                 "{}{FAKE_JOIN_REQUEST}\n[detection.plausibility]\n",
                 config("join")
             ),
             "policy = \"on_demand\"\n",
         ),
-    )
-    .unwrap();
-    for (out, transport) in [("ipc", "iceoryx2"), ("inproc", "inproc")] {
-        common::run_config(
-            &tmp.path().join("signed.toml"),
-            out,
-            &["--transport", transport],
-            tmp.path(),
-        );
-    }
-    for f in [
-        "trajectories.csv",
-        "events.csv",
-        "channel.csv",
-        "wire.csv",
-        "summary.json",
-        "detections.csv",
-    ] {
-        let a = std::fs::read(tmp.path().join("ipc").join(f)).unwrap();
-        let b = std::fs::read(tmp.path().join("inproc").join(f)).unwrap();
-        assert!(a == b, "{f} differs between the transports");
-    }
+        &[
+            "trajectories.csv",
+            "events.csv",
+            "channel.csv",
+            "wire.csv",
+            "summary.json",
+            "detections.csv",
+        ],
+    );
     let summary = common::json(&tmp.path().join("ipc/summary.json"));
     let security = &summary["security"];
     assert_eq!(security["policy"], "on_demand", "{security}");
@@ -399,25 +407,13 @@ fn insiders_and_thieves_sign_what_they_alter_and_outsiders_cannot() {
 fn the_dataset_says_whose_key_signed_each_delivery_on_both_transports() {
     let tmp = tempfile::tempdir().unwrap();
     let text = format!("{}\n[detection.plausibility]\n", roles_with(ROLES));
-    std::fs::write(tmp.path().join("roles.toml"), signed(&text, "")).unwrap();
-    for (out, transport) in [("ipc", "iceoryx2"), ("inproc", "inproc")] {
-        common::run_config(
-            &tmp.path().join("roles.toml"),
-            out,
-            &["--transport", transport],
-            tmp.path(),
-        );
-    }
-    for f in [
+    let files = [
         "trajectories.csv",
         "summary.json",
         "detections.csv",
         "channel.csv",
-    ] {
-        let a = std::fs::read(tmp.path().join("ipc").join(f)).unwrap();
-        let b = std::fs::read(tmp.path().join("inproc").join(f)).unwrap();
-        assert!(a == b, "{f} differs between the transports");
-    }
+    ];
+    on_both_transports(tmp.path(), "roles.toml", &signed(&text, ""), &files);
     let rows = std::fs::read_to_string(tmp.path().join("ipc/detections.csv")).unwrap();
     let head: Vec<&str> = rows.lines().next().unwrap().split(',').collect();
     let col = |name: &str| head.iter().position(|h| *h == name).unwrap();
@@ -542,29 +538,17 @@ fn an_insider_feigning_braking_is_reported_revoked_and_ejected() {
 #[test]
 fn a_revocation_is_bit_identical_on_both_transports() {
     let tmp = tempfile::tempdir().unwrap();
-    std::fs::write(
-        tmp.path().join("reports.toml"),
-        reported(FEIGNED_BRAKING, "", "latency_s = 0.2\n"),
-    )
-    .unwrap();
-    for (out, transport) in [("ipc", "iceoryx2"), ("inproc", "inproc")] {
-        common::run_config(
-            &tmp.path().join("reports.toml"),
-            out,
-            &["--transport", transport],
-            tmp.path(),
-        );
-    }
-    for f in [
-        "trajectories.csv",
-        "events.csv",
-        "summary.json",
-        "detections.csv",
-    ] {
-        let a = std::fs::read(tmp.path().join("ipc").join(f)).unwrap();
-        let b = std::fs::read(tmp.path().join("inproc").join(f)).unwrap();
-        assert!(a == b, "{f} differs between the transports");
-    }
+    on_both_transports(
+        tmp.path(),
+        "reports.toml",
+        &reported(FEIGNED_BRAKING, "", "latency_s = 0.2\n"),
+        &[
+            "trajectories.csv",
+            "events.csv",
+            "summary.json",
+            "detections.csv",
+        ],
+    );
     let summary = common::json(&tmp.path().join("ipc/summary.json"));
     let reports = &summary["security"]["reports"];
     assert_eq!(reports["revoked"].as_array().unwrap().len(), 1, "{reports}");

@@ -308,6 +308,17 @@ fn resize(config: &mut Config, followers: usize) {
 
 /// Fails unless `sizes` (the option `flag`) are platoon sizes of at least one follower; the
 /// message shows `example`.
+/// Refuses an empty list of names for `flag` and a name not among `all`.
+fn check_names(flag: &str, given: &[String], all: &[&str]) -> Result<()> {
+    if given.is_empty() {
+        refuse!(Options, "{flag} needs at least one of {}", all.join(", "));
+    }
+    if let Some(x) = given.iter().find(|x| !all.contains(&x.as_str())) {
+        refuse!(Options, "{flag}: unknown {x:?}; use {}", all.join(", "));
+    }
+    Ok(())
+}
+
 fn check_sizes(sizes: &[usize], flag: &str, example: &str) -> Result<()> {
     if sizes.is_empty() || sizes.contains(&0) {
         refuse!(

@@ -1,7 +1,7 @@
 //! Maneuvers by law and attack ([`maneuvers`]).
 use super::{
-    bars_by_law, keep_law_spacing, law_config, on_standstill, refuse, repeats, walk, write_table,
-    Base, Experiment, ExperimentError, Result,
+    bars_by_law, check_names, keep_law_spacing, law_config, on_standstill, refuse, repeats, walk,
+    write_table, Base, Experiment, ExperimentError, Result,
 };
 use crate::progress::Progress;
 use platoon_config::{Config, DosConfig, Embedded, LawName, LinkAttackConfig, LinkKindConfig};
@@ -55,17 +55,8 @@ impl Default for ManeuversOptions {
 impl ManeuversOptions {
     /// Fails on empty lists, unknown names, the paper's law and no repeats.
     pub fn validate(&self) -> Result<()> {
-        let known = |flag: &str, given: &[String], all: &[&str]| -> Result<()> {
-            if given.is_empty() {
-                refuse!(Options, "{flag} needs at least one of {}", all.join(", "));
-            }
-            if let Some(x) = given.iter().find(|x| !all.contains(&x.as_str())) {
-                refuse!(Options, "{flag}: unknown {x:?}; use {}", all.join(", "));
-            }
-            Ok(())
-        };
-        known("--maneuvers", &self.maneuvers, &MANEUVERS)?;
-        known("--attacks", &self.attacks, &ATTACKS)?;
+        check_names("--maneuvers", &self.maneuvers, &MANEUVERS)?;
+        check_names("--attacks", &self.attacks, &ATTACKS)?;
         if self.laws.is_empty() {
             refuse!(
                 Options,

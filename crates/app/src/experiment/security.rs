@@ -1,7 +1,8 @@
 //! Security in the loop: attacker by defence by law ([`security`], issue 52 item 5).
 use super::maneuvers::configure;
 use super::{
-    bars_by_law, refuse, repeats, walk, write_table, Base, Experiment, ExperimentError, Result,
+    bars_by_law, check_names, refuse, repeats, walk, write_table, Base, Experiment,
+    ExperimentError, Result,
 };
 use crate::progress::Progress;
 use platoon_config::{
@@ -61,17 +62,8 @@ impl Default for SecurityOptions {
 impl SecurityOptions {
     /// Fails on empty lists, unknown names, a law that refuses leaves and a run too short.
     pub fn validate(&self) -> Result<()> {
-        let known = |flag: &str, given: &[String], all: &[&str]| -> Result<()> {
-            if given.is_empty() {
-                refuse!(Options, "{flag} needs at least one of {}", all.join(", "));
-            }
-            if let Some(x) = given.iter().find(|x| !all.contains(&x.as_str())) {
-                refuse!(Options, "{flag}: unknown {x:?}; use {}", all.join(", "));
-            }
-            Ok(())
-        };
-        known("--attackers", &self.attackers, &ATTACKERS)?;
-        known("--defences", &self.defences, &DEFENCES)?;
+        check_names("--attackers", &self.attackers, &ATTACKERS)?;
+        check_names("--defences", &self.defences, &DEFENCES)?;
         if self.laws.is_empty() {
             refuse!(
                 Options,
