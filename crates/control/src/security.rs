@@ -500,14 +500,11 @@ impl Sealing {
             return;
         };
         let accused = header.signer.digest();
-        let last = r
-            .last
-            .entry((reporter.index(), accused))
-            .or_insert(u64::MAX);
-        if *last != u64::MAX && now.saturating_sub(*last) < r.params.every_ms {
+        let key = (reporter.index(), accused);
+        if (r.last.get(&key)).is_some_and(|&t| now.saturating_sub(t) < r.params.every_ms) {
             return;
         }
-        *last = now;
+        r.last.insert(key, now);
         let report = Report {
             accused,
             detector,

@@ -163,14 +163,21 @@ pub struct KeyUse {
 }
 
 impl KeyUse {
-    /// The key use of `d`, delivered at step `k` with ground truth `label`, by `keys`.
-    pub fn of(keys: &mut platoon_security::Keyring, k: u64, d: &Delivery, label: Label) -> Self {
-        let signed_by = d.packet.seal.and_then(|seal| {
-            let header = platoon_security::SecurityHeader::decode(seal.as_bytes()).ok()?;
-            // At most one pseudonym change a step: its epoch is among the first k + 1.
-            let slot = keys.signed_by(&d.packet.signed_bytes(), &header, k as usize + 1)?;
-            Some(VehicleId(slot.vehicle as u16))
-        });
+    /// Whose key signed `packet`, delivered at step `k`, by `keys`.
+    pub fn signer(
+        keys: &mut platoon_security::Keyring,
+        k: u64,
+        packet: &Packet,
+    ) -> Option<VehicleId> {
+        let header = platoon_security::SecurityHeader::decode(packet.seal?.as_bytes()).ok()?;
+        // At most one pseudonym change a step: its epoch is among the first k + 1.
+        let slot = keys.signed_by(&packet.signed_bytes(), &header, k as usize + 1)?;
+        Some(VehicleId(slot.vehicle as u16))
+    }
+
+    /// The key use of `d`, signed by `signed_by` ([`KeyUse::signer`]), with ground truth
+    /// `label`.
+    pub fn of(signed_by: Option<VehicleId>, d: &Delivery, label: Label) -> Self {
         let changed = matches!(
             label,
             Label::Altered { .. } | Label::Forged | Label::Lied { .. }
@@ -305,8 +312,19 @@ impl DetectionRecorder {
             key: None,
         }));
         if let Some(keys) = &mut self.keys {
+            // The receivers of one broadcast share its signature check.
+            let mut checked: Vec<(Packet, Option<VehicleId>)> = Vec::new();
             for r in &mut self.scored {
-                let key = KeyUse::of(keys, k, &r.delivery, r.label);
+                let p = &r.delivery.packet;
+                let signed_by = match checked.iter().find(|(q, _)| q == p) {
+                    Some(&(_, by)) => by,
+                    None => {
+                        let by = KeyUse::signer(keys, k, p);
+                        checked.push((*p, by));
+                        by
+                    }
+                };
+                let key = KeyUse::of(signed_by, &r.delivery, r.label);
                 if let (Some(v), Some("insider" | "thief")) = (key.signed_by, key.acts_as) {
                     self.signed_lies.entry(v.0).or_insert(r.step);
                 }

@@ -47,7 +47,7 @@ fn attack(
         Ok(v.into_iter().map(VehicleId).collect())
     };
     let kind = kind(a, i, dt, regroups)?;
-    let acts_as = acts_as(a, &key, followers)?;
+    let acts_as = acts_as(a, &kind, &key, followers)?;
     if acts_as == ActsAs::Insider && a.receivers.is_some() {
         let named = if a.acts_as.is_some() {
             "acts_as"
@@ -78,6 +78,7 @@ fn attack(
 /// `followers`; `key` names its keys.
 fn acts_as(
     a: &LinkAttackConfig,
+    kind: &LinkAttackKind,
     key: &dyn Fn(&str) -> String,
     followers: usize,
 ) -> Result<ActsAs, KeyError> {
@@ -97,7 +98,7 @@ fn acts_as(
         }
         Some(other) => other,
     };
-    if said != ActsAsConfig::Outsider && !a.kind.alters_packets() {
+    if said != ActsAsConfig::Outsider && !kind.alters_state() {
         return bad(
             &key("acts_as"),
             format!(

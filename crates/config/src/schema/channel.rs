@@ -441,21 +441,6 @@ impl LinkKindConfig {
         serde_util::tag_name(self, "kind")
     }
 
-    /// Whether it alters what a packet says (its state, the formation it announces, a
-    /// maneuver message): the kinds an insider or a thief signs.
-    pub fn alters_packets(&self) -> bool {
-        matches!(
-            self,
-            Self::FalseData { .. }
-                | Self::RandomOffset { .. }
-                | Self::Drift { .. }
-                | Self::FeignedBraking { .. }
-                | Self::AccelScale { .. }
-                | Self::ForgedHead { .. }
-                | Self::ForgeManeuver { .. }
-        )
-    }
-
     /// Whether the attacker is an insider (false for the kinds that do not alter states).
     pub fn insider(&self) -> bool {
         match *self {
