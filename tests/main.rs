@@ -17,6 +17,7 @@ mod docs;
 mod figures;
 mod formations;
 mod ground_truth;
+mod group_key;
 mod join_middle;
 mod lanes;
 mod layout;

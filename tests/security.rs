@@ -147,7 +147,7 @@ fn signing_changes_nothing_in_a_run_without_attacks() {
     let summary = platoon_sim::run(s, |_| {}).unwrap();
     let security = summary.security.unwrap();
     assert_eq!(security.policy, "every");
-    assert_eq!(security.refused.len(), 11);
+    assert_eq!(security.refused.len(), platoon_security::Refusal::ALL.len());
     assert_eq!(security.refused_total, 0);
     assert!(security.signed > 0);
     let json = serde_json::to_value(&security).unwrap();

@@ -23,8 +23,10 @@ import iceoryx2 as iox
 # `reserved` (always 0); v4: V2vPacket carries a maneuver message (`maneuver` and its fields in
 # place of `reserved`; 80 bytes); v5: V2vPacket carries its sender's seal (`seal_len`, `seal`:
 # the security header of a `[security]` run, docs/security.md; 280 bytes); v6: ControlMsg
-# counts the controller's misbehaviour reports (`reports`), Command.flags bit 3 (REVOKED).
-CONTRACT_VERSION = 6
+# counts the controller's misbehaviour reports (`reports`), Command.flags bit 3 (REVOKED); v7:
+# V2vPacket carries its group-key fields (`group_len`, `group`: a `[security.group]` run's tag,
+# key share or wrapped key; 400 bytes), ControlMsg.seals counts their refusals, tags, renewals.
+CONTRACT_VERSION = 7
 CONTRACT_VERSION_ENV = "PLATOON_CONTRACT_VERSION"
 CONTRACT_DOC = "docs/injector-contract.md"
 
@@ -110,7 +112,9 @@ class V2vPacket(Payload):
     generation). An injector passes these through, or forges them (docs/maneuvers.md).
     `seal_len` and `seal`: the sender's seal in a `[security]` run (docs/security.md), opaque
     bytes an injector forwards with the packet; an altered packet keeps a seal that no longer
-    verifies, an invented one has none (`seal_len` 0)."""
+    verifies, an invented one has none (`seal_len` 0). `group_len` and `group`: its group-key
+    fields in a `[security.group]` run (a tag under the platoon's key, a join's key share, a
+    wrapped key), opaque too and covered by the seal's signature."""
 
     _fields_ = [
         ("sender", ctypes.c_uint32),
@@ -128,10 +132,14 @@ class V2vPacket(Payload):
         ("maneuver_behind", ctypes.c_uint32),
         ("seal_len", ctypes.c_uint32),
         ("seal", ctypes.c_uint8 * 196),
+        ("group_len", ctypes.c_uint32),
+        ("group", ctypes.c_uint8 * 116),
     ]
 
     # The size of `seal` (crates/wire V2vPacket::SEAL_CAPACITY).
     SEAL_CAPACITY = 196
+    # The size of `group` (crates/wire V2vPacket::GROUP_CAPACITY).
+    GROUP_CAPACITY = 116
 
     # `maneuver` (crates/wire V2vPacket's constants).
     NO_MANEUVER = 0
@@ -219,8 +227,8 @@ class Inspection(Payload):
     reaction refused it), bits REFUSED_BY_SHIFT.. (REFUSED_BY_MASK) what refused it (0: accepted
     or not said; 1-6 the packet checks' reasons in the order of ControlMsg.counts, for a
     delivery no detector saw; 7 the reaction; 8 the leader's check of maneuver messages; 9 the
-    receiver's maneuver machine dropped the message as old, after the step's other items; 10-20
-    the seal of a [security] run, its refusal code + 9; bits 2-7 since v5), and
+    receiver's maneuver machine dropped the message as old, after the step's other items; 10-23
+    the seal (or the group key) of a [security] run, its refusal code + 9; bits 2-7 since v5), and
     bit DETECTOR_SHIFT + d when detector d flagged it (the run's `[detection]` order: built-in
     ones, then `plugin`); scores[d] its statistic (NaN: not tested)."""
 
@@ -252,9 +260,10 @@ class ControlMsg(Payload):
         ("node", ctypes.c_uint32),
         ("step", ctypes.c_uint64),
         ("counts", ctypes.c_uint64 * 6),
-        # DONE from the controller in a [security] run: signed, verified, refusals by code 1-11;
-        # with [security.reports]: reports filed, lost, then arrived by outcome code 1-9.
-        ("seals", ctypes.c_uint64 * 13),
+        # DONE from the controller in a [security] run: signed, verified, refusals by code 1-14,
+        # then tags made and group-key renewals ([security.group]); with [security.reports]:
+        # reports filed, lost, then arrived by outcome code 1-9.
+        ("seals", ctypes.c_uint64 * 18),
         ("reports", ctypes.c_uint64 * 11),
         ("reason", ctypes.c_uint8 * 120),
     ]

@@ -452,9 +452,10 @@ fn the_security_study_tells_who_stops_whom() {
         attackers: vec![
             "outsider-forgery".into(),
             "insider-feigned-braking".into(),
+            "stolen-key-sybil".into(),
             "false-reports".into(),
         ],
-        defences: vec!["none".into(), "signatures".into(), "reports".into()],
+        defences: vec!["signatures".into(), "group".into(), "reports".into()],
         laws: vec![LawName::Paper],
         duration_s: 40.0,
     };
@@ -468,10 +469,20 @@ fn the_security_study_tells_who_stops_whom() {
             .find(|r| r.attacker == attacker && r.defence == defence)
             .unwrap()
     };
-    // The outsider's forged leave ejects follower 1 unsigned; signed, it is refused.
-    assert_eq!(row("outsider-forgery", "none").left_lane, 1);
+    // The outsider's forged leave is refused when signed.
     let signed = row("outsider-forgery", "signatures");
     assert_eq!((signed.left_lane, signed.refused), (0, 2));
+    // The thief signs with a stolen key: its forged leave ejects follower 3 unless the group
+    // key's tag is asked for, which it cannot make.
+    let stolen = row("stolen-key-sybil", "signatures");
+    assert_eq!((stolen.left_lane, stolen.refused), (1, 0));
+    for defence in ["group", "reports"] {
+        let keyed = row("stolen-key-sybil", defence);
+        assert_eq!((keyed.left_lane, keyed.refused), (0, 2), "{defence}");
+    }
+    // The group key does not stop an insider: a member holds it.
+    assert_eq!(row("insider-feigned-braking", "group").revoked, "");
+    assert_eq!(row("insider-feigned-braking", "group").refused, 0);
     // The insider's lie is signed: only reports stop it, by revoking and ejecting it.
     assert_eq!(row("insider-feigned-braking", "signatures").revoked, "");
     let reported = row("insider-feigned-braking", "reports");

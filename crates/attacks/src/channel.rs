@@ -764,7 +764,9 @@ impl Channel {
 /// Signs `packet` again after an alteration at step `k`, as its seal's signer would have
 /// (the same time, the same form) with the key of `vehicle` (`None`: the signer's own) of the
 /// signer's pseudonym epoch. Nothing to do without keys, or for a packet that carries no seal
-/// of the platoon's keys.
+/// of the platoon's keys. An insider (`vehicle` `None`), a member, also tags its lie again
+/// with the group key of the tag's epoch (`[security.group]`), which it held when it was a
+/// member; a thief holds no group key: the tag it forwards no longer holds.
 fn reseal(
     keys: Option<&mut platoon_security::Keyring>,
     k: u64,
@@ -783,6 +785,15 @@ fn reseal(
     };
     if let Some(v) = vehicle {
         slot.vehicle = v.index();
+    }
+    let group = packet
+        .group
+        .map(|g| platoon_security::GroupField::decode(g.as_bytes()));
+    if let (None, Some(Ok(mut field))) = (vehicle, group) {
+        if let Some(tag) = &mut field.tag {
+            *tag = keys.group_key(tag.epoch).tag(&packet.payload_bytes());
+            packet.group = platoon_v2v::GroupSeal::new(&field.encode());
+        }
     }
     if let Some(signed) = keys.sign_like(slot, &packet.signed_bytes(), &header) {
         packet.seal = platoon_v2v::Seal::new(&signed.to_bytes());

@@ -111,7 +111,8 @@ pub enum Experiment {
     /// Security in the loop (docs/security.md#the-study): attackers (none, an outsider forging
     /// a leave notice, an insider's false data, an insider feigning braking, a Sybil with a
     /// member's stolen key forging a leave notice, an insider's false reports) against
-    /// defences (none, signatures, + local detection, + reports and revocation) by law, on
+    /// defences (none, signatures, + a group key, + local detection, + reports and revocation)
+    /// by law, on
     /// configs/leave.toml without its own leaves, in process. Writes security.csv (one row per
     /// run: collided, the smallest gap, the largest spacing error, who left the lane, seal
     /// refusals, signatures verified per step, reports, whom the authority revoked and how

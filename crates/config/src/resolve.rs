@@ -116,6 +116,9 @@ pub fn scenario_of(c: &Config) -> Result<Scenario, KeyError> {
                     d.plausibility.is_some() || d.radar_cross.is_some() || d.residual.is_some()
                 }),
                 c.maneuvers.is_some(),
+                c.maneuvers
+                    .as_ref()
+                    .is_some_and(|m| m.merge.is_some() || m.split.is_some()),
             ),
             n,
         )?,

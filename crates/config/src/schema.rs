@@ -117,6 +117,31 @@ pub struct SecurityConfig {
     /// `[detection]`. Absent: a flag stays a flag.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub reports: Option<ReportsConfig>,
+    /// A group key at join: agreed with the leader at each join (ECDH, HKDF), a MAC under it
+    /// on the platoon's messages, renewed whenever a member leaves. Absent: signatures alone.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub group: Option<GroupConfig>,
+}
+
+/// `[security.group]`: the platoon's group key (docs/security.md#a-group-key-at-join).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema, Default)]
+#[serde(default, deny_unknown_fields)]
+pub struct GroupConfig {
+    /// What carries a tag under the group key: `maneuvers` (the default: every maneuver
+    /// message between members; needs `[maneuvers]`) or `all` (those and every beacon of a
+    /// member).
+    pub mac: GroupMacConfig,
+}
+
+/// `[security.group] mac`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum GroupMacConfig {
+    /// The maneuver messages between members.
+    #[default]
+    Maneuvers,
+    /// The maneuver messages and every member's beacons.
+    All,
 }
 
 /// `[security.reports]`: the reporters' uplink and the misbehaviour authority's rule
@@ -180,6 +205,7 @@ impl Default for SecurityConfig {
             freshness_s: 1.0,
             seed: 0,
             reports: None,
+            group: None,
         }
     }
 }

@@ -682,6 +682,47 @@ fn security_reports_resolve_and_bad_values_name_their_key() {
     }
 }
 
+/// `[security.group]`: `maneuvers` by default, `all` on request; `maneuvers` without
+/// `[maneuvers]` (nothing to tag) and a group key with a merge or a split (not modelled) are
+/// config errors naming their key; an unknown `mac` is refused.
+#[test]
+fn a_group_key_resolves_and_bad_uses_name_their_key() {
+    use platoon_control::group_key::{GroupMac, GroupParams};
+    let with = |extra: &str, keys: &str| {
+        let text = format!(
+            "{}
+{extra}
+[security]
+[security.group]
+{keys}",
+            platoon_config::PAPER_TOML
+        );
+        parse(&text, Path::new("bad.toml")).map(|(_, s)| s.control.security.unwrap().group)
+    };
+    assert_eq!(
+        with("[maneuvers]\n", "").unwrap(),
+        Some(GroupParams {
+            mac: GroupMac::Maneuvers
+        })
+    );
+    assert_eq!(
+        with("", "mac = \"all\"\n").unwrap(),
+        Some(GroupParams { mac: GroupMac::All })
+    );
+    assert_error(
+        with("", "").map(|_| ()),
+        "security.group.mac",
+        "[maneuvers]",
+    );
+    let merge = "[maneuvers]\n[maneuvers.merge]\nhead = 3\nat_s = 5.0\n";
+    assert_error(
+        with(merge, "").map(|_| ()),
+        "security.group",
+        "not modelled",
+    );
+    assert!(with("[maneuvers]\n", "mac = \"some\"\n").is_err());
+}
+
 /// `[security]` on the 802.11p channel: the model's packets carry what signing adds on the
 /// air (the standards' overhead, the certificate on its share of packets); without it, as
 /// configured. A packet that signing would push past 802.11's largest names its key.

@@ -88,7 +88,7 @@ pub enum RefusedBy {
     /// took); the packet itself was taken.
     ManeuverSeq,
     /// The seal of signed V2V (`[security]`, [`crate::security`]): the
-    /// `platoon_security::Refusal` of this code (1-11), named by its name in files
+    /// `platoon_security::Refusal` of this code (1-14), named by its name in files
     /// (`bad_signature`, ...). Checked before the packet checks.
     Seal(u8),
 }
@@ -127,7 +127,7 @@ impl RefusedBy {
     }
 
     /// Its code on the wire (1 to 9; a seal's reason `r`: [`RefusedBy::SEAL_CODES`] + r, 10
-    /// to 20; 0 is no refusal).
+    /// to 23; 0 is no refusal).
     pub fn code(self) -> u8 {
         if let Self::Seal(r) = self {
             return Self::SEAL_CODES + r;
@@ -138,12 +138,14 @@ impl RefusedBy {
             .map_or(0, |i| i as u8 + 1)
     }
 
-    /// Where the seal's reasons start on the wire: reason `r` (1-11) is code 9 + r.
+    /// Where the seal's reasons start on the wire: reason `r` (1-14) is code 9 + r.
     pub const SEAL_CODES: u8 = 9;
 
     /// The reason of code `code` (`None` for 0 or a code it does not know).
     pub fn from_code(code: u8) -> Option<Self> {
-        if (Self::SEAL_CODES + 1..=Self::SEAL_CODES + 11).contains(&code) {
+        if (Self::SEAL_CODES + 1..=Self::SEAL_CODES + platoon_security::Refusal::ALL.len() as u8)
+            .contains(&code)
+        {
             return Some(Self::Seal(code - Self::SEAL_CODES));
         }
         usize::from(code)
@@ -250,10 +252,21 @@ impl PacketChecks {
         mut self,
         security: Option<crate::SecurityParams>,
         vehicles: usize,
+        outside: &[VehicleId],
     ) -> Self {
-        self.sealing =
-            security.map(|p| Box::new(crate::security::Sealing::new(p, vehicles, self.dt)));
+        self.sealing = security.map(|p| {
+            Box::new(crate::security::Sealing::with_outside(
+                p, vehicles, self.dt, outside,
+            ))
+        });
         self
+    }
+
+    /// Whether the leader has a renewed group key left to send (`[security.group]`).
+    pub fn leader_has_keys_to_send(&self) -> bool {
+        self.sealing
+            .as_ref()
+            .is_some_and(|s| s.leader_has_keys_to_send())
     }
 
     /// Signs `packets` sent at step `k` with their senders' pseudonyms (`[security]`; nothing
@@ -267,8 +280,13 @@ impl PacketChecks {
     /// The seal's first check of delivery `d` at step `k` (`[security]`: in full, or all but
     /// the signature under `on_demand`); `true` without security. A refused packet is counted
     /// by its reason ([`PacketChecks::seals`]) and goes nowhere.
-    pub fn authenticate(&mut self, k: u64, d: &Delivery) -> bool {
-        let outcome = self.sealing.as_mut().map(|s| s.screen(k, d));
+    /// With `[security.group]`, the group key's check follows (`membership`: the receiver is
+    /// a member of its platoon, and it counts the sender as one).
+    pub fn authenticate(&mut self, k: u64, d: &Delivery, membership: (bool, bool)) -> bool {
+        let outcome = (self.sealing.as_mut()).map(|s| {
+            s.screen(k, d)
+                .and_then(|()| s.check_group(k, d, membership))
+        });
         self.sealed(k, d, outcome)
     }
 

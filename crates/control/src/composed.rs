@@ -103,7 +103,12 @@ impl ComposedController {
                 parts.maneuvers.is_some(),
             ),
         )?
-        .with_security(parts.security, n + 1);
+        .with_security(
+            parts.security,
+            n + 1,
+            &(parts.maneuvers.as_ref())
+                .map_or_else(Vec::new, |m| crate::maneuvers::Maneuvers::outside(m, n)),
+        );
         let laws = followers
             .iter()
             .map(|f| {
@@ -170,8 +175,10 @@ impl Controller for ComposedController {
             .maneuvers
             .as_mut()
             .and_then(|m| m.machines.next_message(VehicleId::LEADER));
+        // A leader with a renewed group key to send broadcasts (`[security.group]`).
+        let keys = self.checks.leader_has_keys_to_send();
         self.leader
-            .transmit_with(k, every, states, leader_message, out);
+            .transmit_with(k, every, states, leader_message, keys, out);
         for (f, law) in self.followers.iter_mut().zip(&mut self.laws) {
             let own = &states[f.id.index()];
             f.step = FollowerStep {
@@ -212,6 +219,7 @@ impl Controller for ComposedController {
                     },
                     maneuver,
                     seal: None,
+                    group: None,
                 });
             }
         }
@@ -240,7 +248,14 @@ impl Controller for ComposedController {
         for (j, d) in rx.iter().enumerate() {
             // The seal first (`[security]`): a refused packet goes nowhere. The leader acts on
             // every packet it hears (its maneuver machine, its checks of maneuver messages).
-            if !self.checks.authenticate(k, d)
+            let membership = self.maneuvers.as_ref().map_or((true, true), |m| {
+                let (to, from) = (d.receiver, d.packet.sender);
+                (
+                    to.is_leader() || !m.machines.has_left(to),
+                    m.machines.counts_as_member(to, from),
+                )
+            });
+            if !self.checks.authenticate(k, d, membership)
                 || (d.receiver.is_leader() && !self.checks.confirm(k, d))
             {
                 continue;

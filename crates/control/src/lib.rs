@@ -32,6 +32,7 @@ pub mod checks;
 pub mod composed;
 pub mod fallback;
 pub mod formation_loop;
+pub mod group_key;
 pub mod laws;
 pub mod maneuvers;
 mod paper;

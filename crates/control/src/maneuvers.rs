@@ -562,6 +562,30 @@ impl Maneuvers {
         self.params.merge.is_some() || self.params.split.is_some()
     }
 
+    /// Whether `receiver` counts `sender` as a member of its platoon: the sender is in the
+    /// receiver's copy of the formation (the leader's own for the leader; none for a joiner
+    /// outside, which counts only the leader).
+    pub(crate) fn counts_as_member(&self, receiver: VehicleId, sender: VehicleId) -> bool {
+        if sender.is_leader() {
+            return true;
+        }
+        match receiver.index() {
+            0 => self.leader.formation().contains(sender),
+            _ => self.formation(receiver).is_some_and(|f| f.contains(sender)),
+        }
+    }
+
+    /// The followers that are not members when the run starts: the joiners and the rear
+    /// platoon of a merge.
+    pub(crate) fn outside(params: &ManeuverParams, followers: usize) -> Vec<VehicleId> {
+        let rear = params
+            .merge
+            .map_or(0..0, |m| m.head.0..followers as u16 + 1);
+        (params.joins.iter().map(|j| j.vehicle))
+            .chain(rear.map(VehicleId))
+            .collect()
+    }
+
     /// Whether follower `i` left the platoon (its leave announced, as its copy says).
     pub(crate) fn has_left(&self, i: VehicleId) -> bool {
         match &self.roles[i.index() - 1].machine {

@@ -72,6 +72,8 @@ pub struct SecurityParams {
     /// Misbehaviour reports and revocation (`[security.reports]`); `None`: a detector's flag
     /// stays a flag.
     pub reports: Option<ReportParams>,
+    /// A group key at join and a MAC under it (`[security.group]`); `None`: none.
+    pub group: Option<crate::group_key::GroupParams>,
 }
 
 /// Misbehaviour reports and the authority that revokes on them (`[security.reports]`,
@@ -221,7 +223,9 @@ impl SecurityParams {
     /// 097, [`platoon_security::STANDARD_DIGEST_OVERHEAD`] with the signer's digest,
     /// [`platoon_security::STANDARD_CERTIFICATE_OVERHEAD`] with its certificate), the
     /// certificate on one packet in `beacon_hz` x the certificate period (every packet when
-    /// that is under one).
+    /// that is under one); with a group key tagging every beacon (`[security.group] mac =
+    /// "all"`), its tag on each ([`crate::group_key::TAG_BYTES`]; the rarer maneuver
+    /// messages' tags and keys are not counted).
     pub fn mean_overhead_bytes(&self, beacon_hz: f64) -> u32 {
         let per_period = beacon_hz * self.certificate_period_ms as f64 / 1e3;
         let share = if per_period > 1.0 {
@@ -233,7 +237,11 @@ impl SecurityParams {
             platoon_security::STANDARD_DIGEST_OVERHEAD as f64,
             platoon_security::STANDARD_CERTIFICATE_OVERHEAD as f64,
         );
-        (digest + (cert - digest) * share).ceil() as u32
+        let tag = match self.group {
+            Some(g) if g.mac == crate::group_key::GroupMac::All => crate::group_key::TAG_BYTES,
+            _ => 0,
+        };
+        (digest + (cert - digest) * share).ceil() as u32 + tag
     }
 }
 
@@ -268,6 +276,7 @@ impl Default for SecurityParams {
             seed: 0,
             platoon: 0,
             reports: None,
+            group: None,
         }
     }
 }
@@ -282,12 +291,42 @@ pub struct SealCounts {
     /// computation or from the step's memo).
     pub verified: u64,
     /// Refused deliveries by [`Refusal::code`] - 1.
-    pub refused: [u64; 11],
+    pub refused: [u64; 14],
+    /// Packets tagged with the platoon's group key (`[security.group]`; 0 without).
+    pub tagged: u64,
+    /// The leader's renewals of the group key (one per member that left while holding it).
+    pub renewals: u64,
     /// The misbehaviour reports (`[security.reports]`; zeros without).
     pub reports: ReportCounts,
 }
 
 impl SealCounts {
+    /// All but the reports as 18 numbers: signed, verified, refused by code, tagged,
+    /// renewals (the wire's `ControlMsg::seals`).
+    pub fn as_array(&self) -> [u64; 18] {
+        let mut a = [0; 18];
+        a[0] = self.signed;
+        a[1] = self.verified;
+        a[2..16].copy_from_slice(&self.refused);
+        a[16] = self.tagged;
+        a[17] = self.renewals;
+        a
+    }
+
+    /// [`SealCounts::as_array`]'s inverse, with `reports`.
+    pub fn from_array(a: [u64; 18], reports: ReportCounts) -> Self {
+        let mut refused = [0; 14];
+        refused.copy_from_slice(&a[2..16]);
+        Self {
+            signed: a[0],
+            verified: a[1],
+            refused,
+            tagged: a[16],
+            renewals: a[17],
+            reports,
+        }
+    }
+
     /// Refused deliveries in all.
     pub fn refused_total(&self) -> u64 {
         self.refused.iter().sum()
@@ -305,6 +344,8 @@ impl SealCounts {
     pub fn plus(mut self, other: &SealCounts) -> SealCounts {
         self.signed += other.signed;
         self.verified += other.verified;
+        self.tagged += other.tagged;
+        self.renewals += other.renewals;
         for (a, b) in self.refused.iter_mut().zip(other.refused) {
             *a += b;
         }
@@ -351,6 +392,8 @@ pub struct Sealing {
     memo: SignatureMemo,
     counts: SealCounts,
     reporting: Option<Box<Reporting>>,
+    /// The platoon's group key (`[security.group]`).
+    group: Option<Box<crate::group_key::Grouping>>,
     /// The runtime's clock, if it times the crypto, and what it measured.
     clock: Option<CryptoClock>,
     spent: CryptoTime,
@@ -360,6 +403,18 @@ impl Sealing {
     /// Signers and verifiers for `vehicles` vehicles (the leader included) stepped every `dt`
     /// seconds.
     pub fn new(params: SecurityParams, vehicles: usize, dt: f64) -> Self {
+        Self::with_outside(params, vehicles, dt, &[])
+    }
+
+    /// [`Sealing::new`] for a platoon whose followers in `outside` are not members when the
+    /// run starts (joiners): they hold no group key until a join gives them one
+    /// (`[security.group]`).
+    pub fn with_outside(
+        params: SecurityParams,
+        vehicles: usize,
+        dt: f64,
+        outside: &[VehicleId],
+    ) -> Self {
         // The PKI and the pseudonyms, and those of later changes (platoon j > 0 of a fleet on
         // stream j), valid for the whole run, whatever its length.
         let keys = params.keyring(vehicles);
@@ -389,6 +444,9 @@ impl Sealing {
             reporting: params
                 .reports
                 .map(|r| Box::new(Reporting::new(r, &params, &keys))),
+            group: params
+                .group
+                .map(|g| Box::new(crate::group_key::Grouping::new(g, &keys, vehicles, outside))),
             keys,
             clock: None,
             spent: CryptoTime::default(),
@@ -409,6 +467,8 @@ impl Sealing {
     pub fn counts(&self) -> SealCounts {
         SealCounts {
             reports: self.reports().copied().unwrap_or_default(),
+            tagged: self.group.as_ref().map_or(0, |g| g.tagged),
+            renewals: self.group.as_ref().map_or(0, |g| g.renewals),
             ..self.counts
         }
     }
@@ -457,6 +517,9 @@ impl Sealing {
             let Some(signer) = self.signers.get_mut(p.sender.index()) else {
                 continue;
             };
+            if let Some(g) = &mut self.group {
+                g.fields(p, &self.keys);
+            }
             let header = signer.sign(&p.signed_bytes(), now);
             p.seal = Seal::new(&header.to_bytes());
             self.counts.signed += 1;
@@ -547,6 +610,47 @@ impl Sealing {
         revoked
     }
 
+    /// Whether the leader has a renewed group key left to send (`[security.group]`): it then
+    /// broadcasts at this step.
+    pub fn leader_has_keys_to_send(&self) -> bool {
+        self.group
+            .as_ref()
+            .is_some_and(|g| g.leader_has_keys_to_send())
+    }
+
+    /// The group key's check of delivery `d` at step `k`, after its seal's
+    /// (`[security.group]`; nothing without): the receiver takes the keys the packet carries
+    /// for it (their signature checked first under `OnDemand`), then a protected message needs
+    /// a valid tag under its key. `membership`: the receiver is a member of its platoon (it
+    /// has not left), and it counts the sender as one. Refused: counted, and the reason.
+    pub fn check_group(
+        &mut self,
+        k: u64,
+        d: &Delivery,
+        membership: (bool, bool),
+    ) -> Result<(), Refusal> {
+        let Some(g) = &self.group else {
+            return Ok(());
+        };
+        if self.params.policy == SecurityPolicy::OnDemand
+            && g.carries_keys_for(d.receiver, &d.packet)
+        {
+            self.check(k, d, Policy::Every)?;
+        }
+        let Some(g) = &mut self.group else {
+            return Ok(());
+        };
+        let started = self.clock.map(|c| c());
+        let outcome = g.receive(d.receiver, &d.packet, membership);
+        if let (Some(clock), Some(t0)) = (self.clock, started) {
+            self.spent.verify_ns += clock().saturating_sub(t0);
+        }
+        if let Err(why) = outcome {
+            self.counts.refused[usize::from(why.code()) - 1] += 1;
+        }
+        outcome
+    }
+
     /// Starts step `k`'s deliveries: the memo of the last step's signatures goes.
     pub fn begin_step(&mut self) {
         self.memo.clear();
@@ -625,6 +729,14 @@ mod tests {
         // Slower than the certificate period: every packet carries it.
         assert_eq!(p.mean_overhead_bytes(0.5), 219);
         assert_eq!(p.mean_overhead_bytes(1.0), 219);
+        // A group key on every beacon adds its tag; on maneuver messages alone, nothing.
+        let tagged = |mac| SecurityParams {
+            group: Some(crate::group_key::GroupParams { mac }),
+            ..p
+        };
+        use crate::group_key::GroupMac;
+        assert_eq!(tagged(GroupMac::All).mean_overhead_bytes(1.0), 219 + 21);
+        assert_eq!(tagged(GroupMac::Maneuvers).mean_overhead_bytes(1.0), 219);
     }
 
     #[test]
@@ -638,9 +750,9 @@ mod tests {
             assert!(by.by_checks() && by.refuses_packet());
             assert!(RefusedBy::ALL.iter().all(|o| o.code() != by.code()));
         }
-        assert_eq!(RefusedBy::from_code(21), None);
+        assert_eq!(RefusedBy::from_code(24), None);
         // Codes fit the wire's field (bits 2-7 of Inspection::flags).
-        assert!(RefusedBy::Seal(11).code() < 64);
+        assert!(RefusedBy::Seal(14).code() < 64);
     }
 
     #[test]

@@ -161,6 +161,7 @@ impl Controller for PaperLaw {
                 head: VehicleId::LEADER,
                 maneuver: None,
                 seal: None,
+                group: None,
             });
         }
         // Packets carry the sender's command of the step before (for the leader, the
@@ -203,6 +204,7 @@ impl Controller for PaperLaw {
                     head: VehicleId::LEADER,
                     maneuver: None,
                     seal: None,
+                    group: None,
                 });
             }
         }

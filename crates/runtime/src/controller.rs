@@ -239,8 +239,7 @@ fn done_message(controllers: &[Box<dyn Controller>], k: u64) -> ControlMsg {
             *sum += x;
         }
         if let Some(s) = c.seals() {
-            let all = [s.signed, s.verified].into_iter().chain(s.refused);
-            for (sum, x) in done.seals.iter_mut().zip(all) {
+            for (sum, x) in done.seals.iter_mut().zip(s.as_array()) {
                 *sum += x;
             }
             for (sum, x) in done.reports.iter_mut().zip(s.reports.as_array()) {

@@ -612,13 +612,10 @@ impl Done {
         }
         if m.node == Node::Controller as u32 {
             self.rejected = Some(RejectCounts::from_array(m.counts));
-            let [signed, verified, refused @ ..] = m.seals;
-            self.seals = platoon_control::SealCounts {
-                signed,
-                verified,
-                refused,
-                reports: platoon_control::security::ReportCounts::from_array(m.reports),
-            };
+            self.seals = platoon_control::SealCounts::from_array(
+                m.seals,
+                platoon_control::security::ReportCounts::from_array(m.reports),
+            );
         }
         if scenario.radio.is_some() && self.channel_node.is_some_and(|n| m.node == n as u32) {
             // Every vehicle of every platoon measures at every step.

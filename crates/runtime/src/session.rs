@@ -405,12 +405,40 @@ pub fn packet_to_wire(p: &Packet, stamp_ns: u64, j: usize, num: Numbering) -> V2
         } else {
             num.global(j, p.head)
         },
-        ..seal_to_wire(
-            p.seal.as_ref(),
-            maneuver_to_wire(p.maneuver.as_ref(), j, num),
+        ..group_to_wire(
+            p.group.as_ref(),
+            seal_to_wire(
+                p.seal.as_ref(),
+                maneuver_to_wire(p.maneuver.as_ref(), j, num),
+            ),
         )
     }
 }
+
+/// `packet` with `group` in its group-key fields (none: left 0).
+fn group_to_wire(group: Option<&platoon_v2v::GroupSeal>, mut packet: V2vPacket) -> V2vPacket {
+    if let Some(g) = group {
+        let bytes = g.as_bytes();
+        packet.group_len = bytes.len() as u32;
+        packet.group[..bytes.len()].copy_from_slice(bytes);
+    }
+    packet
+}
+
+/// The group-key fields a wire packet carries: none when `group_len` is 0. A length beyond
+/// the buffer becomes [`OVERLONG_GROUP`], which the receiver refuses as `malformed`; never a
+/// panic.
+fn group_from_wire(p: &V2vPacket) -> Option<platoon_v2v::GroupSeal> {
+    let len = p.group_len as usize;
+    if len > V2vPacket::GROUP_CAPACITY {
+        return platoon_v2v::GroupSeal::new(&OVERLONG_GROUP);
+    }
+    (len > 0).then(|| platoon_v2v::GroupSeal::new(&p.group[..len]))?
+}
+
+/// The group-key fields of a wire packet whose `group_len` exceeds the buffer: flags no field
+/// has, refused as `malformed`.
+const OVERLONG_GROUP: [u8; 1] = [0xff];
 
 /// `packet` with `seal` in its seal fields (none: left 0).
 fn seal_to_wire(seal: Option<&platoon_v2v::Seal>, mut packet: V2vPacket) -> V2vPacket {
@@ -618,6 +646,7 @@ pub fn packet_from_wire(p: &V2vPacket, j: usize, num: Numbering) -> Packet {
         head: local(p.head),
         maneuver: maneuver_from_wire(p, sender, j, num),
         seal: seal_from_wire(p),
+        group: group_from_wire(p),
     }
 }
 
@@ -695,6 +724,10 @@ mod tests {
                     maneuver: Some(m),
                     // A seal of `[security]` (its bytes opaque here) crosses as it is.
                     seal: platoon_v2v::Seal::new(&[i as u8 + 1; 82]),
+                    // So do group-key fields (every other packet: with and without).
+                    group: (i % 2 == 0)
+                        .then(|| platoon_v2v::GroupSeal::new(&[i as u8 + 7; 110]))
+                        .flatten(),
                 };
                 let wire = packet_to_wire(&packet, 0, j, num);
                 assert_eq!(packet_from_wire(&wire, j, num), packet, "{body:?}");
@@ -804,5 +837,54 @@ mod tests {
                 "seal_len {len}"
             );
         }
+    }
+
+    /// A `group_len` beyond the buffer gives group fields the receiver refuses as `malformed`;
+    /// one within it crosses as it is.
+    #[test]
+    fn a_group_length_beyond_the_buffer_is_malformed() {
+        use platoon_security::{GroupField, Refusal};
+        let num = Numbering {
+            per_platoon: 3,
+            platoons: 1,
+        };
+        let mut sent = Packet::beacon(VehicleId(1), 1, 0, State::new(1.0, 2.0, 0.0));
+        let field = GroupField {
+            share: Some(platoon_security::KeyShare([2; 33])),
+            ..GroupField::default()
+        };
+        sent.group = platoon_v2v::GroupSeal::new(&field.encode());
+        let wire = packet_to_wire(&sent, 0, 0, num);
+        assert_eq!(packet_from_wire(&wire, 0, num), sent);
+        for (len, expected) in [
+            (
+                V2vPacket::GROUP_CAPACITY as u32 + 1,
+                Err(Refusal::Malformed),
+            ),
+            (u32::MAX, Err(Refusal::Malformed)),
+            (20, Err(Refusal::Truncated)),
+        ] {
+            let got = packet_from_wire(
+                &V2vPacket {
+                    group_len: len,
+                    ..wire
+                },
+                0,
+                num,
+            );
+            let bytes = got.group.map(|g| g.as_bytes().to_vec()).unwrap();
+            assert_eq!(GroupField::decode(&bytes), expected, "group_len {len}");
+        }
+        let none = packet_from_wire(
+            &V2vPacket {
+                group_len: 0,
+                ..wire
+            },
+            0,
+            num,
+        );
+        assert_eq!(none.group, None);
+        assert_eq!(V2vPacket::GROUP_CAPACITY, platoon_v2v::GroupSeal::CAPACITY);
+        const { assert!(platoon_security::GROUP_FIELD_LEN <= platoon_v2v::GroupSeal::CAPACITY) };
     }
 }

@@ -288,9 +288,15 @@ pub struct KeyServer {
 impl KeyServer {
     /// A platoon's first key (epoch 1), no member yet.
     pub fn new<R: RngCore + CryptoRng>(rng: &mut R) -> KeyServer {
+        KeyServer::starting(GroupKey::generate(rng, 1))
+    }
+
+    /// A platoon whose first key is `key` (drawn by the caller: a run's come from its
+    /// [`crate::Keyring`]), no member yet.
+    pub fn starting(key: GroupKey) -> KeyServer {
         KeyServer {
             members: BTreeMap::new(),
-            key: GroupKey::generate(rng, 1),
+            key,
         }
     }
 
@@ -316,10 +322,17 @@ impl KeyServer {
         member: u32,
         rng: &mut R,
     ) -> Vec<(u32, WrappedKey)> {
+        let next = GroupKey::generate(rng, self.key.epoch + 1);
+        self.remove_to(member, next)
+    }
+
+    /// [`KeyServer::remove`] with the next key drawn by the caller (`next`, whose epoch
+    /// should follow the current one's). Removing a vehicle that is no member renews nothing.
+    pub fn remove_to(&mut self, member: u32, next: GroupKey) -> Vec<(u32, WrappedKey)> {
         if self.members.remove(&member).is_none() {
             return Vec::new();
         }
-        self.key = GroupKey::generate(rng, self.key.epoch + 1);
+        self.key = next;
         self.members
             .iter()
             .map(|(m, pairwise)| (*m, pairwise.wrap(&self.key)))
@@ -334,6 +347,11 @@ impl KeyServer {
     /// The members holding a pairwise key, in order.
     pub fn members(&self) -> impl Iterator<Item = u32> + '_ {
         self.members.keys().copied()
+    }
+
+    /// Whether `member` holds a pairwise key (it was admitted and has not left).
+    pub fn is_member(&self, member: u32) -> bool {
+        self.members.contains_key(&member)
     }
 }
 
@@ -388,6 +406,103 @@ impl KeyHolder {
     /// The group key it holds.
     pub fn key(&self) -> Result<&GroupKey, GroupError> {
         self.key.as_ref().ok_or(GroupError::NoKey)
+    }
+}
+
+/// The group-key fields a packet carries (`platoon_v2v::GroupSeal`'s bytes,
+/// docs/security.md#a-group-key-at-join): a tag under the group key, a joiner's or the
+/// leader's key share, and a group key wrapped for one member (the accept's, or a renewal's).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct GroupField {
+    /// The sender's tag over the packet's payload.
+    pub tag: Option<Tag>,
+    /// A key share: a join or merge request's (the joiner's), or a join accept's (the
+    /// leader's).
+    pub share: Option<KeyShare>,
+    /// A group key wrapped for the member it names.
+    pub wrapped: Option<(u32, WrappedKey)>,
+}
+
+/// The longest encoded [`GroupField`] (bytes): its flags, a tag (epoch and MAC), a share and
+/// a wrapped key (member, epoch and the sealed key).
+pub const GROUP_FIELD_LEN: usize = 1 + (4 + TAG_LEN) + SHARE_LEN + (4 + 4 + SEALED_LEN);
+
+impl GroupField {
+    const TAG: u8 = 1;
+    const SHARE: u8 = 2;
+    const WRAPPED: u8 = 4;
+
+    /// Whether it carries nothing (a packet without group fields carries none at all).
+    pub fn is_empty(&self) -> bool {
+        self.tag.is_none() && self.share.is_none() && self.wrapped.is_none()
+    }
+
+    /// Its bytes: a flags byte (bit 0 a tag, bit 1 a share, bit 2 a wrapped key), then the
+    /// fields present in that order, integers big-endian.
+    pub fn encode(&self) -> Vec<u8> {
+        let mut out = Vec::with_capacity(GROUP_FIELD_LEN);
+        let flag = |present: bool, bit: u8| if present { bit } else { 0 };
+        out.push(
+            flag(self.tag.is_some(), Self::TAG)
+                | flag(self.share.is_some(), Self::SHARE)
+                | flag(self.wrapped.is_some(), Self::WRAPPED),
+        );
+        if let Some(t) = &self.tag {
+            out.extend_from_slice(&t.epoch.to_be_bytes());
+            out.extend_from_slice(&t.mac);
+        }
+        if let Some(s) = &self.share {
+            out.extend_from_slice(&s.0);
+        }
+        if let Some((member, w)) = &self.wrapped {
+            out.extend_from_slice(&member.to_be_bytes());
+            out.extend_from_slice(&w.epoch.to_be_bytes());
+            out.extend_from_slice(&w.sealed);
+        }
+        out
+    }
+
+    /// The field `bytes` encode: `Truncated` if they end early (or are empty), `Malformed`
+    /// for unknown flags or bytes after the last field. A share that is no P-256 point is
+    /// found when it is used ([`GroupError::BadShare`]).
+    pub fn decode(bytes: &[u8]) -> Result<GroupField, crate::Refusal> {
+        use crate::Refusal;
+        let (&flags, mut rest) = bytes.split_first().ok_or(Refusal::Truncated)?;
+        if flags & !(Self::TAG | Self::SHARE | Self::WRAPPED) != 0 {
+            return Err(Refusal::Malformed);
+        }
+        let mut take = |n: usize| -> Result<&[u8], Refusal> {
+            if rest.len() < n {
+                return Err(Refusal::Truncated);
+            }
+            let (head, tail) = rest.split_at(n);
+            rest = tail;
+            Ok(head)
+        };
+        let u32_of = |b: &[u8]| u32::from_be_bytes(b.try_into().expect("4 bytes"));
+        let mut field = GroupField::default();
+        if flags & Self::TAG != 0 {
+            let epoch = u32_of(take(4)?);
+            let mut mac = [0; TAG_LEN];
+            mac.copy_from_slice(take(TAG_LEN)?);
+            field.tag = Some(Tag { epoch, mac });
+        }
+        if flags & Self::SHARE != 0 {
+            let mut share = [0; SHARE_LEN];
+            share.copy_from_slice(take(SHARE_LEN)?);
+            field.share = Some(KeyShare(share));
+        }
+        if flags & Self::WRAPPED != 0 {
+            let member = u32_of(take(4)?);
+            let epoch = u32_of(take(4)?);
+            let mut sealed = [0; SEALED_LEN];
+            sealed.copy_from_slice(take(SEALED_LEN)?);
+            field.wrapped = Some((member, WrappedKey { epoch, sealed }));
+        }
+        if !rest.is_empty() {
+            return Err(Refusal::Malformed);
+        }
+        Ok(field)
     }
 }
 
@@ -521,5 +636,45 @@ mod tests {
         let leader = KeyServer::new(&mut rng);
         let wrapped = PairwiseKey([0; KEY_LEN]).wrap(leader.key());
         assert_eq!(waiting.renew(&wrapped), Err(GroupError::NoKey));
+    }
+
+    #[test]
+    fn a_group_field_round_trips_and_bad_bytes_are_refused() {
+        use crate::Refusal;
+        let (leader, members, mut rng) = platoon(2, 9);
+        let tag = members[0].key().unwrap().tag(b"x");
+        let joiner = KeyHolder::new(3, &mut rng);
+        let wrapped = PairwiseKey([1; KEY_LEN]).wrap(leader.key());
+        let fields = [
+            GroupField::default(),
+            GroupField {
+                tag: Some(tag),
+                ..GroupField::default()
+            },
+            GroupField {
+                share: Some(joiner.share()),
+                wrapped: Some((3, wrapped)),
+                ..GroupField::default()
+            },
+            GroupField {
+                tag: Some(tag),
+                share: Some(joiner.share()),
+                wrapped: Some((7, wrapped)),
+            },
+        ];
+        for f in fields {
+            let bytes = f.encode();
+            assert!(bytes.len() <= GROUP_FIELD_LEN);
+            assert_eq!(GroupField::decode(&bytes), Ok(f));
+            // Every shorter prefix is truncated, a byte more is malformed.
+            for n in 0..bytes.len() {
+                assert_eq!(GroupField::decode(&bytes[..n]), Err(Refusal::Truncated));
+            }
+            let mut longer = bytes.clone();
+            longer.push(0);
+            assert_eq!(GroupField::decode(&longer), Err(Refusal::Malformed));
+        }
+        assert_eq!(GroupField::decode(&[8]), Err(Refusal::Malformed));
+        assert_eq!(fields[3].encode().len(), GROUP_FIELD_LEN);
     }
 }

@@ -13,6 +13,12 @@
 //! pseudonyms follow on that stream for platoon 0, and on ChaCha20 stream `j` of the same seed
 //! for platoon `j` of a fleet (its own keys, the fleet's PKI). An epoch is `vehicles`
 //! pseudonyms in vehicle order.
+//!
+//! A platoon's group keys (`[security.group]`) come from the seed too, each epoch's from a
+//! generator of its own ([`Keyring::group_key`]): the leader draws the key it renews to, and an
+//! insider on the channel, a member, holds the key of the epochs it was a member in. The
+//! ephemeral keys of the joins' key agreements come from a stream of their own
+//! ([`Keyring::party_rng`]).
 
 use crate::{sign, Credential, HashedId8, Pki, SecurityHeader, Validity};
 use rand::SeedableRng;
@@ -31,6 +37,8 @@ pub struct KeySlot {
 /// A platoon's PKI and pseudonyms (module docs). Epochs are drawn when asked for, in order.
 #[derive(Debug, Clone)]
 pub struct Keyring {
+    seed: u64,
+    platoon: u16,
     pki: Pki,
     rng: ChaCha20Rng,
     validity: Validity,
@@ -50,6 +58,8 @@ impl Keyring {
             rng.set_stream(u64::from(platoon));
         }
         let mut keys = Keyring {
+            seed,
+            platoon,
             pki,
             rng,
             validity,
@@ -58,6 +68,29 @@ impl Keyring {
         };
         keys.draw_epoch();
         keys
+    }
+
+    /// A generator for `purpose` and `index`, from the seed and the platoon alone (SHA-256 of
+    /// them as its ChaCha20 key): independent of the PKI's and the pseudonyms' stream.
+    fn derived(&self, purpose: &[u8], index: u64) -> ChaCha20Rng {
+        use sha2::{Digest, Sha256};
+        let mut h = Sha256::new();
+        h.update(b"platoon keyring v1");
+        h.update(purpose);
+        h.update(self.seed.to_be_bytes());
+        h.update(self.platoon.to_be_bytes());
+        h.update(index.to_be_bytes());
+        ChaCha20Rng::from_seed(h.finalize().into())
+    }
+
+    /// The platoon's group key of `epoch` (1 at the start, +1 at every renewal).
+    pub fn group_key(&self, epoch: u32) -> crate::GroupKey {
+        crate::GroupKey::generate(&mut self.derived(b"group key", u64::from(epoch)), epoch)
+    }
+
+    /// The generator of the platoon's ephemeral keys for the joins' key agreements.
+    pub fn party_rng(&self) -> ChaCha20Rng {
+        self.derived(b"key agreement", 0)
     }
 
     /// The PKI.
@@ -204,5 +237,21 @@ mod tests {
         let foreign = outsider.sign_like(slot, b"a lie", &header).unwrap();
         assert_eq!(keys.signed_by(b"a lie", &foreign, 4), None);
         assert_eq!(outsider.signed_by(b"a lie", &foreign, 1), Some(slot));
+    }
+
+    #[test]
+    fn group_keys_are_the_seeds_and_the_platoons_own_per_epoch() {
+        let (a, b) = (Keyring::new(7, 0, 3), Keyring::new(7, 0, 5));
+        assert_eq!(
+            a.group_key(1),
+            b.group_key(1),
+            "the seed's, whatever the size"
+        );
+        assert_eq!(a.group_key(2).epoch(), 2);
+        assert_ne!(a.group_key(1), a.group_key(2));
+        assert_ne!(a.group_key(1), Keyring::new(7, 1, 3).group_key(1));
+        assert_ne!(a.group_key(1), Keyring::new(8, 0, 3).group_key(1));
+        let tag = a.group_key(1).tag(b"x");
+        assert_eq!(b.group_key(1).check(b"x", &tag), Ok(()));
     }
 }

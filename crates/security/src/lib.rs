@@ -52,7 +52,10 @@ pub mod verify;
 
 pub use cert::{CertKind, Certificate, Validity};
 pub use ecdsa::{PublicKey, SignatureMemo};
-pub use group::{GroupError, GroupKey, KeyHolder, KeyServer, KeyShare, Tag, WrappedKey};
+pub use group::{
+    GroupError, GroupField, GroupKey, KeyHolder, KeyServer, KeyShare, Tag, WrappedKey,
+    GROUP_FIELD_LEN,
+};
 pub use header::{
     SecurityHeader, SignerId, CERTIFICATE_HEADER_LEN, DIGEST_HEADER_LEN,
     STANDARD_CERTIFICATE_OVERHEAD, STANDARD_DIGEST_OVERHEAD,

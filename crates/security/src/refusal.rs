@@ -45,11 +45,23 @@ pub enum Refusal {
     /// freshness window allows (a replay, or a sender's clock far off).
     #[error("the packet is outside the freshness window")]
     Stale,
+    /// A message the platoon's group key protects (`[security.group]`) carries no tag: sent
+    /// by a vehicle that holds no group key (an outsider, a thief, a ghost), or stripped.
+    #[error("the message carries no group-key tag")]
+    Untagged,
+    /// The message's group-key tag does not verify: altered after tagging, or tagged with a
+    /// key that is not the group's.
+    #[error("the message's group-key tag does not verify")]
+    BadTag,
+    /// A tag of another epoch than the receiver's group key: a key the leader renewed since
+    /// (a vehicle that left), or a renewal the receiver has not received yet.
+    #[error("the message's tag is of another group-key epoch than the receiver's")]
+    WrongEpoch,
 }
 
 impl Refusal {
     /// Every reason, in code order.
-    pub const ALL: [Refusal; 11] = [
+    pub const ALL: [Refusal; 14] = [
         Refusal::Truncated,
         Refusal::Malformed,
         Refusal::UnknownCertificate,
@@ -61,6 +73,9 @@ impl Refusal {
         Refusal::Expired,
         Refusal::Revoked,
         Refusal::Stale,
+        Refusal::Untagged,
+        Refusal::BadTag,
+        Refusal::WrongEpoch,
     ];
 
     /// Its stable name, snake_case, for a dataset's column.
@@ -77,10 +92,13 @@ impl Refusal {
             Refusal::Expired => "expired",
             Refusal::Revoked => "revoked",
             Refusal::Stale => "stale",
+            Refusal::Untagged => "untagged",
+            Refusal::BadTag => "bad_tag",
+            Refusal::WrongEpoch => "wrong_epoch",
         }
     }
 
-    /// Its stable code, 1 to 11 (0 is left for "accepted" in a wire field).
+    /// Its stable code, 1 to 14 (0 is left for "accepted" in a wire field).
     pub fn code(self) -> u8 {
         match self {
             Refusal::Truncated => 1,
@@ -94,6 +112,9 @@ impl Refusal {
             Refusal::Expired => 9,
             Refusal::Revoked => 10,
             Refusal::Stale => 11,
+            Refusal::Untagged => 12,
+            Refusal::BadTag => 13,
+            Refusal::WrongEpoch => 14,
         }
     }
 
@@ -117,6 +138,6 @@ mod tests {
             assert_eq!(Refusal::from_code(r.code()), Some(r));
         }
         assert_eq!(Refusal::from_code(0), None);
-        assert_eq!(Refusal::from_code(12), None);
+        assert_eq!(Refusal::from_code(15), None);
     }
 }

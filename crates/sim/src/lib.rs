@@ -25,10 +25,10 @@ pub use factory::{
 pub use metrics::{FleetMetrics, MetricsAccumulator};
 pub use scenario::{Fleet, Scenario, ScenarioError, Vehicle};
 pub use summary::{
-    Collision, ErrorStats, FleetOverview, FormationRecord, FormationStability, LaneChangeRecord,
-    LinkOutage, ManeuverRecord, ManeuversSummary, PlatoonBrief, ReportsSummary, RevokedRecord,
-    Safety, SafetyClass, SafetyThresholds, SecuritySummary, Summary, VehicleSummary, VehicleWire,
-    WireSummary,
+    Collision, ErrorStats, FleetOverview, FormationRecord, FormationStability, GroupSummary,
+    LaneChangeRecord, LinkOutage, ManeuverRecord, ManeuversSummary, PlatoonBrief, ReportsSummary,
+    RevokedRecord, Safety, SafetyClass, SafetyThresholds, SecuritySummary, Summary, VehicleSummary,
+    VehicleWire, WireSummary,
 };
 pub use tally::WireCounts;
 

@@ -360,6 +360,20 @@ pub struct SecuritySummary {
     /// Misbehaviour reports and revocations (`[security.reports]` only).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub reports: Option<ReportsSummary>,
+    /// The platoon's group key (`[security.group]` only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub group: Option<GroupSummary>,
+}
+
+/// `summary.json`'s `security.group` (`[security.group]` runs; docs/security.md).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct GroupSummary {
+    /// What the tags protect: `maneuvers` or `all`.
+    pub mac: String,
+    /// Packets the senders tagged (over the fleet).
+    pub tagged: u64,
+    /// The leaders' renewals of the group key: one per member that left holding it.
+    pub renewals: u64,
 }
 
 /// `summary.json`'s `security.reports` (`[security.reports]` runs; docs/security.md).
@@ -440,6 +454,11 @@ impl SecuritySummary {
                     .map(|(name, n)| (name.to_string(), n))
                     .collect(),
                 revoked: revoked.to_vec(),
+            }),
+            group: security.group.map(|g| GroupSummary {
+                mac: g.mac.name().to_string(),
+                tagged: counts.tagged,
+                renewals: counts.renewals,
             }),
         }
     }

@@ -40,6 +40,62 @@ pub struct Packet {
     /// (and on a packet forged from nothing). An attack that alters a packet's fields keeps
     /// the seal it had, which then fails verification.
     pub seal: Option<Seal>,
+    /// Its group-key fields (`[security.group]`, docs/security.md#a-group-key-at-join): the
+    /// encoded `platoon_security::GroupField` (a tag under the platoon's group key, a join's
+    /// key share, a group key wrapped for a member), or `None`. Signed with the rest
+    /// ([`Packet::signed_bytes`]); a tag covers [`Packet::payload_bytes`].
+    pub group: Option<GroupSeal>,
+}
+
+/// The bytes of a packet's group-key fields: a fixed buffer and its length, so that a packet
+/// stays `Copy`. Opaque here; `platoon-security` encodes and checks them.
+#[derive(Clone, Copy, PartialEq, Eq)]
+pub struct GroupSeal {
+    len: u8,
+    bytes: [u8; GroupSeal::CAPACITY],
+}
+
+impl GroupSeal {
+    /// The room for the fields (bytes): the longest encoding
+    /// (`platoon_security::GROUP_FIELD_LEN`, 110, checked where the two meet), to the wire
+    /// packet's 8-byte alignment.
+    pub const CAPACITY: usize = 116;
+
+    /// Group fields of `bytes` (`None` if longer than [`GroupSeal::CAPACITY`]).
+    pub fn new(bytes: &[u8]) -> Option<Self> {
+        let mut out = [0; Self::CAPACITY];
+        out.get_mut(..bytes.len())?.copy_from_slice(bytes);
+        Some(Self {
+            len: bytes.len() as u8,
+            bytes: out,
+        })
+    }
+
+    /// Its bytes.
+    pub fn as_bytes(&self) -> &[u8] {
+        &self.bytes[..usize::from(self.len)]
+    }
+}
+
+impl std::fmt::Debug for GroupSeal {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "GroupSeal({} bytes)", self.len)
+    }
+}
+
+/// What a packet's sender signs ([`Packet::signed_bytes`]): its payload, then its group-key
+/// fields if it has any. Reads as a byte slice.
+#[derive(Clone, Copy)]
+pub struct SignedBytes {
+    len: usize,
+    bytes: [u8; Packet::PAYLOAD_LEN + 1 + GroupSeal::CAPACITY],
+}
+
+impl std::ops::Deref for SignedBytes {
+    type Target = [u8];
+    fn deref(&self) -> &[u8] {
+        &self.bytes[..self.len]
+    }
 }
 
 /// The bytes of a security header riding on a [`Packet`]: a fixed buffer and its length, so
@@ -90,17 +146,38 @@ impl Packet {
             head: VehicleId::LEADER,
             maneuver: None,
             seal: None,
+            group: None,
         }
     }
 
-    /// The canonical bytes of what the packet says, every field but the seal: what its
-    /// sender signs (`[security]`). Big-endian, fixed layout: sender (2), seq (4), step (8),
+    /// What its sender signs (`[security]`): [`Packet::payload_bytes`], then, if the packet
+    /// carries group-key fields, their length (1 byte) and bytes, so that the signature binds
+    /// a join's key share and a member's tag to the packet. Without group fields, the payload
+    /// alone: a run without `[security.group]` signs what it signed before.
+    pub fn signed_bytes(&self) -> SignedBytes {
+        let mut out = SignedBytes {
+            len: Self::PAYLOAD_LEN,
+            bytes: [0; Self::PAYLOAD_LEN + 1 + GroupSeal::CAPACITY],
+        };
+        out.bytes[..Self::PAYLOAD_LEN].copy_from_slice(&self.payload_bytes());
+        if let Some(g) = &self.group {
+            let b = g.as_bytes();
+            out.bytes[Self::PAYLOAD_LEN] = b.len() as u8;
+            out.bytes[Self::PAYLOAD_LEN + 1..][..b.len()].copy_from_slice(b);
+            out.len += 1 + b.len();
+        }
+        out
+    }
+
+    /// The canonical bytes of what the packet says, every field but the seal and the group-key
+    /// fields: what a group-key tag covers, and the start of what its sender signs
+    /// ([`Packet::signed_bytes`]). Big-endian, fixed layout: sender (2), seq (4), step (8),
     /// the state's three and `u` as IEEE 754 bits (4 x 8), head (2), then the maneuver
     /// message: a kind byte (0 for none, else [`platoon_maneuver::MessageKind`]'s place + 1),
     /// its sender, recipient and sequence number (2 each) and four arguments (2 each; 0 where
     /// the kind has fewer). 63 bytes with or without a message.
-    pub fn signed_bytes(&self) -> [u8; Self::SIGNED_LEN] {
-        let mut out = [0u8; Self::SIGNED_LEN];
+    pub fn payload_bytes(&self) -> [u8; Self::PAYLOAD_LEN] {
+        let mut out = [0u8; Self::PAYLOAD_LEN];
         let mut at = 0;
         let mut put = |bytes: &[u8]| {
             out[at..at + bytes.len()].copy_from_slice(bytes);
@@ -132,8 +209,8 @@ impl Packet {
         out
     }
 
-    /// The size of [`Packet::signed_bytes`].
-    pub const SIGNED_LEN: usize = 2 + 4 + 8 + 4 * 8 + 2 + 1 + 7 * 2;
+    /// The size of [`Packet::payload_bytes`].
+    pub const PAYLOAD_LEN: usize = 2 + 4 + 8 + 4 * 8 + 2 + 1 + 7 * 2;
 
     /// Whether the sender heads a split platoon (it announces itself as its head).
     pub fn heads(&self) -> bool {
@@ -141,7 +218,7 @@ impl Packet {
     }
 }
 
-/// A maneuver body's kind byte and up to four arguments, for [`Packet::signed_bytes`].
+/// A maneuver body's kind byte and up to four arguments, for [`Packet::payload_bytes`].
 fn body_fields(b: &Body) -> (u8, [u16; 4]) {
     let kind = platoon_maneuver::MessageKind::ALL
         .iter()

@@ -46,7 +46,11 @@ use iceoryx2::prelude::ZeroCopySend;
 /// - v6: the controller's [`ControlMsg::reports`] count its misbehaviour reports (376 bytes,
 ///   was 288), and [`Command::flags`] bit 3 ([`Command::REVOKED`]) says the misbehaviour
 ///   authority revoked the vehicle (`[security.reports]`).
-pub const CONTRACT_VERSION: u32 = 6;
+/// - v7: [`V2vPacket`] carries its group-key fields (`group_len` and `group`: a tag under the
+///   platoon's group key, a join's key share, a wrapped group key; `[security.group]`,
+///   docs/security.md; 400 bytes, was 280), and [`ControlMsg::seals`] counts the group key's
+///   refusals, tags and renewals too (416 bytes, was 376).
+pub const CONTRACT_VERSION: u32 = 7;
 
 /// The environment variable in which `platoon run` gives every process it starts the contract
 /// version of the run ([`CONTRACT_VERSION`]).
@@ -76,7 +80,7 @@ pub fn check_contract_version(run: Option<&str>) -> Result<(), String> {
 
 /// The user header of every step sample: which step it belongs to, and how many items it holds.
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
-#[type_name("platoon::v6::StepHeader")]
+#[type_name("platoon::v7::StepHeader")]
 #[repr(C)]
 pub struct StepHeader {
     /// Step index k.
@@ -107,7 +111,7 @@ impl StepHeader {
 
 /// A vehicle's true state at a step (plant -> controller, injector, orchestrator).
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
-#[type_name("platoon::v6::VehicleState")]
+#[type_name("platoon::v7::VehicleState")]
 #[repr(C)]
 pub struct VehicleState {
     /// Vehicle id (0 = leader).
@@ -160,7 +164,7 @@ impl VehicleState {
 
 /// A V2V broadcast (controller -> injector, and inside [`LinkPacket`]).
 #[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
-#[type_name("platoon::v6::V2vPacket")]
+#[type_name("platoon::v7::V2vPacket")]
 #[repr(C)]
 pub struct V2vPacket {
     /// Sender id (0 = leader).
@@ -205,6 +209,13 @@ pub struct V2vPacket {
     /// `seal_len` bytes; the rest 0. An injector that alters a packet and forwards its seal
     /// makes it fail verification, as an outsider's would.
     pub seal: [u8; V2vPacket::SEAL_CAPACITY],
+    /// How many bytes of `group` the group-key fields hold (0: none, a run without
+    /// `[security.group]`, or a packet that carries none).
+    pub group_len: u32,
+    /// The sender's group-key fields (`platoon_v2v::GroupSeal`, docs/security.md): a tag
+    /// under the platoon's group key, a join's key share, a group key wrapped for a member,
+    /// in its first `group_len` bytes; the rest 0. Covered by the seal's signature.
+    pub group: [u8; V2vPacket::GROUP_CAPACITY],
 }
 
 impl Default for V2vPacket {
@@ -225,6 +236,8 @@ impl Default for V2vPacket {
             maneuver_behind: 0,
             seal_len: 0,
             seal: [0; V2vPacket::SEAL_CAPACITY],
+            group_len: 0,
+            group: [0; V2vPacket::GROUP_CAPACITY],
         }
     }
 }
@@ -232,6 +245,9 @@ impl Default for V2vPacket {
 impl V2vPacket {
     /// The size of `seal` (bytes): the longest security header (`platoon_v2v::Seal::CAPACITY`).
     pub const SEAL_CAPACITY: usize = 196;
+    /// The size of `group` (bytes): the longest group-key fields
+    /// (`platoon_v2v::GroupSeal::CAPACITY`).
+    pub const GROUP_CAPACITY: usize = 116;
     /// `maneuver`: the packet carries none.
     pub const NO_MANEUVER: u16 = 0;
     /// A vehicle outside the platoon asks the leader to join behind `maneuver_vehicle`.
@@ -286,7 +302,7 @@ impl V2vPacket {
 /// injector: one per out-neighbour of each broadcast) and of the rx batch (injector ->
 /// controller: what each receiver gets, plus `JAMMED` notices).
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
-#[type_name("platoon::v6::LinkPacket")]
+#[type_name("platoon::v7::LinkPacket")]
 #[repr(C)]
 pub struct LinkPacket {
     /// The receiving vehicle (for `JAMMED`: the vehicle that sensed jamming).
@@ -306,7 +322,7 @@ impl LinkPacket {
 
 /// A follower's command and what its controller did (controller -> plant, orchestrator).
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
-#[type_name("platoon::v6::Command")]
+#[type_name("platoon::v7::Command")]
 #[repr(C)]
 pub struct Command {
     /// Follower id (>= 1).
@@ -379,7 +395,7 @@ impl Command {
 /// [`Service::Traffic`]): SUMO's `bg<index>`, which drives on the lanes no platoon uses and
 /// loads the V2V channel. Only the SUMO plant with `[sumo] background_vehicles` publishes it.
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
-#[type_name("platoon::v6::TrafficVehicle")]
+#[type_name("platoon::v7::TrafficVehicle")]
 #[repr(C)]
 pub struct TrafficVehicle {
     /// Its index b (SUMO's `bg<b>`): item b of every traffic sample.
@@ -412,7 +428,7 @@ impl TrafficVehicle {
 /// in runs that measure detectors (`[detection]`), one item per inspected packet, in the order
 /// the receivers got them (the rx batch's order).
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
-#[type_name("platoon::v6::Inspection")]
+#[type_name("platoon::v7::Inspection")]
 #[repr(C)]
 pub struct Inspection {
     /// The receiving follower (wire id).
@@ -427,7 +443,7 @@ pub struct Inspection {
     /// `platoon_control::RefusedBy` code (0: accepted, or not said; 1-6 the packet checks'
     /// reasons, in the order of `ControlMsg::counts`, for a packet no detector saw; 7 the
     /// reaction; 8 the leader's check of maneuver messages; 9 the receiver's maneuver machine
-    /// dropped the message the packet carried as old, after the step's other items; 10-20 the
+    /// dropped the message the packet carried as old, after the step's other items; 10-23 the
     /// seal of a `[security]` run, `platoon_security::Refusal` code + 9); bit `8 + d`
     /// ([`Inspection::DETECTOR_SHIFT`]): detector d (the run's `[detection]` order: built-in
     /// ones, then `plugin`) flagged it.
@@ -467,7 +483,7 @@ impl Inspection {
 
 /// Control and status messages (orchestrator <-> every node), one per sample.
 #[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
-#[type_name("platoon::v6::ControlMsg")]
+#[type_name("platoon::v7::ControlMsg")]
 #[repr(C)]
 pub struct ControlMsg {
     /// One of the `ControlMsg::*` kinds.
@@ -482,10 +498,11 @@ pub struct ControlMsg {
     /// [`ControlMsg::TIMING`]).
     pub counts: [u64; 6],
     /// `DONE` from the controller in a `[security]` run: packets signed, deliveries whose
-    /// signature held, then deliveries refused by `platoon_security::Refusal` code 1 to 11
-    /// (docs/security.md); all 0 otherwise. `TIMING`: in its first 6, the percentiles of
+    /// signature held, then deliveries refused by `platoon_security::Refusal` code 1 to 14
+    /// (docs/security.md), then (`[security.group]`) the tags made and the group key's
+    /// renewals; all 0 otherwise. `TIMING`: in its first 6, the percentiles of
     /// the time its seals spent verifying per step (ns; see [`ControlMsg::TIMING`]).
-    pub seals: [u64; 13],
+    pub seals: [u64; 18],
     /// `DONE` from the controller in a `[security.reports]` run: reports filed, lost on the
     /// uplink, then those that arrived by the authority's outcome code 1 to 9
     /// (`platoon_security::ReportOutcome`); all 0 otherwise.
@@ -521,7 +538,7 @@ impl ControlMsg {
             node: node as u32,
             step,
             counts: [0; 6],
-            seals: [0; 13],
+            seals: [0; 18],
             reports: [0; 11],
             reason: [0; 120],
         }

@@ -6,8 +6,8 @@ use super::{
 };
 use crate::progress::Progress;
 use platoon_config::{
-    ActsAsConfig, Config, DetectionConfig, Embedded, FalseReportsConfig, LawName, LinkAttackConfig,
-    LinkKindConfig, ReportsConfig, SecurityConfig,
+    ActsAsConfig, Config, DetectionConfig, Embedded, FalseReportsConfig, GroupConfig, LawName,
+    LinkAttackConfig, LinkKindConfig, ReportsConfig, SecurityConfig,
 };
 use platoon_control::Role;
 use platoon_output::plots;
@@ -30,9 +30,10 @@ pub const ATTACKERS: [&str; 6] = [
 ];
 
 /// The defences of [`security`], each adding to the one before: none (unsigned, no
-/// detectors), signatures (`[security]`), local detection (the three detectors, reaction
-/// `log`), reports and revocation (`[security.reports]`, its defaults).
-pub const DEFENCES: [&str; 4] = ["none", "signatures", "detection", "reports"];
+/// detectors), signatures (`[security]`), a group key (`[security.group]`, a MAC on the
+/// maneuver messages), local detection (the three detectors, reaction `log`), reports and
+/// revocation (`[security.reports]`, its defaults).
+pub const DEFENCES: [&str; 5] = ["none", "signatures", "group", "detection", "reports"];
 
 /// How [`security`] runs; [`SecurityOptions::default`] is `platoon experiment security`'s
 /// default.
@@ -222,6 +223,11 @@ fn configured(base: &Config, law: LawName, attacker: &str, defence: &str) -> Con
         c.security = Some(SecurityConfig::default());
     }
     if level >= 2 {
+        if let Some(s) = &mut c.security {
+            s.group = Some(GroupConfig::default());
+        }
+    }
+    if level >= 3 {
         c.detection = Some(DetectionConfig {
             plausibility: Some(Default::default()),
             radar_cross: Some(Default::default()),
@@ -231,7 +237,7 @@ fn configured(base: &Config, law: LawName, attacker: &str, defence: &str) -> Con
             plugin: Vec::new(),
         });
     }
-    if level >= 3 {
+    if level >= 4 {
         if let Some(s) = &mut c.security {
             s.reports = Some(ReportsConfig {
                 false_reports: (attacker == "false-reports").then_some(FalseReportsConfig {

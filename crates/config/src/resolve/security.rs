@@ -1,17 +1,21 @@
 //! `[security]`: signed V2V (docs/security.md).
 use super::checks::{bad, finite, positive};
 use crate::error::KeyError;
-use crate::schema::{ReportsConfig, SecurityConfig, SecurityPolicyConfig};
+use crate::schema::{
+    GroupConfig, GroupMacConfig, ReportsConfig, SecurityConfig, SecurityPolicyConfig,
+};
+use platoon_control::group_key::{GroupMac, GroupParams};
 use platoon_control::security::{FalseReports, ReportParams};
 use platoon_control::{SecurityParams, SecurityPolicy};
 use platoon_model::VehicleId;
 
 /// `[security]` as the controllers' settings (none when absent): positive periods, whole
-/// milliseconds; `detecting`: the run has detectors, whose flags reports need; `followers`
-/// the platoon's.
+/// milliseconds; `detecting`: the run has detectors, whose flags reports need; `maneuvers`:
+/// it has `[maneuvers]`, `regroups`: a merge or a split among them; `followers` the
+/// platoon's.
 pub(crate) fn security(
     s: Option<&SecurityConfig>,
-    (detecting, maneuvers): (bool, bool),
+    (detecting, maneuvers, regroups): (bool, bool, bool),
     followers: usize,
 ) -> Result<Option<SecurityParams>, KeyError> {
     let Some(s) = s else {
@@ -55,7 +59,37 @@ pub(crate) fn security(
             .as_ref()
             .map(|r| reports(r, (detecting, maneuvers), followers, &ms))
             .transpose()?,
+        group: s
+            .group
+            .as_ref()
+            .map(|g| group(g, maneuvers, regroups))
+            .transpose()?,
     }))
+}
+
+/// `[security.group]`, checked.
+fn group(g: &GroupConfig, maneuvers: bool, regroups: bool) -> Result<GroupParams, KeyError> {
+    if g.mac == GroupMacConfig::Maneuvers && !maneuvers {
+        return bad(
+            "security.group.mac",
+            "\"maneuvers\" tags the maneuver messages, and this run has none: add [maneuvers], \
+             or set mac = \"all\" to tag every member's beacons",
+        );
+    }
+    if regroups {
+        return bad(
+            "security.group",
+            "a merge or a split with a group key is not modelled yet (the rear platoon's \
+             members would need the key of the platoon they merge into, or a key of their \
+             own): remove [security.group] or the merge/split",
+        );
+    }
+    Ok(GroupParams {
+        mac: match g.mac {
+            GroupMacConfig::Maneuvers => GroupMac::Maneuvers,
+            GroupMacConfig::All => GroupMac::All,
+        },
+    })
 }
 
 /// `[security.reports]`, checked.

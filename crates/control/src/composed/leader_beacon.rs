@@ -12,16 +12,17 @@ pub(super) struct LeaderBeacon {
 
 impl LeaderBeacon {
     /// Step `k` (`states[0]` is the leader's): appends its packet to `out` when it is due, or
-    /// when it carries a maneuver message.
+    /// when it carries a maneuver message, or when `force`d (a renewed group key to send).
     pub(super) fn transmit_with(
         &mut self,
         k: u64,
         every: u32,
         states: &[State],
         maneuver: Option<crate::maneuvers::Message>,
+        force: bool,
         out: &mut Vec<Packet>,
     ) {
-        if k.is_multiple_of(u64::from(every)) || maneuver.is_some() {
+        if k.is_multiple_of(u64::from(every)) || maneuver.is_some() || force {
             self.seq += 1;
             out.push(Packet {
                 sender: VehicleId::LEADER,
@@ -32,6 +33,7 @@ impl LeaderBeacon {
                 head: VehicleId::LEADER,
                 maneuver,
                 seal: None,
+                group: None,
             });
         }
         self.last_u = states[0][2];
