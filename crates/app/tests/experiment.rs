@@ -454,10 +454,12 @@ fn the_security_study_tells_who_stops_whom() {
             "insider-feigned-braking".into(),
             "stolen-key-sybil".into(),
             "false-reports".into(),
+            "benign-cut-in".into(),
         ],
         defences: vec!["signatures".into(), "group".into(), "reports".into()],
         laws: vec![LawName::Paper],
         duration_s: 40.0,
+        repeats: 1,
     };
     let tmp = tempfile::tempdir().unwrap();
     let dir = RunDir::create(&tmp.path().join("s"), false).unwrap();
@@ -492,6 +494,11 @@ fn the_security_study_tells_who_stops_whom() {
     // One insider's false reports revoke nobody.
     let liar = row("false-reports", "reports");
     assert!(liar.reports >= 30 && liar.revoked.is_empty(), "{liar:?}");
+    // A benign cut-in makes honest followers flag and report a member, which a quorum of two
+    // does not revoke.
+    let benign = row("benign-cut-in", "reports");
+    assert!(benign.reports > 0, "{benign:?}");
+    assert_eq!((benign.revoked.as_str(), benign.false_revocations), ("", 0));
     assert!(s.rows.iter().all(|r| !r.collided), "{:?}", s.rows);
     let doc = std::fs::read_to_string(
         std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../docs/security.md"),

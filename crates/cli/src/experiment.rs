@@ -110,7 +110,8 @@ pub enum Experiment {
     Maneuvers(ManeuversArgs),
     /// Security in the loop (docs/security.md#the-study): attackers (none, an outsider forging
     /// a leave notice, an insider's false data, an insider feigning braking, a Sybil with a
-    /// member's stolen key forging a leave notice, an insider's false reports) against
+    /// member's stolen key forging a leave notice, an insider's false reports, a benign car
+    /// cutting in) against
     /// defences (none, signatures, + a group key, + local detection, + reports and revocation)
     /// by law, on
     /// configs/leave.toml without its own leaves, in process. Writes security.csv (one row per
@@ -152,6 +153,10 @@ pub struct SecurityArgs {
     /// Each run's length (s), over 21 (the insiders lie from 20 s).
     #[arg(long, default_value_t = 40.0)]
     pub duration: f64,
+    /// Seeded repeats of each cell (the radars' noise, the channel's and the uplink's draws,
+    /// the keys); security.md shows each cell's worst case and sums its false revocations.
+    #[arg(long, default_value_t = 1)]
+    pub repeats: u32,
     #[command(flatten)]
     pub output: OutDir,
 }
@@ -459,6 +464,7 @@ fn security(args: SecurityArgs) -> Result<()> {
         defences: args.defences,
         laws: args.laws,
         duration_s: args.duration,
+        repeats: args.repeats,
     };
     experiment::<Security>(opts, None, &args.output, Bar::counting("runs"))
 }

@@ -6,8 +6,9 @@ use super::{
 };
 use crate::progress::Progress;
 use platoon_config::{
-    ActsAsConfig, Config, DetectionConfig, Embedded, FalseReportsConfig, GroupConfig, LawName,
-    LinkAttackConfig, LinkKindConfig, ReportsConfig, SecurityConfig,
+    ActsAsConfig, Config, CutInConfig, CutInHandling, DetectionConfig, Embedded,
+    FalseReportsConfig, GroupConfig, LawName, LinkAttackConfig, LinkKindConfig, ReportsConfig,
+    SecurityConfig,
 };
 use platoon_control::Role;
 use platoon_output::plots;
@@ -19,14 +20,16 @@ use std::fmt::Write as _;
 /// (follower 2) claiming from 20 s to be 3 m further ahead and 1 m/s faster than it is; an
 /// insider (follower 2) feigning a -6 m/s^2 braking from 20 s; a Sybil with follower 4's
 /// stolen key forging a leave notice in follower 3's name at 10 s; an insider (follower 3)
-/// reporting honest follower 1 from 5 s on.
-pub const ATTACKERS: [&str; 6] = [
+/// reporting honest follower 1 from 5 s on; no attacker but a benign car that cuts in ahead of
+/// follower 3 at 25 s, brakes, and leaves the lane at 32 s (whom do honest flags get revoked?).
+pub const ATTACKERS: [&str; 7] = [
     "none",
     "outsider-forgery",
     "insider-false-data",
     "insider-feigned-braking",
     "stolen-key-sybil",
     "false-reports",
+    "benign-cut-in",
 ];
 
 /// The defences of [`security`], each adding to the one before: none (unsigned, no
@@ -47,6 +50,9 @@ pub struct SecurityOptions {
     pub laws: Vec<LawName>,
     /// Each run's length (s, `--duration`), over 20 s (the insiders start lying at 20 s).
     pub duration_s: f64,
+    /// Seeded repeats of each cell (`--repeats`): the radars' noise, the channel's and the
+    /// uplink's draws and the keys.
+    pub repeats: u32,
 }
 
 impl Default for SecurityOptions {
@@ -56,6 +62,7 @@ impl Default for SecurityOptions {
             defences: DEFENCES.iter().map(|d| d.to_string()).collect(),
             laws: vec![LawName::Paper, LawName::PathCacc],
             duration_s: 40.0,
+            repeats: 1,
         }
     }
 }
@@ -78,6 +85,9 @@ impl SecurityOptions {
                  one; use paper, acc, ploeg, path_cacc or flatbed"
             );
         }
+        if self.repeats == 0 {
+            refuse!(Options, "--repeats must be at least 1");
+        }
         if !(self.duration_s.is_finite() && self.duration_s > 21.0) {
             refuse!(
                 Options,
@@ -98,6 +108,8 @@ pub struct SecurityRow {
     pub attacker: String,
     /// The defence ([`DEFENCES`]).
     pub defence: String,
+    /// The repeat (its seeds).
+    pub repeat: u32,
     /// Any vehicle collided (the plant's measure).
     pub collided: bool,
     /// The smallest gap to the vehicle ahead on the lane (m).
@@ -150,15 +162,17 @@ fn measure(base: &Config, opts: &SecurityOptions, progress: &dyn Progress) -> Re
     let mut cells = Vec::new();
     for &law in &opts.laws {
         for attacker in &opts.attackers {
-            cells.extend(opts.defences.iter().map(|d| (law, attacker, d)));
+            for defence in &opts.defences {
+                cells.extend((0..opts.repeats).map(|r| (law, attacker, defence, r)));
+            }
         }
     }
     let rows = walk(
         progress,
         "simulating",
         cells,
-        |(law, attacker, defence)| format!("{}, {attacker}, {defence}", law.name()),
-        |(law, attacker, defence)| cell(&base, law, attacker, defence),
+        |(law, attacker, defence, r)| format!("{}, {attacker}, {defence}, repeat {r}", law.name()),
+        |(law, attacker, defence, r)| cell(&base, law, attacker, defence, r),
     )?;
     let markdown = markdown(&rows);
     Ok(Security { rows, markdown })
@@ -173,9 +187,11 @@ fn lies_from(attacker: &str) -> Option<f64> {
     }
 }
 
-/// `base` under `law` with `attacker` and `defence`.
-fn configured(base: &Config, law: LawName, attacker: &str, defence: &str) -> Config {
+/// `base` under `law` with `attacker` and `defence`, its seeds moved by `repeat`.
+fn configured(base: &Config, law: LawName, attacker: &str, defence: &str, repeat: u32) -> Config {
     let mut c = configure(base, law);
+    c.radar.seed = c.radar.seed.wrapping_add(u64::from(repeat));
+    c.channel.seed = c.channel.seed.wrapping_add(u64::from(repeat));
     let link = |kind, senders: u16, start_s: f64, end_s: f64| LinkAttackConfig {
         kind,
         start_s,
@@ -216,11 +232,28 @@ fn configured(base: &Config, law: LawName, attacker: &str, defence: &str) -> Con
             key_of: Some(4),
             ..link(forged_leave(), 3, 10.0, 10.2)
         }),
+        "benign-cut-in" => {
+            c.cut_ins.push(CutInConfig {
+                at_s: 25.0,
+                ahead_of: 3,
+                gap_m: None,
+                speed_diff_mps: -2.0,
+                decel_mps2: 2.0,
+                brake_s: 1.0,
+                leave_s: Some(32.0),
+                length_m: None,
+                aggressive: false,
+            });
+            c.fallback.cut_in = Some(CutInHandling::default());
+        }
         _ => {}
     }
     let level = DEFENCES.iter().position(|d| *d == defence).unwrap_or(0);
     if level >= 1 {
-        c.security = Some(SecurityConfig::default());
+        c.security = Some(SecurityConfig {
+            seed: u64::from(repeat),
+            ..SecurityConfig::default()
+        });
     }
     if level >= 2 {
         if let Some(s) = &mut c.security {
@@ -253,8 +286,14 @@ fn configured(base: &Config, law: LawName, attacker: &str, defence: &str) -> Con
     c
 }
 
-fn cell(base: &Config, law: LawName, attacker: &str, defence: &str) -> Result<SecurityRow> {
-    let mut c = configured(base, law, attacker, defence);
+fn cell(
+    base: &Config,
+    law: LawName,
+    attacker: &str,
+    defence: &str,
+    repeat: u32,
+) -> Result<SecurityRow> {
+    let mut c = configured(base, law, attacker, defence, repeat);
     let scenario = match platoon_config::to_scenario(&mut c) {
         Ok(s) => s,
         Err(platoon_config::KeyError { key, reason: e }) => refuse!(
@@ -295,6 +334,7 @@ fn cell(base: &Config, law: LawName, attacker: &str, defence: &str) -> Result<Se
         law: law.name(),
         attacker: attacker.to_string(),
         defence: defence.to_string(),
+        repeat,
         collided: summary.safety.collided,
         min_gap_m: summary.safety.min_gap_m,
         max_spacing_error_m,
@@ -315,6 +355,9 @@ fn cell(base: &Config, law: LawName, attacker: &str, defence: &str) -> Result<Se
     })
 }
 
+/// security.md: a row per cell, the worst case over its repeats (collided in any, the
+/// smallest gap, the largest error, refusals and reports, every vehicle revoked in any, the
+/// longest time to revocation, the mean verification load) and the false revocations summed.
 fn markdown(rows: &[SecurityRow]) -> String {
     let mut md = String::from(
         "| law | attacker | defence | collided | min gap (m) | max spacing error (m) | left the lane | refused | verified per step | reports | revoked | time to revocation (s) | false revocations |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
@@ -322,21 +365,33 @@ fn markdown(rows: &[SecurityRow]) -> String {
     for ((law, attacker, defence), same) in
         repeats(rows, |r| (r.law, r.attacker.as_str(), r.defence.as_str()))
     {
-        let r = same[0];
+        let max = |f: fn(&SecurityRow) -> u64| same.iter().map(|r| f(r)).max().unwrap_or(0);
+        let mut revoked: Vec<&str> = Vec::new();
+        for v in same.iter().flat_map(|r| r.revoked.split('+')) {
+            if !v.is_empty() && !revoked.contains(&v) {
+                revoked.push(v);
+            }
+        }
+        let revoked = if revoked.is_empty() {
+            "-".to_string()
+        } else {
+            revoked.join("+")
+        };
+        let time = (same.iter().filter_map(|r| r.time_to_revocation_s))
+            .fold(None, |m: Option<f64>, t| Some(m.map_or(t, |m| m.max(t))));
+        let n = same.len().max(1) as f64;
         let _ = writeln!(
             md,
-            "| {law} | {attacker} | {defence} | {} | {:.2} | {:.2} | {} | {} | {:.2} | {} | {} | {} | {} |",
-            if r.collided { "yes" } else { "no" },
-            r.min_gap_m,
-            r.max_spacing_error_m,
-            r.left_lane,
-            r.refused,
-            r.verified_per_step,
-            r.reports,
-            if r.revoked.is_empty() { "-" } else { &r.revoked },
-            r.time_to_revocation_s
-                .map_or("-".to_string(), |t| format!("{t:.2}")),
-            r.false_revocations,
+            "| {law} | {attacker} | {defence} | {} | {:.2} | {:.2} | {} | {} | {:.2} | {} | {revoked} | {} | {} |",
+            if same.iter().any(|r| r.collided) { "yes" } else { "no" },
+            same.iter().map(|r| r.min_gap_m).fold(f64::INFINITY, f64::min),
+            same.iter().map(|r| r.max_spacing_error_m).fold(0.0, f64::max),
+            max(|r| r.left_lane as u64),
+            max(|r| r.refused),
+            same.iter().map(|r| r.verified_per_step).sum::<f64>() / n,
+            max(|r| r.reports),
+            time.map_or("-".to_string(), |t| format!("{t:.2}")),
+            same.iter().map(|r| r.false_revocations).sum::<usize>(),
         );
     }
     md
@@ -347,10 +402,11 @@ impl Security {
         write_table(dir, "security", &self.rows, &self.markdown)?;
         for attacker in &opts.attackers {
             let groups = bars_by_law(&opts.laws, &opts.defences, |law, d| {
-                self.rows
-                    .iter()
-                    .find(|r| r.attacker == *attacker && r.law == law && r.defence == d)
-                    .map_or(0.0, |r| r.min_gap_m.max(0.0))
+                (self.rows.iter())
+                    .filter(|r| r.attacker == *attacker && r.law == law && r.defence == d)
+                    .map(|r| r.min_gap_m.max(0.0))
+                    .reduce(f64::min)
+                    .unwrap_or(0.0)
             });
             plots::grouped_bars(
                 &dir.path(&format!("security-{attacker}.png")),
