@@ -44,6 +44,7 @@ pub use detection::{
 };
 pub use maneuvers::{
     maneuvers, Maneuvers, ManeuversOptions, ManeuversRow, ATTACKS as MANEUVER_ATTACKS, MANEUVERS,
+    SECURITY as MANEUVER_SECURITY,
 };
 pub use robust::*;
 pub use scaling::*;

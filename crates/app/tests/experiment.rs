@@ -390,6 +390,7 @@ fn maneuvers_score_each_outcome_and_the_consensus_law_refuses_leaves() {
         laws: vec![LawName::PathCacc, LawName::Consensus],
         attacks: vec!["none".into(), "forge".into(), "jam".into()],
         repeats: 1,
+        security: "none".into(),
     };
     let tmp = tempfile::tempdir().unwrap();
     let dir = RunDir::create(&tmp.path().join("m"), false).unwrap();
@@ -437,6 +438,36 @@ fn maneuvers_score_each_outcome_and_the_consensus_law_refuses_leaves() {
         .unwrap_err()
         .to_string()
         .contains("paper's law"));
+}
+
+/// The maneuver attacks measured again signed (issue 52 item 3): the forged leave notice is a
+/// thief's, signed with follower 2's stolen key, so signatures take it and the platoon ejects
+/// follower 1 as unsigned; a group key on the maneuver messages refuses it, and only the
+/// leaver leaves. A group key with a merge or a split is refused, naming the way out.
+#[test]
+fn a_group_key_stops_the_forged_maneuver_that_signatures_take() {
+    use platoon_config::LawName;
+    let opts = |security: &str| experiment::ManeuversOptions {
+        maneuvers: vec!["leave".into()],
+        laws: vec![LawName::PathCacc],
+        attacks: vec!["forge".into()],
+        repeats: 1,
+        security: security.into(),
+    };
+    let outcome = |security: &str| {
+        let m = experiment::maneuvers(&opts(security), None, &()).unwrap();
+        let r = &m.rows[0];
+        assert!(m.markdown.contains("V2V security") == (security != "none"));
+        (r.outcome, r.left_lane)
+    };
+    assert_eq!(outcome("signatures"), ("completed", 2));
+    assert_eq!(outcome("group"), ("completed", 1));
+    let regroup = experiment::ManeuversOptions {
+        maneuvers: vec!["leave".into(), "merge".into()],
+        ..opts("group")
+    };
+    let e = regroup.validate().unwrap_err().to_string();
+    assert!(e.contains("--security group") && e.contains("merge"), "{e}");
 }
 
 /// `experiment security` on a reduced grid (the paper's law; an outsider's forged leave

@@ -10,7 +10,7 @@ use platoon_app::experiment::{
     DetectionOptions, Intensity, Maneuvers, ManeuversOptions, Robust, RobustOptions, Scaling,
     ScalingOptions, Security, SecurityOptions, Table1, Topologies, TopologiesOptions, Traffic,
     TrafficOptions, DETECTION_ATTACKS, DETECTION_REACTIONS, DETECTORS, MANEUVERS, MANEUVER_ATTACKS,
-    SECURITY_ATTACKERS, SECURITY_DEFENCES, TRAFFIC_ATTACKS,
+    MANEUVER_SECURITY, SECURITY_ATTACKERS, SECURITY_DEFENCES, TRAFFIC_ATTACKS,
 };
 use platoon_config::LawName;
 use platoon_control::Reaction;
@@ -249,6 +249,15 @@ pub struct ManeuversArgs {
     /// Seeded repeats of each cell (the radars' noise and the channel's losses).
     #[arg(long, default_value_t = 3)]
     pub repeats: u32,
+    /// The runs' V2V security: none (unsigned), signatures ([security]), or group (signatures
+    /// and a group key on the maneuver messages, [security.group]; not with merge or split).
+    /// Signed, the forged messages are a thief's, signed with follower 2's stolen key.
+    #[arg(
+        long,
+        value_parser = PossibleValuesParser::new(MANEUVER_SECURITY),
+        default_value = "none"
+    )]
+    pub security: String,
     #[command(flatten)]
     pub output: OutDir,
 }
@@ -509,6 +518,7 @@ fn maneuvers(args: ManeuversArgs) -> Result<()> {
         laws: args.laws,
         attacks: args.attacks,
         repeats: args.repeats,
+        security: args.security,
     };
     experiment::<Maneuvers>(opts, None, &args.output, Bar::counting("runs"))
 }

@@ -780,7 +780,9 @@ pub fn layouts() -> Vec<Layout> {
                 maneuver_vehicle,
                 maneuver_behind,
                 seal_len,
-                seal
+                seal,
+                group_len,
+                group
             ]
         ),
         layout!(LinkPacket, [receiver, kind, packet]),
