@@ -157,6 +157,12 @@ pub struct SecurityArgs {
     /// the keys); security.md shows each cell's worst case and sums its false revocations.
     #[arg(long, default_value_t = 1)]
     pub repeats: u32,
+    /// Run on the 802.11p channel with this density of other traffic (vehicles/m, e.g. 0.06;
+    /// the model's other parameters its defaults): the packets are as large on the air as
+    /// signing and the group key make them, and security.md says how many arrived. Default:
+    /// the ideal radio.
+    #[arg(long, value_name = "VEH_PER_M")]
+    pub radio_density: Option<f64>,
     #[command(flatten)]
     pub output: OutDir,
 }
@@ -474,6 +480,7 @@ fn security(args: SecurityArgs) -> Result<()> {
         laws: args.laws,
         duration_s: args.duration,
         repeats: args.repeats,
+        radio_density: args.radio_density,
     };
     experiment::<Security>(opts, None, &args.output, Bar::counting("runs"))
 }

@@ -248,13 +248,18 @@ impl Controller for ComposedController {
         for (j, d) in rx.iter().enumerate() {
             // The seal first (`[security]`): a refused packet goes nowhere. The leader acts on
             // every packet it hears (its maneuver machine, its checks of maneuver messages).
-            let membership = self.maneuvers.as_ref().map_or((true, true), |m| {
-                let (to, from) = (d.receiver, d.packet.sender);
-                (
-                    to.is_leader() || !m.machines.has_left(to),
-                    m.machines.counts_as_member(to, from),
-                )
-            });
+            // Who is in the platoon, as the receiver knows it (the group key's checks only).
+            let grouped = self.checks.security().is_some_and(|s| s.group.is_some());
+            let membership = match self.maneuvers.as_ref().filter(|_| grouped) {
+                None => (true, true),
+                Some(m) => {
+                    let (to, from) = (d.receiver, d.packet.sender);
+                    (
+                        to.is_leader() || !m.machines.has_left(to),
+                        m.machines.counts_as_member(to, from),
+                    )
+                }
+            };
             if !self.checks.authenticate(k, d, membership)
                 || (d.receiver.is_leader() && !self.checks.confirm(k, d))
             {

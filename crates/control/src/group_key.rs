@@ -254,10 +254,12 @@ impl Grouping {
         } else if let Some(h) = self.holders.get_mut(receiver.index() - 1) {
             if let Some((m, wrapped)) = field.wrapped {
                 if m == u32::from(receiver.0) && p.sender.is_leader() {
-                    // A renewal for a member; for a joiner, the accept's key. A wrap that
-                    // does not open, or an old one replayed, changes nothing.
-                    let _ = match (h.key().is_ok(), field.share, body) {
-                        (false, Some(share), Some(Body::JoinAccept { .. })) => {
+                    // An accept's key (agreed again if the joiner asked again after a join
+                    // called off), or a renewal for a member. A wrap that does not open, or
+                    // one older than the key held, changes nothing.
+                    let held = h.key().map_or(0, |k| k.epoch());
+                    let _ = match (field.share, body) {
+                        (Some(share), Some(Body::JoinAccept { .. })) if wrapped.epoch >= held => {
                             h.admitted(&share, &wrapped)
                         }
                         _ => h.renew(&wrapped),

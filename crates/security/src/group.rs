@@ -677,4 +677,15 @@ mod tests {
         assert_eq!(GroupField::decode(&[8]), Err(Refusal::Malformed));
         assert_eq!(fields[3].encode().len(), GROUP_FIELD_LEN);
     }
+
+    proptest::proptest! {
+        /// Whatever bytes a packet's group fields hold, decoding them never panics, and what
+        /// decodes encodes back to the same bytes.
+        #[test]
+        fn decoding_any_group_bytes_never_panics(bytes in proptest::collection::vec(proptest::prelude::any::<u8>(), 0..130)) {
+            if let Ok(field) = GroupField::decode(&bytes) {
+                proptest::prop_assert_eq!(field.encode(), bytes);
+            }
+        }
+    }
 }

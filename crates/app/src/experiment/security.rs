@@ -53,6 +53,11 @@ pub struct SecurityOptions {
     /// Seeded repeats of each cell (`--repeats`): the radars' noise, the channel's and the
     /// uplink's draws and the keys.
     pub repeats: u32,
+    /// On the 802.11p channel with this density of other traffic (vehicles/m,
+    /// `--radio-density`; the model's other parameters its defaults, the load the scenario's):
+    /// the packets are as large on the air as signing and the group key make them. `None`:
+    /// the ideal radio.
+    pub radio_density: Option<f64>,
 }
 
 impl Default for SecurityOptions {
@@ -63,6 +68,7 @@ impl Default for SecurityOptions {
             laws: vec![LawName::Paper, LawName::PathCacc],
             duration_s: 40.0,
             repeats: 1,
+            radio_density: None,
         }
     }
 }
@@ -87,6 +93,14 @@ impl SecurityOptions {
         }
         if self.repeats == 0 {
             refuse!(Options, "--repeats must be at least 1");
+        }
+        if let Some(d) = self.radio_density {
+            if !(d.is_finite() && d >= 0.0) {
+                refuse!(
+                    Options,
+                    "--radio-density must be a density >= 0 (vehicles/m), got {d}"
+                );
+            }
         }
         if !(self.duration_s.is_finite() && self.duration_s > 21.0) {
             refuse!(
@@ -130,6 +144,12 @@ pub struct SecurityRow {
     pub time_to_revocation_s: Option<f64>,
     /// Revocations of vehicles whose key signed no lie (the ground truth).
     pub false_revocations: usize,
+    /// A packet's size on the air, as the 802.11p model takes it (bytes: the configured size
+    /// and what security adds; 0 on the ideal radio).
+    pub packet_bytes: u32,
+    /// The share of the deliveries the channel owed that arrived as sent (the wire's count:
+    /// losses on the air, refused or altered packets excluded).
+    pub delivered_share: f64,
 }
 
 /// [`security`]'s result.
@@ -172,7 +192,7 @@ fn measure(base: &Config, opts: &SecurityOptions, progress: &dyn Progress) -> Re
         "simulating",
         cells,
         |(law, attacker, defence, r)| format!("{}, {attacker}, {defence}, repeat {r}", law.name()),
-        |(law, attacker, defence, r)| cell(&base, law, attacker, defence, r),
+        |(law, attacker, defence, r)| cell(&base, law, (attacker, defence), r, opts.radio_density),
     )?;
     let markdown = markdown(&rows);
     Ok(Security { rows, markdown })
@@ -187,9 +207,23 @@ fn lies_from(attacker: &str) -> Option<f64> {
     }
 }
 
-/// `base` under `law` with `attacker` and `defence`, its seeds moved by `repeat`.
-fn configured(base: &Config, law: LawName, attacker: &str, defence: &str, repeat: u32) -> Config {
+/// `base` under `law` with `attacker` and `defence`, its seeds moved by `repeat`, on the
+/// 802.11p channel with `radio_density` of other traffic.
+fn configured(
+    base: &Config,
+    law: LawName,
+    (attacker, defence): (&str, &str),
+    repeat: u32,
+    radio_density: Option<f64>,
+) -> Config {
     let mut c = configure(base, law);
+    if let Some(density_veh_per_m) = radio_density {
+        c.channel.model = platoon_config::RadioModel::Ieee80211p;
+        c.channel.radio = Some(platoon_radio::Params80211p {
+            density_veh_per_m,
+            ..Default::default()
+        });
+    }
     c.radar.seed = c.radar.seed.wrapping_add(u64::from(repeat));
     c.channel.seed = c.channel.seed.wrapping_add(u64::from(repeat));
     let link = |kind, senders: u16, start_s: f64, end_s: f64| LinkAttackConfig {
@@ -289,11 +323,11 @@ fn configured(base: &Config, law: LawName, attacker: &str, defence: &str, repeat
 fn cell(
     base: &Config,
     law: LawName,
-    attacker: &str,
-    defence: &str,
+    (attacker, defence): (&str, &str),
     repeat: u32,
+    radio_density: Option<f64>,
 ) -> Result<SecurityRow> {
-    let mut c = configured(base, law, attacker, defence, repeat);
+    let mut c = configured(base, law, (attacker, defence), repeat, radio_density);
     let scenario = match platoon_config::to_scenario(&mut c) {
         Ok(s) => s,
         Err(platoon_config::KeyError { key, reason: e }) => refuse!(
@@ -352,6 +386,13 @@ fn cell(
             .iter()
             .filter(|r| r.signed_a_lie == Some(false))
             .count(),
+        packet_bytes: scenario
+            .radio
+            .as_ref()
+            .map_or(0, |r| r.family.params().packet_bytes),
+        delivered_share: summary.wire.as_ref().map_or(f64::NAN, |w| {
+            w.totals.delivered_as_sent as f64 / w.totals.sent.max(1) as f64
+        }),
     })
 }
 
@@ -393,6 +434,21 @@ fn markdown(rows: &[SecurityRow]) -> String {
             time.map_or("-".to_string(), |t| format!("{t:.2}")),
             same.iter().map(|r| r.false_revocations).sum::<usize>(),
         );
+    }
+    if rows.iter().any(|r| r.packet_bytes > 0) {
+        md.push_str(
+            "\nOn the 802.11p channel (the worst delivery over the repeats):\n\n| law | attacker | defence | packet on the air (bytes) | delivered as sent |\n|---|---|---|---|---|\n",
+        );
+        for ((law, attacker, defence), same) in
+            repeats(rows, |r| (r.law, r.attacker.as_str(), r.defence.as_str()))
+        {
+            let _ = writeln!(
+                md,
+                "| {law} | {attacker} | {defence} | {} | {:.4} |",
+                same[0].packet_bytes,
+                same.iter().map(|r| r.delivered_share).fold(1.0, f64::min),
+            );
+        }
     }
     md
 }
