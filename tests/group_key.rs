@@ -163,3 +163,34 @@ fn an_insider_still_tags_its_lies() {
     let (signed, _) = run(&format!("{}\n[security]\n", without_leaves(insider)));
     assert!(same(&rows, &signed), "as they act signed without a key");
 }
+
+/// The group fields cross Python intact (contract v7's `V2vPacket.group` in `platoon.wire`):
+/// a Python injector that forwards every packet of a run whose every beacon carries a tag
+/// (`mac = "all"`, with a join that agrees a key over the wire) gives the in-process run
+/// without attacks, byte for byte, and nothing is refused.
+#[test]
+fn the_group_fields_cross_a_python_injector_intact() {
+    let setup = repo().join("bridge/setup-venv.sh");
+    let o = std::process::Command::new(&setup).output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let injector = format!(
+        "{} {}",
+        repo().join("bridge/.venv/bin/python").display(),
+        repo().join("bridge/examples/drop_sender.py").display()
+    );
+    let tmp = tempfile::tempdir().unwrap();
+    let text = grouped(&config("join"), "all").replace("duration_s = 70.0", "duration_s = 30.0");
+    assert!(text.contains("duration_s = 30.0"));
+    std::fs::write(tmp.path().join("join.toml"), &text).unwrap();
+    let path = tmp.path().join("join.toml");
+    common::run_config(&path, "py", &["--injector", &injector], tmp.path());
+    common::run_config(&path, "rust", &["--transport", "inproc"], tmp.path());
+    for f in ["trajectories.csv", "events.csv"] {
+        let a = std::fs::read(tmp.path().join("py").join(f)).unwrap();
+        let b = std::fs::read(tmp.path().join("rust").join(f)).unwrap();
+        assert!(a == b, "{f} differs behind the Python injector");
+    }
+    let summary = common::json(&tmp.path().join("py/summary.json"));
+    assert_eq!(summary["security"]["refused_total"], 0);
+    assert!(summary["security"]["group"]["tagged"].as_u64().unwrap() > 1000);
+}
