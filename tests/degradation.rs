@@ -331,3 +331,53 @@ fn an_unused_radar_does_not_constrain_the_step() {
     let err = parse(&with_guard, Path::new("coarse.toml")).unwrap_err();
     assert!(err.to_string().contains("radar.period_s"), "{err}");
 }
+
+/// `[fallback] silence_s`: a link that delivers nothing (every packet of follower 1 lost from
+/// 21 s on, no jam anyone notices; follower 2 left at 20 s, so follower 3 follows it) leaves
+/// follower 3 steering on the last packet it took, and when the leader brakes at 35 s it comes
+/// within a metre of follower 1 (the guard stops it). With `silence_s` follower 3 notices the
+/// silence, is affected and drives on its radar's ACC: the smallest gap on the lane stays
+/// several metres. A benign run with the leaves of `configs/leave.toml` is the same with and
+/// without it (nobody falls silent there).
+#[test]
+fn a_silent_predecessor_is_noticed_with_silence_s() {
+    let leave = std::fs::read_to_string(repo().join("configs/leave.toml")).unwrap();
+    let second = leave
+        .match_indices("[[maneuvers.leaves]]")
+        .nth(1)
+        .unwrap()
+        .0;
+    let lost = format!(
+        "{}\n[[channel.attacks]]\nkind = \"bernoulli\"\nloss = 1.0\nsenders = [1]\nstart_s = 21.0\n",
+        &leave[..second]
+    );
+    let silent =
+        |text: &str| text.replace("closing_mps = 2.0", "closing_mps = 2.0\nsilence_s = 0.3");
+    assert!(silent(&lost).contains("silence_s = 0.3"));
+    let scenario = |text: &str| parse(text, Path::new("silence.toml")).unwrap().1;
+    let (_, unnoticed) = run_rows(scenario(&lost));
+    assert!(
+        unnoticed.safety.min_gap_m < 1.0,
+        "{}",
+        unnoticed.safety.min_gap_m
+    );
+    let (rows, noticed) = run_rows(scenario(&silent(&lost)));
+    assert!(
+        noticed.safety.min_gap_m > 5.0,
+        "{}",
+        noticed.safety.min_gap_m
+    );
+    assert!(!noticed.safety.collided);
+    let follower_3 = |r: &&StepRow| r.vehicle == 3 && r.step > 2200;
+    assert!(rows.iter().filter(follower_3).all(|r| r.affected));
+    let (plain, _) = run_rows(scenario(&leave));
+    let (kept, _) = run_rows(scenario(&silent(&leave)));
+    assert!(
+        plain.len() == kept.len()
+            && (plain.iter().zip(&kept)).all(|(a, b)| format!("{a:?}") == format!("{b:?}")),
+        "a benign run changed"
+    );
+    let zero = silent(&leave).replace("silence_s = 0.3", "silence_s = 0.0");
+    let err = parse(&zero, Path::new("bad.toml")).unwrap_err();
+    assert!(err.to_string().contains("fallback.silence_s"), "{err}");
+}

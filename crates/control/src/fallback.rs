@@ -424,6 +424,11 @@ pub struct FallbackParams {
     /// Each vehicle's own length (m), leader first, with vehicle classes (`[vehicle_classes]`);
     /// empty: every vehicle is `vehicle_length` long.
     pub lengths: Vec<f64>,
+    /// A follower whose law reads V2V is affected when the vehicle it follows, or its leader,
+    /// has had no packet accepted for more than this many steps (`[fallback] silence_s`): a
+    /// link that delivers nothing, or whose packets are all refused, as a jammed channel is.
+    /// `None`: silence goes unnoticed (the law steers on what it last took).
+    pub silence_steps: Option<u32>,
 }
 
 impl Default for FallbackParams {
@@ -441,6 +446,7 @@ impl Default for FallbackParams {
             cut_in: None,
             vehicle_length: 0.0,
             lengths: Vec::new(),
+            silence_steps: None,
         }
     }
 }

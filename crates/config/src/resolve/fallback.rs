@@ -78,6 +78,10 @@ pub(crate) fn fallback(
         },
         vehicle_length,
         lengths: Vec::new(),
+        silence_steps: f
+            .silence_s
+            .map(|x| steps_of("fallback.silence_s", x, dt))
+            .transpose()?,
     };
     params
         .validate(c.platoon.followers)

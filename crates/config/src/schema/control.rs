@@ -85,6 +85,14 @@ pub struct FallbackConfig {
     /// absent: it does not tell a cut-in from its predecessor.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub cut_in: Option<CutInHandling>,
+    /// A follower whose law reads V2V is affected (it applies its fallback, as on a jammed
+    /// channel) when the vehicle it follows, or its leader, has had no packet accepted for
+    /// longer than this (s, > 0): a link that delivers nothing, or whose packets are all
+    /// refused. For periodic beaconing (set it above the beacon period); under event
+    /// triggering a neighbour is silent by design between its events. Absent: silence goes
+    /// unnoticed and the law steers on the last packet it took.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub silence_s: Option<f64>,
 }
 
 /// `[fallback.cut_in]`: how a follower handles a vehicle that cut in ahead of it.
@@ -286,6 +294,7 @@ impl Default for FallbackConfig {
             closing_mps: d.closing_mps,
             acc: d.acc,
             cut_in: None,
+            silence_s: None,
         }
     }
 }

@@ -219,7 +219,9 @@ impl Follower {
             .triggering()
             .is_some_and(|t| t.attacked(k, self.step.triggered, s.jammed[self.id.index()]));
         let jammed = s.jammed[self.id.index()] || attacked;
-        let affected = (jammed || s.checks.distrusts(self.id, k)) && law.uses_v2v() && member;
+        let affected = (jammed || s.checks.distrusts(self.id, k) || self.silent(s))
+            && law.uses_v2v()
+            && member;
         let beside = s.man.is_some_and(|m| m.beside(self.id));
         let situation = Situation {
             k,
@@ -384,6 +386,22 @@ impl Follower {
     /// Its law's command on what it knows. The law follows a virtual vehicle `offset` behind
     /// the one ahead, moving with the offset: its gap, closing speed and packet are the ahead
     /// vehicle's, shifted.
+    /// Whether the vehicle it follows, or its leader, has had no packet accepted for longer
+    /// than `[fallback] silence_s` (never without it; the leader is not counted when it is the
+    /// vehicle followed already, or when this follower does not hear it).
+    fn silent(&self, s: &Shared<'_>) -> bool {
+        let Some(n) = s.parts.fallback.silence_steps else {
+            return false;
+        };
+        let quiet = |j: VehicleId| {
+            s.checks
+                .heard_from(self.id, j)
+                .is_some_and(|h| s.k.saturating_sub(h.step.unwrap_or(0)) > u64::from(n))
+        };
+        quiet(self.targets.ahead)
+            || (self.targets.head != self.targets.ahead && quiet(self.targets.head))
+    }
+
     fn law_command(
         &self,
         law: &mut dyn Law,
