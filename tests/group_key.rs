@@ -7,18 +7,9 @@ use crate::common;
 
 use common::maneuvers::{nothing, of, run_with, Log};
 use common::repo;
-use platoon_control::{Role, SealCounts};
-use platoon_sim::{Scenario, StepRow};
-
-fn config(name: &str) -> String {
-    std::fs::read_to_string(repo().join(format!("configs/{name}.toml"))).unwrap()
-}
-
-fn scenario(text: &str) -> Scenario {
-    platoon_config::parse(text, std::path::Path::new("group.toml"))
-        .unwrap()
-        .1
-}
+use common::signed::{config, refused, same, scenario};
+use platoon_control::Role;
+use platoon_sim::StepRow;
 
 fn run(text: &str) -> (Vec<StepRow>, Log) {
     run_with(scenario(text), |_, _| false, nothing)
@@ -27,17 +18,6 @@ fn run(text: &str) -> (Vec<StepRow>, Log) {
 /// `text` signed, with a group key protecting `mac`.
 fn grouped(text: &str, mac: &str) -> String {
     format!("{text}\n[security]\n\n[security.group]\nmac = \"{mac}\"\n")
-}
-
-fn refused(seals: &SealCounts, name: &str) -> u64 {
-    seals.by_reason().find(|(n, _)| *n == name).unwrap().1
-}
-
-fn same(a: &[StepRow], b: &[StepRow]) -> bool {
-    a.len() == b.len()
-        && a.iter()
-            .zip(b)
-            .all(|(x, y)| format!("{x:?}") == format!("{y:?}"))
 }
 
 /// `configs/leave.toml` without its leaves, 30 s, with `attacks`.

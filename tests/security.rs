@@ -8,40 +8,17 @@
 use crate::common;
 
 use common::maneuvers::{forged_to_leader, nothing, of, run_with, Log, FAKE_JOIN_REQUEST};
-use common::repo;
+use common::signed::{config, refused, same, scenario};
 use platoon_attacks::inject::Step;
 use platoon_control::security::{Sealing, SecurityParams};
-use platoon_control::{Delivery, Role, SealCounts};
+use platoon_control::{Delivery, Role};
 use platoon_maneuver::Body;
 use platoon_model::VehicleId;
-use platoon_sim::{Scenario, StepRow};
-
-fn config(name: &str) -> String {
-    std::fs::read_to_string(repo().join(format!("configs/{name}.toml"))).unwrap()
-}
-
-fn scenario(text: &str) -> Scenario {
-    platoon_config::parse(text, std::path::Path::new("signed.toml"))
-        .unwrap()
-        .1
-}
+use platoon_sim::StepRow;
 
 /// `text` with `[security]` (its keys `keys`) at its end.
 fn signed(text: &str, keys: &str) -> String {
     format!("{text}\n[security]\n{keys}")
-}
-
-/// The refusals of `seals` by name.
-fn refused(seals: &SealCounts, name: &str) -> u64 {
-    seals.by_reason().find(|(n, _)| *n == name).unwrap().1
-}
-
-/// Whether two runs' rows are the same bit for bit (NaN included: a radar without a target).
-fn same(a: &[StepRow], b: &[StepRow]) -> bool {
-    a.len() == b.len()
-        && a.iter()
-            .zip(b)
-            .all(|(x, y)| format!("{x:?}") == format!("{y:?}"))
 }
 
 /// Runs `text` (written as `name` in `dir`) over iceoryx2 (into `ipc`) and in process (into

@@ -3,6 +3,7 @@
 use std::path::{Path, PathBuf};
 
 pub mod maneuvers;
+pub mod signed;
 use std::collections::HashMap;
 use std::process::{Command, Output};
 use std::sync::Mutex;

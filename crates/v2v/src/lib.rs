@@ -47,41 +47,10 @@ pub struct Packet {
     pub group: Option<GroupSeal>,
 }
 
-/// The bytes of a packet's group-key fields: a fixed buffer and its length, so that a packet
-/// stays `Copy`. Opaque here; `platoon-security` encodes and checks them.
-#[derive(Clone, Copy, PartialEq, Eq)]
-pub struct GroupSeal {
-    len: u8,
-    bytes: [u8; GroupSeal::CAPACITY],
-}
-
-impl GroupSeal {
-    /// The room for the fields (bytes): the longest encoding
-    /// (`platoon_security::GROUP_FIELD_LEN`, 110, checked where the two meet), to the wire
-    /// packet's 8-byte alignment.
-    pub const CAPACITY: usize = 116;
-
-    /// Group fields of `bytes` (`None` if longer than [`GroupSeal::CAPACITY`]).
-    pub fn new(bytes: &[u8]) -> Option<Self> {
-        let mut out = [0; Self::CAPACITY];
-        out.get_mut(..bytes.len())?.copy_from_slice(bytes);
-        Some(Self {
-            len: bytes.len() as u8,
-            bytes: out,
-        })
-    }
-
-    /// Its bytes.
-    pub fn as_bytes(&self) -> &[u8] {
-        &self.bytes[..usize::from(self.len)]
-    }
-}
-
-impl std::fmt::Debug for GroupSeal {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "GroupSeal({} bytes)", self.len)
-    }
-}
+/// The bytes of a packet's group-key fields (`platoon_security::GroupField`, the longest
+/// `platoon_security::GROUP_FIELD_LEN` = 110 bytes, checked where the two meet), in room to
+/// the wire packet's 8-byte alignment.
+pub type GroupSeal = Opaque<116>;
 
 /// What a packet's sender signs ([`Packet::signed_bytes`]): its payload, then its group-key
 /// fields if it has any. Reads as a byte slice.
@@ -98,22 +67,27 @@ impl std::ops::Deref for SignedBytes {
     }
 }
 
-/// The bytes of a security header riding on a [`Packet`]: a fixed buffer and its length, so
-/// that a packet stays `Copy`. Opaque here; `platoon-security` encodes and checks them.
+/// The bytes of a security header riding on a [`Packet`]: the longest is a header that carries
+/// its signer's certificate (`platoon_security::CERTIFICATE_HEADER_LEN`, checked where the two
+/// meet).
+pub type Seal = Opaque<196>;
+
+/// Bytes riding on a [`Packet`] that this crate does not read (a [`Seal`], a [`GroupSeal`]): a
+/// buffer of `N` bytes and the length used, so that a packet stays `Copy`. `platoon-security`
+/// encodes and checks them.
 #[derive(Clone, Copy, PartialEq, Eq)]
-pub struct Seal {
+pub struct Opaque<const N: usize> {
     len: u8,
-    bytes: [u8; Seal::CAPACITY],
+    bytes: [u8; N],
 }
 
-impl Seal {
-    /// The longest seal (bytes): a header that carries its signer's certificate
-    /// (`platoon_security::CERTIFICATE_HEADER_LEN`, checked where the two meet).
-    pub const CAPACITY: usize = 196;
+impl<const N: usize> Opaque<N> {
+    /// The room (bytes).
+    pub const CAPACITY: usize = N;
 
-    /// A seal of `bytes` (`None` if longer than [`Seal::CAPACITY`]).
+    /// `bytes` (`None` if longer than [`Opaque::CAPACITY`]).
     pub fn new(bytes: &[u8]) -> Option<Self> {
-        let mut out = [0; Self::CAPACITY];
+        let mut out = [0; N];
         out.get_mut(..bytes.len())?.copy_from_slice(bytes);
         Some(Self {
             len: bytes.len() as u8,
@@ -127,9 +101,9 @@ impl Seal {
     }
 }
 
-impl std::fmt::Debug for Seal {
+impl<const N: usize> std::fmt::Debug for Opaque<N> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "Seal({} bytes)", self.len)
+        write!(f, "Opaque({} of {N} bytes)", self.len)
     }
 }
 
