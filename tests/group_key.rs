@@ -127,6 +127,15 @@ fn a_join_agrees_the_key_and_every_leave_renews_it() {
             "{v} left"
         );
     }
+    // Pseudonym changes every 5 s break nothing: membership and the group key go by the
+    // platoon's slots, not by the pseudonyms that sign.
+    let changing = grouped(&leave, "maneuvers")
+        .replace("[security]\n", "[security]\npseudonym_change_s = 5.0\n");
+    assert!(changing.contains("pseudonym_change_s = 5.0"));
+    let (changed, log) = run(&changing);
+    let seals = log.seals.unwrap();
+    assert_eq!((seals.renewals, seals.refused_total()), (leaves as u64, 0));
+    assert!(same(&changed, &rows), "the same run as with one pseudonym");
 }
 
 /// An insider is a member: it holds the group key, so its lies (false data on its beacons,
