@@ -334,8 +334,8 @@ fn an_unused_radar_does_not_constrain_the_step() {
 
 /// `[fallback] silence_s`: a link that delivers nothing (every packet of follower 1 lost from
 /// 21 s on, no jam anyone notices; follower 2 left at 20 s, so follower 3 follows it) leaves
-/// follower 3 steering on the last packet it took, and when the leader brakes at 35 s it comes
-/// within a metre of follower 1 (the guard stops it). With `silence_s` follower 3 notices the
+/// follower 3 steering on the last packet it took, and it comes within a metre of follower
+/// 1 (the guard stops it). With `silence_s` follower 3 notices the
 /// silence, is affected and drives on its radar's ACC: the smallest gap on the lane stays
 /// several metres. A benign run with the leaves of `configs/leave.toml` is the same with and
 /// without it (nobody falls silent there).
