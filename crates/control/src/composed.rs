@@ -245,11 +245,11 @@ impl Controller for ComposedController {
         if let Some(man) = self.maneuvers.as_mut() {
             man.begin_step();
         }
+        let grouped = self.checks.security().is_some_and(|s| s.group.is_some());
         for (j, d) in rx.iter().enumerate() {
             // The seal first (`[security]`): a refused packet goes nowhere. The leader acts on
             // every packet it hears (its maneuver machine, its checks of maneuver messages).
             // Who is in the platoon, as the receiver knows it (the group key's checks only).
-            let grouped = self.checks.security().is_some_and(|s| s.group.is_some());
             let membership = match self.maneuvers.as_ref().filter(|_| grouped) {
                 None => (true, true),
                 Some(m) => {

@@ -13,6 +13,7 @@ use platoon_control::{Delivery, Packet};
 use platoon_maneuver::{Body, Change, Message, Refusal, EVERYONE};
 use platoon_model::{State, VehicleId};
 use platoon_sim::Scenario;
+use platoon_v2v::Opaque;
 use platoon_wire::{
     ControlMsg, LinkPacket, Node, Service, TrafficVehicle, V2vPacket, VehicleState,
 };
@@ -392,7 +393,7 @@ pub fn link_from_wire(it: &LinkPacket, num: Numbering) -> Option<(usize, Vehicle
 
 /// A packet of platoon `j` onto the wire: sender and head as wire ids.
 pub fn packet_to_wire(p: &Packet, stamp_ns: u64, j: usize, num: Numbering) -> V2vPacket {
-    V2vPacket {
+    let mut wire = V2vPacket {
         sender: num.global(j, p.sender),
         seq: p.seq,
         step: p.step,
@@ -405,62 +406,37 @@ pub fn packet_to_wire(p: &Packet, stamp_ns: u64, j: usize, num: Numbering) -> V2
         } else {
             num.global(j, p.head)
         },
-        ..group_to_wire(
-            p.group.as_ref(),
-            seal_to_wire(
-                p.seal.as_ref(),
-                maneuver_to_wire(p.maneuver.as_ref(), j, num),
-            ),
-        )
+        ..maneuver_to_wire(p.maneuver.as_ref(), j, num)
+    };
+    opaque_to_wire(p.seal.as_ref(), &mut wire.seal_len, &mut wire.seal);
+    opaque_to_wire(p.group.as_ref(), &mut wire.group_len, &mut wire.group);
+    wire
+}
+
+/// Opaque bytes riding on a packet (its seal, its group-key fields) into a wire buffer and its
+/// length field (none: both left 0).
+fn opaque_to_wire<const N: usize>(o: Option<&Opaque<N>>, len: &mut u32, buf: &mut [u8; N]) {
+    if let Some(o) = o {
+        let bytes = o.as_bytes();
+        *len = bytes.len() as u32;
+        buf[..bytes.len()].copy_from_slice(bytes);
     }
 }
 
-/// `packet` with `group` in its group-key fields (none: left 0).
-fn group_to_wire(group: Option<&platoon_v2v::GroupSeal>, mut packet: V2vPacket) -> V2vPacket {
-    if let Some(g) = group {
-        let bytes = g.as_bytes();
-        packet.group_len = bytes.len() as u32;
-        packet.group[..bytes.len()].copy_from_slice(bytes);
+/// Opaque bytes off the wire: none when `len` is 0. A length beyond the buffer says the bytes
+/// are longer than any the sender makes: they become `overlong`, which the receiver refuses
+/// as `malformed` whatever the buffer holds; never a panic.
+fn opaque_from_wire<const N: usize>(len: u32, buf: &[u8; N], overlong: &[u8]) -> Option<Opaque<N>> {
+    let len = len as usize;
+    if len > N {
+        return Opaque::new(overlong);
     }
-    packet
-}
-
-/// The group-key fields a wire packet carries: none when `group_len` is 0. A length beyond
-/// the buffer becomes [`OVERLONG_GROUP`], which the receiver refuses as `malformed`; never a
-/// panic.
-fn group_from_wire(p: &V2vPacket) -> Option<platoon_v2v::GroupSeal> {
-    let len = p.group_len as usize;
-    if len > V2vPacket::GROUP_CAPACITY {
-        return platoon_v2v::GroupSeal::new(&OVERLONG_GROUP);
-    }
-    (len > 0).then(|| platoon_v2v::GroupSeal::new(&p.group[..len]))?
+    (len > 0).then(|| Opaque::new(&buf[..len]))?
 }
 
 /// The group-key fields of a wire packet whose `group_len` exceeds the buffer: flags no field
 /// has, refused as `malformed`.
 const OVERLONG_GROUP: [u8; 1] = [0xff];
-
-/// `packet` with `seal` in its seal fields (none: left 0).
-fn seal_to_wire(seal: Option<&platoon_v2v::Seal>, mut packet: V2vPacket) -> V2vPacket {
-    if let Some(s) = seal {
-        let bytes = s.as_bytes();
-        packet.seal_len = bytes.len() as u32;
-        packet.seal[..bytes.len()].copy_from_slice(bytes);
-    }
-    packet
-}
-
-/// The seal a wire packet carries: none when `seal_len` is 0. A length beyond the buffer says
-/// the header is longer than any header is: the seal becomes [`OVERLONG_SEAL`], which the
-/// receiver refuses as `malformed` (as it refuses a header with trailing bytes), whatever the
-/// buffer holds; never a panic.
-fn seal_from_wire(p: &V2vPacket) -> Option<platoon_v2v::Seal> {
-    let len = p.seal_len as usize;
-    if len > V2vPacket::SEAL_CAPACITY {
-        return platoon_v2v::Seal::new(&OVERLONG_SEAL);
-    }
-    (len > 0).then(|| platoon_v2v::Seal::new(&p.seal[..len]))?
-}
 
 /// The seal of a wire packet whose `seal_len` exceeds the buffer: a header version no header
 /// has (0), refused as `malformed`.
@@ -645,8 +621,8 @@ pub fn packet_from_wire(p: &V2vPacket, j: usize, num: Numbering) -> Packet {
         u: p.u,
         head: local(p.head),
         maneuver: maneuver_from_wire(p, sender, j, num),
-        seal: seal_from_wire(p),
-        group: group_from_wire(p),
+        seal: opaque_from_wire(p.seal_len, &p.seal, &OVERLONG_SEAL),
+        group: opaque_from_wire(p.group_len, &p.group, &OVERLONG_GROUP),
     }
 }
 
